@@ -1,0 +1,62 @@
+#pragma once
+// What to render and how: presets, transfer functions, camera. All distances in mm.
+#include <array>
+#include <string>
+#include <vector>
+
+#include "vellum/core/vec.hpp"
+
+namespace vellum::render {
+
+enum class Preset {
+  Bone,            ///< "bone": opaque bone, everything else transparent
+  SoftTissueBone,  ///< "soft-tissue": translucent soft tissue over opaque bone
+  Skin,            ///< "skin": opaque skin surface
+  Mip,             ///< "mip": maximum intensity projection, grey by window/level
+};
+const char* presetName(Preset p);
+/// Parses the names above; throws vellum::Error listing the valid ones.
+Preset parsePreset(const std::string& name);
+std::vector<Preset> allPresets();
+
+/// Piecewise-linear RGBA over scalar value (HU for CT). Colour in [0,1]; alpha is opacity
+/// per millimetre of ray (so images do not change with the sampling step).
+struct TransferFunction {
+  struct Point {
+    double value;
+    std::array<float, 4> rgba;
+  };
+  std::vector<Point> points;  ///< sorted by value
+  /// Evaluates at value (clamped to the first/last point).
+  std::array<float, 4> evaluate(double value) const;
+  static TransferFunction forPreset(Preset p);
+};
+
+/// Orbit camera around the volume's centre. Azimuth rotates about the patient's
+/// superior axis (+z in LPS), elevation tilts towards it. Azimuth 0, elevation 0 looks
+/// from anterior (-y in LPS) towards posterior, with superior up on screen.
+struct Camera {
+  double azimuthDeg = 30.0;
+  double elevationDeg = 15.0;
+  double zoom = 1.0;             ///< 1 = the whole volume's bounding sphere fits the view
+  Vec3 panMm{0, 0, 0};           ///< shifts the look-at point (mm, physical space)
+  double fieldOfViewDeg = 30.0;  ///< vertical; 0 selects orthographic projection
+};
+
+struct RenderSettings {
+  int width = 512;   ///< 1..4096
+  int height = 512;  ///< 1..4096
+  Preset preset = Preset::SoftTissueBone;
+  /// Overrides the preset's transfer function when non-empty.
+  TransferFunction transferFunction;
+  Camera camera;
+  /// Window/level in HU. MIP: maps the maximum to grey. DVR presets: when set (width > 0),
+  /// shifts/scales the transfer function's value axis from its default window.
+  double windowCenter = 400.0;
+  double windowWidth = 2000.0;
+  bool shading = true;                          ///< gradient (Blinn-Phong) shading, DVR only
+  std::array<float, 4> background{0.f, 0.f, 0.f, 1.f};  ///< alpha 0 => transparent PNG
+  double stepVoxels = 0.5;                      ///< ray step in voxels of the smallest spacing
+};
+
+}  // namespace vellum::render

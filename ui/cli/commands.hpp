@@ -1,0 +1,33 @@
+#pragma once
+// Subcommands of the `vellum` command line. Each lives in its own cmd_<name>.cpp and adds
+// itself to the app here; main.cpp only wires them up and turns exceptions into one-line
+// errors with a non-zero exit code.
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+
+namespace vellum::cli {
+
+void addInfoCommand(CLI::App& app);
+void addPhantomCommand(CLI::App& app);
+void addConvertCommand(CLI::App& app);
+void addRenderCommand(CLI::App& app);
+void addDemoCommand(CLI::App& app);
+void addSegmentCommand(CLI::App& app);    // issue 4
+void addDeformCommand(CLI::App& app);     // issue 3
+void addControlsCommand(CLI::App& app);   // issue 3
+void addAnimateCommand(CLI::App& app);    // issue 3
+
+/// What `vellum demo` hands to the parts that later issues add to it.
+struct DemoContext {
+  std::filesystem::path outDir;      ///< the demo's output folder (exists)
+  std::filesystem::path phantomCt;   ///< the phantom CT it wrote (NRRD)
+  std::filesystem::path phantomLabels;  ///< its ground-truth label map (NRRD)
+  int size = 128;                    ///< phantom voxels per axis
+};
+/// Segmentation part of the demo (defined in cmd_segment.cpp).
+void demoSegmentation(const DemoContext& ctx);
+/// Deformation/animation part of the demo (defined in cmd_deform.cpp).
+void demoDeformation(const DemoContext& ctx);
+
+}  // namespace vellum::cli
