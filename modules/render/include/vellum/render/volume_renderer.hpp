@@ -4,6 +4,7 @@
 
 #include "vellum/core/image.hpp"
 #include "vellum/core/volume.hpp"
+#include "vellum/render/backward_map.hpp"
 #include "vellum/render/gl_context.hpp"
 #include "vellum/render/render_settings.hpp"
 
@@ -20,6 +21,9 @@ class VolumeRenderer {
 
   /// Uploads the volume (any voxel type) and its gradient-normal volume.
   void setVolume(const AnyVolume& volume);
+  /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
+  /// texture; call again when it changes). nullptr removes the deformation.
+  void setBackwardMap(const BackwardMap* map);
   /// Renders to an RGBA image (row 0 = top). Throws vellum::Error for sizes over 4096.
   RgbaImage render(const RenderSettings& settings);
   /// Milliseconds the last render() spent on the GPU side (glFinish-bounded).
@@ -32,6 +36,7 @@ class VolumeRenderer {
 
 /// CPU reference ray caster: the same rays, steps, transfer function and compositing as
 /// the shaders, for tests. Slow; intended for small images.
-RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& settings);
+RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& settings,
+                             const BackwardMap* map = nullptr);
 
 }  // namespace vellum::render
