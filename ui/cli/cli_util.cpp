@@ -1,0 +1,128 @@
+#include "cli_util.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <iostream>
+
+#include "vellum/core/error.hpp"
+#include "vellum/io/atomic_file.hpp"
+
+namespace vellum::cli {
+
+void InputOptions::addTo(CLI::App& cmd) {
+  cmd.add_option("--series", seriesUid, "DICOM: SeriesInstanceUID to load (default: largest CT series)");
+  cmd.add_option("--raw-dims", rawDims, "bare .raw without sidecar: dimensions X Y Z")->expected(3);
+  cmd.add_option("--raw-type", rawType, "bare .raw: int16 | uint8 | uint16 | float32")
+      ->capture_default_str();
+  cmd.add_option("--raw-spacing", rawSpacing, "bare .raw: spacing in mm (sx sy sz)")->expected(3);
+  cmd.add_option("--raw-origin", rawOrigin, "bare .raw: origin in mm (x y z)")->expected(3);
+  cmd.add_option("--raw-endian", rawEndian, "bare .raw: little | big")
+      ->check(CLI::IsMember({"little", "big"}))
+      ->capture_default_str();
+  cmd.add_option("--raw-header", rawHeader, "bare .raw: bytes to skip before the voxels");
+}
+
+io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
+  io::LoadOptions o;
+  o.seriesUid = seriesUid;
+  o.progress = progress;
+  if (!rawDims.empty()) {
+    io::RawLayout r;
+    r.dims = {rawDims[0], rawDims[1], rawDims[2]};
+    r.type = parseVoxelType(rawType);
+    r.endian = rawEndian == "big" ? io::Endian::Big : io::Endian::Little;
+    if (!rawSpacing.empty()) r.spacing = {rawSpacing[0], rawSpacing[1], rawSpacing[2]};
+    if (!rawOrigin.empty()) r.origin = {rawOrigin[0], rawOrigin[1], rawOrigin[2]};
+    r.headerBytes = rawHeader;
+    o.raw = r;
+  } else if (!rawSpacing.empty() || !rawOrigin.empty()) {
+    throw Error("--raw-spacing/--raw-origin need --raw-dims");
+  }
+  return o;
+}
+
+ProgressBar::ProgressBar()
+    : progress_([this](const std::string& stage, double f) { report(stage, f); }),
+      start_(std::chrono::steady_clock::now()),
+      tty_(::isatty(STDERR_FILENO) != 0) {}
+
+ProgressBar::~ProgressBar() { finish(); }
+
+void ProgressBar::report(const std::string& stage, double fraction) {
+  if (secondsSince(start_) < 1.0) return;
+  if (tty_) {
+    constexpr int kWidth = 30;
+    const int filled = static_cast<int>(fraction * kWidth + 0.5);
+    std::fprintf(stderr, "\r%-28.28s [%s%s] %3d%%", stage.c_str(), std::string(filled, '#').c_str(),
+                 std::string(kWidth - filled, ' ').c_str(), static_cast<int>(fraction * 100 + 0.5));
+    std::fflush(stderr);
+    shown_ = true;
+  } else {
+    const int quarter = static_cast<int>(fraction * 4);
+    if (stage != lastStage_ || quarter != lastQuarter_) {
+      std::fprintf(stderr, "%s: %d%%\n", stage.c_str(), quarter * 25);
+      lastStage_ = stage;
+      lastQuarter_ = quarter;
+    }
+  }
+}
+
+void ProgressBar::finish() {
+  if (shown_ && tty_) std::fprintf(stderr, "\r%*s\r", 70, "");
+  shown_ = false;
+}
+
+io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
+                                  bool quiet) {
+  ProgressBar bar;
+  io::LoadedVolume v = io::loadVolume(path, in.toLoadOptions(&bar.progress()));
+  bar.finish();
+  if (!quiet)
+    for (const auto& w : v.warnings) std::cerr << "warning: " << path.string() << ": " << w << "\n";
+  return v;
+}
+
+void refuseOverwritingInput(const std::filesystem::path& in, const std::filesystem::path& out) {
+  std::error_code ec;
+  const bool same = std::filesystem::exists(out, ec) && std::filesystem::equivalent(in, out, ec);
+  if (same || std::filesystem::weakly_canonical(in, ec) == std::filesystem::weakly_canonical(out, ec))
+    throw Error(out.string() + ": refusing to overwrite the input");
+}
+
+void ensureParentFolder(const std::filesystem::path& path) {
+  const auto parent = path.parent_path();
+  if (!parent.empty()) std::filesystem::create_directories(parent);
+}
+
+nlohmann::json toJson(const Vec3& v) { return {v.x, v.y, v.z}; }
+
+nlohmann::json toJson(const Mat3& m) {
+  return {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}};
+}
+
+void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path) {
+  ensureParentFolder(path);
+  io::writeAtomically(path, [&](const std::filesystem::path& tmp) {
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) throw FileError(path, "cannot open for writing");
+    const std::string text = j.dump(2) + "\n";
+    const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+    if (std::fclose(f) != 0 || !ok) throw FileError(path, "write failed");
+  });
+}
+
+double secondsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+std::pair<int, int> parseSize(const std::string& text) {
+  int w = 0, h = 0;
+  char x = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d", &w, &x, &h) != 3 || (x != 'x' && x != 'X') || w <= 0 ||
+      h <= 0)
+    throw Error("invalid size '" + text + "' (expected WxH, e.g. 1024x768)");
+  return {w, h};
+}
+
+}  // namespace vellum::cli

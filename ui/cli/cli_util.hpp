@@ -1,0 +1,78 @@
+#pragma once
+// Shared pieces of the `vellum` subcommands: input options, progress bar, output checks,
+// JSON helpers.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "vellum/core/progress.hpp"
+#include "vellum/io/volume_io.hpp"
+
+namespace vellum::cli {
+
+/// Options every command that reads a volume accepts: --series and the bare-.raw layout.
+struct InputOptions {
+  std::string seriesUid;
+  std::vector<int64_t> rawDims;
+  std::string rawType = "int16";
+  std::vector<double> rawSpacing;
+  std::vector<double> rawOrigin;
+  std::string rawEndian = "little";
+  uint64_t rawHeader = 0;
+
+  /// Adds --series, --raw-dims, --raw-type, --raw-spacing, --raw-origin, --raw-endian,
+  /// --raw-header to `cmd`.
+  void addTo(CLI::App& cmd);
+  /// Turns the flags into io::LoadOptions (with `progress` attached).
+  io::LoadOptions toLoadOptions(Progress* progress) const;
+};
+
+/// A progress bar on stderr. It stays silent for the first second (fast work prints
+/// nothing); on a terminal it redraws one line, otherwise it prints a line per 25%.
+class ProgressBar {
+ public:
+  ProgressBar();
+  ~ProgressBar();
+  Progress& progress() { return progress_; }
+  /// Clears the bar line (call before printing results).
+  void finish();
+
+ private:
+  void report(const std::string& stage, double fraction);
+  Progress progress_;
+  std::chrono::steady_clock::time_point start_;
+  bool tty_ = false;
+  bool shown_ = false;
+  int lastQuarter_ = -1;
+  std::string lastStage_;
+};
+
+/// Loads a volume with a progress bar; prints warnings to stderr unless `quiet`.
+io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
+                                  bool quiet = false);
+
+/// Throws vellum::Error if `out` is the same file or folder as `in` (Vellum never
+/// overwrites its input).
+void refuseOverwritingInput(const std::filesystem::path& in, const std::filesystem::path& out);
+
+/// Creates the parent folder of `path` if needed.
+void ensureParentFolder(const std::filesystem::path& path);
+
+/// JSON for geometry pieces.
+nlohmann::json toJson(const Vec3& v);
+nlohmann::json toJson(const Mat3& m);  ///< row-major array of 3 rows
+
+/// Writes JSON text atomically (pretty-printed, trailing newline).
+void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path);
+
+/// Seconds since `t0`.
+double secondsSince(std::chrono::steady_clock::time_point t0);
+
+/// Parses "WxH" (e.g. "1920x1080") into width and height; throws vellum::Error.
+std::pair<int, int> parseSize(const std::string& text);
+
+}  // namespace vellum::cli
