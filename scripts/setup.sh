@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Vellum set-up: installs the Debian 12 packages, builds, and runs one job.
 #   scripts/setup.sh demo [OUT_DIR]   install + Release build + `vellum demo` (default ./vellum-demo)
-#   scripts/setup.sh test             install + Release build + the whole test suite (ctest)
+#   scripts/setup.sh test [CMAKE_ARGS]  install + build + the whole test suite (ctest);
+#                                     extra arguments go to CMake (e.g. -DVELLUM_SANITIZE=ON)
 #   scripts/setup.sh deps             install packages only
 # Idempotent: re-running skips installed packages and rebuilds incrementally.
 # Environment: BUILD_DIR (default ./build), BUILD_TYPE (default Release), JOBS (default nproc).
@@ -51,7 +52,8 @@ case "$cmd" in
     ;;
   test)
     install_packages
-    build -DVELLUM_BUILD_TESTS=ON
+    shift
+    build -DVELLUM_BUILD_TESTS=ON "$@"
     ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" -LE long
     ;;
   *) echo "usage: scripts/setup.sh demo [OUT_DIR] | test | deps" >&2; exit 2 ;;
