@@ -1,0 +1,95 @@
+#pragma once
+// Internals of the DICOM reader shared by dicom_*.cpp (private to io/src). No GDCM here: the
+// scan (dicom_scan.cpp) and pixel decoding (dicom_pixels.cpp) hide GDCM; slice ordering and
+// resampling (dicom_slices.cpp) are plain geometry, testable without files.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "vellum/core/progress.hpp"
+#include "vellum/core/vec.hpp"
+#include "vellum/core/volume.hpp"
+#include "vellum/io/volume_io.hpp"
+
+namespace vellum::io::detail::dicom {
+
+namespace fs = std::filesystem;
+
+/// One 2D image: a single-frame file, or one frame of an enhanced multi-frame file.
+struct Frame {
+  fs::path file;
+  int64_t frameIndex = 0;           ///< frame number inside the file (0 for single-frame)
+  std::optional<Vec3> position;     ///< ImagePositionPatient (mm)
+  std::optional<Vec3> rowCosine;    ///< IOP[0..2]: direction of increasing column index (i)
+  std::optional<Vec3> colCosine;    ///< IOP[3..5]: direction of increasing row index (j)
+  std::optional<double> rowSpacing; ///< PixelSpacing[0]: between rows (along j, "y")
+  std::optional<double> colSpacing; ///< PixelSpacing[1]: between columns (along i, "x")
+  double slope = 1.0, intercept = 0.0;
+  double sliceThickness = 0.0;      ///< informational only; spacing is measured
+  double spacingBetweenSlices = 0.0;
+  int64_t instanceNumber = 0;
+};
+
+/// Header facts of one DICOM file (read without pixel data).
+struct FileHeader {
+  fs::path file;
+  std::string seriesUid, modality, description, sopClassUid, sopInstanceUid;
+  int64_t rows = 0, columns = 0, frameCount = 1;
+  std::vector<Frame> frames;  ///< one per frame (enhanced) or exactly one
+};
+
+/// Everything found under a path.
+struct ScanResult {
+  std::vector<FileHeader> images;     ///< DICOM image files with a SeriesInstanceUID
+  int64_t skippedNonDicom = 0;        ///< files that are not DICOM at all
+  int64_t skippedNonImage = 0;        ///< DICOM without pixel rows/columns (DICOMDIR, SR...)
+  int64_t skippedUnreadable = 0;      ///< DICOM-looking files whose header does not parse
+  fs::path firstUnreadable;
+};
+
+/// Scans a folder recursively (or one file). A single file that is not readable DICOM throws
+/// FileError; in a folder such files are counted and skipped. Reports progress per file.
+ScanResult scan(const fs::path& path, Progress* progress);
+
+/// One SeriesInfo per SeriesInstanceUID, largest (most frames) first.
+std::vector<SeriesInfo> summarize(const ScanResult& scan);
+
+/// Slices of one series in physical order, plus the regular output grid.
+struct SlicePlan {
+  std::vector<Frame> slices;  ///< unique positions, sorted along the normal (ascending)
+  /// For each slice, frames at the same position (exact duplicates are dropped after their
+  /// pixels are compared; conflicting ones are refused).
+  std::vector<std::vector<Frame>> duplicates;
+  std::vector<double> offsets;      ///< slice position along the normal, relative to slice 0 (mm)
+  std::vector<Vec3> inPlaneShift;   ///< slice origin minus slice 0 origin, in pixels (i, j, 0)
+  Geometry geometry;                ///< output grid (origin = IPP of slice 0)
+  bool resample = false;            ///< output slices differ from the input ones
+  std::vector<std::string> warnings;
+};
+
+/// Validates one series' frames (sizes, orientations, spacings; FileError naming a file) and
+/// sorts them along the slice normal; detects uneven spacing, gaps and gantry tilt.
+SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns);
+
+/// Decodes every frame of `file` (rows x columns x frames as the header said) through GDCM,
+/// applies the per-frame rescale (`slopes`, `intercepts`: one per frame), rounds and saturates
+/// to int16, and calls sink(frameIndex, values) with rows*columns values (i fastest) per
+/// frame. Returns how many values were saturated. Throws FileError naming the file on missing
+/// or truncated pixel data, size mismatches and unsupported pixel formats.
+int64_t decodeFile(const fs::path& file, int64_t rows, int64_t columns, int64_t frames,
+                   const std::vector<double>& slopes, const std::vector<double>& intercepts,
+                   const std::function<void(int64_t frame, const int16_t* values)>& sink);
+
+/// Resamples the stack (one input slice per plan slice, i fastest) onto plan.geometry:
+/// linear along the normal between neighbouring slices, bilinear in-plane for shifted
+/// (tilted) slices, background outside.
+void resampleStack(const SlicePlan& plan, const std::vector<int16_t>& stack, VolumeI16& out,
+                   double background, Progress* progress);
+
+/// "1.234" style short number for messages.
+std::string num(double v, int decimals = 3);
+
+}  // namespace vellum::io::detail::dicom

@@ -1,0 +1,195 @@
+// loadDicom: scan -> pick a series -> order slices in space -> decode pixels (parallel, one
+// GDCM reader per file) -> drop exact duplicates -> resample when the stack is irregular.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <set>
+
+#include "dicom.hpp"
+#include "dicom_internal.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::io::detail {
+
+namespace {
+
+using namespace dicom;
+
+std::string skippedSummary(const ScanResult& s) {
+  std::string out;
+  auto add = [&](int64_t n, const std::string& what) {
+    if (n == 0) return;
+    if (!out.empty()) out += ", ";
+    out += std::to_string(n) + " " + what;
+  };
+  add(s.skippedNonDicom, "not DICOM");
+  add(s.skippedNonImage, "DICOM without an image");
+  add(s.skippedUnreadable, "unreadable DICOM (first: " + s.firstUnreadable.string() + ")");
+  return out;
+}
+
+/// The series to load: options.seriesUid, else the largest CT series, else the largest one.
+const SeriesInfo& chooseSeries(const fs::path& path, const std::vector<SeriesInfo>& series,
+                               const std::string& wanted) {
+  if (!wanted.empty()) {
+    for (const SeriesInfo& s : series)
+      if (s.uid == wanted) return s;
+    std::string available;
+    for (const SeriesInfo& s : series) {
+      if (!available.empty()) available += ", ";
+      available += s.uid;
+    }
+    throw FileError(path, "series " + wanted + " not found; available: " + available);
+  }
+  for (const SeriesInfo& s : series)  // sorted largest first
+    if (s.modality == "CT") return s;
+  return series.front();
+}
+
+/// Where each decoded frame goes: the stack slot of a kept slice, or a duplicate to compare.
+struct Target {
+  int64_t slot = -1;
+  bool duplicate = false;
+};
+using FrameKey = std::pair<fs::path, int64_t>;
+
+}  // namespace
+
+LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& options) {
+  Progress* progress = options.progress;
+  ScanResult scanned = scan(path, progress);
+  if (scanned.images.empty()) {
+    const std::string skipped = skippedSummary(scanned);
+    throw FileError(path, "no DICOM images found" +
+                              (skipped.empty() ? std::string(" (empty folder)")
+                                               : " (skipped files: " + skipped + ")"));
+  }
+
+  LoadedVolume result;
+  result.format = "dicom";
+  result.series = summarize(scanned);
+  const SeriesInfo& chosen = chooseSeries(path, result.series, options.seriesUid);
+  result.seriesUid = chosen.uid;
+  result.modality = chosen.modality;
+  if (const std::string skipped = skippedSummary(scanned); !skipped.empty())
+    result.warnings.push_back("skipped files: " + skipped);
+  if (result.series.size() > 1)
+    result.warnings.push_back("found " + std::to_string(result.series.size()) +
+                              " series; loaded " + chosen.uid + " (" +
+                              std::to_string(chosen.frames) + " images)");
+
+  // The chosen series' files; all must share one image size.
+  std::vector<const FileHeader*> files;
+  for (const FileHeader& h : scanned.images)
+    if (h.seriesUid == chosen.uid) files.push_back(&h);
+  const int64_t rows = files.front()->rows, columns = files.front()->columns;
+  for (const FileHeader* h : files)
+    if (h->rows != rows || h->columns != columns)
+      throw FileError(h->file, "mixed image sizes in one series: " + std::to_string(h->columns) +
+                                   "x" + std::to_string(h->rows) + " but " +
+                                   files.front()->file.filename().string() + " is " +
+                                   std::to_string(columns) + "x" + std::to_string(rows));
+
+  std::vector<Frame> frames;
+  for (const FileHeader* h : files) frames.insert(frames.end(), h->frames.begin(), h->frames.end());
+  SlicePlan plan = planSlices(std::move(frames), rows, columns);
+  result.warnings.insert(result.warnings.end(), plan.warnings.begin(), plan.warnings.end());
+
+  const bool ct = chosen.modality == "CT";
+  const double background = ct ? kCtAirHu : 0.0;
+
+  // Map every frame to its destination before decoding anything.
+  std::map<FrameKey, Target> targets;
+  int64_t duplicateCount = 0;
+  for (size_t k = 0; k < plan.slices.size(); ++k) {
+    targets[{plan.slices[k].file, plan.slices[k].frameIndex}] = {static_cast<int64_t>(k), false};
+    for (const Frame& d : plan.duplicates[k]) {
+      targets[{d.file, d.frameIndex}] = {static_cast<int64_t>(k), true};
+      ++duplicateCount;
+    }
+  }
+  bool fractionalSlope = false;
+  for (const FileHeader* h : files)
+    for (const Frame& f : h->frames)
+      if (f.slope != std::round(f.slope) || f.intercept != std::round(f.intercept))
+        fractionalSlope = true;
+
+  Geometry stackGeometry = plan.geometry;
+  stackGeometry.dims.z = static_cast<int64_t>(plan.slices.size());
+  VolumeI16 stack(stackGeometry, 0, background);  // memory budget checked here
+  const int64_t plane = rows * columns;
+
+  // Pass 0 decodes files holding kept slices; pass 1 files holding duplicates, compared
+  // against the kept slice (which pass 0 has filled).
+  std::atomic<int64_t> saturated{0};
+  if (progress) progress->begin("decoding DICOM slices", plan.slices.size() + duplicateCount);
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<const FileHeader*> todo;
+    for (const FileHeader* h : files)
+      for (const Frame& f : h->frames) {
+        auto it = targets.find({h->file, f.frameIndex});
+        if (it != targets.end() && it->second.duplicate == (pass == 1)) {
+          todo.push_back(h);
+          break;
+        }
+      }
+    parallelFor(static_cast<int64_t>(todo.size()), [&](int64_t b, int64_t e) {
+      for (int64_t t = b; t < e; ++t) {
+        const FileHeader& h = *todo[static_cast<size_t>(t)];
+        std::vector<double> slopes, intercepts;
+        for (const Frame& f : h.frames) {
+          slopes.push_back(f.slope);
+          intercepts.push_back(f.intercept);
+        }
+        saturated += decodeFile(
+            h.file, rows, columns, h.frameCount, slopes, intercepts,
+            [&](int64_t frame, const int16_t* values) {
+              auto it = targets.find({h.file, frame});
+              if (it == targets.end() || it->second.duplicate != (pass == 1)) return;
+              int16_t* slot = stack.data() + it->second.slot * plane;
+              if (pass == 0) {
+                std::memcpy(slot, values, static_cast<size_t>(plane) * sizeof(int16_t));
+              } else if (std::memcmp(slot, values, static_cast<size_t>(plane) * sizeof(int16_t)) != 0) {
+                const Frame& kept = plan.slices[static_cast<size_t>(it->second.slot)];
+                throw FileError(h.file, "conflicting slices: same position as " +
+                                            kept.file.filename().string() +
+                                            " but different pixel data");
+              }
+              if (progress) progress->advance();
+            });
+      }
+    });
+  }
+  if (progress) progress->end();
+
+  if (duplicateCount > 0)
+    result.warnings.push_back("dropped " + std::to_string(duplicateCount) +
+                              " duplicate slice" + (duplicateCount > 1 ? "s" : "") +
+                              " (same position and identical pixels)");
+  if (saturated.load() > 0)
+    result.warnings.push_back(std::to_string(saturated.load()) +
+                              " values outside the int16 range were clamped");
+  if (fractionalSlope && !ct)
+    result.warnings.push_back("non-integral rescale slope/intercept: values rounded to integers");
+
+  if (plan.resample) {
+    VolumeI16 out(plan.geometry, 0, background);
+    resampleStack(plan, stack.voxels(), out, background, progress);
+    result.volume = std::move(out);
+  } else {
+    result.volume = std::move(stack);
+  }
+  try {
+    geometryOf(result.volume).validate(path.string());
+  } catch (const FileError&) {
+    throw;
+  } catch (const Error& e) {
+    throw FileError(path, e.what());
+  }
+  return result;
+}
+
+}  // namespace vellum::io::detail
