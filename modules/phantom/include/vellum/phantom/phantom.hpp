@@ -21,15 +21,17 @@ enum LabelId : uint16_t {
   kFemurMarrow = 5,
   kTibiaCortex = 6,
   kTibiaMarrow = 7,
-  kFibula = 8,       ///< thin bone: a thin cortical tube with marrow, labelled as one
-  kPatella = 9,      ///< small dense bone in front of the joint
+  kFibula = 8,       ///< thin bone: thin cortical tube around a cancellous core, one label
+  kPatella = 9,      ///< small bone in front of the joint: thin cortex + cancellous core
   kCartilage = 10,   ///< joint cartilage caps (soft tissue density ~ 100 HU)
 };
 
 /// Nominal HU of each tissue before partial-volume mixing and noise.
+/// `cancellous` fills the fibula and the patella (both labelled as one cortical-bone id), so
+/// that every voxel of a cortical-bone label is dense: a bone threshold finds all of it.
 struct TissueHu {
   double air = -1000, skin = 40, fat = -100, muscle = 50, cortex = 1400, marrow = 20,
-         cartilage = 110;
+         cartilage = 110, cancellous = 450;
 };
 
 struct PhantomOptions {
@@ -51,9 +53,28 @@ struct Phantom {
   LabelVolume labels;  ///< ground truth with a named, coloured label table
 };
 
-/// Generates the phantom. Dims from 16^3 to 1024^3 (memory budget checked first); throws
-/// vellum::Error on bad options and vellum::Cancelled if `progress` is cancelled.
+/// Generates the phantom. Dims from 16 to 1024 per axis (memory budget for CT + labels
+/// checked first); spacing and field of view must be positive and finite, noiseSigmaHu >= 0,
+/// kneeFlexionDeg in [0, 90]. Throws vellum::Error on bad options and vellum::Cancelled if
+/// `progress` is cancelled. The volume is centred on (0,0,0) mm with identity direction.
 Phantom makePhantom(const PhantomOptions& options = {}, Progress& progress = Progress::none());
+
+/// The anatomy at one physical point (mm, LPS), without partial volume or noise: the exact
+/// ground truth that makePhantom samples at voxel centres (and 4x4x4 sub-voxel positions).
+struct PhantomPoint {
+  uint16_t label = kAir;
+  double hu = -1000;  ///< nominal HU of the tissue there (from options.hu)
+};
+/// Evaluates the anatomy at `pMm`; uses only options.kneeFlexionDeg and options.hu.
+PhantomPoint samplePhantom(const Vec3& pMm, const PhantomOptions& options = {});
+
+/// The knee flexes about the x (medio-lateral) axis through this point (mm): the centre of
+/// the femoral condyles' sagittal circles, ~24.5 mm above the joint line (z = 0).
+/// A tibia point q at flexion 0 moves to  A + Rx(deg) (q - A), with
+/// Rx(a): (y, z) -> (y cos a - z sin a, y sin a + z cos a)  (the foot moves posteriorly, +y).
+Vec3 flexionAxisPointMm();
+/// Where a calf point (tibia, fibula, calf soft tissue) at flexion 0 lies at `flexionDeg`.
+Vec3 flexCalfPoint(const Vec3& pMm, double flexionDeg);
 
 /// True for the ids that are bone (cortex, marrow, fibula, patella).
 bool isBone(uint16_t id);
