@@ -1,0 +1,154 @@
+#include "vellum/deformation/density.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <variant>
+
+#include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::deformation {
+
+const char* phiRuleName(PhiRule r) {
+  switch (r) {
+    case PhiRule::Min: return "min";
+    case PhiRule::Mean: return "mean";
+    case PhiRule::None: return "none";
+  }
+  return "?";
+}
+PhiRule parsePhiRule(const std::string& name) {
+  if (name == "min") return PhiRule::Min;
+  if (name == "mean") return PhiRule::Mean;
+  if (name == "none") return PhiRule::None;
+  throw Error("unknown phi rule '" + name + "' (min, mean, none)");
+}
+const char* rayModeName(RayMode r) { return r == RayMode::Linear ? "linear" : "conic"; }
+RayMode parseRayMode(const std::string& name) {
+  if (name == "linear") return RayMode::Linear;
+  if (name == "conic") return RayMode::Conic;
+  throw Error("unknown ray mode '" + name + "' (linear, conic)");
+}
+MipReduction parseMipReduction(const std::string& name) {
+  if (name == "mean") return MipReduction::Mean;
+  if (name == "max") return MipReduction::Max;
+  throw Error("unknown mip reduction '" + name + "' (mean, max)");
+}
+
+namespace {
+
+// Next pyramid level: every axis halved (rounded up), mean or max of the (up to 8) children.
+VolumeF32 downsample(const VolumeF32& fine, MipReduction reduction) {
+  const Dims fd = fine.dims();
+  Geometry g = fine.geometry();
+  g.dims = {(fd.x + 1) / 2, (fd.y + 1) / 2, (fd.z + 1) / 2};
+  g.origin = fine.geometry().indexToPhysical({0.5, 0.5, 0.5});
+  g.spacing = g.spacing * 2.0;
+  VolumeF32 coarse(g, 0.f, fine.background());
+  const bool useMax = reduction == MipReduction::Max;
+  parallelFor(g.dims.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < g.dims.y; ++j)
+        for (int64_t i = 0; i < g.dims.x; ++i) {
+          float acc = useMax ? -1e30f : 0.f;
+          int n = 0;
+          for (int64_t c = 2 * k; c < std::min(2 * k + 2, fd.z); ++c)
+            for (int64_t b = 2 * j; b < std::min(2 * j + 2, fd.y); ++b)
+              for (int64_t a = 2 * i; a < std::min(2 * i + 2, fd.x); ++a) {
+                const float v = fine(a, b, c);
+                acc = useMax ? std::max(acc, v) : acc + v;
+                ++n;
+              }
+          coarse(i, j, k) = useMax ? acc : acc / static_cast<float>(n);
+        }
+  });
+  return coarse;
+}
+
+}  // namespace
+
+DensityVolume::DensityVolume(const AnyVolume& source, const DensityParams& params)
+    : params_(params) {
+  if (!(params.phiMin > 0) || params.phiMin > 1) throw Error("density phiMin must be in (0, 1]");
+  if (!(params.windowHighHu > params.windowLowHu)) throw Error("density window is empty");
+  if (params.rays == RayMode::Linear && !(params.linearStepVoxels > 0))
+    throw Error("density linear ray step must be > 0");
+  if (params.rays == RayMode::Conic && !(params.coneSlope > 0))
+    throw Error("density cone slope must be > 0");
+  const Geometry& g = geometryOf(source);
+  const double lo = params.windowLowHu, scale = 1.0 / (params.windowHighHu - lo);
+  const float floor = static_cast<float>(params.phiMin);
+  auto normalise = [&](double v) {
+    return std::max(floor, static_cast<float>(std::clamp((v - lo) * scale, 0.0, 1.0)));
+  };
+  VolumeF32 level0(g, 0.f, normalise(backgroundOf(source)));
+  std::visit(
+      [&](const auto& vol) {
+        const auto* src = vol.data();
+        float* dst = level0.data();
+        parallelFor(static_cast<int64_t>(vol.size()), [&](int64_t a, int64_t b) {
+          for (int64_t t = a; t < b; ++t) dst[t] = normalise(static_cast<double>(src[t]));
+        }, 1 << 16);
+      },
+      source);
+  double sum = 0;
+  for (float v : level0.voxels()) sum += v;
+  globalMean_ = std::max(params.phiMin, sum / static_cast<double>(std::max<size_t>(level0.size(), 1)));
+  levels_.push_back(std::move(level0));
+  if (params.rays == RayMode::Conic)
+    while (levels_.back().dims().x > 2 || levels_.back().dims().y > 2 ||
+           levels_.back().dims().z > 2)
+      levels_.push_back(downsample(levels_.back(), params.reduction));
+  const Geometry& g0 = levels_[0].geometry();
+  indexToMm_ = g0.direction * Mat3::fromColumns({g0.spacing.x, 0, 0}, {0, g0.spacing.y, 0},
+                                                {0, 0, g0.spacing.z});
+}
+
+double DensityVolume::rho(const Vec3& aIdx, const Vec3& bIdx) const {
+  const Vec3 d = bIdx - aIdx;
+  const double lenMm = norm(indexToMm_ * d);
+  const Geometry& g = levels_[0].geometry();
+  const double minSp = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  constexpr double kRhoFloorMm = 1e-3;
+  if (!(lenMm > 1e-9)) return kRhoFloorMm;
+  double integral = 0, minI = 1e30;
+  if (params_.rays == RayMode::Linear) {
+    const int n = std::max(1, static_cast<int>(std::ceil(lenMm / (params_.linearStepVoxels * minSp))));
+    const double dt = 1.0 / n;
+    const VolumeF32& l0 = levels_[0];
+    for (int s = 0; s < n; ++s) {
+      const double v = l0.sampleLinear(aIdx + d * ((s + 0.5) * dt));
+      integral += v;
+      minI = std::min(minI, v);
+    }
+    integral *= lenMm * dt;
+  } else {
+    // Cone with its apex at a: step and mip footprint grow with the distance from a.
+    const double h0 = minSp, slope = params_.coneSlope;
+    const int maxLevel = levelCount() - 1;
+    double s = 0;
+    while (s < lenMm) {
+      double h = std::max(h0, slope * s);
+      h = std::min(h, lenMm - s);
+      const double mid = s + 0.5 * h;
+      const double width = std::max(1.0, slope * mid / minSp);
+      const int level = std::min(maxLevel, static_cast<int>(std::floor(std::log2(width))));
+      const Vec3 fine = aIdx + d * (mid / lenMm);
+      const double f = 1.0 / static_cast<double>(1 << level);
+      const Vec3 idx{(fine.x + 0.5) * f - 0.5, (fine.y + 0.5) * f - 0.5, (fine.z + 0.5) * f - 0.5};
+      const double v = levels_[static_cast<size_t>(level)].sampleLinear(idx);
+      integral += v * h;
+      minI = std::min(minI, v);
+      s += h;
+    }
+  }
+  double phi = 1.0;
+  switch (params_.phi) {
+    case PhiRule::Min: phi = std::max(minI, params_.phiMin); break;
+    case PhiRule::Mean: phi = globalMean_; break;
+    case PhiRule::None: phi = 1.0; break;
+  }
+  return std::max(integral / phi, kRhoFloorMm);
+}
+
+}  // namespace vellum::deformation

@@ -1,0 +1,340 @@
+#include "mls_kernel.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+
+#include "vellum/core/error.hpp"
+
+namespace vellum::deformation::detail {
+namespace {
+
+// Accumulator slots (arrays of maxLen doubles each).
+enum Slot {
+  kVx = 0, kVy, kVz, kW, kXh0, kXh1, kXh2, kYh0, kYh1, kYh2, kZh0,
+  kA00 = kZh0 + 4, kA01, kA02, kA11, kA12, kA22,
+  kB00, kC00 = kB00 + 9, kYm0 = kC00 + 12, kYm1, kYm2, kXm0, kXm1, kXm2, kWmax,
+  kSlots
+};
+
+// Below this distance (mm) v counts as sitting on y_i: u = x_i exactly.
+constexpr double kHitDist2 = 1e-18;
+
+// Eigen's fixed-size SVD trips a false -Wmaybe-uninitialized at -O2 (GCC 12).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// Rotation (and similarity scale) from B = sum w q^T p: R = U diag(1,1,det) V^T maximises
+// trace(R^T B), i.e. minimises sum w |q R - p|^2 over rotations (row-vector convention).
+void constrainToRotation(double* m, double traceA, bool similarity) {
+  Eigen::Matrix3d b;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) b(r, c) = m[r * 3 + c];
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(b, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const double d = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  Eigen::Vector3d s = svd.singularValues();
+  Eigen::Matrix3d corr = Eigen::Matrix3d::Identity();
+  corr(2, 2) = d;
+  const Eigen::Matrix3d r = svd.matrixU() * corr * svd.matrixV().transpose();
+  double mu = 1.0;
+  if (similarity && traceA > 0) mu = (s(0) + s(1) + d * s(2)) / traceA;
+  for (int i = 0; i < 3; ++i)
+    for (int c = 0; c < 3; ++c) m[i * 3 + c] = mu * r(i, c);
+}
+#pragma GCC diagnostic pop
+
+}  // namespace
+
+PointData PointData::from(const ControlPoints& points, bool withAttributes) {
+  PointData d;
+  d.count = static_cast<int>(points.size());
+  if (d.count == 0) throw Error("MLS deformation needs at least one control point");
+  for (const auto& p : points) {
+    if (!isFinite(p.source) || !isFinite(p.target))
+      throw Error("control point with a non-finite position");
+    d.sourceCentre += p.source / d.count;
+    d.targetCentre += p.target / d.count;
+  }
+  d.attributes = withAttributes;
+  for (const auto& p : points) {
+    const Vec3 s = p.source - d.sourceCentre, t = p.target - d.targetCentre;
+    d.sx.push_back(s.x); d.sy.push_back(s.y); d.sz.push_back(s.z);
+    d.tx.push_back(t.x); d.ty.push_back(t.y); d.tz.push_back(t.z);
+    d.sourceMm.push_back(p.source);
+    const auto v = p.attributes.values();
+    d.zi.push_back(v);
+    for (int a = 0; a < PointAttributes::kCount; ++a) d.z[a].push_back(v[static_cast<size_t>(a)]);
+  }
+  return d;
+}
+
+RowEvaluator::RowEvaluator(const PointData& points, const MlsParams& params, int maxLen)
+    : p_(points), params_(params), maxLen_(std::max(maxLen, 1)) {
+  if (!(params.power > 0) || !std::isfinite(params.power))
+    throw Error("MLS weight power must be > 0");
+  if (!(params.regularisation > 0) || params.regularisation >= 1)
+    throw Error("MLS regularisation must be in (0, 1)");
+  const size_t n = static_cast<size_t>(p_.count) * maxLen_;
+  w0_.assign(n, 0.0);
+  w_.assign(n, 0.0);
+  buf_.assign(static_cast<size_t>(kSlots) * maxLen_, 0.0);
+  hit_.assign(static_cast<size_t>(maxLen_), -1);
+  dom_.assign(static_cast<size_t>(maxLen_), 0);
+}
+
+void RowEvaluator::setRow(const Vec3& baseMm, const Vec3& stepMm, int len) {
+  len_ = std::min(len, maxLen_);
+  const Vec3 b = baseMm - p_.targetCentre;
+  double* vx = arr(kVx); double* vy = arr(kVy); double* vz = arr(kVz);
+  for (int k = 0; k < len_; ++k) {
+    vx[k] = b.x + k * stepMm.x;
+    vy[k] = b.y + k * stepMm.y;
+    vz[k] = b.z + k * stepMm.z;
+  }
+  computeWeights();
+}
+
+void RowEvaluator::setPositions(const Vec3* positionsMm, int len) {
+  len_ = std::min(len, maxLen_);
+  double* vx = arr(kVx); double* vy = arr(kVy); double* vz = arr(kVz);
+  for (int k = 0; k < len_; ++k) {
+    const Vec3 v = positionsMm[k] - p_.targetCentre;
+    vx[k] = v.x; vy[k] = v.y; vz[k] = v.z;
+  }
+  computeWeights();
+}
+
+void RowEvaluator::computeWeights() {
+  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
+  for (int k = 0; k < len_; ++k) hit_[static_cast<size_t>(k)] = -1;
+  const double n = params_.power;
+  const int mode = n == 2 ? 0 : n == 4 ? 1 : n == 1 ? 2 : n == 3 ? 3 : 4;
+  for (int i = 0; i < p_.count; ++i) {
+    const double tx = p_.tx[static_cast<size_t>(i)], ty = p_.ty[static_cast<size_t>(i)],
+                 tz = p_.tz[static_cast<size_t>(i)];
+    double* w = w0_.data() + static_cast<size_t>(i) * len_;
+#pragma omp simd
+    for (int k = 0; k < len_; ++k) {
+      const double dx = vx[k] - tx, dy = vy[k] - ty, dz = vz[k] - tz;
+      const double d2 = std::max(dx * dx + dy * dy + dz * dz, kHitDist2);
+      double wk;
+      switch (mode) {
+        case 0: wk = 1.0 / d2; break;
+        case 1: wk = 1.0 / (d2 * d2); break;
+        case 2: wk = 1.0 / std::sqrt(d2); break;
+        case 3: wk = 1.0 / (d2 * std::sqrt(d2)); break;
+        default: wk = std::pow(d2, -0.5 * n); break;
+      }
+      w[k] = wk;
+    }
+    for (int k = 0; k < len_; ++k)
+      if (w[k] >= 0.5 / kHitDist2 && hit_[static_cast<size_t>(k)] < 0) {
+        // Recheck exactly: only a true coincidence counts as a hit.
+        const double dx = vx[k] - tx, dy = vy[k] - ty, dz = vz[k] - tz;
+        if (dx * dx + dy * dy + dz * dz < kHitDist2) hit_[static_cast<size_t>(k)] = i;
+      }
+  }
+}
+
+void RowEvaluator::solve(const float* rho, double* u, double* attr) {
+  const int n = p_.count, L = len_;
+  const double* w = w0_.data();
+  if (rho) {
+    const size_t total = static_cast<size_t>(n) * L;
+#pragma omp simd
+    for (size_t t = 0; t < total; ++t) w_[t] = w0_[t] * static_cast<double>(rho[t]);
+    w = w_.data();
+  }
+  const bool withAttr = attr && p_.attributes;
+  std::fill(buf_.begin() + static_cast<ptrdiff_t>(kW) * maxLen_, buf_.end(), 0.0);
+
+  // Pass 0: the dominant point m of each node. Centroids and q_i, p_i are formed relative to
+  // y_m and x_m, so that when one weight dwarfs the others (v next to y_m, high power n) the
+  // tiny q_m = y_m - y^ is computed from small differences instead of cancelling to noise.
+  double* ym0 = arr(kYm0); double* ym1 = arr(kYm1); double* ym2 = arr(kYm2);
+  double* xm0 = arr(kXm0); double* xm1 = arr(kXm1); double* xm2 = arr(kXm2);
+  double* wmax = arr(kWmax);
+  for (int k = 0; k < L; ++k) { wmax[k] = -1; dom_[static_cast<size_t>(k)] = 0; }
+  for (int i = 0; i < n; ++i) {
+    const double* wi = w + static_cast<size_t>(i) * L;
+    for (int k = 0; k < L; ++k)
+      if (wi[k] > wmax[k]) { wmax[k] = wi[k]; dom_[static_cast<size_t>(k)] = i; }
+  }
+  for (int k = 0; k < L; ++k) {
+    const size_t m = static_cast<size_t>(dom_[static_cast<size_t>(k)]);
+    ym0[k] = p_.tx[m]; ym1[k] = p_.ty[m]; ym2[k] = p_.tz[m];
+    xm0[k] = p_.sx[m]; xm1[k] = p_.sy[m]; xm2[k] = p_.sz[m];
+  }
+
+  // Pass 1: weight sums and centroids (as offsets from x_m, y_m).
+  double* W = arr(kW);
+  double* xh0 = arr(kXh0); double* xh1 = arr(kXh1); double* xh2 = arr(kXh2);
+  double* yh0 = arr(kYh0); double* yh1 = arr(kYh1); double* yh2 = arr(kYh2);
+  for (int i = 0; i < n; ++i) {
+    const size_t si = static_cast<size_t>(i);
+    const double sx = p_.sx[si], sy = p_.sy[si], sz = p_.sz[si];
+    const double tx = p_.tx[si], ty = p_.ty[si], tz = p_.tz[si];
+    const double* wi = w + si * L;
+#pragma omp simd
+    for (int k = 0; k < L; ++k) {
+      const double wk = wi[k];
+      W[k] += wk;
+      xh0[k] += wk * (sx - xm0[k]); xh1[k] += wk * (sy - xm1[k]); xh2[k] += wk * (sz - xm2[k]);
+      yh0[k] += wk * (tx - ym0[k]); yh1[k] += wk * (ty - ym1[k]); yh2[k] += wk * (tz - ym2[k]);
+    }
+    if (withAttr)
+      for (int a = 0; a < PointAttributes::kCount; ++a) {
+        double* zh = arr(kZh0 + a);
+        const double z = p_.z[a][si];
+#pragma omp simd
+        for (int k = 0; k < L; ++k) zh[k] += wi[k] * z;
+      }
+  }
+#pragma omp simd
+  for (int k = 0; k < L; ++k) {
+    const double inv = 1.0 / W[k];
+    xh0[k] *= inv; xh1[k] *= inv; xh2[k] *= inv;
+    yh0[k] *= inv; yh1[k] *= inv; yh2[k] *= inv;
+  }
+  if (withAttr)
+    for (int a = 0; a < PointAttributes::kCount; ++a) {
+      double* zh = arr(kZh0 + a);
+      for (int k = 0; k < L; ++k) zh[k] /= W[k];
+    }
+
+  // Pass 2: A = sum w q^T q, B = sum w q^T p (and C = sum w q^T r for attributes).
+  double* A[6];
+  for (int s = 0; s < 6; ++s) A[s] = arr(kA00 + s);
+  double* B[9];
+  for (int s = 0; s < 9; ++s) B[s] = arr(kB00 + s);
+  for (int i = 0; i < n; ++i) {
+    const size_t si = static_cast<size_t>(i);
+    const double sx = p_.sx[si], sy = p_.sy[si], sz = p_.sz[si];
+    const double tx = p_.tx[si], ty = p_.ty[si], tz = p_.tz[si];
+    const double* wi = w + si * L;
+    double *a00 = A[0], *a01 = A[1], *a02 = A[2], *a11 = A[3], *a12 = A[4], *a22 = A[5];
+    double *b00 = B[0], *b01 = B[1], *b02 = B[2], *b10 = B[3], *b11 = B[4], *b12 = B[5],
+           *b20 = B[6], *b21 = B[7], *b22 = B[8];
+#pragma omp simd
+    for (int k = 0; k < L; ++k) {
+      const double q0 = (tx - ym0[k]) - yh0[k], q1 = (ty - ym1[k]) - yh1[k],
+                   q2 = (tz - ym2[k]) - yh2[k];
+      const double p0 = (sx - xm0[k]) - xh0[k], p1 = (sy - xm1[k]) - xh1[k],
+                   p2 = (sz - xm2[k]) - xh2[k];
+      const double wq0 = wi[k] * q0, wq1 = wi[k] * q1, wq2 = wi[k] * q2;
+      a00[k] += wq0 * q0; a01[k] += wq0 * q1; a02[k] += wq0 * q2;
+      a11[k] += wq1 * q1; a12[k] += wq1 * q2; a22[k] += wq2 * q2;
+      b00[k] += wq0 * p0; b01[k] += wq0 * p1; b02[k] += wq0 * p2;
+      b10[k] += wq1 * p0; b11[k] += wq1 * p1; b12[k] += wq1 * p2;
+      b20[k] += wq2 * p0; b21[k] += wq2 * p1; b22[k] += wq2 * p2;
+    }
+    if (withAttr)
+      for (int a = 0; a < PointAttributes::kCount; ++a) {
+        const double z = p_.z[a][si];
+        const double* zh = arr(kZh0 + a);
+        double* c0 = arr(kC00 + a);
+        double* c1 = arr(kC00 + 4 + a);
+        double* c2 = arr(kC00 + 8 + a);
+#pragma omp simd
+        for (int k = 0; k < L; ++k) {
+          const double wr = wi[k] * (z - zh[k]);
+          c0[k] += wr * ((tx - ym0[k]) - yh0[k]);
+          c1[k] += wr * ((ty - ym1[k]) - yh1[k]);
+          c2[k] += wr * ((tz - ym2[k]) - yh2[k]);
+        }
+      }
+  }
+
+  // Per node: regularised solve and evaluation.
+  const double eps = params_.regularisation;
+  const bool constrained = params_.method != MlsMethod::Affine;
+  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
+  const Vec3 sc = p_.sourceCentre;
+#pragma omp simd
+  for (int k = 0; k < L; ++k) {
+    double a00 = A[0][k], a01 = A[1][k], a02 = A[2][k], a11 = A[3][k], a12 = A[4][k],
+           a22 = A[5][k];
+    double m[9] = {B[0][k], B[1][k], B[2][k], B[3][k], B[4][k], B[5][k], B[6][k], B[7][k], B[8][k]};
+    const double tr = a00 + a11 + a22;
+    W[k] = tr;  // the weight sum is no longer needed; keep trace(A) for the similarity scale
+    double i00 = 1, i01 = 0, i02 = 0, i11 = 1, i12 = 0, i22 = 1;  // A'^-1
+    double lam = 0;
+    if (tr > 0) {
+      const double mean = tr / 3.0;
+      const double det = a00 * (a11 * a22 - a12 * a12) - a01 * (a01 * a22 - a12 * a02) +
+                         a02 * (a01 * a12 - a11 * a02);
+      const double c = std::max(det / (mean * mean * mean), 0.0);
+      const double r = eps / (eps + c);
+      lam = eps * r * r * mean;
+      a00 += lam; a11 += lam; a22 += lam;
+      const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22,
+                   c02 = a01 * a12 - a02 * a11, c11 = a00 * a22 - a02 * a02,
+                   c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+      const double inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02);
+      i00 = c00 * inv; i01 = c01 * inv; i02 = c02 * inv;
+      i11 = c11 * inv; i12 = c12 * inv; i22 = c22 * inv;
+    } else {
+      lam = 1.0;  // no spread at all: M = I (pure translation)
+    }
+    if (!constrained) {
+      m[0] += lam; m[4] += lam; m[8] += lam;
+      double r[9];
+      for (int c = 0; c < 3; ++c) {
+        r[0 + c] = i00 * m[c] + i01 * m[3 + c] + i02 * m[6 + c];
+        r[3 + c] = i01 * m[c] + i11 * m[3 + c] + i12 * m[6 + c];
+        r[6 + c] = i02 * m[c] + i12 * m[3 + c] + i22 * m[6 + c];
+      }
+      for (int t = 0; t < 9; ++t) m[t] = r[t];
+    }
+    // Keep inverse rows for the attribute step.
+    A[0][k] = i00; A[1][k] = i01; A[2][k] = i02; A[3][k] = i11; A[4][k] = i12; A[5][k] = i22;
+    for (int t = 0; t < 9; ++t) B[t][k] = m[t];
+  }
+  if (constrained) {
+    const bool similarity = params_.method == MlsMethod::Similarity;
+    for (int k = 0; k < L; ++k) {
+      double m[9];
+      for (int t = 0; t < 9; ++t) m[t] = B[t][k];
+      constrainToRotation(m, W[k], similarity);
+      for (int t = 0; t < 9; ++t) B[t][k] = m[t];
+    }
+  }
+  for (int k = 0; k < L; ++k) {
+    const double d0 = (vx[k] - ym0[k]) - yh0[k], d1 = (vy[k] - ym1[k]) - yh1[k],
+                 d2 = (vz[k] - ym2[k]) - yh2[k];
+    double* out = u + 3 * k;
+    out[0] = d0 * B[0][k] + d1 * B[3][k] + d2 * B[6][k] + (xm0[k] + xh0[k]) + sc.x;
+    out[1] = d0 * B[1][k] + d1 * B[4][k] + d2 * B[7][k] + (xm1[k] + xh1[k]) + sc.y;
+    out[2] = d0 * B[2][k] + d1 * B[5][k] + d2 * B[8][k] + (xm2[k] + xh2[k]) + sc.z;
+    const int h = hit_[static_cast<size_t>(k)];
+    if (h >= 0) {
+      const Vec3& x = p_.sourceMm[static_cast<size_t>(h)];
+      out[0] = x.x; out[1] = x.y; out[2] = x.z;
+    }
+  }
+  if (attr) {
+    for (int k = 0; k < L; ++k) {
+      double* out = attr + 4 * k;
+      const int h = hit_[static_cast<size_t>(k)];
+      if (!p_.attributes) {
+        out[0] = out[1] = out[2] = 0; out[3] = 1;
+        continue;
+      }
+      if (h >= 0) {
+        for (int a = 0; a < 4; ++a) out[a] = p_.zi[static_cast<size_t>(h)][static_cast<size_t>(a)];
+        continue;
+      }
+      const double d0 = (vx[k] - ym0[k]) - yh0[k], d1 = (vy[k] - ym1[k]) - yh1[k],
+                   d2 = (vz[k] - ym2[k]) - yh2[k];
+      // g = d A'^-1 (row vector), then f = g C + z^
+      const double g0 = d0 * A[0][k] + d1 * A[1][k] + d2 * A[2][k];
+      const double g1 = d0 * A[1][k] + d1 * A[3][k] + d2 * A[4][k];
+      const double g2 = d0 * A[2][k] + d1 * A[4][k] + d2 * A[5][k];
+      for (int a = 0; a < 4; ++a)
+        out[a] = g0 * arr(kC00 + a)[k] + g1 * arr(kC00 + 4 + a)[k] + g2 * arr(kC00 + 8 + a)[k] +
+                 arr(kZh0 + a)[k];
+    }
+  }
+}
+
+}  // namespace vellum::deformation::detail

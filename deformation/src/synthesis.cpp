@@ -1,0 +1,228 @@
+#include "vellum/deformation/synthesis.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <variant>
+
+#include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::deformation {
+namespace {
+
+// Upsampling taps along one axis: output voxel o reads nodes idx[t] with weights w[t].
+template <int Taps>
+struct AxisTaps {
+  std::vector<std::array<int32_t, Taps>> idx;
+  std::vector<std::array<float, Taps>> w;
+};
+
+// Trilinear: the two nodes around o/s.
+AxisTaps<2> linearTaps(int64_t outLen, int64_t nodes, int s) {
+  AxisTaps<2> t;
+  for (int64_t o = 0; o < outLen; ++o) {
+    const int64_t n0 = std::min(o / s, nodes - 1);
+    const int64_t n1 = std::min(n0 + 1, nodes - 1);
+    const float f = static_cast<float>(o - n0 * s) / static_cast<float>(s);
+    t.idx.push_back({static_cast<int32_t>(n0), static_cast<int32_t>(n1)});
+    t.w.push_back({1.f - f, f});
+  }
+  return t;
+}
+
+// Separable Gaussian over the 4 nodes around o/s (sigma 0.6 node spacings), with weights
+// adjusted so that the first moment is exact: a linear (affine) map is reproduced exactly
+// away from the borders. Border taps are clamped (replicated edge nodes).
+AxisTaps<4> gaussianTaps(int64_t outLen, int64_t nodes, int s) {
+  AxisTaps<4> t;
+  constexpr double kSigma = 0.6;
+  for (int64_t o = 0; o < outLen; ++o) {
+    const int64_t n0 = o / s;
+    const double f = static_cast<double>(o - n0 * s) / s;
+    std::array<double, 4> w{};
+    double m1 = 0, m2 = 0;
+    for (int q = 0; q < 4; ++q) {
+      const double x = (q - 1) - f;
+      w[q] = std::exp(-0.5 * x * x / (kSigma * kSigma));
+      m1 += w[q] * x; m2 += w[q] * x * x;
+    }
+    const double beta = -m1 / m2;  // w_q *= 1 + beta (x_q): zero first moment about f
+    double total = 0;
+    for (int q = 0; q < 4; ++q) { w[q] *= 1.0 + beta * ((q - 1) - f); total += w[q]; }
+    // Taps beyond the grid extrapolate the map linearly from the two edge nodes
+    // (v(e + m) = v(e) + m (v(e) - v(e -+ 1))), which keeps affine maps exact at the borders.
+    std::array<double, 4> wd{};
+    std::array<int32_t, 4> id{};
+    for (int q = 0; q < 4; ++q) id[q] = static_cast<int32_t>(std::clamp<int64_t>(n0 - 1 + q, 0, nodes - 1));
+    auto add = [&](int64_t node, double weight) {
+      for (int q = 0; q < 4; ++q)
+        if (id[q] == node) { wd[q] += weight; return; }
+    };
+    for (int q = 0; q < 4; ++q) {
+      const int64_t m = n0 - 1 + q;
+      const double wq = w[q] / total;
+      if (nodes < 2 || (m >= 0 && m < nodes)) {
+        add(std::clamp<int64_t>(m, 0, nodes - 1), wq);
+      } else if (m < 0) {
+        add(0, wq * (1 - m)); add(1, wq * m);  // v(m) = v(0) + m (v(1) - v(0))
+      } else {
+        const int64_t e = nodes - 1;
+        add(e, wq * (1 + (m - e))); add(e - 1, -wq * (m - e));
+      }
+    }
+    std::array<float, 4> wf{};
+    for (int q = 0; q < 4; ++q) wf[q] = static_cast<float>(wd[q]);
+    t.idx.push_back(id);
+    t.w.push_back(wf);
+  }
+  return t;
+}
+
+template <class T>
+inline float fetch(const Volume<T>& v, const T* data, int64_t dx, int64_t dy, int64_t dz,
+                   float x, float y, float z, float bg) {
+  const float fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
+  const int64_t i = static_cast<int64_t>(fx), j = static_cast<int64_t>(fy), k = static_cast<int64_t>(fz);
+  const float tx = x - fx, ty = y - fy, tz = z - fz;
+  if (i >= 0 && j >= 0 && k >= 0 && i + 1 < dx && j + 1 < dy && k + 1 < dz) {
+    const int64_t sy = dx, sz = dx * dy;
+    const T* p = data + (k * dy + j) * dx + i;
+    const float c00 = p[0] + tx * (float(p[1]) - float(p[0]));
+    const float c10 = p[sy] + tx * (float(p[sy + 1]) - float(p[sy]));
+    const float c01 = p[sz] + tx * (float(p[sz + 1]) - float(p[sz]));
+    const float c11 = p[sz + sy] + tx * (float(p[sz + sy + 1]) - float(p[sz + sy]));
+    const float c0 = c00 + ty * (c10 - c00), c1 = c01 + ty * (c11 - c01);
+    return c0 + tz * (c1 - c0);
+  }
+  if (i < -1 || j < -1 || k < -1 || i >= dx || j >= dy || k >= dz) return bg;
+  return static_cast<float>(v.sampleLinear({x, y, z}));
+}
+
+template <class T>
+inline T toVoxel(float v) {
+  if constexpr (std::is_floating_point_v<T>) {
+    return static_cast<T>(v);
+  } else {
+    constexpr float lo = static_cast<float>(std::numeric_limits<T>::lowest());
+    constexpr float hi = static_cast<float>(std::numeric_limits<T>::max());
+    return static_cast<T>(std::floor(std::clamp(v, lo, hi) + 0.5f));
+  }
+}
+
+template <class T, int Taps>
+Volume<T> synthesizeTyped(const Volume<T>& src, const std::vector<float>& mapIdx, const Dims& nd,
+                          int s, const AxisTaps<Taps>& tx, const AxisTaps<Taps>& ty,
+                          const AxisTaps<Taps>& tz, Progress& progress) {
+  Volume<T> out(src.geometry(), T{}, src.background());
+  const Dims od = src.dims();
+  const T* data = src.data();
+  const float bg = static_cast<float>(src.background());
+  const int64_t planeNodes = nd.x * nd.y;
+  progress.begin("synthesis", static_cast<uint64_t>(od.z));
+  parallelFor(od.z, [&](int64_t k0, int64_t k1) {
+    std::vector<float> plane(static_cast<size_t>(planeNodes) * 3), row(static_cast<size_t>(nd.x) * 3);
+    int64_t lastPlane = -1;
+    for (int64_t k = k0; k < k1; ++k) {
+      // Interpolate the node planes in z (only when this slice has a new phase/node pair).
+      const auto& zi = tz.idx[static_cast<size_t>(k)];
+      const auto& zw = tz.w[static_cast<size_t>(k)];
+      if (lastPlane != k) {
+        std::fill(plane.begin(), plane.end(), 0.f);
+        for (int q = 0; q < Taps; ++q) {
+          if (zw[q] == 0.f) continue;
+          const float* src3 = mapIdx.data() + static_cast<size_t>(zi[q] * planeNodes) * 3;
+          const float w = zw[q];
+#pragma omp simd
+          for (int64_t t = 0; t < planeNodes * 3; ++t) plane[t] += w * src3[t];
+        }
+        lastPlane = k;
+      }
+      for (int64_t j = 0; j < od.y; ++j) {
+        const auto& yi = ty.idx[static_cast<size_t>(j)];
+        const auto& yw = ty.w[static_cast<size_t>(j)];
+        std::fill(row.begin(), row.end(), 0.f);
+        for (int q = 0; q < Taps; ++q) {
+          if (yw[q] == 0.f) continue;
+          const float* p = plane.data() + static_cast<size_t>(yi[q] * nd.x) * 3;
+          const float w = yw[q];
+#pragma omp simd
+          for (int64_t t = 0; t < nd.x * 3; ++t) row[t] += w * p[t];
+        }
+        T* o = out.data() + (k * od.y + j) * od.x;
+        for (int64_t i = 0; i < od.x; ++i) {
+          const auto& xi = tx.idx[static_cast<size_t>(i)];
+          const auto& xw = tx.w[static_cast<size_t>(i)];
+          float ux = 0, uy = 0, uz = 0;
+          for (int q = 0; q < Taps; ++q) {
+            const float* r = row.data() + 3 * xi[q];
+            ux += xw[q] * r[0]; uy += xw[q] * r[1]; uz += xw[q] * r[2];
+          }
+          o[i] = toVoxel<T>(fetch(src, data, od.x, od.y, od.z, ux, uy, uz, bg));
+        }
+      }
+      progress.advance();
+    }
+  });
+  progress.end();
+  (void)s;
+  return out;
+}
+
+}  // namespace
+
+AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsampling upsampling,
+                     Progress& progress) {
+  const Geometry& g = geometryOf(source);
+  const Geometry expect = controlGrid(g, cv.scale);
+  if (!(expect.dims == cv.grid.dims) || !expect.approxEqual(cv.grid) ||
+      cv.sourceMm.size() != static_cast<size_t>(cv.grid.dims.voxelCount()) * 3)
+    throw Error("synthesize: the control volume was not built for this volume's geometry");
+  // Map in source index coordinates (float), so the per-voxel work is interpolation + fetch.
+  const Mat3 toMm = g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0},
+                                                    {0, 0, g.spacing.z});
+  Mat3 inv;
+  if (!toMm.inverse(inv)) throw Error("synthesize: singular geometry");
+  std::vector<float> mapIdx(cv.sourceMm.size());
+  const int64_t nodes = cv.grid.dims.voxelCount();
+  parallelFor(nodes, [&](int64_t a, int64_t b) {
+    for (int64_t t = a; t < b; ++t) {
+      const Vec3 idx = inv * (cv.sourceAt(t) - g.origin);
+      mapIdx[3 * t] = static_cast<float>(idx.x);
+      mapIdx[3 * t + 1] = static_cast<float>(idx.y);
+      mapIdx[3 * t + 2] = static_cast<float>(idx.z);
+    }
+  }, 4096);
+  const Dims nd = cv.grid.dims;
+  const int s = cv.scale;
+  return std::visit(
+      [&](const auto& vol) -> AnyVolume {
+        if (upsampling == Upsampling::Trilinear)
+          return synthesizeTyped(vol, mapIdx, nd, s, linearTaps(g.dims.x, nd.x, s),
+                                 linearTaps(g.dims.y, nd.y, s), linearTaps(g.dims.z, nd.z, s),
+                                 progress);
+        return synthesizeTyped(vol, mapIdx, nd, s, gaussianTaps(g.dims.x, nd.x, s),
+                               gaussianTaps(g.dims.y, nd.y, s), gaussianTaps(g.dims.z, nd.z, s),
+                               progress);
+      },
+      source);
+}
+
+double psnr(const AnyVolume& reference, const AnyVolume& test) {
+  if (!(geometryOf(reference).dims == geometryOf(test).dims))
+    throw Error("psnr: volumes differ in size");
+  const VolumeF32 a = toFloat32(reference), b = toFloat32(test);
+  const auto [lo, hi] = a.valueRange();
+  double se = 0;
+  for (size_t t = 0; t < a.size(); ++t) {
+    const double d = double(a.data()[t]) - double(b.data()[t]);
+    se += d * d;
+  }
+  const double mse = se / static_cast<double>(std::max<size_t>(a.size(), 1));
+  if (mse == 0) return std::numeric_limits<double>::infinity();
+  const double peak = std::max(hi - lo, 1e-12);
+  return 10.0 * std::log10(peak * peak / mse);
+}
+
+}  // namespace vellum::deformation
