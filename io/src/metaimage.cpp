@@ -1,0 +1,205 @@
+// MetaImage (.mha with LOCAL data, .mhd + separate data file), written here because VTK's
+// reader drops the direction. TransformMatrix lists the physical direction of the i axis,
+// then j, then k (ITK's convention: column-major in terms of Mat3).
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "io_detail.hpp"
+#include "vellum/io/atomic_file.hpp"
+
+namespace vellum::io::detail {
+
+namespace {
+
+SampleType parseMetType(const fs::path& path, const std::string& t) {
+  static const std::map<std::string, SampleType> types = {
+      {"MET_CHAR", SampleType::Int8},    {"MET_UCHAR", SampleType::UInt8},
+      {"MET_SHORT", SampleType::Int16},  {"MET_USHORT", SampleType::UInt16},
+      {"MET_INT", SampleType::Int32},    {"MET_UINT", SampleType::UInt32},
+      {"MET_FLOAT", SampleType::Float32}, {"MET_DOUBLE", SampleType::Float64}};
+  const auto it = types.find(t);
+  if (it == types.end()) throw FileError(path, "unsupported ElementType '" + t + "'");
+  return it->second;
+}
+
+const char* metTypeName(VoxelType t) {
+  switch (t) {
+    case VoxelType::Int16: return "MET_SHORT";
+    case VoxelType::UInt8: return "MET_UCHAR";
+    case VoxelType::UInt16: return "MET_USHORT";
+    case VoxelType::Float32: return "MET_FLOAT";
+  }
+  return "?";
+}
+
+bool parseBool(const fs::path& path, const std::string& key, const std::string& v) {
+  const std::string l = lower(v);
+  if (l == "true" || l == "1") return true;
+  if (l == "false" || l == "0") return false;
+  throw FileError(path, "field '" + key + "': '" + v + "' is not True/False");
+}
+
+}  // namespace
+
+LoadedVolume loadMetaImage(const fs::path& path, const LoadOptions& options) {
+  const uint64_t size = fileSize(path);
+  // The header is text up to and including the ElementDataFile line.
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FileError(path, "cannot open for reading");
+  std::map<std::string, std::string> f;
+  uint64_t dataOffset = 0;
+  bool sawDataFile = false;
+  std::string line;
+  for (int lineNo = 1; lineNo <= 1000; ++lineNo) {
+    // Bounded line read: headers never have kilobyte-long lines.
+    line.clear();
+    char c;
+    while (line.size() < 4096 && in.get(c) && c != '\n') line += c;
+    if (line.size() >= 4096) throw FileError(path, "header line " + std::to_string(lineNo) + " is too long (not a MetaImage?)");
+    if (!in && line.empty()) break;
+    dataOffset = static_cast<uint64_t>(in.tellg() == std::streampos(-1) ? std::streamoff(size) : std::streamoff(in.tellg()));
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (trim(line).empty()) continue;
+    const size_t eq = line.find('=');
+    if (eq == std::string::npos)
+      throw FileError(path, "header line " + std::to_string(lineNo) + " has no '=': '" + line.substr(0, 60) + "'");
+    const std::string key = trim(line.substr(0, eq));
+    f[key] = trim(line.substr(eq + 1));
+    if (lineNo == 1 && key != "ObjectType" && key != "NDims")
+      throw FileError(path, "not a MetaImage file (first field '" + key + "')");
+    if (key == "ElementDataFile") {
+      sawDataFile = true;
+      break;
+    }
+  }
+  if (!sawDataFile) throw FileError(path, "missing required field 'ElementDataFile'");
+  auto req = [&](const char* k) -> const std::string& {
+    const auto it = f.find(k);
+    if (it == f.end()) throw FileError(path, std::string("missing required field '") + k + "'");
+    return it->second;
+  };
+  auto opt = [&](std::initializer_list<const char*> keys) -> const std::string* {
+    for (const char* k : keys)
+      if (auto it = f.find(k); it != f.end()) return &it->second;
+    return nullptr;
+  };
+
+  if (const auto* ot = opt({"ObjectType"}); ot && lower(*ot) != "image")
+    throw FileError(path, "ObjectType '" + *ot + "' is not Image");
+  const double ndims = parseNumbers(path, req("NDims"), "NDims", 1)[0];
+  if (ndims != 3) throw FileError(path, "NDims = " + fmt(ndims) + " (only 3-D images are supported)");
+  if (const auto* ch = opt({"ElementNumberOfChannels"}); ch && parseNumbers(path, *ch, "ElementNumberOfChannels", 1)[0] != 1)
+    throw FileError(path, "multi-channel images are not supported");
+  const auto ds = parseNumbers(path, req("DimSize"), "DimSize", 3);
+  for (double d : ds)
+    if (d != std::floor(d) || d < 1 || d > 1e9) throw FileError(path, "invalid DimSize '" + req("DimSize") + "'");
+  Geometry g;
+  g.dims = {int64_t(ds[0]), int64_t(ds[1]), int64_t(ds[2])};
+  const SampleType type = parseMetType(path, req("ElementType"));
+  checkAllocation(path, g.dims, sampleSize(type));
+  if (const auto* sp = opt({"ElementSpacing", "ElementSize"})) {
+    const auto s = parseNumbers(path, *sp, "ElementSpacing", 3);
+    g.spacing = {s[0], s[1], s[2]};
+  }
+  if (const auto* o = opt({"Offset", "Origin", "Position"})) {
+    const auto s = parseNumbers(path, *o, "Offset", 3);
+    g.origin = {s[0], s[1], s[2]};
+  }
+  if (const auto* m = opt({"TransformMatrix", "Rotation", "Orientation"})) {
+    const auto d = parseNumbers(path, *m, "TransformMatrix", 9);
+    g.direction = Mat3::fromColumns({d[0], d[1], d[2]}, {d[3], d[4], d[5]}, {d[6], d[7], d[8]});
+  }
+  const std::string warning = normalizeDirection(g);
+  checkGeometry(path, g);
+  if (const auto* b = opt({"BinaryData"}); b && !parseBool(path, "BinaryData", *b))
+    throw FileError(path, "ASCII MetaImage data (BinaryData = False) is not supported");
+  Endian endian = Endian::Little;
+  if (const auto* msb = opt({"BinaryDataByteOrderMSB", "ElementByteOrderMSB"}))
+    endian = parseBool(path, "BinaryDataByteOrderMSB", *msb) ? Endian::Big : Endian::Little;
+  bool compressed = false;
+  if (const auto* c = opt({"CompressedData"})) compressed = parseBool(path, "CompressedData", *c);
+
+  const std::string& dataFile = req("ElementDataFile");
+  fs::path dataPath = path;
+  int64_t headerSize = 0;
+  if (dataFile == "LOCAL") {
+    headerSize = static_cast<int64_t>(dataOffset);
+  } else {
+    if (dataFile.rfind("LIST", 0) == 0 || dataFile.find('%') != std::string::npos)
+      throw FileError(path, "multi-file MetaImage data ('" + dataFile + "') is not supported");
+    dataPath = fs::path(dataFile).is_absolute() ? fs::path(dataFile) : path.parent_path() / dataFile;
+    if (!fs::exists(dataPath)) throw FileError(path, "data file " + dataPath.string() + " does not exist");
+    if (const auto* hs = opt({"HeaderSize"})) {
+      const double v = parseNumbers(path, *hs, "HeaderSize", 1)[0];
+      if (v != std::floor(v) || v < -1) throw FileError(path, "invalid HeaderSize");
+      headerSize = static_cast<int64_t>(v);
+    }
+  }
+  const uint64_t bytes = static_cast<uint64_t>(g.dims.voxelCount()) * sampleSize(type);
+  const uint64_t dataSize = fileSize(dataPath);
+  std::vector<uint8_t> data;
+  if (compressed) {
+    if (headerSize < 0) throw FileError(path, "HeaderSize = -1 with compressed data");
+    const uint64_t off = static_cast<uint64_t>(headerSize);
+    if (off > dataSize) throw FileError(dataPath, "truncated: no compressed data");
+    uint64_t packedSize = dataSize - off;
+    if (const auto* cs = opt({"CompressedDataSize"})) {
+      const double v = parseNumbers(path, *cs, "CompressedDataSize", 1)[0];
+      if (v >= 1 && v <= double(packedSize)) packedSize = static_cast<uint64_t>(v);
+    }
+    const auto packed = readBytes(dataPath, off, packedSize, options.progress);
+    data = inflateExact(dataPath, packed.data(), packed.size(), bytes);
+  } else {
+    const uint64_t off = headerSize < 0 ? (dataSize >= bytes ? dataSize - bytes : 0) : uint64_t(headerSize);
+    data = readBytes(dataPath, off, bytes, options.progress);
+  }
+
+  std::string modality;
+  if (const auto* m = opt({"Modality"})) {
+    modality = *m;
+    if (modality.rfind("MET_MOD_", 0) == 0) modality = modality.substr(8);
+    if (modality == "UNKNOWN") modality.clear();
+  }
+  LoadedVolume out = makeLoaded(decodeVoxels(dataPath, std::move(data), type, endian, g), "metaimage", modality);
+  if (!warning.empty()) out.warnings.push_back(warning);
+  return out;
+}
+
+void saveMetaImage(const AnyVolume& v, const fs::path& path, const std::string& modality) {
+  const Geometry& g = geometryOf(v);
+  const bool local = lower(path.extension().string()) == ".mha";
+  const std::string dataName = path.stem().string() + ".raw";
+  std::ostringstream h;
+  h << "ObjectType = Image\nNDims = 3\nBinaryData = True\n"
+    << "BinaryDataByteOrderMSB = " << (hostEndian() == Endian::Big ? "True" : "False") << "\n"
+    << "CompressedData = False\nTransformMatrix =";
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) h << " " << fmt(g.direction(r, c));
+  h << "\nOffset = " << fmt(g.origin.x) << " " << fmt(g.origin.y) << " " << fmt(g.origin.z) << "\n"
+    << "CenterOfRotation = 0 0 0\nAnatomicalOrientation = RAI\n"
+    << "ElementSpacing = " << fmt(g.spacing.x) << " " << fmt(g.spacing.y) << " " << fmt(g.spacing.z) << "\n"
+    << "DimSize = " << g.dims.x << " " << g.dims.y << " " << g.dims.z << "\n";
+  if (!modality.empty()) h << "Modality = MET_MOD_" << oneLine(modality) << "\n";
+  h << "ElementType = " << metTypeName(voxelTypeOf(v)) << "\n"
+    << "ElementDataFile = " << (local ? "LOCAL" : dataName) << "\n";
+  const std::string header = h.str();
+  const std::vector<uint8_t> data = encodeVoxels(v, hostEndian());
+
+  auto writeFile = [](const fs::path& tmp, const std::string& prefix, const std::vector<uint8_t>* body) {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw FileError(tmp, "cannot open for writing");
+    out.write(prefix.data(), static_cast<std::streamsize>(prefix.size()));
+    if (body) out.write(reinterpret_cast<const char*>(body->data()), static_cast<std::streamsize>(body->size()));
+    out.close();
+    if (!out) throw FileError(tmp, "write failed (disk full?)");
+  };
+  if (local) {
+    writeAtomically(path, [&](const fs::path& tmp) { writeFile(tmp, header, &data); });
+  } else {
+    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeFile(tmp, "", &data); });
+    writeAtomically(path, [&](const fs::path& tmp) { writeFile(tmp, header, nullptr); });
+  }
+}
+
+}  // namespace vellum::io::detail

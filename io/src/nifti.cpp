@@ -1,0 +1,178 @@
+// NIfTI-1 reader (.nii, .nii.gz). Own reader rather than vtkNIFTIImageReader: VTK reorders
+// slices when qfac < 0 and reports its matrices relative to its own flipped grid, and reports
+// bad files through its error output instead of exceptions. Geometry: sform when
+// sform_code > 0, else qform when qform_code > 0, else pixdim only; NIfTI world is RAS and is
+// converted to LPS by negating the first two rows. scl_slope/scl_inter are applied.
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "io_detail.hpp"
+#include "vellum/core/memory_budget.hpp"
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::io::detail {
+
+namespace {
+
+struct GzFile {
+  gzFile f = nullptr;
+  ~GzFile() {
+    if (f) gzclose(f);
+  }
+};
+
+/// Reads exactly n bytes (decompressing .gz transparently); FileError when short or corrupt.
+void readExact(const fs::path& path, gzFile f, void* dst, uint64_t n, const char* what) {
+  auto* p = static_cast<uint8_t*>(dst);
+  while (n > 0) {
+    const unsigned chunk = static_cast<unsigned>(std::min<uint64_t>(n, 1u << 30));
+    const int got = gzread(f, p, chunk);
+    if (got < 0) {
+      int err = 0;
+      std::string msg = gzerror(f, &err);
+      if (const size_t p = msg.rfind(": "); p != std::string::npos) msg = msg.substr(p + 2);  // drop path
+      throw FileError(path, "corrupt compressed data (" + msg + ")");
+    }
+    if (got == 0) throw FileError(path, std::string("truncated ") + what);
+    p += got;
+    n -= static_cast<uint64_t>(got);
+  }
+}
+
+template <class T>
+T get(const uint8_t* h, size_t off, bool swap) {
+  uint8_t b[sizeof(T)];
+  std::memcpy(b, h + off, sizeof(T));
+  if (swap) std::reverse(b, b + sizeof(T));
+  T v;
+  std::memcpy(&v, b, sizeof(T));
+  return v;
+}
+
+}  // namespace
+
+LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options) {
+  fileSize(path);  // existence and regular-file check
+  GzFile gz;
+  gz.f = gzopen(path.c_str(), "rb");
+  if (!gz.f) throw FileError(path, "cannot open for reading");
+  uint8_t h[348];
+  readExact(path, gz.f, h, sizeof h, "header (shorter than 348 bytes)");
+  bool swap = false;
+  if (get<int32_t>(h, 0, false) != 348) {
+    if (get<int32_t>(h, 0, true) != 348) throw FileError(path, "not a NIfTI-1 file (sizeof_hdr is not 348)");
+    swap = true;
+  }
+  if (std::memcmp(h + 344, "n+1", 4) != 0) {
+    if (std::memcmp(h + 344, "ni1", 4) == 0)
+      throw FileError(path, "two-file NIfTI (.hdr/.img) is not supported; convert to .nii");
+    throw FileError(path, "not a NIfTI-1 file (magic is not 'n+1')");
+  }
+  int16_t dim[8];
+  for (int i = 0; i < 8; ++i) dim[i] = get<int16_t>(h, 40 + 2 * size_t(i), swap);
+  if (dim[0] < 1 || dim[0] > 7) throw FileError(path, "invalid dim[0] = " + std::to_string(dim[0]));
+  for (int i = 4; i <= dim[0]; ++i)
+    if (dim[i] > 1) throw FileError(path, "4-D or higher NIfTI (dim[" + std::to_string(i) + "] = " +
+                                              std::to_string(dim[i]) + ") is not supported");
+  Geometry g;
+  g.dims = {dim[1], dim[0] >= 2 ? dim[2] : 1, dim[0] >= 3 ? dim[3] : 1};
+  const int16_t datatype = get<int16_t>(h, 70, swap);
+  SampleType type;
+  switch (datatype) {
+    case 2: type = SampleType::UInt8; break;
+    case 4: type = SampleType::Int16; break;
+    case 8: type = SampleType::Int32; break;
+    case 16: type = SampleType::Float32; break;
+    case 64: type = SampleType::Float64; break;
+    case 256: type = SampleType::Int8; break;
+    case 512: type = SampleType::UInt16; break;
+    case 768: type = SampleType::UInt32; break;
+    default: throw FileError(path, "unsupported NIfTI datatype " + std::to_string(datatype));
+  }
+  checkAllocation(path, g.dims, sampleSize(type));
+
+  float pixdim[8];
+  for (int i = 0; i < 8; ++i) pixdim[i] = get<float>(h, 76 + 4 * size_t(i), swap);
+  const float voxOffset = get<float>(h, 108, swap);
+  const float slope = get<float>(h, 112, swap), inter = get<float>(h, 116, swap);
+  const int16_t qformCode = get<int16_t>(h, 252, swap), sformCode = get<int16_t>(h, 254, swap);
+
+  Mat3 m;  // RAS, columns = axis vectors including spacing
+  Vec3 origin;
+  if (sformCode > 0) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) m(r, c) = get<float>(h, 280 + 16 * size_t(r) + 4 * size_t(c), swap);
+      origin[r] = get<float>(h, 280 + 16 * size_t(r) + 12, swap);
+    }
+  } else if (qformCode > 0) {
+    const double b = get<float>(h, 256, swap), c = get<float>(h, 260, swap), d = get<float>(h, 264, swap);
+    const double a = std::sqrt(std::max(0.0, 1.0 - (b * b + c * c + d * d)));
+    const Mat3 rot = Mat3::fromColumns({a * a + b * b - c * c - d * d, 2 * (b * c + a * d), 2 * (b * d - a * c)},
+                                       {2 * (b * c - a * d), a * a + c * c - b * b - d * d, 2 * (c * d + a * b)},
+                                       {2 * (b * d + a * c), 2 * (c * d - a * b), a * a + d * d - c * c - b * b});
+    const double qfac = pixdim[0] < 0 ? -1.0 : 1.0;
+    for (int r = 0; r < 3; ++r) {
+      m(r, 0) = rot(r, 0) * pixdim[1];
+      m(r, 1) = rot(r, 1) * pixdim[2];
+      m(r, 2) = rot(r, 2) * pixdim[3] * qfac;
+    }
+    origin = {get<float>(h, 268, swap), get<float>(h, 272, swap), get<float>(h, 276, swap)};
+  } else {
+    m = Mat3::fromColumns({pixdim[1], 0, 0}, {0, pixdim[2], 0}, {0, 0, pixdim[3]});
+  }
+  for (int a = 0; a < 3; ++a) {
+    const Vec3 col = m.column(a);
+    g.spacing[a] = norm(col);
+    const Vec3 unit = g.spacing[a] > 0 ? col / g.spacing[a] : col;
+    // RAS -> LPS: negate x and y.
+    g.direction(0, a) = -unit.x;
+    g.direction(1, a) = -unit.y;
+    g.direction(2, a) = unit.z;
+  }
+  g.origin = {-origin.x, -origin.y, origin.z};
+  checkGeometry(path, g);
+
+  if (!std::isfinite(voxOffset) || voxOffset < 348 || voxOffset > 1e9)
+    throw FileError(path, "invalid vox_offset " + fmt(voxOffset));
+  // Skip extensions up to the data.
+  const uint64_t skip = static_cast<uint64_t>(voxOffset) - 348;
+  std::vector<uint8_t> scratch(static_cast<size_t>(std::min<uint64_t>(skip, 1u << 20)));
+  for (uint64_t left = skip; left > 0;) {
+    const uint64_t n = std::min<uint64_t>(left, scratch.size());
+    readExact(path, gz.f, scratch.data(), n, "file (ends before vox_offset)");
+    left -= n;
+  }
+  const uint64_t bytes = static_cast<uint64_t>(g.dims.voxelCount()) * sampleSize(type);
+  try {
+    checkMemoryBudget(bytes, "NIfTI voxel data");
+  } catch (const Error& e) {
+    throw FileError(path, e.what());
+  }
+  std::vector<uint8_t> data(static_cast<size_t>(bytes));
+  if (options.progress) options.progress->begin("reading " + path.filename().string(), 1);
+  readExact(path, gz.f, data.data(), bytes, "voxel data");
+  if (options.progress) options.progress->end();
+
+  AnyVolume vol = decodeVoxels(path, std::move(data), type, swap ? (hostEndian() == Endian::Little ? Endian::Big : Endian::Little) : hostEndian(), g);
+
+  const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0);
+  if (scaled) {
+    VolumeF32 f = toFloat32(vol);
+    float* p = f.data();
+    parallelFor(static_cast<int64_t>(f.size()), [&](int64_t b, int64_t e) {
+      for (int64_t i = b; i < e; ++i) p[i] = p[i] * slope + inter;
+    }, 1 << 16);
+    // Integer results that fit int16 (CT stored as uint16 with inter -1024) stay integers.
+    bool integral = true;
+    for (size_t i = 0; i < f.size() && integral; ++i)
+      integral = p[i] == std::floor(p[i]) && p[i] >= -32768 && p[i] <= 32767;
+    vol = integral ? AnyVolume(toInt16(f)) : AnyVolume(std::move(f));
+  }
+  return makeLoaded(std::move(vol), "nifti", "");
+}
+
+}  // namespace vellum::io::detail

@@ -1,0 +1,379 @@
+// NRRD reader and writer (http://teem.sourceforge.net/nrrd/format.html), written here because
+// VTK's reader has no writer and few encodings. Supports attached (.nrrd) and detached
+// (.nhdr + data file) headers, raw / gzip / ascii encodings, LPS/RAS/LAS spaces, 3-D images
+// (and 4-D with a leading axis of size 1, as Slicer writes single-layer segmentations).
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <cstring>
+#include <sstream>
+
+#include "io_detail.hpp"
+#include "label_fields.hpp"
+#include "vellum/io/atomic_file.hpp"
+
+namespace vellum::io::detail {
+
+namespace {
+
+constexpr uint64_t kMaxHeaderBytes = 16u << 20;
+
+SampleType parseNrrdType(const fs::path& path, const std::string& t) {
+  static const std::map<std::string, SampleType> types = {
+      {"signed char", SampleType::Int8},       {"int8", SampleType::Int8},
+      {"int8_t", SampleType::Int8},            {"uchar", SampleType::UInt8},
+      {"unsigned char", SampleType::UInt8},    {"uint8", SampleType::UInt8},
+      {"uint8_t", SampleType::UInt8},          {"short", SampleType::Int16},
+      {"short int", SampleType::Int16},        {"signed short", SampleType::Int16},
+      {"signed short int", SampleType::Int16}, {"int16", SampleType::Int16},
+      {"int16_t", SampleType::Int16},          {"ushort", SampleType::UInt16},
+      {"unsigned short", SampleType::UInt16},  {"unsigned short int", SampleType::UInt16},
+      {"uint16", SampleType::UInt16},          {"uint16_t", SampleType::UInt16},
+      {"int", SampleType::Int32},              {"signed int", SampleType::Int32},
+      {"int32", SampleType::Int32},            {"int32_t", SampleType::Int32},
+      {"uint", SampleType::UInt32},            {"unsigned int", SampleType::UInt32},
+      {"uint32", SampleType::UInt32},          {"uint32_t", SampleType::UInt32},
+      {"float", SampleType::Float32},          {"double", SampleType::Float64}};
+  const auto it = types.find(lower(t));
+  if (it == types.end())
+    throw FileError(path, "unsupported NRRD type '" + t +
+                              "' (supported: int8, uint8, int16, uint16, int32, uint32, float, double)");
+  return it->second;
+}
+
+const char* nrrdTypeName(SampleType t) {
+  switch (t) {
+    case SampleType::Int16: return "short";
+    case SampleType::UInt8: return "uchar";
+    case SampleType::UInt16: return "ushort";
+    case SampleType::Float32: return "float";
+    default: return "?";
+  }
+}
+
+/// "(a,b,c) none (d,e,f)" -> vectors; "none" entries become empty vectors.
+std::vector<std::vector<double>> parseVectors(const fs::path& path, const std::string& text,
+                                              const std::string& field) {
+  std::vector<std::vector<double>> out;
+  size_t i = 0;
+  while (i < text.size()) {
+    while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+    if (i >= text.size()) break;
+    if (text.compare(i, 4, "none") == 0) {
+      out.emplace_back();
+      i += 4;
+      continue;
+    }
+    if (text[i] != '(') throw FileError(path, "field '" + field + "': expected '(' or 'none'");
+    const size_t close = text.find(')', i);
+    if (close == std::string::npos) throw FileError(path, "field '" + field + "': missing ')'");
+    out.push_back(parseNumbers(path, std::string_view(text).substr(i + 1, close - i - 1), field, 3));
+    i = close + 1;
+    if (out.size() > 8) throw FileError(path, "field '" + field + "': too many vectors");
+  }
+  return out;
+}
+
+struct NrrdHeader {
+  std::map<std::string, std::string> fields;     // lower-case field name -> value
+  std::map<std::string, std::string> keyValues;  // key -> value
+  uint64_t dataOffset = 0;                       // attached data: first byte after the header
+  bool terminated = false;                       // blank line seen
+};
+
+NrrdHeader parseHeader(const fs::path& path) {
+  const uint64_t size = fileSize(path);
+  const uint64_t n = std::min(size, kMaxHeaderBytes);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw FileError(path, "cannot open for reading");
+  std::string head(static_cast<size_t>(n), '\0');
+  in.read(head.data(), static_cast<std::streamsize>(n));
+  if (head.compare(0, 4, "NRRD") != 0) throw FileError(path, "not a NRRD file (no 'NRRD000x' magic)");
+
+  NrrdHeader h;
+  size_t pos = 0;
+  int lineNo = 0;
+  while (pos < head.size()) {
+    size_t eol = head.find('\n', pos);
+    const bool lastLine = eol == std::string::npos;
+    if (lastLine) {
+      if (n < size) break;  // header longer than we are willing to read
+      eol = head.size();
+    }
+    std::string line = head.substr(pos, eol - pos);
+    pos = lastLine ? eol : eol + 1;
+    ++lineNo;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (lineNo == 1) continue;  // magic
+    if (line.empty()) {
+      h.terminated = true;
+      break;
+    }
+    if (line[0] == '#') continue;
+    const size_t colon = line.find(':');
+    if (colon == std::string::npos || colon == 0)
+      throw FileError(path, "header line " + std::to_string(lineNo) + " has no ':' separator: '" +
+                                line.substr(0, 60) + "'");
+    if (colon + 1 < line.size() && line[colon + 1] == '=') {
+      h.keyValues[line.substr(0, colon)] = line.substr(colon + 2);
+    } else {
+      if (colon + 1 >= line.size() || line[colon + 1] != ' ')
+        throw FileError(path, "header line " + std::to_string(lineNo) + ": expected ': ' after '" +
+                                  line.substr(0, colon) + "'");
+      h.fields[lower(trim(line.substr(0, colon)))] = trim(line.substr(colon + 2));
+    }
+  }
+  if (!h.terminated && pos < head.size() && n < size)
+    throw FileError(path, "header is longer than 16 MiB or not terminated by a blank line");
+  h.dataOffset = pos;
+  return h;
+}
+
+const std::string* field(const NrrdHeader& h, std::initializer_list<const char*> names) {
+  for (const char* name : names) {
+    const auto it = h.fields.find(name);
+    if (it != h.fields.end()) return &it->second;
+  }
+  return nullptr;
+}
+
+const std::string& required(const fs::path& path, const NrrdHeader& h,
+                            std::initializer_list<const char*> names) {
+  if (const std::string* v = field(h, names)) return *v;
+  throw FileError(path, std::string("missing required NRRD field '") + *names.begin() + "'");
+}
+
+int64_t parseInteger(const fs::path& path, const std::string& text, const std::string& name) {
+  const auto v = parseNumbers(path, text, name, 1)[0];
+  if (v != std::floor(v) || std::abs(v) > 9e15)
+    throw FileError(path, "field '" + name + "': '" + text + "' is not an integer");
+  return static_cast<int64_t>(v);
+}
+
+/// Offset just past `lines` newlines from `offset`; bounded by the file size.
+uint64_t skipLines(const fs::path& path, uint64_t offset, int64_t lines) {
+  if (lines <= 0) return offset;
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(offset));
+  char buf[65536];
+  int64_t seen = 0;
+  while (in) {
+    in.read(buf, sizeof buf);
+    const auto got = in.gcount();
+    for (std::streamsize i = 0; i < got; ++i) {
+      if (buf[i] == '\n' && ++seen == lines) return offset + static_cast<uint64_t>(i) + 1;
+    }
+    offset += static_cast<uint64_t>(got);
+    if (got == 0) break;
+  }
+  throw FileError(path, "truncated: fewer lines than 'line skip' asks to skip");
+}
+
+std::vector<uint8_t> readAscii(const fs::path& path, uint64_t offset, uint64_t count,
+                               SampleType type) {
+  const uint64_t size = fileSize(path);
+  std::vector<uint8_t> raw = readBytes(path, offset, size - offset, nullptr);
+  checkMemoryBudget(count * sampleSize(type), "ascii voxel data");
+  std::vector<uint8_t> out(static_cast<size_t>(count * sampleSize(type)));
+  std::string text(raw.begin(), raw.end());
+  raw.clear();
+  const char* p = text.c_str();
+  const char* end = p + text.size();
+  for (uint64_t i = 0; i < count; ++i) {
+    while (p < end && (std::isspace(static_cast<unsigned char>(*p)) || *p == ',')) ++p;
+    char* next = nullptr;
+    const double v = std::strtod(p, &next);
+    if (next == p) throw FileError(path, "ascii data: value " + std::to_string(i) + " missing or not a number");
+    p = next;
+    uint8_t* dst = out.data() + i * sampleSize(type);
+    auto put = [&](auto x) { std::memcpy(dst, &x, sizeof x); };
+    switch (type) {
+      case SampleType::Int8: put(static_cast<int8_t>(v)); break;
+      case SampleType::UInt8: put(static_cast<uint8_t>(v)); break;
+      case SampleType::Int16: put(static_cast<int16_t>(v)); break;
+      case SampleType::UInt16: put(static_cast<uint16_t>(v)); break;
+      case SampleType::Int32: put(static_cast<int32_t>(v)); break;
+      case SampleType::UInt32: put(static_cast<uint32_t>(v)); break;
+      case SampleType::Float32: put(static_cast<float>(v)); break;
+      case SampleType::Float64: put(v); break;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFields* extra) {
+  const NrrdHeader h = parseHeader(path);
+
+  const SampleType type = parseNrrdType(path, required(path, h, {"type"}));
+  const int64_t dimension = parseInteger(path, required(path, h, {"dimension"}), "dimension");
+  if (dimension != 3 && dimension != 4)
+    throw FileError(path, "dimension " + std::to_string(dimension) + " not supported (3-D images only)");
+  const auto sizes = parseNumbers(path, required(path, h, {"sizes"}), "sizes", size_t(dimension));
+  for (double s : sizes)
+    if (s != std::floor(s) || s < 1 || s > 1e9)
+      throw FileError(path, "invalid sizes '" + required(path, h, {"sizes"}) + "'");
+  const int first = dimension == 4 ? 1 : 0;  // 4-D: leading non-spatial axis of size 1
+  if (dimension == 4 && sizes[0] != 1)
+    throw FileError(path, "4-D NRRD with " + fmt(sizes[0]) + " components per voxel is not supported");
+
+  Geometry g;
+  g.dims = {static_cast<int64_t>(sizes[first]), static_cast<int64_t>(sizes[first + 1]),
+            static_cast<int64_t>(sizes[first + 2])};
+  checkAllocation(path, g.dims, sampleSize(type));
+
+  if (const std::string* dirs = field(h, {"space directions"})) {
+    auto vecs = parseVectors(path, *dirs, "space directions");
+    if (vecs.size() != static_cast<size_t>(dimension))
+      throw FileError(path, "field 'space directions': expected " + std::to_string(dimension) + " entries");
+    for (int a = 0; a < 3; ++a) {
+      const auto& v = vecs[static_cast<size_t>(first + a)];
+      if (v.empty()) throw FileError(path, "field 'space directions': spatial axis is 'none'");
+      const Vec3 col{v[0], v[1], v[2]};
+      g.spacing[a] = norm(col);
+      const Vec3 unit = g.spacing[a] > 0 ? col / g.spacing[a] : col;
+      for (int r = 0; r < 3; ++r) g.direction(r, a) = unit[r];
+    }
+  } else if (const std::string* sp = field(h, {"spacings"})) {
+    const auto s = parseNumbers(path, *sp, "spacings", size_t(dimension));
+    g.spacing = {s[size_t(first)], s[size_t(first) + 1], s[size_t(first) + 2]};
+  }
+  if (const std::string* o = field(h, {"space origin"})) {
+    const auto v = parseVectors(path, *o, "space origin");
+    if (v.size() != 1 || v[0].size() != 3) throw FileError(path, "field 'space origin': expected (x,y,z)");
+    g.origin = {v[0][0], v[0][1], v[0][2]};
+  }
+  if (const std::string* space = field(h, {"space"})) {
+    const std::string s = lower(*space);
+    Vec3 flip{1, 1, 1};
+    if (s == "left-posterior-superior" || s == "lps" || s == "3d-right-handed") {
+    } else if (s == "right-anterior-superior" || s == "ras") {
+      flip = {-1, -1, 1};
+    } else if (s == "left-anterior-superior" || s == "las") {
+      flip = {1, -1, 1};
+    } else {
+      throw FileError(path, "unsupported NRRD space '" + *space + "' (LPS, RAS or LAS)");
+    }
+    g.origin = mul(g.origin, flip);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) g.direction(r, c) *= flip[r];
+  }
+  checkGeometry(path, g);
+
+  // Where the data are.
+  fs::path dataPath = path;
+  uint64_t offset = h.dataOffset;
+  if (const std::string* df = field(h, {"data file", "datafile"})) {
+    if (df->rfind("LIST", 0) == 0 || df->find('%') != std::string::npos)
+      throw FileError(path, "multi-file NRRD data ('" + *df + "') is not supported");
+    dataPath = fs::path(*df).is_absolute() ? fs::path(*df) : path.parent_path() / *df;
+    offset = 0;
+  } else if (!h.terminated) {
+    throw FileError(path, "header has no blank line ending it and no 'data file' field");
+  }
+  if (dataPath != path && !fs::exists(dataPath))
+    throw FileError(path, "data file " + dataPath.string() + " does not exist");
+
+  const std::string encoding = lower(required(path, h, {"encoding"}));
+  Endian endian = Endian::Little;
+  if (const std::string* e = field(h, {"endian"})) {
+    const std::string el = lower(*e);
+    if (el == "big") endian = Endian::Big;
+    else if (el != "little") throw FileError(path, "field 'endian': '" + *e + "' (little or big)");
+  } else if (sampleSize(type) > 1 && encoding != "ascii" && encoding != "text" && encoding != "txt") {
+    throw FileError(path, "missing required NRRD field 'endian'");
+  }
+  int64_t lineSkip = 0, byteSkip = 0;
+  if (const std::string* ls = field(h, {"line skip", "lineskip"})) lineSkip = parseInteger(path, *ls, "line skip");
+  if (const std::string* bs = field(h, {"byte skip", "byteskip"})) byteSkip = parseInteger(path, *bs, "byte skip");
+  if (lineSkip < 0 || byteSkip < -1) throw FileError(path, "negative line skip or byte skip");
+  offset = skipLines(dataPath, offset, lineSkip);
+
+  const uint64_t count = static_cast<uint64_t>(g.dims.voxelCount());
+  const uint64_t bytes = count * sampleSize(type);
+  std::vector<uint8_t> data;
+  if (encoding == "raw") {
+    if (byteSkip == -1) {
+      const uint64_t size = fileSize(dataPath);
+      if (size < bytes + offset) throw FileError(dataPath, "truncated: file smaller than the voxel data");
+      offset = size - bytes;
+    } else {
+      offset += static_cast<uint64_t>(byteSkip);
+    }
+    data = readBytes(dataPath, offset, bytes, options.progress);
+  } else if (encoding == "gzip" || encoding == "gz") {
+    if (byteSkip < 0) throw FileError(path, "'byte skip: -1' is not allowed with gzip encoding");
+    const uint64_t size = fileSize(dataPath);
+    if (offset > size) throw FileError(dataPath, "truncated: no compressed data");
+    const std::vector<uint8_t> packed = readBytes(dataPath, offset, size - offset, options.progress);
+    data = inflateExact(dataPath, packed.data(), packed.size(), bytes + static_cast<uint64_t>(byteSkip));
+    if (byteSkip > 0) data.erase(data.begin(), data.begin() + byteSkip);
+  } else if (encoding == "ascii" || encoding == "text" || encoding == "txt") {
+    data = readAscii(dataPath, offset + static_cast<uint64_t>(std::max<int64_t>(byteSkip, 0)), count, type);
+    endian = hostEndian();
+  } else {
+    throw FileError(path, "unsupported NRRD encoding '" + encoding + "' (raw, gzip or ascii)");
+  }
+
+  AnyVolume vol = decodeVoxels(dataPath, std::move(data), type, endian, g);
+
+  std::string modality;
+  if (const auto it = h.keyValues.find("vellum_modality"); it != h.keyValues.end()) modality = trim(it->second);
+  LoadedVolume out = makeLoaded(std::move(vol), "nrrd", modality);
+  if (extra) {
+    extra->modality = out.modality;
+    extra->labels = parseLabelFields(path, h.keyValues, &extra->hasLabels);
+  }
+  return out;
+}
+
+void saveNrrd(const AnyVolume& v, const fs::path& path, bool gzip, const std::string& modality,
+              const std::vector<Label>* labels) {
+  const Geometry& g = geometryOf(v);
+  const bool detached = lower(path.extension().string()) == ".nhdr";
+  const std::string dataName = path.stem().string() + (gzip ? ".raw.gz" : ".raw");
+
+  std::ostringstream hdr;
+  hdr << "NRRD0004\n"
+      << "# Written by Vellum. Format: http://teem.sourceforge.net/nrrd/format.html\n"
+      << "type: " << nrrdTypeName(sampleTypeFor(voxelTypeOf(v))) << "\n"
+      << "dimension: 3\n"
+      << "space: left-posterior-superior\n"
+      << "sizes: " << g.dims.x << " " << g.dims.y << " " << g.dims.z << "\n"
+      << "space directions:";
+  for (int a = 0; a < 3; ++a) {
+    const Vec3 c = g.direction.column(a) * g.spacing[a];
+    hdr << " (" << fmt(c.x) << "," << fmt(c.y) << "," << fmt(c.z) << ")";
+  }
+  hdr << "\nkinds: domain domain domain\n"
+      << "endian: " << (hostEndian() == Endian::Little ? "little" : "big") << "\n"
+      << "encoding: " << (gzip ? "gzip" : "raw") << "\n"
+      << "space origin: (" << fmt(g.origin.x) << "," << fmt(g.origin.y) << "," << fmt(g.origin.z) << ")\n";
+  if (detached) hdr << "data file: " << dataName << "\n";
+  if (!modality.empty()) hdr << "vellum_modality:=" << oneLine(modality) << "\n";
+  if (labels) writeLabelFields(hdr, *labels, g.dims);
+  hdr << "\n";
+  const std::string header = hdr.str();
+
+  std::vector<uint8_t> data = encodeVoxels(v, hostEndian());
+  if (gzip) data = deflateBytes(data.data(), data.size(), true);
+
+  auto writeFile = [](const fs::path& tmp, const std::string& prefix, const std::vector<uint8_t>& body) {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw FileError(tmp, "cannot open for writing");
+    out.write(prefix.data(), static_cast<std::streamsize>(prefix.size()));
+    out.write(reinterpret_cast<const char*>(body.data()), static_cast<std::streamsize>(body.size()));
+    out.close();
+    if (!out) throw FileError(tmp, "write failed (disk full?)");
+  };
+  if (detached) {
+    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeFile(tmp, "", data); });
+    writeAtomically(path, [&](const fs::path& tmp) { writeFile(tmp, header, {}); });
+  } else {
+    writeAtomically(path, [&](const fs::path& tmp) { writeFile(tmp, header, data); });
+  }
+}
+
+}  // namespace vellum::io::detail

@@ -1,0 +1,128 @@
+// Format dispatch for volumes and label maps.
+#include "vellum/io/volume_io.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "dicom.hpp"
+#include "io_detail.hpp"
+
+namespace vellum::io {
+
+namespace fs = std::filesystem;
+using namespace detail;
+
+namespace {
+
+const char* kSupported =
+    "supported: folder or .dcm (DICOM), .nrrd, .nhdr, .raw (+ .raw.json sidecar), .mhd, .mha, "
+    ".nii, .nii.gz (read only), .vti";
+
+std::string normalizedFormat(const fs::path& path, const std::string& name) {
+  const std::string n = lower(name);
+  if (n == "dicom" || n == "dcm") return "dicom";
+  if (n == "nrrd" || n == "nhdr") return "nrrd";
+  if (n == "raw") return "raw";
+  if (n == "metaimage" || n == "mhd" || n == "mha") return "metaimage";
+  if (n == "nifti" || n == "nii") return "nifti";
+  if (n == "vti" || n == "vtk") return "vti";
+  throw FileError(path, "unknown format '" + name + "' (" + kSupported + ")");
+}
+
+/// Label ids from any integer volume; FileError when values are not ids.
+VolumeU16 toLabelIds(const fs::path& path, const AnyVolume& v) {
+  if (std::holds_alternative<VolumeU16>(v)) return std::get<VolumeU16>(v);
+  if (std::holds_alternative<VolumeU8>(v)) return convertVolume<uint16_t>(v);
+  const auto [lo, hi] = std::visit([](const auto& vol) { return vol.valueRange(); }, v);
+  if (lo < 0 || hi > std::numeric_limits<uint16_t>::max())
+    throw FileError(path, "not a label map: values " + fmt(lo) + ".." + fmt(hi) + " are outside 0..65535");
+  if (const auto* f = std::get_if<VolumeF32>(&v)) {
+    for (float x : f->voxels())
+      if (x != std::floor(x)) throw FileError(path, "not a label map: non-integer value " + fmt(x));
+  }
+  VolumeU16 ids = convertVolume<uint16_t>(v);
+  ids.setBackground(0.0);
+  return ids;
+}
+
+}  // namespace
+
+std::string formatForPath(const fs::path& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) return "dicom";
+  const std::string name = lower(path.filename().string());
+  auto endsWith = [&](const std::string& s) {
+    return name.size() > s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0;
+  };
+  if (endsWith(".nii.gz")) return "nifti";
+  const std::string ext = lower(path.extension().string());
+  if (ext.empty()) return "dicom";  // a (new) folder receives a DICOM series
+  if (ext == ".dcm") return "dicom";
+  if (ext == ".nrrd" || ext == ".nhdr") return "nrrd";
+  if (ext == ".raw") return "raw";
+  if (ext == ".mhd" || ext == ".mha") return "metaimage";
+  if (ext == ".nii") return "nifti";
+  if (ext == ".vti") return "vti";
+  throw FileError(path, "unknown file extension '" + ext + "' (" + kSupported + ")");
+}
+
+LoadedVolume loadVolume(const fs::path& path, const LoadOptions& options) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw FileError(path, "no such file");
+  std::string format;
+  if (fs::is_directory(path, ec)) {
+    format = "dicom";
+  } else if (path.extension().empty()) {
+    // DICOM files often have no extension (I10, IM0001 ...).
+    if (!detail::looksLikeDicom(path))
+      throw FileError(path, std::string("no file extension and not DICOM (") + kSupported + ")");
+    format = "dicom";
+  } else {
+    format = formatForPath(path);
+  }
+  if (format == "dicom") return detail::loadDicom(path, options);
+  if (format == "nrrd") return loadNrrd(path, options, nullptr);
+  if (format == "raw") return loadRaw(path, options);
+  if (format == "metaimage") return loadMetaImage(path, options);
+  if (format == "nifti") return loadNifti(path, options);
+  return loadVti(path, options);
+}
+
+void saveVolume(const AnyVolume& volume, const fs::path& path, const SaveOptions& options) {
+  const std::string format = options.format.empty() ? formatForPath(path) : normalizedFormat(path, options.format);
+  const std::string modality = modalityToStore(volume, options.modality);
+  if (format == "dicom") return detail::saveDicomSeries(volume, path, options);
+  if (format == "nrrd") return saveNrrd(volume, path, options.gzip, modality, nullptr);
+  if (format == "raw") return saveRaw(volume, path, modality);
+  if (format == "metaimage") return saveMetaImage(volume, path, modality);
+  if (format == "vti") return saveVti(volume, path, modality);
+  throw FileError(path, "writing " + format + " is not supported (" + kSupported + ")");
+}
+
+LabelVolume loadLabels(const fs::path& path, const LoadOptions& options) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw FileError(path, "no such file");
+  if (!fs::is_directory(path, ec) && !path.extension().empty() && formatForPath(path) == "nrrd") {
+    ExtraFields extra;
+    LoadedVolume lv = loadNrrd(path, options, &extra);
+    return LabelVolume(toLabelIds(path, lv.volume), extra.labels);
+  }
+  LoadedVolume lv = loadVolume(path, options);
+  return LabelVolume(toLabelIds(path, lv.volume));
+}
+
+void saveLabels(const LabelVolume& labels, const fs::path& path, const SaveOptions& options) {
+  const std::string format = options.format.empty() ? formatForPath(path) : normalizedFormat(path, options.format);
+  uint16_t maxId = labels.ids().empty() ? 0 : labels.maxId();
+  for (const Label& l : labels.table()) maxId = std::max(maxId, l.id);
+  AnyVolume ids = maxId < 256 ? AnyVolume(convertVolume<uint8_t>(AnyVolume(labels.ids())))
+                              : AnyVolume(labels.ids());
+  std::visit([](auto& v) { v.setBackground(0.0); }, ids);
+  if (format == "nrrd") return saveNrrd(ids, path, options.gzip, "", &labels.table());
+  SaveOptions plain = options;
+  plain.format = format;
+  plain.modality = "";
+  saveVolume(ids, path, plain);
+}
+
+}  // namespace vellum::io

@@ -1,0 +1,188 @@
+// VTK XML image data (.vti) through vtkXMLImageDataReader/Writer. VTK 9.1 writes and reads
+// the Direction attribute (tested); the modality travels as a field-data string array
+// "vellum_modality".
+#include <vtkCallbackCommand.h>
+#include <vtkCommand.h>
+#include <vtkDataArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkMatrix3x3.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkShortArray.h>
+#include <vtkSmartPointer.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+#include <vtkStringArray.h>
+#include <vtkUnsignedCharArray.h>
+#include <vtkUnsignedShortArray.h>
+#include <vtkXMLImageDataReader.h>
+#include <vtkXMLImageDataWriter.h>
+
+#include <cstring>
+
+#include "io_detail.hpp"
+#include "vellum/io/atomic_file.hpp"
+
+namespace vellum::io::detail {
+
+namespace {
+
+/// Collects VTK error/warning text from one algorithm instead of printing it.
+struct ErrorCatcher {
+  std::string message;
+  vtkNew<vtkCallbackCommand> cmd;
+  explicit ErrorCatcher(vtkObject* obj) {
+    cmd->SetClientData(this);
+    cmd->SetCallback([](vtkObject*, unsigned long, void* client, void* call) {
+      auto* self = static_cast<ErrorCatcher*>(client);
+      if (self->message.empty() && call) self->message = trim(static_cast<const char*>(call));
+    });
+    obj->AddObserver(vtkCommand::ErrorEvent, cmd);
+    obj->AddObserver(vtkCommand::WarningEvent, cmd);
+  }
+};
+
+/// VTK messages are multi-line with source locations; keep the last line, which says what.
+std::string shortVtkMessage(const std::string& m) {
+  std::string s = m;
+  while (!s.empty() && s.back() == '\n') s.pop_back();
+  const size_t nl = s.find_last_of('\n');
+  s = nl == std::string::npos ? s : s.substr(nl + 1);
+  // Drop the "vtkXMLImageDataReader (0x55c5...): " prefix.
+  if (const size_t p = s.find("): "); p != std::string::npos && s.find(" (0x") < p) s = s.substr(p + 3);
+  return oneLine(s);
+}
+
+SampleType sampleTypeOfVtk(const fs::path& path, int vtkType) {
+  switch (vtkType) {
+    case VTK_CHAR:
+    case VTK_SIGNED_CHAR: return SampleType::Int8;
+    case VTK_UNSIGNED_CHAR: return SampleType::UInt8;
+    case VTK_SHORT: return SampleType::Int16;
+    case VTK_UNSIGNED_SHORT: return SampleType::UInt16;
+    case VTK_INT: return SampleType::Int32;
+    case VTK_UNSIGNED_INT: return SampleType::UInt32;
+    case VTK_FLOAT: return SampleType::Float32;
+    case VTK_DOUBLE: return SampleType::Float64;
+    default: throw FileError(path, std::string("unsupported VTK scalar type ") + std::to_string(vtkType));
+  }
+}
+
+}  // namespace
+
+LoadedVolume loadVti(const fs::path& path, const LoadOptions& options) {
+  fileSize(path);
+  vtkNew<vtkXMLImageDataReader> reader;
+  ErrorCatcher errors(reader);
+  reader->SetFileName(path.c_str());
+  if (!reader->CanReadFile(path.c_str())) throw FileError(path, "not a VTK XML image data file");
+  // Information first: dims are checked against the budget before VTK allocates anything.
+  reader->UpdateInformation();
+  if (!errors.message.empty()) throw FileError(path, shortVtkMessage(errors.message));
+  int ext[6];
+  reader->GetOutputInformation(0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
+  const Dims dims{int64_t(ext[1]) - ext[0] + 1, int64_t(ext[3]) - ext[2] + 1, int64_t(ext[5]) - ext[4] + 1};
+  checkAllocation(path, dims, 8);
+  if (options.progress) options.progress->begin("reading " + path.filename().string(), 1);
+  reader->Update();
+  if (options.progress) options.progress->end();
+  if (!errors.message.empty()) throw FileError(path, shortVtkMessage(errors.message));
+  vtkImageData* img = reader->GetOutput();
+  if (!img) throw FileError(path, "no image data");
+  int got[6];
+  img->GetExtent(got);
+  for (int i = 0; i < 6; ++i)
+    if (got[i] != ext[i]) throw FileError(path, "extent changed while reading (corrupt file?)");
+  vtkDataArray* arr = img->GetPointData()->GetScalars();
+  if (!arr && img->GetPointData()->GetNumberOfArrays() > 0) arr = img->GetPointData()->GetArray(0);
+  if (!arr) throw FileError(path, "no point data array");
+  if (arr->GetNumberOfComponents() != 1)
+    throw FileError(path, "array '" + std::string(arr->GetName() ? arr->GetName() : "") + "' has " +
+                              std::to_string(arr->GetNumberOfComponents()) + " components (1 expected)");
+  if (arr->GetNumberOfTuples() != dims.voxelCount())
+    throw FileError(path, "array has " + std::to_string(arr->GetNumberOfTuples()) + " values, expected " +
+                              std::to_string(dims.voxelCount()) + " (truncated?)");
+
+  Geometry g;
+  g.dims = dims;
+  double sp[3], org[3];
+  img->GetSpacing(sp);
+  img->GetOrigin(org);
+  g.spacing = {sp[0], sp[1], sp[2]};
+  const double* d = img->GetDirectionMatrix()->GetData();  // row-major, like Mat3
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) g.direction(r, c) = d[3 * r + c];
+  // VTK's origin belongs to structured index (0,0,0); ours to the first voxel of the extent.
+  g.origin = Vec3{org[0], org[1], org[2]} + g.direction * mul(Vec3{double(ext[0]), double(ext[2]), double(ext[4])}, g.spacing);
+  const std::string warning = normalizeDirection(g);
+  checkGeometry(path, g);
+
+  const SampleType type = sampleTypeOfVtk(path, arr->GetDataType());
+  const uint64_t bytes = static_cast<uint64_t>(dims.voxelCount()) * sampleSize(type);
+  if (static_cast<uint64_t>(arr->GetDataTypeSize()) != sampleSize(type))
+    throw FileError(path, "unexpected VTK scalar size");
+  std::vector<uint8_t> data(static_cast<size_t>(bytes));
+  std::memcpy(data.data(), arr->GetVoidPointer(0), data.size());
+
+  std::string modality;
+  if (auto* fd = img->GetFieldData()) {
+    if (auto* s = vtkStringArray::SafeDownCast(fd->GetAbstractArray("vellum_modality"));
+        s && s->GetNumberOfValues() > 0)
+      modality = s->GetValue(0);
+  }
+  LoadedVolume out = makeLoaded(decodeVoxels(path, std::move(data), type, hostEndian(), g), "vti", modality);
+  if (!warning.empty()) out.warnings.push_back(warning);
+  return out;
+}
+
+void saveVti(const AnyVolume& v, const fs::path& path, const std::string& modality) {
+  const Geometry& g = geometryOf(v);
+  vtkNew<vtkImageData> img;
+  img->SetDimensions(int(g.dims.x), int(g.dims.y), int(g.dims.z));
+  img->SetSpacing(g.spacing.x, g.spacing.y, g.spacing.z);
+  img->SetOrigin(g.origin.x, g.origin.y, g.origin.z);
+  double d[9];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) d[3 * r + c] = g.direction(r, c);
+  img->SetDirectionMatrix(d);
+
+  // Wrap the voxels without copying (save = 1: VTK never frees them).
+  vtkSmartPointer<vtkDataArray> arr = std::visit(
+      [](const auto& vol) -> vtkSmartPointer<vtkDataArray> {
+        using T = typename std::decay_t<decltype(vol)>::value_type;
+        vtkSmartPointer<vtkDataArray> a;
+        if constexpr (std::is_same_v<T, int16_t>) a = vtkSmartPointer<vtkShortArray>::New();
+        else if constexpr (std::is_same_v<T, uint8_t>) a = vtkSmartPointer<vtkUnsignedCharArray>::New();
+        else if constexpr (std::is_same_v<T, uint16_t>) a = vtkSmartPointer<vtkUnsignedShortArray>::New();
+        else a = vtkSmartPointer<vtkFloatArray>::New();
+        a->SetNumberOfComponents(1);
+        a->SetVoidArray(const_cast<T*>(vol.data()), static_cast<vtkIdType>(vol.size()), 1);
+        return a;
+      },
+      v);
+  arr->SetName("scalars");
+  img->GetPointData()->SetScalars(arr);
+  if (!modality.empty()) {
+    vtkNew<vtkStringArray> s;
+    s->SetName("vellum_modality");
+    s->InsertNextValue(modality);
+    img->GetFieldData()->AddArray(s);
+  }
+
+  writeAtomically(path, [&](const fs::path& tmp) {
+    vtkNew<vtkXMLImageDataWriter> writer;
+    ErrorCatcher errors(writer);
+    writer->SetInputData(img);
+    writer->SetFileName(tmp.c_str());
+    writer->SetDataModeToAppended();
+    writer->EncodeAppendedDataOff();
+    writer->SetCompressorTypeToZLib();
+    writer->SetHeaderTypeToUInt64();
+    if (writer->Write() != 1 || !errors.message.empty())
+      throw FileError(path, "VTK writer failed: " + shortVtkMessage(errors.message));
+  });
+}
+
+}  // namespace vellum::io::detail

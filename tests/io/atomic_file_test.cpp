@@ -1,0 +1,89 @@
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "io_test_util.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/io/atomic_file.hpp"
+
+using namespace vellum;
+using namespace vellum::test;
+namespace fs = std::filesystem;
+
+TEST(AtomicFile, WritesFileAndLeavesNoTemporary) {
+  const fs::path dir = tempDir("atomic-write");
+  fs::path seen;
+  io::writeAtomically(dir / "out.png", [&](const fs::path& tmp) {
+    seen = tmp;
+    EXPECT_EQ(tmp.parent_path(), dir);            // same folder: rename is atomic
+    EXPECT_EQ(tmp.extension(), ".png");           // extension kept for OpenCV/VTK
+    EXPECT_FALSE(fs::exists(dir / "out.png"));    // target not touched while writing
+    writeFile(tmp, "new");
+  });
+  EXPECT_EQ(readFile(dir / "out.png"), "new");
+  EXPECT_FALSE(fs::exists(seen));
+  EXPECT_EQ(leftoverTemps(dir), 0);
+}
+
+TEST(AtomicFile, ThrowingWriterLeavesTargetUntouchedAndNoTemporary) {
+  const fs::path dir = tempDir("atomic-throw");
+  writeFile(dir / "a.nrrd", "old contents");
+  EXPECT_THROW(io::writeAtomically(dir / "a.nrrd",
+                                   [&](const fs::path& tmp) {
+                                     writeFile(tmp, "half written");
+                                     throw std::runtime_error("disk full");
+                                   }),
+               std::runtime_error);
+  EXPECT_EQ(readFile(dir / "a.nrrd"), "old contents");
+  EXPECT_EQ(leftoverTemps(dir), 0);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1);
+}
+
+TEST(AtomicFile, ReplacesExistingFile) {
+  const fs::path dir = tempDir("atomic-replace");
+  writeFile(dir / "a.raw", "old");
+  io::writeAtomically(dir / "a.raw", [](const fs::path& tmp) { writeFile(tmp, "newer"); });
+  EXPECT_EQ(readFile(dir / "a.raw"), "newer");
+}
+
+TEST(AtomicFile, FolderTargetIsSwappedWhole) {
+  const fs::path dir = tempDir("atomic-folder");
+  fs::create_directories(dir / "series");
+  writeFile(dir / "series" / "old1.dcm", "x");
+  writeFile(dir / "series" / "old2.dcm", "y");
+  io::writeAtomically(dir / "series", [](const fs::path& tmp) {
+    fs::create_directory(tmp);
+    writeFile(tmp / "new1.dcm", "n");
+  });
+  EXPECT_TRUE(fs::exists(dir / "series" / "new1.dcm"));
+  EXPECT_FALSE(fs::exists(dir / "series" / "old1.dcm"));
+  EXPECT_EQ(leftoverTemps(dir), 0);
+}
+
+TEST(AtomicFile, ThrowingFolderWriterKeepsOldFolder) {
+  const fs::path dir = tempDir("atomic-folder-throw");
+  fs::create_directories(dir / "series");
+  writeFile(dir / "series" / "old1.dcm", "x");
+  EXPECT_THROW(io::writeAtomically(dir / "series",
+                                   [](const fs::path& tmp) {
+                                     fs::create_directory(tmp);
+                                     writeFile(tmp / "new1.dcm", "n");
+                                     throw Cancelled();
+                                   }),
+               Cancelled);
+  EXPECT_TRUE(fs::exists(dir / "series" / "old1.dcm"));
+  EXPECT_FALSE(fs::exists(dir / "series" / "new1.dcm"));
+  EXPECT_EQ(leftoverTemps(dir), 0);
+}
+
+TEST(AtomicFile, MissingFolderAndSilentWriterAreFileErrors) {
+  const fs::path dir = tempDir("atomic-missing");
+  try {
+    io::writeAtomically(dir / "nope" / "a.png", [](const fs::path& tmp) { writeFile(tmp, "x"); });
+    FAIL() << "expected FileError";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("a.png"), std::string::npos);
+  }
+  EXPECT_THROW(io::writeAtomically(dir / "b.png", [](const fs::path&) {}), FileError);
+  EXPECT_FALSE(fs::exists(dir / "b.png"));
+}
