@@ -57,6 +57,9 @@ struct RenderSettings {
   bool shading = true;                          ///< gradient (Blinn-Phong) shading, DVR only
   std::array<float, 4> background{0.f, 0.f, 0.f, 1.f};  ///< alpha 0 => transparent PNG
   double stepVoxels = 0.5;                      ///< ray step in voxels of the smallest spacing
+  /// Offsets each ray's samples by a fixed per-pixel fraction of a step (an integer hash of
+  /// the pixel, so images stay deterministic): turns "wood-grain" rings into fine noise.
+  bool jitter = true;
 };
 
 }  // namespace vellum::render

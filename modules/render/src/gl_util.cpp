@@ -1,0 +1,70 @@
+#include "gl_util.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <vector>
+
+#include "vellum/core/error.hpp"
+
+namespace vellum::render::detail {
+namespace {
+
+GLuint compile(GLenum type, const std::string& source) {
+  const GLuint shader = glCreateShader(type);
+  const char* text = source.c_str();
+  glShaderSource(shader, 1, &text, nullptr);
+  glCompileShader(shader);
+  GLint ok = GL_FALSE;
+  glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+  if (ok != GL_TRUE) {
+    GLint length = 0;
+    glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
+    std::vector<char> log(static_cast<size_t>(std::max(length, 1)), '\0');
+    glGetShaderInfoLog(shader, length, nullptr, log.data());
+    glDeleteShader(shader);
+    throw Error(std::string("GLSL ") + (type == GL_VERTEX_SHADER ? "vertex" : "fragment") +
+                " shader failed to compile: " + log.data());
+  }
+  return shader;
+}
+
+}  // namespace
+
+GLuint buildProgram(const std::string& vertexSource, const std::string& fragmentSource) {
+  const GLuint vs = compile(GL_VERTEX_SHADER, vertexSource);
+  GLuint fs = 0;
+  try {
+    fs = compile(GL_FRAGMENT_SHADER, fragmentSource);
+  } catch (...) {
+    glDeleteShader(vs);
+    throw;
+  }
+  const GLuint program = glCreateProgram();
+  glAttachShader(program, vs);
+  glAttachShader(program, fs);
+  glLinkProgram(program);
+  glDeleteShader(vs);
+  glDeleteShader(fs);
+  GLint ok = GL_FALSE;
+  glGetProgramiv(program, GL_LINK_STATUS, &ok);
+  if (ok != GL_TRUE) {
+    GLint length = 0;
+    glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
+    std::vector<char> log(static_cast<size_t>(std::max(length, 1)), '\0');
+    glGetProgramInfoLog(program, length, nullptr, log.data());
+    glDeleteProgram(program);
+    throw Error(std::string("GLSL program failed to link: ") + log.data());
+  }
+  return program;
+}
+
+void checkGlError(const char* what) {
+  const GLenum e = glGetError();
+  if (e != GL_NO_ERROR) {
+    char buf[16];
+    std::snprintf(buf, sizeof buf, "0x%04X", e);
+    throw Error(std::string("OpenGL error ") + buf + " in " + what);
+  }
+}
+
+}  // namespace vellum::render::detail

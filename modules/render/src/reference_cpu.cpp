@@ -1,0 +1,140 @@
+// CPU reference ray caster: the shader of shader_source.cpp step for step, in C++.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "normal_volume.hpp"
+#include "render_common.hpp"
+#include "vellum/core/parallel.hpp"
+#include "vellum/render/volume_renderer.hpp"
+
+namespace vellum::render {
+
+using namespace detail;
+
+namespace {
+
+/// Trilinear interpolation of an N-channel float grid with clamp-to-edge (the map textures).
+template <int N>
+std::array<float, N> sampleClamped(const std::vector<float>& grid, const Dims& d, const Vec3& p) {
+  auto clampAxis = [](double v, int64_t n) { return std::clamp(v, 0.0, double(n - 1)); };
+  const double x = clampAxis(p.x, d.x), y = clampAxis(p.y, d.y), z = clampAxis(p.z, d.z);
+  const auto i0 = std::min<int64_t>(int64_t(x), d.x - 1), j0 = std::min<int64_t>(int64_t(y), d.y - 1),
+             k0 = std::min<int64_t>(int64_t(z), d.z - 1);
+  const int64_t i1 = std::min(i0 + 1, d.x - 1), j1 = std::min(j0 + 1, d.y - 1),
+                k1 = std::min(k0 + 1, d.z - 1);
+  const double tx = x - i0, ty = y - j0, tz = z - k0;
+  std::array<float, N> out{};
+  for (int c = 0; c < 8; ++c) {
+    const int64_t i = (c & 1) ? i1 : i0, j = (c & 2) ? j1 : j0, k = (c & 4) ? k1 : k0;
+    const double w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
+    const float* v = grid.data() + static_cast<size_t>((k * d.y + j) * d.x + i) * N;
+    for (int ch = 0; ch < N; ++ch) out[ch] += static_cast<float>(w * v[ch]);
+  }
+  return out;
+}
+
+struct Context {
+  const RenderSettings& s;
+  Frame frame;
+  TfTable tf;
+  NormalVolume normals;
+  const BackwardMap* map = nullptr;
+  std::vector<float> mapIndex;  ///< source index coordinates per map node
+};
+
+std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float, 4>& n,
+                           const Vec3& l) {
+  const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  const float w = len > 1e-4f ? std::clamp((n[3] - kGradLow) / (kGradHigh - kGradLow), 0.f, 1.f) : 0.f;
+  const float ndl = std::abs(float(n[0] * l.x + n[1] * l.y + n[2] * l.z)) / std::max(len, 1e-4f);
+  const float spec = kSpecular * std::pow(ndl, kShininess);
+  std::array<float, 3> out{};
+  for (int k = 0; k < 3; ++k) {
+    const float lit = std::min(c[k] * (kAmbient + kDiffuse * ndl) + spec, 1.f);
+    out[k] = c[k] + w * (lit - c[k]);
+  }
+  return out;
+}
+
+template <class T>
+void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y0, int y1) {
+  const RenderSettings& s = cx.s;
+  const Frame& f = cx.frame;
+  const bool mip = s.preset == Preset::Mip;
+  const bool hasAttributes = cx.map && !cx.map->attributes.empty();
+  for (int y = y0; y < y1; ++y)
+    for (int x = 0; x < s.width; ++x) {
+      const Ray ray = pixelRay(f, x, y);
+      const Clip clip = clipRay(f, ray, s.jitter ? pixelJitter(x, y) : 0.0);
+      std::array<double, 4> acc{0, 0, 0, 0};
+      double maxV = -std::numeric_limits<double>::infinity();
+      bool hit = false;
+      for (int64_t k = clip.k0; k <= clip.k1; ++k) {
+        const Vec3 p = clip.o + clip.d * ((static_cast<double>(k) + clip.jitter) * f.stepMm);
+        Vec3 u = p;
+        if (cx.map) {
+          const auto m = sampleClamped<3>(cx.mapIndex, cx.map->grid.dims, p);
+          u = {m[0], m[1], m[2]};
+        }
+        const double v = vol.sampleLinear(u);
+        if (mip) {
+          maxV = std::max(maxV, v);
+          hit = true;
+          continue;
+        }
+        std::array<float, 4> c = cx.tf.lookup(v);
+        if (!(c[3] > 0)) continue;
+        std::array<float, 3> rgb{c[0], c[1], c[2]};
+        if (hasAttributes) {
+          const auto a = sampleClamped<4>(cx.map->attributes, cx.map->grid.dims, p);
+          rgb = labShift(rgb, a[0], a[1], a[2]);
+          c[3] = 1.f - std::pow(std::max(1.f - c[3], 1e-6f), std::max(a[3], 0.f));
+        }
+        if (s.shading) rgb = shade(rgb, cx.normals.sample(u.x, u.y, u.z), -ray.dir);
+        const double w = (1 - acc[3]) * c[3];
+        for (int ch = 0; ch < 3; ++ch) acc[ch] += w * rgb[ch];
+        acc[3] += w;
+        if (acc[3] >= kEarlyTerminationAlpha) break;
+      }
+      if (mip && hit) {
+        const double g = mipGrey(s, maxV);
+        acc = {g, g, g, g};
+      }
+      const double bgA = s.background[3];
+      std::array<double, 4> out{};
+      for (int ch = 0; ch < 3; ++ch) out[ch] = acc[ch] + (1 - acc[3]) * s.background[ch] * bgA;
+      out[3] = acc[3] + (1 - acc[3]) * bgA;
+      uint8_t* px = image.at(x, y);
+      for (int ch = 0; ch < 4; ++ch) {
+        const double straight = ch == 3 ? out[3] : (out[3] > 0 ? std::min(out[ch] / out[3], 1.0) : 0.0);
+        px[ch] = static_cast<uint8_t>(std::lround(std::clamp(straight, 0.0, 1.0) * 255.0));
+      }
+    }
+}
+
+}  // namespace
+
+RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& settings,
+                             const BackwardMap* map) {
+  checkImageSize(settings.width, settings.height);
+  const Geometry& g = geometryOf(volume);
+  g.validate("render volume");
+  Context cx{settings, makeFrame(g, map ? &map->grid : nullptr, settings), {}, {}, map, {}};
+  if (settings.preset != Preset::Mip) {
+    cx.tf = buildTfTable(settings, cx.frame.stepMm);
+    if (settings.shading) cx.normals = computeNormalVolume(volume);
+  }
+  if (map) cx.mapIndex = mapToSourceIndex(*map, g);
+  RgbaImage image(settings.width, settings.height);
+  std::visit(
+      [&](const auto& vol) {
+        parallelFor(settings.height, [&](int64_t y0, int64_t y1) {
+          renderRows(vol, cx, image, int(y0), int(y1));
+        });
+      },
+      volume);
+  return image;
+}
+
+}  // namespace vellum::render

@@ -1,0 +1,189 @@
+#include "shader_source.hpp"
+
+#include <sstream>
+
+#include "render_common.hpp"
+
+namespace vellum::render::detail {
+namespace {
+
+// Full-screen triangle from gl_VertexID; no vertex buffers.
+constexpr const char* kVertex = R"GLSL(#version 450 core
+void main() {
+  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+)GLSL";
+
+// Mirrors reference_cpu.cpp step for step; change both together.
+constexpr const char* kFragment = R"GLSL(
+layout(location = 0) out vec4 fragColor;
+
+uniform vec2 uViewport;
+uniform vec3 uEye, uRight, uUp, uForward;
+uniform vec2 uHalf;          // perspective: tangents; orthographic: mm
+uniform float uPersp;        // 1 perspective, 0 orthographic
+uniform mat3 uPhysToBox;     // physical offset -> box index offset
+uniform vec3 uBoxOrigin;     // physical position of box index (0,0,0)
+uniform vec3 uBoxDims;
+uniform float uStep;         // mm
+uniform float uJitter;       // 1: per-pixel sample offset, 0: none
+uniform vec4 uBackground;
+uniform float uValueScale;   // normalised texel -> value
+uniform vec3 uSourceDims;
+uniform sampler3D uVolume;
+#ifdef MODE_MIP
+uniform float uWinLo, uWinInvWidth;
+#else
+uniform sampler1D uTf;
+uniform float uTfLo, uTfInvSpan;
+#endif
+#ifdef SHADING
+uniform sampler3D uNormals;
+#endif
+#ifdef DEFORMED
+uniform sampler3D uMap;      // source index coordinates per map node
+#endif
+#ifdef ATTRIBUTES
+uniform sampler3D uAttr;     // dL, da, db, density scale
+#endif
+
+float sampleValue(vec3 idx) {
+  return texture(uVolume, (idx + 0.5) / uSourceDims).r * uValueScale;
+}
+
+#ifndef MODE_MIP
+vec4 tfLookup(float v) {
+  float x = clamp((v - uTfLo) * uTfInvSpan, 0.0, 1.0) * float(TF_SIZE - 1);
+  int i = min(int(x), TF_SIZE - 2);
+  return mix(texelFetch(uTf, i, 0), texelFetch(uTf, i + 1, 0), x - float(i));
+}
+#endif
+
+#ifdef SHADING
+vec3 shade(vec3 c, vec4 n, vec3 l) {
+  float len = length(n.xyz);
+  float w = len > 1e-4 ? clamp((n.w - GRAD_LOW) / (GRAD_HIGH - GRAD_LOW), 0.0, 1.0) : 0.0;
+  float ndl = abs(dot(n.xyz, l)) / max(len, 1e-4);
+  vec3 lit = c * (AMBIENT + DIFFUSE * ndl) + SPECULAR * pow(ndl, SHININESS);
+  return mix(c, min(lit, vec3(1.0)), w);
+}
+#endif
+
+#ifdef ATTRIBUTES
+float toLinear(float c) { return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4); }
+float toSrgb(float c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055; }
+const float kD = 6.0 / 29.0;
+float labF(float t) { return t > kD * kD * kD ? pow(t, 1.0 / 3.0) : t / (3.0 * kD * kD) + 4.0 / 29.0; }
+float labFInv(float t) { return t > kD ? t * t * t : 3.0 * kD * kD * (t - 4.0 / 29.0); }
+vec3 labShift(vec3 rgb, vec3 dLab) {
+  vec3 lin = vec3(toLinear(rgb.r), toLinear(rgb.g), toLinear(rgb.b));
+  float X = 0.4124 * lin.r + 0.3576 * lin.g + 0.1805 * lin.b;
+  float Y = 0.2126 * lin.r + 0.7152 * lin.g + 0.0722 * lin.b;
+  float Z = 0.0193 * lin.r + 0.1192 * lin.g + 0.9505 * lin.b;
+  float fx = labF(X / 0.95047), fy = labF(Y), fz = labF(Z / 1.08883);
+  float L = 116.0 * fy - 16.0 + dLab.x, A = 500.0 * (fx - fy) + dLab.y, B = 200.0 * (fy - fz) + dLab.z;
+  float gy = (L + 16.0) / 116.0, gx = gy + A / 500.0, gz = gy - B / 200.0;
+  float X2 = 0.95047 * labFInv(gx), Y2 = labFInv(gy), Z2 = 1.08883 * labFInv(gz);
+  vec3 l2 = vec3(3.2406 * X2 - 1.5372 * Y2 - 0.4986 * Z2, -0.9689 * X2 + 1.8758 * Y2 + 0.0415 * Z2,
+                 0.0557 * X2 - 0.2040 * Y2 + 1.0570 * Z2);
+  l2 = max(l2, vec3(0.0));
+  return clamp(vec3(toSrgb(l2.r), toSrgb(l2.g), toSrgb(l2.b)), 0.0, 1.0);
+}
+#endif
+
+// Same integer hash as pixelJitter() in render_common.cpp (bit-identical).
+float pixelJitter(uint x, uint y) {
+  uint h = x * 1973u + y * 9277u + 26699u;
+  h = (h ^ (h >> 15)) * 0x2c1b3c6du;
+  h = (h ^ (h >> 12)) * 0x297a2d39u;
+  h ^= h >> 15;
+  return float(h >> 8) * (1.0 / 16777216.0);
+}
+
+float nonZero(float d) { return abs(d) < 1e-12 ? (d < 0.0 ? -1e-12 : 1e-12) : d; }
+
+void main() {
+  vec2 ndc = gl_FragCoord.xy / uViewport * 2.0 - 1.0;
+  vec3 offset = uRight * (ndc.x * uHalf.x) + uUp * (ndc.y * uHalf.y);
+  vec3 origin = uEye + (1.0 - uPersp) * offset;
+  vec3 dir = normalize(uForward + uPersp * offset);
+  vec3 o = uPhysToBox * (origin - uBoxOrigin);
+  vec3 d = uPhysToBox * dir;
+  vec3 inv = 1.0 / vec3(nonZero(d.x), nonZero(d.y), nonZero(d.z));
+  vec3 t0 = (vec3(-0.5) - o) * inv, t1 = (uBoxDims - vec3(0.5) - o) * inv;
+  vec3 tlo = min(t0, t1), thi = max(t0, t1);
+  float tmin = max(max(max(tlo.x, tlo.y), tlo.z), 0.0);
+  float tmax = min(min(thi.x, thi.y), thi.z);
+
+  vec4 acc = vec4(0.0);
+#ifdef MODE_MIP
+  float maxV = -3.0e38;
+  bool hit = false;
+#endif
+  float jitter = uJitter * pixelJitter(uint(gl_FragCoord.x), uint(uViewport.y - gl_FragCoord.y));
+  if (tmax >= tmin) {
+    int k0 = int(ceil(tmin / uStep - jitter));
+    int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
+    for (int k = k0; k <= k1; ++k) {
+      vec3 p = o + ((float(k) + jitter) * uStep) * d;
+#ifdef DEFORMED
+      vec3 mapTc = (p + 0.5) / uBoxDims;
+      vec3 u = texture(uMap, mapTc).xyz;
+#else
+      vec3 u = p;
+#endif
+      float v = sampleValue(u);
+#ifdef MODE_MIP
+      maxV = max(maxV, v);
+      hit = true;
+#else
+      vec4 c = tfLookup(v);
+      if (c.a > 0.0) {
+#ifdef ATTRIBUTES
+        vec4 at = texture(uAttr, mapTc);
+        c.rgb = labShift(c.rgb, at.xyz);
+        c.a = 1.0 - pow(max(1.0 - c.a, 1e-6), max(at.w, 0.0));
+#endif
+#ifdef SHADING
+        c.rgb = shade(c.rgb, texture(uNormals, (u + 0.5) / uSourceDims), -dir);
+#endif
+        acc.rgb += (1.0 - acc.a) * c.a * c.rgb;
+        acc.a += (1.0 - acc.a) * c.a;
+        if (acc.a >= EARLY_ALPHA) break;
+      }
+#endif
+    }
+  }
+#ifdef MODE_MIP
+  if (hit) acc = vec4(clamp((maxV - uWinLo) * uWinInvWidth, 0.0, 1.0));
+#endif
+  vec4 outc = acc + (1.0 - acc.a) * vec4(uBackground.rgb * uBackground.a, uBackground.a);
+  fragColor = outc.a > 0.0 ? vec4(min(outc.rgb / outc.a, vec3(1.0)), outc.a) : vec4(0.0);
+}
+)GLSL";
+
+}  // namespace
+
+std::string vertexShaderSource() { return kVertex; }
+
+std::string fragmentShaderSource(const ShaderVariant& v) {
+  std::ostringstream s;
+  s.precision(9);
+  s << "#version 450 core\n";
+  s << (v.mip ? "#define MODE_MIP\n" : "#define MODE_DVR\n");
+  if (v.shading && !v.mip) s << "#define SHADING\n";
+  if (v.deformed) s << "#define DEFORMED\n";
+  if (v.attributes && v.deformed && !v.mip) s << "#define ATTRIBUTES\n";
+  s << "#define TF_SIZE " << kTfTableSize << "\n";
+  s << "#define MAX_STEPS " << kMaxStepsPerRay << "\n";
+  s << std::showpoint;
+  s << "#define EARLY_ALPHA " << kEarlyTerminationAlpha << "\n";
+  s << "#define AMBIENT " << kAmbient << "\n#define DIFFUSE " << kDiffuse << "\n";
+  s << "#define SPECULAR " << kSpecular << "\n#define SHININESS " << kShininess << "\n";
+  s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
+  s << kFragment;
+  return s.str();
+}
+
+}  // namespace vellum::render::detail

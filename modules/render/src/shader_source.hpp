@@ -1,0 +1,19 @@
+#pragma once
+// GLSL sources of the ray caster. The fragment shader is specialised per mode with #defines
+// prepended at compile time (llvmpipe executes both sides of a uniform branch).
+#include <string>
+
+namespace vellum::render::detail {
+
+struct ShaderVariant {
+  bool mip = false;         ///< MODE_MIP, else MODE_DVR
+  bool shading = false;     ///< SHADING (DVR only)
+  bool deformed = false;    ///< DEFORMED: sample the source at u = map(v)
+  bool attributes = false;  ///< ATTRIBUTES: Lab colour shift + density (deformed only)
+  int key() const { return int(mip) | int(shading) << 1 | int(deformed) << 2 | int(attributes) << 3; }
+};
+
+std::string vertexShaderSource();
+std::string fragmentShaderSource(const ShaderVariant& v);
+
+}  // namespace vellum::render::detail

@@ -1,0 +1,307 @@
+// GL ray caster: volume + normal volume uploaded once, one specialised program per mode.
+#include "vellum/render/volume_renderer.hpp"
+
+#include <chrono>
+#include <cstring>
+#include <map>
+#include <optional>
+
+#include "gl_util.hpp"
+#include "normal_volume.hpp"
+#include "render_common.hpp"
+#include "shader_source.hpp"
+#include "vellum/core/error.hpp"
+
+namespace vellum::render {
+
+using namespace detail;
+
+namespace {
+
+enum TextureUnit : GLint { kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr };
+
+struct VoxelFormat {
+  GLenum internal, type;
+  double scale;  ///< normalised texel -> voxel value
+};
+
+template <class T> VoxelFormat voxelFormat();
+// int16 as SNORM: texel * 32767 is the stored value exactly.
+template <> VoxelFormat voxelFormat<int16_t>() { return {GL_R16_SNORM, GL_SHORT, 32767.0}; }
+template <> VoxelFormat voxelFormat<uint8_t>() { return {GL_R8, GL_UNSIGNED_BYTE, 255.0}; }
+template <> VoxelFormat voxelFormat<uint16_t>() { return {GL_R16, GL_UNSIGNED_SHORT, 65535.0}; }
+template <> VoxelFormat voxelFormat<float>() { return {GL_R32F, GL_FLOAT, 1.0}; }
+
+void setSampling(GLenum target, GLint filter, GLint wrap, const float* border) {
+  glTexParameteri(target, GL_TEXTURE_MIN_FILTER, filter);
+  glTexParameteri(target, GL_TEXTURE_MAG_FILTER, filter);
+  glTexParameteri(target, GL_TEXTURE_WRAP_S, wrap);
+  glTexParameteri(target, GL_TEXTURE_WRAP_T, wrap);
+  glTexParameteri(target, GL_TEXTURE_WRAP_R, wrap);
+  if (border) glTexParameterfv(target, GL_TEXTURE_BORDER_COLOR, border);
+}
+
+void deleteTexture(GLuint& t) {
+  if (t) glDeleteTextures(1, &t);
+  t = 0;
+}
+
+void uniform3(GLuint p, const char* name, const Vec3& v) {
+  glUniform3f(glGetUniformLocation(p, name), float(v.x), float(v.y), float(v.z));
+}
+void uniform1(GLuint p, const char* name, double v) {
+  glUniform1f(glGetUniformLocation(p, name), float(v));
+}
+
+}  // namespace
+
+struct VolumeRenderer::Impl {
+  GlContext& context;
+  GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0;
+  GLuint fbo = 0, colorRb = 0, vao = 0;
+  int fbWidth = 0, fbHeight = 0;
+  bool hasVolume = false;
+  Geometry source;
+  double valueScale = 1;
+  std::optional<BackwardMap> map;
+  bool mapUploaded = false;
+  std::map<int, GLuint> programs;
+  double lastMs = 0;
+
+  explicit Impl(GlContext& c) : context(c) {
+    context.makeCurrent();
+    glGenVertexArrays(1, &vao);
+    glGenTextures(1, &tfTex);
+    glBindTexture(GL_TEXTURE_1D, tfTex);
+    glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTfTableSize);
+    glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    checkGlError("renderer set-up");
+  }
+
+  ~Impl() {
+    context.makeCurrent();
+    for (auto& [key, p] : programs) glDeleteProgram(p);
+    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex}) deleteTexture(*t);
+    if (fbo) glDeleteFramebuffers(1, &fbo);
+    if (colorRb) glDeleteRenderbuffers(1, &colorRb);
+    glDeleteVertexArrays(1, &vao);
+  }
+
+  GLuint program(const ShaderVariant& v) {
+    auto it = programs.find(v.key());
+    if (it != programs.end()) return it->second;
+    const GLuint p = buildProgram(vertexShaderSource(), fragmentShaderSource(v));
+    glUseProgram(p);
+    glUniform1i(glGetUniformLocation(p, "uVolume"), kUnitVolume);
+    glUniform1i(glGetUniformLocation(p, "uNormals"), kUnitNormals);
+    glUniform1i(glGetUniformLocation(p, "uTf"), kUnitTf);
+    glUniform1i(glGetUniformLocation(p, "uMap"), kUnitMap);
+    glUniform1i(glGetUniformLocation(p, "uAttr"), kUnitAttr);
+    programs[v.key()] = p;
+    return p;
+  }
+
+  void ensureFramebuffer(int w, int h) {
+    if (fbo && fbWidth == w && fbHeight == h) return;
+    if (!fbo) glGenFramebuffers(1, &fbo);
+    if (colorRb) glDeleteRenderbuffers(1, &colorRb);
+    glGenRenderbuffers(1, &colorRb);
+    glBindRenderbuffer(GL_RENDERBUFFER, colorRb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colorRb);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw Error("render: framebuffer of " + std::to_string(w) + "x" + std::to_string(h) +
+                  " is incomplete");
+    fbWidth = w;
+    fbHeight = h;
+  }
+
+  void checkTextureSize(const Dims& d, const char* what) {
+    GLint max3d = 0;
+    glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
+    if (d.x > max3d || d.y > max3d || d.z > max3d)
+      throw Error(std::string("render: ") + what + " of " + d.str() +
+                  " exceeds the GL 3D texture limit of " + std::to_string(max3d) + " per axis");
+  }
+
+  template <class T>
+  void uploadVolume(const Volume<T>& vol) {
+    const Dims& d = vol.dims();
+    checkTextureSize(d, "volume");
+    const VoxelFormat fmt = voxelFormat<T>();
+    deleteTexture(volumeTex);
+    glGenTextures(1, &volumeTex);
+    glBindTexture(GL_TEXTURE_3D, volumeTex);
+    glTexStorage3D(GL_TEXTURE_3D, 1, fmt.internal, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RED,
+                    fmt.type, vol.data());
+    // Border = background, so that sampling outside matches Volume::sampleLinear.
+    const float bg = static_cast<float>(vol.background() / fmt.scale);
+    const float border[4] = {bg, bg, bg, bg};
+    setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_BORDER, border);
+    valueScale = fmt.scale;
+    checkGlError("volume upload");
+  }
+
+  void uploadNormals(const NormalVolume& n) {
+    deleteTexture(normalTex);
+    glGenTextures(1, &normalTex);
+    glBindTexture(GL_TEXTURE_3D, normalTex);
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA8_SNORM, GLsizei(n.dims.x), GLsizei(n.dims.y),
+                   GLsizei(n.dims.z));
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(n.dims.x), GLsizei(n.dims.y),
+                    GLsizei(n.dims.z), GL_RGBA, GL_BYTE, n.texels.data());
+    const float border[4] = {0, 0, 0, 0};
+    setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_BORDER, border);
+    checkGlError("normal volume upload");
+  }
+
+  void uploadMap() {
+    if (!map || mapUploaded || !hasVolume) return;
+    const Dims& d = map->grid.dims;
+    checkTextureSize(d, "backward map grid");
+    const std::vector<float> u = mapToSourceIndex(*map, source);
+    deleteTexture(mapTex);
+    glGenTextures(1, &mapTex);
+    glBindTexture(GL_TEXTURE_3D, mapTex);
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGB32F, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RGB,
+                    GL_FLOAT, u.data());
+    // The map extends its outermost nodes (rays only sample inside its grid box).
+    setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
+    deleteTexture(attrTex);
+    if (!map->attributes.empty()) {
+      glGenTextures(1, &attrTex);
+      glBindTexture(GL_TEXTURE_3D, attrTex);
+      glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA32F, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+      glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z),
+                      GL_RGBA, GL_FLOAT, map->attributes.data());
+      setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
+    }
+    mapUploaded = true;
+    checkGlError("backward map upload");
+  }
+};
+
+VolumeRenderer::VolumeRenderer(GlContext& context) : impl_(std::make_unique<Impl>(context)) {}
+VolumeRenderer::~VolumeRenderer() = default;
+
+void VolumeRenderer::setVolume(const AnyVolume& volume) {
+  const Geometry& g = geometryOf(volume);
+  g.validate("render volume");
+  impl_->context.makeCurrent();
+  impl_->hasVolume = false;
+  std::visit([&](const auto& v) { impl_->uploadVolume(v); }, volume);
+  impl_->uploadNormals(computeNormalVolume(volume));
+  impl_->source = g;
+  impl_->hasVolume = true;
+  impl_->mapUploaded = false;  // source index coordinates depend on the source geometry
+  impl_->uploadMap();
+}
+
+void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
+  impl_->context.makeCurrent();
+  if (!map) {
+    impl_->map.reset();
+    deleteTexture(impl_->mapTex);
+    deleteTexture(impl_->attrTex);
+    return;
+  }
+  validateMap(*map);
+  impl_->map = *map;
+  impl_->mapUploaded = false;
+  impl_->uploadMap();
+}
+
+RgbaImage VolumeRenderer::render(const RenderSettings& s) {
+  checkImageSize(s.width, s.height);
+  if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
+  Impl& m = *impl_;
+  m.context.makeCurrent();
+  m.uploadMap();
+  const BackwardMap* map = m.map ? &*m.map : nullptr;
+  const Frame f = makeFrame(m.source, map ? &map->grid : nullptr, s);
+
+  ShaderVariant variant;
+  variant.mip = s.preset == Preset::Mip;
+  variant.shading = s.shading;
+  variant.deformed = map != nullptr;
+  variant.attributes = map && !map->attributes.empty();
+  const GLuint p = m.program(variant);
+  m.ensureFramebuffer(s.width, s.height);
+  glUseProgram(p);
+
+  glActiveTexture(GL_TEXTURE0 + kUnitVolume);
+  glBindTexture(GL_TEXTURE_3D, m.volumeTex);
+  glActiveTexture(GL_TEXTURE0 + kUnitNormals);
+  glBindTexture(GL_TEXTURE_3D, m.normalTex);
+  if (variant.deformed) {
+    glActiveTexture(GL_TEXTURE0 + kUnitMap);
+    glBindTexture(GL_TEXTURE_3D, m.mapTex);
+    glActiveTexture(GL_TEXTURE0 + kUnitAttr);
+    glBindTexture(GL_TEXTURE_3D, m.attrTex);
+  }
+  if (variant.mip) {
+    const double width = s.windowWidth > 0 ? s.windowWidth : 1.0;
+    uniform1(p, "uWinLo", s.windowCenter - 0.5 * width);
+    uniform1(p, "uWinInvWidth", 1.0 / width);
+  } else {
+    const TfTable tf = buildTfTable(s, f.stepMm);
+    glActiveTexture(GL_TEXTURE0 + kUnitTf);
+    glBindTexture(GL_TEXTURE_1D, m.tfTex);
+    glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfTableSize, GL_RGBA, GL_FLOAT, tf.rgba.data());
+    uniform1(p, "uTfLo", tf.lo);
+    uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
+  }
+  glUniform2f(glGetUniformLocation(p, "uViewport"), float(s.width), float(s.height));
+  uniform3(p, "uEye", f.eye);
+  uniform3(p, "uRight", f.right);
+  uniform3(p, "uUp", f.up);
+  uniform3(p, "uForward", f.forward);
+  glUniform2f(glGetUniformLocation(p, "uHalf"), float(f.halfW), float(f.halfH));
+  uniform1(p, "uPersp", f.perspective ? 1.0 : 0.0);
+  float mat[9];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) mat[r * 3 + c] = float(f.physToBox(r, c));
+  glUniformMatrix3fv(glGetUniformLocation(p, "uPhysToBox"), 1, GL_TRUE, mat);
+  uniform3(p, "uBoxOrigin", f.box.origin);
+  uniform3(p, "uBoxDims", {double(f.box.dims.x), double(f.box.dims.y), double(f.box.dims.z)});
+  uniform1(p, "uStep", f.stepMm);
+  uniform1(p, "uJitter", s.jitter ? 1.0 : 0.0);
+  glUniform4f(glGetUniformLocation(p, "uBackground"), s.background[0], s.background[1],
+              s.background[2], s.background[3]);
+  uniform1(p, "uValueScale", m.valueScale);
+  uniform3(p, "uSourceDims",
+           {double(m.source.dims.x), double(m.source.dims.y), double(m.source.dims.z)});
+
+  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
+  glViewport(0, 0, s.width, s.height);
+  glDisable(GL_BLEND);
+  glDisable(GL_DEPTH_TEST);
+  glBindVertexArray(m.vao);
+  const auto t0 = std::chrono::steady_clock::now();
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glFinish();
+  m.lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  checkGlError("ray casting");
+
+  RgbaImage image(s.width, s.height);
+  std::vector<uint8_t> rows(image.pixels.size());
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, s.width, s.height, GL_RGBA, GL_UNSIGNED_BYTE, rows.data());
+  checkGlError("glReadPixels");
+  const size_t stride = static_cast<size_t>(s.width) * 4;
+  for (int y = 0; y < s.height; ++y)  // GL row 0 is the bottom
+    std::memcpy(image.at(0, y), rows.data() + static_cast<size_t>(s.height - 1 - y) * stride, stride);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  return image;
+}
+
+double VolumeRenderer::lastRenderMs() const { return impl_->lastMs; }
+
+}  // namespace vellum::render

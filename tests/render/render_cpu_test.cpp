@@ -1,0 +1,179 @@
+// Renderer pieces that need no GL: presets, transfer functions, colour shifts, camera
+// conventions and the CPU reference ray caster on analytic volumes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "analytic_volumes.hpp"
+#include "render_common.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/render/volume_renderer.hpp"
+
+namespace vellum::render {
+namespace {
+
+TEST(RenderSettings, PresetNamesRoundTrip) {
+  for (Preset p : allPresets()) EXPECT_EQ(parsePreset(presetName(p)), p);
+  try {
+    parsePreset("bones");
+    FAIL() << "no exception";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("soft-tissue"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RenderSettings, TransferFunctionInterpolatesAndClamps) {
+  TransferFunction tf;
+  tf.points = {{0, {0, 0, 0, 0}}, {100, {1, 0.5f, 0, 0.8f}}};
+  EXPECT_FLOAT_EQ(tf.evaluate(50)[0], 0.5f);
+  EXPECT_FLOAT_EQ(tf.evaluate(50)[3], 0.4f);
+  EXPECT_FLOAT_EQ(tf.evaluate(-10)[3], 0.f);
+  EXPECT_FLOAT_EQ(tf.evaluate(1000)[1], 0.5f);
+}
+
+TEST(RenderSettings, TableCorrectsOpacityForTheStep) {
+  RenderSettings s;
+  s.transferFunction.points = {{0, {1, 1, 1, 0.5f}}, {10, {1, 1, 1, 0.5f}}};
+  s.windowWidth = 0;  // no window transform
+  for (double step : {0.25, 1.0, 2.0}) {
+    const detail::TfTable t = detail::buildTfTable(s, step);
+    EXPECT_NEAR(t.lookup(5)[3], 1 - std::pow(0.5, step), 1e-6) << step;
+  }
+  // Two half-steps composite to the opacity of one 1 mm step.
+  const double a = detail::buildTfTable(s, 0.5).lookup(5)[3];
+  EXPECT_NEAR(a + (1 - a) * a, 0.5, 1e-6);
+}
+
+TEST(RenderSettings, WindowShiftsTheTransferFunction) {
+  RenderSettings s;
+  s.preset = Preset::Bone;
+  const auto base = detail::buildTfTable(s, 1.0).lookup(500);
+  s.windowCenter = 500;  // +100 HU shift of the whole value axis
+  const auto shifted = detail::buildTfTable(s, 1.0).lookup(600);
+  for (int c = 0; c < 4; ++c) EXPECT_NEAR(base[c], shifted[c], 2e-3) << c;
+}
+
+TEST(RenderSettings, LabShift) {
+  const std::array<float, 3> c{0.8f, 0.5f, 0.3f};
+  const auto same = detail::labShift(c, 0, 0, 0);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(same[k], c[k], 2e-3);
+  const auto lighter = detail::labShift(c, 20, 0, 0);
+  for (int k = 0; k < 3; ++k) EXPECT_GT(lighter[k], c[k]);
+  const auto redder = detail::labShift(c, 0, 30, 0);  // +a: towards red, away from green
+  EXPECT_GT(redder[0] - redder[1], c[0] - c[1]);
+  const auto grey = detail::labShift({0.5f, 0.5f, 0.5f}, 0, 0, 0);
+  EXPECT_NEAR(grey[0], grey[2], 2e-3);
+}
+
+TEST(ReferenceCpu, RejectsSizesOutOfRange) {
+  const AnyVolume v = test::makeBallVolume(8, 1.0, 2.0);
+  RenderSettings s;
+  s.width = 4097;
+  s.height = 16;
+  EXPECT_THROW(renderReferenceCpu(v, s), Error);
+  s.width = 0;
+  EXPECT_THROW(renderReferenceCpu(v, s), Error);
+}
+
+// Projected radius of a ball under MIP: orthographic (pixel size = 2R/height) and perspective.
+TEST(ReferenceCpu, MipBallHasTheAnalyticRadius) {
+  const double radius = 12.0;
+  const AnyVolume v = test::makeBallVolume(48, 1.0, radius);
+  RenderSettings s;
+  s.preset = Preset::Mip;
+  s.width = s.height = 128;
+  for (double fov : {0.0, 30.0}) {
+    s.camera.fieldOfViewDeg = fov;
+    const RgbaImage img = renderReferenceCpu(v, s);
+    // Grey = (HU + 600) / 2000: 0 HU (halfway between ball and air) is grey 0.3.
+    int count = 0;
+    for (int y = 0; y < img.height; ++y)
+      for (int x = 0; x < img.width; ++x) count += img.at(x, y)[0] > 76;  // 0 HU, halfway between ball and air
+    const double measured = std::sqrt(count / std::numbers::pi);
+    const double boxRadius = std::sqrt(3.0) * 24.0;  // half-diagonal of the 48 mm voxel box
+    double expected = 0;
+    if (fov == 0) {
+      expected = radius / (2 * boxRadius / s.height);
+    } else {
+      const double half = fov * std::numbers::pi / 360, dist = boxRadius / std::sin(half);
+      const double tanR = radius / std::sqrt(dist * dist - radius * radius);
+      expected = tanR / std::tan(half) * s.height / 2;
+    }
+    EXPECT_NEAR(measured, expected, 0.6) << "fov " << fov;
+  }
+}
+
+// Orientation: azimuth 0 looks from anterior (-y), patient left (+x) on screen right,
+// superior (+z) up.
+TEST(ReferenceCpu, CameraConventions) {
+  Geometry g;
+  g.dims = {40, 40, 40};
+  g.origin = {-19.5, -19.5, -19.5};
+  VolumeI16 vol(g, -1000, kCtAirHu);
+  auto ball = [&](Vec3 c, double r, int16_t hu) {
+    for (int k = 0; k < 40; ++k)
+      for (int j = 0; j < 40; ++j)
+        for (int i = 0; i < 40; ++i)
+          if (norm(g.indexToPhysical({double(i), double(j), double(k)}) - c) < r) vol(i, j, k) = hu;
+  };
+  ball({0, -10, 0}, 6, 300);   // anterior: red
+  ball({0, 10, 0}, 6, 1000);   // posterior: blue, hidden behind the red one
+  ball({12, 0, 12}, 4, 1000);  // left-superior: blue
+  RenderSettings s;
+  s.width = s.height = 64;
+  s.shading = false;
+  s.camera = Camera{};
+  s.camera.azimuthDeg = 0;
+  s.camera.elevationDeg = 0;
+  s.camera.fieldOfViewDeg = 0;
+  // Red band around 300 HU (translucent, so the thin 300 HU shell inside the 1000 HU balls'
+  // edges barely tints them), opaque blue above 900 HU; fine steps.
+  s.stepVoxels = 0.1;
+  s.transferFunction.points = {{240, {1, 0, 0, 0}},    {260, {1, 0, 0, 0.5f}}, {340, {1, 0, 0, 0.5f}},
+                               {360, {1, 0, 0, 0}},    {880, {0, 0, 1, 0}},    {900, {0, 0, 1, 1}},
+                               {2000, {0, 0, 1, 1}}};
+  const AnyVolume any = vol;
+  RgbaImage img = renderReferenceCpu(any, s);
+  EXPECT_GT(img.at(32, 32)[0], 200);  // anterior ball in front
+  EXPECT_LT(img.at(32, 32)[2], 50);
+  // Left-superior ball: screen right, upper half. Scale = 2R/64 mm per pixel, R = sqrt(3)*20.
+  const double mmPerPx = 2 * std::sqrt(3.0) * 20 / 64;
+  const int bx = int(32 + 12 / mmPerPx), by = int(32 - 12 / mmPerPx);
+  EXPECT_GT(img.at(bx, by)[2], 200) << bx << "," << by;
+  EXPECT_EQ(img.at(64 - bx, by)[2], 0);
+  // From posterior (azimuth 180) the blue ball is in front and the small ball is on the left.
+  s.camera.azimuthDeg = 180;
+  img = renderReferenceCpu(any, s);
+  EXPECT_GT(img.at(32, 32)[2], 200);
+  EXPECT_GT(img.at(63 - bx, by)[2], 200);
+}
+
+// The identity map on the volume's own grid reproduces the undeformed image.
+TEST(ReferenceCpu, IdentityMapChangesNothing) {
+  const VolumeI16 vol = test::makeAnalyticVolume(32);
+  const AnyVolume any = vol;
+  const BackwardMap map = test::makeIdentityMap(vol.geometry());
+  RenderSettings s;
+  s.width = s.height = 48;
+  for (Preset p : {Preset::Mip, Preset::SoftTissueBone}) {
+    s.preset = p;
+    const RgbaImage a = renderReferenceCpu(any, s), b = renderReferenceCpu(any, s, &map);
+    int maxDiff = 0;
+    for (size_t i = 0; i < a.pixels.size(); ++i)
+      maxDiff = std::max(maxDiff, std::abs(int(a.pixels[i]) - int(b.pixels[i])));
+    EXPECT_LE(maxDiff, 1) << presetName(p);
+  }
+}
+
+TEST(ReferenceCpu, RejectsMalformedMaps) {
+  const AnyVolume v = test::makeBallVolume(8, 1.0, 2.0);
+  BackwardMap map = test::makeIdentityMap(geometryOf(v));
+  map.sourceMm.pop_back();
+  RenderSettings s;
+  s.width = s.height = 8;
+  EXPECT_THROW(renderReferenceCpu(v, s, &map), Error);
+}
+
+}  // namespace
+}  // namespace vellum::render

@@ -1,0 +1,232 @@
+// GL ray caster on llvmpipe (EGL): against the CPU reference, analytic geometry, and goldens.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <numbers>
+
+#include "analytic_volumes.hpp"
+#include "image_compare.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/render/volume_renderer.hpp"
+
+namespace vellum::render {
+namespace {
+
+GlContext& gl() {
+  static std::unique_ptr<GlContext> context = GlContext::createHeadless();
+  return *context;
+}
+
+// GL vs CPU tolerances, in 8-bit levels. On llvmpipe the two agree to within one level on a
+// handful of pixels (float vs double arithmetic; measured values in docs/benchmarks-render.md).
+// The margin is for GPUs, whose texture filters use 8-bit sub-texel weights.
+constexpr double kMeanTolerance = 1.0;  // per channel
+constexpr double kP99Tolerance = 4.0;
+
+void expectClose(const RgbaImage& gpu, const RgbaImage& cpu, const std::string& what) {
+  const test::ImageDiff d = test::compareImages(gpu, cpu);
+  std::cout << "[ diff ] " << what << ": mean " << d.meanAbs[0] << " " << d.meanAbs[1] << " "
+            << d.meanAbs[2] << " " << d.meanAbs[3] << "  p99 " << d.p99 << "  max " << d.maxAbs
+            << "  psnr " << d.psnr << " dB\n";
+  for (int c = 0; c < 4; ++c) EXPECT_LT(d.meanAbs[c], kMeanTolerance) << what << " channel " << c;
+  EXPECT_LE(d.p99, kP99Tolerance) << what;
+}
+
+RenderSettings baseSettings(Preset p, int w = 160, int h = 128) {
+  RenderSettings s;
+  s.preset = p;
+  s.width = w;
+  s.height = h;
+  return s;
+}
+
+/// Fraction of pixels that are not the background colour (guards against empty images).
+double coverage(const RgbaImage& img) {
+  size_t n = 0;
+  for (size_t i = 0; i < img.pixels.size(); i += 4)
+    n += img.pixels[i] > 8 || img.pixels[i + 1] > 8 || img.pixels[i + 2] > 8;
+  return double(n) / double(img.pixels.size() / 4);
+}
+
+TEST(RenderGl, ContextIsGl4Core) {
+  EXPECT_FALSE(gl().renderer().empty());
+  EXPECT_EQ(gl().version().rfind("4.", 0), 0u) << gl().version();
+  std::cout << "[ gl   ] " << gl().renderer() << " | " << gl().version() << "\n";
+}
+
+TEST(RenderGl, RejectsBadSizesAndNoVolume) {
+  VolumeRenderer r(gl());
+  RenderSettings s = baseSettings(Preset::Mip, 16, 16);
+  EXPECT_THROW(r.render(s), Error);  // no volume yet
+  r.setVolume(test::makeBallVolume(8, 1.0, 2.0));
+  s.width = 4097;
+  EXPECT_THROW(r.render(s), Error);
+  s.width = 16;
+  s.height = 0;
+  EXPECT_THROW(r.render(s), Error);
+}
+
+// The largest size renders: a small volume zoomed out so that few rays hit it.
+TEST(RenderGl, AcceptsMaximumSize) {
+  VolumeRenderer r(gl());
+  r.setVolume(test::makeBallVolume(8, 1.0, 3.0));
+  RenderSettings s = baseSettings(Preset::Mip, 4096, 4096);
+  s.camera.zoom = 0.25;
+  const RgbaImage img = r.render(s);
+  ASSERT_EQ(img.width, 4096);
+  ASSERT_EQ(img.height, 4096);
+  EXPECT_GT(img.at(2048, 2048)[0], 150);  // ball centre: 1000 HU -> grey 0.8
+  EXPECT_EQ(img.at(0, 0)[0], 0);
+}
+
+TEST(RenderGl, MipMatchesCpu) {
+  const AnyVolume v = test::makeAnalyticVolume(64);
+  VolumeRenderer r(gl());
+  r.setVolume(v);
+  for (double fov : {30.0, 0.0}) {
+    RenderSettings s = baseSettings(Preset::Mip);
+    s.camera.fieldOfViewDeg = fov;
+    const RgbaImage gpu = r.render(s);
+    EXPECT_GT(coverage(gpu), 0.1);  // the ellipsoid covers ~12% of the frame
+    expectClose(gpu, renderReferenceCpu(v, s), "mip fov " + std::to_string(int(fov)));
+  }
+}
+
+TEST(RenderGl, DvrMatchesCpu) {
+  const AnyVolume v = test::makeAnalyticVolume(64);
+  VolumeRenderer r(gl());
+  r.setVolume(v);
+  for (Preset p : {Preset::SoftTissueBone, Preset::Bone}) {
+    RenderSettings s = baseSettings(p);
+    s.camera.azimuthDeg = 60;
+    const RgbaImage gpu = r.render(s);
+    EXPECT_GT(coverage(gpu), p == Preset::Bone ? 0.015 : 0.1);
+    expectClose(gpu, renderReferenceCpu(v, s), std::string("dvr ") + presetName(p));
+  }
+}
+
+TEST(RenderGl, DeformedMatchesCpu) {
+  const VolumeI16 vol = test::makeAnalyticVolume(64);
+  const AnyVolume v = vol;
+  const BackwardMap map = test::makeTwistMap(vol.geometry(), 17, true);
+  VolumeRenderer r(gl());
+  r.setVolume(v);
+  r.setBackwardMap(&map);
+  for (Preset p : {Preset::SoftTissueBone, Preset::Mip}) {
+    const RenderSettings s = baseSettings(p);
+    const RgbaImage gpu = r.render(s);
+    EXPECT_GT(coverage(gpu), 0.03);  // the map's larger box makes the volume smaller
+    expectClose(gpu, renderReferenceCpu(v, s, &map), std::string("deformed ") + presetName(p));
+  }
+  // The deformation really changes the picture.
+  const RgbaImage deformed = r.render(baseSettings(Preset::SoftTissueBone));
+  r.setBackwardMap(nullptr);
+  const RgbaImage plain = r.render(baseSettings(Preset::SoftTissueBone));
+  EXPECT_GT(test::compareImages(deformed, plain).meanAbs[0], 5.0);
+}
+
+TEST(RenderGl, IdentityMapMatchesUndeformed) {
+  const VolumeI16 vol = test::makeAnalyticVolume(48);
+  const BackwardMap map = test::makeIdentityMap(vol.geometry());
+  VolumeRenderer r(gl());
+  r.setBackwardMap(&map);  // before the volume: converted when the volume arrives
+  r.setVolume(vol);
+  const RenderSettings s = baseSettings(Preset::SoftTissueBone);
+  const RgbaImage deformed = r.render(s);
+  r.setBackwardMap(nullptr);
+  expectClose(deformed, r.render(s), "identity map vs none");
+}
+
+TEST(RenderGl, VoxelTypesGiveTheSamePicture) {
+  const VolumeI16 vol = test::makeAnalyticVolume(48);
+  VolumeRenderer r(gl());
+  r.setVolume(vol);
+  const RenderSettings s = baseSettings(Preset::SoftTissueBone);
+  const RgbaImage i16 = r.render(s);
+  r.setVolume(toFloat32(vol));
+  expectClose(r.render(s), i16, "float32 vs int16");
+}
+
+TEST(RenderGl, MipBallHasTheAnalyticRadius) {
+  const double radius = 12.0;
+  VolumeRenderer r(gl());
+  r.setVolume(test::makeBallVolume(48, 1.0, radius));
+  RenderSettings s = baseSettings(Preset::Mip, 256, 256);
+  s.camera.fieldOfViewDeg = 0;
+  const RgbaImage img = r.render(s);
+  int count = 0;
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) count += img.at(x, y)[0] > 76;  // 0 HU, halfway between ball and air
+  const double measured = std::sqrt(count / std::numbers::pi);
+  const double expected = radius / (2 * std::sqrt(3.0) * 24.0 / s.height);
+  EXPECT_NEAR(measured, expected, 0.6);
+}
+
+TEST(RenderGl, TransparentBackground) {
+  VolumeRenderer r(gl());
+  r.setVolume(test::makeAnalyticVolume(48));
+  for (Preset p : allPresets()) {
+    RenderSettings s = baseSettings(p, 64, 64);
+    s.background = {1, 1, 1, 0};
+    const RgbaImage img = r.render(s);
+    for (auto [x, y] : {std::pair{0, 0}, {63, 0}, {0, 63}, {63, 63}})
+      EXPECT_EQ(img.at(x, y)[3], 0) << presetName(p);
+    EXPECT_GT(img.at(32, 32)[3], 100) << presetName(p);
+  }
+  // An opaque background is opaque everywhere.
+  RenderSettings s = baseSettings(Preset::Bone, 64, 64);
+  s.background = {0.2f, 0.3f, 0.4f, 1};
+  const RgbaImage img = r.render(s);
+  EXPECT_EQ(img.at(0, 0)[3], 255);
+  EXPECT_NEAR(img.at(0, 0)[2], 102, 1);
+}
+
+// Seen from behind, a front-back symmetric volume is the mirror image of the front view.
+TEST(RenderGl, Azimuth180MirrorsAzimuth0) {
+  // Ball off-centre along x (so the mirror is visible), symmetric in y.
+  const VolumeI16 vol = test::makeBallVolume(48, 1.0, 8.0, 1000, {9, 0, 4});
+  VolumeRenderer r(gl());
+  r.setVolume(vol);
+  for (Preset p : {Preset::Mip, Preset::Bone}) {
+    RenderSettings s = baseSettings(p, 96, 96);
+    s.jitter = false;  // the per-pixel jitter pattern is not mirror-symmetric
+    s.camera.azimuthDeg = 0;
+    s.camera.elevationDeg = 0;
+    const RgbaImage front = r.render(s);
+    s.camera.azimuthDeg = 180;
+    const RgbaImage back = r.render(s);
+    const test::ImageDiff d = test::compareImages(test::mirrored(back), front);
+    EXPECT_LT(d.meanAbs[0], 0.1) << presetName(p);
+    EXPECT_LE(d.maxAbs, 2) << presetName(p);
+    // ... and not trivially equal to the unmirrored one.
+    EXPECT_GT(test::compareImages(back, front).meanAbs[0], 2.0) << presetName(p);
+  }
+}
+
+// Fixed pictures: regenerate with VELLUM_UPDATE_GOLDEN=1 after an intended change.
+TEST(RenderGl, GoldenImages) {
+  const bool update = std::getenv("VELLUM_UPDATE_GOLDEN") != nullptr;
+  VolumeRenderer r(gl());
+  r.setVolume(test::makeAnalyticVolume(64));
+  for (Preset p : allPresets()) {
+    const RgbaImage img = r.render(baseSettings(p, 256, 256));
+    const std::filesystem::path path =
+        std::filesystem::path(VELLUM_RENDER_GOLDEN_DIR) / (std::string(presetName(p)) + ".png");
+    if (update) {
+      test::writePng(img, path);
+      std::cout << "[ gold ] wrote " << path << "\n";
+      continue;
+    }
+    const RgbaImage golden = test::readPng(path);
+    ASSERT_EQ(golden.width, 256) << "missing golden " << path << " (VELLUM_UPDATE_GOLDEN=1)";
+    const test::ImageDiff d = test::compareImages(img, golden);
+    const double meanAll = (d.meanAbs[0] + d.meanAbs[1] + d.meanAbs[2] + d.meanAbs[3]) / 4;
+    std::cout << "[ gold ] " << presetName(p) << ": psnr " << d.psnr << " dB, mean " << meanAll << "\n";
+    EXPECT_TRUE(d.psnr >= 40.0 || meanAll <= 1.0) << presetName(p) << " psnr " << d.psnr;
+  }
+}
+
+}  // namespace
+}  // namespace vellum::render
