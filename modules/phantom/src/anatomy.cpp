@@ -85,10 +85,16 @@ void Anatomy::femur(const Vec3& p, Distances& d) {
 }
 
 void Anatomy::tibia(const Vec3& q, Distances& d) {
+  // The head in a frame tilted about the x axis through the plateau centre: the posterior
+  // slope keeps the plateau (and its thin cortex) off any one grid plane.
+  static const double ca = std::cos(kTibialSlopeDeg * std::numbers::pi / 180.0);
+  static const double sa = std::sin(kTibialSlopeDeg * std::numbers::pi / 180.0);
+  const double ty = q.y * ca - (q.z - kPlateauZ) * sa;
+  const double tz = kPlateauZ + (q.z - kPlateauZ) * ca + q.y * sa;
   const double zc = 0.5 * (kPlateauZ + kTibiaHeadBottomZ);
   const double h = 0.5 * (kPlateauZ - kTibiaHeadBottomZ);
-  const double radial = sdf::ellipse(q.x, q.y - kTibiaHeadY, kTibiaHeadRx, kTibiaHeadRy);
-  const double head = sdf::roundedCap(radial, std::abs(q.z - zc) - h, 3.0);
+  const double radial = sdf::ellipse(q.x, ty - kTibiaHeadY, kTibiaHeadRx, kTibiaHeadRy);
+  const double head = sdf::roundedCap(radial, std::abs(tz - zc) - h, 3.0);
   const double shaft = sdf::capsuleZ(q.x, q.y, q.z, kTibiaShaftX, kTibiaShaftY,
                                      kTibiaBottomZ + kTibiaShaftR, -40.0, kTibiaShaftR);
   const double outer = sdf::smoothMin(head, shaft, 14.0);
@@ -96,7 +102,7 @@ void Anatomy::tibia(const Vec3& q, Distances& d) {
                                           sdf::smoothstep(-25.0, -55.0, q.z);
   d.tibiaOuter = outer;
   d.tibiaInner = outer + t;
-  d.tibiaCartilage = std::max(outer - kCartilageMm, -(q.z + 6.0));  // on the plateau only
+  d.tibiaCartilage = std::max(outer - kCartilageMm, -(tz + 6.0));  // on the plateau only
 }
 
 void Anatomy::fibula(const Vec3& q, Distances& d) {

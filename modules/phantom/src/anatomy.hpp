@@ -29,7 +29,8 @@ inline constexpr double kCondyleX = 19.0, kCondyleHalfWidth = 13.0, kCondyleRadi
 inline constexpr double kFemurShaftR = 13.0, kFemurShaftY = 2.0, kFemurTopZ = 100.0;
 inline constexpr double kFemurCortexShaft = 4.0, kFemurCortexCondyle = 1.2;
 // Tibia (calf frame)
-inline constexpr double kPlateauZ = -2.5, kTibiaHeadBottomZ = -32.0;
+inline constexpr double kPlateauZ = -2.5, kTibiaHeadBottomZ = -32.0;  ///< at y = 0
+inline constexpr double kTibialSlopeDeg = 6.0;  ///< plateau descends posteriorly (anatomical)
 inline constexpr double kTibiaHeadRx = 36.0, kTibiaHeadRy = 25.0, kTibiaHeadY = 1.0;
 inline constexpr double kTibiaShaftR = 12.0, kTibiaShaftX = 3.0, kTibiaShaftY = -6.0;
 inline constexpr double kTibiaBottomZ = -99.0;
@@ -74,6 +75,10 @@ class Anatomy {
 
   /// Label and tissue from the signs (priority bones > cartilage > muscle > fat > skin > air).
   static Classified classify(const Distances& d);
+
+  /// Signed distance (mm) to the plane splitting the thigh from the calf envelope (thigh side
+  /// positive); +infinity for a straight leg, where there is no seam.
+  double seamDistance(const Vec3& p) const { return flexed_ ? bisector(p) : 1e300; }
 
   /// World -> calf frame (inverse flexion about the axis).
   Vec3 toCalf(const Vec3& p) const {

@@ -78,15 +78,23 @@ std::vector<Label> labelTable() {
 }
 
 /// Mean tissue HU over 4x4x4 sub-samples of the voxel at p. Bone groups near the voxel are
-/// re-evaluated exactly at every sub-sample; the leg envelope (skin/fat/muscle surfaces, radii
-/// ~50-65 mm) is linearised from central differences at the centre: over a voxel its
-/// curvature error is below 0.01 mm and it saves most of the cost. Far groups keep their
-/// centre values (their sign cannot change within the voxel).
+/// re-evaluated exactly at every sub-sample. The leg envelope (skin/fat/muscle surfaces, radii
+/// of curvature >= ~40 mm) is linearised from central differences at the centre, and
+/// re-evaluated exactly only at sub-samples the linear form puts within `exactBandMm` of a
+/// surface (beyond the linearisation error): same result as exact evaluation, a fraction of
+/// the cost. Far groups keep their centre values (their sign cannot change in the voxel).
 double mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, uint32_t near,
-               const std::array<Vec3, kSuper>& off,
+               const std::array<Vec3, kSuper>& off, double exactBandMm,
                const std::array<double, detail::kTissueCount>& hu) {
   Vec3 gradOuter, gradMuscle;  // the fat surface is the outer one offset: same gradient
-  if (near & detail::gLeg) {
+  bool leg = (near & detail::gLeg) != 0;
+  uint32_t exact = near & ~uint32_t{detail::gLeg};
+  // Across the thigh/calf seam the envelope is not smooth: no linearisation there.
+  if (leg && std::abs(anatomy.seamDistance(p)) < norm(off[kSuper - 1]) + 0.1) {
+    exact |= detail::gLeg;
+    leg = false;
+  }
+  if (leg) {
     constexpr double h = 0.05;
     for (int a = 0; a < 3; ++a) {
       Vec3 e;
@@ -98,21 +106,23 @@ double mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, u
       gradMuscle[a] = (hi.legMuscle - lo.legMuscle) / (2 * h);
     }
   }
-  const uint32_t exact = near & ~uint32_t{detail::gLeg};
-  const bool leg = (near & detail::gLeg) != 0;
   double sum = 0;
   for (int c = 0; c < kSuper; ++c)
     for (int b = 0; b < kSuper; ++b)
       for (int a = 0; a < kSuper; ++a) {
         const Vec3 delta{off[a].x, off[b].y, off[c].z};
         Distances sub = centre;
+        uint32_t groups = exact;
         if (leg) {
           const double dOuter = dot(gradOuter, delta);
           sub.legOuter = centre.legOuter + dOuter;
           sub.legFat = centre.legFat + dOuter;
           sub.legMuscle = centre.legMuscle + dot(gradMuscle, delta);
+          if (std::abs(sub.legOuter) < exactBandMm || std::abs(sub.legFat) < exactBandMm ||
+              std::abs(sub.legMuscle) < exactBandMm)
+            groups |= detail::gLeg;
         }
-        if (exact) anatomy.evaluate(p + delta, exact, sub);
+        if (groups) anatomy.evaluate(p + delta, groups, sub);
         sum += hu[Anatomy::classify(sub).tissue];
       }
   return sum / (kSuper * kSuper * kSuper);
@@ -142,6 +152,10 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
   // the centre exceeds half the voxel diagonal cannot change across them (the distances are
   // ~1-Lipschitz; the extra 1/8 is margin for the approximate ellipse distances).
   const double nearMm = 0.5 * norm(s) + 0.05;
+  // Linearising the leg over the sub-sample cloud (radius r) errs by about r^2 / (2 R) with
+  // R >= 40 mm: sub-samples closer than twice that (and 0.1 mm) to a surface are exact.
+  const double cloud = 0.375 * norm(s);
+  const double exactBandMm = std::max(0.1, cloud * cloud / 40.0);
   const Dims d = g.dims;
   const double sigma = options.noiseSigmaHu;
   const uint64_t seed = options.seed;
@@ -167,7 +181,7 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
           const uint32_t near = anatomy.evaluateNear(p, nearMm, dist);
           const Classified c = Anatomy::classify(dist);
           double v = hu[c.tissue];
-          if (options.partialVolume && near != 0) v = mixture(anatomy, p, dist, near, off, hu);
+          if (options.partialVolume && near != 0) v = mixture(anatomy, p, dist, near, off, exactBandMm, hu);
           if (sigma > 0) {
             if ((idx >> 1) != noisePair) {
               noisePair = idx >> 1;

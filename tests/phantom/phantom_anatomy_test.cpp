@@ -1,0 +1,251 @@
+// The phantom's ground truth: exact, connected, separated bones; physical volumes that do not
+// depend on the grid; flexion as a rigid rotation of the calf; a thin condylar cortex.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "phantom_test_util.hpp"
+
+namespace vellum::phantom {
+namespace {
+
+using test::boneOf;
+using test::cached;
+
+constexpr uint16_t kMaxLabel = kCartilage;
+
+TEST(PhantomTruth, LabelsEqualTheAnatomyAtVoxelCentres) {
+  for (double flex : {0.0, 30.0}) {
+    const Phantom& p = cached(64, 64, 64, flex);
+    PhantomOptions o;
+    o.kneeFlexionDeg = flex;
+    const Geometry& g = p.labels.geometry();
+    size_t mismatches = 0;
+    for (int64_t k = 0; k < g.dims.z; ++k)
+      for (int64_t j = 0; j < g.dims.y; ++j)
+        for (int64_t i = 0; i < g.dims.x; ++i)
+          mismatches += p.labels(i, j, k) !=
+                        samplePhantom(g.indexToPhysical(Vec3{double(i), double(j), double(k)}), o).label;
+    EXPECT_EQ(mismatches, 0u) << "flexion " << flex;
+  }
+}
+
+TEST(PhantomTruth, EveryLabelPresentAndBonesInsideMuscle) {
+  const Phantom& p = cached(128, 128, 128);
+  const auto h = p.labels.histogram();
+  ASSERT_EQ(h.size(), kMaxLabel + 1u);
+  for (uint16_t id = 0; id <= kMaxLabel; ++id) EXPECT_GT(h[id], 100u) << id;
+  // Bone never touches air, skin or fat (6-neighbours): it lies inside the muscle.
+  const Geometry& g = p.labels.geometry();
+  size_t bad = 0;
+  for (int64_t k = 1; k + 1 < g.dims.z; ++k)
+    for (int64_t j = 1; j + 1 < g.dims.y; ++j)
+      for (int64_t i = 1; i + 1 < g.dims.x; ++i) {
+        if (!isBone(p.labels(i, j, k))) continue;
+        for (auto [a, b, c] : {std::array<int, 3>{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0},
+                               {0, 0, 1}, {0, 0, -1}}) {
+          const uint16_t n = p.labels(i + a, j + b, k + c);
+          bad += n == kAir || n == kSkin || n == kFat;
+        }
+      }
+  EXPECT_EQ(bad, 0u);
+}
+
+// Each bone is one 26-connected component, and no voxel of one bone is a 26-neighbour of
+// another bone's voxel: per-bone rigidity can rely on connected components.
+void expectSeparateConnectedBones(const Phantom& p, const std::string& what) {
+  for (int bone = 1; bone <= 4; ++bone)
+    EXPECT_EQ(test::countComponents(p.labels, [bone](uint16_t id) { return boneOf(id) == bone; }),
+              1)
+        << what << " bone " << bone;
+  const Geometry& g = p.labels.geometry();
+  size_t touching = 0;
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const int b = boneOf(p.labels(i, j, k));
+        if (b == 0) continue;
+        for (int c = -1; c <= 1; ++c)
+          for (int bb = -1; bb <= 1; ++bb)
+            for (int a = -1; a <= 1; ++a)
+              if (g.contains(i + a, j + bb, k + c)) {
+                const int o = boneOf(p.labels(i + a, j + bb, k + c));
+                touching += o != 0 && o != b;
+              }
+      }
+  EXPECT_EQ(touching, 0u) << what;
+}
+
+TEST(PhantomTruth, BonesAreSeparateConnectedComponents) {
+  expectSeparateConnectedBones(cached(128, 128, 128), "128^3");
+  expectSeparateConnectedBones(cached(64, 64, 64), "64^3");
+  expectSeparateConnectedBones(cached(128, 128, 128, 30.0), "128^3 flexed 30");
+  expectSeparateConnectedBones(cached(96, 96, 96, 90.0), "96^3 flexed 90");
+  expectSeparateConnectedBones(cached(128, 128, 64, 0.0, 15.0, true, {1.4, 1.4, 3.4}),
+                               "anisotropic");
+}
+
+// Monte-Carlo volume (mL) of `label` from the anatomy itself, sampled uniformly in the box
+// [lo, hi] (mm); standard error in `se`.
+double monteCarloVolumeMl(uint16_t label, Vec3 lo, Vec3 hi, int n, double* se) {
+  std::mt19937_64 rng(label * 7919u + 17u);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  PhantomOptions o;
+  int hits = 0;
+  for (int s = 0; s < n; ++s) {
+    const Vec3 q{lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y),
+                 lo.z + u(rng) * (hi.z - lo.z)};
+    hits += samplePhantom(q, o).label == label;
+  }
+  const double box = (hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z) / 1000.0;
+  const double f = double(hits) / n;
+  *se = box * std::sqrt(f * (1 - f) / n);
+  return box * f;
+}
+
+// The physical bounding box of `label` in a label volume, grown by `margin` mm.
+void labelBox(const LabelVolume& l, uint16_t label, double margin, Vec3& lo, Vec3& hi) {
+  lo = {1e9, 1e9, 1e9};
+  hi = {-1e9, -1e9, -1e9};
+  const Geometry& g = l.geometry();
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i)
+        if (l(i, j, k) == label) {
+          const Vec3 p = g.indexToPhysical(Vec3{double(i), double(j), double(k)});
+          for (int a = 0; a < 3; ++a) {
+            lo[a] = std::min(lo[a], p[a] - margin);
+            hi[a] = std::max(hi[a], p[a] + margin);
+          }
+        }
+}
+
+double labelVolumeMl(const LabelVolume& l, uint16_t label) {
+  const auto h = l.histogram();
+  const Vec3 s = l.geometry().spacing;
+  return label < h.size() ? double(h[label]) * s.x * s.y * s.z / 1000.0 : 0.0;
+}
+
+TEST(PhantomTruth, VolumesMatchTheAnatomyAndDoNotDependOnTheGrid) {
+  const Phantom& fine = cached(128, 128, 128);
+  const Phantom& coarse = cached(64, 64, 64);
+  const Phantom& aniso = cached(128, 128, 64, 0.0, 15.0, true, {1.4, 1.4, 3.4});
+  for (uint16_t id = kSkin; id <= kMaxLabel; ++id) {
+    if (id == kMuscle) continue;  // fills the FOV-clipped leg: checked through the others
+    Vec3 lo, hi;
+    labelBox(fine.labels, id, 4.0, lo, hi);
+    double se = 0;
+    const double truth = monteCarloVolumeMl(id, lo, hi, 400000, &se);
+    const double v128 = labelVolumeMl(fine.labels, id), v64 = labelVolumeMl(coarse.labels, id),
+                 vAniso = labelVolumeMl(aniso.labels, id);
+    SCOPED_TRACE(fine.labels.label(id)->name + ": truth " + std::to_string(truth) + " mL, 128^3 " +
+                 std::to_string(v128) + ", 64^3 " + std::to_string(v64) + ", aniso " +
+                 std::to_string(vAniso));
+    // Thin shells (cortex 1.2-4 mm, cartilage 2 mm) in 1.4-3.4 mm voxels: centre sampling is
+    // unbiased but noisy; tolerances grow with the voxel size.
+    EXPECT_NEAR(v128, truth, 0.04 * truth + 4 * se);
+    EXPECT_NEAR(v64, truth, 0.10 * truth + 4 * se);
+    EXPECT_NEAR(vAniso, truth, 0.10 * truth + 4 * se);
+  }
+}
+
+TEST(PhantomTruth, AnisotropicGridShowsTheSameAnatomyInMm) {
+  const Phantom& iso = cached(128, 128, 128);
+  const Phantom& aniso = cached(128, 128, 64, 0.0, 15.0, true, {1.4, 1.4, 3.4});
+  for (int bone = 1; bone <= 4; ++bone) {
+    auto in = [bone](uint16_t id) { return boneOf(id) == bone; };
+    const Vec3 a = test::centroid(iso.labels, in), b = test::centroid(aniso.labels, in);
+    EXPECT_LT(norm(a - b), 1.0) << "bone " << bone;
+  }
+}
+
+TEST(PhantomFlexion, TibiaRotatesRigidlyAboutTheAxisFemurStays) {
+  const Phantom& straight = cached(128, 128, 128);
+  const Phantom& flexed = cached(128, 128, 128, 30.0);
+  for (int bone = 1; bone <= 4; ++bone) {
+    auto in = [bone](uint16_t id) { return boneOf(id) == bone; };
+    uint64_t n0 = 0, n1 = 0;
+    const Vec3 c0 = test::centroid(straight.labels, in, &n0);
+    const Vec3 c1 = test::centroid(flexed.labels, in, &n1);
+    const bool calf = bone == 2 || bone == 3;
+    const Vec3 expected = calf ? flexCalfPoint(c0, 30.0) : c0;
+    EXPECT_LT(norm(c1 - expected), 1.0) << "bone " << bone;
+    EXPECT_NEAR(double(n1), double(n0), 0.02 * n0) << "bone " << bone;  // rigid: same volume
+    if (calf) {
+      EXPECT_GT(norm(c1 - c0), 20.0) << "the calf bones moved";
+    }
+  }
+  // The rotation convention: the foot goes posterior (+y) and the axis point is fixed.
+  const Vec3 a = flexionAxisPointMm();
+  EXPECT_LT(norm(flexCalfPoint(a, 45.0) - a), 1e-12);
+  const Vec3 foot = flexCalfPoint(a + Vec3{0, 0, -100}, 90.0);
+  EXPECT_NEAR(foot.y, 100.0, 1e-9);
+  EXPECT_NEAR(foot.z, a.z, 1e-9);
+}
+
+TEST(PhantomFlexion, CalfSoftTissueFollowsTheTibia) {
+  // A point in the calf muscle at flexion 0 is still muscle once moved by the flexion, and a
+  // point of thigh muscle stays where it is.
+  PhantomOptions straight, flexed;
+  flexed.kneeFlexionDeg = 40;
+  const Vec3 calfMuscle{20, 25, -60}, thighMuscle{-30, 20, 70};
+  ASSERT_EQ(samplePhantom(calfMuscle, straight).label, kMuscle);
+  EXPECT_EQ(samplePhantom(flexCalfPoint(calfMuscle, 40), flexed).label, kMuscle);
+  EXPECT_EQ(samplePhantom(thighMuscle, flexed).label, kMuscle);
+  // Skin surface along a calf ray moves with the calf.
+  for (double r = 40; r < 70; r += 0.5) {
+    const Vec3 q{0, r, -60};
+    EXPECT_EQ(samplePhantom(q, straight).label, samplePhantom(flexCalfPoint(q, 40), flexed).label)
+        << r;
+  }
+}
+
+// Extent (mm) of `label` along the segment from `a` to `b`, sampled every 1 um.
+double extentAlong(const Vec3& a, const Vec3& b, uint16_t label) {
+  const int n = static_cast<int>(norm(b - a) / 0.001);
+  int hits = 0;
+  for (int s = 0; s <= n; ++s) hits += samplePhantom(a + (b - a) * (double(s) / n)).label == label;
+  return hits * norm(b - a) / n;
+}
+
+TEST(PhantomTruth, JointLayersAndThinCondylarCortex) {
+  // Vertical ray through the medial condyle's lowest point (x = 19 mm, y = 0).
+  const double cortex = extentAlong({19, 0, 10}, {19, 0, 2}, kFemurCortex);
+  EXPECT_GE(cortex, 1.0);
+  EXPECT_LE(cortex, 1.5);
+  EXPECT_NEAR(cortex, 1.2, 0.02);
+  // Shaft cortex is thick: 4 mm along a horizontal ray through the femoral shaft.
+  EXPECT_NEAR(extentAlong({-20, 2, 80}, {-5, 2, 80}, kFemurCortex), 4.0, 0.05);
+  // From the tibia up into the femur: tibia cortex, cartilage, joint space, cartilage, femur.
+  const std::vector<uint16_t> expected{kTibiaMarrow, kTibiaCortex, kCartilage, kMuscle,
+                                       kCartilage,   kFemurCortex, kFemurMarrow};
+  std::vector<uint16_t> seen;
+  for (double z = -8; z <= 8; z += 0.01) {
+    const uint16_t l = samplePhantom({19, 0, z}).label;
+    if (seen.empty() || seen.back() != l) seen.push_back(l);
+  }
+  EXPECT_EQ(seen, expected);
+  // Bone-to-bone gap of the joint: 5 mm.
+  EXPECT_NEAR(extentAlong({19, 0, -2.6}, {19, 0, 2.6}, kCartilage) +
+                  extentAlong({19, 0, -2.6}, {19, 0, 2.6}, kMuscle),
+              5.0, 0.01);
+}
+
+TEST(PhantomTruth, FibulaIsLateralPosteriorPatellaAnterior) {
+  const auto fibula = test::centroid(cached(128, 128, 128).labels,
+                                     [](uint16_t id) { return id == kFibula; });
+  const auto tibia = test::centroid(cached(128, 128, 128).labels, [](uint16_t id) {
+    return id == kTibiaCortex || id == kTibiaMarrow;
+  });
+  const auto patella = test::centroid(cached(128, 128, 128).labels,
+                                      [](uint16_t id) { return id == kPatella; });
+  EXPECT_LT(fibula.x, tibia.x - 20);  // right knee: lateral is -x (patient right)
+  EXPECT_GT(fibula.y, tibia.y + 10);  // posterior is +y
+  EXPECT_LT(patella.y, -25);          // anterior
+  EXPECT_GT(patella.z, 10);           // above the joint line
+}
+
+}  // namespace
+}  // namespace vellum::phantom
