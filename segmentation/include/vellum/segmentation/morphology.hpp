@@ -1,0 +1,22 @@
+#pragma once
+// Binary morphology with ball structuring elements of a radius in mm. Computed from exact
+// Euclidean distance transforms, so the cost does not grow with the radius and anisotropic
+// spacing gives an ellipsoid in index space (a ball in mm).
+#include "vellum/core/progress.hpp"
+#include "vellum/segmentation/mask.hpp"
+
+namespace vellum::segmentation {
+
+/// Voxels within radiusMm of the mask (voxel-centre distance <= radius). radius <= 0 returns
+/// a copy.
+Mask dilate(const Mask& m, double radiusMm, Progress& progress = Progress::none());
+/// Voxels of the mask farther than radiusMm from every background voxel of the grid.
+/// Outside the grid counts as foreground, so structures cut by the field of view keep their
+/// cut faces (and close() does not eat them).
+Mask erode(const Mask& m, double radiusMm, Progress& progress = Progress::none());
+/// erode then dilate: removes parts thinner than 2·radius.
+Mask open(const Mask& m, double radiusMm, Progress& progress = Progress::none());
+/// dilate then erode: fills gaps and dents narrower than 2·radius.
+Mask close(const Mask& m, double radiusMm, Progress& progress = Progress::none());
+
+}  // namespace vellum::segmentation

@@ -1,0 +1,94 @@
+#pragma once
+// 3D level-set active contours ("snakes") started from seed bubbles, like ITK-SNAP.
+//
+// The contour is the zero level of phi (negative inside) and moves by
+//   d(phi)/dt = -alpha * S * |grad phi|                      propagation
+//               + beta * K * kappa * |grad phi|             curvature (K = S for edge speed, 1 otherwise)
+//               + gamma * grad S . grad phi                  advection (pulls towards low S)
+// with S the speed image, kappa the mean curvature (sum of principal curvatures, 1/mm).
+// Only a narrow band of voxels around the contour is stored as a list and updated
+// (a few voxels either side, re-distanced every few steps), so each iteration costs in
+// proportion to the surface, not the volume. Units: phi in mm, speeds in mm per unit time;
+// the time step follows the CFL limit (the contour moves at most `cflNumber` voxels a step).
+#include <string>
+#include <vector>
+
+#include "vellum/core/progress.hpp"
+#include "vellum/segmentation/mask.hpp"
+
+namespace vellum::segmentation {
+
+/// A spherical start region.
+struct Bubble {
+  Vec3 centerMm;
+  double radiusMm = 5.0;
+};
+
+enum class SpeedType {
+  Threshold,  ///< region competition: S in [-1, 1], positive inside the HU interval
+  Edge,       ///< S = g = 1 / (1 + (|grad(G_sigma * I)| / kappa)^exponent) in (0, 1]
+};
+SpeedType parseSpeedType(const std::string& name);  ///< "threshold" | "edge"
+
+/// Smooth two-sided region speed: S(I) = tanh(min(I - lower, upper - I) / smoothnessHu),
+/// so S = +1 well inside [lower, upper], -1 well outside, 0 at the thresholds.
+struct ThresholdSpeedParams {
+  double lower = -500;        ///< HU (default: soft tissue against air)
+  double upper = 700;         ///< HU (default: soft tissue against cortical bone)
+  double smoothnessHu = 60;   ///< width of the transition; larger = smoother, slower near the edge
+};
+
+/// Edge speed from the smoothed gradient magnitude (HU/mm).
+struct EdgeSpeedParams {
+  double sigmaMm = 1.0;       ///< Gaussian blur before the gradient (mm)
+  double kappaHuPerMm = 100;  ///< gradient magnitude at which g = 0.5
+  double exponent = 2.0;      ///< 2 is the classic 1/(1+(x/kappa)²)
+};
+
+struct SpeedImage {
+  VolumeF32 values;
+  SpeedType type = SpeedType::Threshold;
+};
+
+SpeedImage thresholdSpeed(const VolumeI16& ct, const ThresholdSpeedParams& params = {},
+                          Progress& progress = Progress::none());
+SpeedImage edgeSpeed(const VolumeI16& ct, const EdgeSpeedParams& params = {},
+                     Progress& progress = Progress::none());
+
+/// Separable Gaussian blur with sigma in mm (per-axis kernels from the spacing; truncated at
+/// 3 sigma; outside the grid = the volume's background). Parallel.
+VolumeF32 gaussianBlur(const VolumeI16& ct, double sigmaMm, Progress& progress = Progress::none());
+
+struct SnakeParams {
+  double propagation = 1.0;   ///< alpha
+  double curvature = 0.2;     ///< beta (mm): smooths; too high shrinks thin parts
+  double advection = 0.0;     ///< gamma: useful with edge speed (e.g. 1-3)
+  int maxIterations = 2000;   ///< hard limit (at the finest level)
+  /// Converged when, over the last `convergenceWindow` iterations, the voxels that changed
+  /// side per iteration averaged at most convergenceFraction * (voxels on the contour).
+  double convergenceFraction = 0.002;
+  int convergenceWindow = 10;
+  double cflNumber = 0.5;     ///< at most this many voxels of contour motion per iteration
+  /// Coarse-to-fine: evolve first on the speed image downsampled 2x per level, then refine
+  /// on the next finer level. -1 = automatic (one coarse level per factor 2 while the coarse grid keeps >= 64 voxels
+  /// on the smallest axis, at most 2), 0 = single resolution.
+  int coarseLevels = -1;
+};
+
+struct SnakeResult {
+  Mask mask;                  ///< phi <= 0 (inside)
+  VolumeF32 phi;              ///< final level set (mm, narrow band; +-band width elsewhere)
+  int iterations = 0;         ///< at the finest level
+  int coarseIterations = 0;   ///< summed over the coarse levels
+  bool converged = false;
+  double seconds = 0;
+  double secondsPerIteration = 0;  ///< at the finest level
+  int64_t finalContourVoxels = 0;  ///< voxels adjacent to the zero level at the end
+};
+
+/// Evolves a contour from `bubbles` on `speed`. Throws vellum::Error for no bubbles or a
+/// bubble outside the grid, vellum::Cancelled through `progress` (units = iterations).
+SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubbles,
+                        const SnakeParams& params = {}, Progress& progress = Progress::none());
+
+}  // namespace vellum::segmentation

@@ -1,0 +1,132 @@
+// Speed images for the level-set snake, and the Gaussian blur the edge speed needs.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "vellum/core/parallel.hpp"
+#include "vellum/segmentation/snake.hpp"
+
+namespace vellum::segmentation {
+
+SpeedType parseSpeedType(const std::string& name) {
+  if (name == "threshold" || name == "region") return SpeedType::Threshold;
+  if (name == "edge") return SpeedType::Edge;
+  throw Error("unknown speed type '" + name + "' (threshold, edge)");
+}
+
+namespace {
+
+std::vector<float> gaussianKernel(double sigmaVoxels) {
+  const int r = std::max(1, static_cast<int>(std::ceil(3.0 * sigmaVoxels)));
+  std::vector<float> k(2 * r + 1);
+  double sum = 0;
+  for (int i = -r; i <= r; ++i) sum += k[i + r] = static_cast<float>(std::exp(-0.5 * i * i / (sigmaVoxels * sigmaVoxels)));
+  for (auto& v : k) v = static_cast<float>(v / sum);
+  return k;
+}
+
+/// One separable pass along `axis`, src -> dst, samples outside the grid = `bg`.
+void blurAxis(const float* src, float* dst, const Dims& d, int axis, const std::vector<float>& k, float bg) {
+  const int r = static_cast<int>(k.size() / 2);
+  const int64_t n = d[axis];
+  const int64_t stride = axis == 0 ? 1 : (axis == 1 ? d.x : d.x * d.y);
+  // Lines along `axis`, enumerated by the other two coordinates; parallel over z (or y for z).
+  const int64_t outer = axis == 2 ? d.y : d.z;
+  parallelFor(outer, [&](int64_t o0, int64_t o1) {
+    std::vector<float> line(static_cast<size_t>(n + 2 * r));
+    for (int64_t o = o0; o < o1; ++o) {
+      const int64_t inner = axis == 0 ? d.y : d.x;
+      for (int64_t t = 0; t < inner; ++t) {
+        int64_t base;
+        if (axis == 0) base = o * d.x * d.y + t * d.x;
+        else if (axis == 1) base = o * d.x * d.y + t;
+        else base = o * d.x + t;
+        for (int i = 0; i < r; ++i) line[i] = line[n + r + i] = bg;
+        for (int64_t s = 0; s < n; ++s) line[s + r] = src[base + s * stride];
+        for (int64_t s = 0; s < n; ++s) {
+          float acc = 0;
+          const float* l = line.data() + s;
+          for (size_t q = 0; q < k.size(); ++q) acc += k[q] * l[q];
+          dst[base + s * stride] = acc;
+        }
+      }
+    }
+  });
+}
+
+}  // namespace
+
+VolumeF32 gaussianBlur(const VolumeI16& ct, double sigmaMm, Progress& progress) {
+  VolumeF32 a(ct.geometry(), 0.0f, ct.background());
+  const int16_t* s = ct.data();
+  float* pa = a.data();
+  for (size_t i = 0; i < ct.size(); ++i) pa[i] = s[i];
+  if (!(sigmaMm > 0)) return a;
+  VolumeF32 b(ct.geometry(), 0.0f, ct.background());
+  const float bg = static_cast<float>(ct.background());
+  progress.begin("gaussian blur", 3);
+  const Vec3 sp = ct.geometry().spacing;
+  blurAxis(a.data(), b.data(), ct.dims(), 0, gaussianKernel(sigmaMm / sp.x), bg);
+  progress.advance();
+  blurAxis(b.data(), a.data(), ct.dims(), 1, gaussianKernel(sigmaMm / sp.y), bg);
+  progress.advance();
+  blurAxis(a.data(), b.data(), ct.dims(), 2, gaussianKernel(sigmaMm / sp.z), bg);
+  progress.end();
+  return b;
+}
+
+SpeedImage thresholdSpeed(const VolumeI16& ct, const ThresholdSpeedParams& p, Progress& progress) {
+  if (!(p.upper > p.lower)) throw Error("threshold speed: upper must exceed lower");
+  if (!(p.smoothnessHu > 0)) throw Error("threshold speed: smoothness must be > 0 HU");
+  SpeedImage out{VolumeF32(ct.geometry(), 0.0f, -1.0), SpeedType::Threshold};
+  const int16_t* s = ct.data();
+  float* o = out.values.data();
+  // A lookup table over the int16 range: tanh once per value, not per voxel.
+  std::vector<float> lut(65536);
+  for (int v = -32768; v <= 32767; ++v)
+    lut[v + 32768] = static_cast<float>(std::tanh(std::min(v - p.lower, p.upper - v) / p.smoothnessHu));
+  progress.begin("threshold speed", 1);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, ct.size(), 1 << 16),
+                    [&](const tbb::blocked_range<size_t>& r) {
+                      for (size_t i = r.begin(); i < r.end(); ++i) o[i] = lut[s[i] + 32768];
+                    });
+  progress.end();
+  return out;
+}
+
+SpeedImage edgeSpeed(const VolumeI16& ct, const EdgeSpeedParams& p, Progress& progress) {
+  if (!(p.kappaHuPerMm > 0) || !(p.exponent > 0)) throw Error("edge speed: kappa and exponent must be > 0");
+  const VolumeF32 blurred = gaussianBlur(ct, p.sigmaMm, progress);
+  SpeedImage out{VolumeF32(ct.geometry(), 0.0f, 1.0), SpeedType::Edge};
+  const Dims d = ct.dims();
+  const Vec3 sp = ct.geometry().spacing;
+  const float* b = blurred.data();
+  float* o = out.values.data();
+  const int64_t sy = d.x, sz = d.x * d.y;
+  progress.begin("edge speed", static_cast<uint64_t>(d.z));
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k) {
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const int64_t p0 = k * sz + j * sy + i;
+          // Central differences, one-sided at the border of the grid.
+          auto diff = [&](int64_t c, int64_t n, int64_t stride, double h) {
+            const int64_t lo = c > 0 ? -1 : 0, hi = c + 1 < n ? 1 : 0;
+            if (lo == hi) return 0.0;
+            return (double(b[p0 + hi * stride]) - b[p0 + lo * stride]) / (double(hi - lo) * h);
+          };
+          const double gx = diff(i, d.x, 1, sp.x), gy = diff(j, d.y, sy, sp.y), gz = diff(k, d.z, sz, sp.z);
+          const double gm = std::sqrt(gx * gx + gy * gy + gz * gz) / p.kappaHuPerMm;
+          o[p0] = static_cast<float>(1.0 / (1.0 + std::pow(gm, p.exponent)));
+        }
+      progress.advance();
+    }
+  });
+  progress.end();
+  return out;
+}
+
+}  // namespace vellum::segmentation
