@@ -2,6 +2,7 @@
 
 #include <sstream>
 
+#include "empty_space.hpp"
 #include "render_common.hpp"
 
 namespace vellum::render::detail {
@@ -46,6 +47,14 @@ uniform sampler3D uMap;      // source index coordinates per map node
 #endif
 #ifdef ATTRIBUTES
 uniform sampler3D uAttr;     // dL, da, db, density scale
+#endif
+#ifdef SKIP_EMPTY
+uniform sampler3D uOccupancy;  // per block: 1 where the TF has opacity in its value range
+uniform ivec3 uBlocks;
+#endif
+#ifdef SKIP_MIP
+uniform sampler3D uBlockMax;   // per block: largest value its samples can see
+uniform ivec3 uBlocks;
 #endif
 
 float sampleValue(vec3 idx) {
@@ -127,6 +136,24 @@ void main() {
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
     for (int k = k0; k <= k1; ++k) {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
+#if defined(SKIP_EMPTY) || defined(SKIP_MIP)
+      // In a block that cannot change the result (every sample has opacity 0, or for MIP
+      // none exceeds the maximum so far): jump to the first step beyond it.
+      ivec3 b = clamp(ivec3(floor(p / float(BLOCK_SIZE))), ivec3(0), uBlocks - 1);
+#ifdef SKIP_EMPTY
+      bool skip = texelFetch(uOccupancy, b, 0).r < 0.5;
+#else
+      bool skip = texelFetch(uBlockMax, b, 0).r <= maxV;
+#endif
+      if (skip) {
+        vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
+        vec3 hi = mix(vec3((b + 1) * BLOCK_SIZE), uBoxDims + 2.0, equal(b, uBlocks - 1));
+        vec3 tb = (mix(lo, hi, greaterThan(d, vec3(0.0))) - o) * inv;
+        float tExit = min(min(tb.x, tb.y), tb.z);
+        k = max(k, int(ceil(tExit / uStep - jitter)) - 1);
+        continue;
+      }
+#endif
 #ifdef DEFORMED
       vec3 mapTc = (p + 0.5) / uBoxDims;
       vec3 u = texture(uMap, mapTc).xyz;
@@ -175,6 +202,8 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.shading && !v.mip) s << "#define SHADING\n";
   if (v.deformed) s << "#define DEFORMED\n";
   if (v.attributes && v.deformed && !v.mip) s << "#define ATTRIBUTES\n";
+  if (!v.deformed) s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
+  s << "#define BLOCK_SIZE " << kBlockSize << "\n";
   s << "#define TF_SIZE " << kTfTableSize << "\n";
   s << "#define MAX_STEPS " << kMaxStepsPerRay << "\n";
   s << std::showpoint;

@@ -6,6 +6,7 @@
 #include <map>
 #include <optional>
 
+#include "empty_space.hpp"
 #include "gl_util.hpp"
 #include "normal_volume.hpp"
 #include "render_common.hpp"
@@ -18,7 +19,9 @@ using namespace detail;
 
 namespace {
 
-enum TextureUnit : GLint { kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr };
+enum TextureUnit : GLint {
+  kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax
+};
 
 struct VoxelFormat {
   GLenum internal, type;
@@ -57,7 +60,9 @@ void uniform1(GLuint p, const char* name, double v) {
 
 struct VolumeRenderer::Impl {
   GlContext& context;
-  GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0;
+  GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0, occupancyTex = 0,
+         blockMaxTex = 0;
+  BlockRanges blocks;
   GLuint fbo = 0, colorRb = 0, vao = 0;
   int fbWidth = 0, fbHeight = 0;
   bool hasVolume = false;
@@ -82,7 +87,7 @@ struct VolumeRenderer::Impl {
   ~Impl() {
     context.makeCurrent();
     for (auto& [key, p] : programs) glDeleteProgram(p);
-    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex}) deleteTexture(*t);
+    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &occupancyTex, &blockMaxTex}) deleteTexture(*t);
     if (fbo) glDeleteFramebuffers(1, &fbo);
     if (colorRb) glDeleteRenderbuffers(1, &colorRb);
     glDeleteVertexArrays(1, &vao);
@@ -98,6 +103,8 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uTf"), kUnitTf);
     glUniform1i(glGetUniformLocation(p, "uMap"), kUnitMap);
     glUniform1i(glGetUniformLocation(p, "uAttr"), kUnitAttr);
+    glUniform1i(glGetUniformLocation(p, "uOccupancy"), kUnitOccupancy);
+    glUniform1i(glGetUniformLocation(p, "uBlockMax"), kUnitBlockMax);
     programs[v.key()] = p;
     return p;
   }
@@ -160,6 +167,34 @@ struct VolumeRenderer::Impl {
     checkGlError("normal volume upload");
   }
 
+  void uploadBlocks(BlockRanges ranges) {
+    blocks = std::move(ranges);
+    const Dims& nb = blocks.blocks;
+    deleteTexture(occupancyTex);
+    glGenTextures(1, &occupancyTex);
+    glBindTexture(GL_TEXTURE_3D, occupancyTex);
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_R8, GLsizei(nb.x), GLsizei(nb.y), GLsizei(nb.z));
+    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
+    deleteTexture(blockMaxTex);
+    glGenTextures(1, &blockMaxTex);
+    glBindTexture(GL_TEXTURE_3D, blockMaxTex);
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_R32F, GLsizei(nb.x), GLsizei(nb.y), GLsizei(nb.z));
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(nb.x), GLsizei(nb.y), GLsizei(nb.z), GL_RED,
+                    GL_FLOAT, blocks.maxValue.data());
+    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
+    checkGlError("block textures");
+  }
+
+  /// Per render: which blocks the transfer function makes visible (tiny upload).
+  void updateOccupancy(const TfTable& tf) {
+    const std::vector<uint8_t> occ = blockOccupancy(blocks, tf);
+    const Dims& nb = blocks.blocks;
+    glBindTexture(GL_TEXTURE_3D, occupancyTex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(nb.x), GLsizei(nb.y), GLsizei(nb.z), GL_RED,
+                    GL_UNSIGNED_BYTE, occ.data());
+  }
+
   void uploadMap() {
     if (!map || mapUploaded || !hasVolume) return;
     const Dims& d = map->grid.dims;
@@ -198,6 +233,7 @@ void VolumeRenderer::setVolume(const AnyVolume& volume) {
   impl_->hasVolume = false;
   std::visit([&](const auto& v) { impl_->uploadVolume(v); }, volume);
   impl_->uploadNormals(computeNormalVolume(volume));
+  impl_->uploadBlocks(computeBlockRanges(volume));
   impl_->source = g;
   impl_->hasVolume = true;
   impl_->mapUploaded = false;  // source index coordinates depend on the source geometry
@@ -250,12 +286,25 @@ RgbaImage VolumeRenderer::render(const RenderSettings& s) {
     const double width = s.windowWidth > 0 ? s.windowWidth : 1.0;
     uniform1(p, "uWinLo", s.windowCenter - 0.5 * width);
     uniform1(p, "uWinInvWidth", 1.0 / width);
+    if (!variant.deformed) {
+      glActiveTexture(GL_TEXTURE0 + kUnitBlockMax);
+      glBindTexture(GL_TEXTURE_3D, m.blockMaxTex);
+      const Dims& nb = m.blocks.blocks;
+      glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(nb.x), GLint(nb.y), GLint(nb.z));
+    }
   } else {
     const TfTable tf = buildTfTable(s, f.stepMm);
     glActiveTexture(GL_TEXTURE0 + kUnitTf);
     glBindTexture(GL_TEXTURE_1D, m.tfTex);
     glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfTableSize, GL_RGBA, GL_FLOAT, tf.rgba.data());
     uniform1(p, "uTfLo", tf.lo);
+    if (!variant.deformed) {
+      m.updateOccupancy(tf);
+      glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
+      glBindTexture(GL_TEXTURE_3D, m.occupancyTex);
+      const Dims& nb = m.blocks.blocks;
+      glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(nb.x), GLint(nb.y), GLint(nb.z));
+    }
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
   }
   glUniform2f(glGetUniformLocation(p, "uViewport"), float(s.width), float(s.height));
