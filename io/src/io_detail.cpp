@@ -273,16 +273,25 @@ AnyVolume decodeVoxels(const fs::path& path, std::vector<uint8_t>&& bytes, Sampl
   throw FileError(path, "unsupported sample type");
 }
 
-std::vector<uint8_t> encodeVoxels(const AnyVolume& v, Endian endian) {
+ByteView voxelBytes(const AnyVolume& v) {
   return std::visit(
-      [&](const auto& vol) {
+      [](const auto& vol) {
         using T = typename std::decay_t<decltype(vol)>::value_type;
-        std::vector<uint8_t> out(vol.size() * sizeof(T));
-        if (!out.empty()) std::memcpy(out.data(), vol.data(), out.size());
-        if (endian != hostEndian()) swapInPlace(out.data(), vol.size(), sizeof(T));
-        return out;
+        return ByteView{reinterpret_cast<const uint8_t*>(vol.data()), vol.size() * sizeof(T)};
       },
       v);
+}
+
+void writeBinaryFile(const fs::path& tmp, const std::string& prefix, ByteView body) {
+  std::ofstream out(tmp, std::ios::binary);
+  if (!out) throw FileError(tmp, "cannot open for writing");
+  out.write(prefix.data(), static_cast<std::streamsize>(prefix.size()));
+  constexpr size_t kChunk = size_t{64} << 20;
+  for (size_t done = 0; done < body.size && out; done += kChunk)
+    out.write(reinterpret_cast<const char*>(body.data + done),
+              static_cast<std::streamsize>(std::min(kChunk, body.size - done)));
+  out.close();
+  if (!out) throw FileError(tmp, "write failed (disk full?)");
 }
 
 void checkAllocation(const fs::path& path, const Dims& d, uint64_t bytesPerSample) {

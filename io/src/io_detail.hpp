@@ -38,8 +38,14 @@ std::vector<uint8_t> inflateExact(const fs::path& path, const uint8_t* src, size
 /// Compresses `n` bytes as a gzip (gzipWrapper) or zlib stream at a fast level.
 std::vector<uint8_t> deflateBytes(const void* data, size_t n, bool gzipWrapper);
 
-/// Bytes of the voxels of `v` in the given byte order.
-std::vector<uint8_t> encodeVoxels(const AnyVolume& v, Endian endian);
+/// The voxels of `v` as bytes in host order (writers store host order and say so), no copy.
+struct ByteView {
+  const uint8_t* data = nullptr;
+  size_t size = 0;
+};
+ByteView voxelBytes(const AnyVolume& v);
+/// Writes prefix + body to `tmp`; FileError on failure (disk full ...).
+void writeBinaryFile(const fs::path& tmp, const std::string& prefix, ByteView body);
 
 /// Turns `bytes` (geometry.dims.voxelCount() samples of `type`, byte order `endian`) into a
 /// volume. int8 -> int16; int32/uint32 -> int16 or uint16 when every value fits, else float32;

@@ -184,21 +184,11 @@ void saveMetaImage(const AnyVolume& v, const fs::path& path, const std::string& 
   h << "ElementType = " << metTypeName(voxelTypeOf(v)) << "\n"
     << "ElementDataFile = " << (local ? "LOCAL" : dataName) << "\n";
   const std::string header = h.str();
-  const std::vector<uint8_t> data = encodeVoxels(v, hostEndian());
-
-  auto writeFile = [](const fs::path& tmp, const std::string& prefix, const std::vector<uint8_t>* body) {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw FileError(tmp, "cannot open for writing");
-    out.write(prefix.data(), static_cast<std::streamsize>(prefix.size()));
-    if (body) out.write(reinterpret_cast<const char*>(body->data()), static_cast<std::streamsize>(body->size()));
-    out.close();
-    if (!out) throw FileError(tmp, "write failed (disk full?)");
-  };
   if (local) {
-    writeAtomically(path, [&](const fs::path& tmp) { writeFile(tmp, header, &data); });
+    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, voxelBytes(v)); });
   } else {
-    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeFile(tmp, "", &data); });
-    writeAtomically(path, [&](const fs::path& tmp) { writeFile(tmp, header, nullptr); });
+    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", voxelBytes(v)); });
+    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, {}); });
   }
 }
 

@@ -174,7 +174,11 @@ std::vector<uint8_t> readAscii(const fs::path& path, uint64_t offset, uint64_t c
                                SampleType type) {
   const uint64_t size = fileSize(path);
   std::vector<uint8_t> raw = readBytes(path, offset, size - offset, nullptr);
-  checkMemoryBudget(count * sampleSize(type), "ascii voxel data");
+  try {
+    checkMemoryBudget(count * sampleSize(type), "ascii voxel data");
+  } catch (const Error& e) {
+    throw FileError(path, e.what());
+  }
   std::vector<uint8_t> out(static_cast<size_t>(count * sampleSize(type)));
   std::string text(raw.begin(), raw.end());
   raw.clear();
@@ -357,22 +361,17 @@ void saveNrrd(const AnyVolume& v, const fs::path& path, bool gzip, const std::st
   hdr << "\n";
   const std::string header = hdr.str();
 
-  std::vector<uint8_t> data = encodeVoxels(v, hostEndian());
-  if (gzip) data = deflateBytes(data.data(), data.size(), true);
-
-  auto writeFile = [](const fs::path& tmp, const std::string& prefix, const std::vector<uint8_t>& body) {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw FileError(tmp, "cannot open for writing");
-    out.write(prefix.data(), static_cast<std::streamsize>(prefix.size()));
-    out.write(reinterpret_cast<const char*>(body.data()), static_cast<std::streamsize>(body.size()));
-    out.close();
-    if (!out) throw FileError(tmp, "write failed (disk full?)");
-  };
+  std::vector<uint8_t> packed;
+  ByteView body = voxelBytes(v);
+  if (gzip) {
+    packed = deflateBytes(body.data, body.size, true);
+    body = {packed.data(), packed.size()};
+  }
   if (detached) {
-    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeFile(tmp, "", data); });
-    writeAtomically(path, [&](const fs::path& tmp) { writeFile(tmp, header, {}); });
+    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", body); });
+    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, {}); });
   } else {
-    writeAtomically(path, [&](const fs::path& tmp) { writeFile(tmp, header, data); });
+    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, body); });
   }
 }
 

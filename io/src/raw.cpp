@@ -140,21 +140,8 @@ void saveRaw(const AnyVolume& v, const fs::path& path, const std::string& modali
   j["direction"] = dir;
   if (!modality.empty()) j["modality"] = modality;
   const std::string text = j.dump(2) + "\n";
-  const std::vector<uint8_t> data = encodeVoxels(v, hostEndian());
-
-  writeAtomically(path, [&](const fs::path& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw FileError(tmp, "cannot open for writing");
-    out.write(reinterpret_cast<const char*>(data.data()), static_cast<std::streamsize>(data.size()));
-    out.close();
-    if (!out) throw FileError(tmp, "write failed (disk full?)");
-  });
-  writeAtomically(sidecarPath(path), [&](const fs::path& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.close();
-    if (!out) throw FileError(tmp, "write failed");
-  });
+  writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", voxelBytes(v)); });
+  writeAtomically(sidecarPath(path), [&](const fs::path& tmp) { writeBinaryFile(tmp, text, {}); });
 }
 
 }  // namespace vellum::io::detail

@@ -41,6 +41,12 @@ std::string zlibString(const std::string& s) {
 }
 
 template <class T>
+void expectSameVoxels(const Volume<T>& a, const AnyVolume& b) {
+  ASSERT_TRUE(std::holds_alternative<Volume<T>>(b)) << "voxel type changed";
+  EXPECT_EQ(a.voxels(), std::get<Volume<T>>(b).voxels());
+}
+
+template <class T>
 T at(const AnyVolume& v, int64_t i, int64_t j, int64_t k) {
   return std::get<Volume<T>>(v)(i, j, k);
 }
@@ -310,4 +316,24 @@ TEST(Dispatch, MissingFileAndWriteOnlyFormats) {
   opt.format = "nrrd";
   io::saveVolume(makeCt(), dir / "forced.bin", opt);
   EXPECT_EQ(readFile(dir / "forced.bin").rfind("NRRD", 0), 0u);
+}
+
+TEST(Dispatch, DicomFolderRoundTripThroughSaveAndLoadVolume) {
+  const fs::path dir = tempDir("dispatch-dicom");
+  const VolumeI16 ct = makeCt({8, 6, 5});
+  io::saveVolume(ct, dir / "series");  // no extension: a folder receiving a DICOM series
+  ASSERT_TRUE(fs::is_directory(dir / "series"));
+  EXPECT_EQ(leftoverTemps(dir), 0);
+  const auto lv = io::loadVolume(dir / "series");
+  EXPECT_EQ(lv.format, "dicom");
+  EXPECT_EQ(lv.modality, "CT");
+  expectSameVoxels(ct, lv.volume);
+  expectGeometryNear(ct.geometry(), geometryOf(lv.volume), 1e-4);
+  // One slice file without an extension is recognised by content.
+  fs::path first;
+  for (const auto& e : fs::directory_iterator(dir / "series")) first = e.path();
+  fs::copy_file(first, dir / "IM0001");
+  EXPECT_EQ(io::loadVolume(dir / "IM0001").format, "dicom");
+  writeFile(dir / "README", "not an image");
+  EXPECT_THROW(io::loadVolume(dir / "README"), FileError);
 }
