@@ -282,14 +282,19 @@ ByteView voxelBytes(const AnyVolume& v) {
       v);
 }
 
-void writeBinaryFile(const fs::path& tmp, const std::string& prefix, ByteView body) {
+void writeBinaryFile(const fs::path& tmp, const std::string& prefix, ByteView body,
+                     Progress* progress) {
   std::ofstream out(tmp, std::ios::binary);
   if (!out) throw FileError(tmp, "cannot open for writing");
   out.write(prefix.data(), static_cast<std::streamsize>(prefix.size()));
-  constexpr size_t kChunk = size_t{64} << 20;
-  for (size_t done = 0; done < body.size && out; done += kChunk)
+  constexpr size_t kChunk = size_t{16} << 20;
+  if (progress) progress->begin("writing " + tmp.filename().string(), (body.size + kChunk - 1) / kChunk);
+  for (size_t done = 0; done < body.size && out; done += kChunk) {
     out.write(reinterpret_cast<const char*>(body.data + done),
               static_cast<std::streamsize>(std::min(kChunk, body.size - done)));
+    if (progress) progress->advance();
+  }
+  if (progress) progress->end();
   out.close();
   if (!out) throw FileError(tmp, "write failed (disk full?)");
 }

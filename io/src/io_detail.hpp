@@ -44,8 +44,11 @@ struct ByteView {
   size_t size = 0;
 };
 ByteView voxelBytes(const AnyVolume& v);
-/// Writes prefix + body to `tmp`; FileError on failure (disk full ...).
-void writeBinaryFile(const fs::path& tmp, const std::string& prefix, ByteView body);
+/// Writes prefix + body to `tmp` in 16 MiB chunks, reporting to `progress` (which may cancel:
+/// vellum::Cancelled propagates and writeAtomically removes the temporary); FileError on
+/// failure (disk full ...).
+void writeBinaryFile(const fs::path& tmp, const std::string& prefix, ByteView body,
+                     Progress* progress = nullptr);
 
 /// Turns `bytes` (geometry.dims.voxelCount() samples of `type`, byte order `endian`) into a
 /// volume. int8 -> int16; int32/uint32 -> int16 or uint16 when every value fits, else float32;
@@ -95,19 +98,20 @@ struct ExtraFields {
 LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFields* extra);
 /// `labels`: write the label table (vellum_label_* and Slicer Segment*_ fields).
 void saveNrrd(const AnyVolume& v, const fs::path& path, bool gzip, const std::string& modality,
-              const std::vector<Label>* labels);
+              const std::vector<Label>* labels, Progress* progress);
 
 LoadedVolume loadRaw(const fs::path& path, const LoadOptions& options);
-void saveRaw(const AnyVolume& v, const fs::path& path, const std::string& modality);
+void saveRaw(const AnyVolume& v, const fs::path& path, const std::string& modality, Progress* progress);
 /// "<file>.raw.json"
 fs::path sidecarPath(const fs::path& raw);
 
 LoadedVolume loadMetaImage(const fs::path& path, const LoadOptions& options);
-void saveMetaImage(const AnyVolume& v, const fs::path& path, const std::string& modality);
+void saveMetaImage(const AnyVolume& v, const fs::path& path, const std::string& modality,
+                   Progress* progress);
 
 LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options);
 
 LoadedVolume loadVti(const fs::path& path, const LoadOptions& options);
-void saveVti(const AnyVolume& v, const fs::path& path, const std::string& modality);
+void saveVti(const AnyVolume& v, const fs::path& path, const std::string& modality, Progress* progress);
 
 }  // namespace vellum::io::detail

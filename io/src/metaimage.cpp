@@ -166,7 +166,8 @@ LoadedVolume loadMetaImage(const fs::path& path, const LoadOptions& options) {
   return out;
 }
 
-void saveMetaImage(const AnyVolume& v, const fs::path& path, const std::string& modality) {
+void saveMetaImage(const AnyVolume& v, const fs::path& path, const std::string& modality,
+                   Progress* progress) {
   const Geometry& g = geometryOf(v);
   const bool local = lower(path.extension().string()) == ".mha";
   const std::string dataName = path.stem().string() + ".raw";
@@ -185,9 +186,9 @@ void saveMetaImage(const AnyVolume& v, const fs::path& path, const std::string& 
     << "ElementDataFile = " << (local ? "LOCAL" : dataName) << "\n";
   const std::string header = h.str();
   if (local) {
-    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, voxelBytes(v)); });
+    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, voxelBytes(v), progress); });
   } else {
-    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", voxelBytes(v)); });
+    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", voxelBytes(v), progress); });
     writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, {}); });
   }
 }

@@ -334,7 +334,7 @@ LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFie
 }
 
 void saveNrrd(const AnyVolume& v, const fs::path& path, bool gzip, const std::string& modality,
-              const std::vector<Label>* labels) {
+              const std::vector<Label>* labels, Progress* progress) {
   const Geometry& g = geometryOf(v);
   const bool detached = lower(path.extension().string()) == ".nhdr";
   const std::string dataName = path.stem().string() + (gzip ? ".raw.gz" : ".raw");
@@ -364,14 +364,16 @@ void saveNrrd(const AnyVolume& v, const fs::path& path, bool gzip, const std::st
   std::vector<uint8_t> packed;
   ByteView body = voxelBytes(v);
   if (gzip) {
+    if (progress) progress->begin("compressing " + path.filename().string(), 1);
     packed = deflateBytes(body.data, body.size, true);
+    if (progress) progress->end();
     body = {packed.data(), packed.size()};
   }
   if (detached) {
-    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", body); });
+    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", body, progress); });
     writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, {}); });
   } else {
-    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, body); });
+    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, body, progress); });
   }
 }
 

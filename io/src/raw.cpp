@@ -126,7 +126,7 @@ LoadedVolume loadRaw(const fs::path& path, const LoadOptions& options) {
   return out;
 }
 
-void saveRaw(const AnyVolume& v, const fs::path& path, const std::string& modality) {
+void saveRaw(const AnyVolume& v, const fs::path& path, const std::string& modality, Progress* progress) {
   const Geometry& g = geometryOf(v);
   json j;
   j["dims"] = {g.dims.x, g.dims.y, g.dims.z};
@@ -140,7 +140,7 @@ void saveRaw(const AnyVolume& v, const fs::path& path, const std::string& modali
   j["direction"] = dir;
   if (!modality.empty()) j["modality"] = modality;
   const std::string text = j.dump(2) + "\n";
-  writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", voxelBytes(v)); });
+  writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", voxelBytes(v), progress); });
   writeAtomically(sidecarPath(path), [&](const fs::path& tmp) { writeBinaryFile(tmp, text, {}); });
 }
 

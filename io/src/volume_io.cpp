@@ -92,10 +92,10 @@ void saveVolume(const AnyVolume& volume, const fs::path& path, const SaveOptions
   const std::string format = options.format.empty() ? formatForPath(path) : normalizedFormat(path, options.format);
   const std::string modality = modalityToStore(volume, options.modality);
   if (format == "dicom") return detail::saveDicomSeries(volume, path, options);
-  if (format == "nrrd") return saveNrrd(volume, path, options.gzip, modality, nullptr);
-  if (format == "raw") return saveRaw(volume, path, modality);
-  if (format == "metaimage") return saveMetaImage(volume, path, modality);
-  if (format == "vti") return saveVti(volume, path, modality);
+  if (format == "nrrd") return saveNrrd(volume, path, options.gzip, modality, nullptr, options.progress);
+  if (format == "raw") return saveRaw(volume, path, modality, options.progress);
+  if (format == "metaimage") return saveMetaImage(volume, path, modality, options.progress);
+  if (format == "vti") return saveVti(volume, path, modality, options.progress);
   throw FileError(path, "writing " + format + " is not supported (" + kSupported + ")");
 }
 
@@ -118,7 +118,7 @@ void saveLabels(const LabelVolume& labels, const fs::path& path, const SaveOptio
   AnyVolume ids = maxId < 256 ? AnyVolume(convertVolume<uint8_t>(AnyVolume(labels.ids())))
                               : AnyVolume(labels.ids());
   std::visit([](auto& v) { v.setBackground(0.0); }, ids);
-  if (format == "nrrd") return saveNrrd(ids, path, options.gzip, "", &labels.table());
+  if (format == "nrrd") return saveNrrd(ids, path, options.gzip, "", &labels.table(), options.progress);
   SaveOptions plain = options;
   plain.format = format;
   plain.modality = "";

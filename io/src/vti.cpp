@@ -137,7 +137,7 @@ LoadedVolume loadVti(const fs::path& path, const LoadOptions& options) {
   return out;
 }
 
-void saveVti(const AnyVolume& v, const fs::path& path, const std::string& modality) {
+void saveVti(const AnyVolume& v, const fs::path& path, const std::string& modality, Progress* progress) {
   const Geometry& g = geometryOf(v);
   vtkNew<vtkImageData> img;
   img->SetDimensions(int(g.dims.x), int(g.dims.y), int(g.dims.z));
@@ -171,7 +171,9 @@ void saveVti(const AnyVolume& v, const fs::path& path, const std::string& modali
     img->GetFieldData()->AddArray(s);
   }
 
+  if (progress) progress->begin("writing " + path.filename().string(), 1);
   writeAtomically(path, [&](const fs::path& tmp) {
+    if (progress) progress->checkCancelled();
     vtkNew<vtkXMLImageDataWriter> writer;
     ErrorCatcher errors(writer);
     writer->SetInputData(img);
@@ -183,6 +185,7 @@ void saveVti(const AnyVolume& v, const fs::path& path, const std::string& modali
     if (writer->Write() != 1 || !errors.message.empty())
       throw FileError(path, "VTK writer failed: " + shortVtkMessage(errors.message));
   });
+  if (progress) progress->end();
 }
 
 }  // namespace vellum::io::detail

@@ -93,6 +93,12 @@ const std::vector<Malformed>& cases() {
        }},
       {"nrrd_gzip_garbage", "a.nrrd", "corrupt",
        [](auto d) { writeFile(d / "a.nrrd", nrrd("type: short\ndimension: 3\nsizes: 2 1 2\nendian: little\nencoding: gzip", "not gzip at all")); }},
+      {"nrrd_gzip_longer_than_sizes", "a.nrrd", "more than the expected",
+       [](auto d) {  // a 16x16x8 stream under a header announcing 2x1x2 (decompression bomb)
+         const auto s = validFile(d, "g.nrrd");
+         const auto data = s.substr(s.find("\n\n") + 2);
+         writeFile(d / "a.nrrd", nrrd("type: short\ndimension: 3\nsizes: 2 1 2\nendian: little\nencoding: gzip", data));
+       }},
       {"nrrd_unknown_encoding", "a.nrrd", "encoding",
        [](auto d) { writeFile(d / "a.nrrd", nrrd("type: short\ndimension: 3\nsizes: 2 1 2\nendian: little\nencoding: bzip2")); }},
       {"nrrd_unknown_type", "a.nrrd", "unsupported nrrd type",
