@@ -41,14 +41,32 @@ struct FileHeader {
   std::vector<Frame> frames;  ///< one per frame (enhanced) or exactly one
 };
 
+/// A file that looks like DICOM but cannot be read (truncated, corrupt).
+struct Unreadable {
+  fs::path file;
+  std::string problem;
+  std::string seriesUid;  ///< when it could be recovered before the damage, else empty
+};
+
 /// Everything found under a path.
 struct ScanResult {
   std::vector<FileHeader> images;     ///< DICOM image files with a SeriesInstanceUID
   int64_t skippedNonDicom = 0;        ///< files that are not DICOM at all
   int64_t skippedNonImage = 0;        ///< DICOM without pixel rows/columns (DICOMDIR, SR...)
-  int64_t skippedUnreadable = 0;      ///< DICOM-looking files whose header does not parse
-  fs::path firstUnreadable;
+  std::vector<Unreadable> unreadable; ///< DICOM-looking files that cannot be read
 };
+
+/// Result of the structural pre-check (dicom_structure.cpp).
+struct StructureCheck {
+  bool ok = false;         ///< every element, sequence and item fits in the file
+  bool dicomLike = false;  ///< has the "DICM" preamble or a file meta group
+  std::string problem;     ///< why not ok
+  std::string seriesUid;   ///< SeriesInstanceUID when met before any damage
+};
+
+/// Walks the element structure of a file without GDCM (which aborts on some damaged files):
+/// preamble, meta group, every element length, sequences and items, to the end of the file.
+StructureCheck checkStructure(const fs::path& file);
 
 /// Scans a folder recursively (or one file). A single file that is not readable DICOM throws
 /// FileError; in a folder such files are counted and skipped. Reports progress per file.

@@ -26,8 +26,7 @@ std::string skippedSummary(const ScanResult& s) {
     out += std::to_string(n) + " " + what;
   };
   add(s.skippedNonDicom, "not DICOM");
-  add(s.skippedNonImage, "DICOM without an image");
-  add(s.skippedUnreadable, "unreadable DICOM (first: " + s.firstUnreadable.string() + ")");
+  add(s.skippedNonImage, "DICOMDIR");
   return out;
 }
 
@@ -61,7 +60,15 @@ using FrameKey = std::pair<fs::path, int64_t>;
 LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& options) {
   Progress* progress = options.progress;
   ScanResult scanned = scan(path, progress);
+  // A damaged DICOM file may be a slice of the series: refuse rather than leave a hole,
+  // unless it is known to belong to another series.
+  auto refuseUnreadable = [&](const std::string& loadingUid) {
+    for (const Unreadable& u : scanned.unreadable)
+      if (u.seriesUid.empty() || u.seriesUid == loadingUid)
+        throw FileError(u.file, "unreadable DICOM file: " + u.problem);
+  };
   if (scanned.images.empty()) {
+    refuseUnreadable("");
     const std::string skipped = skippedSummary(scanned);
     throw FileError(path, "no DICOM images found" +
                               (skipped.empty() ? std::string(" (empty folder)")
@@ -73,6 +80,12 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
   result.series = summarize(scanned);
   const SeriesInfo& chosen = chooseSeries(path, result.series, options.seriesUid);
   result.seriesUid = chosen.uid;
+  refuseUnreadable(chosen.uid);
+  if (!scanned.unreadable.empty())
+    result.warnings.push_back("skipped " + std::to_string(scanned.unreadable.size()) +
+                              " DICOM file(s) of other series without a readable image (first: " +
+                              scanned.unreadable.front().file.string() + ": " +
+                              scanned.unreadable.front().problem + ")");
   result.modality = chosen.modality;
   if (const std::string skipped = skippedSummary(scanned); !skipped.empty())
     result.warnings.push_back("skipped files: " + skipped);

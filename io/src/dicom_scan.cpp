@@ -72,16 +72,17 @@ struct FileResult {
   std::string problem;
 };
 
-bool hasDicomMagic(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  char buf[132] = {};
-  if (!in.read(buf, sizeof buf)) return false;
-  return std::memcmp(buf + 128, "DICM", 4) == 0;
-}
-
 FileResult readHeader(const fs::path& file) {
   FileResult r;
-  const bool magic = hasDicomMagic(file);
+  // GDCM may abort on damaged files: only structurally sound ones go to GDCM.
+  const StructureCheck structure = checkStructure(file);
+  if (!structure.ok) {
+    r.outcome = structure.dicomLike ? Outcome::Unreadable : Outcome::NotDicom;
+    r.problem = structure.problem;
+    r.header.seriesUid = structure.seriesUid;
+    return r;
+  }
+  const bool magic = structure.dicomLike;
   gdcm::Reader reader;
   reader.SetFileName(file.string().c_str());
   bool ok = false;
@@ -106,13 +107,20 @@ FileResult readHeader(const fs::path& file) {
     r.outcome = Outcome::NotDicom;  // parsed by accident: nothing DICOM-like inside
     return r;
   }
+  h.seriesUid = stringValue(ds, kSeriesUid);
   if (!rows || !cols || *rows == 0 || *cols == 0) {
-    r.outcome = Outcome::NotImage;
+    // A DICOMDIR is an index; anything else without an image may be a damaged slice (a file
+    // cut at an element boundary parses cleanly), so it is reported with its series.
+    if (h.sopClassUid == "1.2.840.10008.1.3.10") {
+      r.outcome = Outcome::NotImage;
+    } else {
+      r.outcome = Outcome::Unreadable;
+      r.problem = "DICOM file holds no image (Rows/Columns missing)";
+    }
     return r;
   }
   h.rows = *rows;
   h.columns = *cols;
-  h.seriesUid = stringValue(ds, kSeriesUid);
   h.modality = stringValue(ds, kModality);
   h.description = stringValue(ds, kSeriesDescription);
   h.sopInstanceUid = stringValue(ds, kSopInstance);
@@ -196,8 +204,7 @@ ScanResult scan(const fs::path& path, Progress* progress) {
     switch (r.outcome) {
       case Outcome::NotDicom: throw FileError(path, "not a DICOM file");
       case Outcome::Unreadable: throw FileError(path, "unreadable DICOM file: " + r.problem);
-      case Outcome::NotImage:
-        throw FileError(path, "DICOM file holds no image (no Rows/Columns)");
+      case Outcome::NotImage: throw FileError(path, "DICOM file holds no image (a DICOMDIR?)");
       case Outcome::Image: result.images.push_back(std::move(r.header)); break;
     }
     return result;
@@ -225,7 +232,7 @@ ScanResult scan(const fs::path& path, Progress* progress) {
       case Outcome::NotDicom: ++result.skippedNonDicom; break;
       case Outcome::NotImage: ++result.skippedNonImage; break;
       case Outcome::Unreadable:
-        if (result.skippedUnreadable++ == 0) result.firstUnreadable = files[i];
+        result.unreadable.push_back({files[i], r.problem, r.header.seriesUid});
         break;
       case Outcome::Image: result.images.push_back(std::move(r.header)); break;
     }
@@ -261,7 +268,6 @@ bool looksLikeDicom(const std::filesystem::path& file) {
   dicom::quietGdcm();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(file, ec)) return false;
-  if (dicom::hasDicomMagic(file)) return true;
   try {
     return dicom::readHeader(file).outcome != dicom::Outcome::NotDicom;
   } catch (...) {
