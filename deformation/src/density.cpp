@@ -110,7 +110,13 @@ double DensityVolume::rho(const Vec3& aIdx, const Vec3& bIdx) const {
   const Geometry& g = levels_[0].geometry();
   const double minSp = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
   constexpr double kRhoFloorMm = 1e-3;
-  if (!(lenMm > 1e-9)) return kRhoFloorMm;
+  if (!(lenMm > 1e-9)) {
+    if (params_.lengthNormalised)  // the limit of integral / (phi * length) at a point
+      return std::max(static_cast<double>(levels_[0].sampleLinear(aIdx)) /
+                          (params_.phi == PhiRule::Min ? std::max(static_cast<double>(levels_[0].sampleLinear(aIdx)), params_.phiMin)
+                           : params_.phi == PhiRule::Mean ? globalMean_ : 1.0), 1e-6);
+    return kRhoFloorMm;
+  }
   double integral = 0, minI = 1e30;
   if (params_.rays == RayMode::Linear) {
     const int n = std::max(1, static_cast<int>(std::ceil(lenMm / (params_.linearStepVoxels * minSp))));
@@ -148,6 +154,7 @@ double DensityVolume::rho(const Vec3& aIdx, const Vec3& bIdx) const {
     case PhiRule::Mean: phi = globalMean_; break;
     case PhiRule::None: phi = 1.0; break;
   }
+  if (params_.lengthNormalised) return std::max(integral / (phi * lenMm), 1e-6);
   return std::max(integral / phi, kRhoFloorMm);
 }
 

@@ -172,7 +172,12 @@ TEST(Density, RhoIsSegmentLengthInHomogeneousRegionsAndGrowsThroughBone) {
   for (RayMode rays : {RayMode::Linear, RayMode::Conic}) {
     DensityParams p;
     p.rays = rays;
+    p.lengthNormalised = false;  // the paper's rho
     const DensityVolume dv(AnyVolume(v), p);
+    p.lengthNormalised = true;
+    const DensityVolume dn(AnyVolume(v), p);
+    EXPECT_NEAR(dn.rho({5, 5, 5}, {5, 15, 5}), 1.0, 1e-5);
+    EXPECT_GT(dn.rho({5, 20, 20}, {35, 20, 20}), 1.1);
     // Homogeneous soft tissue, anisotropic: 10 voxels along y = 20 mm.
     EXPECT_NEAR(dv.rho({5, 5, 5}, {5, 15, 5}), 20.0, 1e-4);  // float density
     // Across the wall: more than the 30 mm length, by about wall * (I_bone/I_soft - 1).
@@ -183,6 +188,7 @@ TEST(Density, RhoIsSegmentLengthInHomogeneousRegionsAndGrowsThroughBone) {
   }
   DensityParams none;
   none.phi = PhiRule::None;
+  none.lengthNormalised = false;
   const DensityVolume dv(AnyVolume(v), none);
   EXPECT_NEAR(dv.rho({5, 5, 5}, {5, 15, 5}), 20.0 * 1040.0 / 3000.0, 1e-4);
 }

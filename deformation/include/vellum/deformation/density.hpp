@@ -42,6 +42,12 @@ struct DensityParams {
   double coneSlope = 0.15;       ///< conic rays: step and footprint = slope * distance (voxels)
   MipReduction reduction = MipReduction::Mean;
   bool useRhoCache = true;       ///< false: cast rays to u_k for every node and iteration
+  /// Divide rho by the segment length (mm): the weight keeps the power n and only the
+  /// density contrast along the segment (>= 1 with phi = min) modulates it. false = the
+  /// paper's rho, which in homogeneous tissue grows like the distance (effective power n - 1,
+  /// so the map spreads more): on the knee phantom that bent bone MORE than plain MLS, see
+  /// docs/deformation.md; hence the default true.
+  bool lengthNormalised = true;
 };
 
 /// The normalised density I of a source volume and its 3D mip pyramid (level 0 = full

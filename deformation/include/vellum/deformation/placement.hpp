@@ -1,0 +1,26 @@
+#pragma once
+// Where control points start (algorithms.md 1.5): the paper's default on the bounding box with
+// an inner offset, and (beyond the paper) points placed from a segmentation. Sources = targets.
+#include <vector>
+
+#include "vellum/core/label_volume.hpp"
+#include "vellum/deformation/control_point.hpp"
+#include "vellum/deformation/keyframes.hpp"
+
+namespace vellum::deformation {
+
+/// `count` points on a regular a x b x c lattice over the volume's box, inset by
+/// `insetFraction` of the extent on every side; a*b*c = count with the lattice proportions
+/// closest to the box's (16 on a 180x180x220 mm knee: 2 x 2 x 4). Throws for count < 1.
+ControlPoints boxControlPoints(const Geometry& geometry, int count = 16, double insetFraction = 0.1);
+
+/// Points from a label map: for every label present, its centroid and the two surface points
+/// at the ends of its principal axis; plus the 8 corners of the inset box as anchors.
+ControlPoints labelControlPoints(const LabelVolume& labels, double insetFraction = 0.1);
+
+/// The demo's animation: 16 box points; the part above the knee (the volume's centre) swings
+/// about the medio-lateral (x) axis through the centre while the part below swings the other
+/// way: rest -> bend +angle -> bend -angle/2 -> rest, smooth interpolation, `seconds` long.
+KeyframeTrack kneeBendTrack(const Geometry& geometry, double angleDeg = 15.0, double seconds = 2.0);
+
+}  // namespace vellum::deformation

@@ -1,0 +1,166 @@
+#include "vellum/deformation/point_files.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include "vellum/core/error.hpp"
+
+namespace vellum::deformation {
+namespace {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+json readJson(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw FileError(path, "cannot open");
+  try {
+    return json::parse(in);
+  } catch (const json::exception& e) {
+    throw FileError(path, std::string("not valid JSON: ") + e.what());
+  }
+}
+
+void writeJson(const json& j, const fs::path& path) {
+  // Atomic: write a sibling temporary, then rename over the target.
+  std::random_device rd;
+  const fs::path tmp = path.parent_path() / (path.filename().string() + ".tmp" + std::to_string(rd()));
+  {
+    std::ofstream out(tmp);
+    if (!out) throw FileError(path, "cannot write");
+    out << j.dump(2) << "\n";
+    out.close();
+    if (!out) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw FileError(path, "write failed");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw FileError(path, "cannot rename the temporary file into place");
+  }
+}
+
+Vec3 readVec(const json& j, const char* key, const fs::path& path, size_t index) {
+  const std::string where = "point " + std::to_string(index) + ": ";
+  if (!j.contains(key)) throw FileError(path, where + "missing \"" + key + "\"");
+  const json& v = j.at(key);
+  if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
+    throw FileError(path, where + "\"" + key + "\" must be [x, y, z] in mm");
+  const Vec3 r{v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
+  if (!isFinite(r)) throw FileError(path, where + "\"" + key + "\" is not finite");
+  return r;
+}
+
+ControlPoints readPoints(const json& arr, const fs::path& path) {
+  if (!arr.is_array() || arr.empty()) throw FileError(path, "\"points\" must be a non-empty array");
+  ControlPoints pts;
+  for (size_t i = 0; i < arr.size(); ++i) {
+    const json& p = arr[i];
+    if (!p.is_object()) throw FileError(path, "point " + std::to_string(i) + " is not an object");
+    ControlPoint cp;
+    cp.source = readVec(p, "source", path, i);
+    cp.target = p.contains("target") ? readVec(p, "target", path, i) : cp.source;
+    if (p.contains("attributes")) {
+      const json& a = p.at("attributes");
+      auto num = [&](const char* k, double def) {
+        if (!a.contains(k)) return def;
+        if (!a.at(k).is_number())
+          throw FileError(path, "point " + std::to_string(i) + ": attribute \"" + k + "\" must be a number");
+        return a.at(k).get<double>();
+      };
+      cp.attributes = {num("lightness", 0), num("a", 0), num("b", 0), num("density", 1)};
+    }
+    pts.push_back(cp);
+  }
+  return pts;
+}
+
+json writePoints(const ControlPoints& pts) {
+  json arr = json::array();
+  for (const auto& p : pts) {
+    json o{{"source", {p.source.x, p.source.y, p.source.z}},
+           {"target", {p.target.x, p.target.y, p.target.z}}};
+    if (!p.attributes.isDefault())
+      o["attributes"] = {{"lightness", p.attributes.lightness}, {"a", p.attributes.a},
+                         {"b", p.attributes.b}, {"density", p.attributes.density}};
+    arr.push_back(o);
+  }
+  return arr;
+}
+
+void checkUnits(const json& j, const fs::path& path) {
+  if (j.contains("units") && !(j.at("units").is_string() && j.at("units").get<std::string>() == "mm"))
+    throw FileError(path, "\"units\" must be \"mm\"");
+}
+
+}  // namespace
+
+PointFile loadControlPoints(const fs::path& path) {
+  const json j = readJson(path);
+  if (!j.is_object()) throw FileError(path, "expected a JSON object with \"points\"");
+  checkUnits(j, path);
+  PointFile f;
+  if (!j.contains("points")) throw FileError(path, "missing \"points\"");
+  f.points = readPoints(j.at("points"), path);
+  if (j.contains("power")) {
+    if (!j.at("power").is_number() || !(j.at("power").get<double>() > 0))
+      throw FileError(path, "\"power\" must be a number > 0");
+    f.power = j.at("power").get<double>();
+  }
+  return f;
+}
+
+void saveControlPoints(const PointFile& file, const fs::path& path) {
+  json j{{"units", "mm"}, {"points", writePoints(file.points)}};
+  if (file.power) j["power"] = *file.power;
+  writeJson(j, path);
+}
+
+KeyframeTrack loadKeyframes(const fs::path& path) {
+  const json j = readJson(path);
+  if (!j.is_object()) throw FileError(path, "expected a JSON object with \"keyframes\"");
+  checkUnits(j, path);
+  KeyframeTrack t;
+  try {
+    if (j.contains("interpolation"))
+      t.interpolation = parseInterpolation(j.at("interpolation").get<std::string>());
+    if (j.contains("loop")) t.loop = j.at("loop").get<bool>();
+  } catch (const std::exception& e) {
+    throw FileError(path, e.what());
+  }
+  if (!j.contains("keyframes") || !j.at("keyframes").is_array() || j.at("keyframes").empty())
+    throw FileError(path, "\"keyframes\" must be a non-empty array");
+  for (const json& k : j.at("keyframes")) {
+    Keyframe kf;
+    if (k.contains("duration")) {
+      if (!k.at("duration").is_number()) throw FileError(path, "\"duration\" must be a number (s)");
+      kf.durationS = k.at("duration").get<double>();
+    }
+    if (!k.contains("points")) throw FileError(path, "a keyframe is missing \"points\"");
+    kf.points = readPoints(k.at("points"), path);
+    t.keyframes.push_back(std::move(kf));
+  }
+  try {
+    t.validate();
+  } catch (const Error& e) {
+    throw FileError(path, e.what());
+  }
+  return t;
+}
+
+void saveKeyframes(const KeyframeTrack& track, const fs::path& path) {
+  json arr = json::array();
+  for (const auto& kf : track.keyframes)
+    arr.push_back({{"duration", kf.durationS}, {"points", writePoints(kf.points)}});
+  writeJson({{"units", "mm"}, {"interpolation", interpolationName(track.interpolation)},
+             {"loop", track.loop}, {"keyframes", arr}}, path);
+}
+
+}  // namespace vellum::deformation

@@ -1,0 +1,360 @@
+#include "vellum/deformation/rigidity.hpp"
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <mutex>
+#include <variant>
+
+#include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::deformation {
+namespace {
+
+Mat3 mmToIndexOf(const Geometry& g) {
+  const Mat3 toMm = g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0},
+                                                    {0, 0, g.spacing.z});
+  Mat3 inv;
+  if (!toMm.inverse(inv)) throw Error("rigidity: singular geometry");
+  return inv;
+}
+
+// Sums for a Kabsch fit of u ~ R v + t.
+struct FitSums {
+  double n = 0;
+  Eigen::Vector3d sv = Eigen::Vector3d::Zero(), su = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d svu = Eigen::Matrix3d::Zero();
+  void add(const Vec3& v, const Vec3& u) {
+    const Eigen::Vector3d a(v.x, v.y, v.z), b(u.x, u.y, u.z);
+    n += 1; sv += a; su += b; svu += a * b.transpose();
+  }
+  void merge(const FitSums& o) { n += o.n; sv += o.sv; su += o.su; svu += o.svu; }
+};
+
+struct RigidFit {
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  bool valid = false;
+  Vec3 apply(const Vec3& v) const {
+    const Eigen::Vector3d p = r * Eigen::Vector3d(v.x, v.y, v.z) + t;
+    return {p.x(), p.y(), p.z()};
+  }
+};
+
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+RigidFit kabsch(const FitSums& s) {
+  RigidFit f;
+  if (s.n < 4) return f;
+  const Eigen::Vector3d cv = s.sv / s.n, cu = s.su / s.n;
+  const Eigen::Matrix3d h = s.svu - s.n * cv * cu.transpose();  // sum (v - cv)(u - cu)^T
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
+  f.r = svd.matrixV() * d * svd.matrixU().transpose();
+  f.t = cu - f.r * cv;
+  f.valid = true;
+  return f;
+}
+#pragma GCC diagnostic pop
+
+// Exact squared Euclidean distance transform along one line (Felzenszwalb & Huttenlocher),
+// sample spacing h (mm). f: input squared distances, d: output.
+void edt1d(const double* f, double* d, int n, double h, int* v, double* z) {
+  int k = 0;
+  v[0] = 0;
+  z[0] = -1e300;
+  z[1] = 1e300;
+  auto sq = [&](int q) { return (q * h) * (q * h); };
+  for (int q = 1; q < n; ++q) {
+    if (f[q] >= 1e299) continue;
+    while (true) {
+      if (f[v[k]] >= 1e299) { v[k] = q; break; }
+      const double s = ((f[q] + sq(q)) - (f[v[k]] + sq(v[k]))) / (2 * h * h * (q - v[k]));
+      if (s <= z[k]) {
+        if (k == 0) { v[0] = q; break; }
+        --k;
+        continue;
+      }
+      ++k;
+      v[k] = q;
+      z[k] = s;
+      z[k + 1] = 1e300;
+      break;
+    }
+  }
+  k = 0;
+  for (int q = 0; q < n; ++q) {
+    while (z[k + 1] < q) ++k;
+    const double dq = (q - v[k]) * h;
+    d[q] = f[v[k]] >= 1e299 ? 1e300 : dq * dq + f[v[k]];
+  }
+}
+
+// Distance (mm) on `grid` to the nodes where inside[] is true.
+std::vector<float> distanceField(const Geometry& grid, const std::vector<uint8_t>& inside) {
+  const Dims d = grid.dims;
+  const size_t total = static_cast<size_t>(d.voxelCount());
+  std::vector<double> g(total);
+  for (size_t t = 0; t < total; ++t) g[t] = inside[t] ? 0.0 : 1e300;
+  const int64_t len[3] = {d.x, d.y, d.z};
+  const int64_t stride[3] = {1, d.x, d.x * d.y};
+  for (int axis = 0; axis < 3; ++axis) {
+    const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    const int64_t lines = len[a1] * len[a2];
+    parallelFor(lines, [&](int64_t l0, int64_t l1) {
+      const int n = static_cast<int>(len[axis]);
+      std::vector<double> f(n), out(n), z(n + 1);
+      std::vector<int> v(n);
+      for (int64_t l = l0; l < l1; ++l) {
+        const int64_t base = (l % len[a1]) * stride[a1] + (l / len[a1]) * stride[a2];
+        for (int q = 0; q < n; ++q) f[q] = g[static_cast<size_t>(base + q * stride[axis])];
+        edt1d(f.data(), out.data(), n, grid.spacing[axis], v.data(), z.data());
+        for (int q = 0; q < n; ++q) g[static_cast<size_t>(base + q * stride[axis])] = out[q];
+      }
+    }, 16);
+  }
+  std::vector<float> dist(total);
+  for (size_t t = 0; t < total; ++t) dist[t] = static_cast<float>(std::sqrt(std::min(g[t], 1e30)));
+  return dist;
+}
+
+double sampleClamped(const std::vector<float>& f, const Dims& d, const Vec3& idx) {
+  double c[3];
+  int64_t i0[3];
+  const int64_t dd[3] = {d.x, d.y, d.z};
+  for (int a = 0; a < 3; ++a) {
+    const double g = std::clamp(idx[a], 0.0, double(dd[a] - 1));
+    i0[a] = std::min<int64_t>(static_cast<int64_t>(g), std::max<int64_t>(dd[a] - 2, 0));
+    c[a] = dd[a] > 1 ? g - double(i0[a]) : 0.0;
+  }
+  auto at = [&](int64_t i, int64_t j, int64_t k) {
+    return double(f[static_cast<size_t>((std::min(k, d.z - 1) * d.y + std::min(j, d.y - 1)) * d.x +
+                                        std::min(i, d.x - 1))]);
+  };
+  double r = 0;
+  for (int q = 0; q < 8; ++q) {
+    const int ox = q & 1, oy = (q >> 1) & 1, oz = (q >> 2) & 1;
+    const double w = (ox ? c[0] : 1 - c[0]) * (oy ? c[1] : 1 - c[1]) * (oz ? c[2] : 1 - c[2]);
+    if (w != 0) r += w * at(i0[0] + ox, i0[1] + oy, i0[2] + oz);
+  }
+  return r;
+}
+
+// Kabsch fits of v -> u per component over nodes whose u lies in the component.
+std::vector<RigidFit> fitComponents(const ControlVolume& cv, const RigidBodies& bodies) {
+  const int nc = bodies.componentCount();
+  std::vector<FitSums> sums(static_cast<size_t>(nc));
+  std::mutex mutex;
+  const Dims d = cv.grid.dims;
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    std::vector<FitSums> local(static_cast<size_t>(nc));
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const Vec3 u = cv.sourceAt((k * d.y + j) * d.x + i);
+          const uint16_t c = bodies.classAt(u);
+          if (c >= 2) local[c - 2u].add(cv.grid.indexToPhysical({double(i), double(j), double(k)}), u);
+        }
+    std::lock_guard lock(mutex);
+    for (int c = 0; c < nc; ++c) sums[static_cast<size_t>(c)].merge(local[static_cast<size_t>(c)]);
+  });
+  std::vector<RigidFit> fits;
+  for (const auto& s : sums) fits.push_back(kabsch(s));
+  return fits;
+}
+
+}  // namespace
+
+RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
+  // classes: 0 air, 1 soft, 2 rigid (not yet split). Label 6-connected components.
+  RigidBodies rb;
+  const Dims d = classes.dims();
+  std::vector<int64_t> queue;
+  uint16_t next = 2;
+  std::vector<std::pair<uint16_t, int64_t>> sizes;
+  constexpr uint16_t kUnvisited = 0xFFFF;
+  for (auto& v : classes.voxels()) if (v == 2) v = kUnvisited;
+  const int64_t nx = d.x, nxy = d.x * d.y, total = d.voxelCount();
+  for (int64_t start = 0; start < total; ++start) {
+    if (classes.data()[start] != kUnvisited) continue;
+    if (next == kUnvisited - 1) throw Error("rigidity: too many rigid components");
+    const uint16_t id = next++;
+    queue.clear();
+    queue.push_back(start);
+    classes.data()[start] = id;
+    for (size_t h = 0; h < queue.size(); ++h) {
+      const int64_t p = queue[h];
+      const int64_t i = p % nx, j = (p / nx) % d.y, k = p / nxy;
+      const int64_t nb[6] = {i > 0 ? p - 1 : -1, i + 1 < d.x ? p + 1 : -1,
+                             j > 0 ? p - nx : -1, j + 1 < d.y ? p + nx : -1,
+                             k > 0 ? p - nxy : -1, k + 1 < d.z ? p + nxy : -1};
+      for (int64_t q : nb)
+        if (q >= 0 && classes.data()[q] == kUnvisited) {
+          classes.data()[q] = id;
+          queue.push_back(q);
+        }
+    }
+    sizes.push_back({id, static_cast<int64_t>(queue.size())});
+  }
+  // Drop small components (soft tissue) and renumber the rest 2, 3, ...
+  std::vector<uint16_t> remap(next, 1);
+  remap[0] = 0;
+  remap[1] = 1;
+  uint16_t kept = 2;
+  for (const auto& [id, n] : sizes)
+    if (n >= minVoxels) remap[id] = kept++;
+  for (auto& v : classes.voxels()) v = remap[v];
+  rb.components_ = kept - 2;
+  rb.mmToIndex_ = mmToIndexOf(classes.geometry());
+  rb.classes_ = std::move(classes);
+  return rb;
+}
+
+RigidBodies RigidBodies::fromLabels(const LabelVolume& labels, const std::vector<uint16_t>& rigidIds,
+                                    int64_t minVoxels) {
+  VolumeU16 cls(labels.geometry(), 0, 0);
+  const auto& ids = labels.ids().voxels();
+  for (size_t t = 0; t < ids.size(); ++t) {
+    const uint16_t id = ids[t];
+    cls.data()[t] = id == 0 ? 0
+                    : std::find(rigidIds.begin(), rigidIds.end(), id) != rigidIds.end() ? 2 : 1;
+  }
+  return fromMask(std::move(cls), minVoxels);
+}
+
+RigidBodies RigidBodies::fromThreshold(const AnyVolume& ct, double boneHu, double airHu,
+                                       int64_t minVoxels) {
+  VolumeU16 cls(geometryOf(ct), 0, 0);
+  std::visit([&](const auto& vol) {
+    for (size_t t = 0; t < vol.size(); ++t) {
+      const double v = static_cast<double>(vol.data()[t]);
+      cls.data()[t] = v >= boneHu ? 2 : v > airHu ? 1 : 0;
+    }
+  }, ct);
+  return fromMask(std::move(cls), minVoxels);
+}
+
+uint16_t RigidBodies::classAt(const Vec3& mm) const {
+  const Vec3 idx = mmToIndex_ * (mm - classes_.geometry().origin);
+  return static_cast<uint16_t>(classes_.sampleNearest(idx));
+}
+
+void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params,
+                   Progress& progress) {
+  if (!(params.falloffMm >= 0)) throw Error("rigid falloff must be >= 0 mm");
+  const int nc = bodies.componentCount();
+  if (nc == 0) return;
+  const Dims d = cv.grid.dims;
+  const size_t nodes = static_cast<size_t>(d.voxelCount());
+  progress.begin("rigid bodies", static_cast<uint64_t>(nc) + 1);
+  const auto fits = fitComponents(cv, bodies);
+  // Distance fields (mm, source space sampled on the control grid) per component.
+  std::vector<std::vector<float>> dist(static_cast<size_t>(nc));
+  std::vector<uint8_t> inside(nodes);
+  for (int c = 0; c < nc; ++c) {
+    parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+      for (int64_t k = k0; k < k1; ++k)
+        for (int64_t j = 0; j < d.y; ++j)
+          for (int64_t i = 0; i < d.x; ++i)
+            inside[static_cast<size_t>((k * d.y + j) * d.x + i)] =
+                bodies.classAt(cv.grid.indexToPhysical({double(i), double(j), double(k)})) == c + 2;
+    });
+    dist[static_cast<size_t>(c)] = distanceField(cv.grid, inside);
+    progress.advance();
+  }
+  const Mat3 gridIdx = mmToIndexOf(cv.grid);
+  const double margin = std::max({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
+  const double falloff = params.falloffMm;
+  auto weight = [&](double dm) {
+    if (dm <= margin) return 1.0;
+    if (falloff <= 0 || dm >= margin + falloff) return 0.0;
+    const double t = (dm - margin) / falloff;
+    return 1.0 - t * t * (3 - 2 * t);
+  };
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const int64_t node = (k * d.y + j) * d.x + i;
+          const Vec3 u = cv.sourceAt(node);
+          const Vec3 v = cv.grid.indexToPhysical({double(i), double(j), double(k)});
+          const Vec3 gi = gridIdx * (u - cv.grid.origin);
+          double sum = 0;
+          Vec3 acc{};
+          for (int c = 0; c < nc; ++c) {
+            if (!fits[static_cast<size_t>(c)].valid) continue;
+            const double a = weight(sampleClamped(dist[static_cast<size_t>(c)], d, gi));
+            if (a <= 0) continue;
+            sum += a;
+            acc += fits[static_cast<size_t>(c)].apply(v) * a;
+          }
+          if (sum <= 0) continue;
+          Vec3 out = sum >= 1 ? acc / sum : u * (1 - sum) + acc;
+          // A node that now lands inside a body follows that body exactly (only happens in
+          // the inner band where the weight is already ~1, so the snap is invisible).
+          const uint16_t c2 = bodies.classAt(out);
+          if (c2 >= 2 && fits[c2 - 2u].valid) out = fits[c2 - 2u].apply(v);
+          float* o = cv.sourceMm.data() + 3 * node;
+          o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);
+        }
+  });
+  progress.end();
+}
+
+RigidityReport measureRigidity(const ControlVolume& cv, const RigidBodies& bodies) {
+  RigidityReport r;
+  r.components = bodies.componentCount();
+  const Dims d = cv.grid.dims;
+  r.nodes = d.voxelCount();
+  const auto fits = fitComponents(cv, bodies);
+  std::mutex mutex;
+  double se = 0, maxRes = 0, soft = 0;
+  int64_t boneN = 0, softN = 0, folds = 0, interior = 0;
+  const Mat3 toMm = cv.grid.direction * Mat3::fromColumns({cv.grid.spacing.x, 0, 0},
+                                                          {0, cv.grid.spacing.y, 0},
+                                                          {0, 0, cv.grid.spacing.z});
+  const double detIdx = toMm.determinant();
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    double lse = 0, lmax = 0, lsoft = 0;
+    int64_t lb = 0, ls = 0, lf = 0, li = 0;
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const int64_t node = (k * d.y + j) * d.x + i;
+          const Vec3 u = cv.sourceAt(node);
+          const Vec3 v = cv.grid.indexToPhysical({double(i), double(j), double(k)});
+          const uint16_t c = bodies.classAt(u);
+          if (c >= 2 && fits[c - 2u].valid) {
+            const double e = norm(u - fits[c - 2u].apply(v));
+            lse += e * e; lmax = std::max(lmax, e); ++lb;
+          } else if (c == 1) {
+            lsoft += norm(u - v); ++ls;
+          }
+          if (i > 0 && j > 0 && k > 0 && i + 1 < d.x && j + 1 < d.y && k + 1 < d.z) {
+            const Vec3 dx = (cv.sourceAt(node + 1) - cv.sourceAt(node - 1)) * 0.5;
+            const Vec3 dy = (cv.sourceAt(node + d.x) - cv.sourceAt(node - d.x)) * 0.5;
+            const Vec3 dz = (cv.sourceAt(node + d.x * d.y) - cv.sourceAt(node - d.x * d.y)) * 0.5;
+            // det(du/dv) = det(du/didx) / det(dv/didx)
+            const double det = dot(dx, cross(dy, dz)) / detIdx;
+            if (!(det > 0)) ++lf;
+            ++li;
+          }
+        }
+    std::lock_guard lock(mutex);
+    se += lse; maxRes = std::max(maxRes, lmax); soft += lsoft;
+    boneN += lb; softN += ls; folds += lf; interior += li;
+  });
+  r.boneNodes = boneN;
+  r.softNodes = softN;
+  r.boneRmsResidualMm = boneN ? std::sqrt(se / double(boneN)) : 0;
+  r.boneMaxResidualMm = maxRes;
+  r.softTissueMeanDisplacementMm = softN ? soft / double(softN) : 0;
+  r.foldFraction = interior ? double(folds) / double(interior) : 0;
+  return r;
+}
+
+}  // namespace vellum::deformation
