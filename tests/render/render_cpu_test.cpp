@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "analytic_volumes.hpp"
+#include "empty_space.hpp"
 #include "render_common.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/render/volume_renderer.hpp"
@@ -173,6 +174,30 @@ TEST(ReferenceCpu, RejectsMalformedMaps) {
   RenderSettings s;
   s.width = s.height = 8;
   EXPECT_THROW(renderReferenceCpu(v, s, &map), Error);
+}
+
+// Block ranges see one block beyond their own voxels (trilinear support) and the background
+// at the grid's faces; occupancy follows the transfer function.
+TEST(EmptySpace, BlockRangesAndOccupancy) {
+  Geometry g;
+  g.dims = {40, 24, 24};  // 5 x 3 x 3 blocks
+  VolumeI16 vol(g, 0, -1000.0);
+  vol(20, 12, 12) = 1000;  // in block (2, 1, 1)
+  const detail::BlockRanges r = detail::computeBlockRanges(AnyVolume(vol));
+  ASSERT_EQ(r.blocks, (Dims{5, 3, 3}));
+  auto at = [&](int x, int y, int z) { return size_t((z * 3 + y) * 5 + x); };
+  EXPECT_EQ(r.maxValue[at(2, 1, 1)], 1000.f);
+  EXPECT_EQ(r.maxValue[at(1, 0, 0)], 1000.f);  // neighbour
+  EXPECT_EQ(r.maxValue[at(0, 1, 1)], 0.f);     // two blocks away
+  EXPECT_EQ(r.minValue[at(0, 1, 1)], -1000.f); // on the face: sees the background
+  EXPECT_EQ(r.minValue[at(2, 1, 1)], 0.f);     // interior block: all neighbours inside
+  RenderSettings s;
+  s.preset = Preset::Bone;
+  const auto occ = detail::blockOccupancy(r, detail::buildTfTable(s, 0.5));
+  EXPECT_EQ(occ[at(2, 1, 1)], 255);
+  EXPECT_EQ(occ[at(3, 2, 2)], 255);
+  EXPECT_EQ(occ[at(0, 1, 1)], 0);  // 0 HU is transparent for bone
+  EXPECT_EQ(occ[at(4, 0, 0)], 0);
 }
 
 }  // namespace

@@ -56,6 +56,25 @@ TEST(RenderGl, ContextIsGl4Core) {
   std::cout << "[ gl   ] " << gl().renderer() << " | " << gl().version() << "\n";
 }
 
+// A (hidden) GLFW window renders like the headless context; needs a display (xvfb-run -a).
+TEST(RenderGl, WindowContextRenders) {
+  const char* display = std::getenv("DISPLAY");
+  if (!display || !*display) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const AnyVolume v = test::makeAnalyticVolume(32);
+  RenderSettings s = baseSettings(Preset::SoftTissueBone, 64, 64);
+  RgbaImage windowed;
+  {
+    auto window = GlContext::createWindow(64, 64, "vellum test", false);
+    EXPECT_EQ(window->version().rfind("4.", 0), 0u) << window->version();
+    VolumeRenderer r(*window);
+    r.setVolume(v);
+    windowed = r.render(s);
+  }
+  VolumeRenderer r(gl());
+  r.setVolume(v);
+  expectClose(windowed, r.render(s), "window vs headless");
+}
+
 TEST(RenderGl, RejectsBadSizesAndNoVolume) {
   VolumeRenderer r(gl());
   RenderSettings s = baseSettings(Preset::Mip, 16, 16);

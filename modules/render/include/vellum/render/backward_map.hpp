@@ -3,6 +3,16 @@
 // coarse) grid over OUTPUT space, plus optional per-node attribute offsets. The renderer
 // interpolates u trilinearly per ray sample and fetches the source volume at u, so no
 // full-resolution deformed volume is ever made (algorithms.md 1.4).
+//
+// How it is rendered (GL shader and renderReferenceCpu alike):
+// - rays are clipped to the grid's voxel box ([-0.5, dims-0.5] in grid index space) and
+//   stepped by RenderSettings::stepVoxels * the SOURCE volume's smallest spacing;
+// - u is interpolated trilinearly between nodes, clamping to the outermost nodes (no
+//   extrapolation); the source is sampled at u with background outside it;
+// - shading uses the source's gradient normal at u, NOT rotated by the map's Jacobian
+//   (lighting on strongly rotated parts is approximate);
+// - attributes: (dL, da, db) shift the transfer-function colour in CIE L*a*b* (D65, sRGB),
+//   density scales the optical depth: alpha' = 1 - (1 - alpha)^density. MIP ignores them.
 #include <vector>
 
 #include "vellum/core/geometry.hpp"

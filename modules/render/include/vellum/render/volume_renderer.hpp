@@ -10,8 +10,21 @@
 
 namespace vellum::render {
 
-/// Renders one volume through GL. Construct with a current context; the volume and its
-/// precomputed normal volume are uploaded once by setVolume() (never per frame).
+/// Renders one volume through GL. Construct with a current context, which must outlive the
+/// renderer; the volume and its precomputed normal volume are uploaded once by setVolume()
+/// (never per frame).
+///
+/// Rendering model (identical in renderReferenceCpu): rays from an orbit camera in physical
+/// mm, clipped to the volume's oriented voxel box, sampled every stepVoxels * min spacing
+/// (plus a fixed per-pixel jitter unless disabled), trilinear sampling with the background
+/// outside, a 4096-entry transfer-function table with alpha corrected for the step,
+/// front-to-back compositing with early termination at alpha 0.99, headlight Blinn-Phong
+/// shading from a precomputed gradient volume. MIP maps the maximum through window/level.
+/// The output has straight (not premultiplied) alpha; corners that miss the volume take the
+/// background colour and alpha. Empty space (blocks of 8^3 voxels that the transfer function
+/// makes fully transparent, or that cannot raise a MIP maximum) is skipped on the GPU only;
+/// this does not change the picture. Volumes are limited to GL_MAX_3D_TEXTURE_SIZE per axis
+/// (2048 on llvmpipe).
 class VolumeRenderer {
  public:
   explicit VolumeRenderer(GlContext& context);
