@@ -21,7 +21,7 @@ struct Box {
 // Conservative bounds of each bone group including its cartilage and fillet bulges
 // (checked by the tests against the distance functions themselves).
 constexpr Box kFemurBox{-40, 40, -30, 30, -2, 104};          // world frame
-constexpr Box kTibiaBox{-42, 42, -30, 32, -103, 2};          // calf frame
+constexpr Box kTibiaBox{-42, 42, -31, 32, -103, 6};          // calf frame (sloped rim)
 constexpr Box kFibulaBox{-43, -23, 10, 30, -98, -40};        // calf frame
 constexpr Box kPatellaBox{-23, 23, -46, -24, 11, 57};        // world frame
 

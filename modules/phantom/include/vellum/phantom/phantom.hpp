@@ -55,7 +55,8 @@ struct PhantomOptions {
   /// Voxels per axis. The field of view is fixed (physical size of the leg does not change
   /// with resolution): 180 x 180 x 220 mm, so spacing = fov / dims unless `spacing` is set.
   Dims dims{128, 128, 128};
-  /// Spacing in mm; zero means fieldOfView / dims (anisotropic spacing allowed).
+  /// Spacing in mm; all three zero means fieldOfView / dims (anisotropic spacing allowed).
+  /// With an explicit spacing the field of view is dims * spacing (fieldOfViewMm is unused).
   Vec3 spacing{0, 0, 0};
   Vec3 fieldOfViewMm{180, 180, 220};
   uint64_t seed = 1;
