@@ -25,9 +25,10 @@ TEST(PhantomTruth, LabelsEqualTheAnatomyAtVoxelCentres) {
     size_t mismatches = 0;
     for (int64_t k = 0; k < g.dims.z; ++k)
       for (int64_t j = 0; j < g.dims.y; ++j)
-        for (int64_t i = 0; i < g.dims.x; ++i)
-          mismatches += p.labels(i, j, k) !=
-                        samplePhantom(g.indexToPhysical(Vec3{double(i), double(j), double(k)}), o).label;
+        for (int64_t i = 0; i < g.dims.x; ++i) {
+          const Vec3 centre = g.indexToPhysical(Vec3{double(i), double(j), double(k)});
+          mismatches += p.labels(i, j, k) != samplePhantom(centre, o).label;
+        }
     EXPECT_EQ(mismatches, 0u) << "flexion " << flex;
   }
 }

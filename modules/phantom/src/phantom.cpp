@@ -181,7 +181,8 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
           const uint32_t near = anatomy.evaluateNear(p, nearMm, dist);
           const Classified c = Anatomy::classify(dist);
           double v = hu[c.tissue];
-          if (options.partialVolume && near != 0) v = mixture(anatomy, p, dist, near, off, exactBandMm, hu);
+          if (options.partialVolume && near != 0)
+            v = mixture(anatomy, p, dist, near, off, exactBandMm, hu);
           if (sigma > 0) {
             if ((idx >> 1) != noisePair) {
               noisePair = idx >> 1;
