@@ -17,6 +17,9 @@ void InputOptions::addTo(CLI::App& cmd) {
       ->capture_default_str();
   cmd.add_option("--raw-spacing", rawSpacing, "bare .raw: spacing in mm (sx sy sz)")->expected(3);
   cmd.add_option("--raw-origin", rawOrigin, "bare .raw: origin in mm (x y z)")->expected(3);
+  cmd.add_option("--raw-direction", rawDirection,
+                 "bare .raw: direction matrix, 9 numbers row by row (as `vellum info` prints it)")
+      ->expected(9);
   cmd.add_option("--raw-endian", rawEndian, "bare .raw: little | big")
       ->check(CLI::IsMember({"little", "big"}))
       ->capture_default_str();
@@ -34,10 +37,13 @@ io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
     r.endian = rawEndian == "big" ? io::Endian::Big : io::Endian::Little;
     if (!rawSpacing.empty()) r.spacing = {rawSpacing[0], rawSpacing[1], rawSpacing[2]};
     if (!rawOrigin.empty()) r.origin = {rawOrigin[0], rawOrigin[1], rawOrigin[2]};
+    if (!rawDirection.empty())
+      for (int row = 0; row < 3; ++row)
+        for (int col = 0; col < 3; ++col) r.direction(row, col) = rawDirection[static_cast<size_t>(row * 3 + col)];
     r.headerBytes = rawHeader;
     o.raw = r;
-  } else if (!rawSpacing.empty() || !rawOrigin.empty()) {
-    throw Error("--raw-spacing/--raw-origin need --raw-dims");
+  } else if (!rawSpacing.empty() || !rawOrigin.empty() || !rawDirection.empty()) {
+    throw Error("--raw-spacing/--raw-origin/--raw-direction need --raw-dims");
   }
   return o;
 }

@@ -21,11 +21,12 @@ struct InputOptions {
   std::string rawType = "int16";
   std::vector<double> rawSpacing;
   std::vector<double> rawOrigin;
+  std::vector<double> rawDirection;
   std::string rawEndian = "little";
   uint64_t rawHeader = 0;
 
-  /// Adds --series, --raw-dims, --raw-type, --raw-spacing, --raw-origin, --raw-endian,
-  /// --raw-header to `cmd`.
+  /// Adds --series, --raw-dims, --raw-type, --raw-spacing, --raw-origin, --raw-direction,
+  /// --raw-endian, --raw-header to `cmd`.
   void addTo(CLI::App& cmd);
   /// Turns the flags into io::LoadOptions (with `progress` attached).
   io::LoadOptions toLoadOptions(Progress* progress) const;
