@@ -37,9 +37,12 @@ int main(int argc, char** argv) {
   renderer.setVolume(vol);
   std::cout << "setVolume (upload + normal volume): " << ms(t0) << " ms\n";
   std::cout << "image " << size << "x" << size << ", step 0.5 voxel, best of " << repeats << "\n";
-  for (bool shading : {true, false})
+  const render::BackwardMap map = test::makeTwistMap(vol.geometry(), 17, true);
+  for (int mode = 0; mode < 3; ++mode)  // shaded, unshaded, shaded + deformed (17^3 twist map)
     for (render::Preset p : render::allPresets()) {
+      const bool shading = mode != 1;
       if (!shading && p == render::Preset::Mip) continue;
+      if (mode == 2) renderer.setBackwardMap(&map);
       render::RenderSettings s;
       s.preset = p;
       s.width = s.height = size;
@@ -52,7 +55,8 @@ int main(int argc, char** argv) {
         bestCpu = std::min(bestCpu, processCpuMs() - c0);
         best = std::min(best, renderer.lastRenderMs());
       }
-      std::cout << render::presetName(p) << (shading ? "" : " (no shading)") << ": " << best
+      std::cout << render::presetName(p) << (shading ? "" : " (no shading)")
+                << (mode == 2 ? " (deformed)" : "") << ": " << best
                 << " ms wall (GL draw + glFinish), " << bestCpu
                 << " ms CPU (whole render() incl. read-back, all threads)\n";
     }

@@ -92,4 +92,78 @@ std::vector<uint8_t> blockOccupancy(const BlockRanges& ranges, const TfTable& tf
   return occ;
 }
 
+MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
+                         const BlockRanges& ranges) {
+  MapCells mc;
+  mc.cells = {std::max<int64_t>(nodes.x - 1, 1), std::max<int64_t>(nodes.y - 1, 1),
+              std::max<int64_t>(nodes.z - 1, 1)};
+  const auto count = static_cast<size_t>(mc.cells.voxelCount());
+  mc.box.resize(count);
+  mc.maxValue.resize(count);
+  const Dims& nb = ranges.blocks;
+  parallelFor(mc.cells.z, [&](int64_t z0, int64_t z1) {
+    for (int64_t cz = z0; cz < z1; ++cz)
+      for (int64_t cy = 0; cy < mc.cells.y; ++cy)
+        for (int64_t cx = 0; cx < mc.cells.x; ++cx) {
+          float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+          for (int c = 0; c < 8; ++c) {
+            const int64_t i = std::min(cx + (c & 1), nodes.x - 1);
+            const int64_t j = std::min(cy + ((c >> 1) & 1), nodes.y - 1);
+            const int64_t k = std::min(cz + ((c >> 2) & 1), nodes.z - 1);
+            const float* u = mapIndex.data() + static_cast<size_t>((k * nodes.y + j) * nodes.x + i) * 3;
+            for (int a = 0; a < 3; ++a) {
+              lo[a] = std::min(lo[a], u[a]);
+              hi[a] = std::max(hi[a], u[a]);
+            }
+          }
+          std::array<int, 6> box{};
+          for (int a = 0; a < 3; ++a) {
+            const double last = double(nb[a] - 1);
+            // Blocks hold voxels [b*B, b*B+B-1] and already see one block beyond; one voxel of
+            // margin covers trilinear support and rounding.
+            box[a] = int(std::clamp(std::floor((lo[a] - 1.0) / kBlockSize), 0.0, last));
+            box[a + 3] = int(std::clamp(std::floor((hi[a] + 1.0) / kBlockSize), 0.0, last));
+            if (!std::isfinite(lo[a]) || !std::isfinite(hi[a])) {  // NaN in the map: no skipping
+              box[a] = 0;
+              box[a + 3] = int(last);
+            }
+          }
+          float m = -INFINITY;
+          for (int z = box[2]; z <= box[5]; ++z)
+            for (int y = box[1]; y <= box[4]; ++y)
+              for (int x = box[0]; x <= box[3]; ++x)
+                m = std::max(m, ranges.maxValue[static_cast<size_t>((z * nb.y + y) * nb.x + x)]);
+          const size_t n = static_cast<size_t>((cz * mc.cells.y + cy) * mc.cells.x + cx);
+          mc.box[n] = box;
+          mc.maxValue[n] = m;
+        }
+  });
+  return mc;
+}
+
+std::vector<uint8_t> cellOccupancy(const MapCells& cells, const std::vector<uint8_t>& blockOcc,
+                                   const Dims& blocks) {
+  // Summed-volume table of occupied blocks: any box query in O(1).
+  const int64_t sx = blocks.x + 1, sy = blocks.y + 1;
+  std::vector<int32_t> sum(static_cast<size_t>(sx * sy * (blocks.z + 1)), 0);
+  auto at = [&](int64_t x, int64_t y, int64_t z) -> int32_t& {
+    return sum[static_cast<size_t>((z * sy + y) * sx + x)];
+  };
+  for (int64_t z = 0; z < blocks.z; ++z)
+    for (int64_t y = 0; y < blocks.y; ++y)
+      for (int64_t x = 0; x < blocks.x; ++x)
+        at(x + 1, y + 1, z + 1) = (blockOcc[static_cast<size_t>((z * blocks.y + y) * blocks.x + x)] ? 1 : 0) +
+                                  at(x, y + 1, z + 1) + at(x + 1, y, z + 1) + at(x + 1, y + 1, z) -
+                                  at(x, y, z + 1) - at(x, y + 1, z) - at(x + 1, y, z) + at(x, y, z);
+  std::vector<uint8_t> occ(cells.box.size());
+  for (size_t n = 0; n < occ.size(); ++n) {
+    const auto& b = cells.box[n];
+    const int64_t x0 = b[0], y0 = b[1], z0 = b[2], x1 = b[3] + 1, y1 = b[4] + 1, z1 = b[5] + 1;
+    const int32_t total = at(x1, y1, z1) - at(x0, y1, z1) - at(x1, y0, z1) - at(x1, y1, z0) +
+                          at(x0, y0, z1) + at(x0, y1, z0) + at(x1, y0, z0) - at(x0, y0, z0);
+    occ[n] = total > 0 ? 255 : 0;
+  }
+  return occ;
+}
+
 }  // namespace vellum::render::detail

@@ -4,6 +4,7 @@
 // in the block are covered), and per render an occupancy bit: does the transfer function
 // give any opacity in that range? Rays jump over unoccupied blocks; the picture is unchanged
 // because every skipped sample would have had opacity exactly 0.
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -23,5 +24,22 @@ BlockRanges computeBlockRanges(const AnyVolume& volume);
 
 /// 255 where the table has non-zero opacity anywhere in the block's range, else 0.
 std::vector<uint8_t> blockOccupancy(const BlockRanges& ranges, const TfTable& tf);
+
+/// The same for a backward map: per map cell (the box between 2x2x2 nodes; cells on the
+/// grid's faces also cover the half-node margin) the source blocks its samples can read.
+/// Trilinear u stays inside the bounding box of the cell's 8 corner u's, so that box (grown
+/// by one voxel, clamped to the volume, whose face blocks include the background) is
+/// conservative.
+struct MapCells {
+  Dims cells;                            ///< max(nodes - 1, 1) per axis
+  std::vector<std::array<int, 6>> box;   ///< per cell: inclusive block range x0,y0,z0,x1,y1,z1
+  std::vector<float> maxValue;           ///< per cell: largest value its samples can see
+};
+/// `mapIndex`: source index coordinates per node (3 floats, x fastest).
+MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
+                         const BlockRanges& ranges);
+/// Per cell: 255 if any block in its box is occupied.
+std::vector<uint8_t> cellOccupancy(const MapCells& cells, const std::vector<uint8_t>& blockOcc,
+                                   const Dims& blocks);
 
 }  // namespace vellum::render::detail

@@ -202,8 +202,9 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.shading && !v.mip) s << "#define SHADING\n";
   if (v.deformed) s << "#define DEFORMED\n";
   if (v.attributes && v.deformed && !v.mip) s << "#define ATTRIBUTES\n";
-  if (!v.deformed) s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
-  s << "#define BLOCK_SIZE " << kBlockSize << "\n";
+  // Skipping works on source blocks, or on map cells (between nodes) when deformed.
+  s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
+  s << "#define BLOCK_SIZE " << (v.deformed ? 1 : kBlockSize) << "\n";
   s << "#define TF_SIZE " << kTfTableSize << "\n";
   s << "#define MAX_STEPS " << kMaxStepsPerRay << "\n";
   s << std::showpoint;

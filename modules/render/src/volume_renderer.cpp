@@ -56,13 +56,44 @@ void uniform1(GLuint p, const char* name, double v) {
   glUniform1f(glGetUniformLocation(p, name), float(v));
 }
 
+/// Textures for skipping over a coarse grid (source blocks, or map cells): an R8 occupancy
+/// (rewritten per render from the transfer function) and R32F maxima (for MIP).
+struct SkipGrid {
+  GLuint occupancyTex = 0, maxTex = 0;
+  Dims dims;
+};
+
+void makeSkipTextures(SkipGrid& g, const Dims& dims, const std::vector<float>& maxValues) {
+  for (GLuint* t : {&g.occupancyTex, &g.maxTex}) {
+    deleteTexture(*t);
+    glGenTextures(1, t);
+    glBindTexture(GL_TEXTURE_3D, *t);
+    glTexStorage3D(GL_TEXTURE_3D, 1, t == &g.maxTex ? GL_R32F : GL_R8, GLsizei(dims.x),
+                   GLsizei(dims.y), GLsizei(dims.z));
+    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
+  }
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(dims.x), GLsizei(dims.y), GLsizei(dims.z),
+                  GL_RED, GL_FLOAT, maxValues.data());
+  g.dims = dims;
+  checkGlError("skip textures");
+}
+
+void uploadOccupancy(const SkipGrid& g, const std::vector<uint8_t>& occ) {
+  glBindTexture(GL_TEXTURE_3D, g.occupancyTex);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(g.dims.x), GLsizei(g.dims.y),
+                  GLsizei(g.dims.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
+}
+
 }  // namespace
 
 struct VolumeRenderer::Impl {
   GlContext& context;
-  GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0, occupancyTex = 0,
-         blockMaxTex = 0;
-  BlockRanges blocks;
+  GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0;
+  BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
+  MapCells mapCells;       ///< the same per map cell, when a map is set
+  SkipGrid blockSkip, cellSkip;
   GLuint fbo = 0, colorRb = 0, vao = 0;
   int fbWidth = 0, fbHeight = 0;
   bool hasVolume = false;
@@ -87,7 +118,9 @@ struct VolumeRenderer::Impl {
   ~Impl() {
     context.makeCurrent();
     for (auto& [key, p] : programs) glDeleteProgram(p);
-    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &occupancyTex, &blockMaxTex}) deleteTexture(*t);
+    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &blockSkip.occupancyTex,
+                      &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex})
+      deleteTexture(*t);
     if (fbo) glDeleteFramebuffers(1, &fbo);
     if (colorRb) glDeleteRenderbuffers(1, &colorRb);
     glDeleteVertexArrays(1, &vao);
@@ -167,34 +200,6 @@ struct VolumeRenderer::Impl {
     checkGlError("normal volume upload");
   }
 
-  void uploadBlocks(BlockRanges ranges) {
-    blocks = std::move(ranges);
-    const Dims& nb = blocks.blocks;
-    deleteTexture(occupancyTex);
-    glGenTextures(1, &occupancyTex);
-    glBindTexture(GL_TEXTURE_3D, occupancyTex);
-    glTexStorage3D(GL_TEXTURE_3D, 1, GL_R8, GLsizei(nb.x), GLsizei(nb.y), GLsizei(nb.z));
-    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
-    deleteTexture(blockMaxTex);
-    glGenTextures(1, &blockMaxTex);
-    glBindTexture(GL_TEXTURE_3D, blockMaxTex);
-    glTexStorage3D(GL_TEXTURE_3D, 1, GL_R32F, GLsizei(nb.x), GLsizei(nb.y), GLsizei(nb.z));
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(nb.x), GLsizei(nb.y), GLsizei(nb.z), GL_RED,
-                    GL_FLOAT, blocks.maxValue.data());
-    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
-    checkGlError("block textures");
-  }
-
-  /// Per render: which blocks the transfer function makes visible (tiny upload).
-  void updateOccupancy(const TfTable& tf) {
-    const std::vector<uint8_t> occ = blockOccupancy(blocks, tf);
-    const Dims& nb = blocks.blocks;
-    glBindTexture(GL_TEXTURE_3D, occupancyTex);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(nb.x), GLsizei(nb.y), GLsizei(nb.z), GL_RED,
-                    GL_UNSIGNED_BYTE, occ.data());
-  }
-
   void uploadMap() {
     if (!map || mapUploaded || !hasVolume) return;
     const Dims& d = map->grid.dims;
@@ -218,6 +223,8 @@ struct VolumeRenderer::Impl {
                       GL_RGBA, GL_FLOAT, map->attributes.data());
       setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
     }
+    mapCells = computeMapCells(d, u, blocks);
+    makeSkipTextures(cellSkip, mapCells.cells, mapCells.maxValue);
     mapUploaded = true;
     checkGlError("backward map upload");
   }
@@ -233,7 +240,8 @@ void VolumeRenderer::setVolume(const AnyVolume& volume) {
   impl_->hasVolume = false;
   std::visit([&](const auto& v) { impl_->uploadVolume(v); }, volume);
   impl_->uploadNormals(computeNormalVolume(volume));
-  impl_->uploadBlocks(computeBlockRanges(volume));
+  impl_->blocks = computeBlockRanges(volume);
+  makeSkipTextures(impl_->blockSkip, impl_->blocks.blocks, impl_->blocks.maxValue);
   impl_->source = g;
   impl_->hasVolume = true;
   impl_->mapUploaded = false;  // source index coordinates depend on the source geometry
@@ -282,29 +290,26 @@ RgbaImage VolumeRenderer::render(const RenderSettings& s) {
     glActiveTexture(GL_TEXTURE0 + kUnitAttr);
     glBindTexture(GL_TEXTURE_3D, m.attrTex);
   }
+  const SkipGrid& skip = variant.deformed ? m.cellSkip : m.blockSkip;
+  glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(skip.dims.x), GLint(skip.dims.y),
+              GLint(skip.dims.z));
   if (variant.mip) {
     const double width = s.windowWidth > 0 ? s.windowWidth : 1.0;
     uniform1(p, "uWinLo", s.windowCenter - 0.5 * width);
     uniform1(p, "uWinInvWidth", 1.0 / width);
-    if (!variant.deformed) {
-      glActiveTexture(GL_TEXTURE0 + kUnitBlockMax);
-      glBindTexture(GL_TEXTURE_3D, m.blockMaxTex);
-      const Dims& nb = m.blocks.blocks;
-      glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(nb.x), GLint(nb.y), GLint(nb.z));
-    }
+    glActiveTexture(GL_TEXTURE0 + kUnitBlockMax);
+    glBindTexture(GL_TEXTURE_3D, skip.maxTex);
   } else {
     const TfTable tf = buildTfTable(s, f.stepMm);
     glActiveTexture(GL_TEXTURE0 + kUnitTf);
     glBindTexture(GL_TEXTURE_1D, m.tfTex);
     glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfTableSize, GL_RGBA, GL_FLOAT, tf.rgba.data());
     uniform1(p, "uTfLo", tf.lo);
-    if (!variant.deformed) {
-      m.updateOccupancy(tf);
-      glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
-      glBindTexture(GL_TEXTURE_3D, m.occupancyTex);
-      const Dims& nb = m.blocks.blocks;
-      glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(nb.x), GLint(nb.y), GLint(nb.z));
-    }
+    std::vector<uint8_t> occ = blockOccupancy(m.blocks, tf);
+    if (variant.deformed) occ = cellOccupancy(m.mapCells, occ, m.blocks.blocks);
+    uploadOccupancy(skip, occ);
+    glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
+    glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
   }
   glUniform2f(glGetUniformLocation(p, "uViewport"), float(s.width), float(s.height));
