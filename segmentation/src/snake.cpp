@@ -39,7 +39,8 @@ class Evolver {
     h_[0] = g_.spacing.x; h_[1] = g_.spacing.y; h_[2] = g_.spacing.z;
     hmin_ = std::min({h_[0], h_[1], h_[2]});
     hmax_ = std::max({h_[0], h_[1], h_[2]});
-    activeWidth_ = kRebuildEvery * p_.cflNumber * hmin_ + 0.5 * hmax_;
+    // Any voxel the contour can reach before the next rebuild, plus one voxel on the coarsest axis.
+    activeWidth_ = kRebuildEvery * p_.cflNumber * hmin_ + hmax_;
     expandWidth_ = activeWidth_;  // one more layer beyond the active voxels covers their stencils
     clamp_ = static_cast<float>(expandWidth_ + 2.0 * hmax_);
     checkMemoryBudget(static_cast<uint64_t>(d_.voxelCount()) * 5, "snake level set");
@@ -486,7 +487,10 @@ SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubb
   }
   const auto t0 = std::chrono::steady_clock::now();
   const bool edge = speed.type == SpeedType::Edge;
-  const int levels = p.coarseLevels < 0 ? autoLevels(g.dims) : std::min(p.coarseLevels, 4);
+  // Automatic coarse levels only for region (threshold) speed: min-pooling keeps its barriers,
+  // but an edge map's balance of propagation and advection does not survive downsampling
+  // (the coarse contour walks through edges), so edge speed runs at full resolution.
+  const int levels = p.coarseLevels < 0 ? (edge ? 0 : autoLevels(g.dims)) : std::min(p.coarseLevels, 4);
 
   // Speed pyramid: pyramid[0] = finest.
   std::vector<VolumeF32> pyramid;

@@ -112,11 +112,14 @@ SpeedImage edgeSpeed(const VolumeI16& ct, const EdgeSpeedParams& p, Progress& pr
       for (int64_t j = 0; j < d.y; ++j)
         for (int64_t i = 0; i < d.x; ++i) {
           const int64_t p0 = k * sz + j * sy + i;
-          // Central differences, one-sided at the border of the grid.
+          // Per axis the larger of the forward and backward differences (not the central one):
+          // a wall one voxel thick (thin cortex) then still shows its full edge strength, where a
+          // central difference across it would read zero and let the contour walk through.
           auto diff = [&](int64_t c, int64_t n, int64_t stride, double h) {
-            const int64_t lo = c > 0 ? -1 : 0, hi = c + 1 < n ? 1 : 0;
-            if (lo == hi) return 0.0;
-            return (double(b[p0 + hi * stride]) - b[p0 + lo * stride]) / (double(hi - lo) * h);
+            const double v = b[p0];
+            const double back = c > 0 ? std::abs(v - b[p0 - stride]) : 0.0;
+            const double fwd = c + 1 < n ? std::abs(b[p0 + stride] - v) : 0.0;
+            return std::max(back, fwd) / h;
           };
           const double gx = diff(i, d.x, 1, sp.x), gy = diff(j, d.y, sy, sp.y), gz = diff(k, d.z, sz, sp.z);
           const double gm = std::sqrt(gx * gx + gy * gy + gz * gz) / p.kappaHuPerMm;

@@ -14,8 +14,8 @@ namespace vellum::segmentation {
 
 HuInterval presetInterval(Preset p) {
   switch (p) {
-    case Preset::Bone: return {700, 3071};
-    case Preset::SoftTissue: return {-500, 700};
+    case Preset::Bone: return {550, 3071};
+    case Preset::SoftTissue: return {-500, 300};
     case Preset::SkinAir: return {-500, 3071};
     case Preset::Fat: return {-190, -30};
     case Preset::Lung: return {-950, -500};

@@ -34,11 +34,13 @@ SpeedType parseSpeedType(const std::string& name);  ///< "threshold" | "edge"
 /// so S = +1 well inside [lower, upper], -1 well outside, 0 at the thresholds.
 struct ThresholdSpeedParams {
   double lower = -500;        ///< HU (default: soft tissue against air)
-  double upper = 700;         ///< HU (default: soft tissue against cortical bone)
+  double upper = 300;         ///< HU (default: soft tissue against bone, low enough that thin
+                              ///< partial-volumed cortex still stops the contour)
   double smoothnessHu = 60;   ///< width of the transition; larger = smoother, slower near the edge
 };
 
-/// Edge speed from the smoothed gradient magnitude (HU/mm).
+/// Edge speed from the smoothed gradient magnitude (HU/mm; per axis the larger one-sided
+/// difference, so that one-voxel walls keep their edge).
 struct EdgeSpeedParams {
   double sigmaMm = 1.0;       ///< Gaussian blur before the gradient (mm)
   double kappaHuPerMm = 100;  ///< gradient magnitude at which g = 0.5
@@ -70,7 +72,8 @@ struct SnakeParams {
   int convergenceWindow = 10;
   double cflNumber = 0.5;     ///< at most this many voxels of contour motion per iteration
   /// Coarse-to-fine: evolve first on the speed image downsampled 2x per level, then refine
-  /// on the next finer level. -1 = automatic (one coarse level per factor 2 while the coarse grid keeps >= 64 voxels
+  /// on the next finer level (min-pooled speed, so thin barriers stay closed). -1 = automatic
+  /// for threshold speed, none for edge speed; (one coarse level per factor 2 while the coarse grid keeps >= 64 voxels
   /// on the smallest axis, at most 2), 0 = single resolution.
   int coarseLevels = -1;
 };

@@ -15,11 +15,14 @@ struct HuInterval {
   bool contains(double v) const { return v >= lower && v <= upper; }
 };
 
-/// Named CT intervals. Values are chosen at the midpoints between the nominal tissue HU so
-/// that partial-volume boundary voxels go to whichever tissue fills more than half of them:
-///   Bone        [ 700, 3071]  cortical bone (~1400 HU) against marrow/soft tissue (~0..100)
-///   SoftTissue  [-500,  700]  skin, fat, muscle, cartilage, marrow (everything between air
-///                             and cortical bone; use a seed/snake to keep one body)
+/// Named CT intervals (chosen on the phantom's nominal HU, see docs/segmentation.md):
+///   Bone        [ 550, 3071]  cortical bone (~1400 HU). Below the soft/cortex midpoint (~725)
+///                             so that thin, partial-volumed cortex (condyles, patella) stays
+///                             closed and whole bones fill with fillHolesPerSlice().
+///   SoftTissue  [-500,  300]  skin, fat, muscle, cartilage, marrow: between air and bone. The
+///                             upper bound stays well below cortex so thin cortex still stops
+///                             a region or snake; use a seed to keep one body (marrow is
+///                             inside the bones).
 ///   SkinAir     [-500, 3071]  the body against air: its boundary is the skin surface
 ///   Fat         [-190,  -30]  adipose tissue (the usual clinical window)
 ///   Lung        [-950, -500]  aerated lung parenchyma

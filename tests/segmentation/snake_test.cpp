@@ -1,0 +1,81 @@
+#include <gtest/gtest.h>
+
+#include "test_volumes.hpp"
+#include "vellum/segmentation/metrics.hpp"
+#include "vellum/segmentation/snake.hpp"
+
+using namespace vellum;
+using namespace vellum::segmentation;
+using namespace vellum::segmentation::test;
+
+namespace {
+// A 50-HU ball of radius 15 mm in air on an anisotropic grid.
+struct Scene {
+  Geometry g = grid(48, 40, 24, {0.8, 1.0, 1.7});
+  Vec3 c = centreMm(g);
+  VolumeI16 ct = sphereCt(g, c, 15.0, 50, -1000);
+  Mask truth = sphereMask(g, c, 15.0);
+};
+}  // namespace
+
+TEST(Snake, ThresholdSpeedFillsTheBallFromASmallBubble) {
+  Scene s;
+  const SpeedImage speed = thresholdSpeed(s.ct, {-500, 300, 60});
+  EXPECT_FLOAT_EQ(speed.values(0, 0, 0), -1.0f);
+  SnakeParams p;
+  p.coarseLevels = 0;
+  const SnakeResult r = evolveSnake(speed, {{s.c + Vec3{3, 0, 0}, 4.0}}, p);
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT(r.iterations, p.maxIterations);
+  EXPECT_GT(overlap(r.mask, s.truth).dice, 0.97);
+}
+
+TEST(Snake, EdgeSpeedStopsAtTheBoundary) {
+  Scene s;
+  const SpeedImage speed = edgeSpeed(s.ct, {1.0, 100, 2});
+  // g is ~1 in flat regions and small on the boundary.
+  EXPECT_GT(speed.values(24, 20, 12), 0.95f);
+  SnakeParams p;
+  p.coarseLevels = 0;
+  p.advection = 1.0;
+  const SnakeResult r = evolveSnake(speed, {{s.c, 5.0}}, p);
+  EXPECT_TRUE(r.converged);
+  EXPECT_GT(overlap(r.mask, s.truth).dice, 0.97);
+}
+
+TEST(Snake, CoarseToFineMatchesSingleResolution) {
+  const Geometry g = grid(96, 96, 96, {1, 1, 1});
+  const Vec3 c = centreMm(g);
+  const VolumeI16 ct = sphereCt(g, c, 30.0, 50, -1000);
+  const SpeedImage speed = thresholdSpeed(ct);
+  SnakeParams p;
+  p.coarseLevels = 1;
+  const SnakeResult r = evolveSnake(speed, {{c, 5.0}}, p);
+  EXPECT_GT(r.coarseIterations, 0);
+  EXPECT_TRUE(r.converged);
+  EXPECT_GT(overlap(r.mask, sphereMask(g, c, 30.0)).dice, 0.98);
+}
+
+TEST(Snake, CurvatureShrinksABubbleWithoutPropagation) {
+  Scene s;
+  SpeedImage speed{VolumeF32(s.g, 0.0f, 0.0), SpeedType::Threshold};
+  SnakeParams p;
+  p.coarseLevels = 0;
+  p.propagation = 0;
+  p.curvature = 1.0;
+  p.maxIterations = 30;
+  const SnakeResult r = evolveSnake(speed, {{s.c, 8.0}}, p);
+  EXPECT_LT(countVoxels(r.mask), countVoxels(sphereMask(s.g, s.c, 8.0)));
+  EXPECT_GT(countVoxels(r.mask), 0);
+}
+
+TEST(Snake, CancelAndBadInput) {
+  Scene s;
+  const SpeedImage speed = thresholdSpeed(s.ct);
+  Progress progress;
+  progress.cancel();
+  EXPECT_THROW(evolveSnake(speed, {{s.c, 4.0}}, {}, progress), Cancelled);
+  EXPECT_THROW(evolveSnake(speed, {}, {}), Error);
+  EXPECT_THROW(evolveSnake(speed, {{{1000, 0, 0}, 4.0}}, {}), Error);
+  EXPECT_THROW(evolveSnake(speed, {{s.c, -1.0}}, {}), Error);
+}
