@@ -200,5 +200,39 @@ TEST(EmptySpace, BlockRangesAndOccupancy) {
   EXPECT_EQ(occ[at(4, 0, 0)], 0);
 }
 
+// Map cells: the source blocks a cell can read come from its corner nodes' u.
+TEST(EmptySpace, MapCellsFollowTheMap) {
+  Geometry g;
+  g.dims = {64, 64, 64};  // 8^3 blocks
+  VolumeI16 vol(g, 0, -1000.0);
+  vol(4, 4, 4) = 1000;  // block 0; blocks 0..1 see it
+  const detail::BlockRanges r = detail::computeBlockRanges(AnyVolume(vol));
+  // Nodes every 8 voxels along the diagonal: u = node * 8 (+ a shift of 16 voxels in x).
+  for (double shift : {0.0, 16.0}) {
+    const Dims nodes{9, 9, 9};
+    std::vector<float> u;
+    for (int k = 0; k < 9; ++k)
+      for (int j = 0; j < 9; ++j)
+        for (int i = 0; i < 9; ++i) u.insert(u.end(), {float(8 * i + shift), float(8 * j), float(8 * k)});
+    const detail::MapCells cells = detail::computeMapCells(nodes, u, r);
+    ASSERT_EQ(cells.cells, (Dims{8, 8, 8}));
+    auto at = [](int x, int y, int z) { return size_t((z * 8 + y) * 8 + x); };
+    RenderSettings s;
+    s.preset = Preset::Bone;
+    const auto occ = detail::cellOccupancy(cells, detail::blockOccupancy(r, detail::buildTfTable(s, 0.5)), r.blocks);
+    if (shift == 0) {
+      EXPECT_EQ(cells.maxValue[at(0, 0, 0)], 1000.f);
+      EXPECT_EQ(cells.maxValue[at(2, 2, 2)], 1000.f);  // reads blocks 1..3
+      EXPECT_EQ(cells.maxValue[at(3, 0, 0)], 0.f);     // reads blocks 2..4 in x
+      EXPECT_EQ(occ[at(2, 0, 0)], 255);
+      EXPECT_EQ(occ[at(3, 0, 0)], 0);
+    } else {
+      EXPECT_EQ(cells.maxValue[at(0, 0, 0)], 1000.f);  // reads source blocks 1..3 in x
+      EXPECT_EQ(cells.maxValue[at(1, 0, 0)], 0.f);     // reads source blocks 2..4 in x
+      EXPECT_EQ(occ[at(1, 0, 0)], 0);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace vellum::render
