@@ -107,6 +107,41 @@ double mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, u
     }
   }
   double sum = 0;
+  const bool insideOther = centre.femurOuter < 0 || centre.tibiaOuter < 0 ||
+                           centre.fibulaOuter < 0 || centre.patellaOuter < 0 ||
+                           centre.femurCartilage < 0 || centre.tibiaCartilage < 0;
+  if (leg && exact == 0 && !insideOther) {
+    // Fast path, the common case: only the skin/fat/muscle surfaces cross the voxel.
+    std::array<double, kSuper> ox{}, oy{}, oz{}, mx{}, my{}, mz{};
+    for (int a = 0; a < kSuper; ++a) {
+      ox[a] = gradOuter.x * off[a].x;
+      oy[a] = gradOuter.y * off[a].y;
+      oz[a] = gradOuter.z * off[a].z;
+      mx[a] = gradMuscle.x * off[a].x;
+      my[a] = gradMuscle.y * off[a].y;
+      mz[a] = gradMuscle.z * off[a].z;
+    }
+    for (int c = 0; c < kSuper; ++c)
+      for (int b = 0; b < kSuper; ++b)
+        for (int a = 0; a < kSuper; ++a) {
+          double outer = centre.legOuter + ox[a] + oy[b] + oz[c];
+          double fat = centre.legFat + ox[a] + oy[b] + oz[c];
+          double muscle = centre.legMuscle + mx[a] + my[b] + mz[c];
+          if (std::abs(outer) < exactBandMm || std::abs(fat) < exactBandMm ||
+              std::abs(muscle) < exactBandMm) {
+            Distances sub = centre;
+            anatomy.evaluate(p + Vec3{off[a].x, off[b].y, off[c].z}, detail::gLeg, sub);
+            outer = sub.legOuter;
+            fat = sub.legFat;
+            muscle = sub.legMuscle;
+          }
+          sum += outer >= 0   ? hu[detail::tAir]
+                 : muscle < 0 ? hu[detail::tMuscle]
+                 : fat < 0    ? hu[detail::tFat]
+                              : hu[detail::tSkin];
+        }
+    return sum / (kSuper * kSuper * kSuper);
+  }
   for (int c = 0; c < kSuper; ++c)
     for (int b = 0; b < kSuper; ++b)
       for (int a = 0; a < kSuper; ++a) {
