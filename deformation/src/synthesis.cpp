@@ -7,6 +7,7 @@
 #include <variant>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 
 namespace vellum::deformation {
@@ -111,33 +112,29 @@ inline T toVoxel(float v) {
   }
 }
 
-template <class T, int Taps>
-Volume<T> synthesizeTyped(const Volume<T>& src, const std::vector<float>& mapIdx, const Dims& nd,
-                          int s, const AxisTaps<Taps>& tx, const AxisTaps<Taps>& ty,
-                          const AxisTaps<Taps>& tz, Progress& progress) {
-  Volume<T> out(src.geometry(), T{}, src.background());
-  const Dims od = src.dims();
-  const T* data = src.data();
-  const float bg = static_cast<float>(src.background());
+// Upsamples the node map `map3` (3 floats per node) to every output voxel, one row at a time:
+// rowFn(k, j, row) receives 3 floats per voxel of output row (j, k). Separable: node planes are
+// blended in z, then rows in y, then voxels in x.
+template <int Taps, class RowFn>
+void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od,
+                  const AxisTaps<Taps>& tx, const AxisTaps<Taps>& ty, const AxisTaps<Taps>& tz,
+                  Progress& progress, const char* stage, RowFn&& rowFn) {
   const int64_t planeNodes = nd.x * nd.y;
-  progress.begin("synthesis", static_cast<uint64_t>(od.z));
+  progress.begin(stage, static_cast<uint64_t>(od.z));
   parallelFor(od.z, [&](int64_t k0, int64_t k1) {
-    std::vector<float> plane(static_cast<size_t>(planeNodes) * 3), row(static_cast<size_t>(nd.x) * 3);
-    int64_t lastPlane = -1;
+    std::vector<float> plane(static_cast<size_t>(planeNodes) * 3), row(static_cast<size_t>(nd.x) * 3),
+        out(static_cast<size_t>(od.x) * 3);
     for (int64_t k = k0; k < k1; ++k) {
-      // Interpolate the node planes in z (only when this slice has a new phase/node pair).
       const auto& zi = tz.idx[static_cast<size_t>(k)];
       const auto& zw = tz.w[static_cast<size_t>(k)];
-      if (lastPlane != k) {
-        std::fill(plane.begin(), plane.end(), 0.f);
-        for (int q = 0; q < Taps; ++q) {
-          if (zw[q] == 0.f) continue;
-          const float* src3 = mapIdx.data() + static_cast<size_t>(zi[q] * planeNodes) * 3;
-          const float w = zw[q];
+      std::fill(plane.begin(), plane.end(), 0.f);
+      for (int q = 0; q < Taps; ++q) {
+        if (zw[q] == 0.f) continue;
+        const float* src3 = map3.data() + static_cast<size_t>(zi[q] * planeNodes) * 3;
+        const float w = zw[q];
+        float* pl = plane.data();
 #pragma omp simd
-          for (int64_t t = 0; t < planeNodes * 3; ++t) plane[t] += w * src3[t];
-        }
-        lastPlane = k;
+        for (int64_t t = 0; t < planeNodes * 3; ++t) pl[t] += w * src3[t];
       }
       for (int64_t j = 0; j < od.y; ++j) {
         const auto& yi = ty.idx[static_cast<size_t>(j)];
@@ -147,10 +144,11 @@ Volume<T> synthesizeTyped(const Volume<T>& src, const std::vector<float>& mapIdx
           if (yw[q] == 0.f) continue;
           const float* p = plane.data() + static_cast<size_t>(yi[q] * nd.x) * 3;
           const float w = yw[q];
+          float* r = row.data();
 #pragma omp simd
-          for (int64_t t = 0; t < nd.x * 3; ++t) row[t] += w * p[t];
+          for (int64_t t = 0; t < nd.x * 3; ++t) r[t] += w * p[t];
         }
-        T* o = out.data() + (k * od.y + j) * od.x;
+        float* o = out.data();
         for (int64_t i = 0; i < od.x; ++i) {
           const auto& xi = tx.idx[static_cast<size_t>(i)];
           const auto& xw = tx.w[static_cast<size_t>(i)];
@@ -159,15 +157,32 @@ Volume<T> synthesizeTyped(const Volume<T>& src, const std::vector<float>& mapIdx
             const float* r = row.data() + 3 * xi[q];
             ux += xw[q] * r[0]; uy += xw[q] * r[1]; uz += xw[q] * r[2];
           }
-          o[i] = toVoxel<T>(fetch(src, data, od.x, od.y, od.z, ux, uy, uz, bg));
+          o[3 * i] = ux; o[3 * i + 1] = uy; o[3 * i + 2] = uz;
         }
+        rowFn(k, j, out.data());
       }
       progress.advance();
     }
   });
   progress.end();
-  (void)s;
-  return out;
+}
+
+template <class RowFn>
+void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od, int s,
+                 Upsampling up, Progress& progress, const char* stage, RowFn&& rowFn) {
+  if (up == Upsampling::Trilinear)
+    upsampleRows(map3, nd, od, linearTaps(od.x, nd.x, s), linearTaps(od.y, nd.y, s),
+                 linearTaps(od.z, nd.z, s), progress, stage, rowFn);
+  else
+    upsampleRows(map3, nd, od, gaussianTaps(od.x, nd.x, s), gaussianTaps(od.y, nd.y, s),
+                 gaussianTaps(od.z, nd.z, s), progress, stage, rowFn);
+}
+
+void checkGrid(const Geometry& g, const ControlVolume& cv) {
+  const Geometry expect = controlGrid(g, cv.scale);
+  if (!(expect.dims == cv.grid.dims) || !expect.approxEqual(cv.grid) ||
+      cv.sourceMm.size() != static_cast<size_t>(cv.grid.dims.voxelCount()) * 3)
+    throw Error("the control volume was not built for this volume's geometry");
 }
 
 }  // namespace
@@ -175,10 +190,7 @@ Volume<T> synthesizeTyped(const Volume<T>& src, const std::vector<float>& mapIdx
 AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsampling upsampling,
                      Progress& progress) {
   const Geometry& g = geometryOf(source);
-  const Geometry expect = controlGrid(g, cv.scale);
-  if (!(expect.dims == cv.grid.dims) || !expect.approxEqual(cv.grid) ||
-      cv.sourceMm.size() != static_cast<size_t>(cv.grid.dims.voxelCount()) * 3)
-    throw Error("synthesize: the control volume was not built for this volume's geometry");
+  checkGrid(g, cv);
   // Map in source index coordinates (float), so the per-voxel work is interpolation + fetch.
   const Mat3 toMm = g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0},
                                                     {0, 0, g.spacing.z});
@@ -194,19 +206,36 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsamplin
       mapIdx[3 * t + 2] = static_cast<float>(idx.z);
     }
   }, 4096);
-  const Dims nd = cv.grid.dims;
-  const int s = cv.scale;
   return std::visit(
-      [&](const auto& vol) -> AnyVolume {
-        if (upsampling == Upsampling::Trilinear)
-          return synthesizeTyped(vol, mapIdx, nd, s, linearTaps(g.dims.x, nd.x, s),
-                                 linearTaps(g.dims.y, nd.y, s), linearTaps(g.dims.z, nd.z, s),
-                                 progress);
-        return synthesizeTyped(vol, mapIdx, nd, s, gaussianTaps(g.dims.x, nd.x, s),
-                               gaussianTaps(g.dims.y, nd.y, s), gaussianTaps(g.dims.z, nd.z, s),
-                               progress);
+      [&](const auto& src) -> AnyVolume {
+        using T = typename std::decay_t<decltype(src)>::value_type;
+        Volume<T> out(g, T{}, src.background());
+        const Dims od = g.dims;
+        const T* data = src.data();
+        const float bg = static_cast<float>(src.background());
+        upsampleAny(mapIdx, cv.grid.dims, od, cv.scale, upsampling, progress, "synthesis",
+                    [&](int64_t k, int64_t j, const float* u) {
+                      T* o = out.data() + (k * od.y + j) * od.x;
+                      for (int64_t i = 0; i < od.x; ++i)
+                        o[i] = toVoxel<T>(fetch(src, data, od.x, od.y, od.z, u[3 * i], u[3 * i + 1],
+                                                u[3 * i + 2], bg));
+                    });
+        return out;
       },
       source);
+}
+
+std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output, Upsampling upsampling,
+                               Progress& progress) {
+  checkGrid(output, cv);
+  checkMemoryBudget(output.dims, 3 * sizeof(float), "full-resolution backward map");
+  const Dims od = output.dims;
+  std::vector<float> out(static_cast<size_t>(od.voxelCount()) * 3);
+  upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, progress, "backward map",
+              [&](int64_t k, int64_t j, const float* u) {
+                std::copy(u, u + 3 * od.x, out.data() + static_cast<size_t>((k * od.y + j) * od.x) * 3);
+              });
+  return out;
 }
 
 double psnr(const AnyVolume& reference, const AnyVolume& test) {

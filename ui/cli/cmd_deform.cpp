@@ -1,9 +1,269 @@
-// `vellum deform`, `vellum controls`, `vellum animate` — placeholders until issue 3 lands.
+// `vellum deform` (deform a volume with control points) and `vellum controls` (place them).
+#include <chrono>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "cli_util.hpp"
 #include "commands.hpp"
+#include "deform_cli.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/deformation/placement.hpp"
+#include "vellum/deformation/point_files.hpp"
+#include "vellum/deformation/synthesis.hpp"
+#include "vellum/io/atomic_file.hpp"
+#include "vellum/io/volume_io.hpp"
 
 namespace vellum::cli {
-void addDeformCommand(CLI::App&) {}
-void addControlsCommand(CLI::App&) {}
-void addAnimateCommand(CLI::App&) {}
-void demoDeformation(const DemoContext&) {}
+
+namespace fs = std::filesystem;
+using namespace vellum::deformation;
+
+void EngineOptions::addTo(CLI::App& cmd) {
+  cmd.add_option("--power", power, "MLS weight power n in 1/|v-y|^n (default: the file's, else 2)");
+  cmd.add_option("--method", method, "affine | similarity | rigid")->capture_default_str();
+  cmd.add_flag("--density-aware", densityAware, "density-aware weights (bone deforms less)");
+  cmd.add_option("--phi", phi, "density normaliser: min | mean | none")->capture_default_str();
+  cmd.add_option("--phi-min", phiMin, "floor of the normalised density and of phi")->capture_default_str();
+  cmd.add_option("--iterations", iterations, "fixed-point iterations K")->capture_default_str();
+  cmd.add_option("--tolerance", tolerance, "stop iterating when no node moved more than this (mm)");
+  cmd.add_option("--rays", rays, "density ray integration: linear | conic")->capture_default_str();
+  cmd.add_option("--mip", mip, "conic rays: mip reduction mean | max")->capture_default_str();
+  cmd.add_flag("--paper-rho", paperRho, "use the paper's rho (not divided by the segment length)");
+  cmd.add_option("--control-scale", controlScale, "control-volume coarsening s (1, 2, 4)")->capture_default_str();
+  cmd.add_option("--upsampling", upsampling, "map upsampling: trilinear | gaussian")->capture_default_str();
+}
+
+DeformParams EngineOptions::params(std::optional<double> filePower) const {
+  DeformParams p;
+  p.mls.power = filePower.value_or(2.0);
+  if (power != 2 || !filePower) p.mls.power = power;
+  p.mls.method = parseMlsMethod(method);
+  p.controlScale = controlScale;
+  if (controlScale < 1 || controlScale > 16) throw Error("--control-scale must be in 1..16");
+  p.density.enabled = densityAware;
+  p.density.phi = parsePhiRule(phi);
+  p.density.phiMin = phiMin;
+  p.density.iterations = iterations;
+  p.density.toleranceMm = tolerance;
+  p.density.rays = parseRayMode(rays);
+  p.density.reduction = parseMipReduction(mip);
+  p.density.lengthNormalised = !paperRho;
+  (void)parseUpsampling(upsampling);
+  return p;
+}
+
+void RigidOptions::addTo(CLI::App& cmd) {
+  cmd.add_option("--labels", labels, "label map on the same grid (NRRD ...), for rigid bones");
+  cmd.add_option("--rigid-labels", rigidIds, "label ids that stay rigid, e.g. 4,5,6,7,8,9")->delimiter(',');
+  cmd.add_option("--rigid-falloff", falloffMm, "blend band outside each bone (mm)")->capture_default_str();
+}
+
+RigidBodies RigidOptions::load(const Geometry& geometry) const {
+  if (rigidIds.empty()) throw Error("--labels needs --rigid-labels (the ids that stay rigid)");
+  const LabelVolume lv = io::loadLabels(labels);
+  if (!(lv.geometry().dims == geometry.dims) || !lv.geometry().approxEqual(geometry, 1e-3))
+    throw FileError(labels, "label map grid " + lv.geometry().dims.str() + " differs from the volume's " +
+                                geometry.dims.str());
+  return RigidBodies::fromLabels(lv, rigidIds);
+}
+
+render::BackwardMap toBackwardMap(const ControlVolume& cv) {
+  render::BackwardMap m;
+  m.grid = cv.grid;
+  m.sourceMm = cv.sourceMm;
+  m.attributes = cv.attributes;
+  return m;
+}
+
+nlohmann::json toJson(const RigidityReport& r) {
+  return {{"components", r.components},
+          {"bone_nodes", r.boneNodes},
+          {"soft_tissue_nodes", r.softNodes},
+          {"bone_rms_residual_mm", r.boneRmsResidualMm},
+          {"bone_max_residual_mm", r.boneMaxResidualMm},
+          {"soft_tissue_mean_displacement_mm", r.softTissueMeanDisplacementMm},
+          {"fold_fraction", r.foldFraction}};
+}
+
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point t0) { return secondsSince(t0) * 1000.0; }
+
+// The full-resolution backward map as a 3-component float32 NRRD (source position in mm).
+void saveMapNrrd(const std::vector<float>& map, const Geometry& g, const fs::path& path) {
+  io::writeAtomically(path, [&](const fs::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out) throw FileError(path, "cannot write");
+    auto vec = [](const Vec3& v) {
+      std::ostringstream s;
+      s.precision(10);
+      s << "(" << v.x << "," << v.y << "," << v.z << ")";
+      return s.str();
+    };
+    out << "NRRD0004\n# Vellum backward map: source position (mm, LPS) of every output voxel\n"
+        << "type: float\ndimension: 4\nspace: left-posterior-superior\n"
+        << "sizes: 3 " << g.dims.x << " " << g.dims.y << " " << g.dims.z << "\n"
+        << "space directions: none " << vec(g.direction.column(0) * g.spacing.x) << " "
+        << vec(g.direction.column(1) * g.spacing.y) << " " << vec(g.direction.column(2) * g.spacing.z) << "\n"
+        << "kinds: vector domain domain domain\nendian: little\nencoding: raw\n"
+        << "space origin: " << vec(g.origin) << "\nspace units: \"mm\" \"mm\" \"mm\"\n\n";
+    out.write(reinterpret_cast<const char*>(map.data()), static_cast<std::streamsize>(map.size() * sizeof(float)));
+    if (!out) throw FileError(path, "write failed (disk full?)");
+  });
+}
+
+struct DeformArgs {
+  std::string input, points, output, mapOut, report;
+  bool psnr = false;
+  EngineOptions engine;
+  RigidOptions rigid;
+  InputOptions in;
+};
+
+struct ControlsArgs {
+  std::string input, output, fromLabels;
+  int count = 16;
+  double inset = 0.1;
+  InputOptions in;
+};
+
+}  // namespace
+
+void addDeformCommand(CLI::App& app) {
+  auto a = std::make_shared<DeformArgs>();
+  auto* cmd = app.add_subcommand("deform", "Deform a volume with MLS control points (mm); bones can stay rigid");
+  cmd->add_option("input", a->input, "volume file or DICOM folder")->required();
+  cmd->add_option("--points", a->points, "control points JSON (mm; see docs/deformation.md)")->required();
+  cmd->add_option("--out,-o", a->output, "deformed volume (same geometry and type; any writable format)")->required();
+  cmd->add_option("--map-out", a->mapOut, "backward map as a 3-component float32 NRRD (source mm per output voxel)");
+  cmd->add_option("--report", a->report, "JSON report: stage timings, PSNR, rigidity measures");
+  cmd->add_flag("--psnr", a->psnr, "also synthesise at s = 1 and report the PSNR of the result against it");
+  a->engine.addTo(*cmd);
+  a->rigid.addTo(*cmd);
+  a->in.addTo(*cmd);
+  cmd->footer("Example: vellum deform knee.nrrd --points cp.json --labels knee-labels.nrrd "
+              "--rigid-labels 4,5,6,7,8,9 --out bent.nrrd --report bent.json");
+  cmd->callback([a] {
+    const auto t0 = std::chrono::steady_clock::now();
+    refuseOverwritingInput(a->input, a->output);
+    const PointFile pf = loadControlPoints(a->points);
+    const DeformParams params = a->engine.params(pf.power);
+    const Upsampling up = parseUpsampling(a->engine.upsampling);
+    nlohmann::json timings, report;
+    auto t = std::chrono::steady_clock::now();
+    const io::LoadedVolume lv = loadWithProgress(a->input, a->in);
+    const Geometry& g = geometryOf(lv.volume);
+    timings["load"] = msSince(t);
+    std::optional<RigidBodies> bodies;
+    if (a->rigid.enabled()) {
+      t = std::chrono::steady_clock::now();
+      bodies = a->rigid.load(g);
+      timings["rigid_bodies"] = msSince(t);
+    }
+    ControlVolume cv;
+    {
+      ProgressBar bar;
+      Deformer d(lv.volume, params);
+      d.setPoints(pf.points);
+      cv = d.update(bar.progress());
+      timings["density_build"] = d.timings().densityBuildMs;
+      timings["rho_cache"] = d.timings().rhoCacheMs;
+      timings["control_volume"] = d.timings().mapMs;
+    }
+    if (bodies) {
+      t = std::chrono::steady_clock::now();
+      report["rigidity"]["before"] = toJson(measureRigidity(cv, *bodies));
+      ProgressBar bar;
+      applyRigidity(cv, *bodies, {a->rigid.falloffMm}, bar.progress());
+      timings["rigidity"] = msSince(t);
+      report["rigidity"]["after"] = toJson(measureRigidity(cv, *bodies));
+    }
+    AnyVolume out;
+    {
+      t = std::chrono::steady_clock::now();
+      ProgressBar bar;
+      out = synthesize(lv.volume, cv, up, bar.progress());
+      timings["synthesis"] = msSince(t);
+    }
+    if (a->psnr && params.controlScale > 1) {
+      DeformParams ref = params;
+      ref.controlScale = 1;
+      ProgressBar bar;
+      ControlVolume full = computeControlVolume(lv.volume, pf.points, ref, bar.progress());
+      if (bodies) applyRigidity(full, *bodies, {a->rigid.falloffMm});
+      report["psnr_db_vs_s1"] = psnr(synthesize(lv.volume, full, up), out);
+    }
+    t = std::chrono::steady_clock::now();
+    ensureParentFolder(a->output);
+    io::saveVolume(out, a->output);
+    timings["save"] = msSince(t);
+    if (!a->mapOut.empty()) {
+      t = std::chrono::steady_clock::now();
+      ensureParentFolder(a->mapOut);
+      saveMapNrrd(upsampleMap(cv, g, up), g, a->mapOut);
+      timings["map_out"] = msSince(t);
+    }
+    timings["total"] = msSince(t0);
+    std::cout << a->output << "  " << g.dims.str() << "  " << pf.points.size() << " points  s="
+              << params.controlScale << "  " << timings["total"].get<double>() / 1000.0 << " s\n";
+    if (report.contains("rigidity"))
+      std::cout << "bone RMS residual " << report["rigidity"]["after"]["bone_rms_residual_mm"].get<double>()
+                << " mm (before " << report["rigidity"]["before"]["bone_rms_residual_mm"].get<double>()
+                << "), soft tissue moved "
+                << report["rigidity"]["after"]["soft_tissue_mean_displacement_mm"].get<double>() << " mm\n";
+    if (!a->report.empty()) {
+      report["input"] = a->input;
+      report["output"] = a->output;
+      report["points"] = pf.points.size();
+      report["dims"] = {g.dims.x, g.dims.y, g.dims.z};
+      report["method"] = mlsMethodName(params.mls.method);
+      report["power"] = params.mls.power;
+      report["control_scale"] = params.controlScale;
+      report["upsampling"] = upsamplingName(up);
+      report["density_aware"] = params.density.enabled;
+      if (params.density.enabled)
+        report["density"] = {{"phi", phiRuleName(params.density.phi)}, {"phi_min", params.density.phiMin},
+                             {"iterations", params.density.iterations}, {"rays", rayModeName(params.density.rays)},
+                             {"length_normalised", params.density.lengthNormalised}};
+      report["timings_ms"] = timings;
+      writeJsonFile(report, a->report);
+    }
+  });
+}
+
+void addControlsCommand(CLI::App& app) {
+  auto a = std::make_shared<ControlsArgs>();
+  auto* cmd = app.add_subcommand("controls", "Place control points (sources = targets) and write them as JSON (mm)");
+  cmd->add_option("input", a->input, "volume file or DICOM folder (its box is used)")->required();
+  cmd->add_option("--out,-o", a->output, "control-point JSON to write")->required();
+  cmd->add_option("--count", a->count, "points on the bounding box (paper default 16)")->capture_default_str();
+  cmd->add_option("--inset", a->inset, "inner offset as a fraction of the box")->capture_default_str();
+  cmd->add_option("--from-labels", a->fromLabels,
+                  "place points from a label map instead: centroids + surface points of each label, "
+                  "plus 8 box anchors");
+  a->in.addTo(*cmd);
+  cmd->callback([a] {
+    refuseOverwritingInput(a->input, a->output);
+    const io::LoadedVolume lv = loadWithProgress(a->input, a->in, true);
+    const Geometry& g = geometryOf(lv.volume);
+    PointFile pf;
+    if (!a->fromLabels.empty()) {
+      const LabelVolume labels = io::loadLabels(a->fromLabels);
+      if (!(labels.geometry().dims == g.dims))
+        throw FileError(a->fromLabels, "label map grid " + labels.geometry().dims.str() +
+                                           " differs from the volume's " + g.dims.str());
+      pf.points = labelControlPoints(labels, a->inset);
+    } else {
+      pf.points = boxControlPoints(g, a->count, a->inset);
+    }
+    pf.power = 2;
+    ensureParentFolder(a->output);
+    saveControlPoints(pf, a->output);
+    std::cout << a->output << "  " << pf.points.size() << " control points\n";
+  });
+}
+
 }  // namespace vellum::cli

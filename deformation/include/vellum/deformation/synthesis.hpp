@@ -14,6 +14,12 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv,
                      Upsampling upsampling = Upsampling::Trilinear,
                      Progress& progress = Progress::none());
 
+/// The backward map at every output voxel: 3 floats (source position in mm) per voxel, x
+/// fastest, upsampled from `cv` exactly as synthesize() does. Memory budget checked first.
+std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output,
+                               Upsampling upsampling = Upsampling::Trilinear,
+                               Progress& progress = Progress::none());
+
 /// Peak signal-to-noise ratio (dB) of `test` against `reference` (same dims), with the peak
 /// taken as the reference's value range. +infinity when identical.
 double psnr(const AnyVolume& reference, const AnyVolume& test);
