@@ -151,6 +151,19 @@ const std::vector<Malformed>& cases() {
       {"vti_garbage", "a.vti", "", [](auto d) { writeFile(d / "a.vti", "<VTKFile type=\"ImageData\"><oops"); }},
       {"vti_truncated", "a.vti", "",
        [](auto d) { const auto s = validFile(d, "t.vti"); writeFile(d / "a.vti", s.substr(0, s.size() * 2 / 3)); }},
+      {"vti_absurd_extent", "a.vti", "absurd dimensions",
+       [](auto d) {
+         writeFile(d / "a.vti",
+                   "<?xml version=\"1.0\"?>\n<VTKFile type=\"ImageData\" version=\"1.0\" byte_order=\"LittleEndian\">"
+                   "<ImageData WholeExtent=\"0 99999 0 99999 0 99999\" Origin=\"0 0 0\" Spacing=\"1 1 1\">"
+                   "<Piece Extent=\"0 99999 0 99999 0 99999\"><PointData Scalars=\"s\">"
+                   "<DataArray type=\"Int16\" Name=\"s\" format=\"ascii\">1 2</DataArray>"
+                   "</PointData></Piece></ImageData></VTKFile>\n");
+       }},
+      {"mha_over_memory_budget", "a.mha", "needs",
+       [](auto d) { writeFile(d / "a.mha", "ObjectType = Image\nNDims = 3\nDimSize = 60000 60000 60000\nElementType = MET_FLOAT\nElementDataFile = LOCAL\n"); }},
+      {"nii_over_memory_budget", "a.nii", "needs",
+       [](auto d) { writeFile(d / "a.nii", niftiHeader(30000).replace(44, 4, std::string("\x30\x75\x30\x75", 4)) + std::string(8, '\0')); }},
       {"unknown_extension", "a.xyz", "unknown file extension", [](auto d) { writeFile(d / "a.xyz", "hello"); }},
       {"missing_file", "gone.nrrd", "no such file", [](auto) {}},
   };
