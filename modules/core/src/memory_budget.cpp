@@ -70,8 +70,8 @@ void checkMemoryBudget(const Dims& dims, uint64_t bytesPerVoxel, const std::stri
   constexpr uint64_t kMax = std::numeric_limits<uint64_t>::max();
   const auto x = static_cast<uint64_t>(dims.x), y = static_cast<uint64_t>(dims.y),
              z = static_cast<uint64_t>(dims.z);
-  if ((x && y > kMax / x) || (x * y && z > kMax / (x * y)) ||
-      (x * y * z && bytesPerVoxel > kMax / (x * y * z)))
+  if ((x != 0 && y > kMax / x) || (x * y != 0 && z > kMax / (x * y)) ||
+      (x * y * z != 0 && bytesPerVoxel > kMax / (x * y * z)))
     throw Error(what + " is too large to address");
   checkMemoryBudget(x * y * z * bytesPerVoxel, what);
 }
