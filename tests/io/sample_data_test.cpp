@@ -1,4 +1,5 @@
-// Integration with VTK's headsq sample (../shared/data/headsq): bare raw + index.json geometry.
+// Integration with the third-party samples in ../shared/data: VTK headsq (bare raw + index.json
+// geometry) and the CT head phantom DICOM series converted to every writable format.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -67,5 +68,25 @@ TEST(Headsq, RawLoadsWithIndexJsonGeometryAndConvertsWithDirectionIntact) {
     const Vec3 p0 = g.indexToPhysical({10, 20, 30});
     const Vec3 p1 = geometryOf(back.volume).indexToPhysical({10, 20, 30});
     EXPECT_NEAR(norm(p0 - p1), 0.0, 1e-9) << name;
+  }
+}
+
+TEST(CtHeadPhantom, DicomConvertsToEveryFormatAndBackExactly) {
+  VELLUM_REQUIRE_DATA("ct-head-phantom");
+  const io::LoadedVolume dcm = io::loadVolume(dataDir() / "ct-head-phantom");
+  ASSERT_EQ(dcm.format, "dicom");
+  ASSERT_TRUE(std::holds_alternative<VolumeI16>(dcm.volume));
+  const auto& ct = std::get<VolumeI16>(dcm.volume);
+  EXPECT_EQ(ct.dims(), (Dims{512, 512, 28}));
+  EXPECT_EQ(dcm.modality, "CT");
+  const fs::path dir = tempDir("phantom-convert");
+  for (const char* name : {"p.nrrd", "p.mha", "p.vti"}) {
+    io::saveVolume(dcm.volume, dir / name);
+    const auto back = io::loadVolume(dir / name);
+    EXPECT_EQ(back.modality, "CT") << name;
+    EXPECT_EQ(backgroundOf(back.volume), -1000.0) << name;
+    ASSERT_TRUE(std::holds_alternative<VolumeI16>(back.volume)) << name;
+    EXPECT_EQ(std::get<VolumeI16>(back.volume).voxels(), ct.voxels()) << name;
+    expectGeometryNear(ct.geometry(), geometryOf(back.volume), 1e-9);
   }
 }
