@@ -38,6 +38,10 @@ struct FileHeader {
   fs::path file;
   std::string seriesUid, modality, description, sopClassUid, sopInstanceUid;
   int64_t rows = 0, columns = 0, frameCount = 1;
+  // Image pixel module, validated by the scan (GDCM asserts on some invalid values).
+  int bitsAllocated = 16, bitsStored = 16, highBit = 15;
+  bool signedPixels = false;       ///< PixelRepresentation 1
+  bool monochrome1 = false;        ///< PhotometricInterpretation MONOCHROME1 (display only)
   std::vector<Frame> frames;  ///< one per frame (enhanced) or exactly one
 };
 
@@ -92,13 +96,12 @@ struct SlicePlan {
 /// sorts them along the slice normal; detects uneven spacing, gaps and gantry tilt.
 SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns);
 
-/// Decodes every frame of `file` (rows x columns x frames as the header said) through GDCM,
-/// applies the per-frame rescale (`slopes`, `intercepts`: one per frame), rounds and saturates
-/// to int16, and calls sink(frameIndex, values) with rows*columns values (i fastest) per
-/// frame. Returns how many values were saturated. Throws FileError naming the file on missing
-/// or truncated pixel data, size mismatches and unsupported pixel formats.
-int64_t decodeFile(const fs::path& file, int64_t rows, int64_t columns, int64_t frames,
-                   const std::vector<double>& slopes, const std::vector<double>& intercepts,
+/// Decodes every frame of a scanned file through GDCM (any transfer syntax GDCM supports),
+/// applies each frame's rescale, rounds and saturates to int16, and calls
+/// sink(frameIndex, values) with rows*columns values (i fastest) per frame. Returns how many
+/// values were saturated. Throws FileError naming the file on missing or truncated pixel data,
+/// size mismatches and undecodable data.
+int64_t decodeFile(const FileHeader& header,
                    const std::function<void(int64_t frame, const int16_t* values)>& sink);
 
 /// Resamples the stack (one input slice per plan slice, i fastest) onto plan.geometry:

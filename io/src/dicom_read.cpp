@@ -55,6 +55,17 @@ struct Target {
 };
 using FrameKey = std::pair<fs::path, int64_t>;
 
+/// A volume after the memory budget check; a refusal names the DICOM path.
+VolumeI16 allocate(const fs::path& path, const Geometry& g, double background) {
+  try {
+    return VolumeI16(g, 0, background);
+  } catch (const FileError&) {
+    throw;
+  } catch (const Error& e) {
+    throw FileError(path, e.what());
+  }
+}
+
 }  // namespace
 
 LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& options) {
@@ -132,7 +143,7 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
 
   Geometry stackGeometry = plan.geometry;
   stackGeometry.dims.z = static_cast<int64_t>(plan.slices.size());
-  VolumeI16 stack(stackGeometry, 0, background);  // memory budget checked here
+  VolumeI16 stack = allocate(path, stackGeometry, background);
   const int64_t plane = rows * columns;
 
   // Pass 0 decodes files holding kept slices; pass 1 files holding duplicates, compared
@@ -152,13 +163,8 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
     parallelFor(static_cast<int64_t>(todo.size()), [&](int64_t b, int64_t e) {
       for (int64_t t = b; t < e; ++t) {
         const FileHeader& h = *todo[static_cast<size_t>(t)];
-        std::vector<double> slopes, intercepts;
-        for (const Frame& f : h.frames) {
-          slopes.push_back(f.slope);
-          intercepts.push_back(f.intercept);
-        }
         saturated += decodeFile(
-            h.file, rows, columns, h.frameCount, slopes, intercepts,
+            h,
             [&](int64_t frame, const int16_t* values) {
               auto it = targets.find({h.file, frame});
               if (it == targets.end() || it->second.duplicate != (pass == 1)) return;
@@ -189,7 +195,7 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
     result.warnings.push_back("non-integral rescale slope/intercept: values rounded to integers");
 
   if (plan.resample) {
-    VolumeI16 out(plan.geometry, 0, background);
+    VolumeI16 out = allocate(path, plan.geometry, background);
     resampleStack(plan, stack.voxels(), out, background, progress);
     result.volume = std::move(out);
   } else {

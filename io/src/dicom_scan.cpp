@@ -64,6 +64,35 @@ void applyFunctionalGroup(const gdcm::DataSet& group, Frame& f) {
     if (auto item = firstItem(group, seq)) applyImageAttributes(*item, f);
 }
 
+/// Reads and checks the image pixel module; returns the problem ("" when usable).
+std::string readPixelModule(const gdcm::DataSet& ds, FileHeader& h) {
+  const auto samples = ushortValue(ds, gdcm::Tag(0x0028, 0x0002));
+  const auto allocated = ushortValue(ds, gdcm::Tag(0x0028, 0x0100));
+  const auto stored = ushortValue(ds, gdcm::Tag(0x0028, 0x0101));
+  const auto high = ushortValue(ds, gdcm::Tag(0x0028, 0x0102));
+  const auto representation = ushortValue(ds, gdcm::Tag(0x0028, 0x0103));
+  const std::string photometric = stringValue(ds, gdcm::Tag(0x0028, 0x0004));
+  if (samples && *samples != 1)
+    return "colour images (" + std::to_string(*samples) + " samples per pixel) are not supported";
+  if (!photometric.empty() && photometric != "MONOCHROME2" && photometric != "MONOCHROME1")
+    return "photometric interpretation " + photometric + " is not supported (greyscale only)";
+  h.monochrome1 = photometric == "MONOCHROME1";
+  if (!allocated) return "no BitsAllocated";
+  h.bitsAllocated = *allocated;
+  if (h.bitsAllocated != 8 && h.bitsAllocated != 16 && h.bitsAllocated != 32)
+    return "unsupported BitsAllocated " + std::to_string(h.bitsAllocated);
+  h.bitsStored = stored ? *stored : h.bitsAllocated;
+  h.highBit = high ? *high : h.bitsStored - 1;
+  if (h.bitsStored < 1 || h.bitsStored > h.bitsAllocated || h.highBit >= h.bitsAllocated ||
+      h.highBit + 1 < h.bitsStored)
+    return "inconsistent BitsAllocated/BitsStored/HighBit " + std::to_string(h.bitsAllocated) +
+           "/" + std::to_string(h.bitsStored) + "/" + std::to_string(h.highBit);
+  if (representation && *representation > 1)
+    return "invalid PixelRepresentation " + std::to_string(*representation);
+  h.signedPixels = representation && *representation == 1;
+  return {};
+}
+
 enum class Outcome { Image, NotDicom, NotImage, Unreadable };
 
 struct FileResult {
@@ -121,6 +150,11 @@ FileResult readHeader(const fs::path& file) {
   }
   h.rows = *rows;
   h.columns = *cols;
+  if (std::string why = readPixelModule(ds, h); !why.empty()) {
+    r.outcome = Outcome::Unreadable;
+    r.problem = why;
+    return r;
+  }
   h.modality = stringValue(ds, kModality);
   h.description = stringValue(ds, kSeriesDescription);
   h.sopInstanceUid = stringValue(ds, kSopInstance);

@@ -70,7 +70,48 @@ class Walker {
               : (uint32_t(p[3]) << 24 | uint32_t(p[2]) << 16 | uint32_t(p[1]) << 8 | p[0]);
   }
 
-  static bool isVr(const uint8_t* p) { return p[0] >= 'A' && p[0] <= 'Z' && p[1] >= 'A' && p[1] <= 'Z'; }
+  /// One of the VRs of PS3.5 (GDCM aborts on unknown ones).
+  static bool isVr(const uint8_t* p) {
+    static const char* kAll[] = {"AE", "AS", "AT", "CS", "DA", "DS", "DT", "FL", "FD", "IS", "LO",
+                                 "LT", "OB", "OD", "OF", "OL", "OV", "OW", "PN", "SH", "SL", "SQ",
+                                 "SS", "ST", "SV", "TM", "UC", "UI", "UL", "UN", "UR", "US", "UT",
+                                 "UV"};
+    for (const char* v : kAll)
+      if (p[0] == v[0] && p[1] == v[1]) return true;
+    return false;
+  }
+
+  /// Elements whose VR GDCM relies on when it interprets them: the VR must match.
+  static bool vrAllowed(uint16_t group, uint16_t elem, const uint8_t* vr) {
+    struct Rule {
+      uint16_t group, elem;
+      const char* vrs;  // alternatives, e.g. "USSS"
+    };
+    static const Rule kRules[] = {
+        {0x0002, 0x0000, "UL"}, {0x0002, 0x0001, "OB"}, {0x0002, 0x0002, "UI"},
+        {0x0002, 0x0003, "UI"}, {0x0002, 0x0010, "UI"}, {0x0002, 0x0012, "UI"},
+        {0x0002, 0x0013, "SH"}, {0x0008, 0x0016, "UI"}, {0x0008, 0x0018, "UI"},
+        {0x0008, 0x0060, "CS"}, {0x0020, 0x000d, "UI"}, {0x0020, 0x000e, "UI"},
+        {0x0020, 0x0013, "IS"}, {0x0020, 0x0032, "DS"}, {0x0020, 0x0037, "DS"},
+        {0x0028, 0x0002, "US"}, {0x0028, 0x0004, "CS"}, {0x0028, 0x0006, "US"},
+        {0x0028, 0x0008, "IS"}, {0x0028, 0x0010, "US"}, {0x0028, 0x0011, "US"},
+        {0x0028, 0x0030, "DS"}, {0x0028, 0x0034, "IS"}, {0x0028, 0x0100, "US"},
+        {0x0028, 0x0101, "US"}, {0x0028, 0x0102, "US"}, {0x0028, 0x0103, "US"},
+        {0x0028, 0x0120, "USSS"}, {0x0028, 0x1050, "DS"}, {0x0028, 0x1051, "DS"},
+        {0x0028, 0x1052, "DS"}, {0x0028, 0x1053, "DS"}, {0x0028, 0x1054, "LO"},
+        {0x0018, 0x0050, "DS"}, {0x0018, 0x0088, "DS"}, {0x7fe0, 0x0010, "OBOW"},
+        {0x5200, 0x9229, "SQ"}, {0x5200, 0x9230, "SQ"}, {0x0020, 0x9113, "SQ"},
+        {0x0020, 0x9116, "SQ"}, {0x0028, 0x9110, "SQ"}, {0x0028, 0x9145, "SQ"},
+        {0x0028, 0x1101, "USSS"}, {0x0028, 0x1102, "USSS"}, {0x0028, 0x1103, "USSS"},
+        {0x0028, 0x3002, "USSS"}, {0x0028, 0x3010, "SQ"}};
+    for (const Rule& r : kRules) {
+      if (r.group != group || r.elem != elem) continue;
+      for (const char* v = r.vrs; *v; v += 2)
+        if (vr[0] == v[0] && vr[1] == v[1]) return true;
+      return false;
+    }
+    return true;
+  }
   static bool longVr(const uint8_t* p) {
     static const char* kLong[] = {"OB", "OD", "OF", "OL", "OV", "OW", "SQ", "SV", "UC", "UN", "UR", "UT", "UV"};
     for (const char* v : kLong)
@@ -115,6 +156,9 @@ class Walker {
     bool sq = false, un = false;
     if (sx.explicitVr) {
       if (!isVr(h + 4)) throw Bad{"invalid VR at byte " + std::to_string(pos)};
+      if (!vrAllowed(u16(h, sx.bigEndian), u16(h + 2, sx.bigEndian), h + 4))
+        throw Bad{"element (" + hex(u16(h, sx.bigEndian)) + "," + hex(u16(h + 2, sx.bigEndian)) +
+                  ") has the wrong VR " + std::string(reinterpret_cast<const char*>(h + 4), 2)};
       if (longVr(h + 4)) {
         if (!b_.get(pos + 8, 4, h + 8)) throw Bad{"truncated element header at byte " + std::to_string(pos)};
         len = u32(h + 8, sx.bigEndian);
