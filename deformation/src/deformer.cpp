@@ -20,7 +20,8 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 struct Deformer::Impl {
   DeformParams params;
-  Geometry output, grid;
+  Geometry output, grid, rhoGrid;
+  int rhoScale = 1;
   Mat3 mmToIndex;  // (direction * diag(spacing))^-1 of the source (= output) geometry
   std::unique_ptr<DensityVolume> density;
   ControlPoints points;
@@ -46,6 +47,8 @@ Deformer::Deformer(const AnyVolume& source, const DeformParams& params)
   m.output = geometryOf(source);
   m.output.validate("deformation source");
   m.grid = controlGrid(m.output, params.controlScale);
+  m.rhoScale = params.rhoScale > 0 ? params.rhoScale : params.controlScale;
+  m.rhoGrid = controlGrid(m.output, m.rhoScale);
   const Mat3 toMm = m.output.direction * Mat3::fromColumns({m.output.spacing.x, 0, 0},
                                                             {0, m.output.spacing.y, 0},
                                                             {0, 0, m.output.spacing.z});
@@ -93,14 +96,14 @@ void Deformer::Impl::rebuildRhoFields(Progress& progress) {
     if (!fieldValid[i]) stale.push_back(static_cast<int>(i));
   if (stale.empty()) return;
   const auto t0 = std::chrono::steady_clock::now();
-  const Dims d = grid.dims;
+  const Dims d = rhoGrid.dims;
   if (rhoFields.size() != static_cast<size_t>(d.voxelCount()) * n) {
     checkMemoryBudget(static_cast<uint64_t>(d.voxelCount()) * n * sizeof(float), "rho-field cache");
     rhoFields.assign(static_cast<size_t>(d.voxelCount()) * n, 1.f);
   }
   std::vector<Vec3> xIdx;
   for (int i : stale) xIdx.push_back(sourceIndex(points[static_cast<size_t>(i)].source));
-  const double s = params.controlScale;
+  const double s = rhoScale;
   progress.begin("rho fields", static_cast<uint64_t>(d.z));
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k) {
@@ -138,9 +141,9 @@ struct RowWork {
 // Trilinear lookup of all N rho fields at a source index position (they share the corner
 // weights); writes rho[p * stride + x].
 void Deformer::Impl::lookupRho(const Vec3& ui, float* rho, int stride) const {
-  const Dims d = grid.dims;
+  const Dims d = rhoGrid.dims;
   const int n = static_cast<int>(points.size());
-  const double invS = 1.0 / params.controlScale;
+  const double invS = 1.0 / rhoScale;
   double c[3];
   int64_t i0[3];
   const int64_t dd[3] = {d.x, d.y, d.z};

@@ -7,6 +7,13 @@
 
 #include "vellum/core/error.hpp"
 
+// AVX2/FMA clone of the hot loops with run-time dispatch (falls back to baseline x86-64).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define VELLUM_SIMD_CLONES __attribute__((target_clones("arch=haswell", "default")))
+#else
+#define VELLUM_SIMD_CLONES
+#endif
+
 namespace vellum::deformation::detail {
 namespace {
 
@@ -104,7 +111,7 @@ void RowEvaluator::setPositions(const Vec3* positionsMm, int len) {
   computeWeights();
 }
 
-void RowEvaluator::computeWeights() {
+VELLUM_SIMD_CLONES void RowEvaluator::computeWeights() {
   const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
   for (int k = 0; k < len_; ++k) hit_[static_cast<size_t>(k)] = -1;
   const double n = params_.power;
@@ -113,19 +120,20 @@ void RowEvaluator::computeWeights() {
     const double tx = p_.tx[static_cast<size_t>(i)], ty = p_.ty[static_cast<size_t>(i)],
                  tz = p_.tz[static_cast<size_t>(i)];
     double* w = w0_.data() + static_cast<size_t>(i) * len_;
+    // One loop per power so that each vectorises (no branch inside).
+    auto loop = [&](auto weightOf) {
 #pragma omp simd
-    for (int k = 0; k < len_; ++k) {
-      const double dx = vx[k] - tx, dy = vy[k] - ty, dz = vz[k] - tz;
-      const double d2 = std::max(dx * dx + dy * dy + dz * dz, kHitDist2);
-      double wk;
-      switch (mode) {
-        case 0: wk = 1.0 / d2; break;
-        case 1: wk = 1.0 / (d2 * d2); break;
-        case 2: wk = 1.0 / std::sqrt(d2); break;
-        case 3: wk = 1.0 / (d2 * std::sqrt(d2)); break;
-        default: wk = std::pow(d2, -0.5 * n); break;
+      for (int k = 0; k < len_; ++k) {
+        const double dx = vx[k] - tx, dy = vy[k] - ty, dz = vz[k] - tz;
+        w[k] = weightOf(std::max(dx * dx + dy * dy + dz * dz, kHitDist2));
       }
-      w[k] = wk;
+    };
+    switch (mode) {
+      case 0: loop([](double d2) { return 1.0 / d2; }); break;
+      case 1: loop([](double d2) { return 1.0 / (d2 * d2); }); break;
+      case 2: loop([](double d2) { return 1.0 / std::sqrt(d2); }); break;
+      case 3: loop([](double d2) { return 1.0 / (d2 * std::sqrt(d2)); }); break;
+      default: loop([n](double d2) { return std::pow(d2, -0.5 * n); }); break;
     }
     for (int k = 0; k < len_; ++k)
       if (w[k] >= 0.5 / kHitDist2 && hit_[static_cast<size_t>(k)] < 0) {
@@ -136,7 +144,7 @@ void RowEvaluator::computeWeights() {
   }
 }
 
-void RowEvaluator::solve(const float* rho, double* u, double* attr) {
+VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double* attr) {
   const int n = p_.count, L = len_;
   const double* w = w0_.data();
   if (rho) {

@@ -191,6 +191,7 @@ void addDeformCommand(CLI::App& app) {
     if (a->psnr && params.controlScale > 1) {
       DeformParams ref = params;
       ref.controlScale = 1;
+      ref.rhoScale = params.controlScale;  // same rho fields; only the map resolution differs
       ProgressBar bar;
       ControlVolume full = computeControlVolume(lv.volume, pf.points, ref, bar.progress());
       if (bodies) applyRigidity(full, *bodies, {a->rigid.falloffMm});

@@ -24,7 +24,7 @@ struct EngineOptions {
   double phiMin = 0.05;
   int iterations = 3;
   double tolerance = 0;
-  std::string rays = "linear";
+  std::string rays = "conic";
   std::string mip = "mean";
   bool paperRho = false;
   int controlScale = 2;

@@ -17,6 +17,9 @@ struct DeformParams {
   MlsParams mls;
   DensityParams density;
   int controlScale = 2;  ///< s: 1 (full resolution), 2, 4 (any >= 1 works)
+  /// Grid factor of the rho-field cache; 0 = controlScale. A full-resolution map (s = 1) can
+  /// still look rho up in coarser fields (rho varies smoothly away from the control points).
+  int rhoScale = 0;
   /// Compute attribute fields when some point has non-default attributes.
   bool attributes = true;
 };

@@ -37,7 +37,7 @@ struct DensityParams {
   double windowHighHu = 2000;    ///< ... and 1 here
   int iterations = 3;            ///< fixed-point iterations K (paper: 2..3)
   double toleranceMm = 0;        ///< > 0: stop early once no node moved more than this
-  RayMode rays = RayMode::Linear;
+  RayMode rays = RayMode::Conic;  ///< conic: ~log(length) samples per ray instead of ~length
   double linearStepVoxels = 1.0; ///< linear rays: step in voxels of the smallest spacing
   double coneSlope = 0.15;       ///< conic rays: step and footprint = slope * distance (voxels)
   MipReduction reduction = MipReduction::Mean;
