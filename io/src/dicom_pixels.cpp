@@ -6,6 +6,7 @@
 #include <gdcmPhotometricInterpretation.h>
 #include <gdcmPixelFormat.h>
 #include <gdcmReader.h>
+#include <gdcmSequenceOfFragments.h>
 #include <gdcmTransferSyntax.h>
 
 #include <algorithm>
@@ -56,6 +57,50 @@ int64_t rescaleFrame(const char* src, int64_t count, const BitField& field, doub
   return saturated;
 }
 
+uint32_t be32(const uint8_t* p) {
+  return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3];
+}
+uint16_t be16(const uint8_t* p) { return static_cast<uint16_t>(p[0] << 8 | p[1]); }
+
+/// Checks the SIZ marker of every JPEG 2000 codestream fragment against the image size: GDCM's
+/// JPEG 2000 codec crashes (instead of failing) on some inconsistent headers. Returns the
+/// problem, "" when fine.
+std::string checkJpeg2000(const gdcm::DataElement& pixelData, int64_t rows, int64_t columns) {
+  const gdcm::SequenceOfFragments* fragments = pixelData.GetSequenceOfFragments();
+  if (!fragments || fragments->GetNumberOfFragments() == 0) return "no compressed fragments";
+  int streams = 0;
+  for (size_t i = 0; i < fragments->GetNumberOfFragments(); ++i) {
+    const gdcm::ByteValue* bv = fragments->GetFragment(static_cast<unsigned int>(i)).GetByteValue();
+    if (!bv || bv->GetLength() < 4) continue;
+    const auto* p = reinterpret_cast<const uint8_t*>(bv->GetPointer());
+    const size_t n = bv->GetLength();
+    // A raw codestream starts with SOC; a JP2 file wraps one a little further in.
+    size_t soc = n;
+    for (size_t k = 0; k + 4 <= std::min<size_t>(n, 4096); ++k)
+      if (p[k] == 0xff && p[k + 1] == 0x4f && p[k + 2] == 0xff && p[k + 3] == 0x51) {
+        soc = k;
+        break;
+      }
+    if (soc == n) continue;  // a continuation fragment
+    ++streams;
+    const uint8_t* siz = p + soc + 4;
+    if (soc + 4 + 38 > n) return "JPEG 2000 header truncated";
+    const uint16_t lsiz = be16(siz), csiz = be16(siz + 36);
+    const uint32_t xsiz = be32(siz + 4), ysiz = be32(siz + 8), xo = be32(siz + 12), yo = be32(siz + 16);
+    const uint32_t xt = be32(siz + 20), yt = be32(siz + 24), xto = be32(siz + 28), yto = be32(siz + 32);
+    if (csiz != 1 || lsiz != 38 + 3 * csiz || soc + 4 + lsiz > n)
+      return "JPEG 2000 header: " + std::to_string(csiz) + " components (greyscale expected)";
+    const uint8_t ssiz = siz[38], xr = siz[39], yr = siz[40];
+    if (xsiz <= xo || ysiz <= yo || xsiz - xo != columns || ysiz - yo != rows)
+      return "JPEG 2000 image size does not match Rows/Columns";
+    if (xt == 0 || yt == 0 || xto > xo || yto > yo || xr == 0 || yr == 0 || (ssiz & 0x7f) + 1 > 32)
+      return "invalid JPEG 2000 header";
+    const uint64_t tiles = ((uint64_t{xsiz} - xto + xt - 1) / xt) * ((uint64_t{ysiz} - yto + yt - 1) / yt);
+    if (tiles > 65535) return "invalid JPEG 2000 tiling";
+  }
+  return streams > 0 ? "" : "no JPEG 2000 codestream";
+}
+
 }  // namespace
 
 int64_t decodeFile(const FileHeader& h,
@@ -91,16 +136,23 @@ int64_t decodeFile(const FileHeader& h,
                                 " pixels need " + std::to_string(expected));
   }
 
+  if (ts == gdcm::TransferSyntax::JPEG2000Lossless || ts == gdcm::TransferSyntax::JPEG2000 ||
+      ts == gdcm::TransferSyntax::JPEG2000Part2Lossless || ts == gdcm::TransferSyntax::JPEG2000Part2)
+    if (std::string why = checkJpeg2000(pixelData, h.rows, h.columns); !why.empty())
+      throw FileError(file, why);
+
   gdcm::Image image;
   image.SetNumberOfDimensions(h.frameCount > 1 ? 3 : 2);
   image.SetDimension(0, static_cast<unsigned int>(h.columns));
   image.SetDimension(1, static_cast<unsigned int>(h.rows));
   if (h.frameCount > 1) image.SetDimension(2, static_cast<unsigned int>(h.frameCount));
-  image.SetPixelFormat(gdcm::PixelFormat(1, static_cast<unsigned short>(h.bitsAllocated),
-                                         static_cast<unsigned short>(h.bitsStored),
-                                         // GDCM insists on HighBit = BitsStored - 1; any
-                                         // other layout is shifted below (BitField).
-                                         static_cast<unsigned short>(h.bitsStored - 1),
+  // Uncompressed: GDCM gets the full word (it would mask to BitsStored assuming HighBit =
+  // BitsStored - 1) and BitField below extracts the stored bits. Compressed: the codec
+  // returns the values themselves.
+  const bool encapsulated = ts.IsEncapsulated();
+  const auto ba = static_cast<unsigned short>(h.bitsAllocated);
+  const auto bs = static_cast<unsigned short>(encapsulated ? h.bitsStored : h.bitsAllocated);
+  image.SetPixelFormat(gdcm::PixelFormat(1, ba, bs, static_cast<unsigned short>(bs - 1),
                                          h.signedPixels ? 1 : 0));
   image.SetPhotometricInterpretation(h.monochrome1 ? gdcm::PhotometricInterpretation::MONOCHROME1
                                                    : gdcm::PhotometricInterpretation::MONOCHROME2);
@@ -127,11 +179,9 @@ int64_t decodeFile(const FileHeader& h,
     throw FileError(file, std::string("cannot decode pixel data (transfer syntax ") +
                               ts.GetString() + ")");
 
-  // Codecs may report the stream's own pixel format (e.g. 16 bits stored where the header
-  // says 14); the header's bit field is applied either way.
   BitField field;
-  field.bits = h.bitsStored;
-  field.shift = h.highBit + 1 - h.bitsStored;
+  field.bits = encapsulated ? h.bitsAllocated : h.bitsStored;
+  field.shift = encapsulated ? 0 : h.highBit + 1 - h.bitsStored;
   field.isSigned = h.signedPixels;
   std::vector<int16_t> values(plane);
   int64_t saturated = 0;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 
 #include "dicom.hpp"
 #include "test_data.hpp"
@@ -120,6 +121,30 @@ TEST(DicomData, Jpeg2000LosslessEqualsUncompressed) {
   EXPECT_GT(differ, 0);
   EXPECT_LT(sumAbs / count, 100.0) << "mean |lossy - lossless| HU";
   EXPECT_LT(std::abs(sumDiff / count), 10.0) << "mean lossy - lossless HU";
+}
+
+TEST(DicomData, CorruptJpeg2000HeaderIsAnErrorNotACrash) {
+  VELLUM_REQUIRE_DATA("ct-single-slices/693_J2KR.dcm");
+  // GDCM's JPEG 2000 codec crashes on an inconsistent SIZ marker; the loader checks it first.
+  const fs::path dir = tempDir("dicom-j2k");
+  const fs::path file = dir / "bad.dcm";
+  fs::copy_file(dataDir() / "ct-single-slices" / "693_J2KR.dcm", file);
+  std::string bytes;
+  {
+    std::ifstream in(file, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const size_t soc = bytes.find(std::string("\xff\x4f\xff\x51", 4));
+  ASSERT_NE(soc, std::string::npos);
+  bytes[soc + 4 + 9] = 0x02;  // Ysiz 512 -> 0x02000200
+  std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+  try {
+    loadDicom(file, {});
+    ADD_FAILURE() << "corrupt JPEG 2000 accepted";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("JPEG 2000"), std::string::npos) << e.what();
+  }
 }
 
 TEST(DicomData, SmallCtSlice) {

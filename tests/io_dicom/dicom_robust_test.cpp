@@ -207,6 +207,59 @@ TEST(DicomConsistency, BadPixelSpacingNamesTheFile) {
   expectLoadError(dir, {"IMG0003.dcm", "ImagePositionPatient"});
 }
 
+/// Rewrites a slice's pixels as unsigned 12-bit in 16 with junk in the unused high bits.
+void writeTwelveBit(const fs::path& file, int highBit, const std::vector<uint16_t>& values) {
+  gdcm::Reader reader;
+  reader.SetFileName(file.string().c_str());
+  ASSERT_TRUE(reader.Read());
+  gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  auto us = [&](uint16_t element, uint16_t v) {
+    gdcm::DataElement de(gdcm::Tag(0x0028, element));
+    de.SetVR(gdcm::VR::US);
+    const char b[2] = {static_cast<char>(v & 0xff), static_cast<char>(v >> 8)};
+    de.SetByteValue(b, 2);
+    ds.Replace(de);
+  };
+  us(0x0101, 12);
+  us(0x0102, static_cast<uint16_t>(highBit));
+  us(0x0103, 0);
+  const int shift = highBit - 11;
+  std::vector<uint16_t> stored;
+  for (uint16_t v : values) {
+    const auto inField = static_cast<uint16_t>(v << shift);
+    const auto junkMask = static_cast<uint16_t>(~(0x0fffu << shift));
+    stored.push_back(static_cast<uint16_t>(inField | (0xa5a5 & junkMask)));
+  }
+  gdcm::DataElement pd(gdcm::Tag(0x7fe0, 0x0010));
+  pd.SetVR(gdcm::VR::OW);
+  pd.SetByteValue(reinterpret_cast<const char*>(stored.data()), static_cast<uint32_t>(stored.size() * 2));
+  ds.Replace(pd);
+  gdcm::Writer writer;
+  writer.SetFile(reader.GetFile());
+  writer.SetFileName(file.string().c_str());
+  ASSERT_TRUE(writer.Write());
+}
+
+TEST(DicomValues, BitsStoredHighBitAndRescaleAreApplied) {
+  const fs::path dir = tempDir("dicom-bits") / "series";
+  Geometry g;
+  g.dims = {4, 3, 2};
+  saveDicomSeries(VolumeI16(g, 0, kCtAirHu), dir, {});
+  const auto files = sliceFiles(dir);
+  std::vector<uint16_t> values;
+  for (uint16_t n = 0; n < 12; ++n) values.push_back(static_cast<uint16_t>(n * 341));  // 0..3751
+  writeTwelveBit(files[0], 11, values);
+  writeTwelveBit(files[1], 13, values);  // field shifted up by two bits
+  for (const auto& f : files) {
+    setTag(f, 0x0028, 0x1053, "DS", "2");
+    setTag(f, 0x0028, 0x1052, "DS", "-1024");
+  }
+  const VolumeI16 r = loadI16(dir);
+  for (int64_t k = 0; k < 2; ++k)
+    for (size_t n = 0; n < values.size(); ++n)
+      EXPECT_EQ(r.voxels()[k * 12 + n], 2 * values[n] - 1024) << k << "," << n;
+}
+
 TEST(DicomTilt, GantryTiltIsShearCorrectedWithWarning) {
   const fs::path dir = tempDir("dicom-tilt") / "series";
   Geometry g;
