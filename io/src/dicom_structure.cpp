@@ -173,23 +173,37 @@ class Walker {
       len = u32(h + 4, sx.bigEndian);
       value = pos + 8;
     }
+    const uint16_t group = u16(h, sx.bigEndian), elem = u16(h + 2, sx.bigEndian);
+    const bool pixelData = group == 0x7fe0 && elem == 0x0010;
     if (len == kUndefined) {
-      // Sequence (explicit SQ, UN, implicit) or encapsulated pixel data: items to a delimiter.
+      // Only sequences (SQ, UN, or any in implicit VR) and encapsulated pixel data may have
+      // an undefined length; their items run to a delimiter.
+      if (sx.explicitVr && !sq && !un && !pixelData)
+        throw Bad{"element (" + hex(group) + "," + hex(elem) + ") has an undefined length"};
       Syntax inner = sx;
       if (un) inner = Syntax{false, false};  // UN of undefined length holds implicit VR LE
-      return items(value, 0, inner, depth + 1);
+      return items(value, 0, inner, depth + 1, pixelData);
     }
     const uint64_t next = value + len;
     if (next > b_.size())
-      throw Bad{"truncated: element (" + hex(u16(h, sx.bigEndian)) + "," + hex(u16(h + 2, sx.bigEndian)) +
-                ") needs " + std::to_string(len) + " bytes at byte " + std::to_string(value) +
+      throw Bad{"truncated: element (" + hex(group) + "," + hex(elem) + ") needs " +
+                std::to_string(len) + " bytes at byte " + std::to_string(value) +
                 ", file has " + std::to_string(b_.size())};
-    if (sq && len > 0) items(value, next, sx, depth + 1);
+    // A defined-length sequence: explicit SQ, or (implicit VR) a value that starts with an
+    // item tag, as GDCM would read it.
+    bool looksLikeItems = sq;
+    if (!sx.explicitVr && len >= 8 && !pixelData) {
+      uint8_t first[4];
+      looksLikeItems = b_.get(value, 4, first) && u16(first, sx.bigEndian) == 0xfffe &&
+                       u16(first + 2, sx.bigEndian) == 0xe000;
+    }
+    if (looksLikeItems && len > 0) items(value, next, sx, depth + 1, false);
     return next;
   }
 
   /// Items of a sequence from pos, until `end` or a sequence delimiter (end == 0).
-  uint64_t items(uint64_t pos, uint64_t end, Syntax sx, int depth) {
+  /// `fragments`: encapsulated pixel data, whose items are opaque compressed bytes.
+  uint64_t items(uint64_t pos, uint64_t end, Syntax sx, int depth, bool fragments) {
     if (depth > kMaxDepth) throw Bad{"sequences nested too deeply"};
     for (;;) {
       if (end != 0 && pos == end) return pos;
@@ -204,12 +218,14 @@ class Walker {
       }
       if (elem != 0xe000) throw Bad{"corrupt sequence item at byte " + std::to_string(pos)};
       if (len == kUndefined) {
+        if (fragments) throw Bad{"pixel data fragment of undefined length"};
         pos = dataset(pos + 8, 0, sx, depth + 1);
       } else {
         const uint64_t next = pos + 8 + len;
         if (next > b_.size() || (end != 0 && next > end))
           throw Bad{"truncated sequence item at byte " + std::to_string(pos)};
-        pos = next;  // item contents (or a pixel fragment) are not walked further
+        if (!fragments && len > 0) dataset(pos + 8, next, sx, depth + 1);
+        pos = next;
       }
     }
   }
