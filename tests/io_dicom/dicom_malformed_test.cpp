@@ -161,6 +161,39 @@ TEST(DicomMalformed, AbsurdDims) {
   EXPECT_TRUE(has(msg, files[3].string())) << msg;
 }
 
+TEST(DicomMalformed, RandomHeaderMutationsNeverCrash) {
+  // Flipped bytes anywhere in the header: each load either works or throws a vellum::Error
+  // (GDCM alone aborts the process on many of these).
+  const fs::path dir = tempDir("dicom-mutate") / "series";
+  saveDicomSeries(makeVolume({16, 16, 1}), dir, {});
+  const fs::path good = sliceFiles(dir)[0];
+  std::string original;
+  {
+    std::ifstream in(good, std::ios::binary);
+    original.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const size_t headerEnd = original.size() - 16 * 16 * 2;
+  const fs::path file = dir.parent_path() / "mutant.dcm";
+  std::mt19937 rng(2024);
+  int loaded = 0, refused = 0;
+  for (int n = 0; n < 400; ++n) {
+    std::string bytes = original;
+    for (int m = 1 + static_cast<int>(rng() % 3); m > 0; --m) {
+      const size_t pos = 128 + rng() % (headerEnd - 128);
+      bytes[pos] = static_cast<char>(rng() % 2 ? rng() : bytes[pos] ^ (1 << (rng() % 8)));
+    }
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+    try {
+      loadDicom(file, {});
+      ++loaded;
+    } catch (const Error&) {
+      ++refused;
+    }
+  }
+  EXPECT_EQ(loaded + refused, 400);
+  EXPECT_GT(refused, 50);  // most structural damage is caught
+}
+
 TEST(DicomMalformed, LooksLikeDicom) {
   const fs::path dir = tempDir("dicom-looks") / "series";
   saveDicomSeries(makeVolume({4, 4, 1}), dir, {});
