@@ -56,6 +56,24 @@ TEST(Snake, CoarseToFineMatchesSingleResolution) {
   EXPECT_GT(overlap(r.mask, sphereMask(g, c, 30.0)).dice, 0.98);
 }
 
+// Odd sizes (the coarse grid has one voxel fewer than half on each axis) and anisotropic
+// spacing: the fine level starts only from the coarse band and must still fill the ball.
+TEST(Snake, CoarseToFineOnOddAnisotropicGrid) {
+  const Geometry g = grid(95, 81, 67, {0.8, 1.0, 1.3});
+  const Vec3 c = centreMm(g) + Vec3{2.5, -1.5, 0.7};
+  const VolumeI16 ct = sphereCt(g, c, 24.0, 50, -1000);
+  SnakeParams p;
+  p.coarseLevels = 2;
+  const SnakeResult r = evolveSnake(thresholdSpeed(ct), {{c, 5.0}}, p);
+  EXPECT_GT(r.coarseIterations, 0);
+  EXPECT_TRUE(r.converged);
+  EXPECT_GT(overlap(r.mask, sphereMask(g, c, 24.0)).dice, 0.98);
+  // Far from the contour phi holds +-clamp with the right sign (inside / outside).
+  const auto in = nearestVoxel(g, c), out = nearestVoxel(g, g.indexToPhysical({1, 1, 1}));
+  EXPECT_LT(r.phi(in->i, in->j, in->k), 0.0f);
+  EXPECT_GT(r.phi(out->i, out->j, out->k), 0.0f);
+}
+
 TEST(Snake, CurvatureShrinksABubbleWithoutPropagation) {
   Scene s;
   SpeedImage speed{VolumeF32(s.g, 0.0f, 0.0), SpeedType::Threshold};
