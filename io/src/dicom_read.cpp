@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstring>
 #include <map>
-#include <set>
 
 #include "dicom.hpp"
 #include "dicom_internal.hpp"
