@@ -89,7 +89,8 @@ TEST(PhantomLabels, TableNamesAndPredicates) {
       {kSkin, "skin"},           {kFat, "subcutaneous fat"}, {kMuscle, "muscle"},
       {kFemurCortex, "femur cortex"}, {kFemurMarrow, "femur marrow"},
       {kTibiaCortex, "tibia cortex"}, {kTibiaMarrow, "tibia marrow"},
-      {kFibula, "fibula"},       {kPatella, "patella"},      {kCartilage, "cartilage"}};
+      {kFibula, "fibula"},       {kPatella, "patella"},      {kCartilage, "cartilage"},
+      {kCancellous, "cancellous bone"}};
   EXPECT_EQ(p.labels.table().size(), expected.size());
   for (const auto& [id, name] : expected) {
     const auto l = p.labels.label(id);
@@ -97,7 +98,7 @@ TEST(PhantomLabels, TableNamesAndPredicates) {
     EXPECT_EQ(l->name, name);
   }
   int bones = 0, cortical = 0, soft = 0;
-  for (uint16_t id = 0; id <= 12; ++id) {
+  for (uint16_t id = 0; id <= 13; ++id) {
     bones += isBone(id);
     cortical += isCorticalBone(id);
     soft += isSoftTissue(id);
@@ -105,11 +106,90 @@ TEST(PhantomLabels, TableNamesAndPredicates) {
     if (isCorticalBone(id)) {
       EXPECT_TRUE(isBone(id)) << id;
     }
+    // Every id of one bone only maps to that bone; the shared core and non-bone ids to none.
+    EXPECT_EQ(boneOf(id) != Bone::kNone, isBone(id) && id != kCancellous) << id;
   }
-  EXPECT_EQ(bones, 6);
+  EXPECT_EQ(bones, 7);
   EXPECT_EQ(cortical, 4);
   EXPECT_EQ(soft, 4);
+  EXPECT_TRUE(isBone(kCancellous));
+  EXPECT_FALSE(isCorticalBone(kCancellous) || isCorticalBone(kFemurMarrow) ||
+               isCorticalBone(kTibiaMarrow));
   EXPECT_FALSE(isBone(kAir) || isSoftTissue(kAir));
+  EXPECT_EQ(boneOf(kFemurCortex), Bone::kFemur);
+  EXPECT_EQ(boneOf(kFemurMarrow), Bone::kFemur);
+  EXPECT_EQ(boneOf(kTibiaCortex), Bone::kTibia);
+  EXPECT_EQ(boneOf(kTibiaMarrow), Bone::kTibia);
+  EXPECT_EQ(boneOf(kFibula), Bone::kFibula);
+  EXPECT_EQ(boneOf(kPatella), Bone::kPatella);
+}
+
+TEST(PhantomBones, SamplePhantomNamesTheBoneOfEveryPoint) {
+  // Cores of the fibula and the patella share kCancellous; the point query resolves them.
+  const PhantomPoint fibulaCore = samplePhantom({-33, 20, -70});
+  EXPECT_EQ(fibulaCore.label, kCancellous);
+  EXPECT_EQ(fibulaCore.bone, Bone::kFibula);
+  EXPECT_EQ(fibulaCore.hu, TissueHu{}.cancellous);
+  const PhantomPoint fibulaShell = samplePhantom({-33 + 4.8, 20, -70});  // r 4.8 in 4..5.5
+  EXPECT_EQ(fibulaShell.label, kFibula);
+  EXPECT_EQ(fibulaShell.bone, Bone::kFibula);
+  EXPECT_EQ(fibulaShell.hu, TissueHu{}.cortex);
+  const PhantomPoint patellaCore = samplePhantom({0, -35, 34});
+  EXPECT_EQ(patellaCore.label, kCancellous);
+  EXPECT_EQ(patellaCore.bone, Bone::kPatella);
+  EXPECT_EQ(samplePhantom({0, -35, 34 + 19.5}).label, kPatella);  // 0.5 mm under the top
+  EXPECT_EQ(samplePhantom({0, 2, 70}).bone, Bone::kFemur);         // femoral shaft marrow
+  EXPECT_EQ(samplePhantom({3, -6, -70}).bone, Bone::kTibia);       // tibial shaft marrow
+  EXPECT_EQ(samplePhantom({0, 30, -70}).bone, Bone::kNone);        // calf muscle
+}
+
+TEST(PhantomBones, BoneMapResolvesEachCoreToTheShellAroundIt) {
+  for (int n : {48, 128}) {
+    const Phantom& p = test::cached(n, n, n);
+    const VolumeU8 bones = boneMap(p.labels);
+    ASSERT_TRUE(bones.geometry().approxEqual(p.labels.geometry()));
+    const Geometry& g = p.labels.geometry();
+    size_t cores = 0, wrong = 0, unresolved = 0;
+    for (int64_t k = 0; k < g.dims.z; ++k)
+      for (int64_t j = 0; j < g.dims.y; ++j)
+        for (int64_t i = 0; i < g.dims.x; ++i) {
+          const uint16_t id = p.labels(i, j, k);
+          const Bone b = static_cast<Bone>(bones(i, j, k));
+          if (id != kCancellous) {
+            wrong += b != boneOf(id);
+            continue;
+          }
+          ++cores;
+          unresolved += b == Bone::kNone;
+          // A core voxel lies inside one bone: the one the point truth names at its centre
+          // (its centre is in that bone even where a thin shell won the majority elsewhere).
+          const Bone atCentre =
+              samplePhantom(g.indexToPhysical(Vec3{double(i), double(j), double(k)})).bone;
+          wrong += b != atCentre;
+        }
+    EXPECT_GT(cores, n == 48 ? 20u : 1000u) << n;
+    EXPECT_EQ(unresolved, 0u) << n;
+    EXPECT_EQ(wrong, 0u) << n;
+  }
+}
+
+TEST(PhantomBones, BoneMapLeavesAnOrphanCoreUnassigned) {
+  // A hand-made label volume: a core touching the fibula's shell, another touching nothing.
+  Geometry g;
+  g.dims = {8, 4, 4};
+  LabelVolume l(g);
+  l(1, 1, 1) = kFibula;
+  l(2, 1, 1) = kCancellous;
+  l(2, 2, 2) = kCancellous;  // 26-neighbour of (2,1,1): same component
+  l(6, 2, 2) = kCancellous;  // alone
+  l(5, 0, 0) = kMuscle;
+  const VolumeU8 b = boneMap(l);
+  EXPECT_EQ(b(1, 1, 1), uint8_t(Bone::kFibula));
+  EXPECT_EQ(b(2, 1, 1), uint8_t(Bone::kFibula));
+  EXPECT_EQ(b(2, 2, 2), uint8_t(Bone::kFibula));
+  EXPECT_EQ(b(6, 2, 2), uint8_t(Bone::kNone));
+  EXPECT_EQ(b(5, 0, 0), uint8_t(Bone::kNone));
+  EXPECT_EQ(b(0, 0, 0), uint8_t(Bone::kNone));
 }
 
 TEST(PhantomDeterminism, SameSeedSameBytesOtherSeedOtherNoise) {

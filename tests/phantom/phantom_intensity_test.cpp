@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "phantom_test_util.hpp"
@@ -18,10 +19,11 @@ double nominalHu(uint16_t id, const TissueHu& h) {
     case kSkin: return h.skin;
     case kFat: return h.fat;
     case kMuscle: return h.muscle;
-    case kFemurCortex: case kTibiaCortex: return h.cortex;
+    case kFemurCortex: case kTibiaCortex: case kFibula: case kPatella: return h.cortex;
     case kFemurMarrow: case kTibiaMarrow: return h.marrow;
     case kCartilage: return h.cartilage;
-    default: return std::nan("");  // fibula, patella: cortex shell around a cancellous core
+    case kCancellous: return h.cancellous;
+    default: return std::nan("");
   }
 }
 
@@ -37,9 +39,9 @@ bool interior(const LabelVolume& l, int64_t i, int64_t j, int64_t k, int r) {
 }
 
 struct Stats {
-  std::vector<double> sum = std::vector<double>(kCartilage + 1, 0.0);
-  std::vector<double> sum2 = std::vector<double>(kCartilage + 1, 0.0);
-  std::vector<uint64_t> n = std::vector<uint64_t>(kCartilage + 1, 0);
+  std::vector<double> sum = std::vector<double>(kCancellous + 1, 0.0);
+  std::vector<double> sum2 = std::vector<double>(kCancellous + 1, 0.0);
+  std::vector<uint64_t> n = std::vector<uint64_t>(kCancellous + 1, 0);
   double mean(uint16_t id) const { return sum[id] / double(n[id]); }
   double sd(uint16_t id) const { return std::sqrt(sum2[id] / double(n[id]) - mean(id) * mean(id)); }
 };
@@ -66,20 +68,14 @@ TEST(PhantomIntensity, EveryTissueHasItsNominalHuAndNoiseHasSigma) {
   const double sigma = 15.0;
   const TissueHu hu;
   const Stats st = interiorStats(cached(128, 128, 128, 0.0, sigma, false), 0);
-  for (uint16_t id = kAir; id <= kCartilage; ++id) {
+  for (uint16_t id = kAir; id <= kCancellous; ++id) {
     const double nominal = nominalHu(id, hu);
-    if (std::isnan(nominal)) continue;
+    ASSERT_FALSE(std::isnan(nominal)) << id;
     ASSERT_GT(st.n[id], 50u) << id;
     EXPECT_NEAR(st.mean(id), nominal, 4 * sigma / std::sqrt(double(st.n[id])) + 0.05)
         << "label " << id;
     // Rounding to integers adds 1/12 HU^2 of variance: negligible against 10%.
     EXPECT_NEAR(st.sd(id), sigma, 0.1 * sigma) << "label " << id;
-  }
-  // Fibula and patella: cortex shell around a cancellous core, both well above +300 HU.
-  for (uint16_t id : {kFibula, kPatella}) {
-    ASSERT_GT(st.n[id], 20u) << id;
-    EXPECT_GT(st.mean(id), hu.cancellous - 10) << id;
-    EXPECT_LT(st.mean(id), hu.cortex) << id;
   }
 }
 
@@ -87,7 +83,7 @@ TEST(PhantomIntensity, PartialVolumeLeavesTissueInteriorsAtNominalHu) {
   const double sigma = 15.0;
   const TissueHu hu;
   const Stats st = interiorStats(cached(128, 128, 128, 0.0, sigma, true), 2);
-  for (uint16_t id : {kAir, kFat, kMuscle, kFemurMarrow, kTibiaMarrow}) {
+  for (uint16_t id : {kAir, kFat, kMuscle, kFemurMarrow, kTibiaMarrow, kCancellous}) {
     ASSERT_GT(st.n[id], 200u) << id;
     EXPECT_NEAR(st.mean(id), nominalHu(id, hu), 4 * sigma / std::sqrt(double(st.n[id])) + 0.05)
         << "label " << id;
@@ -150,8 +146,6 @@ TEST(PhantomIntensity, PartialVolumeGivesIntermediateValuesAtBoneSurfaces) {
   }
   EXPECT_GT(intermediatePv, 5000u);
   EXPECT_EQ(intermediateCrisp, 0u);
-  // The labels do not depend on partial volume.
-  EXPECT_EQ(pv.labels.ids().voxels(), crisp.labels.ids().voxels());
 }
 
 struct Overlap {
@@ -169,19 +163,56 @@ Overlap thresholdOverlap(const Phantom& p, double threshold) {
   return {2.0 * tp / double(2 * tp + fp + fn), double(tp) / double(tp + fn)};
 }
 
-TEST(PhantomIntensity, BoneThresholdFindsTheCorticalTruth) {
-  // Noise alone (sigma 15 against a 1100 HU margin) never moves a voxel across +300 HU.
-  const Overlap crisp = thresholdOverlap(cached(128, 128, 128, 0.0, 15.0, false), 300);
-  EXPECT_GE(crisp.dice, 0.999);
-  // With partial volume, every cortical voxel (cortex, fibula, patella incl. their cancellous
-  // cores) stays above +300 HU, while voxels only a quarter bony also pass the threshold:
-  // at 1.4 mm voxels and 1.2-4 mm cortex the Dice is ~0.85, limited by geometry, not noise.
-  const Overlap real = thresholdOverlap(cached(128, 128, 128), 300);
-  EXPECT_GE(real.recall, 0.995);
-  EXPECT_GE(real.dice, 0.80);
-  // Finer voxels: the partial-volume rim is thinner relative to the cortex.
-  const Overlap fine = thresholdOverlap(cached(192, 192, 192), 300);
-  EXPECT_GT(fine.dice, real.dice + 0.03);
+// kCorticalThresholdHu (700): about half-way between cortex (1400 HU) and what surrounds it
+// (marrow 20, muscle 50, cartilage 110 HU: 710-755), a bit lower because thin cortex shares
+// voxels with two other tissues and still wins the majority there.
+static_assert(kCorticalThresholdHu == 700.0);
+
+// Dice of a single threshold against the cortical truth {4, 6, 8, 9}, swept over 500..900 HU.
+double sweepBestThreshold(const Phantom& p, const char* what, double* bestDice) {
+  double best = 0, bestT = 0;
+  for (double t = 500; t <= 900; t += 25) {
+    const Overlap o = thresholdOverlap(p, t);
+    std::printf("  %s  threshold %4.0f HU: Dice %.4f  recall %.4f\n", what, t, o.dice, o.recall);
+    if (o.dice > best) {
+      best = o.dice;
+      bestT = t;
+    }
+  }
+  *bestDice = best;
+  return bestT;
+}
+
+TEST(PhantomIntensity, CorticalThresholdFindsTheCorticalTruth) {
+  // Without partial volume the CT shows each voxel centre's tissue and so do the labels:
+  // noise (sigma 15) never moves cortex (1400) or cancellous bone (450) across 700 HU.
+  const Overlap crisp = thresholdOverlap(cached(128, 128, 128, 0.0, 15.0, false),
+                                         kCorticalThresholdHu);
+  EXPECT_DOUBLE_EQ(crisp.dice, 1.0);
+  // With partial volume the labels are each voxel's majority structure: a threshold half-way
+  // between cortex and its neighbours recovers them, except in voxels shared by three
+  // tissues (thin cortex: 1.2 mm at the condyles, 1.5 mm fibula/patella, 1.4 mm voxels).
+  // Measured (seed 1, sigma 15): best 0.9855 at 695 HU (128^3), 0.9919 at 690 HU (256^3).
+  double best128 = 0, best256 = 0;
+  const double t128 = sweepBestThreshold(cached(128, 128, 128), "128^3", &best128);
+  const Overlap at128 = thresholdOverlap(cached(128, 128, 128), kCorticalThresholdHu);
+  std::printf("128^3: best %.0f HU (Dice %.4f); at %.0f HU Dice %.4f recall %.4f\n", t128,
+              best128, kCorticalThresholdHu, at128.dice, at128.recall);
+  EXPECT_GE(at128.dice, 0.98);
+  EXPECT_GE(at128.recall, 0.98);
+  EXPECT_GE(t128, 650);
+  EXPECT_LE(t128, 750);
+  const double t256 = sweepBestThreshold(cached(256, 256, 256), "256^3", &best256);
+  const Overlap at256 = thresholdOverlap(cached(256, 256, 256), kCorticalThresholdHu);
+  std::printf("256^3: best %.0f HU (Dice %.4f); at %.0f HU Dice %.4f recall %.4f\n", t256,
+              best256, kCorticalThresholdHu, at256.dice, at256.recall);
+  EXPECT_GE(at256.dice, 0.99);
+  EXPECT_GT(at256.dice, at128.dice);  // finer voxels: fewer three-tissue voxels
+  EXPECT_GE(t256, 650);
+  EXPECT_LE(t256, 750);
+  // A +300 HU threshold finds all bone that is denser than soft tissue, i.e. the cancellous
+  // cores too: it is not a cortical-bone threshold.
+  EXPECT_LT(thresholdOverlap(cached(128, 128, 128), 300).dice, 0.9);
 }
 
 // Fills, in every axial slice, the background not 4-connected to the slice border.

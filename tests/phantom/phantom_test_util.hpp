@@ -30,15 +30,15 @@ inline const Phantom& cached(int nx, int ny, int nz, double flexDeg = 0.0, doubl
   return it->second;
 }
 
-/// Number of 26-connected components of the voxels where `in(label)` holds.
-inline int countComponents(const LabelVolume& labels, const std::function<bool(uint16_t)>& in) {
-  const Dims d = labels.geometry().dims;
-  const auto& ids = labels.ids().voxels();
-  std::vector<uint8_t> seen(ids.size(), 0);
+/// Number of 26-connected components of the voxels v (linear index) where `in(v)` holds.
+inline int countComponents(const Geometry& g, const std::function<bool(size_t)>& in) {
+  const Dims d = g.dims;
+  const size_t n = static_cast<size_t>(d.voxelCount());
+  std::vector<uint8_t> seen(n, 0);
   std::vector<int64_t> stack;
   int components = 0;
-  for (size_t start = 0; start < ids.size(); ++start) {
-    if (seen[start] || !in(ids[start])) continue;
+  for (size_t start = 0; start < n; ++start) {
+    if (seen[start] || !in(start)) continue;
     ++components;
     seen[start] = 1;
     stack.push_back(static_cast<int64_t>(start));
@@ -50,11 +50,11 @@ inline int countComponents(const LabelVolume& labels, const std::function<bool(u
         for (int dj = -1; dj <= 1; ++dj)
           for (int di = -1; di <= 1; ++di) {
             const int64_t a = i + di, b = j + dj, c = k + dk;
-            if (!labels.geometry().contains(a, b, c)) continue;
-            const size_t n = labels.ids().linearIndex(a, b, c);
-            if (!seen[n] && in(ids[n])) {
-              seen[n] = 1;
-              stack.push_back(static_cast<int64_t>(n));
+            if (!g.contains(a, b, c)) continue;
+            const size_t q = static_cast<size_t>((c * d.y + b) * d.x + a);
+            if (!seen[q] && in(q)) {
+              seen[q] = 1;
+              stack.push_back(static_cast<int64_t>(q));
             }
           }
     }
@@ -62,16 +62,22 @@ inline int countComponents(const LabelVolume& labels, const std::function<bool(u
   return components;
 }
 
-/// Physical centroid (mm) of the voxels where `in(label)` holds; count in `n`.
-inline Vec3 centroid(const LabelVolume& labels, const std::function<bool(uint16_t)>& in,
+/// Number of 26-connected components of the voxels where `in(label)` holds.
+inline int countComponents(const LabelVolume& labels, const std::function<bool(uint16_t)>& in) {
+  const uint16_t* ids = labels.ids().data();
+  return countComponents(labels.geometry(), [&](size_t v) { return in(ids[v]); });
+}
+
+/// Physical centroid (mm) of the voxels v (linear index) where `in(v)` holds; count in `n`.
+inline Vec3 centroid(const Geometry& g, const std::function<bool(size_t)>& in,
                      uint64_t* n = nullptr) {
-  const Geometry& g = labels.geometry();
   Vec3 sum;
   uint64_t count = 0;
+  size_t v = 0;
   for (int64_t k = 0; k < g.dims.z; ++k)
     for (int64_t j = 0; j < g.dims.y; ++j)
-      for (int64_t i = 0; i < g.dims.x; ++i)
-        if (in(labels(i, j, k))) {
+      for (int64_t i = 0; i < g.dims.x; ++i, ++v)
+        if (in(v)) {
           sum += g.indexToPhysical(Vec3{double(i), double(j), double(k)});
           ++count;
         }
@@ -79,15 +85,19 @@ inline Vec3 centroid(const LabelVolume& labels, const std::function<bool(uint16_
   return count ? sum / double(count) : sum;
 }
 
-/// Which rigid body a label belongs to: 1 femur, 2 tibia, 3 fibula, 4 patella, 0 none.
-inline int boneOf(uint16_t id) {
-  switch (id) {
-    case kFemurCortex: case kFemurMarrow: return 1;
-    case kTibiaCortex: case kTibiaMarrow: return 2;
-    case kFibula: return 3;
-    case kPatella: return 4;
-    default: return 0;
-  }
+/// Physical centroid (mm) of the voxels where `in(label)` holds; count in `n`.
+inline Vec3 centroid(const LabelVolume& labels, const std::function<bool(uint16_t)>& in,
+                     uint64_t* n = nullptr) {
+  const uint16_t* ids = labels.ids().data();
+  return centroid(labels.geometry(), [&](size_t v) { return in(ids[v]); }, n);
 }
+
+/// Centroid (mm) and voxel count of one bone (cortex + marrow / core) from boneMap.
+inline Vec3 boneCentroid(const VolumeU8& bones, Bone bone, uint64_t* n = nullptr) {
+  const uint8_t* b = bones.data();
+  return centroid(bones.geometry(), [&](size_t v) { return b[v] == uint8_t(bone); }, n);
+}
+
+inline constexpr Bone kBones[] = {Bone::kFemur, Bone::kTibia, Bone::kFibula, Bone::kPatella};
 
 }  // namespace vellum::phantom::test

@@ -162,8 +162,10 @@ Classified Anatomy::classify(const Distances& d) {
                                                 : Classified{kFemurCortex, tCortex};
   if (d.tibiaOuter < 0) return d.tibiaInner < 0 ? Classified{kTibiaMarrow, tMarrow}
                                                 : Classified{kTibiaCortex, tCortex};
-  if (d.fibulaOuter < 0) return {kFibula, d.fibulaInner < 0 ? tCancellous : tCortex};
-  if (d.patellaOuter < 0) return {kPatella, d.patellaInner < 0 ? tCancellous : tCortex};
+  if (d.fibulaOuter < 0) return d.fibulaInner < 0 ? Classified{kCancellous, tCancellous}
+                                                  : Classified{kFibula, tCortex};
+  if (d.patellaOuter < 0) return d.patellaInner < 0 ? Classified{kCancellous, tCancellous}
+                                                    : Classified{kPatella, tCortex};
   if (d.femurCartilage < 0 || d.tibiaCartilage < 0) return {kCartilage, tCartilage};
   if (d.legOuter < 0) {
     if (d.legMuscle < 0) return {kMuscle, tMuscle};

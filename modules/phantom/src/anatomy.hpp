@@ -15,7 +15,7 @@
 
 namespace vellum::phantom::detail {
 
-/// Tissues (what gives HU); labels are finer (femur vs tibia cortex) or coarser (fibula).
+/// Tissues (what gives HU); labels are finer (femur vs tibia cortex): each label has one tissue.
 enum Tissue : uint8_t { tAir, tSkin, tFat, tMuscle, tCortex, tMarrow, tCancellous, tCartilage,
                         kTissueCount };
 
@@ -60,6 +60,26 @@ struct Classified {
   uint16_t label;
   Tissue tissue;
 };
+
+inline constexpr int kLabelCount = kCancellous + 1;
+
+/// Tie-break rank of each label for the majority vote (higher wins): cortex > marrow/core >
+/// cartilage > muscle > fat > skin > air, the order in which classify tests the structures.
+/// Femur, tibia, fibula and patella never share a voxel, so their mutual order is moot.
+inline constexpr uint8_t kTieRank[kLabelCount] = {
+    /*air*/ 0, /*skin*/ 1, /*fat*/ 2, /*muscle*/ 3, /*femur cortex*/ 11, /*femur marrow*/ 7,
+    /*tibia cortex*/ 10, /*tibia marrow*/ 6, /*fibula*/ 9, /*patella*/ 8, /*cartilage*/ 4,
+    /*cancellous*/ 5};
+
+/// The majority label of sub-sample counts (per label id), ties broken by kTieRank.
+template <typename Count>
+uint16_t majorityLabel(const Count* counts) {
+  int best = 0;
+  for (int l = 1; l < kLabelCount; ++l)
+    if (counts[l] > counts[best] || (counts[l] == counts[best] && kTieRank[l] > kTieRank[best]))
+      best = l;
+  return static_cast<uint16_t>(best);
+}
 
 class Anatomy {
  public:

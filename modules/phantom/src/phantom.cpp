@@ -74,18 +74,25 @@ std::vector<Label> labelTable() {
           {kTibiaMarrow, "tibia marrow", {150, 120, 190}},
           {kFibula, "fibula", {130, 210, 140}},
           {kPatella, "patella", {250, 190, 80}},
-          {kCartilage, "cartilage", {90, 175, 230}}};
+          {kCartilage, "cartilage", {90, 175, 230}},
+          {kCancellous, "cancellous bone", {200, 170, 120}}};
 }
 
-/// Mean tissue HU over 4x4x4 sub-samples of the voxel at p. Bone groups near the voxel are
-/// re-evaluated exactly at every sub-sample. The leg envelope (skin/fat/muscle surfaces, radii
-/// of curvature >= ~40 mm) is linearised from central differences at the centre, and
-/// re-evaluated exactly only at sub-samples the linear form puts within `exactBandMm` of a
-/// surface (beyond the linearisation error): same result as exact evaluation, a fraction of
-/// the cost. Far groups keep their centre values (their sign cannot change in the voxel).
-double mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, uint32_t near,
-               const std::array<Vec3, kSuper>& off, double exactBandMm,
-               const std::array<double, detail::kTissueCount>& hu) {
+struct Mixed {
+  double hu;       ///< mean tissue HU of the sub-samples
+  uint16_t label;  ///< majority label of the sub-samples
+};
+
+/// Mean tissue HU and majority label (ties: detail::kTieRank) over 4x4x4 sub-samples of the
+/// voxel at p. Bone groups near the voxel are re-evaluated exactly at every sub-sample. The
+/// leg envelope (skin/fat/muscle surfaces, radii of curvature >= ~40 mm) is linearised from
+/// central differences at the centre, and re-evaluated exactly only at sub-samples the linear
+/// form puts within `exactBandMm` of a surface (beyond the linearisation error): same result
+/// as exact evaluation, a fraction of the cost. Far groups keep their centre values (their
+/// sign cannot change in the voxel).
+Mixed mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, uint32_t near,
+              const std::array<Vec3, kSuper>& off, double exactBandMm,
+              const std::array<double, detail::kTissueCount>& hu) {
   Vec3 gradOuter, gradMuscle;  // the fat surface is the outer one offset: same gradient
   bool leg = (near & detail::gLeg) != 0;
   uint32_t exact = near & ~uint32_t{detail::gLeg};
@@ -107,6 +114,7 @@ double mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, u
     }
   }
   double sum = 0;
+  std::array<uint8_t, detail::kLabelCount> counts{};  // at most 64 per label
   const bool insideOther = centre.femurOuter < 0 || centre.tibiaOuter < 0 ||
                            centre.fibulaOuter < 0 || centre.patellaOuter < 0 ||
                            centre.femurCartilage < 0 || centre.tibiaCartilage < 0;
@@ -135,12 +143,13 @@ double mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, u
             fat = sub.legFat;
             muscle = sub.legMuscle;
           }
-          sum += outer >= 0   ? hu[detail::tAir]
-                 : muscle < 0 ? hu[detail::tMuscle]
-                 : fat < 0    ? hu[detail::tFat]
-                              : hu[detail::tSkin];
+          const uint16_t label = outer >= 0 ? kAir : muscle < 0 ? kMuscle : fat < 0 ? kFat : kSkin;
+          ++counts[label];
         }
-    return sum / (kSuper * kSuper * kSuper);
+    // The four leg labels have one tissue each: sum their HU by count.
+    sum = counts[kAir] * hu[detail::tAir] + counts[kSkin] * hu[detail::tSkin] +
+          counts[kFat] * hu[detail::tFat] + counts[kMuscle] * hu[detail::tMuscle];
+    return {sum / (kSuper * kSuper * kSuper), detail::majorityLabel(counts.data())};
   }
   for (int c = 0; c < kSuper; ++c)
     for (int b = 0; b < kSuper; ++b)
@@ -158,9 +167,11 @@ double mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, u
             groups |= detail::gLeg;
         }
         if (groups) anatomy.evaluate(p + delta, groups, sub);
-        sum += hu[Anatomy::classify(sub).tissue];
+        const Classified c = Anatomy::classify(sub);
+        sum += hu[c.tissue];
+        ++counts[c.label];
       }
-  return sum / (kSuper * kSuper * kSuper);
+  return {sum / (kSuper * kSuper * kSuper), detail::majorityLabel(counts.data())};
 }
 
 int16_t toHu(double v) {
@@ -216,8 +227,12 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
           const uint32_t near = anatomy.evaluateNear(p, nearMm, dist);
           const Classified c = Anatomy::classify(dist);
           double v = hu[c.tissue];
-          if (options.partialVolume && near != 0)
-            v = mixture(anatomy, p, dist, near, off, exactBandMm, hu);
+          uint16_t label = c.label;
+          if (options.partialVolume && near != 0) {
+            const Mixed m = mixture(anatomy, p, dist, near, off, exactBandMm, hu);
+            v = m.hu;
+            label = m.label;
+          }
           if (sigma > 0) {
             if ((idx >> 1) != noisePair) {
               noisePair = idx >> 1;
@@ -226,7 +241,7 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
             v += sigma * ((idx & 1) ? noise.b : noise.a);
           }
           ct[idx] = toHu(v);
-          lab[idx] = c.label;
+          lab[idx] = label;
         }
       }
       progress.advance(1);
@@ -242,7 +257,9 @@ PhantomPoint samplePhantom(const Vec3& pMm, const PhantomOptions& options) {
   Distances dist;
   anatomy.evaluate(pMm, detail::gAll, dist);
   const Classified c = Anatomy::classify(dist);
-  return {c.label, tissueHu(options.hu)[c.tissue]};
+  Bone bone = boneOf(c.label);
+  if (c.label == kCancellous) bone = dist.fibulaOuter < 0 ? Bone::kFibula : Bone::kPatella;
+  return {c.label, tissueHu(options.hu)[c.tissue], bone};
 }
 
 Vec3 flexionAxisPointMm() { return {0.0, 0.0, detail::kAxisZ}; }
@@ -253,11 +270,21 @@ Vec3 flexCalfPoint(const Vec3& pMm, double flexionDeg) {
 
 bool isBone(uint16_t id) {
   return id == kFemurCortex || id == kFemurMarrow || id == kTibiaCortex || id == kTibiaMarrow ||
-         id == kFibula || id == kPatella;
+         id == kFibula || id == kPatella || id == kCancellous;
 }
 
 bool isCorticalBone(uint16_t id) {
   return id == kFemurCortex || id == kTibiaCortex || id == kFibula || id == kPatella;
+}
+
+Bone boneOf(uint16_t id) {
+  switch (id) {
+    case kFemurCortex: case kFemurMarrow: return Bone::kFemur;
+    case kTibiaCortex: case kTibiaMarrow: return Bone::kTibia;
+    case kFibula: return Bone::kFibula;
+    case kPatella: return Bone::kPatella;
+    default: return Bone::kNone;  // incl. kCancellous: shared by two bones, see boneMap
+  }
 }
 
 bool isSoftTissue(uint16_t id) {

@@ -15,10 +15,21 @@
 //  - fibula (z -95.5..-42.5) at (-33, 20): lateral-posterior, radius 5.5 mm (head 7.5 mm),
 //    cortex 1.5 mm around a cancellous core.
 //  - patella at (0, -35, 34): ellipsoid 40 x 17 x 40 mm, cortex 1.5 mm, cancellous core.
-// Every structure is a signed distance function; a voxel's label is the structure containing
-// its centre. Partial volume: voxels with a boundary within half a voxel diagonal average the
-// tissue HU of 4x4x4 sub-samples. Bones are separate 26-connected components (tested at
-// 2.8 x 2.8 x 3.4 mm and finer, flexion 0..90 degrees; the 5 mm joint gap is the limit).
+// Every structure is a signed distance function (samplePhantom gives the point truth).
+//
+// Voxel truth (labels) = the MAJORITY structure of the voxel, i.e. the label held by most of
+// the same 4x4x4 sub-samples whose tissue HU average into the CT value (ties: bone cortex >
+// bone marrow/core > cartilage > muscle > fat > skin > air). Voxels with no boundary within
+// half a voxel diagonal hold a single structure and take it unchanged. So the label is the
+// tissue that dominates the voxel's HU: a threshold half-way between two tissues recovers it
+// except where three tissues share a voxel. With partialVolume = false the CT samples the
+// voxel centre only, and the labels do too (the structure containing the centre).
+// Bones are separate 26-connected components (tested at 2.8 x 2.8 x 3.4 mm and finer,
+// flexion 0..90 degrees; the 5 mm joint gap is the limit).
+// Cortical-bone threshold: 700 HU (about half-way from cortex to marrow/muscle/cartilage)
+// against isCorticalBone, default options: Dice 0.984 at 128^3 (best 0.9855 at 690-695 HU),
+// 0.992 at 256^3 (tests/phantom/phantom_intensity_test.cpp). A +300 HU threshold also takes
+// the cancellous cores (450 HU): it finds whole bones, not cortex.
 #include <cstdint>
 
 #include "vellum/core/label_volume.hpp"
@@ -27,8 +38,10 @@
 
 namespace vellum::phantom {
 
-/// Label ids of the ground truth. Bones are separate rigid bodies: cortex and marrow of one
-/// bone are adjacent, different bones are separated by the joint space or soft tissue.
+/// Label ids of the ground truth. Bones are separate rigid bodies: cortex and marrow (or
+/// cancellous core) of one bone are adjacent, different bones are separated by the joint
+/// space or soft tissue. Rigid body of each bone (see boneOf / boneMap):
+///   femur = {4, 5}, tibia = {6, 7}, fibula = {8, 11 inside it}, patella = {9, 11 inside it}.
 enum LabelId : uint16_t {
   kAir = 0,
   kSkin = 1,
@@ -38,18 +51,22 @@ enum LabelId : uint16_t {
   kFemurMarrow = 5,
   kTibiaCortex = 6,
   kTibiaMarrow = 7,
-  kFibula = 8,       ///< thin bone: thin cortical tube around a cancellous core, one label
-  kPatella = 9,      ///< small bone in front of the joint: thin cortex + cancellous core
+  kFibula = 8,       ///< the fibula's cortical shell (1.5 mm) around a cancellous core (11)
+  kPatella = 9,      ///< the patella's cortical shell (1.5 mm) around a cancellous core (11)
   kCartilage = 10,   ///< joint cartilage caps (soft tissue density ~ 100 HU)
+  kCancellous = 11,  ///< cancellous bone: the cores of the fibula and the patella (~450 HU)
 };
 
-/// Nominal HU of each tissue before partial-volume mixing and noise.
-/// `cancellous` fills the fibula and the patella (both labelled as one cortical-bone id), so
-/// that every voxel of a cortical-bone label is dense: a bone threshold finds all of it.
+/// Nominal HU of each tissue before partial-volume mixing and noise. Cortex: labels 4, 6, 8,
+/// 9; marrow: 5, 7; cancellous: 11.
 struct TissueHu {
   double air = -1000, skin = 40, fat = -100, muscle = 50, cortex = 1400, marrow = 20,
          cartilage = 110, cancellous = 450;
 };
+
+/// The cortical-bone threshold for the default TissueHu (see the header comment): voxels at or
+/// above it are, by majority, cortex (isCorticalBone).
+inline constexpr double kCorticalThresholdHu = 700.0;
 
 struct PhantomOptions {
   /// Voxels per axis. The field of view is fixed (physical size of the leg does not change
@@ -61,7 +78,9 @@ struct PhantomOptions {
   Vec3 fieldOfViewMm{180, 180, 220};
   uint64_t seed = 1;
   double noiseSigmaHu = 15.0;  ///< Gaussian noise, deterministic per voxel
-  bool partialVolume = true;   ///< supersample tissue boundaries (4x4x4 at edges)
+  /// Supersample tissue boundaries (4x4x4 at edges): CT = mean HU, label = majority. False:
+  /// both from the voxel centre only.
+  bool partialVolume = true;
   double kneeFlexionDeg = 0.0; ///< tibia rotated about the joint's medio-lateral axis
   TissueHu hu;
 };
@@ -77,11 +96,16 @@ struct Phantom {
 /// `progress` is cancelled. The volume is centred on (0,0,0) mm with identity direction.
 Phantom makePhantom(const PhantomOptions& options = {}, Progress& progress = Progress::none());
 
+/// The four bones (rigid bodies) of the knee.
+enum class Bone : uint8_t { kNone = 0, kFemur = 1, kTibia = 2, kFibula = 3, kPatella = 4 };
+
 /// The anatomy at one physical point (mm, LPS), without partial volume or noise: the exact
-/// ground truth that makePhantom samples at voxel centres (and 4x4x4 sub-voxel positions).
+/// point truth that makePhantom samples at voxel centres (and 4x4x4 sub-voxel positions, whose
+/// majority gives the voxel's label).
 struct PhantomPoint {
   uint16_t label = kAir;
-  double hu = -1000;  ///< nominal HU of the tissue there (from options.hu)
+  double hu = -1000;       ///< nominal HU of the tissue there (from options.hu)
+  Bone bone = Bone::kNone; ///< the bone the point lies in (resolves kCancellous)
 };
 /// Evaluates the anatomy at `pMm`; uses only options.kneeFlexionDeg and options.hu.
 PhantomPoint samplePhantom(const Vec3& pMm, const PhantomOptions& options = {});
@@ -94,10 +118,23 @@ Vec3 flexionAxisPointMm();
 /// Where a calf point (tibia, fibula, calf soft tissue) at flexion 0 lies at `flexionDeg`.
 Vec3 flexCalfPoint(const Vec3& pMm, double flexionDeg);
 
-/// True for the ids that are bone (cortex, marrow, fibula, patella).
+/// True for the ids that are bone: 4 to 9 and 11 (cortex, marrow, cancellous core).
 bool isBone(uint16_t id);
-/// True for the cortical (dense) bone ids: what a bone threshold should find.
+/// True for the cortical (dense, 1400 HU) bone ids 4, 6, 8, 9: what a cortical-bone
+/// threshold should find (cancellous cores, 11, are ~450 HU: not cortical).
 bool isCorticalBone(uint16_t id);
+
+/// The bone an id belongs to: 4, 5 femur; 6, 7 tibia; 8 fibula; 9 patella; Bone::kNone for
+/// non-bone ids AND for kCancellous, which is shared by the fibula's and the patella's cores
+/// (a core lies inside its own shell: boneMap resolves it).
+Bone boneOf(uint16_t id);
+
+/// Per-voxel bone (Bone as uint8) of a phantom label volume, with the same geometry:
+/// boneOf(id), and each 26-connected component of kCancellous voxels given the bone whose
+/// cortical shell (8 or 9) it touches most (Bone::kNone if it touches neither). Use it for
+/// per-bone rigid bodies; each bone of the phantom is one 26-connected component.
+VolumeU8 boneMap(const LabelVolume& labels);
+
 /// True for skin, fat, muscle, cartilage.
 bool isSoftTissue(uint16_t id);
 
