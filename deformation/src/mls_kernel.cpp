@@ -4,12 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "vellum/core/error.hpp"
 
 // AVX2/FMA clone of the hot loops with run-time dispatch (falls back to baseline x86-64).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VELLUM_SIMD_CLONES __attribute__((target_clones("arch=haswell", "default")))
+#define VELLUM_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define VELLUM_SIMD_CLONES
 #endif
@@ -76,7 +77,7 @@ PointData PointData::from(const ControlPoints& points, bool withAttributes) {
 }
 
 RowEvaluator::RowEvaluator(const PointData& points, const MlsParams& params, int maxLen)
-    : p_(points), params_(params), maxLen_(std::max(maxLen, 1)) {
+    : p_(points), params_(params), maxLen_((std::max(maxLen, 1) + kLanes - 1) / kLanes * kLanes) {
   if (!(params.power > 0) || !std::isfinite(params.power))
     throw Error("MLS weight power must be > 0");
   if (!(params.regularisation > 0) || params.regularisation >= 1)
@@ -91,6 +92,7 @@ RowEvaluator::RowEvaluator(const PointData& points, const MlsParams& params, int
 
 void RowEvaluator::setRow(const Vec3& baseMm, const Vec3& stepMm, int len) {
   len_ = std::min(len, maxLen_);
+  stride_ = (len_ + kLanes - 1) / kLanes * kLanes;
   const Vec3 b = baseMm - p_.targetCentre;
   double* vx = arr(kVx); double* vy = arr(kVy); double* vz = arr(kVz);
   for (int k = 0; k < len_; ++k) {
@@ -103,6 +105,7 @@ void RowEvaluator::setRow(const Vec3& baseMm, const Vec3& stepMm, int len) {
 
 void RowEvaluator::setPositions(const Vec3* positionsMm, int len) {
   len_ = std::min(len, maxLen_);
+  stride_ = (len_ + kLanes - 1) / kLanes * kLanes;
   double* vx = arr(kVx); double* vy = arr(kVy); double* vz = arr(kVz);
   for (int k = 0; k < len_; ++k) {
     const Vec3 v = positionsMm[k] - p_.targetCentre;
@@ -112,18 +115,20 @@ void RowEvaluator::setPositions(const Vec3* positionsMm, int len) {
 }
 
 VELLUM_SIMD_CLONES void RowEvaluator::computeWeights() {
-  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
+  double* vx = arr(kVx); double* vy = arr(kVy); double* vz = arr(kVz);
+  // Padding lanes repeat the last node (finite weights; results discarded).
+  for (int k = len_; k < stride_; ++k) { vx[k] = vx[len_ - 1]; vy[k] = vy[len_ - 1]; vz[k] = vz[len_ - 1]; }
   for (int k = 0; k < len_; ++k) hit_[static_cast<size_t>(k)] = -1;
   const double n = params_.power;
   const int mode = n == 2 ? 0 : n == 4 ? 1 : n == 1 ? 2 : n == 3 ? 3 : 4;
   for (int i = 0; i < p_.count; ++i) {
     const double tx = p_.tx[static_cast<size_t>(i)], ty = p_.ty[static_cast<size_t>(i)],
                  tz = p_.tz[static_cast<size_t>(i)];
-    double* w = w0_.data() + static_cast<size_t>(i) * len_;
+    double* w = w0_.data() + static_cast<size_t>(i) * stride_;
     // One loop per power so that each vectorises (no branch inside).
     auto loop = [&](auto weightOf) {
 #pragma omp simd
-      for (int k = 0; k < len_; ++k) {
+      for (int k = 0; k < stride_; ++k) {
         const double dx = vx[k] - tx, dy = vy[k] - ty, dz = vz[k] - tz;
         w[k] = weightOf(std::max(dx * dx + dy * dy + dz * dz, kHitDist2));
       }
@@ -145,15 +150,26 @@ VELLUM_SIMD_CLONES void RowEvaluator::computeWeights() {
 }
 
 VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double* attr) {
-  const int n = p_.count, L = len_;
+  const int n = p_.count, L = len_, S = stride_;
   const double* w = w0_.data();
   if (rho) {
-    const size_t total = static_cast<size_t>(n) * L;
+    for (int i = 0; i < n; ++i) {
+      const double* a = w0_.data() + static_cast<size_t>(i) * S;
+      double* b = w_.data() + static_cast<size_t>(i) * S;
+      const float* r = rho + static_cast<size_t>(i) * L;
 #pragma omp simd
-    for (size_t t = 0; t < total; ++t) w_[t] = w0_[t] * static_cast<double>(rho[t]);
+      for (int k = 0; k < L; ++k) b[k] = a[k] * static_cast<double>(r[k]);
+      for (int k = L; k < S; ++k) b[k] = a[k];
+    }
     w = w_.data();
   }
   const bool withAttr = attr && p_.attributes;
+  if (!withAttr) {
+    solveBlocked(w, u);
+    if (attr)
+      for (int k = 0; k < L; ++k) { attr[4 * k] = attr[4 * k + 1] = attr[4 * k + 2] = 0; attr[4 * k + 3] = 1; }
+    return;
+  }
   std::fill(buf_.begin() + static_cast<ptrdiff_t>(kW) * maxLen_, buf_.end(), 0.0);
 
   // Pass 0: the dominant point m of each node. Centroids and q_i, p_i are formed relative to
@@ -164,7 +180,7 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
   double* wmax = arr(kWmax);
   for (int k = 0; k < L; ++k) { wmax[k] = -1; dom_[static_cast<size_t>(k)] = 0; }
   for (int i = 0; i < n; ++i) {
-    const double* wi = w + static_cast<size_t>(i) * L;
+    const double* wi = w + static_cast<size_t>(i) * S;
     for (int k = 0; k < L; ++k)
       if (wi[k] > wmax[k]) { wmax[k] = wi[k]; dom_[static_cast<size_t>(k)] = i; }
   }
@@ -182,7 +198,7 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
     const size_t si = static_cast<size_t>(i);
     const double sx = p_.sx[si], sy = p_.sy[si], sz = p_.sz[si];
     const double tx = p_.tx[si], ty = p_.ty[si], tz = p_.tz[si];
-    const double* wi = w + si * L;
+    const double* wi = w + si * S;
 #pragma omp simd
     for (int k = 0; k < L; ++k) {
       const double wk = wi[k];
@@ -219,7 +235,7 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
     const size_t si = static_cast<size_t>(i);
     const double sx = p_.sx[si], sy = p_.sy[si], sz = p_.sz[si];
     const double tx = p_.tx[si], ty = p_.ty[si], tz = p_.tz[si];
-    const double* wi = w + si * L;
+    const double* wi = w + si * S;
     double *a00 = A[0], *a01 = A[1], *a02 = A[2], *a11 = A[3], *a12 = A[4], *a22 = A[5];
     double *b00 = B[0], *b01 = B[1], *b02 = B[2], *b10 = B[3], *b11 = B[4], *b12 = B[5],
            *b20 = B[6], *b21 = B[7], *b22 = B[8];
@@ -341,6 +357,111 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
       for (int a = 0; a < 4; ++a)
         out[a] = g0 * arr(kC00 + a)[k] + g1 * arr(kC00 + 4 + a)[k] + g2 * arr(kC00 + 8 + a)[k] +
                  arr(kZh0 + a)[k];
+    }
+  }
+}
+
+// The no-attribute path, register-blocked: kLanes nodes at a time with every accumulator in
+// a vector register (GCC vector extension; AVX2 in the haswell clone, 2 x SSE2 otherwise).
+VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u) {
+  typedef double v4 __attribute__((vector_size(32)));
+  const int n = p_.count, L = len_, S = stride_;
+  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
+  const double eps = params_.regularisation;
+  const bool constrained = params_.method != MlsMethod::Affine;
+  const bool similarity = params_.method == MlsMethod::Similarity;
+  const Vec3 sc = p_.sourceCentre;
+  auto load = [](const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; };
+  for (int k0 = 0; k0 < L; k0 += kLanes) {
+    // Dominant point per lane.
+    v4 wmax = load(w + k0);
+    int dom[kLanes] = {0, 0, 0, 0};
+    for (int i = 1; i < n; ++i) {
+      const v4 wi = load(w + static_cast<size_t>(i) * S + k0);
+      for (int l = 0; l < kLanes; ++l)
+        if (wi[l] > wmax[l]) { wmax[l] = wi[l]; dom[l] = i; }
+    }
+    v4 xm0, xm1, xm2, ym0, ym1, ym2;
+    for (int l = 0; l < kLanes; ++l) {
+      const size_t m = static_cast<size_t>(dom[l]);
+      xm0[l] = p_.sx[m]; xm1[l] = p_.sy[m]; xm2[l] = p_.sz[m];
+      ym0[l] = p_.tx[m]; ym1[l] = p_.ty[m]; ym2[l] = p_.tz[m];
+    }
+    // Pass 1: centroids relative to the dominant point.
+    v4 W = {0, 0, 0, 0}, xh0 = W, xh1 = W, xh2 = W, yh0 = W, yh1 = W, yh2 = W;
+    for (int i = 0; i < n; ++i) {
+      const size_t si = static_cast<size_t>(i);
+      const v4 wi = load(w + si * S + k0);
+      W += wi;
+      xh0 += wi * (p_.sx[si] - xm0); xh1 += wi * (p_.sy[si] - xm1); xh2 += wi * (p_.sz[si] - xm2);
+      yh0 += wi * (p_.tx[si] - ym0); yh1 += wi * (p_.ty[si] - ym1); yh2 += wi * (p_.tz[si] - ym2);
+    }
+    const v4 invW = 1.0 / W;
+    xh0 *= invW; xh1 *= invW; xh2 *= invW; yh0 *= invW; yh1 *= invW; yh2 *= invW;
+    // Pass 2: A and B.
+    const v4 z = {0, 0, 0, 0};
+    v4 a00 = z, a01 = z, a02 = z, a11 = z, a12 = z, a22 = z;
+    v4 b00 = z, b01 = z, b02 = z, b10 = z, b11 = z, b12 = z, b20 = z, b21 = z, b22 = z;
+    for (int i = 0; i < n; ++i) {
+      const size_t si = static_cast<size_t>(i);
+      const v4 wi = load(w + si * S + k0);
+      const v4 q0 = (p_.tx[si] - ym0) - yh0, q1 = (p_.ty[si] - ym1) - yh1, q2 = (p_.tz[si] - ym2) - yh2;
+      const v4 p0 = (p_.sx[si] - xm0) - xh0, p1 = (p_.sy[si] - xm1) - xh1, p2 = (p_.sz[si] - xm2) - xh2;
+      const v4 wq0 = wi * q0, wq1 = wi * q1, wq2 = wi * q2;
+      a00 += wq0 * q0; a01 += wq0 * q1; a02 += wq0 * q2; a11 += wq1 * q1; a12 += wq1 * q2; a22 += wq2 * q2;
+      b00 += wq0 * p0; b01 += wq0 * p1; b02 += wq0 * p2;
+      b10 += wq1 * p0; b11 += wq1 * p1; b12 += wq1 * p2;
+      b20 += wq2 * p0; b21 += wq2 * p1; b22 += wq2 * p2;
+    }
+    // Regularised inverse of A (see mls.hpp), lane-wise.
+    const v4 tr = a00 + a11 + a22;
+    const v4 mean = tr / 3.0;
+    const v4 det = a00 * (a11 * a22 - a12 * a12) - a01 * (a01 * a22 - a12 * a02) + a02 * (a01 * a12 - a11 * a02);
+    v4 lam;
+    for (int l = 0; l < kLanes; ++l) {
+      if (tr[l] > 0) {
+        const double c = std::max(det[l] / (mean[l] * mean[l] * mean[l]), 0.0);
+        const double r = eps / (eps + c);
+        lam[l] = eps * r * r * mean[l];
+      } else {
+        lam[l] = 1.0;  // no spread at all: M = I (pure translation)
+        a00[l] = a11[l] = a22[l] = 0;
+        a01[l] = a02[l] = a12[l] = 0;
+      }
+    }
+    a00 += lam; a11 += lam; a22 += lam;
+    const v4 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+    const v4 c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+    const v4 inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02);
+    const v4 i00 = c00 * inv, i01 = c01 * inv, i02 = c02 * inv, i11 = c11 * inv, i12 = c12 * inv, i22 = c22 * inv;
+    v4 m00, m01, m02, m10, m11, m12, m20, m21, m22;
+    if (!constrained) {
+      b00 += lam; b11 += lam; b22 += lam;
+      m00 = i00 * b00 + i01 * b10 + i02 * b20; m01 = i00 * b01 + i01 * b11 + i02 * b21; m02 = i00 * b02 + i01 * b12 + i02 * b22;
+      m10 = i01 * b00 + i11 * b10 + i12 * b20; m11 = i01 * b01 + i11 * b11 + i12 * b21; m12 = i01 * b02 + i11 * b12 + i12 * b22;
+      m20 = i02 * b00 + i12 * b10 + i22 * b20; m21 = i02 * b01 + i12 * b11 + i22 * b21; m22 = i02 * b02 + i12 * b12 + i22 * b22;
+    } else {
+      for (int l = 0; l < kLanes; ++l) {
+        double m[9] = {b00[l], b01[l], b02[l], b10[l], b11[l], b12[l], b20[l], b21[l], b22[l]};
+        constrainToRotation(m, tr[l], similarity);
+        m00[l] = m[0]; m01[l] = m[1]; m02[l] = m[2]; m10[l] = m[3]; m11[l] = m[4];
+        m12[l] = m[5]; m20[l] = m[6]; m21[l] = m[7]; m22[l] = m[8];
+      }
+    }
+    const v4 d0 = (load(vx + k0) - ym0) - yh0, d1 = (load(vy + k0) - ym1) - yh1, d2 = (load(vz + k0) - ym2) - yh2;
+    const v4 u0 = d0 * m00 + d1 * m10 + d2 * m20 + (xm0 + xh0) + sc.x;
+    const v4 u1 = d0 * m01 + d1 * m11 + d2 * m21 + (xm1 + xh1) + sc.y;
+    const v4 u2 = d0 * m02 + d1 * m12 + d2 * m22 + (xm2 + xh2) + sc.z;
+    const int lanes = std::min(kLanes, L - k0);
+    for (int l = 0; l < lanes; ++l) {
+      double* out = u + 3 * (k0 + l);
+      const int h = hit_[static_cast<size_t>(k0 + l)];
+      if (h >= 0) {
+        const Vec3& x = p_.sourceMm[static_cast<size_t>(h)];
+        out[0] = x.x; out[1] = x.y; out[2] = x.z;
+      } else {
+        out[0] = u0[l]; out[1] = u1[l]; out[2] = u2[l];
+      }
     }
   }
 }

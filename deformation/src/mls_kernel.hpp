@@ -36,11 +36,13 @@ class RowEvaluator {
   int length() const { return len_; }
 
  private:
+  static constexpr int kLanes = 4;
   void computeWeights();
+  void solveBlocked(const double* w, double* u);
   double* arr(int slot) { return buf_.data() + static_cast<size_t>(slot) * maxLen_; }
   const PointData& p_;
   MlsParams params_;
-  int maxLen_, len_ = 0;
+  int maxLen_, len_ = 0, stride_ = 0;
   std::vector<double> w0_, w_;  // point-major weights
   std::vector<double> buf_;     // accumulator arrays, one slot per quantity
   std::vector<int> hit_, dom_;

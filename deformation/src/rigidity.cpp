@@ -22,6 +22,10 @@ Mat3 mmToIndexOf(const Geometry& g) {
   return inv;
 }
 
+// A body covering fewer control nodes than this is too small for the control grid to hold
+// it rigid (its fit would be noise); it is left to the MLS map.
+constexpr double kMinFitNodes = 8;
+
 // Sums for a Kabsch fit of u ~ R v + t.
 struct FitSums {
   double n = 0;
@@ -48,7 +52,7 @@ struct RigidFit {
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 RigidFit kabsch(const FitSums& s) {
   RigidFit f;
-  if (s.n < 4) return f;
+  if (s.n < kMinFitNodes) return f;
   const Eigen::Vector3d cv = s.sv / s.n, cu = s.su / s.n;
   const Eigen::Matrix3d h = s.svu - s.n * cv * cu.transpose();  // sum (v - cv)(u - cu)^T
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
