@@ -1,45 +1,40 @@
 #include "vellum/segmentation/morphology.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
-#include "vellum/segmentation/distance_transform.hpp"
+#include "edt_engine.hpp"
 
 namespace vellum::segmentation {
 namespace {
 
 // A hair of tolerance so that voxels exactly at the radius (e.g. r = 2 spacings) count.
-double radius2(double r) { return r * r * (1.0 + 1e-9) + 1e-12; }
+float radius2(double r) { return static_cast<float>(r * r * (1.0 + 1e-6) + 1e-9); }
 
 }  // namespace
 
+// Both operations threshold the distance inside the transform's last pass: no float volume
+// is stored or read back, and erosion measures from the background directly (no inverted copy).
 Mask dilate(const Mask& m, double radiusMm, Progress& progress) {
   if (!(radiusMm > 0)) return m;
-  const VolumeF32 d2 = squaredDistanceMm(m, progress);
   Mask out(m.geometry(), 0, 0.0);
-  const float* d = d2.data();
+  VolumeF32 work(m.geometry(), 0.0f, 0.0);
   uint8_t* o = out.data();
-  const double r2 = radius2(radiusMm);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, m.size(), 1 << 16),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      for (size_t i = r.begin(); i < r.end(); ++i) o[i] = d[i] <= r2;
-                    });
+  const float r2 = radius2(radiusMm);
+  progress.begin("dilate", 1);
+  detail::squaredEdt(m.data(), true, m.geometry(), work.data(), [&](int64_t q, float d2) { o[q] = d2 <= r2; }, r2);
+  progress.end();
   return out;
 }
 
 Mask erode(const Mask& m, double radiusMm, Progress& progress) {
   if (!(radiusMm > 0)) return m;
   // Distance to the nearest background voxel inside the grid (outside counts as foreground).
-  const VolumeF32 d2 = squaredDistanceMm(maskNot(m), progress);
   Mask out(m.geometry(), 0, 0.0);
-  const float* d = d2.data();
+  VolumeF32 work(m.geometry(), 0.0f, 0.0);
   const uint8_t* src = m.data();
   uint8_t* o = out.data();
-  const double r2 = radius2(radiusMm);
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, m.size(), 1 << 16),
-                    [&](const tbb::blocked_range<size_t>& r) {
-                      for (size_t i = r.begin(); i < r.end(); ++i) o[i] = src[i] && d[i] > r2;
-                    });
+  const float r2 = radius2(radiusMm);
+  progress.begin("erode", 1);
+  detail::squaredEdt(src, false, m.geometry(), work.data(), [&](int64_t q, float d2) { o[q] = src[q] && d2 > r2; }, r2);
+  progress.end();
   return out;
 }
 

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <random>
 
 #include "test_volumes.hpp"
@@ -29,6 +31,54 @@ TEST(DistanceTransform, MatchesBruteForceWithAnisotropicSpacing) {
                 best = std::min(best, dx * dx + dy * dy + dz * dz);
               }
         EXPECT_NEAR(d2(i, j, k), best, 1e-3 * (1 + best)) << i << "," << j << "," << k;
+      }
+}
+
+namespace {
+// Squared mm distance from voxel (i, j, k) to the nearest voxel with m == want (brute force).
+double bruteD2(const Mask& m, int64_t i, int64_t j, int64_t k, uint8_t want) {
+  const Geometry& g = m.geometry();
+  double best = std::numeric_limits<double>::infinity();
+  for (int64_t c = 0; c < g.dims.z; ++c)
+    for (int64_t b = 0; b < g.dims.y; ++b)
+      for (int64_t a = 0; a < g.dims.x; ++a)
+        if ((m(a, b, c) != 0) == (want != 0)) {
+          const double dx = (i - a) * g.spacing.x, dy = (j - b) * g.spacing.y, dz = (k - c) * g.spacing.z;
+          best = std::min(best, dx * dx + dy * dy + dz * dz);
+        }
+  return best;
+}
+
+Mask randomBlobs(const Geometry& g, unsigned seed) {
+  Mask m(g, 0, 0.0);
+  std::mt19937 rng(seed);
+  for (int n = 0; n < 40; ++n) {
+    const int64_t i = rng() % g.dims.x, j = rng() % g.dims.y, k = rng() % g.dims.z, r = rng() % 3;
+    for (int64_t c = std::max<int64_t>(0, k - r); c <= std::min(g.dims.z - 1, k + r); ++c)
+      for (int64_t b = std::max<int64_t>(0, j - r); b <= std::min(g.dims.y - 1, j + r); ++b)
+        for (int64_t a = std::max<int64_t>(0, i - r); a <= std::min(g.dims.x - 1, i + r); ++a) m(a, b, c) = 1;
+  }
+  return m;
+}
+}  // namespace
+
+// Wider than one gathered block of columns (16) and not a multiple of it; the capped distance
+// used by morphology must give exactly the brute-force ball operations.
+TEST(DistanceTransform, BlocksCapsAndSignedDistanceMatchBruteForce) {
+  const Geometry g = grid(37, 23, 11, {0.6, 1.1, 1.9});
+  const Mask m = randomBlobs(g, 7);
+  const VolumeF32 d2 = squaredDistanceMm(m);
+  const VolumeF32 sd = signedDistanceMm(m);
+  const Mask dil = dilate(m, 2.5), ero = erode(m, 1.5);
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const double toIn = bruteD2(m, i, j, k, 1), toOut = bruteD2(m, i, j, k, 0);
+        ASSERT_NEAR(d2(i, j, k), toIn, 1e-3 * (1 + toIn)) << i << "," << j << "," << k;
+        const double signedBrute = m(i, j, k) ? -std::sqrt(toOut) : std::sqrt(toIn);
+        ASSERT_NEAR(sd(i, j, k), signedBrute, 1e-3 * (1 + std::abs(signedBrute)));
+        ASSERT_EQ(dil(i, j, k), toIn <= 2.5 * 2.5 + 1e-6 ? 1 : 0) << i << "," << j << "," << k;
+        ASSERT_EQ(ero(i, j, k), m(i, j, k) && toOut > 1.5 * 1.5 + 1e-6 ? 1 : 0) << i << "," << j << "," << k;
       }
 }
 
