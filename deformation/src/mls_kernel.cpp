@@ -375,15 +375,16 @@ VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u) {
   for (int k0 = 0; k0 < L; k0 += kLanes) {
     // Dominant point per lane.
     v4 wmax = load(w + k0);
-    int dom[kLanes] = {0, 0, 0, 0};
+    v4 domv = {0, 0, 0, 0};
     for (int i = 1; i < n; ++i) {
       const v4 wi = load(w + static_cast<size_t>(i) * S + k0);
-      for (int l = 0; l < kLanes; ++l)
-        if (wi[l] > wmax[l]) { wmax[l] = wi[l]; dom[l] = i; }
+      const v4 iv = {double(i), double(i), double(i), double(i)};
+      domv = wi > wmax ? iv : domv;  // branch-free arg-max
+      wmax = wi > wmax ? wi : wmax;
     }
     v4 xm0, xm1, xm2, ym0, ym1, ym2;
     for (int l = 0; l < kLanes; ++l) {
-      const size_t m = static_cast<size_t>(dom[l]);
+      const size_t m = static_cast<size_t>(domv[l]);
       xm0[l] = p_.sx[m]; xm1[l] = p_.sy[m]; xm2[l] = p_.sz[m];
       ym0[l] = p_.tx[m]; ym1[l] = p_.ty[m]; ym2[l] = p_.tz[m];
     }
