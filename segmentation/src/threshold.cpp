@@ -14,7 +14,8 @@ namespace vellum::segmentation {
 
 HuInterval presetInterval(Preset p) {
   switch (p) {
-    case Preset::Bone: return {550, 3071};
+    case Preset::Bone: return {700, 3071};
+    case Preset::WholeBone: return {550, 3071};
     case Preset::SoftTissue: return {-500, 300};
     case Preset::SkinAir: return {-500, 3071};
     case Preset::Fat: return {-190, -30};
@@ -26,6 +27,7 @@ HuInterval presetInterval(Preset p) {
 const char* presetName(Preset p) {
   switch (p) {
     case Preset::Bone: return "bone";
+    case Preset::WholeBone: return "whole-bone";
     case Preset::SoftTissue: return "soft-tissue";
     case Preset::SkinAir: return "skin-air";
     case Preset::Fat: return "fat";
@@ -35,7 +37,7 @@ const char* presetName(Preset p) {
 }
 
 std::vector<Preset> allPresets() {
-  return {Preset::Bone, Preset::SoftTissue, Preset::SkinAir, Preset::Fat, Preset::Lung};
+  return {Preset::Bone, Preset::WholeBone, Preset::SoftTissue, Preset::SkinAir, Preset::Fat, Preset::Lung};
 }
 
 Preset parsePreset(const std::string& name) {

@@ -267,7 +267,7 @@ void addSegmentCommand(CLI::App& app) {
   cmd->add_option("input", a->input, "input volume (file or DICOM folder)")->required();
   cmd->add_option("--out,-o", a->out, "output label map (.nrrd keeps the label table)")->required();
   cmd->add_option("--method", a->method, "threshold | otsu | multi-otsu | hysteresis | grow | confidence | snake")->capture_default_str();
-  cmd->add_option("--preset", a->preset, "HU interval preset: bone [550,3071], soft-tissue [-500,300], skin-air [-500,3071], fat [-190,-30], lung [-950,-500]");
+  cmd->add_option("--preset", a->preset, "HU interval preset: bone [700,3071] (cortex), whole-bone [550,3071] (with --fill-holes-slices), soft-tissue [-500,300], skin-air [-500,3071], fat [-190,-30], lung [-950,-500]");
   cmd->add_option("--lower", a->lower, "lower HU (overrides the preset; otsu: histogram range; hysteresis: weak threshold)");
   cmd->add_option("--upper", a->upper, "upper HU (overrides the preset)");
   cmd->add_option("--strong", a->strong, "hysteresis: strong threshold in HU (default lower + 400)");
@@ -300,7 +300,7 @@ void addSegmentCommand(CLI::App& app) {
   a->in.addTo(*cmd);
   cmd->footer(
       "Examples:\n"
-      "  vellum segment knee.nrrd --out bone.nrrd --preset bone --fill-holes-slices --min-island 100\n"
+      "  vellum segment knee.nrrd --out bone.nrrd --preset whole-bone --fill-holes-slices --min-island 100\n"
       "  vellum segment knee.nrrd --out soft.nrrd --method snake --seed 0,35,60 --radius 10 \\\n"
       "      --truth knee-labels.nrrd --truth-ids 1,2,3,10 --report soft.json");
   cmd->callback([a] { runSegment(*a); });
@@ -334,8 +334,9 @@ void demoSegmentation(const DemoContext& ctx) {
   const VolumeI16 ct = toInt16(io::loadVolume(ctx.phantomCt).volume);
   const LabelVolume truth = io::loadLabels(ctx.phantomLabels);
   LabelVolume labels(ct.geometry());
-  // Bone: threshold, fill the marrow slice by slice, drop specks.
-  seg::Mask bone = seg::threshold(ct, seg::presetInterval(seg::Preset::Bone));
+  // Whole bones: the whole-bone preset keeps thin cortex closed, fill the marrow slice by
+  // slice, drop specks.
+  seg::Mask bone = seg::threshold(ct, seg::presetInterval(seg::Preset::WholeBone));
   bone = seg::removeSmallIslands(seg::fillHolesPerSlice(bone, 2), 100.0);
   seg::addSegment(labels, bone, {1, "bone", {240, 235, 215}});
   // Soft tissue: a snake from a bubble in the posterior thigh muscle.
@@ -359,7 +360,7 @@ void demoSegmentation(const DemoContext& ctx) {
   io::saveImage(fig, ctx.outDir / "segmentation.png");
 
   nlohmann::json j;
-  j["bone"] = {{"method", "threshold bone preset + per-slice fill + islands < 100 mm3"}, {"truth", "isBone"},
+  j["bone"] = {{"method", "threshold whole-bone preset + per-slice fill + islands < 100 mm3"}, {"truth", "isBone"},
                {"dice", boneM.dice}, {"hd95_mm", boneM.hd95Mm}};
   j["soft_tissue"] = {{"method", "snake, threshold speed, bubble 10 mm at (0,35,60) mm"}, {"truth", "isSoftTissue"},
                       {"dice", softM.dice}, {"hd95_mm", softM.hd95Mm}, {"iterations", snake.iterations},

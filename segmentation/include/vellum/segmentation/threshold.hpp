@@ -16,9 +16,15 @@ struct HuInterval {
 };
 
 /// Named CT intervals (chosen on the phantom's nominal HU, see docs/segmentation.md):
-///   Bone        [ 550, 3071]  cortical bone (~1400 HU). Below the soft/cortex midpoint (~725)
-///                             so that thin, partial-volumed cortex (condyles, patella) stays
-///                             closed and whole bones fill with fillHolesPerSlice().
+///   Bone        [ 700, 3071]  cortical bone (~1400 HU): the lower bound is the midpoint
+///                             between cortex and what surrounds it (marrow ~20, muscle ~50,
+///                             cartilage ~110 HU), so a partial-volume voxel counts as bone
+///                             when more than about half of it is cortex.
+///   WholeBone   [ 550, 3071]  the same cortex with a lower bound, for whole bones by hole
+///                             filling: thin cortex (condyles, fibula, patella) blurred with
+///                             marrow stays a closed ring at ~1.4 mm voxels, so
+///                             fillHolesPerSlice() recovers cortex + marrow. Over-segments
+///                             the cortex itself by up to a voxel.
 ///   SoftTissue  [-500,  300]  skin, fat, muscle, cartilage, marrow: between air and bone. The
 ///                             upper bound stays well below cortex so thin cortex still stops
 ///                             a region or snake; use a seed to keep one body (marrow is
@@ -26,10 +32,10 @@ struct HuInterval {
 ///   SkinAir     [-500, 3071]  the body against air: its boundary is the skin surface
 ///   Fat         [-190,  -30]  adipose tissue (the usual clinical window)
 ///   Lung        [-950, -500]  aerated lung parenchyma
-enum class Preset { Bone, SoftTissue, SkinAir, Fat, Lung };
+enum class Preset { Bone, SoftTissue, SkinAir, Fat, Lung, WholeBone };
 
 HuInterval presetInterval(Preset p);
-/// "bone", "soft-tissue" (or "soft"), "skin-air" (or "skin"), "fat", "lung"; throws
+/// "bone", "whole-bone", "soft-tissue" (or "soft"), "skin-air" (or "skin"), "fat", "lung"; throws
 /// vellum::Error listing the valid names.
 Preset parsePreset(const std::string& name);
 const char* presetName(Preset p);
