@@ -54,7 +54,8 @@ case "$cmd" in
     install_packages
     shift
     build -DVELLUM_BUILD_TESTS=ON "$@"
-    ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" -LE long
+    # Under Xvfb so that the GLFW window tests run too (headless EGL tests need no display).
+    xvfb-run -a ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" -LE long
     ;;
   *) echo "usage: scripts/setup.sh demo [OUT_DIR] | test | deps" >&2; exit 2 ;;
 esac
