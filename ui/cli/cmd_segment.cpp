@@ -308,23 +308,65 @@ void addSegmentCommand(CLI::App& app) {
 
 namespace {
 
-/// Grey CT (window -200..400 HU) with label colours blended at 45%.
-void drawSlice(RgbaImage& img, int x0, const VolumeI16& ct, const LabelVolume& labels, int axis, int64_t index) {
-  const Dims d = ct.dims();
-  const int w = static_cast<int>(d.x), h = static_cast<int>(axis == 2 ? d.y : d.z);
-  for (int y = 0; y < h; ++y)
+/// One slice through `centreMm`, resampled to square pixels in mm (physical aspect, whatever
+/// the spacing): grey CT (window -200..400 HU, trilinear), segments tinted at 35% with a
+/// full-colour outline so their borders can be checked. `right`/`down` are the physical
+/// directions of the image's +x and +y (unit vectors along patient axes).
+RgbaImage slicePanel(const VolumeI16& ct, const LabelVolume& labels, const Vec3& centreMm, const Vec3& right,
+                     const Vec3& down, int heightPx) {
+  const Geometry& g = ct.geometry();
+  // Physical extent of the grid along the two axes (identity-like directions: the phantom's).
+  const Vec3 lo = g.indexToPhysical({0, 0, 0}), hi = g.indexToPhysical({double(g.dims.x - 1), double(g.dims.y - 1), double(g.dims.z - 1)});
+  const double r0 = std::min(dot(lo, right), dot(hi, right)), r1 = std::max(dot(lo, right), dot(hi, right));
+  const double d0 = std::min(dot(lo, down), dot(hi, down)), d1 = std::max(dot(lo, down), dot(hi, down));
+  const double mmPerPx = (d1 - d0) / heightPx;
+  const int w = std::max(1, static_cast<int>(std::lround((r1 - r0) / mmPerPx)));
+  // The image's top-left corner: the grid's smallest extent along right and down, in the
+  // plane through the centre.
+  const Vec3 base = centreMm + right * (r0 - dot(centreMm, right)) + down * (d0 - dot(centreMm, down));
+  std::vector<uint16_t> ids(static_cast<size_t>(w) * heightPx);
+  RgbaImage img(w, heightPx);
+  for (int y = 0; y < heightPx; ++y)
     for (int x = 0; x < w; ++x) {
-      const int64_t i = x, j = axis == 2 ? y : index, k = axis == 2 ? index : d.z - 1 - y;
-      const double v = std::clamp((ct(i, j, k) + 200.0) / 600.0, 0.0, 1.0) * 255.0;
-      double rgb[3] = {v, v, v};
-      if (const uint16_t id = labels(i, j, k)) {
-        const auto c = labels.label(id) ? labels.label(id)->rgb : defaultLabelColor(id);
-        for (int t = 0; t < 3; ++t) rgb[t] = 0.55 * rgb[t] + 0.45 * c[t];
-      }
-      uint8_t* p = img.at(x0 + x, y);
-      for (int t = 0; t < 3; ++t) p[t] = static_cast<uint8_t>(rgb[t]);
-      p[3] = 255;
+      const Vec3 p = base + right * ((x + 0.5) * mmPerPx) + down * ((y + 0.5) * mmPerPx);
+      const Vec3 ijk = g.physicalToIndex(p);
+      ids[static_cast<size_t>(y) * w + x] = static_cast<uint16_t>(labels.ids().sampleNearest(ijk));
+      const double v = std::clamp((ct.sampleLinear(ijk) + 200.0) / 600.0, 0.0, 1.0) * 255.0;
+      uint8_t* px = img.at(x, y);
+      px[0] = px[1] = px[2] = static_cast<uint8_t>(v);
+      px[3] = 255;
     }
+  for (int y = 0; y < heightPx; ++y)
+    for (int x = 0; x < w; ++x) {
+      const uint16_t id = ids[static_cast<size_t>(y) * w + x];
+      if (!id) continue;
+      bool edge = false;
+      for (const auto& [dx, dy] : {std::pair{-1, 0}, std::pair{1, 0}, std::pair{0, -1}, std::pair{0, 1}}) {
+        const int xx = x + dx, yy = y + dy;
+        edge = edge || xx < 0 || yy < 0 || xx >= w || yy >= heightPx || ids[static_cast<size_t>(yy) * w + xx] != id;
+      }
+      const auto c = labels.label(id) ? labels.label(id)->rgb : defaultLabelColor(id);
+      uint8_t* px = img.at(x, y);
+      const double a = edge ? 1.0 : 0.35;
+      for (int t = 0; t < 3; ++t) px[t] = static_cast<uint8_t>((1 - a) * px[t] + a * c[t]);
+    }
+  return img;
+}
+
+/// Panels side by side on black, with a gap.
+RgbaImage sideBySide(const std::vector<RgbaImage>& panels, int gap) {
+  int w = gap * static_cast<int>(panels.size() - 1), h = 0;
+  for (const auto& p : panels) { w += p.width; h = std::max(h, p.height); }
+  RgbaImage out(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) out.at(x, y)[3] = 255;
+  int x0 = 0;
+  for (const auto& p : panels) {
+    for (int y = 0; y < p.height; ++y)
+      for (int x = 0; x < p.width; ++x) std::copy(p.at(x, y), p.at(x, y) + 4, out.at(x0 + x, y));
+    x0 += p.width + gap;
+  }
+  return out;
 }
 
 }  // namespace
@@ -338,7 +380,7 @@ void demoSegmentation(const DemoContext& ctx) {
   // slice, drop specks.
   seg::Mask bone = seg::threshold(ct, seg::presetInterval(seg::Preset::WholeBone));
   bone = seg::removeSmallIslands(seg::fillHolesPerSlice(bone, 2), 100.0);
-  seg::addSegment(labels, bone, {1, "bone", {240, 235, 215}});
+  seg::addSegment(labels, bone, {1, "bone", {235, 190, 40}});
   // Soft tissue: a snake from a bubble in the posterior thigh muscle.
   const Vec3 seed{0, 35, 60};
   ProgressBar bar;
@@ -350,13 +392,15 @@ void demoSegmentation(const DemoContext& ctx) {
 
   const auto boneM = seg::compareMasks(bone, seg::maskFromIds(truth.ids(), phantom::isBone));
   const auto softM = seg::compareMasks(snake.mask, seg::maskFromIds(truth.ids(), phantom::isSoftTissue));
-  // Figure: an axial slice through the seed and a coronal slice through the knee, side by side.
-  const auto sv = seg::nearestVoxel(ct.geometry(), seed);
-  const auto kv = seg::nearestVoxel(ct.geometry(), {0, 0, 0});
-  const Dims d = ct.dims();
-  RgbaImage fig(static_cast<int>(2 * d.x), static_cast<int>(std::max(d.y, d.z)));
-  drawSlice(fig, 0, ct, labels, 2, sv ? sv->k : d.z / 2);
-  drawSlice(fig, static_cast<int>(d.x), ct, labels, 1, kv ? kv->j : d.y / 2);
+  // Figure: axial through the seed (anterior up, patient's right on the left), coronal and
+  // sagittal through the knee (0,0,0) (head up; sagittal anterior on the left), at the
+  // physical aspect ratio.
+  const Vec3 knee{0, 0, 0};
+  const int panelPx = 480;
+  const RgbaImage fig = sideBySide({slicePanel(ct, labels, seed, {1, 0, 0}, {0, 1, 0}, panelPx),
+                                    slicePanel(ct, labels, knee, {1, 0, 0}, {0, 0, -1}, panelPx),
+                                    slicePanel(ct, labels, knee, {0, 1, 0}, {0, 0, -1}, panelPx)},
+                                   8);
   io::saveImage(fig, ctx.outDir / "segmentation.png");
 
   nlohmann::json j;
