@@ -221,6 +221,7 @@ void Deformer::Impl::computeMap(Progress& progress) {
   progress.begin("control volume", static_cast<uint64_t>(d.z));
   parallelFor(rows, [&](int64_t r0, int64_t r1) {
     RowWork w(data, params.mls, nx, withAttr, density != nullptr);
+    w.eval.setSinglePrecision(params.singlePrecisionGrid);
     for (int64_t r = r0; r < r1; ++r) {
       const int64_t j = r % d.y, k = r / d.y;
       w.eval.setRow(grid.indexToPhysical({0.0, double(j), double(k)}), stepMm, nx);

@@ -22,12 +22,14 @@ namespace {
 enum Slot {
   kVx = 0, kVy, kVz, kW, kXh0, kXh1, kXh2, kYh0, kYh1, kYh2, kZh0,
   kA00 = kZh0 + 4, kA01, kA02, kA11, kA12, kA22,
-  kB00, kC00 = kB00 + 9, kYm0 = kC00 + 12, kYm1, kYm2, kXm0, kXm1, kXm2, kWmax,
+  kB00, kC00 = kB00 + 9, kYm0 = kC00 + 12, kYm1, kYm2, kXm0, kXm1, kXm2, kWmax, kMd2, kMid,
   kSlots
 };
 
 // Below this distance (mm) v counts as sitting on y_i: u = x_i exactly.
 constexpr double kHitDist2 = 1e-18;
+// Weights are computed from max(d^2, this): 1e-6 mm keeps (1/d^2)^3 within float range.
+constexpr double kWeightDist2 = 1e-12;
 
 // Eigen's fixed-size SVD trips a false -Wmaybe-uninitialized at -O2 (GCC 12).
 #pragma GCC diagnostic push
@@ -118,35 +120,39 @@ VELLUM_SIMD_CLONES void RowEvaluator::computeWeights() {
   double* vx = arr(kVx); double* vy = arr(kVy); double* vz = arr(kVz);
   // Padding lanes repeat the last node (finite weights; results discarded).
   for (int k = len_; k < stride_; ++k) { vx[k] = vx[len_ - 1]; vy[k] = vy[len_ - 1]; vz[k] = vz[len_ - 1]; }
-  for (int k = 0; k < len_; ++k) hit_[static_cast<size_t>(k)] = -1;
+  double* md2 = arr(kMd2); double* mid = arr(kMid);
+  for (int k = 0; k < stride_; ++k) { md2[k] = 1e300; mid[k] = 0; }
   const double n = params_.power;
   const int mode = n == 2 ? 0 : n == 4 ? 1 : n == 1 ? 2 : n == 3 ? 3 : 4;
   for (int i = 0; i < p_.count; ++i) {
     const double tx = p_.tx[static_cast<size_t>(i)], ty = p_.ty[static_cast<size_t>(i)],
                  tz = p_.tz[static_cast<size_t>(i)];
     double* w = w0_.data() + static_cast<size_t>(i) * stride_;
-    // One loop per power so that each vectorises (no branch inside).
+    // One loop per power so that each vectorises (no branch inside). The reciprocal is taken
+    // in single precision (4x the throughput): any positive weights keep the map's exactness
+    // properties, and hits are decided on the exact squared distance below.
     auto loop = [&](auto weightOf) {
 #pragma omp simd
       for (int k = 0; k < stride_; ++k) {
         const double dx = vx[k] - tx, dy = vy[k] - ty, dz = vz[k] - tz;
-        w[k] = weightOf(std::max(dx * dx + dy * dy + dz * dz, kHitDist2));
+        const double d2 = dx * dx + dy * dy + dz * dz;
+        const double r = static_cast<double>(1.0f / static_cast<float>(std::max(d2, kWeightDist2)));
+        w[k] = weightOf(r);
+        const bool closer = d2 < md2[k];
+        md2[k] = closer ? d2 : md2[k];
+        mid[k] = closer ? double(i) : mid[k];
       }
     };
     switch (mode) {
-      case 0: loop([](double d2) { return 1.0 / d2; }); break;
-      case 1: loop([](double d2) { return 1.0 / (d2 * d2); }); break;
-      case 2: loop([](double d2) { return 1.0 / std::sqrt(d2); }); break;
-      case 3: loop([](double d2) { return 1.0 / (d2 * std::sqrt(d2)); }); break;
-      default: loop([n](double d2) { return std::pow(d2, -0.5 * n); }); break;
+      case 0: loop([](double r) { return r; }); break;
+      case 1: loop([](double r) { return r * r; }); break;
+      case 2: loop([](double r) { return std::sqrt(r); }); break;
+      case 3: loop([](double r) { return r * std::sqrt(r); }); break;
+      default: loop([n](double r) { return std::pow(r, 0.5 * n); }); break;
     }
-    for (int k = 0; k < len_; ++k)
-      if (w[k] >= 0.5 / kHitDist2 && hit_[static_cast<size_t>(k)] < 0) {
-        // Recheck exactly: only a true coincidence counts as a hit.
-        const double dx = vx[k] - tx, dy = vy[k] - ty, dz = vz[k] - tz;
-        if (dx * dx + dy * dy + dz * dz < kHitDist2) hit_[static_cast<size_t>(k)] = i;
-      }
   }
+  for (int k = 0; k < len_; ++k)
+    hit_[static_cast<size_t>(k)] = md2[k] < kHitDist2 ? static_cast<int>(mid[k]) : -1;
 }
 
 VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double* attr) {
@@ -165,7 +171,8 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
   }
   const bool withAttr = attr && p_.attributes;
   if (!withAttr) {
-    solveBlocked(w, u);
+    if (singlePrecision_ && params_.method == MlsMethod::Affine) solveBlockedFloat(w, u);
+    else solveBlocked(w, u, 0, L);
     if (attr)
       for (int k = 0; k < L; ++k) { attr[4 * k] = attr[4 * k + 1] = attr[4 * k + 2] = 0; attr[4 * k + 3] = 1; }
     return;
@@ -363,7 +370,7 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
 
 // The no-attribute path, register-blocked: kLanes nodes at a time with every accumulator in
 // a vector register (GCC vector extension; AVX2 in the haswell clone, 2 x SSE2 otherwise).
-VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u) {
+VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u, int kBegin, int kEnd) {
   typedef double v4 __attribute__((vector_size(32)));
   const int n = p_.count, L = len_, S = stride_;
   const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
@@ -372,7 +379,7 @@ VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u) {
   const bool similarity = params_.method == MlsMethod::Similarity;
   const Vec3 sc = p_.sourceCentre;
   auto load = [](const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; };
-  for (int k0 = 0; k0 < L; k0 += kLanes) {
+  for (int k0 = kBegin; k0 < std::min(kEnd, L); k0 += kLanes) {
     // Dominant point per lane.
     v4 wmax = load(w + k0);
     v4 domv = {0, 0, 0, 0};
@@ -464,6 +471,109 @@ VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u) {
         out[0] = u0[l]; out[1] = u1[l]; out[2] = u2[l];
       }
     }
+  }
+}
+
+// Single-precision variant for grids (8 nodes per AVX2 register). Weights are divided by the
+// node's largest weight first (no float overflow for high powers next to a point). Lanes whose
+// A is ill-conditioned (c < 1e-3, e.g. coplanar points) or that sit on a control point are
+// redone in double precision, so the float path only ever handles well-posed solves.
+VELLUM_SIMD_CLONES void RowEvaluator::solveBlockedFloat(const double* w, double* u) {
+  typedef float v8 __attribute__((vector_size(32)));
+  typedef double v4 __attribute__((vector_size(32)));
+  constexpr int kF = 8;
+  const int n = p_.count, L = len_, S = stride_;
+  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
+  const double eps = params_.regularisation;
+  const Vec3 sc = p_.sourceCentre;
+  auto load4 = [](const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; };
+  auto load8 = [&](const double* p) {  // 8 doubles -> 8 floats (stride_ is a multiple of 4)
+    const v4 a = load4(p), b = load4(p + 4);
+    float tmp[8];
+    for (int l = 0; l < 4; ++l) { tmp[l] = static_cast<float>(a[l]); tmp[4 + l] = static_cast<float>(b[l]); }
+    v8 r; std::memcpy(&r, tmp, sizeof r); return r;
+  };
+  for (int k0 = 0; k0 < L; k0 += kF) {
+    if (k0 + kF > S) { solveBlocked(w, u, k0, L); break; }  // tail shorter than 8 lanes
+    // Dominant point and the largest weight per lane (double).
+    v4 wmaxA = load4(w + k0), wmaxB = load4(w + k0 + 4);
+    v4 domA = {0, 0, 0, 0}, domB = domA;
+    for (int i = 1; i < n; ++i) {
+      const v4 a = load4(w + static_cast<size_t>(i) * S + k0), b = load4(w + static_cast<size_t>(i) * S + k0 + 4);
+      const v4 iv = {double(i), double(i), double(i), double(i)};
+      domA = a > wmaxA ? iv : domA; wmaxA = a > wmaxA ? a : wmaxA;
+      domB = b > wmaxB ? iv : domB; wmaxB = b > wmaxB ? b : wmaxB;
+    }
+    float invMax[kF], xmf[3][kF], ymf[3][kF], dvf[3][kF];
+    for (int l = 0; l < kF; ++l) {
+      const size_t m = static_cast<size_t>(l < 4 ? domA[l] : domB[l - 4]);
+      invMax[l] = static_cast<float>(1.0 / (l < 4 ? wmaxA[l] : wmaxB[l - 4]));
+      xmf[0][l] = float(p_.sx[m]); xmf[1][l] = float(p_.sy[m]); xmf[2][l] = float(p_.sz[m]);
+      ymf[0][l] = float(p_.tx[m]); ymf[1][l] = float(p_.ty[m]); ymf[2][l] = float(p_.tz[m]);
+      dvf[0][l] = float(vx[k0 + l] - p_.tx[m]); dvf[1][l] = float(vy[k0 + l] - p_.ty[m]);
+      dvf[2][l] = float(vz[k0 + l] - p_.tz[m]);
+    }
+    v8 im, xm0, xm1, xm2, ym0, ym1, ym2, dv0, dv1, dv2;
+    std::memcpy(&im, invMax, 32);
+    std::memcpy(&xm0, xmf[0], 32); std::memcpy(&xm1, xmf[1], 32); std::memcpy(&xm2, xmf[2], 32);
+    std::memcpy(&ym0, ymf[0], 32); std::memcpy(&ym1, ymf[1], 32); std::memcpy(&ym2, ymf[2], 32);
+    std::memcpy(&dv0, dvf[0], 32); std::memcpy(&dv1, dvf[1], 32); std::memcpy(&dv2, dvf[2], 32);
+    const v8 z = {0, 0, 0, 0, 0, 0, 0, 0};
+    v8 W = z, xh0 = z, xh1 = z, xh2 = z, yh0 = z, yh1 = z, yh2 = z;
+    v8 a00 = z, a01 = z, a02 = z, a11 = z, a12 = z, a22 = z;
+    v8 b00 = z, b01 = z, b02 = z, b10 = z, b11 = z, b12 = z, b20 = z, b21 = z, b22 = z;
+    // One pass: moments about the dominant point (its own offsets are exactly 0, so the huge
+    // weight next to a point cannot cancel), then centred: A = S_qq - W yh yh^T etc.
+    for (int i = 0; i < n; ++i) {
+      const size_t si = static_cast<size_t>(i);
+      const v8 wi = load8(w + si * S + k0) * im;
+      const v8 q0 = float(p_.tx[si]) - ym0, q1 = float(p_.ty[si]) - ym1, q2 = float(p_.tz[si]) - ym2;
+      const v8 p0 = float(p_.sx[si]) - xm0, p1 = float(p_.sy[si]) - xm1, p2 = float(p_.sz[si]) - xm2;
+      const v8 wq0 = wi * q0, wq1 = wi * q1, wq2 = wi * q2;
+      W += wi;
+      yh0 += wq0; yh1 += wq1; yh2 += wq2;
+      xh0 += wi * p0; xh1 += wi * p1; xh2 += wi * p2;
+      a00 += wq0 * q0; a01 += wq0 * q1; a02 += wq0 * q2; a11 += wq1 * q1; a12 += wq1 * q2; a22 += wq2 * q2;
+      b00 += wq0 * p0; b01 += wq0 * p1; b02 += wq0 * p2;
+      b10 += wq1 * p0; b11 += wq1 * p1; b12 += wq1 * p2;
+      b20 += wq2 * p0; b21 += wq2 * p1; b22 += wq2 * p2;
+    }
+    const v8 invW = 1.0f / W;
+    yh0 *= invW; yh1 *= invW; yh2 *= invW; xh0 *= invW; xh1 *= invW; xh2 *= invW;
+    a00 -= W * yh0 * yh0; a01 -= W * yh0 * yh1; a02 -= W * yh0 * yh2;
+    a11 -= W * yh1 * yh1; a12 -= W * yh1 * yh2; a22 -= W * yh2 * yh2;
+    b00 -= W * yh0 * xh0; b01 -= W * yh0 * xh1; b02 -= W * yh0 * xh2;
+    b10 -= W * yh1 * xh0; b11 -= W * yh1 * xh1; b12 -= W * yh1 * xh2;
+    b20 -= W * yh2 * xh0; b21 -= W * yh2 * xh1; b22 -= W * yh2 * xh2;
+    const v8 tr = a00 + a11 + a22, mean = tr / 3.0f;
+    const v8 det = a00 * (a11 * a22 - a12 * a12) - a01 * (a01 * a22 - a12 * a02) + a02 * (a01 * a12 - a11 * a02);
+    const v8 c = det / (mean * mean * mean);
+    bool redo = false;
+    for (int l = 0; l < kF; ++l)
+      redo = redo || !(c[l] > 1e-3f) || !(tr[l] > 0) || hit_[static_cast<size_t>(k0 + l)] >= 0;
+    const v8 r = float(eps) / (float(eps) + c);
+    const v8 lam = float(eps) * r * r * mean;
+    a00 += lam; a11 += lam; a22 += lam; b00 += lam; b11 += lam; b22 += lam;
+    const v8 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
+    const v8 c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
+    const v8 inv = 1.0f / (a00 * c00 + a01 * c01 + a02 * c02);
+    const v8 i00 = c00 * inv, i01 = c01 * inv, i02 = c02 * inv, i11 = c11 * inv, i12 = c12 * inv, i22 = c22 * inv;
+    const v8 m00 = i00 * b00 + i01 * b10 + i02 * b20, m01 = i00 * b01 + i01 * b11 + i02 * b21,
+             m02 = i00 * b02 + i01 * b12 + i02 * b22, m10 = i01 * b00 + i11 * b10 + i12 * b20,
+             m11 = i01 * b01 + i11 * b11 + i12 * b21, m12 = i01 * b02 + i11 * b12 + i12 * b22,
+             m20 = i02 * b00 + i12 * b10 + i22 * b20, m21 = i02 * b01 + i12 * b11 + i22 * b21,
+             m22 = i02 * b02 + i12 * b12 + i22 * b22;
+    const v8 d0 = dv0 - yh0, d1 = dv1 - yh1, d2 = dv2 - yh2;
+    const v8 u0 = d0 * m00 + d1 * m10 + d2 * m20 + xh0, u1 = d0 * m01 + d1 * m11 + d2 * m21 + xh1,
+             u2 = d0 * m02 + d1 * m12 + d2 * m22 + xh2;
+    const int lanes = std::min(kF, L - k0);
+    for (int l = 0; l < lanes; ++l) {
+      double* out = u + 3 * (k0 + l);
+      out[0] = double(u0[l]) + double(xmf[0][l]) + sc.x;
+      out[1] = double(u1[l]) + double(xmf[1][l]) + sc.y;
+      out[2] = double(u2[l]) + double(xmf[2][l]) + sc.z;
+    }
+    if (redo) solveBlocked(w, u, k0, std::min(k0 + kF, L));
   }
 }
 

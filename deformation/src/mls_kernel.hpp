@@ -34,15 +34,20 @@ class RowEvaluator {
   /// u: 3 doubles per node (mm). attr: 4 per node, or null.
   void solve(const float* rho, double* u, double* attr);
   int length() const { return len_; }
+  /// Grids: solve well-conditioned nodes in single precision (8 per AVX2 register); the
+  /// result is stored as float anyway. Ill-conditioned nodes and hits stay double.
+  void setSinglePrecision(bool on) { singlePrecision_ = on; }
 
  private:
   static constexpr int kLanes = 4;
   void computeWeights();
-  void solveBlocked(const double* w, double* u);
+  void solveBlocked(const double* w, double* u, int kBegin, int kEnd);
+  void solveBlockedFloat(const double* w, double* u);
   double* arr(int slot) { return buf_.data() + static_cast<size_t>(slot) * maxLen_; }
   const PointData& p_;
   MlsParams params_;
   int maxLen_, len_ = 0, stride_ = 0;
+  bool singlePrecision_ = false;
   std::vector<double> w0_, w_;  // point-major weights
   std::vector<double> buf_;     // accumulator arrays, one slot per quantity
   std::vector<int> hit_, dom_;
