@@ -192,3 +192,33 @@ TEST(Density, RhoIsSegmentLengthInHomogeneousRegionsAndGrowsThroughBone) {
   const DensityVolume dv(AnyVolume(v), none);
   EXPECT_NEAR(dv.rho({5, 5, 5}, {5, 15, 5}), 20.0 * 1040.0 / 3000.0, 1e-4);
 }
+
+TEST(Deformer, SinglePrecisionGridAgreesWithTheDoubleMap) {
+  const VolumeI16 ct = analyticCt({48, 44, 40}, {1.2, 1.2, 2.0}, true);
+  const AnyVolume vol = ct;
+  const auto [lo, hi] = boxOf(ct.geometry());
+  const auto src = spreadPoints(lo, hi);
+  std::vector<Vec3> tgt;
+  std::mt19937 rng(9);
+  std::normal_distribution<double> nd(0, 7);
+  for (const auto& x : src) tgt.push_back(x + Vec3{nd(rng), nd(rng), nd(rng)});
+  for (double n : {2.0, 4.0}) {
+    for (bool single : {true, false}) {
+      DeformParams p;
+      p.mls.power = n;
+      p.singlePrecisionGrid = single;
+      Deformer d(vol, p);
+      d.setPoints(pointsFrom(src, tgt));
+      const ControlVolume& cv = d.update();
+      std::vector<Vec3> nodes;
+      const Geometry& g = cv.grid;
+      for (int64_t k = 0; k < g.dims.z; ++k)
+        for (int64_t j = 0; j < g.dims.y; ++j)
+          for (int64_t i = 0; i < g.dims.x; ++i) nodes.push_back(g.indexToPhysical({double(i), double(j), double(k)}));
+      const auto ref = d.mapPoints(nodes);
+      double worst = 0;
+      for (size_t t = 0; t < nodes.size(); ++t) worst = std::max(worst, norm(cv.sourceAt(int64_t(t)) - ref[t]));
+      EXPECT_LT(worst, single ? 2e-3 : 1e-4) << "n=" << n << " single=" << single;
+    }
+  }
+}
