@@ -34,7 +34,8 @@ constexpr uint8_t kLayer = 0x7f;   ///< bits in code_: 0 = not in band, 1 = inte
 class Evolver {
  public:
   Evolver(const VolumeF32& speed, bool edge, const SnakeParams& p)
-      : d_(speed.dims()), g_(speed.geometry()), S_(speed.data()), edge_(edge), p_(p) {
+      : d_(speed.dims()), g_(speed.geometry()), S_(speed.data()), edge_(edge), p_(p),
+        advection_(resolvedAdvection(p, edge ? SpeedType::Edge : SpeedType::Threshold)) {
     sy_ = d_.x;
     sz_ = d_.x * d_.y;
     h_[0] = g_.spacing.x; h_[1] = g_.spacing.y; h_[2] = g_.spacing.z;
@@ -90,7 +91,8 @@ class Evolver {
   /// downsampled by downsample2). Only voxels near the coarse band are interpolated and
   /// scanned; the rest of the grid takes the sign of its coarse parent (one cheap write pass),
   /// so the set-up cost follows the surface like the iterations do.
-  void initialiseFrom(const Evolver& coarse) {
+  void initialiseFrom(const Evolver& coarse, double shrinkMm) {
+    const float shrink = static_cast<float>(shrinkMm);
     const Dims cd = coarse.d_;
     const int64_t csy = coarse.sy_, csz = coarse.sz_;
     const float* cphi = coarse.phi_.data();
@@ -100,7 +102,7 @@ class Evolver {
         for (int64_t j = 0; j < d_.y; ++j) {
           const float* crow = cphi + (k / 2) * csz + (j / 2) * csy;
           float* row = phi_.data() + k * sz_ + j * sy_;
-          for (int64_t i = 0; i < d_.x; ++i) row[i] = crow[i / 2] <= 0 ? -clamp_ : clamp_;
+          for (int64_t i = 0; i < d_.x; ++i) row[i] = crow[i / 2] + shrink <= 0 ? -clamp_ : clamp_;
         }
     });
     // Trilinear values for the children of the coarse band; the children of the coarse
@@ -112,7 +114,7 @@ class Evolver {
       for (size_t b = r.begin(); b < r.end(); ++b) {
         const int64_t cq = cband[b];
         const int64_t ck = cq / csz, cj = (cq - ck * csz) / csy, ci = cq - ck * csz - cj * csy;
-        near[b] = std::abs(cphi[cq]) <= coarse.activeWidth_;
+        near[b] = std::abs(cphi[cq] + shrink) <= coarse.activeWidth_;
         int n = 0;
         for (int64_t k = 2 * ck; k <= 2 * ck + 1; ++k)
           for (int64_t j = 2 * cj; j <= 2 * cj + 1; ++j)
@@ -120,7 +122,7 @@ class Evolver {
               if (i >= d_.x || j >= d_.y || k >= d_.z) { kids[b][n++] = -1; continue; }
               const int64_t q = k * sz_ + j * sy_ + i;
               kids[b][n++] = q;
-              phi_[q] = std::clamp(coarse.sampleTrilinear((i - 0.5) / 2, (j - 0.5) / 2, (k - 0.5) / 2), -clamp_, clamp_);
+              phi_[q] = std::clamp(coarse.sampleTrilinear((i - 0.5) / 2, (j - 0.5) / 2, (k - 0.5) / 2) + shrink, -clamp_, clamp_);
             }
       }
     });
@@ -195,6 +197,7 @@ class Evolver {
 
   size_t interfaceCount() const { return interfaceCount_; }
   size_t activeCount() const { return active_.size(); }
+  double maxSpacing() const { return hmax_; }
 
  private:
   bool inside(int64_t q) const { return phi_[q] <= 0; }
@@ -447,12 +450,12 @@ class Evolver {
     }
 
     // Advection towards low speed: + gamma * grad S . grad phi, upwind per axis.
-    if (p_.advection != 0) {
+    if (advection_ != 0) {
       const double sx = (double(S_[q + xp]) - S_[q + xm]) / (hx * double(xp - xm == 0 ? 1 : xp - xm));
       const double syv = (double(S_[q + yp]) - S_[q + ym]) / (hy * double((yp - ym) / sy_ == 0 ? 1 : (yp - ym) / sy_));
       const double szv = (double(S_[q + zp]) - S_[q + zm]) / (hz * double((zp - zm) / sz_ == 0 ? 1 : (zp - zm) / sz_));
       // As motion with velocity V = -gamma * grad S: d(phi)/dt = -V . grad phi (upwind).
-      const double vx = -p_.advection * sx, vy = -p_.advection * syv, vz = -p_.advection * szv;
+      const double vx = -advection_ * sx, vy = -advection_ * syv, vz = -advection_ * szv;
       out -= vx * (vx > 0 ? dxm : dxp) + vy * (vy > 0 ? dym : dyp) + vz * (vz > 0 ? dzm : dzp);
       speedBound += std::abs(vx) + std::abs(vy) + std::abs(vz);
     }
@@ -467,6 +470,7 @@ class Evolver {
   const float* S_;
   bool edge_;
   SnakeParams p_;
+  double advection_;
   int64_t sy_, sz_;
   double h_[3];
   double hmin_, hmax_, activeWidth_, expandWidth_;
@@ -581,10 +585,9 @@ SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubb
   }
   const auto t0 = std::chrono::steady_clock::now();
   const bool edge = speed.type == SpeedType::Edge;
-  // Automatic coarse levels only for region (threshold) speed: min-pooling keeps its barriers,
-  // but an edge map's balance of propagation and advection does not survive downsampling
-  // (the coarse contour walks through edges), so edge speed runs at full resolution.
-  const int levels = p.coarseLevels < 0 ? (edge ? 0 : autoLevels(g.dims)) : std::min(p.coarseLevels, 4);
+  // Coarse levels: min-pooling keeps barriers (thin walls, edges) closed at the coarse level;
+  // for edge speed each finer level starts inside the coarse contour (see below).
+  const int levels = p.coarseLevels < 0 ? autoLevels(g.dims) : std::min(p.coarseLevels, 4);
 
   // Speed pyramid: pyramid[0] = finest.
   std::vector<VolumeF32> pyramid;
@@ -599,7 +602,10 @@ SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubb
       bubblePhi(S.geometry(), bubbles, ev->phi(), ev->clampValue());
       ev->initialise();
     } else {
-      ev->initialiseFrom(*coarser);
+      // Edge speed only expands, so a coarse contour that crossed a thin wall (its position is
+      // only known to about a coarse voxel) could never come back: start the finer level one
+      // coarse voxel inside it and let it expand to the edges at full detail.
+      ev->initialiseFrom(*coarser, edge ? coarser->maxSpacing() : 0.0);
       coarser.reset();
     }
     const std::string stage = l == 0 ? "snake" : "snake (1/" + std::to_string(1 << l) + " resolution)";

@@ -165,9 +165,8 @@ int main(int argc, char** argv) {
       const bool edge = type == SpeedType::Edge;
       if (!want(edge ? "snake-edge" : "snake")) continue;
       SpeedImage speed;
-      const double ts = timeIt(1, [&] { speed = edge ? edgeSpeed(ct, {1.0, 120, 4}) : thresholdSpeed(ct); });
-      SnakeParams sp;
-      if (edge) sp.advection = 2.0;  // as in the tests and the CLI's edge defaults
+      const double ts = timeIt(1, [&] { speed = edge ? edgeSpeed(ct) : thresholdSpeed(ct); });
+      const SnakeParams sp;  // library defaults (edge: exponent 4, kappa 120, advection 2)
       SnakeResult r;
       const double t = timeIt(1, [&] { r = evolveSnake(speed, {{softSeed, 10.0}}, sp); });
       const auto ov = overlap(r.mask, softTruth);

@@ -138,7 +138,7 @@ seg::Mask runMethod(const SegmentArgs& a, const VolumeI16& ct, const std::vector
     seg::SnakeParams p;
     p.propagation = a.propagation;
     p.curvature = a.curvature;
-    p.advection = a.advection >= 0 ? a.advection : (type == seg::SpeedType::Edge ? 2.0 : 0.0);
+    if (a.advection >= 0) p.advection = a.advection;
     if (a.iterations > 0) p.maxIterations = a.iterations;
     std::vector<seg::Bubble> bubbles;
     for (const Vec3& s : seeds) bubbles.push_back({s, a.radius});
@@ -146,7 +146,7 @@ seg::Mask runMethod(const SegmentArgs& a, const VolumeI16& ct, const std::vector
     info["snake"] = {{"speed", a.speed}, {"iterations", r.iterations}, {"coarse_iterations", r.coarseIterations},
                      {"converged", r.converged}, {"seconds", r.seconds},
                      {"ms_per_iteration", 1000 * r.secondsPerIteration},
-                     {"propagation", p.propagation}, {"curvature", p.curvature}, {"advection", p.advection},
+                     {"propagation", p.propagation}, {"curvature", p.curvature}, {"advection", seg::resolvedAdvection(p, type)},
                      {"bubble_radius_mm", a.radius}};
     return std::move(r.mask);
   }
