@@ -131,24 +131,32 @@ VELLUM_SIMD_CLONES void RowEvaluator::computeWeights() {
     // One loop per power so that each vectorises (no branch inside). The reciprocal is taken
     // in single precision (4x the throughput): any positive weights keep the map's exactness
     // properties, and hits are decided on the exact squared distance below.
-    auto loop = [&](auto weightOf) {
-#pragma omp simd
-      for (int k = 0; k < stride_; ++k) {
-        const double dx = vx[k] - tx, dy = vy[k] - ty, dz = vz[k] - tz;
-        const double d2 = dx * dx + dy * dy + dz * dz;
-        const double r = static_cast<double>(1.0f / static_cast<float>(std::max(d2, kWeightDist2)));
-        w[k] = weightOf(r);
-        const bool closer = d2 < md2[k];
-        md2[k] = closer ? d2 : md2[k];
-        mid[k] = closer ? double(i) : mid[k];
+    typedef double v4 __attribute__((vector_size(32)));
+    typedef float v4f __attribute__((vector_size(16)));
+    auto load = [](const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; };
+    auto store = [](double* p, v4 v) { std::memcpy(p, &v, sizeof v); };
+    const v4 fi = {double(i), double(i), double(i), double(i)};
+    const v4 floor2 = {kWeightDist2, kWeightDist2, kWeightDist2, kWeightDist2};
+    const v4f one = {1.f, 1.f, 1.f, 1.f};
+    auto loop = [&](auto weightOf) {  // explicit 4-lane vectors: stride_ is a multiple of 4
+      for (int k = 0; k < stride_; k += 4) {
+        const v4 dx = load(vx + k) - tx, dy = load(vy + k) - ty, dz = load(vz + k) - tz;
+        const v4 d2 = dx * dx + dy * dy + dz * dz;
+        const v4 d2c = d2 > floor2 ? d2 : floor2;
+        const v4 r = __builtin_convertvector(one / __builtin_convertvector(d2c, v4f), v4);
+        store(w + k, weightOf(r));
+        const v4 old = load(md2 + k);
+        const auto closer = d2 < old;
+        store(md2 + k, closer ? d2 : old);
+        store(mid + k, closer ? fi : load(mid + k));
       }
     };
     switch (mode) {
-      case 0: loop([](double r) { return r; }); break;
-      case 1: loop([](double r) { return r * r; }); break;
-      case 2: loop([](double r) { return std::sqrt(r); }); break;
-      case 3: loop([](double r) { return r * std::sqrt(r); }); break;
-      default: loop([n](double r) { return std::pow(r, 0.5 * n); }); break;
+      case 0: loop([](v4 r) { return r; }); break;
+      case 1: loop([](v4 r) { return r * r; }); break;
+      case 2: loop([](v4 r) { for (int l = 0; l < 4; ++l) r[l] = std::sqrt(r[l]); return r; }); break;
+      case 3: loop([](v4 r) { for (int l = 0; l < 4; ++l) r[l] *= std::sqrt(r[l]); return r; }); break;
+      default: loop([n](v4 r) { for (int l = 0; l < 4; ++l) r[l] = std::pow(r[l], 0.5 * n); return r; }); break;
     }
   }
   for (int k = 0; k < len_; ++k)
@@ -487,11 +495,10 @@ VELLUM_SIMD_CLONES void RowEvaluator::solveBlockedFloat(const double* w, double*
   const double eps = params_.regularisation;
   const Vec3 sc = p_.sourceCentre;
   auto load4 = [](const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; };
+  typedef float v4f __attribute__((vector_size(16)));
   auto load8 = [&](const double* p) {  // 8 doubles -> 8 floats (stride_ is a multiple of 4)
-    const v4 a = load4(p), b = load4(p + 4);
-    float tmp[8];
-    for (int l = 0; l < 4; ++l) { tmp[l] = static_cast<float>(a[l]); tmp[4 + l] = static_cast<float>(b[l]); }
-    v8 r; std::memcpy(&r, tmp, sizeof r); return r;
+    const v4f a = __builtin_convertvector(load4(p), v4f), b = __builtin_convertvector(load4(p + 4), v4f);
+    return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
   };
   for (int k0 = 0; k0 < L; k0 += kF) {
     if (k0 + kF > S) { solveBlocked(w, u, k0, L); break; }  // tail shorter than 8 lanes

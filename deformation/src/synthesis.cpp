@@ -123,16 +123,18 @@ inline T toVoxel(float v) {
 #define VELLUM_SIMD_CLONES
 #endif
 
-// x step of the separable upsampling, SoA output: o[c][i] = sum_q w[q][i] * row[idx3[q][i] + c].
-VELLUM_SIMD_CLONES void upsampleX2(const float* row, const int32_t* a, const int32_t* b, const float* wa,
-                                   const float* wb, int64_t n, float* ox, float* oy, float* oz) {
-#pragma omp simd
-  for (int64_t i = 0; i < n; ++i) {
-    const float* p = row + a[i];
-    const float* q = row + b[i];
-    ox[i] = wa[i] * p[0] + wb[i] * q[0];
-    oy[i] = wa[i] * p[1] + wb[i] * q[1];
-    oz[i] = wa[i] * p[2] + wb[i] * q[2];
+// Trilinear x step without tables: voxels c*s .. c*s+s-1 lie on the segment from node c to c+1.
+VELLUM_SIMD_CLONES void upsampleXLinear(const float* row, int64_t nodes, int s, int64_t n, float* ox,
+                                        float* oy, float* oz) {
+  const float invS = 1.0f / static_cast<float>(s);
+  for (int64_t c = 0, i = 0; i < n; ++c) {
+    const float* a = row + 3 * c;
+    const float* b = row + 3 * std::min(c + 1, nodes - 1);
+    const float d0 = b[0] - a[0], d1 = b[1] - a[1], d2 = b[2] - a[2];
+    for (int p = 0; p < s && i < n; ++p, ++i) {
+      const float f = static_cast<float>(p) * invS;
+      ox[i] = a[0] + f * d0; oy[i] = a[1] + f * d1; oz[i] = a[2] + f * d2;
+    }
   }
 }
 
@@ -158,7 +160,7 @@ VELLUM_SIMD_CLONES void axpy(float* dst, const float* src, float w, int64_t n) {
 // rowFn(k, j, ux, uy, uz) receives the coordinates of output row (j, k) as three arrays.
 // Separable: node planes are blended in z, then rows in y, then voxels in x.
 template <int Taps, class RowFn>
-void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od,
+void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od, int scale,
                   const AxisTaps<Taps>& tx, const AxisTaps<Taps>& ty, const AxisTaps<Taps>& tz,
                   Progress& progress, const char* stage, RowFn&& rowFn) {
   const int64_t planeNodes = nd.x * nd.y;
@@ -191,7 +193,7 @@ void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od
         for (int q = 0; q < Taps; ++q)
           if (yw[q] != 0.f) axpy(row.data(), plane.data() + static_cast<size_t>(yi[q] * nd.x) * 3, yw[q], nd.x * 3);
         if constexpr (Taps == 2)
-          upsampleX2(row.data(), xiP[0], xiP[1], xwP[0], xwP[1], od.x, ox.data(), oy.data(), oz.data());
+          upsampleXLinear(row.data(), nd.x, scale, od.x, ox.data(), oy.data(), oz.data());
         else
           upsampleX4(row.data(), xiP, xwP, od.x, ox.data(), oy.data(), oz.data());
         rowFn(k, j, ox.data(), oy.data(), oz.data());
@@ -278,10 +280,10 @@ template <class RowFn>
 void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od, int s,
                  Upsampling up, Progress& progress, const char* stage, RowFn&& rowFn) {
   if (up == Upsampling::Trilinear)
-    upsampleRows(map3, nd, od, linearTaps(od.x, nd.x, s), linearTaps(od.y, nd.y, s),
+    upsampleRows(map3, nd, od, s, linearTaps(od.x, nd.x, s), linearTaps(od.y, nd.y, s),
                  linearTaps(od.z, nd.z, s), progress, stage, rowFn);
   else
-    upsampleRows(map3, nd, od, gaussianTaps(od.x, nd.x, s), gaussianTaps(od.y, nd.y, s),
+    upsampleRows(map3, nd, od, s, gaussianTaps(od.x, nd.x, s), gaussianTaps(od.y, nd.y, s),
                  gaussianTaps(od.z, nd.z, s), progress, stage, rowFn);
 }
 
