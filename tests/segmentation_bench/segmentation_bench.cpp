@@ -116,7 +116,10 @@ int main(int argc, char** argv) {
         (void)classify(ct, th);
       });
       std::string s = "thresholds";
-      for (double v : th) s += " " + std::to_string(int(v));
+      for (double v : th) {
+        s += ' ';  // (appending " " + to_string(...) trips a GCC 12 -Wrestrict false positive)
+        s += std::to_string(int(v));
+      }
       row(size, "multi-otsu, 4 classes (+ classify)", t, s + " HU");
     }
     if (want("hysteresis")) {
