@@ -9,6 +9,7 @@
 #include <variant>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 
 namespace vellum::deformation {
@@ -242,6 +243,31 @@ RigidBodies RigidBodies::fromThreshold(const AnyVolume& ct, double boneHu, doubl
   return fromMask(std::move(cls), minVoxels);
 }
 
+std::shared_ptr<const std::vector<std::vector<float>>> RigidBodies::distanceFields(const Geometry& grid) const {
+  std::lock_guard lock(cache_->mutex);
+  if (cache_->fields && cache_->grid.dims == grid.dims && cache_->grid.approxEqual(grid, 1e-6))
+    return cache_->fields;
+  const Dims d = grid.dims;
+  const size_t nodes = static_cast<size_t>(d.voxelCount());
+  checkMemoryBudget(static_cast<uint64_t>(nodes) * (sizeof(double) + sizeof(float) * (components_ + 1)),
+                    "rigid-body distance fields");
+  auto fields = std::make_shared<std::vector<std::vector<float>>>(static_cast<size_t>(components_));
+  std::vector<uint8_t> inside(nodes);
+  for (int c = 0; c < components_; ++c) {
+    parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+      for (int64_t k = k0; k < k1; ++k)
+        for (int64_t j = 0; j < d.y; ++j)
+          for (int64_t i = 0; i < d.x; ++i)
+            inside[static_cast<size_t>((k * d.y + j) * d.x + i)] =
+                classAt(grid.indexToPhysical({double(i), double(j), double(k)})) == c + 2;
+    });
+    (*fields)[static_cast<size_t>(c)] = distanceField(grid, inside);
+  }
+  cache_->grid = grid;
+  cache_->fields = fields;
+  return fields;
+}
+
 uint16_t RigidBodies::classAt(const Vec3& mm) const {
   const Vec3 idx = mmToIndex_ * (mm - classes_.geometry().origin);
   return static_cast<uint16_t>(classes_.sampleNearest(idx));
@@ -253,23 +279,12 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
   const int nc = bodies.componentCount();
   if (nc == 0) return;
   const Dims d = cv.grid.dims;
-  const size_t nodes = static_cast<size_t>(d.voxelCount());
   progress.begin("rigid bodies", static_cast<uint64_t>(nc) + 1);
   const auto fits = fitComponents(cv, bodies);
-  // Distance fields (mm, source space sampled on the control grid) per component.
-  std::vector<std::vector<float>> dist(static_cast<size_t>(nc));
-  std::vector<uint8_t> inside(nodes);
-  for (int c = 0; c < nc; ++c) {
-    parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-      for (int64_t k = k0; k < k1; ++k)
-        for (int64_t j = 0; j < d.y; ++j)
-          for (int64_t i = 0; i < d.x; ++i)
-            inside[static_cast<size_t>((k * d.y + j) * d.x + i)] =
-                bodies.classAt(cv.grid.indexToPhysical({double(i), double(j), double(k)})) == c + 2;
-    });
-    dist[static_cast<size_t>(c)] = distanceField(cv.grid, inside);
-    progress.advance();
-  }
+  // Distance fields (mm, source space sampled on the control grid) per component: built once
+  // per grid and kept in the bodies (an animation re-blends every frame on the same grid).
+  const auto dist = bodies.distanceFields(cv.grid);
+  progress.advance(static_cast<uint64_t>(nc));
   const Mat3 gridIdx = mmToIndexOf(cv.grid);
   const double margin = std::max({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
   const double falloff = params.falloffMm;
@@ -291,7 +306,7 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           Vec3 acc{};
           for (int c = 0; c < nc; ++c) {
             if (!fits[static_cast<size_t>(c)].valid) continue;
-            const double a = weight(sampleClamped(dist[static_cast<size_t>(c)], d, gi));
+            const double a = weight(sampleClamped((*dist)[static_cast<size_t>(c)], d, gi));
             if (a <= 0) continue;
             sum += a;
             acc += fits[static_cast<size_t>(c)].apply(v) * a;

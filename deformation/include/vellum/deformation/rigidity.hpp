@@ -2,6 +2,8 @@
 // Bone stays rigid (algorithms.md 1.6): rigid bodies from labels (or a HU threshold), a
 // segmentation-aware constraint that blends the backward map towards each body's best rigid
 // fit, and the measures (bone RMS non-rigid residual, soft-tissue displacement, fold-over).
+#include <memory>
+#include <mutex>
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
@@ -27,8 +29,17 @@ class RigidBodies {
   const VolumeU16& classes() const { return classes_; }
   /// Class at a physical position (nearest voxel; 0 outside).
   uint16_t classAt(const Vec3& mm) const;
+  /// Distance (mm) from every node of `grid` to each component, one field per component;
+  /// computed once per grid and cached (thread-safe).
+  std::shared_ptr<const std::vector<std::vector<float>>> distanceFields(const Geometry& grid) const;
 
  private:
+  struct Cache {
+    std::mutex mutex;
+    Geometry grid;
+    std::shared_ptr<const std::vector<std::vector<float>>> fields;
+  };
+  std::shared_ptr<Cache> cache_ = std::make_shared<Cache>();
   static RigidBodies fromMask(VolumeU16 classes, int64_t minVoxels);
   VolumeU16 classes_;
   int components_ = 0;
