@@ -209,4 +209,17 @@ Mask fillHolesPerSlice(const Mask& m, int axis) {
   return out;
 }
 
+Mask fillHolesAllSlices(const Mask& m) {
+  // Each orientation fills from the original mask: a hole counts when it is enclosed in a
+  // slice of any one orientation (not only in slices already filled along another).
+  Mask out = fillHolesPerSlice(m, 2);
+  for (int axis : {0, 1}) {
+    const Mask f = fillHolesPerSlice(m, axis);
+    uint8_t* o = out.data();
+    const uint8_t* src = f.data();
+    for (size_t i = 0; i < out.size(); ++i) o[i] |= src[i];
+  }
+  return fillHoles(out);
+}
+
 }  // namespace vellum::segmentation

@@ -64,3 +64,19 @@ TEST(FillHoles, FillsCavitiesButNotOpenTunnels) {
   // Across x the tube's slices are two walls with nothing enclosed.
   EXPECT_EQ(countVoxels(fillHolesPerSlice(tube, 0)), countVoxels(tube));
 }
+
+// A box open on its +y face (a cup lying on its side): no axial slice and no 3D hole encloses
+// its inside, every y slice through the cup does; fillHolesAllSlices fills exactly the inside.
+TEST(FillHoles, AllSliceOrientations) {
+  const Geometry g = grid(20, 20, 20);
+  Mask cup(g, 0, 0.0);
+  fillBox(cup, {4, 4, 4}, {15, 15, 15});
+  fillBox(cup, {6, 6, 6}, {13, 15, 13}, 0);
+  EXPECT_EQ(countVoxels(fillHoles(cup)), countVoxels(cup));
+  EXPECT_EQ(countVoxels(fillHolesPerSlice(cup, 2)), countVoxels(cup));
+  EXPECT_EQ(countVoxels(fillHolesPerSlice(cup, 1)), 12 * 12 * 12);
+  const Mask all = fillHolesAllSlices(cup);
+  EXPECT_EQ(countVoxels(all), 12 * 12 * 12);
+  EXPECT_EQ(all(9, 15, 9), 1);
+  EXPECT_EQ(all(9, 16, 9), 0);
+}

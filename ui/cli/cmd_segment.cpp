@@ -158,7 +158,7 @@ seg::Mask postProcess(const SegmentArgs& a, seg::Mask m, const std::vector<Vec3>
   if (a.closeMm > 0) { m = seg::close(m, a.closeMm); steps.push_back({{"close_mm", a.closeMm}}); }
   if (a.openMm > 0) { m = seg::open(m, a.openMm); steps.push_back({{"open_mm", a.openMm}}); }
   if (a.fillHoles) { m = seg::fillHoles(m); steps.push_back("fill_holes_3d"); }
-  if (a.fillHolesSlices) { m = seg::fillHolesPerSlice(m, 2); steps.push_back("fill_holes_axial_slices"); }
+  if (a.fillHolesSlices) { m = seg::fillHolesAllSlices(m); steps.push_back("fill_holes_slices_xyz"); }
   if (a.minIsland > 0) { m = seg::removeSmallIslands(m, a.minIsland); steps.push_back({{"min_island_mm3", a.minIsland}}); }
   if (a.keepLargest) {
     // With seeds, keep the pieces holding them; otherwise the largest.
@@ -286,7 +286,7 @@ void addSegmentCommand(CLI::App& app) {
   cmd->add_option("--close", a->closeMm, "post: morphological closing radius in mm");
   cmd->add_option("--open", a->openMm, "post: morphological opening radius in mm");
   cmd->add_flag("--fill-holes", a->fillHoles, "post: fill enclosed cavities (3D)");
-  cmd->add_flag("--fill-holes-slices", a->fillHolesSlices, "post: fill holes in every axial slice");
+  cmd->add_flag("--fill-holes-slices", a->fillHolesSlices, "post: fill holes enclosed in any axial, coronal or sagittal slice (then 3D)");
   cmd->add_option("--min-island", a->minIsland, "post: remove pieces smaller than this volume in mm³");
   cmd->add_flag("--keep-largest", a->keepLargest, "post: keep the largest piece (with seeds: the pieces holding them)");
   cmd->add_option("--into", a->into, "add the segment into this existing label map (written to --out)");
@@ -313,14 +313,14 @@ namespace {
 /// full-colour outline so their borders can be checked. `right`/`down` are the physical
 /// directions of the image's +x and +y (unit vectors along patient axes).
 RgbaImage slicePanel(const VolumeI16& ct, const LabelVolume& labels, const Vec3& centreMm, const Vec3& right,
-                     const Vec3& down, int heightPx) {
+                     const Vec3& down, double mmPerPx) {
   const Geometry& g = ct.geometry();
   // Physical extent of the grid along the two axes (identity-like directions: the phantom's).
   const Vec3 lo = g.indexToPhysical({0, 0, 0}), hi = g.indexToPhysical({double(g.dims.x - 1), double(g.dims.y - 1), double(g.dims.z - 1)});
   const double r0 = std::min(dot(lo, right), dot(hi, right)), r1 = std::max(dot(lo, right), dot(hi, right));
   const double d0 = std::min(dot(lo, down), dot(hi, down)), d1 = std::max(dot(lo, down), dot(hi, down));
-  const double mmPerPx = (d1 - d0) / heightPx;
   const int w = std::max(1, static_cast<int>(std::lround((r1 - r0) / mmPerPx)));
+  const int heightPx = std::max(1, static_cast<int>(std::lround((d1 - d0) / mmPerPx)));
   // The image's top-left corner: the grid's smallest extent along right and down, in the
   // plane through the centre.
   const Vec3 base = centreMm + right * (r0 - dot(centreMm, right)) + down * (d0 - dot(centreMm, down));
@@ -377,9 +377,9 @@ void demoSegmentation(const DemoContext& ctx) {
   const LabelVolume truth = io::loadLabels(ctx.phantomLabels);
   LabelVolume labels(ct.geometry());
   // Whole bones: the whole-bone preset keeps thin cortex closed, fill the marrow slice by
-  // slice, drop specks.
+  // slice (all three orientations, so coarse grids still close), drop specks.
   seg::Mask bone = seg::threshold(ct, seg::presetInterval(seg::Preset::WholeBone));
-  bone = seg::removeSmallIslands(seg::fillHolesPerSlice(bone, 2), 100.0);
+  bone = seg::removeSmallIslands(seg::fillHolesAllSlices(bone), 100.0);
   seg::addSegment(labels, bone, {1, "bone", {235, 190, 40}});
   // Soft tissue: a snake from a bubble in the posterior thigh muscle.
   const Vec3 seed{0, 35, 60};
@@ -394,17 +394,19 @@ void demoSegmentation(const DemoContext& ctx) {
   const auto softM = seg::compareMasks(snake.mask, seg::maskFromIds(truth.ids(), phantom::isSoftTissue));
   // Figure: axial through the seed (anterior up, patient's right on the left), coronal and
   // sagittal through the knee (0,0,0) (head up; sagittal anterior on the left), at the
-  // physical aspect ratio.
+  // physical aspect ratio and one scale for all panels (the longest extent 480 px).
   const Vec3 knee{0, 0, 0};
-  const int panelPx = 480;
-  const RgbaImage fig = sideBySide({slicePanel(ct, labels, seed, {1, 0, 0}, {0, 1, 0}, panelPx),
-                                    slicePanel(ct, labels, knee, {1, 0, 0}, {0, 0, -1}, panelPx),
-                                    slicePanel(ct, labels, knee, {0, 1, 0}, {0, 0, -1}, panelPx)},
+  const Geometry& g = ct.geometry();
+  const double mmPerPx = std::max({g.spacing.x * double(g.dims.x - 1), g.spacing.y * double(g.dims.y - 1),
+                                   g.spacing.z * double(g.dims.z - 1)}) / 480.0;
+  const RgbaImage fig = sideBySide({slicePanel(ct, labels, seed, {1, 0, 0}, {0, 1, 0}, mmPerPx),
+                                    slicePanel(ct, labels, knee, {1, 0, 0}, {0, 0, -1}, mmPerPx),
+                                    slicePanel(ct, labels, knee, {0, 1, 0}, {0, 0, -1}, mmPerPx)},
                                    8);
   io::saveImage(fig, ctx.outDir / "segmentation.png");
 
   nlohmann::json j;
-  j["bone"] = {{"method", "threshold whole-bone preset + per-slice fill + islands < 100 mm3"}, {"truth", "isBone"},
+  j["bone"] = {{"method", "threshold whole-bone preset + hole fill in x/y/z slices + islands < 100 mm3"}, {"truth", "isBone"},
                {"dice", boneM.dice}, {"hd95_mm", boneM.hd95Mm}};
   j["soft_tissue"] = {{"method", "snake, threshold speed, bubble 10 mm at (0,35,60) mm"}, {"truth", "isSoftTissue"},
                       {"dice", softM.dice}, {"hd95_mm", softM.hd95Mm}, {"iterations", snake.iterations},

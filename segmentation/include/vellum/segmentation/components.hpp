@@ -38,5 +38,11 @@ Mask fillHoles(const Mask& m);
 /// Fills holes in each 2D slice across `axis` (0 = x, 1 = y, 2 = z: axial slices for
 /// usual CT): background regions (4-connected in the slice) not touching the slice border.
 Mask fillHolesPerSlice(const Mask& m, int axis = 2);
+/// Union of fillHolesPerSlice along x, y and z, then fillHoles (3D). Whole bones from a
+/// cortex threshold on coarse grids: where the cortex ring of an axial slice is open (thin,
+/// partial-volumed cortex met tangentially, e.g. the femoral condyles at ~2 mm voxels), the
+/// coronal or sagittal slices through the same marrow are usually still closed (knee phantom,
+/// whole-bone preset, Dice vs every bone label at 96³: 0.90 axial only, 0.987 with this).
+Mask fillHolesAllSlices(const Mask& m);
 
 }  // namespace vellum::segmentation

@@ -47,7 +47,7 @@ struct ThresholdSpeedParams {
 /// the always-outward edge snake creeps over the skin into the air and through the
 /// partial-volumed edges of thin cortex into the bones. Measured on the knee phantom at 128³
 /// (soft tissue, seed in the muscle, advection 2): Dice 0.46 (the whole grid) with exponent 2
-/// for kappa 100 or 120, 0.993 with these defaults; docs/segmentation.md.
+/// for kappa 100 or 120, 0.994 with these defaults; docs/segmentation.md.
 struct EdgeSpeedParams {
   double sigmaMm = 1.0;       ///< Gaussian blur before the gradient (mm)
   double kappaHuPerMm = 120;  ///< gradient magnitude at which g = 0.5
