@@ -116,6 +116,20 @@ DensityVolume::DensityVolume(const AnyVolume& source, const DensityParams& param
     while (levels_.back().dims().x > 2 || levels_.back().dims().y > 2 ||
            levels_.back().dims().z > 2)
       levels_.push_back(downsample(levels_.back(), params.reduction));
+  if (params.rays == RayMode::Conic) {
+    // Step schedule along any ray, up to the volume's diagonal (+ margin for points outside).
+    const Geometry& gg = levels_[0].geometry();
+    const double minSp = std::min({gg.spacing.x, gg.spacing.y, gg.spacing.z});
+    const double maxLen = 4.0 * norm(gg.extent()) + 4 * minSp;
+    const int maxLevel = levelCount() - 1;
+    for (double s = 0; s < maxLen;) {
+      const double h = std::max(minSp, params.coneSlope * s);
+      const double mid = s + 0.5 * h;
+      const double width = std::max(1.0, params.coneSlope * mid / minSp);
+      coneSteps_.push_back({s, h, mid, std::min(maxLevel, static_cast<int>(std::floor(std::log2(width))))});
+      s += h;
+    }
+  }
   const Geometry& g0 = levels_[0].geometry();
   indexToMm_ = g0.direction * Mat3::fromColumns({g0.spacing.x, 0, 0}, {0, g0.spacing.y, 0},
                                                 {0, 0, g0.spacing.z});
@@ -146,20 +160,40 @@ double DensityVolume::rho(const Vec3& aIdx, const Vec3& bIdx) const {
     }
     integral *= lenMm * dt;
   } else {
-    // Cone with its apex at a: step and mip footprint grow with the distance from a.
-    const double h0 = minSp, slope = params_.coneSlope;
-    const int maxLevel = levelCount() - 1;
-    double s = 0;
-    while (s < lenMm) {
-      double h = std::max(h0, slope * s);
-      h = std::min(h, lenMm - s);
-      const double mid = s + 0.5 * h;
-      const double width = std::max(1.0, slope * mid / minSp);
-      const int level = std::min(maxLevel, static_cast<int>(std::floor(std::log2(width))));
-      const Vec3 fine = aIdx + d * (mid / lenMm);
+    // Cone with its apex at a: step and mip footprint grow with the distance from a. The
+    // step schedule depends on the distance only, so it is shared by every ray (coneSteps_);
+    // only the last, truncated step is computed here.
+    const double invLen = 1.0 / lenMm;
+    const Vec3 dn = d * invLen;  // index-space direction per mm
+    bool done = false;
+    double reached = 0;
+    for (const ConeStep& st : coneSteps_) {
+      double h = st.h, mid = st.mid;
+      int level = st.level;
+      const bool last = st.s + st.h >= lenMm;
+      if (last) {
+        h = lenMm - st.s;
+        mid = st.s + 0.5 * h;
+        const double width = std::max(1.0, params_.coneSlope * mid / minSp);
+        level = std::min(levelCount() - 1, static_cast<int>(std::floor(std::log2(width))));
+      }
+      const Vec3 fine = aIdx + dn * mid;
       const double f = 1.0 / static_cast<double>(1 << level);
       const Vec3 idx{(fine.x + 0.5) * f - 0.5, (fine.y + 0.5) * f - 0.5, (fine.z + 0.5) * f - 0.5};
       const double v = sampleFast(levels_[static_cast<size_t>(level)], idx);
+      integral += v * h;
+      minI = std::min(minI, v);
+      reached = st.s + h;
+      if (last) { done = true; break; }
+    }
+    // Rays longer than the precomputed schedule (far outside the volume): keep stepping.
+    for (double s = reached; !done && s < lenMm;) {
+      const double h = std::min(std::max(minSp, params_.coneSlope * s), lenMm - s);
+      const double mid = s + 0.5 * h;
+      const Vec3 idx = aIdx + dn * mid;
+      const double v = sampleFast(levels_.back(), {(idx.x + 0.5) / double(1 << (levelCount() - 1)) - 0.5,
+                                                   (idx.y + 0.5) / double(1 << (levelCount() - 1)) - 0.5,
+                                                   (idx.z + 0.5) / double(1 << (levelCount() - 1)) - 0.5});
       integral += v * h;
       minI = std::min(minI, v);
       s += h;

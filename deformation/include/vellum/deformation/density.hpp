@@ -69,6 +69,11 @@ class DensityVolume {
   std::vector<VolumeF32> levels_;
   double globalMean_ = 1;
   Mat3 indexToMm_;  ///< direction * diag(spacing): index-space vector -> mm vector
+  struct ConeStep {
+    double s, h, mid;  ///< start, length and midpoint of the step (mm from the apex)
+    int level;         ///< mip level read at the midpoint
+  };
+  std::vector<ConeStep> coneSteps_;
 };
 
 }  // namespace vellum::deformation
