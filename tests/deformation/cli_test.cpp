@@ -1,0 +1,81 @@
+// `vellum deform` / `vellum controls` end to end, through the same CLI11 wiring as main.cpp.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+
+#include "commands.hpp"
+#include "test_data.hpp"
+#include "vellum/deformation/placement.hpp"
+#include "vellum/deformation/point_files.hpp"
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+
+using namespace vellum;
+
+namespace {
+
+void run(std::vector<std::string> args) {
+  CLI::App app{"vellum"};
+  cli::addDeformCommand(app);
+  cli::addControlsCommand(app);
+  app.require_subcommand(1);
+  std::vector<const char*> argv{"vellum"};
+  for (auto& a : args) argv.push_back(a.c_str());
+  app.parse(static_cast<int>(argv.size()), argv.data());
+}
+
+}  // namespace
+
+TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
+  const auto dir = vellum::test::tempDir("deform-cli");
+  phantom::PhantomOptions o;
+  o.dims = {48, 48, 56};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(ph.ct, dir / "knee.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+
+  run({"controls", (dir / "knee.nrrd").string(), "--out", (dir / "cp.json").string()});
+  auto pf = deformation::loadControlPoints(dir / "cp.json");
+  ASSERT_EQ(pf.points.size(), 16u);
+  // Bend: the same as the demo's strongest keyframe, written as a file.
+  pf.points = deformation::kneeBendTrack(ph.ct.geometry(), 30.0).keyframes[1].points;
+  deformation::saveControlPoints(pf, dir / "bend.json");
+
+  run({"deform", (dir / "knee.nrrd").string(), "--points", (dir / "bend.json").string(), "--out",
+       (dir / "bent.nrrd").string(), "--map-out", (dir / "map.nrrd").string(), "--labels",
+       (dir / "labels.nrrd").string(), "--rigid-labels", "4,5,6,7,8,9", "--report",
+       (dir / "report.json").string(), "--psnr"});
+  const auto out = io::loadVolume(dir / "bent.nrrd");
+  ASSERT_TRUE(std::holds_alternative<VolumeI16>(out.volume));
+  EXPECT_TRUE(geometryOf(out.volume).approxEqual(ph.ct.geometry()));
+  EXPECT_NE(std::get<VolumeI16>(out.volume).voxels(), ph.ct.voxels());
+
+  const nlohmann::json r = nlohmann::json::parse(std::ifstream(dir / "report.json"));
+  for (const char* stage : {"load", "control_volume", "rigidity", "synthesis", "save", "map_out", "total"})
+    EXPECT_TRUE(r["timings_ms"].contains(stage)) << stage;
+  EXPECT_LT(r["rigidity"]["after"]["bone_rms_residual_mm"].get<double>(), 0.1);
+  EXPECT_GT(r["rigidity"]["before"]["bone_rms_residual_mm"].get<double>(), 0.1);
+  EXPECT_EQ(r["rigidity"]["after"]["fold_fraction"].get<double>(), 0.0);
+  EXPECT_GT(r["psnr_db_vs_s1"].get<double>(), 35.0);
+
+  // The map NRRD: header + 3 floats per voxel.
+  std::ifstream m(dir / "map.nrrd", std::ios::binary);
+  std::string line, header;
+  while (std::getline(m, line) && !line.empty()) header += line + "\n";
+  EXPECT_NE(header.find("sizes: 3 48 48 56"), std::string::npos) << header;
+  EXPECT_NE(header.find("kinds: vector domain domain domain"), std::string::npos);
+  const auto pos = m.tellg();
+  m.seekg(0, std::ios::end);
+  EXPECT_EQ(static_cast<int64_t>(m.tellg() - pos), int64_t{48} * 48 * 56 * 3 * 4);
+
+  // Bad input names the file.
+  EXPECT_THROW(run({"deform", (dir / "knee.nrrd").string(), "--points", (dir / "nope.json").string(),
+                    "--out", (dir / "x.nrrd").string()}),
+               FileError);
+  // Never overwrites the input.
+  EXPECT_THROW(run({"deform", (dir / "knee.nrrd").string(), "--points", (dir / "bend.json").string(),
+                    "--out", (dir / "knee.nrrd").string()}),
+               Error);
+}
