@@ -99,7 +99,8 @@ inline double resolvedAdvection(const SnakeParams& params, SpeedType type) {
 
 struct SnakeResult {
   Mask mask;                  ///< phi <= 0 (inside)
-  VolumeF32 phi;              ///< final level set (mm, narrow band; +-band width elsewhere)
+  VolumeF32 phi;              ///< final level set (mm): near-distance in the narrow band (re-distanced
+                              ///< at most 5 steps before the end), +-band width elsewhere
   int iterations = 0;         ///< at the finest level
   int coarseIterations = 0;   ///< summed over the coarse levels
   bool converged = false;
