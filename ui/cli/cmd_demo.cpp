@@ -81,6 +81,7 @@ void addDemoCommand(CLI::App& app) {
     renderer.setVolume(p.ct);
     render::RenderSettings s;
     s.width = s.height = a->imageSize;
+    s.camera.zoom = 1.4;  // the leg, not the empty corners of its bounding sphere, fills the frame
     std::vector<RgbaImage> tiles;
     nlohmann::json figures = nlohmann::json::array();
     for (render::Preset preset : render::allPresets()) {
