@@ -194,14 +194,21 @@ RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
     for (size_t h = 0; h < queue.size(); ++h) {
       const int64_t p = queue[h];
       const int64_t i = p % nx, j = (p / nx) % d.y, k = p / nxy;
-      const int64_t nb[6] = {i > 0 ? p - 1 : -1, i + 1 < d.x ? p + 1 : -1,
-                             j > 0 ? p - nx : -1, j + 1 < d.y ? p + nx : -1,
-                             k > 0 ? p - nxy : -1, k + 1 < d.z ? p + nxy : -1};
-      for (int64_t q : nb)
-        if (q >= 0 && classes.data()[q] == kUnvisited) {
-          classes.data()[q] = id;
-          queue.push_back(q);
+      // 26-connected: a thin cortex shell touching only along edges/corners stays one body.
+      for (int64_t dk = -1; dk <= 1; ++dk) {
+        if (k + dk < 0 || k + dk >= d.z) continue;
+        for (int64_t dj = -1; dj <= 1; ++dj) {
+          if (j + dj < 0 || j + dj >= d.y) continue;
+          for (int64_t di = -1; di <= 1; ++di) {
+            if (i + di < 0 || i + di >= d.x) continue;
+            const int64_t q = p + dk * nxy + dj * nx + di;
+            if (classes.data()[q] == kUnvisited) {
+              classes.data()[q] = id;
+              queue.push_back(q);
+            }
+          }
         }
+      }
     }
     sizes.push_back({id, static_cast<int64_t>(queue.size())});
   }

@@ -40,12 +40,12 @@ TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
   auto pf = deformation::loadControlPoints(dir / "cp.json");
   ASSERT_EQ(pf.points.size(), 16u);
   // Bend: the same as the demo's strongest keyframe, written as a file.
-  pf.points = deformation::kneeBendTrack(ph.ct.geometry(), 30.0).keyframes[1].points;
+  pf.points = deformation::kneeBendTrack(ph.ct.geometry(), 30.0, 2.0, phantom::flexionAxisPointMm()).keyframes[1].points;
   deformation::saveControlPoints(pf, dir / "bend.json");
 
   run({"deform", (dir / "knee.nrrd").string(), "--points", (dir / "bend.json").string(), "--out",
        (dir / "bent.nrrd").string(), "--map-out", (dir / "map.nrrd").string(), "--labels",
-       (dir / "labels.nrrd").string(), "--rigid-labels", "4,5,6,7,8,9", "--report",
+       (dir / "labels.nrrd").string(), "--rigid-labels", "4,5,6,7,8,9,11", "--report",
        (dir / "report.json").string(), "--psnr"});
   const auto out = io::loadVolume(dir / "bent.nrrd");
   ASSERT_TRUE(std::holds_alternative<VolumeI16>(out.volume));

@@ -51,13 +51,13 @@ TEST(DeformGl, RendererWithBackwardMapMatchesCpuReferences) {
   o.dims = {64, 64, 72};
   const auto ph = phantom::makePhantom(o);
   const AnyVolume ct = ph.ct;
-  const KeyframeTrack track = kneeBendTrack(ph.ct.geometry(), 30.0);
+  const KeyframeTrack track = kneeBendTrack(ph.ct.geometry(), 30.0, 2.0, phantom::flexionAxisPointMm());
   DeformParams p;
   p.controlScale = 2;
   ControlPoints pts = track.keyframes[1].points;
   pts[0].attributes.lightness = 30;  // exercise the attribute fields too
   ControlVolume cv = computeControlVolume(ct, pts, p);
-  applyRigidity(cv, RigidBodies::fromLabels(ph.labels, {4, 5, 6, 7, 8, 9}));
+  applyRigidity(cv, RigidBodies::fromLabels(ph.labels, {4, 5, 6, 7, 8, 9, 11}));
   render::BackwardMap map{cv.grid, cv.sourceMm, cv.attributes};
 
   render::RenderSettings s;

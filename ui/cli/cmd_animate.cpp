@@ -14,6 +14,7 @@
 #include "vellum/io/image_io.hpp"
 #include "vellum/io/video_io.hpp"
 #include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::cli {
@@ -122,7 +123,7 @@ void addAnimateCommand(CLI::App& app) {
   a->rigid.addTo(*cmd);
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum animate knee.nrrd --keyframes bend.json --labels knee-labels.nrrd "
-              "--rigid-labels 4,5,6,7,8,9 --camera-orbit 360 --loop --out bend.mp4");
+              "--rigid-labels 4,5,6,7,8,9,11 --camera-orbit 360 --loop --out bend.mp4");
   cmd->callback([a] {
     const auto t0 = std::chrono::steady_clock::now();
     KeyframeTrack track = loadKeyframes(a->keyframes);
@@ -174,9 +175,9 @@ void demoDeformation(const DemoContext& ctx) {
   const auto t0 = std::chrono::steady_clock::now();
   const io::LoadedVolume lv = io::loadVolume(ctx.phantomCt);
   const Geometry& g = geometryOf(lv.volume);
-  const std::vector<uint16_t> bones = {4, 5, 6, 7, 8, 9};  // phantom cortex/marrow ids, fibula, patella
+  const std::vector<uint16_t> bones = {4, 5, 6, 7, 8, 9, 11};  // every phantom::isBone id
   const RigidBodies bodies = RigidBodies::fromLabels(io::loadLabels(ctx.phantomLabels), bones);
-  const KeyframeTrack track = kneeBendTrack(g, 20.0, 2.0);
+  const KeyframeTrack track = kneeBendTrack(g, 20.0, 2.0, phantom::flexionAxisPointMm());  // tibia about the knee axis
   saveKeyframes(track, ctx.outDir / "deform-keyframes.json");
   DeformParams params;
   params.controlScale = 2;

@@ -57,7 +57,7 @@ DeformParams EngineOptions::params(std::optional<double> filePower) const {
 
 void RigidOptions::addTo(CLI::App& cmd) {
   cmd.add_option("--labels", labels, "label map on the same grid (NRRD ...), for rigid bones");
-  cmd.add_option("--rigid-labels", rigidIds, "label ids that stay rigid, e.g. 4,5,6,7,8,9")->delimiter(',');
+  cmd.add_option("--rigid-labels", rigidIds, "label ids that stay rigid, e.g. 4,5,6,7,8,9,11 (every bone id of the phantom)")->delimiter(',');
   cmd.add_option("--rigid-falloff", falloffMm, "blend band outside each bone (mm)")->capture_default_str();
 }
 
@@ -145,7 +145,7 @@ void addDeformCommand(CLI::App& app) {
   a->rigid.addTo(*cmd);
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum deform knee.nrrd --points cp.json --labels knee-labels.nrrd "
-              "--rigid-labels 4,5,6,7,8,9 --out bent.nrrd --report bent.json");
+              "--rigid-labels 4,5,6,7,8,9,11 --out bent.nrrd --report bent.json");
   cmd->callback([a] {
     const auto t0 = std::chrono::steady_clock::now();
     refuseOverwritingInput(a->input, a->output);

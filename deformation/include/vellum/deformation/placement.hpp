@@ -1,6 +1,7 @@
 #pragma once
 // Where control points start (algorithms.md 1.5): the paper's default on the bounding box with
 // an inner offset, and (beyond the paper) points placed from a segmentation. Sources = targets.
+#include <optional>
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
@@ -14,13 +15,17 @@ namespace vellum::deformation {
 /// closest to the box's (16 on a 180x180x220 mm knee: 2 x 2 x 4). Throws for count < 1.
 ControlPoints boxControlPoints(const Geometry& geometry, int count = 16, double insetFraction = 0.1);
 
-/// Points from a label map: for every label present, its centroid and the two surface points
-/// at the ends of its principal axis; plus the 8 corners of the inset box as anchors.
+/// Points from a label map: for every 26-connected component (>= 8 voxels) of every label, its
+/// centroid and the two surface points at the ends of its principal axis; plus the 8 corners
+/// of the inset box as anchors. Points closer than one voxel to an earlier one are skipped.
 ControlPoints labelControlPoints(const LabelVolume& labels, double insetFraction = 0.1);
 
-/// The demo's animation: 16 box points; the part above the knee (the volume's centre) swings
-/// about the medio-lateral (x) axis through the centre while the part below swings the other
-/// way: rest -> bend +angle -> bend -angle/2 -> rest, smooth interpolation, `seconds` long.
-KeyframeTrack kneeBendTrack(const Geometry& geometry, double angleDeg = 15.0, double seconds = 2.0);
+/// The demo's animation: 16 box points; the points below the joint (z below `pivotMm`) swing
+/// by the flexion angle about the medio-lateral (x index) axis through `pivotMm` while those
+/// above stay: rest -> flex +angle -> flex angle/2 -> rest (looped), smooth interpolation,
+/// `seconds` long. Pivot default: the volume's centre; the phantom's knee flexes about
+/// phantom::flexionAxisPointMm() (the demo passes it).
+KeyframeTrack kneeBendTrack(const Geometry& geometry, double angleDeg = 15.0, double seconds = 2.0,
+                            std::optional<Vec3> pivotMm = std::nullopt);
 
 }  // namespace vellum::deformation

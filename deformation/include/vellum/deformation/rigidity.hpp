@@ -14,11 +14,12 @@
 namespace vellum::deformation {
 
 /// Tissue classes over the SOURCE volume: 0 air/background, 1 soft tissue, 2 + c rigid
-/// component c (6-connected components of the rigid voxels).
+/// component c (26-connected components of the rigid voxels: on the phantom, one per bone).
 class RigidBodies {
  public:
   /// Rigid voxels = labels in `rigidIds`; soft tissue = every other non-zero label.
-  /// Components smaller than `minVoxels` count as soft tissue.
+  /// Components smaller than `minVoxels` count as soft tissue (stray voxels of a noisy
+  /// segmentation; the phantom's bones are whole components and lose nothing).
   static RigidBodies fromLabels(const LabelVolume& labels, const std::vector<uint16_t>& rigidIds,
                                 int64_t minVoxels = 20);
   /// Rigid voxels = value >= boneHu; soft tissue = airHu < value < boneHu.
