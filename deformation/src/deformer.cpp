@@ -210,6 +210,7 @@ void Deformer::Impl::computeMap(Progress& progress) {
   checkMemoryBudget(d, 3 * sizeof(float), "control volume");
   cv.grid = grid;
   cv.scale = params.controlScale;
+  cv.rigidSnap.reset();
   cv.sourceMm.resize(static_cast<size_t>(d.voxelCount()) * 3);
   if (withAttr) cv.attributes.resize(static_cast<size_t>(d.voxelCount()) * 4);
   else cv.attributes.clear();

@@ -11,6 +11,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/deformation/synthesis.hpp"
 
 namespace vellum::deformation {
 namespace {
@@ -149,27 +150,97 @@ double sampleClamped(const std::vector<float>& f, const Dims& d, const Vec3& idx
   return r;
 }
 
-// Kabsch fits of v -> u per component over nodes whose u lies in the component.
-std::vector<RigidFit> fitComponents(const ControlVolume& cv, const RigidBodies& bodies) {
+// A backward map sampled on a grid (control-grid nodes or full-resolution voxels): 3 floats
+// per sample, x fastest. Measures visit every `stride`-th sample along each axis.
+struct MapView {
+  const float* mm;
+  Geometry grid;
+  int stride = 1;
+  Vec3 at(int64_t t) const { return {mm[3 * t], mm[3 * t + 1], mm[3 * t + 2]}; }
+  int64_t count(int64_t n) const { return (n + stride - 1) / stride; }
+};
+
+// Kabsch fits of v -> u per component over samples whose u lies in the component.
+std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies) {
   const int nc = bodies.componentCount();
   std::vector<FitSums> sums(static_cast<size_t>(nc));
   std::mutex mutex;
-  const Dims d = cv.grid.dims;
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+  const Dims d = m.grid.dims;
+  const int s = m.stride;
+  parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
     std::vector<FitSums> local(static_cast<size_t>(nc));
-    for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i) {
-          const Vec3 u = cv.sourceAt((k * d.y + j) * d.x + i);
+    for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
+      for (int64_t j = 0; j < d.y; j += s)
+        for (int64_t i = 0; i < d.x; i += s) {
+          const Vec3 u = m.at((k * d.y + j) * d.x + i);
           const uint16_t c = bodies.classAt(u);
-          if (c >= 2) local[c - 2u].add(cv.grid.indexToPhysical({double(i), double(j), double(k)}), u);
+          if (c >= 2) local[c - 2u].add(m.grid.indexToPhysical({double(i), double(j), double(k)}), u);
         }
     std::lock_guard lock(mutex);
     for (int c = 0; c < nc; ++c) sums[static_cast<size_t>(c)].merge(local[static_cast<size_t>(c)]);
   });
   std::vector<RigidFit> fits;
-  for (const auto& s : sums) fits.push_back(kabsch(s));
+  for (const auto& f : sums) fits.push_back(kabsch(f));
   return fits;
+}
+
+std::vector<RigidFit> fitComponents(const ControlVolume& cv, const RigidBodies& bodies) {
+  return fitComponents(MapView{cv.sourceMm.data(), cv.grid, 1}, bodies);
+}
+
+RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
+  RigidityReport r;
+  r.components = bodies.componentCount();
+  r.stride = m.stride;
+  const Dims d = m.grid.dims;
+  const int s = m.stride;
+  r.nodes = m.count(d.x) * m.count(d.y) * m.count(d.z);
+  const auto fits = fitComponents(m, bodies);
+  std::mutex mutex;
+  double se = 0, maxRes = 0, soft = 0;
+  int64_t boneN = 0, softN = 0, folds = 0, interior = 0;
+  const Mat3 toMm = m.grid.direction * Mat3::fromColumns({m.grid.spacing.x, 0, 0},
+                                                         {0, m.grid.spacing.y, 0},
+                                                         {0, 0, m.grid.spacing.z});
+  const double detIdx = toMm.determinant();
+  parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
+    double lse = 0, lmax = 0, lsoft = 0;
+    int64_t lb = 0, ls = 0, lf = 0, li = 0;
+    for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
+      for (int64_t j = 0; j < d.y; j += s)
+        for (int64_t i = 0; i < d.x; i += s) {
+          const int64_t t = (k * d.y + j) * d.x + i;
+          const Vec3 u = m.at(t);
+          const Vec3 v = m.grid.indexToPhysical({double(i), double(j), double(k)});
+          const uint16_t c = bodies.classAt(u);
+          if (c >= 2 && fits[c - 2u].valid) {
+            const double e = norm(u - fits[c - 2u].apply(v));
+            lse += e * e; lmax = std::max(lmax, e); ++lb;
+          } else if (c == 1) {
+            lsoft += norm(u - v); ++ls;
+          }
+          if (i > 0 && j > 0 && k > 0 && i + 1 < d.x && j + 1 < d.y && k + 1 < d.z) {
+            // Central differences between the sample's direct neighbours (not stride apart).
+            const Vec3 dx = (m.at(t + 1) - m.at(t - 1)) * 0.5;
+            const Vec3 dy = (m.at(t + d.x) - m.at(t - d.x)) * 0.5;
+            const Vec3 dz = (m.at(t + d.x * d.y) - m.at(t - d.x * d.y)) * 0.5;
+            // det(du/dv) = det(du/didx) / det(dv/didx)
+            const double det = dot(dx, cross(dy, dz)) / detIdx;
+            if (!(det > 0)) ++lf;
+            ++li;
+          }
+        }
+    std::lock_guard lock(mutex);
+    se += lse; maxRes = std::max(maxRes, lmax); soft += lsoft;
+    boneN += lb; softN += ls; folds += lf; interior += li;
+  });
+  r.boneNodes = boneN;
+  r.softNodes = softN;
+  r.boneRmsResidualMm = boneN ? std::sqrt(se / double(boneN)) : 0;
+  r.boneMaxResidualMm = maxRes;
+  r.softTissueMeanDisplacementMm = softN ? soft / double(softN) : 0;
+  r.foldFraction = interior ? double(folds) / double(interior) : 0;
+  return r;
 }
 
 }  // namespace
@@ -222,7 +293,7 @@ RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
   for (auto& v : classes.voxels()) v = remap[v];
   rb.components_ = kept - 2;
   rb.mmToIndex_ = mmToIndexOf(classes.geometry());
-  rb.classes_ = std::move(classes);
+  rb.classes_ = std::make_shared<const VolumeU16>(std::move(classes));
   return rb;
 }
 
@@ -276,8 +347,8 @@ std::shared_ptr<const std::vector<std::vector<float>>> RigidBodies::distanceFiel
 }
 
 uint16_t RigidBodies::classAt(const Vec3& mm) const {
-  const Vec3 idx = mmToIndex_ * (mm - classes_.geometry().origin);
-  return static_cast<uint16_t>(classes_.sampleNearest(idx));
+  const Vec3 idx = mmToIndex_ * (mm - classes_->geometry().origin);
+  return static_cast<uint16_t>(classes_->sampleNearest(idx));
 }
 
 void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params,
@@ -293,6 +364,9 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
   const auto dist = bodies.distanceFields(cv.grid);
   progress.advance(static_cast<uint64_t>(nc));
   const Mat3 gridIdx = mmToIndexOf(cv.grid);
+  // Weight 1 within one control spacing of the body. A wider core (a whole cell diagonal) makes
+  // nodes between two bones (joint gap < cell) average both fits, which is worse; the voxel
+  // snap (RigidSnap) makes voxels inside the body exact instead.
   const double margin = std::max({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
   const double falloff = params.falloffMm;
   auto weight = [&](double dm) {
@@ -328,59 +402,46 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);
         }
   });
+  auto snap = std::make_shared<RigidSnap>();
+  // Shares the class voxels with the bodies (aliasing shared_ptr: no copy per frame).
+  snap->classes = std::shared_ptr<const std::vector<uint16_t>>(bodies.classesPtr(), &bodies.classes().voxels());
+  snap->classGrid = bodies.classes().geometry();
+  for (const auto& f : fits) {
+    std::array<double, 12> m{};
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) m[static_cast<size_t>(3 * r + c)] = f.r(r, c);
+      m[static_cast<size_t>(9 + r)] = f.t(r);
+    }
+    snap->fits.push_back(m);
+    snap->valid.push_back(f.valid ? 1 : 0);
+  }
+  // Interpolation errors inside a body are below a control-cell diagonal.
+  snap->maxSnapMm = norm(cv.grid.spacing);
+  cv.rigidSnap = std::move(snap);
   progress.end();
 }
 
 RigidityReport measureRigidity(const ControlVolume& cv, const RigidBodies& bodies) {
-  RigidityReport r;
-  r.components = bodies.componentCount();
-  const Dims d = cv.grid.dims;
-  r.nodes = d.voxelCount();
-  const auto fits = fitComponents(cv, bodies);
-  std::mutex mutex;
-  double se = 0, maxRes = 0, soft = 0;
-  int64_t boneN = 0, softN = 0, folds = 0, interior = 0;
-  const Mat3 toMm = cv.grid.direction * Mat3::fromColumns({cv.grid.spacing.x, 0, 0},
-                                                          {0, cv.grid.spacing.y, 0},
-                                                          {0, 0, cv.grid.spacing.z});
-  const double detIdx = toMm.determinant();
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    double lse = 0, lmax = 0, lsoft = 0;
-    int64_t lb = 0, ls = 0, lf = 0, li = 0;
-    for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i) {
-          const int64_t node = (k * d.y + j) * d.x + i;
-          const Vec3 u = cv.sourceAt(node);
-          const Vec3 v = cv.grid.indexToPhysical({double(i), double(j), double(k)});
-          const uint16_t c = bodies.classAt(u);
-          if (c >= 2 && fits[c - 2u].valid) {
-            const double e = norm(u - fits[c - 2u].apply(v));
-            lse += e * e; lmax = std::max(lmax, e); ++lb;
-          } else if (c == 1) {
-            lsoft += norm(u - v); ++ls;
-          }
-          if (i > 0 && j > 0 && k > 0 && i + 1 < d.x && j + 1 < d.y && k + 1 < d.z) {
-            const Vec3 dx = (cv.sourceAt(node + 1) - cv.sourceAt(node - 1)) * 0.5;
-            const Vec3 dy = (cv.sourceAt(node + d.x) - cv.sourceAt(node - d.x)) * 0.5;
-            const Vec3 dz = (cv.sourceAt(node + d.x * d.y) - cv.sourceAt(node - d.x * d.y)) * 0.5;
-            // det(du/dv) = det(du/didx) / det(dv/didx)
-            const double det = dot(dx, cross(dy, dz)) / detIdx;
-            if (!(det > 0)) ++lf;
-            ++li;
-          }
-        }
-    std::lock_guard lock(mutex);
-    se += lse; maxRes = std::max(maxRes, lmax); soft += lsoft;
-    boneN += lb; softN += ls; folds += lf; interior += li;
-  });
-  r.boneNodes = boneN;
-  r.softNodes = softN;
-  r.boneRmsResidualMm = boneN ? std::sqrt(se / double(boneN)) : 0;
-  r.boneMaxResidualMm = maxRes;
-  r.softTissueMeanDisplacementMm = softN ? soft / double(softN) : 0;
-  r.foldFraction = interior ? double(folds) / double(interior) : 0;
+  if (cv.sourceMm.size() != 3 * static_cast<size_t>(cv.grid.dims.voxelCount()))
+    throw Error("measureRigidity: control volume size does not match its grid");
+  RigidityReport r = measure(MapView{cv.sourceMm.data(), cv.grid, 1}, bodies);
+  r.voxelLevel = false;
   return r;
+}
+
+RigidityReport measureRigidityMap(const std::vector<float>& mapMm, const Geometry& output,
+                                  const RigidBodies& bodies, int stride) {
+  if (stride < 1) throw Error("rigidity measure stride must be >= 1");
+  if (mapMm.size() != 3 * static_cast<size_t>(output.dims.voxelCount()))
+    throw Error("measureRigidityMap: map size does not match the output grid");
+  RigidityReport r = measure(MapView{mapMm.data(), output, stride}, bodies);
+  r.voxelLevel = true;
+  return r;
+}
+
+RigidityReport measureRigidityVoxels(const ControlVolume& cv, const Geometry& output,
+                                     const RigidBodies& bodies, Upsampling upsampling, int stride) {
+  return measureRigidityMap(upsampleMap(cv, output, upsampling), output, bodies, stride);
 }
 
 }  // namespace vellum::deformation

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <variant>
 
 #if defined(__x86_64__)
@@ -156,13 +157,100 @@ VELLUM_SIMD_CLONES void axpy(float* dst, const float* src, float w, int64_t n) {
   for (int64_t t = 0; t < n; ++t) dst[t] += w * src[t];
 }
 
+// RigidSnap in the frame of the upsampled coordinates (mm for upsampleMap, source index for
+// synthesize): mm = L u + o.
+struct PreparedSnap {
+  const uint16_t* classes = nullptr;
+  Dims cd;
+  float toCls[12];                         // class index = A u + b (A row-major, then b)
+  std::vector<std::array<float, 12>> body;  // u = M (i, j, k) + m per body
+  std::vector<uint8_t> valid;
+  float deltaToMm[9];
+  float maxSnap2 = 0;
+
+  void row(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const {
+    const int nb = static_cast<int>(body.size());
+    for (int64_t i = 0; i < n; ++i) {
+      const float u[3] = {ux[i], uy[i], uz[i]};
+      int64_t ci[3];
+      bool in = true;
+      for (int a = 0; a < 3; ++a) {
+        const float x = toCls[3 * a] * u[0] + toCls[3 * a + 1] * u[1] + toCls[3 * a + 2] * u[2] + toCls[9 + a];
+        ci[a] = static_cast<int64_t>(std::floor(x + 0.5f));
+        in = in && x > -0.5f;
+      }
+      if (!in || ci[0] >= cd.x || ci[1] >= cd.y || ci[2] >= cd.z) continue;
+      const int c = int(classes[(ci[2] * cd.y + ci[1]) * cd.x + ci[0]]) - 2;
+      if (c < 0 || c >= nb || !valid[static_cast<size_t>(c)]) continue;
+      const auto& m = body[static_cast<size_t>(c)];
+      const float v[3] = {static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
+      float snapped[3], d[3];
+      for (int a = 0; a < 3; ++a) {
+        snapped[a] = m[3 * a] * v[0] + m[3 * a + 1] * v[1] + m[3 * a + 2] * v[2] + m[9 + a];
+        d[a] = snapped[a] - u[a];
+      }
+      float d2 = 0;
+      for (int a = 0; a < 3; ++a) {
+        const float e = deltaToMm[3 * a] * d[0] + deltaToMm[3 * a + 1] * d[1] + deltaToMm[3 * a + 2] * d[2];
+        d2 += e * e;
+      }
+      if (d2 > maxSnap2) continue;
+      ux[i] = snapped[0]; uy[i] = snapped[1]; uz[i] = snapped[2];
+    }
+  }
+};
+
+Mat3 indexToMm(const Geometry& g) {
+  return g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0}, {0, 0, g.spacing.z});
+}
+
+// Prepares cv.rigidSnap (or nothing) for output geometry g and coordinate frame mm = L u + o.
+std::optional<PreparedSnap> prepareSnap(const ControlVolume& cv, const Geometry& g, const Mat3& L, const Vec3& o) {
+  if (!cv.rigidSnap || !cv.rigidSnap->classes) return std::nullopt;
+  const RigidSnap& rs = *cv.rigidSnap;
+  if (rs.classes->size() != static_cast<size_t>(rs.classGrid.dims.voxelCount()))
+    throw Error("rigid snap: class volume size does not match its grid");
+  Mat3 cinv, linv;
+  if (!indexToMm(rs.classGrid).inverse(cinv) || !L.inverse(linv)) throw Error("rigid snap: singular geometry");
+  PreparedSnap p;
+  p.classes = rs.classes->data();
+  p.cd = rs.classGrid.dims;
+  const Mat3 a = cinv * L;
+  const Vec3 b = cinv * (o - rs.classGrid.origin);
+  const Mat3 G = indexToMm(g);
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      p.toCls[3 * r + c] = static_cast<float>(a(r, c));
+      p.deltaToMm[3 * r + c] = static_cast<float>(L(r, c));
+    }
+    p.toCls[9 + r] = static_cast<float>(b[r]);
+  }
+  for (size_t c = 0; c < rs.fits.size(); ++c) {
+    const auto& f = rs.fits[c];
+    const Mat3 R = Mat3::fromColumns({f[0], f[3], f[6]}, {f[1], f[4], f[7]}, {f[2], f[5], f[8]});
+    const Vec3 t{f[9], f[10], f[11]};
+    const Mat3 M = linv * R * G;
+    const Vec3 m = linv * (R * g.origin + t - o);
+    std::array<float, 12> e{};
+    for (int r = 0; r < 3; ++r) {
+      for (int q = 0; q < 3; ++q) e[static_cast<size_t>(3 * r + q)] = static_cast<float>(M(r, q));
+      e[static_cast<size_t>(9 + r)] = static_cast<float>(m[r]);
+    }
+    p.body.push_back(e);
+  }
+  p.valid = rs.valid;
+  p.valid.resize(p.body.size(), 0);
+  p.maxSnap2 = static_cast<float>(rs.maxSnapMm * rs.maxSnapMm);
+  return p;
+}
+
 // Upsamples the node map `map3` (3 floats per node) to every output voxel, one row at a time:
 // rowFn(k, j, ux, uy, uz) receives the coordinates of output row (j, k) as three arrays.
 // Separable: node planes are blended in z, then rows in y, then voxels in x.
 template <int Taps, class RowFn>
 void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od, int scale,
                   const AxisTaps<Taps>& tx, const AxisTaps<Taps>& ty, const AxisTaps<Taps>& tz,
-                  Progress& progress, const char* stage, RowFn&& rowFn) {
+                  const PreparedSnap* snap, Progress& progress, const char* stage, RowFn&& rowFn) {
   const int64_t planeNodes = nd.x * nd.y;
   // x taps as structure of arrays, node indices premultiplied by 3 (xyz interleaved rows).
   std::vector<int32_t> xi[Taps];
@@ -196,6 +284,7 @@ void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od
           upsampleXLinear(row.data(), nd.x, scale, od.x, ox.data(), oy.data(), oz.data());
         else
           upsampleX4(row.data(), xiP, xwP, od.x, ox.data(), oy.data(), oz.data());
+        if (snap) snap->row(j, k, od.x, ox.data(), oy.data(), oz.data());
         rowFn(k, j, ox.data(), oy.data(), oz.data());
       }
       progress.advance();
@@ -278,13 +367,14 @@ bool haveAvx2() {
 
 template <class RowFn>
 void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od, int s,
-                 Upsampling up, Progress& progress, const char* stage, RowFn&& rowFn) {
+                 Upsampling up, const PreparedSnap* snap, Progress& progress, const char* stage,
+                 RowFn&& rowFn) {
   if (up == Upsampling::Trilinear)
     upsampleRows(map3, nd, od, s, linearTaps(od.x, nd.x, s), linearTaps(od.y, nd.y, s),
-                 linearTaps(od.z, nd.z, s), progress, stage, rowFn);
+                 linearTaps(od.z, nd.z, s), snap, progress, stage, rowFn);
   else
     upsampleRows(map3, nd, od, s, gaussianTaps(od.x, nd.x, s), gaussianTaps(od.y, nd.y, s),
-                 gaussianTaps(od.z, nd.z, s), progress, stage, rowFn);
+                 gaussianTaps(od.z, nd.z, s), snap, progress, stage, rowFn);
 }
 
 void checkGrid(const Geometry& g, const ControlVolume& cv) {
@@ -315,6 +405,7 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsamplin
       mapIdx[3 * t + 2] = static_cast<float>(idx.z);
     }
   }, 4096);
+  const auto snap = prepareSnap(cv, g, toMm, g.origin);
   return std::visit(
       [&](const auto& src) -> AnyVolume {
         using T = typename std::decay_t<decltype(src)>::value_type;
@@ -326,7 +417,7 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsamplin
         // int32 voxel offsets in the gather path
         const bool avx2 = haveAvx2() && od.voxelCount() < (int64_t{1} << 31) - 4 * od.x * od.y;
 #endif
-        upsampleAny(mapIdx, cv.grid.dims, od, cv.scale, upsampling, progress, "synthesis",
+        upsampleAny(mapIdx, cv.grid.dims, od, cv.scale, upsampling, snap ? &*snap : nullptr, progress, "synthesis",
                     [&](int64_t k, int64_t j, const float* ux, const float* uy, const float* uz) {
                       T* o = out.data() + (k * od.y + j) * od.x;
 #ifdef VELLUM_HAVE_AVX2_PATH
@@ -350,7 +441,8 @@ std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output, 
   checkMemoryBudget(output.dims, 3 * sizeof(float), "full-resolution backward map");
   const Dims od = output.dims;
   std::vector<float> out(static_cast<size_t>(od.voxelCount()) * 3);
-  upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, progress, "backward map",
+  const auto snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
+  upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, snap ? &*snap : nullptr, progress, "backward map",
               [&](int64_t k, int64_t j, const float* ux, const float* uy, const float* uz) {
                 float* o = out.data() + static_cast<size_t>((k * od.y + j) * od.x) * 3;
                 for (int64_t i = 0; i < od.x; ++i) {

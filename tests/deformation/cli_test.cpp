@@ -55,7 +55,11 @@ TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
   const nlohmann::json r = nlohmann::json::parse(std::ifstream(dir / "report.json"));
   for (const char* stage : {"load", "control_volume", "rigidity", "synthesis", "save", "map_out", "total"})
     EXPECT_TRUE(r["timings_ms"].contains(stage)) << stage;
+  EXPECT_EQ(r["rigidity"]["after"]["level"].get<std::string>(), "voxels");
+  EXPECT_EQ(r["rigidity"]["after_nodes"]["level"].get<std::string>(), "control-grid nodes");
+  EXPECT_EQ(r["rigidity"]["after"]["samples"].get<int64_t>(), 48 * 48 * 56);
   EXPECT_LT(r["rigidity"]["after"]["bone_rms_residual_mm"].get<double>(), 0.1);
+  EXPECT_LT(r["rigidity"]["after_nodes"]["bone_rms_residual_mm"].get<double>(), 0.1);
   EXPECT_GT(r["rigidity"]["before"]["bone_rms_residual_mm"].get<double>(), 0.1);
   EXPECT_EQ(r["rigidity"]["after"]["fold_fraction"].get<double>(), 0.0);
   EXPECT_GT(r["psnr_db_vs_s1"].get<double>(), 35.0);

@@ -91,20 +91,45 @@ TEST(Rigidity, EachRigidBodyIsOneWholeBone) {
 
 TEST(Rigidity, RigidLabelsKeepBoneRigidWhileSoftTissueMoves) {
   const AnyVolume ct = knee().ct;
+  const Geometry& g = knee().ct.geometry();
   const auto bodies = RigidBodies::fromLabels(knee().labels, boneIds());
   DeformParams p;
   p.controlScale = 2;
-  ControlVolume cv = computeControlVolume(ct, strongBend(knee().ct.geometry()), p);
-  const RigidityReport before = measureRigidity(cv, bodies);
+  ControlVolume cv = computeControlVolume(ct, strongBend(g), p);
+  const RigidityReport before = measureRigidityVoxels(cv, g, bodies);
+  const RigidityReport beforeNodes = measureRigidity(cv, bodies);
   applyRigidity(cv, bodies, {10.0});
-  const RigidityReport after = measureRigidity(cv, bodies);
-  std::cout << "node level: bone RMS " << before.boneRmsResidualMm << " -> " << after.boneRmsResidualMm
-            << " mm, soft tissue " << after.softTissueMeanDisplacementMm << " mm, folds " << after.foldFraction << "\n";
+  const RigidityReport nodes = measureRigidity(cv, bodies);
+  // Voxel level: the upsampled map that synthesis actually resamples with, every voxel.
+  const RigidityReport after = measureRigidityVoxels(cv, g, bodies);
+  ControlVolume noSnap = cv;  // what trilinear upsampling of the blended nodes alone gives
+  noSnap.rigidSnap.reset();
+  const RigidityReport interpolated = measureRigidityVoxels(noSnap, g, bodies);
+  std::cout << "voxel level without the snap: bone RMS " << interpolated.boneRmsResidualMm << " mm (max "
+            << interpolated.boneMaxResidualMm << "), folds " << interpolated.foldFraction << "\n";
+  ASSERT_TRUE(cv.rigidSnap);
+  // The snap only corrects interpolation: soft tissue moves as before.
+  EXPECT_NEAR(interpolated.softTissueMeanDisplacementMm, after.softTissueMeanDisplacementMm, 0.5);
+  std::cout << "node level:  bone RMS " << beforeNodes.boneRmsResidualMm << " -> " << nodes.boneRmsResidualMm
+            << " mm (max " << nodes.boneMaxResidualMm << "), soft tissue " << nodes.softTissueMeanDisplacementMm
+            << " mm, folds " << nodes.foldFraction << "\n"
+            << "voxel level: bone RMS " << before.boneRmsResidualMm << " -> " << after.boneRmsResidualMm
+            << " mm (max " << after.boneMaxResidualMm << "), soft tissue " << after.softTissueMeanDisplacementMm
+            << " mm, folds " << after.foldFraction << "\n";
+  EXPECT_TRUE(after.voxelLevel);
+  EXPECT_FALSE(nodes.voxelLevel);
   EXPECT_GT(before.boneRmsResidualMm, 0.5);  // plain MLS bends the bones
   EXPECT_LT(after.boneRmsResidualMm, 0.1);
   EXPECT_GE(after.softTissueMeanDisplacementMm, 10.0);
   EXPECT_EQ(after.foldFraction, 0.0);
-  EXPECT_GT(after.boneNodes, 1000);
+  EXPECT_GT(after.boneNodes, 8000);
+  EXPECT_LT(nodes.boneRmsResidualMm, 0.1);
+  EXPECT_EQ(nodes.foldFraction, 0.0);
+  // A strided subset measures the same map.
+  const RigidityReport strided = measureRigidityVoxels(cv, g, bodies, Upsampling::Trilinear, 2);
+  EXPECT_EQ(strided.stride, 2);
+  EXPECT_LT(strided.boneRmsResidualMm, 0.1);
+  EXPECT_NEAR(strided.softTissueMeanDisplacementMm, after.softTissueMeanDisplacementMm, 1.0);
 }
 
 TEST(Rigidity, DensityAwareWeightsBendBoneLessThanPlainMls) {
@@ -133,7 +158,7 @@ TEST(Rigidity, DemoBendHasNoFoldOver) {
     d.setPoints(track.at(track.frameTimeS(f, 10)));
     ControlVolume cv = d.update();
     applyRigidity(cv, bodies, {10.0});
-    const auto r = measureRigidity(cv, bodies);
+    const auto r = measureRigidityVoxels(cv, knee().ct.geometry(), bodies);
     EXPECT_EQ(r.foldFraction, 0.0) << "frame " << f;
     EXPECT_LT(r.boneRmsResidualMm, 0.1) << "frame " << f;
   }

@@ -41,7 +41,7 @@ struct MovieResult {
 
 // Renders every frame of `track` through the GL renderer with the deformation applied.
 MovieResult renderTrack(const AnyVolume& volume, const KeyframeTrack& track, const DeformParams& params,
-                        const RigidBodies* bodies, double falloffMm, const MovieSpec& spec,
+                        const RigidBodies* bodies, double falloffMm, int measureStride, const MovieSpec& spec,
                         Progress& progress) {
   track.validate();
   MovieResult r;
@@ -76,13 +76,19 @@ MovieResult renderTrack(const AnyVolume& volume, const KeyframeTrack& track, con
       io::saveImage(img, spec.framesDir / name);
     }
     if (bodies) {
-      const RigidityReport m = measureRigidity(cv, *bodies);
-      r.perFrame.push_back(toJson(m));
+      // Voxel level over the map the renderer samples: the node map upsampled trilinearly on
+      // the GPU, without the CPU synthesis' voxel snap (RigidSnap).
+      cv.rigidSnap.reset();
+      const RigidityReport m = measureRigidityVoxels(cv, geometryOf(volume), *bodies, Upsampling::Trilinear,
+                                                     measureStride);
+      r.perFrame.push_back({{"voxels_as_rendered", toJson(m)}, {"nodes", toJson(measureRigidity(cv, *bodies))}});
       if (m.boneRmsResidualMm >= r.worst.boneRmsResidualMm) r.worst.boneRmsResidualMm = m.boneRmsResidualMm;
       r.worst.boneMaxResidualMm = std::max(r.worst.boneMaxResidualMm, m.boneMaxResidualMm);
       r.worst.foldFraction = std::max(r.worst.foldFraction, m.foldFraction);
       r.worst.softTissueMeanDisplacementMm = std::max(r.worst.softTissueMeanDisplacementMm, m.softTissueMeanDisplacementMm);
       r.worst.components = m.components;
+      r.worst.voxelLevel = true;
+      r.worst.stride = m.stride;
     }
     progress.advance();
   }
@@ -152,7 +158,7 @@ void addAnimateCommand(CLI::App& app) {
     MovieResult r;
     {
       ProgressBar bar;
-      r = renderTrack(lv.volume, track, params, bodies ? &*bodies : nullptr, a->rigid.falloffMm, spec,
+      r = renderTrack(lv.volume, track, params, bodies ? &*bodies : nullptr, a->rigid.falloffMm, a->rigid.measureStride, spec,
                       bar.progress());
     }
     std::cout << a->output << "  " << r.frames << " frames  deform " << r.deformMs / r.frames
@@ -177,7 +183,8 @@ void demoDeformation(const DemoContext& ctx) {
   const Geometry& g = geometryOf(lv.volume);
   const std::vector<uint16_t> bones = {4, 5, 6, 7, 8, 9, 11};  // every phantom::isBone id
   const RigidBodies bodies = RigidBodies::fromLabels(io::loadLabels(ctx.phantomLabels), bones);
-  const KeyframeTrack track = kneeBendTrack(g, 20.0, 2.0, phantom::flexionAxisPointMm());  // tibia about the knee axis
+  const Vec3 pivot = phantom::flexionAxisPointMm();  // the tibia swings about the knee's axis
+  const KeyframeTrack track = kneeBendTrack(g, 20.0, 2.0, pivot);
   saveKeyframes(track, ctx.outDir / "deform-keyframes.json");
   DeformParams params;
   params.controlScale = 2;
@@ -189,9 +196,19 @@ void demoDeformation(const DemoContext& ctx) {
   s.camera.azimuthDeg = 90;  // from the side: the bend is about the medio-lateral axis
   s.camera.elevationDeg = 5;
   ControlVolume cv = computeControlVolume(lv.volume, track.keyframes[1].points, params);
-  const RigidityReport plain = measureRigidity(cv, bodies);
+  const RigidityReport plain = measureRigidityVoxels(cv, g, bodies);
+  const RigidityReport plainNodes = measureRigidity(cv, bodies);
   applyRigidity(cv, bodies, {falloff});
-  const RigidityReport rigid = measureRigidity(cv, bodies);
+  // Voxel level: the map CPU synthesis resamples with (with the voxel snap), the map the GL
+  // renderer samples (node map, trilinear, no snap); and the control-grid nodes.
+  const RigidityReport rigid = measureRigidityVoxels(cv, g, bodies);
+  const RigidityReport rigidNodes = measureRigidity(cv, bodies);
+  RigidityReport rigidGl;
+  {
+    ControlVolume glMap = cv;
+    glMap.rigidSnap.reset();
+    rigidGl = measureRigidityVoxels(glMap, g, bodies);
+  }
   {
     auto context = render::GlContext::createHeadless();
     render::VolumeRenderer renderer(*context);
@@ -216,12 +233,17 @@ void demoDeformation(const DemoContext& ctx) {
   MovieResult r;
   {
     ProgressBar bar;
-    r = renderTrack(lv.volume, track, params, &bodies, falloff, spec, bar.progress());
+    r = renderTrack(lv.volume, track, params, &bodies, falloff, 1, spec, bar.progress());
   }
   writeJsonFile({{"keyframes", "deform-keyframes.json"},
                  {"rigid_label_ids", bones},
                  {"rigid_falloff_mm", falloff},
-                 {"strongest_bend", {{"plain_mls", toJson(plain)}, {"with_rigid_bones", toJson(rigid)}}},
+                 {"flexion_pivot_mm", {pivot.x, pivot.y, pivot.z}},
+                 {"strongest_bend", {{"plain_mls", toJson(plain)},
+                                     {"plain_mls_nodes", toJson(plainNodes)},
+                                     {"with_rigid_bones", toJson(rigid)},
+                                     {"with_rigid_bones_as_rendered", toJson(rigidGl)},
+                                     {"with_rigid_bones_nodes", toJson(rigidNodes)}}},
                  {"movie", spec.moviePath.empty() ? "deform-frames/" : "deform-bend.mp4"},
                  {"frames", r.frames},
                  {"worst_frame", toJson(r.worst)},
@@ -229,7 +251,8 @@ void demoDeformation(const DemoContext& ctx) {
                                  {"render_per_frame", r.renderMs / std::max(r.frames, 1)}}},
                  {"seconds", secondsSince(t0)}},
                 ctx.outDir / "deform-rigidity.json");
-  std::cout << "deformation: bone RMS residual " << rigid.boneRmsResidualMm << " mm (plain MLS "
+  std::cout << "deformation: bone RMS residual (voxels) " << rigid.boneRmsResidualMm << " mm (as rendered "
+            << rigidGl.boneRmsResidualMm << ", nodes " << rigidNodes.boneRmsResidualMm << ", plain MLS "
             << plain.boneRmsResidualMm << "), soft tissue moved " << rigid.softTissueMeanDisplacementMm
             << " mm, fold-over " << r.worst.foldFraction << "; " << r.frames << " frames -> "
             << (spec.moviePath.empty() ? spec.framesDir : spec.moviePath).string() << " ("

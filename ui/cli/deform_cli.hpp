@@ -34,11 +34,12 @@ struct EngineOptions {
   deformation::DeformParams params(std::optional<double> filePower) const;
 };
 
-/// --labels, --rigid-labels, --rigid-falloff.
+/// --labels, --rigid-labels, --rigid-falloff, --rigidity-stride.
 struct RigidOptions {
   std::string labels;
   std::vector<uint16_t> rigidIds;
   double falloffMm = 10;
+  int measureStride = 1;  ///< voxel-level measures: every N-th voxel per axis
 
   void addTo(CLI::App& cmd);
   bool enabled() const { return !labels.empty(); }

@@ -27,7 +27,8 @@ class RigidBodies {
                                    int64_t minVoxels = 20);
 
   int componentCount() const { return components_; }
-  const VolumeU16& classes() const { return classes_; }
+  const VolumeU16& classes() const { return *classes_; }
+  const std::shared_ptr<const VolumeU16>& classesPtr() const { return classes_; }
   /// Class at a physical position (nearest voxel; 0 outside).
   uint16_t classAt(const Vec3& mm) const;
   /// Distance (mm) from every node of `grid` to each component, one field per component;
@@ -42,7 +43,7 @@ class RigidBodies {
   };
   std::shared_ptr<Cache> cache_ = std::make_shared<Cache>();
   static RigidBodies fromMask(VolumeU16 classes, int64_t minVoxels);
-  VolumeU16 classes_;
+  std::shared_ptr<const VolumeU16> classes_ = std::make_shared<VolumeU16>();
   int components_ = 0;
   Mat3 mmToIndex_;
 };
@@ -55,21 +56,43 @@ struct RigidityParams {
 };
 
 /// Blends `cv` towards each component's best rigid transform (Kabsch fit of v -> u over the
-/// nodes whose u lies in the component). Overlapping bands are normalised.
+/// nodes whose u lies in the component). Overlapping bands are normalised. Also sets
+/// cv.rigidSnap, so that synthesize() / upsampleMap() give every voxel whose source lands in a
+/// body exactly that body's transform (see RigidSnap).
 void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params = {},
                    Progress& progress = Progress::none());
 
 struct RigidityReport {
+  /// True: measured on the full-resolution map that resampling uses (upsampled from the
+  /// control grid); false: on the control-grid nodes only (optimistic: it misses what
+  /// interpolation between nodes does to voxels near a body's boundary).
+  bool voxelLevel = false;
+  int stride = 1;  ///< voxel level: every stride-th voxel along each axis was visited
   int components = 0;
+  /// Samples (nodes or voxels) classed bone / soft tissue, and all samples visited.
   int64_t boneNodes = 0, softNodes = 0, nodes = 0;
-  double boneRmsResidualMm = 0;  ///< RMS of u - (R v + t) over bone nodes, per-component fits
+  double boneRmsResidualMm = 0;  ///< RMS of u - (R v + t) over bone samples, per-component fits
   double boneMaxResidualMm = 0;
-  double softTissueMeanDisplacementMm = 0;  ///< mean |u(v) - v| over soft-tissue nodes
-  double foldFraction = 0;  ///< fraction of interior nodes with Jacobian det(du/dv) <= 0
+  double softTissueMeanDisplacementMm = 0;  ///< mean |u(v) - v| over soft-tissue samples
+  /// Fraction of interior samples with Jacobian det(du/dv) <= 0 (central differences between
+  /// direct neighbours on the sampled grid).
+  double foldFraction = 0;
 };
 
-/// Measures a control volume against the bodies (on the control-grid nodes: a node belongs
-/// to the class found at its source position u(v)).
+/// Node level: measures a control volume on its nodes (a node belongs to the class found at
+/// its source position u(v)). Per-component rigid fits from the nodes.
 RigidityReport measureRigidity(const ControlVolume& cv, const RigidBodies& bodies);
+
+/// Voxel level: the same measures over a full-resolution backward map (3 floats per output
+/// voxel, x fastest, as upsampleMap() returns it) on `output`, visiting every `stride`-th voxel
+/// per axis (1 = every voxel); rigid fits from the visited voxels.
+RigidityReport measureRigidityMap(const std::vector<float>& mapMm, const Geometry& output,
+                                  const RigidBodies& bodies, int stride = 1);
+
+/// Voxel level from a control volume: upsamples it exactly as synthesize() does
+/// (3 floats per output voxel, memory budget checked) and calls measureRigidityMap().
+RigidityReport measureRigidityVoxels(const ControlVolume& cv, const Geometry& output,
+                                     const RigidBodies& bodies,
+                                     Upsampling upsampling = Upsampling::Trilinear, int stride = 1);
 
 }  // namespace vellum::deformation
