@@ -14,34 +14,73 @@ namespace vellum::deformation {
 
 ControlPoints boxControlPoints(const Geometry& g, int count, double inset) {
   if (count < 1) throw Error("control-point count must be >= 1");
+  if (count > 100000) throw Error("control-point count must be <= 100000");
   if (!(inset >= 0 && inset < 0.5)) throw Error("inset fraction must be in [0, 0.5)");
+  // Positions as fractions of the inset box per axis (0 = low face, 1 = high face).
+  std::vector<Vec3> f;
   const Vec3 ext = g.extent();
-  const double gm = std::cbrt(std::max(ext.x, 1e-9) * std::max(ext.y, 1e-9) * std::max(ext.z, 1e-9));
-  const double c3 = std::cbrt(static_cast<double>(count));
-  int best[3] = {count, 1, 1};
-  double bestErr = 1e300;
-  for (int a = 1; a <= count; ++a)
-    for (int b = 1; a * b <= count; ++b) {
-      if (count % (a * b)) continue;
-      const int c = count / (a * b);
-      const int n[3] = {a, b, c};
-      double err = 0;
-      for (int i = 0; i < 3; ++i) {
-        const double ideal = c3 * std::max(ext[i], 1e-9) / gm;
-        err += (n[i] - ideal) * (n[i] - ideal);
-      }
-      if (err < bestErr - 1e-12) { bestErr = err; best[0] = a; best[1] = b; best[2] = c; }
+  // Axes from longest to shortest extent (ties: x before y before z): extra points go to the
+  // longest edges and to the faces across the longest axis first.
+  int order[3] = {0, 1, 2};
+  std::stable_sort(order, order + 3, [&](int a, int b) { return ext[a] > ext[b] + 1e-9; });
+  auto corner = [](int c) { return Vec3{double(c & 1), double((c >> 1) & 1), double((c >> 2) & 1)}; };
+  if (count == 1) {
+    f.push_back({0.5, 0.5, 0.5});
+  } else if (count < 8) {
+    // Well-spread corners: two opposite ones, then the rest of a regular tetrahedron, then the
+    // other tetrahedron's.
+    const int pick[8] = {0, 7, 3, 5, 6, 1, 2, 4};
+    for (int t = 0; t < count; ++t) f.push_back(corner(pick[t]));
+  } else {
+    for (int c = 0; c < 8; ++c) f.push_back(corner(c));
+    // The rest on the 12 edges: whole groups of 4 parallel edges (keeps the layout symmetric),
+    // apportioned to the axes by edge length (largest remainder), evenly spaced along each
+    // edge (1 per edge: the midpoints).
+    const int groups = (count - 8) / 4;
+    int per[3] = {0, 0, 0};
+    const double total = std::max(ext.x + ext.y + ext.z, 1e-9);
+    int given = 0;
+    double rem[3];
+    for (int a = 0; a < 3; ++a) {
+      const double want = groups * ext[a] / total;
+      per[a] = static_cast<int>(std::floor(want));
+      rem[a] = want - per[a];
+      given += per[a];
     }
+    while (given < groups) {
+      int best = order[0];
+      for (int t = 0; t < 3; ++t)
+        if (rem[order[t]] > rem[best] + 1e-12) best = order[t];
+      ++per[best];
+      rem[best] = -1;
+      ++given;
+    }
+    for (int a = 0; a < 3; ++a) {
+      const int b = (a + 1) % 3, c = (a + 2) % 3;
+      for (int e = 0; e < 4; ++e)
+        for (int q = 1; q <= per[a]; ++q) {
+          Vec3 p;
+          p[a] = double(q) / (per[a] + 1);
+          p[b] = double(e & 1);
+          p[c] = double(e >> 1);
+          f.push_back(p);
+        }
+    }
+    // 1-3 left over: centres of the faces across the longest axis, then the next one.
+    const int left = (count - 8) % 4;
+    for (int t = 0; t < left; ++t) {
+      Vec3 p{0.5, 0.5, 0.5};
+      p[order[t / 2]] = double(t % 2);
+      f.push_back(p);
+    }
+  }
   ControlPoints pts;
-  auto frac = [&](int i, int n) { return n == 1 ? 0.5 : inset + (1 - 2 * inset) * i / (n - 1.0); };
-  for (int k = 0; k < best[2]; ++k)
-    for (int j = 0; j < best[1]; ++j)
-      for (int i = 0; i < best[0]; ++i) {
-        const Vec3 idx{frac(i, best[0]) * double(g.dims.x - 1), frac(j, best[1]) * double(g.dims.y - 1),
-                       frac(k, best[2]) * double(g.dims.z - 1)};
-        const Vec3 p = g.indexToPhysical(idx);
-        pts.push_back({p, p, {}});
-      }
+  for (const Vec3& q : f) {
+    Vec3 idx;
+    for (int a = 0; a < 3; ++a) idx[a] = (inset + (1 - 2 * inset) * q[a]) * double(g.dims[a] - 1);
+    const Vec3 p = g.indexToPhysical(idx);
+    pts.push_back({p, p, {}});
+  }
   return pts;
 }
 

@@ -113,11 +113,63 @@ TEST(Placement, BoxPointsLieInsideWithTheInset) {
       EXPECT_LE(idx[a], 0.9 * (g.dims[a] - 1) + 1e-9);
     }
   }
-  // 2 x 2 x 4: four distinct levels along the long (z) axis.
+  // Corners + edge midpoints: 3 levels along z (the 4 z edges' midpoints at mid height).
   std::set<double> zs;
   for (const auto& p : pts) zs.insert(std::round(p.source.z * 1000));
-  EXPECT_EQ(zs.size(), 4u);
+  EXPECT_EQ(zs.size(), 3u);
+  // Any count, primes included: that many distinct points, inside the inset box, not all on a
+  // line or in a plane (from 4 on).
+  for (int n = 1; n <= 41; ++n) {
+    const auto q = boxControlPoints(g, n, 0.1);
+    ASSERT_EQ(q.size(), static_cast<size_t>(n));
+    Vec3 mean{};
+    for (const auto& p : q) mean += p.source / double(n);
+    double minGap = 1e300;
+    Mat3 cov = Mat3::fromColumns({0, 0, 0}, {0, 0, 0}, {0, 0, 0});
+    for (size_t a = 0; a < q.size(); ++a) {
+      const Vec3 idx = g.physicalToIndex(q[a].source);
+      for (int ax = 0; ax < 3; ++ax) {
+        EXPECT_GE(idx[ax], 0.1 * (g.dims[ax] - 1) - 1e-9) << n;
+        EXPECT_LE(idx[ax], 0.9 * (g.dims[ax] - 1) + 1e-9) << n;
+      }
+      for (size_t b = a + 1; b < q.size(); ++b) minGap = std::min(minGap, norm(q[a].source - q[b].source));
+      const Vec3 d = q[a].source - mean;
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) cov(r, c) += d[r] * d[c];
+    }
+    if (n > 1) {
+      EXPECT_GT(minGap, 10.0) << n;
+    }
+    if (n >= 4) {
+      EXPECT_GT(cov.determinant(), 1.0) << n << " points are coplanar";
+    }
+  }
   EXPECT_THROW(boxControlPoints(g, 0), Error);
+}
+
+TEST(Placement, KneeBendSwingsTheCalfAboutThePivot) {
+  Geometry g;
+  g.dims = {90, 90, 110};
+  g.spacing = {2, 2, 2};
+  g.origin = {-90, -90, -110};
+  const Vec3 pivot{0, 0, 24.5};
+  const auto track = kneeBendTrack(g, 30.0, 2.0, pivot);
+  const auto& bent = track.keyframes[1].points;
+  int moved = 0;
+  for (const auto& p : bent) {
+    if (p.source.z >= pivot.z) {
+      EXPECT_EQ(p.target, p.source);  // the thigh stays
+      continue;
+    }
+    ++moved;
+    // Rotation about x through the pivot: x kept, distance to the axis kept, 30 degrees turned.
+    EXPECT_NEAR(p.target.x, p.source.x, 1e-9);
+    const Vec3 a = p.source - pivot, b = p.target - pivot;
+    EXPECT_NEAR(std::hypot(a.y, a.z), std::hypot(b.y, b.z), 1e-9);
+    const double ang = std::atan2(b.z, b.y) - std::atan2(a.z, a.y);
+    EXPECT_NEAR(std::remainder(ang, 2 * M_PI), 30.0 * M_PI / 180.0, 1e-9);
+  }
+  EXPECT_GE(moved, 4);
 }
 
 TEST(Placement, LabelPointsIncludeCentroidsOfEachLabel) {

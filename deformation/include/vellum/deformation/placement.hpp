@@ -10,9 +10,14 @@
 
 namespace vellum::deformation {
 
-/// `count` points on a regular a x b x c lattice over the volume's box, inset by
-/// `insetFraction` of the extent on every side; a*b*c = count with the lattice proportions
-/// closest to the box's (16 on a 180x180x220 mm knee: 2 x 2 x 4). Throws for count < 1.
+/// `count` points on the volume's box, inset by `insetFraction` of the extent on every side
+/// (all distinct, spanning 3D for count >= 4, symmetric where count allows):
+///  - 1: the centre; 2..7: well-spread corners (opposite pair, then tetrahedra);
+///  - >= 8: the 8 corners, then groups of 4 points on the 4 parallel edges of an axis, the
+///    groups apportioned to the axes by edge length and spaced evenly along each edge, then
+///    (count - 8) mod 4 points on the centres of the faces across the longest axis(es).
+/// The paper's default 16 on a 180x180x220 mm knee: corners + midpoints of the 4 z edges and
+/// of the 4 x edges. Throws for count < 1 or > 100000.
 ControlPoints boxControlPoints(const Geometry& geometry, int count = 16, double insetFraction = 0.1);
 
 /// Points from a label map: for every 26-connected component (>= 8 voxels) of every label, its
