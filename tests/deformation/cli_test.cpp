@@ -7,7 +7,11 @@
 
 #include "commands.hpp"
 #include "test_data.hpp"
+#include "vellum/deformation/deformer.hpp"
+#include "vellum/deformation/map_file.hpp"
 #include "vellum/deformation/placement.hpp"
+#include "vellum/deformation/rigidity.hpp"
+#include "vellum/deformation/synthesis.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
@@ -70,9 +74,23 @@ TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
   while (std::getline(m, line) && !line.empty()) header += line + "\n";
   EXPECT_NE(header.find("sizes: 3 48 48 56"), std::string::npos) << header;
   EXPECT_NE(header.find("kinds: vector domain domain domain"), std::string::npos);
+  EXPECT_NE(header.find("encoding: gzip"), std::string::npos);
   const auto pos = m.tellg();
   m.seekg(0, std::ios::end);
-  EXPECT_EQ(static_cast<int64_t>(m.tellg() - pos), int64_t{48} * 48 * 56 * 3 * 4);
+  EXPECT_LT(static_cast<int64_t>(m.tellg() - pos), int64_t{48} * 48 * 56 * 3 * 4);  // compressed
+  // The values: the same map as the library computes (defaults: affine, s = 2, falloff 10 mm).
+  Geometry mg;
+  const std::vector<float> map = deformation::loadBackwardMapNrrd(dir / "map.nrrd", &mg);
+  EXPECT_TRUE(mg.approxEqual(ph.ct.geometry(), 1e-9));
+  const AnyVolume ct = ph.ct;
+  deformation::ControlVolume cv = deformation::computeControlVolume(ct, pf.points, {});
+  const std::vector<uint16_t> bones = {4, 5, 6, 7, 8, 9, 11};
+  deformation::applyRigidity(cv, deformation::RigidBodies::fromLabels(ph.labels, bones), {10.0});
+  const std::vector<float> expect = deformation::upsampleMap(cv, ph.ct.geometry());
+  ASSERT_EQ(map.size(), expect.size());
+  double maxDiff = 0;
+  for (size_t t = 0; t < map.size(); ++t) maxDiff = std::max(maxDiff, double(std::abs(map[t] - expect[t])));
+  EXPECT_LT(maxDiff, 1e-3);
 
   // Bad input names the file.
   EXPECT_THROW(run({"deform", (dir / "knee.nrrd").string(), "--points", (dir / "nope.json").string(),

@@ -6,6 +6,7 @@
 
 #include "test_data.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/deformation/map_file.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
 
@@ -96,6 +97,40 @@ TEST(PointFiles, RoundTripAndErrorsNameTheFile) {
   EXPECT_THROW(loadControlPoints(dir / "missing.json"), FileError);
   EXPECT_THROW(loadKeyframes(writeText("e.json", "{\"keyframes\":[{\"duration\":1,\"points\":[{\"source\":[1,2,3]}]},"
                                                  "{\"duration\":1,\"points\":[]}]}")), FileError);
+}
+
+TEST(MapFile, GzipAndRawRoundTripAndErrorsNameTheFile) {
+  const auto dir = vellum::test::tempDir("map-file");
+  Geometry g;
+  g.dims = {5, 4, 3};
+  g.spacing = {0.5, 1.5, 2.5};
+  g.origin = {-10, 20, 3.25};
+  g.direction = Mat3::fromColumns({0, 1, 0}, {-1, 0, 0}, {0, 0, 1});
+  std::vector<float> map(3 * 60);
+  for (size_t t = 0; t < map.size(); ++t) map[t] = 0.25f * static_cast<float>(t) - 7.0f;
+  for (bool gz : {true, false}) {
+    const auto path = dir / (gz ? "m.nrrd" : "r.nrrd");
+    saveBackwardMapNrrd(map, g, path, gz);
+    Geometry back;
+    EXPECT_EQ(loadBackwardMapNrrd(path, &back), map);
+    EXPECT_TRUE(back.dims == g.dims);
+    EXPECT_TRUE(back.approxEqual(g, 1e-12));
+  }
+  EXPECT_THROW(saveBackwardMapNrrd(std::vector<float>(10), g, dir / "bad.nrrd"), FileError);
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.nrrd"));
+  // Truncated gzip data.
+  {
+    std::ifstream in(dir / "m.nrrd", std::ios::binary);
+    std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(dir / "cut.nrrd", std::ios::binary) << all.substr(0, all.size() - 20);
+  }
+  try {
+    loadBackwardMapNrrd(dir / "cut.nrrd");
+    ADD_FAILURE() << "no error for a truncated file";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("cut.nrrd"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(loadBackwardMapNrrd(dir / "missing.nrrd"), FileError);
 }
 
 TEST(Placement, BoxPointsLieInsideWithTheInset) {

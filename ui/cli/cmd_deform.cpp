@@ -10,6 +10,7 @@
 #include "commands.hpp"
 #include "deform_cli.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/deformation/map_file.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/deformation/synthesis.hpp"
@@ -98,29 +99,6 @@ namespace {
 
 double msSince(std::chrono::steady_clock::time_point t0) { return secondsSince(t0) * 1000.0; }
 
-// The full-resolution backward map as a 3-component float32 NRRD (source position in mm).
-void saveMapNrrd(const std::vector<float>& map, const Geometry& g, const fs::path& path) {
-  io::writeAtomically(path, [&](const fs::path& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw FileError(path, "cannot write");
-    auto vec = [](const Vec3& v) {
-      std::ostringstream s;
-      s.precision(10);
-      s << "(" << v.x << "," << v.y << "," << v.z << ")";
-      return s.str();
-    };
-    out << "NRRD0004\n# Vellum backward map: source position (mm, LPS) of every output voxel\n"
-        << "type: float\ndimension: 4\nspace: left-posterior-superior\n"
-        << "sizes: 3 " << g.dims.x << " " << g.dims.y << " " << g.dims.z << "\n"
-        << "space directions: none " << vec(g.direction.column(0) * g.spacing.x) << " "
-        << vec(g.direction.column(1) * g.spacing.y) << " " << vec(g.direction.column(2) * g.spacing.z) << "\n"
-        << "kinds: vector domain domain domain\nendian: little\nencoding: raw\n"
-        << "space origin: " << vec(g.origin) << "\nspace units: \"mm\" \"mm\" \"mm\"\n\n";
-    out.write(reinterpret_cast<const char*>(map.data()), static_cast<std::streamsize>(map.size() * sizeof(float)));
-    if (!out) throw FileError(path, "write failed (disk full?)");
-  });
-}
-
 struct DeformArgs {
   std::string input, points, output, mapOut, report;
   bool psnr = false;
@@ -144,7 +122,7 @@ void addDeformCommand(CLI::App& app) {
   cmd->add_option("input", a->input, "volume file or DICOM folder")->required();
   cmd->add_option("--points", a->points, "control points JSON (mm; see docs/deformation.md)")->required();
   cmd->add_option("--out,-o", a->output, "deformed volume (same geometry and type; any writable format)")->required();
-  cmd->add_option("--map-out", a->mapOut, "backward map as a 3-component float32 NRRD (source mm per output voxel)");
+  cmd->add_option("--map-out", a->mapOut, "backward map as a gzip 3-component float32 NRRD (source mm per output voxel)");
   cmd->add_option("--report", a->report, "JSON report: stage timings, PSNR, rigidity measures");
   cmd->add_flag("--psnr", a->psnr, "also synthesise at s = 1 and report the PSNR of the result against it");
   a->engine.addTo(*cmd);
@@ -218,7 +196,7 @@ void addDeformCommand(CLI::App& app) {
       t = std::chrono::steady_clock::now();
       ensureParentFolder(a->mapOut);
       if (fullMap.empty()) fullMap = upsampleMap(cv, g, up);
-      saveMapNrrd(fullMap, g, a->mapOut);
+      saveBackwardMapNrrd(fullMap, g, a->mapOut);
       timings["map_out"] = msSince(t);
     }
     timings["total"] = msSince(t0);
