@@ -292,6 +292,18 @@ RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
     if (n >= minVoxels) remap[id] = kept++;
   for (auto& v : classes.voxels()) v = remap[v];
   rb.components_ = kept - 2;
+  // Index-space bounding box of each body (the voxel snap only visits voxels that can map
+  // into one).
+  rb.boxes_.assign(static_cast<size_t>(rb.components_), {d.x, d.y, d.z, -1, -1, -1});
+  for (int64_t k = 0; k < d.z; ++k)
+    for (int64_t j = 0; j < d.y; ++j)
+      for (int64_t i = 0; i < d.x; ++i) {
+        const uint16_t c = classes.data()[(k * d.y + j) * d.x + i];
+        if (c < 2) continue;
+        auto& b = rb.boxes_[c - 2u];
+        b[0] = std::min(b[0], i); b[1] = std::min(b[1], j); b[2] = std::min(b[2], k);
+        b[3] = std::max(b[3], i); b[4] = std::max(b[4], j); b[5] = std::max(b[5], k);
+      }
   rb.mmToIndex_ = mmToIndexOf(classes.geometry());
   rb.classes_ = std::make_shared<const VolumeU16>(std::move(classes));
   return rb;
@@ -417,6 +429,27 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
   }
   // Interpolation errors inside a body are below a control-cell diagonal.
   snap->maxSnapMm = norm(cv.grid.spacing);
+  // Where the snap can apply, per body: output voxels v with R v + t within maxSnap of the
+  // body's box, i.e. the preimage of the box (expanded) under the fit, bounded in output mm.
+  const Geometry& cg = bodies.classes().geometry();
+  for (int c = 0; c < nc; ++c) {
+    const auto& b = bodies.boxes()[static_cast<size_t>(c)];
+    std::array<double, 6> box{1e300, 1e300, 1e300, -1e300, -1e300, -1e300};
+    if (fits[static_cast<size_t>(c)].valid && b[3] >= b[0]) {
+      const Eigen::Matrix3d rt = fits[static_cast<size_t>(c)].r.transpose();
+      for (int q = 0; q < 8; ++q) {
+        const Vec3 idx{(q & 1) ? b[3] + 0.5 : b[0] - 0.5, (q & 2) ? b[4] + 0.5 : b[1] - 0.5,
+                       (q & 4) ? b[5] + 0.5 : b[2] - 0.5};
+        const Vec3 p = cg.indexToPhysical(idx);
+        const Eigen::Vector3d v = rt * (Eigen::Vector3d(p.x, p.y, p.z) - fits[static_cast<size_t>(c)].t);
+        for (int a = 0; a < 3; ++a) {
+          box[static_cast<size_t>(a)] = std::min(box[static_cast<size_t>(a)], v(a) - snap->maxSnapMm);
+          box[static_cast<size_t>(a + 3)] = std::max(box[static_cast<size_t>(a + 3)], v(a) + snap->maxSnapMm);
+        }
+      }
+    }
+    snap->reachMm.push_back(box);
+  }
   cv.rigidSnap = std::move(snap);
   progress.end();
 }

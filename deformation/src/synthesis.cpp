@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 #include <variant>
@@ -167,10 +169,18 @@ struct PreparedSnap {
   std::vector<uint8_t> valid;
   float deltaToMm[9];
   float maxSnap2 = 0;
+  // Per body: output-index box {min i, j, k, max i, j, k} the snap can reach (inclusive).
+  std::vector<std::array<int64_t, 6>> reach;
 
   void row(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const {
     const int nb = static_cast<int>(body.size());
-    for (int64_t i = 0; i < n; ++i) {
+    int64_t lo = n, hi = -1;
+    for (const auto& r : reach)
+      if (j >= r[1] && j <= r[4] && k >= r[2] && k <= r[5]) {
+        lo = std::min(lo, std::max<int64_t>(r[0], 0));
+        hi = std::max(hi, std::min<int64_t>(r[3], n - 1));
+      }
+    for (int64_t i = lo; i <= hi; ++i) {
       const float u[3] = {ux[i], uy[i], uz[i]};
       int64_t ci[3];
       bool in = true;
@@ -241,6 +251,24 @@ std::optional<PreparedSnap> prepareSnap(const ControlVolume& cv, const Geometry&
   p.valid = rs.valid;
   p.valid.resize(p.body.size(), 0);
   p.maxSnap2 = static_cast<float>(rs.maxSnapMm * rs.maxSnapMm);
+  if (rs.reachMm.size() == rs.fits.size()) {
+    // Output-index bounds of each body's reach box (its 8 corners through mm -> index).
+    for (const auto& b : rs.reachMm) {
+      if (b[3] < b[0]) continue;
+      std::array<int64_t, 6> r{INT64_MAX, INT64_MAX, INT64_MAX, INT64_MIN, INT64_MIN, INT64_MIN};
+      for (int q = 0; q < 8; ++q) {
+        const Vec3 idx = g.physicalToIndex({(q & 1) ? b[3] : b[0], (q & 2) ? b[4] : b[1], (q & 4) ? b[5] : b[2]});
+        for (int a = 0; a < 3; ++a) {
+          const double lo = std::clamp(std::floor(idx[a]), -1.0, 1e15), hi = std::clamp(std::ceil(idx[a]), -1.0, 1e15);
+          r[static_cast<size_t>(a)] = std::min(r[static_cast<size_t>(a)], static_cast<int64_t>(lo));
+          r[static_cast<size_t>(a + 3)] = std::max(r[static_cast<size_t>(a + 3)], static_cast<int64_t>(hi));
+        }
+      }
+      p.reach.push_back(r);
+    }
+  } else {
+    p.reach.push_back({0, 0, 0, INT64_MAX / 2, INT64_MAX / 2, INT64_MAX / 2});  // everywhere
+  }
   return p;
 }
 

@@ -7,6 +7,7 @@
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/rigidity.hpp"
+#include "vellum/deformation/synthesis.hpp"
 #include "vellum/phantom/phantom.hpp"
 
 using namespace vellum;
@@ -108,6 +109,15 @@ TEST(Rigidity, RigidLabelsKeepBoneRigidWhileSoftTissueMoves) {
   std::cout << "voxel level without the snap: bone RMS " << interpolated.boneRmsResidualMm << " mm (max "
             << interpolated.boneMaxResidualMm << "), folds " << interpolated.foldFraction << "\n";
   ASSERT_TRUE(cv.rigidSnap);
+  {
+    // The per-body reach boxes only skip voxels the snap cannot move: same map as snapping
+    // everywhere.
+    ControlVolume everywhere = cv;
+    auto snap = std::make_shared<RigidSnap>(*cv.rigidSnap);
+    snap->reachMm.clear();
+    everywhere.rigidSnap = snap;
+    EXPECT_EQ(upsampleMap(everywhere, g), upsampleMap(cv, g));
+  }
   // The snap only corrects interpolation: soft tissue moves as before.
   EXPECT_NEAR(interpolated.softTissueMeanDisplacementMm, after.softTissueMeanDisplacementMm, 0.5);
   std::cout << "node level:  bone RMS " << beforeNodes.boneRmsResidualMm << " -> " << nodes.boneRmsResidualMm

@@ -89,6 +89,9 @@ MovieResult renderTrack(const AnyVolume& volume, const KeyframeTrack& track, con
       r.worst.components = m.components;
       r.worst.voxelLevel = true;
       r.worst.stride = m.stride;
+      r.worst.nodes = m.nodes;
+      r.worst.boneNodes = std::max(r.worst.boneNodes, m.boneNodes);
+      r.worst.softNodes = std::max(r.worst.softNodes, m.softNodes);
     }
     progress.advance();
   }

@@ -33,6 +33,9 @@ struct RigidSnap {
   std::vector<std::array<double, 12>> fits;
   std::vector<uint8_t> valid;
   double maxSnapMm = 0;
+  /// Per body: axis-aligned box (output mm: min xyz, max xyz) holding every output voxel the
+  /// snap can move to that body (skips the rest of the volume quickly). Empty = everywhere.
+  std::vector<std::array<double, 6>> reachMm;
 };
 
 struct ControlVolume {

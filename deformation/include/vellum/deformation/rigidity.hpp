@@ -2,6 +2,7 @@
 // Bone stays rigid (algorithms.md 1.6): rigid bodies from labels (or a HU threshold), a
 // segmentation-aware constraint that blends the backward map towards each body's best rigid
 // fit, and the measures (bone RMS non-rigid residual, soft-tissue displacement, fold-over).
+#include <array>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -29,6 +30,8 @@ class RigidBodies {
   int componentCount() const { return components_; }
   const VolumeU16& classes() const { return *classes_; }
   const std::shared_ptr<const VolumeU16>& classesPtr() const { return classes_; }
+  /// Per component: index-space bounding box {min i, j, k, max i, j, k} in classes().
+  const std::vector<std::array<int64_t, 6>>& boxes() const { return boxes_; }
   /// Class at a physical position (nearest voxel; 0 outside).
   uint16_t classAt(const Vec3& mm) const;
   /// Distance (mm) from every node of `grid` to each component, one field per component;
@@ -45,6 +48,7 @@ class RigidBodies {
   static RigidBodies fromMask(VolumeU16 classes, int64_t minVoxels);
   std::shared_ptr<const VolumeU16> classes_ = std::make_shared<VolumeU16>();
   int components_ = 0;
+  std::vector<std::array<int64_t, 6>> boxes_;  // per component: min ijk, max ijk
   Mat3 mmToIndex_;
 };
 
