@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 
@@ -240,6 +243,56 @@ TEST(PhantomProgress, ReportsAndCancels) {
   });
   self = &midway;
   EXPECT_THROW(makePhantom(small(64), midway), Cancelled);
+}
+
+TEST(PhantomSubSamples, StratifiedDeterministicAndWithinThePsf) {
+  for (const double h : {0.0, kDefaultPsfSmoothing, 1.0}) {
+    const auto a = subSampleOffsets(3, -7, 11, h), b = subSampleOffsets(3, -7, 11, h);
+    const auto other = subSampleOffsets(4, -7, 11, h);
+    size_t differ = 0;
+    for (int n = 0; n < kSubSamples; ++n) {
+      EXPECT_EQ(a[n].x, b[n].x);  // a pure function of the voxel index
+      differ += a[n].x != other[n].x;
+    }
+    EXPECT_GT(differ, 32u) << h;  // ... that differs between voxels
+    // Per axis: every coordinate within the PSF's support, and (box case) sample a + 4b + 16c
+    // in stratum a along x; all 64 samples in distinct 1/64 slices of the box quantiles.
+    const double reach = 0.5 * (1 + h);
+    for (int axis = 0; axis < 3; ++axis) {
+      std::array<int, kSubSamples> slices{};
+      for (int n = 0; n < kSubSamples; ++n) {
+        const double v = a[n][axis];
+        EXPECT_LT(std::abs(v), reach) << h;
+        if (h == 0.0) {
+          const int stratum = (n >> (2 * axis)) & 3;
+          EXPECT_EQ(int(std::floor((v + 0.5) * 4)), stratum);
+          ++slices[std::clamp(int(std::floor((v + 0.5) * 64)), 0, 63)];
+        }
+      }
+      if (h == 0.0) {
+        for (int s : slices) EXPECT_EQ(s, 1);
+      }
+    }
+    // The mean offset is ~0 (the PSF is centred) and its variance is that of the trapezoid:
+    // (1 + h^2) / 12 per axis.
+    for (int axis = 0; axis < 3; ++axis) {
+      double m = 0, v = 0;
+      for (const Vec3& o : a) m += o[axis];
+      m /= kSubSamples;
+      for (const Vec3& o : a) v += (o[axis] - m) * (o[axis] - m);
+      v /= kSubSamples;
+      EXPECT_NEAR(m, 0.0, 0.01) << h;
+      EXPECT_NEAR(v, (1 + h * h) / 12.0, 0.01) << h;
+    }
+  }
+}
+
+TEST(PhantomSubSamples, BadSmoothingIsRejected) {
+  auto o = small(32);
+  o.psfSmoothingVoxels = 1.5;
+  EXPECT_THROW(makePhantom(o), Error);
+  o.psfSmoothingVoxels = std::nan("");
+  EXPECT_THROW(makePhantom(o), Error);
 }
 
 }  // namespace

@@ -92,7 +92,7 @@ TEST(PhantomIntensity, PartialVolumeLeavesTissueInteriorsAtNominalHu) {
 }
 
 TEST(PhantomIntensity, NoiseFreeVoxelsAreTheVoxelAverageOfTheAnatomy) {
-  // Without noise every voxel is the mean tissue HU over its 4x4x4 sub-voxel positions.
+  // Without noise every voxel is the mean tissue HU over its sub-sample positions.
   const Phantom& p = cached(64, 64, 64, 20.0, 0.0);
   PhantomOptions o;
   o.kneeFlexionDeg = 20.0;
@@ -111,14 +111,9 @@ TEST(PhantomIntensity, NoiseFreeVoxelsAreTheVoxelAverageOfTheAnatomy) {
   }
   for (const auto& [i, j, k] : voxels) {
     double sum = 0;
-    for (int c = 0; c < 4; ++c)
-      for (int b = 0; b < 4; ++b)
-        for (int a = 0; a < 4; ++a) {
-          const Vec3 q = g.indexToPhysical(
-              Vec3{i + (a + 0.5) / 4 - 0.5, j + (b + 0.5) / 4 - 0.5, k + (c + 0.5) / 4 - 0.5});
-          sum += samplePhantom(q, o).hu;
-        }
-    const double expected = sum / 64.0, got = p.ct(i, j, k);
+    for (const Vec3& d : subSampleOffsets(i, j, k))
+      sum += samplePhantom(g.indexToPhysical(Vec3{i + d.x, j + d.y, k + d.z}), o).hu;
+    const double expected = sum / kSubSamples, got = p.ct(i, j, k);
     ++checked;
     exact += std::abs(got - expected) <= 0.5 + 1e-9;
     mixed += std::abs(expected - samplePhantom(g.indexToPhysical(Vec3{double(i), double(j),
@@ -192,7 +187,9 @@ TEST(PhantomIntensity, CorticalThresholdFindsTheCorticalTruth) {
   // With partial volume the labels are each voxel's majority structure: a threshold half-way
   // between cortex and its neighbours recovers them, except in voxels shared by three
   // tissues (thin cortex: 1.2 mm at the condyles, 1.5 mm fibula/patella, 1.4 mm voxels).
-  // Measured (seed 1, sigma 15): best 0.9855 at 695 HU (128^3), 0.9919 at 690 HU (256^3).
+  // The smooth PSF (psfSmoothingVoxels 0.9) makes more voxels three-tissue than a box would.
+  // Measured (seed 1, sigma 15): 0.9806 at 700 HU, best 0.9809 at 725 HU (128^3); 0.9896 at
+  // 700 HU, best 0.9899 at 725 HU (256^3). (Box PSF, psfSmoothingVoxels 0: 0.984 / 0.991.)
   double best128 = 0, best256 = 0;
   const double t128 = sweepBestThreshold(cached(128, 128, 128), "128^3", &best128);
   const Overlap at128 = thresholdOverlap(cached(128, 128, 128), kCorticalThresholdHu);
@@ -206,7 +203,7 @@ TEST(PhantomIntensity, CorticalThresholdFindsTheCorticalTruth) {
   const Overlap at256 = thresholdOverlap(cached(256, 256, 256), kCorticalThresholdHu);
   std::printf("256^3: best %.0f HU (Dice %.4f); at %.0f HU Dice %.4f recall %.4f\n", t256,
               best256, kCorticalThresholdHu, at256.dice, at256.recall);
-  EXPECT_GE(at256.dice, 0.99);
+  EXPECT_GE(at256.dice, 0.988);
   EXPECT_GT(at256.dice, at128.dice);  // finer voxels: fewer three-tissue voxels
   EXPECT_GE(t256, 650);
   EXPECT_LE(t256, 750);

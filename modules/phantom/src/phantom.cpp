@@ -19,7 +19,6 @@ using detail::Classified;
 using detail::Distances;
 
 constexpr int64_t kMinDim = 16, kMaxDim = 1024;
-constexpr int kSuper = 4;  // sub-samples per axis at tissue boundaries
 
 void checkFlexion(double deg) {
   if (!std::isfinite(deg) || deg < 0.0 || deg > 90.0)
@@ -83,21 +82,21 @@ struct Mixed {
   uint16_t label;  ///< majority label of the sub-samples
 };
 
-/// Mean tissue HU and majority label (ties: detail::kTieRank) over 4x4x4 sub-samples of the
-/// voxel at p. Bone groups near the voxel are re-evaluated exactly at every sub-sample. The
-/// leg envelope (skin/fat/muscle surfaces, radii of curvature >= ~40 mm) is linearised from
-/// central differences at the centre, and re-evaluated exactly only at sub-samples the linear
-/// form puts within `exactBandMm` of a surface (beyond the linearisation error): same result
-/// as exact evaluation, a fraction of the cost. Far groups keep their centre values (their
-/// sign cannot change in the voxel).
+/// Mean tissue HU and majority label (ties: detail::kTieRank) over the sub-samples `off`
+/// (mm from the voxel centre p, all within `cloudMm` of it). Bone groups near the voxel are
+/// re-evaluated exactly at every sub-sample. The leg envelope (skin/fat/muscle surfaces,
+/// radii of curvature >= ~40 mm) is linearised from central differences at the centre, and
+/// re-evaluated exactly only at sub-samples the linear form puts within `exactBandMm` of a
+/// surface (beyond the linearisation error): same result as exact evaluation, a fraction of
+/// the cost. Far groups keep their centre values (their sign cannot change in the voxel).
 Mixed mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, uint32_t near,
-              const std::array<Vec3, kSuper>& off, double exactBandMm,
+              const std::array<Vec3, kSubSamples>& off, double cloudMm, double exactBandMm,
               const std::array<double, detail::kTissueCount>& hu) {
   Vec3 gradOuter, gradMuscle;  // the fat surface is the outer one offset: same gradient
   bool leg = (near & detail::gLeg) != 0;
   uint32_t exact = near & ~uint32_t{detail::gLeg};
   // Across the thigh/calf seam the envelope is not smooth: no linearisation there.
-  if (leg && std::abs(anatomy.seamDistance(p)) < norm(off[kSuper - 1]) + 0.1) {
+  if (leg && std::abs(anatomy.seamDistance(p)) < cloudMm + 0.1) {
     exact |= detail::gLeg;
     leg = false;
   }
@@ -120,58 +119,47 @@ Mixed mixture(const Anatomy& anatomy, const Vec3& p, const Distances& centre, ui
                            centre.femurCartilage < 0 || centre.tibiaCartilage < 0;
   if (leg && exact == 0 && !insideOther) {
     // Fast path, the common case: only the skin/fat/muscle surfaces cross the voxel.
-    std::array<double, kSuper> ox{}, oy{}, oz{}, mx{}, my{}, mz{};
-    for (int a = 0; a < kSuper; ++a) {
-      ox[a] = gradOuter.x * off[a].x;
-      oy[a] = gradOuter.y * off[a].y;
-      oz[a] = gradOuter.z * off[a].z;
-      mx[a] = gradMuscle.x * off[a].x;
-      my[a] = gradMuscle.y * off[a].y;
-      mz[a] = gradMuscle.z * off[a].z;
+    for (int n = 0; n < kSubSamples; ++n) {
+      const Vec3& delta = off[n];
+      const double dOuter = dot(gradOuter, delta);
+      double outer = centre.legOuter + dOuter;
+      double fat = centre.legFat + dOuter;
+      double muscle = centre.legMuscle + dot(gradMuscle, delta);
+      if (std::abs(outer) < exactBandMm || std::abs(fat) < exactBandMm ||
+          std::abs(muscle) < exactBandMm) {
+        Distances sub = centre;
+        anatomy.evaluate(p + delta, detail::gLeg, sub);
+        outer = sub.legOuter;
+        fat = sub.legFat;
+        muscle = sub.legMuscle;
+      }
+      const uint16_t label = outer >= 0 ? kAir : muscle < 0 ? kMuscle : fat < 0 ? kFat : kSkin;
+      ++counts[label];
     }
-    for (int c = 0; c < kSuper; ++c)
-      for (int b = 0; b < kSuper; ++b)
-        for (int a = 0; a < kSuper; ++a) {
-          double outer = centre.legOuter + ox[a] + oy[b] + oz[c];
-          double fat = centre.legFat + ox[a] + oy[b] + oz[c];
-          double muscle = centre.legMuscle + mx[a] + my[b] + mz[c];
-          if (std::abs(outer) < exactBandMm || std::abs(fat) < exactBandMm ||
-              std::abs(muscle) < exactBandMm) {
-            Distances sub = centre;
-            anatomy.evaluate(p + Vec3{off[a].x, off[b].y, off[c].z}, detail::gLeg, sub);
-            outer = sub.legOuter;
-            fat = sub.legFat;
-            muscle = sub.legMuscle;
-          }
-          const uint16_t label = outer >= 0 ? kAir : muscle < 0 ? kMuscle : fat < 0 ? kFat : kSkin;
-          ++counts[label];
-        }
     // The four leg labels have one tissue each: sum their HU by count.
     sum = counts[kAir] * hu[detail::tAir] + counts[kSkin] * hu[detail::tSkin] +
           counts[kFat] * hu[detail::tFat] + counts[kMuscle] * hu[detail::tMuscle];
-    return {sum / (kSuper * kSuper * kSuper), detail::majorityLabel(counts.data())};
+    return {sum / kSubSamples, detail::majorityLabel(counts.data())};
   }
-  for (int c = 0; c < kSuper; ++c)
-    for (int b = 0; b < kSuper; ++b)
-      for (int a = 0; a < kSuper; ++a) {
-        const Vec3 delta{off[a].x, off[b].y, off[c].z};
-        Distances sub = centre;
-        uint32_t groups = exact;
-        if (leg) {
-          const double dOuter = dot(gradOuter, delta);
-          sub.legOuter = centre.legOuter + dOuter;
-          sub.legFat = centre.legFat + dOuter;
-          sub.legMuscle = centre.legMuscle + dot(gradMuscle, delta);
-          if (std::abs(sub.legOuter) < exactBandMm || std::abs(sub.legFat) < exactBandMm ||
-              std::abs(sub.legMuscle) < exactBandMm)
-            groups |= detail::gLeg;
-        }
-        if (groups) anatomy.evaluate(p + delta, groups, sub);
-        const Classified c = Anatomy::classify(sub);
-        sum += hu[c.tissue];
-        ++counts[c.label];
-      }
-  return {sum / (kSuper * kSuper * kSuper), detail::majorityLabel(counts.data())};
+  for (int n = 0; n < kSubSamples; ++n) {
+    const Vec3& delta = off[n];
+    Distances sub = centre;
+    uint32_t groups = exact;
+    if (leg) {
+      const double dOuter = dot(gradOuter, delta);
+      sub.legOuter = centre.legOuter + dOuter;
+      sub.legFat = centre.legFat + dOuter;
+      sub.legMuscle = centre.legMuscle + dot(gradMuscle, delta);
+      if (std::abs(sub.legOuter) < exactBandMm || std::abs(sub.legFat) < exactBandMm ||
+          std::abs(sub.legMuscle) < exactBandMm)
+        groups |= detail::gLeg;
+    }
+    if (groups) anatomy.evaluate(p + delta, groups, sub);
+    const Classified c = Anatomy::classify(sub);
+    sum += hu[c.tissue];
+    ++counts[c.label];
+  }
+  return {sum / kSubSamples, detail::majorityLabel(counts.data())};
 }
 
 int16_t toHu(double v) {
@@ -185,6 +173,9 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
   checkFlexion(options.kneeFlexionDeg);
   if (!(std::isfinite(options.noiseSigmaHu) && options.noiseSigmaHu >= 0))
     throw Error("phantom: noiseSigmaHu must be finite and >= 0");
+  if (!(options.psfSmoothingVoxels >= 0.0 && options.psfSmoothingVoxels <= 1.0))
+    throw Error("phantom: psfSmoothingVoxels must be within [0, 1], got " +
+                std::to_string(options.psfSmoothingVoxels));
   // CT (int16) and labels (uint16) together, before either is allocated.
   checkMemoryBudget(g.dims, sizeof(int16_t) + sizeof(uint16_t), "phantom CT + labels");
 
@@ -194,13 +185,14 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
   const Anatomy anatomy(options.kneeFlexionDeg);
   const auto hu = tissueHu(options.hu);
   const Vec3 s = g.spacing;
-  // Sub-samples lie within 3/8 voxel of the centre per axis; a structure whose |distance| at
-  // the centre exceeds half the voxel diagonal cannot change across them (the distances are
-  // ~1-Lipschitz; the extra 1/8 is margin for the approximate ellipse distances).
-  const double nearMm = 0.5 * norm(s) + 0.05;
+  // Sub-samples lie within (1 + smoothing) / 2 voxel of the centre per axis (radius `cloud`);
+  // a structure whose |distance| at the centre exceeds that cannot change across them (the
+  // distances are ~1-Lipschitz; 15% + 0.05 mm is margin for the approximate ellipse ones).
+  const double smoothing = options.psfSmoothingVoxels;
+  const double cloud = 0.5 * (1.0 + smoothing) * norm(s);
+  const double nearMm = 1.15 * cloud + 0.05;
   // Linearising the leg over the sub-sample cloud (radius r) errs by about r^2 / (2 R) with
   // R >= 40 mm: sub-samples closer than twice that (and 0.1 mm) to a surface are exact.
-  const double cloud = 0.375 * norm(s);
   const double exactBandMm = std::max(0.1, cloud * cloud / 40.0);
   const Dims d = g.dims;
   const double sigma = options.noiseSigmaHu;
@@ -210,12 +202,7 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
 
   progress.begin("Generating knee phantom", static_cast<uint64_t>(d.z));
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    // Sub-sample offsets (mm) along each axis.
-    std::array<Vec3, kSuper> off{};
-    for (int a = 0; a < kSuper; ++a) {
-      const double f = (a + 0.5) / kSuper - 0.5;
-      off[a] = Vec3{f * s.x, f * s.y, f * s.z};
-    }
+    std::array<Vec3, kSubSamples> off{};  // sub-sample offsets (mm) of the current voxel
     for (int64_t k = k0; k < k1; ++k) {
       for (int64_t j = 0; j < d.y; ++j) {
         size_t idx = static_cast<size_t>((k * d.y + j) * d.x);
@@ -229,7 +216,9 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
           double v = hu[c.tissue];
           uint16_t label = c.label;
           if (options.partialVolume && near != 0) {
-            const Mixed m = mixture(anatomy, p, dist, near, off, exactBandMm, hu);
+            off = subSampleOffsets(i, j, k, smoothing);
+            for (Vec3& o : off) o = Vec3{o.x * s.x, o.y * s.y, o.z * s.z};
+            const Mixed m = mixture(anatomy, p, dist, near, off, cloud, exactBandMm, hu);
             v = m.hu;
             label = m.label;
           }

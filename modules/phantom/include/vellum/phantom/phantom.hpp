@@ -18,18 +18,22 @@
 // Every structure is a signed distance function (samplePhantom gives the point truth).
 //
 // Voxel truth (labels) = the MAJORITY structure of the voxel, i.e. the label held by most of
-// the same 4x4x4 sub-samples whose tissue HU average into the CT value (ties: bone cortex >
-// bone marrow/core > cartilage > muscle > fat > skin > air). Voxels with no boundary within
-// half a voxel diagonal hold a single structure and take it unchanged. So the label is the
+// the same 64 sub-samples (subSampleOffsets: one jittered sample in each of 4x4x4 strata of
+// a smooth point-spread function about one voxel wide) whose tissue HU average into the CT
+// value (ties: bone cortex > bone marrow/core > cartilage > muscle > fat > skin > air).
+// Voxels with no boundary within the PSF's reach (just under one voxel per axis) hold a
+// single structure and take it unchanged. So the label is the
 // tissue that dominates the voxel's HU: a threshold half-way between two tissues recovers it
 // except where three tissues share a voxel. With partialVolume = false the CT samples the
 // voxel centre only, and the labels do too (the structure containing the centre).
 // Bones are separate 26-connected components (tested at 2.8 x 2.8 x 3.4 mm and finer,
 // flexion 0..90 degrees; the 5 mm joint gap is the limit).
 // Cortical-bone threshold: 700 HU (about half-way from cortex to marrow/muscle/cartilage)
-// against isCorticalBone, default options: Dice 0.984 at 128^3 (best 0.9855 at 690-695 HU),
-// 0.992 at 256^3 (tests/phantom/phantom_intensity_test.cpp). A +300 HU threshold also takes
+// against isCorticalBone, default options: Dice 0.981 at 128^3 (best 0.981 at 725 HU),
+// 0.990 at 256^3 (tests/phantom/phantom_intensity_test.cpp; with psfSmoothingVoxels = 0,
+// a box PSF: 0.984 and 0.991). A +300 HU threshold also takes
 // the cancellous cores (450 HU): it finds whole bones, not cortex.
+#include <array>
 #include <cstdint>
 
 #include "vellum/core/label_volume.hpp"
@@ -68,6 +72,9 @@ struct TissueHu {
 /// above it are, by majority, cortex (isCorticalBone).
 inline constexpr double kCorticalThresholdHu = 700.0;
 
+/// Default PhantomOptions::psfSmoothingVoxels.
+inline constexpr double kDefaultPsfSmoothing = 0.9;
+
 struct PhantomOptions {
   /// Voxels per axis. The field of view is fixed (physical size of the leg does not change
   /// with resolution): 180 x 180 x 220 mm, so spacing = fov / dims unless `spacing` is set.
@@ -78,9 +85,15 @@ struct PhantomOptions {
   Vec3 fieldOfViewMm{180, 180, 220};
   uint64_t seed = 1;
   double noiseSigmaHu = 15.0;  ///< Gaussian noise, deterministic per voxel
-  /// Supersample tissue boundaries (4x4x4 at edges): CT = mean HU, label = majority. False:
-  /// both from the voxel centre only.
+  /// Supersample tissue boundaries (subSampleOffsets at edges): CT = mean HU, label =
+  /// majority. False: both from the voxel centre only.
   bool partialVolume = true;
+  /// Width (voxels, 0..1) of the box that smooths the partial-volume point-spread function:
+  /// the PSF per axis is the voxel's box convolved with a box this wide (a trapezoid; 1 = a
+  /// tent). 0 averages over the voxel's box only, whose kinked edge profile the renderer's
+  /// interpolation and gradients alias into "wood grain" rings along voxel layers; 0.9
+  /// removes them while keeping thin cortex recoverable (see kCorticalThresholdHu).
+  double psfSmoothingVoxels = kDefaultPsfSmoothing;
   double kneeFlexionDeg = 0.0; ///< tibia rotated about the joint's medio-lateral axis
   TissueHu hu;
 };
@@ -96,12 +109,27 @@ struct Phantom {
 /// `progress` is cancelled. The volume is centred on (0,0,0) mm with identity direction.
 Phantom makePhantom(const PhantomOptions& options = {}, Progress& progress = Progress::none());
 
+/// Partial-volume sub-samples per voxel: one in each of 4 x 4 x 4 strata.
+inline constexpr int kSubSamples = 64;
+
+/// Index-space offsets from the centre of voxel (i, j, k) of the sub-samples whose mean
+/// tissue HU is the voxel's CT value and whose majority structure is its label. They sample
+/// the point-spread function (per axis: the voxel's box convolved with a box
+/// `psfSmoothingVoxels` wide, clamped to [0, 1]; each coordinate within
+/// (1 + psfSmoothingVoxels) / 2): sample a + 4b + 16c lies in quantile stratum (a, b, c) of
+/// the PSF at a pseudo-random position (a deterministic hash of i, j, k; independent of the
+/// seed, so the truth is too). Along each axis the 64 samples also lie in 64 distinct
+/// quantile slices, so a voxel's tissue fraction follows a moving surface smoothly (at most
+/// one sample off for axis-aligned surfaces) instead of in the steps of a regular grid.
+std::array<Vec3, kSubSamples> subSampleOffsets(int64_t i, int64_t j, int64_t k,
+                                               double psfSmoothingVoxels = kDefaultPsfSmoothing);
+
 /// The four bones (rigid bodies) of the knee.
 enum class Bone : uint8_t { kNone = 0, kFemur = 1, kTibia = 2, kFibula = 3, kPatella = 4 };
 
 /// The anatomy at one physical point (mm, LPS), without partial volume or noise: the exact
-/// point truth that makePhantom samples at voxel centres (and 4x4x4 sub-voxel positions, whose
-/// majority gives the voxel's label).
+/// point truth that makePhantom samples at voxel centres (and at the subSampleOffsets positions,
+/// whose majority gives the voxel's label).
 struct PhantomPoint {
   uint16_t label = kAir;
   double hu = -1000;       ///< nominal HU of the tissue there (from options.hu)
