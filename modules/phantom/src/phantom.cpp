@@ -4,9 +4,11 @@
 #include <array>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "anatomy.hpp"
 #include "noise.hpp"
+#include "subsamples.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
@@ -200,9 +202,15 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
   int16_t* ct = out.ct.data();
   uint16_t* lab = out.labels.ids().data();
 
+  // The sub-sample patterns (subSampleOffsets), in mm.
+  std::vector<std::array<Vec3, kSubSamples>> patternsMm(detail::kSubSamplePatterns);
+  for (uint32_t n = 0; n < detail::kSubSamplePatterns; ++n) {
+    patternsMm[n] = detail::subSamplePattern(n, smoothing);
+    for (Vec3& o : patternsMm[n]) o = Vec3{o.x * s.x, o.y * s.y, o.z * s.z};
+  }
+
   progress.begin("Generating knee phantom", static_cast<uint64_t>(d.z));
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    std::array<Vec3, kSubSamples> off{};  // sub-sample offsets (mm) of the current voxel
     for (int64_t k = k0; k < k1; ++k) {
       for (int64_t j = 0; j < d.y; ++j) {
         size_t idx = static_cast<size_t>((k * d.y + j) * d.x);
@@ -216,8 +224,7 @@ Phantom makePhantom(const PhantomOptions& options, Progress& progress) {
           double v = hu[c.tissue];
           uint16_t label = c.label;
           if (options.partialVolume && near != 0) {
-            off = subSampleOffsets(i, j, k, smoothing);
-            for (Vec3& o : off) o = Vec3{o.x * s.x, o.y * s.y, o.z * s.z};
+            const auto& off = patternsMm[detail::subSamplePatternIndex(i, j, k)];
             const Mixed m = mixture(anatomy, p, dist, near, off, cloud, exactBandMm, hu);
             v = m.hu;
             label = m.label;

@@ -6,13 +6,16 @@
 // and even an exact box average has kinks that the renderer's interpolation and gradients
 // alias; both terrace iso-surfaces along voxel layers (rings in renders). Jitter makes the
 // fraction unbiased (the per-axis slices bound the error for axis-aligned surfaces to one
-// sample), the smooth trapezoid profile removes the aliasing.
+// sample), the smooth trapezoid profile removes the aliasing. A voxel takes one of
+// kSubSamplePatterns precomputed patterns, picked by a hash of its index (cheap, and still
+// uncorrelated between neighbours).
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 
 #include "noise.hpp"
+#include "subsamples.hpp"
 #include "vellum/phantom/phantom.hpp"
 
 namespace vellum::phantom {
@@ -51,8 +54,6 @@ std::array<uint8_t, 16> permutation16(Draws& r) {
   return p;
 }
 
-}  // namespace
-
 /// Inverse CDF of the density of U(-1/2, 1/2) + h U(-1/2, 1/2) (a trapezoid; h = 0: the
 /// voxel's box, h = 1: the tent): maps a stratified uniform to a stratified offset.
 double trapezoidInverse(double u, double h) {
@@ -61,15 +62,22 @@ double trapezoidInverse(double u, double h) {
   return u - 0.5;
 }
 
-std::array<Vec3, kSubSamples> subSampleOffsets(int64_t i, int64_t j, int64_t k,
-                                               double psfSmoothingVoxels) {
+}  // namespace
+
+namespace detail {
+
+uint32_t subSamplePatternIndex(int64_t i, int64_t j, int64_t k) {
+  // Fixed salts, not the noise seed: the anatomy (and so the truth) is the same for every seed.
+  const uint64_t h = splitmix64(
+      splitmix64(splitmix64(0xA5C3E1F00D5EEDull ^ static_cast<uint64_t>(i)) ^
+                 static_cast<uint64_t>(j)) ^
+      static_cast<uint64_t>(k));
+  return static_cast<uint32_t>(h >> 56) % kSubSamplePatterns;
+}
+
+std::array<Vec3, kSubSamples> subSamplePattern(uint32_t pattern, double psfSmoothingVoxels) {
   const double h = std::clamp(psfSmoothingVoxels, 0.0, 1.0);
-  // Fixed salt, not the noise seed: the anatomy (and so the truth) is the same for every seed.
-  constexpr uint64_t kSalt = 0x5EB5A3D1C0FFEE01ull;
-  using detail::splitmix64;
-  Draws r(splitmix64(splitmix64(splitmix64(kSalt ^ static_cast<uint64_t>(i)) ^
-                                static_cast<uint64_t>(j)) ^
-                     static_cast<uint64_t>(k)));
+  Draws r(splitmix64(0x5EB5A3D1C0FFEE01ull ^ pattern));
   // Sample (a, b, c) lies in stratum a along x; within it, in slice px[(b, c)] of 16, so the
   // 16 samples of stratum a occupy all 16 slices (likewise for y and z).
   const auto px = permutation16(r), py = permutation16(r), pz = permutation16(r);
@@ -83,6 +91,13 @@ std::array<Vec3, kSubSamples> subSampleOffsets(int64_t i, int64_t j, int64_t k,
         off[a + 4 * b + 16 * c] = Vec3{x, y, z};
       }
   return off;
+}
+
+}  // namespace detail
+
+std::array<Vec3, kSubSamples> subSampleOffsets(int64_t i, int64_t j, int64_t k,
+                                               double psfSmoothingVoxels) {
+  return detail::subSamplePattern(detail::subSamplePatternIndex(i, j, k), psfSmoothingVoxels);
 }
 
 }  // namespace vellum::phantom
