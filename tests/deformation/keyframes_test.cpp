@@ -219,3 +219,25 @@ TEST(Placement, LabelPointsIncludeCentroidsOfEachLabel) {
   EXPECT_LT(norm(pts[8].source - Vec3{11.5, 11.5, 14.5}), 1e-9);
   EXPECT_NEAR(std::abs(pts[9].source.z - pts[10].source.z), 19.0, 1.01);
 }
+
+TEST(Placement, LabelPointsPerConnectedPartOfALabel) {
+  // One label in two separate blobs (like the phantom's cancellous cores, 11, of the fibula
+  // and the patella): a centroid for each blob, none between them.
+  Geometry g;
+  g.dims = {40, 20, 20};
+  LabelVolume lv(g);
+  for (int64_t k = 8; k < 12; ++k)
+    for (int64_t j = 8; j < 12; ++j) {
+      for (int64_t i = 2; i < 6; ++i) lv(i, j, k) = 11;
+      for (int64_t i = 30; i < 34; ++i) lv(i, j, k) = 11;
+    }
+  const auto pts = labelControlPoints(lv);
+  ASSERT_GE(pts.size(), 8u + 2u);
+  EXPECT_LT(norm(pts[8].source - Vec3{3.5, 9.5, 9.5}), 1e-9);
+  bool second = false;
+  for (size_t t = 9; t < pts.size(); ++t) {
+    second = second || norm(pts[t].source - Vec3{31.5, 9.5, 9.5}) < 1e-9;
+    EXPECT_GT(norm(pts[t].source - Vec3{17.5, 9.5, 9.5}), 5.0) << "a point between the blobs";
+  }
+  EXPECT_TRUE(second);
+}
