@@ -2,6 +2,7 @@
 // partial-volume mixing at boundaries, and what a bone threshold recovers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -257,6 +258,46 @@ TEST(PhantomIntensity, ThresholdAndHoleFillingFindWholeBones) {
   }
   EXPECT_GE(2.0 * tp / double(2 * tp + fp + fn), 0.98);
   EXPECT_LT(double(fn), 1e-3 * double(tp));
+}
+
+// Mean angle (degrees) between the central-difference HU gradient and the skin's true normal
+// at air/skin voxels near the knee (z 16..33 mm, where the leg is an elliptic cylinder
+// x^2/rx^2 + y^2/(0.9 rx)^2 = 1 with negligible taper), noise-free.
+double skinNormalErrorDeg(double psfSmoothing) {
+  PhantomOptions o;
+  o.dims = {128, 128, 128};
+  o.noiseSigmaHu = 0;
+  o.psfSmoothingVoxels = psfSmoothing;
+  const Phantom p = makePhantom(o);
+  const Geometry& g = p.ct.geometry();
+  double sum = 0;
+  size_t n = 0;
+  for (int64_t k = 1; k + 1 < g.dims.z; ++k)
+    for (int64_t j = 1; j + 1 < g.dims.y; ++j)
+      for (int64_t i = 1; i + 1 < g.dims.x; ++i) {
+        const Vec3 q = g.indexToPhysical(Vec3{double(i), double(j), double(k)});
+        const double v = p.ct(i, j, k);
+        if (q.z < 16 || q.z > 33 || v < -850 || v > -150) continue;
+        const Vec3 grad{(p.ct(i + 1, j, k) - p.ct(i - 1, j, k)) / g.spacing.x,
+                        (p.ct(i, j + 1, k) - p.ct(i, j - 1, k)) / g.spacing.y,
+                        (p.ct(i, j, k + 1) - p.ct(i, j, k - 1)) / g.spacing.z};
+        const Vec3 normal{-q.x, -q.y / 0.81, 0.0};  // inward: HU rises into the leg
+        const double c = dot(grad, normal) / (norm(grad) * norm(normal));
+        sum += std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / 3.14159265358979;
+        ++n;
+      }
+  EXPECT_GT(n, 1000u);
+  return sum / double(n);
+}
+
+TEST(PhantomIntensity, SmoothPsfRemovesTheLatticeWobbleOfSurfaceNormals) {
+  // A box PSF (even jittered) gives a kinked edge profile whose central differences wobble
+  // with the surface's sub-voxel position: shading shows "wood grain" rings along voxel
+  // layers. The default smooth PSF follows the surface: the gradient is closer to the normal
+  // (the rest is the sampling noise of 64 sub-samples). Measured: box 8.5, smooth 5.9 deg.
+  const double box = skinNormalErrorDeg(0.0), smooth = skinNormalErrorDeg(kDefaultPsfSmoothing);
+  std::printf("skin normal error: box PSF %.2f deg, smooth PSF %.2f deg\n", box, smooth);
+  EXPECT_LT(smooth, 0.8 * box);
 }
 
 }  // namespace

@@ -92,7 +92,9 @@ struct PhantomOptions {
   /// the PSF per axis is the voxel's box convolved with a box this wide (a trapezoid; 1 = a
   /// tent). 0 averages over the voxel's box only, whose kinked edge profile the renderer's
   /// interpolation and gradients alias into "wood grain" rings along voxel layers; 0.9
-  /// removes them while keeping thin cortex recoverable (see kCorticalThresholdHu).
+  /// removes them while keeping thin cortex recoverable (see kCorticalThresholdHu). The
+  /// smoother PSF lowers the peak HU of cortex thinner than a voxel (1.2 mm condyles on
+  /// coarse grids): pass a smaller value where that matters more than smooth renders.
   double psfSmoothingVoxels = kDefaultPsfSmoothing;
   double kneeFlexionDeg = 0.0; ///< tibia rotated about the joint's medio-lateral axis
   TissueHu hu;
