@@ -14,6 +14,10 @@
 #else
 #define VELLUM_SIMD_CLONES
 #endif
+// Lambdas inside the cloned functions must be inlined: called out of line (as at -O0) they
+// are compiled for the baseline target, and passing 32-byte vectors between an AVX2 caller
+// and a baseline callee mismatches the ABI (a stack overflow under AddressSanitizer).
+#define VELLUM_INLINE_LAMBDA __attribute__((always_inline))
 
 namespace vellum::deformation::detail {
 namespace {
@@ -133,12 +137,12 @@ VELLUM_SIMD_CLONES void RowEvaluator::computeWeights() {
     // properties, and hits are decided on the exact squared distance below.
     typedef double v4 __attribute__((vector_size(32)));
     typedef float v4f __attribute__((vector_size(16)));
-    auto load = [](const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; };
-    auto store = [](double* p, v4 v) { std::memcpy(p, &v, sizeof v); };
+    auto load = [](const double* p) VELLUM_INLINE_LAMBDA { v4 r; std::memcpy(&r, p, sizeof r); return r; };
+    auto store = [](double* p, v4 v) VELLUM_INLINE_LAMBDA { std::memcpy(p, &v, sizeof v); };
     const v4 fi = {double(i), double(i), double(i), double(i)};
     const v4 floor2 = {kWeightDist2, kWeightDist2, kWeightDist2, kWeightDist2};
     const v4f one = {1.f, 1.f, 1.f, 1.f};
-    auto loop = [&](auto weightOf) {  // explicit 4-lane vectors: stride_ is a multiple of 4
+    auto loop = [&](auto weightOf) VELLUM_INLINE_LAMBDA {  // explicit 4-lane vectors: stride_ is a multiple of 4
       for (int k = 0; k < stride_; k += 4) {
         const v4 dx = load(vx + k) - tx, dy = load(vy + k) - ty, dz = load(vz + k) - tz;
         const v4 d2 = dx * dx + dy * dy + dz * dz;
@@ -152,11 +156,11 @@ VELLUM_SIMD_CLONES void RowEvaluator::computeWeights() {
       }
     };
     switch (mode) {
-      case 0: loop([](v4 r) { return r; }); break;
-      case 1: loop([](v4 r) { return r * r; }); break;
-      case 2: loop([](v4 r) { for (int l = 0; l < 4; ++l) r[l] = std::sqrt(r[l]); return r; }); break;
-      case 3: loop([](v4 r) { for (int l = 0; l < 4; ++l) r[l] *= std::sqrt(r[l]); return r; }); break;
-      default: loop([n](v4 r) { for (int l = 0; l < 4; ++l) r[l] = std::pow(r[l], 0.5 * n); return r; }); break;
+      case 0: loop([](v4 r) VELLUM_INLINE_LAMBDA { return r; }); break;
+      case 1: loop([](v4 r) VELLUM_INLINE_LAMBDA { return r * r; }); break;
+      case 2: loop([](v4 r) VELLUM_INLINE_LAMBDA { for (int l = 0; l < 4; ++l) r[l] = std::sqrt(r[l]); return r; }); break;
+      case 3: loop([](v4 r) VELLUM_INLINE_LAMBDA { for (int l = 0; l < 4; ++l) r[l] *= std::sqrt(r[l]); return r; }); break;
+      default: loop([n](v4 r) VELLUM_INLINE_LAMBDA { for (int l = 0; l < 4; ++l) r[l] = std::pow(r[l], 0.5 * n); return r; }); break;
     }
   }
   for (int k = 0; k < len_; ++k)
@@ -386,7 +390,7 @@ VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u, i
   const bool constrained = params_.method != MlsMethod::Affine;
   const bool similarity = params_.method == MlsMethod::Similarity;
   const Vec3 sc = p_.sourceCentre;
-  auto load = [](const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; };
+  auto load = [](const double* p) VELLUM_INLINE_LAMBDA { v4 r; std::memcpy(&r, p, sizeof r); return r; };
   for (int k0 = kBegin; k0 < std::min(kEnd, L); k0 += kLanes) {
     // Dominant point per lane.
     v4 wmax = load(w + k0);
@@ -494,9 +498,9 @@ VELLUM_SIMD_CLONES void RowEvaluator::solveBlockedFloat(const double* w, double*
   const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
   const double eps = params_.regularisation;
   const Vec3 sc = p_.sourceCentre;
-  auto load4 = [](const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; };
+  auto load4 = [](const double* p) VELLUM_INLINE_LAMBDA { v4 r; std::memcpy(&r, p, sizeof r); return r; };
   typedef float v4f __attribute__((vector_size(16)));
-  auto load8 = [&](const double* p) {  // 8 doubles -> 8 floats (stride_ is a multiple of 4)
+  auto load8 = [&](const double* p) VELLUM_INLINE_LAMBDA {  // 8 doubles -> 8 floats (stride_ is a multiple of 4)
     const v4f a = __builtin_convertvector(load4(p), v4f), b = __builtin_convertvector(load4(p + 4), v4f);
     return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
   };
