@@ -1,3 +1,4 @@
+#include "vellum/core/flood_fill.hpp"
 #include "vellum/deformation/placement.hpp"
 
 #include <Eigen/Dense>
@@ -109,29 +110,19 @@ ControlPoints labelControlPoints(const LabelVolume& labels, double inset) {
     const int32_t c = static_cast<int32_t>(acc.size());
     Acc a;
     a.id = id;
-    queue.assign(1, start);
     comp[static_cast<size_t>(start)] = c;
-    for (size_t h = 0; h < queue.size(); ++h) {
-      const int64_t p = queue[h];
-      const int64_t i = p % nx, j = (p / nx) % d.y, k = p / nxy;
-      const Vec3 pm = g.indexToPhysical({double(i), double(j), double(k)});
-      const Eigen::Vector3d v(pm.x, pm.y, pm.z);
-      a.n += 1; a.s += v; a.ss += v * v.transpose();
-      for (int64_t dk = -1; dk <= 1; ++dk) {
-        if (k + dk < 0 || k + dk >= d.z) continue;
-        for (int64_t dj = -1; dj <= 1; ++dj) {
-          if (j + dj < 0 || j + dj >= d.y) continue;
-          for (int64_t di = -1; di <= 1; ++di) {
-            if (i + di < 0 || i + di >= d.x) continue;
-            const int64_t q = p + dk * nxy + dj * nx + di;
-            if (ids[q] == id && comp[static_cast<size_t>(q)] < 0) {
-              comp[static_cast<size_t>(q)] = c;
-              queue.push_back(q);
-            }
-          }
-        }
-      }
-    }
+    floodFill26(
+        d, start, queue,
+        [&](int64_t q) {
+          if (ids[q] != id || comp[static_cast<size_t>(q)] >= 0) return false;
+          comp[static_cast<size_t>(q)] = c;
+          return true;
+        },
+        [&](int64_t p) {
+          const Vec3 pm = g.indexToPhysical({double(p % nx), double((p / nx) % d.y), double(p / nxy)});
+          const Eigen::Vector3d v(pm.x, pm.y, pm.z);
+          a.n += 1; a.s += v; a.ss += v * v.transpose();
+        });
     acc.push_back(a);
   }
   ControlPoints pts;

@@ -1,3 +1,4 @@
+#include "vellum/core/flood_fill.hpp"
 #include "vellum/deformation/rigidity.hpp"
 
 #include <Eigen/Dense>
@@ -246,7 +247,7 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
 }  // namespace
 
 RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
-  // classes: 0 air, 1 soft, 2 rigid (not yet split). Label 6-connected components.
+  // classes: 0 air, 1 soft, 2 rigid (not yet split). Label 26-connected components.
   RigidBodies rb;
   const Dims d = classes.dims();
   std::vector<int64_t> queue;
@@ -254,34 +255,22 @@ RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
   std::vector<std::pair<uint16_t, int64_t>> sizes;
   constexpr uint16_t kUnvisited = 0xFFFF;
   for (auto& v : classes.voxels()) if (v == 2) v = kUnvisited;
-  const int64_t nx = d.x, nxy = d.x * d.y, total = d.voxelCount();
+  const int64_t total = d.voxelCount();
   for (int64_t start = 0; start < total; ++start) {
     if (classes.data()[start] != kUnvisited) continue;
     if (next == kUnvisited - 1) throw Error("rigidity: too many rigid components");
     const uint16_t id = next++;
-    queue.clear();
-    queue.push_back(start);
     classes.data()[start] = id;
-    for (size_t h = 0; h < queue.size(); ++h) {
-      const int64_t p = queue[h];
-      const int64_t i = p % nx, j = (p / nx) % d.y, k = p / nxy;
-      // 26-connected: a thin cortex shell touching only along edges/corners stays one body.
-      for (int64_t dk = -1; dk <= 1; ++dk) {
-        if (k + dk < 0 || k + dk >= d.z) continue;
-        for (int64_t dj = -1; dj <= 1; ++dj) {
-          if (j + dj < 0 || j + dj >= d.y) continue;
-          for (int64_t di = -1; di <= 1; ++di) {
-            if (i + di < 0 || i + di >= d.x) continue;
-            const int64_t q = p + dk * nxy + dj * nx + di;
-            if (classes.data()[q] == kUnvisited) {
-              classes.data()[q] = id;
-              queue.push_back(q);
-            }
-          }
-        }
-      }
-    }
-    sizes.push_back({id, static_cast<int64_t>(queue.size())});
+    // 26-connected: a thin cortex shell touching only along edges/corners stays one body.
+    const int64_t count = floodFill26(
+        d, start, queue,
+        [&](int64_t q) {
+          if (classes.data()[q] != kUnvisited) return false;
+          classes.data()[q] = id;
+          return true;
+        },
+        [](int64_t) {});
+    sizes.push_back({id, count});
   }
   // Drop small components (soft tissue) and renumber the rest 2, 3, ...
   std::vector<uint16_t> remap(next, 1);
