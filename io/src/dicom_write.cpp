@@ -135,21 +135,12 @@ void encodeSlice(const Volume<T>& v, int64_t k, const Encoding& e, int16_t* dst)
   }
 }
 
-std::string nowDate() {
-  const std::time_t t = std::time(nullptr);
+/// The UTC time `t` formatted with strftime `format` ("%Y%m%d" for DA, "%H%M%S" for TM).
+std::string formatUtc(std::time_t t, const char* format) {
   std::tm tm{};
   gmtime_r(&t, &tm);
   char buf[32];
-  std::strftime(buf, sizeof buf, "%Y%m%d", &tm);
-  return buf;
-}
-
-std::string nowTime() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%H%M%S", &tm);
+  std::strftime(buf, sizeof buf, format, &tm);
   return buf;
 }
 
@@ -186,7 +177,9 @@ void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
   const Vec3 row = normalized(g.direction.column(0)), col = normalized(g.direction.column(1));
   const Vec3 axis = normalized(g.direction.column(2));
   const Vec3 normal = normalized(cross(row, col));
-  const std::string date = nowDate(), time = nowTime();
+  // One clock reading for both tags, so date and time cannot straddle midnight.
+  const std::time_t now = std::time(nullptr);
+  const std::string date = formatUtc(now, "%Y%m%d"), time = formatUtc(now, "%H%M%S");
   const int digits = std::max<int>(4, static_cast<int>(std::to_string(g.dims.z).size()));
   Progress* progress = options.progress;
 
