@@ -2,7 +2,14 @@
 # included as SYSTEM by their imported targets).
 add_library(vellum_warnings INTERFACE)
 target_compile_options(vellum_warnings INTERFACE -Wall -Wextra -Wpedantic -Wno-psabi)
-if(VELLUM_SANITIZE)
+if(VELLUM_FUZZ)
+  # Coverage instrumentation for every Vellum target; the harnesses link libFuzzer's main.
+  if(NOT CMAKE_CXX_COMPILER_ID STREQUAL "Clang")
+    message(FATAL_ERROR "VELLUM_FUZZ needs clang (CC=clang-14 CXX=clang++-14)")
+  endif()
+  add_compile_options(-fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer -g)
+  add_link_options(-fsanitize=address,undefined)
+elseif(VELLUM_SANITIZE)
   add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
   add_link_options(-fsanitize=address,undefined)
 endif()

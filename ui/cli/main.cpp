@@ -1,12 +1,28 @@
 // `vellum`: the headless command line of the Vellum volume workstation.
 #include <CLI/CLI.hpp>
 
+#include <csignal>
 #include <iostream>
 
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/progress.hpp"
+
+namespace {
+
+/// First Ctrl-C / SIGTERM: cancel the running work through Progress, which unwinds through
+/// the atomic writers (no temporary file is left, no output is half-written) and exits 130.
+/// A second one kills at once (the default action).
+extern "C" void onInterrupt(int sig) {
+  vellum::Progress::requestCancelEverywhere();
+  std::signal(sig, SIG_DFL);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
+  std::signal(SIGINT, onInterrupt);
+  std::signal(SIGTERM, onInterrupt);
   CLI::App app{"Vellum: CT volume loading, segmentation, deformation and rendering", "vellum"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "vellum 0.1.0");

@@ -6,6 +6,17 @@
 
 namespace vellum {
 
+namespace {
+// Lock-free, so that a signal handler may store to it.
+std::atomic<bool> gCancelEverywhere{false};
+static_assert(std::atomic<bool>::is_always_lock_free);
+}  // namespace
+
+void Progress::requestCancelEverywhere() noexcept { gCancelEverywhere.store(true); }
+bool Progress::cancelRequestedEverywhere() noexcept {
+  return gCancelEverywhere.load(std::memory_order_relaxed);
+}
+
 void Progress::begin(const std::string& stage, uint64_t totalUnits) {
   std::lock_guard lock(reportMutex_);
   stage_ = stage;
@@ -36,7 +47,7 @@ void Progress::end() {
 }
 
 void Progress::checkCancelled() const {
-  if (cancelled_.load(std::memory_order_relaxed)) throw Cancelled();
+  if (cancelled_.load(std::memory_order_relaxed) || cancelRequestedEverywhere()) throw Cancelled();
 }
 
 double Progress::fraction() const {

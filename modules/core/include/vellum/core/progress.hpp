@@ -27,7 +27,13 @@ class Progress {
   void checkCancelled() const;
 
   void cancel() { cancelled_.store(true); }
-  bool cancelled() const { return cancelled_.load(); }
+  bool cancelled() const { return cancelled_.load() || cancelRequestedEverywhere(); }
+
+  /// Cancels every Progress in the process (their next advance()/checkCancelled() throws).
+  /// Async-signal-safe: the CLI calls it from its SIGINT/SIGTERM handler so that Ctrl-C
+  /// unwinds through the atomic writers and leaves no temporary files behind.
+  static void requestCancelEverywhere() noexcept;
+  static bool cancelRequestedEverywhere() noexcept;
   double fraction() const;
 
   /// A do-nothing instance for callers that do not care.
