@@ -18,17 +18,19 @@
 namespace vellum::fuzz {
 
 /// A per-process scratch folder (removed at exit) holding the current input file.
-inline std::filesystem::path scratchDir() {
-  static const std::filesystem::path dir = [] {
-    auto d = std::filesystem::temp_directory_path() / ("vellum-fuzz-" + std::to_string(::getpid()));
-    std::filesystem::create_directories(d);
+inline const std::filesystem::path& scratchDir() {
+  // Never destroyed: the atexit handler below runs after static destructors would have.
+  static const auto* dir = [] {
+    auto* d = new std::filesystem::path(std::filesystem::temp_directory_path() /
+                                        ("vellum-fuzz-" + std::to_string(::getpid())));
+    std::filesystem::create_directories(*d);
     std::atexit([] {
       std::error_code ignored;
       std::filesystem::remove_all(scratchDir(), ignored);
     });
     return d;
   }();
-  return dir;
+  return *dir;
 }
 
 inline std::filesystem::path writeInput(const uint8_t* data, size_t size, const std::string& name) {

@@ -101,3 +101,27 @@ TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
                     "--out", (dir / "knee.nrrd").string()}),
                Error);
 }
+
+// Issue 7: a given --power must win over the point file's, even when it equals the default.
+TEST(DeformCli, GivenPowerOverridesThePointFilesPower) {
+  const auto dir = vellum::test::tempDir("deform-power");
+  phantom::PhantomOptions o;
+  o.dims = {24, 24, 24};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  run({"controls", (dir / "ct.nrrd").string(), "--out", (dir / "cp.json").string()});
+  auto pf = deformation::loadControlPoints(dir / "cp.json");
+  pf.power = 3;
+  pf.points[0].target = pf.points[0].source + Vec3{2, 0, 0};
+  deformation::saveControlPoints(pf, dir / "p3.json");
+  const auto powerUsed = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"deform", (dir / "ct.nrrd").string(), "--points", (dir / "p3.json").string(),
+                                  "--out", (dir / "out.nrrd").string(), "--report", (dir / "r.json").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    run(args);
+    return nlohmann::json::parse(std::ifstream(dir / "r.json"))["power"].get<double>();
+  };
+  EXPECT_EQ(powerUsed({}), 3.0);                  // the file's
+  EXPECT_EQ(powerUsed({"--power", "2"}), 2.0);    // given, equal to the default: still wins
+  EXPECT_EQ(powerUsed({"--power", "4"}), 4.0);
+}

@@ -1,4 +1,4 @@
-// MLS backward mapping (algorithms.md 1.1, 1.2): analytic properties.
+// MLS backward mapping ([HVD 1.1, 1.2] in docs/references.md): analytic properties.
 #include <gtest/gtest.h>
 
 #include "test_helpers.hpp"

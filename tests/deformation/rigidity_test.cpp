@@ -1,4 +1,4 @@
-// Bone rigidity on the knee phantom (algorithms.md 1.3, 1.6).
+// Bone rigidity on the knee phantom ([HVD 1.3, 1.6] in docs/references.md).
 #include <gtest/gtest.h>
 
 #include <map>

@@ -12,31 +12,46 @@
 
 namespace vellum::test {
 
-ImageDiff compareImages(const RgbaImage& a, const RgbaImage& b) {
+ImageDiff compareImages(const RgbaImage& a, const RgbaImage& b, const std::vector<uint8_t>* mask) {
   if (a.width != b.width || a.height != b.height) throw std::runtime_error("image sizes differ");
   ImageDiff d;
   std::array<uint64_t, 256> histogram{};
   double sumSq = 0;
+  size_t compared = 0;
   for (size_t i = 0; i < a.pixels.size(); ++i) {
+    if (mask && !(*mask)[i / 4]) continue;
+    ++compared;
     const int diff = std::abs(int(a.pixels[i]) - int(b.pixels[i]));
     d.meanAbs[i % 4] += diff;
     ++histogram[static_cast<size_t>(diff)];
     sumSq += double(diff) * diff;
     d.maxAbs = std::max(d.maxAbs, double(diff));
   }
-  const double pixels = double(a.pixels.size() / 4);
+  if (compared == 0) {
+    d.psnr = std::numeric_limits<double>::infinity();
+    return d;
+  }
+  const double pixels = double(compared / 4);
   for (double& m : d.meanAbs) m /= pixels;
   uint64_t seen = 0;
   for (int v = 0; v < 256; ++v) {
     seen += histogram[size_t(v)];
-    if (double(seen) >= 0.99 * double(a.pixels.size())) {
+    if (double(seen) >= 0.99 * double(compared)) {
       d.p99 = v;
       break;
     }
   }
-  const double mse = sumSq / double(a.pixels.size());
+  const double mse = sumSq / double(compared);
   d.psnr = mse > 0 ? 10 * std::log10(255.0 * 255.0 / mse) : std::numeric_limits<double>::infinity();
   return d;
+}
+
+std::vector<uint8_t> objectMask(const RgbaImage& a, const RgbaImage& b, std::array<uint8_t, 4> background) {
+  std::vector<uint8_t> mask(a.pixels.size() / 4, 0);
+  for (size_t p = 0; p < mask.size(); ++p)
+    mask[p] = std::memcmp(a.pixels.data() + 4 * p, background.data(), 4) != 0 ||
+              std::memcmp(b.pixels.data() + 4 * p, background.data(), 4) != 0;
+  return mask;
 }
 
 void writePng(const RgbaImage& image, const std::filesystem::path& path) {

@@ -1,6 +1,7 @@
 // GL ray caster on llvmpipe (EGL): against the CPU reference, analytic geometry, and goldens.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -244,6 +245,18 @@ TEST(RenderGl, GoldenImages) {
     const double meanAll = (d.meanAbs[0] + d.meanAbs[1] + d.meanAbs[2] + d.meanAbs[3]) / 4;
     std::cout << "[ gold ] " << presetName(p) << ": psnr " << d.psnr << " dB, mean " << meanAll << "\n";
     EXPECT_TRUE(d.psnr >= 40.0 || meanAll <= 1.0) << presetName(p) << " psnr " << d.psnr;
+    // Inside the object's footprint too: bone covers a few percent of the frame, so a large
+    // shading error there would hardly move the whole-image figures.
+    const auto& bg = baseSettings(p, 256, 256).background;
+    const std::array<uint8_t, 4> bg8{uint8_t(std::lround(bg[0] * 255)), uint8_t(std::lround(bg[1] * 255)),
+                                     uint8_t(std::lround(bg[2] * 255)), uint8_t(std::lround(bg[3] * 255))};
+    const auto mask = test::objectMask(img, golden, bg8);
+    const test::ImageDiff inside = test::compareImages(img, golden, &mask);
+    const double meanInside = (inside.meanAbs[0] + inside.meanAbs[1] + inside.meanAbs[2] + inside.meanAbs[3]) / 4;
+    std::cout << "[ gold ] " << presetName(p) << " inside the object: psnr " << inside.psnr << " dB, mean "
+              << meanInside << "\n";
+    EXPECT_GT(std::count(mask.begin(), mask.end(), uint8_t{1}), 256 * 256 / 100) << presetName(p);
+    EXPECT_TRUE(inside.psnr >= 35.0 && meanInside <= 1.5) << presetName(p) << " inside psnr " << inside.psnr;
   }
 }
 

@@ -32,15 +32,15 @@ void EngineOptions::addTo(CLI::App& cmd) {
   cmd.add_option("--tolerance", tolerance, "stop iterating when no node moved more than this (mm)");
   cmd.add_option("--rays", rays, "density ray integration: linear | conic")->capture_default_str();
   cmd.add_option("--mip", mip, "conic rays: mip reduction mean | max")->capture_default_str();
-  cmd.add_flag("--paper-rho", paperRho, "use the paper's rho (not divided by the segment length)");
+  cmd.add_flag("--paper-rho", paperRho, "use [HVD]'s rho, not divided by the segment length (see docs/references.md)");
   cmd.add_option("--control-scale", controlScale, "control-volume coarsening s (1, 2, 4)")->capture_default_str();
   cmd.add_option("--upsampling", upsampling, "map upsampling: trilinear | gaussian")->capture_default_str();
 }
 
 DeformParams EngineOptions::params(std::optional<double> filePower) const {
   DeformParams p;
-  p.mls.power = filePower.value_or(2.0);
-  if (power != 2 || !filePower) p.mls.power = power;
+  // A given --power wins over the point file's; otherwise the file's, else the default.
+  p.mls.power = power ? *power : filePower.value_or(p.mls.power);
   p.mls.method = parseMlsMethod(method);
   p.controlScale = controlScale;
   if (controlScale < 1 || controlScale > 16) throw Error("--control-scale must be in 1..16");
@@ -234,7 +234,7 @@ void addControlsCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("controls", "Place control points (sources = targets) and write them as JSON (mm)");
   cmd->add_option("input", a->input, "volume file or DICOM folder (its box is used)")->required();
   cmd->add_option("--out,-o", a->output, "control-point JSON to write")->required();
-  cmd->add_option("--count", a->count, "points on the bounding box (paper default 16)")->capture_default_str();
+  cmd->add_option("--count", a->count, "points on the bounding box ([HVD]'s default: 16)")->capture_default_str();
   cmd->add_option("--inset", a->inset, "inner offset as a fraction of the box")->capture_default_str();
   cmd->add_option("--from-labels", a->fromLabels,
                   "place points from a label map instead: centroids + surface points of each label, "

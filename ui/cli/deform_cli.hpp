@@ -17,7 +17,7 @@ namespace vellum::cli {
 /// --power, --method, --density-aware, --phi, --phi-min, --iterations, --tolerance, --rays,
 /// --mip, --paper-rho, --control-scale, --upsampling.
 struct EngineOptions {
-  double power = 2;
+  std::optional<double> power;  ///< unset: the point file's power, else 2
   std::string method = "affine";
   bool densityAware = false;
   std::string phi = "min";

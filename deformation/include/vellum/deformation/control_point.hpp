@@ -1,5 +1,5 @@
 #pragma once
-// Control points of an MLS deformation (algorithms.md 1.1, 1.2). Positions in mm (physical,
+// Control points of an MLS deformation ([HVD 1.1, 1.2] in docs/references.md). Positions in mm (physical,
 // LPS), as everywhere at Vellum's public APIs.
 #include <array>
 #include <vector>
@@ -8,7 +8,7 @@
 
 namespace vellum::deformation {
 
-/// Non-spatial attributes a control point carries (algorithms.md 1.2). Interpolated over the
+/// Non-spatial attributes a control point carries ([HVD 1.2] in docs/references.md). Interpolated over the
 /// output volume with the same MLS weights; the renderer applies them.
 struct PointAttributes {
   double lightness = 0;  ///< CIE L* offset (-100..100)

@@ -1,5 +1,5 @@
 #pragma once
-// The control volume (algorithms.md 1.4): the backward map u(v) sampled on an output-space
+// The control volume ([HVD 1.4] in docs/references.md): the backward map u(v) sampled on an output-space
 // grid coarser than the volume by a factor s per axis. Same layout as
 // vellum::render::BackwardMap, so the CLI/studio hand it to the renderer by moving the vectors.
 #include <array>

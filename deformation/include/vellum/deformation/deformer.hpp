@@ -1,6 +1,6 @@
 #pragma once
 // The deformation engine: control points in, control volume (coarse backward map + attribute
-// fields) out. Keeps the rho-field cache (algorithms.md 1.3, beyond the paper): one field per
+// fields) out. Keeps the rho-field cache ([HVD 1.3] in docs/references.md, beyond the paper): one field per
 // control point at control-grid resolution, rebuilt only for points whose SOURCE moved, so
 // dragging targets costs no ray casting.
 #include <memory>

@@ -1,5 +1,5 @@
 #pragma once
-// Density-aware MLS weights (algorithms.md 1.3): w_i = rho(u, x_i) / |v - y_i|^n with
+// Density-aware MLS weights ([HVD 1.3] in docs/references.md): w_i = rho(u, x_i) / |v - y_i|^n with
 //   rho(a, b) = (1 / phi(a, b)) * integral_a^b I(t) dt   (mm, straight segment, SOURCE volume)
 // I is the normalised density: the window [windowLowHu, windowHighHu] mapped to [0,1] and
 // raised to at least phiMin (so empty space behaves like a homogeneous medium of density

@@ -1,5 +1,5 @@
 #pragma once
-// Keyframed deformation animation (algorithms.md 1.5). A keyframe holds the full control-point
+// Keyframed deformation animation ([HVD 1.5] in docs/references.md). A keyframe holds the full control-point
 // set; playback interpolates every point (source, target and attributes) between keyframes.
 #include <string>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-// Moving-least-squares backward mapping (algorithms.md 1.1, 1.2): for an OUTPUT position v,
+// Moving-least-squares backward mapping ([HVD 1.1, 1.2] in docs/references.md): for an OUTPUT position v,
 // the INPUT position u = f_s(v) it is fetched from.
 //
 //   w_i = 1 / |v - y_i|^n        (times rho_i with density-aware weights, see density.hpp)

@@ -1,5 +1,5 @@
 #pragma once
-// Where control points start (algorithms.md 1.5): the paper's default on the bounding box with
+// Where control points start ([HVD 1.5] in docs/references.md): the paper's default on the bounding box with
 // an inner offset, and (beyond the paper) points placed from a segmentation. Sources = targets.
 #include <optional>
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-// Bone stays rigid (algorithms.md 1.6): rigid bodies from labels (or a HU threshold), a
+// Bone stays rigid ([HVD 1.6] in docs/references.md): rigid bodies from labels (or a HU threshold), a
 // segmentation-aware constraint that blends the backward map towards each body's best rigid
 // fit, and the measures (bone RMS non-rigid residual, soft-tissue displacement, fold-over).
 #include <array>

@@ -1,5 +1,5 @@
 #pragma once
-// Full-resolution synthesis of a deformed volume (algorithms.md 1.4): upsample the control
+// Full-resolution synthesis of a deformed volume ([HVD 1.4] in docs/references.md): upsample the control
 // volume's COORDINATES to every output voxel, then fetch the source there (trilinear,
 // background outside). Same geometry and voxel type as the source.
 #include "vellum/core/progress.hpp"

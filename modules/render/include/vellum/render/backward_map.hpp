@@ -2,7 +2,7 @@
 // A deformation as the renderer consumes it: the backward map u(v) sampled on a (usually
 // coarse) grid over OUTPUT space, plus optional per-node attribute offsets. The renderer
 // interpolates u trilinearly per ray sample and fetches the source volume at u, so no
-// full-resolution deformed volume is ever made (algorithms.md 1.4).
+// full-resolution deformed volume is ever made ([HVD 1.4] in docs/references.md).
 //
 // How it is rendered (GL shader and renderReferenceCpu alike):
 // - rays are clipped to the grid's voxel box ([-0.5, dims-0.5] in grid index space) and
