@@ -61,6 +61,19 @@ struct Child {
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   }
   std::string errors() const { return readAll(stderrPath); }
+  /// Waits until the child catches `sig` (its handler is installed: /proc/PID/status SigCgt),
+  /// so that a slow start-up (sanitizer builds) does not turn the test into a race.
+  bool waitUntilCatching(int sig) const {
+    for (int i = 0; i < 1000; ++i) {
+      std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+      std::string line;
+      while (std::getline(status, line))
+        if (line.rfind("SigCgt:", 0) == 0 && (std::stoull(line.substr(7), nullptr, 16) >> (sig - 1)) & 1u)
+          return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return false;
+  }
 };
 
 int run(const std::vector<std::string>& args, const fs::path& errFile,
@@ -179,7 +192,8 @@ TEST(Faults, InterruptCancelsAndLeavesNoTemporaryFiles) {
     Child c({"phantom", "--size", "256", "--out", (dir / "knee.nrrd").string(), "--labels",
              (dir / "labels.nrrd").string()},
             dir / "err.txt");
-    std::this_thread::sleep_for(std::chrono::milliseconds(400));
+    ASSERT_TRUE(c.waitUntilCatching(sig));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // well into the work
     ::kill(c.pid, sig);
     const int rc = c.wait();
     EXPECT_EQ(rc, 130) << "signal " << sig << ": " << c.errors();
