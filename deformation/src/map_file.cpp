@@ -11,45 +11,11 @@
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
+#include "vellum/io/nrrd_writer.hpp"
 
 namespace vellum::deformation {
 namespace fs = std::filesystem;
 namespace {
-
-std::string vec(const Vec3& v) {
-  std::ostringstream s;
-  s.precision(17);
-  s << "(" << v.x << "," << v.y << "," << v.z << ")";
-  return s.str();
-}
-
-// Streams `n` bytes through zlib's gzip wrapper (level 1: floats gain little from more effort).
-void writeGzip(std::ofstream& out, const void* data, size_t n, const fs::path& path) {
-  z_stream z{};
-  if (deflateInit2(&z, 1, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK)
-    throw FileError(path, "zlib initialisation failed");
-  std::vector<unsigned char> buf(1 << 20);
-  const auto* src = static_cast<const unsigned char*>(data);
-  size_t left = n;
-  int rc = Z_OK;
-  do {
-    const size_t take = std::min<size_t>(left, 1u << 30);
-    z.next_in = const_cast<unsigned char*>(src);
-    z.avail_in = static_cast<uInt>(take);
-    src += take;
-    left -= take;
-    const int flush = left == 0 ? Z_FINISH : Z_NO_FLUSH;
-    do {
-      z.next_out = buf.data();
-      z.avail_out = static_cast<uInt>(buf.size());
-      rc = deflate(&z, flush);
-      if (rc == Z_STREAM_ERROR) { deflateEnd(&z); throw FileError(path, "gzip compression failed"); }
-      out.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size() - z.avail_out));
-    } while (z.avail_out == 0);
-  } while (left > 0);
-  deflateEnd(&z);
-  if (rc != Z_STREAM_END) throw FileError(path, "gzip compression did not finish");
-}
 
 Vec3 parseVec(const fs::path& path, const std::string& text) {
   Vec3 v;
@@ -67,31 +33,14 @@ void saveBackwardMapNrrd(const std::vector<float>& map, const Geometry& g, const
   if (map.size() != 3 * static_cast<size_t>(g.dims.voxelCount()))
     throw FileError(path, "backward map has " + std::to_string(map.size()) + " floats, the grid " +
                               g.dims.str() + " needs 3 per voxel");
-  fs::path tmp = path;
-  tmp += ".tmp-vellum";
-  try {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw FileError(path, "cannot write (folder missing or not writable?)");
-    out << "NRRD0004\n# Vellum backward map: source position (mm, LPS) of every output voxel\n"
-        << "type: float\ndimension: 4\nspace: left-posterior-superior\n"
-        << "sizes: 3 " << g.dims.x << " " << g.dims.y << " " << g.dims.z << "\n"
-        << "space directions: none " << vec(g.direction.column(0) * g.spacing.x) << " "
-        << vec(g.direction.column(1) * g.spacing.y) << " " << vec(g.direction.column(2) * g.spacing.z) << "\n"
-        << "kinds: vector domain domain domain\nendian: little\nencoding: " << (gzip ? "gzip" : "raw") << "\n"
-        << "space origin: " << vec(g.origin) << "\nspace units: \"mm\" \"mm\" \"mm\"\n\n";
-    static_assert(std::endian::native == std::endian::little, "the map is written in host order");
-    if (gzip) writeGzip(out, map.data(), map.size() * sizeof(float), path);
-    else out.write(reinterpret_cast<const char*>(map.data()), static_cast<std::streamsize>(map.size() * sizeof(float)));
-    out.close();
-    if (!out) throw FileError(path, "write failed (disk full?)");
-    std::error_code ec;
-    fs::rename(tmp, path, ec);
-    if (ec) throw FileError(path, "cannot rename the temporary file into place: " + ec.message());
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw;
-  }
+  io::NrrdLayout layout;
+  layout.type = "float";
+  layout.leadingSizes = {3};
+  layout.leadingKinds = {"vector"};
+  layout.geometry = g;
+  layout.comments = {"Vellum backward map: source position (mm, LPS) of every output voxel"};
+  layout.extraFields = "space units: \"mm\" \"mm\" \"mm\"\n";
+  io::writeNrrd(path, layout, map.data(), map.size() * sizeof(float), gzip);
 }
 
 std::vector<float> loadBackwardMapNrrd(const fs::path& path, Geometry* gridOut) {

@@ -3,10 +3,10 @@
 #include <nlohmann/json.hpp>
 
 #include <fstream>
-#include <random>
 #include <sstream>
 
 #include "vellum/core/error.hpp"
+#include "vellum/io/nrrd_writer.hpp"
 
 namespace vellum::deformation {
 namespace {
@@ -24,28 +24,7 @@ json readJson(const fs::path& path) {
   }
 }
 
-void writeJson(const json& j, const fs::path& path) {
-  // Atomic: write a sibling temporary, then rename over the target.
-  std::random_device rd;
-  const fs::path tmp = path.parent_path() / (path.filename().string() + ".tmp" + std::to_string(rd()));
-  {
-    std::ofstream out(tmp);
-    if (!out) throw FileError(path, "cannot write");
-    out << j.dump(2) << "\n";
-    out.close();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw FileError(path, "write failed");
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw FileError(path, "cannot rename the temporary file into place");
-  }
-}
+void writeJson(const json& j, const fs::path& path) { io::writeTextFile(path, j.dump(2) + "\n"); }
 
 Vec3 readVec(const json& j, const char* key, const fs::path& path, size_t index) {
   const std::string where = "point " + std::to_string(index) + ": ";

@@ -165,7 +165,9 @@ void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
   const Encoding enc = std::visit([](const auto& v) { return chooseEncoding(v); }, volume);
 
   // Value range (for the display window) in real units.
-  const auto [lo, hi] = std::visit([](const auto& v) { return v.valueRange(); }, volume);
+  // Plain variables, not a structured binding: lambdas below capture them (clang 14 cannot).
+  const auto range = std::visit([](const auto& v) { return v.valueRange(); }, volume);
+  const double lo = range.first, hi = range.second;
 
   gdcm::UIDGenerator uidGen;
   const std::string studyUid = uidGen.Generate();

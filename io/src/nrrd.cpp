@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "io_detail.hpp"
+#include "vellum/io/nrrd_writer.hpp"
 #include "label_fields.hpp"
 #include "vellum/io/atomic_file.hpp"
 
@@ -336,45 +337,16 @@ LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFie
 void saveNrrd(const AnyVolume& v, const fs::path& path, bool gzip, const std::string& modality,
               const std::vector<Label>* labels, Progress* progress) {
   const Geometry& g = geometryOf(v);
-  const bool detached = lower(path.extension().string()) == ".nhdr";
-  const std::string dataName = path.stem().string() + (gzip ? ".raw.gz" : ".raw");
-
-  std::ostringstream hdr;
-  hdr << "NRRD0004\n"
-      << "# Written by Vellum. Format: http://teem.sourceforge.net/nrrd/format.html\n"
-      << "type: " << nrrdTypeName(sampleTypeFor(voxelTypeOf(v))) << "\n"
-      << "dimension: 3\n"
-      << "space: left-posterior-superior\n"
-      << "sizes: " << g.dims.x << " " << g.dims.y << " " << g.dims.z << "\n"
-      << "space directions:";
-  for (int a = 0; a < 3; ++a) {
-    const Vec3 c = g.direction.column(a) * g.spacing[a];
-    hdr << " (" << fmt(c.x) << "," << fmt(c.y) << "," << fmt(c.z) << ")";
-  }
-  hdr << "\nkinds: domain domain domain\n"
-      << "endian: " << (hostEndian() == Endian::Little ? "little" : "big") << "\n"
-      << "encoding: " << (gzip ? "gzip" : "raw") << "\n"
-      << "space origin: (" << fmt(g.origin.x) << "," << fmt(g.origin.y) << "," << fmt(g.origin.z) << ")\n";
-  if (detached) hdr << "data file: " << dataName << "\n";
-  if (!modality.empty()) hdr << "vellum_modality:=" << oneLine(modality) << "\n";
-  if (labels) writeLabelFields(hdr, *labels, g.dims);
-  hdr << "\n";
-  const std::string header = hdr.str();
-
-  std::vector<uint8_t> packed;
-  ByteView body = voxelBytes(v);
-  if (gzip) {
-    if (progress) progress->begin("compressing " + path.filename().string(), 1);
-    packed = deflateBytes(body.data, body.size, true);
-    if (progress) progress->end();
-    body = {packed.data(), packed.size()};
-  }
-  if (detached) {
-    writeAtomically(path.parent_path() / dataName, [&](const fs::path& tmp) { writeBinaryFile(tmp, "", body, progress); });
-    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, {}); });
-  } else {
-    writeAtomically(path, [&](const fs::path& tmp) { writeBinaryFile(tmp, header, body, progress); });
-  }
+  NrrdLayout layout;
+  layout.type = nrrdTypeName(sampleTypeFor(voxelTypeOf(v)));
+  layout.geometry = g;
+  layout.comments = {"Written by Vellum. Format: http://teem.sourceforge.net/nrrd/format.html"};
+  std::ostringstream extra;
+  if (!modality.empty()) extra << "vellum_modality:=" << oneLine(modality) << "\n";
+  if (labels) writeLabelFields(extra, *labels, g.dims);
+  layout.extraFields = extra.str();
+  const ByteView body = voxelBytes(v);
+  writeNrrd(path, layout, body.data, body.size, gzip, progress);
 }
 
 }  // namespace vellum::io::detail

@@ -6,7 +6,7 @@
 #include <iostream>
 
 #include "vellum/core/error.hpp"
-#include "vellum/io/atomic_file.hpp"
+#include "vellum/io/nrrd_writer.hpp"
 
 namespace vellum::cli {
 
@@ -109,13 +109,7 @@ nlohmann::json toJson(const Mat3& m) {
 
 void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path) {
   ensureParentFolder(path);
-  io::writeAtomically(path, [&](const std::filesystem::path& tmp) {
-    std::FILE* f = std::fopen(tmp.c_str(), "wb");
-    if (!f) throw FileError(path, "cannot open for writing");
-    const std::string text = j.dump(2) + "\n";
-    const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size();
-    if (std::fclose(f) != 0 || !ok) throw FileError(path, "write failed");
-  });
+  io::writeTextFile(path, j.dump(2) + "\n");
 }
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {
