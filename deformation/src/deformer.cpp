@@ -7,6 +7,7 @@
 #include "mls_kernel.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/deformation/deform_params.hpp"
 
 namespace vellum::deformation {
 struct RowWork;
@@ -42,6 +43,7 @@ struct Deformer::Impl {
 
 Deformer::Deformer(const AnyVolume& source, const DeformParams& params)
     : impl_(std::make_unique<Impl>()) {
+  validate(params);
   auto& m = *impl_;
   m.params = params;
   m.output = geometryOf(source);

@@ -164,4 +164,19 @@ Mask hysteresis(const VolumeI16& ct, const HysteresisParams& p) {
   return out;
 }
 
+const params::Table<HysteresisParams>& hysteresisParamsTable() {
+  using H = HysteresisParams;
+  static const params::Table<H> table{
+      params::real<H>("strong_lower", [](auto& p) -> auto& { return p.strong.lower; },
+                      {"Strong threshold", "voxels at or above it seed the mask", "HU", -1024, 3071}),
+      params::real<H>("strong_upper", [](auto& p) -> auto& { return p.strong.upper; },
+                      {"Strong upper", "upper end of the seeding interval", "HU", -1024, 3071}),
+      params::real<H>("weak_lower", [](auto& p) -> auto& { return p.weak.lower; },
+                      {"Weak threshold", "voxels at or above it join when connected to a seed", "HU", -1024, 3071}),
+      params::real<H>("weak_upper", [](auto& p) -> auto& { return p.weak.upper; },
+                      {"Weak upper", "upper end of the joining interval", "HU", -1024, 3071}),
+  };
+  return table;
+}
+
 }  // namespace vellum::segmentation

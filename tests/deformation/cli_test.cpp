@@ -119,7 +119,7 @@ TEST(DeformCli, GivenPowerOverridesThePointFilesPower) {
                                   "--out", (dir / "out.nrrd").string(), "--report", (dir / "r.json").string()};
     args.insert(args.end(), extra.begin(), extra.end());
     run(args);
-    return nlohmann::json::parse(std::ifstream(dir / "r.json"))["power"].get<double>();
+    return nlohmann::json::parse(std::ifstream(dir / "r.json"))["params"]["power"].get<double>();
   };
   EXPECT_EQ(powerUsed({}), 3.0);                  // the file's
   EXPECT_EQ(powerUsed({"--power", "2"}), 2.0);    // given, equal to the default: still wins

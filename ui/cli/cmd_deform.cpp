@@ -6,10 +6,13 @@
 #include <memory>
 #include <sstream>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "deform_cli.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/params_json.hpp"
+#include "vellum/deformation/deform_params.hpp"
 #include "vellum/deformation/map_file.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
@@ -23,35 +26,15 @@ namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
 void EngineOptions::addTo(CLI::App& cmd) {
-  cmd.add_option("--power", power, "MLS weight power n in 1/|v-y|^n (default: the file's, else 2)");
-  cmd.add_option("--method", method, "affine | similarity | rigid")->capture_default_str();
-  cmd.add_flag("--density-aware", densityAware, "density-aware weights (bone deforms less)");
-  cmd.add_option("--phi", phi, "density normaliser: min | mean | none")->capture_default_str();
-  cmd.add_option("--phi-min", phiMin, "floor of the normalised density and of phi")->capture_default_str();
-  cmd.add_option("--iterations", iterations, "fixed-point iterations K")->capture_default_str();
-  cmd.add_option("--tolerance", tolerance, "stop iterating when no node moved more than this (mm)");
-  cmd.add_option("--rays", rays, "density ray integration: linear | conic")->capture_default_str();
-  cmd.add_option("--mip", mip, "conic rays: mip reduction mean | max")->capture_default_str();
-  cmd.add_flag("--paper-rho", paperRho, "use [HVD]'s rho, not divided by the segment length (see docs/references.md)");
-  cmd.add_option("--control-scale", controlScale, "control-volume coarsening s (1, 2, 4)")->capture_default_str();
+  options = addFlags(cmd, flags, deformParamsTable());
   cmd.add_option("--upsampling", upsampling, "map upsampling: trilinear | gaussian")->capture_default_str();
 }
 
 DeformParams EngineOptions::params(std::optional<double> filePower) const {
-  DeformParams p;
+  DeformParams p = flags;
   // A given --power wins over the point file's; otherwise the file's, else the default.
-  p.mls.power = power ? *power : filePower.value_or(p.mls.power);
-  p.mls.method = parseMlsMethod(method);
-  p.controlScale = controlScale;
-  if (controlScale < 1 || controlScale > 16) throw Error("--control-scale must be in 1..16");
-  p.density.enabled = densityAware;
-  p.density.phi = parsePhiRule(phi);
-  p.density.phiMin = phiMin;
-  p.density.iterations = iterations;
-  p.density.toleranceMm = tolerance;
-  p.density.rays = parseRayMode(rays);
-  p.density.reduction = parseMipReduction(mip);
-  p.density.lengthNormalised = !paperRho;
+  if (!options.at("power")->count() && filePower) p.mls.power = *filePower;
+  validate(p);
   (void)parseUpsampling(upsampling);
   return p;
 }
@@ -214,15 +197,8 @@ void addDeformCommand(CLI::App& app) {
       report["output"] = a->output;
       report["points"] = pf.points.size();
       report["dims"] = {g.dims.x, g.dims.y, g.dims.z};
-      report["method"] = mlsMethodName(params.mls.method);
-      report["power"] = params.mls.power;
-      report["control_scale"] = params.controlScale;
+      report["params"] = params::toJson(deformParamsTable(), params);  // keys as in `vellum params`
       report["upsampling"] = upsamplingName(up);
-      report["density_aware"] = params.density.enabled;
-      if (params.density.enabled)
-        report["density"] = {{"phi", phiRuleName(params.density.phi)}, {"phi_min", params.density.phiMin},
-                             {"iterations", params.density.iterations}, {"rays", rayModeName(params.density.rays)},
-                             {"length_normalised", params.density.lengthNormalised}};
       report["timings_ms"] = timings;
       writeJsonFile(report, a->report);
     }

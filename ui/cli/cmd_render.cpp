@@ -1,7 +1,8 @@
-// `vellum render IN --out FIG.png [--preset P|all] [--size WxH] [camera, window, background]`
+// `vellum render IN --out FIG.png [--preset P|all] [--size WxH] [render settings, background]`
 #include <iostream>
 #include <memory>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
@@ -13,12 +14,11 @@ namespace {
 
 struct RenderArgs {
   std::string input, output;
-  std::string preset = "soft-tissue";
+  std::string preset = render::presetName(render::RenderSettings{}.preset);
   std::string size = "512x512";
-  double azimuth = 30, elevation = 15, zoom = 1, fov = 30;
-  std::vector<double> pan, window, background;
-  bool transparent = false, noShading = false;
-  double step = 0.5;
+  render::RenderSettings settings;  ///< the table's flags write here
+  std::vector<double> pan, background;
+  bool transparent = false;
   InputOptions in;
 };
 
@@ -37,37 +37,21 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--preset", a->preset, "bone | soft-tissue | skin | mip | all (one figure each, suffixed)")
       ->capture_default_str();
   cmd->add_option("--size", a->size, "image size WxH, up to 4096x4096")->capture_default_str();
-  cmd->add_option("--azimuth", a->azimuth, "camera azimuth in degrees about the superior axis")->capture_default_str();
-  cmd->add_option("--elevation", a->elevation, "camera elevation in degrees")->capture_default_str();
-  cmd->add_option("--zoom", a->zoom, "zoom factor (1 = whole volume)")->capture_default_str();
-  cmd->add_option("--fov", a->fov, "vertical field of view in degrees (0 = orthographic)")->capture_default_str();
+  addFlags(*cmd, a->settings, render::renderSettingsTable(), {"width", "height", "preset"});
   cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z)")->expected(3);
-  cmd->add_option("--window", a->window, "window centre and width in HU")->expected(2);
   cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1")->expected(3, 4);
   cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
-  cmd->add_flag("--no-shading", a->noShading, "disable gradient shading");
-  cmd->add_option("--step", a->step, "ray step in voxels")->capture_default_str();
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum render knee.nrrd --preset all --size 1024x1024 --out figs/knee.png");
   cmd->callback([a] {
     const io::LoadedVolume lv = loadWithProgress(a->input, a->in);
-    render::RenderSettings s;
+    render::RenderSettings s = a->settings;
     std::tie(s.width, s.height) = parseSize(a->size);
-    s.camera.azimuthDeg = a->azimuth;
-    s.camera.elevationDeg = a->elevation;
-    s.camera.zoom = a->zoom;
-    s.camera.fieldOfViewDeg = a->fov;
     if (!a->pan.empty()) s.camera.panMm = {a->pan[0], a->pan[1], a->pan[2]};
-    if (!a->window.empty()) {
-      s.windowCenter = a->window[0];
-      s.windowWidth = a->window[1];
-    }
     if (!a->background.empty())
       s.background = {float(a->background[0]), float(a->background[1]), float(a->background[2]),
                       a->background.size() > 3 ? float(a->background[3]) : 1.f};
     if (a->transparent) s.background[3] = 0.f;
-    s.shading = !a->noShading;
-    s.stepVoxels = a->step;
     const std::vector<render::Preset> presets =
         a->preset == "all" ? render::allPresets() : std::vector{render::parsePreset(a->preset)};
 

@@ -100,9 +100,10 @@ seg::Mask runMethod(const SegmentArgs& a, const VolumeI16& ct, const std::vector
     return {};
   }
   if (m == "hysteresis") {
-    seg::HysteresisParams p;
-    p.weak = interval(a, seg::Preset::Bone);
-    p.strong = {a.strong.value_or(p.weak.lower + 400), p.weak.upper};
+    seg::HysteresisParams p;  // the library's defaults, unless a flag or preset says otherwise
+    if (!a.preset.empty() || a.lower || a.upper) p.weak = interval(a, seg::Preset::Bone);
+    p.strong = {a.strong.value_or(p.strong.lower), p.weak.upper};
+    params::validate(seg::hysteresisParamsTable(), p);
     info["weak_hu"] = {p.weak.lower, p.weak.upper};
     info["strong_hu"] = {p.strong.lower, p.strong.upper};
     return seg::hysteresis(ct, p);
@@ -270,7 +271,7 @@ void addSegmentCommand(CLI::App& app) {
   cmd->add_option("--preset", a->preset, "HU interval preset: bone [700,3071] (cortex), whole-bone [550,3071] (with --fill-holes-slices), soft-tissue [-500,300], skin-air [-500,3071], fat [-190,-30], lung [-950,-500]");
   cmd->add_option("--lower", a->lower, "lower HU (overrides the preset; otsu: histogram range; hysteresis: weak threshold)");
   cmd->add_option("--upper", a->upper, "upper HU (overrides the preset)");
-  cmd->add_option("--strong", a->strong, "hysteresis: strong threshold in HU (default lower + 400)");
+  cmd->add_option("--strong", a->strong, "hysteresis: strong threshold in HU (default: strong_lower in `vellum params`)");
   cmd->add_option("--classes", a->classes, "multi-otsu: number of classes (2..8)")->capture_default_str();
   cmd->add_option("--seed", a->seeds, "seed point x,y,z in mm (repeatable; snake: bubble centres)");
   cmd->add_option("--radius", a->radius, "snake: bubble radius in mm")->capture_default_str();

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <filesystem>
+#include <string>
 
 namespace vellum::cli {
 
@@ -17,6 +18,10 @@ void addSegmentCommand(CLI::App& app);    // issue 4
 void addDeformCommand(CLI::App& app);     // issue 3
 void addControlsCommand(CLI::App& app);   // issue 3
 void addAnimateCommand(CLI::App& app);    // issue 3
+void addParamsCommand(CLI::App& app);
+
+/// docs/parameters.md: every parameter table as Markdown (cmd_params.cpp).
+std::string parametersMarkdown();
 
 /// What `vellum demo` hands to the parts that later issues add to it.
 struct DemoContext {

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -14,23 +15,16 @@
 
 namespace vellum::cli {
 
-/// --power, --method, --density-aware, --phi, --phi-min, --iterations, --tolerance, --rays,
-/// --mip, --paper-rho, --control-scale, --upsampling.
+/// The engine's flags, generated from deformParamsTable() (--method, --power, --control-scale,
+/// --density-aware, --phi ... see `vellum params`), plus --upsampling.
 struct EngineOptions {
-  std::optional<double> power;  ///< unset: the point file's power, else 2
-  std::string method = "affine";
-  bool densityAware = false;
-  std::string phi = "min";
-  double phiMin = 0.05;
-  int iterations = 3;
-  double tolerance = 0;
-  std::string rays = "conic";
-  std::string mip = "mean";
-  bool paperRho = false;
-  int controlScale = 2;
+  deformation::DeformParams flags;  ///< what the flags wrote (defaults: the struct's own)
   std::string upsampling = "trilinear";
+  std::map<std::string, CLI::Option*> options;
 
   void addTo(CLI::App& cmd);
+  /// The parameters to run with: the flags, except that the point file's power stands
+  /// when --power was not given.
   deformation::DeformParams params(std::optional<double> filePower) const;
 };
 

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   addControlsCommand(app);
   addAnimateCommand(app);
   addDemoCommand(app);
+  addParamsCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

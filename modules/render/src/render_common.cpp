@@ -23,6 +23,7 @@ double minSpacing(const Geometry& g) { return std::min({g.spacing.x, g.spacing.y
 
 Frame makeFrame(const Geometry& source, const Geometry* mapGrid, const RenderSettings& s) {
   checkImageSize(s.width, s.height);
+  validate(s);
   const Camera& cam = s.camera;
   if (!(cam.zoom > 0) || !std::isfinite(cam.zoom))
     throw Error("camera zoom must be > 0 (got " + std::to_string(cam.zoom) + ")");

@@ -2,18 +2,19 @@
 
 #include <algorithm>
 
+#include "render_common.hpp"
 #include "vellum/core/error.hpp"
 
 namespace vellum::render {
 
+namespace {
+// In Preset's enum order: the names users type, and the table's choices.
+const std::vector<std::string> kPresetNames{"bone", "soft-tissue", "skin", "mip"};
+}  // namespace
+
 const char* presetName(Preset p) {
-  switch (p) {
-    case Preset::Bone: return "bone";
-    case Preset::SoftTissueBone: return "soft-tissue";
-    case Preset::Skin: return "skin";
-    case Preset::Mip: return "mip";
-  }
-  return "?";
+  const auto i = static_cast<size_t>(p);
+  return i < kPresetNames.size() ? kPresetNames[i].c_str() : "?";
 }
 
 std::vector<Preset> allPresets() {
@@ -25,6 +26,38 @@ Preset parsePreset(const std::string& name) {
     if (name == presetName(p)) return p;
   throw Error("unknown render preset '" + name + "'; valid: bone, soft-tissue, skin, mip");
 }
+
+const params::Table<RenderSettings>& renderSettingsTable() {
+  using params::Info;
+  using R = RenderSettings;
+  static const params::Table<R> table{
+      params::integer<R>("width", [](auto& s) -> auto& { return s.width; }, {"Width", "image width", "pixels", 1, detail::kMaxImageSize}),
+      params::integer<R>("height", [](auto& s) -> auto& { return s.height; }, {"Height", "image height", "pixels", 1, detail::kMaxImageSize}),
+      params::choice<R>("preset", [](auto& s) -> auto& { return s.preset; }, kPresetNames,
+                        {"Preset", "transfer function: opaque bone, soft tissue over bone, skin surface, or MIP", ""}),
+      params::real<R>("azimuth", [](auto& s) -> auto& { return s.camera.azimuthDeg; },
+                      {"Azimuth", "camera turn about the superior axis; 0 looks from anterior", "degrees", -3600, 3600}),
+      params::real<R>("elevation", [](auto& s) -> auto& { return s.camera.elevationDeg; },
+                      {"Elevation", "camera tilt towards superior", "degrees", -90, 90}),
+      params::real<R>("zoom", [](auto& s) -> auto& { return s.camera.zoom; },
+                      {"Zoom", "1 = the volume's bounding sphere fills the view", "", 0.05, 50}),
+      params::real<R>("fov", [](auto& s) -> auto& { return s.camera.fieldOfViewDeg; },
+                      {"Field of view", "vertical; 0 = orthographic projection", "degrees", 0, 120}),
+      params::real<R>("window_center", [](auto& s) -> auto& { return s.windowCenter; },
+                      {"Window centre", "MIP grey mapping; DVR: shifts the transfer function", "HU", -32768, 32767}),
+      params::real<R>("window_width", [](auto& s) -> auto& { return s.windowWidth; },
+                      {"Window width", "MIP grey mapping; DVR: scales the transfer function (0 = the preset's own)", "HU", 0, 65536}),
+      params::flag<R>("shading", [](auto& s) -> auto& { return s.shading; },
+                      {"Shading", "Blinn-Phong shading from the gradient (DVR presets)", ""}),
+      params::real<R>("step", [](auto& s) -> auto& { return s.stepVoxels; },
+                      {"Ray step", "sampling step along rays", "voxels", 0.05, 4}),
+      params::flag<R>("jitter", [](auto& s) -> auto& { return s.jitter; },
+                      {"Jitter", "fixed per-pixel ray offsets: fine noise instead of wood-grain rings", ""}),
+  };
+  return table;
+}
+
+void validate(const RenderSettings& s) { params::validate(renderSettingsTable(), s); }
 
 std::array<float, 4> TransferFunction::evaluate(double value) const {
   if (points.empty()) return {0, 0, 0, 0};

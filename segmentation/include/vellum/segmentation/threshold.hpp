@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "vellum/core/progress.hpp"
+#include "vellum/core/params.hpp"
 #include "vellum/segmentation/mask.hpp"
 
 namespace vellum::segmentation {
@@ -84,6 +85,9 @@ struct HysteresisParams {
   HuInterval weak{400, 3071};
   Connectivity connectivity = Connectivity::Vertex26;
 };
+/// Parameter table of HysteresisParams (the two intervals; connectivity is 6/18/26 and
+/// checked by connectivityFromInt). `vellum segment --method hysteresis` and docs use it.
+const params::Table<HysteresisParams>& hysteresisParamsTable();
 Mask hysteresis(const VolumeI16& ct, const HysteresisParams& params);
 
 }  // namespace vellum::segmentation

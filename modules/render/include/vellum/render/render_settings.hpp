@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/params.hpp"
 #include "vellum/core/vec.hpp"
 
 namespace vellum::render {
@@ -61,5 +62,13 @@ struct RenderSettings {
   /// the pixel, so images stay deterministic): turns "wood-grain" rings into fine noise.
   bool jitter = true;
 };
+
+/// Parameter table of RenderSettings (size, preset, camera, window, shading, step, jitter):
+/// the CLI flags of `vellum render`/`animate`, the scene file and docs/parameters.md come
+/// from it. The transfer function and the background colour are not single numbers and are
+/// handled by their own options.
+const params::Table<RenderSettings>& renderSettingsTable();
+/// Throws vellum::Error naming the first setting outside its range.
+void validate(const RenderSettings& s);
 
 }  // namespace vellum::render

@@ -1,0 +1,196 @@
+#pragma once
+// One description per parameter. Each parameter struct of the library keeps its defaults in
+// its member initialisers and gets, beside it, a Table: one Field per member with its key,
+// label, help, unit and range (or choice names). Validation, the CLI flags, the JSON of
+// reports and scenes, the studio's widgets and docs/parameters.md are all generated from
+// that table, so nothing about a parameter is written twice.
+//
+//   const params::Table<MlsParams>& mlsTable() {
+//     static const params::Table<MlsParams> t{
+//       params::real<MlsParams>("power", [](auto& p) -> auto& { return p.power; },
+//                               {"MLS power", "n in w = 1/|v - y|^n", "", 0.5, 8}),
+//     };
+//     return t;
+//   }
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace vellum::params {
+
+enum class Kind { Real, Integer, Flag, Choice, Text };
+
+/// What a field says about itself (everything but how to reach it).
+struct Info {
+  std::string label;  ///< short, for widgets and docs ("Control scale")
+  std::string help;   ///< one sentence
+  std::string unit;   ///< "mm", "HU", "voxels", "" (dimensionless)
+  double min = -std::numeric_limits<double>::infinity();  ///< Real/Integer, inclusive
+  double max = std::numeric_limits<double>::infinity();   ///< Real/Integer, inclusive
+};
+
+/// One member of parameter struct S. Numbers, flags and choices travel as double (a choice
+/// as its index in `choices`); nullopt means "unset" (std::optional members only).
+template <class S>
+struct Field;
+template <class S>
+Field<S> makeField(std::string key, Info info, Kind kind);
+
+template <class S>
+struct Field {
+  std::string key;  ///< JSON key; the CLI flag is --key
+  Info info;
+  Kind kind = Kind::Real;
+  bool optional = false;             ///< the member is std::optional: "unset" is allowed
+  std::vector<std::string> choices;  ///< Kind::Choice: names, in enum order
+  std::function<std::optional<double>(const S&)> get;
+  std::function<void(S&, std::optional<double>)> set;
+  std::function<std::string(const S&)> getText;          ///< Kind::Text
+  std::function<void(S&, const std::string&)> setText;   ///< Kind::Text
+};
+
+template <class S>
+using Table = std::vector<Field<S>>;
+
+template <class S>
+Field<S> makeField(std::string key, Info info, Kind kind) {
+  Field<S> f;
+  f.key = std::move(key);
+  f.info = std::move(info);
+  f.kind = kind;
+  return f;
+}
+
+namespace detail {
+template <class T> struct IsOptional : std::false_type {};
+template <class T> struct IsOptional<std::optional<T>> : std::true_type {};
+
+template <class S, class Ref>
+Field<S> numeric(Kind kind, std::string key, Ref ref, Info info) {
+  using Member = std::remove_cvref_t<decltype(ref(std::declval<S&>()))>;
+  Field<S> f = makeField<S>(std::move(key), std::move(info), kind);
+  f.optional = IsOptional<Member>::value;
+  f.get = [ref](const S& s) -> std::optional<double> {
+    const auto& m = ref(s);
+    if constexpr (IsOptional<Member>::value) {
+      if (!m) return std::nullopt;
+      return static_cast<double>(*m);
+    } else {
+      return static_cast<double>(m);
+    }
+  };
+  f.set = [ref](S& s, std::optional<double> v) {
+    auto& m = ref(s);
+    if constexpr (IsOptional<Member>::value) {
+      using T = typename Member::value_type;
+      m = v ? std::optional<T>(static_cast<T>(*v)) : std::nullopt;
+    } else if (v) {
+      m = static_cast<Member>(*v);
+    }
+  };
+  return f;
+}
+}  // namespace detail
+
+/// A real number (double or float member, or std::optional of one).
+template <class S, class Ref>
+Field<S> real(std::string key, Ref ref, Info info) {
+  return detail::numeric<S>(Kind::Real, std::move(key), ref, std::move(info));
+}
+/// An integer (any integral member, or std::optional of one).
+template <class S, class Ref>
+Field<S> integer(std::string key, Ref ref, Info info) {
+  return detail::numeric<S>(Kind::Integer, std::move(key), ref, std::move(info));
+}
+/// An on/off switch (bool member).
+template <class S, class Ref>
+Field<S> flag(std::string key, Ref ref, Info info) {
+  info.min = 0;
+  info.max = 1;
+  return detail::numeric<S>(Kind::Flag, std::move(key), ref, std::move(info));
+}
+/// An enum member whose enumerators are 0, 1, 2 ... in the order of `names`.
+template <class S, class Ref>
+Field<S> choice(std::string key, Ref ref, std::vector<std::string> names, Info info) {
+  using Enum = std::remove_cvref_t<decltype(ref(std::declval<S&>()))>;
+  Field<S> f = makeField<S>(std::move(key), std::move(info), Kind::Choice);
+  f.info.min = 0;
+  f.info.max = static_cast<double>(names.size()) - 1;
+  f.choices = std::move(names);
+  f.get = [ref](const S& s) -> std::optional<double> { return static_cast<double>(static_cast<int>(ref(s))); };
+  f.set = [ref](S& s, std::optional<double> v) {
+    if (v) ref(s) = static_cast<Enum>(static_cast<int>(*v));
+  };
+  return f;
+}
+/// A string member.
+template <class S, class Ref>
+Field<S> text(std::string key, Ref ref, Info info) {
+  Field<S> f = makeField<S>(std::move(key), std::move(info), Kind::Text);
+  f.getText = [ref](const S& s) { return std::string(ref(s)); };
+  f.setText = [ref](S& s, const std::string& v) { ref(s) = v; };
+  return f;
+}
+
+/// The field's value as users write it: "2.5", "4", "true", "affine", "" (unset).
+template <class S>
+std::string format(const Field<S>& f, const S& s);
+/// Parses `text` (as `format` writes it; "" unsets an optional) into `s` and checks the
+/// range. Throws vellum::Error "KEY: problem" naming the accepted values.
+template <class S>
+void parse(const Field<S>& f, S& s, const std::string& text);
+/// Checks every field of `s` against its range; throws vellum::Error naming the first
+/// offender, e.g. "control_scale = 0 is outside 1..16".
+template <class S>
+void validate(const Table<S>& table, const S& s);
+/// A Markdown table: key, default (from S{}), range or choices, unit, help.
+template <class S>
+std::string markdown(const Table<S>& table, const S& defaults = S{});
+
+// Non-template cores of the above (params.cpp).
+std::string formatNumber(Kind kind, double v, const std::vector<std::string>& choices);
+double parseNumber(const std::string& key, Kind kind, const Info& info,
+                   const std::vector<std::string>& choices, const std::string& text);
+void checkRange(const std::string& key, Kind kind, const Info& info, const std::vector<std::string>& choices,
+                double v);
+std::string rangeText(Kind kind, const Info& info, const std::vector<std::string>& choices);
+std::string markdownRow(const std::string& key, const std::string& defaultText, const std::string& range,
+                        const Info& info);
+std::string markdownHeader();
+
+template <class S>
+std::string format(const Field<S>& f, const S& s) {
+  if (f.kind == Kind::Text) return f.getText(s);
+  const auto v = f.get(s);
+  return v ? formatNumber(f.kind, *v, f.choices) : std::string();
+}
+
+template <class S>
+void parse(const Field<S>& f, S& s, const std::string& text) {
+  if (f.kind == Kind::Text) return f.setText(s, text);
+  if (text.empty() && f.optional) return f.set(s, std::nullopt);
+  f.set(s, parseNumber(f.key, f.kind, f.info, f.choices, text));
+}
+
+template <class S>
+void validate(const Table<S>& table, const S& s) {
+  for (const auto& f : table)
+    if (f.kind != Kind::Text)
+      if (const auto v = f.get(s)) checkRange(f.key, f.kind, f.info, f.choices, *v);
+}
+
+template <class S>
+std::string markdown(const Table<S>& table, const S& defaults) {
+  std::string out = markdownHeader();
+  for (const auto& f : table) {
+    const std::string d = format(f, defaults);
+    out += markdownRow(f.key, d.empty() ? "unset" : d, rangeText(f.kind, f.info, f.choices), f.info);
+  }
+  return out;
+}
+
+}  // namespace vellum::params

@@ -1,0 +1,18 @@
+#include "cli_params.hpp"
+
+namespace vellum::cli {
+
+std::string flagName(const std::string& key) {
+  std::string flag = "--" + key;
+  for (char& c : flag)
+    if (c == '_') c = '-';
+  return flag;
+}
+
+std::string flagHelp(const params::Info& info, const std::string& range) {
+  std::string help = info.label + ": " + info.help;
+  if (!info.unit.empty()) help += " [" + info.unit + "]";
+  return help + " (" + range + ")";
+}
+
+}  // namespace vellum::cli

@@ -1,0 +1,48 @@
+#pragma once
+// CLI11 flags generated from a parameter table (vellum/core/params.hpp): one flag per field,
+// --key with '_' -> '-', its help from the table, its default shown from the struct's own
+// initialisers, its value parsed and range-checked by the table.
+#include <CLI/CLI.hpp>
+
+#include <map>
+#include <set>
+#include <string>
+
+#include "vellum/core/params.hpp"
+
+namespace vellum::cli {
+
+/// "control_scale" -> "--control-scale".
+std::string flagName(const std::string& key);
+/// "Control scale: the map is ... [voxels] (1..16)".
+std::string flagHelp(const params::Info& info, const std::string& range);
+
+/// Adds the flags of `table` (except the keys in `skip`) to `cmd`; parsing writes into
+/// `target`, which must outlive the parse. Returns the options by key, so that a caller can
+/// ask whether a flag was given (`->count()`), e.g. to let a file's value stand otherwise.
+template <class S>
+std::map<std::string, CLI::Option*> addFlags(CLI::App& cmd, S& target, const params::Table<S>& table,
+                                             const std::set<std::string>& skip = {}) {
+  std::map<std::string, CLI::Option*> options;
+  for (const auto& field : table) {
+    if (skip.count(field.key)) continue;
+    const auto* f = &field;  // tables are static: the pointer outlives the parse
+    const std::string help = flagHelp(f->info, params::rangeText(f->kind, f->info, f->choices));
+    CLI::Option* o = nullptr;
+    if (f->kind == params::Kind::Flag) {
+      // --flag sets true, --flag=false sets false.
+      o = cmd.add_flag_function(flagName(f->key) + "{true}",
+                                [&target, f](std::int64_t n) { f->set(target, n > 0 ? 1.0 : 0.0); }, help);
+    } else {
+      o = cmd.add_option_function<std::string>(
+          flagName(f->key), [&target, f](const std::string& v) { params::parse(*f, target, v); }, help);
+      o->type_name(f->kind == params::Kind::Choice ? "NAME" : f->kind == params::Kind::Text ? "TEXT" : "NUMBER");
+    }
+    const std::string d = params::format(*f, target);
+    if (!d.empty()) o->default_str(d);
+    options[f->key] = o;
+  }
+  return options;
+}
+
+}  // namespace vellum::cli
