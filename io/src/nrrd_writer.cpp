@@ -9,7 +9,13 @@
 namespace vellum::io {
 namespace {
 
-std::string vec(const Vec3& v) { return "(" + detail::fmt(v.x) + "," + detail::fmt(v.y) + "," + detail::fmt(v.z) + ")"; }
+std::string vec(const Vec3& v) {
+  std::string out = "(";  // appended piecewise: g++ 12 warns (-Wrestrict) on "(" + std::string
+  out += detail::fmt(v.x) + ",";
+  out += detail::fmt(v.y) + ",";
+  out += detail::fmt(v.z) + ")";
+  return out;
+}
 
 }  // namespace
 

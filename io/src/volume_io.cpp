@@ -66,7 +66,9 @@ std::string formatForPath(const fs::path& path) {
   throw FileError(path, "unknown file extension '" + ext + "' (" + kSupported + ")");
 }
 
-LoadedVolume loadVolume(const fs::path& path, const LoadOptions& options) {
+namespace {
+
+LoadedVolume loadAsStored(const fs::path& path, const LoadOptions& options) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw FileError(path, "no such file");
   std::string format;
@@ -88,6 +90,20 @@ LoadedVolume loadVolume(const fs::path& path, const LoadOptions& options) {
   return loadVti(path, options);
 }
 
+}  // namespace
+
+LoadedVolume loadVolume(const fs::path& path, const LoadOptions& options) {
+  LoadedVolume lv = loadAsStored(path, options);
+  try {
+    lv.volume = applyRegion(lv.volume, options.region);
+  } catch (const FileError&) {
+    throw;
+  } catch (const Error& e) {
+    throw FileError(path, e.what());
+  }
+  return lv;
+}
+
 void saveVolume(const AnyVolume& volume, const fs::path& path, const SaveOptions& options) {
   const std::string format = options.format.empty() ? formatForPath(path) : normalizedFormat(path, options.format);
   const std::string modality = modalityToStore(volume, options.modality);
@@ -99,16 +115,31 @@ void saveVolume(const AnyVolume& volume, const fs::path& path, const SaveOptions
   throw FileError(path, "writing " + format + " is not supported (" + kSupported + ")");
 }
 
+namespace {
+
+/// Label ids never averaged: the region's downsampling takes each block's most frequent id.
+VolumeU16 labelIdsInRegion(const fs::path& path, const AnyVolume& stored, const Region& region) {
+  try {
+    return applyRegionToLabels(toLabelIds(path, stored), region);
+  } catch (const FileError&) {
+    throw;
+  } catch (const Error& e) {
+    throw FileError(path, e.what());
+  }
+}
+
+}  // namespace
+
 LabelVolume loadLabels(const fs::path& path, const LoadOptions& options) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw FileError(path, "no such file");
   if (!fs::is_directory(path, ec) && !path.extension().empty() && formatForPath(path) == "nrrd") {
     ExtraFields extra;
     LoadedVolume lv = loadNrrd(path, options, &extra);
-    return LabelVolume(toLabelIds(path, lv.volume), extra.labels);
+    return LabelVolume(labelIdsInRegion(path, lv.volume, options.region), extra.labels);
   }
-  LoadedVolume lv = loadVolume(path, options);
-  return LabelVolume(toLabelIds(path, lv.volume));
+  LoadedVolume lv = loadAsStored(path, options);
+  return LabelVolume(labelIdsInRegion(path, lv.volume, options.region));
 }
 
 void saveLabels(const LabelVolume& labels, const fs::path& path, const SaveOptions& options) {

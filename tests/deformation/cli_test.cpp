@@ -125,3 +125,31 @@ TEST(DeformCli, GivenPowerOverridesThePointFilesPower) {
   EXPECT_EQ(powerUsed({"--power", "2"}), 2.0);    // given, equal to the default: still wins
   EXPECT_EQ(powerUsed({"--power", "4"}), 4.0);
 }
+
+// Issue 13: --downsample / --crop reduce the volume on load, and the command's label map
+// gets the same region (else the rigid labels would not match the grid).
+TEST(DeformCli, DownsampleAndCropApplyToTheVolumeAndItsLabels) {
+  const auto dir = vellum::test::tempDir("deform-region");
+  phantom::PhantomOptions o;
+  o.dims = {32, 32, 40};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  run({"controls", (dir / "ct.nrrd").string(), "--out", (dir / "cp.json").string()});
+  for (const std::vector<std::string>& region :
+       {std::vector<std::string>{"--downsample", "2"}, std::vector<std::string>{"--crop", "4", "27", "0", "31", "8", "39"}}) {
+    std::vector<std::string> args{"deform", (dir / "ct.nrrd").string(), "--points", (dir / "cp.json").string(),
+                                  "--out", (dir / "out.nrrd").string(), "--labels", (dir / "labels.nrrd").string(),
+                                  "--rigid-labels", "4,5,6,7,8,9,11"};
+    args.insert(args.end(), region.begin(), region.end());
+    run(args);
+    const Geometry g = geometryOf(io::loadVolume(dir / "out.nrrd").volume);
+    if (region[0] == "--downsample") {
+      EXPECT_EQ(g.dims, (Dims{16, 16, 20}));
+      EXPECT_NEAR(g.spacing.x, 2 * ph.ct.geometry().spacing.x, 1e-9);
+    } else {
+      EXPECT_EQ(g.dims, (Dims{24, 32, 32}));
+      EXPECT_LT(norm(g.origin - ph.ct.geometry().indexToPhysical({4, 0, 8})), 1e-6);
+    }
+  }
+}

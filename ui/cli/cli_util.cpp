@@ -24,12 +24,33 @@ void InputOptions::addTo(CLI::App& cmd) {
       ->check(CLI::IsMember({"little", "big"}))
       ->capture_default_str();
   cmd.add_option("--raw-header", rawHeader, "bare .raw: bytes to skip before the voxels");
+  cmd.add_option("--crop", cropVoxels, "keep voxels i0 i1 j0 j1 k0 k1 only (inclusive indices; label maps of the "
+                                       "command get the same region)")->expected(6);
+  cmd.add_option("--crop-mm", cropMm, "keep the voxels inside the box x0 x1 y0 y1 z0 z1 (mm, LPS)")->expected(6);
+  cmd.add_option("--downsample", downsample, "reduce every N^3 block to one voxel on load (mean; label maps: "
+                                             "most frequent id)")->check(CLI::Range(1, 16));
+}
+
+Region InputOptions::region() const {
+  Region r;
+  if (!cropVoxels.empty())
+    r.cropVoxels = VoxelBox{{cropVoxels[0], cropVoxels[2], cropVoxels[4]}, {cropVoxels[1], cropVoxels[3], cropVoxels[5]}};
+  if (!cropMm.empty()) r.cropMm = {{Vec3{cropMm[0], cropMm[2], cropMm[4]}, Vec3{cropMm[1], cropMm[3], cropMm[5]}}};
+  r.downsample = downsample;
+  return r;
+}
+
+LabelVolume InputOptions::loadLabelsOnInputGrid(const std::filesystem::path& path) const {
+  io::LoadOptions o;
+  o.region = region();
+  return io::loadLabels(path, o);
 }
 
 io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
   io::LoadOptions o;
   o.seriesUid = seriesUid;
   o.progress = progress;
+  o.region = region();
   if (!rawDims.empty()) {
     io::RawLayout r;
     r.dims = {rawDims[0], rawDims[1], rawDims[2]};

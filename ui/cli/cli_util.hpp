@@ -24,12 +24,19 @@ struct InputOptions {
   std::vector<double> rawDirection;
   std::string rawEndian = "little";
   uint64_t rawHeader = 0;
+  std::vector<int64_t> cropVoxels;  ///< i0 i1 j0 j1 k0 k1
+  std::vector<double> cropMm;       ///< x0 x1 y0 y1 z0 z1
+  int downsample = 1;
 
   /// Adds --series, --raw-dims, --raw-type, --raw-spacing, --raw-origin, --raw-direction,
-  /// --raw-endian, --raw-header to `cmd`.
+  /// --raw-endian, --raw-header, --crop, --crop-mm, --downsample to `cmd`.
   void addTo(CLI::App& cmd);
   /// Turns the flags into io::LoadOptions (with `progress` attached).
   io::LoadOptions toLoadOptions(Progress* progress) const;
+  /// --crop / --crop-mm / --downsample.
+  Region region() const;
+  /// A label map on the input volume's grid, reduced by the same region as the volume.
+  LabelVolume loadLabelsOnInputGrid(const std::filesystem::path& path) const;
 };
 
 /// A progress bar on stderr. It stays silent for the first second (fast work prints

@@ -140,7 +140,7 @@ void addAnimateCommand(CLI::App& app) {
     const DeformParams params = a->engine.params(std::nullopt);
     const io::LoadedVolume lv = loadWithProgress(a->input, a->in);
     std::optional<RigidBodies> bodies;
-    if (a->rigid.enabled()) bodies = a->rigid.load(geometryOf(lv.volume));
+    if (a->rigid.enabled()) bodies = a->rigid.load(geometryOf(lv.volume), a->in);
     MovieSpec spec;
     const fs::path out(a->output);
     const bool isDir = a->output.back() == '/' || out.extension().empty();

@@ -48,9 +48,9 @@ void RigidOptions::addTo(CLI::App& cmd) {
       ->capture_default_str()->check(CLI::Range(1, 64));
 }
 
-RigidBodies RigidOptions::load(const Geometry& geometry) const {
+RigidBodies RigidOptions::load(const Geometry& geometry, const InputOptions& in) const {
   if (rigidIds.empty()) throw Error("--labels needs --rigid-labels (the ids that stay rigid)");
-  const LabelVolume lv = io::loadLabels(labels);
+  const LabelVolume lv = in.loadLabelsOnInputGrid(labels);
   if (!(lv.geometry().dims == geometry.dims) || !lv.geometry().approxEqual(geometry, 1e-3))
     throw FileError(labels, "label map grid " + lv.geometry().dims.str() + " differs from the volume's " +
                                 geometry.dims.str());
@@ -127,7 +127,7 @@ void addDeformCommand(CLI::App& app) {
     std::optional<RigidBodies> bodies;
     if (a->rigid.enabled()) {
       t = std::chrono::steady_clock::now();
-      bodies = a->rigid.load(g);
+      bodies = a->rigid.load(g, a->in);
       timings["rigid_bodies"] = msSince(t);
     }
     ControlVolume cv;
@@ -222,7 +222,7 @@ void addControlsCommand(CLI::App& app) {
     const Geometry& g = geometryOf(lv.volume);
     PointFile pf;
     if (!a->fromLabels.empty()) {
-      const LabelVolume labels = io::loadLabels(a->fromLabels);
+      const LabelVolume labels = a->in.loadLabelsOnInputGrid(a->fromLabels);
       if (!(labels.geometry().dims == g.dims))
         throw FileError(a->fromLabels, "label map grid " + labels.geometry().dims.str() +
                                            " differs from the volume's " + g.dims.str());

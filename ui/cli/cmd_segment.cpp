@@ -198,7 +198,7 @@ void runSegment(const SegmentArgs& a) {
   if (!classes) mask = postProcess(a, std::move(mask), seeds, report);
   report["segment_seconds"] = secondsSince(t1);
 
-  LabelVolume labels = a.into.empty() ? LabelVolume(ct.geometry()) : io::loadLabels(a.into);
+  LabelVolume labels = a.into.empty() ? LabelVolume(ct.geometry()) : a.in.loadLabelsOnInputGrid(a.into);
   const seg::OverlapRule rule = seg::parseOverlapRule(a.overlap);
   const uint16_t id = a.labelId > 0 ? static_cast<uint16_t>(a.labelId) : labels.nextFreeId();
   std::array<uint8_t, 3> rgb = defaultLabelColor(id);
@@ -233,7 +233,7 @@ void runSegment(const SegmentArgs& a) {
   std::cout << "\n";
 
   if (!a.truth.empty()) {
-    const LabelVolume truth = io::loadLabels(a.truth);
+    const LabelVolume truth = a.in.loadLabelsOnInputGrid(a.truth);
     nlohmann::json metrics = nlohmann::json::array();
     if (!a.truthIds.empty() && !classes) {
       // The new segment against the union of the given truth ids.

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_util.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/rigidity.hpp"
 #include "vellum/render/backward_map.hpp"
@@ -37,8 +38,9 @@ struct RigidOptions {
 
   void addTo(CLI::App& cmd);
   bool enabled() const { return !labels.empty(); }
-  /// Loads the labels (same grid as `geometry` required) and finds the rigid bodies.
-  deformation::RigidBodies load(const Geometry& geometry) const;
+  /// Loads the labels (reduced by the input's --crop/--downsample; then the same grid as
+  /// `geometry` is required) and finds the rigid bodies.
+  deformation::RigidBodies load(const Geometry& geometry, const InputOptions& in) const;
 };
 
 render::BackwardMap toBackwardMap(const deformation::ControlVolume& cv);

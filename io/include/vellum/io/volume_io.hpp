@@ -21,6 +21,7 @@
 
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/progress.hpp"
+#include "vellum/core/region.hpp"
 #include "vellum/core/volume.hpp"
 
 namespace vellum::io {
@@ -53,6 +54,9 @@ struct LoadOptions {
   std::string seriesUid;            ///< DICOM: load this series (default: largest CT series)
   std::optional<RawLayout> raw;     ///< bare .raw without sidecar
   Progress* progress = nullptr;     ///< optional progress/cancellation
+  /// Keep only this part (crop, then downsample: block mean for volumes, block mode for
+  /// label maps), applied right after decoding; the file is read whole once.
+  Region region;
 };
 
 struct LoadedVolume {
