@@ -1,6 +1,7 @@
 // Format dispatch for volumes and label maps.
 #include "vellum/io/volume_io.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -92,8 +93,36 @@ LoadedVolume loadAsStored(const fs::path& path, const LoadOptions& options) {
 
 }  // namespace
 
+/// stored * slope + intercept as CT (int16 HU, background -1000).
+VolumeI16 rescaledToHu(const AnyVolume& stored, double slope, double intercept) {
+  return std::visit(
+      [&](const auto& v) {
+        VolumeI16 out(v.geometry(), 0, -1000.0);
+        for (size_t i = 0; i < v.size(); ++i)
+          out.data()[i] = static_cast<int16_t>(std::clamp(std::round(v.data()[i] * slope + intercept), -32768.0, 32767.0));
+        return out;
+      },
+      stored);
+}
+
+/// Unsigned CT numbers read as if they were HU make every preset a solid box: say so.
+std::optional<std::string> notHuWarning(const LoadedVolume& lv) {
+  if (lv.modality != "CT" && lv.format != "raw") return std::nullopt;
+  const auto [lo, hi] = std::visit([](const auto& v) { return v.valueRange(); }, lv.volume);
+  if (lo < 0 || hi < 1000) return std::nullopt;
+  return "values " + std::to_string(int64_t(lo)) + ".." + std::to_string(int64_t(hi)) +
+         " have no negatives although this looks like CT: if they are CT numbers rather than HU, "
+         "load with --rescale 1 -1024 (slope, intercept)";
+}
+
 LoadedVolume loadVolume(const fs::path& path, const LoadOptions& options) {
   LoadedVolume lv = loadAsStored(path, options);
+  if (options.rescale) {
+    lv.volume = rescaledToHu(lv.volume, options.rescale->first, options.rescale->second);
+    lv.modality = "CT";
+  } else if (auto w = notHuWarning(lv)) {
+    lv.warnings.push_back(*w);
+  }
   try {
     lv.volume = applyRegion(lv.volume, options.region);
   } catch (const FileError&) {

@@ -337,3 +337,27 @@ TEST(Dispatch, DicomFolderRoundTripThroughSaveAndLoadVolume) {
   writeFile(dir / "README", "not an image");
   EXPECT_THROW(io::loadVolume(dir / "README"), FileError);
 }
+
+// Issue 12: CT numbers without the HU offset (a bare RAW of 0..3000+) warn, and --rescale maps
+// them back to HU exactly.
+TEST(Raw, RescaleMapsShiftedCtNumbersBackToHuAndUnshiftedOnesWarn) {
+  const fs::path dir = tempDir("raw-rescale");
+  const std::vector<int16_t> hu{-1000, -200, 0, 40, 700, 2500};
+  std::vector<uint16_t> shifted;
+  for (int16_t v : hu) shifted.push_back(static_cast<uint16_t>(v + 1024));
+  writeFile(dir / "s.raw", bytesOf(shifted));
+  io::LoadOptions opt;
+  opt.raw = io::RawLayout{};
+  opt.raw->dims = {3, 2, 1};
+  opt.raw->type = VoxelType::UInt16;
+  const auto plain = io::loadVolume(dir / "s.raw", opt);
+  ASSERT_EQ(plain.warnings.size(), 1u);
+  EXPECT_NE(plain.warnings[0].find("--rescale 1 -1024"), std::string::npos) << plain.warnings[0];
+  opt.rescale = std::pair{1.0, -1024.0};
+  const auto lv = io::loadVolume(dir / "s.raw", opt);
+  EXPECT_TRUE(lv.warnings.empty());
+  EXPECT_EQ(lv.modality, "CT");
+  const auto& v = std::get<VolumeI16>(lv.volume);
+  EXPECT_EQ(v.background(), -1000);
+  EXPECT_EQ(v.voxels(), hu);
+}

@@ -28,7 +28,9 @@ void expectWellFormed(const params::Table<S>& table) {
     EXPECT_FALSE(f.info.label.empty()) << f.key;
     EXPECT_FALSE(f.info.help.empty()) << f.key;
     EXPECT_LE(f.info.min, f.info.max) << f.key;
-    if (f.kind == params::Kind::Choice) EXPECT_GE(f.choices.size(), 2u) << f.key;
+    if (f.kind == params::Kind::Choice) {
+      EXPECT_GE(f.choices.size(), 2u) << f.key;
+    }
   }
   EXPECT_NO_THROW(params::validate(table, S{}));  // the struct's defaults are in range
 }
@@ -87,7 +89,9 @@ TEST(Params, ParseFormatAndRangeErrorsNameTheKey) {
   // The library refuses what the table refuses, whoever calls it.
   deformation::DeformParams bad;
   bad.controlScale = 17;
-  EXPECT_THROW(deformation::Deformer(VolumeI16(Geometry{{8, 8, 8}}, -1000), bad), Error);
+  Geometry g;
+  g.dims = {8, 8, 8};
+  EXPECT_THROW(deformation::Deformer(VolumeI16(g, -1000), bad), Error);
 }
 
 TEST(Params, GeneratedCliFlagsWriteTheStructAndCheckRanges) {

@@ -24,6 +24,8 @@ void InputOptions::addTo(CLI::App& cmd) {
       ->check(CLI::IsMember({"little", "big"}))
       ->capture_default_str();
   cmd.add_option("--raw-header", rawHeader, "bare .raw: bytes to skip before the voxels");
+  cmd.add_option("--rescale", rescale, "stored value * SLOPE + INTERCEPT = HU (e.g. 1 -1024 for CT numbers "
+                                       "0..4095 in a bare RAW); the volume is then CT")->expected(2);
   cmd.add_option("--crop", cropVoxels, "keep voxels i0 i1 j0 j1 k0 k1 only (inclusive indices; label maps of the "
                                        "command get the same region)")->expected(6);
   cmd.add_option("--crop-mm", cropMm, "keep the voxels inside the box x0 x1 y0 y1 z0 z1 (mm, LPS)")->expected(6);
@@ -51,6 +53,7 @@ io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
   o.seriesUid = seriesUid;
   o.progress = progress;
   o.region = region();
+  if (!rescale.empty()) o.rescale = std::pair{rescale[0], rescale[1]};
   if (!rawDims.empty()) {
     io::RawLayout r;
     r.dims = {rawDims[0], rawDims[1], rawDims[2]};

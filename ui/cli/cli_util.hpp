@@ -27,9 +27,10 @@ struct InputOptions {
   std::vector<int64_t> cropVoxels;  ///< i0 i1 j0 j1 k0 k1
   std::vector<double> cropMm;       ///< x0 x1 y0 y1 z0 z1
   int downsample = 1;
+  std::vector<double> rescale;      ///< slope intercept
 
   /// Adds --series, --raw-dims, --raw-type, --raw-spacing, --raw-origin, --raw-direction,
-  /// --raw-endian, --raw-header, --crop, --crop-mm, --downsample to `cmd`.
+  /// --raw-endian, --raw-header, --rescale, --crop, --crop-mm, --downsample to `cmd`.
   void addTo(CLI::App& cmd);
   /// Turns the flags into io::LoadOptions (with `progress` attached).
   io::LoadOptions toLoadOptions(Progress* progress) const;

@@ -57,6 +57,10 @@ struct LoadOptions {
   /// Keep only this part (crop, then downsample: block mean for volumes, block mode for
   /// label maps), applied right after decoding; the file is read whole once.
   Region region;
+  /// {slope, intercept}: stored value * slope + intercept, applied first, makes the volume CT
+  /// (int16 HU, rounded and saturated, background -1000). For data that is not in HU, e.g.
+  /// CT numbers 0..4095 from a bare RAW: {1, -1024}.
+  std::optional<std::pair<double, double>> rescale;
 };
 
 struct LoadedVolume {
