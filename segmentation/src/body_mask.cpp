@@ -24,8 +24,10 @@ Mask bodyMask(const VolumeI16& ct, const BodyMaskParams& params, Progress& progr
   const Mask aboveAir = threshold(ct, {params.airThresholdHu, 32767});
   const double r = params.openingRadiusMm;
   if (r == 0) return fillHolesAllSlices(keepLargestComponent(aboveAir));
-  // The opening cuts the thin contacts; its largest component is the body's core.
-  const Mask opened = open(aboveAir, r, progress);
+  // Enclosed air filled first, so that a thin shell around air (a skull of a head phantom,
+  // a thin chest wall around lungs) is solid when the opening cuts the thin contacts; the
+  // opening's largest component is the body's core.
+  const Mask opened = open(fillHolesPerSlice(aboveAir), r, progress);
   const Mask core = keepLargestComponent(opened);
   const Mask others = maskAnd(opened, maskNot(core));
   // Grow the core back by r inside the thresholded voxels, but only where it is nearer than

@@ -17,12 +17,13 @@ std::string flagName(const std::string& key);
 /// "Control scale: the map is ... [voxels] (1..16)".
 std::string flagHelp(const params::Info& info, const std::string& range);
 
-/// Adds the flags of `table` (except the keys in `skip`) to `cmd`; parsing writes into
-/// `target`, which must outlive the parse. Returns the options by key, so that a caller can
+/// Adds the flags of `table` (except the keys in `skip`) to `cmd`, each named
+/// flagName(prefix + key); parsing writes into `target`, which must outlive the parse. Returns the options by key, so that a caller can
 /// ask whether a flag was given (`->count()`), e.g. to let a file's value stand otherwise.
 template <class S>
 std::map<std::string, CLI::Option*> addFlags(CLI::App& cmd, S& target, const params::Table<S>& table,
-                                             const std::set<std::string>& skip = {}) {
+                                             const std::set<std::string>& skip = {},
+                                             const std::string& prefix = "") {
   std::map<std::string, CLI::Option*> options;
   for (const auto& field : table) {
     if (skip.count(field.key)) continue;
@@ -31,11 +32,11 @@ std::map<std::string, CLI::Option*> addFlags(CLI::App& cmd, S& target, const par
     CLI::Option* o = nullptr;
     if (f->kind == params::Kind::Flag) {
       // --flag sets true, --flag=false sets false.
-      o = cmd.add_flag_function(flagName(f->key) + "{true}",
+      o = cmd.add_flag_function(flagName(prefix + f->key) + "{true}",
                                 [&target, f](std::int64_t n) { f->set(target, n > 0 ? 1.0 : 0.0); }, help);
     } else {
       o = cmd.add_option_function<std::string>(
-          flagName(f->key), [&target, f](const std::string& v) { params::parse(*f, target, v); }, help);
+          flagName(prefix + f->key), [&target, f](const std::string& v) { params::parse(*f, target, v); }, help);
       o->type_name(f->kind == params::Kind::Choice ? "NAME" : f->kind == params::Kind::Text ? "TEXT" : "NUMBER");
     }
     const std::string d = params::format(*f, target);

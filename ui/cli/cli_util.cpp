@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <iostream>
 
+#include "cli_params.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/nrrd_writer.hpp"
 
@@ -70,6 +71,20 @@ io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
     throw Error("--raw-spacing/--raw-origin/--raw-direction need --raw-dims");
   }
   return o;
+}
+
+void TableRemovalOptions::addTo(CLI::App& cmd) {
+  cmd.add_flag("--remove-table", enabled,
+               "remove the CT table, pads and head holders: keep the largest body component above air");
+  addFlags(cmd, params, segmentation::bodyMaskParamsTable(), {}, "table_");
+}
+
+AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::path& path) const {
+  if (!enabled) return volume;
+  const auto* ct = std::get_if<VolumeI16>(&volume);
+  if (!ct) throw FileError(path, "--remove-table needs a CT in HU (int16); use --rescale for CT numbers");
+  ProgressBar bar;
+  return segmentation::removeTable(*ct, params, bar.progress());
 }
 
 ProgressBar::ProgressBar()

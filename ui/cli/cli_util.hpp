@@ -11,6 +11,7 @@
 
 #include "vellum/core/progress.hpp"
 #include "vellum/io/volume_io.hpp"
+#include "vellum/segmentation/body_mask.hpp"
 
 namespace vellum::cli {
 
@@ -38,6 +39,15 @@ struct InputOptions {
   Region region() const;
   /// A label map on the input volume's grid, reduced by the same region as the volume.
   LabelVolume loadLabelsOnInputGrid(const std::filesystem::path& path) const;
+};
+
+/// --remove-table and its parameters (--table-air-threshold, --table-opening-radius).
+struct TableRemovalOptions {
+  bool enabled = false;
+  segmentation::BodyMaskParams params;
+  void addTo(CLI::App& cmd);
+  /// The volume without the table when enabled (a CT is required), else unchanged.
+  AnyVolume apply(AnyVolume volume, const std::filesystem::path& path) const;
 };
 
 /// A progress bar on stderr. It stays silent for the first second (fast work prints

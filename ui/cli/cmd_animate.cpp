@@ -108,6 +108,7 @@ struct AnimateArgs {
   EngineOptions engine;
   RigidOptions rigid;
   InputOptions in;
+  TableRemovalOptions table;
 };
 
 }  // namespace
@@ -131,6 +132,7 @@ void addAnimateCommand(CLI::App& app) {
   a->engine.addTo(*cmd);
   a->rigid.addTo(*cmd);
   a->in.addTo(*cmd);
+  a->table.addTo(*cmd);
   cmd->footer("Example: vellum animate knee.nrrd --keyframes bend.json --labels knee-labels.nrrd "
               "--rigid-labels 4,5,6,7,8,9,11 --camera-orbit 360 --loop --out bend.mp4");
   cmd->callback([a] {
@@ -138,7 +140,8 @@ void addAnimateCommand(CLI::App& app) {
     KeyframeTrack track = loadKeyframes(a->keyframes);
     if (a->loop) track.loop = true;
     const DeformParams params = a->engine.params(std::nullopt);
-    const io::LoadedVolume lv = loadWithProgress(a->input, a->in);
+    io::LoadedVolume lv = loadWithProgress(a->input, a->in);
+    lv.volume = a->table.apply(std::move(lv.volume), a->input);
     std::optional<RigidBodies> bodies;
     if (a->rigid.enabled()) bodies = a->rigid.load(geometryOf(lv.volume), a->in);
     MovieSpec spec;

@@ -4,6 +4,7 @@
 #include "commands.hpp"
 #include "vellum/deformation/deform_params.hpp"
 #include "vellum/render/render_settings.hpp"
+#include "vellum/segmentation/body_mask.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::cli {
@@ -21,7 +22,9 @@ std::string parametersMarkdown() {
          params::markdown(render::renderSettingsTable()) + "\n";
   out += "## Hysteresis thresholds — `HysteresisParams` (`vellum segment --method hysteresis`: `--lower`, "
          "`--upper`, `--strong`)\n\n" +
-         params::markdown(segmentation::hysteresisParamsTable());
+         params::markdown(segmentation::hysteresisParamsTable()) + "\n";
+  out += "## CT table removal — `BodyMaskParams` (`--remove-table`; flags `--table-<key>`)\n\n" +
+         params::markdown(segmentation::bodyMaskParamsTable());
   return out;
 }
 

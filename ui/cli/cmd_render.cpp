@@ -20,6 +20,7 @@ struct RenderArgs {
   std::vector<double> pan, background;
   bool transparent = false;
   InputOptions in;
+  TableRemovalOptions table;
 };
 
 /// "fig.png" + "bone" -> "fig-bone.png".
@@ -42,9 +43,11 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1")->expected(3, 4);
   cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
   a->in.addTo(*cmd);
+  a->table.addTo(*cmd);
   cmd->footer("Example: vellum render knee.nrrd --preset all --size 1024x1024 --out figs/knee.png");
   cmd->callback([a] {
-    const io::LoadedVolume lv = loadWithProgress(a->input, a->in);
+    io::LoadedVolume lv = loadWithProgress(a->input, a->in);
+    lv.volume = a->table.apply(std::move(lv.volume), a->input);
     render::RenderSettings s = a->settings;
     std::tie(s.width, s.height) = parseSize(a->size);
     if (!a->pan.empty()) s.camera.panMm = {a->pan[0], a->pan[1], a->pan[2]};
