@@ -1,0 +1,60 @@
+#pragma once
+// Annotations that make a rendering a publishable figure: a scale bar in mm, an orientation
+// marker (A/P, L/R, S/I) and structure labels with leader lines, placed automatically in the
+// margins without overlapping. Drawn into the image at its own resolution (stroke fonts and
+// anti-aliased lines: crisp at any size).
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vellum/core/image.hpp"
+#include "vellum/core/label_volume.hpp"
+#include "vellum/render/projection.hpp"
+
+namespace vellum::render {
+
+struct AnnotationOptions {
+  bool scaleBar = false;
+  double scaleBarMm = 0;  ///< 0: a round length (1, 2, 5 x 10^k mm) near a fifth of the width
+  bool orientation = false;
+  bool labels = false;
+};
+
+/// A structure to label: its name and the pixel its leader line points at.
+struct StructureAnchor {
+  uint16_t id = 0;
+  std::string name;
+  int x = 0, y = 0;
+  int64_t visiblePixels = 0;  ///< size of its footprint in the image
+};
+
+/// For each of `ids` (all ids of the table when empty), the pixel deepest inside the part of
+/// the image where it is the front-most of those structures and the rendering is not
+/// transparent (alpha > 0); structures with fewer than `minPixels` such pixels are left out.
+/// `footprint`, when given, receives per pixel the id seen there (0 = none).
+std::vector<StructureAnchor> structureAnchors(const LabelVolume& labels, std::vector<uint16_t> ids,
+                                              const Projection& projection, const RgbaImage& rendered,
+                                              int64_t minPixels = 30, std::vector<uint16_t>* footprint = nullptr);
+
+/// Where things were drawn (for tests and reports).
+struct AnnotationLayout {
+  double scaleBarMm = 0, scaleBarPixels = 0;
+  std::array<int, 2> scaleBarStart{0, 0};  ///< left end of the bar (pixel)
+  struct Box {
+    int x0, y0, x1, y1;  ///< inclusive text box
+  };
+  std::vector<Box> labelBoxes;                       ///< in the order of the anchors drawn
+  std::vector<std::array<int, 4>> leaderLines;       ///< x0 y0 (box side) x1 y1 (anchor)
+  std::array<std::string, 4> orientationLetters;     ///< right, left, top, bottom
+};
+
+/// Draws the chosen annotations into `image` (white ink on dark backgrounds, black on light).
+AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const AnnotationOptions& options,
+                          const std::vector<StructureAnchor>& anchors = {});
+
+/// The anatomical letters of a physical (LPS) direction: "L", "P", "S" ... or two letters for
+/// oblique directions ("LA"), strongest first.
+std::string anatomicalLetters(const Vec3& direction);
+
+}  // namespace vellum::render

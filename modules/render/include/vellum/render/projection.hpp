@@ -1,0 +1,37 @@
+#pragma once
+// Where physical points land in a rendered image: the renderer's own camera model, for
+// annotations (scale bars, labels, leader lines) and picking.
+#include <optional>
+
+#include "vellum/core/geometry.hpp"
+#include "vellum/render/render_settings.hpp"
+
+namespace vellum::render {
+
+class Projection {
+ public:
+  /// The camera of `settings` around `volume` (the same frame the renderer builds).
+  Projection(const Geometry& volume, const RenderSettings& settings);
+
+  /// Pixel coordinates (x right, y down; the centre of pixel (0,0) is at (0,0)) and the depth
+  /// along the viewing direction (mm) of a physical point; nullopt behind a perspective eye.
+  std::optional<Vec3> toPixel(const Vec3& mm) const;
+  /// Pixels per mm: exact everywhere for orthographic views; for perspective views, at the
+  /// depth of the look-at point (nearer things look bigger).
+  double pixelsPerMm() const;
+  bool perspective() const { return perspective_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+  /// Unit physical (LPS) directions of screen right, screen up and the view.
+  const Vec3& screenRight() const { return right_; }
+  const Vec3& screenUp() const { return up_; }
+  const Vec3& viewDirection() const { return forward_; }
+
+ private:
+  int width_ = 0, height_ = 0;
+  Vec3 eye_, right_, up_, forward_, lookAt_;
+  double halfW_ = 1, halfH_ = 1;
+  bool perspective_ = false;
+};
+
+}  // namespace vellum::render
