@@ -1,4 +1,3 @@
-#include "vellum/core/flood_fill.hpp"
 #include "vellum/deformation/rigidity.hpp"
 
 #include <Eigen/Dense>
@@ -9,7 +8,9 @@
 #include <mutex>
 #include <variant>
 
+#include "vellum/core/distance_transform.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/flood_fill.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/deformation/synthesis.hpp"
@@ -68,64 +69,13 @@ RigidFit kabsch(const FitSums& s) {
 }
 #pragma GCC diagnostic pop
 
-// Exact squared Euclidean distance transform along one line (Felzenszwalb & Huttenlocher),
-// sample spacing h (mm). f: input squared distances, d: output.
-void edt1d(const double* f, double* d, int n, double h, int* v, double* z) {
-  int k = 0;
-  v[0] = 0;
-  z[0] = -1e300;
-  z[1] = 1e300;
-  auto sq = [&](int q) { return (q * h) * (q * h); };
-  for (int q = 1; q < n; ++q) {
-    if (f[q] >= 1e299) continue;
-    while (true) {
-      if (f[v[k]] >= 1e299) { v[k] = q; break; }
-      const double s = ((f[q] + sq(q)) - (f[v[k]] + sq(v[k]))) / (2 * h * h * (q - v[k]));
-      if (s <= z[k]) {
-        if (k == 0) { v[0] = q; break; }
-        --k;
-        continue;
-      }
-      ++k;
-      v[k] = q;
-      z[k] = s;
-      z[k + 1] = 1e300;
-      break;
-    }
-  }
-  k = 0;
-  for (int q = 0; q < n; ++q) {
-    while (z[k + 1] < q) ++k;
-    const double dq = (q - v[k]) * h;
-    d[q] = f[v[k]] >= 1e299 ? 1e300 : dq * dq + f[v[k]];
-  }
-}
-
-// Distance (mm) on `grid` to the nodes where inside[] is true.
+// Distance (mm) on `grid` to the nodes where inside[] is true (the shared exact EDT).
 std::vector<float> distanceField(const Geometry& grid, const std::vector<uint8_t>& inside) {
-  const Dims d = grid.dims;
-  const size_t total = static_cast<size_t>(d.voxelCount());
-  std::vector<double> g(total);
-  for (size_t t = 0; t < total; ++t) g[t] = inside[t] ? 0.0 : 1e300;
-  const int64_t len[3] = {d.x, d.y, d.z};
-  const int64_t stride[3] = {1, d.x, d.x * d.y};
-  for (int axis = 0; axis < 3; ++axis) {
-    const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
-    const int64_t lines = len[a1] * len[a2];
-    parallelFor(lines, [&](int64_t l0, int64_t l1) {
-      const int n = static_cast<int>(len[axis]);
-      std::vector<double> f(n), out(n), z(n + 1);
-      std::vector<int> v(n);
-      for (int64_t l = l0; l < l1; ++l) {
-        const int64_t base = (l % len[a1]) * stride[a1] + (l / len[a1]) * stride[a2];
-        for (int q = 0; q < n; ++q) f[q] = g[static_cast<size_t>(base + q * stride[axis])];
-        edt1d(f.data(), out.data(), n, grid.spacing[axis], v.data(), z.data());
-        for (int q = 0; q < n; ++q) g[static_cast<size_t>(base + q * stride[axis])] = out[q];
-      }
-    }, 16);
-  }
-  std::vector<float> dist(total);
-  for (size_t t = 0; t < total; ++t) dist[t] = static_cast<float>(std::sqrt(std::min(g[t], 1e30)));
+  VolumeU8 features(grid, 0);
+  std::copy(inside.begin(), inside.end(), features.data());
+  const VolumeF32 d2 = squaredDistanceMm(features);
+  std::vector<float> dist(d2.size());
+  for (size_t t = 0; t < dist.size(); ++t) dist[t] = std::sqrt(std::min(d2.data()[t], 1e30f));
   return dist;
 }
 

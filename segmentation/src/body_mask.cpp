@@ -1,7 +1,7 @@
 #include "vellum/segmentation/body_mask.hpp"
 
 #include "vellum/segmentation/components.hpp"
-#include "vellum/segmentation/distance_transform.hpp"
+#include "vellum/core/distance_transform.hpp"
 #include "vellum/segmentation/morphology.hpp"
 #include "vellum/segmentation/threshold.hpp"
 

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <limits>
 
-#include "vellum/segmentation/distance_transform.hpp"
+#include "vellum/core/distance_transform.hpp"
 
 namespace vellum::segmentation {
 namespace {

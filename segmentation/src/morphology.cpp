@@ -1,6 +1,6 @@
 #include "vellum/segmentation/morphology.hpp"
 
-#include "edt_engine.hpp"
+#include "vellum/core/edt_engine.hpp"
 
 namespace vellum::segmentation {
 namespace {
@@ -19,7 +19,7 @@ Mask dilate(const Mask& m, double radiusMm, Progress& progress) {
   uint8_t* o = out.data();
   const float r2 = radius2(radiusMm);
   progress.begin("dilate", 1);
-  detail::squaredEdt(m.data(), true, m.geometry(), work.data(), [&](int64_t q, float d2) { o[q] = d2 <= r2; }, r2);
+  vellum::detail::squaredEdt(m.data(), true, m.geometry(), work.data(), [&](int64_t q, float d2) { o[q] = d2 <= r2; }, r2);
   progress.end();
   return out;
 }
@@ -33,7 +33,7 @@ Mask erode(const Mask& m, double radiusMm, Progress& progress) {
   uint8_t* o = out.data();
   const float r2 = radius2(radiusMm);
   progress.begin("erode", 1);
-  detail::squaredEdt(src, false, m.geometry(), work.data(), [&](int64_t q, float d2) { o[q] = src[q] && d2 > r2; }, r2);
+  vellum::detail::squaredEdt(src, false, m.geometry(), work.data(), [&](int64_t q, float d2) { o[q] = src[q] && d2 > r2; }, r2);
   progress.end();
   return out;
 }

@@ -5,7 +5,7 @@
 #include <random>
 
 #include "test_volumes.hpp"
-#include "vellum/segmentation/distance_transform.hpp"
+#include "vellum/core/distance_transform.hpp"
 #include "vellum/segmentation/metrics.hpp"
 #include "vellum/segmentation/morphology.hpp"
 

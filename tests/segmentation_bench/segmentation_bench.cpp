@@ -12,7 +12,7 @@
 #include "vellum/core/parallel.hpp"
 #include "vellum/phantom/phantom.hpp"
 #include "vellum/segmentation/components.hpp"
-#include "vellum/segmentation/distance_transform.hpp"
+#include "vellum/core/distance_transform.hpp"
 #include "vellum/segmentation/metrics.hpp"
 #include "vellum/segmentation/morphology.hpp"
 #include "vellum/segmentation/region_growing.hpp"

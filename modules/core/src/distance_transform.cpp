@@ -1,12 +1,12 @@
-#include "vellum/segmentation/distance_transform.hpp"
+#include "vellum/core/distance_transform.hpp"
 
 #include <cmath>
 
-#include "edt_engine.hpp"
+#include "vellum/core/edt_engine.hpp"
 
-namespace vellum::segmentation {
+namespace vellum {
 
-VolumeF32 squaredDistanceMm(const Mask& features, Progress& progress) {
+VolumeF32 squaredDistanceMm(const VolumeU8& features, Progress& progress) {
   VolumeF32 out(features.geometry(), 0.0f, 0.0);
   progress.begin("distance transform", 1);
   float* o = out.data();
@@ -17,7 +17,7 @@ VolumeF32 squaredDistanceMm(const Mask& features, Progress& progress) {
   return out;
 }
 
-VolumeF32 signedDistanceMm(const Mask& mask, Progress& progress) {
+VolumeF32 signedDistanceMm(const VolumeU8& mask, Progress& progress) {
   const Geometry& g = mask.geometry();
   VolumeF32 out(g, 0.0f, 0.0);
   VolumeF32 work(g, 0.0f, 0.0);
@@ -35,4 +35,4 @@ VolumeF32 signedDistanceMm(const Mask& mask, Progress& progress) {
   return out;
 }
 
-}  // namespace vellum::segmentation
+}  // namespace vellum

@@ -1,6 +1,6 @@
 #pragma once
 // The separable exact Euclidean distance transform behind distance_transform.cpp and
-// morphology.cpp (internal). Three passes, each parallel over lines:
+// segmentation's morphology (an engine for library code; users call distance_transform.hpp). Three passes, each parallel over lines:
 //   x: binary two-sided scan along contiguous rows (integer distances, no parabolas needed),
 //   y, z: lower envelope of parabolas (Felzenszwalb & Huttenlocher) with that axis's spacing.
 // The y and z passes gather blocks of kBlock neighbouring columns at once, so every cache line
@@ -16,7 +16,7 @@
 #include "vellum/core/parallel.hpp"
 #include "vellum/core/volume.hpp"
 
-namespace vellum::segmentation::detail {
+namespace vellum::detail {
 
 inline constexpr float kEdtInf = std::numeric_limits<float>::infinity();
 inline constexpr int64_t kEdtBlock = 16;  ///< columns per gathered block (one cache line of floats)
@@ -152,4 +152,4 @@ void squaredEdt(const uint8_t* mask, bool featureIsNonZero, const Geometry& g, f
   envelopePass(work, d, 2, g.spacing.z, emit, false);
 }
 
-}  // namespace vellum::segmentation::detail
+}  // namespace vellum::detail
