@@ -4,6 +4,7 @@
 #include <iostream>
 #include <memory>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "deform_cli.hpp"
@@ -102,8 +103,9 @@ MovieResult renderTrack(const AnyVolume& volume, const KeyframeTrack& track, con
 }
 
 struct AnimateArgs {
-  std::string input, keyframes, output, frames, preset = "soft-tissue", size = "512x512", report;
-  double fps = 30, orbit = 0, azimuth = 30, elevation = 15, zoom = 1;
+  std::string input, keyframes, output, frames, size = "512x512", report;
+  double fps = 30, orbit = 0;
+  render::RenderSettings settings;  ///< the render table's flags write here
   bool loop = false;
   EngineOptions engine;
   RigidOptions rigid;
@@ -122,10 +124,7 @@ void addAnimateCommand(CLI::App& app) {
   cmd->add_option("--frames", a->frames, "also write PNG frames into this folder");
   cmd->add_option("--fps", a->fps, "frames per second")->capture_default_str();
   cmd->add_option("--size", a->size, "image size WxH")->capture_default_str();
-  cmd->add_option("--preset", a->preset, "bone | soft-tissue | skin | mip")->capture_default_str();
-  cmd->add_option("--azimuth", a->azimuth, "camera azimuth (degrees)")->capture_default_str();
-  cmd->add_option("--elevation", a->elevation, "camera elevation (degrees)")->capture_default_str();
-  cmd->add_option("--zoom", a->zoom, "zoom factor")->capture_default_str();
+  addFlags(*cmd, a->settings, render::renderSettingsTable(), {"width", "height"});
   cmd->add_option("--camera-orbit", a->orbit, "turn the camera by this many degrees over the animation");
   cmd->add_flag("--loop", a->loop, "seamless loop: back to the first keyframe, no repeated frame");
   cmd->add_option("--report", a->report, "JSON report: timings and per-frame rigidity measures");
@@ -156,11 +155,8 @@ void addAnimateCommand(CLI::App& app) {
     }
     spec.fps = a->fps;
     spec.orbitDeg = a->orbit;
+    spec.settings = a->settings;
     std::tie(spec.settings.width, spec.settings.height) = parseSize(a->size);
-    spec.settings.preset = render::parsePreset(a->preset);
-    spec.settings.camera.azimuthDeg = a->azimuth;
-    spec.settings.camera.elevationDeg = a->elevation;
-    spec.settings.camera.zoom = a->zoom;
     MovieResult r;
     {
       ProgressBar bar;
