@@ -1,0 +1,64 @@
+#include "label_tools.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "vellum/segmentation/components.hpp"
+#include "vellum/segmentation/label_map.hpp"
+
+namespace vellum::studio {
+namespace seg = vellum::segmentation;
+
+LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
+                      const std::function<void(LabelVolume&)>& edit) {
+  const LabelVolume before = labels;
+  edit(labels);
+  return diffLabels(before, labels, description);
+}
+
+void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const seg::HuInterval& interval,
+                   const Label& label) {
+  seg::addSegment(labels, seg::threshold(ct, interval), label, seg::OverlapRule::Overwrite);
+}
+
+int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id) {
+  const Geometry& g = labels.geometry();
+  const Vec3 c = g.physicalToIndex(centerMm);
+  // Index-space bounding box of the ball (spacing may differ per axis).
+  int64_t lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    const double r = radiusMm / g.spacing[a] + 1;
+    lo[a] = std::max<int64_t>(0, static_cast<int64_t>(std::floor(c[a] - r)));
+    hi[a] = std::min<int64_t>(g.dims[a] - 1, static_cast<int64_t>(std::ceil(c[a] + r)));
+  }
+  int64_t changed = 0;
+  for (int64_t k = lo[2]; k <= hi[2]; ++k)
+    for (int64_t j = lo[1]; j <= hi[1]; ++j)
+      for (int64_t i = lo[0]; i <= hi[0]; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        if (norm(p - centerMm) > radiusMm) continue;
+        uint16_t& v = labels(i, j, k);
+        if (v != id) {
+          v = id;
+          ++changed;
+        }
+      }
+  if (id && !labels.label(id)) labels.setLabel({id, "Segment " + std::to_string(id), defaultLabelColor(id)});
+  return changed;
+}
+
+void keepLargest(LabelVolume& labels, uint16_t id) {
+  const seg::Mask keep = seg::keepLargestComponent(seg::segmentMask(labels, id));
+  auto& ids = labels.ids().voxels();
+  const auto& k = keep.voxels();
+  for (size_t n = 0; n < ids.size(); ++n)
+    if (ids[n] == id && !k[n]) ids[n] = 0;
+}
+
+void fillHoles(LabelVolume& labels, uint16_t id) {
+  const auto existing = labels.label(id);
+  const Label label = existing ? *existing : Label{id, "Segment " + std::to_string(id), defaultLabelColor(id)};
+  seg::addSegment(labels, seg::fillHoles(seg::segmentMask(labels, id)), label, seg::OverlapRule::KeepExisting);
+}
+
+}  // namespace vellum::studio

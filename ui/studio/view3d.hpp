@@ -1,0 +1,47 @@
+#pragma once
+// The 3D pane: the shared VolumeRenderer drawing into the window's context, displayed as a
+// texture. Progressive refinement: while the user drags, frames render at 1/2..1/8 of the
+// pane's resolution (the factor adapts to keep a frame near kInteractiveBudgetMs); once the
+// mouse is released a full-resolution frame replaces it.
+#include <memory>
+
+#include "gl_texture.hpp"
+#include "scene.hpp"
+#include "vellum/render/volume_renderer.hpp"
+
+namespace vellum::studio {
+
+/// The renderer settings for `scene` at width x height: the same mapping as `vellum render`
+/// flags (camera, preset, --window from renderWindow), so the studio and the CLI agree.
+render::RenderSettings renderSettingsFor(const Scene& scene, int width, int height);
+
+class View3D {
+ public:
+  static constexpr double kInteractiveBudgetMs = 60;
+
+  explicit View3D(render::GlContext& context);
+  void setVolume(const VolumeI16& ct);
+  /// Renders when the view changed (or to refine after interaction). Returns true if it
+  /// rendered this frame.
+  bool update(const Scene& scene, int paneWidth, int paneHeight, bool interacting);
+  /// A full-resolution render at any size up to 4096² (screenshots).
+  RgbaImage renderImage(const Scene& scene, int width, int height);
+  const GlTexture& texture() const { return texture_; }
+  /// True when the displayed image is full resolution and up to date.
+  bool refined() const { return refined_; }
+  double lastRenderMs() const { return lastMs_; }
+  int lastScale() const { return lastScale_; }
+  void invalidate() { refined_ = false; lastKey_.clear(); }
+
+ private:
+  render::GlContext& context_;
+  std::unique_ptr<render::VolumeRenderer> renderer_;
+  GlTexture texture_;
+  bool hasVolume_ = false;
+  bool refined_ = false;
+  std::string lastKey_;
+  int scale_ = 2, lastScale_ = 1;
+  double lastMs_ = 0;
+};
+
+}  // namespace vellum::studio
