@@ -1,0 +1,150 @@
+// The studio's model without a window: undo deltas, label tools, scene files, MPR planes.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "label_tools.hpp"
+#include "mpr.hpp"
+#include "scene_file.hpp"
+#include "test_data.hpp"
+#include "undo.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+
+namespace vellum::studio {
+namespace {
+
+phantom::Phantom smallPhantom() {
+  phantom::PhantomOptions o;
+  o.dims = {48, 48, 48};
+  return phantom::makePhantom(o);
+}
+
+TEST(StudioUndo, ThresholdUndoRedoRestoresExactlyWithCompressedDelta) {
+  const auto ph = smallPhantom();
+  LabelVolume labels(ph.ct.geometry());
+  const LabelVolume empty = labels;
+  UndoStack stack;
+  stack.push(recordEdit(labels, "threshold", [&](LabelVolume& l) {
+    thresholdInto(l, ph.ct, segmentation::presetInterval(segmentation::Preset::Bone), {1, "bone", {255, 255, 200}});
+  }));
+  const LabelVolume thresholded = labels;
+  ASSERT_GT(thresholded.histogram().at(1), 100u);
+  // Runs, not a copy: far smaller than the label map itself.
+  EXPECT_LT(stack.bytes(), labels.ids().size() * sizeof(uint16_t) / 4);
+  ASSERT_TRUE(stack.undo(labels));
+  EXPECT_EQ(labels.ids().voxels(), empty.ids().voxels());
+  EXPECT_TRUE(labels.table().empty());
+  ASSERT_TRUE(stack.redo(labels));
+  EXPECT_EQ(labels.ids().voxels(), thresholded.ids().voxels());
+  EXPECT_EQ(labels.table(), thresholded.table());
+  EXPECT_FALSE(stack.redo(labels));
+}
+
+TEST(StudioUndo, BrushStrokeAndNewEditClearsRedo) {
+  const auto ph = smallPhantom();
+  LabelVolume labels(ph.ct.geometry());
+  UndoStack stack;
+  stack.push(recordEdit(labels, "paint", [&](LabelVolume& l) { paintSphere(l, {0, 0, 0}, 10.0, 2); }));
+  const auto painted = labels.histogram();
+  ASSERT_GT(painted.at(2), 0u);
+  // A 10 mm ball over 3.75 x 3.75 x 4.58 mm voxels: 4189 mm3 / 64.4 mm3 ~ 65 voxels.
+  EXPECT_NEAR(double(painted[2]), 65.0, 25.0);
+  stack.push(recordEdit(labels, "erase", [&](LabelVolume& l) { paintSphere(l, {0, 0, 0}, 5.0, 0); }));
+  ASSERT_TRUE(stack.undo(labels));
+  EXPECT_EQ(labels.histogram(), painted);
+  stack.push(recordEdit(labels, "paint", [&](LabelVolume& l) { paintSphere(l, {20, 0, 0}, 5.0, 3); }));
+  EXPECT_FALSE(stack.canRedo());
+}
+
+TEST(StudioLabelTools, KeepLargestAndFillHoles) {
+  const auto ph = smallPhantom();
+  LabelVolume labels(ph.ct.geometry());
+  paintSphere(labels, {0, 0, 0}, 20.0, 1);
+  paintSphere(labels, {60, 60, 60}, 6.0, 1);  // a separate island
+  paintSphere(labels, {0, 0, 0}, 6.0, 0);     // a cavity
+  const auto before = labels.histogram()[1];
+  keepLargest(labels, 1);
+  const auto afterKeep = labels.histogram()[1];
+  EXPECT_LT(afterKeep, before);
+  fillHoles(labels, 1);
+  EXPECT_GT(labels.histogram()[1], afterKeep);
+  EXPECT_EQ(labels(24, 24, 24), 1);  // the centre is filled again
+}
+
+TEST(StudioSceneFile, RoundTripsWithRelativePaths) {
+  const auto dir = test::tempDir("studio-scene");
+  const auto ph = smallPhantom();
+  std::filesystem::create_directories(dir / "data");
+  io::saveVolume(AnyVolume(ph.ct), dir / "data" / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "data" / "labels.nrrd");
+  SceneFile s;
+  s.volume = dir / "data" / "ct.nrrd";
+  s.labels = dir / "data" / "labels.nrrd";
+  s.layout = Layout::OneByThree;
+  s.preset = render::Preset::Bone;
+  s.camera.azimuthDeg = 75;
+  s.camera.panMm = {1, 2, 3};
+  s.sliceWindow = {300, 1500};
+  s.crosshairMm = {4, 5, 6};
+  s.hiddenLabels = {3, 7};
+  writeSceneFile(s, dir / "scene.json");
+  std::ifstream in(dir / "scene.json");
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(text.find("\"data/ct.nrrd\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"version\": 1"), std::string::npos);
+  const SceneFile r = readSceneFile(dir / "scene.json");
+  EXPECT_EQ(r.volume, (dir / "data" / "ct.nrrd").lexically_normal());
+  EXPECT_EQ(r.labels, (dir / "data" / "labels.nrrd").lexically_normal());
+  EXPECT_EQ(r.layout, Layout::OneByThree);
+  EXPECT_EQ(r.preset, render::Preset::Bone);
+  EXPECT_EQ(r.camera.azimuthDeg, 75);
+  EXPECT_EQ(r.camera.panMm, (Vec3{1, 2, 3}));
+  EXPECT_EQ(r.sliceWindow, (WindowLevel{300, 1500}));
+  EXPECT_EQ(r.crosshairMm, (Vec3{4, 5, 6}));
+  EXPECT_EQ(r.hiddenLabels, (std::set<uint16_t>{3, 7}));
+}
+
+TEST(StudioSceneFile, MissingDataAndBadFilesGiveClearMessages) {
+  const auto dir = test::tempDir("studio-scene-bad");
+  {
+    std::ofstream(dir / "missing.json") << R"({"format":"vellum-studio-scene","version":1,"volume":"gone.nrrd"})";
+    std::ofstream(dir / "future.json") << R"({"format":"vellum-studio-scene","version":99,"volume":"x.nrrd"})";
+    std::ofstream(dir / "junk.json") << "{ not json";
+  }
+  try {
+    readSceneFile(dir / "missing.json");
+    FAIL() << "no error";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("gone.nrrd"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("referenced by missing.json"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(readSceneFile(dir / "future.json"), FileError);
+  EXPECT_THROW(readSceneFile(dir / "junk.json"), FileError);
+}
+
+TEST(StudioMpr, PlanesMapPixelsToMmAndBack) {
+  const auto ph = smallPhantom();
+  const Vec3 cross{10, -5, 20};
+  for (SliceAxis a : {SliceAxis::Axial, SliceAxis::Coronal, SliceAxis::Sagittal}) {
+    const SlicePlane p = makePlane(a, ph.ct.geometry(), cross, 300, 200);
+    const auto [px, py] = p.toPixel(cross);
+    const Vec3 back = p.toMm(px, py);
+    EXPECT_NEAR(norm(back - cross), 0.0, 1e-9) << sliceAxisName(a);
+    // The whole volume fits: the field of view is 180 x 180 x 220 mm.
+    EXPECT_GE(p.mmPerPixel * 200, a == SliceAxis::Axial ? 180.0 : 220.0);
+  }
+  // Axial: screen right is patient left (+x), screen down is posterior (+y).
+  const SlicePlane ax = makePlane(SliceAxis::Axial, ph.ct.geometry(), cross, 300, 200);
+  EXPECT_GT(ax.toMm(200, 100).x, ax.toMm(100, 100).x);
+  EXPECT_GT(ax.toMm(100, 150).y, ax.toMm(100, 50).y);
+  SliceStyle style;
+  style.labels = &ph.labels;
+  const RgbaImage img = renderSlice(ph.ct, ax, style);
+  EXPECT_EQ(img.width, 300);
+  EXPECT_EQ(img.height, 200);
+}
+
+}  // namespace
+}  // namespace vellum::studio

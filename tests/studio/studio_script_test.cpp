@@ -1,0 +1,156 @@
+// vellum-studio end to end: scripts drive the real window (under the X server the test runs
+// in; CI: xvfb-run -a ctest) through the same input handlers as a user.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "image_compare.hpp"
+#include "scene_file.hpp"
+#include "test_data.hpp"
+#include "view3d.hpp"
+#include "vellum/io/image_io.hpp"
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+#include "vellum/render/volume_renderer.hpp"
+
+namespace vellum::studio {
+namespace {
+namespace fs = std::filesystem;
+
+#define REQUIRE_DISPLAY()                                                        \
+  do {                                                                           \
+    if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)"; \
+  } while (0)
+
+struct StudioRun {
+  int exitCode = -1;
+  std::string output;  ///< stdout + stderr
+};
+
+/// Writes `script` next to the outputs and runs the studio on it.
+StudioRun runStudio(const fs::path& dir, const std::string& name, const std::string& script,
+              const std::string& args = "") {
+  const fs::path scriptPath = dir / (name + ".json");
+  std::ofstream(scriptPath) << script;
+  const fs::path log = dir / (name + ".log");
+  const std::string cmd = std::string("\"") + VELLUM_STUDIO_EXE + "\" " + args + " --size 1024x700 --script \"" +
+                          scriptPath.string() + "\" > \"" + log.string() + "\" 2>&1";
+  const int status = std::system(cmd.c_str());
+  StudioRun r;
+  r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.output = ss.str();
+  return r;
+}
+
+/// A small phantom CT and its label map in `dir`.
+void writePhantom(const fs::path& dir) {
+  phantom::PhantomOptions o;
+  o.dims = {64, 64, 64};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+}
+
+std::string q(const fs::path& p) { return "\"" + p.generic_string() + "\""; }
+
+TEST(StudioScript, ThresholdUndoRedoSceneReopenAndCliRender) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-e2e");
+  writePhantom(d);
+  // Layouts, bone threshold into a fresh label map, undo / redo saved at every stage, the
+  // scene saved, then window and 3D screenshots.
+  const std::string s1 = R"({"actions":[
+    {"open":)" + q(d / "ct.nrrd") + R"(},
+    {"layout":"3d"},{"layout":"1x3"},{"layout":"2x2"},{"preset":"bone"},{"hud":false},
+    {"save_labels":)" + q(d / "l0.nrrd") + R"(},
+    {"threshold":{"preset":"bone","label":1}},
+    {"save_labels":)" + q(d / "l1.nrrd") + R"(},
+    {"key":"ctrl+z"},
+    {"save_labels":)" + q(d / "l2.nrrd") + R"(},
+    {"key":"ctrl+shift+z"},
+    {"save_labels":)" + q(d / "l3.nrrd") + R"(},
+    {"drag":{"from":[850,500],"to":[900,520],"button":"left"}},
+    {"click":[500,170]},
+    {"save_scene":)" + q(d / "scene.json") + R"(},
+    {"screenshot":)" + q(d / "win1.png") + R"(},
+    {"screenshot":{"path":)" + q(d / "view1.png") + R"(,"view":"3d"}},
+    {"quit":0}]})";
+  const StudioRun r1 = runStudio(d, "first", s1);
+  ASSERT_EQ(r1.exitCode, 0) << r1.output;
+
+  const auto l0 = io::loadLabels(d / "l0.nrrd"), l1 = io::loadLabels(d / "l1.nrrd"),
+             l2 = io::loadLabels(d / "l2.nrrd"), l3 = io::loadLabels(d / "l3.nrrd");
+  EXPECT_EQ(l0.histogram().size(), 1u);  // nothing labelled yet
+  ASSERT_GE(l1.histogram().size(), 2u);
+  EXPECT_GT(l1.histogram()[1], 500u);
+  EXPECT_EQ(l2.ids().voxels(), l0.ids().voxels()) << "undo restores the label map";
+  EXPECT_EQ(l3.ids().voxels(), l1.ids().voxels()) << "redo restores the threshold";
+  EXPECT_EQ(l3.table(), l1.table());
+
+  // The scene references the volume relatively and the saved label map.
+  const SceneFile sf = readSceneFile(d / "scene.json");
+  EXPECT_EQ(sf.volume, (d / "ct.nrrd").lexically_normal());
+  ASSERT_FALSE(sf.labels.empty());
+  EXPECT_EQ(io::loadLabels(sf.labels).ids().voxels(), l1.ids().voxels());
+  EXPECT_EQ(sf.preset, render::Preset::Bone);
+  EXPECT_NE(sf.camera.azimuthDeg, render::Camera{}.azimuthDeg) << "the drag rotated the camera";
+
+  // Reopening the scene gives the same pixels. The same click as before (on the crosshair it
+  // set, so nothing moves) gives ImGui the same focus and hover state.
+  const std::string s2 = R"({"actions":[{"hud":false},{"click":[500,170]},{"wait_idle":true},
+    {"screenshot":)" + q(d / "win2.png") + R"(},
+    {"screenshot":{"path":)" + q(d / "view2.png") + R"(,"view":"3d"}},{"quit":0}]})";
+  const StudioRun r2 = runStudio(d, "second", s2, q(d / "scene.json"));
+  ASSERT_EQ(r2.exitCode, 0) << r2.output;
+  const RgbaImage w1 = io::loadImage(d / "win1.png"), w2 = io::loadImage(d / "win2.png");
+  ASSERT_EQ(w1.width, 1024);
+  ASSERT_EQ(w1.height, 700);
+  EXPECT_EQ(w1.pixels, w2.pixels) << "window screenshots differ after reopening the scene";
+  const RgbaImage v1 = io::loadImage(d / "view1.png"), v2 = io::loadImage(d / "view2.png");
+  EXPECT_EQ(v1.pixels, v2.pixels);
+
+  // The 3D view is what the CLI renderer gives for the same camera and preset.
+  auto context = render::GlContext::createHeadless();
+  render::VolumeRenderer renderer(*context);
+  renderer.setVolume(io::loadVolume(d / "ct.nrrd").volume);
+  Scene scene;
+  applySceneView(sf, scene);
+  const RgbaImage cli = renderer.render(renderSettingsFor(scene, v1.width, v1.height));
+  const auto diff = test::compareImages(v1, cli);
+  EXPECT_GE(diff.psnr, 40.0) << "studio 3D view vs VolumeRenderer";
+}
+
+TEST(StudioScript, BadFileLeavesSceneAndFailuresNameTheAction) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-bad");
+  writePhantom(d);
+  std::ofstream(d / "broken.nrrd") << "NRRD0004\ntype: short\ndimension: 3\nsizes: 10 10\n\n";
+  const StudioRun ok = runStudio(d, "expect", R"({"actions":[{"open":)" + q(d / "ct.nrrd") + R"(},
+      {"open":{"path":)" + q(d / "broken.nrrd") + R"(,"expect_error":true}},
+      {"save_labels":)" + q(d / "still.nrrd") + R"(},{"quit":0}]})");
+  EXPECT_EQ(ok.exitCode, 0) << ok.output;
+  EXPECT_NE(ok.output.find("broken.nrrd"), std::string::npos) << ok.output;
+  EXPECT_TRUE(fs::exists(d / "still.nrrd")) << "the first volume stayed open";
+
+  const StudioRun missing = runStudio(d, "missing", R"({"actions":[{"frames":1},{"open":)" + q(d / "nope.nrrd") + R"(}]})");
+  EXPECT_NE(missing.exitCode, 0);
+  EXPECT_NE(missing.output.find("script action #1 (open)"), std::string::npos) << missing.output;
+
+  const StudioRun unknown = runStudio(d, "unknown", R"({"actions":[{"frames":1},{"fly":true}]})");
+  EXPECT_NE(unknown.exitCode, 0);
+  EXPECT_NE(unknown.output.find("script action #1"), std::string::npos) << unknown.output;
+  EXPECT_NE(unknown.output.find("fly"), std::string::npos) << unknown.output;
+
+  const StudioRun badScene = runStudio(d, "badscene", R"({"actions":[{"open":)" + q(d / "gone.json") + R"(}]})");
+  EXPECT_NE(badScene.exitCode, 0);
+  EXPECT_NE(badScene.output.find("gone.json"), std::string::npos) << badScene.output;
+}
+
+}  // namespace
+}  // namespace vellum::studio
