@@ -168,7 +168,7 @@ void StudioApp::frame() {
     updateSliceTextures();
     for (const Pane& p : panes_)
       if (p.is3d())
-        rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), dragPane_ && dragPane_->is3d());
+        rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());
   }
   drawPanes();
   if (hudVisible) drawHud();
@@ -446,6 +446,10 @@ void StudioApp::injectMouseButton(int button, int action, int mods) {
 void StudioApp::injectScroll(double dx, double dy) { scrollCallback(window_, dx, dy); }
 void StudioApp::injectKey(int key, int action, int mods) { keyCallback(window_, key, 0, action, mods); }
 
+bool StudioApp::interacting3d() const {
+  return (dragPane_ && dragPane_->is3d()) || glfwGetTime() < zoomInteractionUntil_;
+}
+
 const Pane* StudioApp::paneAt(double x, double y) const {
   for (const Pane& p : panes_)
     if (p.rect.contains(x, y)) return &p;
@@ -528,6 +532,7 @@ void StudioApp::onScroll(double, double dy) {
   if (!pane) return;
   if (pane->is3d()) {
     scene_.camera.zoom = std::clamp(scene_.camera.zoom * std::pow(1.1, dy), 0.1, 50.0);
+    zoomInteractionUntil_ = glfwGetTime() + 0.3;
   } else {  // one voxel through the slices per notch
     const SlicePlane plane = makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, 1, 1);
     const Vec3& sp = scene_.ct.geometry().spacing;

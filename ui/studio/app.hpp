@@ -146,6 +146,9 @@ class StudioApp {
   int exitCode_ = 0;
   double lastFrameMs_ = 0;
   long frameNumber_ = 0;
+  /// Wheel zoom counts as interaction for a moment, so a burst of notches renders coarse.
+  double zoomInteractionUntil_ = 0;
+  bool interacting3d() const;
 };
 
 }  // namespace vellum::studio

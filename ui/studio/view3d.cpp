@@ -63,9 +63,10 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   lastKey_ = key;
   refined_ = scale == 1;
   if (interacting) {
-    // Cost scales with pixels: halve the resolution when over budget, double it when well under.
+    // Cost scales with pixels: halve the resolution when over budget; double it only when
+    // 4x the pixels are predicted to fit (hysteresis: no oscillation between two factors).
     if (lastMs_ > kInteractiveBudgetMs && scale_ < 8) scale_ *= 2;
-    else if (lastMs_ < kInteractiveBudgetMs / 5 && scale_ > 2) scale_ /= 2;
+    else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) scale_ /= 2;
   }
   return true;
 }
