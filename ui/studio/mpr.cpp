@@ -53,6 +53,12 @@ SlicePlane makePlane(SliceAxis axis, const Geometry& g, const Vec3& crosshairMm,
   return p;
 }
 
+namespace {
+/// Label fill at `opacity` with opaque 1-pixel outlines where the id changes.
+void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
+                   const std::vector<std::array<uint8_t, 3>>& colours, float opacity);
+}  // namespace
+
 RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceStyle& style) {
   RgbaImage img(plane.width, plane.height);
   const Geometry& g = ct.geometry();
@@ -64,6 +70,7 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
   const double scale = 255.0 / std::max(1e-6, style.window.width);
   const bool labelsOn = style.labels && !style.labels->ids().empty();
   std::vector<uint16_t> ids(labelsOn ? static_cast<size_t>(plane.width) * plane.height : 0);
+  std::vector<uint8_t> preview(style.thresholdPreview ? static_cast<size_t>(plane.width) * plane.height : 0);
   std::vector<std::array<uint8_t, 3>> colours(65536, {0, 0, 0});
   if (labelsOn) {
     for (uint16_t id = 1; id < 256; ++id) colours[id] = defaultLabelColor(id);
@@ -83,26 +90,40 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
         if (id && style.hidden && style.hidden->count(id)) id = 0;
         ids[static_cast<size_t>(y) * plane.width + x] = id;
       }
-      if (style.thresholdPreview && ct.sampleNearest(ijk) >= style.thresholdPreview->lower &&
-          ct.sampleNearest(ijk) <= style.thresholdPreview->upper) {
-        // Preview in a colour no default label uses, half-blended so anatomy stays visible.
-        px[0] = static_cast<uint8_t>((px[0] + 255) / 2);
-        px[1] = static_cast<uint8_t>((px[1] + 230) / 2);
-        px[2] = static_cast<uint8_t>(px[2] / 2);
+      if (style.thresholdPreview) {
+        const double v = ct.sampleNearest(ijk);
+        preview[static_cast<size_t>(y) * plane.width + x] = style.thresholdPreview->contains(v);
       }
     }
   });
-  if (!labelsOn) return img;
-  const float a = std::clamp(style.labelOpacity, 0.f, 1.f);
-  parallelFor(plane.height, [&](int64_t y0, int64_t y1) {
+  if (labelsOn) overlayLabels(img, ids, colours, style.labelOpacity);
+  if (!preview.empty()) {
+    // Drawn last, in magenta (no default label uses it), half-blended so the anatomy shows.
+    for (size_t n = 0; n < preview.size(); ++n) {
+      if (!preview[n]) continue;
+      uint8_t* px = img.pixels.data() + n * 4;
+      px[0] = static_cast<uint8_t>((px[0] + 255) / 2);
+      px[1] = static_cast<uint8_t>(px[1] / 4);
+      px[2] = static_cast<uint8_t>((px[2] + 255) / 2);
+    }
+  }
+  return img;
+}
+
+namespace {
+void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
+                   const std::vector<std::array<uint8_t, 3>>& colours, float opacity) {
+  const int width = img.width, height = img.height;
+  const float a = std::clamp(opacity, 0.f, 1.f);
+  parallelFor(height, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y)
-    for (int x = 0; x < plane.width; ++x) {
-      const uint16_t id = ids[static_cast<size_t>(y) * plane.width + x];
+    for (int x = 0; x < width; ++x) {
+      const uint16_t id = ids[static_cast<size_t>(y) * width + x];
       if (!id) continue;
       // Outline: a pixel whose 4-neighbour carries another id (or lies outside the image).
       auto other = [&](int nx, int ny) {
-        if (nx < 0 || ny < 0 || nx >= plane.width || ny >= plane.height) return true;
-        return ids[static_cast<size_t>(ny) * plane.width + nx] != id;
+        if (nx < 0 || ny < 0 || nx >= width || ny >= height) return true;
+        return ids[static_cast<size_t>(ny) * width + nx] != id;
       };
       const int yi = static_cast<int>(y);
       const bool edge = other(x - 1, yi) || other(x + 1, yi) || other(x, yi - 1) || other(x, yi + 1);
@@ -112,7 +133,7 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
         px[c] = static_cast<uint8_t>(std::lround(px[c] * (1 - w) + colours[id][c] * w));
     }
   });
-  return img;
 }
+}  // namespace
 
 }  // namespace vellum::studio

@@ -42,7 +42,7 @@ struct Scene {
   /// The renderer's window (RenderSettings defaults), kept apart from the slices' one.
   WindowLevel renderWindow{400, 2000};
   Vec3 crosshairMm{0, 0, 0};
-  float labelOpacity = 0.5f;
+  float labelOpacity = 0.4f;
   std::set<uint16_t> hiddenLabels;
 
   bool hasVolume() const { return !ct.empty(); }

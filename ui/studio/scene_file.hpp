@@ -19,7 +19,7 @@ struct SceneFile {
   render::Camera camera;
   WindowLevel sliceWindow, renderWindow{400, 2000};
   Vec3 crosshairMm;
-  float labelOpacity = 0.5f;
+  float labelOpacity = 0.4f;
   std::set<uint16_t> hiddenLabels;
 };
 
