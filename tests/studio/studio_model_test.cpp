@@ -73,6 +73,27 @@ TEST(StudioLabelTools, KeepLargestAndFillHoles) {
   EXPECT_EQ(labels(24, 24, 24), 1);  // the centre is filled again
 }
 
+TEST(StudioLabelTools, GrowFromSeedAndMorphology) {
+  const auto ph = smallPhantom();
+  LabelVolume labels(ph.ct.geometry());
+  // The femur shaft's cortex (radius 13 mm, 4 mm thick, centred near x=y=0) at z = 60 mm.
+  const segmentation::HuInterval bone{700, 3071};
+  Vec3 seed{0, 0, 60};
+  for (double r = 9; r < 16 && !bone.contains(ph.ct.sampleNearestMm(seed)); r += 0.5) seed = {r, 0, 60};
+  ASSERT_TRUE(bone.contains(ph.ct.sampleNearestMm(seed)));
+  EXPECT_GT(growFromSeed(labels, ph.ct, seed, bone, {3, "femur", {255, 255, 255}}), 50);
+  EXPECT_EQ(growFromSeed(labels, ph.ct, {0, 0, 60}, bone, {3, "femur", {255, 255, 255}}), 0)
+      << "a seed in the marrow grows nothing";
+  const auto grown = labels.histogram()[3];
+  morphology(labels, 3, Morphology::Dilate, 4.0);
+  EXPECT_GT(labels.histogram()[3], grown);
+  morphology(labels, 3, Morphology::Erode, 4.0);
+  EXPECT_LT(labels.histogram()[3], grown * 2);
+  const double otsu = otsuHu(ph.ct);  // between soft tissue (~50 HU) and cortex (1400 HU)
+  EXPECT_GT(otsu, 150.0);
+  EXPECT_LT(otsu, 1000.0);
+}
+
 TEST(StudioSceneFile, RoundTripsWithRelativePaths) {
   const auto dir = test::tempDir("studio-scene");
   const auto ph = smallPhantom();

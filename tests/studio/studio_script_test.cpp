@@ -80,6 +80,7 @@ TEST(StudioScript, ThresholdUndoRedoSceneReopenAndCliRender) {
     {"save_scene":)" + q(d / "scene.json") + R"(},
     {"screenshot":)" + q(d / "win1.png") + R"(},
     {"screenshot":{"path":)" + q(d / "view1.png") + R"(,"view":"3d"}},
+    {"export_command":{"path":)" + q(d / "render.sh") + R"(,"figure":)" + q(d / "cli.png") + R"(}},
     {"quit":0}]})";
   const StudioRun r1 = runStudio(d, "first", s1);
   ASSERT_EQ(r1.exitCode, 0) << r1.output;
@@ -124,6 +125,16 @@ TEST(StudioScript, ThresholdUndoRedoSceneReopenAndCliRender) {
   const RgbaImage cli = renderer.render(renderSettingsFor(scene, v1.width, v1.height));
   const auto diff = test::compareImages(v1, cli);
   EXPECT_GE(diff.psnr, 40.0) << "studio 3D view vs VolumeRenderer";
+
+  // ... and what the exported `vellum render` command writes.
+  std::ifstream cmdFile(d / "render.sh");
+  std::string cmd;
+  std::getline(cmdFile, cmd);
+  ASSERT_EQ(cmd.rfind("vellum render ", 0), 0u) << cmd;
+  cmd = std::string("\"") + VELLUM_CLI_EXE + "\"" + cmd.substr(6) + " > \"" + (d / "cli.log").string() + "\" 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  const auto cliDiff = test::compareImages(v1, io::loadImage(d / "cli.png"));
+  EXPECT_GE(cliDiff.psnr, 40.0) << "studio 3D view vs `vellum render`: " << cmd;
 }
 
 TEST(StudioScript, BadFileLeavesSceneAndFailuresNameTheAction) {

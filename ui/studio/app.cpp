@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <iostream>
 #include <sstream>
+#include <tuple>
 
 #include "gl_texture.hpp"
 #include "label_tools.hpp"
@@ -58,6 +59,13 @@ ImU32 planeColour(const Vec3& normal) {
   return IM_COL32(230, 210, 60, 255);
 }
 
+}  // namespace
+
+namespace {
+Label labelFor(const LabelVolume& labels, uint16_t id, const std::string& defaultName) {
+  if (auto l = labels.label(id)) return *l;
+  return {id, defaultName, defaultLabelColor(id)};
+}
 }  // namespace
 
 StudioApp::StudioApp(StudioOptions options) : options_(std::move(options)) {}
@@ -193,8 +201,8 @@ void StudioApp::frame() {
 
 // ---- loading ---------------------------------------------------------------------------
 
-void StudioApp::requestOpen(const fs::path& path, const fs::path& labels) {
-  if (!loader_.start({path, labels})) showError("a file is still loading; cancel it first");
+void StudioApp::requestOpen(const fs::path& path, const fs::path& labels, const std::string& seriesUid) {
+  if (!loader_.start({path, labels, seriesUid})) showError("a file is still loading; cancel it first");
 }
 
 void StudioApp::pollLoader() {
@@ -213,6 +221,12 @@ void StudioApp::adoptLoad(LoadResult r) {
   scene_.labelsPath = r.labelsPath;
   scene_.scenePath = r.scenePath;
   scene_.labelsModified = false;
+  scene_.series = std::move(r.series);
+  scene_.seriesUid = r.seriesUid;
+  const fs::path opened = r.scene ? r.scenePath : r.volumePath;
+  std::erase(recent_, opened);
+  recent_.insert(recent_.begin(), opened);
+  if (recent_.size() > 8) recent_.resize(8);
   if (r.scene) {
     applySceneView(*r.scene, scene_);
   } else {
@@ -269,6 +283,7 @@ void StudioApp::drawPanes() {
       if (t.valid()) dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id())), a, b);
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(200, 200, 255, 255),
                   (std::string("3D  ") + render::presetName(scene_.preset)).c_str());
+      if (panes_.size() > 1) drawPlanesIn3d(p);
       continue;
     }
     const GlTexture& t = *sliceTextures_[static_cast<size_t>(*p.slice)];
@@ -281,13 +296,43 @@ void StudioApp::drawPanes() {
     // Vertical line: the plane whose normal is u; horizontal: the plane whose normal is v.
     dl->AddLine({a.x + float(cx), a.y}, {a.x + float(cx), b.y}, planeColour(plane.u));
     dl->AddLine({a.x, a.y + float(cy)}, {b.x, a.y + float(cy)}, planeColour(plane.v));
-    if (tools_.tool != Tool::Navigate && p.rect.contains(mouseX_, mouseY_))
+    if ((tools_.tool == Tool::Paint || tools_.tool == Tool::Erase) && p.rect.contains(mouseX_, mouseY_))
       dl->AddCircle({float(mouseX_), float(mouseY_)}, float(tools_.brushRadiusMm / plane.mmPerPixel),
                     tools_.tool == Tool::Paint ? IM_COL32(255, 255, 255, 220) : IM_COL32(255, 120, 120, 220), 32);
     dl->PopClipRect();
     dl->AddRect(a, b, planeColour(plane.normal));
     dl->AddText({a.x + 6, a.y + 4}, planeColour(plane.normal), sliceAxisName(*p.slice));
   }
+}
+
+void StudioApp::drawPlanesIn3d(const Pane& pane) {
+  // The three slice planes as outlines of their cut through the volume's bounding box, drawn
+  // over the rendering (not depth-tested) in the slice colours.
+  const Geometry& g = scene_.ct.geometry();
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p = g.indexToPhysical({(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5,
+                                      (c & 4) ? g.dims.z - 0.5 : -0.5});
+    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+  }
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();
+  dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
+  for (int axis = 0; axis < 3; ++axis) {  // plane normal along x (sagittal), y (coronal), z (axial)
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    std::vector<ImVec2> pts;
+    for (int k = 0; k < 4; ++k) {
+      Vec3 p = scene_.crosshairMm;
+      p[u] = (k == 1 || k == 2) ? hi[u] : lo[u];
+      p[v] = (k >= 2) ? hi[v] : lo[v];
+      const auto px = projectToView(scene_, int(pane.rect.w), int(pane.rect.h), p);
+      if (!px) break;
+      pts.push_back({pane.rect.x + float(px->first), pane.rect.y + float(px->second)});
+    }
+    Vec3 normal;
+    normal[axis] = 1;
+    if (pts.size() == 4) dl->AddPolyline(pts.data(), 4, planeColour(normal), ImDrawFlags_Closed, 1.f);
+  }
+  dl->PopClipRect();
 }
 
 void StudioApp::drawHud() {
@@ -344,13 +389,20 @@ void StudioApp::captureWindow() {
 
 std::optional<std::string> StudioApp::takeScreenshotError() { return std::exchange(screenshotError_, std::nullopt); }
 
+std::pair<int, int> StudioApp::pane3dSize() const {
+  for (const Pane& p : panes_)
+    if (p.is3d()) return {int(p.rect.w), int(p.rect.h)};
+  return {512, 512};
+}
+
+std::string StudioApp::cliCommand(const std::string& out) const {
+  const auto [w, h] = pane3dSize();
+  return cliRenderCommand(scene_, w, h, out);
+}
+
 void StudioApp::save3dScreenshot(const fs::path& path, int width, int height) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  if (width <= 0 || height <= 0) {
-    width = height = 512;
-    for (const Pane& p : panes_)
-      if (p.is3d()) width = int(p.rect.w), height = int(p.rect.h);
-  }
+  if (width <= 0 || height <= 0) std::tie(width, height) = pane3dSize();
   if (width > 4096 || height > 4096) throw Error("3D screenshots are limited to 4096x4096");
   io::saveImage(view3d_->renderImage(scene_, width, height), path);
 }
@@ -389,12 +441,6 @@ bool StudioApp::redo() {
   return done;
 }
 
-namespace {
-Label labelFor(const LabelVolume& labels, uint16_t id, const std::string& defaultName) {
-  if (auto l = labels.label(id)) return *l;
-  return {id, defaultName, defaultLabelColor(id)};
-}
-}  // namespace
 
 void StudioApp::applyThreshold() {
   if (!scene_.hasVolume()) throw Error("no volume is open");
@@ -413,6 +459,18 @@ void StudioApp::keepLargestOfActive() {
 void StudioApp::fillHolesOfActive() {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   pushEdit(recordEdit(scene_.labels, "fill holes", [&](LabelVolume& l) { fillHoles(l, tools_.activeLabel); }));
+}
+
+void StudioApp::morphologyOfActive(Morphology op) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  pushEdit(recordEdit(scene_.labels, morphologyName(op), [&](LabelVolume& l) {
+    morphology(l, tools_.activeLabel, op, tools_.brushRadiusMm);
+  }));
+}
+
+void StudioApp::otsuThreshold() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  tools_.threshold = {otsuHu(scene_.ct), 3071};
 }
 
 void StudioApp::saveLabels(const fs::path& path) {
@@ -463,6 +521,17 @@ void StudioApp::paintAt(const Pane& pane, double x, double y) {
     markSlicesDirty();
 }
 
+void StudioApp::growAt(const Pane& pane, double x, double y) {
+  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const Vec3 seed = plane.toMm(x - pane.rect.x, y - pane.rect.y);
+  const Label label = labelFor(scene_.labels, tools_.activeLabel, "Region " + std::to_string(tools_.activeLabel));
+  try {
+    pushEdit(recordEdit(scene_.labels, "grow", [&](LabelVolume& l) { growFromSeed(l, scene_.ct, seed, tools_.threshold, label); }));
+  } catch (const std::exception& e) {
+    showError(e.what());  // e.g. a seed outside the volume
+  }
+}
+
 void StudioApp::onCursorPos(double x, double y) {
   const double dx = x - mouseX_, dy = y - mouseY_;
   mouseX_ = x;
@@ -472,7 +541,9 @@ void StudioApp::onCursorPos(double x, double y) {
   const bool shift = dragMods_ & GLFW_MOD_SHIFT;
   if (!pane.is3d()) {
     if (dragButton_ == GLFW_MOUSE_BUTTON_LEFT) {
-      if (tools_.tool == Tool::Navigate) {
+      if (tools_.tool == Tool::Grow) {
+        // The seed click grows once (on press); dragging does nothing more.
+      } else if (tools_.tool == Tool::Navigate) {
         const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
         scene_.crosshairMm = plane.toMm(x - pane.rect.x, y - pane.rect.y);
         markSlicesDirty();
@@ -521,6 +592,10 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   dragButton_ = button;
   dragMods_ = mods;
   if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {
+    if (tools_.tool == Tool::Grow) {
+      growAt(*pane, mouseX_, mouseY_);
+      return;
+    }
     if (tools_.tool != Tool::Navigate) strokeBefore_ = scene_.labels;  // diffed on release
     onCursorPos(mouseX_, mouseY_);  // a click acts where it lands
   }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "file_browser.hpp"
+#include "label_tools.hpp"
 #include "layout.hpp"
 #include "loader.hpp"
 #include "scene.hpp"
@@ -25,7 +26,7 @@ class WindowContext;
 class ScriptRunner;
 class GlTexture;
 
-enum class Tool { Navigate, Paint, Erase };
+enum class Tool { Navigate, Paint, Erase, Grow };
 
 /// Segmentation panel state (not saved in scenes).
 struct ToolState {
@@ -65,7 +66,8 @@ class StudioApp {
   void injectKey(int key, int action, int mods);
 
   // Commands (panels, keys and scripts).
-  void requestOpen(const std::filesystem::path& path, const std::filesystem::path& labels = {});
+  void requestOpen(const std::filesystem::path& path, const std::filesystem::path& labels = {},
+                   const std::string& seriesUid = {});
   void setLayout(Layout l);
   void setPreset(render::Preset p);
   void resetView();
@@ -74,6 +76,11 @@ class StudioApp {
   void applyThreshold();
   void keepLargestOfActive();
   void fillHolesOfActive();
+  void morphologyOfActive(Morphology op);
+  /// Sets the threshold range to [Otsu, 3071] HU.
+  void otsuThreshold();
+  /// The `vellum render` command for the 3D view at its pane size (512² without a 3D pane).
+  std::string cliCommand(const std::string& out) const;
   /// Saves the scene (and the label map next to it when it has no file or was edited).
   void saveScene(const std::filesystem::path& path);
   void saveLabels(const std::filesystem::path& path);
@@ -100,6 +107,8 @@ class StudioApp {
   bool screenshotPending() const { return !pendingScreenshot_.empty(); }
   double lastFrameMs() const { return lastFrameMs_; }
   const View3D* view3d() const { return view3d_.get(); }
+  /// Files opened successfully this session, most recent first (at most 8).
+  const std::vector<std::filesystem::path>& recentFiles() const { return recent_; }
 
  private:
   void createWindow();
@@ -114,6 +123,9 @@ class StudioApp {
   void markSlicesDirty() { slicesDirty_ = true; }
   void pushEdit(LabelDelta delta);
   void paintAt(const Pane& pane, double x, double y);
+  void growAt(const Pane& pane, double x, double y);
+  std::pair<int, int> pane3dSize() const;
+  void drawPlanesIn3d(const Pane& pane);
 
   StudioOptions options_;
   GLFWwindow* window_ = nullptr;
@@ -127,6 +139,7 @@ class StudioApp {
   Loader loader_;
   FileBrowser browser_;
   std::vector<Pane> panes_;
+  std::vector<std::filesystem::path> recent_;
   bool slicesDirty_ = true;
   std::string lastSliceKey_;
   std::string lastLoadError_;

@@ -54,7 +54,11 @@ void FileBrowser::draw() {
     const auto& e = entries_[n];
     std::error_code ec;
     const bool isDir = e.is_directory(ec);
-    const std::string name = (isDir ? "[" + e.path().filename().string() + "]" : e.path().filename().string());
+    std::string name = e.path().filename().string();
+    if (isDir) {  // folders in brackets (built in place: GCC 12 warns falsely on "[" + s + "]")
+      name.insert(name.begin(), '[');
+      name.push_back(']');
+    }
     ImGui::PushID(static_cast<int>(n));
     if (ImGui::Selectable(name.c_str(), false, ImGuiSelectableFlags_AllowDoubleClick)) {
       if (isDir && ImGui::IsMouseDoubleClicked(0)) {

@@ -5,6 +5,8 @@
 
 #include "vellum/segmentation/components.hpp"
 #include "vellum/segmentation/label_map.hpp"
+#include "vellum/segmentation/morphology.hpp"
+#include "vellum/segmentation/region_growing.hpp"
 
 namespace vellum::studio {
 namespace seg = vellum::segmentation;
@@ -59,6 +61,49 @@ void fillHoles(LabelVolume& labels, uint16_t id) {
   const auto existing = labels.label(id);
   const Label label = existing ? *existing : Label{id, "Segment " + std::to_string(id), defaultLabelColor(id)};
   seg::addSegment(labels, seg::fillHoles(seg::segmentMask(labels, id)), label, seg::OverlapRule::KeepExisting);
+}
+
+int64_t growFromSeed(LabelVolume& labels, const VolumeI16& ct, const Vec3& seedMm,
+                     const seg::HuInterval& interval, const Label& label) {
+  const seg::Mask grown = seg::connectedThreshold(ct, {seedMm}, interval);
+  const int64_t n = seg::countVoxels(grown);
+  if (n > 0) seg::addSegment(labels, grown, label, seg::OverlapRule::Overwrite);
+  return n;
+}
+
+const char* morphologyName(Morphology m) {
+  switch (m) {
+    case Morphology::Dilate: return "dilate";
+    case Morphology::Erode: return "erode";
+    case Morphology::Open: return "open";
+    case Morphology::Close: return "close";
+  }
+  return "?";
+}
+
+void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm) {
+  const seg::Mask m = seg::segmentMask(labels, id);
+  seg::Mask r;
+  switch (op) {
+    case Morphology::Dilate: r = seg::dilate(m, radiusMm); break;
+    case Morphology::Erode: r = seg::erode(m, radiusMm); break;
+    case Morphology::Open: r = seg::open(m, radiusMm); break;
+    case Morphology::Close: r = seg::close(m, radiusMm); break;
+  }
+  auto& ids = labels.ids().voxels();
+  const auto& v = r.voxels();
+  for (size_t n = 0; n < ids.size(); ++n) {
+    if (ids[n] == id && !v[n]) ids[n] = 0;
+    else if (ids[n] == 0 && v[n]) ids[n] = id;
+  }
+}
+
+double otsuHu(const VolumeI16& ct) {
+  seg::HistogramParams p;
+  p.lowerHu = -900;
+  // Two-class Otsu splits fat from muscle on a limb; three classes (fat | soft tissue |
+  // bone) put the upper threshold where a user of the button wants it.
+  return seg::multiOtsuThresholds(seg::histogram(ct, p), 3).back();
 }
 
 }  // namespace vellum::studio

@@ -23,5 +23,18 @@ int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, 
 void keepLargest(LabelVolume& labels, uint16_t id);
 /// Fills the cavities of `id` (background only; other segments are kept).
 void fillHoles(LabelVolume& labels, uint16_t id);
+/// Region growing (connected threshold, 6-connected) from a seed in mm into `label`.
+/// Returns the grown voxel count (0 when the seed's value lies outside the interval).
+int64_t growFromSeed(LabelVolume& labels, const VolumeI16& ct, const Vec3& seedMm,
+                     const segmentation::HuInterval& interval, const Label& label);
+
+enum class Morphology { Dilate, Erode, Open, Close };
+const char* morphologyName(Morphology m);
+/// Ball morphology of `id` with radiusMm. Growing fills background only; shrinking clears to 0.
+void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm);
+/// The upper of two multi-Otsu thresholds (three classes) over the CT's histogram above
+/// -900 HU: air is left out, so the classes are fat, soft tissue and bone, and the value
+/// separates bone from soft tissue.
+double otsuHu(const VolumeI16& ct);
 
 }  // namespace vellum::studio

@@ -9,16 +9,22 @@ namespace fs = std::filesystem;
 LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   LoadResult r;
   fs::path volumePath = request.path, labelsPath = request.labels;
+  std::string seriesUid = request.seriesUid;
   if (request.path.extension() == ".json") {
     r.scene = readSceneFile(request.path);
     r.scenePath = request.path;
     volumePath = r.scene->volume;
     labelsPath = r.scene->labels;
+    seriesUid = r.scene->seriesUid;
   }
   io::LoadOptions options;
   options.progress = &progress;
+  options.seriesUid = seriesUid;
   io::LoadedVolume lv = io::loadVolume(volumePath, options);
+  options.seriesUid.clear();
   r.warnings = lv.warnings;
+  r.series = lv.series;
+  r.seriesUid = lv.seriesUid;
   r.ct = toInt16(lv.volume);
   r.volumePath = volumePath;
   if (!labelsPath.empty()) {

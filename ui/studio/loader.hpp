@@ -12,12 +12,14 @@
 #include "scene_file.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/progress.hpp"
+#include "vellum/io/volume_io.hpp"
 
 namespace vellum::studio {
 
 struct LoadRequest {
   std::filesystem::path path;    ///< volume file, DICOM folder or scene (*.json)
   std::filesystem::path labels;  ///< optional label map for a volume
+  std::string seriesUid;         ///< DICOM: the series to load (default: the largest CT series)
 };
 
 struct LoadResult {
@@ -27,6 +29,8 @@ struct LoadResult {
   std::filesystem::path volumePath, labelsPath, scenePath;
   std::optional<SceneFile> scene;  ///< set when a scene file was opened
   std::vector<std::string> warnings;
+  std::vector<io::SeriesInfo> series;  ///< DICOM: every series found
+  std::string seriesUid;
 };
 
 class Loader {

@@ -50,6 +50,26 @@ void fileSection(StudioApp& app) {
     app.fileBrowser().open(FileBrowser::Mode::Open, "Open label map", [&app](const fs::path& p) {
       app.requestOpen(app.scene().volumePath, p);
     });
+  if (!app.recentFiles().empty() && ImGui::BeginCombo("Recent", "open a recent file")) {
+    for (const fs::path& p : app.recentFiles())
+      if (ImGui::Selectable(p.string().c_str())) app.requestOpen(p);
+    ImGui::EndCombo();
+  }
+  if (s.series.size() > 1) {  // DICOM folder with several series: pick one to load
+    auto describe = [](const io::SeriesInfo& i) {
+      return i.modality + " " + std::to_string(i.frames) + " slices " + std::to_string(i.columns) + "x" +
+             std::to_string(i.rows) + "  " + i.description;
+    };
+    std::string current = "?";
+    for (const auto& i : s.series)
+      if (i.uid == s.seriesUid) current = describe(i);
+    if (ImGui::BeginCombo("Series", current.c_str())) {
+      for (const auto& i : s.series)
+        if (ImGui::Selectable((describe(i) + "##" + i.uid).c_str(), i.uid == s.seriesUid))
+          app.requestOpen(s.volumePath, {}, i.uid);
+      ImGui::EndCombo();
+    }
+  }
   if (app.loading()) {
     const auto [stage, fraction] = app.loader().progress();
     ImGui::TextUnformatted(stage.c_str());
@@ -88,7 +108,14 @@ void viewSection(StudioApp& app) {
   if (ImGui::DragFloat2("3D W/L", rw, 4.f)) s.renderWindow = {rw[0], std::max(10.f, rw[1])};
   ImGui::SliderFloat("Label opacity", &s.labelOpacity, 0.f, 1.f);
   if (ImGui::Button("Reset view (R)")) app.resetView();
+  ImGui::SameLine();
   ImGui::Checkbox("HUD", &app.hudVisible);
+  ImGui::SameLine();
+  if (ImGui::Button("Copy CLI command") && s.hasVolume()) {
+    // What `vellum render` needs to write the 3D view as a figure (same renderer, same pixels).
+    ImGui::SetClipboardText(app.cliCommand("figure.png").c_str());
+  }
+  if (ImGui::IsItemHovered() && s.hasVolume()) ImGui::SetTooltip("%s", app.cliCommand("figure.png").c_str());
 }
 
 void segmentationSection(StudioApp& app) {
@@ -107,16 +134,26 @@ void segmentationSection(StudioApp& app) {
   if (ImGui::DragFloat2("HU range", range, 5.f, -1024.f, 3071.f)) t.threshold = {range[0], range[1]};
   ImGui::Checkbox("Preview", &t.thresholdPreview);
   ImGui::SameLine();
+  if (ImGui::Button("Otsu")) guarded(app, [&] { app.otsuThreshold(); });
+  ImGui::SameLine();
   if (ImGui::Button("Apply threshold")) guarded(app, [&] { app.applyThreshold(); });
   if (ImGui::Button("Keep largest")) guarded(app, [&] { app.keepLargestOfActive(); });
   ImGui::SameLine();
   if (ImGui::Button("Fill holes")) guarded(app, [&] { app.fillHolesOfActive(); });
+  for (Morphology op : {Morphology::Dilate, Morphology::Erode, Morphology::Open, Morphology::Close}) {
+    if (op != Morphology::Dilate) ImGui::SameLine();
+    if (ImGui::Button(morphologyName(op))) guarded(app, [&] { app.morphologyOfActive(op); });
+  }
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("ball of the brush radius, on the active label");
   int tool = static_cast<int>(t.tool);
   ImGui::RadioButton("Navigate", &tool, 0);
   ImGui::SameLine();
   ImGui::RadioButton("Paint", &tool, 1);
   ImGui::SameLine();
   ImGui::RadioButton("Erase", &tool, 2);
+  ImGui::SameLine();
+  ImGui::RadioButton("Grow", &tool, 3);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("click a seed in a slice: region growing within the HU range");
   t.tool = static_cast<Tool>(tool);
   ImGui::SliderFloat("Brush radius (mm)", &t.brushRadiusMm, 0.5f, 30.f, "%.1f");
   if (ImGui::Button("Undo (Ctrl+Z)")) app.undo();

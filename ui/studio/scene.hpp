@@ -8,6 +8,7 @@
 
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/volume.hpp"
+#include "vellum/io/volume_io.hpp"
 #include "vellum/render/render_settings.hpp"
 
 namespace vellum::studio {
@@ -33,6 +34,9 @@ struct Scene {
   std::filesystem::path labelsPath;   ///< empty until loaded or saved
   std::filesystem::path scenePath;    ///< empty until opened from or saved to a scene file
   bool labelsModified = false;
+  /// DICOM: every series found in the folder, and the one shown (empty for other formats).
+  std::vector<io::SeriesInfo> series;
+  std::string seriesUid;
 
   // View state.
   Layout layout = Layout::TwoByTwo;

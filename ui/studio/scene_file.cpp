@@ -54,6 +54,7 @@ SceneFile readSceneFile(const fs::path& path) {
     const fs::path base = path.parent_path();
     s.volume = resolvedPath(j.at("volume").get<std::string>(), base);
     s.labels = resolvedPath(j.value("labels", ""), base);
+    s.seriesUid = j.value("series", "");
     s.layout = parseLayout(j.value("layout", "2x2"));
     s.preset = render::parsePreset(j.value("preset", "soft-tissue"));
     if (j.contains("camera")) {
@@ -91,6 +92,7 @@ void writeSceneFile(const SceneFile& s, const fs::path& path) {
   j["version"] = kSceneFormatVersion;
   j["volume"] = storedPath(s.volume, base);
   j["labels"] = storedPath(s.labels, base);
+  if (!s.seriesUid.empty()) j["series"] = s.seriesUid;
   j["layout"] = layoutName(s.layout);
   j["preset"] = render::presetName(s.preset);
   j["camera"] = {{"azimuth", s.camera.azimuthDeg},
@@ -115,6 +117,7 @@ SceneFile describeScene(const Scene& scene) {
   SceneFile s;
   s.volume = scene.volumePath;
   s.labels = scene.labelsPath;
+  s.seriesUid = scene.series.size() > 1 ? scene.seriesUid : "";
   s.layout = scene.layout;
   s.preset = scene.preset;
   s.camera = scene.camera;

@@ -14,6 +14,7 @@ inline constexpr int kSceneFormatVersion = 1;
 struct SceneFile {
   std::filesystem::path volume;
   std::filesystem::path labels;  ///< empty: no label map
+  std::string seriesUid;         ///< DICOM: the series to load (empty: the largest CT series)
   Layout layout = Layout::TwoByTwo;
   render::Preset preset = render::Preset::SoftTissueBone;
   render::Camera camera;

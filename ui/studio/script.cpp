@@ -21,7 +21,7 @@ namespace {
 const std::set<std::string> kActions = {
     "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
     "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
-    "fill_holes", "hud", "log", "quit"};
+    "fill_holes", "morphology", "otsu", "export_command", "hud", "log", "quit"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -126,11 +126,12 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
   if (name == "open") {
     const std::string path = v.is_string() ? v.get<std::string>() : v.at("path").get<std::string>();
     const std::string labels = v.is_object() ? v.value("labels", "") : "";
+    const std::string series = v.is_object() ? v.value("series", "") : "";
     const bool expectError = v.is_object() && v.value("expect_error", false);
     auto before = std::make_shared<fs::path>();
     once([=](StudioApp& a) {
       *before = a.scene().volumePath;
-      a.requestOpen(path, labels);
+      a.requestOpen(path, labels, series);
     });
     steps_.push_back([](StudioApp& a) { return !a.loading(); });
     frames(1);  // the frame after the worker finished adopts the result
@@ -219,8 +220,11 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
     });
   } else if (name == "tool") {
     const std::string t = v.get<std::string>();
-    const Tool tool = t == "paint" ? Tool::Paint : t == "erase" ? Tool::Erase : t == "navigate" ? Tool::Navigate
-                                                                                                : throw Error("unknown tool '" + t + "'");
+    const Tool tool = t == "paint"      ? Tool::Paint
+                      : t == "erase"    ? Tool::Erase
+                      : t == "grow"     ? Tool::Grow
+                      : t == "navigate" ? Tool::Navigate
+                                        : throw Error("unknown tool '" + t + "'");
     once([tool](StudioApp& a) { a.tools().tool = tool; });
   } else if (name == "brush_radius") {
     const double r = v.get<double>();
@@ -232,6 +236,24 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
     once([](StudioApp& a) { a.keepLargestOfActive(); });
   } else if (name == "fill_holes") {
     once([](StudioApp& a) { a.fillHolesOfActive(); });
+  } else if (name == "morphology") {
+    const std::string op = v.get<std::string>();
+    const Morphology m = op == "dilate" ? Morphology::Dilate
+                         : op == "erode" ? Morphology::Erode
+                         : op == "open"  ? Morphology::Open
+                         : op == "close" ? Morphology::Close
+                                         : throw Error("unknown morphology '" + op + "'");
+    once([m](StudioApp& a) { a.morphologyOfActive(m); });
+  } else if (name == "otsu") {
+    once([](StudioApp& a) { a.otsuThreshold(); });
+  } else if (name == "export_command") {
+    const std::string path = v.at("path").get<std::string>();
+    const std::string out = v.at("figure").get<std::string>();
+    once([=](StudioApp& a) {
+      std::ofstream f(path);
+      f << a.cliCommand(out) << "\n";
+      if (!f) throw Error("cannot write " + path);
+    });
   } else if (name == "hud") {
     const bool on = v.get<bool>();
     once([on](StudioApp& a) { a.hudVisible = on; });

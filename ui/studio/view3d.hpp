@@ -4,6 +4,9 @@
 // pane's resolution (the factor adapts to keep a frame near kInteractiveBudgetMs); once the
 // mouse is released a full-resolution frame replaces it.
 #include <memory>
+#include <optional>
+#include <string>
+#include <utility>
 
 #include "gl_texture.hpp"
 #include "scene.hpp"
@@ -14,6 +17,13 @@ namespace vellum::studio {
 /// The renderer settings for `scene` at width x height: the same mapping as `vellum render`
 /// flags (camera, preset, --window from renderWindow), so the studio and the CLI agree.
 render::RenderSettings renderSettingsFor(const Scene& scene, int width, int height);
+
+/// Window-pane pixel coordinates (x right, y down) of the physical point p in the 3D view of
+/// `scene` at width x height, with the renderer's camera model; nullopt behind the camera.
+std::optional<std::pair<double, double>> projectToView(const Scene& scene, int width, int height, const Vec3& p);
+
+/// The `vellum render` command line that writes the 3D view at width x height to `out`.
+std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out);
 
 class View3D {
  public:
