@@ -50,7 +50,7 @@ class View3D {
   bool hasVolume_ = false;
   bool refined_ = false;
   std::string lastKey_;
-  int scale_ = 2, lastScale_ = 1;
+  int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
   double lastMs_ = 0;
 };
 
