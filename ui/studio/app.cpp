@@ -110,6 +110,9 @@ void StudioApp::createWindow() {
   glfwSetKeyCallback(window_, keyCallback);
   glfwSetCharCallback(window_, charCallback);
   glfwSetDropCallback(window_, dropCallback);
+  // ImGui reads the pointer only while the window is focused or hovered: it tracks both.
+  glfwSetCursorEnterCallback(window_, ImGui_ImplGlfw_CursorEnterCallback);
+  glfwSetWindowFocusCallback(window_, ImGui_ImplGlfw_WindowFocusCallback);
   view3d_ = std::make_unique<View3D>(*context_);
   for (auto& t : sliceTextures_) t = std::make_unique<GlTexture>();
 }
