@@ -1,0 +1,127 @@
+// StudioApp: commands of the panels, keys and scripts (each label edit is one undo step).
+#include <GLFW/glfw3.h>
+
+#include <sstream>
+
+#include "app.hpp"
+#include "label_tools.hpp"
+#include "view3d.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/io/volume_io.hpp"
+
+namespace vellum::studio {
+namespace fs = std::filesystem;
+
+namespace {
+Label labelFor(const LabelVolume& labels, uint16_t id, const std::string& defaultName) {
+  if (auto l = labels.label(id)) return *l;
+  return {id, defaultName, defaultLabelColor(id)};
+}
+}  // namespace
+
+// ---- commands ----------------------------------------------------------------------------
+
+void StudioApp::setLayout(Layout l) {
+  scene_.layout = l;
+  view3d_->invalidate();
+  markSlicesDirty();
+}
+
+void StudioApp::setPreset(render::Preset p) { scene_.preset = p; }
+
+void StudioApp::resetView() {
+  scene_.resetView();
+  markSlicesDirty();
+}
+
+void StudioApp::pushEdit(LabelDelta delta) {
+  if (delta.empty()) return;
+  undo_.push(std::move(delta));
+  scene_.labelsModified = true;
+  markSlicesDirty();
+}
+
+bool StudioApp::undo() {
+  const bool done = undo_.undo(scene_.labels);
+  if (done) scene_.labelsModified = true, markSlicesDirty();
+  return done;
+}
+
+bool StudioApp::redo() {
+  const bool done = undo_.redo(scene_.labels);
+  if (done) scene_.labelsModified = true, markSlicesDirty();
+  return done;
+}
+
+
+void StudioApp::applyThreshold() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  const auto& t = tools_.threshold;
+  std::ostringstream name;
+  name << "Threshold " << t.lower << ".." << t.upper;
+  const Label label = labelFor(scene_.labels, tools_.activeLabel, name.str());
+  pushEdit(recordEdit(scene_.labels, "threshold", [&](LabelVolume& l) { thresholdInto(l, scene_.ct, t, label); }));
+}
+
+void StudioApp::keepLargestOfActive() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  pushEdit(recordEdit(scene_.labels, "keep largest", [&](LabelVolume& l) { keepLargest(l, tools_.activeLabel); }));
+}
+
+void StudioApp::fillHolesOfActive() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  pushEdit(recordEdit(scene_.labels, "fill holes", [&](LabelVolume& l) { fillHoles(l, tools_.activeLabel); }));
+}
+
+void StudioApp::morphologyOfActive(Morphology op) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  pushEdit(recordEdit(scene_.labels, morphologyName(op), [&](LabelVolume& l) {
+    morphology(l, tools_.activeLabel, op, tools_.brushRadiusMm);
+  }));
+}
+
+void StudioApp::otsuThreshold() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  tools_.threshold = {otsuHu(scene_.ct), 3071};
+}
+
+void StudioApp::saveLabels(const fs::path& path) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  io::saveLabels(scene_.labels, path);
+  scene_.labelsPath = path;
+  scene_.labelsModified = false;
+}
+
+void StudioApp::saveScene(const fs::path& path) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  const bool hasLabels = !scene_.labels.table().empty() || scene_.labelsModified;
+  if (hasLabels && (scene_.labelsPath.empty() || scene_.labelsModified))
+    saveLabels(path.parent_path() / (path.stem().string() + ".labels.nrrd"));
+  writeSceneFile(describeScene(scene_), path);
+  scene_.scenePath = path;
+}
+
+void StudioApp::quit(int code) {
+  exitCode_ = code;
+  quitRequested_ = true;
+}
+
+void StudioApp::paintAt(const Pane& pane, double x, double y) {
+  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const uint16_t id = tools_.tool == Tool::Paint ? tools_.activeLabel : 0;
+  if (paintSphere(scene_.labels, plane.toMm(x - pane.rect.x, y - pane.rect.y), tools_.brushRadiusMm, id) > 0)
+    markSlicesDirty();
+}
+
+void StudioApp::growAt(const Pane& pane, double x, double y) {
+  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const Vec3 seed = plane.toMm(x - pane.rect.x, y - pane.rect.y);
+  const Label label = labelFor(scene_.labels, tools_.activeLabel, "Region " + std::to_string(tools_.activeLabel));
+  try {
+    pushEdit(recordEdit(scene_.labels, "grow", [&](LabelVolume& l) { growFromSeed(l, scene_.ct, seed, tools_.threshold, label); }));
+  } catch (const std::exception& e) {
+    showError(e.what());  // e.g. a seed outside the volume
+  }
+}
+
+}  // namespace vellum::studio
