@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -49,6 +50,8 @@ void dropCallback(GLFWwindow* w, int count, const char** paths) {
 }
 
 constexpr float kPanelWidth = 330;
+
+volatile std::sig_atomic_t gInterrupted = 0;
 
 }  // namespace
 
@@ -102,11 +105,17 @@ void StudioApp::createWindow() {
   for (auto& t : sliceTextures_) t = std::make_unique<GlTexture>();
 }
 
+void StudioApp::interrupt() noexcept { gInterrupted = 1; }
+
 int StudioApp::run() {
   if (!options_.script.empty()) script_ = ScriptRunner::load(options_.script);  // before the window
   createWindow();
   if (!options_.input.empty()) requestOpen(options_.input, options_.labels);
   while (!quitRequested_ && !glfwWindowShouldClose(window_)) {
+    if (gInterrupted) {
+      exitCode_ = 130;
+      break;
+    }
     if (script_) {
       if (const auto code = script_->step(*this)) {
         exitCode_ = *code;
@@ -184,6 +193,7 @@ void StudioApp::frame() {
     std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d\n", frameNumber_,
                 lastFrameMs_, rendered3d ? 1 : 0, rendered3d ? view3d_->lastRenderMs() : 0.0,
                 view3d_->lastScale(), dragPane_ ? 1 : 0);
+  if (options_.logFrames) std::fflush(stdout);  // the log is read while the studio runs
   ++frameNumber_;
 }
 

@@ -51,6 +51,8 @@ class StudioApp {
   ~StudioApp();
   /// Runs until the window closes or a script quits; returns the exit code.
   int run();
+  /// Async-signal-safe: asks the running loop to end (SIGINT/SIGTERM); run() returns 130.
+  static void interrupt() noexcept;
 
   // Input handlers: GLFW callbacks and script actions (window pixel coordinates).
   void onCursorPos(double x, double y);

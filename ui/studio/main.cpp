@@ -1,4 +1,5 @@
 // `vellum-studio [FILE|SCENE.json] [--labels L.nrrd] [--script S.json] [--size WxH] [--log-frames]`
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <iostream>
@@ -8,6 +9,8 @@
 #include "vellum/core/error.hpp"
 
 namespace {
+
+extern "C" void onSignal(int) { vellum::studio::StudioApp::interrupt(); }
 
 void usage() {
   std::cout << "usage: vellum-studio [FILE|SCENE.json] [--labels LABELS] [--script S.json] [--size WxH] "
@@ -54,6 +57,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  std::signal(SIGINT, onSignal);  // Ctrl-C / kill: leave the loop, destroy GL cleanly
+  std::signal(SIGTERM, onSignal);
   try {
     vellum::studio::StudioApp app(o);
     return app.run();
