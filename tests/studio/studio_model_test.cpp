@@ -1,9 +1,12 @@
 // The studio's model without a window: undo deltas, label tools, scene files, MPR planes.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <fstream>
+#include <thread>
 
 #include "label_tools.hpp"
+#include "loader.hpp"
 #include "mpr.hpp"
 #include "scene_file.hpp"
 #include "test_data.hpp"
@@ -143,6 +146,37 @@ TEST(StudioSceneFile, MissingDataAndBadFilesGiveClearMessages) {
   }
   EXPECT_THROW(readSceneFile(dir / "future.json"), FileError);
   EXPECT_THROW(readSceneFile(dir / "junk.json"), FileError);
+}
+
+TEST(StudioLoader, LoadsOnAWorkerReportsErrorsAndCancels) {
+  const auto dir = test::tempDir("studio-loader");
+  const auto ph = smallPhantom();
+  io::saveVolume(AnyVolume(ph.ct), dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  auto wait = [](Loader& l) {
+    for (int i = 0; i < 3000; ++i) {
+      if (auto r = l.take()) return *r;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ADD_FAILURE() << "load did not finish";
+    return LoadResult{};
+  };
+  Loader loader;
+  ASSERT_TRUE(loader.start({dir / "ct.nrrd", dir / "labels.nrrd"}));
+  const LoadResult ok = wait(loader);
+  EXPECT_EQ(ok.error, "");
+  EXPECT_EQ(ok.ct.dims(), ph.ct.dims());
+  EXPECT_EQ(ok.labels.ids().voxels(), ph.labels.ids().voxels());
+
+  ASSERT_TRUE(loader.start({dir / "missing.nrrd"}));
+  const LoadResult bad = wait(loader);
+  EXPECT_NE(bad.error.find("missing.nrrd"), std::string::npos) << bad.error;
+  EXPECT_TRUE(bad.ct.empty());
+
+  // Cancellation goes through vellum::Progress: a cancelled progress stops the io module.
+  Progress cancelled;
+  cancelled.cancel();
+  EXPECT_THROW(loadNow({dir / "ct.nrrd"}, cancelled), Cancelled);
 }
 
 TEST(StudioMpr, PlanesMapPixelsToMmAndBack) {
