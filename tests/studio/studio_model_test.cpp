@@ -61,6 +61,23 @@ TEST(StudioUndo, BrushStrokeAndNewEditClearsRedo) {
   EXPECT_FALSE(stack.canRedo());
 }
 
+TEST(StudioLabelTools, LockedSegmentsSurviveEveryEdit) {
+  const auto ph = smallPhantom();
+  LabelVolume labels = ph.labels;  // ground truth: skin 1, fat 2, muscle 3, bones ...
+  const std::set<uint16_t> locked{4};  // femur cortex
+  const auto before = labels.histogram();
+  // A bone threshold into label 12 would take the femur cortex: it stays 4.
+  const LabelDelta d = recordEdit(labels, "threshold", [&](LabelVolume& l) {
+    thresholdInto(l, ph.ct, segmentation::presetInterval(segmentation::Preset::Bone), {12, "bone", {1, 2, 3}});
+  }, locked);
+  EXPECT_FALSE(d.empty());
+  EXPECT_EQ(labels.histogram()[4], before[4]);
+  // Painting or erasing over it changes nothing of it, and painting the locked id does nothing.
+  paintSphere(labels, {0, 0, 60}, 30.0, 0, locked);
+  EXPECT_EQ(labels.histogram()[4], before[4]);
+  EXPECT_EQ(paintSphere(labels, {0, 0, 60}, 30.0, 4, locked), 0);
+}
+
 TEST(StudioLabelTools, KeepLargestAndFillHoles) {
   const auto ph = smallPhantom();
   LabelVolume labels(ph.ct.geometry());
@@ -113,6 +130,7 @@ TEST(StudioSceneFile, RoundTripsWithRelativePaths) {
   s.sliceWindow = {300, 1500};
   s.crosshairMm = {4, 5, 6};
   s.hiddenLabels = {3, 7};
+  s.lockedLabels = {4};
   writeSceneFile(s, dir / "scene.json");
   std::ifstream in(dir / "scene.json");
   const std::string text((std::istreambuf_iterator<char>(in)), {});
@@ -128,6 +146,7 @@ TEST(StudioSceneFile, RoundTripsWithRelativePaths) {
   EXPECT_EQ(r.sliceWindow, (WindowLevel{300, 1500}));
   EXPECT_EQ(r.crosshairMm, (Vec3{4, 5, 6}));
   EXPECT_EQ(r.hiddenLabels, (std::set<uint16_t>{3, 7}));
+  EXPECT_EQ(r.lockedLabels, (std::set<uint16_t>{4}));
 }
 
 TEST(StudioSceneFile, MissingDataAndBadFilesGiveClearMessages) {

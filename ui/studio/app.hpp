@@ -4,6 +4,7 @@
 // the same commands.
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -124,6 +125,8 @@ class StudioApp {
   const Pane* paneAt(double x, double y) const;
   void markSlicesDirty() { slicesDirty_ = true; }
   void pushEdit(LabelDelta delta);
+  /// Runs a label edit (locked segments protected) and records it as one undo step.
+  void edit(const std::string& description, const std::function<void(LabelVolume&)>& fn);
   void paintAt(const Pane& pane, double x, double y);
   void growAt(const Pane& pane, double x, double y);
   std::pair<int, int> pane3dSize() const;

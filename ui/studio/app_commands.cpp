@@ -34,6 +34,10 @@ void StudioApp::resetView() {
   markSlicesDirty();
 }
 
+void StudioApp::edit(const std::string& description, const std::function<void(LabelVolume&)>& fn) {
+  pushEdit(recordEdit(scene_.labels, description, fn, scene_.lockedLabels));
+}
+
 void StudioApp::pushEdit(LabelDelta delta) {
   if (delta.empty()) return;
   undo_.push(std::move(delta));
@@ -60,24 +64,24 @@ void StudioApp::applyThreshold() {
   std::ostringstream name;
   name << "Threshold " << t.lower << ".." << t.upper;
   const Label label = labelFor(scene_.labels, tools_.activeLabel, name.str());
-  pushEdit(recordEdit(scene_.labels, "threshold", [&](LabelVolume& l) { thresholdInto(l, scene_.ct, t, label); }));
+  edit("threshold", [&](LabelVolume& l) { thresholdInto(l, scene_.ct, t, label); });
 }
 
 void StudioApp::keepLargestOfActive() {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  pushEdit(recordEdit(scene_.labels, "keep largest", [&](LabelVolume& l) { keepLargest(l, tools_.activeLabel); }));
+  edit("keep largest", [&](LabelVolume& l) { keepLargest(l, tools_.activeLabel); });
 }
 
 void StudioApp::fillHolesOfActive() {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  pushEdit(recordEdit(scene_.labels, "fill holes", [&](LabelVolume& l) { fillHoles(l, tools_.activeLabel); }));
+  edit("fill holes", [&](LabelVolume& l) { fillHoles(l, tools_.activeLabel); });
 }
 
 void StudioApp::morphologyOfActive(Morphology op) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  pushEdit(recordEdit(scene_.labels, morphologyName(op), [&](LabelVolume& l) {
+  edit(morphologyName(op), [&](LabelVolume& l) {
     morphology(l, tools_.activeLabel, op, tools_.brushRadiusMm);
-  }));
+  });
 }
 
 void StudioApp::otsuThreshold() {
@@ -109,7 +113,7 @@ void StudioApp::quit(int code) {
 void StudioApp::paintAt(const Pane& pane, double x, double y) {
   const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
   const uint16_t id = tools_.tool == Tool::Paint ? tools_.activeLabel : 0;
-  if (paintSphere(scene_.labels, plane.toMm(x - pane.rect.x, y - pane.rect.y), tools_.brushRadiusMm, id) > 0)
+  if (paintSphere(scene_.labels, plane.toMm(x - pane.rect.x, y - pane.rect.y), tools_.brushRadiusMm, id, scene_.lockedLabels) > 0)
     markSlicesDirty();
 }
 
@@ -118,7 +122,7 @@ void StudioApp::growAt(const Pane& pane, double x, double y) {
   const Vec3 seed = plane.toMm(x - pane.rect.x, y - pane.rect.y);
   const Label label = labelFor(scene_.labels, tools_.activeLabel, "Region " + std::to_string(tools_.activeLabel));
   try {
-    pushEdit(recordEdit(scene_.labels, "grow", [&](LabelVolume& l) { growFromSeed(l, scene_.ct, seed, tools_.threshold, label); }));
+    edit("grow", [&](LabelVolume& l) { growFromSeed(l, scene_.ct, seed, tools_.threshold, label); });
   } catch (const std::exception& e) {
     showError(e.what());  // e.g. a seed outside the volume
   }

@@ -12,9 +12,15 @@ namespace vellum::studio {
 namespace seg = vellum::segmentation;
 
 LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
-                      const std::function<void(LabelVolume&)>& edit) {
+                      const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked) {
   const LabelVolume before = labels;
   edit(labels);
+  if (!locked.empty()) {
+    const auto& b = before.ids().voxels();
+    auto& a = labels.ids().voxels();
+    for (size_t n = 0; n < a.size(); ++n)
+      if (a[n] != b[n] && (locked.count(a[n]) || locked.count(b[n]))) a[n] = b[n];
+  }
   return diffLabels(before, labels, description);
 }
 
@@ -23,7 +29,9 @@ void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const seg::HuInterv
   seg::addSegment(labels, seg::threshold(ct, interval), label, seg::OverlapRule::Overwrite);
 }
 
-int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id) {
+int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id,
+                    const std::set<uint16_t>& locked) {
+  if (locked.count(id)) return 0;
   const Geometry& g = labels.geometry();
   const Vec3 c = g.physicalToIndex(centerMm);
   // Index-space bounding box of the ball (spacing may differ per axis).
@@ -40,7 +48,7 @@ int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, 
         const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
         if (norm(p - centerMm) > radiusMm) continue;
         uint16_t& v = labels(i, j, k);
-        if (v != id) {
+        if (v != id && !locked.count(v)) {
           v = id;
           ++changed;
         }

@@ -2,6 +2,7 @@
 // Label edits of the segmentation panel and the brush, each returning the undo delta of
 // what it changed. Thin wrappers over the segmentation module (no algorithm lives here).
 #include <functional>
+#include <set>
 #include <string>
 
 #include "undo.hpp"
@@ -10,15 +11,19 @@
 namespace vellum::studio {
 
 /// Runs `edit` on `labels` and returns what it changed (a transient copy is diffed).
+/// Locked segments are protected: voxels whose id before or after the edit is in `locked`
+/// are put back, so no edit adds to, removes from or paints over a locked segment.
 LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
-                      const std::function<void(LabelVolume&)>& edit);
+                      const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked = {});
 
 /// Voxels of `ct` inside `interval` become `label` (overwriting other ids).
 void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const segmentation::HuInterval& interval,
                    const Label& label);
-/// Sets every voxel whose centre lies within radiusMm of centerMm to `id` (0 erases).
+/// Sets every voxel whose centre lies within radiusMm of centerMm to `id` (0 erases),
+/// except voxels of locked segments (and nothing when `id` itself is locked).
 /// Returns the number of voxels changed.
-int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id);
+int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id,
+                    const std::set<uint16_t>& locked = {});
 /// Keeps only the largest 26-connected component of `id` (the others become background).
 void keepLargest(LabelVolume& labels, uint16_t id);
 /// Fills the cavities of `id` (background only; other segments are kept).

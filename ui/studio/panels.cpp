@@ -167,9 +167,10 @@ void labelTable(StudioApp& app) {
   int active = t.activeLabel;
   if (ImGui::InputInt("Active label", &active)) t.activeLabel = static_cast<uint16_t>(std::clamp(active, 1, 65535));
   if (ImGui::Button("New label")) t.activeLabel = s.labels.nextFreeId();
-  if (!ImGui::BeginTable("labels", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_ScrollY, {0, 180})) return;
+  if (!ImGui::BeginTable("labels", 5, ImGuiTableFlags_Borders | ImGuiTableFlags_ScrollY, {0, 180})) return;
   ImGui::TableSetupColumn("id", ImGuiTableColumnFlags_WidthFixed, 28);
   ImGui::TableSetupColumn("show", ImGuiTableColumnFlags_WidthFixed, 28);
+  ImGui::TableSetupColumn("lock", ImGuiTableColumnFlags_WidthFixed, 28);
   ImGui::TableSetupColumn("colour", ImGuiTableColumnFlags_WidthFixed, 28);
   ImGui::TableSetupColumn("name");
   for (Label l : s.labels.table()) {  // by value: edits go back through setLabel
@@ -181,6 +182,11 @@ void labelTable(StudioApp& app) {
     ImGui::TableNextColumn();
     bool visible = !s.hiddenLabels.count(l.id);
     if (ImGui::Checkbox("##v", &visible)) visible ? (void)s.hiddenLabels.erase(l.id) : (void)s.hiddenLabels.insert(l.id);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("visible");
+    ImGui::TableNextColumn();
+    bool locked = s.lockedLabels.count(l.id);
+    if (ImGui::Checkbox("##l", &locked)) locked ? (void)s.lockedLabels.insert(l.id) : (void)s.lockedLabels.erase(l.id);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("locked: no edit changes this segment");
     ImGui::TableNextColumn();
     float rgb[3] = {l.rgb[0] / 255.f, l.rgb[1] / 255.f, l.rgb[2] / 255.f};
     bool changed = ImGui::ColorEdit3("##c", rgb, ImGuiColorEditFlags_NoInputs);

@@ -48,6 +48,7 @@ struct Scene {
   Vec3 crosshairMm{0, 0, 0};
   float labelOpacity = 0.4f;
   std::set<uint16_t> hiddenLabels;
+  std::set<uint16_t> lockedLabels;  ///< segments no edit may change
 
   bool hasVolume() const { return !ct.empty(); }
   /// Centres the crosshair and resets the camera (new volume).

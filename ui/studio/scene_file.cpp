@@ -72,6 +72,7 @@ SceneFile readSceneFile(const fs::path& path) {
     if (j.contains("crosshair")) s.crosshairMm = jsonVec3(j["crosshair"]);
     s.labelOpacity = j.value("label_opacity", s.labelOpacity);
     for (const auto& id : j.value("hidden_labels", json::array())) s.hiddenLabels.insert(id.get<uint16_t>());
+    for (const auto& id : j.value("locked_labels", json::array())) s.lockedLabels.insert(id.get<uint16_t>());
   } catch (const json::exception& e) {
     throw FileError(path, std::string("bad scene field: ") + e.what());
   } catch (const FileError&) {
@@ -105,6 +106,7 @@ void writeSceneFile(const SceneFile& s, const fs::path& path) {
   j["crosshair"] = vec3Json(s.crosshairMm);
   j["label_opacity"] = s.labelOpacity;
   j["hidden_labels"] = s.hiddenLabels;
+  j["locked_labels"] = s.lockedLabels;
   const std::string text = j.dump(2) + "\n";
   io::writeAtomically(path, [&](const fs::path& tmp) {
     std::ofstream out(tmp, std::ios::binary);
@@ -126,6 +128,7 @@ SceneFile describeScene(const Scene& scene) {
   s.crosshairMm = scene.crosshairMm;
   s.labelOpacity = scene.labelOpacity;
   s.hiddenLabels = scene.hiddenLabels;
+  s.lockedLabels = scene.lockedLabels;
   return s;
 }
 
@@ -138,6 +141,7 @@ void applySceneView(const SceneFile& s, Scene& scene) {
   scene.crosshairMm = s.crosshairMm;
   scene.labelOpacity = s.labelOpacity;
   scene.hiddenLabels = s.hiddenLabels;
+  scene.lockedLabels = s.lockedLabels;
 }
 
 }  // namespace vellum::studio

@@ -22,6 +22,7 @@ struct SceneFile {
   Vec3 crosshairMm;
   float labelOpacity = 0.4f;
   std::set<uint16_t> hiddenLabels;
+  std::set<uint16_t> lockedLabels;
 };
 
 /// Reads and validates a scene file; relative paths are resolved against its folder.

@@ -21,7 +21,7 @@ namespace {
 const std::set<std::string> kActions = {
     "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
     "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
-    "fill_holes", "morphology", "otsu", "export_command", "hud", "log", "quit"};
+    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "hud", "log", "quit"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -244,6 +244,10 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
                          : op == "close" ? Morphology::Close
                                          : throw Error("unknown morphology '" + op + "'");
     once([m](StudioApp& a) { a.morphologyOfActive(m); });
+  } else if (name == "lock_label") {
+    const auto id = v.at("id").get<uint16_t>();
+    const bool on = v.value("locked", true);
+    once([id, on](StudioApp& a) { on ? (void)a.scene().lockedLabels.insert(id) : (void)a.scene().lockedLabels.erase(id); });
   } else if (name == "otsu") {
     once([](StudioApp& a) { a.otsuThreshold(); });
   } else if (name == "export_command") {
