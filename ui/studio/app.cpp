@@ -15,6 +15,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "autosave.hpp"
 #include "gl_texture.hpp"
 #include "panels.hpp"
 #include "script.hpp"
@@ -110,6 +111,9 @@ void StudioApp::interrupt() noexcept { gInterrupted = 1; }
 int StudioApp::run() {
   if (!options_.script.empty()) script_ = ScriptRunner::load(options_.script);  // before the window
   createWindow();
+  autosaver_ = std::make_unique<Autosaver>(options_.autosaveSeconds >= 0 ? options_.autosaveSeconds
+                                           : script_                     ? 0.0
+                                                                         : 60.0);
   if (!options_.input.empty()) requestOpen(options_.input, options_.labels);
   while (!quitRequested_ && !glfwWindowShouldClose(window_)) {
     if (gInterrupted) {
@@ -127,6 +131,7 @@ int StudioApp::run() {
     frame();
   }
   loader_.cancel();
+  autosaver_.reset();  // waits for a write in progress
   return exitCode_;
 }
 
@@ -141,6 +146,7 @@ void StudioApp::frame() {
   const auto t0 = std::chrono::steady_clock::now();
   glfwPollEvents();
   pollLoader();
+  autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   if (script_) {

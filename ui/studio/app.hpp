@@ -25,6 +25,7 @@ namespace vellum::studio {
 class View3D;
 class WindowContext;
 class ScriptRunner;
+class Autosaver;
 class GlTexture;
 
 enum class Tool { Navigate, Paint, Erase, Grow };
@@ -44,6 +45,8 @@ struct StudioOptions {
   std::string script;  ///< script file (scripted mode)
   int width = 1280, height = 800;
   bool logFrames = false;  ///< one line per frame on stdout (frame and 3D render times)
+  /// Autosave interval in seconds; 0 disables. Default: 60 interactive, off for scripts.
+  double autosaveSeconds = -1;
 };
 
 class StudioApp {
@@ -137,6 +140,7 @@ class StudioApp {
   std::unique_ptr<WindowContext> context_;
   std::unique_ptr<View3D> view3d_;
   std::unique_ptr<ScriptRunner> script_;
+  std::unique_ptr<Autosaver> autosaver_;
   std::array<std::unique_ptr<GlTexture>, 3> sliceTextures_;
   Scene scene_;
   ToolState tools_;

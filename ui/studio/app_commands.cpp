@@ -41,19 +41,19 @@ void StudioApp::edit(const std::string& description, const std::function<void(La
 void StudioApp::pushEdit(LabelDelta delta) {
   if (delta.empty()) return;
   undo_.push(std::move(delta));
-  scene_.labelsModified = true;
+  scene_.touchLabels();
   markSlicesDirty();
 }
 
 bool StudioApp::undo() {
   const bool done = undo_.undo(scene_.labels);
-  if (done) scene_.labelsModified = true, markSlicesDirty();
+  if (done) scene_.touchLabels(), markSlicesDirty();
   return done;
 }
 
 bool StudioApp::redo() {
   const bool done = undo_.redo(scene_.labels);
-  if (done) scene_.labelsModified = true, markSlicesDirty();
+  if (done) scene_.touchLabels(), markSlicesDirty();
   return done;
 }
 

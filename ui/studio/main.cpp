@@ -1,4 +1,4 @@
-// `vellum-studio [FILE|SCENE.json] [--labels L.nrrd] [--script S.json] [--size WxH] [--log-frames]`
+// `vellum-studio [FILE|SCENE.json] [--labels L.nrrd] [--script S.json] [--size WxH] [--autosave S] [--log-frames]`
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -14,7 +14,7 @@ extern "C" void onSignal(int) { vellum::studio::StudioApp::interrupt(); }
 
 void usage() {
   std::cout << "usage: vellum-studio [FILE|SCENE.json] [--labels LABELS] [--script S.json] [--size WxH] "
-               "[--log-frames]\n  see docs/studio.md\n";
+               "[--autosave SECONDS] [--log-frames]\n  see docs/studio.md\n";
 }
 
 }  // namespace
@@ -42,6 +42,13 @@ int main(int argc, char** argv) {
       if (std::sscanf(s.c_str(), "%dx%d", &o.width, &o.height) != 2 || o.width < 320 || o.height < 240 ||
           o.width > 8192 || o.height > 8192) {
         std::cerr << "vellum-studio: --size must be WxH, at least 320x240 (got '" << s << "')\n";
+        return 2;
+      }
+    } else if (a == "--autosave") {
+      try {
+        o.autosaveSeconds = std::stod(value());
+      } catch (const std::exception&) {
+        std::cerr << "vellum-studio: --autosave needs seconds (0 disables)\n";
         return 2;
       }
     } else if (a == "--log-frames") {

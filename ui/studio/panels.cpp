@@ -200,7 +200,7 @@ void labelTable(StudioApp& app) {
       for (int c = 0; c < 3; ++c) l.rgb[static_cast<size_t>(c)] = static_cast<uint8_t>(std::lround(rgb[c] * 255));
       l.name = name;
       s.labels.setLabel(l);
-      s.labelsModified = true;
+      s.touchLabels();
     }
     ImGui::PopID();
   }

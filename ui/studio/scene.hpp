@@ -34,6 +34,7 @@ struct Scene {
   std::filesystem::path labelsPath;   ///< empty until loaded or saved
   std::filesystem::path scenePath;    ///< empty until opened from or saved to a scene file
   bool labelsModified = false;
+  uint64_t labelsRevision = 0;  ///< bumped by every label change (autosave compares it)
   /// DICOM: every series found in the folder, and the one shown (empty for other formats).
   std::vector<io::SeriesInfo> series;
   std::string seriesUid;
@@ -51,6 +52,11 @@ struct Scene {
   std::set<uint16_t> lockedLabels;  ///< segments no edit may change
 
   bool hasVolume() const { return !ct.empty(); }
+  /// Marks the label map (voxels or table) as changed.
+  void touchLabels() {
+    labelsModified = true;
+    ++labelsRevision;
+  }
   /// Centres the crosshair and resets the camera (new volume).
   void resetView();
 };
