@@ -100,24 +100,84 @@ RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
   return img;
 }
 
+std::vector<double> View3D::predictRowCosts(const RgbaImage& coarse, int height) const {
+  // Rays that hit something cost far more than rays through empty space or past the volume:
+  // weight each full-resolution row by the object pixels of the matching coarse row.
+  std::vector<double> cost(static_cast<size_t>(height), 1.0);
+  if (coarse.width == 0 || coarse.height == 0) return cost;
+  const uint8_t* bg = coarse.at(0, 0);  // a corner: the background colour
+  for (int y = 0; y < height; ++y) {
+    const int cy = std::min(coarse.height - 1, y * coarse.height / height);
+    int hits = 0;
+    for (int x = 0; x < coarse.width; ++x) {
+      const uint8_t* p = coarse.at(x, cy);
+      hits += p[0] != bg[0] || p[1] != bg[1] || p[2] != bg[2];
+    }
+    cost[static_cast<size_t>(y)] += 10.0 * hits * (double(scale_) * scale_);
+  }
+  return cost;
+}
+
+void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key) {
+  const auto t0 = std::chrono::steady_clock::now();
+  coarse_ = renderImage(scene, std::max(1, paneWidth / scale_), std::max(1, paneHeight / scale_));
+  texture_.upload(coarse_);
+  lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  lastScale_ = scale_;
+  lastKey_ = key;
+  refined_ = false;
+  // Cost scales with pixels: halve the resolution when over budget; double it only when 4x
+  // the pixels are predicted to fit (hysteresis: no oscillation between two factors).
+  if (lastMs_ > kInteractiveBudgetMs && scale_ < 8) scale_ *= 2;
+  else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) scale_ /= 2;
+}
+
 bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool interacting) {
   if (!hasVolume_ || paneWidth < 2 || paneHeight < 2) return false;
   const std::string key = viewKey(scene, paneWidth, paneHeight);
-  const bool changed = key != lastKey_;
-  if (!changed && (refined_ || interacting)) return false;
-  const int scale = interacting ? scale_ : 1;
+  if (interacting) {  // coarse frames only, each a complete picture
+    refining_ = false;
+    if (key == lastKey_) return false;
+    renderCoarse(scene, paneWidth, paneHeight, key);
+    return true;
+  }
+  if (key == lastKey_ && refined_) return false;
+  if (key != lastKey_) {
+    // Changed without a drag (preset, layout, a panel value): show a coarse frame at once.
+    renderCoarse(scene, paneWidth, paneHeight, key);
+    refining_ = false;
+    return true;
+  }
+  // Idle: refine to full resolution a band of rows per frame, each band sized to the
+  // interactive budget, so that no frame blocks for a whole full-resolution render.
+  if (!refining_) {
+    refining_ = true;
+    refineImage_ = RgbaImage(paneWidth, paneHeight);
+    refineRow_ = 0;
+    refineMs_ = 0;
+    rowCost_ = predictRowCosts(coarse_, paneHeight);
+  }
+  // The band: as many rows as the predicted cost allows within the budget (at least 4).
+  int rows = 0;
+  for (double cost = 0; refineRow_ + rows < paneHeight; ++rows) {
+    cost += rowCost_[static_cast<size_t>(refineRow_ + rows)];
+    if (rows >= 4 && cost * msPerCost_ > kInteractiveBudgetMs) break;
+  }
+  double bandCost = 0;
+  for (int r = 0; r < rows; ++r) bandCost += rowCost_[static_cast<size_t>(refineRow_ + r)];
   const auto t0 = std::chrono::steady_clock::now();
-  const RgbaImage img = renderImage(scene, std::max(1, paneWidth / scale), std::max(1, paneHeight / scale));
-  texture_.upload(img);
+  context_.makeCurrent();
+  renderer_->renderRows(renderSettingsFor(scene, paneWidth, paneHeight), refineRow_, refineRow_ + rows, refineImage_);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
   lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  lastScale_ = scale;
-  lastKey_ = key;
-  refined_ = scale == 1;
-  if (interacting) {
-    // Cost scales with pixels: halve the resolution when over budget; double it only when
-    // 4x the pixels are predicted to fit (hysteresis: no oscillation between two factors).
-    if (lastMs_ > kInteractiveBudgetMs && scale_ < 8) scale_ *= 2;
-    else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) scale_ /= 2;
+  msPerCost_ = std::max(1e-4, lastMs_ / bandCost);
+  refineMs_ += lastMs_;
+  lastScale_ = 1;
+  refineRow_ += rows;
+  if (refineRow_ >= paneHeight) {
+    texture_.upload(refineImage_);
+    refined_ = true;
+    refining_ = false;
   }
   return true;
 }

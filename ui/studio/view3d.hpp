@@ -1,12 +1,15 @@
 #pragma once
 // The 3D pane: the shared VolumeRenderer drawing into the window's context, displayed as a
 // texture. Progressive refinement: while the user drags, frames render at 1/2..1/8 of the
-// pane's resolution (the factor adapts to keep a frame near kInteractiveBudgetMs); once the
-// mouse is released a full-resolution frame replaces it.
+// pane's resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when
+// the view rests, the full-resolution picture is rendered a band of rows per frame
+// (VolumeRenderer::renderRows, each band sized to the same budget) and replaces the coarse
+// one when complete, so the window stays responsive throughout.
 #include <memory>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "gl_texture.hpp"
 #include "scene.hpp"
@@ -41,7 +44,12 @@ class View3D {
   bool refined() const { return refined_; }
   double lastRenderMs() const { return lastMs_; }
   int lastScale() const { return lastScale_; }
-  void invalidate() { refined_ = false; lastKey_.clear(); }
+  /// Sum of the band renders of the last completed (or running) refinement.
+  double refineMs() const { return refineMs_; }
+  void invalidate() {
+    refined_ = refining_ = false;
+    lastKey_.clear();
+  }
 
  private:
   render::GlContext& context_;
@@ -52,6 +60,16 @@ class View3D {
   std::string lastKey_;
   int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
   double lastMs_ = 0;
+  void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
+  // Banded refinement state.
+  bool refining_ = false;
+  RgbaImage refineImage_;
+  int refineRow_ = 0;
+  RgbaImage coarse_;              ///< the last reduced-resolution frame (row cost predictor)
+  std::vector<double> rowCost_;   ///< predicted relative cost of each full-resolution row
+  double msPerCost_ = 0.01;       ///< learnt from each band
+  double refineMs_ = 0;
+  std::vector<double> predictRowCosts(const RgbaImage& coarse, int height) const;
 };
 
 }  // namespace vellum::studio
