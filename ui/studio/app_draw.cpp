@@ -122,6 +122,7 @@ void StudioApp::drawHud() {
   hud.setf(std::ios::fixed);
   hud.precision(1);
   hud << "frame " << lastFrameMs_ << " ms   3D " << view3d_->lastRenderMs() << " ms @1/" << view3d_->lastScale();
+  if (view3d_->refineProgress() < 1) hud << "  refining " << int(100 * view3d_->refineProgress()) << "%";
   if (scene_.hasVolume()) {
     const Pane* p = paneAt(mouseX_, mouseY_);
     if (p && !p->is3d()) {

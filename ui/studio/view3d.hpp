@@ -44,6 +44,10 @@ class View3D {
   bool refined() const { return refined_; }
   double lastRenderMs() const { return lastMs_; }
   int lastScale() const { return lastScale_; }
+  /// While refining: the fraction of rows done (0..1); 1 when refined or not refining.
+  double refineProgress() const {
+    return refining_ && refineImage_.height > 0 ? double(refineRow_) / refineImage_.height : 1.0;
+  }
   /// Sum of the band renders of the last completed (or running) refinement.
   double refineMs() const { return refineMs_; }
   void invalidate() {
