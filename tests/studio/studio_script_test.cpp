@@ -162,6 +162,24 @@ TEST(StudioScript, ThresholdUndoRedoSceneReopenAndCliRender) {
   EXPECT_GE(cliDiff.psnr, 40.0) << "studio 3D view vs `vellum render`: " << cmd;
 }
 
+TEST(StudioScript, SnakeFromAClickedSeedIsOneUndoStep) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-snake");
+  writePhantom(d);
+  // Soft tissue (the range is the snake's inside) from a seed clicked in the axial slice's
+  // muscle, lateral of the knee; waits for the worker, then Ctrl+Z.
+  const StudioRun r = runStudio(d, "snake", R"({"actions":[{"open":)" + q(d / "ct.nrrd") + R"(},
+      {"threshold":{"preset":"soft-tissue","label":5,"apply":false}},{"tool":"snake"},
+      {"click":[430,175]},{"wait_idle":true},{"save_labels":)" + q(d / "s1.nrrd") + R"(},
+      {"key":"ctrl+z"},{"save_labels":)" + q(d / "s2.nrrd") + R"(},{"quit":0}]})");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_NE(r.output.find("snake: "), std::string::npos) << r.output;
+  const auto h1 = io::loadLabels(d / "s1.nrrd").histogram();
+  ASSERT_GE(h1.size(), 6u) << r.output;
+  EXPECT_GT(h1[5], 5000u) << "the snake filled the soft tissue of the leg";
+  EXPECT_EQ(io::loadLabels(d / "s2.nrrd").histogram().size(), 1u) << "undo removed it";
+}
+
 TEST(StudioScript, AutosaveWritesASiblingSceneWithTheEditedLabels) {
   REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-autosave");

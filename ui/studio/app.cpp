@@ -131,6 +131,7 @@ int StudioApp::run() {
     frame();
   }
   loader_.cancel();
+  snake_.cancel();
   autosaver_.reset();  // waits for a write in progress
   return exitCode_;
 }
@@ -139,13 +140,14 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.busy() && !viewPending && pendingScreenshot_.empty();
+  return !loader_.busy() && !snake_.busy() && !viewPending && pendingScreenshot_.empty();
 }
 
 void StudioApp::frame() {
   const auto t0 = std::chrono::steady_clock::now();
   glfwPollEvents();
   pollLoader();
+  pollSnake();
   autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();

@@ -14,6 +14,7 @@
 #include "label_tools.hpp"
 #include "layout.hpp"
 #include "loader.hpp"
+#include "snake_job.hpp"
 #include "scene.hpp"
 #include "undo.hpp"
 #include "vellum/segmentation/threshold.hpp"
@@ -28,7 +29,7 @@ class ScriptRunner;
 class Autosaver;
 class GlTexture;
 
-enum class Tool { Navigate, Paint, Erase, Grow };
+enum class Tool { Navigate, Paint, Erase, Grow, Snake };
 
 /// Segmentation panel state (not saved in scenes).
 struct ToolState {
@@ -100,10 +101,14 @@ class StudioApp {
   Scene& scene() { return scene_; }
   ToolState& tools() { return tools_; }
   Loader& loader() { return loader_; }
+  SnakeJob& snakeJob() { return snake_; }
+  /// Starts the snake from a seed (mm) with the threshold range as its inside and the brush
+  /// radius as its bubble (what the Snake tool's click does).
+  void startSnake(const Vec3& seedMm);
   UndoStack& undoStack() { return undo_; }
   FileBrowser& fileBrowser() { return browser_; }
   bool loading() const { return loader_.busy(); }
-  /// Nothing pending: no load, 3D view refined, no screenshot waiting.
+  /// Nothing pending: no load or snake running, 3D view refined, no screenshot waiting.
   bool idle() const;
   /// The last load's error ("" after success); scripts check it.
   const std::string& lastLoadError() const { return lastLoadError_; }
@@ -120,6 +125,7 @@ class StudioApp {
   void createWindow();
   void frame();
   void pollLoader();
+  void pollSnake();
   void adoptLoad(LoadResult r);
   void updateSliceTextures();
   void drawPanes();
@@ -146,6 +152,7 @@ class StudioApp {
   ToolState tools_;
   UndoStack undo_;
   Loader loader_;
+  SnakeJob snake_;
   FileBrowser browser_;
   std::vector<Pane> panes_;
   std::vector<std::filesystem::path> recent_;

@@ -1,10 +1,12 @@
 // StudioApp: commands of the panels, keys and scripts (each label edit is one undo step).
 #include <GLFW/glfw3.h>
 
+#include <iostream>
 #include <sstream>
 
 #include "app.hpp"
 #include "label_tools.hpp"
+#include "vellum/segmentation/label_map.hpp"
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -87,6 +89,32 @@ void StudioApp::morphologyOfActive(Morphology op) {
 void StudioApp::otsuThreshold() {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   tools_.threshold = {otsuHu(scene_.ct), 3071};
+}
+
+void StudioApp::startSnake(const Vec3& seedMm) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  if (!snake_.start({scene_.ct, seedMm, tools_.brushRadiusMm, tools_.threshold}))
+    throw Error("a snake is already running; cancel it first (Escape)");
+}
+
+void StudioApp::pollSnake() {
+  auto out = snake_.take();
+  if (!out) return;
+  if (!out->error.empty()) {
+    std::cerr << "vellum-studio: " << out->error << "\n";
+    if (out->error != "snake cancelled") showError(out->error);
+    return;
+  }
+  if (!(out->mask.geometry().dims == scene_.labels.geometry().dims)) return;  // another volume was opened
+  if (segmentation::countVoxels(out->mask) == 0) {
+    showError("the snake found nothing: is the seed inside the HU range?");
+    return;
+  }
+  const Label label = labelFor(scene_.labels, tools_.activeLabel, "Snake " + std::to_string(tools_.activeLabel));
+  edit("snake", [&](LabelVolume& l) {
+    segmentation::addSegment(l, out->mask, label, segmentation::OverlapRule::Overwrite);
+  });
+  std::cout << "snake: " << out->iterations << " iterations" << (out->converged ? ", converged" : "") << std::endl;
 }
 
 void StudioApp::saveLabels(const fs::path& path) {

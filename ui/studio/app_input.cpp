@@ -36,8 +36,8 @@ void StudioApp::onCursorPos(double x, double y) {
   const bool shift = dragMods_ & GLFW_MOD_SHIFT;
   if (!pane.is3d()) {
     if (dragButton_ == GLFW_MOUSE_BUTTON_LEFT) {
-      if (tools_.tool == Tool::Grow) {
-        // The seed click grows once (on press); dragging does nothing more.
+      if (tools_.tool == Tool::Grow || tools_.tool == Tool::Snake) {
+        // The seed click acts once (on press); dragging does nothing more.
       } else if (tools_.tool == Tool::Navigate) {
         const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
         scene_.crosshairMm = plane.toMm(x - pane.rect.x, y - pane.rect.y);
@@ -91,6 +91,15 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
       growAt(*pane, mouseX_, mouseY_);
       return;
     }
+    if (tools_.tool == Tool::Snake) {
+      const SlicePlane plane = makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane->rect.w), int(pane->rect.h));
+      try {
+        startSnake(plane.toMm(mouseX_ - pane->rect.x, mouseY_ - pane->rect.y));
+      } catch (const std::exception& e) {
+        showError(e.what());
+      }
+      return;
+    }
     if (tools_.tool != Tool::Navigate) strokeBefore_ = scene_.labels;  // diffed on release
     onCursorPos(mouseX_, mouseY_);  // a click acts where it lands
   }
@@ -131,7 +140,10 @@ void StudioApp::onKey(int key, int action, int mods) {
     } else if (!ctrl && key >= GLFW_KEY_1 && key <= GLFW_KEY_3) {
       setLayout(key == GLFW_KEY_1 ? Layout::ThreeD : key == GLFW_KEY_2 ? Layout::TwoByTwo : Layout::OneByThree);
     } else if (key == GLFW_KEY_ESCAPE) {
-      tools_.tool = Tool::Navigate;
+      // Escape cancels what runs (a snake, a load); with nothing running, back to Navigate.
+      if (snake_.busy()) snake_.cancel();
+      else if (loader_.busy()) loader_.cancel();
+      else tools_.tool = Tool::Navigate;
     }
   } catch (const std::exception& e) {
     showError(e.what());

@@ -151,9 +151,20 @@ void segmentationSection(StudioApp& app) {
   ImGui::RadioButton("Paint", &tool, 1);
   ImGui::SameLine();
   ImGui::RadioButton("Erase", &tool, 2);
-  ImGui::SameLine();
   ImGui::RadioButton("Grow", &tool, 3);
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("click a seed in a slice: region growing within the HU range");
+  ImGui::SameLine();
+  ImGui::RadioButton("Snake", &tool, 4);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("click a seed in a slice: 3D level-set snake from a bubble of the brush radius,\n"
+                      "inside = the HU range (e.g. the soft-tissue preset); Escape cancels");
+  if (app.snakeJob().busy()) {
+    const auto [stage, fraction] = app.snakeJob().progress();
+    ImGui::TextUnformatted(stage.c_str());
+    ImGui::ProgressBar(static_cast<float>(fraction), {-70, 0});
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel##snake")) app.snakeJob().cancel();
+  }
   t.tool = static_cast<Tool>(tool);
   ImGui::SliderFloat("Brush radius (mm)", &t.brushRadiusMm, 0.5f, 30.f, "%.1f");
   if (ImGui::Button("Undo (Ctrl+Z)")) app.undo();

@@ -223,6 +223,7 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
     const Tool tool = t == "paint"      ? Tool::Paint
                       : t == "erase"    ? Tool::Erase
                       : t == "grow"     ? Tool::Grow
+                      : t == "snake"    ? Tool::Snake
                       : t == "navigate" ? Tool::Navigate
                                         : throw Error("unknown tool '" + t + "'");
     once([tool](StudioApp& a) { a.tools().tool = tool; });
