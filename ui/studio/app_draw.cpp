@@ -140,7 +140,10 @@ void StudioApp::drawHud() {
     }
   }
   if (panes_.empty()) return;
-  const float x = panes_.front().rect.x + 8, y = float(options_.height) - 44;
+  // Bottom left of the viewport (the panes' lowest edge follows window resizes).
+  float bottom = 0;
+  for (const Pane& p : panes_) bottom = std::max(bottom, p.rect.y + p.rect.h);
+  const float x = panes_.front().rect.x + 8, y = bottom - 44;
   ImGui::GetForegroundDrawList()->AddRectFilled({x - 4, y - 2}, {x + 520, y + 36}, IM_COL32(0, 0, 0, 150));
   ImGui::GetForegroundDrawList()->AddText({x, y}, IM_COL32(255, 255, 160, 255), hud.str().c_str());
 }
