@@ -48,15 +48,17 @@ void StudioApp::pushEdit(LabelDelta delta) {
 }
 
 bool StudioApp::undo() {
-  const bool done = undo_.undo(scene_.labels);
-  if (done) scene_.touchLabels(), markSlicesDirty();
-  return done;
+  if (!undo_.undo(scene_.labels)) return false;
+  scene_.touchLabels();
+  markSlicesDirty();
+  return true;
 }
 
 bool StudioApp::redo() {
-  const bool done = undo_.redo(scene_.labels);
-  if (done) scene_.touchLabels(), markSlicesDirty();
-  return done;
+  if (!undo_.redo(scene_.labels)) return false;
+  scene_.touchLabels();
+  markSlicesDirty();
+  return true;
 }
 
 

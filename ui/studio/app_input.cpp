@@ -7,13 +7,11 @@
 #include <cmath>
 
 #include "app.hpp"
+#include "view3d.hpp"
 #include "vellum/core/error.hpp"
 
 namespace vellum::studio {
 namespace fs = std::filesystem;
-
-// ---- input -------------------------------------------------------------------------------
-
 
 bool StudioApp::interacting3d() const {
   return (dragPane_ && dragPane_->is3d()) || glfwGetTime() < zoomInteractionUntil_;
@@ -24,8 +22,6 @@ const Pane* StudioApp::paneAt(double x, double y) const {
     if (p.rect.contains(x, y)) return &p;
   return nullptr;
 }
-
-
 
 void StudioApp::onCursorPos(double x, double y) {
   const double dx = x - mouseX_, dy = y - mouseY_;
@@ -54,14 +50,11 @@ void StudioApp::onCursorPos(double x, double y) {
   render::Camera& cam = scene_.camera;
   if ((dragButton_ == GLFW_MOUSE_BUTTON_LEFT && shift) || dragButton_ == GLFW_MOUSE_BUTTON_MIDDLE) {
     // Pan: the look-at point moves against the drag so the volume follows the mouse.
-    const double az = cam.azimuthDeg * M_PI / 180, el = cam.elevationDeg * M_PI / 180;
-    const Vec3 right{std::cos(az), std::sin(az), 0};
-    const Vec3 forward = -Vec3{std::cos(el) * std::sin(az), -std::cos(el) * std::cos(az), std::sin(el)};
-    const Vec3 up = cross(right, forward);
+    const CameraBasis b = cameraBasis(cam);
     const Vec3 e = scene_.ct.geometry().extent();
     const double mmPerPixel = norm(e) / (cam.zoom * std::max(1.f, pane.rect.h));
-    cam.panMm -= right * (dx * mmPerPixel);
-    cam.panMm += up * (dy * mmPerPixel);
+    cam.panMm -= b.right * (dx * mmPerPixel);
+    cam.panMm += b.up * (dy * mmPerPixel);
   } else if (dragButton_ == GLFW_MOUSE_BUTTON_LEFT) {  // orbit (trackball-style)
     cam.azimuthDeg -= dx * 0.5;
     cam.elevationDeg = std::clamp(cam.elevationDeg + dy * 0.5, -89.0, 89.0);
@@ -77,7 +70,10 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
       pushEdit(diffLabels(*strokeBefore_, scene_.labels, tools_.tool == Tool::Paint ? "paint" : "erase"));
       strokeBefore_.reset();
     }
-    if (button == dragButton_) dragPane_.reset(), dragButton_ = -1;
+    if (button == dragButton_) {
+      dragPane_.reset();
+      dragButton_ = -1;
+    }
     return;
   }
   if (ImGui::GetIO().WantCaptureMouse || !scene_.hasVolume()) return;

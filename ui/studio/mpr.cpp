@@ -77,22 +77,23 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
     for (const Label& l : style.labels->table()) colours[l.id] = l.rgb;
   }
   parallelFor(plane.height, [&](int64_t y0, int64_t y1) {
-    for (int64_t y = y0; y < y1; ++y)
-    for (int x = 0; x < plane.width; ++x) {
-      const Vec3 ijk = origin + dx * double(x) + dy * double(y);
-      const double hu = ct.sampleLinear(ijk);
-      const auto grey = static_cast<uint8_t>(std::clamp((hu - lo) * scale, 0.0, 255.0));
-      uint8_t* px = img.at(x, static_cast<int>(y));
-      px[0] = px[1] = px[2] = grey;
-      px[3] = 255;
-      if (labelsOn) {
-        auto id = static_cast<uint16_t>(style.labels->ids().sampleNearest(ijk));
-        if (id && style.hidden && style.hidden->count(id)) id = 0;
-        ids[static_cast<size_t>(y) * plane.width + x] = id;
-      }
-      if (style.thresholdPreview) {
-        const double v = ct.sampleNearest(ijk);
-        preview[static_cast<size_t>(y) * plane.width + x] = style.thresholdPreview->contains(v);
+    for (int64_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < plane.width; ++x) {
+        const Vec3 ijk = origin + dx * double(x) + dy * double(y);
+        const double hu = ct.sampleLinear(ijk);
+        const auto grey = static_cast<uint8_t>(std::clamp((hu - lo) * scale, 0.0, 255.0));
+        uint8_t* px = img.at(x, static_cast<int>(y));
+        px[0] = px[1] = px[2] = grey;
+        px[3] = 255;
+        if (labelsOn) {
+          auto id = static_cast<uint16_t>(style.labels->ids().sampleNearest(ijk));
+          if (id && style.hidden && style.hidden->count(id)) id = 0;
+          ids[static_cast<size_t>(y) * plane.width + x] = id;
+        }
+        if (style.thresholdPreview) {
+          const double v = ct.sampleNearest(ijk);
+          preview[static_cast<size_t>(y) * plane.width + x] = style.thresholdPreview->contains(v);
+        }
       }
     }
   });
@@ -116,21 +117,22 @@ void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
   const int width = img.width, height = img.height;
   const float a = std::clamp(opacity, 0.f, 1.f);
   parallelFor(height, [&](int64_t y0, int64_t y1) {
-    for (int64_t y = y0; y < y1; ++y)
-    for (int x = 0; x < width; ++x) {
-      const uint16_t id = ids[static_cast<size_t>(y) * width + x];
-      if (!id) continue;
-      // Outline: a pixel whose 4-neighbour carries another id (or lies outside the image).
-      auto other = [&](int nx, int ny) {
-        if (nx < 0 || ny < 0 || nx >= width || ny >= height) return true;
-        return ids[static_cast<size_t>(ny) * width + nx] != id;
-      };
-      const int yi = static_cast<int>(y);
-      const bool edge = other(x - 1, yi) || other(x + 1, yi) || other(x, yi - 1) || other(x, yi + 1);
-      const float w = edge ? 1.f : a;
-      uint8_t* px = img.at(x, yi);
-      for (int c = 0; c < 3; ++c)
-        px[c] = static_cast<uint8_t>(std::lround(px[c] * (1 - w) + colours[id][c] * w));
+    for (int64_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < width; ++x) {
+        const uint16_t id = ids[static_cast<size_t>(y) * width + x];
+        if (!id) continue;
+        // Outline: a pixel whose 4-neighbour carries another id (or lies outside the image).
+        auto other = [&](int nx, int ny) {
+          if (nx < 0 || ny < 0 || nx >= width || ny >= height) return true;
+          return ids[static_cast<size_t>(ny) * width + nx] != id;
+        };
+        const int yi = static_cast<int>(y);
+        const bool edge = other(x - 1, yi) || other(x + 1, yi) || other(x, yi - 1) || other(x, yi + 1);
+        const float w = edge ? 1.f : a;
+        uint8_t* px = img.at(x, yi);
+        for (int c = 0; c < 3; ++c)
+          px[c] = static_cast<uint8_t>(std::lround(px[c] * (1 - w) + colours[id][c] * w));
+      }
     }
   });
 }

@@ -20,6 +20,16 @@ render::RenderSettings renderSettingsFor(const Scene& scene, int width, int heig
   return s;
 }
 
+CameraBasis cameraBasis(const render::Camera& cam) {
+  // As modules/render/src/render_common.cpp builds its frame.
+  const double az = cam.azimuthDeg * M_PI / 180.0, el = cam.elevationDeg * M_PI / 180.0;
+  CameraBasis b;
+  b.forward = -Vec3{std::cos(el) * std::sin(az), -std::cos(el) * std::cos(az), std::sin(el)};
+  b.right = {std::cos(az), std::sin(az), 0};
+  b.up = cross(b.right, b.forward);
+  return b;
+}
+
 std::optional<std::pair<double, double>> projectToView(const Scene& scene, int width, int height, const Vec3& p) {
   // The orbit camera of render::RenderSettings (modules/render/src/render_common.cpp).
   const Geometry& g = scene.ct.geometry();
@@ -31,10 +41,7 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
   }
   const render::Camera& cam = scene.camera;
   const Vec3 lookAt = centre + cam.panMm;
-  const double az = cam.azimuthDeg * M_PI / 180.0, el = cam.elevationDeg * M_PI / 180.0;
-  const Vec3 forward = -Vec3{std::cos(el) * std::sin(az), -std::cos(el) * std::cos(az), std::sin(el)};
-  const Vec3 right{std::cos(az), std::sin(az), 0};
-  const Vec3 up = cross(right, forward);
+  const auto [right, up, forward] = cameraBasis(cam);
   const double aspect = double(width) / height;
   const double sx = aspect >= 1 ? aspect : 1.0, sy = aspect >= 1 ? 1.0 : 1.0 / aspect;
   double x, y, halfW, halfH;

@@ -21,6 +21,13 @@ namespace vellum::studio {
 /// flags (camera, preset, --window from renderWindow), so the studio and the CLI agree.
 render::RenderSettings renderSettingsFor(const Scene& scene, int width, int height);
 
+/// The orbit camera's unit vectors in LPS (the renderer's model: azimuth about +z from
+/// anterior, elevation towards superior).
+struct CameraBasis {
+  Vec3 right, up, forward;
+};
+CameraBasis cameraBasis(const render::Camera& camera);
+
 /// Window-pane pixel coordinates (x right, y down) of the physical point p in the 3D view of
 /// `scene` at width x height, with the renderer's camera model; nullopt behind the camera.
 std::optional<std::pair<double, double>> projectToView(const Scene& scene, int width, int height, const Vec3& p);
