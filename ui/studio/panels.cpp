@@ -102,6 +102,15 @@ void viewSection(StudioApp& app) {
       if (ImGui::Selectable(render::presetName(p), p == s.preset)) app.setPreset(p);
     ImGui::EndCombo();
   }
+  // The camera as numbers too (what `vellum render --azimuth --elevation --zoom --fov` take).
+  float cam[4] = {float(s.camera.azimuthDeg), float(s.camera.elevationDeg), float(s.camera.zoom),
+                  float(s.camera.fieldOfViewDeg)};
+  if (ImGui::DragFloat4("Az El Zoom Fov", cam, 0.5f, 0.f, 0.f, "%.1f")) {
+    s.camera.azimuthDeg = cam[0];
+    s.camera.elevationDeg = std::clamp(cam[1], -89.f, 89.f);
+    s.camera.zoom = std::clamp(cam[2], 0.1f, 50.f);
+    s.camera.fieldOfViewDeg = std::clamp(cam[3], 0.f, 120.f);
+  }
   float sw[2] = {float(s.sliceWindow.center), float(s.sliceWindow.width)};
   if (ImGui::DragFloat2("Slice W/L", sw, 2.f)) s.sliceWindow = {sw[0], std::max(1.f, sw[1])};
   float rw[2] = {float(s.renderWindow.center), float(s.renderWindow.width)};

@@ -21,7 +21,7 @@ namespace {
 const std::set<std::string> kActions = {
     "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
     "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
-    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "hud", "log", "quit"};
+    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "hud", "log", "quit"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -249,6 +249,16 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
     const auto id = v.at("id").get<uint16_t>();
     const bool on = v.value("locked", true);
     once([id, on](StudioApp& a) { on ? (void)a.scene().lockedLabels.insert(id) : (void)a.scene().lockedLabels.erase(id); });
+  } else if (name == "camera") {
+    const json spec = v;
+    once([spec](StudioApp& a) {
+      render::Camera& c = a.scene().camera;
+      c.azimuthDeg = spec.value("azimuth", c.azimuthDeg);
+      c.elevationDeg = spec.value("elevation", c.elevationDeg);
+      c.zoom = spec.value("zoom", c.zoom);
+      c.fieldOfViewDeg = spec.value("fov", c.fieldOfViewDeg);
+      if (spec.contains("pan")) c.panMm = {spec["pan"].at(0).get<double>(), spec["pan"].at(1).get<double>(), spec["pan"].at(2).get<double>()};
+    });
   } else if (name == "otsu") {
     once([](StudioApp& a) { a.otsuThreshold(); });
   } else if (name == "export_command") {
