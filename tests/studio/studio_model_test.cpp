@@ -85,8 +85,11 @@ TEST(StudioLabelTools, KeepLargestAndFillHoles) {
   paintSphere(labels, {60, 60, 60}, 6.0, 1);  // a separate island
   paintSphere(labels, {0, 0, 0}, 6.0, 0);     // a cavity
   const auto before = labels.histogram()[1];
+  LabelVolume islands = labels;
+  removeIslands(islands, 1, 2000.0);  // the 6 mm ball (~900 mm3) goes, the 20 mm one stays
   keepLargest(labels, 1);
   const auto afterKeep = labels.histogram()[1];
+  EXPECT_EQ(islands.ids().voxels(), labels.ids().voxels());
   EXPECT_LT(afterKeep, before);
   fillHoles(labels, 1);
   EXPECT_GT(labels.histogram()[1], afterKeep);

@@ -35,6 +35,7 @@ enum class Tool { Navigate, Paint, Erase, Grow, Snake };
 struct ToolState {
   Tool tool = Tool::Navigate;
   float brushRadiusMm = 4.f;
+  float minIslandMm3 = 100.f;  ///< "Remove islands" keeps components at least this large
   uint16_t activeLabel = 1;
   segmentation::HuInterval threshold = segmentation::presetInterval(segmentation::Preset::Bone);
   bool thresholdPreview = false;
@@ -83,6 +84,7 @@ class StudioApp {
   void applyThreshold();
   void keepLargestOfActive();
   void fillHolesOfActive();
+  void removeIslandsOfActive();
   void morphologyOfActive(Morphology op);
   /// Sets the threshold range to [Otsu, 3071] HU.
   void otsuThreshold();

@@ -81,6 +81,11 @@ void StudioApp::fillHolesOfActive() {
   edit("fill holes", [&](LabelVolume& l) { fillHoles(l, tools_.activeLabel); });
 }
 
+void StudioApp::removeIslandsOfActive() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  edit("remove islands", [&](LabelVolume& l) { removeIslands(l, tools_.activeLabel, tools_.minIslandMm3); });
+}
+
 void StudioApp::morphologyOfActive(Morphology op) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   edit(morphologyName(op), [&](LabelVolume& l) {

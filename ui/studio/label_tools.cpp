@@ -65,6 +65,14 @@ void keepLargest(LabelVolume& labels, uint16_t id) {
     if (ids[n] == id && !k[n]) ids[n] = 0;
 }
 
+void removeIslands(LabelVolume& labels, uint16_t id, double minVolumeMm3) {
+  const seg::Mask keep = seg::removeSmallIslands(seg::segmentMask(labels, id), minVolumeMm3);
+  auto& ids = labels.ids().voxels();
+  const auto& k = keep.voxels();
+  for (size_t n = 0; n < ids.size(); ++n)
+    if (ids[n] == id && !k[n]) ids[n] = 0;
+}
+
 void fillHoles(LabelVolume& labels, uint16_t id) {
   const auto existing = labels.label(id);
   const Label label = existing ? *existing : Label{id, "Segment " + std::to_string(id), defaultLabelColor(id)};

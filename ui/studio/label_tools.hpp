@@ -26,6 +26,8 @@ int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, 
                     const std::set<uint16_t>& locked = {});
 /// Keeps only the largest 26-connected component of `id` (the others become background).
 void keepLargest(LabelVolume& labels, uint16_t id);
+/// Removes the 26-connected islands of `id` smaller than minVolumeMm3 (to background).
+void removeIslands(LabelVolume& labels, uint16_t id, double minVolumeMm3);
 /// Fills the cavities of `id` (background only; other segments are kept).
 void fillHoles(LabelVolume& labels, uint16_t id);
 /// Region growing (connected threshold, 6-connected) from a seed in mm into `label`.

@@ -149,6 +149,10 @@ void segmentationSection(StudioApp& app) {
   if (ImGui::Button("Keep largest")) guarded(app, [&] { app.keepLargestOfActive(); });
   ImGui::SameLine();
   if (ImGui::Button("Fill holes")) guarded(app, [&] { app.fillHolesOfActive(); });
+  if (ImGui::Button("Remove islands <")) guarded(app, [&] { app.removeIslandsOfActive(); });
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(-40);
+  ImGui::DragFloat("mm3", &t.minIslandMm3, 10.f, 0.f, 1e7f, "%.0f");
   for (Morphology op : {Morphology::Dilate, Morphology::Erode, Morphology::Open, Morphology::Close}) {
     if (op != Morphology::Dilate) ImGui::SameLine();
     if (ImGui::Button(morphologyName(op))) guarded(app, [&] { app.morphologyOfActive(op); });

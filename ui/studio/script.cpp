@@ -21,7 +21,7 @@ namespace {
 const std::set<std::string> kActions = {
     "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
     "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
-    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "hud", "log", "quit"};
+    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "remove_islands", "hud", "log", "quit"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -258,6 +258,12 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
       c.zoom = spec.value("zoom", c.zoom);
       c.fieldOfViewDeg = spec.value("fov", c.fieldOfViewDeg);
       if (spec.contains("pan")) c.panMm = {spec["pan"].at(0).get<double>(), spec["pan"].at(1).get<double>(), spec["pan"].at(2).get<double>()};
+    });
+  } else if (name == "remove_islands") {
+    const double mm3 = v.get<double>();
+    once([mm3](StudioApp& a) {
+      a.tools().minIslandMm3 = static_cast<float>(mm3);
+      a.removeIslandsOfActive();
     });
   } else if (name == "otsu") {
     once([](StudioApp& a) { a.otsuThreshold(); });
