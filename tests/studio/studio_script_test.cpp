@@ -180,6 +180,24 @@ TEST(StudioScript, SnakeFromAClickedSeedIsOneUndoStep) {
   EXPECT_EQ(io::loadLabels(d / "s2.nrrd").histogram().size(), 1u) << "undo removed it";
 }
 
+TEST(StudioScript, CtrlClickIn3dMovesTheCrosshairToTheVisibleSurface) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-pick");
+  writePhantom(d);
+  // 2x2 at 1024x700: the 3D pane is the bottom-right quarter (678..1024 x 351..700); a
+  // point above its centre shows the femur.
+  const StudioRun r = runStudio(d, "pick", R"({"actions":[{"open":)" + q(d / "ct.nrrd") + R"(},
+      {"preset":"bone"},{"click":{"at":[851,455],"mods":["ctrl"]}},
+      {"save_scene":)" + q(d / "pick.json") + R"(},{"quit":0}]})");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const SceneFile sf = readSceneFile(d / "pick.json");
+  const VolumeI16 ct = toInt16(io::loadVolume(d / "ct.nrrd").volume);
+  EXPECT_GT(sf.crosshairMm.z, 15.0) << "the crosshair moved up to the femur";
+  // Half opacity of the bone preset is reached just inside the bone's surface.
+  EXPECT_GT(ct.sampleLinearMm(sf.crosshairMm), 200.0)
+      << sf.crosshairMm.x << " " << sf.crosshairMm.y << " " << sf.crosshairMm.z;
+}
+
 TEST(StudioScript, AutosaveWritesASiblingSceneWithTheEditedLabels) {
   REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-autosave");

@@ -140,6 +140,10 @@ class StudioApp {
   void edit(const std::string& description, const std::function<void(LabelVolume&)>& fn);
   void paintAt(const Pane& pane, double x, double y);
   void growAt(const Pane& pane, double x, double y);
+  void growFromPoint(const Vec3& seedMm);
+  /// Ctrl+click in the 3D view: the crosshair (Navigate) or a seed (Grow, Snake) on the
+  /// visible surface under the pointer.
+  void clickIn3d(const Pane& pane, double x, double y);
   std::pair<int, int> pane3dSize() const;
   void drawPlanesIn3d(const Pane& pane);
 

@@ -154,7 +154,10 @@ void StudioApp::paintAt(const Pane& pane, double x, double y) {
 
 void StudioApp::growAt(const Pane& pane, double x, double y) {
   const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
-  const Vec3 seed = plane.toMm(x - pane.rect.x, y - pane.rect.y);
+  growFromPoint(plane.toMm(x - pane.rect.x, y - pane.rect.y));
+}
+
+void StudioApp::growFromPoint(const Vec3& seed) {
   const Label label = labelFor(scene_.labels, tools_.activeLabel, "Region " + std::to_string(tools_.activeLabel));
   try {
     edit("grow", [&](LabelVolume& l) { growFromSeed(l, scene_.ct, seed, tools_.threshold, label); });

@@ -79,6 +79,10 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   if (ImGui::GetIO().WantCaptureMouse || !scene_.hasVolume()) return;
   const Pane* pane = paneAt(mouseX_, mouseY_);
   if (!pane) return;
+  if (pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT && (mods & GLFW_MOD_CONTROL)) {
+    clickIn3d(*pane, mouseX_, mouseY_);  // Ctrl+click picks the visible surface
+    return;
+  }
   dragPane_ = *pane;
   dragButton_ = button;
   dragMods_ = mods;
@@ -98,6 +102,23 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
     }
     if (tools_.tool != Tool::Navigate) strokeBefore_ = scene_.labels;  // diffed on release
     onCursorPos(mouseX_, mouseY_);  // a click acts where it lands
+  }
+}
+
+void StudioApp::clickIn3d(const Pane& pane, double x, double y) {
+  const auto p = pickSurface(scene_, int(pane.rect.w), int(pane.rect.h), x - pane.rect.x, y - pane.rect.y);
+  if (!p) return;  // nothing visible under the pointer
+  try {
+    if (tools_.tool == Tool::Grow) {
+      growFromPoint(*p);
+    } else if (tools_.tool == Tool::Snake) {
+      startSnake(*p);
+    } else {
+      scene_.crosshairMm = *p;  // the slices jump to the clicked surface point
+      markSlicesDirty();
+    }
+  } catch (const std::exception& e) {
+    showError(e.what());
   }
 }
 

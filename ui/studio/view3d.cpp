@@ -64,6 +64,63 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
   return std::pair{(x / halfW + 1) / 2 * width, (1 - y / halfH) / 2 * height};
 }
 
+namespace {
+/// Bounding-sphere radius of the volume's voxel box about its centre (the renderer's).
+double boundingRadius(const Geometry& g) {
+  double radius = 0;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 corner{(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5, (c & 4) ? g.dims.z - 0.5 : -0.5};
+    radius = std::max(radius, norm(g.indexToPhysical(corner) - g.center()));
+  }
+  return radius;
+}
+}  // namespace
+
+std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py) {
+  if (!scene.hasVolume() || width < 1 || height < 1) return std::nullopt;
+  const Geometry& g = scene.ct.geometry();
+  const render::Camera& cam = scene.camera;
+  const double radius = boundingRadius(g);
+  const Vec3 lookAt = g.center() + cam.panMm;
+  const CameraBasis b = cameraBasis(cam);
+  const double aspect = double(width) / height;
+  const double sx = aspect >= 1 ? aspect : 1.0, sy = aspect >= 1 ? 1.0 : 1.0 / aspect;
+  const double ndcX = px / width * 2 - 1, ndcY = 1 - py / height * 2;
+  Vec3 origin, dir;
+  if (cam.fieldOfViewDeg > 0) {  // the renderer's pixelRay()
+    const double half = cam.fieldOfViewDeg * M_PI / 360.0;
+    origin = lookAt - b.forward * (radius / std::sin(half));
+    const double t = std::tan(half) / cam.zoom;
+    dir = normalized(b.forward + b.right * (ndcX * t * sx) + b.up * (ndcY * t * sy));
+  } else {
+    origin = lookAt - b.forward * (2 * radius + norm(cam.panMm) + 1.0) +
+             b.right * (ndcX * radius / cam.zoom * sx) + b.up * (ndcY * radius / cam.zoom * sy);
+    dir = b.forward;
+  }
+  const Vec3& sp = g.spacing;
+  const double step = 0.5 * std::min({sp.x, sp.y, sp.z});
+  const double length = norm(origin - g.center()) + 2 * radius;
+  const bool mip = scene.preset == render::Preset::Mip;
+  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.preset);
+  // The renderer shifts/scales the preset's value axis from its default window (400, 2000).
+  const double w = scene.renderWindow.width > 0 ? scene.renderWindow.width : 2000.0;
+  double transmitted = 1, best = -1e300;
+  std::optional<Vec3> bestPoint;
+  for (double t = 0; t < length; t += step) {
+    const Vec3 p = origin + dir * t;
+    const double hu = scene.ct.sampleLinearMm(p);
+    if (mip) {
+      if (hu > best) best = hu, bestPoint = p;
+      continue;
+    }
+    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.renderWindow.center) * 2000.0 / w)[3];
+    transmitted *= std::pow(1.0 - std::clamp(alphaPerMm, 0.0, 0.999999), step);
+    if (transmitted <= 0.5) return p;
+  }
+  if (mip && best > scene.renderWindow.center - 0.5 * w) return bestPoint;
+  return std::nullopt;
+}
+
 std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out) {
   const render::RenderSettings s = renderSettingsFor(scene, width, height);
   std::ostringstream c;

@@ -32,6 +32,12 @@ CameraBasis cameraBasis(const render::Camera& camera);
 /// `scene` at width x height, with the renderer's camera model; nullopt behind the camera.
 std::optional<std::pair<double, double>> projectToView(const Scene& scene, int width, int height, const Vec3& p);
 
+/// The first visible point along the ray through pane pixel (px, py) of the 3D view: where
+/// the preset's transfer function (shifted by the render window as the renderer does) has
+/// accumulated half opacity, or for MIP the maximum along the ray. nullopt when the ray
+/// meets nothing visible. Used to seed and to move the crosshair by clicking the 3D view.
+std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py);
+
 /// The `vellum render` command line that writes the 3D view at width x height to `out`.
 std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out);
 
