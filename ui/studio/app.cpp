@@ -222,6 +222,7 @@ void StudioApp::adoptLoad(LoadResult r) {
     return;
   }
   scene_.ct = std::move(r.ct);
+  ++scene_.volumeGeneration;
   scene_.labels = std::move(r.labels);
   scene_.volumePath = r.volumePath;
   scene_.labelsPath = r.labelsPath;

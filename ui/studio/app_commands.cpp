@@ -100,7 +100,7 @@ void StudioApp::otsuThreshold() {
 
 void StudioApp::startSnake(const Vec3& seedMm) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  if (!snake_.start({scene_.ct, seedMm, tools_.brushRadiusMm, tools_.threshold}))
+  if (!snake_.start({scene_.ct, seedMm, tools_.brushRadiusMm, tools_.threshold, scene_.volumeGeneration}))
     throw Error("a snake is already running; cancel it first (Escape)");
 }
 
@@ -112,7 +112,7 @@ void StudioApp::pollSnake() {
     if (out->error != "snake cancelled") showError(out->error);
     return;
   }
-  if (!(out->mask.geometry().dims == scene_.labels.geometry().dims)) return;  // another volume was opened
+  if (out->volumeGeneration != scene_.volumeGeneration) return;  // another volume was opened meanwhile
   if (segmentation::countVoxels(out->mask) == 0) {
     showError("the snake found nothing: is the seed inside the HU range?");
     return;

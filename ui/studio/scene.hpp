@@ -35,6 +35,7 @@ struct Scene {
   std::filesystem::path scenePath;    ///< empty until opened from or saved to a scene file
   bool labelsModified = false;
   uint64_t labelsRevision = 0;  ///< bumped by every label change (autosave compares it)
+  uint64_t volumeGeneration = 0;  ///< bumped by every load: results of older jobs are dropped
   /// DICOM: every series found in the folder, and the one shown (empty for other formats).
   std::vector<io::SeriesInfo> series;
   std::string seriesUid;

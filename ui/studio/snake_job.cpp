@@ -45,6 +45,7 @@ void SnakeJob::run(SnakeRequest request) {
     out = {};
     out.error = e.what();
   }
+  out.volumeGeneration = request.volumeGeneration;
   std::lock_guard lock(mutex_);
   result_ = std::move(out);
   running_ = false;

@@ -19,6 +19,7 @@ struct SnakeRequest {
   Vec3 seedMm;
   double bubbleRadiusMm = 4;
   segmentation::HuInterval interval{-500, 300};  ///< the threshold speed's inside range
+  uint64_t volumeGeneration = 0;  ///< Scene::volumeGeneration when started
 };
 
 struct SnakeOutcome {
@@ -26,6 +27,7 @@ struct SnakeOutcome {
   segmentation::Mask mask;
   int iterations = 0;
   bool converged = false;
+  uint64_t volumeGeneration = 0;
 };
 
 class SnakeJob {
