@@ -216,7 +216,15 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   // interactive budget, so that no frame blocks for a whole full-resolution render.
   if (!refining_) {
     refining_ = true;
+    // Start from the coarse frame scaled up, so each band can be shown as it lands.
     refineImage_ = RgbaImage(paneWidth, paneHeight);
+    if (coarse_.width > 0 && coarse_.height > 0)
+      for (int y = 0; y < paneHeight; ++y) {
+        const int cy = std::min(coarse_.height - 1, y * coarse_.height / paneHeight);
+        for (int x = 0; x < paneWidth; ++x)
+          std::copy_n(coarse_.at(std::min(coarse_.width - 1, x * coarse_.width / paneWidth), cy), 4,
+                      refineImage_.at(x, y));
+      }
     refineRow_ = 0;
     refineMs_ = 0;
     rowCost_ = predictRowCosts(coarse_, paneHeight);
@@ -238,8 +246,8 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   refineMs_ += lastMs_;
   lastScale_ = 1;
   refineRow_ += rows;
+  texture_.upload(refineImage_);  // sharp rows sweep down over the coarse picture
   if (refineRow_ >= paneHeight) {
-    texture_.upload(refineImage_);
     refined_ = true;
     refining_ = false;
   }

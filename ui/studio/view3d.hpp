@@ -3,8 +3,8 @@
 // texture. Progressive refinement: while the user drags, frames render at 1/2..1/8 of the
 // pane's resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when
 // the view rests, the full-resolution picture is rendered a band of rows per frame
-// (VolumeRenderer::renderRows, each band sized to the same budget) and replaces the coarse
-// one when complete, so the window stays responsive throughout.
+// (VolumeRenderer::renderRows, each band sized to the same budget), each band shown over the
+// scaled-up coarse picture as it lands, so the window stays responsive throughout.
 #include <memory>
 #include <optional>
 #include <string>
