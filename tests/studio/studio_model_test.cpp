@@ -7,6 +7,7 @@
 
 #include "label_tools.hpp"
 #include "loader.hpp"
+#include "recent_files.hpp"
 #include "mpr.hpp"
 #include "scene_file.hpp"
 #include "test_data.hpp"
@@ -199,6 +200,23 @@ TEST(StudioLoader, LoadsOnAWorkerReportsErrorsAndCancels) {
   Progress cancelled;
   cancelled.cancel();
   EXPECT_THROW(loadNow({dir / "ct.nrrd"}, cancelled), Cancelled);
+}
+
+TEST(StudioRecentFiles, MostRecentFirstDeduplicatedAndKept) {
+  const auto dir = test::tempDir("studio-recent");
+  const auto storage = dir / "cfg" / "studio-recent.txt";
+  {
+    RecentFiles r(storage);
+    for (int i = 0; i < 10; ++i) r.add(dir / ("f" + std::to_string(i) + ".nrrd"));
+    r.add(dir / "f5.nrrd");
+    ASSERT_EQ(r.paths().size(), RecentFiles::kMax);
+    EXPECT_EQ(r.paths().front(), dir / "f5.nrrd");
+    EXPECT_EQ(r.paths()[1], dir / "f9.nrrd");
+  }
+  const RecentFiles again(storage);  // the next session
+  ASSERT_EQ(again.paths().size(), RecentFiles::kMax);
+  EXPECT_EQ(again.paths().front(), dir / "f5.nrrd");
+  EXPECT_TRUE(RecentFiles().paths().empty());
 }
 
 TEST(StudioMpr, PlanesMapPixelsToMmAndBack) {

@@ -110,6 +110,7 @@ void StudioApp::interrupt() noexcept { gInterrupted = 1; }
 
 int StudioApp::run() {
   if (!options_.script.empty()) script_ = ScriptRunner::load(options_.script);  // before the window
+  else recent_ = RecentFiles(RecentFiles::defaultStorage());  // scripts leave the user's list alone
   createWindow();
   autosaver_ = std::make_unique<Autosaver>(options_.autosaveSeconds >= 0 ? options_.autosaveSeconds
                                            : script_                     ? 0.0
@@ -230,10 +231,7 @@ void StudioApp::adoptLoad(LoadResult r) {
   scene_.labelsModified = false;
   scene_.series = std::move(r.series);
   scene_.seriesUid = r.seriesUid;
-  const fs::path opened = r.scene ? r.scenePath : r.volumePath;
-  std::erase(recent_, opened);
-  recent_.insert(recent_.begin(), opened);
-  if (recent_.size() > 8) recent_.resize(8);
+  recent_.add(r.scene ? r.scenePath : r.volumePath);
   if (r.scene) {
     applySceneView(*r.scene, scene_);
   } else {

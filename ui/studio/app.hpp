@@ -14,6 +14,7 @@
 #include "label_tools.hpp"
 #include "layout.hpp"
 #include "loader.hpp"
+#include "recent_files.hpp"
 #include "snake_job.hpp"
 #include "scene.hpp"
 #include "undo.hpp"
@@ -120,8 +121,8 @@ class StudioApp {
   bool screenshotPending() const { return !pendingScreenshot_.empty(); }
   double lastFrameMs() const { return lastFrameMs_; }
   const View3D* view3d() const { return view3d_.get(); }
-  /// Files opened successfully this session, most recent first (at most 8).
-  const std::vector<std::filesystem::path>& recentFiles() const { return recent_; }
+  /// Files opened successfully, most recent first (at most 8; kept across interactive sessions).
+  const std::vector<std::filesystem::path>& recentFiles() const { return recent_.paths(); }
 
  private:
   void createWindow();
@@ -161,7 +162,7 @@ class StudioApp {
   SnakeJob snake_;
   FileBrowser browser_;
   std::vector<Pane> panes_;
-  std::vector<std::filesystem::path> recent_;
+  RecentFiles recent_;
   bool slicesDirty_ = true;
   std::string lastSliceKey_;
   std::string lastLoadError_;
