@@ -159,6 +159,21 @@ TEST(RenderGl, IdentityMapMatchesUndeformed) {
   expectClose(deformed, r.render(s), "identity map vs none");
 }
 
+TEST(RenderGl, RowBandsEqualTheFullRender) {
+  // renderRows() (the studio's progressive refinement) gives render()'s exact pixels.
+  VolumeRenderer r(gl());
+  r.setVolume(test::makeAnalyticVolume(48));
+  for (Preset p : {Preset::SoftTissueBone, Preset::Mip}) {
+    const RenderSettings s = baseSettings(p, 96, 70);
+    const RgbaImage full = r.render(s);
+    RgbaImage banded(s.width, s.height);
+    for (int row = 0; row < s.height; row += 16) r.renderRows(s, row, row + 16, banded);
+    EXPECT_EQ(banded.pixels, full.pixels) << presetName(p);
+  }
+  RgbaImage wrong(10, 10);
+  EXPECT_THROW(r.renderRows(baseSettings(Preset::Bone, 96, 70), 0, 10, wrong), Error);
+}
+
 TEST(RenderGl, VoxelTypesGiveTheSamePicture) {
   const VolumeI16 vol = test::makeAnalyticVolume(48);
   VolumeRenderer r(gl());

@@ -1,6 +1,7 @@
 // GL ray caster: volume + normal volume uploaded once, one specialised program per mode.
 #include "vellum/render/volume_renderer.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <map>
@@ -264,6 +265,18 @@ void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
 
 RgbaImage VolumeRenderer::render(const RenderSettings& s) {
   checkImageSize(s.width, s.height);
+  RgbaImage image(s.width, s.height);
+  renderRows(s, 0, s.height, image);
+  return image;
+}
+
+void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEnd, RgbaImage& image) {
+  checkImageSize(s.width, s.height);
+  if (image.width != s.width || image.height != s.height)
+    throw Error("renderRows: the image must be " + std::to_string(s.width) + "x" + std::to_string(s.height));
+  rowBegin = std::clamp(rowBegin, 0, s.height);
+  rowEnd = std::clamp(rowEnd, rowBegin, s.height);
+  if (rowBegin == rowEnd) return;
   if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
   Impl& m = *impl_;
   m.context.makeCurrent();
@@ -337,23 +350,26 @@ RgbaImage VolumeRenderer::render(const RenderSettings& s) {
   glViewport(0, 0, s.width, s.height);
   glDisable(GL_BLEND);
   glDisable(GL_DEPTH_TEST);
+  // Rows [rowBegin, rowEnd) from the top are GL rows [height - rowEnd, height - rowBegin).
+  const int glRow0 = s.height - rowEnd, rows = rowEnd - rowBegin;
+  glEnable(GL_SCISSOR_TEST);
+  glScissor(0, glRow0, s.width, rows);
   glBindVertexArray(m.vao);
   const auto t0 = std::chrono::steady_clock::now();
   glDrawArrays(GL_TRIANGLES, 0, 3);
   glFinish();
+  glDisable(GL_SCISSOR_TEST);
   m.lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   checkGlError("ray casting");
 
-  RgbaImage image(s.width, s.height);
-  std::vector<uint8_t> rows(image.pixels.size());
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, s.width, s.height, GL_RGBA, GL_UNSIGNED_BYTE, rows.data());
-  checkGlError("glReadPixels");
   const size_t stride = static_cast<size_t>(s.width) * 4;
-  for (int y = 0; y < s.height; ++y)  // GL row 0 is the bottom
-    std::memcpy(image.at(0, y), rows.data() + static_cast<size_t>(s.height - 1 - y) * stride, stride);
+  std::vector<uint8_t> pixels(stride * static_cast<size_t>(rows));
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, glRow0, s.width, rows, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
+  checkGlError("glReadPixels");
+  for (int y = rowBegin; y < rowEnd; ++y)  // GL row 0 is the bottom
+    std::memcpy(image.at(0, y), pixels.data() + static_cast<size_t>(rowEnd - 1 - y) * stride, stride);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  return image;
 }
 
 double VolumeRenderer::lastRenderMs() const { return impl_->lastMs; }

@@ -39,6 +39,12 @@ class VolumeRenderer {
   void setBackwardMap(const BackwardMap* map);
   /// Renders to an RGBA image (row 0 = top). Throws vellum::Error for sizes over 4096.
   RgbaImage render(const RenderSettings& settings);
+  /// Renders only rows [rowBegin, rowEnd) (row 0 = top) of the image `settings` describes
+  /// into `image`, which must already be settings.width x settings.height; other rows are
+  /// left as they are. The pixels are exactly those of render() (same rays, same jitter: the
+  /// rest of the image is scissored away), so an interactive viewer can spread one
+  /// full-resolution frame over several display frames.
+  void renderRows(const RenderSettings& settings, int rowBegin, int rowEnd, RgbaImage& image);
   /// Milliseconds the last render() spent on the GPU side (glFinish-bounded).
   double lastRenderMs() const;
 

@@ -1,0 +1,245 @@
+// The studio's model without a window: undo deltas, label tools, scene files, MPR planes.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "label_tools.hpp"
+#include "loader.hpp"
+#include "recent_files.hpp"
+#include "mpr.hpp"
+#include "scene_file.hpp"
+#include "test_data.hpp"
+#include "undo.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+
+namespace vellum::studio {
+namespace {
+
+phantom::Phantom smallPhantom() {
+  phantom::PhantomOptions o;
+  o.dims = {48, 48, 48};
+  return phantom::makePhantom(o);
+}
+
+TEST(StudioUndo, ThresholdUndoRedoRestoresExactlyWithCompressedDelta) {
+  const auto ph = smallPhantom();
+  LabelVolume labels(ph.ct.geometry());
+  const LabelVolume empty = labels;
+  UndoStack stack;
+  stack.push(recordEdit(labels, "threshold", [&](LabelVolume& l) {
+    thresholdInto(l, ph.ct, segmentation::presetInterval(segmentation::Preset::Bone), {1, "bone", {255, 255, 200}});
+  }));
+  const LabelVolume thresholded = labels;
+  ASSERT_GT(thresholded.histogram().at(1), 100u);
+  // Runs, not a copy: far smaller than the label map itself.
+  EXPECT_LT(stack.bytes(), labels.ids().size() * sizeof(uint16_t) / 4);
+  ASSERT_TRUE(stack.undo(labels));
+  EXPECT_EQ(labels.ids().voxels(), empty.ids().voxels());
+  EXPECT_TRUE(labels.table().empty());
+  ASSERT_TRUE(stack.redo(labels));
+  EXPECT_EQ(labels.ids().voxels(), thresholded.ids().voxels());
+  EXPECT_EQ(labels.table(), thresholded.table());
+  EXPECT_FALSE(stack.redo(labels));
+}
+
+TEST(StudioUndo, BrushStrokeAndNewEditClearsRedo) {
+  const auto ph = smallPhantom();
+  LabelVolume labels(ph.ct.geometry());
+  UndoStack stack;
+  stack.push(recordEdit(labels, "paint", [&](LabelVolume& l) { paintSphere(l, {0, 0, 0}, 10.0, 2); }));
+  const auto painted = labels.histogram();
+  ASSERT_GT(painted.at(2), 0u);
+  // A 10 mm ball over 3.75 x 3.75 x 4.58 mm voxels: 4189 mm3 / 64.4 mm3 ~ 65 voxels.
+  EXPECT_NEAR(double(painted[2]), 65.0, 25.0);
+  stack.push(recordEdit(labels, "erase", [&](LabelVolume& l) { paintSphere(l, {0, 0, 0}, 5.0, 0); }));
+  ASSERT_TRUE(stack.undo(labels));
+  EXPECT_EQ(labels.histogram(), painted);
+  stack.push(recordEdit(labels, "paint", [&](LabelVolume& l) { paintSphere(l, {20, 0, 0}, 5.0, 3); }));
+  EXPECT_FALSE(stack.canRedo());
+}
+
+TEST(StudioLabelTools, LockedSegmentsSurviveEveryEdit) {
+  const auto ph = smallPhantom();
+  LabelVolume labels = ph.labels;  // ground truth: skin 1, fat 2, muscle 3, bones ...
+  const std::set<uint16_t> locked{4};  // femur cortex
+  const auto before = labels.histogram();
+  // A bone threshold into label 12 would take the femur cortex: it stays 4.
+  const LabelDelta d = recordEdit(labels, "threshold", [&](LabelVolume& l) {
+    thresholdInto(l, ph.ct, segmentation::presetInterval(segmentation::Preset::Bone), {12, "bone", {1, 2, 3}});
+  }, locked);
+  EXPECT_FALSE(d.empty());
+  EXPECT_EQ(labels.histogram()[4], before[4]);
+  // Painting or erasing over it changes nothing of it, and painting the locked id does nothing.
+  paintSphere(labels, {0, 0, 60}, 30.0, 0, locked);
+  EXPECT_EQ(labels.histogram()[4], before[4]);
+  EXPECT_EQ(paintSphere(labels, {0, 0, 60}, 30.0, 4, locked), 0);
+}
+
+TEST(StudioLabelTools, KeepLargestAndFillHoles) {
+  const auto ph = smallPhantom();
+  LabelVolume labels(ph.ct.geometry());
+  paintSphere(labels, {0, 0, 0}, 20.0, 1);
+  paintSphere(labels, {60, 60, 60}, 6.0, 1);  // a separate island
+  paintSphere(labels, {0, 0, 0}, 6.0, 0);     // a cavity
+  const auto before = labels.histogram()[1];
+  LabelVolume islands = labels;
+  removeIslands(islands, 1, 2000.0);  // the 6 mm ball (~900 mm3) goes, the 20 mm one stays
+  keepLargest(labels, 1);
+  const auto afterKeep = labels.histogram()[1];
+  EXPECT_EQ(islands.ids().voxels(), labels.ids().voxels());
+  EXPECT_LT(afterKeep, before);
+  fillHoles(labels, 1);
+  EXPECT_GT(labels.histogram()[1], afterKeep);
+  EXPECT_EQ(labels(24, 24, 24), 1);  // the centre is filled again
+}
+
+TEST(StudioLabelTools, GrowFromSeedAndMorphology) {
+  const auto ph = smallPhantom();
+  LabelVolume labels(ph.ct.geometry());
+  // The femur shaft's cortex (radius 13 mm, 4 mm thick, centred near x=y=0) at z = 60 mm.
+  const segmentation::HuInterval bone{700, 3071};
+  Vec3 seed{0, 0, 60};
+  for (double r = 9; r < 16 && !bone.contains(ph.ct.sampleNearestMm(seed)); r += 0.5) seed = {r, 0, 60};
+  ASSERT_TRUE(bone.contains(ph.ct.sampleNearestMm(seed)));
+  EXPECT_GT(growFromSeed(labels, ph.ct, seed, bone, {3, "femur", {255, 255, 255}}), 50);
+  EXPECT_EQ(growFromSeed(labels, ph.ct, {0, 0, 60}, bone, {3, "femur", {255, 255, 255}}), 0)
+      << "a seed in the marrow grows nothing";
+  const auto grown = labels.histogram()[3];
+  morphology(labels, 3, Morphology::Dilate, 4.0);
+  EXPECT_GT(labels.histogram()[3], grown);
+  morphology(labels, 3, Morphology::Erode, 4.0);
+  EXPECT_LT(labels.histogram()[3], grown * 2);
+  const double otsu = otsuHu(ph.ct);  // between soft tissue (~50 HU) and cortex (1400 HU)
+  EXPECT_GT(otsu, 150.0);
+  EXPECT_LT(otsu, 1000.0);
+}
+
+TEST(StudioSceneFile, RoundTripsWithRelativePaths) {
+  const auto dir = test::tempDir("studio-scene");
+  const auto ph = smallPhantom();
+  std::filesystem::create_directories(dir / "data");
+  io::saveVolume(AnyVolume(ph.ct), dir / "data" / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "data" / "labels.nrrd");
+  SceneFile s;
+  s.volume = dir / "data" / "ct.nrrd";
+  s.labels = dir / "data" / "labels.nrrd";
+  s.layout = Layout::OneByThree;
+  s.preset = render::Preset::Bone;
+  s.camera.azimuthDeg = 75;
+  s.camera.panMm = {1, 2, 3};
+  s.sliceWindow = {300, 1500};
+  s.crosshairMm = {4, 5, 6};
+  s.hiddenLabels = {3, 7};
+  s.lockedLabels = {4};
+  writeSceneFile(s, dir / "scene.json");
+  std::ifstream in(dir / "scene.json");
+  const std::string text((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(text.find("\"data/ct.nrrd\""), std::string::npos) << text;
+  EXPECT_NE(text.find("\"version\": 1"), std::string::npos);
+  const SceneFile r = readSceneFile(dir / "scene.json");
+  EXPECT_EQ(r.volume, (dir / "data" / "ct.nrrd").lexically_normal());
+  EXPECT_EQ(r.labels, (dir / "data" / "labels.nrrd").lexically_normal());
+  EXPECT_EQ(r.layout, Layout::OneByThree);
+  EXPECT_EQ(r.preset, render::Preset::Bone);
+  EXPECT_EQ(r.camera.azimuthDeg, 75);
+  EXPECT_EQ(r.camera.panMm, (Vec3{1, 2, 3}));
+  EXPECT_EQ(r.sliceWindow, (WindowLevel{300, 1500}));
+  EXPECT_EQ(r.crosshairMm, (Vec3{4, 5, 6}));
+  EXPECT_EQ(r.hiddenLabels, (std::set<uint16_t>{3, 7}));
+  EXPECT_EQ(r.lockedLabels, (std::set<uint16_t>{4}));
+}
+
+TEST(StudioSceneFile, MissingDataAndBadFilesGiveClearMessages) {
+  const auto dir = test::tempDir("studio-scene-bad");
+  {
+    std::ofstream(dir / "missing.json") << R"({"format":"vellum-studio-scene","version":1,"volume":"gone.nrrd"})";
+    std::ofstream(dir / "future.json") << R"({"format":"vellum-studio-scene","version":99,"volume":"x.nrrd"})";
+    std::ofstream(dir / "junk.json") << "{ not json";
+  }
+  try {
+    readSceneFile(dir / "missing.json");
+    FAIL() << "no error";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("gone.nrrd"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("referenced by missing.json"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(readSceneFile(dir / "future.json"), FileError);
+  EXPECT_THROW(readSceneFile(dir / "junk.json"), FileError);
+}
+
+TEST(StudioLoader, LoadsOnAWorkerReportsErrorsAndCancels) {
+  const auto dir = test::tempDir("studio-loader");
+  const auto ph = smallPhantom();
+  io::saveVolume(AnyVolume(ph.ct), dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  auto wait = [](Loader& l) {
+    for (int i = 0; i < 3000; ++i) {
+      if (auto r = l.take()) return *r;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ADD_FAILURE() << "load did not finish";
+    return LoadResult{};
+  };
+  Loader loader;
+  ASSERT_TRUE(loader.start({dir / "ct.nrrd", dir / "labels.nrrd"}));
+  const LoadResult ok = wait(loader);
+  EXPECT_EQ(ok.error, "");
+  EXPECT_EQ(ok.ct.dims(), ph.ct.dims());
+  EXPECT_EQ(ok.labels.ids().voxels(), ph.labels.ids().voxels());
+
+  ASSERT_TRUE(loader.start({dir / "missing.nrrd"}));
+  const LoadResult bad = wait(loader);
+  EXPECT_NE(bad.error.find("missing.nrrd"), std::string::npos) << bad.error;
+  EXPECT_TRUE(bad.ct.empty());
+
+  // Cancellation goes through vellum::Progress: a cancelled progress stops the io module.
+  Progress cancelled;
+  cancelled.cancel();
+  EXPECT_THROW(loadNow({dir / "ct.nrrd"}, cancelled), Cancelled);
+}
+
+TEST(StudioRecentFiles, MostRecentFirstDeduplicatedAndKept) {
+  const auto dir = test::tempDir("studio-recent");
+  const auto storage = dir / "cfg" / "studio-recent.txt";
+  {
+    RecentFiles r(storage);
+    for (int i = 0; i < 10; ++i) r.add(dir / ("f" + std::to_string(i) + ".nrrd"));
+    r.add(dir / "f5.nrrd");
+    ASSERT_EQ(r.paths().size(), RecentFiles::kMax);
+    EXPECT_EQ(r.paths().front(), dir / "f5.nrrd");
+    EXPECT_EQ(r.paths()[1], dir / "f9.nrrd");
+  }
+  const RecentFiles again(storage);  // the next session
+  ASSERT_EQ(again.paths().size(), RecentFiles::kMax);
+  EXPECT_EQ(again.paths().front(), dir / "f5.nrrd");
+  EXPECT_TRUE(RecentFiles().paths().empty());
+}
+
+TEST(StudioMpr, PlanesMapPixelsToMmAndBack) {
+  const auto ph = smallPhantom();
+  const Vec3 cross{10, -5, 20};
+  for (SliceAxis a : {SliceAxis::Axial, SliceAxis::Coronal, SliceAxis::Sagittal}) {
+    const SlicePlane p = makePlane(a, ph.ct.geometry(), cross, 300, 200);
+    const auto [px, py] = p.toPixel(cross);
+    const Vec3 back = p.toMm(px, py);
+    EXPECT_NEAR(norm(back - cross), 0.0, 1e-9) << sliceAxisName(a);
+    // The whole volume fits: the field of view is 180 x 180 x 220 mm.
+    EXPECT_GE(p.mmPerPixel * 200, a == SliceAxis::Axial ? 180.0 : 220.0);
+  }
+  // Axial: screen right is patient left (+x), screen down is posterior (+y).
+  const SlicePlane ax = makePlane(SliceAxis::Axial, ph.ct.geometry(), cross, 300, 200);
+  EXPECT_GT(ax.toMm(200, 100).x, ax.toMm(100, 100).x);
+  EXPECT_GT(ax.toMm(100, 150).y, ax.toMm(100, 50).y);
+  SliceStyle style;
+  style.labels = &ph.labels;
+  const RgbaImage img = renderSlice(ph.ct, ax, style);
+  EXPECT_EQ(img.width, 300);
+  EXPECT_EQ(img.height, 200);
+}
+
+}  // namespace
+}  // namespace vellum::studio

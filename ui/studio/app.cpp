@@ -1,0 +1,262 @@
+// StudioApp: the window, ImGui set-up, the frame loop and adopting finished loads.
+#include "app.hpp"
+
+#include <GL/glcorearb.h>
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+#include <tuple>
+
+#include "autosave.hpp"
+#include "gl_texture.hpp"
+#include "panels.hpp"
+#include "script.hpp"
+#include "view3d.hpp"
+#include "vellum/core/error.hpp"
+#include "window_context.hpp"
+
+namespace vellum::studio {
+namespace fs = std::filesystem;
+
+namespace {
+
+StudioApp* appOf(GLFWwindow* w) { return static_cast<StudioApp*>(glfwGetWindowUserPointer(w)); }
+
+// The GLFW callback chain: ImGui's backend sees every event first, then the app. Scripts
+// call these same functions (StudioApp::inject*).
+void cursorPosCallback(GLFWwindow* w, double x, double y) { appOf(w)->onCursorPos(x, y); }
+void mouseButtonCallback(GLFWwindow* w, int button, int action, int mods) {
+  ImGui_ImplGlfw_MouseButtonCallback(w, button, action, mods);
+  appOf(w)->onMouseButton(button, action, mods);
+}
+void scrollCallback(GLFWwindow* w, double dx, double dy) {
+  ImGui_ImplGlfw_ScrollCallback(w, dx, dy);
+  appOf(w)->onScroll(dx, dy);
+}
+void keyCallback(GLFWwindow* w, int key, int scancode, int action, int mods) {
+  ImGui_ImplGlfw_KeyCallback(w, key, scancode, action, mods);
+  appOf(w)->onKey(key, action, mods);
+}
+void charCallback(GLFWwindow* w, unsigned c) { ImGui_ImplGlfw_CharCallback(w, c); }
+void dropCallback(GLFWwindow* w, int count, const char** paths) {
+  appOf(w)->onDrop(std::vector<std::string>(paths, paths + count));
+}
+
+constexpr float kPanelWidth = 330;
+
+volatile std::sig_atomic_t gInterrupted = 0;
+
+}  // namespace
+
+
+StudioApp::StudioApp(StudioOptions options) : options_(std::move(options)) {}
+
+StudioApp::~StudioApp() {
+  if (!window_) return;
+  view3d_.reset();
+  for (auto& t : sliceTextures_) t.reset();
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  context_.reset();
+  glfwDestroyWindow(window_);
+  glfwTerminate();
+}
+
+void StudioApp::createWindow() {
+  glfwSetErrorCallback([](int, const char* msg) { std::cerr << "vellum-studio: GLFW: " << msg << "\n"; });
+  if (!glfwInit()) throw Error("GLFW initialisation failed (is DISPLAY set? use xvfb-run -a)");
+  for (int minor : {5, 3}) {
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
+    glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, minor);
+    glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+    glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+    window_ = glfwCreateWindow(options_.width, options_.height, "Vellum Studio", nullptr, nullptr);
+    if (window_) break;
+  }
+  if (!window_) throw Error("cannot open a GL 4.5/4.3 core window");
+  glfwSetWindowUserPointer(window_, this);
+  context_ = std::make_unique<WindowContext>(window_);
+  glfwSwapInterval(0);  // frame times measure work, not the display's refresh
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini: same layout every run (and in tests)
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForOpenGL(window_, false);  // callbacks are chained by hand above
+  ImGui_ImplOpenGL3_Init("#version 330");
+  glfwSetCursorPosCallback(window_, cursorPosCallback);
+  glfwSetMouseButtonCallback(window_, mouseButtonCallback);
+  glfwSetScrollCallback(window_, scrollCallback);
+  glfwSetKeyCallback(window_, keyCallback);
+  glfwSetCharCallback(window_, charCallback);
+  glfwSetDropCallback(window_, dropCallback);
+  // ImGui reads the pointer only while the window is focused or hovered: it tracks both.
+  glfwSetCursorEnterCallback(window_, ImGui_ImplGlfw_CursorEnterCallback);
+  glfwSetWindowFocusCallback(window_, ImGui_ImplGlfw_WindowFocusCallback);
+  view3d_ = std::make_unique<View3D>(*context_);
+  for (auto& t : sliceTextures_) t = std::make_unique<GlTexture>();
+}
+
+void StudioApp::interrupt() noexcept { gInterrupted = 1; }
+
+int StudioApp::run() {
+  if (!options_.script.empty()) script_ = ScriptRunner::load(options_.script);  // before the window
+  else recent_ = RecentFiles(RecentFiles::defaultStorage());  // scripts leave the user's list alone
+  createWindow();
+  autosaver_ = std::make_unique<Autosaver>(options_.autosaveSeconds >= 0 ? options_.autosaveSeconds
+                                           : script_                     ? 0.0
+                                                                         : 60.0);
+  if (!options_.input.empty()) requestOpen(options_.input, options_.labels);
+  while (!quitRequested_ && !glfwWindowShouldClose(window_)) {
+    if (gInterrupted) {
+      exitCode_ = 130;
+      break;
+    }
+    if (script_) {
+      if (const auto code = script_->step(*this)) {
+        exitCode_ = *code;
+        break;
+      }
+    } else if (idle() && !dragPane_) {
+      glfwWaitEventsTimeout(0.1);  // nothing to refine: sleep until an event
+    }
+    frame();
+  }
+  loader_.cancel();
+  snake_.cancel();
+  autosaver_.reset();  // waits for a write in progress
+  return exitCode_;
+}
+
+bool StudioApp::idle() const {
+  const bool viewPending = scene_.hasVolume() &&
+                           std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
+                           !view3d_->refined();
+  return !loader_.busy() && !snake_.busy() && !viewPending && pendingScreenshot_.empty();
+}
+
+void StudioApp::frame() {
+  const auto t0 = std::chrono::steady_clock::now();
+  glfwPollEvents();
+  pollLoader();
+  pollSnake();
+  autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());
+  ImGui_ImplOpenGL3_NewFrame();
+  ImGui_ImplGlfw_NewFrame();
+  if (script_) {
+    // The backend polls the X pointer, which scripts do not move: give ImGui the injected one.
+    ImGuiIO& io = ImGui::GetIO();
+    io.MousePos = {static_cast<float>(mouseX_), static_cast<float>(mouseY_)};
+    for (int b = 0; b < 3; ++b) io.MouseDown[b] = virtualDown_[b];
+  }
+  ImGui::NewFrame();
+
+  int w = 0, h = 0;
+  glfwGetWindowSize(window_, &w, &h);
+  panes_ = layoutPanes(scene_.layout, {kPanelWidth, 0, std::max(1.f, w - kPanelWidth), float(h)});
+  drawToolPanel(*this, kPanelWidth, float(h));
+  browser_.draw();
+  if (errorPopupPending_) {
+    ImGui::OpenPopup("Error");
+    errorPopupPending_ = false;
+  }
+  if (ImGui::BeginPopupModal("Error", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+    ImGui::PushTextWrapPos(560);
+    ImGui::TextUnformatted(errorMessage_.c_str());
+    ImGui::PopTextWrapPos();
+    if (ImGui::Button("OK", {120, 0})) ImGui::CloseCurrentPopup();
+    ImGui::EndPopup();
+  }
+
+  bool rendered3d = false;
+  if (scene_.hasVolume()) {
+    updateSliceTextures();
+    for (const Pane& p : panes_)
+      if (p.is3d())
+        rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());
+  }
+  drawPanes();
+  if (hudVisible) drawHud();
+  ImGui::Render();
+
+  int fbw = 0, fbh = 0;
+  glfwGetFramebufferSize(window_, &fbw, &fbh);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  glViewport(0, 0, fbw, fbh);
+  glClearColor(0.08f, 0.08f, 0.09f, 1.f);
+  glClear(GL_COLOR_BUFFER_BIT);
+  ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+  if (!pendingScreenshot_.empty()) captureWindow();
+  glfwSwapBuffers(window_);
+  lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (options_.logFrames)
+    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d\n", frameNumber_,
+                lastFrameMs_, rendered3d ? 1 : 0, rendered3d ? view3d_->lastRenderMs() : 0.0,
+                view3d_->lastScale(), dragPane_ ? 1 : 0);
+  if (options_.logFrames) std::fflush(stdout);  // the log is read while the studio runs
+  ++frameNumber_;
+}
+
+// ---- loading ---------------------------------------------------------------------------
+
+void StudioApp::requestOpen(const fs::path& path, const fs::path& labels, const std::string& seriesUid) {
+  if (!loader_.start({path, labels, seriesUid})) showError("a file is still loading; cancel it first");
+}
+
+void StudioApp::pollLoader() {
+  if (auto r = loader_.take()) adoptLoad(std::move(*r));
+}
+
+void StudioApp::adoptLoad(LoadResult r) {
+  lastLoadError_ = r.error;
+  if (!r.error.empty()) {
+    showError(r.error);  // the current scene stays as it was
+    return;
+  }
+  scene_.ct = std::move(r.ct);
+  ++scene_.volumeGeneration;
+  scene_.labels = std::move(r.labels);
+  scene_.volumePath = r.volumePath;
+  scene_.labelsPath = r.labelsPath;
+  scene_.scenePath = r.scenePath;
+  scene_.labelsModified = false;
+  scene_.series = std::move(r.series);
+  scene_.seriesUid = r.seriesUid;
+  recent_.add(r.scene ? r.scenePath : r.volumePath);
+  if (r.scene) {
+    applySceneView(*r.scene, scene_);
+  } else {
+    scene_.resetView();
+  }
+  undo_.clear();
+  tools_.activeLabel = std::max<uint16_t>(1, scene_.labels.table().empty() ? 1 : scene_.labels.table().front().id);
+  view3d_->setVolume(scene_.ct);
+  markSlicesDirty();
+  glfwSetWindowTitle(window_, ("Vellum Studio - " + (r.scene ? r.scenePath : r.volumePath).filename().string()).c_str());
+  for (const auto& w : r.warnings) std::cerr << "vellum-studio: warning: " << w << "\n";
+}
+
+void StudioApp::showError(const std::string& message) {
+  std::cerr << "vellum-studio: " << message << "\n";
+  errorMessage_ = message;
+  errorPopupPending_ = true;
+}
+
+void StudioApp::injectCursorPos(double x, double y) { cursorPosCallback(window_, x, y); }
+void StudioApp::injectMouseButton(int button, int action, int mods) {
+  if (button >= 0 && button < 3) virtualDown_[static_cast<size_t>(button)] = action == GLFW_PRESS;
+  mouseButtonCallback(window_, button, action, mods);
+}
+void StudioApp::injectScroll(double dx, double dy) { scrollCallback(window_, dx, dy); }
+void StudioApp::injectKey(int key, int action, int mods) { keyCallback(window_, key, 0, action, mods); }
+
+}  // namespace vellum::studio

@@ -1,0 +1,190 @@
+#pragma once
+// StudioApp: the window, the frame loop and the input handlers. Real GLFW events and script
+// actions enter through the same on*() handlers; panels and scripts change the scene through
+// the same commands.
+#include <array>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "file_browser.hpp"
+#include "label_tools.hpp"
+#include "layout.hpp"
+#include "loader.hpp"
+#include "recent_files.hpp"
+#include "snake_job.hpp"
+#include "scene.hpp"
+#include "undo.hpp"
+#include "vellum/segmentation/threshold.hpp"
+
+struct GLFWwindow;
+
+namespace vellum::studio {
+
+class View3D;
+class WindowContext;
+class ScriptRunner;
+class Autosaver;
+class GlTexture;
+
+enum class Tool { Navigate, Paint, Erase, Grow, Snake };
+
+/// Segmentation panel state (not saved in scenes).
+struct ToolState {
+  Tool tool = Tool::Navigate;
+  float brushRadiusMm = 4.f;
+  float minIslandMm3 = 100.f;  ///< "Remove islands" keeps components at least this large
+  uint16_t activeLabel = 1;
+  segmentation::HuInterval threshold = segmentation::presetInterval(segmentation::Preset::Bone);
+  bool thresholdPreview = false;
+};
+
+struct StudioOptions {
+  std::string input;   ///< volume, DICOM folder or scene to open at start
+  std::string labels;  ///< label map to open with the volume
+  std::string script;  ///< script file (scripted mode)
+  int width = 1280, height = 800;
+  bool logFrames = false;  ///< one line per frame on stdout (frame and 3D render times)
+  /// Autosave interval in seconds; 0 disables. Default: 60 interactive, off for scripts.
+  double autosaveSeconds = -1;
+};
+
+class StudioApp {
+ public:
+  explicit StudioApp(StudioOptions options);
+  ~StudioApp();
+  /// Runs until the window closes or a script quits; returns the exit code.
+  int run();
+  /// Async-signal-safe: asks the running loop to end (SIGINT/SIGTERM); run() returns 130.
+  static void interrupt() noexcept;
+
+  // Input handlers: GLFW callbacks and script actions (window pixel coordinates).
+  void onCursorPos(double x, double y);
+  void onMouseButton(int button, int action, int mods);
+  void onScroll(double dx, double dy);
+  void onKey(int key, int action, int mods);
+  void onDrop(const std::vector<std::string>& paths);
+  /// Feeds an event through the GLFW callback chain (ImGui first, then the app), exactly as
+  /// the window system would: what scripts use.
+  void injectCursorPos(double x, double y);
+  void injectMouseButton(int button, int action, int mods);
+  void injectScroll(double dx, double dy);
+  void injectKey(int key, int action, int mods);
+
+  // Commands (panels, keys and scripts).
+  void requestOpen(const std::filesystem::path& path, const std::filesystem::path& labels = {},
+                   const std::string& seriesUid = {});
+  void setLayout(Layout l);
+  void setPreset(render::Preset p);
+  void resetView();
+  bool undo();
+  bool redo();
+  void applyThreshold();
+  void keepLargestOfActive();
+  void fillHolesOfActive();
+  void removeIslandsOfActive();
+  void morphologyOfActive(Morphology op);
+  /// Sets the threshold range to [Otsu, 3071] HU.
+  void otsuThreshold();
+  /// The `vellum render` command for the 3D view at its pane size (512² without a 3D pane).
+  std::string cliCommand(const std::string& out) const;
+  /// Saves the scene (and the label map next to it when it has no file or was edited).
+  void saveScene(const std::filesystem::path& path);
+  void saveLabels(const std::filesystem::path& path);
+  /// Window screenshot after the next completed frame, or a 3D render (size 0 = pane size).
+  void requestWindowScreenshot(const std::filesystem::path& path);
+  void save3dScreenshot(const std::filesystem::path& path, int width = 0, int height = 0);
+  void quit(int code);
+  void showError(const std::string& message);
+
+  // State for panels and scripts.
+  Scene& scene() { return scene_; }
+  ToolState& tools() { return tools_; }
+  Loader& loader() { return loader_; }
+  SnakeJob& snakeJob() { return snake_; }
+  /// Starts the snake from a seed (mm) with the threshold range as its inside and the brush
+  /// radius as its bubble (what the Snake tool's click does).
+  void startSnake(const Vec3& seedMm);
+  UndoStack& undoStack() { return undo_; }
+  FileBrowser& fileBrowser() { return browser_; }
+  bool loading() const { return loader_.busy(); }
+  /// Nothing pending: no load or snake running, 3D view refined, no screenshot waiting.
+  bool idle() const;
+  /// The last load's error ("" after success); scripts check it.
+  const std::string& lastLoadError() const { return lastLoadError_; }
+  bool hudVisible = true;
+  const std::vector<Pane>& panes() const { return panes_; }
+  std::optional<std::string> takeScreenshotError();
+  bool screenshotPending() const { return !pendingScreenshot_.empty(); }
+  double lastFrameMs() const { return lastFrameMs_; }
+  const View3D* view3d() const { return view3d_.get(); }
+  /// Files opened successfully, most recent first (at most 8; kept across interactive sessions).
+  const std::vector<std::filesystem::path>& recentFiles() const { return recent_.paths(); }
+
+ private:
+  void createWindow();
+  void frame();
+  void pollLoader();
+  void pollSnake();
+  void adoptLoad(LoadResult r);
+  void updateSliceTextures();
+  void drawPanes();
+  void drawHud();
+  void captureWindow();
+  const Pane* paneAt(double x, double y) const;
+  void markSlicesDirty() { slicesDirty_ = true; }
+  void pushEdit(LabelDelta delta);
+  /// Runs a label edit (locked segments protected) and records it as one undo step.
+  void edit(const std::string& description, const std::function<void(LabelVolume&)>& fn);
+  void paintAt(const Pane& pane, double x, double y);
+  void growAt(const Pane& pane, double x, double y);
+  void growFromPoint(const Vec3& seedMm);
+  /// Ctrl+click in the 3D view: the crosshair (Navigate) or a seed (Grow, Snake) on the
+  /// visible surface under the pointer.
+  void clickIn3d(const Pane& pane, double x, double y);
+  std::pair<int, int> pane3dSize() const;
+  void drawPlanesIn3d(const Pane& pane);
+
+  StudioOptions options_;
+  GLFWwindow* window_ = nullptr;
+  std::unique_ptr<WindowContext> context_;
+  std::unique_ptr<View3D> view3d_;
+  std::unique_ptr<ScriptRunner> script_;
+  std::unique_ptr<Autosaver> autosaver_;
+  std::array<std::unique_ptr<GlTexture>, 3> sliceTextures_;
+  Scene scene_;
+  ToolState tools_;
+  UndoStack undo_;
+  Loader loader_;
+  SnakeJob snake_;
+  FileBrowser browser_;
+  std::vector<Pane> panes_;
+  RecentFiles recent_;
+  bool slicesDirty_ = true;
+  std::string lastSliceKey_;
+  std::string lastLoadError_;
+  std::string errorMessage_;
+  bool errorPopupPending_ = false;
+
+  // Mouse state (window pixels).
+  double mouseX_ = 0, mouseY_ = 0, pressX_ = 0, pressY_ = 0;
+  int dragButton_ = -1, dragMods_ = 0;
+  std::optional<Pane> dragPane_;  ///< a copy: panes_ is rebuilt every frame
+  std::array<bool, 3> virtualDown_{false, false, false};
+  std::optional<LabelVolume> strokeBefore_;
+
+  std::filesystem::path pendingScreenshot_;
+  std::optional<std::string> screenshotError_;
+  bool quitRequested_ = false;
+  int exitCode_ = 0;
+  double lastFrameMs_ = 0;
+  long frameNumber_ = 0;
+  /// Wheel zoom counts as interaction for a moment, so a burst of notches renders coarse.
+  double zoomInteractionUntil_ = 0;
+  bool interacting3d() const;
+};
+
+}  // namespace vellum::studio

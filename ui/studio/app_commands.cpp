@@ -1,0 +1,169 @@
+// StudioApp: commands of the panels, keys and scripts (each label edit is one undo step).
+#include <GLFW/glfw3.h>
+
+#include <iostream>
+#include <sstream>
+
+#include "app.hpp"
+#include "label_tools.hpp"
+#include "vellum/segmentation/label_map.hpp"
+#include "view3d.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/io/volume_io.hpp"
+
+namespace vellum::studio {
+namespace fs = std::filesystem;
+
+namespace {
+Label labelFor(const LabelVolume& labels, uint16_t id, const std::string& defaultName) {
+  if (auto l = labels.label(id)) return *l;
+  return {id, defaultName, defaultLabelColor(id)};
+}
+}  // namespace
+
+// ---- commands ----------------------------------------------------------------------------
+
+void StudioApp::setLayout(Layout l) {
+  scene_.layout = l;
+  view3d_->invalidate();
+  markSlicesDirty();
+}
+
+void StudioApp::setPreset(render::Preset p) { scene_.preset = p; }
+
+void StudioApp::resetView() {
+  scene_.resetView();
+  markSlicesDirty();
+}
+
+void StudioApp::edit(const std::string& description, const std::function<void(LabelVolume&)>& fn) {
+  pushEdit(recordEdit(scene_.labels, description, fn, scene_.lockedLabels));
+}
+
+void StudioApp::pushEdit(LabelDelta delta) {
+  if (delta.empty()) return;
+  undo_.push(std::move(delta));
+  scene_.touchLabels();
+  markSlicesDirty();
+}
+
+bool StudioApp::undo() {
+  if (!undo_.undo(scene_.labels)) return false;
+  scene_.touchLabels();
+  markSlicesDirty();
+  return true;
+}
+
+bool StudioApp::redo() {
+  if (!undo_.redo(scene_.labels)) return false;
+  scene_.touchLabels();
+  markSlicesDirty();
+  return true;
+}
+
+
+void StudioApp::applyThreshold() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  const auto& t = tools_.threshold;
+  std::ostringstream name;
+  name << "Threshold " << t.lower << ".." << t.upper;
+  const Label label = labelFor(scene_.labels, tools_.activeLabel, name.str());
+  edit("threshold", [&](LabelVolume& l) { thresholdInto(l, scene_.ct, t, label); });
+}
+
+void StudioApp::keepLargestOfActive() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  edit("keep largest", [&](LabelVolume& l) { keepLargest(l, tools_.activeLabel); });
+}
+
+void StudioApp::fillHolesOfActive() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  edit("fill holes", [&](LabelVolume& l) { fillHoles(l, tools_.activeLabel); });
+}
+
+void StudioApp::removeIslandsOfActive() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  edit("remove islands", [&](LabelVolume& l) { removeIslands(l, tools_.activeLabel, tools_.minIslandMm3); });
+}
+
+void StudioApp::morphologyOfActive(Morphology op) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  edit(morphologyName(op), [&](LabelVolume& l) {
+    morphology(l, tools_.activeLabel, op, tools_.brushRadiusMm);
+  });
+}
+
+void StudioApp::otsuThreshold() {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  tools_.threshold = {otsuHu(scene_.ct), 3071};
+}
+
+void StudioApp::startSnake(const Vec3& seedMm) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  if (!snake_.start({scene_.ct, seedMm, tools_.brushRadiusMm, tools_.threshold, scene_.volumeGeneration}))
+    throw Error("a snake is already running; cancel it first (Escape)");
+}
+
+void StudioApp::pollSnake() {
+  auto out = snake_.take();
+  if (!out) return;
+  if (!out->error.empty()) {
+    std::cerr << "vellum-studio: " << out->error << "\n";
+    if (out->error != "snake cancelled") showError(out->error);
+    return;
+  }
+  if (out->volumeGeneration != scene_.volumeGeneration) return;  // another volume was opened meanwhile
+  if (segmentation::countVoxels(out->mask) == 0) {
+    showError("the snake found nothing: is the seed inside the HU range?");
+    return;
+  }
+  const Label label = labelFor(scene_.labels, tools_.activeLabel, "Snake " + std::to_string(tools_.activeLabel));
+  edit("snake", [&](LabelVolume& l) {
+    segmentation::addSegment(l, out->mask, label, segmentation::OverlapRule::Overwrite);
+  });
+  std::cout << "snake: " << out->iterations << " iterations" << (out->converged ? ", converged" : "") << std::endl;
+}
+
+void StudioApp::saveLabels(const fs::path& path) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  io::saveLabels(scene_.labels, path);
+  scene_.labelsPath = path;
+  scene_.labelsModified = false;
+}
+
+void StudioApp::saveScene(const fs::path& path) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  const bool hasLabels = !scene_.labels.table().empty() || scene_.labelsModified;
+  if (hasLabels && (scene_.labelsPath.empty() || scene_.labelsModified))
+    saveLabels(path.parent_path() / (path.stem().string() + ".labels.nrrd"));
+  writeSceneFile(describeScene(scene_), path);
+  scene_.scenePath = path;
+}
+
+void StudioApp::quit(int code) {
+  exitCode_ = code;
+  quitRequested_ = true;
+}
+
+void StudioApp::paintAt(const Pane& pane, double x, double y) {
+  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const uint16_t id = tools_.tool == Tool::Paint ? tools_.activeLabel : 0;
+  if (paintSphere(scene_.labels, plane.toMm(x - pane.rect.x, y - pane.rect.y), tools_.brushRadiusMm, id, scene_.lockedLabels) > 0)
+    markSlicesDirty();
+}
+
+void StudioApp::growAt(const Pane& pane, double x, double y) {
+  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  growFromPoint(plane.toMm(x - pane.rect.x, y - pane.rect.y));
+}
+
+void StudioApp::growFromPoint(const Vec3& seed) {
+  const Label label = labelFor(scene_.labels, tools_.activeLabel, "Region " + std::to_string(tools_.activeLabel));
+  try {
+    edit("grow", [&](LabelVolume& l) { growFromSeed(l, scene_.ct, seed, tools_.threshold, label); });
+  } catch (const std::exception& e) {
+    showError(e.what());  // e.g. a seed outside the volume
+  }
+}
+
+}  // namespace vellum::studio

@@ -1,0 +1,197 @@
+// StudioApp: drawing the panes (slice textures, 3D view, crosshairs, HUD) and screenshots.
+#include <GL/glcorearb.h>
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <tuple>
+
+#include "app.hpp"
+#include "gl_texture.hpp"
+#include "view3d.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/io/image_io.hpp"
+
+namespace vellum::studio {
+namespace fs = std::filesystem;
+
+namespace {
+
+ImU32 planeColour(const Vec3& normal) {
+  // 3D Slicer's convention: axial red, coronal green, sagittal yellow.
+  if (std::abs(normal.z) > 0.5) return IM_COL32(230, 60, 60, 255);
+  if (std::abs(normal.y) > 0.5) return IM_COL32(80, 200, 80, 255);
+  return IM_COL32(230, 210, 60, 255);
+}
+
+}  // namespace
+
+// ---- slices ----------------------------------------------------------------------------
+
+void StudioApp::updateSliceTextures() {
+  std::ostringstream key;
+  key.precision(10);
+  key << scene_.crosshairMm.x << ' ' << scene_.crosshairMm.y << ' ' << scene_.crosshairMm.z << ' '
+      << scene_.sliceWindow.center << ' ' << scene_.sliceWindow.width << ' ' << scene_.labelOpacity << ' '
+      << tools_.thresholdPreview << ' ' << tools_.threshold.lower << ' ' << tools_.threshold.upper << ' '
+      << scene_.hiddenLabels.size();
+  for (const Pane& p : panes_) key << ' ' << p.rect.w << 'x' << p.rect.h;
+  if (!slicesDirty_ && key.str() == lastSliceKey_) return;
+  SliceStyle style;
+  style.window = scene_.sliceWindow;
+  style.labels = &scene_.labels;
+  style.labelOpacity = scene_.labelOpacity;
+  style.hidden = &scene_.hiddenLabels;
+  if (tools_.thresholdPreview) style.thresholdPreview = tools_.threshold;
+  for (const Pane& p : panes_) {
+    if (p.is3d()) continue;
+    const SlicePlane plane = makePlane(*p.slice, scene_.ct.geometry(), scene_.crosshairMm, int(p.rect.w), int(p.rect.h));
+    sliceTextures_[static_cast<size_t>(*p.slice)]->upload(renderSlice(scene_.ct, plane, style));
+  }
+  slicesDirty_ = false;
+  lastSliceKey_ = key.str();
+}
+
+void StudioApp::drawPanes() {
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();
+  for (const Pane& p : panes_) {
+    const ImVec2 a{p.rect.x, p.rect.y}, b{p.rect.x + p.rect.w, p.rect.y + p.rect.h};
+    dl->AddRectFilled(a, b, IM_COL32(0, 0, 0, 255));
+    if (!scene_.hasVolume()) continue;
+    if (p.is3d()) {
+      const GlTexture& t = view3d_->texture();
+      if (t.valid()) dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id())), a, b);
+      dl->AddText({a.x + 6, a.y + 4}, IM_COL32(200, 200, 255, 255),
+                  (std::string("3D  ") + render::presetName(scene_.preset)).c_str());
+      if (panes_.size() > 1) drawPlanesIn3d(p);
+      continue;
+    }
+    const GlTexture& t = *sliceTextures_[static_cast<size_t>(*p.slice)];
+    if (t.valid())
+      dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id())), a,
+                   {a.x + float(t.width()), a.y + float(t.height())});
+    const SlicePlane plane = makePlane(*p.slice, scene_.ct.geometry(), scene_.crosshairMm, int(p.rect.w), int(p.rect.h));
+    const auto [cx, cy] = plane.toPixel(scene_.crosshairMm);
+    dl->PushClipRect(a, b, true);
+    // Vertical line: the plane whose normal is u; horizontal: the plane whose normal is v.
+    dl->AddLine({a.x + float(cx), a.y}, {a.x + float(cx), b.y}, planeColour(plane.u));
+    dl->AddLine({a.x, a.y + float(cy)}, {b.x, a.y + float(cy)}, planeColour(plane.v));
+    if ((tools_.tool == Tool::Paint || tools_.tool == Tool::Erase) && p.rect.contains(mouseX_, mouseY_))
+      dl->AddCircle({float(mouseX_), float(mouseY_)}, float(tools_.brushRadiusMm / plane.mmPerPixel),
+                    tools_.tool == Tool::Paint ? IM_COL32(255, 255, 255, 220) : IM_COL32(255, 120, 120, 220), 32);
+    dl->PopClipRect();
+    dl->AddRect(a, b, planeColour(plane.normal));
+    dl->AddText({a.x + 6, a.y + 4}, planeColour(plane.normal), sliceAxisName(*p.slice));
+  }
+}
+
+void StudioApp::drawPlanesIn3d(const Pane& pane) {
+  // The three slice planes as outlines of their cut through the volume's bounding box, drawn
+  // over the rendering (not depth-tested) in the slice colours.
+  const Geometry& g = scene_.ct.geometry();
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p = g.indexToPhysical({(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5,
+                                      (c & 4) ? g.dims.z - 0.5 : -0.5});
+    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+  }
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();
+  dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
+  for (int axis = 0; axis < 3; ++axis) {  // plane normal along x (sagittal), y (coronal), z (axial)
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    std::vector<ImVec2> pts;
+    for (int k = 0; k < 4; ++k) {
+      Vec3 p = scene_.crosshairMm;
+      p[u] = (k == 1 || k == 2) ? hi[u] : lo[u];
+      p[v] = (k >= 2) ? hi[v] : lo[v];
+      const auto px = projectToView(scene_, int(pane.rect.w), int(pane.rect.h), p);
+      if (!px) break;
+      pts.push_back({pane.rect.x + float(px->first), pane.rect.y + float(px->second)});
+    }
+    Vec3 normal;
+    normal[axis] = 1;
+    if (pts.size() == 4) dl->AddPolyline(pts.data(), 4, planeColour(normal), ImDrawFlags_Closed, 1.f);
+  }
+  dl->PopClipRect();
+}
+
+void StudioApp::drawHud() {
+  std::ostringstream hud;
+  hud.setf(std::ios::fixed);
+  hud.precision(1);
+  hud << "frame " << lastFrameMs_ << " ms   3D " << view3d_->lastRenderMs() << " ms @1/" << view3d_->lastScale();
+  if (view3d_->refineProgress() < 1) hud << "  refining " << int(100 * view3d_->refineProgress()) << "%";
+  if (scene_.hasVolume()) {
+    const Pane* p = paneAt(mouseX_, mouseY_);
+    if (p && !p->is3d()) {
+      const SlicePlane plane = makePlane(*p->slice, scene_.ct.geometry(), scene_.crosshairMm, int(p->rect.w), int(p->rect.h));
+      const Vec3 mm = plane.toMm(mouseX_ - p->rect.x, mouseY_ - p->rect.y);
+      const Vec3 ijk = scene_.ct.geometry().physicalToIndex(mm);
+      const auto i = std::lround(ijk.x), j = std::lround(ijk.y), k = std::lround(ijk.z);
+      hud << "\n(" << mm.x << ", " << mm.y << ", " << mm.z << ") mm  [" << i << ' ' << j << ' ' << k << "]  ";
+      if (scene_.ct.geometry().contains(i, j, k)) {
+        hud << "HU " << scene_.ct(i, j, k) << "  label " << scene_.labels(i, j, k);
+        if (auto l = scene_.labels.label(scene_.labels(i, j, k))) hud << " " << l->name;
+      } else {
+        hud << "outside";
+      }
+    }
+  }
+  if (panes_.empty()) return;
+  // Bottom left of the viewport (the panes' lowest edge follows window resizes).
+  float bottom = 0;
+  for (const Pane& p : panes_) bottom = std::max(bottom, p.rect.y + p.rect.h);
+  const float x = panes_.front().rect.x + 8, y = bottom - 44;
+  ImGui::GetForegroundDrawList()->AddRectFilled({x - 4, y - 2}, {x + 520, y + 36}, IM_COL32(0, 0, 0, 150));
+  ImGui::GetForegroundDrawList()->AddText({x, y}, IM_COL32(255, 255, 160, 255), hud.str().c_str());
+}
+
+// ---- screenshots -------------------------------------------------------------------------
+
+void StudioApp::requestWindowScreenshot(const fs::path& path) { pendingScreenshot_ = path; }
+
+void StudioApp::captureWindow() {
+  const fs::path path = std::exchange(pendingScreenshot_, {});
+  int w = 0, h = 0;
+  glfwGetFramebufferSize(window_, &w, &h);
+  RgbaImage img(w, h);
+  std::vector<uint8_t> rows(img.pixels.size());
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadBuffer(GL_BACK);
+  glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rows.data());
+  const size_t stride = static_cast<size_t>(w) * 4;
+  for (int y = 0; y < h; ++y)  // GL rows are bottom-up
+    std::copy_n(rows.data() + static_cast<size_t>(h - 1 - y) * stride, stride, img.pixels.data() + y * stride);
+  for (size_t n = 3; n < img.pixels.size(); n += 4) img.pixels[n] = 255;
+  try {
+    io::saveImage(img, path);
+    screenshotError_.reset();
+  } catch (const std::exception& e) {
+    screenshotError_ = e.what();
+  }
+}
+
+std::optional<std::string> StudioApp::takeScreenshotError() { return std::exchange(screenshotError_, std::nullopt); }
+
+std::pair<int, int> StudioApp::pane3dSize() const {
+  for (const Pane& p : panes_)
+    if (p.is3d()) return {int(p.rect.w), int(p.rect.h)};
+  return {512, 512};
+}
+
+std::string StudioApp::cliCommand(const std::string& out) const {
+  const auto [w, h] = pane3dSize();
+  return cliRenderCommand(scene_, w, h, out);
+}
+
+void StudioApp::save3dScreenshot(const fs::path& path, int width, int height) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  if (width <= 0 || height <= 0) std::tie(width, height) = pane3dSize();
+  if (width > 4096 || height > 4096) throw Error("3D screenshots are limited to 4096x4096");
+  io::saveImage(view3d_->renderImage(scene_, width, height), path);
+}
+
+
+}  // namespace vellum::studio

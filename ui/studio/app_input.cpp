@@ -1,0 +1,175 @@
+// StudioApp: the input handlers. GLFW callbacks and script actions both arrive here (after
+// ImGui's backend has seen the event), so scripts exercise what a user's mouse does.
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "app.hpp"
+#include "view3d.hpp"
+#include "vellum/core/error.hpp"
+
+namespace vellum::studio {
+namespace fs = std::filesystem;
+
+bool StudioApp::interacting3d() const {
+  return (dragPane_ && dragPane_->is3d()) || glfwGetTime() < zoomInteractionUntil_;
+}
+
+const Pane* StudioApp::paneAt(double x, double y) const {
+  for (const Pane& p : panes_)
+    if (p.rect.contains(x, y)) return &p;
+  return nullptr;
+}
+
+void StudioApp::onCursorPos(double x, double y) {
+  const double dx = x - mouseX_, dy = y - mouseY_;
+  mouseX_ = x;
+  mouseY_ = y;
+  if (!dragPane_ || !scene_.hasVolume()) return;
+  const Pane& pane = *dragPane_;
+  const bool shift = dragMods_ & GLFW_MOD_SHIFT;
+  if (!pane.is3d()) {
+    if (dragButton_ == GLFW_MOUSE_BUTTON_LEFT) {
+      if (tools_.tool == Tool::Grow || tools_.tool == Tool::Snake) {
+        // The seed click acts once (on press); dragging does nothing more.
+      } else if (tools_.tool == Tool::Navigate) {
+        const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+        scene_.crosshairMm = plane.toMm(x - pane.rect.x, y - pane.rect.y);
+        markSlicesDirty();
+      } else {
+        paintAt(pane, x, y);
+      }
+    } else if (dragButton_ == GLFW_MOUSE_BUTTON_RIGHT) {  // window/level: right widens, down raises the level
+      scene_.sliceWindow.width = std::max(1.0, scene_.sliceWindow.width + dx * 4);
+      scene_.sliceWindow.center += dy * 2;
+    }
+    return;
+  }
+  render::Camera& cam = scene_.camera;
+  if ((dragButton_ == GLFW_MOUSE_BUTTON_LEFT && shift) || dragButton_ == GLFW_MOUSE_BUTTON_MIDDLE) {
+    // Pan: the look-at point moves against the drag so the volume follows the mouse.
+    const CameraBasis b = cameraBasis(cam);
+    const Vec3 e = scene_.ct.geometry().extent();
+    const double mmPerPixel = norm(e) / (cam.zoom * std::max(1.f, pane.rect.h));
+    cam.panMm -= b.right * (dx * mmPerPixel);
+    cam.panMm += b.up * (dy * mmPerPixel);
+  } else if (dragButton_ == GLFW_MOUSE_BUTTON_LEFT) {  // orbit (trackball-style)
+    cam.azimuthDeg -= dx * 0.5;
+    cam.elevationDeg = std::clamp(cam.elevationDeg + dy * 0.5, -89.0, 89.0);
+  } else if (dragButton_ == GLFW_MOUSE_BUTTON_RIGHT) {
+    scene_.renderWindow.width = std::max(10.0, scene_.renderWindow.width + dx * 8);
+    scene_.renderWindow.center += dy * 4;
+  }
+}
+
+void StudioApp::onMouseButton(int button, int action, int mods) {
+  if (action == GLFW_RELEASE) {
+    if (strokeBefore_) {
+      pushEdit(diffLabels(*strokeBefore_, scene_.labels, tools_.tool == Tool::Paint ? "paint" : "erase"));
+      strokeBefore_.reset();
+    }
+    if (button == dragButton_) {
+      dragPane_.reset();
+      dragButton_ = -1;
+    }
+    return;
+  }
+  if (ImGui::GetIO().WantCaptureMouse || !scene_.hasVolume()) return;
+  const Pane* pane = paneAt(mouseX_, mouseY_);
+  if (!pane) return;
+  if (pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT && (mods & GLFW_MOD_CONTROL)) {
+    clickIn3d(*pane, mouseX_, mouseY_);  // Ctrl+click picks the visible surface
+    return;
+  }
+  dragPane_ = *pane;
+  dragButton_ = button;
+  dragMods_ = mods;
+  if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {
+    if (tools_.tool == Tool::Grow) {
+      growAt(*pane, mouseX_, mouseY_);
+      return;
+    }
+    if (tools_.tool == Tool::Snake) {
+      const SlicePlane plane = makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane->rect.w), int(pane->rect.h));
+      try {
+        startSnake(plane.toMm(mouseX_ - pane->rect.x, mouseY_ - pane->rect.y));
+      } catch (const std::exception& e) {
+        showError(e.what());
+      }
+      return;
+    }
+    if (tools_.tool != Tool::Navigate) strokeBefore_ = scene_.labels;  // diffed on release
+    onCursorPos(mouseX_, mouseY_);  // a click acts where it lands
+  }
+}
+
+void StudioApp::clickIn3d(const Pane& pane, double x, double y) {
+  const auto p = pickSurface(scene_, int(pane.rect.w), int(pane.rect.h), x - pane.rect.x, y - pane.rect.y);
+  if (!p) return;  // nothing visible under the pointer
+  try {
+    if (tools_.tool == Tool::Grow) {
+      growFromPoint(*p);
+    } else if (tools_.tool == Tool::Snake) {
+      startSnake(*p);
+    } else {
+      scene_.crosshairMm = *p;  // the slices jump to the clicked surface point
+      markSlicesDirty();
+    }
+  } catch (const std::exception& e) {
+    showError(e.what());
+  }
+}
+
+void StudioApp::onScroll(double, double dy) {
+  if (ImGui::GetIO().WantCaptureMouse || !scene_.hasVolume()) return;
+  const Pane* pane = paneAt(mouseX_, mouseY_);
+  if (!pane) return;
+  if (pane->is3d()) {
+    scene_.camera.zoom = std::clamp(scene_.camera.zoom * std::pow(1.1, dy), 0.1, 50.0);
+    zoomInteractionUntil_ = glfwGetTime() + 0.3;
+  } else {  // one voxel through the slices per notch
+    const SlicePlane plane = makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, 1, 1);
+    const Vec3& sp = scene_.ct.geometry().spacing;
+    scene_.crosshairMm += plane.normal * (dy * std::min({sp.x, sp.y, sp.z}));
+    markSlicesDirty();
+  }
+}
+
+void StudioApp::onKey(int key, int action, int mods) {
+  if (action == GLFW_RELEASE || ImGui::GetIO().WantTextInput) return;
+  const bool ctrl = mods & GLFW_MOD_CONTROL, shift = mods & GLFW_MOD_SHIFT;
+  try {
+    if (ctrl && key == GLFW_KEY_Z) {
+      shift ? redo() : undo();
+    } else if (ctrl && key == GLFW_KEY_Y) {
+      redo();
+    } else if (ctrl && key == GLFW_KEY_O) {
+      browser_.open(FileBrowser::Mode::Open, "Open volume or scene", [this](const fs::path& p) { requestOpen(p); });
+    } else if (ctrl && key == GLFW_KEY_S) {
+      if (scene_.scenePath.empty())
+        browser_.open(FileBrowser::Mode::Save, "Save scene as", [this](const fs::path& p) { saveScene(p); });
+      else
+        saveScene(scene_.scenePath);
+    } else if (!ctrl && key == GLFW_KEY_R) {
+      resetView();
+    } else if (!ctrl && key >= GLFW_KEY_1 && key <= GLFW_KEY_3) {
+      setLayout(key == GLFW_KEY_1 ? Layout::ThreeD : key == GLFW_KEY_2 ? Layout::TwoByTwo : Layout::OneByThree);
+    } else if (key == GLFW_KEY_ESCAPE) {
+      // Escape cancels what runs (a snake, a load); with nothing running, back to Navigate.
+      if (snake_.busy()) snake_.cancel();
+      else if (loader_.busy()) loader_.cancel();
+      else tools_.tool = Tool::Navigate;
+    }
+  } catch (const std::exception& e) {
+    showError(e.what());
+  }
+}
+
+void StudioApp::onDrop(const std::vector<std::string>& paths) {
+  if (!paths.empty()) requestOpen(paths.front());
+}
+
+
+}  // namespace vellum::studio

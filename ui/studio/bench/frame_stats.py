@@ -1,0 +1,39 @@
+#!/usr/bin/env python3
+"""Frame-time summary of a `vellum-studio --log-frames` log, per BEGIN/END section that a
+script printed with {"log": "BEGIN name"} / {"log": "END name"} (see docs/benchmarks-studio.md)."""
+import statistics
+import sys
+
+
+def main(path):
+    sections, name, frames = [], None, []
+    for line in open(path):
+        parts = line.split()
+        if parts[:1] == ["BEGIN"]:
+            name, frames = parts[1], []
+        elif parts[:1] == ["END"] and name:
+            sections.append((name, frames))
+            name = None
+        elif name and parts[:1] == ["frame"]:
+            fields = dict(zip(parts[2::2], parts[3::2]))
+            frames.append(fields)
+    print(f"{'section':<12}{'frames':>7}{'mean ms':>9}{'median':>8}{'p90':>8}{'max':>8}  3D renders (scale: count)")
+    for name, fr in sections:
+        ms = sorted(float(f["ms"]) for f in fr)
+        if not ms:
+            continue
+        p90 = ms[min(len(ms) - 1, int(round(0.9 * (len(ms) - 1))))]
+        scales = {}
+        for f in fr:
+            if f["render3d"] == "1":
+                scales[f["scale"]] = scales.get(f["scale"], 0) + 1
+        sc = ", ".join(f"1/{k}: {v}" for k, v in sorted(scales.items()))
+        print(f"{name:<12}{len(ms):>7}{statistics.mean(ms):>9.1f}{statistics.median(ms):>8.1f}{p90:>8.1f}{ms[-1]:>8.1f}  {sc}")
+    full = [float(line.split()[7]) for line in open(path)
+            if line.startswith("frame") and " render3d 1 " in line and " scale 1 " in line]
+    if full:
+        print(f"full-resolution 3D renders: {len(full)}, median {statistics.median(full):.1f} ms, max {max(full):.1f} ms")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])

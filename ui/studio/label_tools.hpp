@@ -1,0 +1,47 @@
+#pragma once
+// Label edits of the segmentation panel and the brush, each returning the undo delta of
+// what it changed. Thin wrappers over the segmentation module (no algorithm lives here).
+#include <functional>
+#include <set>
+#include <string>
+
+#include "undo.hpp"
+#include "vellum/segmentation/threshold.hpp"
+
+namespace vellum::studio {
+
+/// Runs `edit` on `labels` and returns what it changed (a transient copy is diffed).
+/// Locked segments are protected: voxels whose id before or after the edit is in `locked`
+/// are put back, so no edit adds to, removes from or paints over a locked segment.
+LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
+                      const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked = {});
+
+/// Voxels of `ct` inside `interval` become `label` (overwriting other ids).
+void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const segmentation::HuInterval& interval,
+                   const Label& label);
+/// Sets every voxel whose centre lies within radiusMm of centerMm to `id` (0 erases),
+/// except voxels of locked segments (and nothing when `id` itself is locked).
+/// Returns the number of voxels changed.
+int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id,
+                    const std::set<uint16_t>& locked = {});
+/// Keeps only the largest 26-connected component of `id` (the others become background).
+void keepLargest(LabelVolume& labels, uint16_t id);
+/// Removes the 26-connected islands of `id` smaller than minVolumeMm3 (to background).
+void removeIslands(LabelVolume& labels, uint16_t id, double minVolumeMm3);
+/// Fills the cavities of `id` (background only; other segments are kept).
+void fillHoles(LabelVolume& labels, uint16_t id);
+/// Region growing (connected threshold, 6-connected) from a seed in mm into `label`.
+/// Returns the grown voxel count (0 when the seed's value lies outside the interval).
+int64_t growFromSeed(LabelVolume& labels, const VolumeI16& ct, const Vec3& seedMm,
+                     const segmentation::HuInterval& interval, const Label& label);
+
+enum class Morphology { Dilate, Erode, Open, Close };
+const char* morphologyName(Morphology m);
+/// Ball morphology of `id` with radiusMm. Growing fills background only; shrinking clears to 0.
+void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm);
+/// The upper of two multi-Otsu thresholds (three classes) over the CT's histogram above
+/// -900 HU: air is left out, so the classes are fat, soft tissue and bone, and the value
+/// separates bone from soft tissue.
+double otsuHu(const VolumeI16& ct);
+
+}  // namespace vellum::studio

@@ -1,0 +1,76 @@
+// `vellum-studio [FILE|SCENE.json] [--labels L.nrrd] [--script S.json] [--size WxH] [--autosave S] [--log-frames]`
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <iostream>
+#include <string>
+
+#include "app.hpp"
+#include "vellum/core/error.hpp"
+
+namespace {
+
+extern "C" void onSignal(int) { vellum::studio::StudioApp::interrupt(); }
+
+void usage() {
+  std::cout << "usage: vellum-studio [FILE|SCENE.json] [--labels LABELS] [--script S.json] [--size WxH] "
+               "[--autosave SECONDS] [--log-frames]\n  see docs/studio.md\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  vellum::studio::StudioOptions o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::cerr << "vellum-studio: " << a << " needs a value\n";
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      usage();
+      return 0;
+    } else if (a == "--script") {
+      o.script = value();
+    } else if (a == "--labels") {
+      o.labels = value();
+    } else if (a == "--size") {
+      const std::string s = value();
+      if (std::sscanf(s.c_str(), "%dx%d", &o.width, &o.height) != 2 || o.width < 320 || o.height < 240 ||
+          o.width > 8192 || o.height > 8192) {
+        std::cerr << "vellum-studio: --size must be WxH, at least 320x240 (got '" << s << "')\n";
+        return 2;
+      }
+    } else if (a == "--autosave") {
+      try {
+        o.autosaveSeconds = std::stod(value());
+      } catch (const std::exception&) {
+        std::cerr << "vellum-studio: --autosave needs seconds (0 disables)\n";
+        return 2;
+      }
+    } else if (a == "--log-frames") {
+      o.logFrames = true;
+    } else if (!a.empty() && a[0] == '-') {
+      std::cerr << "vellum-studio: unknown option '" << a << "'\n";
+      usage();
+      return 2;
+    } else if (o.input.empty()) {
+      o.input = a;
+    } else {
+      std::cerr << "vellum-studio: more than one input ('" << o.input << "', '" << a << "')\n";
+      return 2;
+    }
+  }
+  std::signal(SIGINT, onSignal);  // Ctrl-C / kill: leave the loop, destroy GL cleanly
+  std::signal(SIGTERM, onSignal);
+  try {
+    vellum::studio::StudioApp app(o);
+    return app.run();
+  } catch (const std::exception& e) {
+    std::cerr << "vellum-studio: error: " << e.what() << "\n";
+    return 2;
+  }
+}

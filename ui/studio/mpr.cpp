@@ -1,0 +1,141 @@
+#include "mpr.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::studio {
+
+const char* sliceAxisName(SliceAxis a) {
+  switch (a) {
+    case SliceAxis::Axial: return "axial";
+    case SliceAxis::Coronal: return "coronal";
+    case SliceAxis::Sagittal: return "sagittal";
+  }
+  return "?";
+}
+
+Vec3 SlicePlane::toMm(double px, double py) const {
+  return center + u * ((px - width * 0.5) * mmPerPixel) + v * ((py - height * 0.5) * mmPerPixel);
+}
+
+std::pair<double, double> SlicePlane::toPixel(const Vec3& p) const {
+  const Vec3 d = p - center;
+  return {dot(d, u) / mmPerPixel + width * 0.5, dot(d, v) / mmPerPixel + height * 0.5};
+}
+
+SlicePlane makePlane(SliceAxis axis, const Geometry& g, const Vec3& crosshairMm, int width, int height) {
+  SlicePlane p;
+  p.axis = axis;
+  p.width = std::max(1, width);
+  p.height = std::max(1, height);
+  switch (axis) {  // LPS: +x left, +y posterior, +z superior
+    case SliceAxis::Axial: p.u = {1, 0, 0}; p.v = {0, 1, 0}; break;
+    case SliceAxis::Coronal: p.u = {1, 0, 0}; p.v = {0, 0, -1}; break;
+    case SliceAxis::Sagittal: p.u = {0, 1, 0}; p.v = {0, 0, -1}; break;
+  }
+  p.normal = cross(p.u, p.v);
+  // Fit the oriented voxel box's projection onto (u, v).
+  const Vec3 c = g.center();
+  double halfU = 0, halfV = 0;
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 corner{(k & 1) ? g.dims.x - 0.5 : -0.5, (k & 2) ? g.dims.y - 0.5 : -0.5,
+                      (k & 4) ? g.dims.z - 0.5 : -0.5};
+    const Vec3 d = g.indexToPhysical(corner) - c;
+    halfU = std::max(halfU, std::abs(dot(d, p.u)));
+    halfV = std::max(halfV, std::abs(dot(d, p.v)));
+  }
+  p.mmPerPixel = std::max(2 * halfU / p.width, 2 * halfV / p.height) * 1.04;  // small margin
+  // In-plane centre = volume centre; along the normal = the crosshair.
+  p.center = c + p.normal * dot(crosshairMm - c, p.normal);
+  return p;
+}
+
+namespace {
+/// Label fill at `opacity` with opaque 1-pixel outlines where the id changes.
+void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
+                   const std::vector<std::array<uint8_t, 3>>& colours, float opacity);
+}  // namespace
+
+RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceStyle& style) {
+  RgbaImage img(plane.width, plane.height);
+  const Geometry& g = ct.geometry();
+  // Index coordinates are affine in the pixel position: step them instead of mapping each pixel.
+  const Vec3 origin = g.physicalToIndex(plane.toMm(0.5, 0.5));
+  const Vec3 dx = g.physicalToIndex(plane.toMm(1.5, 0.5)) - origin;
+  const Vec3 dy = g.physicalToIndex(plane.toMm(0.5, 1.5)) - origin;
+  const double lo = style.window.center - style.window.width / 2;
+  const double scale = 255.0 / std::max(1e-6, style.window.width);
+  const bool labelsOn = style.labels && !style.labels->ids().empty();
+  std::vector<uint16_t> ids(labelsOn ? static_cast<size_t>(plane.width) * plane.height : 0);
+  std::vector<uint8_t> preview(style.thresholdPreview ? static_cast<size_t>(plane.width) * plane.height : 0);
+  std::vector<std::array<uint8_t, 3>> colours(65536, {0, 0, 0});
+  if (labelsOn) {
+    for (uint16_t id = 1; id < 256; ++id) colours[id] = defaultLabelColor(id);
+    for (const Label& l : style.labels->table()) colours[l.id] = l.rgb;
+  }
+  parallelFor(plane.height, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < plane.width; ++x) {
+        const Vec3 ijk = origin + dx * double(x) + dy * double(y);
+        const double hu = ct.sampleLinear(ijk);
+        const auto grey = static_cast<uint8_t>(std::clamp((hu - lo) * scale, 0.0, 255.0));
+        uint8_t* px = img.at(x, static_cast<int>(y));
+        px[0] = px[1] = px[2] = grey;
+        px[3] = 255;
+        if (labelsOn) {
+          auto id = static_cast<uint16_t>(style.labels->ids().sampleNearest(ijk));
+          if (id && style.hidden && style.hidden->count(id)) id = 0;
+          ids[static_cast<size_t>(y) * plane.width + x] = id;
+        }
+        if (style.thresholdPreview) {
+          const double v = ct.sampleNearest(ijk);
+          preview[static_cast<size_t>(y) * plane.width + x] = style.thresholdPreview->contains(v);
+        }
+      }
+    }
+  });
+  if (labelsOn) overlayLabels(img, ids, colours, style.labelOpacity);
+  if (!preview.empty()) {
+    // Drawn last, in magenta (no default label uses it), half-blended so the anatomy shows.
+    for (size_t n = 0; n < preview.size(); ++n) {
+      if (!preview[n]) continue;
+      uint8_t* px = img.pixels.data() + n * 4;
+      px[0] = static_cast<uint8_t>((px[0] + 255) / 2);
+      px[1] = static_cast<uint8_t>(px[1] / 4);
+      px[2] = static_cast<uint8_t>((px[2] + 255) / 2);
+    }
+  }
+  return img;
+}
+
+namespace {
+void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
+                   const std::vector<std::array<uint8_t, 3>>& colours, float opacity) {
+  const int width = img.width, height = img.height;
+  const float a = std::clamp(opacity, 0.f, 1.f);
+  parallelFor(height, [&](int64_t y0, int64_t y1) {
+    for (int64_t y = y0; y < y1; ++y) {
+      for (int x = 0; x < width; ++x) {
+        const uint16_t id = ids[static_cast<size_t>(y) * width + x];
+        if (!id) continue;
+        // Outline: a pixel whose 4-neighbour carries another id (or lies outside the image).
+        auto other = [&](int nx, int ny) {
+          if (nx < 0 || ny < 0 || nx >= width || ny >= height) return true;
+          return ids[static_cast<size_t>(ny) * width + nx] != id;
+        };
+        const int yi = static_cast<int>(y);
+        const bool edge = other(x - 1, yi) || other(x + 1, yi) || other(x, yi - 1) || other(x, yi + 1);
+        const float w = edge ? 1.f : a;
+        uint8_t* px = img.at(x, yi);
+        for (int c = 0; c < 3; ++c)
+          px[c] = static_cast<uint8_t>(std::lround(px[c] * (1 - w) + colours[id][c] * w));
+      }
+    }
+  });
+}
+}  // namespace
+
+}  // namespace vellum::studio

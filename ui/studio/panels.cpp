@@ -1,0 +1,250 @@
+#include "panels.hpp"
+
+#include <imgui.h>
+
+#include <algorithm>
+#include <cstring>
+#include <functional>
+
+#include "app.hpp"
+#include "vellum/segmentation/threshold.hpp"
+
+namespace vellum::studio {
+namespace fs = std::filesystem;
+namespace seg = vellum::segmentation;
+
+namespace {
+
+/// Runs a command, turning its error into the error box (a panel never crashes the app).
+void guarded(StudioApp& app, const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    app.showError(e.what());
+  }
+}
+
+void fileSection(StudioApp& app) {
+  Scene& s = app.scene();
+  if (ImGui::Button("Open...")) {
+    app.fileBrowser().open(FileBrowser::Mode::Open, "Open volume or scene",
+                           [&app](const fs::path& p) { app.requestOpen(p); });
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Save scene") && s.hasVolume()) {
+    if (s.scenePath.empty())
+      app.fileBrowser().open(FileBrowser::Mode::Save, "Save scene as",
+                             [&app](const fs::path& p) { guarded(app, [&] { app.saveScene(p); }); });
+    else
+      guarded(app, [&] { app.saveScene(s.scenePath); });
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Save as...") && s.hasVolume())
+    app.fileBrowser().open(FileBrowser::Mode::Save, "Save scene as",
+                           [&app](const fs::path& p) { guarded(app, [&] { app.saveScene(p); }); });
+  if (ImGui::Button("Save labels...") && s.hasVolume())
+    app.fileBrowser().open(FileBrowser::Mode::Save, "Save label map as",
+                           [&app](const fs::path& p) { guarded(app, [&] { app.saveLabels(p); }); });
+  ImGui::SameLine();
+  if (ImGui::Button("Open labels...") && s.hasVolume())
+    app.fileBrowser().open(FileBrowser::Mode::Open, "Open label map", [&app](const fs::path& p) {
+      app.requestOpen(app.scene().volumePath, p);
+    });
+  if (!app.recentFiles().empty() && ImGui::BeginCombo("Recent", "open a recent file")) {
+    for (const fs::path& p : app.recentFiles())
+      if (ImGui::Selectable(p.string().c_str())) app.requestOpen(p);
+    ImGui::EndCombo();
+  }
+  if (s.series.size() > 1) {  // DICOM folder with several series: pick one to load
+    auto describe = [](const io::SeriesInfo& i) {
+      return i.modality + " " + std::to_string(i.frames) + " slices " + std::to_string(i.columns) + "x" +
+             std::to_string(i.rows) + "  " + i.description;
+    };
+    std::string current = "?";
+    for (const auto& i : s.series)
+      if (i.uid == s.seriesUid) current = describe(i);
+    if (ImGui::BeginCombo("Series", current.c_str())) {
+      for (const auto& i : s.series)
+        if (ImGui::Selectable((describe(i) + "##" + i.uid).c_str(), i.uid == s.seriesUid))
+          app.requestOpen(s.volumePath, {}, i.uid);
+      ImGui::EndCombo();
+    }
+  }
+  if (app.loading()) {
+    const auto [stage, fraction] = app.loader().progress();
+    ImGui::TextUnformatted(stage.c_str());
+    ImGui::ProgressBar(static_cast<float>(fraction), {-70, 0});
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel")) app.loader().cancel();
+  }
+  if (s.hasVolume()) {
+    ImGui::TextWrapped("Volume: %s", s.volumePath.filename().string().c_str());
+    ImGui::Text("%s  %.2f x %.2f x %.2f mm", s.ct.geometry().dims.str().c_str(), s.ct.geometry().spacing.x,
+                s.ct.geometry().spacing.y, s.ct.geometry().spacing.z);
+  } else {
+    ImGui::TextWrapped("No volume. Open a file, drop one on the window, or pass it on the command line.");
+  }
+}
+
+void viewSection(StudioApp& app) {
+  Scene& s = app.scene();
+  int layout = static_cast<int>(s.layout);
+  ImGui::TextUnformatted("Layout");
+  ImGui::SameLine();
+  bool changed = ImGui::RadioButton("3D", &layout, 0);
+  ImGui::SameLine();
+  changed |= ImGui::RadioButton("2x2", &layout, 1);
+  ImGui::SameLine();
+  changed |= ImGui::RadioButton("1x3", &layout, 2);
+  if (changed) app.setLayout(static_cast<Layout>(layout));
+  if (ImGui::BeginCombo("Preset", render::presetName(s.preset))) {
+    for (render::Preset p : render::allPresets())
+      if (ImGui::Selectable(render::presetName(p), p == s.preset)) app.setPreset(p);
+    ImGui::EndCombo();
+  }
+  // The camera as numbers too (what `vellum render --azimuth --elevation --zoom --fov` take).
+  float cam[4] = {float(s.camera.azimuthDeg), float(s.camera.elevationDeg), float(s.camera.zoom),
+                  float(s.camera.fieldOfViewDeg)};
+  if (ImGui::DragFloat4("Az El Zoom Fov", cam, 0.5f, 0.f, 0.f, "%.1f")) {
+    s.camera.azimuthDeg = cam[0];
+    s.camera.elevationDeg = std::clamp(cam[1], -89.f, 89.f);
+    s.camera.zoom = std::clamp(cam[2], 0.1f, 50.f);
+    s.camera.fieldOfViewDeg = std::clamp(cam[3], 0.f, 120.f);
+  }
+  float sw[2] = {float(s.sliceWindow.center), float(s.sliceWindow.width)};
+  if (ImGui::DragFloat2("Slice W/L", sw, 2.f)) s.sliceWindow = {sw[0], std::max(1.f, sw[1])};
+  float rw[2] = {float(s.renderWindow.center), float(s.renderWindow.width)};
+  if (ImGui::DragFloat2("3D W/L", rw, 4.f)) s.renderWindow = {rw[0], std::max(10.f, rw[1])};
+  ImGui::SliderFloat("Label opacity", &s.labelOpacity, 0.f, 1.f);
+  if (ImGui::Button("Reset view (R)")) app.resetView();
+  ImGui::SameLine();
+  ImGui::Checkbox("HUD", &app.hudVisible);
+  ImGui::SameLine();
+  if (ImGui::Button("Copy CLI command") && s.hasVolume()) {
+    // What `vellum render` needs to write the 3D view as a figure (same renderer, same pixels).
+    ImGui::SetClipboardText(app.cliCommand("figure.png").c_str());
+  }
+  if (ImGui::IsItemHovered() && s.hasVolume()) ImGui::SetTooltip("%s", app.cliCommand("figure.png").c_str());
+}
+
+void segmentationSection(StudioApp& app) {
+  ToolState& t = app.tools();
+  static int presetIndex = 0;
+  const auto presets = seg::allPresets();
+  if (ImGui::BeginCombo("HU preset", seg::presetName(presets[static_cast<size_t>(presetIndex)]))) {
+    for (size_t n = 0; n < presets.size(); ++n)
+      if (ImGui::Selectable(seg::presetName(presets[n]), int(n) == presetIndex)) {
+        presetIndex = int(n);
+        t.threshold = seg::presetInterval(presets[n]);
+      }
+    ImGui::EndCombo();
+  }
+  float range[2] = {float(t.threshold.lower), float(t.threshold.upper)};
+  if (ImGui::DragFloat2("HU range", range, 5.f, -1024.f, 3071.f)) t.threshold = {range[0], range[1]};
+  ImGui::Checkbox("Preview", &t.thresholdPreview);
+  ImGui::SameLine();
+  if (ImGui::Button("Otsu")) guarded(app, [&] { app.otsuThreshold(); });
+  ImGui::SameLine();
+  if (ImGui::Button("Apply threshold")) guarded(app, [&] { app.applyThreshold(); });
+  if (ImGui::Button("Keep largest")) guarded(app, [&] { app.keepLargestOfActive(); });
+  ImGui::SameLine();
+  if (ImGui::Button("Fill holes")) guarded(app, [&] { app.fillHolesOfActive(); });
+  if (ImGui::Button("Remove islands <")) guarded(app, [&] { app.removeIslandsOfActive(); });
+  ImGui::SameLine();
+  ImGui::SetNextItemWidth(-40);
+  ImGui::DragFloat("mm3", &t.minIslandMm3, 10.f, 0.f, 1e7f, "%.0f");
+  for (Morphology op : {Morphology::Dilate, Morphology::Erode, Morphology::Open, Morphology::Close}) {
+    if (op != Morphology::Dilate) ImGui::SameLine();
+    if (ImGui::Button(morphologyName(op))) guarded(app, [&] { app.morphologyOfActive(op); });
+  }
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("ball of the brush radius, on the active label");
+  int tool = static_cast<int>(t.tool);
+  ImGui::RadioButton("Navigate", &tool, 0);
+  ImGui::SameLine();
+  ImGui::RadioButton("Paint", &tool, 1);
+  ImGui::SameLine();
+  ImGui::RadioButton("Erase", &tool, 2);
+  ImGui::RadioButton("Grow", &tool, 3);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("click a seed in a slice: region growing within the HU range");
+  ImGui::SameLine();
+  ImGui::RadioButton("Snake", &tool, 4);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("click a seed in a slice: 3D level-set snake from a bubble of the brush radius,\n"
+                      "inside = the HU range (e.g. the soft-tissue preset); Escape cancels");
+  if (app.snakeJob().busy()) {
+    const auto [stage, fraction] = app.snakeJob().progress();
+    ImGui::TextUnformatted(stage.c_str());
+    ImGui::ProgressBar(static_cast<float>(fraction), {-70, 0});
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel##snake")) app.snakeJob().cancel();
+  }
+  t.tool = static_cast<Tool>(tool);
+  ImGui::SliderFloat("Brush radius (mm)", &t.brushRadiusMm, 0.5f, 30.f, "%.1f");
+  if (ImGui::Button("Undo (Ctrl+Z)")) app.undo();
+  ImGui::SameLine();
+  if (ImGui::Button("Redo (Ctrl+Shift+Z)")) app.redo();
+}
+
+void labelTable(StudioApp& app) {
+  Scene& s = app.scene();
+  ToolState& t = app.tools();
+  int active = t.activeLabel;
+  if (ImGui::InputInt("Active label", &active)) t.activeLabel = static_cast<uint16_t>(std::clamp(active, 1, 65535));
+  if (ImGui::Button("New label")) t.activeLabel = s.labels.nextFreeId();
+  if (!ImGui::BeginTable("labels", 5, ImGuiTableFlags_Borders | ImGuiTableFlags_ScrollY, {0, 180})) return;
+  ImGui::TableSetupColumn("id", ImGuiTableColumnFlags_WidthFixed, 28);
+  ImGui::TableSetupColumn("show", ImGuiTableColumnFlags_WidthFixed, 28);
+  ImGui::TableSetupColumn("lock", ImGuiTableColumnFlags_WidthFixed, 28);
+  ImGui::TableSetupColumn("colour", ImGuiTableColumnFlags_WidthFixed, 28);
+  ImGui::TableSetupColumn("name");
+  for (Label l : s.labels.table()) {  // by value: edits go back through setLabel
+    ImGui::TableNextRow();
+    ImGui::PushID(l.id);
+    ImGui::TableNextColumn();
+    if (ImGui::Selectable(std::to_string(l.id).c_str(), l.id == t.activeLabel))
+      t.activeLabel = l.id;
+    ImGui::TableNextColumn();
+    bool visible = !s.hiddenLabels.count(l.id);
+    if (ImGui::Checkbox("##v", &visible)) visible ? (void)s.hiddenLabels.erase(l.id) : (void)s.hiddenLabels.insert(l.id);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("visible");
+    ImGui::TableNextColumn();
+    bool locked = s.lockedLabels.count(l.id);
+    if (ImGui::Checkbox("##l", &locked)) locked ? (void)s.lockedLabels.insert(l.id) : (void)s.lockedLabels.erase(l.id);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("locked: no edit changes this segment");
+    ImGui::TableNextColumn();
+    float rgb[3] = {l.rgb[0] / 255.f, l.rgb[1] / 255.f, l.rgb[2] / 255.f};
+    bool changed = ImGui::ColorEdit3("##c", rgb, ImGuiColorEditFlags_NoInputs);
+    ImGui::TableNextColumn();
+    char name[128];
+    std::strncpy(name, l.name.c_str(), sizeof name - 1);
+    name[sizeof name - 1] = '\0';
+    ImGui::SetNextItemWidth(-1);
+    changed |= ImGui::InputText("##n", name, sizeof name);
+    if (changed) {
+      for (int c = 0; c < 3; ++c) l.rgb[static_cast<size_t>(c)] = static_cast<uint8_t>(std::lround(rgb[c] * 255));
+      l.name = name;
+      s.labels.setLabel(l);
+      s.touchLabels();
+    }
+    ImGui::PopID();
+  }
+  ImGui::EndTable();
+}
+
+}  // namespace
+
+void drawToolPanel(StudioApp& app, float width, float height) {
+  ImGui::SetNextWindowPos({0, 0}, ImGuiCond_Always);
+  ImGui::SetNextWindowSize({width, height}, ImGuiCond_Always);
+  ImGui::Begin("Vellum Studio", nullptr,
+               ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+  ImGui::PushItemWidth(-130);
+  if (ImGui::CollapsingHeader("File", ImGuiTreeNodeFlags_DefaultOpen)) fileSection(app);
+  if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) viewSection(app);
+  if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
+  if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);
+  ImGui::PopItemWidth();
+  ImGui::End();
+}
+
+}  // namespace vellum::studio

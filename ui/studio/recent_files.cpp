@@ -1,0 +1,45 @@
+#include "recent_files.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <system_error>
+
+#include "vellum/io/atomic_file.hpp"
+
+namespace vellum::studio {
+namespace fs = std::filesystem;
+
+fs::path RecentFiles::defaultStorage() {
+  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg) return fs::path(xdg) / "vellum" / "studio-recent.txt";
+  if (const char* home = std::getenv("HOME"); home && *home)
+    return fs::path(home) / ".config" / "vellum" / "studio-recent.txt";
+  return {};
+}
+
+RecentFiles::RecentFiles(fs::path storage) : storage_(std::move(storage)) {
+  if (storage_.empty()) return;
+  std::ifstream in(storage_);
+  for (std::string line; std::getline(in, line) && paths_.size() < kMax;)
+    if (!line.empty()) paths_.emplace_back(line);
+}
+
+void RecentFiles::add(const fs::path& path) {
+  const fs::path p = fs::absolute(path).lexically_normal();
+  std::erase(paths_, p);
+  paths_.insert(paths_.begin(), p);
+  if (paths_.size() > kMax) paths_.resize(kMax);
+  if (storage_.empty()) return;
+  try {  // best effort: a read-only home must not disturb the session
+    std::error_code ec;
+    fs::create_directories(storage_.parent_path(), ec);
+    io::writeAtomically(storage_, [&](const fs::path& tmp) {
+      std::ofstream out(tmp);
+      for (const auto& r : paths_) out << r.string() << "\n";
+    });
+  } catch (const std::exception&) {
+  }
+}
+
+}  // namespace vellum::studio

@@ -1,0 +1,290 @@
+#include "script.hpp"
+
+#include <GLFW/glfw3.h>
+
+#include <cctype>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <set>
+
+#include "app.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/render/render_settings.hpp"
+
+namespace vellum::studio {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const std::set<std::string> kActions = {
+    "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
+    "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
+    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "remove_islands", "hud", "log", "quit"};
+
+int parseButton(const std::string& b) {
+  if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
+  if (b == "right") return GLFW_MOUSE_BUTTON_RIGHT;
+  if (b == "middle") return GLFW_MOUSE_BUTTON_MIDDLE;
+  throw Error("unknown mouse button '" + b + "' (left, right, middle)");
+}
+
+int parseMods(const json& mods) {
+  int m = 0;
+  for (const auto& j : mods) {
+    const std::string s = j.get<std::string>();
+    if (s == "shift") m |= GLFW_MOD_SHIFT;
+    else if (s == "ctrl") m |= GLFW_MOD_CONTROL;
+    else if (s == "alt") m |= GLFW_MOD_ALT;
+    else throw Error("unknown modifier '" + s + "' (shift, ctrl, alt)");
+  }
+  return m;
+}
+
+/// "ctrl+shift+z" -> (GLFW_KEY_Z, ctrl|shift).
+std::pair<int, int> parseKey(const std::string& text) {
+  int mods = 0;
+  std::string rest = text;
+  for (size_t plus; (plus = rest.find('+')) != std::string::npos && plus + 1 < rest.size();) {
+    const std::string m = rest.substr(0, plus);
+    rest = rest.substr(plus + 1);
+    mods |= parseMods(json::array({m}));
+  }
+  if (rest.size() == 1 && std::isalpha(static_cast<unsigned char>(rest[0])))
+    return {GLFW_KEY_A + (std::tolower(static_cast<unsigned char>(rest[0])) - 'a'), mods};
+  if (rest.size() == 1 && std::isdigit(static_cast<unsigned char>(rest[0]))) return {GLFW_KEY_0 + (rest[0] - '0'), mods};
+  static const std::map<std::string, int> named = {
+      {"escape", GLFW_KEY_ESCAPE}, {"enter", GLFW_KEY_ENTER}, {"tab", GLFW_KEY_TAB},
+      {"space", GLFW_KEY_SPACE},   {"delete", GLFW_KEY_DELETE}, {"backspace", GLFW_KEY_BACKSPACE},
+      {"left", GLFW_KEY_LEFT},     {"right", GLFW_KEY_RIGHT},   {"up", GLFW_KEY_UP}, {"down", GLFW_KEY_DOWN}};
+  if (auto it = named.find(rest); it != named.end()) return {it->second, mods};
+  throw Error("unknown key '" + text + "'");
+}
+
+std::pair<double, double> point(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>()}; }
+
+}  // namespace
+
+std::unique_ptr<ScriptRunner> ScriptRunner::load(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw FileError(path, "cannot open script");
+  auto r = std::unique_ptr<ScriptRunner>(new ScriptRunner);
+  try {
+    const json j = json::parse(in);
+    r->actions_ = j.at("actions");
+  } catch (const json::exception& e) {
+    throw FileError(path, std::string("bad script: ") + e.what());
+  }
+  if (!r->actions_.is_array()) throw FileError(path, "\"actions\" must be a list");
+  for (size_t n = 0; n < r->actions_.size(); ++n) {
+    const json& a = r->actions_[n];
+    if (!a.is_object() || a.size() != 1)
+      throw FileError(path, "script action #" + std::to_string(n) + ": must be an object with one key");
+    if (!kActions.count(a.begin().key()))
+      throw FileError(path, "script action #" + std::to_string(n) + ": unknown action '" + a.begin().key() + "'");
+  }
+  return r;
+}
+
+std::optional<int> ScriptRunner::step(StudioApp& app) {
+  if (quitCode_) return quitCode_;
+  try {
+    while (steps_.empty()) {
+      if (next_ >= actions_.size()) return 0;  // the end of the list quits successfully
+      current_ = next_++;
+      currentName_ = actions_[current_].begin().key();
+      expand(actions_[current_], app);
+    }
+    if (steps_.front()(app)) {
+      steps_.pop_front();
+      waitedFrames_ = 0;
+    } else if (++waitedFrames_ > 20000) {
+      throw Error("timed out waiting");
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "vellum-studio: script action #" << current_ << " (" << currentName_ << "): " << e.what() << "\n";
+    return 3;
+  }
+  return quitCode_;
+}
+
+void ScriptRunner::expand(const json& action, StudioApp&) {
+  const std::string name = action.begin().key();
+  const json& v = action.begin().value();
+  auto once = [this](std::function<void(StudioApp&)> f) {
+    steps_.push_back([f](StudioApp& a) {
+      f(a);
+      return true;
+    });
+  };
+  auto waitIdle = [this] { steps_.push_back([](StudioApp& a) { return a.idle(); }); };
+  auto frames = [this](int n) {
+    for (int i = 0; i < n; ++i) steps_.push_back([](StudioApp&) { return true; });
+  };
+
+  if (name == "open") {
+    const std::string path = v.is_string() ? v.get<std::string>() : v.at("path").get<std::string>();
+    const std::string labels = v.is_object() ? v.value("labels", "") : "";
+    const std::string series = v.is_object() ? v.value("series", "") : "";
+    const bool expectError = v.is_object() && v.value("expect_error", false);
+    auto before = std::make_shared<fs::path>();
+    once([=](StudioApp& a) {
+      *before = a.scene().volumePath;
+      a.requestOpen(path, labels, series);
+    });
+    steps_.push_back([](StudioApp& a) { return !a.loading(); });
+    frames(1);  // the frame after the worker finished adopts the result
+    once([=](StudioApp& a) {
+      const std::string& err = a.lastLoadError();
+      if (expectError) {
+        if (err.empty()) throw Error("expected '" + path + "' to fail, but it opened");
+        if (a.scene().volumePath != *before) throw Error("a failed open changed the scene");
+        std::cout << "expected error: " << err << std::endl;
+      } else if (!err.empty()) {
+        throw Error("open failed: " + err);
+      }
+    });
+  } else if (name == "layout") {
+    const Layout l = parseLayout(v.get<std::string>());
+    once([l](StudioApp& a) { a.setLayout(l); });
+    frames(1);
+  } else if (name == "preset") {
+    const render::Preset p = render::parsePreset(v.get<std::string>());
+    once([p](StudioApp& a) { a.setPreset(p); });
+  } else if (name == "click" || name == "drag") {
+    const json& spec = v;
+    const bool isClick = name == "click";
+    const auto from = point(isClick ? (spec.is_array() ? spec : spec.at("at")) : spec.at("from"));
+    const auto to = isClick ? from : point(spec.at("to"));
+    const int button = parseButton(spec.is_object() ? spec.value("button", "left") : "left");
+    const int mods = spec.is_object() && spec.contains("mods") ? parseMods(spec["mods"]) : 0;
+    const int moves = isClick ? 0 : (spec.is_object() ? spec.value("steps", 8) : 8);
+    once([=](StudioApp& a) { a.injectCursorPos(from.first, from.second); });
+    once([=](StudioApp& a) { a.injectMouseButton(button, GLFW_PRESS, mods); });
+    for (int i = 1; i <= moves; ++i) {
+      const double t = double(i) / moves;
+      once([=](StudioApp& a) {
+        a.injectCursorPos(from.first + (to.first - from.first) * t, from.second + (to.second - from.second) * t);
+      });
+    }
+    once([=](StudioApp& a) { a.injectMouseButton(button, GLFW_RELEASE, mods); });
+  } else if (name == "scroll") {
+    const auto at = point(v.at("at"));
+    const double dy = v.value("dy", 1.0);
+    once([=](StudioApp& a) { a.injectCursorPos(at.first, at.second); });
+    once([=](StudioApp& a) { a.injectScroll(0, dy); });
+  } else if (name == "key") {
+    const auto [key, mods] = parseKey(v.get<std::string>());
+    once([=](StudioApp& a) { a.injectKey(key, GLFW_PRESS, mods); });
+    once([=](StudioApp& a) { a.injectKey(key, GLFW_RELEASE, mods); });
+  } else if (name == "frames") {
+    frames(v.get<int>());
+  } else if (name == "wait_idle") {
+    waitIdle();
+  } else if (name == "screenshot") {
+    const std::string path = v.is_string() ? v.get<std::string>() : v.at("path").get<std::string>();
+    const std::string view = v.is_object() ? v.value("view", "window") : "window";
+    int w = 0, h = 0;
+    if (v.is_object() && v.contains("size")) w = v["size"].at(0).get<int>(), h = v["size"].at(1).get<int>();
+    waitIdle();
+    if (view == "3d") {
+      once([=](StudioApp& a) { a.save3dScreenshot(path, w, h); });
+    } else if (view == "window") {
+      frames(2);  // ImGui settles hover and auto-sized windows over a couple of frames
+      once([=](StudioApp& a) { a.requestWindowScreenshot(path); });
+      steps_.push_back([](StudioApp& a) {
+        if (a.screenshotPending()) return false;
+        if (auto err = a.takeScreenshotError()) throw Error(*err);
+        return true;
+      });
+    } else {
+      throw Error("screenshot view must be \"window\" or \"3d\"");
+    }
+  } else if (name == "save_scene") {
+    const std::string path = v.get<std::string>();
+    once([=](StudioApp& a) { a.saveScene(path); });
+  } else if (name == "save_labels") {
+    const std::string path = v.get<std::string>();
+    once([=](StudioApp& a) { a.saveLabels(path); });
+  } else if (name == "threshold") {
+    const json spec = v;
+    once([spec](StudioApp& a) {
+      ToolState& t = a.tools();
+      if (spec.contains("preset")) t.threshold = segmentation::presetInterval(segmentation::parsePreset(spec["preset"]));
+      t.threshold.lower = spec.value("lower", t.threshold.lower);
+      t.threshold.upper = spec.value("upper", t.threshold.upper);
+      if (spec.contains("label")) t.activeLabel = spec["label"].get<uint16_t>();
+      t.thresholdPreview = spec.value("preview", false);
+      if (spec.value("apply", true)) a.applyThreshold();
+    });
+  } else if (name == "tool") {
+    const std::string t = v.get<std::string>();
+    const Tool tool = t == "paint"      ? Tool::Paint
+                      : t == "erase"    ? Tool::Erase
+                      : t == "grow"     ? Tool::Grow
+                      : t == "snake"    ? Tool::Snake
+                      : t == "navigate" ? Tool::Navigate
+                                        : throw Error("unknown tool '" + t + "'");
+    once([tool](StudioApp& a) { a.tools().tool = tool; });
+  } else if (name == "brush_radius") {
+    const double r = v.get<double>();
+    once([r](StudioApp& a) { a.tools().brushRadiusMm = static_cast<float>(r); });
+  } else if (name == "active_label") {
+    const auto id = v.get<uint16_t>();
+    once([id](StudioApp& a) { a.tools().activeLabel = id; });
+  } else if (name == "keep_largest") {
+    once([](StudioApp& a) { a.keepLargestOfActive(); });
+  } else if (name == "fill_holes") {
+    once([](StudioApp& a) { a.fillHolesOfActive(); });
+  } else if (name == "morphology") {
+    const std::string op = v.get<std::string>();
+    const Morphology m = op == "dilate" ? Morphology::Dilate
+                         : op == "erode" ? Morphology::Erode
+                         : op == "open"  ? Morphology::Open
+                         : op == "close" ? Morphology::Close
+                                         : throw Error("unknown morphology '" + op + "'");
+    once([m](StudioApp& a) { a.morphologyOfActive(m); });
+  } else if (name == "lock_label") {
+    const auto id = v.at("id").get<uint16_t>();
+    const bool on = v.value("locked", true);
+    once([id, on](StudioApp& a) { on ? (void)a.scene().lockedLabels.insert(id) : (void)a.scene().lockedLabels.erase(id); });
+  } else if (name == "camera") {
+    const json spec = v;
+    once([spec](StudioApp& a) {
+      render::Camera& c = a.scene().camera;
+      c.azimuthDeg = spec.value("azimuth", c.azimuthDeg);
+      c.elevationDeg = spec.value("elevation", c.elevationDeg);
+      c.zoom = spec.value("zoom", c.zoom);
+      c.fieldOfViewDeg = spec.value("fov", c.fieldOfViewDeg);
+      if (spec.contains("pan")) c.panMm = {spec["pan"].at(0).get<double>(), spec["pan"].at(1).get<double>(), spec["pan"].at(2).get<double>()};
+    });
+  } else if (name == "remove_islands") {
+    const double mm3 = v.get<double>();
+    once([mm3](StudioApp& a) {
+      a.tools().minIslandMm3 = static_cast<float>(mm3);
+      a.removeIslandsOfActive();
+    });
+  } else if (name == "otsu") {
+    once([](StudioApp& a) { a.otsuThreshold(); });
+  } else if (name == "export_command") {
+    const std::string path = v.at("path").get<std::string>();
+    const std::string out = v.at("figure").get<std::string>();
+    once([=](StudioApp& a) {
+      std::ofstream f(path);
+      f << a.cliCommand(out) << "\n";
+      if (!f) throw Error("cannot write " + path);
+    });
+  } else if (name == "hud") {
+    const bool on = v.get<bool>();
+    once([on](StudioApp& a) { a.hudVisible = on; });
+  } else if (name == "log") {
+    const std::string text = v.get<std::string>();
+    once([text](StudioApp&) { std::cout << text << std::endl; });
+  } else if (name == "quit") {
+    const int code = v.is_number_integer() ? v.get<int>() : 0;
+    once([this, code](StudioApp&) { quitCode_ = code; });
+  }
+}
+
+}  // namespace vellum::studio

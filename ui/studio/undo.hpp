@@ -1,0 +1,51 @@
+#pragma once
+// Undo/redo of label edits as compressed deltas: runs of consecutive voxels whose old and
+// new ids are each constant (a threshold or a brush stroke is a few thousand runs, not a
+// copy of the 256³ label map), plus the label table before and after.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vellum/core/label_volume.hpp"
+
+namespace vellum::studio {
+
+struct LabelDelta {
+  struct Run {
+    uint64_t start = 0;   ///< linear voxel index of the first voxel
+    uint32_t length = 0;
+    uint16_t before = 0;
+    uint16_t after = 0;
+  };
+  std::string description;
+  std::vector<Run> runs;
+  std::vector<Label> tableBefore, tableAfter;
+
+  bool empty() const { return runs.empty() && tableBefore == tableAfter; }
+  /// Bytes held (for the memory line in the panel and for tests).
+  size_t bytes() const { return runs.size() * sizeof(Run); }
+};
+
+/// The runs where `before` and `after` differ (same size required).
+LabelDelta diffLabels(const LabelVolume& before, const LabelVolume& after, std::string description);
+/// Writes the delta's `after` (redo) or `before` (undo) ids and table into `labels`.
+void applyDelta(LabelVolume& labels, const LabelDelta& delta, bool forward);
+
+class UndoStack {
+ public:
+  /// Records an edit that has already been applied; clears the redo side.
+  void push(LabelDelta delta);
+  bool canUndo() const { return !undo_.empty(); }
+  bool canRedo() const { return !redo_.empty(); }
+  /// Reverts the last edit on `labels`; false when there is none.
+  bool undo(LabelVolume& labels);
+  bool redo(LabelVolume& labels);
+  void clear();
+  const std::vector<LabelDelta>& undoEntries() const { return undo_; }
+  size_t bytes() const;
+
+ private:
+  std::vector<LabelDelta> undo_, redo_;
+};
+
+}  // namespace vellum::studio

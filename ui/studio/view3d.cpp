@@ -1,0 +1,257 @@
+#include "view3d.hpp"
+
+#include <GL/glcorearb.h>
+
+#include <algorithm>
+#include <cmath>
+#include <chrono>
+#include <sstream>
+
+namespace vellum::studio {
+
+render::RenderSettings renderSettingsFor(const Scene& scene, int width, int height) {
+  render::RenderSettings s;
+  s.width = std::clamp(width, 1, 4096);
+  s.height = std::clamp(height, 1, 4096);
+  s.preset = scene.preset;
+  s.camera = scene.camera;
+  s.windowCenter = scene.renderWindow.center;
+  s.windowWidth = scene.renderWindow.width;
+  return s;
+}
+
+CameraBasis cameraBasis(const render::Camera& cam) {
+  // As modules/render/src/render_common.cpp builds its frame.
+  const double az = cam.azimuthDeg * M_PI / 180.0, el = cam.elevationDeg * M_PI / 180.0;
+  CameraBasis b;
+  b.forward = -Vec3{std::cos(el) * std::sin(az), -std::cos(el) * std::cos(az), std::sin(el)};
+  b.right = {std::cos(az), std::sin(az), 0};
+  b.up = cross(b.right, b.forward);
+  return b;
+}
+
+std::optional<std::pair<double, double>> projectToView(const Scene& scene, int width, int height, const Vec3& p) {
+  // The orbit camera of render::RenderSettings (modules/render/src/render_common.cpp).
+  const Geometry& g = scene.ct.geometry();
+  const Vec3 centre = g.center();
+  double radius = 0;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 corner{(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5, (c & 4) ? g.dims.z - 0.5 : -0.5};
+    radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
+  }
+  const render::Camera& cam = scene.camera;
+  const Vec3 lookAt = centre + cam.panMm;
+  const auto [right, up, forward] = cameraBasis(cam);
+  const double aspect = double(width) / height;
+  const double sx = aspect >= 1 ? aspect : 1.0, sy = aspect >= 1 ? 1.0 : 1.0 / aspect;
+  double x, y, halfW, halfH;
+  if (cam.fieldOfViewDeg > 0) {
+    const double half = cam.fieldOfViewDeg * M_PI / 360.0;
+    const Vec3 eye = lookAt - forward * (radius / std::sin(half));
+    const Vec3 d = p - eye;
+    const double z = dot(d, forward);
+    if (z <= 1e-6) return std::nullopt;
+    x = dot(d, right) / z;
+    y = dot(d, up) / z;
+    halfW = std::tan(half) / cam.zoom * sx;
+    halfH = std::tan(half) / cam.zoom * sy;
+  } else {
+    x = dot(p - lookAt, right);
+    y = dot(p - lookAt, up);
+    halfW = radius / cam.zoom * sx;
+    halfH = radius / cam.zoom * sy;
+  }
+  return std::pair{(x / halfW + 1) / 2 * width, (1 - y / halfH) / 2 * height};
+}
+
+namespace {
+/// Bounding-sphere radius of the volume's voxel box about its centre (the renderer's).
+double boundingRadius(const Geometry& g) {
+  double radius = 0;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 corner{(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5, (c & 4) ? g.dims.z - 0.5 : -0.5};
+    radius = std::max(radius, norm(g.indexToPhysical(corner) - g.center()));
+  }
+  return radius;
+}
+}  // namespace
+
+std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py) {
+  if (!scene.hasVolume() || width < 1 || height < 1) return std::nullopt;
+  const Geometry& g = scene.ct.geometry();
+  const render::Camera& cam = scene.camera;
+  const double radius = boundingRadius(g);
+  const Vec3 lookAt = g.center() + cam.panMm;
+  const CameraBasis b = cameraBasis(cam);
+  const double aspect = double(width) / height;
+  const double sx = aspect >= 1 ? aspect : 1.0, sy = aspect >= 1 ? 1.0 : 1.0 / aspect;
+  const double ndcX = px / width * 2 - 1, ndcY = 1 - py / height * 2;
+  Vec3 origin, dir;
+  if (cam.fieldOfViewDeg > 0) {  // the renderer's pixelRay()
+    const double half = cam.fieldOfViewDeg * M_PI / 360.0;
+    origin = lookAt - b.forward * (radius / std::sin(half));
+    const double t = std::tan(half) / cam.zoom;
+    dir = normalized(b.forward + b.right * (ndcX * t * sx) + b.up * (ndcY * t * sy));
+  } else {
+    origin = lookAt - b.forward * (2 * radius + norm(cam.panMm) + 1.0) +
+             b.right * (ndcX * radius / cam.zoom * sx) + b.up * (ndcY * radius / cam.zoom * sy);
+    dir = b.forward;
+  }
+  const Vec3& sp = g.spacing;
+  const double step = 0.5 * std::min({sp.x, sp.y, sp.z});
+  const double length = norm(origin - g.center()) + 2 * radius;
+  const bool mip = scene.preset == render::Preset::Mip;
+  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.preset);
+  // The renderer shifts/scales the preset's value axis from its default window (400, 2000).
+  const double w = scene.renderWindow.width > 0 ? scene.renderWindow.width : 2000.0;
+  double transmitted = 1, best = -1e300;
+  std::optional<Vec3> bestPoint;
+  for (double t = 0; t < length; t += step) {
+    const Vec3 p = origin + dir * t;
+    const double hu = scene.ct.sampleLinearMm(p);
+    if (mip) {
+      if (hu > best) best = hu, bestPoint = p;
+      continue;
+    }
+    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.renderWindow.center) * 2000.0 / w)[3];
+    transmitted *= std::pow(1.0 - std::clamp(alphaPerMm, 0.0, 0.999999), step);
+    if (transmitted <= 0.5) return p;
+  }
+  if (mip && best > scene.renderWindow.center - 0.5 * w) return bestPoint;
+  return std::nullopt;
+}
+
+std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out) {
+  const render::RenderSettings s = renderSettingsFor(scene, width, height);
+  std::ostringstream c;
+  c.precision(10);
+  auto quoted = [](const std::string& t) { return "'" + t + "'"; };
+  c << "vellum render " << quoted(scene.volumePath.string()) << " --out " << quoted(out)
+    << " --preset " << render::presetName(s.preset) << " --size " << s.width << "x" << s.height
+    << " --azimuth " << s.camera.azimuthDeg << " --elevation " << s.camera.elevationDeg << " --zoom "
+    << s.camera.zoom << " --fov " << s.camera.fieldOfViewDeg << " --pan " << s.camera.panMm.x << ' '
+    << s.camera.panMm.y << ' ' << s.camera.panMm.z << " --window " << s.windowCenter << ' ' << s.windowWidth;
+  return c.str();
+}
+
+namespace {
+/// What a frame depends on; a change means "render again".
+std::string viewKey(const Scene& s, int w, int h) {
+  std::ostringstream k;
+  k.precision(17);
+  const auto& c = s.camera;
+  k << w << ' ' << h << ' ' << int(s.preset) << ' ' << c.azimuthDeg << ' ' << c.elevationDeg << ' '
+    << c.zoom << ' ' << c.fieldOfViewDeg << ' ' << c.panMm.x << ' ' << c.panMm.y << ' ' << c.panMm.z
+    << ' ' << s.renderWindow.center << ' ' << s.renderWindow.width;
+  return k.str();
+}
+}  // namespace
+
+View3D::View3D(render::GlContext& context)
+    : context_(context), renderer_(std::make_unique<render::VolumeRenderer>(context)) {}
+
+void View3D::setVolume(const VolumeI16& ct) {
+  context_.makeCurrent();
+  renderer_->setVolume(AnyVolume(ct));
+  hasVolume_ = true;
+  invalidate();
+}
+
+RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
+  context_.makeCurrent();
+  RgbaImage img = renderer_->render(renderSettingsFor(scene, width, height));
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);  // the renderer leaves its FBO bound
+  return img;
+}
+
+std::vector<double> View3D::predictRowCosts(const RgbaImage& coarse, int height) const {
+  // Rays that hit something cost far more than rays through empty space or past the volume:
+  // weight each full-resolution row by the object pixels of the matching coarse row.
+  std::vector<double> cost(static_cast<size_t>(height), 1.0);
+  if (coarse.width == 0 || coarse.height == 0) return cost;
+  const uint8_t* bg = coarse.at(0, 0);  // a corner: the background colour
+  for (int y = 0; y < height; ++y) {
+    const int cy = std::min(coarse.height - 1, y * coarse.height / height);
+    int hits = 0;
+    for (int x = 0; x < coarse.width; ++x) {
+      const uint8_t* p = coarse.at(x, cy);
+      hits += p[0] != bg[0] || p[1] != bg[1] || p[2] != bg[2];
+    }
+    cost[static_cast<size_t>(y)] += 10.0 * hits * (double(scale_) * scale_);
+  }
+  return cost;
+}
+
+void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key) {
+  const auto t0 = std::chrono::steady_clock::now();
+  coarse_ = renderImage(scene, std::max(1, paneWidth / scale_), std::max(1, paneHeight / scale_));
+  texture_.upload(coarse_);
+  lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  lastScale_ = scale_;
+  lastKey_ = key;
+  refined_ = false;
+  // Cost scales with pixels: halve the resolution when over budget; double it only when 4x
+  // the pixels are predicted to fit (hysteresis: no oscillation between two factors).
+  if (lastMs_ > kInteractiveBudgetMs && scale_ < 8) scale_ *= 2;
+  else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) scale_ /= 2;
+}
+
+bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool interacting) {
+  if (!hasVolume_ || paneWidth < 2 || paneHeight < 2) return false;
+  const std::string key = viewKey(scene, paneWidth, paneHeight);
+  if (interacting) {  // coarse frames only, each a complete picture
+    refining_ = false;
+    if (key == lastKey_) return false;
+    renderCoarse(scene, paneWidth, paneHeight, key);
+    return true;
+  }
+  if (key == lastKey_ && refined_) return false;
+  if (key != lastKey_) {
+    // Changed without a drag (preset, layout, a panel value): show a coarse frame at once.
+    renderCoarse(scene, paneWidth, paneHeight, key);
+    refining_ = false;
+    return true;
+  }
+  // Idle: refine to full resolution a band of rows per frame, each band sized to the
+  // interactive budget, so that no frame blocks for a whole full-resolution render.
+  if (!refining_) {
+    refining_ = true;
+    // Start from the coarse frame scaled up, so each band can be shown as it lands.
+    refineImage_ = RgbaImage(paneWidth, paneHeight);
+    if (coarse_.width > 0 && coarse_.height > 0)
+      for (int y = 0; y < paneHeight; ++y) {
+        const int cy = std::min(coarse_.height - 1, y * coarse_.height / paneHeight);
+        for (int x = 0; x < paneWidth; ++x)
+          std::copy_n(coarse_.at(std::min(coarse_.width - 1, x * coarse_.width / paneWidth), cy), 4,
+                      refineImage_.at(x, y));
+      }
+    refineRow_ = 0;
+    refineMs_ = 0;
+    rowCost_ = predictRowCosts(coarse_, paneHeight);
+  }
+  // The band: as many rows as the predicted cost allows within the budget (at least 4).
+  int rows = 0;
+  for (double cost = 0; refineRow_ + rows < paneHeight; ++rows) {
+    cost += rowCost_[static_cast<size_t>(refineRow_ + rows)];
+    if (rows >= 4 && cost * msPerCost_ > kInteractiveBudgetMs) break;
+  }
+  double bandCost = 0;
+  for (int r = 0; r < rows; ++r) bandCost += rowCost_[static_cast<size_t>(refineRow_ + r)];
+  const auto t0 = std::chrono::steady_clock::now();
+  context_.makeCurrent();
+  renderer_->renderRows(renderSettingsFor(scene, paneWidth, paneHeight), refineRow_, refineRow_ + rows, refineImage_);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  msPerCost_ = std::max(1e-4, lastMs_ / bandCost);
+  refineMs_ += lastMs_;
+  lastScale_ = 1;
+  refineRow_ += rows;
+  texture_.upload(refineImage_);  // sharp rows sweep down over the coarse picture
+  if (refineRow_ >= paneHeight) {
+    refined_ = true;
+    refining_ = false;
+  }
+  return true;
+}
+
+}  // namespace vellum::studio

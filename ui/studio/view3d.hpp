@@ -1,0 +1,92 @@
+#pragma once
+// The 3D pane: the shared VolumeRenderer drawing into the window's context, displayed as a
+// texture. Progressive refinement: while the user drags, frames render at 1/2..1/8 of the
+// pane's resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when
+// the view rests, the full-resolution picture is rendered a band of rows per frame
+// (VolumeRenderer::renderRows, each band sized to the same budget), each band shown over the
+// scaled-up coarse picture as it lands, so the window stays responsive throughout.
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "gl_texture.hpp"
+#include "scene.hpp"
+#include "vellum/render/volume_renderer.hpp"
+
+namespace vellum::studio {
+
+/// The renderer settings for `scene` at width x height: the same mapping as `vellum render`
+/// flags (camera, preset, --window from renderWindow), so the studio and the CLI agree.
+render::RenderSettings renderSettingsFor(const Scene& scene, int width, int height);
+
+/// The orbit camera's unit vectors in LPS (the renderer's model: azimuth about +z from
+/// anterior, elevation towards superior).
+struct CameraBasis {
+  Vec3 right, up, forward;
+};
+CameraBasis cameraBasis(const render::Camera& camera);
+
+/// Window-pane pixel coordinates (x right, y down) of the physical point p in the 3D view of
+/// `scene` at width x height, with the renderer's camera model; nullopt behind the camera.
+std::optional<std::pair<double, double>> projectToView(const Scene& scene, int width, int height, const Vec3& p);
+
+/// The first visible point along the ray through pane pixel (px, py) of the 3D view: where
+/// the preset's transfer function (shifted by the render window as the renderer does) has
+/// accumulated half opacity, or for MIP the maximum along the ray. nullopt when the ray
+/// meets nothing visible. Used to seed and to move the crosshair by clicking the 3D view.
+std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py);
+
+/// The `vellum render` command line that writes the 3D view at width x height to `out`.
+std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out);
+
+class View3D {
+ public:
+  static constexpr double kInteractiveBudgetMs = 60;
+
+  explicit View3D(render::GlContext& context);
+  void setVolume(const VolumeI16& ct);
+  /// Renders when the view changed (or to refine after interaction). Returns true if it
+  /// rendered this frame.
+  bool update(const Scene& scene, int paneWidth, int paneHeight, bool interacting);
+  /// A full-resolution render at any size up to 4096² (screenshots).
+  RgbaImage renderImage(const Scene& scene, int width, int height);
+  const GlTexture& texture() const { return texture_; }
+  /// True when the displayed image is full resolution and up to date.
+  bool refined() const { return refined_; }
+  double lastRenderMs() const { return lastMs_; }
+  int lastScale() const { return lastScale_; }
+  /// While refining: the fraction of rows done (0..1); 1 when refined or not refining.
+  double refineProgress() const {
+    return refining_ && refineImage_.height > 0 ? double(refineRow_) / refineImage_.height : 1.0;
+  }
+  /// Sum of the band renders of the last completed (or running) refinement.
+  double refineMs() const { return refineMs_; }
+  void invalidate() {
+    refined_ = refining_ = false;
+    lastKey_.clear();
+  }
+
+ private:
+  render::GlContext& context_;
+  std::unique_ptr<render::VolumeRenderer> renderer_;
+  GlTexture texture_;
+  bool hasVolume_ = false;
+  bool refined_ = false;
+  std::string lastKey_;
+  int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
+  double lastMs_ = 0;
+  void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
+  // Banded refinement state.
+  bool refining_ = false;
+  RgbaImage refineImage_;
+  int refineRow_ = 0;
+  RgbaImage coarse_;              ///< the last reduced-resolution frame (row cost predictor)
+  std::vector<double> rowCost_;   ///< predicted relative cost of each full-resolution row
+  double msPerCost_ = 0.01;       ///< learnt from each band
+  double refineMs_ = 0;
+  std::vector<double> predictRowCosts(const RgbaImage& coarse, int height) const;
+};
+
+}  // namespace vellum::studio
