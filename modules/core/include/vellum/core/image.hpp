@@ -1,5 +1,6 @@
 #pragma once
 // RgbaImage: 8-bit RGBA pixels, rows top to bottom (what figures and movies are made of).
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
