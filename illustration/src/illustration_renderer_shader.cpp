@@ -156,9 +156,12 @@ void main() {
       if (texelFetch(uOccupancy, b, 0).r < 0.5) {
         vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
         vec3 hi = mix(vec3((b + 1) * BLOCK_SIZE), uBoxDims + 2.0, equal(b, uBlocks - 1));
-        vec3 tb = (mix(lo, hi, greaterThan(d, vec3(0.0))) - o) * inv;
+        // Sides chosen with nonZero()'s sign (a +0 component counts as positive), and the
+        // step index clamped before int conversion: axis-aligned rays give +-1e12 here.
+        vec3 tb = (mix(lo, hi, greaterThanEqual(d, vec3(0.0))) - o) * inv;
         float tExit = min(min(tb.x, tb.y), tb.z);
-        k = max(k, int(ceil(tExit / uStep - jitter)) - 1);
+        float kExit = clamp(ceil(tExit / uStep - jitter), float(k), float(k1) + 1.0);
+        k = max(k, int(kExit) - 1);
         continue;
       }
       vec3 pMm = uBoxOrigin + uBoxToPhys * p;

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <charconv>
+#include <cstdlib>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -35,6 +37,13 @@ std::string fmt(double v) {
   return o.str();
 }
 
+/// The float as the shortest decimal that reads back to it (0.3f -> 0.3, not 0.30000001).
+double shortest(float v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::strtod(std::string(buf, r.ptr).c_str(), nullptr);
+}
+
 template <class S>
 struct Field {
   std::string key, help, range;
@@ -45,7 +54,7 @@ struct Field {
 template <class S>
 Field<S> floatField(std::string key, std::string help, float S::*m, float lo, float hi) {
   std::string range = "[" + fmt(lo) + ", " + fmt(hi) + "]";
-  return {key, help, range, [m](const S& s) { return json(s.*m); },
+  return {key, help, range, [m](const S& s) { return json(shortest(s.*m)); },
           [m, lo, hi, range](S& s, const json& v) {
             if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < lo ||
                 v.get<double>() > hi)
@@ -75,7 +84,7 @@ Field<S> stringField(std::string key, std::string help, std::string S::*m) {
 template <class S>
 Field<S> colourField(std::string key, std::string help, Rgb S::*m) {
   return {key, help, "[r, g, b] in [0, 1]",
-          [m](const S& s) { return json::array({(s.*m)[0], (s.*m)[1], (s.*m)[2]}); },
+          [m](const S& s) { return json::array({shortest((s.*m)[0]), shortest((s.*m)[1]), shortest((s.*m)[2])}); },
           [m](S& s, const json& v) {
             bool ok = v.is_array() && v.size() == 3;
             for (size_t i = 0; ok && i < 3; ++i)
@@ -162,7 +171,7 @@ const std::vector<Field<SegmentStyle>>& segmentFields() {
 Field<Style> lightField() {
   return {"light", "light direction in camera space: right, up, toward the viewer (normalised)",
           "[x, y, z], not all 0",
-          [](const Style& s) { return json::array({s.light[0], s.light[1], s.light[2]}); },
+          [](const Style& s) { return json::array({shortest(s.light[0]), shortest(s.light[1]), shortest(s.light[2])}); },
           [](Style& s, const json& v) {
             bool ok = v.is_array() && v.size() == 3;
             for (size_t i = 0; ok && i < 3; ++i) ok = v[i].is_number() && std::isfinite(v[i].get<double>());
