@@ -65,8 +65,9 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, vec3 pMm, float depth, vec3 vie
   float coverage = label > 0 ? clamp(0.5 - d / uCoverageH, 0.0, 1.0) : 1.0;
   float aSeg = r.t[0].w * coverage;
 
-  vec3 c1;
-  float a1;
+  vec3 c1 = vec3(0.0);
+  float a1 = 0.0;
+  if (r.t[1].x > 0.0) {
 #ifdef USE_CT
   if (r.t[11].x > 0.5) {
     float x = clamp((ct4.w - uTfLo) / (uTfHi - uTfLo), 0.0, 1.0) * float(TF_SIZE - 1);
@@ -84,6 +85,7 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, vec3 pMm, float depth, vec3 vie
     float spec = glen > 1e-6 ? r.t[10].z * pow(max(dot(n, H), 0.0), r.t[10].w) : 0.0;
     c1 = min(col * lit + spec, vec3(1.0));
     a1 = aSeg;
+  }
   }
 
   vec3 c3 = vec3(0.0);
@@ -112,7 +114,9 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, vec3 pMm, float depth, vec3 vie
 #endif
   b = clamp(1.0 - abs(d) / r.t[8].w, 0.0, 1.0);
   float ndv = glen > 1e-6 ? abs(dot(n, view)) : 1.0;
-  float m = (r.t[8].x + r.t[8].y * pow(b, r.t[8].z)) * (r.t[9].x + r.t[9].y * pow(max(1.0 - ndv, 0.0), r.t[9].z));
+  float m = r.t[8].x * r.t[9].x;
+  if (r.t[8].y > 0.0 || r.t[9].y > 0.0)
+    m = (r.t[8].x + r.t[8].y * pow(b, r.t[8].z)) * (r.t[9].x + r.t[9].y * pow(max(1.0 - ndv, 0.0), r.t[9].z));
   float am = min(a * m, 1.0);
   return vec4(rgb * (am / a), am);
 }
@@ -149,6 +153,7 @@ void main() {
     int k0 = int(ceil(tmin / uStep - jitter));
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
     int cur = -1;
+    bool visible = false;
     Row r;
     for (int k = k0; k <= k1; ++k) {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
@@ -177,11 +182,12 @@ void main() {
         ivec3 v = i0 + cc;
         if (any(lessThan(v, ivec3(0))) || any(greaterThanEqual(v, dims))) continue;
         int lab = int(texelFetch(uLabels, v, 0).r);
-        if (lab != cur) {
-          r = loadRow(lab);
+        if (lab != cur) {  // visibility first: invisible rows are never loaded
           cur = lab;
+          visible = texelFetch(uStyle, ivec2(1, lab), 0).w > 0.5;
+          if (visible) r = loadRow(lab);
         }
-        if (r.t[1].w < 0.5) continue;
+        if (!visible) continue;
         vec3 wv = mix(1.0 - tt, tt, vec3(cc));
         float w = wv.x * wv.y * wv.z;
 #ifdef USE_CT
@@ -193,10 +199,11 @@ void main() {
       ivec3 v = clamp(ivec3(floor(p + 0.5)), ivec3(0), dims - 1);
       int lab = int(texelFetch(uLabels, v, 0).r);
       if (lab != cur) {
-        r = loadRow(lab);
         cur = lab;
+        visible = texelFetch(uStyle, ivec2(1, lab), 0).w > 0.5;
+        if (visible) r = loadRow(lab);
       }
-      if (r.t[1].w < 0.5) continue;
+      if (!visible) continue;
       vec3 tc = (p + 0.5) / uBoxDims;
 #ifdef USE_CT
       ct4 = texture(uCt, tc);

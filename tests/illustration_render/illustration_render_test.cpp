@@ -46,9 +46,10 @@ IllustrationSettings front(int size = 96, Interpolation interp = Interpolation::
 }
 
 RgbaImage gpu(const ShapeScene& scene, const Style& st, const IllustrationSettings& s) {
+  render::GlContext& context = gl();  // constructed first, so destroyed after the renderer
   static const ShapeScene* uploaded = nullptr;
   static std::unique_ptr<IllustrationRenderer> r;
-  if (!r) r = std::make_unique<IllustrationRenderer>(gl());
+  if (!r) r = std::make_unique<IllustrationRenderer>(context);
   // Only the two static scenes are cached: a test's local scene may reuse an old address.
   const bool cacheable = &scene == &nested() || &scene == &spheres();
   if (!cacheable || uploaded != &scene) {

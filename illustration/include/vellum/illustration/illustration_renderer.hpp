@@ -45,8 +45,12 @@ ShapeScene loadShapeFolder(const std::filesystem::path& dir);
 void validateScene(const ShapeScene& scene);
 
 struct IllustrationSettings {
-  render::RenderSettings render;  ///< size, camera, step, jitter, background
+  /// Size, camera, step, jitter, background. The step defaults to one voxel here (the
+  /// render module's 0.5): styled surfaces come from a smooth distance field, and the
+  /// per-pixel jitter hides sampling rings.
+  render::RenderSettings render;
   Interpolation interpolation = Interpolation::Eight;
+  IllustrationSettings() { render.stepVoxels = 1.0; }
 };
 
 /// GL renderer. The scene is uploaded once by setScene() (distance + precomputed label-aware
