@@ -178,7 +178,7 @@ void IllustrationRenderer::setScene(const ShapeScene& scene) {
   del(m.ctTex);
   m.labelTex = make3d(GL_R8UI, d, GL_RED_INTEGER, GL_UNSIGNED_BYTE, ids.data(), GL_NEAREST, GL_CLAMP_TO_EDGE);
   m.gradTex = make3d(GL_RGBA16F, d, GL_RGBA, GL_HALF_FLOAT, grad.half.data(), GL_LINEAR, GL_CLAMP_TO_EDGE);
-  m.blocks = computeBlockLabels(scene.segments.ids());
+  m.blocks = computeBlockLabels(scene.segments.ids(), scene.distance);
   m.occTex = make3d(GL_R8, m.blocks.blocks, GL_RED, GL_UNSIGNED_BYTE, nullptr, GL_NEAREST, GL_CLAMP_TO_EDGE);
   checkGlError("scene upload");
   m.geometry = scene.distance.geometry();

@@ -6,6 +6,7 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "solid_texture.hpp"
 #include "vellum/core/error.hpp"
@@ -141,22 +142,26 @@ Volume4 computeCtGradient(const AnyVolume& ctAny) {
   return out;
 }
 
-BlockLabels computeBlockLabels(const VolumeU16& labels) {
+BlockLabels computeBlockLabels(const VolumeU16& labels, const VolumeF32& distance) {
   const Dims d = labels.dims();
   BlockLabels b;
   b.blocks = {(d.x + kBlock - 1) / kBlock, (d.y + kBlock - 1) / kBlock, (d.z + kBlock - 1) / kBlock};
   b.masks.assign(size_t(b.blocks.voxelCount()), {0, 0, 0, 0});
+  b.minAbsDistance.assign(size_t(b.blocks.voxelCount()), std::numeric_limits<float>::infinity());
   parallelFor(b.blocks.z, [&](int64_t bz0, int64_t bz1) {
     for (int64_t bz = bz0; bz < bz1; ++bz)
       for (int64_t by = 0; by < b.blocks.y; ++by)
         for (int64_t bx = 0; bx < b.blocks.x; ++bx) {
-          auto& m = b.masks[size_t((bz * b.blocks.y + by) * b.blocks.x + bx)];
+          const size_t bi = size_t((bz * b.blocks.y + by) * b.blocks.x + bx);
+          auto& m = b.masks[bi];
+          float& minD = b.minAbsDistance[bi];
           // The block dilated by one voxel: a sample in it can see those voxels.
           for (int64_t k = std::max<int64_t>(bz * kBlock - 1, 0); k < std::min(bz * kBlock + kBlock + 1, d.z); ++k)
             for (int64_t j = std::max<int64_t>(by * kBlock - 1, 0); j < std::min(by * kBlock + kBlock + 1, d.y); ++j)
               for (int64_t i = std::max<int64_t>(bx * kBlock - 1, 0); i < std::min(bx * kBlock + kBlock + 1, d.x); ++i) {
                 const int l = std::min<int>(labels(i, j, k), kMaxLabels - 1);
                 m[size_t(l >> 6)] |= uint64_t(1) << (l & 63);
+                minD = std::min(minD, std::abs(distance(i, j, k)));
               }
         }
   });
@@ -164,13 +169,28 @@ BlockLabels computeBlockLabels(const VolumeU16& labels) {
 }
 
 std::vector<uint8_t> blockOccupancy(const BlockLabels& b, const StyleTable& t) {
-  std::array<uint64_t, 4> vis{0, 0, 0, 0};
-  for (int l = 0; l < kMaxLabels; ++l)
-    if (t.visible[size_t(l)]) vis[size_t(l >> 6)] |= uint64_t(1) << (l & 63);
+  std::array<uint64_t, 4> vis{0, 0, 0, 0}, band{0, 0, 0, 0};
+  std::array<float, kMaxLabels> bandWidth{};
+  for (int l = 0; l < kMaxLabels; ++l) {
+    if (!t.visible[size_t(l)]) continue;
+    const float* R1 = t.row(l, 1);
+    const float* R7 = t.row(l, 7);
+    const float* R8 = t.row(l, 8);
+    const float* R11 = t.row(l, 11);
+    // Boundary-only rows: k_c = 0 on the distance measure, and no CT-alpha term.
+    const bool bandOnly = R7[3] < 0.5f && R8[0] <= 0.f && !(R1[0] > 0.f && R11[0] > 0.5f);
+    auto& set = bandOnly ? band : vis;
+    set[size_t(l >> 6)] |= uint64_t(1) << (l & 63);
+    bandWidth[size_t(l)] = R8[3];
+  }
   std::vector<uint8_t> occ(b.masks.size());
   for (size_t i = 0; i < occ.size(); ++i) {
     const auto& m = b.masks[i];
-    occ[i] = ((m[0] & vis[0]) | (m[1] & vis[1]) | (m[2] & vis[2]) | (m[3] & vis[3])) ? 255 : 0;
+    bool on = (m[0] & vis[0]) | (m[1] & vis[1]) | (m[2] & vis[2]) | (m[3] & vis[3]);
+    for (int w = 0; w < 4 && !on; ++w)
+      for (uint64_t bits = m[size_t(w)] & band[size_t(w)]; bits && !on; bits &= bits - 1)
+        on = b.minAbsDistance[i] < bandWidth[size_t(w * 64 + std::countr_zero(bits))];
+    occ[i] = on ? 255 : 0;
   }
   return occ;
 }

@@ -68,8 +68,12 @@ Volume4 computeCtGradient(const AnyVolume& ct);
 struct BlockLabels {
   Dims blocks;
   std::vector<std::array<uint64_t, 4>> masks;
+  std::vector<float> minAbsDistance;  ///< smallest |d| in the dilated block (mm)
 };
-BlockLabels computeBlockLabels(const VolumeU16& labels);
+BlockLabels computeBlockLabels(const VolumeU16& labels, const VolumeF32& distance);
+/// A block is occupied when a visible row's label is in it, and that row can have opacity
+/// there: rows whose boundary enhancement has k_c = 0 on the distance measure are zero
+/// wherever |d| >= boundary_width_mm, so blocks farther from every surface are skipped.
 std::vector<uint8_t> blockOccupancy(const BlockLabels& b, const StyleTable& t);
 
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].

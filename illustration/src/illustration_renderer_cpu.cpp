@@ -78,6 +78,7 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
   const VolumeU16& labels = cx.scene.segments.ids();
   const bool eight = cx.settings.interpolation == Interpolation::Eight;
   const TextureVolume* tv = cx.texVol ? &*cx.texVol : nullptr;
+  const Vec3 c0{cx.sf.centre.x, cx.sf.centre.y, cx.sf.centre.z};
   for (int y = y0; y < y1; ++y)
     for (int x = 0; x < s.width; ++x) {
       const render::detail::Ray ray = render::detail::pixelRay(f, x, y);
@@ -86,8 +87,9 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
       float acc[4] = {0, 0, 0, 0};
       for (int64_t k = clip.k0; k <= clip.k1; ++k) {
         const Vec3 p = clip.o + clip.d * ((double(k) + clip.jitter) * f.stepMm);
-        const Vec3f pMm = f3(g.indexToPhysical(p));
-        const float depth = dot(pMm - cx.sf.centre, cx.sf.forward) / (2.f * cx.sf.radius) + 0.5f;
+        const double t = (double(k) + clip.jitter) * f.stepMm;
+        const Vec3f pMm = f3(ray.origin + ray.dir * t);
+        const float depth = float((dot(ray.origin - c0, f.forward) + t * dot(ray.dir, f.forward)) / (2.0 * cx.sf.radius) + 0.5);
         std::array<float, 4> sum{0, 0, 0, 0};
         if (eight) {
           const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);

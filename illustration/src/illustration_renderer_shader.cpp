@@ -50,7 +50,26 @@ vec3 normOrZero(vec3 v, out float len) {
   return len > 1e-6 ? v / len : vec3(0.0);
 }
 
-vec4 styled(Row r, int label, vec4 g4, vec4 ct4, vec3 pMm, float depth, vec3 view, vec3 H) {
+// The solid texture value depends on the row and the sample position only: computed once
+// per sample and row (not per voxel corner).
+float texValue(Row r, vec3 pMm) {
+  float tv = 0.0;
+#if defined(USE_TEXTURE) || defined(USE_TEXVOL)
+  int kind = int(r.t[5].w + 0.5);
+  if (r.t[1].z > 0.0 && kind > 0) {
+    float s = 1.0 / r.t[6].w;
+#ifdef USE_TEXVOL
+    if (kind == 6) tv = texture(uTexVol, (pMm * s) / uTexDims).r;
+#endif
+#ifdef USE_TEXTURE
+    if (kind != 6) tv = solidTexture(kind, pMm * s);
+#endif
+  }
+#endif
+  return tv;
+}
+
+vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 view, vec3 H) {
   float glen;
   vec3 n = normOrZero(g4.xyz, glen);
   float d = g4.w;
@@ -90,18 +109,7 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, vec3 pMm, float depth, vec3 vie
 
   vec3 c3 = vec3(0.0);
 #if defined(USE_TEXTURE) || defined(USE_TEXVOL)
-  int kind = int(r.t[5].w + 0.5);
-  if (r.t[1].z > 0.0 && kind > 0) {
-    float s = 1.0 / r.t[6].w;
-    float tv = 0.0;
-#ifdef USE_TEXVOL
-    if (kind == 6) tv = texture(uTexVol, (pMm * s) / uTexDims).r;
-#endif
-#ifdef USE_TEXTURE
-    if (kind != 6) tv = solidTexture(kind, pMm * s);
-#endif
-    c3 = min((r.t[6].rgb + tv * (r.t[7].rgb - r.t[6].rgb)) * lit, vec3(1.0));
-  }
+  if (r.t[1].z > 0.0 && r.t[5].w > 0.5) c3 = min((r.t[6].rgb + tv * (r.t[7].rgb - r.t[6].rgb)) * lit, vec3(1.0));
 #endif
 
   vec3 rgb = r.t[1].x * a1 * c1 + r.t[1].y * aSeg * cc + r.t[1].z * aSeg * c3;
@@ -145,6 +153,7 @@ void main() {
   float tmax = min(min(thi.x, thi.y), thi.z);
   vec3 view = -dir;
   vec3 H = normalize(uLight + view);
+  float depth0 = dot(origin - uCentre, uForward), depthRate = dot(dir, uForward);
   ivec3 dims = ivec3(uBoxDims);
 
   vec4 acc = vec4(0.0);
@@ -169,14 +178,17 @@ void main() {
         k = max(k, int(kExit) - 1);
         continue;
       }
-      vec3 pMm = uBoxOrigin + uBoxToPhys * p;
-      float depth = dot(pMm - uCentre, uForward) / (2.0 * uRadius) + 0.5;
+      float t = (float(k) + jitter) * uStep;
+      vec3 pMm = origin + t * dir;
+      float depth = (depth0 + t * depthRate) / (2.0 * uRadius) + 0.5;
       vec4 ct4 = vec4(0.0);
 #ifdef EIGHT
       vec3 fl = floor(p);
       ivec3 i0 = ivec3(fl);
       vec3 tt = p - fl;
       vec4 sum = vec4(0.0);
+      int tvLab = -1;
+      float tv = 0.0;
       for (int c = 0; c < 8; ++c) {
         ivec3 cc = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
         ivec3 v = i0 + cc;
@@ -193,7 +205,11 @@ void main() {
 #ifdef USE_CT
         ct4 = texelFetch(uCt, v, 0);
 #endif
-        sum += w * styled(r, lab, texelFetch(uGrad, v, 0), ct4, pMm, depth, view, H);
+        if (lab != tvLab) {
+          tv = texValue(r, pMm);
+          tvLab = lab;
+        }
+        sum += w * styled(r, lab, texelFetch(uGrad, v, 0), ct4, tv, depth, view, H);
       }
 #else
       ivec3 v = clamp(ivec3(floor(p + 0.5)), ivec3(0), dims - 1);
@@ -208,7 +224,7 @@ void main() {
 #ifdef USE_CT
       ct4 = texture(uCt, tc);
 #endif
-      vec4 sum = styled(r, lab, texture(uGrad, tc), ct4, pMm, depth, view, H);
+      vec4 sum = styled(r, lab, texture(uGrad, tc), ct4, texValue(r, pMm), depth, view, H);
 #endif
       if (sum.a > 0.0) {
         vec3 rgb = sum.rgb / sum.a;
