@@ -96,6 +96,10 @@ Volume4 computeDistanceGradient(const VolumeF32& dist, const VolumeU16& labels) 
   const Dims d = dist.dims();
   Volume4 out = allocate(d);
   const Geometry& g = dist.geometry();
+  // Pass 1: label-aware differences (index space). Pass 2 averages them over the voxel's
+  // same-label 3x3x3 neighbourhood: the one-sided differences along staircased interfaces
+  // are noisy, and silhouette terms magnify normal noise into scratches.
+  std::vector<float> raw(size_t(d.voxelCount()) * 3);
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < d.y; ++j)
@@ -118,7 +122,34 @@ Volume4 computeDistanceGradient(const VolumeF32& dist, const VolumeU16& labels) 
               v = 0.5 * (dist(hi[0], hi[1], hi[2]) - dist(lo[0], lo[1], lo[2]));
             (a == 0 ? grad.x : a == 1 ? grad.y : grad.z) = v;
           }
-          storeVoxel(out, dist.linearIndex(i, j, k), toPhysical(g, grad), c);
+          const size_t idx = dist.linearIndex(i, j, k);
+          raw[idx * 3] = float(grad.x);
+          raw[idx * 3 + 1] = float(grad.y);
+          raw[idx * 3 + 2] = float(grad.z);
+        }
+  });
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const uint16_t l = labels(i, j, k);
+          Vec3 sum;
+          for (int64_t c = std::max<int64_t>(k - 1, 0); c <= std::min(k + 1, d.z - 1); ++c)
+            for (int64_t b = std::max<int64_t>(j - 1, 0); b <= std::min(j + 1, d.y - 1); ++b)
+              for (int64_t a = std::max<int64_t>(i - 1, 0); a <= std::min(i + 1, d.x - 1); ++a) {
+                if (labels(a, b, c) != l) continue;
+                const float* r = raw.data() + dist.linearIndex(a, b, c) * 3;
+                // Centre-weighted (2 at the voxel itself) so thin parts keep their own normal.
+                const double w = (a == i && b == j && c == k) ? 2.0 : 1.0;
+                sum = sum + Vec3{r[0], r[1], r[2]} * w;
+              }
+          const size_t idx = dist.linearIndex(i, j, k);
+          const double rawLen = std::sqrt(double(raw[idx * 3]) * raw[idx * 3] + double(raw[idx * 3 + 1]) * raw[idx * 3 + 1] +
+                                          double(raw[idx * 3 + 2]) * raw[idx * 3 + 2]);
+          const double len = norm(sum);
+          // Direction from the average, magnitude from the voxel (|grad d| ~ 1 for a distance).
+          const Vec3 grad = len > 1e-12 ? sum * (rawLen / len) : Vec3{};
+          storeVoxel(out, idx, toPhysical(g, grad), dist(i, j, k));
         }
   });
   return out;

@@ -389,7 +389,7 @@ Style textbook() {
   s.description = "anatomy-textbook plate: ivory tone-shaded bone, red muscle with silhouettes, a faint skin outline";
   const Rgb paper{0.97f, 0.95f, 0.90f};
   s.background = paper;
-  auto bone = row("bone", {0.93f, 0.89f, 0.78f}, 0.9f);
+  auto bone = row("bone", {0.93f, 0.89f, 0.78f}, 1.0f);
   tone(bone, {0.30f, 0.25f, 0.05f}, {0.06f, 0.07f, 0.22f}, 0.55f, 0.75f);
   bone.lambdaColouring = 0.85f;
   bone.lambdaIllum = 0.15f;
@@ -400,13 +400,13 @@ Style textbook() {
   marrow.colour = {0.85f, 0.62f, 0.45f};
   auto cartilage = row("cartilage", {0.62f, 0.76f, 0.86f}, 0.6f);
   tone(cartilage, {0.25f, 0.25f, 0.1f}, {0.0f, 0.05f, 0.25f}, 0.5f, 0.7f);
-  auto muscle = row("muscle", {0.72f, 0.16f, 0.13f}, 0.06f);
+  auto muscle = row("muscle", {0.72f, 0.16f, 0.13f}, 0.015f);
   tone(muscle, {0.30f, 0.10f, 0.0f}, {0.05f, 0.0f, 0.15f}, 0.5f, 0.7f);
-  silhouette(muscle, 0.35f, 6.f, 3.f);
+  silhouette(muscle, 0.25f, 12.f, 2.5f);
   dim(muscle, 0.3f, paper);
-  auto skin = row("skin", {0.80f, 0.62f, 0.52f}, 0.05f);
+  auto skin = row("skin", {0.80f, 0.62f, 0.52f}, 0.03f);
   tone(skin, {0.2f, 0.1f, 0.0f}, {0.0f, 0.0f, 0.1f}, 0.6f, 0.7f);
-  silhouette(skin, 0.0f, 4.f, 6.f);
+  silhouette(skin, 0.0f, 3.f, 8.f);
   auto fat = row("fat", {0.95f, 0.85f, 0.45f}, 0.02f);
   silhouette(fat, 0.0f, 2.f, 6.f);
   auto vessel = row("vessel", {0.75f, 0.08f, 0.10f}, 0.8f);

@@ -14,7 +14,7 @@ namespace {
 struct IllustrateArgs {
   std::string input, shape, style, preset, output, saveStyle, report;
   std::string size = "512x512", interp = "eight";
-  double azimuth = 30, elevation = 15, zoom = 1, fov = 30, step = 0.5;
+  double azimuth = 30, elevation = 15, zoom = 1, fov = 30, step = 1.0;
   std::vector<double> background;
   bool transparent = false;
   InputOptions in;
