@@ -11,6 +11,7 @@
 #include "illustration_renderer_shader.hpp"
 #include "render_common.hpp"  // modules/render: makeFrame (same camera and rays)
 #include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
 
 namespace vellum::illustration {
 
@@ -169,14 +170,29 @@ void IllustrationRenderer::setScene(const ShapeScene& scene) {
   if (d.x > max3d || d.y > max3d || d.z > max3d)
     throw Error("illustrate: volume of " + d.str() + " exceeds the GL 3D texture limit of " + std::to_string(max3d));
   const Volume4 grad = computeDistanceGradient(scene.distance, scene.segments.ids());
-  std::vector<uint8_t> ids(scene.segments.ids().size());
-  std::transform(scene.segments.ids().voxels().begin(), scene.segments.ids().voxels().end(), ids.begin(),
-                 [](uint16_t v) { return uint8_t(v); });
+  // RG8UI: the label, and whether the 2x2x2 cell whose lowest corner is this voxel carries
+  // one label only (nearest mode then interpolates with one filtered fetch).
+  const VolumeU16& lab = scene.segments.ids();
+  std::vector<uint8_t> ids(lab.size() * 2);
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const uint16_t l = lab(i, j, k);
+          bool uniform = true;
+          for (int c = 1; c < 8 && uniform; ++c)
+            uniform = lab(std::min(i + (c & 1), d.x - 1), std::min(j + ((c >> 1) & 1), d.y - 1),
+                          std::min(k + ((c >> 2) & 1), d.z - 1)) == l;
+          const size_t idx = lab.linearIndex(i, j, k);
+          ids[idx * 2] = uint8_t(l);
+          ids[idx * 2 + 1] = uniform ? 1 : 0;
+        }
+  });
   del(m.labelTex);
   del(m.gradTex);
   del(m.occTex);
   del(m.ctTex);
-  m.labelTex = make3d(GL_R8UI, d, GL_RED_INTEGER, GL_UNSIGNED_BYTE, ids.data(), GL_NEAREST, GL_CLAMP_TO_EDGE);
+  m.labelTex = make3d(GL_RG8UI, d, GL_RG_INTEGER, GL_UNSIGNED_BYTE, ids.data(), GL_NEAREST, GL_CLAMP_TO_EDGE);
   m.gradTex = make3d(GL_RGBA16F, d, GL_RGBA, GL_HALF_FLOAT, grad.half.data(), GL_LINEAR, GL_CLAMP_TO_EDGE);
   m.blocks = computeBlockLabels(scene.segments.ids(), scene.distance);
   m.occTex = make3d(GL_R8, m.blocks.blocks, GL_RED, GL_UNSIGNED_BYTE, nullptr, GL_NEAREST, GL_CLAMP_TO_EDGE);

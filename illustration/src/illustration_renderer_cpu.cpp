@@ -111,7 +111,23 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
           const int64_t kk = std::clamp<int64_t>(int64_t(std::floor(p.z + 0.5)), 0, dims.z - 1);
           const int lab = labels(i, j, kk);
           if (!cx.table.visible[size_t(lab)]) continue;
-          const auto g4 = cx.grad.sampleLinear(float(p.x), float(p.y), float(p.z));
+          // Same-label corners only (see the shader).
+          const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
+          const int64_t i0 = int64_t(fx), j0 = int64_t(fy), k0 = int64_t(fz);
+          const float tx = float(p.x - fx), ty = float(p.y - fy), tz = float(p.z - fz);
+          std::array<float, 4> g4{0, 0, 0, 0};
+          float wsum = 0;
+          for (int c = 0; c < 8; ++c) {
+            const int64_t qi = std::clamp<int64_t>(i0 + (c & 1), 0, dims.x - 1);
+            const int64_t qj = std::clamp<int64_t>(j0 + ((c >> 1) & 1), 0, dims.y - 1);
+            const int64_t qk = std::clamp<int64_t>(k0 + ((c >> 2) & 1), 0, dims.z - 1);
+            if (labels(qi, qj, qk) != lab) continue;
+            const float w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
+            const float* gv = cx.grad.at(qi, qj, qk);
+            for (int ch = 0; ch < 4; ++ch) g4[size_t(ch)] += w * gv[ch];
+            wsum += w;
+          }
+          for (auto& v : g4) v /= wsum;
           std::array<float, 4> c4{};
           if (cx.useCt) c4 = cx.ct.sampleLinear(float(p.x), float(p.y), float(p.z));
           sum = styledSample(cx.table, lab, g4.data(), cx.useCt ? c4.data() : nullptr, tv, pMm, depth, view, cx.sf);

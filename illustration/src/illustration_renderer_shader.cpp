@@ -212,8 +212,16 @@ void main() {
         sum += w * styled(r, lab, texelFetch(uGrad, v, 0), ct4, tv, depth, view, H);
       }
 #else
-      ivec3 v = clamp(ivec3(floor(p + 0.5)), ivec3(0), dims - 1);
-      int lab = int(texelFetch(uLabels, v, 0).r);
+      // The cell's lowest corner says whether the 2x2x2 cell carries one label: then that is
+      // the nearest label too, and one filtered fetch interpolates the inputs. Otherwise the
+      // nearest voxel's label, with distance and gradient interpolated over the corners that
+      // carry it only (the gradient points out of each segment: mixing would flip it).
+      vec3 fl = floor(p);
+      ivec3 i0 = ivec3(fl);
+      uvec2 cell = texelFetch(uLabels, clamp(i0, ivec3(0), dims - 1), 0).rg;
+      bool uniformCell = cell.g > 0u && all(greaterThanEqual(i0, ivec3(0)));
+      int lab = uniformCell ? int(cell.r)
+                            : int(texelFetch(uLabels, clamp(ivec3(floor(p + 0.5)), ivec3(0), dims - 1), 0).r);
       if (lab != cur) {
         cur = lab;
         visible = texelFetch(uStyle, ivec2(1, lab), 0).w > 0.5;
@@ -224,7 +232,23 @@ void main() {
 #ifdef USE_CT
       ct4 = texture(uCt, tc);
 #endif
-      vec4 sum = styled(r, lab, texture(uGrad, tc), ct4, texValue(r, pMm), depth, view, H);
+      vec3 tt = p - fl;
+      vec4 g4 = vec4(0.0);
+      float wsum = 0.0;
+      if (uniformCell) {
+        g4 = texture(uGrad, tc);
+        wsum = 1.0;
+      } else for (int c = 0; c < 8; ++c) {
+        ivec3 cc = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        ivec3 q = clamp(i0 + cc, ivec3(0), dims - 1);
+        if (int(texelFetch(uLabels, q, 0).r) != lab) continue;
+        vec3 wv = mix(1.0 - tt, tt, vec3(cc));
+        float w = wv.x * wv.y * wv.z;
+        g4 += w * texelFetch(uGrad, q, 0);
+        wsum += w;
+      }
+      g4 /= wsum;
+      vec4 sum = styled(r, lab, g4, ct4, texValue(r, pMm), depth, view, H);
 #endif
       if (sum.a > 0.0) {
         vec3 rgb = sum.rgb / sum.a;
