@@ -421,25 +421,28 @@ Style textbook() {
 Style pen() {
   Style s;
   s.name = "pen";
-  s.description = "monochrome pen drawing: dark silhouette and boundary lines over white, light grey tone";
+  s.description = "monochrome pen drawing: dark silhouette and boundary lines over white, stippled shading";
   s.background = {1.f, 1.f, 1.f};
-  SegmentStyle r = row("", {0.55f, 0.55f, 0.55f}, 0.35f);
-  tone(r, {0.45f, 0.45f, 0.45f}, {-0.f, 0.f, 0.f}, 0.15f, 0.55f);
-  r.lambdaColouring = 0.75f;
-  r.lambdaTexture = 0.25f;
+  // Ink: a grey that tone shading darkens to near black away from the light; opacity only
+  // near surfaces (boundary k_c = 0) and mostly at silhouettes.
+  SegmentStyle r = row("", {0.35f, 0.35f, 0.35f}, 0.6f);
+  tone(r, {0.55f, 0.55f, 0.55f}, {0.f, 0.f, 0.f}, 0.1f, 0.6f);
+  r.lambdaColouring = 0.7f;
+  r.lambdaTexture = 0.3f;
   r.texture = SolidTexture::Stipple;
-  r.textureScaleMm = 1.6f;
+  r.textureScaleMm = 1.2f;
   r.textureColour1 = {1.f, 1.f, 1.f};
-  r.textureColour2 = {0.1f, 0.1f, 0.1f};
-  boundary(r, 0.0f, 1.f, 2.f);
-  silhouette(r, 0.08f, 6.f, 4.f);
+  r.textureColour2 = {0.05f, 0.05f, 0.05f};
+  r.boundaryWidthMm = 1.0f;
+  boundary(r, 0.0f, 1.f, 1.f);
+  silhouette(r, 0.04f, 10.f, 4.f);
   s.fallback = r;
   auto skin = r;
   skin.match = "skin";
-  skin.opacity = 0.2f;
   skin.lambdaTexture = 0;
   skin.lambdaColouring = 1;
-  silhouette(skin, 0.0f, 6.f, 6.f);
+  skin.colour = {0.2f, 0.2f, 0.2f};
+  silhouette(skin, 0.0f, 10.f, 8.f);
   s.segments = {skin};
   return s;
 }
