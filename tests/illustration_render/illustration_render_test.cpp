@@ -8,11 +8,14 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <sys/wait.h>
+#include <algorithm>
 
 #include "image_compare.hpp"
 #include "shape_fixtures.hpp"
 #include "test_data.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/io/volume_io.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
 #include "vellum/illustration/style.hpp"
 
@@ -399,6 +402,50 @@ TEST(IllustrationScene, ShapeFolderLoadsAndErrorsNameTheFile) {
   }
   std::ofstream(dir / "shape" / "segments.nrrd") << "NRRD0004\ngarbage";
   EXPECT_THROW(loadShapeFolder(dir / "shape"), FileError);
+}
+
+/// Runs `vellum ARGS` with stderr captured; returns the exit code.
+int runCli(const std::string& args, const std::filesystem::path& errFile) {
+  const std::string cmd = std::string(VELLUM_CLI_PATH) + " illustrate " + args + " > /dev/null 2> " + errFile.string();
+  const int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+std::string readText(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(IllustrationCli, RendersAFixtureAndNamesBadInputs) {
+  const auto dir = test::tempDir("illustrate-cli");
+  ShapeScene scene = test::nestedScene(40);
+  test::writeShapeFolder(scene, dir / "shape");
+  VolumeI16 ct(scene.distance.geometry(), -1000, -1000);
+  io::saveVolume(ct, dir / "ct.nrrd");
+  const std::string base = (dir / "ct.nrrd").string() + " --shape " + (dir / "shape").string();
+  const auto err = dir / "err.txt";
+  ASSERT_EQ(runCli(base + " --preset textbook --size 80x60 --interp nearest --transparent --out " +
+                       (dir / "fig.png").string() + " --report " + (dir / "r.json").string(), err), 0)
+      << readText(err);
+  const RgbaImage fig = test::readPng(dir / "fig.png");
+  EXPECT_EQ(fig.width, 80);
+  EXPECT_EQ(fig.height, 60);
+  EXPECT_NE(readText(dir / "r.json").find("render_ms"), std::string::npos);
+
+  EXPECT_NE(runCli((dir / "ct.nrrd").string() + " --shape " + (dir / "none").string() +
+                       " --preset textbook --out " + (dir / "x.png").string(), err), 0);
+  std::string e = readText(err);
+  EXPECT_NE(e.find((dir / "none").string()), std::string::npos) << e;
+  EXPECT_EQ(std::count(e.begin(), e.end(), '\n'), 1) << e;
+
+  std::ofstream(dir / "bad.json") << "{ \"segments\": [";
+  EXPECT_NE(runCli(base + " --style " + (dir / "bad.json").string() + " --out " + (dir / "x.png").string(), err), 0);
+  e = readText(err);
+  EXPECT_NE(e.find("bad.json"), std::string::npos) << e;
+  EXPECT_EQ(std::count(e.begin(), e.end(), '\n'), 1) << e;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
 }
 
 }  // namespace
