@@ -401,9 +401,10 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
   if (R7[3] > 0.5f && ct4) b = clamp01(std::sqrt(ct4[0] * ct4[0] + ct4[1] * ct4[1] + ct4[2] * ct4[2]) / R9[3]);
   else b = clamp01(1.f - std::abs(d) / R8[3]);
   const float ndv = glen > 1e-6f ? std::abs(dot(n, view)) : 1.f;
-  float m = R8[0] * R9[0];
-  if (R8[1] > 0.f || R9[1] > 0.f)
-    m = (R8[0] + R8[1] * std::pow(b, R8[2])) * (R9[0] + R9[1] * std::pow(std::max(1.f - ndv, 0.f), R9[2]));
+  float mb = R8[0], ms = R9[0];
+  if (R8[1] > 0.f) mb += R8[1] * std::pow(b, R8[2]);
+  if (R9[1] > 0.f) ms += R9[1] * std::pow(std::max(1.f - ndv, 0.f), R9[2]);
+  const float m = mb * ms;
   const float am = std::min(a * m, 1.f);
   const float scale = am / a;
   return {rgb[0] * scale, rgb[1] * scale, rgb[2] * scale, am};

@@ -122,9 +122,10 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
 #endif
   b = clamp(1.0 - abs(d) / r.t[8].w, 0.0, 1.0);
   float ndv = glen > 1e-6 ? abs(dot(n, view)) : 1.0;
-  float m = r.t[8].x * r.t[9].x;
-  if (r.t[8].y > 0.0 || r.t[9].y > 0.0)
-    m = (r.t[8].x + r.t[8].y * pow(b, r.t[8].z)) * (r.t[9].x + r.t[9].y * pow(max(1.0 - ndv, 0.0), r.t[9].z));
+  float mb = r.t[8].x, ms = r.t[9].x;
+  if (r.t[8].y > 0.0) mb += r.t[8].y * pow(b, r.t[8].z);
+  if (r.t[9].y > 0.0) ms += r.t[9].y * pow(max(1.0 - ndv, 0.0), r.t[9].z);
+  float m = mb * ms;
   float am = min(a * m, 1.0);
   return vec4(rgb * (am / a), am);
 }
@@ -163,11 +164,17 @@ void main() {
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
     int cur = -1;
     bool visible = false;
+    ivec3 lastBlock = ivec3(-1);
+    bool blockOccupied = false;
     Row r;
     for (int k = k0; k <= k1; ++k) {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
       ivec3 b = clamp(ivec3(floor(p / float(BLOCK_SIZE))), ivec3(0), uBlocks - 1);
-      if (texelFetch(uOccupancy, b, 0).r < 0.5) {
+      if (b != lastBlock) {  // one occupancy fetch per block entered, not per sample
+        lastBlock = b;
+        blockOccupied = texelFetch(uOccupancy, b, 0).r >= 0.5;
+      }
+      if (!blockOccupied) {
         vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
         vec3 hi = mix(vec3((b + 1) * BLOCK_SIZE), uBoxDims + 2.0, equal(b, uBlocks - 1));
         // Sides chosen with nonZero()'s sign (a +0 component counts as positive), and the
