@@ -138,6 +138,7 @@ struct IllustrationRenderer::Impl {
     const Volume4 c = computeCtGradient(*ct);
     del(ctTex);
     ctTex = make3d(GL_RGBA16F, c.dims, GL_RGBA, GL_HALF_FLOAT, c.half.data(), GL_LINEAR, GL_CLAMP_TO_EDGE);
+    computeBlockCtRange(blocks, *ct);
     checkGlError("CT upload");
     ctUploaded = true;
   }

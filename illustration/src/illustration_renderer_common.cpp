@@ -199,21 +199,53 @@ BlockLabels computeBlockLabels(const VolumeU16& labels, const VolumeF32& distanc
   return b;
 }
 
+void computeBlockCtRange(BlockLabels& b, const AnyVolume& ctAny) {
+  const VolumeF32 ct = toFloat32(ctAny);
+  const Dims d = ct.dims();
+  b.ctMin.assign(b.masks.size(), std::numeric_limits<float>::infinity());
+  b.ctMax.assign(b.masks.size(), -std::numeric_limits<float>::infinity());
+  parallelFor(b.blocks.z, [&](int64_t bz0, int64_t bz1) {
+    for (int64_t bz = bz0; bz < bz1; ++bz)
+      for (int64_t by = 0; by < b.blocks.y; ++by)
+        for (int64_t bx = 0; bx < b.blocks.x; ++bx) {
+          const size_t bi = size_t((bz * b.blocks.y + by) * b.blocks.x + bx);
+          float lo = b.ctMin[bi], hi = b.ctMax[bi];
+          for (int64_t k = std::max<int64_t>(bz * kBlock - 1, 0); k < std::min(bz * kBlock + kBlock + 1, d.z); ++k)
+            for (int64_t j = std::max<int64_t>(by * kBlock - 1, 0); j < std::min(by * kBlock + kBlock + 1, d.y); ++j)
+              for (int64_t i = std::max<int64_t>(bx * kBlock - 1, 0); i < std::min(bx * kBlock + kBlock + 1, d.x); ++i) {
+                lo = std::min(lo, ct(i, j, k));
+                hi = std::max(hi, ct(i, j, k));
+              }
+          b.ctMin[bi] = lo;
+          b.ctMax[bi] = hi;
+        }
+  });
+}
+
 std::vector<uint8_t> blockOccupancy(const BlockLabels& b, const StyleTable& t) {
-  std::array<uint64_t, 4> vis{0, 0, 0, 0}, band{0, 0, 0, 0};
+  std::array<uint64_t, 4> vis{0, 0, 0, 0}, band{0, 0, 0, 0}, ctOnly{0, 0, 0, 0};
   std::array<float, kMaxLabels> bandWidth{};
+  const bool haveCtRange = !b.ctMin.empty();
   for (int l = 0; l < kMaxLabels; ++l) {
     if (!t.visible[size_t(l)]) continue;
     const float* R1 = t.row(l, 1);
     const float* R7 = t.row(l, 7);
     const float* R8 = t.row(l, 8);
     const float* R11 = t.row(l, 11);
+    const bool ctAlpha = R1[0] > 0.f && R11[0] > 0.5f;
     // Boundary-only rows: k_c = 0 on the distance measure, and no CT-alpha term.
-    const bool bandOnly = R7[3] < 0.5f && R8[0] <= 0.f && !(R1[0] > 0.f && R11[0] > 0.5f);
-    auto& set = bandOnly ? band : vis;
+    const bool bandOnly = R7[3] < 0.5f && R8[0] <= 0.f && !ctAlpha;
+    const bool onlyCt = haveCtRange && ctAlpha && R1[1] <= 0.f && R1[2] <= 0.f;
+    auto& set = onlyCt ? ctOnly : bandOnly ? band : vis;
     set[size_t(l >> 6)] |= uint64_t(1) << (l & 63);
     bandWidth[size_t(l)] = R8[3];
   }
+  // Prefix count of TF entries with opacity: "any opacity in [i0, i1]" in O(1).
+  std::vector<int> opaque(kTfSize + 1, 0);
+  for (int i = 0; i < kTfSize; ++i) opaque[size_t(i + 1)] = opaque[size_t(i)] + (t.tf[size_t(4 * i + 3)] > 0.f ? 1 : 0);
+  auto tfIndex = [&](float v) {
+    return std::clamp((v - t.tfLo) / (t.tfHi - t.tfLo), 0.f, 1.f) * float(kTfSize - 1);
+  };
   std::vector<uint8_t> occ(b.masks.size());
   for (size_t i = 0; i < occ.size(); ++i) {
     const auto& m = b.masks[i];
@@ -221,6 +253,12 @@ std::vector<uint8_t> blockOccupancy(const BlockLabels& b, const StyleTable& t) {
     for (int w = 0; w < 4 && !on; ++w)
       for (uint64_t bits = m[size_t(w)] & band[size_t(w)]; bits && !on; bits &= bits - 1)
         on = b.minAbsDistance[i] < bandWidth[size_t(w * 64 + std::countr_zero(bits))];
+    if (!on && ((m[0] & ctOnly[0]) | (m[1] & ctOnly[1]) | (m[2] & ctOnly[2]) | (m[3] & ctOnly[3]))) {
+      // Samples interpolate between TF entries: cover the neighbours of the range's ends.
+      const int i0 = std::max(int(std::floor(tfIndex(b.ctMin[i]))) - 1, 0);
+      const int i1 = std::min(int(std::ceil(tfIndex(b.ctMax[i]))) + 1, kTfSize - 1);
+      on = opaque[size_t(i1 + 1)] - opaque[size_t(i0)] > 0;
+    }
     occ[i] = on ? 255 : 0;
   }
   return occ;

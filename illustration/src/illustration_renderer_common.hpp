@@ -69,11 +69,16 @@ struct BlockLabels {
   Dims blocks;
   std::vector<std::array<uint64_t, 4>> masks;
   std::vector<float> minAbsDistance;  ///< smallest |d| in the dilated block (mm)
+  std::vector<float> ctMin, ctMax;     ///< CT value range in the dilated block (when a CT is set)
 };
+/// Fills ctMin/ctMax from the CT (same grid as the labels).
+void computeBlockCtRange(BlockLabels& b, const AnyVolume& ct);
 BlockLabels computeBlockLabels(const VolumeU16& labels, const VolumeF32& distance);
 /// A block is occupied when a visible row's label is in it, and that row can have opacity
 /// there: rows whose boundary enhancement has k_c = 0 on the distance measure are zero
-/// wherever |d| >= boundary_width_mm, so blocks farther from every surface are skipped.
+/// wherever |d| >= boundary_width_mm, so blocks farther from every surface are skipped; rows
+/// that are only the CT's transfer function (l2 = l3 = 0, illum = ct) are zero where the TF
+/// has no opacity over the block's CT range (needs ctMin/ctMax).
 std::vector<uint8_t> blockOccupancy(const BlockLabels& b, const StyleTable& t);
 
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].
