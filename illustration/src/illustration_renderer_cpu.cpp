@@ -95,12 +95,32 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
           const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
           const int64_t i0 = int64_t(fx), j0 = int64_t(fy), k0 = int64_t(fz);
           const float tx = float(p.x - fx), ty = float(p.y - fy), tz = float(p.z - fz);
+          int labs[8];
+          bool anyZero = false;
           for (int c = 0; c < 8; ++c) {
             const int64_t i = i0 + (c & 1), j = j0 + ((c >> 1) & 1), kk = k0 + ((c >> 2) & 1);
-            if (!g.contains(i, j, kk)) continue;
-            const int lab = labels(i, j, kk);
+            labs[c] = g.contains(i, j, kk) ? int(labels(i, j, kk)) : -1;
+            anyZero = anyZero || labs[c] == 0;
+          }
+          auto weight = [&](int c) {
+            return ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
+          };
+          int dom = -1;  // outer-surface extension (see the shader)
+          if (anyZero && !cx.table.visible[0]) {
+            float domW = 0;
+            for (int c = 0; c < 8; ++c)
+              if (labs[c] > 0 && cx.table.visible[size_t(labs[c])] && weight(c) > domW) {
+                domW = weight(c);
+                dom = labs[c];
+              }
+          }
+          for (int c = 0; c < 8; ++c) {
+            const int64_t i = i0 + (c & 1), j = j0 + ((c >> 1) & 1), kk = k0 + ((c >> 2) & 1);
+            int lab = labs[c];
+            if (lab < 0) continue;
+            if (lab == 0 && dom > 0 && cx.grad.at(i, j, kk)[3] > 0.f) lab = dom;
             if (!cx.table.visible[size_t(lab)]) continue;
-            const float w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
+            const float w = weight(c);
             const auto v = styledSample(cx.table, lab, cx.grad.at(i, j, kk), cx.useCt ? cx.ct.at(i, j, kk) : nullptr,
                                         tv, pMm, depth, view, cx.sf);
             for (int ch = 0; ch < 4; ++ch) sum[size_t(ch)] += w * v[size_t(ch)];

@@ -154,6 +154,7 @@ void main() {
   float tmax = min(min(thi.x, thi.y), thi.z);
   vec3 view = -dir;
   vec3 H = normalize(uLight + view);
+  bool zeroVisible = texelFetch(uStyle, ivec2(1, 0), 0).w > 0.5;
   float depth0 = dot(origin - uCentre, uForward), depthRate = dot(dir, uForward);
   ivec3 dims = ivec3(uBoxDims);
 
@@ -196,11 +197,37 @@ void main() {
       vec4 sum = vec4(0.0);
       int tvLab = -1;
       float tv = 0.0;
+      int labs[8];
+      bool anyZero = false;
+      for (int c = 0; c < 8; ++c) {
+        ivec3 v = i0 + ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        bool inside = all(greaterThanEqual(v, ivec3(0))) && all(lessThan(v, dims));
+        labs[c] = inside ? int(texelFetch(uLabels, v, 0).r) : -1;
+        anyZero = anyZero || labs[c] == 0;
+      }
+      // Outer surfaces: unclassified corners just outside a segment (0 < d) take the style of
+      // the heaviest visible segment corner, so that its coverage clamp(0.5 - d/h) follows the
+      // smooth zero level of d instead of the voxel staircase. Ids themselves are never mixed.
+      int dom = -1;
+      if (anyZero && !zeroVisible) {
+        float domW = 0.0;
+        for (int c = 0; c < 8; ++c) {
+          if (labs[c] <= 0 || texelFetch(uStyle, ivec2(1, labs[c]), 0).w < 0.5) continue;
+          vec3 wv = mix(1.0 - tt, tt, vec3(ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1)));
+          float w = wv.x * wv.y * wv.z;
+          if (w > domW) {
+            domW = w;
+            dom = labs[c];
+          }
+        }
+      }
       for (int c = 0; c < 8; ++c) {
         ivec3 cc = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
         ivec3 v = i0 + cc;
-        if (any(lessThan(v, ivec3(0))) || any(greaterThanEqual(v, dims))) continue;
-        int lab = int(texelFetch(uLabels, v, 0).r);
+        int lab = labs[c];
+        if (lab < 0) continue;
+        vec4 g4 = texelFetch(uGrad, v, 0);
+        if (lab == 0 && dom > 0 && g4.w > 0.0) lab = dom;
         if (lab != cur) {  // visibility first: invisible rows are never loaded
           cur = lab;
           visible = texelFetch(uStyle, ivec2(1, lab), 0).w > 0.5;
@@ -216,7 +243,7 @@ void main() {
           tv = texValue(r, pMm);
           tvLab = lab;
         }
-        sum += w * styled(r, lab, texelFetch(uGrad, v, 0), ct4, tv, depth, view, H);
+        sum += w * styled(r, lab, g4, ct4, tv, depth, view, H);
       }
 #else
       // The cell's lowest corner says whether the 2x2x2 cell carries one label: then that is
