@@ -164,6 +164,34 @@ Style twoRowStyle() {
   return st;
 }
 
+TEST(IllustrationGl, TextureVolumeMatchesCpu) {
+  const auto dir = test::tempDir("texvol");
+  Geometry g;
+  g.dims = {8, 8, 8};
+  VolumeU8 tex(g, 0);
+  for (int64_t k = 0; k < 8; ++k)
+    for (int64_t j = 0; j < 8; ++j)
+      for (int64_t i = 0; i < 8; ++i) tex(i, j, k) = uint8_t(((i + j + k) % 3) * 100);
+  io::saveVolume(tex, dir / "tex.nrrd");
+  Style st = twoRowStyle();
+  st.textureVolume = (dir / "tex.nrrd").string();
+  st.segments[0].lambdaTexture = 0.6f;
+  st.segments[0].lambdaColouring = 0.4f;
+  st.segments[0].texture = SolidTexture::Volume;
+  st.segments[0].textureScaleMm = 1.5f;
+  st.segments[0].textureColour2 = {0.2f, 0.3f, 0.9f};
+  for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
+    const IllustrationSettings s = front(96, mode);
+    const RgbaImage gimg = gpu(spheres(), st, s);
+    expectClose(gimg, renderIllustrationCpu(spheres(), st, s), std::string("texture volume ") + interpolationName(mode));
+    Style plain = st;
+    plain.segments[0].lambdaTexture = 0;
+    EXPECT_GT(changed(gimg, gpu(spheres(), plain, s)).size(), 300u) << "the texture shows";
+  }
+  st.textureVolume.clear();
+  EXPECT_THROW(renderIllustrationCpu(spheres(), st, front(16)), Error);
+}
+
 TEST(IllustrationGl, LambdaChangesOnlyThatSegment) {
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const IllustrationSettings s = front(96, mode);
