@@ -66,7 +66,8 @@ class IllustrationRenderer {
 
   void setScene(const ShapeScene& scene);
   RgbaImage render(const Style& style, const IllustrationSettings& settings);
-  /// Milliseconds of the last render's draw (glFinish-bounded), excluding uploads.
+  /// Milliseconds of the last render's draw (glFinish-bounded), excluding uploads and the
+  /// shader's first-use compilation.
   double lastRenderMs() const;
   /// Milliseconds setScene() spent (gradient precompute + upload).
   double lastUploadMs() const;
