@@ -192,6 +192,24 @@ TEST(IllustrationGl, TextureVolumeMatchesCpu) {
   EXPECT_THROW(renderIllustrationCpu(spheres(), st, front(16)), Error);
 }
 
+TEST(IllustrationGl, EveryProceduralTextureMatchesCpu) {
+  for (SolidTexture kind : {SolidTexture::Noise, SolidTexture::Marble, SolidTexture::Wood, SolidTexture::Stripes,
+                            SolidTexture::Stipple}) {
+    Style st = twoRowStyle();
+    for (auto& r : st.segments) {
+      r.lambdaTexture = 0.7f;
+      r.lambdaColouring = 0.3f;
+      r.texture = kind;
+      r.textureScaleMm = 3;
+      r.textureColour2 = {0.1f, 0.2f, 0.6f};
+    }
+    const IllustrationSettings s = front(96, Interpolation::Eight);
+    const RgbaImage g = gpu(spheres(), st, s);
+    maybeSave(g, "texture-" + std::to_string(int(kind)));
+    expectClose(g, renderIllustrationCpu(spheres(), st, s), "texture " + std::to_string(int(kind)));
+  }
+}
+
 TEST(IllustrationGl, LambdaChangesOnlyThatSegment) {
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const IllustrationSettings s = front(96, mode);
