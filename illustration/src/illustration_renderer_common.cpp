@@ -295,6 +295,19 @@ StyleTable packStyle(const Style& style, const LabelVolume& labels) {
   if (maxId >= kMaxLabels)
     throw Error("illustrate: segment ids must be <= 255 (found " + std::to_string(maxId) + ")");
   const std::vector<SegmentStyle> rows = resolveRows(style, labels.table(), kMaxLabels - 1);
+  // Depths in mm become fractions of the bounding sphere's diameter (what the shader uses).
+  double diameter = 1;
+  if (!labels.ids().empty()) {
+    const Geometry& g = labels.geometry();
+    const Dims& d = g.dims;
+    const Vec3 centre = g.indexToPhysical({(d.x - 1) * 0.5, (d.y - 1) * 0.5, (d.z - 1) * 0.5});
+    double radius = 0;
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 corner{(c & 1) ? d.x - 0.5 : -0.5, (c & 2) ? d.y - 0.5 : -0.5, (c & 4) ? d.z - 0.5 : -0.5};
+      radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
+    }
+    diameter = std::max(2 * radius, 1e-6);
+  }
   StyleTable t;
   t.rows = kMaxLabels;
   t.texels.assign(size_t(t.rows) * kRowTexels * 4, 0.f);
@@ -309,7 +322,8 @@ StyleTable packStyle(const Style& style, const LabelVolume& labels) {
         r.warm[0], r.warm[1], r.warm[2], r.toneBeta,
         r.cool[0], r.cool[1], r.cool[2], r.toneAlpha,
         r.dimColour[0], r.dimColour[1], r.dimColour[2], r.dimStrength,
-        r.dimStart, r.dimEnd, r.toneAmount, float(int(r.texture)),
+        r.dimUnits == DepthUnits::Mm ? float(r.dimStart / diameter) : r.dimStart,
+        r.dimUnits == DepthUnits::Mm ? float(r.dimEnd / diameter) : r.dimEnd, r.toneAmount, float(int(r.texture)),
         r.textureColour1[0], r.textureColour1[1], r.textureColour1[2], r.textureScaleMm,
         r.textureColour2[0], r.textureColour2[1], r.textureColour2[2], float(int(r.boundaryMeasure)),
         r.boundaryKc, r.boundaryKs, r.boundaryKe, r.boundaryWidthMm,

@@ -140,8 +140,10 @@ const std::vector<Field<SegmentStyle>>& segmentFields() {
       floatField<S>("tone_alpha", "Gooch alpha: share of the segment colour in the cool tone", &S::toneAlpha, 0, 1),
       floatField<S>("tone_beta", "Gooch beta: share of the segment colour in the warm tone", &S::toneBeta, 0, 1),
       floatField<S>("depth_strength", "depth dimming: how far the colour blends to depth_colour at depth_end (0 = off)", &S::dimStrength, 0, 1),
-      floatField<S>("depth_start", "depth where dimming starts (0 = nearest point of the volume's bounding sphere, 1 = farthest)", &S::dimStart, 0, 1),
-      floatField<S>("depth_end", "depth where dimming is full (> depth_start)", &S::dimEnd, 0, 1),
+      floatField<S>("depth_start", "depth where dimming starts, from the nearest point of the volume's bounding sphere along the view (see depth_units)", &S::dimStart, 0, 100000),
+      floatField<S>("depth_end", "depth where dimming is full (> depth_start)", &S::dimEnd, 0, 100000),
+      enumField<S>("depth_units", "fraction: depths are fractions of the bounding sphere's diameter (0 = nearest, 1 = farthest point), at most 1; mm: millimetres",
+                   &S::dimUnits, {"fraction", "mm"}),
       colourField<S>("depth_colour", "colour distant parts fade to (usually the background)", &S::dimColour),
       enumField<S>("texture", "solid texture of I_solidtex (volume: the style's texture_volume)", &S::texture,
                    {"none", "noise", "marble", "wood", "stripes", "stipple", "volume"}),
@@ -216,6 +218,8 @@ SegmentStyle readRow(const json& obj, const std::string& where, SegmentStyle bas
   readFields(base, segmentFields(), obj, where, {});
   if (base.dimEnd <= base.dimStart && base.dimStrength > 0)
     throw FieldProblem{where + ".depth_end: must be greater than depth_start"};
+  if (base.dimUnits == DepthUnits::Fraction && (base.dimStart > 1 || base.dimEnd > 1))
+    throw FieldProblem{where + ".depth_start/depth_end: fractions must be in [0, 1] (or set depth_units to \"mm\")"};
   return base;
 }
 

@@ -267,6 +267,12 @@ TEST(IllustrationGl, DepthDimmingFadesTheFarSphere) {
   const uint8_t* farPx = img.at(48 + 14, 48);
   EXPECT_GT(int(farPx[1]), int(nearPx[1]) + 60) << "far sphere should be closer to the white background";
   EXPECT_LT(int(nearPx[1]), 120);
+  // The same in mm: the bounding sphere of the 48 mm box is 83.1 mm across.
+  Style mm = st;
+  mm.fallback.dimUnits = DepthUnits::Mm;
+  mm.fallback.dimStart = 0.2f * 83.138f;
+  mm.fallback.dimEnd = 0.8f * 83.138f;
+  EXPECT_LE(test::compareImages(gpu(scene, mm, s), img).maxAbs, 1.0);
   st.fallback.dimStrength = 0;
   const RgbaImage flat = gpu(scene, st, s);
   EXPECT_NEAR(int(flat.at(48 + 14, 48)[1]), int(flat.at(48 - 14, 48)[1]), 3);
@@ -395,6 +401,7 @@ TEST(IllustrationStyle, MalformedJsonGivesOneLineErrors) {
   expectOneLineError(R"({"default": {"opacty": 0.3}})", "default.opacty: unknown key");
   expectOneLineError(R"({"light": [0, 0, 0]})", "light");
   expectOneLineError(R"({"version": 7})", "version");
+  expectOneLineError(R"({"default": {"depth_start": 20, "depth_end": 60}})", "depth_units");
   expectOneLineError(R"({"unclassified": 3})", "unclassified");
   EXPECT_THROW(loadStyle("/nonexistent/style.json"), FileError);
   EXPECT_THROW(stylePreset("rococo"), Error);

@@ -18,6 +18,7 @@ using Rgb = std::array<float, 3>;
 enum class SolidTexture { None, Noise, Marble, Wood, Stripes, Stipple, Volume };
 enum class IllumMode { Phong, Ct };          ///< Blinn-Phong on the distance normal | CT's TF + CT gradient
 enum class BoundaryMeasure { Distance, Ct };  ///< b = 1 - |d|/width | b = |grad CT| / scale
+enum class DepthUnits { Fraction, Mm };       ///< of the bounding sphere's diameter | mm from its nearest point
 
 /// One segment's style (a row of the renderer's lookup texture). Defaults: a visible,
 /// tone-shaded, white segment with no modulation.
@@ -31,9 +32,10 @@ struct SegmentStyle {
   float toneAmount = 1.f;  ///< 0 = flat colour, 1 = full tone shading
   Rgb warm{0.4f, 0.4f, 0.f}, cool{0.f, 0.f, 0.4f};
   float toneAlpha = 0.25f, toneBeta = 0.5f;
-  // Depth dimming of I_coloring toward dimColour between two depths (fractions of the
-  // volume's bounding sphere along the view: 0 = nearest point, 1 = farthest).
+  // Depth dimming of I_coloring toward dimColour between two depths along the view, from the
+  // nearest point of the volume's bounding sphere: fractions of its diameter, or mm.
   float dimStrength = 0.f, dimStart = 0.3f, dimEnd = 1.f;
+  DepthUnits dimUnits = DepthUnits::Fraction;
   Rgb dimColour{1.f, 1.f, 1.f};
   // Solid texture
   SolidTexture texture = SolidTexture::None;
