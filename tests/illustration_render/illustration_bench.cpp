@@ -1,5 +1,5 @@
 // Illustration renderer timing on llvmpipe, and a fixture writer for trying the CLI.
-//   illustration_bench [N=256] [SIZE=512] [FRAMES=5] [PRESET=textbook]
+//   illustration_bench [N=256] [SIZE=512] [FRAMES=5] [PRESET=textbook] [ZOOM=1]
 //   illustration_bench --fixture DIR [N=96]   -> DIR/ct.nrrd, DIR/shape/{distance,segments}.nrrd
 #include <algorithm>
 #include <chrono>
@@ -64,6 +64,7 @@ int main(int argc, char** argv) {
     const int size = argc > 2 ? std::atoi(argv[2]) : 512;
     const int frames = argc > 3 ? std::atoi(argv[3]) : 5;
     const std::string preset = argc > 4 ? argv[4] : "textbook";
+    const double zoom = argc > 5 ? std::atof(argv[5]) : 1.0;
     auto t0 = std::chrono::steady_clock::now();
     illustration::ShapeScene scene = benchScene(n);
     scene.ct = ctFor(scene);
@@ -78,6 +79,7 @@ int main(int argc, char** argv) {
       illustration::IllustrationSettings s;
       s.render.width = s.render.height = size;
       s.interpolation = mode;
+      s.render.camera.zoom = zoom;
       r.render(style, s);  // compile + first use
       std::vector<double> ms, cpu;
       for (int f = 0; f < frames; ++f) {
