@@ -73,7 +73,8 @@ struct IllustrationRenderer::Impl {
   int fbW = 0, fbH = 0;
   bool hasScene = false;
   Geometry geometry;
-  LabelVolume labels;  // ids + table (style resolution)
+  std::vector<Label> table;  // label table and largest id (style resolution)
+  int maxId = 0;
   BlockLabels blocks;
   std::optional<AnyVolume> ct;
   bool ctUploaded = false;
@@ -199,8 +200,8 @@ void IllustrationRenderer::setScene(const ShapeScene& scene) {
   m.occTex = make3d(GL_R8, m.blocks.blocks, GL_RED, GL_UNSIGNED_BYTE, nullptr, GL_NEAREST, GL_CLAMP_TO_EDGE);
   checkGlError("scene upload");
   m.geometry = scene.distance.geometry();
-  m.labels = LabelVolume(VolumeU16(scene.segments.geometry(), 0), scene.segments.table());
-  m.labels.ids().voxels() = scene.segments.ids().voxels();
+  m.table = scene.segments.table();
+  m.maxId = scene.segments.maxId();
   m.ct = scene.ct;
   m.ctUploaded = false;
   m.hasScene = true;
@@ -214,7 +215,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   m.context.makeCurrent();
   const auto& s = settings.render;
   const render::detail::Frame f = render::detail::makeFrame(m.geometry, nullptr, s);
-  const StyleTable table = packStyle(style, m.labels);
+  const StyleTable table = packStyle(style, m.table, m.maxId, m.geometry);
   ShaderVariant v;
   v.eight = settings.interpolation == Interpolation::Eight;
   v.texture = table.usesTexture;

@@ -290,24 +290,19 @@ float TextureVolume::sampleRepeat(float x, float y, float z) const {
   return out;
 }
 
-StyleTable packStyle(const Style& style, const LabelVolume& labels) {
-  const uint16_t maxId = labels.ids().empty() ? 0 : labels.maxId();
+StyleTable packStyle(const Style& style, const std::vector<Label>& table, int maxId, const Geometry& g) {
   if (maxId >= kMaxLabels)
     throw Error("illustrate: segment ids must be <= 255 (found " + std::to_string(maxId) + ")");
-  const std::vector<SegmentStyle> rows = resolveRows(style, labels.table(), kMaxLabels - 1);
+  const std::vector<SegmentStyle> rows = resolveRows(style, table, kMaxLabels - 1);
   // Depths in mm become fractions of the bounding sphere's diameter (what the shader uses).
-  double diameter = 1;
-  if (!labels.ids().empty()) {
-    const Geometry& g = labels.geometry();
-    const Dims& d = g.dims;
-    const Vec3 centre = g.indexToPhysical({(d.x - 1) * 0.5, (d.y - 1) * 0.5, (d.z - 1) * 0.5});
-    double radius = 0;
-    for (int c = 0; c < 8; ++c) {
-      const Vec3 corner{(c & 1) ? d.x - 0.5 : -0.5, (c & 2) ? d.y - 0.5 : -0.5, (c & 4) ? d.z - 0.5 : -0.5};
-      radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
-    }
-    diameter = std::max(2 * radius, 1e-6);
+  const Dims& d = g.dims;
+  const Vec3 centre = g.indexToPhysical({(d.x - 1) * 0.5, (d.y - 1) * 0.5, (d.z - 1) * 0.5});
+  double radius = 0;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 corner{(c & 1) ? d.x - 0.5 : -0.5, (c & 2) ? d.y - 0.5 : -0.5, (c & 4) ? d.z - 0.5 : -0.5};
+    radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
   }
+  const double diameter = std::max(2 * radius, 1e-6);
   StyleTable t;
   t.rows = kMaxLabels;
   t.texels.assign(size_t(t.rows) * kRowTexels * 4, 0.f);

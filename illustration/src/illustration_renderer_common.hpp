@@ -41,7 +41,8 @@ struct StyleTable {
     return texels.data() + (static_cast<size_t>(label) * kRowTexels + texel) * 4;
   }
 };
-StyleTable packStyle(const Style& style, const LabelVolume& labels);
+/// Rows for ids 0..255 (features only from ids <= maxId); g: the scene grid (depths in mm).
+StyleTable packStyle(const Style& style, const std::vector<Label>& table, int maxId, const Geometry& g);
 
 /// IEEE half conversion (round to nearest even), so CPU and GL see identical values.
 uint16_t floatToHalf(float f);

@@ -199,7 +199,8 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
 RgbaImage renderIllustrationCpu(const ShapeScene& scene, const Style& style, const IllustrationSettings& settings) {
   validateScene(scene);
   CpuContext cx{scene, settings, render::detail::makeFrame(scene.distance.geometry(), nullptr, settings.render),
-                packStyle(style, scene.segments), {}, {}, false, {}, {}};
+                packStyle(style, scene.segments.table(), scene.segments.maxId(), scene.distance.geometry()), {}, {},
+                false, {}, {}};
   cx.grad = computeDistanceGradient(scene.distance, scene.segments.ids());
   if (cx.table.usesCt) {
     if (!scene.ct) throw Error("illustrate: style '" + style.name + "' uses the CT (illum = ct or boundary_measure = ct) but no CT was given");
