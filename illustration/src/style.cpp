@@ -404,9 +404,11 @@ Style textbook() {
   marrow.colour = {0.85f, 0.62f, 0.45f};
   auto cartilage = row("cartilage", {0.62f, 0.76f, 0.86f}, 0.6f);
   tone(cartilage, {0.25f, 0.25f, 0.1f}, {0.0f, 0.05f, 0.25f}, 0.5f, 0.7f);
-  auto muscle = row("muscle", {0.72f, 0.16f, 0.13f}, 0.015f);
+  // Light enough to show the bone through ~15 cm of muscle; a moderate silhouette gain, since
+  // a high one also picks up the voxel staircase where muscle meets bone.
+  auto muscle = row("muscle", {0.78f, 0.13f, 0.11f}, 0.012f);
   tone(muscle, {0.30f, 0.10f, 0.0f}, {0.05f, 0.0f, 0.15f}, 0.5f, 0.7f);
-  silhouette(muscle, 0.25f, 12.f, 2.5f);
+  silhouette(muscle, 0.3f, 4.f, 4.f);
   dim(muscle, 0.3f, paper);
   auto skin = row("skin", {0.80f, 0.62f, 0.52f}, 0.03f);
   tone(skin, {0.2f, 0.1f, 0.0f}, {0.0f, 0.0f, 0.1f}, 0.6f, 0.7f);
