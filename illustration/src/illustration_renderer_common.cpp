@@ -382,6 +382,16 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
   float glen;
   const Vec3f n = normalizeOrZero({g4[0], g4[1], g4[2]}, glen);
   const float d = g4[3];
+  // Opacity modulation first (as the shader: m = 0 -> transparent, nothing else computed).
+  float b;
+  if (R7[3] > 0.5f && ct4) b = clamp01(std::sqrt(ct4[0] * ct4[0] + ct4[1] * ct4[1] + ct4[2] * ct4[2]) / R9[3]);
+  else b = clamp01(1.f - std::abs(d) / R8[3]);
+  const float ndv = glen > 1e-6f ? std::abs(dot(n, view)) : 1.f;
+  float mb = R8[0], ms = R9[0];
+  if (R8[1] > 0.f) mb += R8[1] * std::pow(b, R8[2]);
+  if (R9[1] > 0.f) ms += R9[1] * std::pow(std::max(1.f - ndv, 0.f), R9[2]);
+  const float m = mb * ms;
+  if (!(m > 0.f)) return {0, 0, 0, 0};
   const Vec3f L = f.light;
   float hl;
   const Vec3f H = normalizeOrZero(L + view, hl);
@@ -443,15 +453,6 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
   const float a = R1[0] * a1 + R1[1] * aSeg + R1[2] * aSeg;
   if (!(a > 0.f)) return {0, 0, 0, 0};
 
-  // Opacity modulation.
-  float b;
-  if (R7[3] > 0.5f && ct4) b = clamp01(std::sqrt(ct4[0] * ct4[0] + ct4[1] * ct4[1] + ct4[2] * ct4[2]) / R9[3]);
-  else b = clamp01(1.f - std::abs(d) / R8[3]);
-  const float ndv = glen > 1e-6f ? std::abs(dot(n, view)) : 1.f;
-  float mb = R8[0], ms = R9[0];
-  if (R8[1] > 0.f) mb += R8[1] * std::pow(b, R8[2]);
-  if (R9[1] > 0.f) ms += R9[1] * std::pow(std::max(1.f - ndv, 0.f), R9[2]);
-  const float m = mb * ms;
   const float am = std::min(a * m, 1.f);
   const float scale = am / a;
   return {rgb[0] * scale, rgb[1] * scale, rgb[2] * scale, am};

@@ -73,6 +73,20 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   float glen;
   vec3 n = normOrZero(g4.xyz, glen);
   float d = g4.w;
+  // Opacity modulation first: where it is 0 (e.g. boundary k_c = 0 away from surfaces) the
+  // sample is transparent whatever its colour, so nothing else is computed.
+  float b;
+#ifdef USE_CT
+  if (r.t[7].w > 0.5) b = clamp(length(ct4.xyz) / r.t[9].w, 0.0, 1.0);
+  else
+#endif
+  b = clamp(1.0 - abs(d) / r.t[8].w, 0.0, 1.0);
+  float ndv = glen > 1e-6 ? abs(dot(n, view)) : 1.0;
+  float mb = r.t[8].x, ms = r.t[9].x;
+  if (r.t[8].y > 0.0) mb += r.t[8].y * pow(b, r.t[8].z);
+  if (r.t[9].y > 0.0) ms += r.t[9].y * pow(max(1.0 - ndv, 0.0), r.t[9].z);
+  float m = mb * ms;
+  if (!(m > 0.0)) return vec4(0.0);
   float ndl = dot(n, uLight);
   vec3 col = r.t[0].rgb;
   float k = (1.0 + ndl) * 0.5;
@@ -115,17 +129,6 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   vec3 rgb = r.t[1].x * a1 * c1 + r.t[1].y * aSeg * cc + r.t[1].z * aSeg * c3;
   float a = r.t[1].x * a1 + r.t[1].y * aSeg + r.t[1].z * aSeg;
   if (!(a > 0.0)) return vec4(0.0);
-  float b;
-#ifdef USE_CT
-  if (r.t[7].w > 0.5) b = clamp(length(ct4.xyz) / r.t[9].w, 0.0, 1.0);
-  else
-#endif
-  b = clamp(1.0 - abs(d) / r.t[8].w, 0.0, 1.0);
-  float ndv = glen > 1e-6 ? abs(dot(n, view)) : 1.0;
-  float mb = r.t[8].x, ms = r.t[9].x;
-  if (r.t[8].y > 0.0) mb += r.t[8].y * pow(b, r.t[8].z);
-  if (r.t[9].y > 0.0) ms += r.t[9].y * pow(max(1.0 - ndv, 0.0), r.t[9].z);
-  float m = mb * ms;
   float am = min(a * m, 1.0);
   return vec4(rgb * (am / a), am);
 }
