@@ -1,0 +1,311 @@
+// GL illustration ray caster: scene uploaded once, style table per render, one program per
+// shader variant.
+#include "vellum/illustration/illustration_renderer.hpp"
+
+#include <chrono>
+#include <cstring>
+#include <map>
+
+#include "gl_util.hpp"        // modules/render: buildProgram, checkGlError
+#include "illustration_renderer_common.hpp"
+#include "illustration_renderer_shader.hpp"
+#include "render_common.hpp"  // modules/render: makeFrame (same camera and rays)
+#include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::illustration {
+
+using namespace detail;
+using render::detail::buildProgram;
+using render::detail::checkGlError;
+
+namespace {
+
+enum Unit : GLint { kUnitLabels = 0, kUnitGrad, kUnitStyle, kUnitOcc, kUnitCt, kUnitTf, kUnitTexVol };
+
+constexpr const char* kVertex = R"GLSL(#version 450 core
+void main() {
+  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
+  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+)GLSL";
+
+void params(GLenum target, GLint filter, GLint wrap) {
+  glTexParameteri(target, GL_TEXTURE_MIN_FILTER, filter);
+  glTexParameteri(target, GL_TEXTURE_MAG_FILTER, filter);
+  glTexParameteri(target, GL_TEXTURE_WRAP_S, wrap);
+  glTexParameteri(target, GL_TEXTURE_WRAP_T, wrap);
+  glTexParameteri(target, GL_TEXTURE_WRAP_R, wrap);
+}
+
+void del(GLuint& t) {
+  if (t) glDeleteTextures(1, &t);
+  t = 0;
+}
+
+GLuint make3d(GLenum internal, const Dims& d, GLenum format, GLenum type, const void* data, GLint filter, GLint wrap) {
+  GLuint t = 0;
+  glGenTextures(1, &t);
+  glBindTexture(GL_TEXTURE_3D, t);
+  glTexStorage3D(GL_TEXTURE_3D, 1, internal, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  if (data) glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), format, type, data);
+  params(GL_TEXTURE_3D, filter, wrap);
+  return t;
+}
+
+void u3(GLuint p, const char* n, const Vec3& v) { glUniform3f(glGetUniformLocation(p, n), float(v.x), float(v.y), float(v.z)); }
+void u3(GLuint p, const char* n, const Vec3f& v) { glUniform3f(glGetUniformLocation(p, n), v.x, v.y, v.z); }
+void u1(GLuint p, const char* n, double v) { glUniform1f(glGetUniformLocation(p, n), float(v)); }
+void m3(GLuint p, const char* n, const Mat3& m) {
+  float a[9];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) a[r * 3 + c] = float(m(r, c));
+  glUniformMatrix3fv(glGetUniformLocation(p, n), 1, GL_TRUE, a);
+}
+
+}  // namespace
+
+struct IllustrationRenderer::Impl {
+  render::GlContext& context;
+  GLuint labelTex = 0, gradTex = 0, styleTex = 0, occTex = 0, ctTex = 0, tfTex = 0, texVolTex = 0;
+  GLuint fbo = 0, colorRb = 0, vao = 0;
+  int fbW = 0, fbH = 0;
+  bool hasScene = false;
+  Geometry geometry;
+  std::vector<Label> table;  // label table and largest id (style resolution)
+  int maxId = 0;
+  BlockLabels blocks;
+  std::optional<AnyVolume> ct;
+  bool ctUploaded = false;
+  std::string texVolPath;
+  Dims texVolDims;
+  std::map<int, GLuint> programs;
+  double lastMs = 0, uploadMs = 0;
+
+  explicit Impl(render::GlContext& c) : context(c) {
+    context.makeCurrent();
+    glGenVertexArrays(1, &vao);
+    glGenTextures(1, &styleTex);
+    glBindTexture(GL_TEXTURE_2D, styleTex);
+    glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, kRowTexels, kMaxLabels);
+    params(GL_TEXTURE_2D, GL_NEAREST, GL_CLAMP_TO_EDGE);
+    glGenTextures(1, &tfTex);
+    glBindTexture(GL_TEXTURE_1D, tfTex);
+    glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA32F, kTfSize);
+    glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    checkGlError("illustration renderer set-up");
+  }
+  ~Impl() {
+    context.makeCurrent();
+    for (auto& [k, p] : programs) glDeleteProgram(p);
+    for (GLuint* t : {&labelTex, &gradTex, &styleTex, &occTex, &ctTex, &tfTex, &texVolTex}) del(*t);
+    if (fbo) glDeleteFramebuffers(1, &fbo);
+    if (colorRb) glDeleteRenderbuffers(1, &colorRb);
+    glDeleteVertexArrays(1, &vao);
+  }
+
+  GLuint program(const ShaderVariant& v) {
+    auto it = programs.find(v.key());
+    if (it != programs.end()) return it->second;
+    const GLuint p = buildProgram(kVertex, illustrationFragmentSource(v));
+    glUseProgram(p);
+    const std::pair<const char*, GLint> units[] = {{"uLabels", kUnitLabels}, {"uGrad", kUnitGrad}, {"uStyle", kUnitStyle},
+                                                   {"uOccupancy", kUnitOcc}, {"uCt", kUnitCt}, {"uTf", kUnitTf},
+                                                   {"uTexVol", kUnitTexVol}};
+    for (const auto& [name, unit] : units) glUniform1i(glGetUniformLocation(p, name), unit);
+    programs[v.key()] = p;
+    return p;
+  }
+
+  void ensureFramebuffer(int w, int h) {
+    if (fbo && fbW == w && fbH == h) return;
+    if (!fbo) glGenFramebuffers(1, &fbo);
+    if (colorRb) glDeleteRenderbuffers(1, &colorRb);
+    glGenRenderbuffers(1, &colorRb);
+    glBindRenderbuffer(GL_RENDERBUFFER, colorRb);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colorRb);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw Error("illustrate: framebuffer of " + std::to_string(w) + "x" + std::to_string(h) + " is incomplete");
+    fbW = w;
+    fbH = h;
+  }
+
+  void uploadCt() {  // lazily: only styles that use the CT pay for it
+    if (ctUploaded) return;
+    const Volume4 c = computeCtGradient(*ct);
+    del(ctTex);
+    ctTex = make3d(GL_RGBA16F, c.dims, GL_RGBA, GL_HALF_FLOAT, c.half.data(), GL_LINEAR, GL_CLAMP_TO_EDGE);
+    computeBlockCtRange(blocks, *ct);
+    checkGlError("CT upload");
+    ctUploaded = true;
+  }
+
+  void uploadTextureVolume(const std::string& path) {
+    if (texVolTex && texVolPath == path) return;
+    const TextureVolume t = loadTextureVolume(path);
+    del(texVolTex);
+    texVolTex = make3d(GL_R32F, t.dims, GL_RED, GL_FLOAT, t.value.data(), GL_LINEAR, GL_REPEAT);
+    texVolPath = path;
+    texVolDims = t.dims;
+    checkGlError("texture volume upload");
+  }
+};
+
+IllustrationRenderer::IllustrationRenderer(render::GlContext& context) : impl_(std::make_unique<Impl>(context)) {}
+IllustrationRenderer::~IllustrationRenderer() = default;
+double IllustrationRenderer::lastRenderMs() const { return impl_->lastMs; }
+double IllustrationRenderer::lastUploadMs() const { return impl_->uploadMs; }
+
+void IllustrationRenderer::setScene(const ShapeScene& scene) {
+  validateScene(scene);
+  Impl& m = *impl_;
+  m.context.makeCurrent();
+  const auto t0 = std::chrono::steady_clock::now();
+  m.hasScene = false;
+  const Dims d = scene.distance.dims();
+  GLint max3d = 0;
+  glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
+  if (d.x > max3d || d.y > max3d || d.z > max3d)
+    throw Error("illustrate: volume of " + d.str() + " exceeds the GL 3D texture limit of " + std::to_string(max3d));
+  const Volume4 grad = computeDistanceGradient(scene.distance, scene.segments.ids());
+  // RG8UI: the label, and whether the 2x2x2 cell whose lowest corner is this voxel carries
+  // one label only (nearest mode then interpolates with one filtered fetch).
+  const VolumeU16& lab = scene.segments.ids();
+  std::vector<uint8_t> ids(lab.size() * 2);
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const uint16_t l = lab(i, j, k);
+          bool uniform = true;
+          for (int c = 1; c < 8 && uniform; ++c)
+            uniform = lab(std::min(i + (c & 1), d.x - 1), std::min(j + ((c >> 1) & 1), d.y - 1),
+                          std::min(k + ((c >> 2) & 1), d.z - 1)) == l;
+          const size_t idx = lab.linearIndex(i, j, k);
+          ids[idx * 2] = uint8_t(l);
+          ids[idx * 2 + 1] = uniform ? 1 : 0;
+        }
+  });
+  del(m.labelTex);
+  del(m.gradTex);
+  del(m.occTex);
+  del(m.ctTex);
+  m.labelTex = make3d(GL_RG8UI, d, GL_RG_INTEGER, GL_UNSIGNED_BYTE, ids.data(), GL_NEAREST, GL_CLAMP_TO_EDGE);
+  m.gradTex = make3d(GL_RGBA16F, d, GL_RGBA, GL_HALF_FLOAT, grad.half.data(), GL_LINEAR, GL_CLAMP_TO_EDGE);
+  m.blocks = computeBlockLabels(scene.segments.ids(), scene.distance);
+  m.occTex = make3d(GL_R8, m.blocks.blocks, GL_RED, GL_UNSIGNED_BYTE, nullptr, GL_NEAREST, GL_CLAMP_TO_EDGE);
+  checkGlError("scene upload");
+  m.geometry = scene.distance.geometry();
+  m.table = scene.segments.table();
+  m.maxId = scene.segments.maxId();
+  m.ct = scene.ct;
+  m.ctUploaded = false;
+  m.hasScene = true;
+  glFinish();
+  m.uploadMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSettings& settings) {
+  Impl& m = *impl_;
+  if (!m.hasScene) throw Error("illustrate: no scene set (call setScene first)");
+  m.context.makeCurrent();
+  const auto& s = settings.render;
+  const render::detail::Frame f = render::detail::makeFrame(m.geometry, nullptr, s);
+  const StyleTable table = packStyle(style, m.table, m.maxId, m.geometry);
+  ShaderVariant v;
+  v.eight = settings.interpolation == Interpolation::Eight;
+  v.texture = table.usesTexture;
+  v.textureVolume = table.usesTextureVolume;
+  v.ct = table.usesCt;
+  if (v.ct) {
+    if (!m.ct) throw Error("illustrate: style '" + style.name + "' uses the CT (illum = ct or boundary_measure = ct) but no CT was given");
+    m.uploadCt();
+  }
+  if (v.textureVolume) {
+    if (style.textureVolume.empty()) throw Error("illustrate: style '" + style.name + "' has texture = volume rows but no texture_volume");
+    m.uploadTextureVolume(style.textureVolume);
+  }
+  const SampleFrame sf = makeSampleFrame(m.geometry, f, table);
+  const bool newProgram = !m.programs.count(v.key());
+  const GLuint p = m.program(v);
+  m.ensureFramebuffer(s.width, s.height);
+  glUseProgram(p);
+
+  glBindTexture(GL_TEXTURE_2D, m.styleTex);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kRowTexels, kMaxLabels, GL_RGBA, GL_FLOAT, table.texels.data());
+  const std::vector<uint8_t> occ = blockOccupancy(m.blocks, table);
+  glBindTexture(GL_TEXTURE_3D, m.occTex);
+  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(m.blocks.blocks.x), GLsizei(m.blocks.blocks.y),
+                  GLsizei(m.blocks.blocks.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
+  glBindTexture(GL_TEXTURE_1D, m.tfTex);
+  glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfSize, GL_RGBA, GL_FLOAT, table.tf.data());
+
+  const std::pair<GLint, std::pair<GLenum, GLuint>> binds[] = {
+      {kUnitLabels, {GL_TEXTURE_3D, m.labelTex}}, {kUnitGrad, {GL_TEXTURE_3D, m.gradTex}},
+      {kUnitStyle, {GL_TEXTURE_2D, m.styleTex}},  {kUnitOcc, {GL_TEXTURE_3D, m.occTex}},
+      {kUnitCt, {GL_TEXTURE_3D, m.ctTex}},        {kUnitTf, {GL_TEXTURE_1D, m.tfTex}},
+      {kUnitTexVol, {GL_TEXTURE_3D, m.texVolTex}}};
+  for (const auto& [unit, tb] : binds) {
+    glActiveTexture(GL_TEXTURE0 + unit);
+    glBindTexture(tb.first, tb.second);
+  }
+  glActiveTexture(GL_TEXTURE0);
+
+  glUniform2f(glGetUniformLocation(p, "uViewport"), float(s.width), float(s.height));
+  u3(p, "uEye", f.eye);
+  u3(p, "uRight", f.right);
+  u3(p, "uUp", f.up);
+  u3(p, "uForward", f.forward);
+  glUniform2f(glGetUniformLocation(p, "uHalf"), float(f.halfW), float(f.halfH));
+  u1(p, "uPersp", f.perspective ? 1.0 : 0.0);
+  m3(p, "uPhysToBox", f.physToBox);
+  const Geometry& g = m.geometry;
+  m3(p, "uBoxToPhys", g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0}, {0, 0, g.spacing.z}));
+  u3(p, "uBoxOrigin", f.box.origin);
+  u3(p, "uBoxDims", Vec3{double(g.dims.x), double(g.dims.y), double(g.dims.z)});
+  u1(p, "uStep", f.stepMm);
+  u1(p, "uJitter", s.jitter ? 1.0 : 0.0);
+  glUniform4f(glGetUniformLocation(p, "uBackground"), s.background[0], s.background[1], s.background[2], s.background[3]);
+  u3(p, "uLight", sf.light);
+  u3(p, "uCentre", sf.centre);
+  u1(p, "uRadius", sf.radius);
+  u1(p, "uCoverageH", sf.coverageH);
+  glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(m.blocks.blocks.x), GLint(m.blocks.blocks.y), GLint(m.blocks.blocks.z));
+  u1(p, "uTfLo", table.tfLo);
+  u1(p, "uTfHi", table.tfHi);
+  u3(p, "uTexDims", Vec3{double(m.texVolDims.x), double(m.texVolDims.y), double(m.texVolDims.z)});
+
+  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
+  glViewport(0, 0, s.width, s.height);
+  glDisable(GL_BLEND);
+  glDisable(GL_DEPTH_TEST);
+  glBindVertexArray(m.vao);
+  if (newProgram) {  // llvmpipe compiles at the first draw: keep that out of lastRenderMs
+    glViewport(0, 0, 1, 1);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glFinish();
+    glViewport(0, 0, s.width, s.height);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glFinish();
+  m.lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  checkGlError("illustration ray casting");
+
+  RgbaImage image(s.width, s.height);
+  std::vector<uint8_t> rows(image.pixels.size());
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, s.width, s.height, GL_RGBA, GL_UNSIGNED_BYTE, rows.data());
+  checkGlError("glReadPixels");
+  const size_t stride = size_t(s.width) * 4;
+  for (int y = 0; y < s.height; ++y) std::memcpy(image.at(0, y), rows.data() + size_t(s.height - 1 - y) * stride, stride);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  return image;
+}
+
+}  // namespace vellum::illustration
