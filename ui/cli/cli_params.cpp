@@ -2,12 +2,7 @@
 
 namespace vellum::cli {
 
-std::string flagName(const std::string& key) {
-  std::string flag = "--" + key;
-  for (char& c : flag)
-    if (c == '_') c = '-';
-  return flag;
-}
+std::string flagName(const std::string& key) { return params::cliFlag(key); }
 
 std::string flagHelp(const params::Info& info, const std::string& range) {
   std::string help = info.label + ": " + info.help;

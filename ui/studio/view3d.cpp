@@ -126,11 +126,10 @@ std::string cliRenderCommand(const Scene& scene, int width, int height, const st
   std::ostringstream c;
   c.precision(10);
   auto quoted = [](const std::string& t) { return "'" + t + "'"; };
-  c << "vellum render " << quoted(scene.volumePath.string()) << " --out " << quoted(out)
-    << " --preset " << render::presetName(s.preset) << " --size " << s.width << "x" << s.height
-    << " --azimuth " << s.camera.azimuthDeg << " --elevation " << s.camera.elevationDeg << " --zoom "
-    << s.camera.zoom << " --fov " << s.camera.fieldOfViewDeg << " --pan " << s.camera.panMm.x << ' '
-    << s.camera.panMm.y << ' ' << s.camera.panMm.z << " --window " << s.windowCenter << ' ' << s.windowWidth;
+  // Every render setting from the same table as the CLI's flags, so the two cannot drift.
+  c << "vellum render " << quoted(scene.volumePath.string()) << " --out " << quoted(out) << " --size " << s.width
+    << "x" << s.height << params::cliArguments(render::renderSettingsTable(), s, {"width", "height"}) << " --pan "
+    << s.camera.panMm.x << ' ' << s.camera.panMm.y << ' ' << s.camera.panMm.z;
   return c.str();
 }
 

@@ -22,6 +22,13 @@ std::string joined(const std::vector<std::string>& names, const char* sep) {
 
 }  // namespace
 
+std::string cliFlag(const std::string& key) {
+  std::string flag = "--" + key;
+  for (char& c : flag)
+    if (c == '_') c = '-';
+  return flag;
+}
+
 std::string formatNumber(Kind kind, double v, const std::vector<std::string>& choices) {
   switch (kind) {
     case Kind::Flag: return v != 0 ? "true" : "false";

@@ -151,6 +151,13 @@ void validate(const Table<S>& table, const S& s);
 template <class S>
 std::string markdown(const Table<S>& table, const S& defaults = S{});
 
+/// The command-line flag of a key: "control_scale" -> "--control-scale".
+std::string cliFlag(const std::string& key);
+/// " --key value" for every field of `s` (switches as --key=true|false; unset optionals left
+/// out; keys in `skip` too): how the studio writes the CLI command for what it shows.
+template <class S>
+std::string cliArguments(const Table<S>& table, const S& s, const std::vector<std::string>& skip = {});
+
 // Non-template cores of the above (params.cpp).
 std::string formatNumber(Kind kind, double v, const std::vector<std::string>& choices);
 double parseNumber(const std::string& key, Kind kind, const Info& info,
@@ -174,6 +181,19 @@ void parse(const Field<S>& f, S& s, const std::string& text) {
   if (f.kind == Kind::Text) return f.setText(s, text);
   if (text.empty() && f.optional) return f.set(s, std::nullopt);
   f.set(s, parseNumber(f.key, f.kind, f.info, f.choices, text));
+}
+
+template <class S>
+std::string cliArguments(const Table<S>& table, const S& s, const std::vector<std::string>& skip) {
+  std::string out;
+  for (const auto& f : table) {
+    bool skipped = false;
+    for (const auto& k : skip) skipped = skipped || k == f.key;
+    const std::string v = format(f, s);
+    if (skipped || (v.empty() && f.kind != Kind::Text)) continue;
+    out += f.kind == Kind::Flag ? " " + cliFlag(f.key) + "=" + v : " " + cliFlag(f.key) + " " + v;
+  }
+  return out;
 }
 
 template <class S>
