@@ -149,8 +149,11 @@ void main() {
         vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
         vec3 hi = mix(vec3((b + 1) * BLOCK_SIZE), uBoxDims + 2.0, equal(b, uBlocks - 1));
         vec3 tb = (mix(lo, hi, greaterThan(d, vec3(0.0))) - o) * inv;
+        // An axis the ray does not move along never exits the block (its inv is infinite and
+        // 0 * inf or -inf would end the ray early); the step is clamped before int().
+        tb = mix(tb, vec3(1.0e30), equal(d, vec3(0.0)));
         float tExit = min(min(tb.x, tb.y), tb.z);
-        k = max(k, int(ceil(tExit / uStep - jitter)) - 1);
+        k = max(k, int(clamp(ceil(tExit / uStep - jitter), float(k), float(k1 + 1))) - 1);
         continue;
       }
 #endif
