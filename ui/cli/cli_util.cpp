@@ -87,6 +87,31 @@ AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::pa
   return segmentation::removeTable(*ct, params, bar.progress());
 }
 
+void FigureOptions::addTo(CLI::App& cmd, bool labelsComeWithInput) {
+  cmd.add_flag("--scale-bar", annotations.scaleBar,
+               "draw a scale bar in mm (exact for --fov 0; in perspective it holds at the centre's depth)");
+  cmd.add_option("--scale-bar-mm", annotations.scaleBarMm, "scale bar length (default: a round length near a fifth of the width)");
+  cmd.add_flag("--orientation", annotations.orientation, "draw the orientation letters (A/P, L/R, S/I) at the edges");
+  if (labelsComeWithInput)
+    cmd.add_flag("--labels", labelFlag, "name the visible structures, with leader lines");
+  else
+    cmd.add_option("--label-map", labelMap, "label map on the volume's grid: name its visible structures, with leader lines");
+  cmd.add_option("--label-ids", labelIds, "structures to name (default: every id of the label table)")->delimiter(',');
+  cmd.add_flag("--annotate", annotateAll, "scale bar and orientation letters (and labels with --label-map / --labels)");
+}
+
+void FigureOptions::apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
+                          const LabelVolume* labels) const {
+  if (!any()) return;
+  render::AnnotationOptions o = annotations;
+  if (annotateAll) o.scaleBar = o.orientation = true;
+  o.labels = wantsLabels() && labels;
+  const render::Projection projection(volume, settings);
+  const auto anchors = o.labels ? render::structureAnchors(*labels, labelIds, projection, image)
+                                : std::vector<render::StructureAnchor>{};
+  render::annotate(image, projection, o, anchors);
+}
+
 ProgressBar::ProgressBar()
     : progress_([this](const std::string& stage, double f) { report(stage, f); }),
       start_(std::chrono::steady_clock::now()),

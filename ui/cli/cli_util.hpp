@@ -11,6 +11,7 @@
 
 #include "vellum/core/progress.hpp"
 #include "vellum/io/volume_io.hpp"
+#include "vellum/render/annotations.hpp"
 #include "vellum/segmentation/body_mask.hpp"
 
 namespace vellum::cli {
@@ -48,6 +49,25 @@ struct TableRemovalOptions {
   void addTo(CLI::App& cmd);
   /// The volume without the table when enabled (a CT is required), else unchanged.
   AnyVolume apply(AnyVolume volume, const std::filesystem::path& path) const;
+};
+
+/// --scale-bar, --scale-bar-mm, --orientation, --label-ids, --annotate (and, where a command
+/// takes one, --label-map): figure annotations for `render` and `illustrate`.
+struct FigureOptions {
+  render::AnnotationOptions annotations;
+  std::vector<uint16_t> labelIds;
+  bool annotateAll = false;
+  bool labelFlag = false;  ///< --labels (commands whose structures come with their input)
+  std::string labelMap;    ///< --label-map (commands without a label map of their own)
+
+  /// `labelsComeWithInput`: the command has its own label map (illustrate: the shape's
+  /// segments) and takes --labels; otherwise it takes --label-map FILE.
+  void addTo(CLI::App& cmd, bool labelsComeWithInput);
+  bool wantsLabels() const { return labelFlag || !labelMap.empty(); }
+  bool any() const { return annotateAll || annotations.scaleBar || annotations.orientation || wantsLabels(); }
+  /// Draws what was asked for into `image` rendered with `settings` around `volume`.
+  void apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
+             const LabelVolume* labels) const;
 };
 
 /// A progress bar on stderr. It stays silent for the first second (fast work prints

@@ -2,6 +2,7 @@
 #include <iostream>
 #include <memory>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
@@ -14,10 +15,16 @@ namespace {
 struct IllustrateArgs {
   std::string input, shape, style, preset, output, saveStyle, report;
   std::string size = "512x512", interp = "eight";
-  double azimuth = 30, elevation = 15, zoom = 1, fov = 30, step = 1.0;
+  render::RenderSettings camera = [] {  // the render table's camera and step flags write here
+    render::RenderSettings s;
+    s.stepVoxels = 1.0;  // distance fields are smooth: a voxel step suffices
+    return s;
+  }();
   std::vector<double> background;
   bool transparent = false;
   InputOptions in;
+  TableRemovalOptions table;
+  FigureOptions figure;
 };
 
 }  // namespace
@@ -33,18 +40,17 @@ void addIllustrateCommand(CLI::App& app) {
   cmd->add_option("--preset", a->preset, "built-in style: " + presets)->excludes(styleOpt);
   cmd->add_option("--out,-o", a->output, "figure path (.png, .tif, .jpg)")->required();
   cmd->add_option("--size", a->size, "image size WxH, up to 4096x4096")->capture_default_str();
-  cmd->add_option("--azimuth", a->azimuth, "camera azimuth in degrees about the superior axis")->capture_default_str();
-  cmd->add_option("--elevation", a->elevation, "camera elevation in degrees")->capture_default_str();
-  cmd->add_option("--zoom", a->zoom, "zoom factor (1 = whole volume)")->capture_default_str();
-  cmd->add_option("--fov", a->fov, "vertical field of view in degrees (0 = orthographic)")->capture_default_str();
+  addFlags(*cmd, a->camera, render::renderSettingsTable(),
+           {"width", "height", "preset", "window_center", "window_width", "shading", "jitter"});
   cmd->add_option("--interp", a->interp, "eight (styled colour at the 8 voxel centres, interpolated) | nearest (fast)")
       ->capture_default_str();
-  cmd->add_option("--step", a->step, "ray step in voxels")->capture_default_str();
   cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1 (default: the style's)")->expected(3, 4);
   cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
   cmd->add_option("--save-style", a->saveStyle, "also write the style used as JSON (a starting point for your own)");
   cmd->add_option("--report", a->report, "write timings and settings as JSON");
   a->in.addTo(*cmd);
+  a->table.addTo(*cmd);
+  a->figure.addTo(*cmd, true);
   cmd->footer("Example: vellum illustrate knee.nrrd --shape knee-shape --preset textbook --size 1024x1024 --out knee.png");
   cmd->callback([a] {
     const auto t0 = std::chrono::steady_clock::now();
@@ -52,12 +58,9 @@ void addIllustrateCommand(CLI::App& app) {
     const illustration::Style style =
         a->style.empty() ? illustration::stylePreset(a->preset) : illustration::loadStyle(a->style);
     illustration::IllustrationSettings s;
+    s.render.camera = a->camera.camera;
+    s.render.stepVoxels = a->camera.stepVoxels;
     std::tie(s.render.width, s.render.height) = parseSize(a->size);
-    s.render.camera.azimuthDeg = a->azimuth;
-    s.render.camera.elevationDeg = a->elevation;
-    s.render.camera.zoom = a->zoom;
-    s.render.camera.fieldOfViewDeg = a->fov;
-    s.render.stepVoxels = a->step;
     s.interpolation = illustration::parseInterpolation(a->interp);
     s.render.background = {style.background[0], style.background[1], style.background[2], 1.f};
     if (!a->background.empty())
@@ -68,7 +71,8 @@ void addIllustrateCommand(CLI::App& app) {
     refuseOverwritingInput(a->shape, a->output);
 
     illustration::ShapeScene scene = illustration::loadShapeFolder(a->shape);
-    const io::LoadedVolume lv = loadWithProgress(a->input, a->in);
+    io::LoadedVolume lv = loadWithProgress(a->input, a->in);
+    lv.volume = a->table.apply(std::move(lv.volume), a->input);
     if (!geometryOf(lv.volume).approxEqual(scene.distance.geometry()))
       throw FileError(a->shape, "grid " + scene.distance.dims().str() + " does not match the CT " + a->input + " (" +
                                     geometryOf(lv.volume).dims.str() + "): make the shape folder from this CT");
@@ -78,7 +82,8 @@ void addIllustrateCommand(CLI::App& app) {
     auto context = render::GlContext::createHeadless();
     illustration::IllustrationRenderer renderer(*context);
     renderer.setScene(scene);
-    const RgbaImage image = renderer.render(style, s);
+    RgbaImage image = renderer.render(style, s);
+    a->figure.apply(image, scene.distance.geometry(), s.render, &scene.segments);
     ensureParentFolder(a->output);
     io::saveImage(image, a->output);
     if (!a->saveStyle.empty()) illustration::saveStyle(style, a->saveStyle);
@@ -92,7 +97,8 @@ void addIllustrateCommand(CLI::App& app) {
       r["output"] = a->output;
       r["size"] = {s.render.width, s.render.height};
       r["interpolation"] = illustration::interpolationName(s.interpolation);
-      r["camera"] = {{"azimuth", a->azimuth}, {"elevation", a->elevation}, {"zoom", a->zoom}, {"fov", a->fov}};
+      r["camera"] = {{"azimuth", s.render.camera.azimuthDeg}, {"elevation", s.render.camera.elevationDeg},
+                     {"zoom", s.render.camera.zoom}, {"fov", s.render.camera.fieldOfViewDeg}};
       r["dims"] = {scene.distance.dims().x, scene.distance.dims().y, scene.distance.dims().z};
       r["load_seconds"] = loadS;
       r["upload_ms"] = renderer.lastUploadMs();

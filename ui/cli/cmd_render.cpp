@@ -7,7 +7,6 @@
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/image_io.hpp"
-#include "vellum/render/annotations.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::cli {
@@ -22,10 +21,7 @@ struct RenderArgs {
   bool transparent = false;
   InputOptions in;
   TableRemovalOptions table;
-  render::AnnotationOptions annotations;
-  std::string labelMap;
-  std::vector<uint16_t> labelIds;
-  bool annotateAll = false;
+  FigureOptions figure;
 };
 
 /// "fig.png" + "bone" -> "fig-bone.png".
@@ -49,12 +45,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
-  cmd->add_flag("--scale-bar", a->annotations.scaleBar, "draw a scale bar in mm (exact for --fov 0; perspective: at the centre's depth)");
-  cmd->add_option("--scale-bar-mm", a->annotations.scaleBarMm, "scale bar length (default: a round length near a fifth of the width)");
-  cmd->add_flag("--orientation", a->annotations.orientation, "draw the orientation letters (A/P, L/R, S/I) at the edges");
-  cmd->add_option("--label-map", a->labelMap, "label map on the volume's grid: label its visible structures with leader lines");
-  cmd->add_option("--label-ids", a->labelIds, "structures to label (default: every id of the label table)")->delimiter(',');
-  cmd->add_flag("--annotate", a->annotateAll, "scale bar + orientation (+ labels with --label-map)");
+  a->figure.addTo(*cmd, false);
   cmd->footer("Example: vellum render knee.nrrd --preset all --size 1024x1024 --out figs/knee.png");
   cmd->callback([a] {
     io::LoadedVolume lv = loadWithProgress(a->input, a->in);
@@ -69,13 +60,11 @@ void addRenderCommand(CLI::App& app) {
     const std::vector<render::Preset> presets =
         a->preset == "all" ? render::allPresets() : std::vector{render::parsePreset(a->preset)};
 
-    if (a->annotateAll) a->annotations.scaleBar = a->annotations.orientation = true;
-    a->annotations.labels = !a->labelMap.empty();
     std::optional<LabelVolume> labels;
-    if (a->annotations.labels) {
-      labels = a->in.loadLabelsOnInputGrid(a->labelMap);
+    if (!a->figure.labelMap.empty()) {
+      labels = a->in.loadLabelsOnInputGrid(a->figure.labelMap);
       if (!labels->geometry().approxEqual(geometryOf(lv.volume), 1e-3))
-        throw FileError(a->labelMap, "label map grid " + labels->geometry().dims.str() + " differs from the volume's");
+        throw FileError(a->figure.labelMap, "label map grid " + labels->geometry().dims.str() + " differs from the volume's");
     }
     auto context = render::GlContext::createHeadless();
     render::VolumeRenderer renderer(*context);
@@ -84,12 +73,7 @@ void addRenderCommand(CLI::App& app) {
     for (render::Preset p : presets) {
       s.preset = p;
       RgbaImage image = renderer.render(s);
-      if (a->annotations.scaleBar || a->annotations.orientation || labels) {
-        const render::Projection projection(geometryOf(lv.volume), s);
-        const auto anchors = labels ? render::structureAnchors(*labels, a->labelIds, projection, image)
-                                    : std::vector<render::StructureAnchor>{};
-        render::annotate(image, projection, a->annotations, anchors);
-      }
+      a->figure.apply(image, geometryOf(lv.volume), s, labels ? &*labels : nullptr);
       const auto path = presets.size() > 1 ? withSuffix(a->output, render::presetName(p)) : std::filesystem::path(a->output);
       io::saveImage(image, path);
       std::cout << path.string() << "  " << render::presetName(p) << "  " << s.width << "x" << s.height
