@@ -39,7 +39,29 @@ struct LevelSet {
 void LevelSetDeleter::operator()(LevelSet* p) const { delete p; }
 
 namespace {
-void constrain(openvdb::FloatGrid& grid, const MaskBox& mask) {
+/// Voxels of the original binary boundary: inside voxels with an outside face neighbour and
+/// outside voxels with an inside face neighbour (full-grid coordinates).
+std::vector<openvdb::Coord> boundaryVoxels(const MaskBox& m) {
+  std::vector<std::vector<openvdb::Coord>> perSlice(static_cast<size_t>(m.nz));
+  parallelFor(m.nz, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < m.ny; ++j)
+        for (int64_t i = 0; i < m.nx; ++i) {
+          const int64_t gi = i + m.ox, gj = j + m.oy, gk = k + m.oz;
+          const bool in = m.at(gi, gj, gk);
+          if (m.at(gi + 1, gj, gk) != in || m.at(gi - 1, gj, gk) != in || m.at(gi, gj + 1, gk) != in ||
+              m.at(gi, gj - 1, gk) != in || m.at(gi, gj, gk + 1) != in || m.at(gi, gj, gk - 1) != in)
+            perSlice[static_cast<size_t>(k)].emplace_back(int(gi), int(gj), int(gk));
+        }
+  });
+  std::vector<openvdb::Coord> all;
+  for (auto& s : perSlice) all.insert(all.end(), s.begin(), s.end());
+  return all;
+}
+
+/// Whitaker's constraint: every voxel centre keeps the sign of the original mask.
+void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const std::vector<openvdb::Coord>& boundary) {
+  // Active voxels (the narrow band), in parallel over leaves.
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(grid.tree());
   leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
     for (auto it = leaf.beginValueOn(); it; ++it) {
@@ -52,6 +74,25 @@ void constrain(openvdb::FloatGrid& grid, const MaskBox& mask) {
       }
     }
   });
+  // Boundary voxels the tracker may have pruned out of the band with the wrong sign: find
+  // them in parallel (read-only), fix them serially (setValue may allocate leaves).
+  std::vector<std::vector<openvdb::Coord>> bad(static_cast<size_t>(workerCount()) + 1);
+  std::mutex m;
+  parallelFor(static_cast<int64_t>(boundary.size()), [&](int64_t b, int64_t e) {
+    auto acc = grid.getConstAccessor();
+    std::vector<openvdb::Coord> local;
+    for (int64_t n = b; n < e; ++n) {
+      const auto& c = boundary[static_cast<size_t>(n)];
+      const float v = acc.getValue(c);
+      if (mask.at(c.x(), c.y(), c.z()) ? v > -kEps : v < kEps) local.push_back(c);
+    }
+    if (!local.empty()) {
+      std::lock_guard<std::mutex> lock(m);
+      bad[0].insert(bad[0].end(), local.begin(), local.end());
+    }
+  }, 4096);
+  auto acc = grid.getAccessor();
+  for (const auto& c : bad[0]) acc.setValue(c, mask.at(c.x(), c.y(), c.z()) ? -kEps : kEps);
 }
 }  // namespace
 
@@ -77,11 +118,15 @@ LevelSetPtr denoiseLevelSet(const MaskBox& mask, int iterations) {
   ls->grid = openvdb::tools::levelSetRebuild(*binary, 0.0f, kHalfWidth);
   binary.reset();
   ls->grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  // The constraint also runs once before the flow: it repairs any voxel centre whose sign
+  // the rebuild got wrong (thin one-voxel structures), so even 0 iterations respect the band.
+  const auto boundary = boundaryVoxels(mask);
+  constrain(*ls->grid, mask, boundary);
   if (iterations > 0) {
     openvdb::tools::LevelSetFilter<openvdb::FloatGrid> filter(*ls->grid);
     for (int it = 0; it < iterations; ++it) {
       filter.meanCurvature();
-      constrain(*ls->grid, mask);
+      constrain(*ls->grid, mask, boundary);
     }
   }
   return ls;

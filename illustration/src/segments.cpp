@@ -20,9 +20,12 @@ Segment parseSegmentSpec(const std::string& spec, const LabelVolume& labels) {
   }
   if (idsText.empty()) throw Error("--segment '" + spec + "': no label ids (expected NAME=ID[,ID..])");
   const uint16_t maxId = labels.maxId();
-  std::stringstream ss(idsText);
-  std::string part;
-  while (std::getline(ss, part, ',')) {
+  std::vector<std::string> parts(1);
+  for (char c : idsText) {
+    if (c == ',') parts.emplace_back();
+    else parts.back() += c;
+  }
+  for (const std::string& part : parts) {
     long v = -1;
     try {
       size_t used = 0;

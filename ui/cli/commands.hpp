@@ -17,6 +17,7 @@ void addSegmentCommand(CLI::App& app);    // issue 4
 void addDeformCommand(CLI::App& app);     // issue 3
 void addControlsCommand(CLI::App& app);   // issue 3
 void addAnimateCommand(CLI::App& app);    // issue 3
+void addShapeCommand(CLI::App& app);      // issue 8
 
 /// What `vellum demo` hands to the parts that later issues add to it.
 struct DemoContext {

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   addDeformCommand(app);
   addControlsCommand(app);
   addAnimateCommand(app);
+  addShapeCommand(app);
   addDemoCommand(app);
   try {
     app.parse(argc, argv);
