@@ -6,18 +6,26 @@
 // is invariant under the CT's rotation). For isotropic CT grids the VDB voxels coincide with
 // the CT voxels; otherwise each CT voxel centre is sampled trilinearly. Within the narrow band
 // (bandMm, widened per mesh for shells and grow offsets) the values are exact distances to the
-// mesh (OpenVDB computes point-triangle distances to the closest primitive). Beyond the band
-// the sign is exact (OpenVDB flood-fills the interior of the closed mesh) and the magnitude is
-// a far-field estimate (see farField below).
+// mesh (OpenVDB computes point-triangle distances to the closest primitive).
+//
+// Signs: OpenVDB decides inside/outside by flood-filling from the grid's outside, so a cavity
+// (a segment with a hole inside, e.g. muscle around bone) would count as inside. Each
+// connected component of the mesh is therefore converted on its own (one closed surface:
+// no cavity), and a point is inside the segment when an odd number of component surfaces
+// enclose it; |d| is the minimum over the components. This is exact for any nesting.
 #include <openvdb/openvdb.h>
-#include <openvdb/tools/Interpolation.h>
+#include <openvdb/tools/Dense.h>
 #include <openvdb/tools/MeshToVolume.h>
 
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <mutex>
+#include <unordered_map>
 
 #include "shape_internal.hpp"
 #include "vellum/core/error.hpp"
@@ -26,6 +34,30 @@
 namespace vellum::illustration {
 
 namespace {
+/// Connected components of a mesh (faces sharing a vertex), as lists of face indices.
+std::vector<std::vector<uint32_t>> connectedComponents(const TriMesh& mesh) {
+  std::vector<uint32_t> parent(mesh.vertices.size());
+  for (uint32_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  auto find = [&](uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (const auto& f : mesh.faces) {
+    const uint32_t a = find(f[0]), b = find(f[1]), c = find(f[2]);
+    parent[b] = a;
+    parent[find(c)] = find(a);
+  }
+  std::unordered_map<uint32_t, size_t> index;
+  std::vector<std::vector<uint32_t>> comps;
+  for (uint32_t fi = 0; fi < mesh.faces.size(); ++fi) {
+    const uint32_t root = find(mesh.faces[fi][0]);
+    auto [it, inserted] = index.try_emplace(root, comps.size());
+    if (inserted) comps.emplace_back();
+    comps[it->second].push_back(fi);
+  }
+  return comps;
+}
+
 bool isotropic(const Vec3& s) {
   const double h = std::min({s.x, s.y, s.z});
   return std::abs(s.x - h) < 1e-6 * h && std::abs(s.y - h) < 1e-6 * h && std::abs(s.z - h) < 1e-6 * h;
@@ -45,40 +77,103 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
   out.reserve(meshes.size());
   for (size_t m = 0; m < meshes.size(); ++m) {
     const TriMesh& mesh = meshes[m];
-    std::vector<openvdb::Vec3s> pts;
-    pts.reserve(mesh.vertices.size());
+    std::vector<openvdb::Vec3s> allPts;
+    allPts.reserve(mesh.vertices.size());
     for (const auto& v : mesh.vertices) {
       const Vec3 q = g.physicalToIndex(Vec3{v[0], v[1], v[2]});
-      pts.emplace_back(float(q.x * sp.x), float(q.y * sp.y), float(q.z * sp.z));
+      allPts.emplace_back(float(q.x * sp.x), float(q.y * sp.y), float(q.z * sp.z));
     }
-    std::vector<openvdb::Vec3I> tris;
-    tris.reserve(mesh.faces.size());
-    for (const auto& f : mesh.faces) tris.emplace_back(f[0], f[1], f[2]);
+    const auto components = connectedComponents(mesh);
     const double extra = m < extraBandMm.size() ? extraBandMm[m] : 0.0;
     const double bandMm = std::max(options.bandMm, std::abs(extra) + 2 * h);
     const float bandVox = static_cast<float>(std::max(3.0, bandMm / h));
     const float farMm = static_cast<float>(bandVox * h);
-    VolumeF32 dense(g, farMm, farMm);
-    if (!tris.empty()) {
+    VolumeF32 dense(g, farMm, farMm);  // min over components of |d|
+    std::vector<uint8_t> parity(dense.size(), 0);  // number of enclosing surfaces, mod 2
+    for (const auto& comp : components) {
+      // Re-index the component's vertices.
+      std::vector<openvdb::Vec3s> pts;
+      std::vector<openvdb::Vec3I> tris;
+      std::unordered_map<uint32_t, uint32_t> remap;
+      for (uint32_t fi : comp) {
+        uint32_t idx[3];
+        for (int c = 0; c < 3; ++c) {
+          const uint32_t v = mesh.faces[fi][size_t(c)];
+          auto [it, inserted] = remap.try_emplace(v, static_cast<uint32_t>(pts.size()));
+          if (inserted) pts.push_back(allPts[v]);
+          idx[c] = it->second;
+        }
+        tris.emplace_back(idx[0], idx[1], idx[2]);
+      }
+      static const bool profile = std::getenv("VELLUM_SHAPE_PROFILE") != nullptr;
+      auto t0 = std::chrono::steady_clock::now();
+      auto lap = [&](const char* what) {
+        if (!profile) return;
+        const auto t = std::chrono::steady_clock::now();
+        std::fprintf(stderr, "  distance %-8s %7.1f ms\n", what, std::chrono::duration<double, std::milli>(t - t0).count());
+        t0 = t;
+      };
       auto grid = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
           *xform, pts, tris, std::vector<openvdb::Vec4I>{}, bandVox, bandVox);
+      lap("sdf");
       const auto& d = g.dims;
-      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-        auto acc = grid->getConstAccessor();
-        for (int64_t k = k0; k < k1; ++k)
-          for (int64_t j = 0; j < d.y; ++j)
-            for (int64_t i = 0; i < d.x; ++i) {
-              float v;
-              if (iso) {
-                v = acc.getValue(openvdb::Coord(int(i), int(j), int(k)));
-              } else {
-                const openvdb::Vec3d p(i * sp.x / h, j * sp.y / h, k * sp.z / h);
-                v = openvdb::tools::BoxSampler::sample(acc, p);
+      // Copy the (sparse) grid over the mesh's bounding box + band into a dense isotropic
+      // buffer (tiles included: the flood-filled interior keeps its sign), then sample the CT
+      // voxel centres from it: no tree traversal per voxel. Outside that box: +far.
+      openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+      const openvdb::Coord limit(int(std::ceil((d.x - 1) * sp.x / h)) + 1,
+                                 int(std::ceil((d.y - 1) * sp.y / h)) + 1,
+                                 int(std::ceil((d.z - 1) * sp.z / h)) + 1);
+      box.intersect(openvdb::CoordBBox(openvdb::Coord(0, 0, 0), limit));
+      if (!box.empty()) {
+        const openvdb::Coord lo = box.min(), dim = box.dim();
+        std::vector<float> buf(size_t(dim.x()) * size_t(dim.y()) * size_t(dim.z()), farMm);
+        openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> denseBox(box, buf.data());
+        openvdb::tools::copyToDense(*grid, denseBox);
+        grid.reset();
+        lap("copy");
+        const size_t sy = size_t(dim.x()), sz = size_t(dim.x()) * size_t(dim.y());
+        parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+          for (int64_t k = k0; k < k1; ++k) {
+            const double fz = k * sp.z / h - lo.z();
+            if (fz < 0 || fz > dim.z() - 1) continue;
+            const int64_t z0 = std::min<int64_t>(int64_t(fz), dim.z() - 2 < 0 ? 0 : dim.z() - 2);
+            const double tz = dim.z() > 1 ? fz - z0 : 0;
+            for (int64_t j = 0; j < d.y; ++j) {
+              const double fy = j * sp.y / h - lo.y();
+              if (fy < 0 || fy > dim.y() - 1) continue;
+              const int64_t y0 = std::min<int64_t>(int64_t(fy), dim.y() - 2 < 0 ? 0 : dim.y() - 2);
+              const double ty = dim.y() > 1 ? fy - y0 : 0;
+              for (int64_t i = 0; i < d.x; ++i) {
+                const double fx = i * sp.x / h - lo.x();
+                if (fx < 0 || fx > dim.x() - 1) continue;
+                const int64_t x0 = std::min<int64_t>(int64_t(fx), dim.x() - 2 < 0 ? 0 : dim.x() - 2);
+                const double tx = dim.x() > 1 ? fx - x0 : 0;
+                const float* p = buf.data() + size_t(z0) * sz + size_t(y0) * sy + size_t(x0);
+                float val;
+                if (iso || (tx == 0 && ty == 0 && tz == 0)) {
+                  val = *p;
+                } else {
+                const size_t ox = dim.x() > 1 ? 1 : 0, oy = dim.y() > 1 ? sy : 0, oz = dim.z() > 1 ? sz : 0;
+                const double c00 = p[0] + tx * (p[ox] - p[0]);
+                const double c10 = p[oy] + tx * (p[oy + ox] - p[oy]);
+                const double c01 = p[oz] + tx * (p[oz + ox] - p[oz]);
+                const double c11 = p[oz + oy] + tx * (p[oz + oy + ox] - p[oz + oy]);
+                const double c0 = c00 + ty * (c10 - c00), c1 = c01 + ty * (c11 - c01);
+                val = static_cast<float>(c0 + tz * (c1 - c0));
+                }
+                const size_t at = dense.linearIndex(i, j, k);
+                dense.data()[at] = std::min(dense.data()[at], std::abs(val));
+                if (val < 0) parity[at] ^= 1;
               }
-              dense(i, j, k) = v;
             }
-      });
+          }
+        });
+        lap("sample");
+      }
     }
+    for (size_t n = 0; n < dense.size(); ++n)
+      if (parity[n]) dense.data()[n] = -dense.data()[n];
     out.push_back(std::move(dense));
   }
   return out;
@@ -121,13 +216,10 @@ void buildRepresentation(std::vector<VolumeF32>& distances, const std::vector<Se
     for (size_t v = static_cast<size_t>(k0) * slice; v < static_cast<size_t>(k1) * slice && v < count; ++v) {
       float u = distances[0].data()[v];
       uint16_t label = 0;
-      for (size_t i = 0; i < n; ++i) {
+      for (size_t i = 0; i < n; ++i) {  // later segments paint over earlier ones
         const float d = distances[i].data()[v];
         u = std::min(u, d);
-        if (label == 0 && d < 0) {
-          label = static_cast<uint16_t>(i + 1);
-          if (shellId[i] != 0 && d > -shellT[i]) label = shellId[i];
-        }
+        if (d < 0) label = (shellId[i] != 0 && d > -shellT[i]) ? shellId[i] : static_cast<uint16_t>(i + 1);
       }
       unionDistance.data()[v] = u;
       ids.data()[v] = label;

@@ -8,6 +8,7 @@
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+
 #include <OpenMesh/Tools/Decimater/ModAspectRatioT.hh>
 #include <OpenMesh/Tools/Decimater/ModNormalDeviationT.hh>
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
@@ -49,8 +50,7 @@ TriMesh smoothAndDecimate(const TriMesh& in, int smoothingIterations, int64_t ta
     mesh.update_normals();
   }
   if (targetFaces > 0 && static_cast<int64_t>(mesh.n_faces()) > targetFaces) {
-    using Decimater = OpenMesh::Decimater::DecimaterT<OmMesh>;
-    Decimater dec(mesh);
+    OpenMesh::Decimater::DecimaterT<OmMesh> dec(mesh);
     OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric;
     OpenMesh::Decimater::ModNormalDeviationT<OmMesh>::Handle normals;
     OpenMesh::Decimater::ModAspectRatioT<OmMesh>::Handle aspect;

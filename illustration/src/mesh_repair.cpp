@@ -24,6 +24,15 @@ using Point = K::Point_3;
 using Mesh = CGAL::Surface_mesh<Point>;
 
 namespace {
+/// Output meshes store float coordinates: round now so that the checks see what is saved
+/// (rounding a near-degenerate configuration can create an intersection).
+void roundToFloat(Mesh& mesh) {
+  for (auto v : mesh.vertices()) {
+    const Point& p = mesh.point(v);
+    mesh.point(v) = Point(double(float(p.x())), double(float(p.y())), double(float(p.z())));
+  }
+}
+
 int64_t fillHoles(Mesh& mesh) {
   int64_t filled = 0;
   std::vector<Mesh::Halfedge_index> borders;
@@ -60,10 +69,15 @@ TriMesh repairMesh(const TriMesh& in, MeshChecks& stats) {
   mesh.collect_garbage();
   stats.degenerateRemoved = static_cast<int64_t>(facesBefore) - static_cast<int64_t>(mesh.number_of_faces());
   stats.holesFilled = fillHoles(mesh);
-  if (PMP::does_self_intersect<CGAL::Parallel_if_available_tag>(mesh)) {
+  // Self-intersections: CGAL's (experimental) local remeshing/hole filling, repeated while
+  // it leaves some (each round works on what the previous one could not fix).
+  roundToFloat(mesh);
+  for (int round = 0; round < 4 && PMP::does_self_intersect<CGAL::Parallel_if_available_tag>(mesh); ++round) {
     PMP::experimental::remove_self_intersections(mesh, CGAL::parameters::preserve_genus(false));
     mesh.collect_garbage();
     stats.holesFilled += fillHoles(mesh);
+    PMP::stitch_borders(mesh);
+    roundToFloat(mesh);
     stats.selfIntersectionsRepaired = true;
   }
   if (CGAL::is_closed(mesh)) {

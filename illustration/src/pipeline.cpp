@@ -24,7 +24,7 @@ void forEachSegment(size_t n, F f) {
 
 VolumeF32 denoiseMask(const VolumeU8& mask, const DenoiseOptions& options) {
   const auto box = detail::maskFromVolume(mask, 4);
-  auto ls = detail::denoiseLevelSet(box, options.iterations);
+  auto ls = detail::denoiseLevelSet(box, options.iterations, options.marginVoxels);
   return detail::levelSetToDense(*ls, mask.geometry());
 }
 
@@ -45,7 +45,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
   forEachSegment(n, [&](size_t i) {
     masks[i] = detail::extractMask(labels.ids(), segments[i].ids, 4);
     if (masks[i].count == 0) return;
-    sets[i] = detail::denoiseLevelSet(masks[i], options.denoise.iterations);
+    sets[i] = detail::denoiseLevelSet(masks[i], options.denoise.iterations, options.denoise.marginVoxels);
     progress.advance();
   });
   times.denoiseMs = msSince(t0);
@@ -56,7 +56,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
   progress.begin("mesh", n);
   t0 = Clock::now();
   forEachSegment(n, [&](size_t i) {
-    shapes[i].mesh = detail::extractIndexMesh(*sets[i]);
+    shapes[i].mesh = detail::extractIndexMesh(*sets[i], options.adaptivity);
     detail::indexToPhysical(shapes[i].mesh, g);
     sets[i].reset();
     progress.advance();
@@ -72,6 +72,16 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
                                           options.targetFaces, 0.5 * minSpacing);
     m = detail::repairMesh(m, stats);
     MeshChecks c = checkMesh(m);
+    // The soup round trip can leave a few intersections CGAL's repair did not see (faces
+    // meeting at duplicated, coincident vertices): one more repair pass on the result.
+    for (int pass = 0; pass < 2 && (c.selfIntersections > 0 || !c.closed || !c.manifold); ++pass) {
+      MeshChecks again;
+      m = detail::repairMesh(m, again);
+      stats.holesFilled += again.holesFilled;
+      stats.degenerateRemoved += again.degenerateRemoved;
+      stats.selfIntersectionsRepaired = stats.selfIntersectionsRepaired || again.selfIntersectionsRepaired;
+      c = checkMesh(m);
+    }
     c.holesFilled = stats.holesFilled;
     c.degenerateRemoved = stats.degenerateRemoved;
     c.selfIntersectionsRepaired = stats.selfIntersectionsRepaired;

@@ -33,11 +33,11 @@ struct LevelSet;
 struct LevelSetDeleter { void operator()(LevelSet*) const; };
 using LevelSetPtr = std::unique_ptr<LevelSet, LevelSetDeleter>;
 
-LevelSetPtr denoiseLevelSet(const MaskBox& mask, int iterations);
+LevelSetPtr denoiseLevelSet(const MaskBox& mask, int iterations, double margin);
 /// Dense phi (voxel units) over the full grid geometry.
 VolumeF32 levelSetToDense(const LevelSet& ls, const Geometry& g);
 /// Triangles of the zero level set, vertices in index coordinates of the full grid.
-TriMesh extractIndexMesh(const LevelSet& ls);
+TriMesh extractIndexMesh(const LevelSet& ls, double adaptivity = 0.0);
 
 /// OpenMesh: tangential smoothing then quadric decimation to `targetFaces` (0: none).
 TriMesh smoothAndDecimate(const TriMesh& mesh, int smoothingIterations, int64_t targetFaces,

@@ -23,6 +23,7 @@ struct ShapeArgs {
   int denoiseIterations = 10;
   int smoothingIterations = 3;
   double bandMm = 5.0;
+  double adaptivity = 0.01;
   InputOptions in;
 };
 
@@ -89,12 +90,14 @@ void runShape(const ShapeArgs& a) {
   if (a.denoiseIterations < 0 || a.denoiseIterations > 1000)
     throw Error("--denoise-iterations must be in 0..1000");
   if (!(a.bandMm > 0)) throw Error("--band must be > 0 mm");
+  if (!(a.adaptivity >= 0 && a.adaptivity <= 1)) throw Error("--adaptivity must be in 0..1");
 
   ill::ShapeOptions opt;
   opt.denoise.iterations = a.denoiseIterations;
   opt.targetFaces = a.targetFaces;
   opt.smoothingIterations = a.smoothingIterations;
   opt.exactBandMm = a.bandMm;
+  opt.adaptivity = a.adaptivity;
   ill::ShapeResult r;
   const auto tp = Clock::now();
   {
@@ -121,7 +124,7 @@ void runShape(const ShapeArgs& a) {
   j["dims"] = {ctGeom.dims.x, ctGeom.dims.y, ctGeom.dims.z};
   j["spacing_mm"] = toJson(ctGeom.spacing);
   j["options"] = {{"denoise_iterations", opt.denoise.iterations}, {"target_faces", opt.targetFaces},
-                  {"smoothing_iterations", opt.smoothingIterations}, {"exact_band_mm", opt.exactBandMm},
+                  {"smoothing_iterations", opt.smoothingIterations}, {"adaptivity", opt.adaptivity}, {"exact_band_mm", opt.exactBandMm},
                   {"mesh_format", a.meshFormat}};
   j["segments"] = nlohmann::json::array();
   for (const auto& s : r.shapes) j["segments"].push_back(checksJson(s));
@@ -162,6 +165,7 @@ void addShapeCommand(CLI::App& app) {
   cmd->add_option("--target-faces", a->targetFaces, "per-segment face budget of the decimation (0: none)")->capture_default_str();
   cmd->add_option("--denoise-iterations", a->denoiseIterations, "constrained curvature-flow steps")->capture_default_str();
   cmd->add_option("--smoothing-iterations", a->smoothingIterations, "tangential mesh smoothing passes")->capture_default_str();
+  cmd->add_option("--adaptivity", a->adaptivity, "OpenVDB meshing adaptivity 0..1 (0: uniform)")->capture_default_str();
   cmd->add_option("--band", a->bandMm, "half-width (mm) of the band of exact distances")->capture_default_str();
   cmd->add_option("--mesh-format", a->meshFormat, "ply | obj | stl (binary PLY and STL)")->capture_default_str();
   cmd->add_option("--report", a->report, "also write shape.json here");

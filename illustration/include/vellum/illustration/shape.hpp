@@ -59,10 +59,14 @@ struct MeshChecks {
 /// Whitaker (2000) constrained denoising of a binary mask (non-zero = inside).
 struct DenoiseOptions {
   int iterations = 10;  ///< mean-curvature steps (each followed by the band constraint)
+  /// Margin (voxels) of the constraint at voxel centres: phi <= -m inside, >= +m outside.
+  /// The zero level set then stays within 0.5 - m of the original voxel faces, and a
+  /// one-voxel-thin sheet keeps a thickness of at least 2m.
+  double marginVoxels = 0.15;
 };
 /// Dense result of denoiseMask: phi in voxel units (negative inside), clamped to +-3 voxels
-/// away from the surface. The constraint holds at every voxel centre: phi <= 0 where the
-/// mask is set and phi >= 0 where it is not, so the zero level set never leaves the band of
+/// away from the surface. The constraint holds at every voxel centre: phi <= -m where the
+/// mask is set and phi >= +m where it is not, so the zero level set never leaves the band of
 /// half a voxel around the binary boundary (the voxel faces between inside and outside).
 VolumeF32 denoiseMask(const VolumeU8& mask, const DenoiseOptions& options = {});
 
@@ -71,6 +75,9 @@ struct ShapeOptions {
   /// Per-segment face budget for the decimation; 0 = no decimation.
   int64_t targetFaces = 20000;
   int smoothingIterations = 3;  ///< OpenMesh tangential smoothing passes
+  /// OpenVDB volumeToMesh adaptivity (0: uniform marching, one quad per boundary voxel face;
+  /// small values merge flat regions and cut the decimation's work by 10x or more).
+  double adaptivity = 0.01;
   /// Half-width (mm) of the band around each surface where distances are exact; beyond it
   /// the distance volume holds a far-field estimate (see ShapeResult::farField).
   double exactBandMm = 5.0;
@@ -100,7 +107,10 @@ struct StageTimes {
 struct ShapeResult {
   std::vector<SegmentShape> shapes;
   VolumeF32 distance;        ///< signed distance (mm) of the union, on the input grid
-  LabelVolume segmentation;  ///< ids from 1 in segment order, then shells; 0 unclassified
+  /// Ids from 1 in segment order, then shells (n+1.. in --shell order); 0 unclassified.
+  /// Where segments overlap the later one wins (painter's order: list the enclosing
+  /// structures first, e.g. skin, then muscle, then bone).
+  LabelVolume segmentation;
   StageTimes times;
 };
 
@@ -120,8 +130,9 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
                                        const DistanceOptions& options = {},
                                        const std::vector<double>& extraBandMm = {});
 
-/// Combines per-segment distances (after grow offsets) into the union distance and the
-/// segmentation volume with shells; `distances` are consumed.
+/// Combines per-segment distances (after grow offsets) into the union distance (min over
+/// segments) and the segmentation volume: voxel = i where segment i's distance < 0 (the last
+/// such segment in order), or its shell id where -t < d_i <= 0.
 void buildRepresentation(std::vector<VolumeF32>& distances, const std::vector<Segment>& segments,
                          const std::vector<Shell>& shells, VolumeF32& unionDistance,
                          LabelVolume& segmentation);
