@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 
 #include "shape_internal.hpp"
 #include "vellum/core/error.hpp"
@@ -66,12 +68,22 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
 
   progress.begin("process", n);
   t0 = Clock::now();
+  static const bool profile = std::getenv("VELLUM_SHAPE_PROFILE") != nullptr;
   forEachSegment(n, [&](size_t i) {
     MeshChecks stats;
+    auto tp = Clock::now();
+    const size_t facesIn = shapes[i].mesh.faces.size();
     TriMesh m = detail::smoothAndDecimate(shapes[i].mesh, options.smoothingIterations,
                                           options.targetFaces, 0.5 * minSpacing);
+    const double decMs = msSince(tp);
+    tp = Clock::now();
     m = detail::repairMesh(m, stats);
+    const double repMs = msSince(tp);
+    tp = Clock::now();
     MeshChecks c = checkMesh(m);
+    if (profile)
+      std::fprintf(stderr, "  process %-10s %zu -> %zu faces: smooth+decimate %.0f ms, repair %.0f ms, check %.0f ms\n",
+                   segments[i].name.c_str(), facesIn, m.faces.size(), decMs, repMs, msSince(tp));
     // The soup round trip can leave a few intersections CGAL's repair did not see (faces
     // meeting at duplicated, coincident vertices): one more repair pass on the result.
     for (int pass = 0; pass < 2 && (c.selfIntersections > 0 || !c.closed || !c.manifold); ++pass) {

@@ -22,8 +22,8 @@ struct ShapeArgs {
   int64_t targetFaces = 20000;
   int denoiseIterations = 10;
   int smoothingIterations = 3;
-  double bandMm = 5.0;
-  double adaptivity = 0.01;
+  double bandMm = 0.0;
+  double adaptivity = 0.05;
   InputOptions in;
 };
 
@@ -89,7 +89,7 @@ void runShape(const ShapeArgs& a) {
   if (a.targetFaces < 0) throw Error("--target-faces must be >= 0 (0: no decimation)");
   if (a.denoiseIterations < 0 || a.denoiseIterations > 1000)
     throw Error("--denoise-iterations must be in 0..1000");
-  if (!(a.bandMm > 0)) throw Error("--band must be > 0 mm");
+  if (!(a.bandMm >= 0)) throw Error("--band must be >= 0 mm");
   if (!(a.adaptivity >= 0 && a.adaptivity <= 1)) throw Error("--adaptivity must be in 0..1");
 
   ill::ShapeOptions opt;
@@ -166,7 +166,7 @@ void addShapeCommand(CLI::App& app) {
   cmd->add_option("--denoise-iterations", a->denoiseIterations, "constrained curvature-flow steps")->capture_default_str();
   cmd->add_option("--smoothing-iterations", a->smoothingIterations, "tangential mesh smoothing passes")->capture_default_str();
   cmd->add_option("--adaptivity", a->adaptivity, "OpenVDB meshing adaptivity 0..1 (0: uniform)")->capture_default_str();
-  cmd->add_option("--band", a->bandMm, "half-width (mm) of the band of exact distances")->capture_default_str();
+  cmd->add_option("--band", a->bandMm, "half-width (mm) of the band of exact distances (0: 3 voxels)")->capture_default_str();
   cmd->add_option("--mesh-format", a->meshFormat, "ply | obj | stl (binary PLY and STL)")->capture_default_str();
   cmd->add_option("--report", a->report, "also write shape.json here");
   a->in.addTo(*cmd);

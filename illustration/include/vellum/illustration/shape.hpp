@@ -77,10 +77,10 @@ struct ShapeOptions {
   int smoothingIterations = 3;  ///< OpenMesh tangential smoothing passes
   /// OpenVDB volumeToMesh adaptivity (0: uniform marching, one quad per boundary voxel face;
   /// small values merge flat regions and cut the decimation's work by 10x or more).
-  double adaptivity = 0.01;
-  /// Half-width (mm) of the band around each surface where distances are exact; beyond it
-  /// the distance volume holds a far-field estimate (see ShapeResult::farField).
-  double exactBandMm = 5.0;
+  double adaptivity = 0.05;
+  /// Half-width (mm) of the band around each surface where distances are exact (0: three
+  /// voxels of the smallest spacing); widened per segment for its shells and grow offsets.
+  double exactBandMm = 0.0;
 };
 
 /// Offset shell: "NAME boundary" = voxels of segment `segment` with -thickness < d <= 0.
@@ -124,7 +124,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
 /// Exact (to the mesh) within `bandMm` of each surface (plus any extra `outsideMm` /
 /// `insideMm` requested per mesh); beyond, a far-field estimate with the correct sign.
 struct DistanceOptions {
-  double bandMm = 5.0;
+  double bandMm = 0.0;  ///< 0: three voxels of the smallest spacing
 };
 std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const Geometry& grid,
                                        const DistanceOptions& options = {},
