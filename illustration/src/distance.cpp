@@ -24,6 +24,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <mutex>
 #include <unordered_map>
 
@@ -56,6 +57,99 @@ std::vector<std::vector<uint32_t>> connectedComponents(const TriMesh& mesh) {
     comps[it->second].push_back(fi);
   }
   return comps;
+}
+
+/// One line of the Felzenszwalb-Huttenlocher squared distance transform: out[q] =
+/// min_p ((q-p) s)^2 + f[p], with f = +inf where there is no seed.
+void edt1d(const float* f, float* out, int64_t n, double s, std::vector<int64_t>& v,
+           std::vector<double>& z) {
+  const double inf = std::numeric_limits<double>::infinity();
+  v.assign(static_cast<size_t>(n), 0);
+  z.assign(static_cast<size_t>(n) + 1, 0.0);
+  int64_t k = -1;
+  for (int64_t q = 0; q < n; ++q) {
+    if (!std::isfinite(f[q])) continue;
+    while (k >= 0) {
+      const int64_t p = v[size_t(k)];
+      const double sq = ((f[q] + (q * s) * (q * s)) - (f[p] + (p * s) * (p * s))) / (2 * s * (q - p));
+      if (sq <= z[size_t(k)]) --k;
+      else {
+        ++k;
+        v[size_t(k)] = q;
+        z[size_t(k)] = sq;
+        z[size_t(k) + 1] = inf;
+        break;
+      }
+    }
+    if (k < 0) {
+      k = 0;
+      v[0] = q;
+      z[0] = -inf;
+      z[1] = inf;
+    }
+  }
+  if (k < 0) {
+    for (int64_t q = 0; q < n; ++q) out[q] = std::numeric_limits<float>::infinity();
+    return;
+  }
+  int64_t j = 0;
+  for (int64_t q = 0; q < n; ++q) {
+    while (z[size_t(j) + 1] < q * s) ++j;
+    const int64_t p = v[size_t(j)];
+    out[q] = static_cast<float>((q - p) * s * (q - p) * s + f[p]);
+  }
+}
+
+/// Far field: beyond the exact band (|u| >= far - h) the magnitude becomes the Euclidean
+/// distance (mm, anisotropic spacing honoured) to the nearest band voxel centre plus the
+/// band's width, far - 1.5 h: an upper bound of the true distance that is exact for flat
+/// surfaces; the error stays within about a voxel (measured in the tests).
+void extendFarField(VolumeF32& u, float far) {
+  const Geometry& g = u.geometry();
+  const Dims& d = g.dims;
+  const float inf = std::numeric_limits<float>::infinity();
+  // Seeds: voxels well inside the exact band (OpenVDB's values in the band's outermost voxel
+  // layer can be off by a voxel after its renormalisation).
+  const float h = static_cast<float>(std::min({g.spacing.x, g.spacing.y, g.spacing.z}));
+  const float seed = far - h;
+  std::vector<float> sq(u.size());
+  for (size_t n = 0; n < sq.size(); ++n) sq[n] = std::abs(u.data()[n]) < seed ? 0.0f : inf;
+  const int64_t nx = d.x, ny = d.y, nz = d.z;
+  // x lines, then y lines (within slices), then z lines.
+  parallelFor(nz, [&](int64_t k0, int64_t k1) {
+    std::vector<int64_t> v;
+    std::vector<double> z;
+    std::vector<float> in(size_t(std::max(nx, ny))), out(in.size());
+    for (int64_t k = k0; k < k1; ++k) {
+      for (int64_t j = 0; j < ny; ++j) {
+        float* row = sq.data() + (k * ny + j) * nx;
+        std::copy(row, row + nx, in.begin());
+        edt1d(in.data(), row, nx, g.spacing.x, v, z);
+      }
+      for (int64_t i = 0; i < nx; ++i) {
+        for (int64_t j = 0; j < ny; ++j) in[size_t(j)] = sq[size_t((k * ny + j) * nx + i)];
+        edt1d(in.data(), out.data(), ny, g.spacing.y, v, z);
+        for (int64_t j = 0; j < ny; ++j) sq[size_t((k * ny + j) * nx + i)] = out[size_t(j)];
+      }
+    }
+  });
+  parallelFor(ny, [&](int64_t j0, int64_t j1) {
+    std::vector<int64_t> v;
+    std::vector<double> z;
+    std::vector<float> in(static_cast<size_t>(nz)), out(static_cast<size_t>(nz));
+    for (int64_t j = j0; j < j1; ++j)
+      for (int64_t i = 0; i < nx; ++i) {
+        for (int64_t k = 0; k < nz; ++k) in[size_t(k)] = sq[size_t((k * ny + j) * nx + i)];
+        edt1d(in.data(), out.data(), nz, g.spacing.z, v, z);
+        for (int64_t k = 0; k < nz; ++k) sq[size_t((k * ny + j) * nx + i)] = out[size_t(k)];
+      }
+  });
+  for (size_t n = 0; n < sq.size(); ++n) {
+    float& x = u.data()[n];
+    if (std::abs(x) < seed || !std::isfinite(sq[n])) continue;
+    const float mag = std::sqrt(sq[n]) + seed - 0.5f * h;
+    x = x < 0 ? -mag : mag;
+  }
 }
 
 bool isotropic(const Vec3& s) {
@@ -113,8 +207,10 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
         std::fprintf(stderr, "  distance %-8s %7.1f ms\n", what, std::chrono::duration<double, std::milli>(t - t0).count());
         t0 = t;
       };
+      // OpenVDB's values in the outer voxels of its band can be short by a voxel (measured:
+      // beyond ~bandwidth - 1): ask for two voxels more and clamp to the declared band.
       auto grid = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
-          *xform, pts, tris, std::vector<openvdb::Vec4I>{}, bandVox, bandVox);
+          *xform, pts, tris, std::vector<openvdb::Vec4I>{}, bandVox + 2, bandVox + 2);
       lap("sdf");
       const auto& d = g.dims;
       // Copy the (sparse) grid over the mesh's bounding box + band into a dense isotropic
@@ -162,6 +258,7 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
                 const double c0 = c00 + ty * (c10 - c00), c1 = c01 + ty * (c11 - c01);
                 val = static_cast<float>(c0 + tz * (c1 - c0));
                 }
+                val = std::clamp(val, -farMm, farMm);
                 const size_t at = dense.linearIndex(i, j, k);
                 dense.data()[at] = std::min(dense.data()[at], std::abs(val));
                 if (val < 0) parity[at] ^= 1;
@@ -226,6 +323,9 @@ void buildRepresentation(std::vector<VolumeF32>& distances, const std::vector<Se
     }
   });
   segmentation = LabelVolume(std::move(ids), std::move(table));
+  float far = std::numeric_limits<float>::infinity();
+  for (const auto& d : distances) far = std::min(far, static_cast<float>(d.background()));
+  if (std::isfinite(far)) extendFarField(unionDistance, far);
 }
 
 }  // namespace vellum::illustration

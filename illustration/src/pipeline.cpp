@@ -155,6 +155,8 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
     if (offset[i] != 0) {
       const float o = static_cast<float>(offset[i]);
       for (float& v : dist[i].voxels()) v -= o;
+      // Values beyond the exact band were clamped at +-background: the exact band shrinks.
+      dist[i].setBackground(dist[i].background() - std::abs(offset[i]));
     }
   buildRepresentation(dist, segments, shells, r.distance, r.segmentation);
   r.times.segmentationMs = msSince(t0);

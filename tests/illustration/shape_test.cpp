@@ -233,6 +233,33 @@ TEST(ShapeDistance, SphereMeshMatchesAnalyticDistance) {
   EXPECT_LE(maxErr, 0.05 * h);
 }
 
+TEST(ShapeDistance, FarFieldOfTheUnionIsWithinAVoxel) {
+  const double h = 1.0, r = 8.0;
+  const Geometry g = cube(48, h);
+  auto d = ill::signedDistances({icosphere(r, 5)}, g, {});  // exact band: 3 voxels
+  ill::Segment s{"ball", {1}, {255, 0, 0}};
+  VolumeF32 u;
+  LabelVolume seg;
+  ill::buildRepresentation(d, {s}, {}, u, seg);
+  double maxFar = 0, maxNear = 0, maxDist = 0;
+  int64_t wrongSign = 0;
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const double a = norm(g.indexToPhysical(Vec3{double(i), double(j), double(k)})) - r;
+        const double v = u(i, j, k);
+        if (std::abs(a) > 0.02 && (a < 0) != (v < 0)) ++wrongSign;
+        if (std::abs(a) <= 2 * h) maxNear = std::max(maxNear, std::abs(v - a));
+        else maxFar = std::max(maxFar, std::abs(v - a));
+        maxDist = std::max(maxDist, std::abs(v));
+        EXPECT_EQ(seg(i, j, k), a < -0.05 ? 1 : (a > 0.05 ? 0 : seg(i, j, k)));
+      }
+  EXPECT_EQ(wrongSign, 0);
+  EXPECT_LE(maxNear, 0.05 * h);
+  EXPECT_LE(maxFar, 1.0 * h);   // far field: distance to the band + the band's width
+  EXPECT_GT(maxDist, 20.0);     // not clamped: the grid's corners are ~33 mm away
+}
+
 TEST(ShapeDistance, AnisotropicGridSignsAndAccuracy) {
   Geometry g = cube(32, 1.0);
   g.spacing = {0.9, 0.9, 1.3};
