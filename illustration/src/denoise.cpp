@@ -33,7 +33,7 @@ void initVdb() {
   static std::once_flag once;
   std::call_once(once, [] { openvdb::initialize(); });
 }
-constexpr float kHalfWidth = 3.0f;  // narrow band half width (voxels)
+constexpr float kHalfWidth = 2.0f;  // narrow band half width (voxels)
 }  // namespace
 
 struct LevelSet {

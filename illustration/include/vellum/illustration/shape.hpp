@@ -64,7 +64,7 @@ struct DenoiseOptions {
   /// one-voxel-thin sheet keeps a thickness of at least 2m.
   double marginVoxels = 0.15;
 };
-/// Dense result of denoiseMask: phi in voxel units (negative inside), clamped to +-3 voxels
+/// Dense result of denoiseMask: phi in voxel units (negative inside), clamped to +-2 voxels
 /// away from the surface. The constraint holds at every voxel centre: phi <= -m where the
 /// mask is set and phi >= +m where it is not, so the zero level set never leaves the band of
 /// half a voxel around the binary boundary (the voxel faces between inside and outside).
@@ -120,9 +120,11 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
                                       const ShapeOptions& options, StageTimes& times,
                                       Progress& progress = Progress::none());
 
-/// Per-segment signed distances of closed meshes sampled on `grid` (mm, negative inside).
-/// Exact (to the mesh) within `bandMm` of each surface (plus any extra `outsideMm` /
-/// `insideMm` requested per mesh); beyond, a far-field estimate with the correct sign.
+/// Per-segment signed distances of closed meshes sampled on `grid` (mm, negative inside;
+/// nested components handled: a point is inside when an odd number of the mesh's closed
+/// components enclose it). Exact (to the mesh) within `bandMm` of each surface, widened by
+/// extraBandMm[i] + 2 voxels for mesh i; beyond, clamped to +-band (volume background =
+/// the band) with the correct sign. buildRepresentation extends the union's far field.
 struct DistanceOptions {
   double bandMm = 0.0;  ///< 0: three voxels of the smallest spacing
 };
@@ -142,8 +144,8 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
                              const std::vector<Shell>& shells, const std::vector<Grow>& grows,
                              const ShapeOptions& options, Progress& progress = Progress::none());
 
-/// Mesh checks by CGAL (no repair). `mask`, when given with its geometry, is the original
-/// binary mask for the boundary distance; otherwise maxBoundaryDistanceMm stays 0.
+/// Mesh checks by CGAL (no repair): closed, manifold, self-intersections, volume, outward.
+/// (voxelVolumeMm3 and maxBoundaryDistanceMm are filled by buildShapes.)
 MeshChecks checkMesh(const TriMesh& mesh);
 
 /// Mesh export: "ply" (binary little-endian), "obj", "stl" (binary). Atomic.
