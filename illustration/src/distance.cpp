@@ -168,8 +168,9 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
   const bool iso = isotropic(sp);
   auto xform = openvdb::math::Transform::createLinearTransform(h);
   std::vector<VolumeF32> out;
-  out.reserve(meshes.size());
-  for (size_t m = 0; m < meshes.size(); ++m) {
+  out.resize(meshes.size());
+  // Meshes in parallel (small meshes leave OpenVDB's own threads idle); each is threaded too.
+  tbb::parallel_for(size_t(0), meshes.size(), [&](size_t m) {
     const TriMesh& mesh = meshes[m];
     std::vector<openvdb::Vec3s> allPts;
     allPts.reserve(mesh.vertices.size());
@@ -208,9 +209,9 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
         t0 = t;
       };
       // OpenVDB's values in the outer voxels of its band can be short by a voxel (measured:
-      // beyond ~bandwidth - 1): ask for two voxels more and clamp to the declared band.
+      // beyond ~bandwidth - 1): ask for one voxel more and clamp to the declared band.
       auto grid = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
-          *xform, pts, tris, std::vector<openvdb::Vec4I>{}, bandVox + 2, bandVox + 2);
+          *xform, pts, tris, std::vector<openvdb::Vec4I>{}, bandVox + 1, bandVox + 1);
       lap("sdf");
       const auto& d = g.dims;
       // Copy the (sparse) grid over the mesh's bounding box + band into a dense isotropic
@@ -271,8 +272,8 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
     }
     for (size_t n = 0; n < dense.size(); ++n)
       if (parity[n]) dense.data()[n] = -dense.data()[n];
-    out.push_back(std::move(dense));
-  }
+    out[m] = std::move(dense);
+  }, tbb::simple_partitioner());
   return out;
 }
 
