@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <map>
+#include <sstream>
 #include <random>
 
 #include "test_data.hpp"
@@ -340,4 +342,57 @@ TEST(ShapeSegments, SpecErrors) {
   EXPECT_THROW(ill::parseSegmentSpec("3,4", labels), Error);
   EXPECT_THROW(ill::runShapePipeline(labels, {ill::parseSegmentSpec("3", labels)}, {{"bone", 1.0}}, {}, {}),
                Error);
+}
+
+TEST(ShapeMeshIo, PlyObjStlLayouts) {
+  const auto dir = test::tempDir("shape-mesh-io");
+  const auto mesh = icosphere(5.0, 2);  // 162 vertices, 320 faces
+  ASSERT_EQ(mesh.vertices.size(), 162u);
+  ASSERT_EQ(mesh.faces.size(), 320u);
+  ill::saveMesh(mesh, dir / "m.ply", "ply");
+  ill::saveMesh(mesh, dir / "m.obj", "obj");
+  ill::saveMesh(mesh, dir / "m.stl", "stl");
+  EXPECT_THROW(ill::saveMesh(mesh, dir / "m.off", "off"), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir / "m.off"));
+  // PLY: ASCII header, then 3 floats a vertex and (uchar 3 + 3 int32) a face.
+  std::ifstream ply(dir / "m.ply", std::ios::binary);
+  std::string line, header;
+  while (std::getline(ply, line)) {
+    header += line + "\n";
+    if (line == "end_header") break;
+  }
+  EXPECT_NE(header.find("format binary_little_endian 1.0"), std::string::npos);
+  EXPECT_NE(header.find("element vertex 162"), std::string::npos);
+  EXPECT_NE(header.find("element face 320"), std::string::npos);
+  EXPECT_EQ(std::filesystem::file_size(dir / "m.ply"), header.size() + 162u * 12 + 320u * 13);
+  // OBJ: one "v" line a vertex, one "f" line a face (1-based).
+  std::ifstream obj(dir / "m.obj");
+  int v = 0, f = 0, maxIndex = 0;
+  while (std::getline(obj, line)) {
+    if (line.rfind("v ", 0) == 0) ++v;
+    if (line.rfind("f ", 0) == 0) {
+      ++f;
+      std::istringstream ss(line.substr(2));
+      int a, b, c;
+      ss >> a >> b >> c;
+      maxIndex = std::max({maxIndex, a, b, c});
+      EXPECT_GE(std::min({a, b, c}), 1);
+    }
+  }
+  EXPECT_EQ(v, 162);
+  EXPECT_EQ(f, 320);
+  EXPECT_EQ(maxIndex, 162);
+  // STL: 80-byte header, face count, 50 bytes a face; normals point outward.
+  EXPECT_EQ(std::filesystem::file_size(dir / "m.stl"), 84u + 50u * 320);
+  std::ifstream stl(dir / "m.stl", std::ios::binary);
+  stl.seekg(80);
+  uint32_t count = 0;
+  stl.read(reinterpret_cast<char*>(&count), 4);
+  EXPECT_EQ(count, 320u);
+  float rec[12];
+  stl.read(reinterpret_cast<char*>(rec), 48);
+  const Vec3 n{rec[0], rec[1], rec[2]};
+  const Vec3 c = (Vec3{rec[3], rec[4], rec[5]} + Vec3{rec[6], rec[7], rec[8]} + Vec3{rec[9], rec[10], rec[11]}) * (1.0 / 3);
+  EXPECT_GT(dot(n, c), 0.0);
+  EXPECT_NEAR(norm(n), 1.0, 1e-5);
 }
