@@ -66,7 +66,7 @@ void runShape(const ShapeArgs& a) {
   refuseOverwritingInput(a.labels, a.out);
   const io::LoadedVolume lv = loadWithProgress(a.input, a.in);
   const Geometry& ctGeom = geometryOf(lv.volume);
-  const LabelVolume labels = io::loadLabels(a.labels, a.in.toLoadOptions(nullptr));
+  const LabelVolume labels = io::loadLabels(a.labels);  // raw-input flags describe IN only
   if (!(labels.geometry().dims == ctGeom.dims))
     throw Error("--labels " + a.labels + ": dims " + labels.geometry().dims.str() +
                 " differ from the CT's " + ctGeom.dims.str());
