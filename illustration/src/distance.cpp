@@ -133,16 +133,29 @@ void extendFarField(VolumeF32& u, float far) {
       }
     }
   });
+  // z lines: per y row, gather the (k, i) slab row by row (contiguous reads), transform its
+  // columns in cache, scatter it back.
   parallelFor(ny, [&](int64_t j0, int64_t j1) {
     std::vector<int64_t> v;
     std::vector<double> z;
+    std::vector<float> slab(static_cast<size_t>(nz * nx));
     std::vector<float> in(static_cast<size_t>(nz)), out(static_cast<size_t>(nz));
-    for (int64_t j = j0; j < j1; ++j)
+    for (int64_t j = j0; j < j1; ++j) {
+      for (int64_t k = 0; k < nz; ++k)
+        std::copy_n(sq.data() + (k * ny + j) * nx, nx, slab.data() + k * nx);
       for (int64_t i = 0; i < nx; ++i) {
-        for (int64_t k = 0; k < nz; ++k) in[size_t(k)] = sq[size_t((k * ny + j) * nx + i)];
+        bool any = false;
+        for (int64_t k = 0; k < nz; ++k) {
+          in[size_t(k)] = slab[size_t(k * nx + i)];
+          any = any || std::isfinite(in[size_t(k)]);
+        }
+        if (!any) continue;
         edt1d(in.data(), out.data(), nz, g.spacing.z, v, z);
-        for (int64_t k = 0; k < nz; ++k) sq[size_t((k * ny + j) * nx + i)] = out[size_t(k)];
+        for (int64_t k = 0; k < nz; ++k) slab[size_t(k * nx + i)] = out[size_t(k)];
       }
+      for (int64_t k = 0; k < nz; ++k)
+        std::copy_n(slab.data() + k * nx, nx, sq.data() + (k * ny + j) * nx);
+    }
   });
   for (size_t n = 0; n < sq.size(); ++n) {
     float& x = u.data()[n];
