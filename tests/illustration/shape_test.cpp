@@ -195,8 +195,10 @@ TEST(ShapeMesh, PhantomSegmentsAreClean) {
   po.dims = {56, 56, 56};
   const auto ph = phantom::makePhantom(po);
   std::vector<ill::Segment> segs;
-  for (const char* s : {"skin=1,2,3,4,5,6,7,8,9,10,11", "muscle=3", "femur=4,5", "tibia=6,7",
-                        "fibula=8,11", "patella=9", "cartilage=10"})
+  // Every label on its own (names from the label table) and the usual unions.
+  for (const char* s : {"1", "2", "3", "4", "5", "6", "7", "8", "9", "10", "11",
+                        "body=1,2,3,4,5,6,7,8,9,10,11", "femur=4,5", "tibia=6,7", "fibula=8,11",
+                        "patella=9,11"})
     segs.push_back(ill::parseSegmentSpec(s, ph.labels));
   ill::ShapeOptions opt;
   opt.targetFaces = 5000;
