@@ -398,3 +398,37 @@ TEST(ShapeMeshIo, PlyObjStlLayouts) {
   EXPECT_GT(dot(n, c), 0.0);
   EXPECT_NEAR(norm(n), 1.0, 1e-5);
 }
+
+TEST(ShapeMesh, MirroredRotatedGridKeepsOutwardMeshesAndSigns) {
+  // A grid whose direction mirrors and rotates the index axes: meshes must still be outward
+  // in physical space, and the distance volume negative exactly inside the ball.
+  Geometry g = cube(36, 0.8);
+  g.direction = Mat3{};
+  // columns: i -> -x, j -> z, k -> -y (determinant -1)
+  g.direction(0, 0) = -1; g.direction(1, 0) = 0;  g.direction(2, 0) = 0;
+  g.direction(0, 1) = 0;  g.direction(1, 1) = 0;  g.direction(2, 1) = 1;
+  g.direction(0, 2) = 0;  g.direction(1, 2) = -1; g.direction(2, 2) = 0;
+  g.origin = {0.5 * 35 * 0.8, 0.5 * 35 * 0.8, -0.5 * 35 * 0.8};
+  ASSERT_LT(g.direction.determinant(), 0);
+  const Vec3 centre{2.0, -1.0, 1.5};
+  VolumeU8 m(g, 0);
+  for (int64_t k = 0; k < 36; ++k)
+    for (int64_t j = 0; j < 36; ++j)
+      for (int64_t i = 0; i < 36; ++i)
+        m(i, j, k) = norm(g.indexToPhysical(Vec3{double(i), double(j), double(k)}) - centre) < 9.0;
+  const LabelVolume labels = labelsOf(m, 2, "ball");
+  ill::ShapeOptions opt;
+  opt.targetFaces = 2000;
+  const auto r = ill::runShapePipeline(labels, {ill::parseSegmentSpec("2", labels)}, {}, {}, opt);
+  expectCleanMesh(r.shapes[0]);
+  EXPECT_NEAR(r.shapes[0].checks.volumeMm3, 4.0 / 3 * M_PI * 729, 0.06 * 4.0 / 3 * M_PI * 729);
+  int64_t wrong = 0;
+  for (int64_t k = 0; k < 36; ++k)
+    for (int64_t j = 0; j < 36; ++j)
+      for (int64_t i = 0; i < 36; ++i) {
+        const double a = norm(g.indexToPhysical(Vec3{double(i), double(j), double(k)}) - centre) - 9.0;
+        if (std::abs(a) > 0.8 && (a < 0) != (r.distance(i, j, k) < 0)) ++wrong;
+        if (std::abs(a) > 0.8 && (a < 0) != (r.segmentation(i, j, k) == 1)) ++wrong;
+      }
+  EXPECT_EQ(wrong, 0);
+}
