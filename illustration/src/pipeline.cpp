@@ -1,5 +1,8 @@
 // The shape pipeline: stages run one after the other (so each has a wall-clock time), each
 // stage in parallel over the segments (TBB); OpenVDB's tools are threaded inside too.
+// Progress and cancellation are checked between stages on the calling thread only: an
+// exception thrown inside a TBB task cancels the nested OpenVDB algorithms of the other
+// segments half-way (TBB returns from them early), and OpenVDB then works on torn grids.
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -48,9 +51,9 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
     masks[i] = detail::extractMask(labels.ids(), segments[i].ids, 4);
     if (masks[i].count == 0) return;
     sets[i] = detail::denoiseLevelSet(masks[i], options.denoise.iterations, options.denoise.marginVoxels);
-    progress.advance();
   });
   times.denoiseMs = msSince(t0);
+  progress.advance(n);  // throws Cancelled here, on this thread, never inside a TBB task
   for (size_t i = 0; i < n; ++i)
     if (masks[i].count == 0) throw Error("--segment " + segments[i].name + ": no voxel has its label ids");
   progress.end();
@@ -61,9 +64,9 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
     shapes[i].mesh = detail::extractIndexMesh(*sets[i], options.adaptivity);
     detail::indexToPhysical(shapes[i].mesh, g);
     sets[i].reset();
-    progress.advance();
   });
   times.meshMs = msSince(t0);
+  progress.advance(n);
   progress.end();
 
   progress.begin("process", n);
@@ -101,9 +104,9 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
     c.maxBoundaryDistanceMm = detail::maxDistanceToBinaryBoundary(m, masks[i], g);
     shapes[i].mesh = std::move(m);
     shapes[i].checks = c;
-    progress.advance();
   });
   times.processMs = msSince(t0);
+  progress.advance(n);
   progress.end();
   return shapes;
 }
@@ -147,6 +150,7 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
   dopt.bandMm = options.exactBandMm;
   auto dist = signedDistances(meshes, labels.geometry(), dopt, extra);
   r.times.distancesMs = msSince(t0);
+  progress.advance();
   progress.end();
 
   progress.begin("segmentation", 1);
@@ -160,6 +164,7 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
     }
   buildRepresentation(dist, segments, shells, r.distance, r.segmentation);
   r.times.segmentationMs = msSince(t0);
+  progress.advance();
   progress.end();
   return r;
 }
