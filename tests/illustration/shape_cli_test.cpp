@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <sys/wait.h>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -102,4 +103,29 @@ TEST(ShapeCli, BadSegmentSpecsGiveOneLineErrors) {
     EXPECT_NE(log.find(c.needle), std::string::npos) << c.args << ": " << log;
     EXPECT_LE(std::count(log.begin(), log.end(), '\n'), 1) << log;
   }
+}
+
+TEST(ShapeCli, InterruptExitsCleanly) {
+  // SIGINT in the middle of the pipeline: exit 130 ("cancelled"), no shape.json, no
+  // temporaries (never a crash: cancellation is checked between stages, outside TBB tasks).
+  const fs::path dir = test::tempDir("shape-cli-interrupt");
+  phantom::PhantomOptions po;
+  po.dims = {160, 160, 160};
+  const auto ph = phantom::makePhantom(po);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const std::string cmd = "timeout --preserve-status -s INT 0.8 " + std::string(VELLUM_CLI_PATH) +
+                          " shape " + (dir / "ct.nrrd").string() + " --labels " +
+                          (dir / "labels.nrrd").string() +
+                          " --segment body=1,2,3,4,5,6,7,8,9,10,11 --segment muscle=3 --out " +
+                          (dir / "o").string() + " > " + (dir / "log.txt").string() + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status)) << slurp(dir / "log.txt");
+  const int rc = WEXITSTATUS(status);
+  if (rc == 0) GTEST_SKIP() << "finished before the interrupt (fast machine)";
+  EXPECT_EQ(rc, 130) << slurp(dir / "log.txt");
+  EXPECT_NE(slurp(dir / "log.txt").find("cancelled"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "o" / "shape.json"));
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".vellum-"), std::string::npos) << e.path();
 }
