@@ -1,7 +1,9 @@
 // `vellum shape IN --labels L --segment NAME=ID[,ID..] --out DIR`: clean shapes (level-set
 // denoising, meshing, mesh repair) and the shape-aware representation (distance volume,
 // segmentation volume with shells and grown segments) for the illustration renderer.
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <memory>
 
@@ -124,7 +126,8 @@ void runShape(const ShapeArgs& a) {
   j["dims"] = {ctGeom.dims.x, ctGeom.dims.y, ctGeom.dims.z};
   j["spacing_mm"] = toJson(ctGeom.spacing);
   j["options"] = {{"denoise_iterations", opt.denoise.iterations}, {"target_faces", opt.targetFaces},
-                  {"smoothing_iterations", opt.smoothingIterations}, {"adaptivity", opt.adaptivity}, {"exact_band_mm", opt.exactBandMm},
+                  {"smoothing_iterations", opt.smoothingIterations}, {"adaptivity", opt.adaptivity},
+                  {"exact_band_mm", opt.exactBandMm > 0 ? opt.exactBandMm : 3 * std::min({ctGeom.spacing.x, ctGeom.spacing.y, ctGeom.spacing.z})},
                   {"mesh_format", a.meshFormat}};
   j["segments"] = nlohmann::json::array();
   for (const auto& s : r.shapes) j["segments"].push_back(checksJson(s));
