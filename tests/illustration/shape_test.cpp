@@ -157,8 +157,8 @@ TEST(ShapeDenoise, SmoothsTheStaircase) {
     }
     return sum / area * 180 / M_PI;
   };
-  const double staircase = meanAngle(0), smooth = meanAngle(10);
-  EXPECT_LT(smooth, 0.8 * staircase) << staircase << " -> " << smooth << " degrees";
+  const double staircase = meanAngle(0), smooth = meanAngle(5);
+  EXPECT_LT(smooth, 0.75 * staircase) << staircase << " -> " << smooth << " degrees";
 }
 
 TEST(ShapeMesh, NoisySphereWithHolesIsClean) {

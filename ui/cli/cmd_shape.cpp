@@ -22,7 +22,7 @@ struct ShapeArgs {
   std::string input, labels, out, report, meshFormat = "ply";
   std::vector<std::string> segments, shells, grows;
   int64_t targetFaces = 20000;
-  int denoiseIterations = 10;
+  int denoiseIterations = 5;
   int smoothingIterations = 3;
   double bandMm = 0.0;
   double adaptivity = 0.05;

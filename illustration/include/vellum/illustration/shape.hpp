@@ -58,7 +58,7 @@ struct MeshChecks {
 
 /// Whitaker (2000) constrained denoising of a binary mask (non-zero = inside).
 struct DenoiseOptions {
-  int iterations = 10;  ///< mean-curvature steps (each followed by the band constraint)
+  int iterations = 5;  ///< mean-curvature steps (each followed by the band constraint); see README
   /// Margin (voxels) of the constraint at voxel centres: phi <= -m inside, >= +m outside.
   /// The zero level set then stays within 0.5 - m of the original voxel faces, and a
   /// one-voxel-thin sheet keeps a thickness of at least 2m.
