@@ -80,7 +80,7 @@ void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const std::vector<
   });
   // Boundary voxels the tracker may have pruned out of the band with the wrong sign: find
   // them in parallel (read-only), fix them serially (setValue may allocate leaves).
-  std::vector<std::vector<openvdb::Coord>> bad(static_cast<size_t>(workerCount()) + 1);
+  std::vector<openvdb::Coord> bad;
   std::mutex m;
   parallelFor(static_cast<int64_t>(boundary.size()), [&](int64_t b, int64_t e) {
     auto acc = grid.getConstAccessor();
@@ -92,11 +92,11 @@ void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const std::vector<
     }
     if (!local.empty()) {
       std::lock_guard<std::mutex> lock(m);
-      bad[0].insert(bad[0].end(), local.begin(), local.end());
+      bad.insert(bad.end(), local.begin(), local.end());
     }
   }, 4096);
   auto acc = grid.getAccessor();
-  for (const auto& c : bad[0]) acc.setValue(c, mask.at(c.x(), c.y(), c.z()) ? -kEps : kEps);
+  for (const auto& c : bad) acc.setValue(c, mask.at(c.x(), c.y(), c.z()) ? -kEps : kEps);
 }
 }  // namespace
 

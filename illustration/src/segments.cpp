@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
+#include <memory>
 
 #include "shape_internal.hpp"
 #include "vellum/core/error.hpp"
@@ -113,8 +113,7 @@ MaskBox buildMask(const Dims& d, int pad, Pred inside) {
 }  // namespace
 
 MaskBox extractMask(const VolumeU16& labels, const std::vector<uint16_t>& ids, int pad) {
-  std::array<bool, 65536>* lut = new std::array<bool, 65536>{};
-  std::unique_ptr<std::array<bool, 65536>> hold(lut);
+  auto lut = std::make_unique<std::array<bool, 65536>>();
   for (auto id : ids) (*lut)[id] = true;
   return buildMask(labels.dims(), pad,
                    [&](int64_t i, int64_t j, int64_t k) { return (*lut)[labels(i, j, k)]; });
