@@ -223,6 +223,7 @@ TEST(Faults, NoCommandModifiesItsInputs) {
       {"controls", ct.string(), "--out", out("cp.json")},
       {"deform", ct.string(), "--points", out("cp.json"), "--labels", labels.string(),
        "--rigid-labels", "4,5,6,7,8,9,11", "--out", out("d.nrrd")},
+      {"shape", ct.string(), "--labels", labels.string(), "--segment", "femur=4,5", "--out", out("shape")},
   };
   for (const auto& args : commands) {
     std::string line;

@@ -18,6 +18,7 @@ void addSegmentCommand(CLI::App& app);    // issue 4
 void addDeformCommand(CLI::App& app);     // issue 3
 void addControlsCommand(CLI::App& app);   // issue 3
 void addAnimateCommand(CLI::App& app);    // issue 3
+void addShapeCommand(CLI::App& app);      // issue 8
 void addIllustrateCommand(CLI::App& app); // issue 8
 void addParamsCommand(CLI::App& app);
 

@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
   addDeformCommand(app);
   addControlsCommand(app);
   addAnimateCommand(app);
+  addShapeCommand(app);
   addIllustrateCommand(app);
   addDemoCommand(app);
   addParamsCommand(app);

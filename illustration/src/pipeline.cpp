@@ -1,0 +1,172 @@
+// The shape pipeline: stages run one after the other (so each has a wall-clock time), each
+// stage in parallel over the segments (TBB); OpenVDB's tools are threaded inside too.
+// Progress and cancellation are checked between stages on the calling thread only: an
+// exception thrown inside a TBB task cancels the nested OpenVDB algorithms of the other
+// segments half-way (TBB returns from them early), and OpenVDB then works on torn grids.
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "shape_internal.hpp"
+#include "vellum/core/error.hpp"
+
+namespace vellum::illustration {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+template <class F>
+void forEachSegment(size_t n, F f) {
+  tbb::parallel_for(size_t(0), n, [&](size_t i) { f(i); }, tbb::simple_partitioner());
+}
+}  // namespace
+
+VolumeF32 denoiseMask(const VolumeU8& mask, const DenoiseOptions& options) {
+  const auto box = detail::maskFromVolume(mask, 4);
+  auto ls = detail::denoiseLevelSet(box, options.iterations, options.marginVoxels);
+  return detail::levelSetToDense(*ls, mask.geometry());
+}
+
+std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
+                                      const std::vector<Segment>& segments,
+                                      const ShapeOptions& options, StageTimes& times,
+                                      Progress& progress) {
+  const size_t n = segments.size();
+  const Geometry& g = labels.geometry();
+  const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  std::vector<detail::MaskBox> masks(n);
+  std::vector<detail::LevelSetPtr> sets(n);
+  std::vector<SegmentShape> shapes(n);
+  for (size_t i = 0; i < n; ++i) shapes[i].segment = segments[i];
+
+  progress.begin("denoise", n);
+  auto t0 = Clock::now();
+  forEachSegment(n, [&](size_t i) {
+    masks[i] = detail::extractMask(labels.ids(), segments[i].ids, 4);
+    if (masks[i].count == 0) return;
+    sets[i] = detail::denoiseLevelSet(masks[i], options.denoise.iterations, options.denoise.marginVoxels);
+  });
+  times.denoiseMs = msSince(t0);
+  progress.advance(n);  // throws Cancelled here, on this thread, never inside a TBB task
+  for (size_t i = 0; i < n; ++i)
+    if (masks[i].count == 0) throw Error("--segment " + segments[i].name + ": no voxel has its label ids");
+  progress.end();
+
+  progress.begin("mesh", n);
+  t0 = Clock::now();
+  forEachSegment(n, [&](size_t i) {
+    shapes[i].mesh = detail::extractIndexMesh(*sets[i], options.adaptivity);
+    detail::indexToPhysical(shapes[i].mesh, g);
+    sets[i].reset();
+  });
+  times.meshMs = msSince(t0);
+  progress.advance(n);
+  progress.end();
+
+  progress.begin("process", n);
+  t0 = Clock::now();
+  static const bool profile = std::getenv("VELLUM_SHAPE_PROFILE") != nullptr;
+  forEachSegment(n, [&](size_t i) {
+    MeshChecks stats;
+    auto tp = Clock::now();
+    const size_t facesIn = shapes[i].mesh.faces.size();
+    TriMesh m = detail::smoothAndDecimate(shapes[i].mesh, options.smoothingIterations,
+                                          options.targetFaces, 0.5 * minSpacing);
+    const double decMs = msSince(tp);
+    tp = Clock::now();
+    m = detail::repairMesh(m, stats);
+    const double repMs = msSince(tp);
+    tp = Clock::now();
+    MeshChecks c = checkMesh(m);
+    if (profile)
+      std::fprintf(stderr, "  process %-10s %zu -> %zu faces: smooth+decimate %.0f ms, repair %.0f ms, check %.0f ms\n",
+                   segments[i].name.c_str(), facesIn, m.faces.size(), decMs, repMs, msSince(tp));
+    // The soup round trip can leave a few intersections CGAL's repair did not see (faces
+    // meeting at duplicated, coincident vertices): one more repair pass on the result.
+    for (int pass = 0; pass < 2 && (c.selfIntersections > 0 || !c.closed || !c.manifold); ++pass) {
+      MeshChecks again;
+      m = detail::repairMesh(m, again);
+      stats.holesFilled += again.holesFilled;
+      stats.degenerateRemoved += again.degenerateRemoved;
+      stats.selfIntersectionsRepaired = stats.selfIntersectionsRepaired || again.selfIntersectionsRepaired;
+      c = checkMesh(m);
+    }
+    c.holesFilled = stats.holesFilled;
+    c.degenerateRemoved = stats.degenerateRemoved;
+    c.selfIntersectionsRepaired = stats.selfIntersectionsRepaired;
+    c.voxelVolumeMm3 = double(masks[i].count) * g.spacing.x * g.spacing.y * g.spacing.z;
+    c.maxBoundaryDistanceMm = detail::maxDistanceToBinaryBoundary(m, masks[i], g);
+    shapes[i].mesh = std::move(m);
+    shapes[i].checks = c;
+  });
+  times.processMs = msSince(t0);
+  progress.advance(n);
+  progress.end();
+  return shapes;
+}
+
+ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segment>& segments,
+                             const std::vector<Shell>& shells, const std::vector<Grow>& grows,
+                             const ShapeOptions& options, Progress& progress) {
+  if (segments.empty()) throw Error("no segments: give at least one --segment NAME=ID[,ID..]");
+  for (size_t i = 0; i < segments.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (segments[i].name == segments[j].name)
+        throw Error("--segment: name '" + segments[i].name + "' is used twice");
+  auto indexOf = [&](const std::string& name, const char* flag) {
+    for (size_t i = 0; i < segments.size(); ++i)
+      if (segments[i].name == name) return i;
+    throw Error(std::string(flag) + ": unknown segment '" + name + "'");
+  };
+  std::vector<double> extra(segments.size(), 0.0), offset(segments.size(), 0.0);
+  for (const auto& s : shells) {
+    const size_t i = indexOf(s.segment, "--shell");
+    if (!(s.thicknessMm > 0) || !std::isfinite(s.thicknessMm))
+      throw Error("--shell " + s.segment + ": thickness must be a positive number of mm");
+    extra[i] = std::max(extra[i], s.thicknessMm);
+  }
+  for (const auto& gr : grows) {
+    const size_t i = indexOf(gr.segment, "--grow");
+    if (!std::isfinite(gr.offsetMm)) throw Error("--grow " + gr.segment + ": offset must be a number of mm");
+    offset[i] += gr.offsetMm;
+  }
+  for (size_t i = 0; i < segments.size(); ++i)
+    extra[i] = std::max(extra[i] + std::max(0.0, -offset[i]), std::abs(offset[i]));
+
+  ShapeResult r;
+  r.shapes = buildShapes(labels, segments, options, r.times, progress);
+
+  progress.begin("distances", 1);
+  auto t0 = Clock::now();
+  std::vector<TriMesh> meshes;
+  for (const auto& s : r.shapes) meshes.push_back(s.mesh);
+  DistanceOptions dopt;
+  dopt.bandMm = options.exactBandMm;
+  auto dist = signedDistances(meshes, labels.geometry(), dopt, extra);
+  r.times.distancesMs = msSince(t0);
+  progress.advance();
+  progress.end();
+
+  progress.begin("segmentation", 1);
+  t0 = Clock::now();
+  for (size_t i = 0; i < segments.size(); ++i)
+    if (offset[i] != 0) {
+      const float o = static_cast<float>(offset[i]);
+      for (float& v : dist[i].voxels()) v -= o;
+      // Values beyond the exact band were clamped at +-background: the exact band shrinks.
+      dist[i].setBackground(dist[i].background() - std::abs(offset[i]));
+    }
+  buildRepresentation(dist, segments, shells, r.distance, r.segmentation);
+  r.times.segmentationMs = msSince(t0);
+  progress.advance();
+  progress.end();
+  return r;
+}
+
+}  // namespace vellum::illustration

@@ -1,0 +1,131 @@
+// `vellum shape` end to end on a small phantom.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <sys/wait.h>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "test_data.hpp"
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+
+using namespace vellum;
+namespace fs = std::filesystem;
+
+namespace {
+int run(const std::string& args, const fs::path& log) {
+  const std::string cmd = std::string(VELLUM_CLI_PATH) + " shape " + args + " > " + log.string() + " 2>&1";
+  return std::system(cmd.c_str());
+}
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+}  // namespace
+
+TEST(ShapeCli, EndToEndOnPhantom) {
+  const fs::path dir = test::tempDir("shape-cli");
+  phantom::PhantomOptions po;
+  po.dims = {48, 48, 48};
+  const auto ph = phantom::makePhantom(po);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const fs::path out = dir / "shape";
+  const std::string base = (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string();
+  ASSERT_EQ(run(base + " --segment body=1,2,3,4,5,6,7,8,9,10,11 --segment femur=4,5 --segment 3"
+                       " --shell femur:2 --grow muscle:-0.5 --target-faces 4000 --mesh-format stl --out " +
+                    out.string() + " --report " + (dir / "r.json").string(),
+                dir / "log.txt"),
+            0)
+      << slurp(dir / "log.txt");
+  for (const char* f : {"distance.nrrd", "segments.nrrd", "shape.json", "meshes/body.stl",
+                        "meshes/femur.stl", "meshes/muscle.stl"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  EXPECT_TRUE(fs::exists(dir / "r.json"));
+  const auto j = nlohmann::json::parse(slurp(out / "shape.json"));
+  ASSERT_EQ(j["segments"].size(), 3u);
+  EXPECT_EQ(j["segments"][2]["name"], "muscle");
+  for (const auto& s : j["segments"]) {
+    EXPECT_TRUE(s["closed"].get<bool>()) << s["name"];
+    EXPECT_TRUE(s["manifold"].get<bool>()) << s["name"];
+    EXPECT_EQ(s["self_intersections"].get<int>(), 0) << s["name"];
+    const double ratio = s["volume_mm3"].get<double>() / s["voxel_volume_mm3"].get<double>();
+    EXPECT_GT(ratio, 0.8) << s["name"];
+    EXPECT_LT(ratio, 1.25) << s["name"];
+    EXPECT_GT(s["max_boundary_distance_mm"].get<double>(), 0.0);
+  }
+  EXPECT_LE(j["segments"][0]["faces"].get<int>(), 4000);  // muscle's constraints may stop above
+  for (const char* stage : {"denoise", "mesh", "process", "distances", "segmentation", "write"})
+    EXPECT_GE(j["timings_ms"][stage].get<double>(), 0.0) << stage;
+  // STL binary size: 84 + 50 bytes a face.
+  EXPECT_EQ(fs::file_size(out / "meshes/femur.stl"), 84u + 50u * j["segments"][1]["faces"].get<uint64_t>());
+
+  const LabelVolume seg = io::loadLabels(out / "segments.nrrd");
+  ASSERT_EQ(seg.table().size(), 4u);
+  EXPECT_EQ(seg.table()[0].name, "body");
+  EXPECT_EQ(seg.table()[1].name, "femur");
+  EXPECT_EQ(seg.table()[2].name, "muscle");
+  EXPECT_EQ(seg.table()[3].name, "femur boundary");
+  const auto hist = seg.histogram();
+  ASSERT_GE(hist.size(), 5u);
+  for (int id = 1; id <= 4; ++id) EXPECT_GT(hist[id], 0u) << id;
+  // Painter's order: femur and muscle (listed after body) paint over it; femur's outer 2 mm
+  // are its boundary segment.
+  EXPECT_GT(hist[1], 0u);
+  EXPECT_GT(hist[4], 0u);
+  const auto dist = io::loadVolume(out / "distance.nrrd");
+  EXPECT_TRUE(std::holds_alternative<VolumeF32>(dist.volume));
+  const auto& d = std::get<VolumeF32>(dist.volume);
+  EXPECT_TRUE(d.geometry().approxEqual(ph.ct.geometry()));
+  // Inside the union negative, outside positive.
+  for (size_t n = 0; n < d.size(); n += 97)
+    EXPECT_EQ(d.data()[n] < 0, seg.ids().data()[n] != 0) << n;
+}
+
+TEST(ShapeCli, BadSegmentSpecsGiveOneLineErrors) {
+  const fs::path dir = test::tempDir("shape-cli-errors");
+  phantom::PhantomOptions po;
+  po.dims = {24, 24, 24};
+  const auto ph = phantom::makePhantom(po);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const std::string base = (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string() +
+                           " --out " + (dir / "o").string();
+  struct Case { std::string args, needle; };
+  for (const Case& c : {Case{" --segment bone=99", "unknown label id 99"},
+                        Case{" --segment bone=4,x", "'x' is not a label id"},
+                        Case{" --segment bone=4 --shell nope:1", "unknown segment 'nope'"},
+                        Case{" --segment bone=4 --grow bone:abc", "is not a number"},
+                        Case{" --segment 4,5", "need a name"}}) {
+    EXPECT_NE(run(base + c.args, dir / "log.txt"), 0) << c.args;
+    const std::string log = slurp(dir / "log.txt");
+    EXPECT_NE(log.find(c.needle), std::string::npos) << c.args << ": " << log;
+    EXPECT_LE(std::count(log.begin(), log.end(), '\n'), 1) << log;
+  }
+}
+
+TEST(ShapeCli, InterruptExitsCleanly) {
+  // SIGINT in the middle of the pipeline: exit 130 ("cancelled"), no shape.json, no
+  // temporaries (never a crash: cancellation is checked between stages, outside TBB tasks).
+  const fs::path dir = test::tempDir("shape-cli-interrupt");
+  phantom::PhantomOptions po;
+  po.dims = {160, 160, 160};
+  const auto ph = phantom::makePhantom(po);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const std::string cmd = "timeout --preserve-status -s INT 0.8 " + std::string(VELLUM_CLI_PATH) +
+                          " shape " + (dir / "ct.nrrd").string() + " --labels " +
+                          (dir / "labels.nrrd").string() +
+                          " --segment body=1,2,3,4,5,6,7,8,9,10,11 --segment muscle=3 --out " +
+                          (dir / "o").string() + " > " + (dir / "log.txt").string() + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status)) << slurp(dir / "log.txt");
+  const int rc = WEXITSTATUS(status);
+  if (rc == 0) GTEST_SKIP() << "finished before the interrupt (fast machine)";
+  EXPECT_EQ(rc, 130) << slurp(dir / "log.txt");
+  EXPECT_NE(slurp(dir / "log.txt").find("cancelled"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "o" / "shape.json"));
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".vellum-"), std::string::npos) << e.path();
+}
