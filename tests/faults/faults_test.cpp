@@ -19,6 +19,7 @@
 #include <sstream>
 #include <thread>
 
+#include "child_process.hpp"
 #include "test_data.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
@@ -28,53 +29,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string readAll(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-/// A running `vellum` child. `beforeExec` runs in the child (limits, mounts).
-struct Child {
-  pid_t pid = -1;
-  fs::path stderrPath;
-
-  Child(const std::vector<std::string>& args, const fs::path& errFile,
-        const std::function<void()>& beforeExec = {}) : stderrPath(errFile) {
-    pid = ::fork();
-    if (pid == 0) {
-      const int fd = ::open(errFile.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd >= 0) { ::dup2(fd, 2); ::dup2(fd, 1); }
-      if (beforeExec) beforeExec();
-      std::vector<char*> argv{const_cast<char*>(VELLUM_CLI_PATH)};
-      for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-      argv.push_back(nullptr);
-      ::execv(VELLUM_CLI_PATH, argv.data());
-      ::_exit(127);
-    }
-  }
-  /// Waits; returns the exit code, or 128 + signal.
-  int wait() {
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  }
-  std::string errors() const { return readAll(stderrPath); }
-  /// Waits until the child catches `sig` (its handler is installed: /proc/PID/status SigCgt),
-  /// so that a slow start-up (sanitizer builds) does not turn the test into a race.
-  bool waitUntilCatching(int sig) const {
-    for (int i = 0; i < 1000; ++i) {
-      std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-      std::string line;
-      while (std::getline(status, line))
-        if (line.rfind("SigCgt:", 0) == 0 && (std::stoull(line.substr(7), nullptr, 16) >> (sig - 1)) & 1u)
-          return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return false;
-  }
-};
+using test::Child;
+using test::readAll;
 
 int run(const std::vector<std::string>& args, const fs::path& errFile,
         const std::function<void()>& beforeExec = {}) {

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "child_process.hpp"
 #include "test_data.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
@@ -114,14 +115,13 @@ TEST(ShapeCli, InterruptExitsCleanly) {
   const auto ph = phantom::makePhantom(po);
   io::saveVolume(ph.ct, dir / "ct.nrrd");
   io::saveLabels(ph.labels, dir / "labels.nrrd");
-  const std::string cmd = "timeout --preserve-status -s INT 0.8 " + std::string(VELLUM_CLI_PATH) +
-                          " shape " + (dir / "ct.nrrd").string() + " --labels " +
-                          (dir / "labels.nrrd").string() +
-                          " --segment body=1,2,3,4,5,6,7,8,9,10,11 --segment muscle=3 --out " +
-                          (dir / "o").string() + " > " + (dir / "log.txt").string() + " 2>&1";
-  const int status = std::system(cmd.c_str());
-  ASSERT_TRUE(WIFEXITED(status)) << slurp(dir / "log.txt");
-  const int rc = WEXITSTATUS(status);
+  test::Child child({"shape", (dir / "ct.nrrd").string(), "--labels", (dir / "labels.nrrd").string(), "--segment",
+                     "body=1,2,3,4,5,6,7,8,9,10,11", "--segment", "muscle=3", "--out", (dir / "o").string()},
+                    dir / "log.txt");
+  ASSERT_TRUE(child.waitUntilCatching(SIGINT));  // not before the handler is there
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ::kill(child.pid, SIGINT);
+  const int rc = child.wait();
   if (rc == 0) GTEST_SKIP() << "finished before the interrupt (fast machine)";
   EXPECT_EQ(rc, 130) << slurp(dir / "log.txt");
   EXPECT_NE(slurp(dir / "log.txt").find("cancelled"), std::string::npos);
