@@ -69,6 +69,12 @@ std::array<float, 4> Volume4::sampleLinear(float x, float y, float z) const {
 
 namespace {
 
+/// GLSL's smoothstep, so the CPU reference matches the shader.
+float smoothstep(float e0, float e1, float x) {
+  const float t = std::clamp((x - e0) / (e1 - e0), 0.f, 1.f);
+  return t * t * (3.f - 2.f * t);
+}
+
 /// Index-space gradient -> physical: D * (g / spacing).
 Vec3 toPhysical(const Geometry& g, const Vec3& idxGrad) {
   return g.direction * div(idxGrad, g.spacing);
@@ -386,7 +392,10 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
   float b;
   if (R7[3] > 0.5f && ct4) b = clamp01(std::sqrt(ct4[0] * ct4[0] + ct4[1] * ct4[1] + ct4[2] * ct4[2]) / R9[3]);
   else b = clamp01(1.f - std::abs(d) / R8[3]);
-  const float ndv = glen > 1e-6f ? std::abs(dot(n, view)) : 1.f;
+  // As the shader: normal-based terms fade to neutral from 2 to 4 boundary widths inside
+  // (deeper, the distance gradient only shows the medial axis).
+  const float sw = 1.f - smoothstep(2.f * R8[3], 4.f * R8[3], std::abs(d));
+  const float ndv = glen > 1e-6f ? 1.f + sw * (std::abs(dot(n, view)) - 1.f) : 1.f;
   float mb = R8[0], ms = R9[0];
   if (R8[1] > 0.f) mb += R8[1] * std::pow(b, R8[2]);
   if (R9[1] > 0.f) ms += R9[1] * std::pow(std::max(1.f - ndv, 0.f), R9[2]);
@@ -395,7 +404,7 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
   const Vec3f L = f.light;
   float hl;
   const Vec3f H = normalizeOrZero(L + view, hl);
-  const float ndl = dot(n, L);
+  const float ndl = sw * dot(n, L);
   const float col[3] = {R0[0], R0[1], R0[2]};
 
   // I_coloring: Gooch tone, then depth dimming.
@@ -429,7 +438,7 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
     for (int c = 0; c < 3; ++c) c1[c] = std::min(tf[c] * (R10[0] + R10[1] * cdl) + spec, 1.f);
     a1 = tf[3];
   } else {
-    const float spec = glen > 1e-6f ? R10[2] * std::pow(std::max(dot(n, H), 0.f), R10[3]) : 0.f;
+    const float spec = glen > 1e-6f ? sw * R10[2] * std::pow(std::max(dot(n, H), 0.f), R10[3]) : 0.f;
     for (int c = 0; c < 3; ++c) c1[c] = std::min(col[c] * lit + spec, 1.f);
     a1 = aSeg;
   }

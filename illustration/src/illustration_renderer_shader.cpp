@@ -81,13 +81,17 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   else
 #endif
   b = clamp(1.0 - abs(d) / r.t[8].w, 0.0, 1.0);
-  float ndv = glen > 1e-6 ? abs(dot(n, view)) : 1.0;
+  // Deep inside a segment the distance gradient only shows the medial axis (creases where the
+  // nearest boundary point jumps): normal-based terms fade to neutral from 2 to 4 boundary
+  // widths inside, so translucent segments show their surface shading, not an X of creases.
+  float sw = 1.0 - smoothstep(2.0 * r.t[8].w, 4.0 * r.t[8].w, abs(d));
+  float ndv = glen > 1e-6 ? mix(1.0, abs(dot(n, view)), sw) : 1.0;
   float mb = r.t[8].x, ms = r.t[9].x;
   if (r.t[8].y > 0.0) mb += r.t[8].y * pow(b, r.t[8].z);
   if (r.t[9].y > 0.0) ms += r.t[9].y * pow(max(1.0 - ndv, 0.0), r.t[9].z);
   float m = mb * ms;
   if (!(m > 0.0)) return vec4(0.0);
-  float ndl = dot(n, uLight);
+  float ndl = sw * dot(n, uLight);
   vec3 col = r.t[0].rgb;
   float k = (1.0 + ndl) * 0.5;
   vec3 tone = clamp(k * (r.t[2].rgb + r.t[2].w * col) + (1.0 - k) * (r.t[3].rgb + r.t[3].w * col), 0.0, 1.0);
@@ -115,7 +119,7 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   } else
 #endif
   {
-    float spec = glen > 1e-6 ? r.t[10].z * pow(max(dot(n, H), 0.0), r.t[10].w) : 0.0;
+    float spec = glen > 1e-6 ? sw * r.t[10].z * pow(max(dot(n, H), 0.0), r.t[10].w) : 0.0;
     c1 = min(col * lit + spec, vec3(1.0));
     a1 = aSeg;
   }

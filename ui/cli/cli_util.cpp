@@ -101,13 +101,13 @@ void FigureOptions::addTo(CLI::App& cmd, bool labelsComeWithInput) {
 }
 
 void FigureOptions::apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
-                          const LabelVolume* labels) const {
+                          const LabelVolume* labels, render::AnchorOcclusion occlusion) const {
   if (!any()) return;
   render::AnnotationOptions o = annotations;
   if (annotateAll) o.scaleBar = o.orientation = true;
   o.labels = wantsLabels() && labels;
   const render::Projection projection(volume, settings);
-  const auto anchors = o.labels ? render::structureAnchors(*labels, labelIds, projection, image)
+  const auto anchors = o.labels ? render::structureAnchors(*labels, labelIds, projection, image, 30, nullptr, occlusion)
                                 : std::vector<render::StructureAnchor>{};
   render::annotate(image, projection, o, anchors);
 }

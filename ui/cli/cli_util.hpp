@@ -67,7 +67,8 @@ struct FigureOptions {
   bool any() const { return annotateAll || annotations.scaleBar || annotations.orientation || wantsLabels(); }
   /// Draws what was asked for into `image` rendered with `settings` around `volume`.
   void apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
-             const LabelVolume* labels) const;
+             const LabelVolume* labels,
+             render::AnchorOcclusion occlusion = render::AnchorOcclusion::FrontMost) const;
 };
 
 /// A progress bar on stderr. It stays silent for the first second (fast work prints

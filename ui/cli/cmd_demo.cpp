@@ -8,6 +8,7 @@
 #include "commands.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/phantom/phantom.hpp"
+#include "vellum/render/contact_sheet.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::cli {
@@ -25,19 +26,6 @@ struct View {
   const char* name;
   double azimuth, elevation;
 };
-
-/// Places tiles (all the same size) into a grid, row by row.
-RgbaImage contactSheet(const std::vector<RgbaImage>& tiles, int columns) {
-  const int w = tiles.front().width, h = tiles.front().height;
-  const int rows = (static_cast<int>(tiles.size()) + columns - 1) / columns;
-  RgbaImage sheet(w * columns, h * rows);
-  for (size_t t = 0; t < tiles.size(); ++t) {
-    const int ox = static_cast<int>(t) % columns * w, oy = static_cast<int>(t) / columns * h;
-    for (int y = 0; y < h; ++y)
-      std::copy_n(tiles[t].at(0, y), w * 4, sheet.at(ox, oy + y));
-  }
-  return sheet;
-}
 
 }  // namespace
 
@@ -96,7 +84,7 @@ void addDemoCommand(CLI::App& app) {
         tiles.push_back(std::move(img));
       }
     }
-    io::saveImage(contactSheet(tiles, 3), out / "contact-sheet.png");
+    io::saveImage(render::contactSheet(tiles, 3), out / "contact-sheet.png");
     summary["figures"] = figures;
     summary["renderer"] = context->renderer();
     std::cout << tiles.size() << " figures + contact-sheet.png (" << context->renderer() << ")\n";
@@ -104,6 +92,7 @@ void addDemoCommand(CLI::App& app) {
     // 3. The parts later capabilities add.
     demoSegmentation(ctx);
     demoDeformation(ctx);
+    demoIllustration(ctx);
 
     summary["seconds"] = secondsSince(t0);
     writeJsonFile(summary, out / "summary.json");

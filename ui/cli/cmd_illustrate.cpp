@@ -8,6 +8,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
 #include "vellum/io/image_io.hpp"
+#include "vellum/render/contact_sheet.hpp"
 
 namespace vellum::cli {
 namespace {
@@ -28,6 +29,45 @@ struct IllustrateArgs {
 };
 
 }  // namespace
+
+void demoIllustration(const DemoContext& ctx) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::filesystem::path dir = ctx.outDir / "shape";
+  demoShape(ctx, dir);
+  illustration::ShapeScene scene = illustration::loadShapeFolder(dir);
+  scene.ct = io::loadVolume(ctx.phantomCt).volume;
+  auto context = render::GlContext::createHeadless();
+  illustration::IllustrationRenderer renderer(*context);
+  renderer.setScene(scene);
+  illustration::IllustrationSettings s;
+  s.render.width = s.render.height = 512;
+  s.render.camera.azimuthDeg = 35;
+  s.render.camera.elevationDeg = 10;
+  s.render.camera.zoom = 1.4;
+  s.render.stepVoxels = 1.0;
+  // The paper's comparison: plain DVR, colour shading, opacity modulation, side by side.
+  std::vector<RgbaImage> tiles;
+  for (const char* preset : {"dvr", "dvr-colour", "opacity-modulation"}) {
+    const illustration::Style style = illustration::stylePreset(preset);
+    s.render.background = {style.background[0], style.background[1], style.background[2], 1.f};
+    tiles.push_back(renderer.render(style, s));
+  }
+  io::saveImage(render::contactSheet(tiles, 3), ctx.outDir / "illustration-plate.png");
+  // A labelled textbook figure, orthographic so that its scale bar is exact.
+  const illustration::Style textbook = illustration::stylePreset("textbook");
+  s.render.width = s.render.height = 768;
+  s.render.camera.fieldOfViewDeg = 0;
+  s.render.background = {textbook.background[0], textbook.background[1], textbook.background[2], 1.f};
+  RgbaImage figure = renderer.render(textbook, s);
+  FigureOptions annotations;
+  annotations.annotateAll = annotations.labelFlag = true;
+  annotations.labelIds = {2, 3, 4, 5, 6};  // muscle and the bones (skin would hide its own anchor)
+  annotations.apply(figure, scene.distance.geometry(), s.render, &scene.segments, render::AnchorOcclusion::InnerFirst);
+  io::saveImage(figure, ctx.outDir / "illustration-textbook.png");
+  std::cout << "shape folder shape/ + illustration-plate.png (dvr | dvr-colour | opacity-modulation) + "
+               "illustration-textbook.png in "
+            << secondsSince(t0) << " s\n";
+}
 
 void addIllustrateCommand(CLI::App& app) {
   auto a = std::make_shared<IllustrateArgs>();
@@ -83,7 +123,8 @@ void addIllustrateCommand(CLI::App& app) {
     illustration::IllustrationRenderer renderer(*context);
     renderer.setScene(scene);
     RgbaImage image = renderer.render(style, s);
-    a->figure.apply(image, scene.distance.geometry(), s.render, &scene.segments);
+    // Illustrations are see-through: name each structure where it alone shows.
+    a->figure.apply(image, scene.distance.geometry(), s.render, &scene.segments, render::AnchorOcclusion::InnerFirst);
     ensureParentFolder(a->output);
     io::saveImage(image, a->output);
     if (!a->saveStyle.empty()) illustration::saveStyle(style, a->saveStyle);

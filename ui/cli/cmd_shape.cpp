@@ -156,6 +156,17 @@ void runShape(const ShapeArgs& a) {
 
 }  // namespace
 
+void demoShape(const DemoContext& ctx, const fs::path& dir) {
+  ShapeArgs a;
+  a.input = ctx.phantomCt.string();
+  a.labels = ctx.phantomLabels.string();
+  a.out = dir.string();
+  // Enclosing structures first: later segments win where they overlap.
+  a.segments = {"skin=1,2,3,4,5,6,7,8,9,10,11", "muscle=3", "femur bone=4,5", "tibia bone=6,7",
+                "fibula bone=8", "patella bone=9", "cartilage=10"};
+  runShape(a);
+}
+
 void addShapeCommand(CLI::App& app) {
   auto a = std::make_shared<ShapeArgs>();
   auto* cmd = app.add_subcommand("shape", "Clean segment shapes (denoise, mesh, repair) and the shape-aware representation (distance + segmentation volumes)");

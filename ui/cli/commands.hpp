@@ -36,5 +36,10 @@ struct DemoContext {
 void demoSegmentation(const DemoContext& ctx);
 /// Deformation/animation part of the demo (defined in cmd_deform.cpp).
 void demoDeformation(const DemoContext& ctx);
+/// Shape folder of the phantom's skin, muscle and bones (defined in cmd_shape.cpp).
+void demoShape(const DemoContext& ctx, const std::filesystem::path& dir);
+/// Shape-aware illustration part of the demo: the shape folder, a plate in the paper's manner
+/// and a labelled textbook figure (defined in cmd_illustrate.cpp).
+void demoIllustration(const DemoContext& ctx);
 
 }  // namespace vellum::cli

@@ -65,7 +65,8 @@ std::string anatomicalLetters(const Vec3& d) {
 
 std::vector<StructureAnchor> structureAnchors(const LabelVolume& labels, std::vector<uint16_t> ids,
                                               const Projection& projection, const RgbaImage& rendered,
-                                              int64_t minPixels, std::vector<uint16_t>* footprintOut) {
+                                              int64_t minPixels, std::vector<uint16_t>* footprintOut,
+                                              AnchorOcclusion occlusion) {
   const int w = projection.width(), h = projection.height();
   if (rendered.width != w || rendered.height != h) throw Error("structure anchors: image and camera sizes differ");
   if (ids.empty())
@@ -80,6 +81,11 @@ std::vector<StructureAnchor> structureAnchors(const LabelVolume& labels, std::ve
   const int half = std::max(0, int(std::ceil(0.5 * voxelPx)));
   std::vector<float> depth(size_t(w) * h, std::numeric_limits<float>::infinity());
   std::vector<uint16_t> seen(size_t(w) * h, 0);
+  // InnerFirst: every structure's own footprint (no depth test), then the smallest one wins.
+  std::vector<uint16_t> slot(65536, 0);
+  for (size_t i = 0; i < ids.size(); ++i) slot[ids[i]] = uint16_t(i);
+  std::vector<std::vector<uint8_t>> own(occlusion == AnchorOcclusion::InnerFirst ? ids.size() : 0);
+  for (auto& o : own) o.assign(size_t(w) * h, 0);
   const Dims d = g.dims;
   for (int64_t k = 0; k < d.z; ++k)
     for (int64_t j = 0; j < d.y; ++j)
@@ -92,9 +98,20 @@ std::vector<StructureAnchor> structureAnchors(const LabelVolume& labels, std::ve
         for (int y = std::max(0, cy - half); y <= std::min(h - 1, cy + half); ++y)
           for (int x = std::max(0, cx - half); x <= std::min(w - 1, cx + half); ++x) {
             const size_t q = size_t(y) * w + x;
-            if (p->z < depth[q]) depth[q] = float(p->z), seen[q] = id;
+            if (!own.empty()) own[slot[id]][q] = 1;
+            else if (p->z < depth[q]) depth[q] = float(p->z), seen[q] = id;
           }
       }
+  if (!own.empty()) {
+    std::vector<int64_t> area(ids.size(), 0);
+    for (size_t i = 0; i < ids.size(); ++i)
+      for (uint8_t v : own[i]) area[i] += v;
+    for (size_t q = 0; q < seen.size(); ++q) {
+      int64_t best = std::numeric_limits<int64_t>::max();
+      for (size_t i = 0; i < ids.size(); ++i)
+        if (own[i][q] && area[i] < best) best = area[i], seen[q] = ids[i];
+    }
+  }
   for (int y = 0; y < h; ++y)  // only where the picture shows something
     for (int x = 0; x < w; ++x)
       if (rendered.at(x, y)[3] == 0) seen[size_t(y) * w + x] = 0;

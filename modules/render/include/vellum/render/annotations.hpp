@@ -29,13 +29,21 @@ struct StructureAnchor {
   int64_t visiblePixels = 0;  ///< size of its footprint in the image
 };
 
+/// Which structure a pixel belongs to when several project onto it.
+enum class AnchorOcclusion {
+  FrontMost,   ///< the nearest one: opaque renderings (bone in front of bone)
+  InnerFirst,  ///< the one with the smallest footprint: see-through illustrations, where bone
+               ///< shows through translucent muscle and the muscle is named where it alone is
+};
+
 /// For each of `ids` (all ids of the table when empty), the pixel deepest inside the part of
-/// the image where it is the front-most of those structures and the rendering is not
-/// transparent (alpha > 0); structures with fewer than `minPixels` such pixels are left out.
-/// `footprint`, when given, receives per pixel the id seen there (0 = none).
+/// the image that belongs to it (see AnchorOcclusion) where the rendering is not transparent
+/// (alpha > 0); structures with fewer than `minPixels` such pixels are left out. `footprint`,
+/// when given, receives per pixel the id it belongs to (0 = none).
 std::vector<StructureAnchor> structureAnchors(const LabelVolume& labels, std::vector<uint16_t> ids,
                                               const Projection& projection, const RgbaImage& rendered,
-                                              int64_t minPixels = 30, std::vector<uint16_t>* footprint = nullptr);
+                                              int64_t minPixels = 30, std::vector<uint16_t>* footprint = nullptr,
+                                              AnchorOcclusion occlusion = AnchorOcclusion::FrontMost);
 
 /// Where things were drawn (for tests and reports).
 struct AnnotationLayout {
