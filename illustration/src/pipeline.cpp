@@ -169,4 +169,24 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
   return r;
 }
 
+const params::Table<ShapeOptions>& shapeOptionsTable() {
+  using S = ShapeOptions;
+  static const params::Table<S> table{
+      params::integer<S>("denoise_iterations", [](auto& o) -> auto& { return o.denoise.iterations; },
+                         {"Denoising steps", "constrained mean-curvature steps of the level-set denoising", "", 0, 1000}),
+      params::real<S>("denoise_margin", [](auto& o) -> auto& { return o.denoise.marginVoxels; },
+                      {"Constraint margin", "phi <= -m inside, >= +m outside at voxel centres (keeps thin sheets)",
+                       "voxels", 0, 0.5}),
+      params::integer<S>("target_faces", [](auto& o) -> auto& { return o.targetFaces; },
+                         {"Face budget", "per-segment face budget of the decimation; 0 = no decimation", "", 0, 10000000}),
+      params::integer<S>("smoothing_iterations", [](auto& o) -> auto& { return o.smoothingIterations; },
+                         {"Smoothing passes", "OpenMesh tangential smoothing passes", "", 0, 100}),
+      params::real<S>("adaptivity", [](auto& o) -> auto& { return o.adaptivity; },
+                      {"Meshing adaptivity", "OpenVDB volumeToMesh adaptivity; 0 = uniform", "", 0, 1}),
+      params::real<S>("band", [](auto& o) -> auto& { return o.exactBandMm; },
+                      {"Exact band", "half-width of the band of exact distances; 0 = three voxels", "mm", 0, 1000}),
+  };
+  return table;
+}
+
 }  // namespace vellum::illustration

@@ -3,6 +3,7 @@
 
 #include "commands.hpp"
 #include "vellum/deformation/deform_params.hpp"
+#include "vellum/illustration/shape.hpp"
 #include "vellum/render/render_settings.hpp"
 #include "vellum/segmentation/body_mask.hpp"
 #include "vellum/segmentation/threshold.hpp"
@@ -25,6 +26,7 @@ std::string parametersMarkdown() {
          params::markdown(segmentation::hysteresisParamsTable()) + "\n";
   out += "## CT table removal — `BodyMaskParams` (`--remove-table`; flags `--table-<key>`)\n\n" +
          params::markdown(segmentation::bodyMaskParamsTable());
+  out += "\n## Shape pipeline — `ShapeOptions` (`vellum shape`)\n\n" + params::markdown(illustration::shapeOptionsTable());
   return out;
 }
 

@@ -7,10 +7,12 @@
 #include <filesystem>
 #include <memory>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/params_json.hpp"
 #include "vellum/illustration/shape.hpp"
 
 namespace vellum::cli {
@@ -21,11 +23,7 @@ namespace {
 struct ShapeArgs {
   std::string input, labels, out, report, meshFormat = "ply";
   std::vector<std::string> segments, shells, grows;
-  int64_t targetFaces = 20000;
-  int denoiseIterations = 5;
-  int smoothingIterations = 3;
-  double bandMm = 0.0;
-  double adaptivity = 0.05;
+  ill::ShapeOptions options;  ///< the shape table's flags write here
   InputOptions in;
 };
 
@@ -88,18 +86,8 @@ void runShape(const ShapeArgs& a) {
     auto [name, mm] = parseNameMm(s, "--grow");
     grows.push_back({name, mm});
   }
-  if (a.targetFaces < 0) throw Error("--target-faces must be >= 0 (0: no decimation)");
-  if (a.denoiseIterations < 0 || a.denoiseIterations > 1000)
-    throw Error("--denoise-iterations must be in 0..1000");
-  if (!(a.bandMm >= 0)) throw Error("--band must be >= 0 mm");
-  if (!(a.adaptivity >= 0 && a.adaptivity <= 1)) throw Error("--adaptivity must be in 0..1");
-
-  ill::ShapeOptions opt;
-  opt.denoise.iterations = a.denoiseIterations;
-  opt.targetFaces = a.targetFaces;
-  opt.smoothingIterations = a.smoothingIterations;
-  opt.exactBandMm = a.bandMm;
-  opt.adaptivity = a.adaptivity;
+  const ill::ShapeOptions& opt = a.options;
+  params::validate(ill::shapeOptionsTable(), opt);
   ill::ShapeResult r;
   const auto tp = Clock::now();
   {
@@ -125,10 +113,9 @@ void runShape(const ShapeArgs& a) {
   j["labels"] = a.labels;
   j["dims"] = {ctGeom.dims.x, ctGeom.dims.y, ctGeom.dims.z};
   j["spacing_mm"] = toJson(ctGeom.spacing);
-  j["options"] = {{"denoise_iterations", opt.denoise.iterations}, {"target_faces", opt.targetFaces},
-                  {"smoothing_iterations", opt.smoothingIterations}, {"adaptivity", opt.adaptivity},
-                  {"exact_band_mm", opt.exactBandMm > 0 ? opt.exactBandMm : 3 * std::min({ctGeom.spacing.x, ctGeom.spacing.y, ctGeom.spacing.z})},
-                  {"mesh_format", a.meshFormat}};
+  j["options"] = params::toJson(ill::shapeOptionsTable(), opt);  // keys as in `vellum params`
+  j["options"]["exact_band_mm"] = opt.exactBandMm > 0 ? opt.exactBandMm : 3 * std::min({ctGeom.spacing.x, ctGeom.spacing.y, ctGeom.spacing.z});
+  j["options"]["mesh_format"] = a.meshFormat;
   j["segments"] = nlohmann::json::array();
   for (const auto& s : r.shapes) j["segments"].push_back(checksJson(s));
   j["labels_out"] = nlohmann::json::array();
@@ -176,11 +163,7 @@ void addShapeCommand(CLI::App& app) {
   cmd->add_option("--out,-o", a->out, "output folder: distance.nrrd, segments.nrrd, shape.json, meshes/")->required();
   cmd->add_option("--shell", a->shells, "NAME:MM adds a 'NAME boundary' segment MM thick inside NAME (repeatable)");
   cmd->add_option("--grow", a->grows, "NAME:MM grows (MM > 0) or shrinks (MM < 0) a segment (repeatable)");
-  cmd->add_option("--target-faces", a->targetFaces, "per-segment face budget of the decimation (0: none)")->capture_default_str();
-  cmd->add_option("--denoise-iterations", a->denoiseIterations, "constrained curvature-flow steps")->capture_default_str();
-  cmd->add_option("--smoothing-iterations", a->smoothingIterations, "tangential mesh smoothing passes")->capture_default_str();
-  cmd->add_option("--adaptivity", a->adaptivity, "OpenVDB meshing adaptivity 0..1 (0: uniform)")->capture_default_str();
-  cmd->add_option("--band", a->bandMm, "half-width (mm) of the band of exact distances (0: 3 voxels)")->capture_default_str();
+  addFlags(*cmd, a->options, ill::shapeOptionsTable());
   cmd->add_option("--mesh-format", a->meshFormat, "ply | obj | stl (binary PLY and STL)")->capture_default_str();
   cmd->add_option("--report", a->report, "also write shape.json here");
   a->in.addTo(*cmd);

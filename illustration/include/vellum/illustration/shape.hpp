@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
+#include "vellum/core/params.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/core/volume.hpp"
 
@@ -82,6 +83,9 @@ struct ShapeOptions {
   /// voxels of the smallest spacing); widened per segment for its shells and grow offsets.
   double exactBandMm = 0.0;
 };
+
+/// Parameter table of ShapeOptions (keys = `vellum shape` flags; see `vellum params`).
+const params::Table<ShapeOptions>& shapeOptionsTable();
 
 /// Offset shell: "NAME boundary" = voxels of segment `segment` with -thickness < d <= 0.
 struct Shell {
