@@ -109,6 +109,11 @@ std::vector<uint8_t> readBytes(const fs::path& path, uint64_t offset, uint64_t c
 
 std::vector<uint8_t> inflateExact(const fs::path& path, const uint8_t* src, size_t n,
                                   uint64_t expected) {
+  // Deflate expands at most 1032:1: a header that claims more cannot be honest, and we refuse
+  // it before allocating (a tiny file must not cost gigabytes of zeroed memory).
+  if (expected / 1032 > n + 64)
+    throw FileError(path, "truncated: " + std::to_string(n) + " compressed bytes cannot hold the " +
+                              std::to_string(expected) + " bytes the header promises");
   try {
     checkMemoryBudget(expected, "decompressed data");
   } catch (const Error& e) {

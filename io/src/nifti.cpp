@@ -152,9 +152,26 @@ LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options) {
   } catch (const Error& e) {
     throw FileError(path, e.what());
   }
-  std::vector<uint8_t> data(static_cast<size_t>(bytes));
-  if (options.progress) options.progress->begin("reading " + path.filename().string(), 1);
-  readExact(path, gz.f, data.data(), bytes, "voxel data");
+  // A header may claim far more voxels than the file holds: never allocate for them first.
+  // Plain files are checked against their size; gzip streams grow the buffer as data arrives.
+  std::vector<uint8_t> data;
+  const uint64_t dataStart = static_cast<uint64_t>(voxOffset);
+  if (gzdirect(gz.f)) {
+    const uint64_t size = fileSize(path);
+    if (size < dataStart || size - dataStart < bytes)
+      throw FileError(path, "truncated voxel data: the header needs " + std::to_string(bytes) + " bytes after vox_offset, the file has " +
+                                std::to_string(size > dataStart ? size - dataStart : 0));
+    data.resize(static_cast<size_t>(bytes));
+  }
+  constexpr uint64_t kChunk = uint64_t{16} << 20;
+  if (options.progress) options.progress->begin("reading " + path.filename().string(), (bytes + kChunk - 1) / kChunk);
+  for (uint64_t done = 0; done < bytes;) {
+    const uint64_t n = std::min(kChunk, bytes - done);
+    if (data.size() < done + n) data.resize(static_cast<size_t>(done + n));
+    readExact(path, gz.f, data.data() + done, n, "voxel data");
+    done += n;
+    if (options.progress) options.progress->advance();
+  }
   if (options.progress) options.progress->end();
 
   AnyVolume vol = decodeVoxels(path, std::move(data), type, swap ? (hostEndian() == Endian::Little ? Endian::Big : Endian::Little) : hostEndian(), g);

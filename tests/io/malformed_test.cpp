@@ -99,6 +99,26 @@ const std::vector<Malformed>& cases() {
          const auto data = s.substr(s.find("\n\n") + 2);
          writeFile(d / "a.nrrd", nrrd("type: short\ndimension: 3\nsizes: 2 1 2\nendian: little\nencoding: gzip", data));
        }},
+      {"nrrd_gzip_header_promises_far_more", "a.nrrd", "cannot hold",
+       [](auto d) {  // 1024^3 shorts claimed by a few hundred compressed bytes: refused before allocating 2 GiB
+         const auto s = validFile(d, "g.nrrd");
+         const auto data = s.substr(s.find("\n\n") + 2);
+         writeFile(d / "a.nrrd", nrrd("type: short\ndimension: 3\nsizes: 1024 1024 1024\nendian: little\nencoding: gzip", data));
+       }},
+      {"nifti_header_promises_far_more", "a.nii", "truncated voxel data",
+       [](auto d) {  // found by the NIfTI fuzzer: 16x4096x4096 shorts in an 8 KB file
+         std::string h(352, '\0');
+         const auto put16 = [&](size_t at, int16_t v) { std::memcpy(&h[at], &v, 2); };
+         const auto put32f = [&](size_t at, float v) { std::memcpy(&h[at], &v, 4); };
+         const int32_t size = 348;
+         std::memcpy(&h[0], &size, 4);
+         for (auto [at, v] : {std::pair<size_t, int16_t>{40, 3}, {42, 16}, {44, 4096}, {46, 4096}, {48, 1}, {70, 4}, {72, 16}})
+           put16(at, v);
+         for (size_t i = 0; i < 8; ++i) put32f(76 + 4 * i, 1.f);
+         put32f(108, 352.f);
+         std::memcpy(&h[344], "n+1\0", 4);
+         writeFile(d / "a.nii", h + std::string(8192, '\0'));
+       }},
       {"nrrd_unknown_encoding", "a.nrrd", "encoding",
        [](auto d) { writeFile(d / "a.nrrd", nrrd("type: short\ndimension: 3\nsizes: 2 1 2\nendian: little\nencoding: bzip2")); }},
       {"nrrd_unknown_type", "a.nrrd", "unsupported nrrd type",
