@@ -224,7 +224,7 @@ void demoDeformation(const DemoContext& ctx) {
     s.preset = render::Preset::SoftTissueBone;
   }
 
-  // The movie: the bend over the keyframes with a half turn of the camera.
+  // The movie: the bend over the keyframes while the camera orbits 60 degrees.
   MovieSpec spec;
   spec.fps = 15;
   spec.settings = s;

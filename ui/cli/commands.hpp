@@ -34,7 +34,7 @@ struct DemoContext {
 };
 /// Segmentation part of the demo (defined in cmd_segment.cpp).
 void demoSegmentation(const DemoContext& ctx);
-/// Deformation/animation part of the demo (defined in cmd_deform.cpp).
+/// Deformation/animation part of the demo (defined in cmd_animate.cpp).
 void demoDeformation(const DemoContext& ctx);
 /// Shape folder of the phantom's skin, muscle and bones (defined in cmd_shape.cpp).
 void demoShape(const DemoContext& ctx, const std::filesystem::path& dir);
