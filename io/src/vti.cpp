@@ -20,7 +20,9 @@
 #include <vtkXMLImageDataReader.h>
 #include <vtkXMLImageDataWriter.h>
 
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
 
 #include "io_detail.hpp"
 #include "vellum/io/atomic_file.hpp"
@@ -70,6 +72,35 @@ SampleType sampleTypeOfVtk(const fs::path& path, int vtkType) {
   }
 }
 
+// VTK trusts the block count in each compressed array's header and allocates for it: a
+// corrupt count makes it ask for exabytes (found by the VTI fuzzer). Check every count
+// against the file's size before VTK sees the file.
+void checkCompressedHeaders(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(size_t{1} << 20, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(in.gcount()));
+  const size_t appended = head.find("<AppendedData");
+  if (head.find("compressor=") == std::string::npos || appended == std::string::npos) return;
+  const size_t underscore = head.find('_', appended);
+  if (underscore == std::string::npos) return;
+  const uint64_t headerBytes = head.find("header_type=\"UInt64\"") != std::string::npos ? 8 : 4;
+  const uint64_t base = underscore + 1, size = fileSize(path);
+  for (size_t at = head.find(" offset=\""); at != std::string::npos && at < appended;
+       at = head.find(" offset=\"", at + 1)) {
+    const uint64_t offset = std::strtoull(head.c_str() + at + 9, nullptr, 10);
+    if (offset > size || base + offset + headerBytes > size)
+      throw FileError(path, "appended data offset " + std::to_string(offset) + " lies beyond the end of the file");
+    uint64_t blocks = 0;
+    in.clear();
+    in.seekg(static_cast<std::streamoff>(base + offset));
+    in.read(reinterpret_cast<char*>(&blocks), static_cast<std::streamsize>(headerBytes));  // little endian
+    if (blocks > (size - base - offset) / headerBytes)
+      throw FileError(path, "corrupt compressed array header: " + std::to_string(blocks) + " blocks in a file of " +
+                                std::to_string(size) + " bytes");
+  }
+}
+
 }  // namespace
 
 LoadedVolume loadVti(const fs::path& path, const LoadOptions& options) {
@@ -78,15 +109,24 @@ LoadedVolume loadVti(const fs::path& path, const LoadOptions& options) {
   ErrorCatcher errors(reader);
   reader->SetFileName(path.c_str());
   if (!reader->CanReadFile(path.c_str())) throw FileError(path, "not a VTK XML image data file");
+  checkCompressedHeaders(path);
   // Information first: dims are checked against the budget before VTK allocates anything.
-  reader->UpdateInformation();
+  try {
+    reader->UpdateInformation();
+  } catch (const std::exception& e) {
+    throw FileError(path, std::string("VTK could not read the header (") + e.what() + ")");
+  }
   if (!errors.message.empty()) throw FileError(path, shortVtkMessage(errors.message));
   int ext[6];
   reader->GetOutputInformation(0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), ext);
   const Dims dims{int64_t(ext[1]) - ext[0] + 1, int64_t(ext[3]) - ext[2] + 1, int64_t(ext[5]) - ext[4] + 1};
   checkAllocation(path, dims, 8);
   if (options.progress) options.progress->begin("reading " + path.filename().string(), 1);
-  reader->Update();
+  try {
+    reader->Update();
+  } catch (const std::exception& e) {  // e.g. std::bad_alloc for sizes VTK took from the file
+    throw FileError(path, std::string("VTK could not read the data (") + e.what() + ")");
+  }
   if (options.progress) options.progress->end();
   if (!errors.message.empty()) throw FileError(path, shortVtkMessage(errors.message));
   vtkImageData* img = reader->GetOutput();
