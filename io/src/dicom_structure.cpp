@@ -274,6 +274,9 @@ StructureCheck checkStructure(const fs::path& file) {
       pos = next;
     }
     r.dicomLike = magic || meta;
+    // A DICM prefix promises the file meta group; without it GDCM guesses the encoding and can
+    // read a length from the wrong bytes (a DICOM fuzzer input made it allocate 1.4 GB).
+    if (magic && !meta) throw Bad{"the DICM prefix is not followed by file meta information (group 0002)"};
     if (!r.dicomLike) {
       // No preamble and no meta: accept only a data set that starts like one (groups 0008..).
       if (!b.get(pos, 8, h)) throw Bad{"too short for DICOM"};
