@@ -69,8 +69,8 @@ void m3(GLuint p, const char* n, const Mat3& m) {
 struct IllustrationRenderer::Impl {
   render::GlContext& context;
   GLuint labelTex = 0, gradTex = 0, styleTex = 0, occTex = 0, ctTex = 0, tfTex = 0, texVolTex = 0;
-  GLuint fbo = 0, colorRb = 0, vao = 0;
-  int fbW = 0, fbH = 0;
+  GLuint vao = 0;
+  render::detail::OffscreenTarget target;  ///< destroyed after the body of ~Impl, context still current
   bool hasScene = false;
   Geometry geometry;
   std::vector<Label> table;  // label table and largest id (style resolution)
@@ -101,8 +101,6 @@ struct IllustrationRenderer::Impl {
     context.makeCurrent();
     for (auto& [k, p] : programs) glDeleteProgram(p);
     for (GLuint* t : {&labelTex, &gradTex, &styleTex, &occTex, &ctTex, &tfTex, &texVolTex}) del(*t);
-    if (fbo) glDeleteFramebuffers(1, &fbo);
-    if (colorRb) glDeleteRenderbuffers(1, &colorRb);
     glDeleteVertexArrays(1, &vao);
   }
 
@@ -117,21 +115,6 @@ struct IllustrationRenderer::Impl {
     for (const auto& [name, unit] : units) glUniform1i(glGetUniformLocation(p, name), unit);
     programs[v.key()] = p;
     return p;
-  }
-
-  void ensureFramebuffer(int w, int h) {
-    if (fbo && fbW == w && fbH == h) return;
-    if (!fbo) glGenFramebuffers(1, &fbo);
-    if (colorRb) glDeleteRenderbuffers(1, &colorRb);
-    glGenRenderbuffers(1, &colorRb);
-    glBindRenderbuffer(GL_RENDERBUFFER, colorRb);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
-    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colorRb);
-    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-      throw Error("illustrate: framebuffer of " + std::to_string(w) + "x" + std::to_string(h) + " is incomplete");
-    fbW = w;
-    fbH = h;
   }
 
   void uploadCt() {  // lazily: only styles that use the CT pay for it
@@ -232,7 +215,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   const SampleFrame sf = makeSampleFrame(m.geometry, f, table);
   const bool newProgram = !m.programs.count(v.key());
   const GLuint p = m.program(v);
-  m.ensureFramebuffer(s.width, s.height);
+  m.target.bind(s.width, s.height, "illustrate");
   glUseProgram(p);
 
   glBindTexture(GL_TEXTURE_2D, m.styleTex);
@@ -280,7 +263,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   u1(p, "uTfHi", table.tfHi);
   u3(p, "uTexDims", Vec3{double(m.texVolDims.x), double(m.texVolDims.y), double(m.texVolDims.z)});
 
-  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
+  glBindFramebuffer(GL_FRAMEBUFFER, m.target.framebuffer());
   glViewport(0, 0, s.width, s.height);
   glDisable(GL_BLEND);
   glDisable(GL_DEPTH_TEST);

@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "illustration_renderer_common.hpp"
+#include "shader_source.hpp"  // modules/render: the shared ray set-up GLSL
 #include "solid_texture.hpp"
 
 namespace vellum::illustration::detail {
@@ -137,28 +138,13 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   return vec4(rgb * (am / a), am);
 }
 
-float pixelJitter(uint x, uint y) {
-  uint h = x * 1973u + y * 9277u + 26699u;
-  h = (h ^ (h >> 15)) * 0x2c1b3c6du;
-  h = (h ^ (h >> 12)) * 0x297a2d39u;
-  h ^= h >> 15;
-  return float(h >> 8) * (1.0 / 16777216.0);
-}
+)GLSL";
 
-float nonZero(float d) { return abs(d) < 1e-12 ? (d < 0.0 ? -1e-12 : 1e-12) : d; }
-
+constexpr const char* kMainBody = R"GLSL(
 void main() {
-  vec2 ndc = gl_FragCoord.xy / uViewport * 2.0 - 1.0;
-  vec3 offset = uRight * (ndc.x * uHalf.x) + uUp * (ndc.y * uHalf.y);
-  vec3 origin = uEye + (1.0 - uPersp) * offset;
-  vec3 dir = normalize(uForward + uPersp * offset);
-  vec3 o = uPhysToBox * (origin - uBoxOrigin);
-  vec3 d = uPhysToBox * dir;
-  vec3 inv = 1.0 / vec3(nonZero(d.x), nonZero(d.y), nonZero(d.z));
-  vec3 t0 = (vec3(-0.5) - o) * inv, t1 = (uBoxDims - vec3(0.5) - o) * inv;
-  vec3 tlo = min(t0, t1), thi = max(t0, t1);
-  float tmin = max(max(max(tlo.x, tlo.y), tlo.z), 0.0);
-  float tmax = min(min(thi.x, thi.y), thi.z);
+  FragmentRay ray = fragmentRay();
+  vec3 origin = ray.origin, dir = ray.dir, o = ray.o, d = ray.d, inv = ray.inv;
+  float tmin = ray.tmin, tmax = ray.tmax;
   vec3 view = -dir;
   vec3 H = normalize(uLight + view);
   bool zeroVisible = texelFetch(uStyle, ivec2(1, 0), 0).w > 0.5;
@@ -318,7 +304,7 @@ std::string illustrationFragmentSource(const ShaderVariant& v) {
   s << "#define BLOCK_SIZE " << kBlock << "\n#define MAX_STEPS " << (1 << 16) << "\n";
   s << "#define EARLY_ALPHA " << kEarlyAlpha << "\n";
   if (v.texture) s << solidTextureGlsl();
-  s << kMain;
+  s << kMain << render::detail::rayCommonGlsl() << kMainBody;
   return s.str();
 }
 

@@ -67,4 +67,26 @@ void checkGlError(const char* what) {
   }
 }
 
+OffscreenTarget::~OffscreenTarget() {
+  if (fbo_) glDeleteFramebuffers(1, &fbo_);
+  if (colour_) glDeleteRenderbuffers(1, &colour_);
+}
+
+void OffscreenTarget::bind(int w, int h, const char* who) {
+  if (!fbo_ || width_ != w || height_ != h) {
+    if (!fbo_) glGenFramebuffers(1, &fbo_);
+    if (colour_) glDeleteRenderbuffers(1, &colour_);
+    glGenRenderbuffers(1, &colour_);
+    glBindRenderbuffer(GL_RENDERBUFFER, colour_);
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour_);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+      throw Error(std::string(who) + ": framebuffer of " + std::to_string(w) + "x" + std::to_string(h) + " is incomplete");
+    width_ = w;
+    height_ = h;
+  }
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+}
+
 }  // namespace vellum::render::detail

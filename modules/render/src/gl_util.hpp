@@ -13,4 +13,21 @@ GLuint buildProgram(const std::string& vertexSource, const std::string& fragment
 /// Throws vellum::Error naming `what` if glGetError() reports an error.
 void checkGlError(const char* what);
 
+/// An RGBA8 framebuffer for offscreen rendering, re-made only when its size changes. Needs a
+/// current context; destroy it while that context is still current.
+class OffscreenTarget {
+ public:
+  OffscreenTarget() = default;
+  ~OffscreenTarget();
+  OffscreenTarget(const OffscreenTarget&) = delete;
+  OffscreenTarget& operator=(const OffscreenTarget&) = delete;
+  /// Makes it w x h (if needed) and binds it; throws vellum::Error naming `who` if incomplete.
+  void bind(int w, int h, const char* who);
+  GLuint framebuffer() const { return fbo_; }
+
+ private:
+  GLuint fbo_ = 0, colour_ = 0;
+  int width_ = 0, height_ = 0;
+};
+
 }  // namespace vellum::render::detail

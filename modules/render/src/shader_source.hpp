@@ -14,6 +14,10 @@ struct ShaderVariant {
 };
 
 std::string vertexShaderSource();
+/// GLSL every ray caster shares (volume and illustration shaders): pixelJitter(), nonZero() and
+/// fragmentRay(), the camera ray of a fragment clipped to the voxel box. Needs the uniforms
+/// uViewport, uRight, uUp, uHalf, uEye, uPersp, uForward, uPhysToBox, uBoxOrigin, uBoxDims.
+const char* rayCommonGlsl();
 std::string fragmentShaderSource(const ShaderVariant& v);
 
 }  // namespace vellum::render::detail

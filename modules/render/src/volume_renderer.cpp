@@ -95,8 +95,8 @@ struct VolumeRenderer::Impl {
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
   MapCells mapCells;       ///< the same per map cell, when a map is set
   SkipGrid blockSkip, cellSkip;
-  GLuint fbo = 0, colorRb = 0, vao = 0;
-  int fbWidth = 0, fbHeight = 0;
+  GLuint vao = 0;
+  OffscreenTarget target;  ///< destroyed after the body of ~Impl, context still current
   bool hasVolume = false;
   Geometry source;
   double valueScale = 1;
@@ -122,8 +122,6 @@ struct VolumeRenderer::Impl {
     for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &blockSkip.occupancyTex,
                       &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex})
       deleteTexture(*t);
-    if (fbo) glDeleteFramebuffers(1, &fbo);
-    if (colorRb) glDeleteRenderbuffers(1, &colorRb);
     glDeleteVertexArrays(1, &vao);
   }
 
@@ -141,22 +139,6 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uBlockMax"), kUnitBlockMax);
     programs[v.key()] = p;
     return p;
-  }
-
-  void ensureFramebuffer(int w, int h) {
-    if (fbo && fbWidth == w && fbHeight == h) return;
-    if (!fbo) glGenFramebuffers(1, &fbo);
-    if (colorRb) glDeleteRenderbuffers(1, &colorRb);
-    glGenRenderbuffers(1, &colorRb);
-    glBindRenderbuffer(GL_RENDERBUFFER, colorRb);
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, w, h);
-    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colorRb);
-    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
-      throw Error("render: framebuffer of " + std::to_string(w) + "x" + std::to_string(h) +
-                  " is incomplete");
-    fbWidth = w;
-    fbHeight = h;
   }
 
   void checkTextureSize(const Dims& d, const char* what) {
@@ -290,7 +272,7 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   variant.deformed = map != nullptr;
   variant.attributes = map && !map->attributes.empty();
   const GLuint p = m.program(variant);
-  m.ensureFramebuffer(s.width, s.height);
+  m.target.bind(s.width, s.height, "render");
   glUseProgram(p);
 
   glActiveTexture(GL_TEXTURE0 + kUnitVolume);
@@ -346,7 +328,7 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   uniform3(p, "uSourceDims",
            {double(m.source.dims.x), double(m.source.dims.y), double(m.source.dims.z)});
 
-  glBindFramebuffer(GL_FRAMEBUFFER, m.fbo);
+  glBindFramebuffer(GL_FRAMEBUFFER, m.target.framebuffer());
   glViewport(0, 0, s.width, s.height);
   glDisable(GL_BLEND);
   glDisable(GL_DEPTH_TEST);
