@@ -91,13 +91,30 @@ void checkCompressedHeaders(const fs::path& path) {
     const uint64_t offset = std::strtoull(head.c_str() + at + 9, nullptr, 10);
     if (offset > size || base + offset + headerBytes > size)
       throw FileError(path, "appended data offset " + std::to_string(offset) + " lies beyond the end of the file");
-    uint64_t blocks = 0;
+    // Header: block count, block size, last block's size, then each block's compressed size
+    // (UInt32 or UInt64, little endian); VTK divides by the block size and allocates for the
+    // counts, so all of them must be plausible.
     in.clear();
     in.seekg(static_cast<std::streamoff>(base + offset));
-    in.read(reinterpret_cast<char*>(&blocks), static_cast<std::streamsize>(headerBytes));  // little endian
-    if (blocks > (size - base - offset) / headerBytes)
+    const auto next = [&] {
+      uint64_t v = 0;
+      in.read(reinterpret_cast<char*>(&v), static_cast<std::streamsize>(headerBytes));
+      if (in.gcount() != static_cast<std::streamsize>(headerBytes))
+        throw FileError(path, "compressed array header runs past the end of the file");
+      return v;
+    };
+    const uint64_t room = size - base - offset;
+    const uint64_t blocks = next();
+    if (blocks > room / headerBytes)
       throw FileError(path, "corrupt compressed array header: " + std::to_string(blocks) + " blocks in a file of " +
                                 std::to_string(size) + " bytes");
+    if (blocks == 0) continue;
+    const uint64_t blockSize = next(), lastSize = next();
+    uint64_t compressed = 0;
+    for (uint64_t b = 0; b < blocks; ++b) compressed += next();
+    if (blockSize == 0 || lastSize > blockSize || compressed > room)
+      throw FileError(path, "corrupt compressed array header (block size " + std::to_string(blockSize) + ", last " +
+                                std::to_string(lastSize) + ", " + std::to_string(compressed) + " compressed bytes)");
   }
 }
 
