@@ -7,6 +7,7 @@
 #include <functional>
 
 #include "app.hpp"
+#include "panel_deformation.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
@@ -243,6 +244,7 @@ void drawToolPanel(StudioApp& app, float width, float height) {
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) viewSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);
+  if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
   ImGui::PopItemWidth();
   ImGui::End();
 }

@@ -156,6 +156,12 @@ void View3D::setVolume(const VolumeI16& ct) {
   invalidate();
 }
 
+void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
+  context_.makeCurrent();
+  renderer_->setBackwardMap(map);
+  mapRevision_ = revision;
+}
+
 RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
   context_.makeCurrent();
   RgbaImage img = renderer_->render(renderSettingsFor(scene, width, height));
@@ -197,7 +203,7 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
 
 bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool interacting) {
   if (!hasVolume_ || paneWidth < 2 || paneHeight < 2) return false;
-  const std::string key = viewKey(scene, paneWidth, paneHeight);
+  const std::string key = viewKey(scene, paneWidth, paneHeight) + " map " + std::to_string(mapRevision_);
   if (interacting) {  // coarse frames only, each a complete picture
     refining_ = false;
     if (key == lastKey_) return false;

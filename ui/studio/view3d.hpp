@@ -47,6 +47,9 @@ class View3D {
 
   explicit View3D(render::GlContext& context);
   void setVolume(const VolumeI16& ct);
+  /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
+  /// a new one renders again (coarse while the user drags, then refined).
+  void setBackwardMap(const render::BackwardMap* map, uint64_t revision);
   /// Renders when the view changed (or to refine after interaction). Returns true if it
   /// rendered this frame.
   bool update(const Scene& scene, int paneWidth, int paneHeight, bool interacting);
@@ -75,6 +78,7 @@ class View3D {
   bool hasVolume_ = false;
   bool refined_ = false;
   std::string lastKey_;
+  uint64_t mapRevision_ = 0;
   int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
   double lastMs_ = 0;
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);

@@ -1,0 +1,200 @@
+// StudioApp: the control-point metaphor. Source = grey dot, target = green dot, a grey line
+// between them (green for the selected point), sized in screen pixels, over the 3D view
+// (projected with render::Projection, the renderer's own camera) and the slice views. A press
+// on a dot drags that end in the plane through it parallel to the screen (Shift: along the
+// LPS axis closest to the pointer's motion); in a slice, within the slice plane.
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "app.hpp"
+#include "view3d.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/deformation/placement.hpp"
+#include "vellum/render/projection.hpp"
+
+namespace vellum::studio {
+using deformation::ControlPoints;
+
+namespace {
+constexpr float kDotRadiusPx = 5.f;
+constexpr double kPickRadiusPx = 9.0;
+const ImU32 kGrey = IM_COL32(170, 170, 170, 255);
+const ImU32 kGreen = IM_COL32(60, 220, 90, 255);
+const ImU32 kSelectedRing = IM_COL32(255, 255, 255, 255);
+
+Vec3 endOf(const deformation::ControlPoint& p, PointEnd e) { return e == PointEnd::Source ? p.source : p.target; }
+}  // namespace
+
+std::optional<std::pair<double, double>> StudioApp::pointInPane(const Pane& pane, const Vec3& mm) const {
+  if (pane.is3d()) {
+    const render::Projection proj(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
+    const auto px = proj.toPixel(mm);
+    if (!px) return std::nullopt;
+    // Projection puts pixel centres on integers; window coordinates put them at +0.5.
+    return std::pair{pane.rect.x + px->x + 0.5, pane.rect.y + px->y + 0.5};
+  }
+  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const auto [x, y] = plane.toPixel(mm);
+  return std::pair{pane.rect.x + x, pane.rect.y + y};
+}
+
+std::optional<PointHandle> StudioApp::pickPoint(const Pane& pane, double x, double y) const {
+  const ControlPoints pts = scene_.authoring.currentPoints();
+  std::optional<PointHandle> best;
+  double bestD = kPickRadiusPx;
+  for (int i = 0; i < int(pts.size()); ++i)
+    for (PointEnd e : {PointEnd::Target, PointEnd::Source}) {  // targets win ties: they are what one drags
+      const auto p = pointInPane(pane, endOf(pts[size_t(i)], e));
+      if (!p) continue;
+      const double d = std::hypot(p->first - x, p->second - y);
+      if (d < bestD) bestD = d, best = PointHandle{i, e};
+    }
+  return best;
+}
+
+std::optional<std::pair<double, double>> StudioApp::pointOnScreen(int index, PointEnd end) const {
+  const ControlPoints pts = scene_.authoring.currentPoints();
+  if (index < 0 || index >= int(pts.size())) return std::nullopt;
+  std::vector<const Pane*> order;
+  for (const Pane& p : panes_)
+    if (p.is3d()) order.insert(order.begin(), &p);
+    else order.push_back(&p);
+  for (const Pane* p : order)
+    if (auto px = pointInPane(*p, endOf(pts[size_t(index)], end)); px && p->rect.contains(px->first, px->second))
+      return px;
+  return std::nullopt;
+}
+
+void StudioApp::drawControlPoints(const Pane& pane) {
+  const ControlPoints pts = scene_.authoring.currentPoints();
+  if (pts.empty()) return;
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();
+  dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
+  const int selected = scene_.authoring.selected;
+  // Selected last, so its line and dots lie on top.
+  std::vector<int> order;
+  for (int i = 0; i < int(pts.size()); ++i)
+    if (i != selected) order.push_back(i);
+  if (selected >= 0 && selected < int(pts.size())) order.push_back(selected);
+  for (int i : order) {
+    const auto s = pointInPane(pane, pts[size_t(i)].source), t = pointInPane(pane, pts[size_t(i)].target);
+    if (!s || !t) continue;
+    const ImVec2 a{float(s->first), float(s->second)}, b{float(t->first), float(t->second)};
+    const bool sel = i == selected;
+    dl->AddLine(a, b, sel ? kGreen : kGrey, sel ? 2.5f : 1.5f);
+    dl->AddCircleFilled(a, kDotRadiusPx, kGrey);
+    dl->AddCircle(a, kDotRadiusPx, IM_COL32(40, 40, 40, 255));
+    dl->AddCircleFilled(b, kDotRadiusPx, kGreen);
+    dl->AddCircle(b, kDotRadiusPx, sel ? kSelectedRing : IM_COL32(20, 60, 20, 255), 0, sel ? 2.f : 1.f);
+  }
+  dl->PopClipRect();
+}
+
+bool StudioApp::beginPointDrag(const Pane& pane, double x, double y, int mods) {
+  if (scene_.authoring.playing || !scene_.authoring.active()) return false;
+  const auto hit = pickPoint(pane, x, y);
+  if (!hit) return false;
+  Authoring& a = scene_.authoring;
+  if (a.timeS) {  // scrubbed between keyframes: edit the keyframe being shown
+    a.timeS.reset();
+    a.touch();
+  }
+  a.selected = hit->index;
+  PointDrag d;
+  d.handle = *hit;
+  d.startMm = endOf(a.editablePoints()[size_t(hit->index)], hit->end);
+  d.pressX = x;
+  d.pressY = y;
+  d.mods = mods;
+  d.before = a.track;
+  d.keyframeBefore = a.keyframe;
+  pointDrag_ = d;
+  return true;
+}
+
+void StudioApp::movePointDrag(double x, double y) {
+  if (!pointDrag_ || !dragPane_) return;
+  const PointDrag& d = *pointDrag_;
+  const Pane& pane = *dragPane_;
+  const double dx = x - d.pressX, dy = y - d.pressY;
+  // Screen directions at the point's depth: the pixel motion of 1 mm along right, up (3D) or
+  // the slice's u, v axes. In-plane, motion is linear in mm (constant depth).
+  Vec3 right, down;
+  double pxPerMm = 1;
+  if (pane.is3d()) {
+    const render::Projection proj(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
+    const auto p0 = proj.toPixel(d.startMm), p1 = proj.toPixel(d.startMm + proj.screenRight());
+    if (!p0 || !p1) return;
+    pxPerMm = std::hypot(p1->x - p0->x, p1->y - p0->y);
+    right = proj.screenRight();
+    down = -proj.screenUp();
+  } else {
+    const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+    pxPerMm = 1.0 / plane.mmPerPixel;
+    right = plane.u;
+    down = plane.v;
+  }
+  if (pxPerMm <= 0) return;
+  Vec3 move = right * (dx / pxPerMm) + down * (dy / pxPerMm);
+  if (d.mods & GLFW_MOD_SHIFT) {
+    // Axis constraint: the LPS axis whose on-screen direction best matches the motion.
+    int best = 0;
+    double bestScore = -1;
+    for (int axis = 0; axis < 3; ++axis) {
+      Vec3 e;
+      e[axis] = 1;
+      const double sx = dot(e, right), sy = dot(e, down), len = std::hypot(sx, sy);
+      if (len < 1e-6) continue;
+      const double score = std::abs(dx * sx + dy * sy) / len;
+      if (score > bestScore) bestScore = score, best = axis;
+    }
+    Vec3 e;
+    e[best] = 1;
+    const double sx = dot(e, right), sy = dot(e, down), len2 = sx * sx + sy * sy;
+    move = len2 > 1e-12 ? e * ((dx * sx + dy * sy) / len2 / pxPerMm) : Vec3{};
+  }
+  auto& p = scene_.authoring.editablePoints()[size_t(d.handle.index)];
+  (d.handle.end == PointEnd::Source ? p.source : p.target) = d.startMm + move;
+  scene_.authoring.touch();
+}
+
+void StudioApp::endPointDrag() {
+  if (!pointDrag_) return;
+  TrackEdit e;
+  e.description = "drag point " + std::to_string(pointDrag_->handle.index);
+  e.before = std::move(pointDrag_->before);
+  e.keyframeBefore = pointDrag_->keyframeBefore;
+  e.after = scene_.authoring.track;
+  e.keyframeAfter = scene_.authoring.keyframe;
+  pointDrag_.reset();
+  if (!(e.before.keyframes.size() == e.after.keyframes.size() &&
+        std::equal(e.before.keyframes.begin(), e.before.keyframes.end(), e.after.keyframes.begin(),
+                   [](const auto& a, const auto& b) { return a.points == b.points; })))
+    undo_.push(std::move(e));  // a click without motion only selects
+}
+
+void StudioApp::editTrack(const std::string& description, const std::function<void(Authoring&)>& fn) {
+  TrackEdit e;
+  e.description = description;
+  e.before = scene_.authoring.track;
+  e.keyframeBefore = scene_.authoring.keyframe;
+  fn(scene_.authoring);
+  e.after = scene_.authoring.track;
+  e.keyframeAfter = scene_.authoring.keyframe;
+  scene_.authoring.touch();
+  undo_.push(std::move(e));
+}
+
+void StudioApp::placeControls(bool fromLabels) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  if (fromLabels && scene_.labels.ids().empty()) throw Error("no label map is open");
+  ControlPoints pts = fromLabels ? deformation::labelControlPoints(scene_.labels)
+                                 : deformation::boxControlPoints(scene_.ct.geometry());
+  editTrack(fromLabels ? "points from labels" : "default points",
+            [&](Authoring& a) { placePoints(a, std::move(pts)); });
+}
+
+}  // namespace vellum::studio
