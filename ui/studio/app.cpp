@@ -52,7 +52,7 @@ void dropCallback(GLFWwindow* w, int count, const char** paths) {
   appOf(w)->onDrop(std::vector<std::string>(paths, paths + count));
 }
 
-constexpr float kPanelWidth = 330;
+constexpr float kPanelWidth = kToolPanelWidth;
 
 volatile std::sig_atomic_t gInterrupted = 0;
 
