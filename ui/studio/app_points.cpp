@@ -79,16 +79,27 @@ void StudioApp::drawControlPoints(const Pane& pane) {
   for (int i = 0; i < int(pts.size()); ++i)
     if (i != selected) order.push_back(i);
   if (selected >= 0 && selected < int(pts.size())) order.push_back(selected);
+  // In a slice, points away from the slice plane are dimmed (they are not in that section).
+  std::optional<SlicePlane> plane;
+  if (!pane.is3d())
+    plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const Vec3& sp = scene_.ct.geometry().spacing;
+  const double nearMm = 1.5 * std::max({sp.x, sp.y, sp.z});
+  auto faded = [&](ImU32 c, const Vec3& mm) {
+    if (!plane || std::abs(dot(mm - scene_.crosshairMm, plane->normal)) <= nearMm) return c;
+    return (c & 0x00FFFFFFu) | (IM_COL32_A_MASK & IM_COL32(0, 0, 0, 70));
+  };
   for (int i : order) {
-    const auto s = pointInPane(pane, pts[size_t(i)].source), t = pointInPane(pane, pts[size_t(i)].target);
+    const auto& cp = pts[size_t(i)];
+    const auto s = pointInPane(pane, cp.source), t = pointInPane(pane, cp.target);
     if (!s || !t) continue;
     const ImVec2 a{float(s->first), float(s->second)}, b{float(t->first), float(t->second)};
     const bool sel = i == selected;
-    dl->AddLine(a, b, sel ? kGreen : kGrey, sel ? 2.5f : 1.5f);
-    dl->AddCircleFilled(a, kDotRadiusPx, kGrey);
-    dl->AddCircle(a, kDotRadiusPx, IM_COL32(40, 40, 40, 255));
-    dl->AddCircleFilled(b, kDotRadiusPx, kGreen);
-    dl->AddCircle(b, kDotRadiusPx, sel ? kSelectedRing : IM_COL32(20, 60, 20, 255), 0, sel ? 2.f : 1.f);
+    dl->AddLine(a, b, faded(sel ? kGreen : kGrey, cp.target), sel ? 2.5f : 1.5f);
+    dl->AddCircleFilled(a, kDotRadiusPx, faded(kGrey, cp.source));
+    dl->AddCircle(a, kDotRadiusPx, faded(IM_COL32(40, 40, 40, 255), cp.source));
+    dl->AddCircleFilled(b, kDotRadiusPx, faded(kGreen, cp.target));
+    dl->AddCircle(b, kDotRadiusPx, faded(sel ? kSelectedRing : IM_COL32(20, 60, 20, 255), cp.target), 0, sel ? 2.f : 1.f);
   }
   dl->PopClipRect();
 }
