@@ -145,7 +145,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.busy() && !snake_.busy() && !viewPending && pendingScreenshot_.empty() && !exporting() &&
+  return !loader_.busy() && !snake_.busy() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() &&
          !scene_.authoring.playing;
 }
 
@@ -190,7 +190,7 @@ void StudioApp::frame() {
   bool rendered3d = false, mapUpdated = false;
   if (scene_.hasVolume()) {
     updateSliceTextures();
-    if ((mapUpdated = deform_->update(scene_))) {
+    if ((mapUpdated = deform_->update(scene_, pointDrag_.has_value() || scene_.authoring.playing))) {
       view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
       markSlicesDirty();
     }
@@ -213,9 +213,11 @@ void StudioApp::frame() {
   glfwSwapBuffers(window_);
   lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (options_.logFrames)
-    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f\n",
+    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f\n",
                 frameNumber_, lastFrameMs_, rendered3d ? 1 : 0, rendered3d ? view3d_->lastRenderMs() : 0.0,
-                view3d_->lastScale(), dragPane_ ? 1 : 0, mapUpdated ? deform_->lastUpdateMs() : 0.0);
+                view3d_->lastScale(), dragPane_ ? 1 : 0, mapUpdated ? deform_->lastUpdateMs() : 0.0,
+                mapUpdated ? deform_->timings()->mapMs : 0.0, mapUpdated ? deform_->timings()->rhoCacheMs : 0.0,
+                mapUpdated ? deform_->lastRigidityMs() : 0.0);
   if (options_.logFrames) std::fflush(stdout);  // the log is read while the studio runs
   ++frameNumber_;
 }

@@ -13,6 +13,7 @@
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/params.hpp"
+#include "vellum/deformation/deform_params.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "window_context.hpp"
 
@@ -92,7 +93,8 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   auto q = [](const std::string& t) { return "'" + t + "'"; };
   c << "vellum animate " << q(scene_.volumePath.string()) << " --keyframes " << q(keys.string()) << " --out "
     << q(o) << " --fps " << fps << " --size " << width << "x" << height
-    << params::cliArguments(render::renderSettingsTable(), spec.settings, {"width", "height"});
+    << params::cliArguments(render::renderSettingsTable(), spec.settings, {"width", "height"})
+    << params::cliArguments(deformation::deformParamsTable(), studioDeformParams());
   const deformation::RigidBodies* bodies = deform_->bodies();
   if (bodies) {
     c << " --labels " << q(scene_.labelsPath.string()) << " --rigid-labels ";

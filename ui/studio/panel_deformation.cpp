@@ -54,7 +54,8 @@ void pointsRow(StudioApp& app) {
     a.touch();
   }
   if (const auto* t = app.deformSession().timings(); t && app.deformSession().map())
-    ImGui::Text("map update %.1f ms (MLS %.1f, rho %.1f)", app.deformSession().lastUpdateMs(), t->mapMs, t->rhoCacheMs);
+    ImGui::Text("map update %.1f ms (MLS %.1f, rho %.1f, rigid %.1f)", app.deformSession().lastUpdateMs(), t->mapMs,
+                t->rhoCacheMs, app.deformSession().lastRigidityMs());
 }
 
 void timeline(StudioApp& app) {
