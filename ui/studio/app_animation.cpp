@@ -20,14 +20,6 @@
 namespace vellum::studio {
 namespace fs = std::filesystem;
 
-namespace {
-double keyframeStartS(const deformation::KeyframeTrack& t, int k) {
-  double s = 0;
-  for (int i = 0; i < k && i < int(t.keyframes.size()); ++i) s += t.keyframes[size_t(i)].durationS;
-  return s;
-}
-}  // namespace
-
 void StudioApp::play(bool on) {
   Authoring& a = scene_.authoring;
   if (on && !a.active()) throw Error("nothing to play: place control points first");

@@ -21,6 +21,12 @@ ControlPoints& Authoring::editablePoints() {
   return track.keyframes[static_cast<size_t>(keyframe)].points;
 }
 
+double keyframeStartS(const deformation::KeyframeTrack& t, int k) {
+  double s = 0;
+  for (int i = 0; i < k && i < int(t.keyframes.size()); ++i) s += t.keyframes[size_t(i)].durationS;
+  return s;
+}
+
 void placePoints(Authoring& a, ControlPoints points) {
   a.track.keyframes = {deformation::Keyframe{1.0, std::move(points)}};
   a.keyframe = 0;

@@ -33,6 +33,8 @@ struct Authoring {
   void touch() { ++revision; }
 };
 
+/// The time (s) at which keyframe k is reached: the durations before it.
+double keyframeStartS(const deformation::KeyframeTrack& track, int k);
 /// Replaces the track by one keyframe holding `points` (sources = targets).
 void placePoints(Authoring& a, deformation::ControlPoints points);
 /// "Add keyframe" copies the current keyframe (the paper's rule) after it and edits the copy.

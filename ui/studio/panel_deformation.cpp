@@ -41,8 +41,7 @@ void pointsRow(StudioApp& app) {
   ImGui::Text("%d points", n);
   if (a.selected >= 0 && a.selected < n) {
     const auto p = a.currentPoints()[size_t(a.selected)];
-    ImGui::SameLine();
-    ImGui::Text(" #%d target (%.1f, %.1f, %.1f) mm", a.selected, p.target.x, p.target.y, p.target.z);
+    ImGui::Text("#%d target (%.1f, %.1f, %.1f) mm", a.selected, p.target.x, p.target.y, p.target.z);
   }
   std::string rigid;
   for (uint16_t id : a.rigidLabels) rigid += (rigid.empty() ? "" : ",") + std::to_string(id);
@@ -54,7 +53,7 @@ void pointsRow(StudioApp& app) {
     a.touch();
   }
   if (const auto* t = app.deformSession().timings(); t && app.deformSession().map())
-    ImGui::Text("map update %.1f ms (MLS %.1f, rho %.1f, rigid %.1f)", app.deformSession().lastUpdateMs(), t->mapMs,
+    ImGui::Text("map %.1f ms: MLS %.1f, rho %.1f, rigid %.1f", app.deformSession().lastUpdateMs(), t->mapMs,
                 t->rhoCacheMs, app.deformSession().lastRigidityMs());
 }
 
@@ -97,7 +96,7 @@ void timeline(StudioApp& app) {
   if (ImGui::Checkbox("Loop", &loop)) app.editTrack("loop", [loop](Authoring& x) { x.track.loop = loop; });
   ImGui::SameLine();
   if (ImGui::Button(a.playing ? "Pause" : "Play")) guarded(app, [&] { app.play(!a.playing); });
-  float t = float(a.timeS.value_or(0));
+  float t = float(a.timeS.value_or(keyframeStartS(a.track, a.keyframe)));
   if (ImGui::SliderFloat("Time s", &t, 0.f, float(total), "%.2f")) {
     a.playing = false;
     a.timeS = t;

@@ -242,9 +242,9 @@ void drawToolPanel(StudioApp& app, float width, float height) {
   ImGui::PushItemWidth(-130);
   if (ImGui::CollapsingHeader("File", ImGuiTreeNodeFlags_DefaultOpen)) fileSection(app);
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) viewSection(app);
+  if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);
-  if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
   ImGui::PopItemWidth();
   ImGui::End();
 }
