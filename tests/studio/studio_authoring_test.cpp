@@ -149,6 +149,9 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
     {"key":"ctrl+shift+z"},{"save_scene":)" + q(d / "s4.json") + R"(},
     {"keyframe":{"select":0,"duration":0.5}},
     {"play":{"seconds":0.3}},
+    {"attribute_drag":{"index":4,"tool":"lightness","by_px":[0,-40]}},
+    {"attribute_drag":{"index":4,"tool":"hue","by_px":[20,10]}},
+    {"save_scene":)" + q(d / "s5.json") + R"(},
     {"export_movie":{"out":)" + q(d / "studio/") + R"(,"fps":8,"size":"96x80","command":)" + q(d / "cmd.txt") + R"(}},
     {"screenshot":)" + q(d / "window.png") + R"(},
     {"quit":0}]})";
@@ -200,6 +203,15 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
   // Undo restores the copy exactly; redo the drag.
   EXPECT_EQ(s3.deformation->track.keyframes[1].points, s2.deformation->track.keyframes[0].points);
   EXPECT_EQ(s4.deformation->track.keyframes[1].points, s2.deformation->track.keyframes[1].points);
+
+  // Attribute drags on the edited keyframe (0 after "select"): up 40 px = +20 L*; then the
+  // hue tool: right 20 px = +10 a*, down 10 px = -5 b*. The export below renders them.
+  const SceneFile s5 = readSceneFile(d / "s5.json");
+  const PointAttributes& at = s5.deformation->track.keyframes[0].points[4].attributes;
+  EXPECT_NEAR(at.lightness, 20, 1e-9);
+  EXPECT_NEAR(at.a, 10, 1e-9);
+  EXPECT_NEAR(at.b, -5, 1e-9);
+  EXPECT_EQ(s5.deformation->track.keyframes[0].points[4].target, s4.deformation->track.keyframes[0].points[4].target);
 
   // The studio's frames are `vellum animate`'s frames on the same keyframes, pixel for pixel.
   std::string cmd = slurp(d / "cmd.txt");

@@ -40,6 +40,10 @@ struct PointHandle {
 
 enum class Tool { Navigate, Paint, Erase, Grow, Snake };
 
+/// What dragging a control point does: move it, or change one of its attributes (vertical:
+/// lightness; horizontal a = green->red and vertical b = blue->yellow; vertical: density).
+enum class PointTool { Move, Lightness, Hue, Density };
+
 /// Segmentation panel state (not saved in scenes).
 struct ToolState {
   Tool tool = Tool::Navigate;
@@ -48,7 +52,12 @@ struct ToolState {
   uint16_t activeLabel = 1;
   segmentation::HuInterval threshold = segmentation::presetInterval(segmentation::Preset::Bone);
   bool thresholdPreview = false;
+  PointTool pointTool = PointTool::Move;
 };
+
+/// The attribute change of a drag by (dx, dy) pixels from `start` with an attribute tool.
+void applyAttributeDrag(deformation::PointAttributes& out, const deformation::PointAttributes& start, PointTool tool,
+                        double dx, double dy);
 
 struct StudioOptions {
   std::string input;   ///< volume, DICOM folder or scene to open at start
@@ -188,6 +197,8 @@ class StudioApp {
     Vec3 startMm;
     double pressX = 0, pressY = 0;
     int mods = 0;
+    PointTool tool = PointTool::Move;
+    deformation::PointAttributes startAttributes;
     deformation::KeyframeTrack before;
     int keyframeBefore = 0;
   };

@@ -28,6 +28,25 @@ const ImU32 kSelectedRing = IM_COL32(255, 255, 255, 255);
 Vec3 endOf(const deformation::ControlPoint& p, PointEnd e) { return e == PointEnd::Source ? p.source : p.target; }
 }  // namespace
 
+void applyAttributeDrag(deformation::PointAttributes& out, const deformation::PointAttributes& start, PointTool tool,
+                        double dx, double dy) {
+  out = start;
+  switch (tool) {
+    case PointTool::Lightness:  // up = lighter: 0.5 L* per pixel
+      out.lightness = std::clamp(start.lightness - 0.5 * dy, -100.0, 100.0);
+      break;
+    case PointTool::Hue:  // right = redder (a*), up = yellower (b*)
+      out.a = std::clamp(start.a + 0.5 * dx, -128.0, 128.0);
+      out.b = std::clamp(start.b - 0.5 * dy, -128.0, 128.0);
+      break;
+    case PointTool::Density:  // up = denser: x2 per 100 pixels
+      out.density = std::clamp(start.density * std::exp2(-dy / 100.0), 0.0, 16.0);
+      break;
+    case PointTool::Move:
+      break;
+  }
+}
+
 std::optional<std::pair<double, double>> StudioApp::pointInPane(const Pane& pane, const Vec3& mm) const {
   if (pane.is3d()) {
     const render::Projection proj(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
@@ -117,6 +136,8 @@ bool StudioApp::beginPointDrag(const Pane& pane, double x, double y, int mods) {
   PointDrag d;
   d.handle = *hit;
   d.startMm = endOf(a.editablePoints()[size_t(hit->index)], hit->end);
+  d.tool = tools_.pointTool;
+  d.startAttributes = a.editablePoints()[size_t(hit->index)].attributes;
   d.pressX = x;
   d.pressY = y;
   d.mods = mods;
@@ -131,6 +152,12 @@ void StudioApp::movePointDrag(double x, double y) {
   const PointDrag& d = *pointDrag_;
   const Pane& pane = *dragPane_;
   const double dx = x - d.pressX, dy = y - d.pressY;
+  if (d.tool != PointTool::Move) {
+    applyAttributeDrag(scene_.authoring.editablePoints()[size_t(d.handle.index)].attributes, d.startAttributes, d.tool,
+                       dx, dy);
+    scene_.authoring.touch();
+    return;
+  }
   // Screen directions at the point's depth: the pixel motion of 1 mm along right, up (3D) or
   // the slice's u, v axes. In-plane, motion is linear in mm (constant depth).
   Vec3 right, down;

@@ -37,11 +37,20 @@ void pointsRow(StudioApp& app) {
     const int i = a.selected;
     guarded(app, [&] { app.editTrack("delete point", [i](Authoring& x) { deletePoint(x, i); }); });
   }
+  int tool = static_cast<int>(app.tools().pointTool);
+  ImGui::TextUnformatted("Drag");
+  const char* names[] = {"move", "lightness", "hue", "density"};
+  for (int t = 0; t < 4; ++t) {
+    ImGui::SameLine();
+    if (ImGui::RadioButton(names[t], &tool, t)) app.tools().pointTool = static_cast<PointTool>(t);
+  }
   const int n = a.active() ? int(a.track.keyframes.front().points.size()) : 0;
   ImGui::Text("%d points", n);
   if (a.selected >= 0 && a.selected < n) {
     const auto p = a.currentPoints()[size_t(a.selected)];
     ImGui::Text("#%d target (%.1f, %.1f, %.1f) mm", a.selected, p.target.x, p.target.y, p.target.z);
+    ImGui::Text("   L %+.0f a %+.0f b %+.0f density %.2f", p.attributes.lightness, p.attributes.a, p.attributes.b,
+                p.attributes.density);
   }
   std::string rigid;
   for (uint16_t id : a.rigidLabels) rigid += (rigid.empty() ? "" : ",") + std::to_string(id);

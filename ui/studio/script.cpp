@@ -23,7 +23,7 @@ const std::set<std::string> kActions = {
     "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
     "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
     "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "remove_islands", "hud", "log", "quit",
-    "controls", "drag_point", "keyframe", "play", "export_movie", "rigid_labels"};
+    "controls", "drag_point", "attribute_drag", "keyframe", "play", "export_movie", "rigid_labels"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -288,11 +288,20 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
     if (which != "default" && which != "labels") throw Error("controls must be \"default\" or \"labels\"");
     once([which](StudioApp& a) { a.placeControls(which == "labels"); });
     frames(1);
-  } else if (name == "drag_point") {
+  } else if (name == "drag_point" || name == "attribute_drag") {
     // Finds where the point's end is drawn (3D view first), then drags from there through the
     // real mouse path: press, `steps` moves, release.
     const int index = v.at("index").get<int>();
     const std::string endName = v.value("end", "target");
+    const bool attribute = name == "attribute_drag";
+    PointTool tool = PointTool::Move;
+    if (attribute) {
+      const std::string t = v.at("tool").get<std::string>();
+      tool = t == "lightness" ? PointTool::Lightness
+             : t == "hue"     ? PointTool::Hue
+             : t == "density" ? PointTool::Density
+                              : throw Error("attribute_drag tool must be lightness, hue or density");
+    }
     if (endName != "source" && endName != "target") throw Error("end must be \"source\" or \"target\"");
     const PointEnd end = endName == "source" ? PointEnd::Source : PointEnd::Target;
     const auto by = point(v.at("by_px"));
@@ -300,7 +309,10 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
     const int moves = std::max(1, v.value("steps", 8));
     auto from = std::make_shared<std::pair<double, double>>();
     frames(1);  // panes laid out
+    auto previousTool = std::make_shared<PointTool>();
     once([=](StudioApp& a) {
+      *previousTool = a.tools().pointTool;
+      a.tools().pointTool = tool;  // the panel's Drag radio buttons
       const auto p = a.pointOnScreen(index, end);
       if (!p) throw Error("control point " + std::to_string(index) + " is not on screen");
       *from = *p;
@@ -311,7 +323,10 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
       const double t = double(i) / moves;
       once([=](StudioApp& a) { a.injectCursorPos(from->first + by.first * t, from->second + by.second * t); });
     }
-    once([=](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods); });
+    once([=](StudioApp& a) {
+      a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
+      a.tools().pointTool = *previousTool;
+    });
   } else if (name == "keyframe") {
     // "add" | "delete" | {"select": k, "duration": s, "interpolation": "smooth", "loop": true}
     const json spec = v;
