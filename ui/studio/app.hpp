@@ -188,6 +188,7 @@ class StudioApp {
   std::optional<std::pair<double, double>> pointInPane(const Pane& pane, const Vec3& mm) const;
   std::optional<PointHandle> pickPoint(const Pane& pane, double x, double y) const;
   void drawControlPoints(const Pane& pane);
+  void drawKeyframeConnector(const Pane& pane);
   bool beginPointDrag(const Pane& pane, double x, double y, int mods);
   void movePointDrag(double x, double y);
   void endPointDrag();

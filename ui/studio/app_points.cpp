@@ -120,7 +120,35 @@ void StudioApp::drawControlPoints(const Pane& pane) {
     dl->AddCircleFilled(b, kDotRadiusPx, faded(kGreen, cp.target));
     dl->AddCircle(b, kDotRadiusPx, faded(sel ? kSelectedRing : IM_COL32(20, 60, 20, 255), cp.target), 0, sel ? 2.f : 1.f);
   }
+  drawKeyframeConnector(pane);
   dl->PopClipRect();
+}
+
+void StudioApp::drawKeyframeConnector(const Pane& pane) {
+  // The selected point's target in the previous / current / next keyframe, red / green / blue,
+  // joined by a Y: three arms from their centroid.
+  const Authoring& a = scene_.authoring;
+  const int n = int(a.track.keyframes.size());
+  if (n < 2 || a.selected < 0 || a.timeS) return;
+  std::vector<std::pair<ImVec2, ImU32>> ends;
+  const int k = std::clamp(a.keyframe, 0, n - 1);
+  const std::pair<int, ImU32> which[] = {{k - 1, IM_COL32(235, 70, 70, 255)}, {k, kGreen}, {k + 1, IM_COL32(80, 130, 255, 255)}};
+  for (const auto& [kf, colour] : which) {
+    const int i = a.track.loop ? (kf + n) % n : kf;
+    if (i < 0 || i >= n) continue;
+    const auto& pts = a.track.keyframes[size_t(i)].points;
+    if (a.selected >= int(pts.size())) return;
+    if (const auto p = pointInPane(pane, pts[size_t(a.selected)].target))
+      ends.push_back({ImVec2{float(p->first), float(p->second)}, colour});
+  }
+  if (ends.size() < 2) return;
+  ImVec2 c{0, 0};
+  for (const auto& e : ends) c.x += e.first.x / float(ends.size()), c.y += e.first.y / float(ends.size());
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();
+  for (const auto& [p, colour] : ends) {
+    dl->AddLine(c, p, colour, 1.5f);
+    dl->AddCircle(p, kDotRadiusPx + 3, colour, 0, 2.f);
+  }
 }
 
 bool StudioApp::beginPointDrag(const Pane& pane, double x, double y, int mods) {

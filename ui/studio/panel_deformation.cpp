@@ -38,10 +38,9 @@ void pointsRow(StudioApp& app) {
     guarded(app, [&] { app.editTrack("delete point", [i](Authoring& x) { deletePoint(x, i); }); });
   }
   int tool = static_cast<int>(app.tools().pointTool);
-  ImGui::TextUnformatted("Drag");
-  const char* names[] = {"move", "lightness", "hue", "density"};
+  const char* names[] = {"move", "light", "hue", "density"};  // what dragging a dot does
   for (int t = 0; t < 4; ++t) {
-    ImGui::SameLine();
+    if (t) ImGui::SameLine();
     if (ImGui::RadioButton(names[t], &tool, t)) app.tools().pointTool = static_cast<PointTool>(t);
   }
   const int n = a.active() ? int(a.track.keyframes.front().points.size()) : 0;
