@@ -111,6 +111,8 @@ class StudioApp {
   void placeControls(bool fromLabels);
   /// Records a change of the keyframe track as one undo step.
   void editTrack(const std::string& description, const std::function<void(Authoring&)>& fn);
+  /// Records a track change already made (continuous drags) as one undo step.
+  void pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore);
   /// Window pixel where point `index`'s end is drawn in the first pane that shows it (3D first).
   std::optional<std::pair<double, double>> pointOnScreen(int index, PointEnd end) const;
   void play(bool on);

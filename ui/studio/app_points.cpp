@@ -254,6 +254,16 @@ void StudioApp::editTrack(const std::string& description, const std::function<vo
   undo_.push(std::move(e));
 }
 
+void StudioApp::pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore) {
+  TrackEdit e;
+  e.description = description;
+  e.before = std::move(before);
+  e.keyframeBefore = keyframeBefore;
+  e.after = scene_.authoring.track;
+  e.keyframeAfter = scene_.authoring.keyframe;
+  undo_.push(std::move(e));
+}
+
 void StudioApp::placeControls(bool fromLabels) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   if (fromLabels && scene_.labels.ids().empty()) throw Error("no label map is open");

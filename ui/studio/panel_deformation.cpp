@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
 #include <string>
 
 #include "app.hpp"
@@ -83,6 +84,22 @@ void timeline(StudioApp& app) {
       a.touch();
     }
     ImGui::PopStyleColor();
+    // Dragging a block sideways changes its duration (one undo step per drag).
+    static std::optional<deformation::KeyframeTrack> before;
+    static int beforeKeyframe = 0;
+    if (ImGui::IsItemActivated()) before = a.track, beforeKeyframe = a.keyframe;
+    if (ImGui::IsItemActive() && ImGui::IsMouseDragging(ImGuiMouseButton_Left, 2.f)) {
+      const double secondsPerPx = total / std::max(1.f, width);
+      double& d = a.track.keyframes[size_t(k)].durationS;
+      d = std::clamp(d + ImGui::GetIO().MouseDelta.x * secondsPerPx, 0.05, 600.0);
+      a.touch();
+    }
+    if (ImGui::IsItemDeactivated() && before) {
+      if (before->keyframes.size() == a.track.keyframes.size() &&
+          before->keyframes[size_t(k)].durationS != a.track.keyframes[size_t(k)].durationS)
+        app.pushTrackEdit("keyframe duration", std::move(*before), beforeKeyframe);
+      before.reset();
+    }
   }
   float duration = float(a.track.keyframes[size_t(a.keyframe)].durationS);
   if (ImGui::DragFloat("Duration s", &duration, 0.05f, 0.05f, 60.f, "%.2f")) {
