@@ -207,6 +207,8 @@ class StudioApp {
   };
   std::optional<PointDrag> pointDrag_;
   double lastTickS_ = 0;
+  std::string occlusionKey_;                  ///< what occlusion_ was computed for
+  std::vector<std::array<bool, 2>> occlusion_;  ///< per point: source, target hidden in 3D
   std::unique_ptr<DeformSession> deform_;
   std::unique_ptr<ExportJob> export_;
   std::string exportError_, animateCommand_;

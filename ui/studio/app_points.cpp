@@ -8,8 +8,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "app.hpp"
+#include "deform_session.hpp"
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/placement.hpp"
@@ -104,12 +106,35 @@ void StudioApp::drawControlPoints(const Pane& pane) {
     plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
   const Vec3& sp = scene_.ct.geometry().spacing;
   const double nearMm = 1.5 * std::max({sp.x, sp.y, sp.z});
-  auto faded = [&](ImU32 c, const Vec3& mm) {
-    if (!plane || std::abs(dot(mm - scene_.crosshairMm, plane->normal)) <= nearMm) return c;
-    return (c & 0x00FFFFFFu) | (IM_COL32_A_MASK & IM_COL32(0, 0, 0, 70));
+  // In the 3D view, dots behind the volume's first visible surface are dimmed (depth test
+  // on the CPU along the eye ray, through the deformation the view draws).
+  const render::BackwardMap* map = deform_->map();
+  auto hidden = [&](const Vec3& mm) {
+    return plane ? std::abs(dot(mm - scene_.crosshairMm, plane->normal)) > nearMm : occludedInView(scene_, map, mm);
   };
+  if (!plane) {
+    // The eye rays depend on the view and the map, not on the pane: cache them across frames.
+    std::ostringstream key;
+    key.precision(12);
+    const auto& c = scene_.camera;
+    key << c.azimuthDeg << ' ' << c.elevationDeg << ' ' << c.fieldOfViewDeg << ' ' << c.panMm.x << ' ' << c.panMm.y
+        << ' ' << c.panMm.z << ' ' << int(scene_.preset) << ' ' << scene_.renderWindow.center << ' '
+        << scene_.renderWindow.width << ' ' << deform_->mapRevision() << ' ' << scene_.authoring.revision << ' '
+        << scene_.volumeGeneration;
+    if (key.str() != occlusionKey_ || occlusion_.size() != pts.size()) {
+      occlusion_.resize(pts.size());
+      for (size_t i = 0; i < pts.size(); ++i) occlusion_[i] = {hidden(pts[i].source), hidden(pts[i].target)};
+      occlusionKey_ = key.str();
+    }
+  }
   for (int i : order) {
     const auto& cp = pts[size_t(i)];
+    const bool dimSource = plane ? hidden(cp.source) : occlusion_[size_t(i)][0];
+    const bool dimTarget = plane ? hidden(cp.target) : occlusion_[size_t(i)][1];
+    auto faded = [&](ImU32 c, const Vec3& mm) {
+      const bool dim = &mm == &cp.source ? dimSource : dimTarget;
+      return dim ? (c & 0x00FFFFFFu) | (IM_COL32_A_MASK & IM_COL32(0, 0, 0, 70)) : c;
+    };
     const auto s = pointInPane(pane, cp.source), t = pointInPane(pane, cp.target);
     if (!s || !t) continue;
     const ImVec2 a{float(s->first), float(s->second)}, b{float(t->first), float(t->second)};

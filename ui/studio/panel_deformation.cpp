@@ -61,9 +61,11 @@ void pointsRow(StudioApp& app) {
     a.falloffMm = falloff;
     a.touch();
   }
-  if (const auto* t = app.deformSession().timings(); t && app.deformSession().map())
-    ImGui::Text("map %.1f ms: MLS %.1f, rho %.1f, rigid %.1f", app.deformSession().lastUpdateMs(), t->mapMs,
-                t->rhoCacheMs, app.deformSession().lastRigidityMs());
+  if (const auto* t = app.deformSession().timings(); t && app.deformSession().map()) {
+    ImGui::Text("map update %.1f ms%s", app.deformSession().lastUpdateMs(), app.deformSession().preview() ? " (preview)" : "");
+    ImGui::Text("  MLS %.1f, rho %.1f (%d fields), rigid %.1f", t->mapMs, t->rhoCacheMs, t->rhoFieldsRebuilt,
+                app.deformSession().lastRigidityMs());
+  }
 }
 
 void timeline(StudioApp& app) {

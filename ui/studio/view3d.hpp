@@ -13,6 +13,7 @@
 
 #include "gl_texture.hpp"
 #include "scene.hpp"
+#include "vellum/render/backward_map.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::studio {
@@ -37,6 +38,11 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
 /// accumulated half opacity, or for MIP the maximum along the ray. nullopt when the ray
 /// meets nothing visible. Used to seed and to move the crosshair by clicking the 3D view.
 std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py);
+
+/// True when the point mm (LPS) is hidden in the 3D view: along the ray from the eye to it, the
+/// volume (deformed by `map` when given, as the renderer draws it) reaches half opacity more than
+/// one voxel before the point (the pickSurface() criterion). MIP hides nothing.
+bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Vec3& mm);
 
 /// The `vellum render` command line that writes the 3D view at width x height to `out`.
 std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out);
