@@ -12,6 +12,7 @@
 #include "authoring.hpp"
 #include "deform_session.hpp"
 #include "layout.hpp"
+#include "mpr.hpp"
 #include "scene_file.hpp"
 #include "test_data.hpp"
 #include "undo.hpp"
@@ -231,6 +232,38 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
   }
   // 0.5 s + 1 s (the last keyframe holds) at 8 fps, and the end frame.
   EXPECT_EQ(frames, 13);
+}
+
+TEST(StudioAuthoringScript, PointsFromLabelsAndASliceDragStaysInTheSlicePlane) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const fs::path d = test::tempDir("studio-authoring-slice");
+  phantom::PhantomOptions o;
+  o.dims = {48, 48, 48};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
+  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const std::string script = R"({"actions":[
+    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+    {"layout":"2x2"},{"controls":"labels"},{"save_scene":)" + q(d / "a.json") + R"(},
+    {"drag_point":{"index":0,"end":"target","by_px":[20,-10],"view":"axial"}},
+    {"save_scene":)" + q(d / "b.json") + R"(},{"quit":0}]})";
+  std::string log;
+  ASSERT_EQ(runStudio(d, "slice", script, &log), 0) << log;
+  const SceneFile a = readSceneFile(d / "a.json"), b = readSceneFile(d / "b.json");
+  const ControlPoints& pa = a.deformation->track.keyframes[0].points;
+  const ControlPoints& pb = b.deformation->track.keyframes[0].points;
+  EXPECT_EQ(pa, labelControlPoints(ph.labels));  // the "Points from labels" placement
+  // In the axial slice the target moves within the slice plane: by 20 px along screen right
+  // and 10 px up, at the slice's mm per pixel; z stays.
+  const std::vector<Pane> panes = layoutPanes(Layout::TwoByTwo, {kToolPanelWidth, 0, 1024 - kToolPanelWidth, 700});
+  const Pane* axial = nullptr;
+  for (const Pane& p : panes)
+    if (p.slice == SliceAxis::Axial) axial = &p;
+  ASSERT_TRUE(axial);
+  const SlicePlane plane = makePlane(SliceAxis::Axial, ph.ct.geometry(), a.crosshairMm, int(axial->rect.w), int(axial->rect.h));
+  const Vec3 expected = pa[0].target + plane.u * (20 * plane.mmPerPixel) - plane.v * (10 * plane.mmPerPixel);
+  EXPECT_LT(norm(pb[0].target - expected), 1e-6);
+  EXPECT_DOUBLE_EQ(pb[0].target.z, pa[0].target.z);
 }
 
 }  // namespace

@@ -113,8 +113,9 @@ class StudioApp {
   void editTrack(const std::string& description, const std::function<void(Authoring&)>& fn);
   /// Records a track change already made (continuous drags) as one undo step.
   void pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore);
-  /// Window pixel where point `index`'s end is drawn in the first pane that shows it (3D first).
-  std::optional<std::pair<double, double>> pointOnScreen(int index, PointEnd end) const;
+  /// Window pixel where point `index`'s end is drawn in the first pane that shows it (3D first),
+  /// or in the pane named `view` ("3d", "axial", "coronal", "sagittal").
+  std::optional<std::pair<double, double>> pointOnScreen(int index, PointEnd end, const std::string& view = "") const;
   void play(bool on);
   /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4, one frame per
   /// window frame through animation::MovieRenderer (what `vellum animate` runs).

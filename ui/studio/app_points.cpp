@@ -76,13 +76,16 @@ std::optional<PointHandle> StudioApp::pickPoint(const Pane& pane, double x, doub
   return best;
 }
 
-std::optional<std::pair<double, double>> StudioApp::pointOnScreen(int index, PointEnd end) const {
+std::optional<std::pair<double, double>> StudioApp::pointOnScreen(int index, PointEnd end,
+                                                                  const std::string& view) const {
   const ControlPoints pts = scene_.authoring.currentPoints();
   if (index < 0 || index >= int(pts.size())) return std::nullopt;
   std::vector<const Pane*> order;
-  for (const Pane& p : panes_)
+  for (const Pane& p : panes_) {
+    if (!view.empty() && view != (p.is3d() ? "3d" : sliceAxisName(*p.slice))) continue;
     if (p.is3d()) order.insert(order.begin(), &p);
     else order.push_back(&p);
+  }
   for (const Pane* p : order)
     if (auto px = pointInPane(*p, endOf(pts[size_t(index)], end)); px && p->rect.contains(px->first, px->second))
       return px;

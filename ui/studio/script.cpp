@@ -307,14 +307,16 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
     const auto by = point(v.at("by_px"));
     const int mods = v.contains("mods") ? parseMods(v["mods"]) : 0;
     const int moves = std::max(1, v.value("steps", 8));
+    const std::string view = v.value("view", "");
     auto from = std::make_shared<std::pair<double, double>>();
     frames(1);  // panes laid out
     auto previousTool = std::make_shared<PointTool>();
     once([=](StudioApp& a) {
       *previousTool = a.tools().pointTool;
       a.tools().pointTool = tool;  // the panel's Drag radio buttons
-      const auto p = a.pointOnScreen(index, end);
-      if (!p) throw Error("control point " + std::to_string(index) + " is not on screen");
+      const auto p = a.pointOnScreen(index, end, view);
+      if (!p)
+        throw Error("control point " + std::to_string(index) + " is not on screen" + (view.empty() ? "" : " in " + view));
       *from = *p;
       a.injectCursorPos(p->first, p->second);
     });
