@@ -153,7 +153,7 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
     {"attribute_drag":{"index":4,"tool":"lightness","by_px":[0,-40]}},
     {"attribute_drag":{"index":4,"tool":"hue","by_px":[20,10]}},
     {"save_scene":)" + q(d / "s5.json") + R"(},
-    {"export_movie":{"out":)" + q(d / "studio/") + R"(,"fps":8,"size":"96x80","command":)" + q(d / "cmd.txt") + R"(}},
+    {"export_movie":{"out":)" + q(d / "studio/") + R"(,"fps":8,"size":"96x80","orbit":30,"command":)" + q(d / "cmd.txt") + R"(}},
     {"screenshot":)" + q(d / "window.png") + R"(},
     {"quit":0}]})";
   std::string log;

@@ -119,7 +119,8 @@ class StudioApp {
   void play(bool on);
   /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4, one frame per
   /// window frame through animation::MovieRenderer (what `vellum animate` runs).
-  void startExport(const std::filesystem::path& out, double fps, int width, int height);
+  /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`).
+  void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0);
   void cancelExport();
   bool exporting() const;
   /// (frames done, frame count) of the running export.

@@ -60,7 +60,7 @@ void StudioApp::tickAnimation(double dtS) {
   a.touch();
 }
 
-void StudioApp::startExport(const fs::path& out, double fps, int width, int height) {
+void StudioApp::startExport(const fs::path& out, double fps, int width, int height, double orbitDeg) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   if (export_) throw Error("an export is running; cancel it first");
   Authoring& a = scene_.authoring;
@@ -74,6 +74,7 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   const bool isDir = !o.empty() && (o.back() == '/' || out.extension().empty());
   (isDir ? spec.framesDir : spec.moviePath) = out;
   spec.fps = fps;
+  spec.orbitDeg = orbitDeg;
   spec.settings = renderSettingsFor(scene_, width, height);
   // The keyframes beside the output, and the `vellum animate` line that renders the same frames.
   const fs::path keys = isDir ? out / "keyframes.json" : fs::path(o + ".keyframes.json");
@@ -87,6 +88,7 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
     << q(o) << " --fps " << fps << " --size " << width << "x" << height
     << params::cliArguments(render::renderSettingsTable(), spec.settings, {"width", "height"})
     << params::cliArguments(deformation::deformParamsTable(), studioDeformParams());
+  if (orbitDeg != 0) c << " --camera-orbit " << orbitDeg;
   const deformation::RigidBodies* bodies = deform_->bodies();
   if (bodies) {
     c << " --labels " << q(scene_.labelsPath.string()) << " --rigid-labels ";

@@ -135,9 +135,12 @@ void exportRow(StudioApp& app) {
   static char out[256] = "frames/";
   static int size[2] = {512, 512};
   static float fps = 30;
+  static float orbit = 0;
   ImGui::InputText("Out (dir/ or .mp4)", out, sizeof out);
   ImGui::InputInt2("Size", size);
   ImGui::InputFloat("fps", &fps);
+  ImGui::InputFloat("Orbit deg", &orbit);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("turns the camera by this many degrees over the movie (turntable)");
   if (app.exporting()) {
     const auto [done, count] = app.exportProgress();
     char label[64];
@@ -146,7 +149,7 @@ void exportRow(StudioApp& app) {
     ImGui::SameLine();
     if (ImGui::Button("Cancel##export")) app.cancelExport();
   } else if (ImGui::Button("Export movie")) {
-    guarded(app, [&] { app.startExport(out, fps, size[0], size[1]); });
+    guarded(app, [&] { app.startExport(out, fps, size[0], size[1], orbit); });
   }
 }
 

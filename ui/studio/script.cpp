@@ -375,7 +375,8 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
     if (v.contains("size") && std::sscanf(v["size"].get<std::string>().c_str(), "%dx%d", &w, &h) != 2)
       throw Error("size must be WxH");
     const std::string command = v.value("command", "");
-    once([=](StudioApp& a) { a.startExport(out, fps, w, h); });
+    const double orbit = v.value("orbit", 0.0);
+    once([=](StudioApp& a) { a.startExport(out, fps, w, h, orbit); });
     steps_.push_back([](StudioApp& a) { return !a.exporting(); });
     once([=](StudioApp& a) {
       if (!a.lastExportError().empty()) throw Error("export failed: " + a.lastExportError());
