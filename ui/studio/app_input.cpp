@@ -166,7 +166,8 @@ void StudioApp::onKey(int key, int action, int mods) {
       setLayout(key == GLFW_KEY_1 ? Layout::ThreeD : key == GLFW_KEY_2 ? Layout::TwoByTwo : Layout::OneByThree);
     } else if (key == GLFW_KEY_ESCAPE) {
       // Escape cancels what runs (a snake, a load); with nothing running, back to Navigate.
-      if (snake_.busy()) snake_.cancel();
+      if (exporting()) cancelExport();
+      else if (snake_.busy()) snake_.cancel();
       else if (loader_.busy()) loader_.cancel();
       else tools_.tool = Tool::Navigate;
     }
