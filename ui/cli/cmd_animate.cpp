@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "deform_cli.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/animation/movie.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/deformation/synthesis.hpp"
@@ -22,84 +23,16 @@ namespace vellum::cli {
 
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
+using animation::MovieResult;
+using animation::MovieSpec;
 
 namespace {
 
-struct MovieSpec {
-  fs::path moviePath;   ///< empty: no movie
-  fs::path framesDir;   ///< empty: no PNG frames
-  double fps = 30;
-  render::RenderSettings settings;
-  double orbitDeg = 0;  ///< camera azimuth turn over the whole animation
-};
-
-struct MovieResult {
-  int frames = 0;
-  double deformMs = 0, renderMs = 0;
-  RigidityReport worst;  ///< largest bone residual / fold fraction over the frames
-  nlohmann::json perFrame = nlohmann::json::array();
-};
-
-// Renders every frame of `track` through the GL renderer with the deformation applied.
-MovieResult renderTrack(const AnyVolume& volume, const KeyframeTrack& track, const DeformParams& params,
-                        const RigidBodies* bodies, double falloffMm, int measureStride, const MovieSpec& spec,
-                        Progress& progress) {
-  track.validate();
-  MovieResult r;
-  const int n = track.frameCount(spec.fps);
-  auto context = render::GlContext::createHeadless();
-  render::VolumeRenderer renderer(*context);
-  renderer.setVolume(volume);
-  Deformer deformer(volume, params);
-  std::unique_ptr<io::VideoWriter> video;
-  if (!spec.moviePath.empty())
-    video = std::make_unique<io::VideoWriter>(spec.moviePath, spec.settings.width, spec.settings.height, spec.fps);
-  if (!spec.framesDir.empty()) fs::create_directories(spec.framesDir);
-  progress.begin("frames", static_cast<uint64_t>(n));
-  for (int f = 0; f < n; ++f) {
-    const auto t0 = std::chrono::steady_clock::now();
-    deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
-    ControlVolume cv = deformer.update();
-    if (bodies) applyRigidity(cv, *bodies, {falloffMm});
-    const render::BackwardMap map = toBackwardMap(cv);
-    renderer.setBackwardMap(&map);
-    r.deformMs += secondsSince(t0) * 1000;
-    render::RenderSettings s = spec.settings;
-    // Seamless orbit: frame f of n turns f/n of the angle (the last frame does not repeat the first).
-    s.camera.azimuthDeg += spec.orbitDeg * f / (track.loop ? n : std::max(n - 1, 1));
-    const auto t1 = std::chrono::steady_clock::now();
-    const RgbaImage img = renderer.render(s);
-    r.renderMs += secondsSince(t1) * 1000;
-    if (video) video->addFrame(img);
-    if (!spec.framesDir.empty()) {
-      char name[32];
-      std::snprintf(name, sizeof name, "frame-%05d.png", f);
-      io::saveImage(img, spec.framesDir / name);
-    }
-    if (bodies) {
-      // Voxel level over the map the renderer samples: the node map upsampled trilinearly on
-      // the GPU, without the CPU synthesis' voxel snap (RigidSnap).
-      cv.rigidSnap.reset();
-      const RigidityReport m = measureRigidityVoxels(cv, geometryOf(volume), *bodies, Upsampling::Trilinear,
-                                                     measureStride);
-      r.perFrame.push_back({{"voxels_as_rendered", toJson(m)}, {"nodes", toJson(measureRigidity(cv, *bodies))}});
-      if (m.boneRmsResidualMm >= r.worst.boneRmsResidualMm) r.worst.boneRmsResidualMm = m.boneRmsResidualMm;
-      r.worst.boneMaxResidualMm = std::max(r.worst.boneMaxResidualMm, m.boneMaxResidualMm);
-      r.worst.foldFraction = std::max(r.worst.foldFraction, m.foldFraction);
-      r.worst.softTissueMeanDisplacementMm = std::max(r.worst.softTissueMeanDisplacementMm, m.softTissueMeanDisplacementMm);
-      r.worst.components = m.components;
-      r.worst.voxelLevel = true;
-      r.worst.stride = m.stride;
-      r.worst.nodes = m.nodes;
-      r.worst.boneNodes = std::max(r.worst.boneNodes, m.boneNodes);
-      r.worst.softNodes = std::max(r.worst.softNodes, m.softNodes);
-    }
-    progress.advance();
-  }
-  progress.end();
-  if (video) video->finish();
-  r.frames = n;
-  return r;
+// Per-frame measures as the report writes them.
+nlohmann::json perFrameJson(const std::vector<animation::FrameRigidity>& frames) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const auto& f : frames) j.push_back({{"voxels_as_rendered", toJson(f.voxelsAsRendered)}, {"nodes", toJson(f.nodes)}});
+  return j;
 }
 
 struct AnimateArgs {
@@ -160,8 +93,10 @@ void addAnimateCommand(CLI::App& app) {
     MovieResult r;
     {
       ProgressBar bar;
-      r = renderTrack(lv.volume, track, params, bodies ? &*bodies : nullptr, a->rigid.falloffMm, a->rigid.measureStride, spec,
-                      bar.progress());
+      auto context = render::GlContext::createHeadless();
+      r = animation::renderTrack(*context, lv.volume, track, params,
+                                 {bodies ? &*bodies : nullptr, a->rigid.falloffMm, a->rigid.measureStride}, spec,
+                                 bar.progress());
     }
     std::cout << a->output << "  " << r.frames << " frames  deform " << r.deformMs / r.frames
               << " ms/frame  render " << r.renderMs / r.frames << " ms/frame\n";
@@ -174,7 +109,7 @@ void addAnimateCommand(CLI::App& app) {
                                      {"render_per_frame", r.renderMs / r.frames},
                                      {"total", secondsSince(t0) * 1000}}},
                      {"rigidity_worst", bodies ? toJson(r.worst) : nlohmann::json()},
-                     {"rigidity_per_frame", r.perFrame}},
+                     {"rigidity_per_frame", perFrameJson(r.perFrame)}},
                     a->report);
   });
 }
@@ -216,7 +151,7 @@ void demoDeformation(const DemoContext& ctx) {
     render::VolumeRenderer renderer(*context);
     renderer.setVolume(lv.volume);
     io::saveImage(renderer.render(s), ctx.outDir / "deform-before.png");
-    const render::BackwardMap map = toBackwardMap(cv);
+    const render::BackwardMap map = animation::toBackwardMap(cv);
     renderer.setBackwardMap(&map);
     io::saveImage(renderer.render(s), ctx.outDir / "deform-after.png");
     s.preset = render::Preset::Bone;
@@ -235,7 +170,8 @@ void demoDeformation(const DemoContext& ctx) {
   MovieResult r;
   {
     ProgressBar bar;
-    r = renderTrack(lv.volume, track, params, &bodies, falloff, 1, spec, bar.progress());
+    auto context = render::GlContext::createHeadless();
+    r = animation::renderTrack(*context, lv.volume, track, params, {&bodies, falloff, 1}, spec, bar.progress());
   }
   writeJsonFile({{"keyframes", "deform-keyframes.json"},
                  {"rigid_label_ids", bones},

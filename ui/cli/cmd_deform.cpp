@@ -57,14 +57,6 @@ RigidBodies RigidOptions::load(const Geometry& geometry, const InputOptions& in)
   return RigidBodies::fromLabels(lv, rigidIds);
 }
 
-render::BackwardMap toBackwardMap(const ControlVolume& cv) {
-  render::BackwardMap m;
-  m.grid = cv.grid;
-  m.sourceMm = cv.sourceMm;
-  m.attributes = cv.attributes;
-  return m;
-}
-
 nlohmann::json toJson(const RigidityReport& r) {
   return {{"level", r.voxelLevel ? "voxels" : "control-grid nodes"},
           {"stride", r.stride},

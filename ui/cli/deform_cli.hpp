@@ -43,7 +43,6 @@ struct RigidOptions {
   deformation::RigidBodies load(const Geometry& geometry, const InputOptions& in) const;
 };
 
-render::BackwardMap toBackwardMap(const deformation::ControlVolume& cv);
 nlohmann::json toJson(const deformation::RigidityReport& r);
 
 }  // namespace vellum::cli

@@ -16,6 +16,8 @@
 #include <tuple>
 
 #include "autosave.hpp"
+#include "deform_session.hpp"
+#include "export_job.hpp"
 #include "gl_texture.hpp"
 #include "panels.hpp"
 #include "script.hpp"
@@ -50,17 +52,19 @@ void dropCallback(GLFWwindow* w, int count, const char** paths) {
   appOf(w)->onDrop(std::vector<std::string>(paths, paths + count));
 }
 
-constexpr float kPanelWidth = 330;
+constexpr float kPanelWidth = kToolPanelWidth;
 
 volatile std::sig_atomic_t gInterrupted = 0;
 
 }  // namespace
 
 
-StudioApp::StudioApp(StudioOptions options) : options_(std::move(options)) {}
+StudioApp::StudioApp(StudioOptions options)
+    : options_(std::move(options)), deform_(std::make_unique<DeformSession>()) {}
 
 StudioApp::~StudioApp() {
   if (!window_) return;
+  export_.reset();  // GL objects: before the context goes
   view3d_.reset();
   for (auto& t : sliceTextures_) t.reset();
   ImGui_ImplOpenGL3_Shutdown();
@@ -141,7 +145,8 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.busy() && !snake_.busy() && !viewPending && pendingScreenshot_.empty();
+  return !loader_.busy() && !snake_.busy() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() &&
+         !scene_.authoring.playing;
 }
 
 void StudioApp::frame() {
@@ -149,6 +154,11 @@ void StudioApp::frame() {
   glfwPollEvents();
   pollLoader();
   pollSnake();
+  {
+    const double now = glfwGetTime();
+    tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
+    lastTickS_ = now;
+  }
   autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
@@ -177,9 +187,13 @@ void StudioApp::frame() {
     ImGui::EndPopup();
   }
 
-  bool rendered3d = false;
+  bool rendered3d = false, mapUpdated = false;
   if (scene_.hasVolume()) {
     updateSliceTextures();
+    if ((mapUpdated = deform_->update(scene_, pointDrag_.has_value() || scene_.authoring.playing))) {
+      view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
+      markSlicesDirty();
+    }
     for (const Pane& p : panes_)
       if (p.is3d())
         rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());
@@ -199,9 +213,11 @@ void StudioApp::frame() {
   glfwSwapBuffers(window_);
   lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (options_.logFrames)
-    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d\n", frameNumber_,
-                lastFrameMs_, rendered3d ? 1 : 0, rendered3d ? view3d_->lastRenderMs() : 0.0,
-                view3d_->lastScale(), dragPane_ ? 1 : 0);
+    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f\n",
+                frameNumber_, lastFrameMs_, rendered3d ? 1 : 0, rendered3d ? view3d_->lastRenderMs() : 0.0,
+                view3d_->lastScale(), dragPane_ ? 1 : 0, mapUpdated ? deform_->lastUpdateMs() : 0.0,
+                mapUpdated ? deform_->timings()->mapMs : 0.0, mapUpdated ? deform_->timings()->rhoCacheMs : 0.0,
+                mapUpdated ? deform_->lastRigidityMs() : 0.0);
   if (options_.logFrames) std::fflush(stdout);  // the log is read while the studio runs
   ++frameNumber_;
 }
@@ -232,6 +248,8 @@ void StudioApp::adoptLoad(LoadResult r) {
   scene_.series = std::move(r.series);
   scene_.seriesUid = r.seriesUid;
   recent_.add(r.scene ? r.scenePath : r.volumePath);
+  scene_.authoring = Authoring{};
+  scene_.authoring.rigidLabels = boneLikeLabels(scene_.labels);
   if (r.scene) {
     applySceneView(*r.scene, scene_);
   } else {

@@ -29,8 +29,20 @@ class WindowContext;
 class ScriptRunner;
 class Autosaver;
 class GlTexture;
+class DeformSession;
+class ExportJob;
+
+/// Where a control point's end is drawn in a pane (window pixels) and which it is.
+struct PointHandle {
+  int index = -1;
+  PointEnd end = PointEnd::Target;
+};
 
 enum class Tool { Navigate, Paint, Erase, Grow, Snake };
+
+/// What dragging a control point does: move it, or change one of its attributes (vertical:
+/// lightness; horizontal a = green->red and vertical b = blue->yellow; vertical: density).
+enum class PointTool { Move, Lightness, Hue, Density };
 
 /// Segmentation panel state (not saved in scenes).
 struct ToolState {
@@ -40,7 +52,12 @@ struct ToolState {
   uint16_t activeLabel = 1;
   segmentation::HuInterval threshold = segmentation::presetInterval(segmentation::Preset::Bone);
   bool thresholdPreview = false;
+  PointTool pointTool = PointTool::Move;
 };
+
+/// The attribute change of a drag by (dx, dy) pixels from `start` with an attribute tool.
+void applyAttributeDrag(deformation::PointAttributes& out, const deformation::PointAttributes& start, PointTool tool,
+                        double dx, double dy);
 
 struct StudioOptions {
   std::string input;   ///< volume, DICOM folder or scene to open at start
@@ -89,6 +106,30 @@ class StudioApp {
   void morphologyOfActive(Morphology op);
   /// Sets the threshold range to [Otsu, 3071] HU.
   void otsuThreshold();
+  // Deformation authoring (app_points.cpp, app_animation.cpp).
+  /// Places the 16 default points (box) or the points from the label map as one keyframe.
+  void placeControls(bool fromLabels);
+  /// Records a change of the keyframe track as one undo step.
+  void editTrack(const std::string& description, const std::function<void(Authoring&)>& fn);
+  /// Records a track change already made (continuous drags) as one undo step.
+  void pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore);
+  /// Window pixel where point `index`'s end is drawn in the first pane that shows it (3D first),
+  /// or in the pane named `view` ("3d", "axial", "coronal", "sagittal").
+  std::optional<std::pair<double, double>> pointOnScreen(int index, PointEnd end, const std::string& view = "") const;
+  void play(bool on);
+  /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4, one frame per
+  /// window frame through animation::MovieRenderer (what `vellum animate` runs).
+  /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`).
+  void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0);
+  void cancelExport();
+  bool exporting() const;
+  /// (frames done, frame count) of the running export.
+  std::pair<int, int> exportProgress() const;
+  /// The last export's error ("" after success).
+  const std::string& lastExportError() const { return exportError_; }
+  /// The `vellum animate` command that writes the same frames as the last export.
+  const std::string& lastAnimateCommand() const { return animateCommand_; }
+  const DeformSession& deformSession() const { return *deform_; }
   /// The `vellum render` command for the 3D view at its pane size (512² without a 3D pane).
   std::string cliCommand(const std::string& out) const;
   /// Saves the scene (and the label map next to it when it has no file or was edited).
@@ -147,6 +188,32 @@ class StudioApp {
   void clickIn3d(const Pane& pane, double x, double y);
   std::pair<int, int> pane3dSize() const;
   void drawPlanesIn3d(const Pane& pane);
+  // Control points: drawing, picking and dragging (app_points.cpp).
+  std::optional<std::pair<double, double>> pointInPane(const Pane& pane, const Vec3& mm) const;
+  std::optional<PointHandle> pickPoint(const Pane& pane, double x, double y) const;
+  void drawControlPoints(const Pane& pane);
+  void drawKeyframeConnector(const Pane& pane);
+  bool beginPointDrag(const Pane& pane, double x, double y, int mods);
+  void movePointDrag(double x, double y);
+  void endPointDrag();
+  void tickAnimation(double dtS);
+  struct PointDrag {
+    PointHandle handle;
+    Vec3 startMm;
+    double pressX = 0, pressY = 0;
+    int mods = 0;
+    PointTool tool = PointTool::Move;
+    deformation::PointAttributes startAttributes;
+    deformation::KeyframeTrack before;
+    int keyframeBefore = 0;
+  };
+  std::optional<PointDrag> pointDrag_;
+  double lastTickS_ = 0;
+  std::string occlusionKey_;                  ///< what occlusion_ was computed for
+  std::vector<std::array<bool, 2>> occlusion_;  ///< per point: source, target hidden in 3D
+  std::unique_ptr<DeformSession> deform_;
+  std::unique_ptr<ExportJob> export_;
+  std::string exportError_, animateCommand_;
 
   StudioOptions options_;
   GLFWwindow* window_ = nullptr;

@@ -48,15 +48,17 @@ void StudioApp::pushEdit(LabelDelta delta) {
 }
 
 bool StudioApp::undo() {
-  if (!undo_.undo(scene_.labels)) return false;
-  scene_.touchLabels();
+  if (pointDrag_) return false;  // not in the middle of a drag
+  if (!undo_.undo(scene_.labels, &scene_.authoring)) return false;
+  if (undo_.lastWasLabels()) scene_.touchLabels();
   markSlicesDirty();
   return true;
 }
 
 bool StudioApp::redo() {
-  if (!undo_.redo(scene_.labels)) return false;
-  scene_.touchLabels();
+  if (pointDrag_) return false;  // not in the middle of a drag
+  if (!undo_.redo(scene_.labels, &scene_.authoring)) return false;
+  if (undo_.lastWasLabels()) scene_.touchLabels();
   markSlicesDirty();
   return true;
 }

@@ -9,6 +9,7 @@
 #include <tuple>
 
 #include "app.hpp"
+#include "deform_session.hpp"
 #include "gl_texture.hpp"
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
@@ -66,6 +67,7 @@ void StudioApp::drawPanes() {
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(200, 200, 255, 255),
                   (std::string("3D  ") + render::presetName(scene_.preset)).c_str());
       if (panes_.size() > 1) drawPlanesIn3d(p);
+      drawControlPoints(p);
       continue;
     }
     const GlTexture& t = *sliceTextures_[static_cast<size_t>(*p.slice)];
@@ -82,6 +84,7 @@ void StudioApp::drawPanes() {
       dl->AddCircle({float(mouseX_), float(mouseY_)}, float(tools_.brushRadiusMm / plane.mmPerPixel),
                     tools_.tool == Tool::Paint ? IM_COL32(255, 255, 255, 220) : IM_COL32(255, 120, 120, 220), 32);
     dl->PopClipRect();
+    drawControlPoints(p);
     dl->AddRect(a, b, planeColour(plane.normal));
     dl->AddText({a.x + 6, a.y + 4}, planeColour(plane.normal), sliceAxisName(*p.slice));
   }
@@ -123,6 +126,7 @@ void StudioApp::drawHud() {
   hud.precision(1);
   hud << "frame " << lastFrameMs_ << " ms   3D " << view3d_->lastRenderMs() << " ms @1/" << view3d_->lastScale();
   if (view3d_->refineProgress() < 1) hud << "  refining " << int(100 * view3d_->refineProgress()) << "%";
+  if (deform_->map()) hud << "   map " << deform_->lastUpdateMs() << " ms" << (deform_->preview() ? " (preview s=8)" : "");
   if (scene_.hasVolume()) {
     const Pane* p = paneAt(mouseX_, mouseY_);
     if (p && !p->is3d()) {

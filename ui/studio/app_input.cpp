@@ -14,7 +14,8 @@ namespace vellum::studio {
 namespace fs = std::filesystem;
 
 bool StudioApp::interacting3d() const {
-  return (dragPane_ && dragPane_->is3d()) || glfwGetTime() < zoomInteractionUntil_;
+  return (dragPane_ && dragPane_->is3d()) || pointDrag_ || scene_.authoring.playing ||
+         glfwGetTime() < zoomInteractionUntil_;
 }
 
 const Pane* StudioApp::paneAt(double x, double y) const {
@@ -28,6 +29,10 @@ void StudioApp::onCursorPos(double x, double y) {
   mouseX_ = x;
   mouseY_ = y;
   if (!dragPane_ || !scene_.hasVolume()) return;
+  if (pointDrag_) {
+    movePointDrag(x, y);
+    return;
+  }
   const Pane& pane = *dragPane_;
   const bool shift = dragMods_ & GLFW_MOD_SHIFT;
   if (!pane.is3d()) {
@@ -71,6 +76,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
       strokeBefore_.reset();
     }
     if (button == dragButton_) {
+      if (pointDrag_) endPointDrag();
       dragPane_.reset();
       dragButton_ = -1;
     }
@@ -86,6 +92,8 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   dragPane_ = *pane;
   dragButton_ = button;
   dragMods_ = mods;
+  // A press on a control point's dot drags that point (Shift: along one axis) in any tool.
+  if (button == GLFW_MOUSE_BUTTON_LEFT && beginPointDrag(*pane, mouseX_, mouseY_, mods)) return;
   if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {
     if (tools_.tool == Tool::Grow) {
       growAt(*pane, mouseX_, mouseY_);
@@ -158,7 +166,8 @@ void StudioApp::onKey(int key, int action, int mods) {
       setLayout(key == GLFW_KEY_1 ? Layout::ThreeD : key == GLFW_KEY_2 ? Layout::TwoByTwo : Layout::OneByThree);
     } else if (key == GLFW_KEY_ESCAPE) {
       // Escape cancels what runs (a snake, a load); with nothing running, back to Navigate.
-      if (snake_.busy()) snake_.cancel();
+      if (exporting()) cancelExport();
+      else if (snake_.busy()) snake_.cancel();
       else if (loader_.busy()) loader_.cancel();
       else tools_.tool = Tool::Navigate;
     }

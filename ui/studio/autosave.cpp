@@ -57,6 +57,8 @@ void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
                         file.lockedLabels};
     text += j.dump();
   }
+  // The keyframe track (control points): its revision counts every edit (and playback).
+  if (file.deformation) text += " track " + std::to_string(scene.authoring.revision);
   if (!labelsEdited && text == lastSceneText_) return;
   lastSceneText_ = text;
   std::optional<LabelVolume> labels;

@@ -19,6 +19,9 @@ struct Pane {
   bool is3d() const { return !slice; }
 };
 
+/// Width of the tool panel on the left; the viewport is the rest of the window.
+inline constexpr float kToolPanelWidth = 330;
+
 /// 3d: one 3D pane. 2x2: axial | coronal over sagittal | 3D. 1x3: axial | coronal | sagittal.
 std::vector<Pane> layoutPanes(Layout layout, const Rect& viewport);
 

@@ -7,6 +7,7 @@
 #include <functional>
 
 #include "app.hpp"
+#include "panel_deformation.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
@@ -241,6 +242,7 @@ void drawToolPanel(StudioApp& app, float width, float height) {
   ImGui::PushItemWidth(-130);
   if (ImGui::CollapsingHeader("File", ImGuiTreeNodeFlags_DefaultOpen)) fileSection(app);
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) viewSection(app);
+  if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);
   ImGui::PopItemWidth();

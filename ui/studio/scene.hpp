@@ -6,6 +6,7 @@
 #include <set>
 #include <string>
 
+#include "authoring.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -51,6 +52,7 @@ struct Scene {
   float labelOpacity = 0.4f;
   std::set<uint16_t> hiddenLabels;
   std::set<uint16_t> lockedLabels;  ///< segments no edit may change
+  Authoring authoring;  ///< control points and keyframes (deformation authoring)
 
   bool hasVolume() const { return !ct.empty(); }
   /// Marks the label map (voxels or table) as changed.

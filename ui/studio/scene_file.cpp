@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "vellum/core/error.hpp"
+#include "vellum/deformation/point_files.hpp"
 #include "vellum/io/atomic_file.hpp"
 
 namespace vellum::studio {
@@ -73,6 +74,22 @@ SceneFile readSceneFile(const fs::path& path) {
     s.labelOpacity = j.value("label_opacity", s.labelOpacity);
     for (const auto& id : j.value("hidden_labels", json::array())) s.hiddenLabels.insert(id.get<uint16_t>());
     for (const auto& id : j.value("locked_labels", json::array())) s.lockedLabels.insert(id.get<uint16_t>());
+    if (j.contains("deformation")) {
+      const json& d = j["deformation"];
+      SceneDeformation def;
+      def.keyframesPath = resolvedPath(d.at("keyframes").get<std::string>(), base);
+      if (!fs::exists(def.keyframesPath))
+        throw FileError(def.keyframesPath, "referenced by " + path.filename().string() + " does not exist");
+      def.track = deformation::loadKeyframes(def.keyframesPath);  // names that file on errors
+      def.keyframe = d.value("keyframe", 0);
+      if (def.keyframe < 0 || def.keyframe >= int(def.track.keyframes.size()))
+        throw FileError(path, "deformation.keyframe " + std::to_string(def.keyframe) + " is not a keyframe of " +
+                                  def.keyframesPath.filename().string());
+      def.rigidLabels = d.value("rigid_labels", std::vector<uint16_t>{});
+      def.falloffMm = d.value("rigid_falloff_mm", 10.0);
+      if (!(def.falloffMm > 0 && def.falloffMm < 1e4)) throw FileError(path, "deformation.rigid_falloff_mm must be in (0, 1e4)");
+      s.deformation = std::move(def);
+    }
   } catch (const json::exception& e) {
     throw FileError(path, std::string("bad scene field: ") + e.what());
   } catch (const FileError&) {
@@ -107,6 +124,15 @@ void writeSceneFile(const SceneFile& s, const fs::path& path) {
   j["label_opacity"] = s.labelOpacity;
   j["hidden_labels"] = s.hiddenLabels;
   j["locked_labels"] = s.lockedLabels;
+  if (s.deformation) {
+    fs::path keys = path;
+    keys.replace_extension(".keyframes.json");
+    deformation::saveKeyframes(s.deformation->track, keys);
+    j["deformation"] = {{"keyframes", storedPath(keys, base)},
+                        {"keyframe", s.deformation->keyframe},
+                        {"rigid_labels", s.deformation->rigidLabels},
+                        {"rigid_falloff_mm", s.deformation->falloffMm}};
+  }
   const std::string text = j.dump(2) + "\n";
   io::writeAtomically(path, [&](const fs::path& tmp) {
     std::ofstream out(tmp, std::ios::binary);
@@ -129,6 +155,9 @@ SceneFile describeScene(const Scene& scene) {
   s.labelOpacity = scene.labelOpacity;
   s.hiddenLabels = scene.hiddenLabels;
   s.lockedLabels = scene.lockedLabels;
+  if (scene.authoring.active())
+    s.deformation = SceneDeformation{{}, scene.authoring.track, scene.authoring.keyframe, scene.authoring.rigidLabels,
+                                     scene.authoring.falloffMm};
   return s;
 }
 
@@ -142,6 +171,17 @@ void applySceneView(const SceneFile& s, Scene& scene) {
   scene.labelOpacity = s.labelOpacity;
   scene.hiddenLabels = s.hiddenLabels;
   scene.lockedLabels = s.lockedLabels;
+  if (s.deformation) {
+    Authoring& a = scene.authoring;
+    a.track = s.deformation->track;
+    a.keyframe = s.deformation->keyframe;
+    a.rigidLabels = s.deformation->rigidLabels;
+    a.falloffMm = s.deformation->falloffMm;
+    a.selected = -1;
+    a.timeS.reset();
+    a.playing = false;
+    a.touch();
+  }
 }
 
 }  // namespace vellum::studio

@@ -9,6 +9,7 @@
 #include <set>
 
 #include "app.hpp"
+#include "vellum/deformation/keyframes.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/render/render_settings.hpp"
 
@@ -21,7 +22,8 @@ namespace {
 const std::set<std::string> kActions = {
     "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
     "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
-    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "remove_islands", "hud", "log", "quit"};
+    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "remove_islands", "hud", "log", "quit",
+    "controls", "drag_point", "attribute_drag", "keyframe", "play", "export_movie", "rigid_labels"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -281,6 +283,115 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
   } else if (name == "log") {
     const std::string text = v.get<std::string>();
     once([text](StudioApp&) { std::cout << text << std::endl; });
+  } else if (name == "controls") {
+    const std::string which = v.get<std::string>();
+    if (which != "default" && which != "labels") throw Error("controls must be \"default\" or \"labels\"");
+    once([which](StudioApp& a) { a.placeControls(which == "labels"); });
+    frames(1);
+  } else if (name == "drag_point" || name == "attribute_drag") {
+    // Finds where the point's end is drawn (3D view first), then drags from there through the
+    // real mouse path: press, `steps` moves, release.
+    const int index = v.at("index").get<int>();
+    const std::string endName = v.value("end", "target");
+    const bool attribute = name == "attribute_drag";
+    PointTool tool = PointTool::Move;
+    if (attribute) {
+      const std::string t = v.at("tool").get<std::string>();
+      tool = t == "lightness" ? PointTool::Lightness
+             : t == "hue"     ? PointTool::Hue
+             : t == "density" ? PointTool::Density
+                              : throw Error("attribute_drag tool must be lightness, hue or density");
+    }
+    if (endName != "source" && endName != "target") throw Error("end must be \"source\" or \"target\"");
+    const PointEnd end = endName == "source" ? PointEnd::Source : PointEnd::Target;
+    const auto by = point(v.at("by_px"));
+    const int mods = v.contains("mods") ? parseMods(v["mods"]) : 0;
+    const int moves = std::max(1, v.value("steps", 8));
+    const std::string view = v.value("view", "");
+    auto from = std::make_shared<std::pair<double, double>>();
+    frames(1);  // panes laid out
+    auto previousTool = std::make_shared<PointTool>();
+    once([=](StudioApp& a) {
+      *previousTool = a.tools().pointTool;
+      a.tools().pointTool = tool;  // the panel's Drag radio buttons
+      const auto p = a.pointOnScreen(index, end, view);
+      if (!p)
+        throw Error("control point " + std::to_string(index) + " is not on screen" + (view.empty() ? "" : " in " + view));
+      *from = *p;
+      a.injectCursorPos(p->first, p->second);
+    });
+    once([=](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, mods); });
+    for (int i = 1; i <= moves; ++i) {
+      const double t = double(i) / moves;
+      once([=](StudioApp& a) { a.injectCursorPos(from->first + by.first * t, from->second + by.second * t); });
+    }
+    once([=](StudioApp& a) {
+      a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
+      a.tools().pointTool = *previousTool;
+    });
+  } else if (name == "keyframe") {
+    // "add" | "delete" | {"select": k, "duration": s, "interpolation": "smooth", "loop": true}
+    const json spec = v;
+    once([spec](StudioApp& a) {
+      if (spec.is_string()) {
+        const std::string op = spec.get<std::string>();
+        if (op == "add") a.editTrack("add keyframe", addKeyframe);
+        else if (op == "delete") {
+          const int k = a.scene().authoring.keyframe;
+          a.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); });
+        } else throw Error("keyframe must be \"add\", \"delete\" or an object");
+        return;
+      }
+      Authoring& au = a.scene().authoring;
+      if (!au.active()) throw Error("no keyframes: place control points first");
+      if (spec.contains("select")) {
+        const int k = spec["select"].get<int>();
+        if (k < 0 || k >= int(au.track.keyframes.size())) throw Error("no keyframe " + std::to_string(k));
+        au.keyframe = k;
+        au.timeS.reset();
+        au.touch();
+      }
+      a.editTrack("keyframe settings", [&spec](Authoring& x) {
+        if (spec.contains("duration")) x.track.keyframes[size_t(x.keyframe)].durationS = spec["duration"].get<double>();
+        if (spec.contains("interpolation"))
+          x.track.interpolation = deformation::parseInterpolation(spec["interpolation"].get<std::string>());
+        if (spec.contains("loop")) x.track.loop = spec["loop"].get<bool>();
+      });
+    });
+    frames(1);
+  } else if (name == "play") {
+    const double seconds = v.at("seconds").get<double>();
+    auto until = std::make_shared<double>();
+    once([=](StudioApp& a) {
+      a.play(true);
+      *until = glfwGetTime() + seconds;
+    });
+    steps_.push_back([=](StudioApp& a) { return glfwGetTime() >= *until || !a.scene().authoring.playing; });
+    once([](StudioApp& a) { a.play(false); });
+  } else if (name == "export_movie") {
+    const std::string out = v.at("out").get<std::string>();
+    const double fps = v.value("fps", 30.0);
+    int w = 512, h = 512;
+    if (v.contains("size") && std::sscanf(v["size"].get<std::string>().c_str(), "%dx%d", &w, &h) != 2)
+      throw Error("size must be WxH");
+    const std::string command = v.value("command", "");
+    const double orbit = v.value("orbit", 0.0);
+    once([=](StudioApp& a) { a.startExport(out, fps, w, h, orbit); });
+    steps_.push_back([](StudioApp& a) { return !a.exporting(); });
+    once([=](StudioApp& a) {
+      if (!a.lastExportError().empty()) throw Error("export failed: " + a.lastExportError());
+      if (!command.empty()) {
+        std::ofstream f(command);
+        f << a.lastAnimateCommand() << "\n";
+        if (!f) throw Error("cannot write " + command);
+      }
+    });
+  } else if (name == "rigid_labels") {
+    std::vector<uint16_t> ids = v.get<std::vector<uint16_t>>();
+    once([ids](StudioApp& a) {
+      a.scene().authoring.rigidLabels = ids;
+      a.scene().authoring.touch();
+    });
   } else if (name == "quit") {
     const int code = v.is_number_integer() ? v.get<int>() : 0;
     once([this, code](StudioApp&) { quitCode_ = code; });

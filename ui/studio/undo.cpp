@@ -37,23 +37,53 @@ void applyDelta(LabelVolume& labels, const LabelDelta& delta, bool forward) {
   labels = std::move(rebuilt);
 }
 
+size_t TrackEdit::bytes() const {
+  size_t n = 0;
+  for (const auto* t : {&before, &after})
+    for (const auto& k : t->keyframes) n += k.points.size() * sizeof(deformation::ControlPoint);
+  return n;
+}
+
 void UndoStack::push(LabelDelta delta) {
   if (delta.empty()) return;
-  undo_.push_back(std::move(delta));
+  undo_.emplace_back(std::move(delta));
   redo_.clear();
 }
 
-bool UndoStack::undo(LabelVolume& labels) {
+void UndoStack::push(TrackEdit edit) {
+  undo_.emplace_back(std::move(edit));
+  redo_.clear();
+}
+
+void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, bool forward) {
+  if (const auto* d = std::get_if<LabelDelta>(&e)) {
+    applyDelta(labels, *d, forward);
+    lastWasLabels_ = true;
+    return;
+  }
+  const TrackEdit& t = std::get<TrackEdit>(e);
+  if (!authoring) throw Error("undo: a control-point edit needs the authoring state");
+  authoring->track = forward ? t.after : t.before;
+  authoring->keyframe = forward ? t.keyframeAfter : t.keyframeBefore;
+  authoring->timeS.reset();
+  authoring->playing = false;
+  const int n = authoring->active() ? int(authoring->track.keyframes.front().points.size()) : 0;
+  if (authoring->selected >= n) authoring->selected = -1;
+  authoring->touch();
+  lastWasLabels_ = false;
+}
+
+bool UndoStack::undo(LabelVolume& labels, Authoring* authoring) {
   if (undo_.empty()) return false;
-  applyDelta(labels, undo_.back(), false);
+  apply(undo_.back(), labels, authoring, false);
   redo_.push_back(std::move(undo_.back()));
   undo_.pop_back();
   return true;
 }
 
-bool UndoStack::redo(LabelVolume& labels) {
+bool UndoStack::redo(LabelVolume& labels, Authoring* authoring) {
   if (redo_.empty()) return false;
-  applyDelta(labels, redo_.back(), true);
+  apply(redo_.back(), labels, authoring, true);
   undo_.push_back(std::move(redo_.back()));
   redo_.pop_back();
   return true;
@@ -66,8 +96,8 @@ void UndoStack::clear() {
 
 size_t UndoStack::bytes() const {
   size_t n = 0;
-  for (const auto& d : undo_) n += d.bytes();
-  for (const auto& d : redo_) n += d.bytes();
+  for (const auto* v : {&undo_, &redo_})
+    for (const auto& e : *v) n += std::visit([](const auto& x) { return x.bytes(); }, e);
   return n;
 }
 

@@ -4,7 +4,10 @@
 // copy of the 256³ label map), plus the label table before and after.
 #include <cstdint>
 #include <string>
+#include <variant>
 #include <vector>
+
+#include "authoring.hpp"
 
 #include "vellum/core/label_volume.hpp"
 
@@ -31,21 +34,39 @@ LabelDelta diffLabels(const LabelVolume& before, const LabelVolume& after, std::
 /// Writes the delta's `after` (redo) or `before` (undo) ids and table into `labels`.
 void applyDelta(LabelVolume& labels, const LabelDelta& delta, bool forward);
 
+/// An edit of the authored keyframe track (points placed, dragged, added, deleted; keyframes
+/// added, deleted, retimed): the track before and after. A track is small (points x keyframes),
+/// so whole copies are simpler than deltas.
+struct TrackEdit {
+  std::string description;
+  deformation::KeyframeTrack before, after;
+  int keyframeBefore = 0, keyframeAfter = 0;
+  size_t bytes() const;
+};
+
+using UndoEntry = std::variant<LabelDelta, TrackEdit>;
+
 class UndoStack {
  public:
   /// Records an edit that has already been applied; clears the redo side.
   void push(LabelDelta delta);
+  void push(TrackEdit edit);
   bool canUndo() const { return !undo_.empty(); }
   bool canRedo() const { return !redo_.empty(); }
-  /// Reverts the last edit on `labels`; false when there is none.
-  bool undo(LabelVolume& labels);
-  bool redo(LabelVolume& labels);
+  /// Reverts the last edit on `labels` (and `authoring` for track edits; a track edit with no
+  /// authoring given throws); false when there is none.
+  bool undo(LabelVolume& labels, Authoring* authoring = nullptr);
+  bool redo(LabelVolume& labels, Authoring* authoring = nullptr);
+  /// True when the last undo/redo changed the labels (false: the track).
+  bool lastWasLabels() const { return lastWasLabels_; }
   void clear();
-  const std::vector<LabelDelta>& undoEntries() const { return undo_; }
+  const std::vector<UndoEntry>& undoEntries() const { return undo_; }
   size_t bytes() const;
 
  private:
-  std::vector<LabelDelta> undo_, redo_;
+  std::vector<UndoEntry> undo_, redo_;
+  bool lastWasLabels_ = true;
+  void apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, bool forward);
 };
 
 }  // namespace vellum::studio

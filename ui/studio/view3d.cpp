@@ -121,6 +121,68 @@ std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, doubl
   return std::nullopt;
 }
 
+namespace {
+/// u(v): the backward map interpolated trilinearly between nodes, clamped to the outermost
+/// nodes (the renderer's rule, modules/render/include/vellum/render/backward_map.hpp).
+Vec3 mapAt(const render::BackwardMap& m, const Vec3& v) {
+  const Geometry& g = m.grid;
+  const Vec3 ijk = g.physicalToIndex(v);
+  int64_t i0[3];
+  double f[3];
+  const int64_t dims[3] = {g.dims.x, g.dims.y, g.dims.z};
+  for (int a = 0; a < 3; ++a) {
+    const double c = std::clamp(ijk[a], 0.0, double(dims[a] - 1));
+    i0[a] = std::min<int64_t>(int64_t(c), std::max<int64_t>(dims[a] - 2, 0));
+    f[a] = dims[a] > 1 ? c - double(i0[a]) : 0.0;
+  }
+  Vec3 u{0, 0, 0};
+  for (int c = 0; c < 8; ++c) {
+    int64_t idx[3];
+    double w = 1;
+    for (int a = 0; a < 3; ++a) {
+      const int bit = (c >> a) & 1;
+      idx[a] = std::min(i0[a] + bit, dims[a] - 1);
+      w *= bit ? f[a] : 1 - f[a];
+    }
+    if (w == 0) continue;
+    const size_t n = size_t((idx[2] * dims[1] + idx[1]) * dims[0] + idx[0]) * 3;
+    u += Vec3{m.sourceMm[n], m.sourceMm[n + 1], m.sourceMm[n + 2]} * w;
+  }
+  return u;
+}
+}  // namespace
+
+bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Vec3& mm) {
+  if (!scene.hasVolume() || scene.preset == render::Preset::Mip) return false;
+  const Geometry& g = scene.ct.geometry();
+  const render::Camera& cam = scene.camera;
+  const double radius = boundingRadius(g);
+  const CameraBasis b = cameraBasis(cam);
+  Vec3 origin, dir;
+  if (cam.fieldOfViewDeg > 0) {
+    const double half = cam.fieldOfViewDeg * M_PI / 360.0;
+    origin = g.center() + cam.panMm - b.forward * (radius / std::sin(half));
+    dir = normalized(mm - origin);
+  } else {
+    dir = b.forward;
+    origin = mm - dir * (2 * radius + norm(cam.panMm) + 1.0);
+  }
+  const Vec3& sp = g.spacing;
+  const double voxel = std::min({sp.x, sp.y, sp.z});
+  const double step = 0.5 * voxel, stop = norm(mm - origin) - voxel;
+  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.preset);
+  const double w = scene.renderWindow.width > 0 ? scene.renderWindow.width : 2000.0;
+  double transmitted = 1;
+  for (double t = 0; t < stop; t += step) {
+    const Vec3 v = origin + dir * t;
+    const double hu = scene.ct.sampleLinearMm(map ? mapAt(*map, v) : v);
+    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.renderWindow.center) * 2000.0 / w)[3];
+    transmitted *= std::pow(1.0 - std::clamp(alphaPerMm, 0.0, 0.999999), step);
+    if (transmitted <= 0.5) return true;
+  }
+  return false;
+}
+
 std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out) {
   const render::RenderSettings s = renderSettingsFor(scene, width, height);
   std::ostringstream c;
@@ -154,6 +216,12 @@ void View3D::setVolume(const VolumeI16& ct) {
   renderer_->setVolume(AnyVolume(ct));
   hasVolume_ = true;
   invalidate();
+}
+
+void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
+  context_.makeCurrent();
+  renderer_->setBackwardMap(map);
+  mapRevision_ = revision;
 }
 
 RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
@@ -197,7 +265,7 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
 
 bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool interacting) {
   if (!hasVolume_ || paneWidth < 2 || paneHeight < 2) return false;
-  const std::string key = viewKey(scene, paneWidth, paneHeight);
+  const std::string key = viewKey(scene, paneWidth, paneHeight) + " map " + std::to_string(mapRevision_);
   if (interacting) {  // coarse frames only, each a complete picture
     refining_ = false;
     if (key == lastKey_) return false;

@@ -13,6 +13,7 @@
 
 #include "gl_texture.hpp"
 #include "scene.hpp"
+#include "vellum/render/backward_map.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::studio {
@@ -38,6 +39,11 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
 /// meets nothing visible. Used to seed and to move the crosshair by clicking the 3D view.
 std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py);
 
+/// True when the point mm (LPS) is hidden in the 3D view: along the ray from the eye to it, the
+/// volume (deformed by `map` when given, as the renderer draws it) reaches half opacity more than
+/// one voxel before the point (the pickSurface() criterion). MIP hides nothing.
+bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Vec3& mm);
+
 /// The `vellum render` command line that writes the 3D view at width x height to `out`.
 std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out);
 
@@ -47,6 +53,9 @@ class View3D {
 
   explicit View3D(render::GlContext& context);
   void setVolume(const VolumeI16& ct);
+  /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
+  /// a new one renders again (coarse while the user drags, then refined).
+  void setBackwardMap(const render::BackwardMap* map, uint64_t revision);
   /// Renders when the view changed (or to refine after interaction). Returns true if it
   /// rendered this frame.
   bool update(const Scene& scene, int paneWidth, int paneHeight, bool interacting);
@@ -75,6 +84,7 @@ class View3D {
   bool hasVolume_ = false;
   bool refined_ = false;
   std::string lastKey_;
+  uint64_t mapRevision_ = 0;
   int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
   double lastMs_ = 0;
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);

@@ -29,6 +29,13 @@ def main(path):
                 scales[f["scale"]] = scales.get(f["scale"], 0) + 1
         sc = ", ".join(f"1/{k}: {v}" for k, v in sorted(scales.items()))
         print(f"{name:<12}{len(ms):>7}{statistics.mean(ms):>9.1f}{statistics.median(ms):>8.1f}{p90:>8.1f}{ms[-1]:>8.1f}  {sc}")
+        maps = sorted(float(f["map_ms"]) for f in fr if float(f.get("map_ms", 0)) > 0)
+        if maps:  # deformation re-solves (control-point drags)
+            coarse = sorted(float(f["render3d_ms"]) for f in fr if f["render3d"] == "1" and f["scale"] != "1")
+            line = f"{'':<12}map updates {len(maps)}: median {statistics.median(maps):.1f} ms, max {maps[-1]:.1f} ms"
+            if coarse:
+                line += f"; reduced-resolution 3D frames: median {statistics.median(coarse):.1f} ms, max {coarse[-1]:.1f} ms"
+            print(line)
     full = [float(line.split()[7]) for line in open(path)
             if line.startswith("frame") and " render3d 1 " in line and " scale 1 " in line]
     if full:

@@ -1,0 +1,270 @@
+// Deformation authoring in vellum-studio: the track model (no window) and scripted sessions
+// under the X server (skipped without $DISPLAY): place the default points, drag a target
+// through the real mouse path, rigid bones, keyframes, undo/redo, playback, and the export
+// against `vellum animate` on the same keyframes.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "authoring.hpp"
+#include "deform_session.hpp"
+#include "layout.hpp"
+#include "mpr.hpp"
+#include "scene_file.hpp"
+#include "test_data.hpp"
+#include "undo.hpp"
+#include "view3d.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/deformation/placement.hpp"
+#include "vellum/deformation/point_files.hpp"
+#include "vellum/io/image_io.hpp"
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+#include "vellum/render/projection.hpp"
+
+namespace vellum::studio {
+namespace {
+namespace fs = std::filesystem;
+using namespace vellum::deformation;
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Runs the studio on `script` (written into dir); returns the exit code, output in *log.
+int runStudio(const fs::path& dir, const std::string& name, const std::string& script, std::string* log) {
+  std::ofstream(dir / (name + ".json")) << script;
+  const fs::path out = dir / (name + ".log");
+  const std::string cmd = std::string("\"") + VELLUM_STUDIO_EXE + "\" --size 1024x700 --script \"" +
+                          (dir / (name + ".json")).string() + "\" > \"" + out.string() + "\" 2>&1";
+  const int status = std::system(cmd.c_str());
+  *log = slurp(out);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string q(const fs::path& p) {
+  std::string s = p.generic_string();
+  s.insert(s.begin(), '"');
+  s.push_back('"');
+  return s;
+}
+
+TEST(StudioAuthoringModel, AddKeyframeCopiesAndTrackEditsUndoExactly) {
+  Geometry g;
+  g.dims = {32, 32, 32};
+  g.spacing = {2, 2, 2};
+  Authoring a;
+  UndoStack undo;
+  LabelVolume labels;
+  auto edit = [&](const std::function<void(Authoring&)>& fn) {
+    TrackEdit e;
+    e.before = a.track;
+    e.keyframeBefore = a.keyframe;
+    fn(a);
+    e.after = a.track;
+    e.keyframeAfter = a.keyframe;
+    undo.push(std::move(e));
+  };
+  edit([&](Authoring& x) { placePoints(x, boxControlPoints(g)); });
+  ASSERT_EQ(a.currentPoints().size(), 16u);
+  edit([](Authoring& x) { addKeyframe(x); });
+  ASSERT_EQ(a.track.keyframes.size(), 2u);
+  EXPECT_EQ(a.keyframe, 1);
+  EXPECT_EQ(a.track.keyframes[0].points, a.track.keyframes[1].points);  // the paper's rule: a copy
+  const KeyframeTrack beforeMove = a.track;
+  edit([](Authoring& x) { x.editablePoints()[3].target.x += 7; });
+  const KeyframeTrack afterMove = a.track;
+  ASSERT_TRUE(undo.undo(labels, &a));
+  EXPECT_EQ(a.track.keyframes[1].points, beforeMove.keyframes[1].points);
+  EXPECT_FALSE(undo.lastWasLabels());
+  ASSERT_TRUE(undo.redo(labels, &a));
+  EXPECT_EQ(a.track.keyframes[1].points, afterMove.keyframes[1].points);
+  edit([](Authoring& x) { deletePoint(x, 0); });
+  EXPECT_EQ(a.track.keyframes[0].points.size(), 15u);
+  EXPECT_EQ(a.track.keyframes[1].points.size(), 15u);
+  // Interpolated while scrubbing: halfway between the keyframes.
+  a.timeS = 0.5;
+  EXPECT_NEAR(a.currentPoints()[2].target.x, 0.5 * (afterMove.keyframes[0].points[3].target.x + afterMove.keyframes[1].points[3].target.x), 1e-9);
+  EXPECT_THROW(undo.undo(labels, nullptr), Error);  // a track edit needs the authoring state
+}
+
+TEST(StudioAuthoringModel, SceneFileKeepsTheTrackBesideItAndNamesBadKeyframes) {
+  const fs::path d = test::tempDir("studio-authoring-scene");
+  phantom::PhantomOptions o;
+  o.dims = {24, 24, 24};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
+  Scene scene;
+  scene.ct = ph.ct;
+  scene.volumePath = d / "ct.nrrd";
+  placePoints(scene.authoring, boxControlPoints(ph.ct.geometry()));
+  addKeyframe(scene.authoring);
+  scene.authoring.editablePoints()[2].target.z += 5;
+  scene.authoring.rigidLabels = {4, 6};
+  writeSceneFile(describeScene(scene), d / "s.json");
+  ASSERT_TRUE(fs::exists(d / "s.keyframes.json"));
+  const SceneFile f = readSceneFile(d / "s.json");
+  ASSERT_TRUE(f.deformation);
+  EXPECT_EQ(f.deformation->track.keyframes.size(), 2u);
+  EXPECT_EQ(f.deformation->track.keyframes[1].points, scene.authoring.track.keyframes[1].points);
+  EXPECT_EQ(f.deformation->keyframe, 1);
+  EXPECT_EQ(f.deformation->rigidLabels, (std::vector<uint16_t>{4, 6}));
+  // The keyframe file is what `vellum animate --keyframes` reads.
+  EXPECT_EQ(loadKeyframes(d / "s.keyframes.json").keyframes[1].points, scene.authoring.track.keyframes[1].points);
+  // A keyframe index outside the track is refused naming the scene and the field.
+  std::string text = slurp(d / "s.json");
+  text.replace(text.find("\"keyframe\": 1"), 13, "\"keyframe\": 9");
+  std::ofstream(d / "bad.json") << text;
+  try {
+    readSceneFile(d / "bad.json");
+    FAIL() << "accepted a keyframe index outside the track";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("deformation.keyframe 9"), std::string::npos) << e.what();
+  }
+}
+
+TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const fs::path d = test::tempDir("studio-authoring");
+  phantom::PhantomOptions o;
+  o.dims = {64, 64, 64};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
+  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const std::string script = R"({"actions":[
+    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+    {"layout":"3d"},{"hud":false},
+    {"controls":"default"},{"save_scene":)" + q(d / "s0.json") + R"(},
+    {"drag_point":{"index":4,"end":"target","by_px":[40,-30]}},{"wait_idle":true},
+    {"save_scene":)" + q(d / "s1.json") + R"(},
+    {"keyframe":"add"},
+    {"drag_point":{"index":5,"end":"target","by_px":[25,-35],"mods":["shift"]}},
+    {"save_scene":)" + q(d / "s2.json") + R"(},
+    {"key":"ctrl+z"},{"save_scene":)" + q(d / "s3.json") + R"(},
+    {"key":"ctrl+shift+z"},{"save_scene":)" + q(d / "s4.json") + R"(},
+    {"keyframe":{"select":0,"duration":0.5}},
+    {"play":{"seconds":0.3}},
+    {"attribute_drag":{"index":4,"tool":"lightness","by_px":[0,-40]}},
+    {"attribute_drag":{"index":4,"tool":"hue","by_px":[20,10]}},
+    {"save_scene":)" + q(d / "s5.json") + R"(},
+    {"export_movie":{"out":)" + q(d / "studio/") + R"(,"fps":8,"size":"96x80","orbit":30,"command":)" + q(d / "cmd.txt") + R"(}},
+    {"screenshot":)" + q(d / "window.png") + R"(},
+    {"quit":0}]})";
+  std::string log;
+  ASSERT_EQ(runStudio(d, "author", script, &log), 0) << log;
+
+  // The drag moved the target in the plane through it parallel to the screen, following the
+  // pointer: it projects 40 px right and 30 px up of where it was drawn.
+  const SceneFile s0 = readSceneFile(d / "s0.json"), s1 = readSceneFile(d / "s1.json");
+  ASSERT_TRUE(s0.deformation && s1.deformation);
+  const ControlPoints& p0 = s0.deformation->track.keyframes[0].points;
+  const ControlPoints& p1 = s1.deformation->track.keyframes[0].points;
+  ASSERT_EQ(p0.size(), 16u);
+  EXPECT_EQ(p1[4].source, p0[4].source);
+  Scene view;
+  view.ct = ph.ct;
+  applySceneView(s1, view);
+  const std::vector<Pane> panes = layoutPanes(Layout::ThreeD, {kToolPanelWidth, 0, 1024 - kToolPanelWidth, 700});
+  const render::Projection proj(ph.ct.geometry(), renderSettingsFor(view, int(panes[0].rect.w), int(panes[0].rect.h)));
+  const Vec3 a = *proj.toPixel(p0[4].target), b = *proj.toPixel(p1[4].target);
+  EXPECT_NEAR(b.x - a.x, 40, 0.5);
+  EXPECT_NEAR(b.y - a.y, -30, 0.5);
+  EXPECT_NEAR(dot(p1[4].target - p0[4].target, proj.viewDirection()), 0, 1e-6);  // same depth
+  // The map at the dragged target returns the point's source (MLS interpolates its points).
+  Deformer deformer(AnyVolume(ph.ct), studioDeformParams());
+  deformer.setPoints(p1);
+  const Vec3 u = deformer.mapPoints({p1[4].target})[0];
+  EXPECT_LT(norm(u - p1[4].source), 0.05) << "map(target) is " << u.x << " " << u.y << " " << u.z;
+
+  // Bones stay rigid in the frame the studio renders (the node map, as the GL path samples it).
+  const RigidBodies bodies = RigidBodies::fromLabels(ph.labels, boneLikeLabels(ph.labels));
+  EXPECT_EQ(s1.deformation->rigidLabels, boneLikeLabels(ph.labels));
+  ControlVolume cv = deformer.update();
+  const RigidityReport plain = measureRigidityVoxels(cv, ph.ct.geometry(), bodies);
+  applyRigidity(cv, bodies, {s1.deformation->falloffMm});
+  cv.rigidSnap.reset();
+  const RigidityReport rigid = measureRigidityVoxels(cv, ph.ct.geometry(), bodies);
+  EXPECT_LT(rigid.boneRmsResidualMm, 0.5 * plain.boneRmsResidualMm + 1e-9);
+  EXPECT_LT(rigid.boneRmsResidualMm, 0.2);
+
+  // "Add keyframe" copied keyframe 0; the Shift drag moved point 5 along one axis only.
+  const SceneFile s2 = readSceneFile(d / "s2.json"), s3 = readSceneFile(d / "s3.json"), s4 = readSceneFile(d / "s4.json");
+  ASSERT_EQ(s2.deformation->track.keyframes.size(), 2u);
+  const ControlPoint& k0 = s2.deformation->track.keyframes[0].points[5];
+  const ControlPoint& k1 = s2.deformation->track.keyframes[1].points[5];
+  int changed = 0;
+  for (int axis = 0; axis < 3; ++axis) changed += std::abs(k1.target[axis] - k0.target[axis]) > 1e-9;
+  EXPECT_EQ(changed, 1);
+  // Undo restores the copy exactly; redo the drag.
+  EXPECT_EQ(s3.deformation->track.keyframes[1].points, s2.deformation->track.keyframes[0].points);
+  EXPECT_EQ(s4.deformation->track.keyframes[1].points, s2.deformation->track.keyframes[1].points);
+
+  // Attribute drags on the edited keyframe (0 after "select"): up 40 px = +20 L*; then the
+  // hue tool: right 20 px = +10 a*, down 10 px = -5 b*. The export below renders them.
+  const SceneFile s5 = readSceneFile(d / "s5.json");
+  const PointAttributes& at = s5.deformation->track.keyframes[0].points[4].attributes;
+  EXPECT_NEAR(at.lightness, 20, 1e-9);
+  EXPECT_NEAR(at.a, 10, 1e-9);
+  EXPECT_NEAR(at.b, -5, 1e-9);
+  EXPECT_EQ(s5.deformation->track.keyframes[0].points[4].target, s4.deformation->track.keyframes[0].points[4].target);
+
+  // The studio's frames are `vellum animate`'s frames on the same keyframes, pixel for pixel.
+  std::string cmd = slurp(d / "cmd.txt");
+  ASSERT_NE(cmd.find("vellum animate "), std::string::npos) << cmd;
+  const std::string studioOut = "'" + (d / "studio/").string() + "'";
+  ASSERT_NE(cmd.find(studioOut), std::string::npos) << cmd;
+  cmd.replace(cmd.find(studioOut), studioOut.size(), "'" + (d / "cli/").string() + "'");
+  cmd.replace(0, std::string("vellum").size(), std::string("\"") + VELLUM_CLI_EXE + "\"");
+  cmd.pop_back();  // newline
+  ASSERT_EQ(std::system((cmd + " > \"" + (d / "cli.log").string() + "\" 2>&1").c_str()), 0) << slurp(d / "cli.log");
+  int frames = 0;
+  for (const auto& e : fs::directory_iterator(d / "studio")) {
+    if (e.path().extension() != ".png") continue;
+    ++frames;
+    const RgbaImage a1 = io::loadImage(e.path()), b1 = io::loadImage(d / "cli" / e.path().filename());
+    EXPECT_EQ(a1.pixels, b1.pixels) << e.path().filename();
+  }
+  // 0.5 s + 1 s (the last keyframe holds) at 8 fps, and the end frame.
+  EXPECT_EQ(frames, 13);
+}
+
+TEST(StudioAuthoringScript, PointsFromLabelsAndASliceDragStaysInTheSlicePlane) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const fs::path d = test::tempDir("studio-authoring-slice");
+  phantom::PhantomOptions o;
+  o.dims = {48, 48, 48};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
+  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const std::string script = R"({"actions":[
+    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+    {"layout":"2x2"},{"controls":"labels"},{"save_scene":)" + q(d / "a.json") + R"(},
+    {"drag_point":{"index":0,"end":"target","by_px":[20,-10],"view":"axial"}},
+    {"save_scene":)" + q(d / "b.json") + R"(},{"quit":0}]})";
+  std::string log;
+  ASSERT_EQ(runStudio(d, "slice", script, &log), 0) << log;
+  const SceneFile a = readSceneFile(d / "a.json"), b = readSceneFile(d / "b.json");
+  const ControlPoints& pa = a.deformation->track.keyframes[0].points;
+  const ControlPoints& pb = b.deformation->track.keyframes[0].points;
+  EXPECT_EQ(pa, labelControlPoints(ph.labels));  // the "Points from labels" placement
+  // In the axial slice the target moves within the slice plane: by 20 px along screen right
+  // and 10 px up, at the slice's mm per pixel; z stays.
+  const std::vector<Pane> panes = layoutPanes(Layout::TwoByTwo, {kToolPanelWidth, 0, 1024 - kToolPanelWidth, 700});
+  const Pane* axial = nullptr;
+  for (const Pane& p : panes)
+    if (p.slice == SliceAxis::Axial) axial = &p;
+  ASSERT_TRUE(axial);
+  const SlicePlane plane = makePlane(SliceAxis::Axial, ph.ct.geometry(), a.crosshairMm, int(axial->rect.w), int(axial->rect.h));
+  const Vec3 expected = pa[0].target + plane.u * (20 * plane.mmPerPixel) - plane.v * (10 * plane.mmPerPixel);
+  EXPECT_LT(norm(pb[0].target - expected), 1e-6);
+  EXPECT_DOUBLE_EQ(pb[0].target.z, pa[0].target.z);
+}
+
+}  // namespace
+}  // namespace vellum::studio

@@ -1,0 +1,77 @@
+#pragma once
+// Keyframed deformation movies through the GL renderer. `vellum animate`, the demo and the
+// studio's export all render through MovieRenderer, so their frames are the same pixels.
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "vellum/core/image.hpp"
+#include "vellum/core/progress.hpp"
+#include "vellum/core/volume.hpp"
+#include "vellum/deformation/deformer.hpp"
+#include "vellum/deformation/keyframes.hpp"
+#include "vellum/deformation/rigidity.hpp"
+#include "vellum/render/backward_map.hpp"
+#include "vellum/render/gl_context.hpp"
+#include "vellum/render/render_settings.hpp"
+
+namespace vellum::animation {
+
+/// The renderer's view of a control volume (node map and attributes; the GL path samples the
+/// node map only, see ControlVolume::rigidSnap).
+render::BackwardMap toBackwardMap(const deformation::ControlVolume& cv);
+
+struct MovieSpec {
+  std::filesystem::path moviePath;  ///< empty: no movie
+  std::filesystem::path framesDir;  ///< empty: no PNG frames (frame-00000.png, ...)
+  double fps = 30;
+  render::RenderSettings settings;
+  double orbitDeg = 0;  ///< camera azimuth turn over the whole animation
+};
+
+/// Rigid bones: the bodies and the blend band; measureStride 0 skips the per-frame measures.
+struct MovieRigidity {
+  const deformation::RigidBodies* bodies = nullptr;
+  double falloffMm = 10;
+  int measureStride = 1;
+};
+
+struct FrameRigidity {
+  deformation::RigidityReport voxelsAsRendered, nodes;
+};
+
+struct MovieResult {
+  int frames = 0;
+  double deformMs = 0, renderMs = 0;
+  deformation::RigidityReport worst;  ///< largest bone residual / fold fraction over the frames
+  std::vector<FrameRigidity> perFrame;
+};
+
+/// Renders a track one frame per call (so a window can show progress and cancel between
+/// frames); renderTrack() is the loop over it.
+class MovieRenderer {
+ public:
+  /// Renders with `context` (headless for the CLI, the studio's window context); the volume is
+  /// uploaded and copied into the Deformer here and not referenced later.
+  MovieRenderer(render::GlContext& context, const AnyVolume& volume, deformation::KeyframeTrack track,
+                const deformation::DeformParams& params, MovieRigidity rigidity, MovieSpec spec);
+  ~MovieRenderer();
+  int frameCount() const;
+  int framesDone() const;
+  bool done() const { return framesDone() >= frameCount(); }
+  /// Renders and writes the next frame; returns it.
+  RgbaImage renderNext();
+  /// Closes the movie file; the timings and measures so far.
+  MovieResult finish();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Every frame of `track` (validated first) in order, with progress.
+MovieResult renderTrack(render::GlContext& context, const AnyVolume& volume, const deformation::KeyframeTrack& track,
+                        const deformation::DeformParams& params, const MovieRigidity& rigidity, const MovieSpec& spec,
+                        Progress& progress = Progress::none());
+
+}  // namespace vellum::animation

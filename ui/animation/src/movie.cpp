@@ -1,0 +1,132 @@
+#include "vellum/animation/movie.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <optional>
+
+#include "vellum/io/image_io.hpp"
+#include "vellum/io/video_io.hpp"
+#include "vellum/render/volume_renderer.hpp"
+
+namespace vellum::animation {
+namespace fs = std::filesystem;
+using namespace vellum::deformation;
+
+render::BackwardMap toBackwardMap(const ControlVolume& cv) {
+  render::BackwardMap m;
+  m.grid = cv.grid;
+  m.sourceMm = cv.sourceMm;
+  m.attributes = cv.attributes;
+  return m;
+}
+
+namespace {
+double msSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+struct MovieRenderer::Impl {
+  render::GlContext& context;
+  render::VolumeRenderer renderer;
+  Deformer deformer;
+  KeyframeTrack track;
+  MovieRigidity rigidity;
+  MovieSpec spec;
+  Geometry geometry;
+  std::unique_ptr<io::VideoWriter> video;
+  int frames = 0, next = 0;
+  MovieResult result;
+
+  Impl(render::GlContext& c, const AnyVolume& volume, KeyframeTrack t, const DeformParams& params, MovieRigidity r,
+       MovieSpec s)
+      : context(c), renderer(c), deformer(volume, params), track(std::move(t)), rigidity(r), spec(std::move(s)),
+        geometry(geometryOf(volume)) {
+    track.validate();
+    frames = track.frameCount(spec.fps);
+    renderer.setVolume(volume);
+    if (!spec.moviePath.empty())
+      video = std::make_unique<io::VideoWriter>(spec.moviePath, spec.settings.width, spec.settings.height, spec.fps);
+    if (!spec.framesDir.empty()) fs::create_directories(spec.framesDir);
+  }
+
+  void measure(ControlVolume& cv) {
+    // Voxel level over the map the renderer samples: the node map upsampled trilinearly on the
+    // GPU, without the CPU synthesis' voxel snap (RigidSnap).
+    cv.rigidSnap.reset();
+    const RigidityReport m = measureRigidityVoxels(cv, geometry, *rigidity.bodies, Upsampling::Trilinear,
+                                                   rigidity.measureStride);
+    result.perFrame.push_back({m, measureRigidity(cv, *rigidity.bodies)});
+    RigidityReport& w = result.worst;
+    w.boneRmsResidualMm = std::max(w.boneRmsResidualMm, m.boneRmsResidualMm);
+    w.boneMaxResidualMm = std::max(w.boneMaxResidualMm, m.boneMaxResidualMm);
+    w.foldFraction = std::max(w.foldFraction, m.foldFraction);
+    w.softTissueMeanDisplacementMm = std::max(w.softTissueMeanDisplacementMm, m.softTissueMeanDisplacementMm);
+    w.components = m.components;
+    w.voxelLevel = true;
+    w.stride = m.stride;
+    w.nodes = m.nodes;
+    w.boneNodes = std::max(w.boneNodes, m.boneNodes);
+    w.softNodes = std::max(w.softNodes, m.softNodes);
+  }
+
+  RgbaImage renderNext() {
+    const int f = next;
+    const auto t0 = std::chrono::steady_clock::now();
+    deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
+    ControlVolume cv = deformer.update();
+    if (rigidity.bodies) applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm});
+    const render::BackwardMap map = toBackwardMap(cv);
+    renderer.setBackwardMap(&map);
+    result.deformMs += msSince(t0);
+    render::RenderSettings s = spec.settings;
+    // Seamless orbit: frame f of n turns f/n of the angle (the last frame does not repeat the first).
+    s.camera.azimuthDeg += spec.orbitDeg * f / (track.loop ? frames : std::max(frames - 1, 1));
+    const auto t1 = std::chrono::steady_clock::now();
+    RgbaImage img = renderer.render(s);
+    result.renderMs += msSince(t1);
+    if (video) video->addFrame(img);
+    if (!spec.framesDir.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame-%05d.png", f);
+      io::saveImage(img, spec.framesDir / name);
+    }
+    if (rigidity.bodies && rigidity.measureStride > 0) measure(cv);
+    ++next;
+    return img;
+  }
+};
+
+MovieRenderer::MovieRenderer(render::GlContext& context, const AnyVolume& volume, KeyframeTrack track,
+                             const DeformParams& params, MovieRigidity rigidity, MovieSpec spec)
+    : impl_(std::make_unique<Impl>(context, volume, std::move(track), params, rigidity, std::move(spec))) {}
+MovieRenderer::~MovieRenderer() = default;
+int MovieRenderer::frameCount() const { return impl_->frames; }
+int MovieRenderer::framesDone() const { return impl_->next; }
+RgbaImage MovieRenderer::renderNext() { return impl_->renderNext(); }
+
+MovieResult MovieRenderer::finish() {
+  if (impl_->video) {
+    impl_->video->finish();
+    impl_->video.reset();
+  }
+  MovieResult r = impl_->result;
+  r.frames = impl_->next;
+  return r;
+}
+
+MovieResult renderTrack(render::GlContext& context, const AnyVolume& volume, const KeyframeTrack& track,
+                        const DeformParams& params, const MovieRigidity& rigidity, const MovieSpec& spec,
+                        Progress& progress) {
+  MovieRenderer movie(context, volume, track, params, rigidity, spec);
+  progress.begin("frames", static_cast<uint64_t>(movie.frameCount()));
+  while (!movie.done()) {
+    movie.renderNext();
+    progress.advance();
+  }
+  progress.end();
+  return movie.finish();
+}
+
+}  // namespace vellum::animation

@@ -1,0 +1,304 @@
+// StudioApp: the control-point metaphor. Source = grey dot, target = green dot, a grey line
+// between them (green for the selected point), sized in screen pixels, over the 3D view
+// (projected with render::Projection, the renderer's own camera) and the slice views. A press
+// on a dot drags that end in the plane through it parallel to the screen (Shift: along the
+// LPS axis closest to the pointer's motion); in a slice, within the slice plane.
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "app.hpp"
+#include "deform_session.hpp"
+#include "view3d.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/deformation/placement.hpp"
+#include "vellum/render/projection.hpp"
+
+namespace vellum::studio {
+using deformation::ControlPoints;
+
+namespace {
+constexpr float kDotRadiusPx = 5.f;
+constexpr double kPickRadiusPx = 9.0;
+const ImU32 kGrey = IM_COL32(170, 170, 170, 255);
+const ImU32 kGreen = IM_COL32(60, 220, 90, 255);
+const ImU32 kSelectedRing = IM_COL32(255, 255, 255, 255);
+
+Vec3 endOf(const deformation::ControlPoint& p, PointEnd e) { return e == PointEnd::Source ? p.source : p.target; }
+}  // namespace
+
+void applyAttributeDrag(deformation::PointAttributes& out, const deformation::PointAttributes& start, PointTool tool,
+                        double dx, double dy) {
+  out = start;
+  switch (tool) {
+    case PointTool::Lightness:  // up = lighter: 0.5 L* per pixel
+      out.lightness = std::clamp(start.lightness - 0.5 * dy, -100.0, 100.0);
+      break;
+    case PointTool::Hue:  // right = redder (a*), up = yellower (b*)
+      out.a = std::clamp(start.a + 0.5 * dx, -128.0, 128.0);
+      out.b = std::clamp(start.b - 0.5 * dy, -128.0, 128.0);
+      break;
+    case PointTool::Density:  // up = denser: x2 per 100 pixels
+      out.density = std::clamp(start.density * std::exp2(-dy / 100.0), 0.0, 16.0);
+      break;
+    case PointTool::Move:
+      break;
+  }
+}
+
+std::optional<std::pair<double, double>> StudioApp::pointInPane(const Pane& pane, const Vec3& mm) const {
+  if (pane.is3d()) {
+    const render::Projection proj(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
+    const auto px = proj.toPixel(mm);
+    if (!px) return std::nullopt;
+    // Projection puts pixel centres on integers; window coordinates put them at +0.5.
+    return std::pair{pane.rect.x + px->x + 0.5, pane.rect.y + px->y + 0.5};
+  }
+  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const auto [x, y] = plane.toPixel(mm);
+  return std::pair{pane.rect.x + x, pane.rect.y + y};
+}
+
+std::optional<PointHandle> StudioApp::pickPoint(const Pane& pane, double x, double y) const {
+  const ControlPoints pts = scene_.authoring.currentPoints();
+  std::optional<PointHandle> best;
+  double bestD = kPickRadiusPx;
+  for (int i = 0; i < int(pts.size()); ++i)
+    for (PointEnd e : {PointEnd::Target, PointEnd::Source}) {  // targets win ties: they are what one drags
+      const auto p = pointInPane(pane, endOf(pts[size_t(i)], e));
+      if (!p) continue;
+      const double d = std::hypot(p->first - x, p->second - y);
+      if (d < bestD) bestD = d, best = PointHandle{i, e};
+    }
+  return best;
+}
+
+std::optional<std::pair<double, double>> StudioApp::pointOnScreen(int index, PointEnd end,
+                                                                  const std::string& view) const {
+  const ControlPoints pts = scene_.authoring.currentPoints();
+  if (index < 0 || index >= int(pts.size())) return std::nullopt;
+  std::vector<const Pane*> order;
+  for (const Pane& p : panes_) {
+    if (!view.empty() && view != (p.is3d() ? "3d" : sliceAxisName(*p.slice))) continue;
+    if (p.is3d()) order.insert(order.begin(), &p);
+    else order.push_back(&p);
+  }
+  for (const Pane* p : order)
+    if (auto px = pointInPane(*p, endOf(pts[size_t(index)], end)); px && p->rect.contains(px->first, px->second))
+      return px;
+  return std::nullopt;
+}
+
+void StudioApp::drawControlPoints(const Pane& pane) {
+  const ControlPoints pts = scene_.authoring.currentPoints();
+  if (pts.empty()) return;
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();
+  dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
+  const int selected = scene_.authoring.selected;
+  // Selected last, so its line and dots lie on top.
+  std::vector<int> order;
+  for (int i = 0; i < int(pts.size()); ++i)
+    if (i != selected) order.push_back(i);
+  if (selected >= 0 && selected < int(pts.size())) order.push_back(selected);
+  // In a slice, points away from the slice plane are dimmed (they are not in that section).
+  std::optional<SlicePlane> plane;
+  if (!pane.is3d())
+    plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const Vec3& sp = scene_.ct.geometry().spacing;
+  const double nearMm = 1.5 * std::max({sp.x, sp.y, sp.z});
+  // In the 3D view, dots behind the volume's first visible surface are dimmed (depth test
+  // on the CPU along the eye ray, through the deformation the view draws).
+  const render::BackwardMap* map = deform_->map();
+  auto hidden = [&](const Vec3& mm) {
+    return plane ? std::abs(dot(mm - scene_.crosshairMm, plane->normal)) > nearMm : occludedInView(scene_, map, mm);
+  };
+  if (!plane) {
+    // The eye rays depend on the view and the map, not on the pane: cache them across frames.
+    std::ostringstream key;
+    key.precision(12);
+    const auto& c = scene_.camera;
+    key << c.azimuthDeg << ' ' << c.elevationDeg << ' ' << c.fieldOfViewDeg << ' ' << c.panMm.x << ' ' << c.panMm.y
+        << ' ' << c.panMm.z << ' ' << int(scene_.preset) << ' ' << scene_.renderWindow.center << ' '
+        << scene_.renderWindow.width << ' ' << deform_->mapRevision() << ' ' << scene_.authoring.revision << ' '
+        << scene_.volumeGeneration;
+    if (key.str() != occlusionKey_ || occlusion_.size() != pts.size()) {
+      occlusion_.resize(pts.size());
+      for (size_t i = 0; i < pts.size(); ++i) occlusion_[i] = {hidden(pts[i].source), hidden(pts[i].target)};
+      occlusionKey_ = key.str();
+    }
+  }
+  for (int i : order) {
+    const auto& cp = pts[size_t(i)];
+    const bool dimSource = plane ? hidden(cp.source) : occlusion_[size_t(i)][0];
+    const bool dimTarget = plane ? hidden(cp.target) : occlusion_[size_t(i)][1];
+    auto faded = [&](ImU32 c, const Vec3& mm) {
+      const bool dim = &mm == &cp.source ? dimSource : dimTarget;
+      return dim ? (c & 0x00FFFFFFu) | (IM_COL32_A_MASK & IM_COL32(0, 0, 0, 70)) : c;
+    };
+    const auto s = pointInPane(pane, cp.source), t = pointInPane(pane, cp.target);
+    if (!s || !t) continue;
+    const ImVec2 a{float(s->first), float(s->second)}, b{float(t->first), float(t->second)};
+    const bool sel = i == selected;
+    dl->AddLine(a, b, faded(sel ? kGreen : kGrey, cp.target), sel ? 2.5f : 1.5f);
+    dl->AddCircleFilled(a, kDotRadiusPx, faded(kGrey, cp.source));
+    dl->AddCircle(a, kDotRadiusPx, faded(IM_COL32(40, 40, 40, 255), cp.source));
+    dl->AddCircleFilled(b, kDotRadiusPx, faded(kGreen, cp.target));
+    dl->AddCircle(b, kDotRadiusPx, faded(sel ? kSelectedRing : IM_COL32(20, 60, 20, 255), cp.target), 0, sel ? 2.f : 1.f);
+  }
+  drawKeyframeConnector(pane);
+  dl->PopClipRect();
+}
+
+void StudioApp::drawKeyframeConnector(const Pane& pane) {
+  // The selected point's target in the previous / current / next keyframe, red / green / blue,
+  // joined by a Y: three arms from their centroid.
+  const Authoring& a = scene_.authoring;
+  const int n = int(a.track.keyframes.size());
+  if (n < 2 || a.selected < 0 || a.timeS) return;
+  std::vector<std::pair<ImVec2, ImU32>> ends;
+  const int k = std::clamp(a.keyframe, 0, n - 1);
+  const std::pair<int, ImU32> which[] = {{k - 1, IM_COL32(235, 70, 70, 255)}, {k, kGreen}, {k + 1, IM_COL32(80, 130, 255, 255)}};
+  for (const auto& [kf, colour] : which) {
+    const int i = a.track.loop ? (kf + n) % n : kf;
+    if (i < 0 || i >= n) continue;
+    const auto& pts = a.track.keyframes[size_t(i)].points;
+    if (a.selected >= int(pts.size())) return;
+    if (const auto p = pointInPane(pane, pts[size_t(a.selected)].target))
+      ends.push_back({ImVec2{float(p->first), float(p->second)}, colour});
+  }
+  if (ends.size() < 2) return;
+  ImVec2 c{0, 0};
+  for (const auto& e : ends) c.x += e.first.x / float(ends.size()), c.y += e.first.y / float(ends.size());
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();
+  for (const auto& [p, colour] : ends) {
+    dl->AddLine(c, p, colour, 1.5f);
+    dl->AddCircle(p, kDotRadiusPx + 3, colour, 0, 2.f);
+  }
+}
+
+bool StudioApp::beginPointDrag(const Pane& pane, double x, double y, int mods) {
+  if (scene_.authoring.playing || !scene_.authoring.active()) return false;
+  const auto hit = pickPoint(pane, x, y);
+  if (!hit) return false;
+  Authoring& a = scene_.authoring;
+  if (a.timeS) {  // scrubbed between keyframes: edit the keyframe being shown
+    a.timeS.reset();
+    a.touch();
+  }
+  a.selected = hit->index;
+  PointDrag d;
+  d.handle = *hit;
+  d.startMm = endOf(a.editablePoints()[size_t(hit->index)], hit->end);
+  d.tool = tools_.pointTool;
+  d.startAttributes = a.editablePoints()[size_t(hit->index)].attributes;
+  d.pressX = x;
+  d.pressY = y;
+  d.mods = mods;
+  d.before = a.track;
+  d.keyframeBefore = a.keyframe;
+  pointDrag_ = d;
+  return true;
+}
+
+void StudioApp::movePointDrag(double x, double y) {
+  if (!pointDrag_ || !dragPane_) return;
+  const PointDrag& d = *pointDrag_;
+  const Pane& pane = *dragPane_;
+  const double dx = x - d.pressX, dy = y - d.pressY;
+  if (d.tool != PointTool::Move) {
+    applyAttributeDrag(scene_.authoring.editablePoints()[size_t(d.handle.index)].attributes, d.startAttributes, d.tool,
+                       dx, dy);
+    scene_.authoring.touch();
+    return;
+  }
+  // Screen directions at the point's depth: the pixel motion of 1 mm along right, up (3D) or
+  // the slice's u, v axes. In-plane, motion is linear in mm (constant depth).
+  Vec3 right, down;
+  double pxPerMm = 1;
+  if (pane.is3d()) {
+    const render::Projection proj(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
+    const auto p0 = proj.toPixel(d.startMm), p1 = proj.toPixel(d.startMm + proj.screenRight());
+    if (!p0 || !p1) return;
+    pxPerMm = std::hypot(p1->x - p0->x, p1->y - p0->y);
+    right = proj.screenRight();
+    down = -proj.screenUp();
+  } else {
+    const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+    pxPerMm = 1.0 / plane.mmPerPixel;
+    right = plane.u;
+    down = plane.v;
+  }
+  if (pxPerMm <= 0) return;
+  Vec3 move = right * (dx / pxPerMm) + down * (dy / pxPerMm);
+  if (d.mods & GLFW_MOD_SHIFT) {
+    // Axis constraint: the LPS axis whose on-screen direction best matches the motion.
+    int best = 0;
+    double bestScore = -1;
+    for (int axis = 0; axis < 3; ++axis) {
+      Vec3 e;
+      e[axis] = 1;
+      const double sx = dot(e, right), sy = dot(e, down), len = std::hypot(sx, sy);
+      if (len < 1e-6) continue;
+      const double score = std::abs(dx * sx + dy * sy) / len;
+      if (score > bestScore) bestScore = score, best = axis;
+    }
+    Vec3 e;
+    e[best] = 1;
+    const double sx = dot(e, right), sy = dot(e, down), len2 = sx * sx + sy * sy;
+    move = len2 > 1e-12 ? e * ((dx * sx + dy * sy) / len2 / pxPerMm) : Vec3{};
+  }
+  auto& p = scene_.authoring.editablePoints()[size_t(d.handle.index)];
+  (d.handle.end == PointEnd::Source ? p.source : p.target) = d.startMm + move;
+  scene_.authoring.touch();
+}
+
+void StudioApp::endPointDrag() {
+  if (!pointDrag_) return;
+  TrackEdit e;
+  e.description = "drag point " + std::to_string(pointDrag_->handle.index);
+  e.before = std::move(pointDrag_->before);
+  e.keyframeBefore = pointDrag_->keyframeBefore;
+  e.after = scene_.authoring.track;
+  e.keyframeAfter = scene_.authoring.keyframe;
+  pointDrag_.reset();
+  if (!(e.before.keyframes.size() == e.after.keyframes.size() &&
+        std::equal(e.before.keyframes.begin(), e.before.keyframes.end(), e.after.keyframes.begin(),
+                   [](const auto& a, const auto& b) { return a.points == b.points; })))
+    undo_.push(std::move(e));  // a click without motion only selects
+}
+
+void StudioApp::editTrack(const std::string& description, const std::function<void(Authoring&)>& fn) {
+  TrackEdit e;
+  e.description = description;
+  e.before = scene_.authoring.track;
+  e.keyframeBefore = scene_.authoring.keyframe;
+  fn(scene_.authoring);
+  e.after = scene_.authoring.track;
+  e.keyframeAfter = scene_.authoring.keyframe;
+  scene_.authoring.touch();
+  undo_.push(std::move(e));
+}
+
+void StudioApp::pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore) {
+  TrackEdit e;
+  e.description = description;
+  e.before = std::move(before);
+  e.keyframeBefore = keyframeBefore;
+  e.after = scene_.authoring.track;
+  e.keyframeAfter = scene_.authoring.keyframe;
+  undo_.push(std::move(e));
+}
+
+void StudioApp::placeControls(bool fromLabels) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  if (fromLabels && scene_.labels.ids().empty()) throw Error("no label map is open");
+  ControlPoints pts = fromLabels ? deformation::labelControlPoints(scene_.labels)
+                                 : deformation::boxControlPoints(scene_.ct.geometry());
+  editTrack(fromLabels ? "points from labels" : "default points",
+            [&](Authoring& a) { placePoints(a, std::move(pts)); });
+}
+
+}  // namespace vellum::studio

@@ -1,0 +1,88 @@
+#include "authoring.hpp"
+
+#include <algorithm>
+#include <cctype>
+
+#include "vellum/core/error.hpp"
+
+namespace vellum::studio {
+using deformation::ControlPoint;
+using deformation::ControlPoints;
+
+ControlPoints Authoring::currentPoints() const {
+  if (!active()) return {};
+  if (timeS) return track.at(*timeS);
+  return track.keyframes[static_cast<size_t>(std::clamp(keyframe, 0, int(track.keyframes.size()) - 1))].points;
+}
+
+ControlPoints& Authoring::editablePoints() {
+  if (!active()) throw Error("no control points: place them first");
+  keyframe = std::clamp(keyframe, 0, int(track.keyframes.size()) - 1);
+  return track.keyframes[static_cast<size_t>(keyframe)].points;
+}
+
+double keyframeStartS(const deformation::KeyframeTrack& t, int k) {
+  double s = 0;
+  for (int i = 0; i < k && i < int(t.keyframes.size()); ++i) s += t.keyframes[size_t(i)].durationS;
+  return s;
+}
+
+void placePoints(Authoring& a, ControlPoints points) {
+  a.track.keyframes = {deformation::Keyframe{1.0, std::move(points)}};
+  a.keyframe = 0;
+  a.selected = -1;
+  a.timeS.reset();
+  a.playing = false;
+  a.touch();
+}
+
+void addKeyframe(Authoring& a) {
+  if (!a.active()) throw Error("no keyframe to copy: place control points first");
+  const ControlPoints copy = a.currentPoints();  // while scrubbing: the in-between pose
+  const double duration = a.track.keyframes[static_cast<size_t>(a.keyframe)].durationS;
+  a.track.keyframes.insert(a.track.keyframes.begin() + a.keyframe + 1, deformation::Keyframe{duration, copy});
+  ++a.keyframe;
+  a.timeS.reset();
+  a.touch();
+}
+
+void deleteKeyframe(Authoring& a, int index) {
+  if (index < 0 || index >= int(a.track.keyframes.size())) throw Error("no keyframe " + std::to_string(index));
+  a.track.keyframes.erase(a.track.keyframes.begin() + index);
+  a.keyframe = std::clamp(a.keyframe, 0, std::max(0, int(a.track.keyframes.size()) - 1));
+  a.timeS.reset();
+  a.touch();
+}
+
+void addPoint(Authoring& a, const Vec3& mm) {
+  if (!a.active()) a.track.keyframes = {deformation::Keyframe{1.0, {}}};
+  for (auto& k : a.track.keyframes) k.points.push_back(ControlPoint{mm, mm, {}});
+  a.selected = int(a.track.keyframes.front().points.size()) - 1;
+  a.touch();
+}
+
+void deletePoint(Authoring& a, int index) {
+  if (!a.active() || index < 0 || index >= int(a.track.keyframes.front().points.size()))
+    throw Error("no control point " + std::to_string(index));
+  for (auto& k : a.track.keyframes) k.points.erase(k.points.begin() + index);
+  a.selected = -1;
+  a.touch();
+}
+
+std::vector<uint16_t> boneLikeLabels(const LabelVolume& labels) {
+  static const char* kWords[] = {"bone", "femur", "tibia", "fibula", "patella", "cortical", "cancellous",
+                                 "skull", "vertebra", "rib", "pelvis", "humerus"};
+  std::vector<uint16_t> ids;
+  for (const Label& l : labels.table()) {
+    std::string n = l.name;
+    std::transform(n.begin(), n.end(), n.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    for (const char* w : kWords)
+      if (n.find(w) != std::string::npos) {
+        ids.push_back(l.id);
+        break;
+      }
+  }
+  return ids;
+}
+
+}  // namespace vellum::studio

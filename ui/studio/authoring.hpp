@@ -1,0 +1,51 @@
+#pragma once
+// The deformation being authored: a keyframe track of control points (mm), the keyframe being
+// edited, the selected point and playback time. Plain data (no GL), saved with the scene as a
+// `vellum animate` keyframe file beside it; every edit of the track is one undo step.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "vellum/core/label_volume.hpp"
+#include "vellum/deformation/keyframes.hpp"
+
+namespace vellum::studio {
+
+enum class PointEnd { Source, Target };
+
+struct Authoring {
+  deformation::KeyframeTrack track;  ///< no keyframes = no deformation
+  int keyframe = 0;                  ///< the keyframe whose points are shown and edited
+  int selected = -1;                 ///< selected point index, -1 = none
+  /// Set while playing or scrubbing: the view shows track.at(time) instead of the keyframe.
+  std::optional<double> timeS;
+  bool playing = false;
+  std::vector<uint16_t> rigidLabels;  ///< label ids that stay rigid (bones); empty = none
+  double falloffMm = 10;              ///< `vellum animate --rigid-falloff`
+  uint64_t revision = 0;              ///< bumped by every change of what is drawn
+
+  bool active() const { return !track.keyframes.empty(); }
+  /// The points drawn now: the interpolated ones while playing/scrubbing, else the keyframe's.
+  deformation::ControlPoints currentPoints() const;
+  /// The edited keyframe's points (throws when there is no keyframe).
+  deformation::ControlPoints& editablePoints();
+  void touch() { ++revision; }
+};
+
+/// The time (s) at which keyframe k is reached: the durations before it.
+double keyframeStartS(const deformation::KeyframeTrack& track, int k);
+/// Replaces the track by one keyframe holding `points` (sources = targets).
+void placePoints(Authoring& a, deformation::ControlPoints points);
+/// "Add keyframe" copies the current keyframe (the paper's rule) after it and edits the copy.
+void addKeyframe(Authoring& a);
+void deleteKeyframe(Authoring& a, int index);
+/// Adds a point (source = target = mm) to every keyframe; it becomes selected.
+void addPoint(Authoring& a, const Vec3& mm);
+void deletePoint(Authoring& a, int index);
+
+/// Label ids that look like bone by name (femur, tibia, fibula, patella, bone, ...): the
+/// default rigid bodies of a label map.
+std::vector<uint16_t> boneLikeLabels(const LabelVolume& labels);
+
+}  // namespace vellum::studio

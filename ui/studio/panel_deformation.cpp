@@ -1,0 +1,167 @@
+#include "panel_deformation.hpp"
+
+#include <imgui.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <optional>
+#include <string>
+
+#include "app.hpp"
+#include "deform_session.hpp"
+
+namespace vellum::studio {
+using deformation::Interpolation;
+
+namespace {
+
+void guarded(StudioApp& app, const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    app.showError(e.what());
+  }
+}
+
+void pointsRow(StudioApp& app) {
+  Scene& s = app.scene();
+  Authoring& a = s.authoring;
+  if (ImGui::Button("16 default points")) guarded(app, [&] { app.placeControls(false); });
+  ImGui::SameLine();
+  if (ImGui::Button("Points from labels")) guarded(app, [&] { app.placeControls(true); });
+  if (ImGui::Button("Add point")) {
+    // At the crosshair: the point the slices show.
+    guarded(app, [&] { app.editTrack("add point", [&](Authoring& x) { addPoint(x, s.crosshairMm); }); });
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Delete point") && a.selected >= 0) {
+    const int i = a.selected;
+    guarded(app, [&] { app.editTrack("delete point", [i](Authoring& x) { deletePoint(x, i); }); });
+  }
+  int tool = static_cast<int>(app.tools().pointTool);
+  const char* names[] = {"move", "light", "hue", "density"};  // what dragging a dot does
+  for (int t = 0; t < 4; ++t) {
+    if (t) ImGui::SameLine();
+    if (ImGui::RadioButton(names[t], &tool, t)) app.tools().pointTool = static_cast<PointTool>(t);
+  }
+  const int n = a.active() ? int(a.track.keyframes.front().points.size()) : 0;
+  ImGui::Text("%d points", n);
+  if (a.selected >= 0 && a.selected < n) {
+    const auto p = a.currentPoints()[size_t(a.selected)];
+    ImGui::Text("#%d target (%.1f, %.1f, %.1f) mm", a.selected, p.target.x, p.target.y, p.target.z);
+    ImGui::Text("   L %+.0f a %+.0f b %+.0f density %.2f", p.attributes.lightness, p.attributes.a, p.attributes.b,
+                p.attributes.density);
+  }
+  std::string rigid;
+  for (uint16_t id : a.rigidLabels) rigid += (rigid.empty() ? "" : ",") + std::to_string(id);
+  ImGui::Text("Rigid labels: %s", rigid.empty() ? "none" : rigid.c_str());
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("label ids kept rigid (bones), from the label names");
+  float falloff = float(a.falloffMm);
+  if (ImGui::SliderFloat("Rigid falloff mm", &falloff, 1.f, 40.f, "%.1f")) {
+    a.falloffMm = falloff;
+    a.touch();
+  }
+  if (const auto* t = app.deformSession().timings(); t && app.deformSession().map()) {
+    ImGui::Text("map update %.1f ms%s", app.deformSession().lastUpdateMs(), app.deformSession().preview() ? " (preview)" : "");
+    ImGui::Text("  MLS %.1f, rho %.1f (%d fields), rigid %.1f", t->mapMs, t->rhoCacheMs, t->rhoFieldsRebuilt,
+                app.deformSession().lastRigidityMs());
+  }
+}
+
+void timeline(StudioApp& app) {
+  Authoring& a = app.scene().authoring;
+  if (!a.active()) return;
+  // Blocks: one per keyframe, as wide as its duration; click to edit that keyframe.
+  const float width = ImGui::GetContentRegionAvail().x;
+  const double total = std::max(1e-6, a.track.totalDurationS());
+  for (int k = 0; k < int(a.track.keyframes.size()); ++k) {
+    if (k) ImGui::SameLine(0, 2);
+    const float w = std::max(18.f, float(a.track.keyframes[size_t(k)].durationS / total) * (width - 2 * a.track.keyframes.size()));
+    const bool current = k == a.keyframe && !a.timeS;
+    ImGui::PushStyleColor(ImGuiCol_Button, current ? ImVec4(0.2f, 0.6f, 0.3f, 1) : ImVec4(0.3f, 0.3f, 0.35f, 1));
+    if (ImGui::Button(("K" + std::to_string(k) + "##kf" + std::to_string(k)).c_str(), {w, 24})) {
+      a.keyframe = k;
+      a.timeS.reset();
+      a.playing = false;
+      a.touch();
+    }
+    ImGui::PopStyleColor();
+    // Dragging a block sideways changes its duration (one undo step per drag).
+    static std::optional<deformation::KeyframeTrack> before;
+    static int beforeKeyframe = 0;
+    if (ImGui::IsItemActivated()) before = a.track, beforeKeyframe = a.keyframe;
+    if (ImGui::IsItemActive() && ImGui::IsMouseDragging(ImGuiMouseButton_Left, 2.f)) {
+      const double secondsPerPx = total / std::max(1.f, width);
+      double& d = a.track.keyframes[size_t(k)].durationS;
+      d = std::clamp(d + ImGui::GetIO().MouseDelta.x * secondsPerPx, 0.05, 600.0);
+      a.touch();
+    }
+    if (ImGui::IsItemDeactivated() && before) {
+      if (before->keyframes.size() == a.track.keyframes.size() &&
+          before->keyframes[size_t(k)].durationS != a.track.keyframes[size_t(k)].durationS)
+        app.pushTrackEdit("keyframe duration", std::move(*before), beforeKeyframe);
+      before.reset();
+    }
+  }
+  float duration = float(a.track.keyframes[size_t(a.keyframe)].durationS);
+  if (ImGui::DragFloat("Duration s", &duration, 0.05f, 0.05f, 60.f, "%.2f")) {
+    const int k = a.keyframe;
+    const double d = std::max(0.05f, duration);
+    app.editTrack("keyframe duration", [k, d](Authoring& x) { x.track.keyframes[size_t(k)].durationS = d; });
+  }
+  if (ImGui::Button("Add keyframe")) guarded(app, [&] { app.editTrack("add keyframe", addKeyframe); });
+  ImGui::SameLine();
+  if (ImGui::Button("Delete keyframe") && a.track.keyframes.size() > 1) {
+    const int k = a.keyframe;
+    guarded(app, [&] { app.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); }); });
+  }
+  int interp = static_cast<int>(a.track.interpolation);
+  if (ImGui::Combo("Interpolation", &interp, "linear\0smooth\0eased\0")) {
+    app.editTrack("interpolation", [interp](Authoring& x) { x.track.interpolation = static_cast<Interpolation>(interp); });
+  }
+  bool loop = a.track.loop;
+  if (ImGui::Checkbox("Loop", &loop)) app.editTrack("loop", [loop](Authoring& x) { x.track.loop = loop; });
+  ImGui::SameLine();
+  if (ImGui::Button(a.playing ? "Pause" : "Play")) guarded(app, [&] { app.play(!a.playing); });
+  float t = float(a.timeS.value_or(keyframeStartS(a.track, a.keyframe)));
+  if (ImGui::SliderFloat("Time s", &t, 0.f, float(total), "%.2f")) {
+    a.playing = false;
+    a.timeS = t;
+    a.touch();
+  }
+}
+
+void exportRow(StudioApp& app) {
+  static char out[256] = "frames/";
+  static int size[2] = {512, 512};
+  static float fps = 30;
+  static float orbit = 0;
+  ImGui::InputText("Out (dir/ or .mp4)", out, sizeof out);
+  ImGui::InputInt2("Size", size);
+  ImGui::InputFloat("fps", &fps);
+  ImGui::InputFloat("Orbit deg", &orbit);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("turns the camera by this many degrees over the movie (turntable)");
+  if (app.exporting()) {
+    const auto [done, count] = app.exportProgress();
+    char label[64];
+    std::snprintf(label, sizeof label, "%d / %d frames", done, count);
+    ImGui::ProgressBar(count ? float(done) / float(count) : 0.f, {-70, 0}, label);
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel##export")) app.cancelExport();
+  } else if (ImGui::Button("Export movie")) {
+    guarded(app, [&] { app.startExport(out, fps, size[0], size[1], orbit); });
+  }
+}
+
+}  // namespace
+
+void deformationSection(StudioApp& app) {
+  if (!app.scene().hasVolume()) return;
+  pointsRow(app);
+  ImGui::Separator();
+  timeline(app);
+  ImGui::Separator();
+  if (app.scene().authoring.active()) exportRow(app);
+}
+
+}  // namespace vellum::studio
