@@ -78,3 +78,20 @@ std::vector<float> cageBackwardMap(const Cage& rest, const std::vector<Vec3>& de
                                    const Geometry& grid, int step = 4);
 
 }  // namespace vellum::illustration
+
+namespace vellum::illustration {
+
+/// C0 from a drawing (PNG/JPG; OpenCV): the largest outer contour of its dark strokes
+/// (grey < `darkThreshold` in 0..255, strokes closed by a 2-pixel morphological closing,
+/// holes filled), in the drawing's pixels. `width`/`height` receive the image size.
+/// Throws vellum::FileError naming the file when it cannot be read or has no dark region.
+Polyline2 loadDrawingOutline(const std::filesystem::path& path, int& width, int& height,
+                             int darkThreshold = 128);
+
+/// Before/after plate (PNG, atomic): the original silhouette (grey), the aligned drawing
+/// curve (red, dashed look by dots) and the deformed silhouette (blue) on white, at the
+/// view's image size.
+void writeCurvePlate(const std::filesystem::path& path, int width, int height,
+                     const Polyline2& before, const Polyline2& drawing, const Polyline2& after);
+
+}  // namespace vellum::illustration
