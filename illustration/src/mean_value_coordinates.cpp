@@ -62,13 +62,33 @@ double diagonal(const Cage& cage) {
   return std::max(norm(hi - lo), 1e-300);
 }
 
-/// Fills w (size = cage vertices) with the normalised coordinates of x. `tol` in mm.
-void evaluate(const Cage& cage, const Vec3& x, double tol, std::vector<double>& w) {
+/// The cage with what every point's evaluation shares: unit face normals, the tolerance.
+struct Prepared {
+  const Cage& cage;
+  std::vector<Vec3> normals;
+  double tol;
+  Prepared(const Cage& c, double relTol) : cage(c), tol(relTol * diagonal(c)) {
+    normals.reserve(c.faces.size());
+    for (const auto& f : c.faces) {
+      const Vec3 n = cross(c.vertices[f[1]] - c.vertices[f[0]], c.vertices[f[2]] - c.vertices[f[0]]);
+      const double len = norm(n);
+      normals.push_back(len > 0 ? n / len : Vec3{0, 0, 0});
+    }
+  }
+};
+
+/// Fills w (size = cage vertices) with the normalised coordinates of x.
+void evaluate(const Prepared& prep, const Vec3& x, std::vector<double>& w) {
+  const Cage& cage = prep.cage;
+  const double tol = prep.tol;
   std::fill(w.begin(), w.end(), 0.0);
   constexpr double kEps = 1e-12;
   // On the surface the integral is singular: return the barycentric limit.
-  for (const auto& f : cage.faces) {
+  for (size_t fi = 0; fi < cage.faces.size(); ++fi) {
+    const auto& f = cage.faces[fi];
     const Vec3 &a = cage.vertices[f[0]], &b = cage.vertices[f[1]], &c = cage.vertices[f[2]];
+    // Cheap reject: farther than tol from the face's plane (degenerate faces: full test).
+    if (std::abs(dot(x - a, prep.normals[fi])) > tol && dot(prep.normals[fi], prep.normals[fi]) > 0) continue;
     const auto bc = closestBarycentric(x, a, b, c);
     const Vec3 q = a * bc[0] + b * bc[1] + c * bc[2];
     if (norm(q - x) <= tol) {
@@ -91,8 +111,8 @@ void evaluate(const Cage& cage, const Vec3& x, double tol, std::vector<double>& 
     for (int i = 0; i < 3; ++i) {
       const Vec3& a = u[f[(i + 1) % 3]];
       const Vec3& b = u[f[(i + 2) % 3]];
-      theta[i] = std::atan2(norm(cross(a, b)), dot(a, b));
-      sinTheta[i] = std::sin(theta[i]);
+      sinTheta[i] = norm(cross(a, b));  // unit vectors: |a x b| = sin(theta)
+      theta[i] = std::atan2(sinTheta[i], dot(a, b));
     }
     const double h = (theta[0] + theta[1] + theta[2]) / 2;
     const Vec3 r0 = cage.vertices[f[0]] - x, r1 = cage.vertices[f[1]] - x, r2 = cage.vertices[f[2]] - x;
@@ -125,7 +145,7 @@ void evaluate(const Cage& cage, const Vec3& x, double tol, std::vector<double>& 
 
 std::vector<double> meanValueCoordinates(const Cage& cage, const Vec3& x, const MvcOptions& options) {
   std::vector<double> w(cage.vertices.size());
-  evaluate(cage, x, options.surfaceTolerance * diagonal(cage), w);
+  evaluate(Prepared(cage, options.surfaceTolerance), x, w);
   return w;
 }
 
@@ -136,12 +156,12 @@ std::vector<Vec3> transferByMeanValueCoordinates(const Cage& rest,
   if (deformedVertices.size() != rest.vertices.size())
     throw Error("mean value transfer: deformed cage has " + std::to_string(deformedVertices.size()) +
                 " vertices, the rest cage " + std::to_string(rest.vertices.size()));
-  const double tol = options.surfaceTolerance * diagonal(rest);
+  const Prepared prep(rest, options.surfaceTolerance);
   std::vector<Vec3> out(points.size());
   parallelFor(static_cast<int64_t>(points.size()), [&](int64_t begin, int64_t end) {
     std::vector<double> w(rest.vertices.size());
     for (int64_t p = begin; p < end; ++p) {
-      evaluate(rest, points[static_cast<size_t>(p)], tol, w);
+      evaluate(prep, points[static_cast<size_t>(p)], w);
       Vec3 y{0, 0, 0};
       for (size_t i = 0; i < w.size(); ++i)
         if (w[i] != 0) y += deformedVertices[i] * w[i];
