@@ -97,6 +97,18 @@ TEST(CurveAnalogy, OutlineMovesTowardDrawingAndMeshesStayValid) {
   const auto m0After = ill::transferMesh(m0, cage, r.proxyDeformed);
   const double after0 = ill::hausdorff(ill::silhouetteLoop(m0After, proj).pixels, r.c0Aligned, true, true);
   EXPECT_LE(after0, 0.5 * r.hausdorffBeforePx);
+
+  // The CT backward map (MVC w.r.t. the deformed cage applied to the rest cage) sends the
+  // deformed surface back onto the original one, within a voxel (1 mm here).
+  std::vector<Vec3> moved;
+  for (const auto& v : m0After.vertices) moved.push_back({v[0], v[1], v[2]});
+  const ill::Cage deformedCage{r.proxyDeformed, r.proxy.faces};
+  const auto back = ill::transferByMeanValueCoordinates(deformedCage, cage.vertices, moved);
+  double worst = 0;
+  for (size_t i = 0; i < back.size(); ++i)
+    worst = std::max(worst, norm(back[i] - Vec3{m0.vertices[i][0], m0.vertices[i][1], m0.vertices[i][2]}));
+  std::printf("backward map round trip of the surface: max %.3f mm\n", worst);
+  EXPECT_LE(worst, 1.0);
 }
 
 TEST(CurveAnalogy, BackwardMapIsIdentityForUndeformedCage) {

@@ -1,0 +1,108 @@
+// `vellum curve-analogy` end to end on a small phantom shape folder, and its one-line errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "test_data.hpp"
+#include "vellum/deformation/map_file.hpp"
+#include "vellum/illustration/curve_analogy.hpp"
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+
+using namespace vellum;
+namespace fs = std::filesystem;
+
+namespace {
+int run(const std::string& cmd, const std::string& args, const fs::path& log) {
+  const std::string line = std::string(VELLUM_CLI_PATH) + " " + cmd + " " + args + " > " + log.string() + " 2>&1";
+  return std::system(line.c_str());
+}
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+
+class CurveAnalogyCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(fs::temp_directory_path() / ("vellum-curve-cli-" + std::to_string(::getpid())));
+    fs::create_directories(*dir_);
+    phantom::PhantomOptions po;
+    po.dims = {48, 48, 48};
+    const auto ph = phantom::makePhantom(po);
+    io::saveVolume(ph.ct, *dir_ / "ct.nrrd");
+    io::saveLabels(ph.labels, *dir_ / "labels.nrrd");
+    const std::string args = (*dir_ / "ct.nrrd").string() + " --labels " + (*dir_ / "labels.nrrd").string() +
+                             " --segment skin=1,2,3,4,5,6,7,8,9,10,11 --segment bone=4,5,6,7,8,9,11 --out " +
+                             (*dir_ / "shape").string();
+    ASSERT_EQ(run("shape", args, *dir_ / "shape.log"), 0) << slurp(*dir_ / "shape.log");
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    fs::remove_all(*dir_, ec);
+    delete dir_;
+  }
+  static fs::path* dir_;
+};
+fs::path* CurveAnalogyCli::dir_ = nullptr;
+}  // namespace
+
+TEST_F(CurveAnalogyCli, BendsSkinCarriesBoneWritesFolderAndMap) {
+  const fs::path d = *dir_;
+  // C1 of the side view (the same proxy and camera as the command), bulged on one side.
+  const auto skin = illustration::loadMesh(d / "shape" / "meshes" / "skin.ply");
+  const LabelVolume labels = io::loadLabels(d / "shape" / "segments.nrrd");
+  render::RenderSettings s;
+  s.width = s.height = 256;
+  s.camera.azimuthDeg = 90;
+  s.camera.elevationDeg = 0;
+  s.camera.fieldOfViewDeg = 0;
+  const render::Projection proj(labels.geometry(), s);
+  const auto c1 = illustration::silhouetteLoop(illustration::simplifyProxy(skin, 1500), proj).pixels;
+  double y0 = 1e9, y1 = -1e9, cx = 0;
+  for (const auto& p : c1) { y0 = std::min(y0, p.y); y1 = std::max(y1, p.y); cx += p.x / double(c1.size()); }
+  nlohmann::json pts = nlohmann::json::array();
+  for (const auto& p : c1) {
+    const double t = (p.y - (y0 + 0.6 * (y1 - y0))) / (0.15 * (y1 - y0));
+    pts.push_back({p.x < cx ? p.x - 12 * std::exp(-t * t) : p.x, p.y});
+  }
+  std::ofstream(d / "c0.json") << nlohmann::json{{"points", pts}}.dump();
+
+  const fs::path out = d / "bent";
+  ASSERT_EQ(run("curve-analogy", (d / "shape").string() + " --segment skin --curve " + (d / "c0.json").string() +
+                                     " --size 256x256 --view side --transfer bone --out " + out.string() +
+                                     " --map-out " + (d / "map.nrrd").string() + " --map-step 4 --report " +
+                                     (d / "r.json").string(),
+                d / "ca.log"),
+            0)
+      << slurp(d / "ca.log");
+  for (const char* f : {"distance.nrrd", "segments.nrrd", "shape.json", "meshes/skin.ply", "meshes/bone.ply",
+                        "curve_analogy/before_after.png", "curve_analogy/c0_aligned.json"})
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  const auto r = nlohmann::json::parse(slurp(d / "r.json"));
+  EXPECT_LE(r["hausdorff_after_px"].get<double>(), 0.5 * r["hausdorff_before_px"].get<double>());
+  const auto j = nlohmann::json::parse(slurp(out / "shape.json"));
+  for (const auto& seg : j["segments"]) {
+    EXPECT_TRUE(seg["closed"].get<bool>() && seg["manifold"].get<bool>()) << seg["name"];
+    EXPECT_EQ(seg["self_intersections"].get<int>(), 0) << seg["name"];
+  }
+  Geometry g;
+  const auto map = deformation::loadBackwardMapNrrd(d / "map.nrrd", &g);
+  EXPECT_EQ(g.dims, labels.geometry().dims);
+  EXPECT_EQ(map.size(), size_t(g.dims.x * g.dims.y * g.dims.z * 3));
+}
+
+TEST_F(CurveAnalogyCli, OneLineErrors) {
+  const fs::path d = *dir_;
+  std::ofstream(d / "bad.json") << "{\"points\": [[1, 2], [3, 4]";
+  EXPECT_NE(run("curve-analogy", (d / "shape").string() + " --segment skin --curve " + (d / "bad.json").string() +
+                                     " --out " + (d / "x").string(), d / "e1.log"), 0);
+  EXPECT_NE(slurp(d / "e1.log").find("bad.json: not valid JSON"), std::string::npos) << slurp(d / "e1.log");
+  std::ofstream(d / "ok.json") << "{\"points\": [[1, 2], [30, 4], [10, 40]]}";
+  EXPECT_NE(run("curve-analogy", (d / "shape").string() + " --segment liver --curve " + (d / "ok.json").string() +
+                                     " --out " + (d / "x").string(), d / "e2.log"), 0);
+  EXPECT_NE(slurp(d / "e2.log").find("--segment liver: no such segment"), std::string::npos) << slurp(d / "e2.log");
+}
