@@ -19,37 +19,34 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
-double signedArea(const Polyline2& c) {
-  double a = 0;
-  for (size_t i = 0; i < c.size(); ++i) {
-    const auto& p = c[i];
-    const auto& q = c[(i + 1) % c.size()];
-    a += p.x * q.y - q.x * p.y;
-  }
-  return a / 2;
-}
-
-/// C0 resampled, started at the cyclic shift that fits C1 best, and aligned onto C1.
-Polyline2 alignCurve(Polyline2 c0, const Polyline2& c1) {
+/// C0 (resampled) aligned onto C1: over both orientations and every cyclic start, the
+/// least-squares similarity with the smallest residual whose rotation is within
+/// `maxRotationDeg` (the drawing is read as the view's image, so it is upright; the limit
+/// also stops a near-symmetric outline from matching itself upside down or mirrored).
+Polyline2 alignCurve(const Polyline2& c0, const Polyline2& c1, double maxRotationDeg) {
   const size_t n = c1.size();
-  Polyline2 best;
-  double bestErr = 1e300;
+  const double minCos = std::cos(maxRotationDeg * 3.14159265358979323846 / 180);
+  Polyline2 best, bestAny;
+  double bestErr = 1e300, bestAnyErr = 1e300;
   Polyline2 shifted(n);
-  for (size_t k = 0; k < n; ++k) {
-    for (size_t i = 0; i < n; ++i) shifted[i] = c0[(i + k) % n];
-    const Similarity2 s = fitSimilarity(shifted, c1);
-    double err = 0;
-    for (size_t i = 0; i < n; ++i) {
-      const Point2 p = s.apply(shifted[i]);
-      err += (p.x - c1[i].x) * (p.x - c1[i].x) + (p.y - c1[i].y) * (p.y - c1[i].y);
+  for (int dir = 0; dir < 2; ++dir)
+    for (size_t k = 0; k < n; ++k) {
+      for (size_t i = 0; i < n; ++i) shifted[i] = c0[dir == 0 ? (i + k) % n : (k + n - i) % n];
+      const Similarity2 s = fitSimilarity(shifted, c1);
+      double err = 0;
+      for (size_t i = 0; i < n; ++i) {
+        const Point2 p = s.apply(shifted[i]);
+        err += (p.x - c1[i].x) * (p.x - c1[i].x) + (p.y - c1[i].y) * (p.y - c1[i].y);
+      }
+      const bool upright = s.cosA >= minCos;
+      if (err < (upright ? bestErr : bestAnyErr)) {
+        Polyline2& into = upright ? best : bestAny;
+        (upright ? bestErr : bestAnyErr) = err;
+        into.resize(n);
+        for (size_t i = 0; i < n; ++i) into[i] = s.apply(shifted[i]);
+      }
     }
-    if (err < bestErr) {
-      bestErr = err;
-      best.resize(n);
-      for (size_t i = 0; i < n; ++i) best[i] = s.apply(shifted[i]);
-    }
-  }
-  return best;
+  return best.empty() ? bestAny : best;
 }
 
 /// `count` indices where a and b agree best, at least n / (2 count) apart along the loop.
@@ -126,11 +123,9 @@ CurveAnalogyResult curveAnalogy(const TriMesh& m0, const Polyline2& c0In,
   r.proxyMs = msSince(t);
 
   t = Clock::now();
-  const Silhouette sil = silhouetteLoop(r.proxy, proj);
-  Polyline2 c0 = c0In;
-  if ((signedArea(c0) > 0) != (signedArea(sil.pixels) > 0)) std::reverse(c0.begin(), c0.end());
-  r.c1 = resampleByArcLength(sil.pixels, o.samples, true);
-  r.c0Aligned = alignCurve(resampleByArcLength(c0, o.samples, true), r.c1);
+  const Polyline2 outline = projectedOutline(r.proxy, proj);
+  r.c1 = resampleByArcLength(outline, o.samples, true);
+  r.c0Aligned = alignCurve(resampleByArcLength(c0In, o.samples, true), r.c1, o.maxRotationDeg);
   r.anchors = pickAnchors(r.c0Aligned, r.c1, o.anchors);
   std::vector<Point2> targets;
   for (int a : r.anchors) targets.push_back(r.c1[size_t(a)]);
@@ -141,31 +136,35 @@ CurveAnalogyResult curveAnalogy(const TriMesh& m0, const Polyline2& c0In,
   r.c1Deformed = deformCurveLaplacian(r.c0Aligned, targets, lo);
   r.curveMs = msSince(t);
 
-  // Lift: each silhouette vertex moves in the image plane by the displacement of the
-  // deformed curve at its arc-length position; its depth stays.
+  // Lift: every silhouette vertex on the outline moves in the image plane by the deformed
+  // curve's displacement at its nearest point of C1; its depth stays.
   t = Clock::now();
   const double ppm = proj.pixelsPerMm();
   const size_t n = r.c1.size();
-  std::vector<double> s(sil.pixels.size(), 0.0);
-  for (size_t i = 1; i < s.size(); ++i)
-    s[i] = s[i - 1] + std::hypot(sil.pixels[i].x - sil.pixels[i - 1].x, sil.pixels[i].y - sil.pixels[i - 1].y);
-  const double total = arcLength(sil.pixels, true);
   std::vector<uint32_t> handles;
   std::vector<Vec3> handleTargets;
-  std::vector<char> isHandle(r.proxy.vertices.size(), 0);
-  for (size_t i = 0; i < sil.vertices.size(); ++i) {
-    const uint32_t v = sil.vertices[i];
-    if (isHandle[v]) continue;  // a loop through a pinch point visits it twice
-    isHandle[v] = 1;
-    const double u = s[i] / total * double(n);
-    const size_t i0 = static_cast<size_t>(std::floor(u)) % n, i1 = (i0 + 1) % n;
-    const double f = u - std::floor(u);
-    const double dx = (1 - f) * (r.c1Deformed[i0].x - r.c1[i0].x) + f * (r.c1Deformed[i1].x - r.c1[i1].x);
-    const double dy = (1 - f) * (r.c1Deformed[i0].y - r.c1[i0].y) + f * (r.c1Deformed[i1].y - r.c1[i1].y);
+  for (uint32_t v : silhouetteVertices(r.proxy, proj)) {
     const auto& p = r.proxy.vertices[v];
+    const Vec3 q = proj.toPixel(Vec3{p[0], p[1], p[2]}).value();
+    double bestD = 1e300, dx = 0, dy = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const Point2 &a = r.c1[i], &b = r.c1[(i + 1) % n];
+      const double vx = b.x - a.x, vy = b.y - a.y, len2 = vx * vx + vy * vy;
+      const double f = len2 > 0 ? std::clamp(((q.x - a.x) * vx + (q.y - a.y) * vy) / len2, 0.0, 1.0) : 0.0;
+      const double d = std::hypot(q.x - (a.x + f * vx), q.y - (a.y + f * vy));
+      if (d < bestD) {
+        bestD = d;
+        const Point2 &da = r.c1Deformed[i], &db = r.c1Deformed[(i + 1) % n];
+        dx = (1 - f) * (da.x - a.x) + f * (db.x - b.x);
+        dy = (1 - f) * (da.y - a.y) + f * (db.y - b.y);
+      }
+    }
+    if (bestD > o.handleTolerancePx) continue;  // on a fold inside the outline: left to ARAP
     handles.push_back(v);
     handleTargets.push_back(Vec3{p[0], p[1], p[2]} + proj.screenRight() * (dx / ppm) - proj.screenUp() * (dy / ppm));
   }
+  if (handles.empty()) throw Error("curve analogy: no mesh vertex lies on the outline (view too small?)");
+  r.handles = static_cast<int>(handles.size());
   // Fixed vertices: farthest-point samples from the handles (the middle of the front and
   // back faces), so the deformation has something to push against.
   std::vector<double> far(r.proxy.vertices.size(), 1e300);
@@ -187,8 +186,8 @@ CurveAnalogyResult curveAnalogy(const TriMesh& m0, const Polyline2& c0In,
   TriMesh after = r.proxy;
   for (size_t i = 0; i < after.vertices.size(); ++i)
     after.vertices[i] = {float(r.proxyDeformed[i].x), float(r.proxyDeformed[i].y), float(r.proxyDeformed[i].z)};
-  r.silhouetteAfter = silhouetteLoop(after, proj).pixels;
-  r.hausdorffBeforePx = hausdorff(sil.pixels, r.c0Aligned, true, true);
+  r.silhouetteAfter = projectedOutline(after, proj);
+  r.hausdorffBeforePx = hausdorff(outline, r.c0Aligned, true, true);
   r.hausdorffAfterPx = hausdorff(r.silhouetteAfter, r.c0Aligned, true, true);
   return r;
 }

@@ -2,6 +2,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <fstream>
 
 #include "vellum/core/error.hpp"
@@ -33,6 +34,35 @@ Polyline2 loadDrawingOutline(const std::filesystem::path& path, int& width, int&
     throw FileError(path, "no dark outline found (strokes darker than grey " + std::to_string(darkThreshold) + ")");
   Polyline2 c;
   for (const auto& p : contours[best]) c.push_back({double(p.x), double(p.y)});
+  return c;
+}
+
+Polyline2 projectedOutline(const TriMesh& mesh, const render::Projection& proj, int supersample) {
+  const int ss = std::max(1, supersample);
+  cv::Mat mask(proj.height() * ss, proj.width() * ss, CV_8UC1, cv::Scalar(0));
+  // Pixel centres at integers: pixel x covers [x - 0.5, x + 0.5); fillPoly's fixed point
+  // (4 fraction bits) keeps sub-pixel vertex positions.
+  std::vector<cv::Point> px(mesh.vertices.size());
+  for (size_t v = 0; v < px.size(); ++v) {
+    const auto p = proj.toPixel(Vec3{mesh.vertices[v][0], mesh.vertices[v][1], mesh.vertices[v][2]});
+    if (!p) throw Error("outline: a vertex is behind the camera");
+    px[v] = {cvRound(((p->x + 0.5) * ss - 0.5) * 16), cvRound(((p->y + 0.5) * ss - 0.5) * 16)};
+  }
+  for (const auto& f : mesh.faces) {
+    const cv::Point tri[3] = {px[f[0]], px[f[1]], px[f[2]]};
+    cv::fillConvexPoly(mask, tri, 3, cv::Scalar(255), cv::LINE_8, 4);
+  }
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  size_t best = contours.size();
+  double bestArea = 0;
+  for (size_t i = 0; i < contours.size(); ++i) {
+    const double a = cv::contourArea(contours[i]);
+    if (a > bestArea) { bestArea = a; best = i; }
+  }
+  if (best == contours.size()) throw Error("outline: the mesh covers no pixel of the view");
+  Polyline2 c;
+  for (const auto& p : contours[best]) c.push_back({(p.x + 0.5) / ss - 0.5, (p.y + 0.5) / ss - 0.5});
   return c;
 }
 

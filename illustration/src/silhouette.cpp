@@ -2,6 +2,7 @@
 // front-facing triangles (each front face's half-edge whose twin face looks away). On a
 // closed oriented mesh every vertex has as many outgoing as incoming boundary half-edges, so
 // walking them always closes loops; the longest loop in the image is the outline.
+#include <algorithm>
 #include <cmath>
 #include <unordered_map>
 
@@ -63,6 +64,26 @@ Silhouette silhouetteLoop(const TriMesh& mesh, const render::Projection& proj) {
     s.depths.push_back(px[v].z);
   }
   return s;
+}
+
+std::vector<uint32_t> silhouetteVertices(const TriMesh& mesh, const render::Projection& proj) {
+  const Vec3 fwd = proj.viewDirection();
+  auto P = [&](uint32_t v) { return Vec3{mesh.vertices[v][0], mesh.vertices[v][1], mesh.vertices[v][2]}; };
+  std::unordered_map<uint64_t, char> frontOf;  // undirected edge -> front flags seen (bit 0 back, 1 front)
+  for (const auto& t : mesh.faces) {
+    const bool front = dot(cross(P(t[1]) - P(t[0]), P(t[2]) - P(t[0])), fwd) < 0;
+    for (int i = 0; i < 3; ++i) {
+      const uint32_t a = std::min(t[i], t[(i + 1) % 3]), b = std::max(t[i], t[(i + 1) % 3]);
+      frontOf[(uint64_t(a) << 32) | b] |= front ? 2 : 1;
+    }
+  }
+  std::vector<char> on(mesh.vertices.size(), 0);
+  for (const auto& [key, flags] : frontOf)
+    if (flags == 3) on[key >> 32] = on[key & 0xffffffffu] = 1;
+  std::vector<uint32_t> out;
+  for (size_t v = 0; v < on.size(); ++v)
+    if (on[v]) out.push_back(uint32_t(v));
+  return out;
 }
 
 }  // namespace vellum::illustration

@@ -1,6 +1,7 @@
 // `vellum curve-analogy` end to end on a small phantom shape folder, and its one-line errors.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -9,6 +10,7 @@
 #include "test_data.hpp"
 #include "vellum/deformation/map_file.hpp"
 #include "vellum/illustration/curve_analogy.hpp"
+#include "vellum/io/image_io.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 
@@ -41,6 +43,7 @@ class CurveAnalogyCli : public ::testing::Test {
     ASSERT_EQ(run("shape", args, *dir_ / "shape.log"), 0) << slurp(*dir_ / "shape.log");
   }
   static void TearDownTestSuite() {
+    if (std::getenv("VELLUM_KEEP_TEST_FILES")) return;
     std::error_code ec;
     fs::remove_all(*dir_, ec);
     delete dir_;
@@ -50,25 +53,35 @@ class CurveAnalogyCli : public ::testing::Test {
 fs::path* CurveAnalogyCli::dir_ = nullptr;
 }  // namespace
 
-TEST_F(CurveAnalogyCli, BendsSkinCarriesBoneWritesFolderAndMap) {
-  const fs::path d = *dir_;
-  // C1 of the side view (the same proxy and camera as the command), bulged on one side.
-  const auto skin = illustration::loadMesh(d / "shape" / "meshes" / "skin.ply");
-  const LabelVolume labels = io::loadLabels(d / "shape" / "segments.nrrd");
+namespace {
+/// C1 of the side view (the same proxy and camera as the command, 256x256), bulged on the
+/// posterior lower leg: the illustrator's "calf".
+illustration::Polyline2 calfCurve(const fs::path& shapeDir) {
+  const auto skin = illustration::loadMesh(shapeDir / "meshes" / "skin.ply");
+  const LabelVolume labels = io::loadLabels(shapeDir / "segments.nrrd");
   render::RenderSettings s;
   s.width = s.height = 256;
   s.camera.azimuthDeg = 90;
   s.camera.elevationDeg = 0;
   s.camera.fieldOfViewDeg = 0;
   const render::Projection proj(labels.geometry(), s);
-  const auto c1 = illustration::silhouetteLoop(illustration::simplifyProxy(skin, 1500), proj).pixels;
+  const auto c1 = illustration::projectedOutline(illustration::simplifyProxy(skin, 1500), proj);
   double y0 = 1e9, y1 = -1e9, cx = 0;
   for (const auto& p : c1) { y0 = std::min(y0, p.y); y1 = std::max(y1, p.y); cx += p.x / double(c1.size()); }
-  nlohmann::json pts = nlohmann::json::array();
+  illustration::Polyline2 out;
   for (const auto& p : c1) {
     const double t = (p.y - (y0 + 0.6 * (y1 - y0))) / (0.15 * (y1 - y0));
-    pts.push_back({p.x < cx ? p.x - 12 * std::exp(-t * t) : p.x, p.y});
+    out.push_back({p.x < cx ? p.x - 12 * std::exp(-t * t) : p.x, p.y});
   }
+  return out;
+}
+}  // namespace
+
+TEST_F(CurveAnalogyCli, BendsSkinCarriesBoneWritesFolderAndMap) {
+  const fs::path d = *dir_;
+  const LabelVolume labels = io::loadLabels(d / "shape" / "segments.nrrd");
+  nlohmann::json pts = nlohmann::json::array();
+  for (const auto& p : calfCurve(d / "shape")) pts.push_back({p.x, p.y});
   std::ofstream(d / "c0.json") << nlohmann::json{{"points", pts}}.dump();
 
   const fs::path out = d / "bent";
@@ -93,6 +106,37 @@ TEST_F(CurveAnalogyCli, BendsSkinCarriesBoneWritesFolderAndMap) {
   const auto map = deformation::loadBackwardMapNrrd(d / "map.nrrd", &g);
   EXPECT_EQ(g.dims, labels.geometry().dims);
   EXPECT_EQ(map.size(), size_t(g.dims.x * g.dims.y * g.dims.z * 3));
+}
+
+TEST_F(CurveAnalogyCli, DrawingGivesTheOutline) {
+  // A pen drawing of the calf outline (3-pixel dark strokes on white, 256x256).
+  const fs::path d = *dir_;
+  const auto c = calfCurve(d / "shape");
+  RgbaImage img(256, 256);
+  std::fill(img.pixels.begin(), img.pixels.end(), uint8_t(255));
+  for (size_t i = 0; i < c.size(); ++i) {
+    const auto& a = c[i];
+    const auto& b = c[(i + 1) % c.size()];
+    for (double t = 0; t <= 1; t += 0.05)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int x = int(std::lround(a.x + t * (b.x - a.x))) + dx, y = int(std::lround(a.y + t * (b.y - a.y))) + dy;
+          if (x >= 0 && y >= 0 && x < 256 && y < 256) std::fill(img.at(x, y), img.at(x, y) + 3, uint8_t(20));
+        }
+  }
+  io::saveImage(img, d / "calf.png");
+  int w = 0, h = 0;
+  const auto outline = illustration::loadDrawingOutline(d / "calf.png", w, h);
+  EXPECT_EQ(w, 256);
+  EXPECT_LE(illustration::hausdorff(outline, c, true, true), 3.5);  // stroke half-width + closing
+  ASSERT_EQ(run("curve-analogy", (d / "shape").string() + " --segment skin --drawing " + (d / "calf.png").string() +
+                                     " --view side --out " + (d / "bent-drawing").string() + " --report " +
+                                     (d / "rd.json").string(),
+                d / "cd.log"),
+            0)
+      << slurp(d / "cd.log");
+  const auto r = nlohmann::json::parse(slurp(d / "rd.json"));
+  EXPECT_LE(r["hausdorff_after_px"].get<double>(), 0.5 * r["hausdorff_before_px"].get<double>());
 }
 
 TEST_F(CurveAnalogyCli, OneLineErrors) {

@@ -215,6 +215,7 @@ void runCurveAnalogy(const CurveArgs& a) {
   ca["proxy"] = {{"faces", r.proxy.faces.size()}, {"closed", proxyChecks.closed},
                  {"manifold", proxyChecks.manifold}, {"self_intersections", proxyChecks.selfIntersections}};
   ca["anchors"] = r.anchors;
+  ca["handles"] = r.handles;
   ca["hausdorff_before_px"] = r.hausdorffBeforePx;
   ca["hausdorff_after_px"] = r.hausdorffAfterPx;
   ca["hausdorff_before_mm"] = r.hausdorffBeforePx / proj.pixelsPerMm();

@@ -32,6 +32,16 @@ struct Silhouette {
 /// Orthographic projections only (the front/back test uses one view direction).
 Silhouette silhouetteLoop(const TriMesh& mesh, const render::Projection& projection);
 
+/// Every vertex on an edge between a front- and a back-facing triangle (orthographic).
+std::vector<uint32_t> silhouetteVertices(const TriMesh& mesh, const render::Projection& projection);
+
+/// The outline of the mesh's image: the outer contour of its projected triangles (OpenCV,
+/// rasterised at `supersample` x the view's resolution), in the view's pixels. This, not the
+/// silhouette loop, is C1: on a faceted mesh the front/back boundary also wanders across
+/// faces seen edge-on (the flat ends of a limb in a side view), while the outline does not.
+Polyline2 projectedOutline(const TriMesh& mesh, const render::Projection& projection,
+                           int supersample = 4);
+
 /// Reads {"points": [[x, y], ...]} (image pixels, >= 3 points; closed outline).
 /// Throws vellum::FileError naming the file and the problem.
 Polyline2 loadCurveJson(const std::filesystem::path& path);
@@ -47,6 +57,9 @@ struct CurveAnalogyOptions {
   int64_t proxyFaces = 1500;  ///< face budget of the proxy M1
   int arapIterations = 10;
   int fixedVertices = 2;      ///< M1 vertices farthest from the handles kept in place by ARAP
+  /// Largest rotation (degrees) of the C0 -> C1 similarity; beyond it only if nothing fits.
+  double maxRotationDeg = 30.0;
+  double handleTolerancePx = 1.5;  ///< silhouette vertices this close to C1 become handles
 };
 
 struct CurveAnalogyResult {
@@ -54,13 +67,15 @@ struct CurveAnalogyResult {
   std::vector<Vec3> proxyDeformed;  ///< M1's vertices after ARAP (same faces)
   Polyline2 c1, c0Aligned, c1Deformed;  ///< resampled curves in pixels
   std::vector<int> anchors;       ///< indices into c1
-  Polyline2 silhouetteAfter;      ///< silhouette of the deformed M1 (pixels)
-  double hausdorffBeforePx = 0;   ///< H(C1 silhouette, aligned C0)
-  double hausdorffAfterPx = 0;    ///< H(deformed M1's silhouette, aligned C0)
+  Polyline2 silhouetteAfter;      ///< outline of the deformed M1 (pixels)
+  int handles = 0;                ///< M1 vertices moved by the curve
+  double hausdorffBeforePx = 0;   ///< H(M1's outline, aligned C0)
+  double hausdorffAfterPx = 0;    ///< H(deformed M1's outline, aligned C0)
   double proxyMs = 0, curveMs = 0, arapMs = 0;
 };
 
-/// Steps 1-4 of the curve analogy for one mesh M0 and a closed drawing curve C0 (pixels of
+/// Steps 1-4 of the curve analogy (C1 = projectedOutline of M1; handles = M1 vertices on
+/// front/back-facing edges within `handleTolerancePx` of it) for one mesh M0 and a closed drawing curve C0 (pixels of
 /// `projection`'s image). The result's cage pair (proxy, proxyDeformed) moves other points
 /// with transferByMeanValueCoordinates.
 CurveAnalogyResult curveAnalogy(const TriMesh& m0, const Polyline2& c0,
