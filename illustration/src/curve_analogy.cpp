@@ -96,8 +96,9 @@ Polyline2 loadCurveJson(const std::filesystem::path& path) {
 }
 
 TriMesh simplifyProxy(const TriMesh& mesh, int64_t targetFaces) {
-  // The quadric bound only orders collapses here: the face budget decides the size.
-  TriMesh m = detail::smoothAndDecimate(mesh, 0, targetFaces, 1e6);
+  // The quadric bound only orders collapses and the normal guard is off: the face budget
+  // decides the size (a cage needs the overall shape, not the features).
+  TriMesh m = detail::smoothAndDecimate(mesh, 0, targetFaces, 1e6, 0.0);
   MeshChecks stats;
   return detail::repairMesh(m, stats);
 }

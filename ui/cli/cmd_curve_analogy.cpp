@@ -29,7 +29,7 @@ struct CurveArgs {
   double azimuth = std::numeric_limits<double>::quiet_NaN(), elevation = 0;
   double lambda = 10.0;
   int anchors = 4, samples = 200, mapStep = 4, darkThreshold = 128;
-  int64_t proxyFaces = 1500;
+  int64_t proxyFaces = 2000;
 };
 
 render::RenderSettings viewSettings(const CurveArgs& a, int width, int height) {
@@ -135,15 +135,35 @@ void runCurveAnalogy(const CurveArgs& a) {
   opt.lambda = a.lambda;
   opt.anchors = a.anchors;
   opt.proxyFaces = a.proxyFaces;
-  const ill::CurveAnalogyResult r = ill::curveAnalogy(meshes[target], c0, proj, opt);
+  // A coarse cage can fold a fine mesh where it lies outside the cage (MVC extrapolation
+  // near sharp rims): if a moved mesh self-intersects, retry with a finer proxy.
+  ill::CurveAnalogyResult r;
+  std::vector<ill::TriMesh> outMeshes;
+  std::vector<ill::MeshChecks> checks;
+  double transferMs = 0;
+  int attempts = 0;
+  for (;;) {
+    ++attempts;
+    r = ill::curveAnalogy(meshes[target], c0, proj, opt);
+    auto tt = Clock::now();
+    const ill::Cage cage = ill::cageOf(r.proxy);
+    outMeshes = meshes;
+    for (size_t i : carried) outMeshes[i] = ill::transferMesh(meshes[i], cage, r.proxyDeformed);
+    transferMs += 1000 * secondsSince(tt);
+    checks.clear();
+    bool folded = false;
+    for (const auto& m : outMeshes) {
+      checks.push_back(ill::checkMesh(m));
+      folded = folded || checks.back().selfIntersections > 0;
+    }
+    if (!folded || attempts >= 3) break;
+    std::fprintf(stderr, "curve-analogy: a moved mesh self-intersects with a %zu-face proxy; retrying with %lld faces\n",
+                 r.proxy.faces.size(), static_cast<long long>(2 * opt.proxyFaces));
+    opt.proxyFaces *= 2;
+  }
+  const ill::Cage cage = ill::cageOf(r.proxy);
 
   auto tt = Clock::now();
-  const ill::Cage cage = ill::cageOf(r.proxy);
-  std::vector<ill::TriMesh> outMeshes = meshes;
-  for (size_t i : carried) outMeshes[i] = ill::transferMesh(meshes[i], cage, r.proxyDeformed);
-  const double transferMs = 1000 * secondsSince(tt);
-
-  tt = Clock::now();
   ill::DistanceOptions dopt;
   dopt.bandMm = shape.value("options", nlohmann::json::object()).value("exact_band_mm", 0.0);
   std::vector<double> extra(segments.size(), 0.0);
@@ -176,7 +196,7 @@ void runCurveAnalogy(const CurveArgs& a) {
   j["segments"] = nlohmann::json::array();
   for (size_t i = 0; i < segments.size(); ++i) {
     ill::saveMesh(outMeshes[i], out / "meshes" / (segments[i].name + ".ply"), "ply");
-    const auto c = ill::checkMesh(outMeshes[i]);
+    const auto& c = checks[i];
     j["segments"].push_back({{"name", segments[i].name}, {"ids", segments[i].ids},
                              {"vertices", outMeshes[i].vertices.size()}, {"faces", outMeshes[i].faces.size()},
                              {"closed", c.closed}, {"manifold", c.manifold}, {"outward", c.outward},
@@ -214,6 +234,7 @@ void runCurveAnalogy(const CurveArgs& a) {
                    {"fixed_vertices", opt.fixedVertices}, {"map_step", a.mapStep}};
   ca["proxy"] = {{"faces", r.proxy.faces.size()}, {"closed", proxyChecks.closed},
                  {"manifold", proxyChecks.manifold}, {"self_intersections", proxyChecks.selfIntersections}};
+  ca["attempts"] = attempts;
   ca["anchors"] = r.anchors;
   ca["handles"] = r.handles;
   ca["hausdorff_before_px"] = r.hausdorffBeforePx;
@@ -255,7 +276,7 @@ void addCurveAnalogyCommand(CLI::App& app) {
   cmd->add_option("--lambda", a->lambda, "anchor weight of the Laplacian curve deformation")->capture_default_str();
   cmd->add_option("--anchors", a->anchors, "curve points kept in place (where the drawing agrees best)")->capture_default_str();
   cmd->add_option("--samples", a->samples, "points of the resampled curves")->capture_default_str();
-  cmd->add_option("--proxy-faces", a->proxyFaces, "face budget of the proxy (cage) mesh")->capture_default_str();
+  cmd->add_option("--proxy-faces", a->proxyFaces, "face budget of the proxy (cage) mesh; doubled (twice at most) while a moved mesh self-intersects")->capture_default_str();
   cmd->add_option("--transfer", a->transfer, "NAME[,NAME..]: other segments moved by the cage");
   cmd->add_option("--dark-threshold", a->darkThreshold, "--drawing: grey level below which a pixel is a stroke")->capture_default_str();
   cmd->add_option("--out,-o", a->out, "output shape folder (+ curve_analogy/ with curves, proxies, before_after.png)")->required();

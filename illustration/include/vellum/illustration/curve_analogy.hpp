@@ -54,7 +54,7 @@ struct CurveAnalogyOptions {
   int samples = 200;          ///< points of the resampled C0/C1
   double lambda = 10.0;       ///< anchor weight of the Laplacian curve deformation
   int anchors = 4;            ///< C1 points kept in place: where the aligned C0 agrees best
-  int64_t proxyFaces = 1500;  ///< face budget of the proxy M1
+  int64_t proxyFaces = 2000;  ///< face budget of the proxy M1
   int arapIterations = 10;
   int fixedVertices = 2;      ///< M1 vertices farthest from the handles kept in place by ARAP
   /// Largest rotation (degrees) of the C0 -> C1 similarity; beyond it only if nothing fits.
