@@ -105,7 +105,39 @@ TEST_F(CurveAnalogyCli, BendsSkinCarriesBoneWritesFolderAndMap) {
   Geometry g;
   const auto map = deformation::loadBackwardMapNrrd(d / "map.nrrd", &g);
   EXPECT_EQ(g.dims, labels.geometry().dims);
-  EXPECT_EQ(map.size(), size_t(g.dims.x * g.dims.y * g.dims.z * 3));
+  ASSERT_EQ(map.size(), size_t(g.dims.x * g.dims.y * g.dims.z * 3));
+  // The map (trilinear between voxels) sends the deformed skin back onto the original.
+  const auto before = illustration::loadMesh(d / "shape" / "meshes" / "skin.ply");
+  const auto after = illustration::loadMesh(out / "meshes" / "skin.ply");
+  auto sample = [&](const Vec3& mm) {
+    const Vec3 q = g.physicalToIndex(mm);
+    const int64_t i0 = std::clamp<int64_t>(int64_t(std::floor(q.x)), 0, g.dims.x - 2);
+    const int64_t j0 = std::clamp<int64_t>(int64_t(std::floor(q.y)), 0, g.dims.y - 2);
+    const int64_t k0 = std::clamp<int64_t>(int64_t(std::floor(q.z)), 0, g.dims.z - 2);
+    Vec3 r{0, 0, 0};
+    for (int c = 0; c < 8; ++c) {
+      const int64_t i = i0 + (c & 1), j = j0 + ((c >> 1) & 1), k = k0 + (c >> 2);
+      const double w = (1 - std::abs(q.x - double(i))) * (1 - std::abs(q.y - double(j))) * (1 - std::abs(q.z - double(k)));
+      const float* m = &map[size_t(((k * g.dims.y + j) * g.dims.x + i) * 3)];
+      r += Vec3{m[0], m[1], m[2]} * w;
+    }
+    return r;
+  };
+  const double voxel = std::max({g.spacing.x, g.spacing.y, g.spacing.z});
+  double worst = 0, moved = 0;
+  for (size_t v = 0; v < after.vertices.size(); v += 7) {
+    const Vec3 a{after.vertices[v][0], after.vertices[v][1], after.vertices[v][2]};
+    const Vec3 b{before.vertices[v][0], before.vertices[v][1], before.vertices[v][2]};
+    const Vec3 q = g.physicalToIndex(a);
+    if (q.x < 0 || q.y < 0 || q.z < 0 || q.x > double(g.dims.x - 1) || q.y > double(g.dims.y - 1) ||
+        q.z > double(g.dims.z - 1))
+      continue;  // the phantom's skin is cut by the volume's ends: the map covers the grid only
+    moved = std::max(moved, norm(a - b));
+    worst = std::max(worst, norm(sample(a) - b));
+  }
+  std::printf("skin moved up to %.2f mm; map sends it back within %.3f mm (voxel %.2f mm)\n", moved, worst, voxel);
+  EXPECT_GT(moved, voxel);
+  EXPECT_LE(worst, voxel);
 }
 
 TEST_F(CurveAnalogyCli, DrawingGivesTheOutline) {
