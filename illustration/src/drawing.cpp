@@ -66,6 +66,28 @@ Polyline2 projectedOutline(const TriMesh& mesh, const render::Projection& proj, 
   return c;
 }
 
+namespace {
+void writePng(const std::filesystem::path& path, const cv::Mat& img) {
+  io::writeAtomically(path, [&](const std::filesystem::path& tmp) {
+    std::vector<uchar> buf;
+    if (!cv::imencode(".png", img, buf)) throw FileError(path, "PNG encoding failed");
+    std::ofstream os(tmp, std::ios::binary);
+    os.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size()));
+    if (!os) throw FileError(path, "write failed (disk full?)");
+  });
+}
+}  // namespace
+
+void writeCurveDrawing(const std::filesystem::path& path, int width, int height,
+                       const Polyline2& curve, int strokePx) {
+  cv::Mat img(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
+  std::vector<cv::Point> pts;
+  for (const auto& p : curve) pts.emplace_back(cvRound(p.x * 16), cvRound(p.y * 16));
+  cv::polylines(img, std::vector<std::vector<cv::Point>>{pts}, true, cv::Scalar(30, 30, 30),
+                std::max(1, strokePx), cv::LINE_AA, 4);
+  writePng(path, img);
+}
+
 void writeCurvePlate(const std::filesystem::path& path, int width, int height,
                      const Polyline2& before, const Polyline2& drawing, const Polyline2& after) {
   cv::Mat img(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
@@ -79,13 +101,7 @@ void writeCurvePlate(const std::filesystem::path& path, int width, int height,
   draw(after, cv::Scalar(200, 90, 20), 2);
   cv::putText(img, "grey: before   red: drawing (aligned)   blue: after", cv::Point(8, 18),
               cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  io::writeAtomically(path, [&](const std::filesystem::path& tmp) {
-    std::vector<uchar> buf;
-    if (!cv::imencode(".png", img, buf)) throw FileError(path, "PNG encoding failed");
-    std::ofstream os(tmp, std::ios::binary);
-    os.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size()));
-    if (!os) throw FileError(path, "write failed (disk full?)");
-  });
+  writePng(path, img);
 }
 
 }  // namespace vellum::illustration

@@ -7,6 +7,7 @@
 #include <limits>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <memory>
 #include <sstream>
 
@@ -260,7 +261,48 @@ void runCurveAnalogy(const CurveArgs& a) {
                 s["manifold"].get<bool>(), static_cast<long long>(s["self_intersections"].get<int64_t>()));
 }
 
+/// The demo's drawing: a side view (512x512 pixels, as `--view side` sees the phantom) of a
+/// lower leg whose calf bulges backwards, traced as one closed pen outline.
+constexpr int kCalf[][2] = {
+    {174, 88}, {168, 93}, {169, 103}, {170, 113}, {170, 123}, {170, 133}, {170, 144}, {171, 153},
+    {172, 163}, {173, 173}, {173, 183}, {173, 193}, {173, 204}, {173, 214}, {172, 224},
+    {170, 234}, {167, 244}, {163, 254}, {158, 264}, {155, 274}, {152, 284}, {150, 295},
+    {151, 305}, {153, 315}, {157, 325}, {160, 335}, {163, 345}, {166, 355}, {168, 365},
+    {169, 376}, {170, 386}, {170, 396}, {170, 406}, {170, 416}, {173, 422}, {183, 423},
+    {193, 423}, {203, 423}, {214, 423}, {224, 423}, {234, 423}, {244, 423}, {255, 423},
+    {265, 423}, {275, 423}, {285, 423}, {296, 423}, {306, 423}, {316, 423}, {326, 423},
+    {337, 423}, {341, 418}, {341, 408}, {341, 397}, {341, 387}, {341, 377}, {341, 367},
+    {341, 357}, {340, 347}, {340, 337}, {339, 326}, {339, 316}, {339, 306}, {338, 296},
+    {338, 286}, {338, 276}, {337, 266}, {337, 256}, {337, 245}, {337, 235}, {337, 225},
+    {337, 215}, {337, 205}, {337, 195}, {338, 185}, {338, 174}, {338, 164}, {338, 154},
+    {339, 144}, {339, 134}, {340, 124}, {341, 114}, {342, 105}, {343, 95}, {338, 88}, {328, 88},
+    {318, 88}, {308, 88}, {297, 88}, {287, 88}, {277, 88}, {267, 88}, {256, 88}, {246, 88},
+    {236, 88}, {226, 88}, {215, 88}, {205, 88}, {195, 88}, {185, 88}};
+
+std::string quoted(const fs::path& p) { return "\"" + p.string() + "\""; }
+
 }  // namespace
+
+void demoCurveAnalogy(const DemoContext& ctx) {
+  const fs::path dir = ctx.outDir / "curve-analogy";
+  fs::create_directories(dir);
+  ill::Polyline2 calf;
+  for (const auto& p : kCalf) calf.push_back({double(p[0]), double(p[1])});
+  ill::writeCurveDrawing(dir / "calf-drawing.png", 512, 512, calf, 3);
+  // The same code paths as the commands: shape folder, then the curve analogy from the drawing.
+  auto runCli = [](const std::string& line) {
+    CLI::App app;
+    addShapeCommand(app);
+    addCurveAnalogyCommand(app);
+    app.parse(line, false);
+  };
+  runCli("shape " + quoted(ctx.phantomCt) + " --labels " + quoted(ctx.phantomLabels) +
+         " --segment skin=1,2,3,4,5,6,7,8,9,10,11 --segment bone=4,5,6,7,8,9,11 --out " + quoted(dir / "shape"));
+  runCli("curve-analogy " + quoted(dir / "shape") + " --segment skin --drawing " + quoted(dir / "calf-drawing.png") +
+         " --view side --transfer bone --out " + quoted(dir / "bent") + " --map-out " + quoted(dir / "bent-map.nrrd") +
+         " --report " + quoted(dir / "report.json"));
+  std::cout << "curve analogy: " << (dir / "bent" / "curve_analogy" / "before_after.png").string() << "\n";
+}
 
 void addCurveAnalogyCommand(CLI::App& app) {
   auto a = std::make_shared<CurveArgs>();

@@ -104,6 +104,7 @@ void addDemoCommand(CLI::App& app) {
     // 3. The parts later capabilities add.
     demoSegmentation(ctx);
     demoDeformation(ctx);
+    demoCurveAnalogy(ctx);
 
     summary["seconds"] = secondsSince(t0);
     writeJsonFile(summary, out / "summary.json");

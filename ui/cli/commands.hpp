@@ -37,5 +37,7 @@ struct DemoContext {
 void demoSegmentation(const DemoContext& ctx);
 /// Deformation/animation part of the demo (defined in cmd_deform.cpp).
 void demoDeformation(const DemoContext& ctx);
+/// Curve-analogy part of the demo (defined in cmd_curve_analogy.cpp).
+void demoCurveAnalogy(const DemoContext& ctx);
 
 }  // namespace vellum::cli

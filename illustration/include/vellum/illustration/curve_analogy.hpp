@@ -103,6 +103,10 @@ namespace vellum::illustration {
 Polyline2 loadDrawingOutline(const std::filesystem::path& path, int& width, int& height,
                              int darkThreshold = 128);
 
+/// A pen drawing of a closed curve: dark strokes `strokePx` wide on white (PNG, atomic).
+void writeCurveDrawing(const std::filesystem::path& path, int width, int height,
+                       const Polyline2& curve, int strokePx = 3);
+
 /// Before/after plate (PNG, atomic): the original silhouette (grey), the aligned drawing
 /// curve (red, dashed look by dots) and the deformed silhouette (blue) on white, at the
 /// view's image size.
