@@ -167,12 +167,23 @@ void runCurveAnalogy(const CurveArgs& a) {
   auto tt = Clock::now();
   ill::DistanceOptions dopt;
   dopt.bandMm = shape.value("options", nlohmann::json::object()).value("exact_band_mm", 0.0);
-  std::vector<double> extra(segments.size(), 0.0);
+  // Shells widen the exact band; grow offsets shift a segment's distances (as runShapePipeline).
+  std::vector<double> extra(segments.size(), 0.0), offset(segments.size(), 0.0);
   for (const auto& s : shells) {
     const size_t i = indexOf(s.segment, "shells in shape.json:");
     extra[i] = std::max(extra[i], s.thicknessMm);
   }
+  if (shape.contains("grows"))
+    for (const auto& g : shape["grows"])
+      offset[indexOf(g.at("segment").get<std::string>(), "grows in shape.json:")] += g.at("offset_mm").get<double>();
+  for (size_t i = 0; i < segments.size(); ++i)
+    extra[i] = std::max(extra[i] + std::max(0.0, -offset[i]), std::abs(offset[i]));
   auto dist = ill::signedDistances(outMeshes, grid, dopt, extra);
+  for (size_t i = 0; i < segments.size(); ++i)
+    if (offset[i] != 0) {
+      for (float& v : dist[i].voxels()) v -= static_cast<float>(offset[i]);
+      dist[i].setBackground(dist[i].background() - std::abs(offset[i]));
+    }
   VolumeF32 unionDistance;
   LabelVolume segmentation;
   ill::buildRepresentation(dist, segments, shells, unionDistance, segmentation);
