@@ -24,6 +24,8 @@ std::vector<Vec3> samplePoints(const ill::Cage& cage) {
     pts.push_back((a + b) * 0.5);
     pts.push_back((a + b + c) / 3.0);
     pts.push_back((a + b + c) / 3.0 * (1 + 1e-7));  // just off the face
+    pts.push_back((a + b) * 0.5 * (1 - 1e-8));       // just inside an edge
+    pts.push_back(a * (1 + 1e-6));                    // just outside a vertex
   }
   return pts;
 }
