@@ -4,11 +4,11 @@
 // meshes and the CT along through mean value coordinates.
 //
 //   M0 -> proxy M1 (decimated, repaired, closed)
-//   C1 = silhouette loop of M1 seen from the (orthographic) camera, in image pixels
+//   C1 = outline of M1's image from the (orthographic) camera, in image pixels
 //   C0 (drawing pixels) -> similarity-aligned to C1, both resampled to the same count
 //   Laplacian curve deformation of C1 toward C0's shape, anchors kept in place
-//   lift to 3D at C1's depths (moves in the image plane only) -> ARAP of M1 with the
-//   silhouette vertices as handles -> MVC transfer of M0 (and other meshes) w.r.t. M1.
+//   lift to 3D at the handles' depths (moves in the image plane only) -> ARAP of M1 with the
+//   silhouette vertices on C1 as handles -> MVC transfer of M0 (and other meshes) w.r.t. M1.
 #include <filesystem>
 #include <vector>
 
