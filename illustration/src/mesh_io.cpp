@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <string>
 
 #include "vellum/core/error.hpp"
 #include "vellum/illustration/shape.hpp"
@@ -64,6 +65,39 @@ void saveMesh(const TriMesh& mesh, const std::filesystem::path& path, const std:
     os.flush();
     if (!os) throw FileError(path, "write failed (disk full?)");
   });
+}
+
+TriMesh loadMesh(const std::filesystem::path& path) {
+  std::ifstream is(path, std::ios::binary);
+  if (!is) throw FileError(path, "cannot open the mesh");
+  std::string line;
+  int64_t nv = -1, nf = -1;
+  bool binary = false;
+  while (std::getline(is, line)) {
+    if (line.rfind("format binary_little_endian", 0) == 0) binary = true;
+    if (line.rfind("element vertex ", 0) == 0) nv = std::stoll(line.substr(15));
+    if (line.rfind("element face ", 0) == 0) nf = std::stoll(line.substr(13));
+    if (line == "end_header") break;
+  }
+  if (!binary || nv < 0 || nf < 0)
+    throw FileError(path, "not a binary little-endian PLY with vertices and faces (as vellum shape writes)");
+  TriMesh m;
+  m.vertices.resize(static_cast<size_t>(nv));
+  is.read(reinterpret_cast<char*>(m.vertices.data()), static_cast<std::streamsize>(nv * 12));
+  m.faces.resize(static_cast<size_t>(nf));
+  for (auto& f : m.faces) {
+    uint8_t n = 0;
+    int32_t idx[3] = {};
+    is.read(reinterpret_cast<char*>(&n), 1);
+    is.read(reinterpret_cast<char*>(idx), 12);
+    if (!is) throw FileError(path, "truncated mesh");
+    if (n != 3) throw FileError(path, "only triangle faces are supported");
+    for (int i = 0; i < 3; ++i) {
+      if (idx[i] < 0 || idx[i] >= nv) throw FileError(path, "face index out of range");
+      f[static_cast<size_t>(i)] = static_cast<uint32_t>(idx[i]);
+    }
+  }
+  return m;
 }
 
 }  // namespace vellum::illustration

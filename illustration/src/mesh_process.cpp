@@ -31,7 +31,7 @@ using OmMesh = OpenMesh::TriMesh_ArrayKernelT<Traits>;
 }  // namespace
 
 TriMesh smoothAndDecimate(const TriMesh& in, int smoothingIterations, int64_t targetFaces,
-                          double maxErrorMm) {
+                          double maxErrorMm, double maxNormalDeviationDeg) {
   OmMesh mesh;
   std::vector<OmMesh::VertexHandle> vh;
   vh.reserve(in.vertices.size());
@@ -55,10 +55,10 @@ TriMesh smoothAndDecimate(const TriMesh& in, int smoothingIterations, int64_t ta
     OpenMesh::Decimater::ModNormalDeviationT<OmMesh>::Handle normals;
     OpenMesh::Decimater::ModAspectRatioT<OmMesh>::Handle aspect;
     dec.add(quadric);
-    dec.add(normals);
+    if (maxNormalDeviationDeg > 0) dec.add(normals);
     dec.add(aspect);
     dec.module(quadric).set_max_err(maxErrorMm * maxErrorMm, false);
-    dec.module(normals).set_normal_deviation(25.0);
+    if (maxNormalDeviationDeg > 0) dec.module(normals).set_normal_deviation(maxNormalDeviationDeg);
     dec.module(aspect).set_aspect_ratio(5.0);
     dec.initialize();
     dec.decimate_to_faces(0, static_cast<size_t>(targetFaces));

@@ -40,8 +40,10 @@ VolumeF32 levelSetToDense(const LevelSet& ls, const Geometry& g);
 TriMesh extractIndexMesh(const LevelSet& ls, double adaptivity = 0.0);
 
 /// OpenMesh: tangential smoothing then quadric decimation to `targetFaces` (0: none).
+/// `maxNormalDeviationDeg` guards features (0: no guard, so the face budget is reached: the
+/// curve analogy's coarse proxy).
 TriMesh smoothAndDecimate(const TriMesh& mesh, int smoothingIterations, int64_t targetFaces,
-                          double maxErrorMm);
+                          double maxErrorMm, double maxNormalDeviationDeg = 25.0);
 
 /// CGAL PMP: repair into a closed, manifold, outward, self-intersection-free mesh.
 TriMesh repairMesh(const TriMesh& mesh, MeshChecks& stats);

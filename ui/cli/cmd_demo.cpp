@@ -93,6 +93,7 @@ void addDemoCommand(CLI::App& app) {
     demoSegmentation(ctx);
     demoDeformation(ctx);
     demoIllustration(ctx);
+    demoCurveAnalogy(ctx);
 
     summary["seconds"] = secondsSince(t0);
     writeJsonFile(summary, out / "summary.json");

@@ -20,6 +20,7 @@ void addControlsCommand(CLI::App& app);   // issue 3
 void addAnimateCommand(CLI::App& app);    // issue 3
 void addShapeCommand(CLI::App& app);      // issue 8
 void addIllustrateCommand(CLI::App& app); // issue 8
+void addCurveAnalogyCommand(CLI::App& app);  // issue 9
 void addParamsCommand(CLI::App& app);
 
 /// docs/parameters.md: every parameter table as Markdown (cmd_params.cpp).
@@ -41,5 +42,7 @@ void demoShape(const DemoContext& ctx, const std::filesystem::path& dir);
 /// Shape-aware illustration part of the demo: the shape folder, a plate in the paper's manner
 /// and a labelled textbook figure (defined in cmd_illustrate.cpp).
 void demoIllustration(const DemoContext& ctx);
+/// Curve-analogy part of the demo (defined in cmd_curve_analogy.cpp).
+void demoCurveAnalogy(const DemoContext& ctx);
 
 }  // namespace vellum::cli

@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   addAnimateCommand(app);
   addShapeCommand(app);
   addIllustrateCommand(app);
+  addCurveAnalogyCommand(app);
   addDemoCommand(app);
   addParamsCommand(app);
   try {

@@ -154,5 +154,8 @@ MeshChecks checkMesh(const TriMesh& mesh);
 
 /// Mesh export: "ply" (binary little-endian), "obj", "stl" (binary). Atomic.
 void saveMesh(const TriMesh& mesh, const std::filesystem::path& path, const std::string& format);
+/// Reads a binary little-endian PLY as saveMesh writes it (float x y z; triangles).
+/// Throws vellum::FileError naming the file for anything else or a truncated file.
+TriMesh loadMesh(const std::filesystem::path& path);
 
 }  // namespace vellum::illustration
