@@ -108,11 +108,18 @@ void checkCompressedHeaders(const fs::path& path) {
     if (blocks > room / headerBytes)
       throw FileError(path, "corrupt compressed array header: " + std::to_string(blocks) + " blocks in a file of " +
                                 std::to_string(size) + " bytes");
-    if (blocks == 0) continue;
     const uint64_t blockSize = next(), lastSize = next();
+    if (blocks == 0) {  // VTK still allocates a block of blockSize: it must fit the file
+      if (blockSize > 1032 * room + 64 || lastSize > 1032 * room + 64)
+        throw FileError(path, "corrupt compressed array header (no blocks, block size " + std::to_string(blockSize) + ")");
+      continue;
+    }
     uint64_t compressed = 0;
     for (uint64_t b = 0; b < blocks; ++b) compressed += next();
-    if (blockSize == 0 || lastSize > blockSize || compressed > room)
+    // Deflate expands at most 1032:1, so the blocks cannot hold more than that.
+    const long double uncompressed = (long double)(blocks - 1) * blockSize + lastSize;
+    if (blockSize == 0 || lastSize > blockSize || compressed > room ||
+        uncompressed > 1032.0L * compressed + 64.0L * blocks)
       throw FileError(path, "corrupt compressed array header (block size " + std::to_string(blockSize) + ", last " +
                                 std::to_string(lastSize) + ", " + std::to_string(compressed) + " compressed bytes)");
   }
