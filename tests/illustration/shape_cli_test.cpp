@@ -129,3 +129,39 @@ TEST(ShapeCli, InterruptExitsCleanly) {
   for (const auto& e : fs::recursive_directory_iterator(dir))
     EXPECT_EQ(e.path().filename().string().find(".vellum-"), std::string::npos) << e.path();
 }
+
+// Issue 12: labels thresholded from a real scan include the CT table; --remove-table keeps
+// only what lies in the body, so the table gets no mesh.
+TEST(ShapeCli, RemoveTableDropsLabelledTableVoxels) {
+  const fs::path dir = test::tempDir("shape-cli-table");
+  phantom::PhantomOptions po;
+  po.dims = {48, 48, 48};
+  auto ph = phantom::makePhantom(po);
+  int64_t yMax = 0;
+  for (int64_t k = 0; k < 48; ++k)
+    for (int64_t j = 0; j < 48; ++j)
+      for (int64_t i = 0; i < 48; ++i)
+        if (ph.labels(i, j, k) != phantom::kAir) yMax = std::max(yMax, j);
+  ASSERT_LT(yMax + 5, 48);
+  for (int64_t k = 0; k < 48; ++k)  // a table slab behind the leg, labelled like bone
+    for (int64_t j = yMax + 3; j <= yMax + 5; ++j)
+      for (int64_t i = 0; i < 48; ++i) ph.ct(i, j, k) = 400, ph.labels(i, j, k) = phantom::kFemurCortex;
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const std::string base = (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string() +
+                           " --segment femur=4,5 --target-faces 4000";
+  ASSERT_EQ(run(base + " --out " + (dir / "with").string(), dir / "log1.txt"), 0) << slurp(dir / "log1.txt");
+  ASSERT_EQ(run(base + " --remove-table --out " + (dir / "without").string(), dir / "log2.txt"), 0)
+      << slurp(dir / "log2.txt");
+  const auto volume = [&](const char* folder) {
+    const auto j = nlohmann::json::parse(std::ifstream(dir / folder / "shape.json"));
+    return j["segments"][0]["voxel_volume_mm3"].get<double>();
+  };
+  // The slab (48 x 3 x 48 voxels) is most of "femur" with the table; without it only the femur.
+  EXPECT_GT(volume("with"), 1.5 * volume("without"));
+  int64_t femurVoxels = 0;
+  const auto clean = phantom::makePhantom(po);  // the labels before the table was added
+  for (uint16_t id : clean.labels.ids().voxels()) femurVoxels += id == 4 || id == 5;
+  const double voxelMm3 = ph.ct.geometry().spacing.x * ph.ct.geometry().spacing.y * ph.ct.geometry().spacing.z;
+  EXPECT_NEAR(volume("without"), femurVoxels * voxelMm3, 0.01 * femurVoxels * voxelMm3);
+}

@@ -87,13 +87,15 @@ AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::pa
   return segmentation::removeTable(*ct, params, bar.progress());
 }
 
-void FigureOptions::addTo(CLI::App& cmd, bool labelsComeWithInput) {
+void FigureOptions::addTo(CLI::App& cmd, LabelSource source) {
   cmd.add_flag("--scale-bar", annotations.scaleBar,
                "draw a scale bar in mm (exact for --fov 0; in perspective it holds at the centre's depth)");
   cmd.add_option("--scale-bar-mm", annotations.scaleBarMm, "scale bar length (default: a round length near a fifth of the width)");
   cmd.add_flag("--orientation", annotations.orientation, "draw the orientation letters (A/P, L/R, S/I) at the edges");
-  if (labelsComeWithInput)
+  if (source == LabelSource::Input)
     cmd.add_flag("--labels", labelFlag, "name the visible structures, with leader lines");
+  else if (source == LabelSource::OtherOption)
+    cmd.add_flag("--name-structures", labelFlag, "name the structures of the --labels map, with leader lines that follow them");
   else
     cmd.add_option("--label-map", labelMap, "label map on the volume's grid: name its visible structures, with leader lines");
   cmd.add_option("--label-ids", labelIds, "structures to name (default: every id of the label table)")->delimiter(',');
@@ -103,13 +105,18 @@ void FigureOptions::addTo(CLI::App& cmd, bool labelsComeWithInput) {
 void FigureOptions::apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
                           const LabelVolume* labels, render::AnchorOcclusion occlusion) const {
   if (!any()) return;
-  render::AnnotationOptions o = annotations;
-  if (annotateAll) o.scaleBar = o.orientation = true;
-  o.labels = wantsLabels() && labels;
+  const render::AnnotationOptions o = resolved(labels != nullptr);
   const render::Projection projection(volume, settings);
   const auto anchors = o.labels ? render::structureAnchors(*labels, labelIds, projection, image, 30, nullptr, occlusion)
                                 : std::vector<render::StructureAnchor>{};
   render::annotate(image, projection, o, anchors);
+}
+
+render::AnnotationOptions FigureOptions::resolved(bool haveLabels) const {
+  render::AnnotationOptions o = annotations;
+  if (annotateAll) o.scaleBar = o.orientation = true;
+  o.labels = wantsLabels() && haveLabels;
+  return o;
 }
 
 ProgressBar::ProgressBar()

@@ -60,9 +60,13 @@ struct FigureOptions {
   bool labelFlag = false;  ///< --labels (commands whose structures come with their input)
   std::string labelMap;    ///< --label-map (commands without a label map of their own)
 
-  /// `labelsComeWithInput`: the command has its own label map (illustrate: the shape's
-  /// segments) and takes --labels; otherwise it takes --label-map FILE.
-  void addTo(CLI::App& cmd, bool labelsComeWithInput);
+  /// Where the names come from: a --label-map FILE, the command's own label map (illustrate:
+  /// the shape's segments; flag --labels), or the label map another option already loads
+  /// (animate: the rigid-bone --labels; flag --name-structures).
+  enum class LabelSource { File, Input, OtherOption };
+  void addTo(CLI::App& cmd, LabelSource source);
+  /// The annotations to draw (--annotate resolved), labels only when a label map is at hand.
+  render::AnnotationOptions resolved(bool haveLabels) const;
   bool wantsLabels() const { return labelFlag || !labelMap.empty(); }
   bool any() const { return annotateAll || annotations.scaleBar || annotations.orientation || wantsLabels(); }
   /// Draws what was asked for into `image` rendered with `settings` around `volume`.

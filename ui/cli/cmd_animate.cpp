@@ -44,6 +44,7 @@ struct AnimateArgs {
   RigidOptions rigid;
   InputOptions in;
   TableRemovalOptions table;
+  FigureOptions figure;
 };
 
 }  // namespace
@@ -65,6 +66,7 @@ void addAnimateCommand(CLI::App& app) {
   a->rigid.addTo(*cmd);
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
+  a->figure.addTo(*cmd, FigureOptions::LabelSource::OtherOption);
   cmd->footer("Example: vellum animate knee.nrrd --keyframes bend.json --labels knee-labels.nrrd "
               "--rigid-labels 4,5,6,7,8,9,11 --camera-orbit 360 --loop --out bend.mp4");
   cmd->callback([a] {
@@ -90,6 +92,14 @@ void addAnimateCommand(CLI::App& app) {
     spec.orbitDeg = a->orbit;
     spec.settings = a->settings;
     std::tie(spec.settings.width, spec.settings.height) = parseSize(a->size);
+    std::optional<LabelVolume> names;
+    if (a->figure.wantsLabels()) {
+      if (!a->rigid.enabled()) throw Error("--name-structures needs the label map of --labels");
+      names = a->in.loadLabelsOnInputGrid(a->rigid.labels);
+    }
+    spec.annotations = a->figure.resolved(names.has_value());
+    spec.labels = names ? &*names : nullptr;
+    spec.labelIds = a->figure.labelIds;
     MovieResult r;
     {
       ProgressBar bar;

@@ -90,7 +90,7 @@ void addIllustrateCommand(CLI::App& app) {
   cmd->add_option("--report", a->report, "write timings and settings as JSON");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
-  a->figure.addTo(*cmd, true);
+  a->figure.addTo(*cmd, FigureOptions::LabelSource::Input);
   cmd->footer("Example: vellum illustrate knee.nrrd --shape knee-shape --preset textbook --size 1024x1024 --out knee.png");
   cmd->callback([a] {
     const auto t0 = std::chrono::steady_clock::now();

@@ -45,7 +45,7 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
-  a->figure.addTo(*cmd, false);
+  a->figure.addTo(*cmd, FigureOptions::LabelSource::File);
   cmd->footer("Example: vellum render knee.nrrd --preset all --size 1024x1024 --out figs/knee.png");
   cmd->callback([a] {
     io::LoadedVolume lv = loadWithProgress(a->input, a->in);

@@ -25,6 +25,7 @@ struct ShapeArgs {
   std::vector<std::string> segments, shells, grows;
   ill::ShapeOptions options;  ///< the shape table's flags write here
   InputOptions in;
+  TableRemovalOptions table;
 };
 
 /// "NAME:MM" -> (name, mm).
@@ -66,12 +67,22 @@ void runShape(const ShapeArgs& a) {
   refuseOverwritingInput(a.labels, a.out);
   const io::LoadedVolume lv = loadWithProgress(a.input, a.in);
   const Geometry& ctGeom = geometryOf(lv.volume);
-  const LabelVolume labels = io::loadLabels(a.labels);  // raw-input flags describe IN only
+  LabelVolume labels = io::loadLabels(a.labels);  // raw-input flags describe IN only
   if (!(labels.geometry().dims == ctGeom.dims))
     throw Error("--labels " + a.labels + ": dims " + labels.geometry().dims.str() +
                 " differ from the CT's " + ctGeom.dims.str());
   if (!labels.geometry().approxEqual(ctGeom, 1e-3))
     throw Error("--labels " + a.labels + ": spacing/origin/direction differ from the CT's");
+  if (a.table.enabled) {
+    // Labels from a threshold include the CT table: keep only what lies in the body.
+    const auto* ct = std::get_if<VolumeI16>(&lv.volume);
+    if (!ct) throw FileError(a.input, "--remove-table needs a CT in HU (int16)");
+    ProgressBar bar;
+    const segmentation::Mask body = segmentation::bodyMask(*ct, a.table.params, bar.progress());
+    uint16_t* ids = labels.ids().data();
+    for (size_t v = 0; v < labels.ids().size(); ++v)
+      if (!body.data()[v]) ids[v] = 0;
+  }
   const double loadMs = 1000 * secondsSince(t0);
 
   std::vector<ill::Segment> segments;
@@ -167,6 +178,7 @@ void addShapeCommand(CLI::App& app) {
   cmd->add_option("--mesh-format", a->meshFormat, "ply | obj | stl (binary PLY and STL)")->capture_default_str();
   cmd->add_option("--report", a->report, "also write shape.json here");
   a->in.addTo(*cmd);
+  a->table.addTo(*cmd);
   cmd->footer("Example: vellum shape knee.nrrd --labels knee-labels.nrrd --segment bone=4,5,6,7,8,9,11 --segment skin=1 --shell bone:1.5 --out shape/");
   cmd->callback([a] { runShape(*a); });
 }

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "vellum/deformation/synthesis.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/io/video_io.hpp"
 #include "vellum/render/volume_renderer.hpp"
@@ -71,6 +72,29 @@ struct MovieRenderer::Impl {
     w.softNodes = std::max(w.softNodes, m.softNodes);
   }
 
+  // Labels follow the anatomy: each output voxel takes the label at its source position.
+  LabelVolume deformedLabels(const ControlVolume& cv) const {
+    const std::vector<float> u = upsampleMap(cv, geometry);
+    LabelVolume out(spec.labels->ids().geometry());
+    for (const Label& l : spec.labels->table()) out.setLabel(l);
+    uint16_t* dst = out.ids().data();
+    for (size_t v = 0; v < out.ids().size(); ++v)
+      dst[v] = uint16_t(spec.labels->ids().sampleNearestMm({u[3 * v], u[3 * v + 1], u[3 * v + 2]}));
+    return out;
+  }
+
+  void annotate(RgbaImage& img, const render::RenderSettings& s, const ControlVolume& cv) {
+    const auto& o = spec.annotations;
+    if (!o.scaleBar && !o.orientation && !(o.labels && spec.labels)) return;
+    const render::Projection projection(geometry, s);
+    std::vector<render::StructureAnchor> anchors;
+    if (o.labels && spec.labels) {
+      anchors = render::structureAnchors(deformedLabels(cv), spec.labelIds, projection, img);
+      result.anchors.push_back(anchors);
+    }
+    render::annotate(img, projection, o, anchors);
+  }
+
   RgbaImage renderNext() {
     const int f = next;
     const auto t0 = std::chrono::steady_clock::now();
@@ -86,6 +110,7 @@ struct MovieRenderer::Impl {
     const auto t1 = std::chrono::steady_clock::now();
     RgbaImage img = renderer.render(s);
     result.renderMs += msSince(t1);
+    annotate(img, s, cv);
     if (video) video->addFrame(img);
     if (!spec.framesDir.empty()) {
       char name[32];
@@ -105,6 +130,7 @@ MovieRenderer::~MovieRenderer() = default;
 int MovieRenderer::frameCount() const { return impl_->frames; }
 int MovieRenderer::framesDone() const { return impl_->next; }
 RgbaImage MovieRenderer::renderNext() { return impl_->renderNext(); }
+const MovieResult& MovieRenderer::result() const { return impl_->result; }
 
 MovieResult MovieRenderer::finish() {
   if (impl_->video) {

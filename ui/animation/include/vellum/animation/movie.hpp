@@ -6,11 +6,13 @@
 #include <vector>
 
 #include "vellum/core/image.hpp"
+#include "vellum/core/label_volume.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/keyframes.hpp"
 #include "vellum/deformation/rigidity.hpp"
+#include "vellum/render/annotations.hpp"
 #include "vellum/render/backward_map.hpp"
 #include "vellum/render/gl_context.hpp"
 #include "vellum/render/render_settings.hpp"
@@ -27,6 +29,12 @@ struct MovieSpec {
   double fps = 30;
   render::RenderSettings settings;
   double orbitDeg = 0;  ///< camera azimuth turn over the whole animation
+  /// Figure annotations drawn into every frame (scale bar, orientation letters, labels).
+  render::AnnotationOptions annotations;
+  /// With annotations.labels: the label map on the volume's grid. Each frame names the
+  /// structures where the frame's deformation has moved them (labels pulled through the map).
+  const LabelVolume* labels = nullptr;
+  std::vector<uint16_t> labelIds;  ///< structures to name (empty: every id of the table)
 };
 
 /// Rigid bones: the bodies and the blend band; measureStride 0 skips the per-frame measures.
@@ -45,6 +53,8 @@ struct MovieResult {
   double deformMs = 0, renderMs = 0;
   deformation::RigidityReport worst;  ///< largest bone residual / fold fraction over the frames
   std::vector<FrameRigidity> perFrame;
+  /// With labelled annotations: per frame, where each structure's leader line ends.
+  std::vector<std::vector<render::StructureAnchor>> anchors;
 };
 
 /// Renders a track one frame per call (so a window can show progress and cancel between
@@ -63,6 +73,8 @@ class MovieRenderer {
   RgbaImage renderNext();
   /// Closes the movie file; the timings and measures so far.
   MovieResult finish();
+  /// The timings and measures so far (without closing anything).
+  const MovieResult& result() const;
 
  private:
   struct Impl;
