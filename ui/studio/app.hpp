@@ -254,4 +254,13 @@ class StudioApp {
   bool interacting3d() const;
 };
 
+/// Runs a panel's command, turning its error into the error box (a panel never crashes the app).
+inline void guarded(StudioApp& app, const std::function<void()>& fn) {
+  try {
+    fn();
+  } catch (const std::exception& e) {
+    app.showError(e.what());
+  }
+}
+
 }  // namespace vellum::studio

@@ -3,12 +3,10 @@
 // cancel. The UI polls take() once per frame; the current scene is replaced only when a
 // load has fully succeeded, so a bad file leaves it untouched.
 #include <filesystem>
-#include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 
+#include "background_job.hpp"
 #include "scene_file.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/progress.hpp"
@@ -33,27 +31,24 @@ struct LoadResult {
   std::string seriesUid;
 };
 
+/// Loads on a worker thread (BackgroundJob); `take()` gives the finished load once.
 class Loader {
  public:
-  ~Loader();
   /// Starts loading; false if a load is already running.
   bool start(const LoadRequest& request);
-  bool busy() const;
+  bool busy() const { return job_.busy(); }
   /// Stage and fraction of the running load.
-  std::pair<std::string, double> progress() const;
-  void cancel();
+  std::pair<std::string, double> progress() const { return job_.progress(); }
+  void cancel() { job_.cancel(); }
   /// The finished load, once; nullopt while running or idle.
-  std::optional<LoadResult> take();
+  std::optional<LoadResult> take() { return job_.take(); }
 
  private:
-  void run(LoadRequest request);
-  mutable std::mutex mutex_;
-  std::thread thread_;
-  std::unique_ptr<Progress> progress_;
-  std::string stage_;
-  double fraction_ = 0;
-  bool running_ = false;
-  std::optional<LoadResult> result_;
+  BackgroundJob<LoadResult> job_{"loading", [](const std::string& error) {
+                                   LoadResult r;
+                                   r.error = error;
+                                   return r;
+                                 }};
 };
 
 /// The synchronous part (also used by tests): reads request into a LoadResult, throwing

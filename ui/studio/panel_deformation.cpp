@@ -15,14 +15,6 @@ using deformation::Interpolation;
 
 namespace {
 
-void guarded(StudioApp& app, const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const std::exception& e) {
-    app.showError(e.what());
-  }
-}
-
 void pointsRow(StudioApp& app) {
   Scene& s = app.scene();
   Authoring& a = s.authoring;

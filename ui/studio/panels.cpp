@@ -16,15 +16,6 @@ namespace seg = vellum::segmentation;
 
 namespace {
 
-/// Runs a command, turning its error into the error box (a panel never crashes the app).
-void guarded(StudioApp& app, const std::function<void()>& fn) {
-  try {
-    fn();
-  } catch (const std::exception& e) {
-    app.showError(e.what());
-  }
-}
-
 void fileSection(StudioApp& app) {
   Scene& s = app.scene();
   if (ImGui::Button("Open...")) {

@@ -2,12 +2,10 @@
 // The 3D snake (segmentation::evolveSnake) from a seed clicked in a slice, on a worker
 // thread with progress and cancel, like loading. The result is adopted by the UI thread as
 // one label edit (one undo step).
-#include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 
+#include "background_job.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/segmentation/snake.hpp"
 #include "vellum/segmentation/threshold.hpp"
@@ -30,26 +28,28 @@ struct SnakeOutcome {
   uint64_t volumeGeneration = 0;
 };
 
+/// The snake on a worker thread (BackgroundJob).
 class SnakeJob {
  public:
-  ~SnakeJob();
   /// Starts the snake; false if one is already running.
   bool start(SnakeRequest request);
-  bool busy() const;
-  std::pair<std::string, double> progress() const;
-  void cancel();
-  /// The finished snake, once.
-  std::optional<SnakeOutcome> take();
+  bool busy() const { return job_.busy(); }
+  std::pair<std::string, double> progress() const { return job_.progress(); }
+  void cancel() { job_.cancel(); }
+  /// The finished snake (or its error), once, stamped with the volume it ran on.
+  std::optional<SnakeOutcome> take() {
+    auto outcome = job_.take();
+    if (outcome) outcome->volumeGeneration = generation_;
+    return outcome;
+  }
 
  private:
-  void run(SnakeRequest request);
-  mutable std::mutex mutex_;
-  std::thread thread_;
-  std::unique_ptr<Progress> progress_;
-  std::string stage_;
-  double fraction_ = 0;
-  bool running_ = false;
-  std::optional<SnakeOutcome> result_;
+  uint64_t generation_ = 0;  ///< volumeGeneration of the running or last snake
+  BackgroundJob<SnakeOutcome> job_{"snake", [](const std::string& error) {
+                                     SnakeOutcome o;
+                                     o.error = error;
+                                     return o;
+                                   }};
 };
 
 }  // namespace vellum::studio
