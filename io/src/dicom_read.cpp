@@ -142,6 +142,19 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
 
   Geometry stackGeometry = plan.geometry;
   stackGeometry.dims.z = static_cast<int64_t>(plan.slices.size());
+  // Headers can claim far more pixels than their files hold (a 1.3 KB file promising
+  // gigabytes, found by the DICOM fuzzer): refuse before allocating. Even run-length or
+  // lossless-JPEG compression of empty slices stays well under 1000:1.
+  uint64_t fileBytes = 0;
+  for (const FileHeader* h : files) {
+    std::error_code ec;
+    const auto n = fs::file_size(h->file, ec);
+    if (!ec) fileBytes += n;
+  }
+  const double pixelBytes = double(stackGeometry.dims.voxelCount()) * 2.0;
+  if (pixelBytes > 1000.0 * double(fileBytes) + double(1u << 20))
+    throw FileError(path, "the headers describe " + std::to_string(uint64_t(pixelBytes)) + " bytes of pixels but the files hold only " +
+                              std::to_string(fileBytes) + " bytes (corrupt rows, columns or frame counts)");
   VolumeI16 stack = allocate(path, stackGeometry, background);
   const int64_t plane = rows * columns;
 

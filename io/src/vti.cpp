@@ -72,14 +72,22 @@ SampleType sampleTypeOfVtk(const fs::path& path, int vtkType) {
   }
 }
 
-// VTK trusts the block count in each compressed array's header and allocates for it: a
-// corrupt count makes it ask for exabytes (found by the VTI fuzzer). Check every count
-// against the file's size before VTK sees the file.
-void checkCompressedHeaders(const fs::path& path) {
+// Structure checks before VTK sees the file (each guards a VTI fuzzer finding): arrays need a
+// type, and VTK trusts the counts in each compressed array's header and allocates or divides
+// by them, so every count is checked against the file's size.
+void checkBeforeVtk(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::string head(size_t{1} << 20, '\0');
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
   head.resize(static_cast<size_t>(in.gcount()));
+  // VTK dereferences a missing type attribute of an array (a VTI fuzzer crash, also in release).
+  for (const char* tag : {"<Array", "<DataArray"})
+    for (size_t at = head.find(tag); at != std::string::npos; at = head.find(tag, at + 1)) {
+      const size_t end = head.find('>', at);
+      const std::string element = head.substr(at, end == std::string::npos ? std::string::npos : end - at);
+      if (element.find(" type=\"") == std::string::npos)
+        throw FileError(path, std::string(tag + 1) + " element without a type attribute");
+    }
   const size_t appended = head.find("<AppendedData");
   if (head.find("compressor=") == std::string::npos || appended == std::string::npos) return;
   const size_t underscore = head.find('_', appended);
@@ -133,7 +141,7 @@ LoadedVolume loadVti(const fs::path& path, const LoadOptions& options) {
   ErrorCatcher errors(reader);
   reader->SetFileName(path.c_str());
   if (!reader->CanReadFile(path.c_str())) throw FileError(path, "not a VTK XML image data file");
-  checkCompressedHeaders(path);
+  checkBeforeVtk(path);
   // Information first: dims are checked against the budget before VTK allocates anything.
   try {
     reader->UpdateInformation();
