@@ -23,6 +23,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <set>
 
 #include "io_detail.hpp"
 #include "vellum/io/atomic_file.hpp"
@@ -85,8 +86,15 @@ void checkBeforeVtk(const fs::path& path) {
     for (size_t at = head.find(tag); at != std::string::npos; at = head.find(tag, at + 1)) {
       const size_t end = head.find('>', at);
       const std::string element = head.substr(at, end == std::string::npos ? std::string::npos : end - at);
-      if (element.find(" type=\"") == std::string::npos)
+      const size_t type = element.find(" type=\"");
+      if (type == std::string::npos)
         throw FileError(path, std::string(tag + 1) + " element without a type attribute");
+      const size_t close = element.find('"', type + 7);
+      const std::string name = element.substr(type + 7, close == std::string::npos ? 0 : close - type - 7);
+      static const std::set<std::string> kTypes{"Int8",   "Int16",  "Int32",   "Int64",   "UInt8",  "UInt16",
+                                                "UInt32", "UInt64", "Float32", "Float64", "String", "Bit"};
+      if (!kTypes.count(name))  // VTK logs an unknown type and then dereferences null
+        throw FileError(path, std::string(tag + 1) + " of unknown type '" + name + "'");
     }
   const size_t appended = head.find("<AppendedData");
   if (head.find("compressor=") == std::string::npos || appended == std::string::npos) return;
