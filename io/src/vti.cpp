@@ -97,7 +97,8 @@ void checkBeforeVtk(const fs::path& path) {
         throw FileError(path, std::string(tag + 1) + " of unknown type '" + name + "'");
     }
   const size_t appended = head.find("<AppendedData");
-  if (head.find("compressor=") == std::string::npos || appended == std::string::npos) return;
+  if (appended == std::string::npos) return;
+  const bool compressed = head.find("compressor=") != std::string::npos;
   const size_t underscore = head.find('_', appended);
   if (underscore == std::string::npos) return;
   const uint64_t headerBytes = head.find("header_type=\"UInt64\"") != std::string::npos ? 8 : 4;
@@ -120,6 +121,13 @@ void checkBeforeVtk(const fs::path& path) {
       return v;
     };
     const uint64_t room = size - base - offset;
+    if (!compressed) {  // raw appended data: a byte count, then the bytes
+      const uint64_t bytes = next();
+      if (bytes > room - headerBytes)
+        throw FileError(path, "appended array of " + std::to_string(bytes) + " bytes in a file of " +
+                                  std::to_string(size) + " bytes");
+      continue;
+    }
     const uint64_t blocks = next();
     if (blocks > room / headerBytes)
       throw FileError(path, "corrupt compressed array header: " + std::to_string(blocks) + " blocks in a file of " +
