@@ -20,6 +20,7 @@
 #include <vtkXMLImageDataReader.h>
 #include <vtkXMLImageDataWriter.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -82,8 +83,9 @@ void checkBeforeVtk(const fs::path& path) {
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
   head.resize(static_cast<size_t>(in.gcount()));
   // VTK dereferences a missing type attribute of an array (a VTI fuzzer crash, also in release).
+  const size_t xmlEnd = std::min(head.find("<AppendedData"), head.size());
   for (const char* tag : {"<Array", "<DataArray"})
-    for (size_t at = head.find(tag); at != std::string::npos; at = head.find(tag, at + 1)) {
+    for (size_t at = head.find(tag); at < xmlEnd; at = head.find(tag, at + 1)) {
       const size_t end = head.find('>', at);
       const std::string element = head.substr(at, end == std::string::npos ? std::string::npos : end - at);
       const size_t type = element.find(" type=\"");
@@ -98,10 +100,15 @@ void checkBeforeVtk(const fs::path& path) {
     }
   const size_t appended = head.find("<AppendedData");
   if (appended == std::string::npos) return;
-  const bool compressed = head.find("compressor=") != std::string::npos;
+  // The file's attributes live in its <VTKFile ...> start tag only (the binary data after
+  // <AppendedData may contain any bytes, even a copy of that tag).
+  const size_t fileTag = head.find("<VTKFile");
+  const std::string vtkFile =
+      fileTag < appended ? head.substr(fileTag, head.find('>', fileTag) - fileTag) : std::string();
+  const bool compressed = vtkFile.find(" compressor=") != std::string::npos;
   const size_t underscore = head.find('_', appended);
   if (underscore == std::string::npos) return;
-  const uint64_t headerBytes = head.find("header_type=\"UInt64\"") != std::string::npos ? 8 : 4;
+  const uint64_t headerBytes = vtkFile.find(" header_type=\"UInt64\"") != std::string::npos ? 8 : 4;
   const uint64_t base = underscore + 1, size = fileSize(path);
   for (size_t at = head.find(" offset=\""); at != std::string::npos && at < appended;
        at = head.find(" offset=\"", at + 1)) {
