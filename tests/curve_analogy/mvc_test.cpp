@@ -33,7 +33,7 @@ std::vector<Vec3> samplePoints(const ill::Cage& cage) {
 }  // namespace
 
 TEST(MeanValueCoordinates, UndeformedCageReproducesPoints) {
-  const ill::Cage cage = ill::cageOf(curve_test::ellipsoid(20, 12, 30, 2));
+  const ill::Cage cage = ill::cageOf(vellum::test::ellipsoid(20, 12, 30, 2));
   const auto pts = samplePoints(cage);
   const auto out = ill::transferByMeanValueCoordinates(cage, cage.vertices, pts);
   for (size_t i = 0; i < pts.size(); ++i)
@@ -41,7 +41,7 @@ TEST(MeanValueCoordinates, UndeformedCageReproducesPoints) {
 }
 
 TEST(MeanValueCoordinates, WeightsSumToOneAndArePositiveInside) {
-  const ill::Cage cage = ill::cageOf(curve_test::ellipsoid(20, 12, 30, 1));
+  const ill::Cage cage = ill::cageOf(vellum::test::ellipsoid(20, 12, 30, 1));
   const auto w = ill::meanValueCoordinates(cage, {1, 2, 3});
   double sum = 0;
   for (double x : w) {
@@ -52,7 +52,7 @@ TEST(MeanValueCoordinates, WeightsSumToOneAndArePositiveInside) {
 }
 
 TEST(MeanValueCoordinates, AffineMapOfCageMovesPointsAffinely) {
-  const ill::Cage cage = ill::cageOf(curve_test::ellipsoid(20, 12, 30, 2));
+  const ill::Cage cage = ill::cageOf(vellum::test::ellipsoid(20, 12, 30, 2));
   auto affine = [](const Vec3& p) {
     return Vec3{1.2 * p.x + 0.3 * p.y - 0.1 * p.z + 5, -0.2 * p.x + 0.9 * p.y + 0.4 * p.z - 3,
                 0.1 * p.x - 0.3 * p.y + 1.5 * p.z + 11};
@@ -66,7 +66,7 @@ TEST(MeanValueCoordinates, AffineMapOfCageMovesPointsAffinely) {
 }
 
 TEST(MeanValueCoordinates, VertexAndEdgeAreBarycentric) {
-  const ill::Cage cage = ill::cageOf(curve_test::ellipsoid(20, 12, 30, 1));
+  const ill::Cage cage = ill::cageOf(vellum::test::ellipsoid(20, 12, 30, 1));
   const auto& t = cage.faces[3];
   const auto w = ill::meanValueCoordinates(cage, cage.vertices[t[0]]);
   EXPECT_NEAR(w[t[0]], 1.0, 1e-12);

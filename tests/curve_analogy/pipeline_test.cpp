@@ -51,7 +51,7 @@ ill::Polyline2 bulge(const ill::Polyline2& c, double at, double amountPx) {
 }  // namespace
 
 TEST(CurveAnalogy, SilhouetteOfEllipsoidFromFront) {
-  const auto m = curve_test::ellipsoid(15, 10, 25, 3);
+  const auto m = vellum::test::ellipsoid(15, 10, 25, 3);
   const Geometry g = cube(64);
   const render::Projection proj(g, frontView(256));
   const auto sil = ill::silhouetteLoop(m, proj);
@@ -63,8 +63,8 @@ TEST(CurveAnalogy, SilhouetteOfEllipsoidFromFront) {
 }
 
 TEST(CurveAnalogy, OutlineMovesTowardDrawingAndMeshesStayValid) {
-  const auto m0 = curve_test::ellipsoid(15, 10, 25, 4);  // 5120 faces
-  const auto inner = curve_test::ellipsoid(6, 5, 15, 3);  // "bone" carried along
+  const auto m0 = vellum::test::ellipsoid(15, 10, 25, 4);  // 5120 faces
+  const auto inner = vellum::test::ellipsoid(6, 5, 15, 3);  // "bone" carried along
   const Geometry g = cube(64);
   const render::Projection proj(g, frontView(256));
   const auto c1 = ill::silhouetteLoop(m0, proj).pixels;
@@ -112,7 +112,7 @@ TEST(CurveAnalogy, OutlineMovesTowardDrawingAndMeshesStayValid) {
 }
 
 TEST(CurveAnalogy, BackwardMapIsIdentityForUndeformedCage) {
-  const ill::Cage cage = ill::cageOf(curve_test::ellipsoid(15, 10, 25, 2));
+  const ill::Cage cage = ill::cageOf(vellum::test::ellipsoid(15, 10, 25, 2));
   const Geometry g = cube(24);
   const auto map = ill::cageBackwardMap(cage, cage.vertices, g, 4);
   ASSERT_EQ(map.size(), size_t(24 * 24 * 24 * 3));

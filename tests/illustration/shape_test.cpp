@@ -8,6 +8,7 @@
 #include <random>
 
 #include "test_data.hpp"
+#include "test_meshes.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/illustration/shape.hpp"
 #include "vellum/phantom/phantom.hpp"
@@ -42,40 +43,7 @@ LabelVolume labelsOf(const VolumeU8& mask, uint16_t id, const std::string& name)
   return LabelVolume(std::move(ids), {{id, name, {200, 100, 50}}});
 }
 
-/// Icosphere of `radius` mm (vertices on the sphere), `level` subdivisions, outward.
-ill::TriMesh icosphere(double radius, int level) {
-  const double t = (1 + std::sqrt(5.0)) / 2;
-  std::vector<Vec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                         {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
-  std::vector<std::array<uint32_t, 3>> f = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11},
-                                            {1, 5, 9}, {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                                            {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8}, {3, 8, 9},
-                                            {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
-  for (auto& p : v) p = normalized(p);
-  for (int l = 0; l < level; ++l) {
-    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
-    auto midpoint = [&](uint32_t a, uint32_t b) {
-      auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      v.push_back(normalized(v[a] + v[b]));
-      return mid[key] = static_cast<uint32_t>(v.size() - 1);
-    };
-    std::vector<std::array<uint32_t, 3>> g;
-    for (auto [a, b, c] : f) {
-      const uint32_t ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
-      g.push_back({a, ab, ca});
-      g.push_back({b, bc, ab});
-      g.push_back({c, ca, bc});
-      g.push_back({ab, bc, ca});
-    }
-    f = std::move(g);
-  }
-  ill::TriMesh m;
-  for (const auto& p : v) m.vertices.push_back({float(p.x * radius), float(p.y * radius), float(p.z * radius)});
-  m.faces = f;
-  return m;
-}
+using test::icosphere;
 
 void expectCleanMesh(const ill::SegmentShape& s) {
   SCOPED_TRACE(s.segment.name);

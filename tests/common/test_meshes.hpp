@@ -1,5 +1,6 @@
 #pragma once
-// Analytic test meshes: an icosphere scaled into an ellipsoid (outward, closed).
+// Analytic test meshes: an icosphere, or one scaled into an ellipsoid (outward, closed), for
+// the shape pipeline's and the curve analogy's tests.
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -7,7 +8,7 @@
 #include "vellum/core/vec.hpp"
 #include "vellum/illustration/shape.hpp"
 
-namespace curve_test {
+namespace vellum::test {
 
 inline vellum::illustration::TriMesh ellipsoid(double rx, double ry, double rz, int level) {
   using vellum::Vec3;
@@ -44,4 +45,7 @@ inline vellum::illustration::TriMesh ellipsoid(double rx, double ry, double rz, 
   return m;
 }
 
-}  // namespace curve_test
+/// Icosphere of `radius` mm (vertices on the sphere), `level` subdivisions, outward.
+inline vellum::illustration::TriMesh icosphere(double radius, int level) { return ellipsoid(radius, radius, radius, level); }
+
+}  // namespace vellum::test
