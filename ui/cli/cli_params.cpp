@@ -2,8 +2,6 @@
 
 namespace vellum::cli {
 
-std::string flagName(const std::string& key) { return params::cliFlag(key); }
-
 std::string flagHelp(const params::Info& info, const std::string& range) {
   std::string help = info.label + ": " + info.help;
   if (!info.unit.empty()) help += " [" + info.unit + "]";

@@ -12,14 +12,13 @@
 
 namespace vellum::cli {
 
-/// "control_scale" -> "--control-scale".
-std::string flagName(const std::string& key);
 /// "Control scale: the map is ... [voxels] (1..16)".
 std::string flagHelp(const params::Info& info, const std::string& range);
 
 /// Adds the flags of `table` (except the keys in `skip`) to `cmd`, each named
-/// flagName(prefix + key); parsing writes into `target`, which must outlive the parse. Returns the options by key, so that a caller can
-/// ask whether a flag was given (`->count()`), e.g. to let a file's value stand otherwise.
+/// params::cliFlag(prefix + key); parsing writes into `target`, which must outlive the parse.
+/// Returns the options by key, so that a caller can ask whether a flag was given
+/// (`->count()`), e.g. to let a file's value stand otherwise.
 template <class S>
 std::map<std::string, CLI::Option*> addFlags(CLI::App& cmd, S& target, const params::Table<S>& table,
                                              const std::set<std::string>& skip = {},
@@ -32,11 +31,11 @@ std::map<std::string, CLI::Option*> addFlags(CLI::App& cmd, S& target, const par
     CLI::Option* o = nullptr;
     if (f->kind == params::Kind::Flag) {
       // --flag sets true, --flag=false sets false.
-      o = cmd.add_flag_function(flagName(prefix + f->key) + "{true}",
+      o = cmd.add_flag_function(params::cliFlag(prefix + f->key) + "{true}",
                                 [&target, f](std::int64_t n) { f->set(target, n > 0 ? 1.0 : 0.0); }, help);
     } else {
       o = cmd.add_option_function<std::string>(
-          flagName(prefix + f->key), [&target, f](const std::string& v) { params::parse(*f, target, v); }, help);
+          params::cliFlag(prefix + f->key), [&target, f](const std::string& v) { params::parse(*f, target, v); }, help);
       o->type_name(f->kind == params::Kind::Choice ? "NAME" : f->kind == params::Kind::Text ? "TEXT" : "NUMBER");
     }
     const std::string d = params::format(*f, target);
