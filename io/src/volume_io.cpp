@@ -108,6 +108,11 @@ VolumeI16 rescaledToHu(const AnyVolume& stored, double slope, double intercept) 
 /// Unsigned CT numbers read as if they were HU make every preset a solid box: say so.
 std::optional<std::string> notHuWarning(const LoadedVolume& lv) {
   if (lv.modality != "CT" && lv.format != "raw") return std::nullopt;
+  // HU data shows a negative value (air) almost at once: only data without any gets the full
+  // range pass, so loading ordinary CT costs no extra pass over the volume.
+  const bool anyNegative = std::visit(
+      [](const auto& v) { return std::any_of(v.data(), v.data() + v.size(), [](auto x) { return x < 0; }); }, lv.volume);
+  if (anyNegative) return std::nullopt;
   const auto [lo, hi] = std::visit([](const auto& v) { return v.valueRange(); }, lv.volume);
   if (lo < 0 || hi < 1000) return std::nullopt;
   return "values " + std::to_string(int64_t(lo)) + ".." + std::to_string(int64_t(hi)) +
