@@ -165,3 +165,38 @@ TEST(ShapeCli, RemoveTableDropsLabelledTableVoxels) {
   const double voxelMm3 = ph.ct.geometry().spacing.x * ph.ct.geometry().spacing.y * ph.ct.geometry().spacing.z;
   EXPECT_NEAR(volume("without"), femurVoxels * voxelMm3, 0.01 * femurVoxels * voxelMm3);
 }
+
+// Issue 13: --crop / --downsample reduce the CT on load and the label map gets the same
+// region, so shape (and illustrate, given the same flags) work on a region of a big scan.
+TEST(ShapeCli, CropAndDownsampleApplyToTheLabelsToo) {
+  const fs::path dir = test::tempDir("shape-cli-region");
+  phantom::PhantomOptions po;
+  po.dims = {40, 40, 48};
+  const auto ph = phantom::makePhantom(po);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const std::string base = (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string() +
+                           " --segment body=1,2,3,4,5,6,7,8,9,10,11 --target-faces 2000 --out ";
+  struct Case { std::string flags; Dims dims; Vec3 originVoxel; double spacingFactor; };
+  for (const Case& c : {Case{" --crop 4 35 2 37 8 47", {32, 36, 40}, {4, 2, 8}, 1.0},
+                        Case{" --downsample 2", {20, 20, 24}, {0.5, 0.5, 0.5}, 2.0}}) {
+    const fs::path out = dir / "shape";
+    ASSERT_EQ(run(base + out.string() + c.flags, dir / "log.txt"), 0) << c.flags << slurp(dir / "log.txt");
+    const LabelVolume seg = io::loadLabels(out / "segments.nrrd");
+    EXPECT_EQ(seg.geometry().dims, c.dims) << c.flags;
+    EXPECT_NEAR(seg.geometry().spacing.x, c.spacingFactor * ph.ct.geometry().spacing.x, 1e-9) << c.flags;
+    EXPECT_LT(norm(seg.geometry().origin - ph.ct.geometry().indexToPhysical(c.originVoxel)), 1e-6) << c.flags;
+    const auto dist = io::loadVolume(out / "distance.nrrd");
+    EXPECT_TRUE(geometryOf(dist.volume).approxEqual(seg.geometry())) << c.flags;
+    // The cropped body matches the cropped source labels voxel for voxel where they are clear.
+    if (c.spacingFactor == 1.0) {
+      int64_t agree = 0, total = 0;
+      for (int64_t k = 0; k < c.dims.z; ++k)
+        for (int64_t j = 0; j < c.dims.y; ++j)
+          for (int64_t i = 0; i < c.dims.x; ++i, ++total)
+            agree += (seg.ids()(i, j, k) != 0) == (ph.labels.ids()(i + 4, j + 2, k + 8) != 0);
+      EXPECT_GT(double(agree) / double(total), 0.97) << c.flags;
+    }
+    fs::remove_all(out);
+  }
+}

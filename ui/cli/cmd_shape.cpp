@@ -67,7 +67,8 @@ void runShape(const ShapeArgs& a) {
   refuseOverwritingInput(a.labels, a.out);
   const io::LoadedVolume lv = loadWithProgress(a.input, a.in);
   const Geometry& ctGeom = geometryOf(lv.volume);
-  LabelVolume labels = io::loadLabels(a.labels);  // raw-input flags describe IN only
+  // The labels get the input's --crop / --downsample (the raw-input flags describe IN only).
+  LabelVolume labels = a.in.loadLabelsOnInputGrid(a.labels);
   if (!(labels.geometry().dims == ctGeom.dims))
     throw Error("--labels " + a.labels + ": dims " + labels.geometry().dims.str() +
                 " differ from the CT's " + ctGeom.dims.str());
