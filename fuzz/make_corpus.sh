@@ -14,6 +14,9 @@ rm -rf "$c"; mkdir -p $c/{nrrd,nhdr,metaimage,nifti,vti,raw_sidecar,labels,dicom
 cp "$tmp/lab.nrrd" "$c/labels/labels16-gzip.nrrd"
 "$vellum" convert "$tmp/ph.nrrd" "$c/metaimage/phantom16.mha" >/dev/null
 "$vellum" convert "$tmp/ph.nrrd" "$c/vti/phantom16.vti" >/dev/null
+# VTK's writer in each of its modes (ascii, base64, raw, zlib, both header types and byte orders).
+vti_tests="$(dirname "$vellum")/../tests/io/vellum_vti_reader_tests"
+VELLUM_VTI_SEED_DIR="$(realpath $c/vti)" "$vti_tests" --gtest_filter='*EveryMode*' >/dev/null
 "$vellum" convert "$tmp/ph.nrrd" "$tmp/ph.raw" >/dev/null
 cp "$tmp/ph.raw.json" "$c/raw_sidecar/phantom16.raw.json"
 "$vellum" convert "$tmp/ph.nrrd" "$tmp/series" >/dev/null

@@ -12,6 +12,8 @@
 #include <vtkStringArray.h>
 #include <vtkXMLImageDataWriter.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -99,6 +101,12 @@ TEST(VtiReader, ReadsEveryModeVtkWritesInt16) {
     SCOPED_TRACE(mode.name);
     const fs::path f = dir / "a.vti";
     writeWithVtk<vtkShortArray>(f, mode, true);
+    // fuzz/make_corpus.sh collects these as the VTI fuzzer's seeds (one per writer mode).
+    if (const char* seeds = std::getenv("VELLUM_VTI_SEED_DIR")) {
+      std::string name = mode.name;
+      std::replace(name.begin(), name.end(), ' ', '-');
+      fs::copy_file(f, fs::path(seeds) / (name + ".vti"), fs::copy_options::overwrite_existing);
+    }
     io::LoadedVolume lv;
     ASSERT_NO_THROW(lv = io::loadVolume(f));
     // int16 with values down to -1000 but modality MR: kept as int16 data, not converted.
