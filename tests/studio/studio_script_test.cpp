@@ -116,8 +116,8 @@ TEST(StudioScript, ThresholdUndoRedoSceneReopenAndCliRender) {
   EXPECT_EQ(sf.volume, (d / "ct.nrrd").lexically_normal());
   ASSERT_FALSE(sf.labels.empty());
   EXPECT_EQ(io::loadLabels(sf.labels).ids().voxels(), l1.ids().voxels());
-  EXPECT_EQ(sf.preset, render::Preset::Bone);
-  EXPECT_NE(sf.camera.azimuthDeg, render::Camera{}.azimuthDeg) << "the drag rotated the camera";
+  EXPECT_EQ(sf.view.render.preset, render::Preset::Bone);
+  EXPECT_NE(sf.view.render.camera.azimuthDeg, render::Camera{}.azimuthDeg) << "the drag rotated the camera";
 
   // Reopening the scene gives the same pixels. The same click as before (on the crosshair it
   // set, so nothing moves) gives ImGui the same focus and hover state.
@@ -242,4 +242,35 @@ TEST(StudioScript, BadFileLeavesSceneAndFailuresNameTheAction) {
 }
 
 }  // namespace
+// Issue 10 §3-4: view settings set by their table keys and camera bookmarks are undo steps;
+// the scene file keeps them under the tables' keys.
+TEST(StudioScript, ViewSettingsAndBookmarksUndoRedoAndSave) {
+  REQUIRE_DISPLAY();
+  const auto dir = test::tempDir("studio-view-undo");
+  writePhantom(dir);
+  const std::string script = R"({"actions":[{"open":)" + q(dir / "ct.nrrd") + R"(},
+    {"set":{"preset":"bone","shading":false,"slice_window_width":900}},
+    {"camera":{"azimuth":90}},{"bookmark":{"add":"lateral"}},{"camera":{"azimuth":10}},{"bookmark":{"go":"lateral"}},
+    {"save_scene":)" + q(dir / "a.json") + R"(},
+    {"key":"ctrl+z"},{"save_scene":)" + q(dir / "b.json") + R"(},
+    {"key":"ctrl+z"},{"key":"ctrl+z"},{"save_scene":)" + q(dir / "c.json") + R"(},
+    {"key":"ctrl+shift+z"},{"save_scene":)" + q(dir / "d.json") + R"(},{"quit":0}]})";
+  const StudioRun r = runStudio(dir, "view", script);
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const SceneFile a = readSceneFile(dir / "a.json"), b = readSceneFile(dir / "b.json"),
+                  c = readSceneFile(dir / "c.json"), d = readSceneFile(dir / "d.json");
+  EXPECT_EQ(a.view.render.preset, render::Preset::Bone);
+  EXPECT_FALSE(a.view.render.shading);
+  EXPECT_EQ(a.view.view.sliceWindow.width, 900);
+  ASSERT_EQ(a.view.bookmarks.size(), 1u);
+  EXPECT_EQ(a.view.bookmarks[0].camera.azimuthDeg, 90);
+  EXPECT_EQ(a.view.render.camera.azimuthDeg, 90) << "went to the bookmark";
+  EXPECT_EQ(b.view.render.camera.azimuthDeg, 10) << "undo: back from the bookmark";
+  EXPECT_EQ(c.view.bookmarks.size(), 0u) << "undo: the bookmark is gone";
+  EXPECT_EQ(c.view.view.sliceWindow.width, 400) << "undo: the slice window is back";
+  EXPECT_FALSE(c.view.render.shading) << "shading was an earlier step";
+  EXPECT_EQ(d.view.view.sliceWindow.width, 900) << "redo";
+  EXPECT_EQ(d.view.bookmarks.size(), 0u);
+}
+
 }  // namespace vellum::studio

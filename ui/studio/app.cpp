@@ -172,7 +172,7 @@ void StudioApp::frame() {
 
   int w = 0, h = 0;
   glfwGetWindowSize(window_, &w, &h);
-  panes_ = layoutPanes(scene_.layout, {kPanelWidth, 0, std::max(1.f, w - kPanelWidth), float(h)});
+  panes_ = layoutPanes(scene_.view.layout, {kPanelWidth, 0, std::max(1.f, w - kPanelWidth), float(h)});
   drawToolPanel(*this, kPanelWidth, float(h));
   browser_.draw();
   if (errorPopupPending_) {

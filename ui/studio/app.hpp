@@ -96,6 +96,17 @@ class StudioApp {
                    const std::string& seriesUid = {});
   void setLayout(Layout l);
   void setPreset(render::Preset p);
+  /// Sets one view parameter by its table key (viewSettingsTable or renderSettingsTable: the
+  /// `vellum render` flag without "--"), as the View panel does; one undo step. Throws
+  /// vellum::Error for an unknown key or a bad value.
+  void setViewParameter(const std::string& key, const std::string& value);
+  /// A View-panel edit: begin with the state before it, end records one undo step.
+  void beginViewEdit(const ViewState& before);
+  void endViewEdit(const std::string& description);
+  /// Camera bookmarks (each one undo step): add the current camera, go to one, delete one.
+  void addBookmark(const std::string& name);
+  void goToBookmark(size_t index);
+  void deleteBookmark(size_t index);
   void resetView();
   bool undo();
   bool redo();
@@ -225,6 +236,9 @@ class StudioApp {
   Scene scene_;
   ToolState tools_;
   UndoStack undo_;
+  std::optional<ViewState> viewEditBefore_;  ///< the state before a View-panel edit in progress
+  void pushViewEdit(const std::string& description, const ViewState& before);
+  void viewChanged();  ///< layout, preset ... changed: redraw slices and the 3D view
   Loader loader_;
   SnakeJob snake_;
   FileBrowser browser_;

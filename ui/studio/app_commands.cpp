@@ -1,6 +1,7 @@
 // StudioApp: commands of the panels, keys and scripts (each label edit is one undo step).
 #include <GLFW/glfw3.h>
 
+#include <algorithm>
 #include <iostream>
 #include <sstream>
 
@@ -10,6 +11,7 @@
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/volume_io.hpp"
+#include "vellum/core/params.hpp"
 
 namespace vellum::studio {
 namespace fs = std::filesystem;
@@ -23,13 +25,73 @@ Label labelFor(const LabelVolume& labels, uint16_t id, const std::string& defaul
 
 // ---- commands ----------------------------------------------------------------------------
 
-void StudioApp::setLayout(Layout l) {
-  scene_.layout = l;
+void StudioApp::viewChanged() {
   view3d_->invalidate();
   markSlicesDirty();
 }
 
-void StudioApp::setPreset(render::Preset p) { scene_.preset = p; }
+void StudioApp::pushViewEdit(const std::string& description, const ViewState& before) {
+  undo_.push(ViewEdit{description, before, scene_.viewState()});
+  viewChanged();
+}
+
+void StudioApp::setLayout(Layout l) {
+  const ViewState before = scene_.viewState();
+  scene_.view.layout = l;
+  pushViewEdit("layout", before);
+}
+
+void StudioApp::setPreset(render::Preset p) {
+  const ViewState before = scene_.viewState();
+  scene_.render.preset = p;
+  pushViewEdit("preset", before);
+}
+
+void StudioApp::setViewParameter(const std::string& key, const std::string& value) {
+  const ViewState before = scene_.viewState();
+  const auto& notInScene = renderKeysNotInScene();
+  if (const auto* f = params::findField(viewSettingsTable(), key)) {
+    params::parse(*f, scene_.view, value);
+  } else if (const auto* r = params::findField(render::renderSettingsTable(), key);
+             r && std::find(notInScene.begin(), notInScene.end(), key) == notInScene.end()) {
+    params::parse(*r, scene_.render, value);
+  } else {
+    throw Error("unknown view parameter '" + key + "'");
+  }
+  pushViewEdit(key, before);
+}
+
+void StudioApp::beginViewEdit(const ViewState& before) {
+  if (!viewEditBefore_) viewEditBefore_ = before;
+}
+
+void StudioApp::endViewEdit(const std::string& description) {
+  const ViewState before = viewEditBefore_.value_or(scene_.viewState());
+  viewEditBefore_.reset();
+  pushViewEdit(description, before);
+}
+
+void StudioApp::addBookmark(const std::string& name) {
+  const ViewState before = scene_.viewState();
+  std::string n = name;
+  if (n.empty()) n = "view " + std::to_string(scene_.bookmarks.size() + 1);
+  scene_.bookmarks.push_back({n, scene_.render.camera});
+  pushViewEdit("add bookmark", before);
+}
+
+void StudioApp::goToBookmark(size_t index) {
+  if (index >= scene_.bookmarks.size()) throw Error("no camera bookmark " + std::to_string(index));
+  const ViewState before = scene_.viewState();
+  scene_.render.camera = scene_.bookmarks[index].camera;
+  pushViewEdit("go to bookmark", before);
+}
+
+void StudioApp::deleteBookmark(size_t index) {
+  if (index >= scene_.bookmarks.size()) throw Error("no camera bookmark " + std::to_string(index));
+  const ViewState before = scene_.viewState();
+  scene_.bookmarks.erase(scene_.bookmarks.begin() + static_cast<std::ptrdiff_t>(index));
+  pushViewEdit("delete bookmark", before);
+}
 
 void StudioApp::resetView() {
   scene_.resetView();
@@ -49,16 +111,20 @@ void StudioApp::pushEdit(LabelDelta delta) {
 
 bool StudioApp::undo() {
   if (pointDrag_) return false;  // not in the middle of a drag
-  if (!undo_.undo(scene_.labels, &scene_.authoring)) return false;
+  ViewState view = scene_.viewState();
+  if (!undo_.undo(scene_.labels, &scene_.authoring, &view)) return false;
   if (undo_.lastWasLabels()) scene_.touchLabels();
+  if (undo_.lastWasView()) scene_.setViewState(view), view3d_->invalidate();
   markSlicesDirty();
   return true;
 }
 
 bool StudioApp::redo() {
   if (pointDrag_) return false;  // not in the middle of a drag
-  if (!undo_.redo(scene_.labels, &scene_.authoring)) return false;
+  ViewState view = scene_.viewState();
+  if (!undo_.redo(scene_.labels, &scene_.authoring, &view)) return false;
   if (undo_.lastWasLabels()) scene_.touchLabels();
+  if (undo_.lastWasView()) scene_.setViewState(view), view3d_->invalidate();
   markSlicesDirty();
   return true;
 }

@@ -35,15 +35,15 @@ void StudioApp::updateSliceTextures() {
   std::ostringstream key;
   key.precision(10);
   key << scene_.crosshairMm.x << ' ' << scene_.crosshairMm.y << ' ' << scene_.crosshairMm.z << ' '
-      << scene_.sliceWindow.center << ' ' << scene_.sliceWindow.width << ' ' << scene_.labelOpacity << ' '
+      << scene_.view.sliceWindow.center << ' ' << scene_.view.sliceWindow.width << ' ' << scene_.view.labelOpacity << ' '
       << tools_.thresholdPreview << ' ' << tools_.threshold.lower << ' ' << tools_.threshold.upper << ' '
       << scene_.hiddenLabels.size();
   for (const Pane& p : panes_) key << ' ' << p.rect.w << 'x' << p.rect.h;
   if (!slicesDirty_ && key.str() == lastSliceKey_) return;
   SliceStyle style;
-  style.window = scene_.sliceWindow;
+  style.window = scene_.view.sliceWindow;
   style.labels = &scene_.labels;
-  style.labelOpacity = scene_.labelOpacity;
+  style.labelOpacity = scene_.view.labelOpacity;
   style.hidden = &scene_.hiddenLabels;
   if (tools_.thresholdPreview) style.thresholdPreview = tools_.threshold;
   for (const Pane& p : panes_) {
@@ -65,7 +65,7 @@ void StudioApp::drawPanes() {
       const GlTexture& t = view3d_->texture();
       if (t.valid()) dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id())), a, b);
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(200, 200, 255, 255),
-                  (std::string("3D  ") + render::presetName(scene_.preset)).c_str());
+                  (std::string("3D  ") + render::presetName(scene_.render.preset)).c_str());
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawControlPoints(p);
       continue;

@@ -47,12 +47,12 @@ void StudioApp::onCursorPos(double x, double y) {
         paintAt(pane, x, y);
       }
     } else if (dragButton_ == GLFW_MOUSE_BUTTON_RIGHT) {  // window/level: right widens, down raises the level
-      scene_.sliceWindow.width = std::max(1.0, scene_.sliceWindow.width + dx * 4);
-      scene_.sliceWindow.center += dy * 2;
+      scene_.view.sliceWindow.width = std::max(1.0, scene_.view.sliceWindow.width + dx * 4);
+      scene_.view.sliceWindow.center += dy * 2;
     }
     return;
   }
-  render::Camera& cam = scene_.camera;
+  render::Camera& cam = scene_.render.camera;
   if ((dragButton_ == GLFW_MOUSE_BUTTON_LEFT && shift) || dragButton_ == GLFW_MOUSE_BUTTON_MIDDLE) {
     // Pan: the look-at point moves against the drag so the volume follows the mouse.
     const CameraBasis b = cameraBasis(cam);
@@ -64,8 +64,8 @@ void StudioApp::onCursorPos(double x, double y) {
     cam.azimuthDeg -= dx * 0.5;
     cam.elevationDeg = std::clamp(cam.elevationDeg + dy * 0.5, -89.0, 89.0);
   } else if (dragButton_ == GLFW_MOUSE_BUTTON_RIGHT) {
-    scene_.renderWindow.width = std::max(10.0, scene_.renderWindow.width + dx * 8);
-    scene_.renderWindow.center += dy * 4;
+    scene_.render.windowWidth = std::max(10.0, scene_.render.windowWidth + dx * 8);
+    scene_.render.windowCenter += dy * 4;
   }
 }
 
@@ -135,7 +135,7 @@ void StudioApp::onScroll(double, double dy) {
   const Pane* pane = paneAt(mouseX_, mouseY_);
   if (!pane) return;
   if (pane->is3d()) {
-    scene_.camera.zoom = std::clamp(scene_.camera.zoom * std::pow(1.1, dy), 0.1, 50.0);
+    scene_.render.camera.zoom = std::clamp(scene_.render.camera.zoom * std::pow(1.1, dy), 0.1, 50.0);
     zoomInteractionUntil_ = glfwGetTime() + 0.3;
   } else {  // one voxel through the slices per notch
     const SlicePlane plane = makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, 1, 1);

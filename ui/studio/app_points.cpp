@@ -119,10 +119,10 @@ void StudioApp::drawControlPoints(const Pane& pane) {
     // The eye rays depend on the view and the map, not on the pane: cache them across frames.
     std::ostringstream key;
     key.precision(12);
-    const auto& c = scene_.camera;
+    const auto& c = scene_.render.camera;
     key << c.azimuthDeg << ' ' << c.elevationDeg << ' ' << c.fieldOfViewDeg << ' ' << c.panMm.x << ' ' << c.panMm.y
-        << ' ' << c.panMm.z << ' ' << int(scene_.preset) << ' ' << scene_.renderWindow.center << ' '
-        << scene_.renderWindow.width << ' ' << deform_->mapRevision() << ' ' << scene_.authoring.revision << ' '
+        << ' ' << c.panMm.z << ' ' << int(scene_.render.preset) << ' ' << scene_.render.windowCenter << ' '
+        << scene_.render.windowWidth << ' ' << deform_->mapRevision() << ' ' << scene_.authoring.revision << ' '
         << scene_.volumeGeneration;
     if (key.str() != occlusionKey_ || occlusion_.size() != pts.size()) {
       occlusion_.resize(pts.size());

@@ -48,15 +48,7 @@ void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
   if (scene.labelsModified) file.labels = labelsTarget;  // the edited map lives in the autosave
   // Compare what would be written with the last autosave: unchanged scenes are not rewritten.
   std::string text = file.volume.string() + "|" + file.labels.string();
-  {
-    nlohmann::json j = {layoutName(file.layout), render::presetName(file.preset), file.camera.azimuthDeg,
-                        file.camera.elevationDeg, file.camera.zoom, file.camera.panMm.x, file.camera.panMm.y,
-                        file.camera.panMm.z, file.sliceWindow.center, file.sliceWindow.width,
-                        file.renderWindow.center, file.renderWindow.width, file.crosshairMm.x,
-                        file.crosshairMm.y, file.crosshairMm.z, file.labelOpacity, file.hiddenLabels,
-                        file.lockedLabels};
-    text += j.dump();
-  }
+  text += sceneViewJson(file).dump();
   // The keyframe track (control points): its revision counts every edit (and playback).
   if (file.deformation) text += " track " + std::to_string(scene.authoring.revision);
   if (!labelsEdited && text == lastSceneText_) return;

@@ -8,6 +8,7 @@
 
 #include "app.hpp"
 #include "panel_deformation.hpp"
+#include "param_widgets.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
@@ -78,36 +79,41 @@ void fileSection(StudioApp& app) {
   }
 }
 
+void bookmarksSection(StudioApp& app) {
+  Scene& s = app.scene();
+  static char name[64] = "";
+  ImGui::SetNextItemWidth(120);
+  ImGui::InputTextWithHint("##bookmark", "name", name, sizeof name);
+  ImGui::SameLine();
+  if (ImGui::Button("Bookmark camera")) {
+    app.addBookmark(name);
+    name[0] = '\0';
+  }
+  for (size_t i = 0; i < s.bookmarks.size(); ++i) {
+    ImGui::PushID(static_cast<int>(i));
+    if (ImGui::Button(s.bookmarks[i].name.c_str())) app.goToBookmark(i);
+    ImGui::SameLine();
+    if (ImGui::SmallButton("x")) app.deleteBookmark(i);
+    ImGui::PopID();
+    if (i + 1 < s.bookmarks.size() && (i + 1) % 3 != 0) ImGui::SameLine();
+  }
+}
+
 void viewSection(StudioApp& app) {
   Scene& s = app.scene();
-  int layout = static_cast<int>(s.layout);
-  ImGui::TextUnformatted("Layout");
-  ImGui::SameLine();
-  bool changed = ImGui::RadioButton("3D", &layout, 0);
-  ImGui::SameLine();
-  changed |= ImGui::RadioButton("2x2", &layout, 1);
-  ImGui::SameLine();
-  changed |= ImGui::RadioButton("1x3", &layout, 2);
-  if (changed) app.setLayout(static_cast<Layout>(layout));
-  if (ImGui::BeginCombo("Preset", render::presetName(s.preset))) {
-    for (render::Preset p : render::allPresets())
-      if (ImGui::Selectable(render::presetName(p), p == s.preset)) app.setPreset(p);
-    ImGui::EndCombo();
+  // Every widget here comes from the parameter tables the scene file and `vellum render`
+  // use; one undo step per finished edit.
+  const ViewState before = s.viewState();
+  ImGui::PushItemWidth(ImGui::GetContentRegionAvail().x * 0.5f);  // room for "Field of view (degrees)"
+  ParamEdit e = editParams(viewSettingsTable(), s.view);
+  if (ImGui::TreeNodeEx("3D view (vellum render)", ImGuiTreeNodeFlags_DefaultOpen)) {
+    e |= editParams(render::renderSettingsTable(), s.render, renderKeysNotInScene());
+    ImGui::TreePop();
   }
-  // The camera as numbers too (what `vellum render --azimuth --elevation --zoom --fov` take).
-  float cam[4] = {float(s.camera.azimuthDeg), float(s.camera.elevationDeg), float(s.camera.zoom),
-                  float(s.camera.fieldOfViewDeg)};
-  if (ImGui::DragFloat4("Az El Zoom Fov", cam, 0.5f, 0.f, 0.f, "%.1f")) {
-    s.camera.azimuthDeg = cam[0];
-    s.camera.elevationDeg = std::clamp(cam[1], -89.f, 89.f);
-    s.camera.zoom = std::clamp(cam[2], 0.1f, 50.f);
-    s.camera.fieldOfViewDeg = std::clamp(cam[3], 0.f, 120.f);
-  }
-  float sw[2] = {float(s.sliceWindow.center), float(s.sliceWindow.width)};
-  if (ImGui::DragFloat2("Slice W/L", sw, 2.f)) s.sliceWindow = {sw[0], std::max(1.f, sw[1])};
-  float rw[2] = {float(s.renderWindow.center), float(s.renderWindow.width)};
-  if (ImGui::DragFloat2("3D W/L", rw, 4.f)) s.renderWindow = {rw[0], std::max(10.f, rw[1])};
-  ImGui::SliderFloat("Label opacity", &s.labelOpacity, 0.f, 1.f);
+  ImGui::PopItemWidth();
+  if (e.started) app.beginViewEdit(before);
+  if (e.finished) app.endViewEdit("view settings");
+  bookmarksSection(app);
   if (ImGui::Button("Reset view (R)")) app.resetView();
   ImGui::SameLine();
   ImGui::Checkbox("HUD", &app.hudVisible);

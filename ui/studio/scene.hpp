@@ -7,25 +7,13 @@
 #include <string>
 
 #include "authoring.hpp"
+#include "view_settings.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/render/render_settings.hpp"
 
 namespace vellum::studio {
-
-enum class Layout { ThreeD, TwoByTwo, OneByThree };
-/// "3d", "2x2", "1x3".
-const char* layoutName(Layout l);
-/// Parses the names above; throws vellum::Error listing them.
-Layout parseLayout(const std::string& name);
-
-/// Window/level in HU (centre, width).
-struct WindowLevel {
-  double center = 40;
-  double width = 400;
-  bool operator==(const WindowLevel&) const = default;
-};
 
 struct Scene {
   // Data. The CT is held as int16 HU: what slices, thresholds and the renderer read.
@@ -41,15 +29,11 @@ struct Scene {
   std::vector<io::SeriesInfo> series;
   std::string seriesUid;
 
-  // View state.
-  Layout layout = Layout::TwoByTwo;
-  render::Preset preset = render::Preset::SoftTissueBone;
-  render::Camera camera;
-  WindowLevel sliceWindow{40, 400};
-  /// The renderer's window (RenderSettings defaults), kept apart from the slices' one.
-  WindowLevel renderWindow{400, 2000};
+  // View state (described by parameter tables: see view_settings.hpp).
+  ViewSettings view;
+  render::RenderSettings render;  ///< the 3D view's preset, camera, window ...; width/height unused
+  std::vector<CameraBookmark> bookmarks;
   Vec3 crosshairMm{0, 0, 0};
-  float labelOpacity = 0.4f;
   std::set<uint16_t> hiddenLabels;
   std::set<uint16_t> lockedLabels;  ///< segments no edit may change
   Authoring authoring;  ///< control points and keyframes (deformation authoring)
@@ -62,6 +46,12 @@ struct Scene {
   }
   /// Centres the crosshair and resets the camera (new volume).
   void resetView();
+  ViewState viewState() const { return {view, render, bookmarks}; }
+  void setViewState(const ViewState& v) {
+    view = v.view;
+    render = v.render;
+    bookmarks = v.bookmarks;
+  }
 };
 
 }  // namespace vellum::studio

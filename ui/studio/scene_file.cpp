@@ -1,9 +1,11 @@
 #include "scene_file.hpp"
 
 #include <fstream>
+#include <tuple>
 #include <nlohmann/json.hpp>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/params_json.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/io/atomic_file.hpp"
 
@@ -33,7 +35,77 @@ fs::path resolvedPath(const std::string& stored, const fs::path& base) {
   return (p.is_absolute() ? p : base / p).lexically_normal();
 }
 
+/// Version 3: the tables' keys (unknown keys are refused, so a typo does not pass silently).
+void readView(const json& j, ViewState& v) {
+  if (j.contains("view")) params::fromJson(viewSettingsTable(), j["view"], v.view, "view");
+  if (j.contains("render")) params::fromJson(render::renderSettingsTable(), j["render"], v.render, "render");
+  if (j.contains("pan")) v.render.camera.panMm = jsonVec3(j["pan"]);
+  for (const json& b : j.value("camera_bookmarks", json::array())) {
+    CameraBookmark bm{b.at("name").get<std::string>(), {}};
+    render::RenderSettings camera;
+    json keys = b;
+    keys.erase("name");
+    keys.erase("pan");
+    params::fromJson(render::renderSettingsTable(), keys, camera, "camera_bookmarks");
+    bm.camera = camera.camera;
+    if (b.contains("pan")) bm.camera.panMm = jsonVec3(b["pan"]);
+    v.bookmarks.push_back(std::move(bm));
+  }
+}
+
+/// Versions 1 and 2 wrote each view field under its own key.
+void readLegacyView(const json& j, ViewState& v) {
+  v.view.layout = parseLayout(j.value("layout", "2x2"));
+  v.render.preset = render::parsePreset(j.value("preset", "soft-tissue"));
+  if (j.contains("camera")) {
+    const json& c = j["camera"];
+    render::Camera& cam = v.render.camera;
+    cam.azimuthDeg = c.value("azimuth", cam.azimuthDeg);
+    cam.elevationDeg = c.value("elevation", cam.elevationDeg);
+    cam.zoom = c.value("zoom", cam.zoom);
+    cam.fieldOfViewDeg = c.value("fov", cam.fieldOfViewDeg);
+    if (c.contains("pan")) cam.panMm = jsonVec3(c["pan"]);
+  }
+  if (j.contains("slice_window"))
+    v.view.sliceWindow = {j["slice_window"].at(0).get<double>(), j["slice_window"].at(1).get<double>()};
+  if (j.contains("render_window"))
+    std::tie(v.render.windowCenter, v.render.windowWidth) =
+        std::pair{j["render_window"].at(0).get<double>(), j["render_window"].at(1).get<double>()};
+  v.view.labelOpacity = j.value("label_opacity", v.view.labelOpacity);
+  params::validate(viewSettingsTable(), v.view);
+  params::validate(render::renderSettingsTable(), v.render);
+}
+
+/// The camera fields of the render table (a bookmark is a camera, nothing else).
+json cameraJson(const render::Camera& camera) {
+  render::RenderSettings s;
+  s.camera = camera;
+  json all = params::toJson(render::renderSettingsTable(), s), j;
+  for (const char* key : {"azimuth", "elevation", "zoom", "fov"}) j[key] = all.at(key);
+  j["pan"] = vec3Json(camera.panMm);
+  return j;
+}
+
 }  // namespace
+
+json sceneViewJson(const SceneFile& s) {
+  json j;
+  j["view"] = params::toJson(viewSettingsTable(), s.view.view);
+  json r = params::toJson(render::renderSettingsTable(), s.view.render);
+  for (const auto& key : renderKeysNotInScene()) r.erase(key);
+  j["render"] = std::move(r);
+  j["pan"] = vec3Json(s.view.render.camera.panMm);
+  j["camera_bookmarks"] = json::array();
+  for (const auto& b : s.view.bookmarks) {
+    json bj = cameraJson(b.camera);
+    bj["name"] = b.name;
+    j["camera_bookmarks"].push_back(std::move(bj));
+  }
+  j["crosshair"] = vec3Json(s.crosshairMm);
+  j["hidden_labels"] = s.hiddenLabels;
+  j["locked_labels"] = s.lockedLabels;
+  return j;
+}
 
 SceneFile readSceneFile(const fs::path& path) {
   std::ifstream in(path);
@@ -56,22 +128,9 @@ SceneFile readSceneFile(const fs::path& path) {
     s.volume = resolvedPath(j.at("volume").get<std::string>(), base);
     s.labels = resolvedPath(j.value("labels", ""), base);
     s.seriesUid = j.value("series", "");
-    s.layout = parseLayout(j.value("layout", "2x2"));
-    s.preset = render::parsePreset(j.value("preset", "soft-tissue"));
-    if (j.contains("camera")) {
-      const json& c = j["camera"];
-      s.camera.azimuthDeg = c.value("azimuth", s.camera.azimuthDeg);
-      s.camera.elevationDeg = c.value("elevation", s.camera.elevationDeg);
-      s.camera.zoom = c.value("zoom", s.camera.zoom);
-      s.camera.fieldOfViewDeg = c.value("fov", s.camera.fieldOfViewDeg);
-      if (c.contains("pan")) s.camera.panMm = jsonVec3(c["pan"]);
-    }
-    if (j.contains("slice_window"))
-      s.sliceWindow = {j["slice_window"].at(0).get<double>(), j["slice_window"].at(1).get<double>()};
-    if (j.contains("render_window"))
-      s.renderWindow = {j["render_window"].at(0).get<double>(), j["render_window"].at(1).get<double>()};
+    if (version >= 3) readView(j, s.view);
+    else readLegacyView(j, s.view);
     if (j.contains("crosshair")) s.crosshairMm = jsonVec3(j["crosshair"]);
-    s.labelOpacity = j.value("label_opacity", s.labelOpacity);
     for (const auto& id : j.value("hidden_labels", json::array())) s.hiddenLabels.insert(id.get<uint16_t>());
     for (const auto& id : j.value("locked_labels", json::array())) s.lockedLabels.insert(id.get<uint16_t>());
     if (j.contains("deformation")) {
@@ -111,19 +170,7 @@ void writeSceneFile(const SceneFile& s, const fs::path& path) {
   j["volume"] = storedPath(s.volume, base);
   j["labels"] = storedPath(s.labels, base);
   if (!s.seriesUid.empty()) j["series"] = s.seriesUid;
-  j["layout"] = layoutName(s.layout);
-  j["preset"] = render::presetName(s.preset);
-  j["camera"] = {{"azimuth", s.camera.azimuthDeg},
-                 {"elevation", s.camera.elevationDeg},
-                 {"zoom", s.camera.zoom},
-                 {"fov", s.camera.fieldOfViewDeg},
-                 {"pan", vec3Json(s.camera.panMm)}};
-  j["slice_window"] = {s.sliceWindow.center, s.sliceWindow.width};
-  j["render_window"] = {s.renderWindow.center, s.renderWindow.width};
-  j["crosshair"] = vec3Json(s.crosshairMm);
-  j["label_opacity"] = s.labelOpacity;
-  j["hidden_labels"] = s.hiddenLabels;
-  j["locked_labels"] = s.lockedLabels;
+  j.update(sceneViewJson(s));
   if (s.deformation) {
     fs::path keys = path;
     keys.replace_extension(".keyframes.json");
@@ -146,13 +193,8 @@ SceneFile describeScene(const Scene& scene) {
   s.volume = scene.volumePath;
   s.labels = scene.labelsPath;
   s.seriesUid = scene.series.size() > 1 ? scene.seriesUid : "";
-  s.layout = scene.layout;
-  s.preset = scene.preset;
-  s.camera = scene.camera;
-  s.sliceWindow = scene.sliceWindow;
-  s.renderWindow = scene.renderWindow;
+  s.view = scene.viewState();
   s.crosshairMm = scene.crosshairMm;
-  s.labelOpacity = scene.labelOpacity;
   s.hiddenLabels = scene.hiddenLabels;
   s.lockedLabels = scene.lockedLabels;
   if (scene.authoring.active())
@@ -162,13 +204,8 @@ SceneFile describeScene(const Scene& scene) {
 }
 
 void applySceneView(const SceneFile& s, Scene& scene) {
-  scene.layout = s.layout;
-  scene.preset = s.preset;
-  scene.camera = s.camera;
-  scene.sliceWindow = s.sliceWindow;
-  scene.renderWindow = s.renderWindow;
+  scene.setViewState(s.view);
   scene.crosshairMm = s.crosshairMm;
-  scene.labelOpacity = s.labelOpacity;
   scene.hiddenLabels = s.hiddenLabels;
   scene.lockedLabels = s.lockedLabels;
   if (s.deformation) {

@@ -3,6 +3,7 @@
 // Documented in docs/studio.md ("Scene file"). Paths are stored relative to the scene
 // file's folder when the data lies below it or beside it, absolute otherwise.
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <vector>
 
@@ -10,8 +11,10 @@
 
 namespace vellum::studio {
 
-/// 2 adds "deformation" (version 1 files are read as before).
-inline constexpr int kSceneFormatVersion = 2;
+/// 2 adds "deformation"; 3 writes the view as "view" and "render" objects whose keys are those
+/// of the parameter tables (the CLI flags of `vellum render`), plus "pan" and "camera_bookmarks".
+/// Versions 1 and 2 are read as before.
+inline constexpr int kSceneFormatVersion = 3;
 
 /// The authored deformation: the keyframes live in a `vellum animate` keyframe file beside
 /// the scene (`<scene>.keyframes.json`), so the CLI can render them as they are.
@@ -28,12 +31,8 @@ struct SceneFile {
   std::filesystem::path volume;
   std::filesystem::path labels;  ///< empty: no label map
   std::string seriesUid;         ///< DICOM: the series to load (empty: the largest CT series)
-  Layout layout = Layout::TwoByTwo;
-  render::Preset preset = render::Preset::SoftTissueBone;
-  render::Camera camera;
-  WindowLevel sliceWindow, renderWindow{400, 2000};
+  ViewState view;  ///< layout, windows, opacity, the 3D view's settings and camera bookmarks
   Vec3 crosshairMm;
-  float labelOpacity = 0.4f;
   std::set<uint16_t> hiddenLabels;
   std::set<uint16_t> lockedLabels;
   std::optional<SceneDeformation> deformation;  ///< none: no control points
@@ -46,6 +45,11 @@ SceneFile readSceneFile(const std::filesystem::path& path);
 /// Writes `file` to `path` atomically, with paths made relative to path's folder, and the
 /// deformation's keyframes to `<path stem>.keyframes.json` beside it.
 void writeSceneFile(const SceneFile& file, const std::filesystem::path& path);
+
+/// The view part of a scene file (everything but the paths and the deformation): what
+/// writeSceneFile writes under "view", "render", "pan", "camera_bookmarks", "crosshair",
+/// "hidden_labels" and "locked_labels". Autosave compares it to skip unchanged scenes.
+nlohmann::json sceneViewJson(const SceneFile& file);
 
 /// The saved part of a scene.
 SceneFile describeScene(const Scene& scene);

@@ -23,7 +23,7 @@ const std::set<std::string> kActions = {
     "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
     "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
     "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "remove_islands", "hud", "log", "quit",
-    "controls", "drag_point", "attribute_drag", "keyframe", "play", "export_movie", "rigid_labels"};
+    "controls", "drag_point", "attribute_drag", "keyframe", "play", "export_movie", "rigid_labels", "set", "bookmark"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -254,13 +254,44 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
   } else if (name == "camera") {
     const json spec = v;
     once([spec](StudioApp& a) {
-      render::Camera& c = a.scene().camera;
+      render::Camera& c = a.scene().render.camera;
       c.azimuthDeg = spec.value("azimuth", c.azimuthDeg);
       c.elevationDeg = spec.value("elevation", c.elevationDeg);
       c.zoom = spec.value("zoom", c.zoom);
       c.fieldOfViewDeg = spec.value("fov", c.fieldOfViewDeg);
       if (spec.contains("pan")) c.panMm = {spec["pan"].at(0).get<double>(), spec["pan"].at(1).get<double>(), spec["pan"].at(2).get<double>()};
     });
+  } else if (name == "set") {
+    // {"set": {"KEY": value, ...}}: view parameters by their table keys (the View panel's and
+    // `vellum render`'s), each one undo step, through the same call as the panel.
+    if (!v.is_object()) throw Error("\"set\" takes an object of view parameters");
+    for (auto it = v.begin(); it != v.end(); ++it) {
+      const std::string key = it.key();
+      const std::string value = it.value().is_string() ? it.value().get<std::string>() : it.value().dump();
+      once([key, value](StudioApp& a) { a.setViewParameter(key, value); });
+    }
+    frames(1);
+  } else if (name == "bookmark") {
+    // {"bookmark": {"add": NAME}} | {"bookmark": {"go": NAME}} | {"bookmark": {"delete": NAME}}
+    const auto index = [](StudioApp& a, const std::string& n) {
+      const auto& b = a.scene().bookmarks;
+      for (size_t i = 0; i < b.size(); ++i)
+        if (b[i].name == n) return i;
+      throw Error("no camera bookmark named '" + n + "'");
+    };
+    if (v.contains("add")) {
+      const std::string n = v["add"].get<std::string>();
+      once([n](StudioApp& a) { a.addBookmark(n); });
+    } else if (v.contains("go")) {
+      const std::string n = v["go"].get<std::string>();
+      once([n, index](StudioApp& a) { a.goToBookmark(index(a, n)); });
+    } else if (v.contains("delete")) {
+      const std::string n = v["delete"].get<std::string>();
+      once([n, index](StudioApp& a) { a.deleteBookmark(index(a, n)); });
+    } else {
+      throw Error("\"bookmark\" takes {\"add\"|\"go\"|\"delete\": NAME}");
+    }
+    frames(1);
   } else if (name == "remove_islands") {
     const double mm3 = v.get<double>();
     once([mm3](StudioApp& a) {

@@ -55,10 +55,24 @@ void UndoStack::push(TrackEdit edit) {
   redo_.clear();
 }
 
-void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, bool forward) {
+void UndoStack::push(ViewEdit edit) {
+  if (edit.before == edit.after) return;
+  undo_.emplace_back(std::move(edit));
+  redo_.clear();
+}
+
+void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, ViewState* view, bool forward) {
+  lastWasView_ = false;
   if (const auto* d = std::get_if<LabelDelta>(&e)) {
     applyDelta(labels, *d, forward);
     lastWasLabels_ = true;
+    return;
+  }
+  if (const auto* v = std::get_if<ViewEdit>(&e)) {
+    if (!view) throw Error("undo: a view edit needs the view state");
+    *view = forward ? v->after : v->before;
+    lastWasLabels_ = false;
+    lastWasView_ = true;
     return;
   }
   const TrackEdit& t = std::get<TrackEdit>(e);
@@ -73,17 +87,17 @@ void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* author
   lastWasLabels_ = false;
 }
 
-bool UndoStack::undo(LabelVolume& labels, Authoring* authoring) {
+bool UndoStack::undo(LabelVolume& labels, Authoring* authoring, ViewState* view) {
   if (undo_.empty()) return false;
-  apply(undo_.back(), labels, authoring, false);
+  apply(undo_.back(), labels, authoring, view, false);
   redo_.push_back(std::move(undo_.back()));
   undo_.pop_back();
   return true;
 }
 
-bool UndoStack::redo(LabelVolume& labels, Authoring* authoring) {
+bool UndoStack::redo(LabelVolume& labels, Authoring* authoring, ViewState* view) {
   if (redo_.empty()) return false;
-  apply(redo_.back(), labels, authoring, true);
+  apply(redo_.back(), labels, authoring, view, true);
   undo_.push_back(std::move(redo_.back()));
   redo_.pop_back();
   return true;

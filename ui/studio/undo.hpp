@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "authoring.hpp"
+#include "view_settings.hpp"
 
 #include "vellum/core/label_volume.hpp"
 
@@ -44,29 +45,42 @@ struct TrackEdit {
   size_t bytes() const;
 };
 
-using UndoEntry = std::variant<LabelDelta, TrackEdit>;
+/// An edit of the view settings (View panel: layout, windows, preset, shading, camera numbers;
+/// camera bookmarks added, renamed, deleted or recalled): the view state before and after.
+/// Navigating with the mouse (orbit, pan, zoom, window/level drags) is not an edit, as in
+/// 3D Slicer and Blender: Ctrl+Z must not spend itself on camera moves.
+struct ViewEdit {
+  std::string description;
+  ViewState before, after;
+  size_t bytes() const { return sizeof(ViewEdit); }
+};
+
+using UndoEntry = std::variant<LabelDelta, TrackEdit, ViewEdit>;
 
 class UndoStack {
  public:
   /// Records an edit that has already been applied; clears the redo side.
   void push(LabelDelta delta);
   void push(TrackEdit edit);
+  void push(ViewEdit edit);
   bool canUndo() const { return !undo_.empty(); }
   bool canRedo() const { return !redo_.empty(); }
-  /// Reverts the last edit on `labels` (and `authoring` for track edits; a track edit with no
-  /// authoring given throws); false when there is none.
-  bool undo(LabelVolume& labels, Authoring* authoring = nullptr);
-  bool redo(LabelVolume& labels, Authoring* authoring = nullptr);
-  /// True when the last undo/redo changed the labels (false: the track).
+  /// Reverts the last edit on `labels` (`authoring` for track edits, `view` for view edits:
+  /// one of those missing throws); false when there is none.
+  bool undo(LabelVolume& labels, Authoring* authoring = nullptr, ViewState* view = nullptr);
+  bool redo(LabelVolume& labels, Authoring* authoring = nullptr, ViewState* view = nullptr);
+  /// True when the last undo/redo changed the labels (false: the track or the view).
   bool lastWasLabels() const { return lastWasLabels_; }
+  /// True when the last undo/redo changed the view state.
+  bool lastWasView() const { return lastWasView_; }
   void clear();
   const std::vector<UndoEntry>& undoEntries() const { return undo_; }
   size_t bytes() const;
 
  private:
   std::vector<UndoEntry> undo_, redo_;
-  bool lastWasLabels_ = true;
-  void apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, bool forward);
+  bool lastWasLabels_ = true, lastWasView_ = false;
+  void apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, ViewState* view, bool forward);
 };
 
 }  // namespace vellum::studio

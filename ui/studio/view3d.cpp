@@ -10,13 +10,9 @@
 namespace vellum::studio {
 
 render::RenderSettings renderSettingsFor(const Scene& scene, int width, int height) {
-  render::RenderSettings s;
+  render::RenderSettings s = scene.render;
   s.width = std::clamp(width, 1, 4096);
   s.height = std::clamp(height, 1, 4096);
-  s.preset = scene.preset;
-  s.camera = scene.camera;
-  s.windowCenter = scene.renderWindow.center;
-  s.windowWidth = scene.renderWindow.width;
   return s;
 }
 
@@ -39,7 +35,7 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
     const Vec3 corner{(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5, (c & 4) ? g.dims.z - 0.5 : -0.5};
     radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
   }
-  const render::Camera& cam = scene.camera;
+  const render::Camera& cam = scene.render.camera;
   const Vec3 lookAt = centre + cam.panMm;
   const auto [right, up, forward] = cameraBasis(cam);
   const double aspect = double(width) / height;
@@ -79,7 +75,7 @@ double boundingRadius(const Geometry& g) {
 std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py) {
   if (!scene.hasVolume() || width < 1 || height < 1) return std::nullopt;
   const Geometry& g = scene.ct.geometry();
-  const render::Camera& cam = scene.camera;
+  const render::Camera& cam = scene.render.camera;
   const double radius = boundingRadius(g);
   const Vec3 lookAt = g.center() + cam.panMm;
   const CameraBasis b = cameraBasis(cam);
@@ -100,10 +96,10 @@ std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, doubl
   const Vec3& sp = g.spacing;
   const double step = 0.5 * std::min({sp.x, sp.y, sp.z});
   const double length = norm(origin - g.center()) + 2 * radius;
-  const bool mip = scene.preset == render::Preset::Mip;
-  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.preset);
+  const bool mip = scene.render.preset == render::Preset::Mip;
+  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.render.preset);
   // The renderer shifts/scales the preset's value axis from its default window (400, 2000).
-  const double w = scene.renderWindow.width > 0 ? scene.renderWindow.width : 2000.0;
+  const double w = scene.render.windowWidth > 0 ? scene.render.windowWidth : 2000.0;
   double transmitted = 1, best = -1e300;
   std::optional<Vec3> bestPoint;
   for (double t = 0; t < length; t += step) {
@@ -113,11 +109,11 @@ std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, doubl
       if (hu > best) best = hu, bestPoint = p;
       continue;
     }
-    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.renderWindow.center) * 2000.0 / w)[3];
+    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.render.windowCenter) * 2000.0 / w)[3];
     transmitted *= std::pow(1.0 - std::clamp(alphaPerMm, 0.0, 0.999999), step);
     if (transmitted <= 0.5) return p;
   }
-  if (mip && best > scene.renderWindow.center - 0.5 * w) return bestPoint;
+  if (mip && best > scene.render.windowCenter - 0.5 * w) return bestPoint;
   return std::nullopt;
 }
 
@@ -153,9 +149,9 @@ Vec3 mapAt(const render::BackwardMap& m, const Vec3& v) {
 }  // namespace
 
 bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Vec3& mm) {
-  if (!scene.hasVolume() || scene.preset == render::Preset::Mip) return false;
+  if (!scene.hasVolume() || scene.render.preset == render::Preset::Mip) return false;
   const Geometry& g = scene.ct.geometry();
-  const render::Camera& cam = scene.camera;
+  const render::Camera& cam = scene.render.camera;
   const double radius = boundingRadius(g);
   const CameraBasis b = cameraBasis(cam);
   Vec3 origin, dir;
@@ -170,13 +166,13 @@ bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Ve
   const Vec3& sp = g.spacing;
   const double voxel = std::min({sp.x, sp.y, sp.z});
   const double step = 0.5 * voxel, stop = norm(mm - origin) - voxel;
-  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.preset);
-  const double w = scene.renderWindow.width > 0 ? scene.renderWindow.width : 2000.0;
+  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.render.preset);
+  const double w = scene.render.windowWidth > 0 ? scene.render.windowWidth : 2000.0;
   double transmitted = 1;
   for (double t = 0; t < stop; t += step) {
     const Vec3 v = origin + dir * t;
     const double hu = scene.ct.sampleLinearMm(map ? mapAt(*map, v) : v);
-    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.renderWindow.center) * 2000.0 / w)[3];
+    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.render.windowCenter) * 2000.0 / w)[3];
     transmitted *= std::pow(1.0 - std::clamp(alphaPerMm, 0.0, 0.999999), step);
     if (transmitted <= 0.5) return true;
   }
@@ -198,12 +194,12 @@ std::string cliRenderCommand(const Scene& scene, int width, int height, const st
 namespace {
 /// What a frame depends on; a change means "render again".
 std::string viewKey(const Scene& s, int w, int h) {
+  // Every render-table field, so a new setting cannot be forgotten here.
   std::ostringstream k;
   k.precision(17);
-  const auto& c = s.camera;
-  k << w << ' ' << h << ' ' << int(s.preset) << ' ' << c.azimuthDeg << ' ' << c.elevationDeg << ' '
-    << c.zoom << ' ' << c.fieldOfViewDeg << ' ' << c.panMm.x << ' ' << c.panMm.y << ' ' << c.panMm.z
-    << ' ' << s.renderWindow.center << ' ' << s.renderWindow.width;
+  const auto& pan = s.render.camera.panMm;
+  k << w << ' ' << h << params::cliArguments(render::renderSettingsTable(), s.render, renderKeysNotInScene()) << ' '
+    << pan.x << ' ' << pan.y << ' ' << pan.z;
   return k.str();
 }
 }  // namespace

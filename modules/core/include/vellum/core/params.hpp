@@ -136,6 +136,14 @@ Field<S> text(std::string key, Ref ref, Info info) {
   return f;
 }
 
+/// The field of `table` with key `key`, or nullptr.
+template <class S>
+const Field<S>* findField(const Table<S>& table, const std::string& key) {
+  for (const auto& f : table)
+    if (f.key == key) return &f;
+  return nullptr;
+}
+
 /// The field's value as users write it: "2.5", "4", "true", "affine", "" (unset).
 template <class S>
 std::string format(const Field<S>& f, const S& s);

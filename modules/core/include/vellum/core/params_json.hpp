@@ -39,9 +39,7 @@ template <class S>
 void fromJson(const Table<S>& table, const nlohmann::json& j, S& s, const std::string& where) {
   if (!j.is_object()) throw Error(where + ": expected an object of parameters");
   for (auto it = j.begin(); it != j.end(); ++it) {
-    const Field<S>* f = nullptr;
-    for (const auto& candidate : table)
-      if (candidate.key == it.key()) f = &candidate;
+    const Field<S>* f = findField(table, it.key());
     if (!f) throw Error(where + ": unknown parameter '" + it.key() + "'");
     const auto& v = it.value();
     try {

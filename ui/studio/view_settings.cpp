@@ -1,0 +1,57 @@
+#include "view_settings.hpp"
+
+#include <cmath>
+
+#include "vellum/core/error.hpp"
+
+namespace vellum::studio {
+
+const char* layoutName(Layout l) {
+  switch (l) {
+    case Layout::ThreeD: return "3d";
+    case Layout::TwoByTwo: return "2x2";
+    case Layout::OneByThree: return "1x3";
+  }
+  return "2x2";
+}
+
+Layout parseLayout(const std::string& name) {
+  for (Layout l : {Layout::ThreeD, Layout::TwoByTwo, Layout::OneByThree})
+    if (name == layoutName(l)) return l;
+  throw Error("unknown layout '" + name + "' (3d, 2x2, 1x3)");
+}
+
+const params::Table<ViewSettings>& viewSettingsTable() {
+  using V = ViewSettings;
+  static const params::Table<V> t{
+      params::choice<V>("layout", [](auto& v) -> auto& { return v.layout; }, {"3d", "2x2", "1x3"},
+                        {"Layout", "3D view only, 2x2 (axial, coronal, sagittal, 3D) or 1x3 (the three slices)"}),
+      params::real<V>("slice_window_center", [](auto& v) -> auto& { return v.sliceWindow.center; },
+                      {"Slice level", "centre of the slices' grey-value window", "HU", -4000, 4000}),
+      params::real<V>("slice_window_width", [](auto& v) -> auto& { return v.sliceWindow.width; },
+                      {"Slice window", "width of the slices' grey-value window", "HU", 1, 10000}),
+      params::real<V>("label_opacity", [](auto& v) -> auto& { return v.labelOpacity; },
+                      {"Label opacity", "fill opacity of the label overlay in the slices (outlines stay opaque)", "", 0, 1}),
+  };
+  return t;
+}
+
+namespace {
+bool sameCamera(const render::Camera& a, const render::Camera& b) {
+  return a.azimuthDeg == b.azimuthDeg && a.elevationDeg == b.elevationDeg && a.zoom == b.zoom &&
+         a.fieldOfViewDeg == b.fieldOfViewDeg && a.panMm == b.panMm;
+}
+}  // namespace
+
+bool ViewState::operator==(const ViewState& o) const {
+  // Equal when every table field and the pan agree (RenderSettings has no operator==).
+  for (const auto& f : render::renderSettingsTable())
+    if (f.get(render) != f.get(o.render)) return false;
+  if (!sameCamera(render.camera, o.render.camera) || view != o.view || bookmarks.size() != o.bookmarks.size())
+    return false;
+  for (size_t i = 0; i < bookmarks.size(); ++i)
+    if (bookmarks[i].name != o.bookmarks[i].name || !sameCamera(bookmarks[i].camera, o.bookmarks[i].camera)) return false;
+  return true;
+}
+
+}  // namespace vellum::studio

@@ -1,0 +1,59 @@
+#pragma once
+// What the View panel edits and the scene file saves about how the scene is shown: the
+// studio's own settings (layout, slice window, label opacity) and the 3D view's
+// render::RenderSettings. Both are described once, by parameter tables (vellum/core/params.hpp):
+// the panel's widgets, the scene file's keys, the undo entries and the CLI flags of
+// `vellum render` all come from them. No GL, no ImGui.
+#include <string>
+#include <vector>
+
+#include "vellum/core/params.hpp"
+#include "vellum/render/render_settings.hpp"
+
+namespace vellum::studio {
+
+enum class Layout { ThreeD, TwoByTwo, OneByThree };
+/// "3d", "2x2", "1x3".
+const char* layoutName(Layout l);
+/// Parses the names above; throws vellum::Error listing them.
+Layout parseLayout(const std::string& name);
+
+/// Window/level in HU (centre, width).
+struct WindowLevel {
+  double center = 40;
+  double width = 400;
+  bool operator==(const WindowLevel&) const = default;
+};
+
+/// The studio's own view settings.
+struct ViewSettings {
+  Layout layout = Layout::TwoByTwo;
+  WindowLevel sliceWindow{40, 400};
+  float labelOpacity = 0.4f;  ///< fill of the label overlay in the slices (outlines are opaque)
+  bool operator==(const ViewSettings&) const = default;
+};
+/// Keys: layout, slice_window_center, slice_window_width, label_opacity.
+const params::Table<ViewSettings>& viewSettingsTable();
+
+/// Render-table keys that are not part of a scene (the 3D view's size is the window's).
+inline const std::vector<std::string>& renderKeysNotInScene() {
+  static const std::vector<std::string> keys{"width", "height"};
+  return keys;
+}
+
+/// A named camera the user can return to (the View panel's bookmarks).
+struct CameraBookmark {
+  std::string name;
+  render::Camera camera;
+  bool operator==(const CameraBookmark&) const = default;
+};
+
+/// Everything a view edit can change: one undo step holds it before and after.
+struct ViewState {
+  ViewSettings view;
+  render::RenderSettings render;  ///< width/height unused (the pane's size)
+  std::vector<CameraBookmark> bookmarks;
+  bool operator==(const ViewState& o) const;
+};
+
+}  // namespace vellum::studio
