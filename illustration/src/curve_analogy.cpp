@@ -1,4 +1,4 @@
-// Curve-analogy pipeline (algorithms.md 2.3): proxy, silhouette C1, alignment of C0,
+// Curve-analogy pipeline ([SAVI 2.3] in docs/references.md): proxy, silhouette C1, alignment of C0,
 // Laplacian curve deformation, lift to 3D, ARAP of the proxy, MVC transfer.
 #include "vellum/illustration/curve_analogy.hpp"
 

@@ -1,6 +1,6 @@
 // `vellum curve-analogy DIR --segment NAME (--curve C0.json | --drawing IMG) --out DIR2`:
-// bends a shape folder's segment toward an illustrator's outline (issue 9, algorithms.md
-// 2.3), carries other segments along (--transfer), rebuilds the distance and segmentation
+// bends a shape folder's segment toward an illustrator's outline (issue 9, [SAVI 2.3] in
+// docs/references.md), carries other segments along (--transfer), rebuilds the distance and segmentation
 // volumes, and writes the CT backward map (--map-out) in `deform --map-out`'s format.
 #include <chrono>
 #include <cmath>

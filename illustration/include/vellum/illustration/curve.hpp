@@ -1,5 +1,5 @@
 #pragma once
-// 2D curve tools of the curve analogy (algorithms.md 2.3 steps 2-3): arc-length resampling,
+// 2D curve tools of the curve analogy ([SAVI 2.3] steps 2-3 in docs/references.md): arc-length resampling,
 // similarity alignment (Umeyama 1991, least squares) and Laplacian curve deformation.
 // Units are whatever the caller uses (image pixels in curve analogy).
 #include <vector>

@@ -1,5 +1,5 @@
 #pragma once
-// Curve-analogy shape deformation (algorithms.md 2.3; issue 9): bend a segment's mesh so that
+// Curve-analogy shape deformation ([SAVI 2.3] in docs/references.md; issue 9): bend a segment's mesh so that
 // its outline seen from a camera takes the shape of an illustrator's curve, and carry other
 // meshes and the CT along through mean value coordinates.
 //

@@ -1,5 +1,5 @@
 #pragma once
-// The illustration renderer (algorithms.md 2.5): a GLSL ray caster over a shape-aware scene
+// The illustration renderer ([SAVI 2.5] in docs/references.md): a GLSL ray caster over a shape-aware scene
 // (signed distance + segment labels, optionally the CT), and its CPU reference.
 //
 // Model (GL and CPU alike): the render module's camera, rays, box clip, step and per-pixel

@@ -1,5 +1,5 @@
 #pragma once
-// Clean shapes and the shape-aware representation (algorithms.md 2.2, 2.4).
+// Clean shapes and the shape-aware representation ([SAVI 2.2, 2.4] in docs/references.md).
 //
 //   segments (label ids)  -> per-segment binary mask
 //   -> denoise: Whitaker-style constrained curvature flow on an OpenVDB narrow band

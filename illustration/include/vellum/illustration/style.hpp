@@ -1,5 +1,5 @@
 #pragma once
-// Illustration styles (algorithms.md 2.5): one row per segment, combined per sample as
+// Illustration styles ([SAVI 2.5] in docs/references.md): one row per segment, combined per sample as
 //   I = l1 * I_illum + l2 * I_coloring + l3 * I_solidtex            (RGBA, premultiplied)
 //   alpha *= boundary(k_c + k_s * b^k_e) * silhouette(k_c + k_s * (1 - |n.v|)^k_e)
 // Every field is described once, in the table behind styleFields() (style.cpp): the JSON
