@@ -5,7 +5,6 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <charconv>
 #include <cstdlib>
 #include <cmath>
 #include <fstream>
@@ -14,6 +13,7 @@
 #include <sstream>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/params_json.hpp"
 #include "vellum/io/atomic_file.hpp"
 
 namespace vellum::illustration {
@@ -31,191 +31,121 @@ std::string describe(const json& v) {
   return s.size() > 40 ? s.substr(0, 37) + "..." : s;
 }
 
-std::string fmt(double v) {
-  std::ostringstream o;
-  o << v;
-  return o.str();
-}
+// ---- THE tables: every style field, once (vellum/core/params.hpp). ----
 
-/// The float as the shortest decimal that reads back to it (0.3f -> 0.3, not 0.30000001).
-double shortest(float v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::strtod(std::string(buf, r.ptr).c_str(), nullptr);
-}
-
-template <class S>
-struct Field {
-  std::string key, help, range;
-  std::function<json(const S&)> get;
-  std::function<void(S&, const json&)> set;
-};
-
-template <class S>
-Field<S> floatField(std::string key, std::string help, float S::*m, float lo, float hi) {
-  std::string range = "[" + fmt(lo) + ", " + fmt(hi) + "]";
-  return {key, help, range, [m](const S& s) { return json(shortest(s.*m)); },
-          [m, lo, hi, range](S& s, const json& v) {
-            if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < lo ||
-                v.get<double>() > hi)
-              throw FieldProblem{"expected a number in " + range + ", got " + describe(v)};
-            s.*m = v.get<float>();
-          }};
-}
-
-template <class S>
-Field<S> boolField(std::string key, std::string help, bool S::*m) {
-  return {key, help, "true | false", [m](const S& s) { return json(s.*m); },
-          [m](S& s, const json& v) {
-            if (!v.is_boolean()) throw FieldProblem{"expected true or false, got " + describe(v)};
-            s.*m = v.get<bool>();
-          }};
-}
-
-template <class S>
-Field<S> stringField(std::string key, std::string help, std::string S::*m) {
-  return {key, help, "text", [m](const S& s) { return json(s.*m); },
-          [m](S& s, const json& v) {
-            if (!v.is_string()) throw FieldProblem{"expected a string, got " + describe(v)};
-            s.*m = v.get<std::string>();
-          }};
-}
-
-template <class S>
-Field<S> colourField(std::string key, std::string help, Rgb S::*m) {
-  return {key, help, "[r, g, b] in [0, 1]",
-          [m](const S& s) { return json::array({shortest((s.*m)[0]), shortest((s.*m)[1]), shortest((s.*m)[2])}); },
-          [m](S& s, const json& v) {
-            bool ok = v.is_array() && v.size() == 3;
-            for (size_t i = 0; ok && i < 3; ++i)
-              ok = v[i].is_number() && v[i].get<double>() >= 0 && v[i].get<double>() <= 1;
-            if (!ok) throw FieldProblem{"expected [r, g, b] with each in [0, 1], got " + describe(v)};
-            for (size_t i = 0; i < 3; ++i) (s.*m)[i] = v[i].get<float>();
-          }};
-}
-
-template <class S, class E>
-Field<S> enumField(std::string key, std::string help, E S::*m, std::vector<std::string> names) {
-  std::string range;
-  for (const auto& n : names) range += (range.empty() ? "" : " | ") + n;
-  return {key, help, range, [m, names](const S& s) { return json(names[size_t(s.*m)]); },
-          [m, names, range](S& s, const json& v) {
-            if (v.is_string()) {
-              auto it = std::find(names.begin(), names.end(), v.get<std::string>());
-              if (it != names.end()) {
-                s.*m = E(it - names.begin());
-                return;
-              }
-            }
-            throw FieldProblem{"expected one of " + range + ", got " + describe(v)};
-          }};
-}
-
-template <class S>
-Field<S> choiceField(std::string key, std::string help, std::string S::*m, std::vector<std::string> names) {
-  std::string range;
-  for (const auto& n : names) range += (range.empty() ? "" : " | ") + n;
-  return {key, help, range, [m](const S& s) { return json(s.*m); },
-          [m, names, range](S& s, const json& v) {
-            if (!v.is_string() || std::find(names.begin(), names.end(), v.get<std::string>()) == names.end())
-              throw FieldProblem{"expected one of " + range + ", got " + describe(v)};
-            s.*m = v.get<std::string>();
-          }};
-}
-
-// ---- THE table: every style field, once. ----
-const std::vector<Field<SegmentStyle>>& segmentFields() {
+const params::Table<SegmentStyle>& segmentTable() {
   using S = SegmentStyle;
-  static const std::vector<Field<S>> f = {
-      stringField<S>("match", "label-table name this row styles (case-insensitive; a row also matches names that contain it)", &S::match),
-      boolField<S>("visible", "draw this segment at all", &S::visible),
-      floatField<S>("lambda_illum", "weight l1 of I_illum (Blinn-Phong or the CT's transfer function)", &S::lambdaIllum, 0, 1),
-      floatField<S>("lambda_colouring", "weight l2 of I_coloring (tone-shaded, depth-dimmed colour)", &S::lambdaColouring, 0, 1),
-      floatField<S>("lambda_texture", "weight l3 of I_solidtex (solid texture)", &S::lambdaTexture, 0, 1),
-      floatField<S>("opacity", "opacity per mm of ray (as the render module's transfer functions)", &S::opacity, 0, 1),
-      colourField<S>("colour", "segment colour (I_coloring, I_illum in phong mode)", &S::colour),
-      floatField<S>("tone_amount", "0 = flat colour, 1 = full Gooch tone shading", &S::toneAmount, 0, 1),
-      colourField<S>("tone_warm", "Gooch warm colour (normal faces the light)", &S::warm),
-      colourField<S>("tone_cool", "Gooch cool colour (normal faces away from the light)", &S::cool),
-      floatField<S>("tone_alpha", "Gooch alpha: share of the segment colour in the cool tone", &S::toneAlpha, 0, 1),
-      floatField<S>("tone_beta", "Gooch beta: share of the segment colour in the warm tone", &S::toneBeta, 0, 1),
-      floatField<S>("depth_strength", "depth dimming: how far the colour blends to depth_colour at depth_end (0 = off)", &S::dimStrength, 0, 1),
-      floatField<S>("depth_start", "depth where dimming starts, from the nearest point of the volume's bounding sphere along the view (see depth_units)", &S::dimStart, 0, 100000),
-      floatField<S>("depth_end", "depth where dimming is full (> depth_start)", &S::dimEnd, 0, 100000),
-      enumField<S>("depth_units", "fraction: depths are fractions of the bounding sphere's diameter (0 = nearest, 1 = farthest point), at most 1; mm: millimetres",
-                   &S::dimUnits, {"fraction", "mm"}),
-      colourField<S>("depth_colour", "colour distant parts fade to (usually the background)", &S::dimColour),
-      enumField<S>("texture", "solid texture of I_solidtex (volume: the style's texture_volume)", &S::texture,
-                   {"none", "noise", "marble", "wood", "stripes", "stipple", "volume"}),
-      floatField<S>("texture_scale_mm", "size of one texture feature in mm (volume: mm per texture voxel)", &S::textureScaleMm, 0.05f, 1000),
-      colourField<S>("texture_colour1", "texture colour at 0", &S::textureColour1),
-      colourField<S>("texture_colour2", "texture colour at 1 (stipple: the dots)", &S::textureColour2),
-      enumField<S>("boundary_measure", "b in boundary enhancement: distance = clamp(1 - |d|/boundary_width_mm, 0, 1) (d: shape distance); ct = clamp(|grad CT|/ct_gradient_scale, 0, 1)",
-                   &S::boundaryMeasure, {"distance", "ct"}),
-      floatField<S>("boundary_width_mm", "width of the distance boundary band in mm", &S::boundaryWidthMm, 0.01f, 100),
-      floatField<S>("ct_gradient_scale", "CT gradient magnitude (HU/mm) that counts as a full boundary", &S::ctGradientScale, 1, 100000),
-      floatField<S>("boundary_kc", "boundary enhancement k_c: opacity *= k_c + k_s * b^k_e", &S::boundaryKc, 0, 100),
-      floatField<S>("boundary_ks", "boundary enhancement k_s", &S::boundaryKs, 0, 100),
-      floatField<S>("boundary_ke", "boundary enhancement k_e", &S::boundaryKe, 0.01f, 64),
-      floatField<S>("silhouette_kc", "silhouette enhancement k_c: opacity *= k_c + k_s * (1 - |n.v|)^k_e", &S::silhouetteKc, 0, 100),
-      floatField<S>("silhouette_ks", "silhouette enhancement k_s", &S::silhouetteKs, 0, 100),
-      floatField<S>("silhouette_ke", "silhouette enhancement k_e", &S::silhouetteKe, 0.01f, 64),
-      enumField<S>("illum", "I_illum: phong = Blinn-Phong of colour on the distance normal; ct = the CT's transfer function (style ct_preset) shaded on the CT gradient",
-                   &S::illum, {"phong", "ct"}),
-      floatField<S>("ambient", "ambient term (phong, CT shading and texture shading)", &S::ambient, 0, 1),
-      floatField<S>("diffuse", "diffuse term", &S::diffuse, 0, 1),
-      floatField<S>("specular", "specular term", &S::specular, 0, 1),
-      floatField<S>("shininess", "specular exponent", &S::shininess, 1, 256),
+  using params::real, params::flag, params::choice, params::text, params::vector;
+  static const params::Table<S> t = {
+      text<S>("match", [](auto& s) -> auto& { return s.match; },
+              {"Match", "label-table name this row styles (case-insensitive; a row also matches names that contain it)", ""}),
+      flag<S>("visible", [](auto& s) -> auto& { return s.visible; }, {"Visible", "draw this segment at all", ""}),
+      real<S>("lambda_illum", [](auto& s) -> auto& { return s.lambdaIllum; },
+              {"λ1 illumination", "weight l1 of I_illum (Blinn-Phong or the CT's transfer function)", "", 0, 1}),
+      real<S>("lambda_colouring", [](auto& s) -> auto& { return s.lambdaColouring; },
+              {"λ2 colouring", "weight l2 of I_coloring (tone-shaded, depth-dimmed colour)", "", 0, 1}),
+      real<S>("lambda_texture", [](auto& s) -> auto& { return s.lambdaTexture; },
+              {"λ3 texture", "weight l3 of I_solidtex (solid texture)", "", 0, 1}),
+      real<S>("opacity", [](auto& s) -> auto& { return s.opacity; },
+              {"Opacity", "opacity per mm of ray (as the render module's transfer functions)", "", 0, 1}),
+      vector<S>("colour", [](auto& s) -> auto& { return s.colour; },
+                {"Colour", "segment colour (I_coloring, I_illum in phong mode)", "", 0, 1}),
+      real<S>("tone_amount", [](auto& s) -> auto& { return s.toneAmount; },
+              {"Tone", "0 = flat colour, 1 = full Gooch tone shading", "", 0, 1}),
+      vector<S>("tone_warm", [](auto& s) -> auto& { return s.warm; },
+                {"Warm tone", "Gooch warm colour (normal faces the light)", "", 0, 1}),
+      vector<S>("tone_cool", [](auto& s) -> auto& { return s.cool; },
+                {"Cool tone", "Gooch cool colour (normal faces away from the light)", "", 0, 1}),
+      real<S>("tone_alpha", [](auto& s) -> auto& { return s.toneAlpha; },
+              {"Tone alpha", "Gooch alpha: share of the segment colour in the cool tone", "", 0, 1}),
+      real<S>("tone_beta", [](auto& s) -> auto& { return s.toneBeta; },
+              {"Tone beta", "Gooch beta: share of the segment colour in the warm tone", "", 0, 1}),
+      real<S>("depth_strength", [](auto& s) -> auto& { return s.dimStrength; },
+              {"Depth dimming", "how far the colour blends to depth_colour at depth_end (0 = off)", "", 0, 1}),
+      real<S>("depth_start", [](auto& s) -> auto& { return s.dimStart; },
+              {"Depth start", "depth where dimming starts, from the nearest point of the volume's bounding sphere along the view (see depth_units)", "", 0, 100000}),
+      real<S>("depth_end", [](auto& s) -> auto& { return s.dimEnd; },
+              {"Depth end", "depth where dimming is full (> depth_start)", "", 0, 100000}),
+      choice<S>("depth_units", [](auto& s) -> auto& { return s.dimUnits; }, {"fraction", "mm"},
+                {"Depth units", "fraction: depths are fractions of the bounding sphere's diameter (0 = nearest, 1 = farthest point), at most 1; mm: millimetres", ""}),
+      vector<S>("depth_colour", [](auto& s) -> auto& { return s.dimColour; },
+                {"Depth colour", "colour distant parts fade to (usually the background)", "", 0, 1}),
+      choice<S>("texture", [](auto& s) -> auto& { return s.texture; },
+                {"none", "noise", "marble", "wood", "stripes", "stipple", "volume"},
+                {"Texture", "solid texture of I_solidtex (volume: the style's texture_volume)", ""}),
+      real<S>("texture_scale_mm", [](auto& s) -> auto& { return s.textureScaleMm; },
+              {"Texture scale", "size of one texture feature (volume: mm per texture voxel)", "mm", 0.05, 1000}),
+      vector<S>("texture_colour1", [](auto& s) -> auto& { return s.textureColour1; },
+                {"Texture colour 1", "texture colour at 0", "", 0, 1}),
+      vector<S>("texture_colour2", [](auto& s) -> auto& { return s.textureColour2; },
+                {"Texture colour 2", "texture colour at 1 (stipple: the dots)", "", 0, 1}),
+      choice<S>("boundary_measure", [](auto& s) -> auto& { return s.boundaryMeasure; }, {"distance", "ct"},
+                {"Boundary measure", "b in boundary enhancement: distance = clamp(1 - |d|/boundary_width_mm, 0, 1) (d: shape distance); ct = clamp(|grad CT|/ct_gradient_scale, 0, 1)", ""}),
+      real<S>("boundary_width_mm", [](auto& s) -> auto& { return s.boundaryWidthMm; },
+              {"Boundary width", "width of the distance boundary band", "mm", 0.01, 100}),
+      real<S>("ct_gradient_scale", [](auto& s) -> auto& { return s.ctGradientScale; },
+              {"CT gradient scale", "CT gradient magnitude that counts as a full boundary", "HU/mm", 1, 100000}),
+      real<S>("boundary_kc", [](auto& s) -> auto& { return s.boundaryKc; },
+              {"Boundary kc", "boundary enhancement k_c: opacity *= k_c + k_s * b^k_e", "", 0, 100}),
+      real<S>("boundary_ks", [](auto& s) -> auto& { return s.boundaryKs; },
+              {"Boundary ks", "boundary enhancement k_s", "", 0, 100}),
+      real<S>("boundary_ke", [](auto& s) -> auto& { return s.boundaryKe; },
+              {"Boundary ke", "boundary enhancement k_e", "", 0.01, 64}),
+      real<S>("silhouette_kc", [](auto& s) -> auto& { return s.silhouetteKc; },
+              {"Silhouette kc", "silhouette enhancement k_c: opacity *= k_c + k_s * (1 - |n.v|)^k_e", "", 0, 100}),
+      real<S>("silhouette_ks", [](auto& s) -> auto& { return s.silhouetteKs; },
+              {"Silhouette ks", "silhouette enhancement k_s", "", 0, 100}),
+      real<S>("silhouette_ke", [](auto& s) -> auto& { return s.silhouetteKe; },
+              {"Silhouette ke", "silhouette enhancement k_e", "", 0.01, 64}),
+      choice<S>("illum", [](auto& s) -> auto& { return s.illum; }, {"phong", "ct"},
+                {"Illumination", "I_illum: phong = Blinn-Phong of colour on the distance normal; ct = the CT's transfer function (style ct_preset) shaded on the CT gradient", ""}),
+      real<S>("ambient", [](auto& s) -> auto& { return s.ambient; },
+              {"Ambient", "ambient term (phong, CT shading and texture shading)", "", 0, 1}),
+      real<S>("diffuse", [](auto& s) -> auto& { return s.diffuse; }, {"Diffuse", "diffuse term", "", 0, 1}),
+      real<S>("specular", [](auto& s) -> auto& { return s.specular; }, {"Specular", "specular term", "", 0, 1}),
+      real<S>("shininess", [](auto& s) -> auto& { return s.shininess; }, {"Shininess", "specular exponent", "", 1, 256}),
   };
-  return f;
+  return t;
 }
 
-Field<Style> lightField() {
-  return {"light", "light direction in camera space: right, up, toward the viewer (normalised)",
-          "[x, y, z], not all 0",
-          [](const Style& s) { return json::array({shortest(s.light[0]), shortest(s.light[1]), shortest(s.light[2])}); },
-          [](Style& s, const json& v) {
-            bool ok = v.is_array() && v.size() == 3;
-            for (size_t i = 0; ok && i < 3; ++i) ok = v[i].is_number() && std::isfinite(v[i].get<double>());
-            if (ok) ok = std::abs(v[0].get<double>()) + std::abs(v[1].get<double>()) + std::abs(v[2].get<double>()) > 1e-6;
-            if (!ok) throw FieldProblem{"expected [x, y, z], finite and not all 0, got " + describe(v)};
-            for (size_t i = 0; i < 3; ++i) s.light[i] = v[i].get<float>();
-          }};
-}
-
-const std::vector<Field<Style>>& globalFields() {
+const params::Table<Style>& globalTable() {
   using S = Style;
-  static const std::vector<Field<S>> f = {
-      stringField<S>("name", "style name", &S::name),
-      stringField<S>("description", "one line for humans", &S::description),
-      lightField(),
-      colourField<S>("background", "figure background the CLI uses unless --transparent / --background", &S::background),
-      choiceField<S>("ct_preset", "render-module transfer function for illum = ct rows", &S::ctPreset,
-                     {"bone", "soft-tissue", "skin"}),
-      stringField<S>("texture_volume", "volume file (any format io reads) for texture = volume rows; values are normalised to [0, 1] over its range and tiled", &S::textureVolume),
+  using params::text, params::vector;
+  static const params::Table<S> t = {
+      text<S>("name", [](auto& s) -> auto& { return s.name; }, {"Name", "style name", ""}),
+      text<S>("description", [](auto& s) -> auto& { return s.description; }, {"Description", "one line for humans", ""}),
+      vector<S>("light", [](auto& s) -> auto& { return s.light; },
+                {"Light", "light direction in camera space: right, up, toward the viewer (normalised; not all 0)", ""}),
+      vector<S>("background", [](auto& s) -> auto& { return s.background; },
+                {"Background", "figure background the CLI uses unless --transparent / --background", "", 0, 1}),
+      text<S>("ct_preset", [](auto& s) -> auto& { return s.ctPreset; },
+              {"CT preset", "render-module transfer function for illum = ct rows", ""}, {"bone", "soft-tissue", "skin"}),
+      text<S>("texture_volume", [](auto& s) -> auto& { return s.textureVolume; },
+              {"Texture volume", "volume file (any format io reads) for texture = volume rows; values are normalised to [0, 1] over its range and tiled", ""}),
   };
-  return f;
+  return t;
 }
 
-
-void readFields(auto& target, const auto& fields, const json& obj, const std::string& where,
+/// Reads the keys of `obj` into `target` through `table`; errors name "<where>.<key>".
+template <class S>
+void readFields(S& target, const params::Table<S>& table, const json& obj, const std::string& where,
                 const std::set<std::string>& extraKeys) {
   if (!obj.is_object()) throw FieldProblem{where + ": expected an object, got " + describe(obj)};
+  const std::string prefix = where.empty() ? "" : where + ".";
   for (auto it = obj.begin(); it != obj.end(); ++it) {
     if (extraKeys.count(it.key())) continue;
-    auto f = std::find_if(fields.begin(), fields.end(), [&](const auto& x) { return x.key == it.key(); });
-    if (f == fields.end())
-      throw FieldProblem{(where.empty() ? "" : where + ".") + it.key() + ": unknown key"};
+    const auto* f = params::findField(table, it.key());
+    if (!f) throw FieldProblem{prefix + it.key() + ": unknown key"};
     try {
-      f->set(target, it.value());
-    } catch (const FieldProblem& p) {
-      throw FieldProblem{(where.empty() ? "" : where + ".") + it.key() + ": " + p.what};
+      params::setFromJson(*f, it.value(), target);
+    } catch (const Error& e) {
+      throw FieldProblem{prefix + e.what() + " (got " + describe(it.value()) + ")"};
     }
   }
 }
 
 SegmentStyle readRow(const json& obj, const std::string& where, SegmentStyle base) {
-  readFields(base, segmentFields(), obj, where, {});
+  readFields(base, segmentTable(), obj, where, {});
   if (base.dimEnd <= base.dimStart && base.dimStrength > 0)
     throw FieldProblem{where + ".depth_end: must be greater than depth_start"};
   if (base.dimUnits == DepthUnits::Fraction && (base.dimStart > 1 || base.dimEnd > 1))
@@ -224,9 +154,8 @@ SegmentStyle readRow(const json& obj, const std::string& where, SegmentStyle bas
 }
 
 json writeRow(const SegmentStyle& r, bool withMatch) {
-  json o = json::object();
-  for (const auto& f : segmentFields())
-    if (withMatch || f.key != "match") o[f.key] = f.get(r);
+  json o = params::toJson(segmentTable(), r);
+  if (!withMatch) o.erase("match");
   return o;
 }
 
@@ -248,14 +177,24 @@ Style::Style() : unclassified(unclassifiedDefault()) {}
 const std::vector<StyleFieldDoc>& styleFields() {
   static const std::vector<StyleFieldDoc> docs = [] {
     std::vector<StyleFieldDoc> d;
-    const Style defStyle;
-    for (const auto& f : globalFields()) d.push_back({f.key, f.help, f.get(defStyle).dump(), f.range, false});
-    const SegmentStyle defRow;
-    for (const auto& f : segmentFields()) d.push_back({f.key, f.help, f.get(defRow).dump(), f.range, true});
+    const auto add = [&](const auto& table, const auto& defaults, bool perSegment) {
+      const json values = params::toJson(table, defaults);
+      for (const auto& f : table)
+        d.push_back({f.key, f.info.help, values.at(f.key).dump(), params::rangeText(f.kind, f.info, f.choices), perSegment});
+    };
+    add(globalTable(), Style{}, false);
+    add(segmentTable(), SegmentStyle{}, true);
+    // A '|' would end a Markdown table cell.
+    for (auto& doc : d)
+      for (size_t at = doc.range.find('|'); at != std::string::npos; at = doc.range.find('|', at + 2))
+        doc.range.replace(at, 1, "\\|");
     return d;
   }();
   return docs;
 }
+
+const params::Table<SegmentStyle>& segmentStyleTable() { return segmentTable(); }
+const params::Table<Style>& styleTable() { return globalTable(); }
 
 Style styleFromJson(const std::string& text, const std::string& source) {
   json j;
@@ -269,7 +208,9 @@ Style styleFromJson(const std::string& text, const std::string& source) {
   Style s;
   try {
     if (!j.is_object()) throw FieldProblem{"expected a JSON object at the top level, got " + describe(j)};
-    readFields(s, globalFields(), j, "", {"version", "unclassified", "default", "segments"});
+    readFields(s, globalTable(), j, "", {"version", "unclassified", "default", "segments"});
+    if (std::abs(s.light[0]) + std::abs(s.light[1]) + std::abs(s.light[2]) < 1e-6)
+      throw FieldProblem{"light: must not be [0, 0, 0] (a direction)"};
     if (j.contains("version") && !(j["version"].is_number_integer() && j["version"].get<int>() == 1))
       throw FieldProblem{"version: expected 1, got " + describe(j["version"])};
     if (j.contains("unclassified")) s.unclassified = readRow(j["unclassified"], "unclassified", s.unclassified);
@@ -295,7 +236,7 @@ Style styleFromJson(const std::string& text, const std::string& source) {
 std::string styleToJson(const Style& s) {
   json j = json::object();
   j["version"] = 1;
-  for (const auto& f : globalFields()) j[f.key] = f.get(s);
+  j.update(params::toJson(globalTable(), s));
   j["unclassified"] = writeRow(s.unclassified, false);
   j["default"] = writeRow(s.fallback, false);
   j["segments"] = json::array();

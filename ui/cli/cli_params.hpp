@@ -33,6 +33,14 @@ std::map<std::string, CLI::Option*> addFlags(CLI::App& cmd, S& target, const par
       // --flag sets true, --flag=false sets false.
       o = cmd.add_flag_function(params::cliFlag(prefix + f->key) + "{true}",
                                 [&target, f](std::int64_t n) { f->set(target, n > 0 ? 1.0 : 0.0); }, help);
+    } else if (f->kind == params::Kind::Vector) {
+      o = cmd.add_option_function<std::vector<std::string>>(
+          params::cliFlag(prefix + f->key),
+          [&target, f](const std::vector<std::string>& v) {
+            params::parse(*f, target, v.size() == 3 ? v[0] + " " + v[1] + " " + v[2] : std::string());
+          },
+          help);
+      o->expected(3)->type_name("X Y Z");
     } else {
       o = cmd.add_option_function<std::string>(
           params::cliFlag(prefix + f->key), [&target, f](const std::string& v) { params::parse(*f, target, v); }, help);

@@ -60,7 +60,7 @@ volatile std::sig_atomic_t gInterrupted = 0;
 
 
 StudioApp::StudioApp(StudioOptions options)
-    : options_(std::move(options)), deform_(std::make_unique<DeformSession>()) {}
+    : deform_(std::make_unique<DeformSession>()), options_(std::move(options)) {}
 
 StudioApp::~StudioApp() {
   if (!window_) return;

@@ -61,11 +61,29 @@ ParamEdit editParams(const params::Table<S>& table, S& s, const std::vector<std:
     const std::string label = detail::widgetLabel(f.info, f.key);
     const std::string range = params::rangeText(f.kind, f.info, f.choices);
     bool changed = false;
-    if (f.kind == params::Kind::Text) {
+    if (f.kind == params::Kind::Text && !f.choices.empty()) {
+      const std::string text = f.getText(s);
+      if (ImGui::BeginCombo(label.c_str(), text.c_str())) {
+        for (const auto& c : f.choices)
+          if (ImGui::Selectable(c.c_str(), c == text)) f.setText(s, c), changed = true;
+        ImGui::EndCombo();
+      }
+    } else if (f.kind == params::Kind::Text) {
       char buffer[512];
       const std::string text = f.getText(s);
       std::snprintf(buffer, sizeof buffer, "%s", text.c_str());
       if (ImGui::InputText(label.c_str(), buffer, sizeof buffer)) f.setText(s, buffer), changed = true;
+    } else if (f.kind == params::Kind::Vector) {
+      const auto v = f.getVector(s);
+      if (f.info.min == 0 && f.info.max == 1) {  // a colour
+        float rgb[3] = {float(v[0]), float(v[1]), float(v[2])};
+        if (ImGui::ColorEdit3(label.c_str(), rgb, ImGuiColorEditFlags_Float)) f.setVector(s, {rgb[0], rgb[1], rgb[2]}), changed = true;
+      } else {
+        double xyz[3] = {v[0], v[1], v[2]};
+        const double lo = std::isfinite(f.info.min) ? f.info.min : -1e9, hi = std::isfinite(f.info.max) ? f.info.max : 1e9;
+        if (ImGui::DragScalarN(label.c_str(), ImGuiDataType_Double, xyz, 3, 0.01f, &lo, &hi, "%.2f", ImGuiSliderFlags_AlwaysClamp))
+          f.setVector(s, {xyz[0], xyz[1], xyz[2]}), changed = true;
+      }
     } else {
       const std::optional<double> current = f.get(s);
       if (f.optional) {  // "unset" is a state of its own: a checkbox in front of the value
@@ -104,7 +122,8 @@ ParamEdit editParams(const params::Table<S>& table, S& s, const std::vector<std:
     edit.changed |= changed;
     // Sliders and drags begin on press and end on release; combos, checkboxes and optional
     // toggles begin and end with one click.
-    const bool oneClick = changed && (f.kind == params::Kind::Choice || f.kind == params::Kind::Flag || f.optional);
+    const bool oneClick = changed && (f.kind == params::Kind::Choice || f.kind == params::Kind::Flag || f.optional ||
+                                      (f.kind == params::Kind::Text && !f.choices.empty()));
     edit.started |= ImGui::IsItemActivated() || oneClick;
     edit.finished |= ImGui::IsItemDeactivatedAfterEdit() || oneClick;
   }

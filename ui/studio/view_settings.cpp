@@ -25,7 +25,7 @@ const params::Table<ViewSettings>& viewSettingsTable() {
   using V = ViewSettings;
   static const params::Table<V> t{
       params::choice<V>("layout", [](auto& v) -> auto& { return v.layout; }, {"3d", "2x2", "1x3"},
-                        {"Layout", "3D view only, 2x2 (axial, coronal, sagittal, 3D) or 1x3 (the three slices)"}),
+                        {"Layout", "3D view only, 2x2 (axial, coronal, sagittal, 3D) or 1x3 (the three slices)", ""}),
       params::real<V>("slice_window_center", [](auto& v) -> auto& { return v.sliceWindow.center; },
                       {"Slice level", "centre of the slices' grey-value window", "HU", -4000, 4000}),
       params::real<V>("slice_window_width", [](auto& v) -> auto& { return v.sliceWindow.width; },

@@ -22,6 +22,14 @@ std::string joined(const std::vector<std::string>& names, const char* sep) {
 
 }  // namespace
 
+double floatValue(float v) {
+  char buf[32];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  double d = 0;
+  std::from_chars(buf, r.ptr, d);
+  return d;
+}
+
 std::string cliFlag(const std::string& key) {
   std::string flag = "--" + key;
   for (char& c : flag)
@@ -70,10 +78,50 @@ void checkRange(const std::string& key, Kind kind, const Info& info, const std::
     throw Error(key + " = " + formatNumber(kind, v, choices) + " is outside " + rangeText(kind, info, choices));
 }
 
+std::string formatVector(const std::array<double, 3>& v) {
+  return shortest(v[0]) + " " + shortest(v[1]) + " " + shortest(v[2]);
+}
+
+std::array<double, 3> parseVector(const std::string& key, const Info& info, const std::string& text) {
+  // "r g b", "r,g,b" or "[r, g, b]"
+  std::string t = text;
+  for (char& c : t)
+    if (c == ',' || c == '[' || c == ']') c = ' ';
+  std::array<double, 3> v{};
+  size_t at = 0, n = 0;
+  while (true) {
+    while (at < t.size() && t[at] == ' ') ++at;
+    if (at >= t.size()) break;
+    const size_t end = t.find(' ', at);
+    const std::string token = t.substr(at, end == std::string::npos ? std::string::npos : end - at);
+    if (n == 3) throw Error(key + ": '" + text + "' is not three numbers");
+    v[n++] = parseNumber(key, Kind::Real, {"", "", "", -INFINITY, INFINITY}, {}, token);
+    if (end == std::string::npos) break;
+    at = end;
+  }
+  if (n != 3) throw Error(key + ": '" + text + "' is not three numbers");
+  checkVector(key, info, v);
+  return v;
+}
+
+void checkVector(const std::string& key, const Info& info, const std::array<double, 3>& v) {
+  for (double x : v)
+    if (!(x >= info.min && x <= info.max))
+      throw Error(key + " = " + formatVector(v) + " is outside " + rangeText(Kind::Vector, info, {}));
+}
+
+void checkTextChoice(const std::string& key, const std::vector<std::string>& choices, const std::string& text) {
+  if (choices.empty()) return;
+  for (const auto& c : choices)
+    if (c == text) return;
+  throw Error(key + ": '" + text + "' is not one of " + joined(choices, ", "));
+}
+
 std::string rangeText(Kind kind, const Info& info, const std::vector<std::string>& choices) {
-  if (kind == Kind::Choice) return joined(choices, " | ");
+  if (kind == Kind::Choice || (kind == Kind::Text && !choices.empty())) return joined(choices, " | ");
   if (kind == Kind::Flag) return "true | false";
   if (kind == Kind::Text) return "text";
+  if (kind == Kind::Vector) return "3 numbers, each " + rangeText(Kind::Real, info, {});
   const bool lo = std::isfinite(info.min), hi = std::isfinite(info.max);
   if (lo && hi) return shortest(info.min) + ".." + shortest(info.max);
   if (lo) return "≥ " + shortest(info.min);

@@ -2,14 +2,16 @@
 // Illustration styles ([SAVI 2.5] in docs/references.md): one row per segment, combined per sample as
 //   I = l1 * I_illum + l2 * I_coloring + l3 * I_solidtex            (RGBA, premultiplied)
 //   alpha *= boundary(k_c + k_s * b^k_e) * silhouette(k_c + k_s * (1 - |n.v|)^k_e)
-// Every field is described once, in the table behind styleFields() (style.cpp): the JSON
-// reader/validator, the writer and docs/styles.md are all generated from that table.
+// Every field is described once, in two parameter tables (vellum/core/params.hpp):
+// segmentStyleTable() and styleTable(). The JSON reader/validator, the writer, the studio's
+// style panel and docs/styles.md are all generated from them.
 #include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
+#include "vellum/core/params.hpp"
 
 namespace vellum::illustration {
 
@@ -69,6 +71,11 @@ struct Style {
   Style();
   bool operator==(const Style&) const = default;
 };
+
+struct Style;
+/// The per-segment fields (JSON keys of a row) and the top-level fields of a style.
+const params::Table<SegmentStyle>& segmentStyleTable();
+const params::Table<Style>& styleTable();
 
 /// Documentation of one field (generated docs, `--help`): JSON key, meaning, default, range.
 struct StyleFieldDoc {

@@ -12,6 +12,7 @@
 //     };
 //     return t;
 //   }
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -22,7 +23,7 @@
 
 namespace vellum::params {
 
-enum class Kind { Real, Integer, Flag, Choice, Text };
+enum class Kind { Real, Integer, Flag, Choice, Text, Vector };
 
 /// What a field says about itself (everything but how to reach it).
 struct Info {
@@ -34,7 +35,9 @@ struct Info {
 };
 
 /// One member of parameter struct S. Numbers, flags and choices travel as double (a choice
-/// as its index in `choices`); nullopt means "unset" (std::optional members only).
+/// as its index in `choices`); nullopt means "unset" (std::optional members only). A Vector
+/// is three numbers (a colour, a direction), each inside [min, max]; a Text may be limited to
+/// `choices` (a name that is not an enum).
 template <class S>
 struct Field;
 template <class S>
@@ -51,6 +54,8 @@ struct Field {
   std::function<void(S&, std::optional<double>)> set;
   std::function<std::string(const S&)> getText;          ///< Kind::Text
   std::function<void(S&, const std::string&)> setText;   ///< Kind::Text
+  std::function<std::array<double, 3>(const S&)> getVector;         ///< Kind::Vector
+  std::function<void(S&, const std::array<double, 3>&)> setVector;  ///< Kind::Vector
 };
 
 template <class S>
@@ -65,8 +70,16 @@ Field<S> makeField(std::string key, Info info, Kind kind) {
   return f;
 }
 
+/// The double closest to the shortest decimal that reads back as `v` (0.3f -> 0.3, not
+/// 0.30000001192...): float members print and serialise as written.
+double floatValue(float v);
+
 namespace detail {
 template <class T> struct IsOptional : std::false_type {};
+template <class T> double asDouble(T v) {
+  if constexpr (std::is_same_v<T, float>) return floatValue(v);
+  else return static_cast<double>(v);
+}
 template <class T> struct IsOptional<std::optional<T>> : std::true_type {};
 
 template <class S, class Ref>
@@ -78,9 +91,9 @@ Field<S> numeric(Kind kind, std::string key, Ref ref, Info info) {
     const auto& m = ref(s);
     if constexpr (IsOptional<Member>::value) {
       if (!m) return std::nullopt;
-      return static_cast<double>(*m);
+      return detail::asDouble(*m);
     } else {
-      return static_cast<double>(m);
+      return detail::asDouble(m);
     }
   };
   f.set = [ref](S& s, std::optional<double> v) {
@@ -127,12 +140,29 @@ Field<S> choice(std::string key, Ref ref, std::vector<std::string> names, Info i
   };
   return f;
 }
-/// A string member.
+/// A string member; with `choices`, only those names are accepted.
 template <class S, class Ref>
-Field<S> text(std::string key, Ref ref, Info info) {
+Field<S> text(std::string key, Ref ref, Info info, std::vector<std::string> choices = {}) {
   Field<S> f = makeField<S>(std::move(key), std::move(info), Kind::Text);
+  f.choices = std::move(choices);
   f.getText = [ref](const S& s) { return std::string(ref(s)); };
   f.setText = [ref](S& s, const std::string& v) { ref(s) = v; };
+  return f;
+}
+/// Three numbers (a std::array<float|double, 3> or a Vec3-like member with operator[]),
+/// each inside [info.min, info.max]: colours (0..1) and directions.
+template <class S, class Ref>
+Field<S> vector(std::string key, Ref ref, Info info) {
+  Field<S> f = makeField<S>(std::move(key), std::move(info), Kind::Vector);
+  f.getVector = [ref](const S& s) {
+    const auto& m = ref(s);
+    return std::array<double, 3>{detail::asDouble(m[0]), detail::asDouble(m[1]), detail::asDouble(m[2])};
+  };
+  f.setVector = [ref](S& s, const std::array<double, 3>& v) {
+    auto& m = ref(s);
+    using T = std::remove_cvref_t<decltype(m[0])>;
+    for (int i = 0; i < 3; ++i) m[i] = static_cast<T>(v[i]);
+  };
   return f;
 }
 
@@ -176,17 +206,26 @@ std::string rangeText(Kind kind, const Info& info, const std::vector<std::string
 std::string markdownRow(const std::string& key, const std::string& defaultText, const std::string& range,
                         const Info& info);
 std::string markdownHeader();
+std::string formatVector(const std::array<double, 3>& v);
+std::array<double, 3> parseVector(const std::string& key, const Info& info, const std::string& text);
+void checkVector(const std::string& key, const Info& info, const std::array<double, 3>& v);
+void checkTextChoice(const std::string& key, const std::vector<std::string>& choices, const std::string& text);
 
 template <class S>
 std::string format(const Field<S>& f, const S& s) {
   if (f.kind == Kind::Text) return f.getText(s);
+  if (f.kind == Kind::Vector) return formatVector(f.getVector(s));
   const auto v = f.get(s);
   return v ? formatNumber(f.kind, *v, f.choices) : std::string();
 }
 
 template <class S>
 void parse(const Field<S>& f, S& s, const std::string& text) {
-  if (f.kind == Kind::Text) return f.setText(s, text);
+  if (f.kind == Kind::Text) {
+    checkTextChoice(f.key, f.choices, text);
+    return f.setText(s, text);
+  }
+  if (f.kind == Kind::Vector) return f.setVector(s, parseVector(f.key, f.info, text));
   if (text.empty() && f.optional) return f.set(s, std::nullopt);
   f.set(s, parseNumber(f.key, f.kind, f.info, f.choices, text));
 }
@@ -206,9 +245,11 @@ std::string cliArguments(const Table<S>& table, const S& s, const std::vector<st
 
 template <class S>
 void validate(const Table<S>& table, const S& s) {
-  for (const auto& f : table)
-    if (f.kind != Kind::Text)
-      if (const auto v = f.get(s)) checkRange(f.key, f.kind, f.info, f.choices, *v);
+  for (const auto& f : table) {
+    if (f.kind == Kind::Text) checkTextChoice(f.key, f.choices, f.getText(s));
+    else if (f.kind == Kind::Vector) checkVector(f.key, f.info, f.getVector(s));
+    else if (const auto v = f.get(s)) checkRange(f.key, f.kind, f.info, f.choices, *v);
+  }
 }
 
 template <class S>

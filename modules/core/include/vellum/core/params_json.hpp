@@ -21,6 +21,11 @@ nlohmann::json toJson(const Table<S>& table, const S& s) {
       j[f.key] = f.getText(s);
       continue;
     }
+    if (f.kind == Kind::Vector) {
+      const auto v = f.getVector(s);
+      j[f.key] = nlohmann::json::array({v[0], v[1], v[2]});
+      continue;
+    }
     const auto v = f.get(s);
     if (!v) continue;
     if (f.kind == Kind::Flag) j[f.key] = *v != 0;
@@ -29,6 +34,22 @@ nlohmann::json toJson(const Table<S>& table, const S& s) {
     else j[f.key] = *v;
   }
   return j;
+}
+
+/// Sets one field from its JSON value; throws vellum::Error "KEY: problem" (or "KEY = V is
+/// outside RANGE") for a wrong type or a value out of range.
+template <class S>
+void setFromJson(const Field<S>& f, const nlohmann::json& v, S& s) {
+  if (v.is_null() && f.optional) f.set(s, std::nullopt);
+  else if (f.kind == Kind::Flag && v.is_boolean()) f.set(s, v.get<bool>() ? 1.0 : 0.0);
+  else if ((f.kind == Kind::Choice || f.kind == Kind::Text) && v.is_string()) parse(f, s, v.get<std::string>());
+  else if ((f.kind == Kind::Real || f.kind == Kind::Integer) && v.is_number()) parse(f, s, v.dump());
+  else if (f.kind == Kind::Vector && v.is_array() && v.size() == 3 && v[0].is_number() && v[1].is_number() &&
+           v[2].is_number())
+    parse(f, s, v[0].dump() + " " + v[1].dump() + " " + v[2].dump());
+  else
+    throw Error(f.key + ": wrong type (" + std::string(v.type_name()) +
+                (f.kind == Kind::Vector ? "; expected [x, y, z])" : ")"));
 }
 
 /// Reads the keys of `table` present in `j` into `s` (absent keys keep their values; null
@@ -41,14 +62,8 @@ void fromJson(const Table<S>& table, const nlohmann::json& j, S& s, const std::s
   for (auto it = j.begin(); it != j.end(); ++it) {
     const Field<S>* f = findField(table, it.key());
     if (!f) throw Error(where + ": unknown parameter '" + it.key() + "'");
-    const auto& v = it.value();
     try {
-      if (v.is_null() && f->optional) f->set(s, std::nullopt);
-      else if (f->kind == Kind::Flag && v.is_boolean()) f->set(s, v.get<bool>() ? 1.0 : 0.0);
-      else if ((f->kind == Kind::Choice || f->kind == Kind::Text) && v.is_string()) parse(*f, s, v.get<std::string>());
-      else if ((f->kind == Kind::Real || f->kind == Kind::Integer) && v.is_number())
-        parse(*f, s, v.dump());
-      else throw Error(f->key + ": wrong type (" + std::string(v.type_name()) + ")");
+      setFromJson(*f, it.value(), s);
     } catch (const Error& e) {
       throw Error(where + ": " + e.what());
     }
