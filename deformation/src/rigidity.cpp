@@ -4,13 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
 #include <mutex>
 #include <variant>
 
 #include "vellum/core/distance_transform.hpp"
 #include "vellum/core/error.hpp"
-#include "vellum/core/flood_fill.hpp"
+#include "vellum/core/components.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/deformation/synthesis.hpp"
@@ -197,52 +196,25 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
 }  // namespace
 
 RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
-  // classes: 0 air, 1 soft, 2 rigid (not yet split). Label 26-connected components.
+  // classes: 0 air, 1 soft, 2 rigid (not yet split). 26-connected: a thin cortex shell
+  // touching only along edges/corners stays one body.
   RigidBodies rb;
-  const Dims d = classes.dims();
-  std::vector<int64_t> queue;
-  uint16_t next = 2;
-  std::vector<std::pair<uint16_t, int64_t>> sizes;
-  constexpr uint16_t kUnvisited = 0xFFFF;
-  for (auto& v : classes.voxels()) if (v == 2) v = kUnvisited;
-  const int64_t total = d.voxelCount();
-  for (int64_t start = 0; start < total; ++start) {
-    if (classes.data()[start] != kUnvisited) continue;
-    if (next == kUnvisited - 1) throw Error("rigidity: too many rigid components");
-    const uint16_t id = next++;
-    classes.data()[start] = id;
-    // 26-connected: a thin cortex shell touching only along edges/corners stays one body.
-    const int64_t count = floodFill26(
-        d, start, queue,
-        [&](int64_t q) {
-          if (classes.data()[q] != kUnvisited) return false;
-          classes.data()[q] = id;
-          return true;
-        },
-        [](int64_t) {});
-    sizes.push_back({id, count});
-  }
-  // Drop small components (soft tissue) and renumber the rest 2, 3, ...
-  std::vector<uint16_t> remap(next, 1);
-  remap[0] = 0;
-  remap[1] = 1;
+  VolumeU8 rigid(classes.geometry(), 0, 0);
+  for (size_t t = 0; t < rigid.size(); ++t) rigid.data()[t] = classes.data()[t] == 2;
+  const Components parts = connectedComponents(rigid, Connectivity::Vertex26);
+  // Small components become soft tissue; the rest are numbered 2, 3, ... in scan order.
+  std::vector<uint16_t> remap(parts.sizes.size(), 1);
   uint16_t kept = 2;
-  for (const auto& [id, n] : sizes)
-    if (n >= minVoxels) remap[id] = kept++;
-  for (auto& v : classes.voxels()) v = remap[v];
+  for (size_t l = 1; l < parts.sizes.size(); ++l) {
+    if (parts.sizes[l] < minVoxels) continue;
+    if (kept == 0xFFFF) throw Error("rigidity: too many rigid components");
+    remap[l] = kept++;
+    rb.boxes_.push_back({parts.boxes[l].lo[0], parts.boxes[l].lo[1], parts.boxes[l].lo[2],
+                         parts.boxes[l].hi[0], parts.boxes[l].hi[1], parts.boxes[l].hi[2]});
+  }
+  for (size_t t = 0; t < classes.size(); ++t)
+    if (const uint32_t l = parts.labels[t]) classes.data()[t] = remap[l];
   rb.components_ = kept - 2;
-  // Index-space bounding box of each body (the voxel snap only visits voxels that can map
-  // into one).
-  rb.boxes_.assign(static_cast<size_t>(rb.components_), {d.x, d.y, d.z, -1, -1, -1});
-  for (int64_t k = 0; k < d.z; ++k)
-    for (int64_t j = 0; j < d.y; ++j)
-      for (int64_t i = 0; i < d.x; ++i) {
-        const uint16_t c = classes.data()[(k * d.y + j) * d.x + i];
-        if (c < 2) continue;
-        auto& b = rb.boxes_[c - 2u];
-        b[0] = std::min(b[0], i); b[1] = std::min(b[1], j); b[2] = std::min(b[2], k);
-        b[3] = std::max(b[3], i); b[4] = std::max(b[4], j); b[5] = std::max(b[5], k);
-      }
   rb.mmToIndex_ = mmToIndexOf(classes.geometry());
   rb.classes_ = std::make_shared<const VolumeU16>(std::move(classes));
   return rb;
