@@ -1,12 +1,11 @@
 #include "mls_kernel.hpp"
 
-#include <Eigen/Dense>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/rigid_fit.hpp"
 
 // AVX2/FMA clone of the hot loops with run-time dispatch (falls back to baseline x86-64).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
@@ -35,27 +34,18 @@ constexpr double kHitDist2 = 1e-18;
 // Weights are computed from max(d^2, this): 1e-6 mm keeps (1/d^2)^3 within float range.
 constexpr double kWeightDist2 = 1e-12;
 
-// Eigen's fixed-size SVD trips a false -Wmaybe-uninitialized at -O2 (GCC 12).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-// Rotation (and similarity scale) from B = sum w q^T p: R = U diag(1,1,det) V^T maximises
+// Rotation (and similarity scale) from B = sum w q^T p: the nearest rotation to B maximises
 // trace(R^T B), i.e. minimises sum w |q R - p|^2 over rotations (row-vector convention).
 void constrainToRotation(double* m, double traceA, bool similarity) {
-  Eigen::Matrix3d b;
+  Mat3 b;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) b(r, c) = m[r * 3 + c];
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(b, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const double d = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-  Eigen::Vector3d s = svd.singularValues();
-  Eigen::Matrix3d corr = Eigen::Matrix3d::Identity();
-  corr(2, 2) = d;
-  const Eigen::Matrix3d r = svd.matrixU() * corr * svd.matrixV().transpose();
-  double mu = 1.0;
-  if (similarity && traceA > 0) mu = (s(0) + s(1) + d * s(2)) / traceA;
+  double signedTrace = 0;
+  const Mat3 r = nearestRotation(b, &signedTrace);
+  const double mu = similarity && traceA > 0 ? signedTrace / traceA : 1.0;
   for (int i = 0; i < 3; ++i)
     for (int c = 0; c < 3; ++c) m[i * 3 + c] = mu * r(i, c);
 }
-#pragma GCC diagnostic pop
 
 }  // namespace
 

@@ -1,7 +1,5 @@
 #include "vellum/deformation/rigidity.hpp"
 
-#include <Eigen/Dense>
-
 #include <algorithm>
 #include <cmath>
 #include <mutex>
@@ -12,6 +10,7 @@
 #include "vellum/core/components.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/rigid_fit.hpp"
 #include "vellum/deformation/synthesis.hpp"
 
 namespace vellum::deformation {
@@ -29,44 +28,21 @@ Mat3 mmToIndexOf(const Geometry& g) {
 // it rigid (its fit would be noise); it is left to the MLS map.
 constexpr double kMinFitNodes = 8;
 
-// Sums for a Kabsch fit of u ~ R v + t.
-struct FitSums {
-  double n = 0;
-  Eigen::Vector3d sv = Eigen::Vector3d::Zero(), su = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d svu = Eigen::Matrix3d::Zero();
-  void add(const Vec3& v, const Vec3& u) {
-    const Eigen::Vector3d a(v.x, v.y, v.z), b(u.x, u.y, u.z);
-    n += 1; sv += a; su += b; svu += a * b.transpose();
-  }
-  void merge(const FitSums& o) { n += o.n; sv += o.sv; su += o.su; svu += o.svu; }
-};
-
+// A body's best rigid transform v -> u (core's weighted Kabsch fit); invalid for a body
+// covering too few nodes.
 struct RigidFit {
-  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  RigidTransform transform;
   bool valid = false;
-  Vec3 apply(const Vec3& v) const {
-    const Eigen::Vector3d p = r * Eigen::Vector3d(v.x, v.y, v.z) + t;
-    return {p.x(), p.y(), p.z()};
-  }
+  Vec3 apply(const Vec3& v) const { return transform.apply(v); }
 };
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-RigidFit kabsch(const FitSums& s) {
+RigidFit fitBody(const RigidFitSums& s) {
   RigidFit f;
-  if (s.n < kMinFitNodes) return f;
-  const Eigen::Vector3d cv = s.sv / s.n, cu = s.su / s.n;
-  const Eigen::Matrix3d h = s.svu - s.n * cv * cu.transpose();  // sum (v - cv)(u - cu)^T
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
-  d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
-  f.r = svd.matrixV() * d * svd.matrixU().transpose();
-  f.t = cu - f.r * cv;
+  if (s.weight < kMinFitNodes) return f;
+  f.transform = fitRigid(s);
   f.valid = true;
   return f;
 }
-#pragma GCC diagnostic pop
 
 // Distance (mm) on `grid` to the nodes where inside[] is true (the shared exact EDT).
 std::vector<float> distanceField(const Geometry& grid, const std::vector<uint8_t>& inside) {
@@ -113,12 +89,12 @@ struct MapView {
 // Kabsch fits of v -> u per component over samples whose u lies in the component.
 std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies) {
   const int nc = bodies.componentCount();
-  std::vector<FitSums> sums(static_cast<size_t>(nc));
+  std::vector<RigidFitSums> sums(static_cast<size_t>(nc));
   std::mutex mutex;
   const Dims d = m.grid.dims;
   const int s = m.stride;
   parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
-    std::vector<FitSums> local(static_cast<size_t>(nc));
+    std::vector<RigidFitSums> local(static_cast<size_t>(nc));
     for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
       for (int64_t j = 0; j < d.y; j += s)
         for (int64_t i = 0; i < d.x; i += s) {
@@ -130,7 +106,7 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies)
     for (int c = 0; c < nc; ++c) sums[static_cast<size_t>(c)].merge(local[static_cast<size_t>(c)]);
   });
   std::vector<RigidFit> fits;
-  for (const auto& f : sums) fits.push_back(kabsch(f));
+  for (const auto& f : sums) fits.push_back(fitBody(f));
   return fits;
 }
 
@@ -332,8 +308,8 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
   for (const auto& f : fits) {
     std::array<double, 12> m{};
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) m[static_cast<size_t>(3 * r + c)] = f.r(r, c);
-      m[static_cast<size_t>(9 + r)] = f.t(r);
+      for (int c = 0; c < 3; ++c) m[static_cast<size_t>(3 * r + c)] = f.transform.rotation(r, c);
+      m[static_cast<size_t>(9 + r)] = f.transform.translation[r];
     }
     snap->fits.push_back(m);
     snap->valid.push_back(f.valid ? 1 : 0);
@@ -347,15 +323,16 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
     const auto& b = bodies.boxes()[static_cast<size_t>(c)];
     std::array<double, 6> box{1e300, 1e300, 1e300, -1e300, -1e300, -1e300};
     if (fits[static_cast<size_t>(c)].valid && b[3] >= b[0]) {
-      const Eigen::Matrix3d rt = fits[static_cast<size_t>(c)].r.transpose();
+      const RigidTransform& fit = fits[static_cast<size_t>(c)].transform;
+      const Mat3 rt = fit.rotation.transposed();
       for (int q = 0; q < 8; ++q) {
         const Vec3 idx{(q & 1) ? b[3] + 0.5 : b[0] - 0.5, (q & 2) ? b[4] + 0.5 : b[1] - 0.5,
                        (q & 4) ? b[5] + 0.5 : b[2] - 0.5};
         const Vec3 p = cg.indexToPhysical(idx);
-        const Eigen::Vector3d v = rt * (Eigen::Vector3d(p.x, p.y, p.z) - fits[static_cast<size_t>(c)].t);
+        const Vec3 v = rt * (p - fit.translation);
         for (int a = 0; a < 3; ++a) {
-          box[static_cast<size_t>(a)] = std::min(box[static_cast<size_t>(a)], v(a) - snap->maxSnapMm);
-          box[static_cast<size_t>(a + 3)] = std::max(box[static_cast<size_t>(a + 3)], v(a) + snap->maxSnapMm);
+          box[static_cast<size_t>(a)] = std::min(box[static_cast<size_t>(a)], v[a] - snap->maxSnapMm);
+          box[static_cast<size_t>(a + 3)] = std::max(box[static_cast<size_t>(a + 3)], v[a] + snap->maxSnapMm);
         }
       }
     }
