@@ -169,6 +169,49 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   return r;
 }
 
+// The voxel snap: every body's fit, and the output box its voxels can come from.
+std::shared_ptr<const RigidSnap> makeRigidSnap(const RigidBodies& bodies, const std::vector<RigidFit>& fits,
+                                               const Geometry& grid) {
+  auto snap = std::make_shared<RigidSnap>();
+  // Shares the class voxels with the bodies (aliasing shared_ptr: no copy per frame).
+  snap->classes = std::shared_ptr<const std::vector<uint16_t>>(bodies.classesPtr(), &bodies.classes().voxels());
+  snap->classGrid = bodies.classes().geometry();
+  for (const auto& f : fits) {
+    std::array<double, 12> m{};
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) m[static_cast<size_t>(3 * r + c)] = f.transform.rotation(r, c);
+      m[static_cast<size_t>(9 + r)] = f.transform.translation[r];
+    }
+    snap->fits.push_back(m);
+    snap->valid.push_back(f.valid ? 1 : 0);
+  }
+  // Interpolation errors inside a body are below a control-cell diagonal.
+  snap->maxSnapMm = norm(grid.spacing);
+  // Where the snap can apply, per body: output voxels v with R v + t within maxSnap of the
+  // body's box, i.e. the preimage of the box (expanded) under the fit, bounded in output mm.
+  const Geometry& cg = bodies.classes().geometry();
+  for (int c = 0; c < bodies.componentCount(); ++c) {
+    const auto& b = bodies.boxes()[static_cast<size_t>(c)];
+    std::array<double, 6> box{1e300, 1e300, 1e300, -1e300, -1e300, -1e300};
+    if (fits[static_cast<size_t>(c)].valid && b[3] >= b[0]) {
+      const RigidTransform& fit = fits[static_cast<size_t>(c)].transform;
+      const Mat3 rt = fit.rotation.transposed();
+      for (int q = 0; q < 8; ++q) {
+        const Vec3 idx{(q & 1) ? b[3] + 0.5 : b[0] - 0.5, (q & 2) ? b[4] + 0.5 : b[1] - 0.5,
+                       (q & 4) ? b[5] + 0.5 : b[2] - 0.5};
+        const Vec3 p = cg.indexToPhysical(idx);
+        const Vec3 v = rt * (p - fit.translation);
+        for (int a = 0; a < 3; ++a) {
+          box[static_cast<size_t>(a)] = std::min(box[static_cast<size_t>(a)], v[a] - snap->maxSnapMm);
+          box[static_cast<size_t>(a + 3)] = std::max(box[static_cast<size_t>(a + 3)], v[a] + snap->maxSnapMm);
+        }
+      }
+    }
+    snap->reachMm.push_back(box);
+  }
+  return snap;
+}
+
 }  // namespace
 
 RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
@@ -301,44 +344,7 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);
         }
   });
-  auto snap = std::make_shared<RigidSnap>();
-  // Shares the class voxels with the bodies (aliasing shared_ptr: no copy per frame).
-  snap->classes = std::shared_ptr<const std::vector<uint16_t>>(bodies.classesPtr(), &bodies.classes().voxels());
-  snap->classGrid = bodies.classes().geometry();
-  for (const auto& f : fits) {
-    std::array<double, 12> m{};
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) m[static_cast<size_t>(3 * r + c)] = f.transform.rotation(r, c);
-      m[static_cast<size_t>(9 + r)] = f.transform.translation[r];
-    }
-    snap->fits.push_back(m);
-    snap->valid.push_back(f.valid ? 1 : 0);
-  }
-  // Interpolation errors inside a body are below a control-cell diagonal.
-  snap->maxSnapMm = norm(cv.grid.spacing);
-  // Where the snap can apply, per body: output voxels v with R v + t within maxSnap of the
-  // body's box, i.e. the preimage of the box (expanded) under the fit, bounded in output mm.
-  const Geometry& cg = bodies.classes().geometry();
-  for (int c = 0; c < nc; ++c) {
-    const auto& b = bodies.boxes()[static_cast<size_t>(c)];
-    std::array<double, 6> box{1e300, 1e300, 1e300, -1e300, -1e300, -1e300};
-    if (fits[static_cast<size_t>(c)].valid && b[3] >= b[0]) {
-      const RigidTransform& fit = fits[static_cast<size_t>(c)].transform;
-      const Mat3 rt = fit.rotation.transposed();
-      for (int q = 0; q < 8; ++q) {
-        const Vec3 idx{(q & 1) ? b[3] + 0.5 : b[0] - 0.5, (q & 2) ? b[4] + 0.5 : b[1] - 0.5,
-                       (q & 4) ? b[5] + 0.5 : b[2] - 0.5};
-        const Vec3 p = cg.indexToPhysical(idx);
-        const Vec3 v = rt * (p - fit.translation);
-        for (int a = 0; a < 3; ++a) {
-          box[static_cast<size_t>(a)] = std::min(box[static_cast<size_t>(a)], v[a] - snap->maxSnapMm);
-          box[static_cast<size_t>(a + 3)] = std::max(box[static_cast<size_t>(a + 3)], v[a] + snap->maxSnapMm);
-        }
-      }
-    }
-    snap->reachMm.push_back(box);
-  }
-  cv.rigidSnap = std::move(snap);
+  cv.rigidSnap = makeRigidSnap(bodies, fits, cv.grid);
   progress.end();
 }
 
