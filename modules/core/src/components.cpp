@@ -64,7 +64,7 @@ class RunLabeller {
         d.x >= std::numeric_limits<int32_t>::max())
       throw Error("connected components: volume has too many voxels");
     rows_ = d.y * d.z;
-    slabs_ = std::clamp<int64_t>(workerCount() * 4, 1, d.z);
+    slabs_ = std::max<int64_t>(1, std::min<int64_t>(workerCount() * 4, d.z));
   }
 
   /// Cuts every row into runs of equal non-zero value(row pointer, i).
