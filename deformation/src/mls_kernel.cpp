@@ -1,12 +1,11 @@
 #include "mls_kernel.hpp"
 
-#include <Eigen/Dense>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/rigid_fit.hpp"
 
 // AVX2/FMA clone of the hot loops with run-time dispatch (falls back to baseline x86-64).
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
@@ -35,28 +34,50 @@ constexpr double kHitDist2 = 1e-18;
 // Weights are computed from max(d^2, this): 1e-6 mm keeps (1/d^2)^3 within float range.
 constexpr double kWeightDist2 = 1e-12;
 
-// Eigen's fixed-size SVD trips a false -Wmaybe-uninitialized at -O2 (GCC 12).
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-// Rotation (and similarity scale) from B = sum w q^T p: R = U diag(1,1,det) V^T maximises
+// Rotation (and similarity scale) from B = sum w q^T p: the nearest rotation to B maximises
 // trace(R^T B), i.e. minimises sum w |q R - p|^2 over rotations (row-vector convention).
 void constrainToRotation(double* m, double traceA, bool similarity) {
-  Eigen::Matrix3d b;
+  Mat3 b;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) b(r, c) = m[r * 3 + c];
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(b, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const double d = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
-  Eigen::Vector3d s = svd.singularValues();
-  Eigen::Matrix3d corr = Eigen::Matrix3d::Identity();
-  corr(2, 2) = d;
-  const Eigen::Matrix3d r = svd.matrixU() * corr * svd.matrixV().transpose();
-  double mu = 1.0;
-  if (similarity && traceA > 0) mu = (s(0) + s(1) + d * s(2)) / traceA;
+  double signedTrace = 0;
+  const Mat3 r = nearestRotation(b, &signedTrace);
+  const double mu = similarity && traceA > 0 ? signedTrace / traceA : 1.0;
   for (int i = 0; i < 3; ++i)
     for (int c = 0; c < 3; ++c) m[i * 3 + c] = mu * r(i, c);
 }
-#pragma GCC diagnostic pop
 
+
+// The regularised normal matrix A' = A + lam I is symmetric: six entries per node.
+template <class V>
+struct Sym3 {
+  V a00, a01, a02, a11, a12, a22;
+};
+
+// (A + lam I)^-1 by cofactors, and the affine solution M = (A + lam I)^-1 (B + lam I) for a
+// row-major B, in place. One copy for the three solvers (scalar doubles, 4-double and 8-float
+// vectors: V is the lane type), so they differ only in the precision of V.
+template <class V>
+VELLUM_INLINE_LAMBDA inline Sym3<V> shiftedInverse(Sym3<V> a, V lam) {
+  a.a00 += lam; a.a11 += lam; a.a22 += lam;
+  const V c00 = a.a11 * a.a22 - a.a12 * a.a12, c01 = a.a02 * a.a12 - a.a01 * a.a22,
+          c02 = a.a01 * a.a12 - a.a02 * a.a11, c11 = a.a00 * a.a22 - a.a02 * a.a02,
+          c12 = a.a01 * a.a02 - a.a00 * a.a12, c22 = a.a00 * a.a11 - a.a01 * a.a01;
+  const V inv = 1 / (a.a00 * c00 + a.a01 * c01 + a.a02 * c02);
+  return {c00 * inv, c01 * inv, c02 * inv, c11 * inv, c12 * inv, c22 * inv};
+}
+
+template <class V>
+VELLUM_INLINE_LAMBDA inline void affineSolution(const Sym3<V>& i, V lam, V* m) {
+  m[0] += lam; m[4] += lam; m[8] += lam;
+  V r[9];
+  for (int c = 0; c < 3; ++c) {
+    r[0 + c] = i.a00 * m[c] + i.a01 * m[3 + c] + i.a02 * m[6 + c];
+    r[3 + c] = i.a01 * m[c] + i.a11 * m[3 + c] + i.a12 * m[6 + c];
+    r[6 + c] = i.a02 * m[c] + i.a12 * m[3 + c] + i.a22 * m[6 + c];
+  }
+  for (int t = 0; t < 9; ++t) m[t] = r[t];
+}
 }  // namespace
 
 PointData PointData::from(const ControlPoints& points, bool withAttributes) {
@@ -189,8 +210,22 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
       for (int k = 0; k < L; ++k) { attr[4 * k] = attr[4 * k + 1] = attr[4 * k + 2] = 0; attr[4 * k + 3] = 1; }
     return;
   }
-  std::fill(buf_.begin() + static_cast<ptrdiff_t>(kW) * maxLen_, buf_.end(), 0.0);
+  solveWithAttributes(w, u, attr);
+}
 
+// The attribute path, pass by pass over arrays of nodes (slots of buf_).
+void RowEvaluator::solveWithAttributes(const double* w, double* u, double* attr) {
+  std::fill(buf_.begin() + static_cast<ptrdiff_t>(kW) * maxLen_, buf_.end(), 0.0);
+  findDominantPoints(w);
+  accumulateCentroids(w);
+  accumulateMoments(w);
+  solveNodes();
+  writePositions(u);
+  writeAttributes(attr);
+}
+
+VELLUM_SIMD_CLONES void RowEvaluator::findDominantPoints(const double* w) {
+  const int n = p_.count, L = len_, S = stride_;
   // Pass 0: the dominant point m of each node. Centroids and q_i, p_i are formed relative to
   // y_m and x_m, so that when one weight dwarfs the others (v next to y_m, high power n) the
   // tiny q_m = y_m - y^ is computed from small differences instead of cancelling to noise.
@@ -208,7 +243,12 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
     ym0[k] = p_.tx[m]; ym1[k] = p_.ty[m]; ym2[k] = p_.tz[m];
     xm0[k] = p_.sx[m]; xm1[k] = p_.sy[m]; xm2[k] = p_.sz[m];
   }
+}
 
+VELLUM_SIMD_CLONES void RowEvaluator::accumulateCentroids(const double* w) {
+  const int n = p_.count, L = len_, S = stride_;
+  const double* ym0 = arr(kYm0); const double* ym1 = arr(kYm1); const double* ym2 = arr(kYm2);
+  const double* xm0 = arr(kXm0); const double* xm1 = arr(kXm1); const double* xm2 = arr(kXm2);
   // Pass 1: weight sums and centroids (as offsets from x_m, y_m).
   double* W = arr(kW);
   double* xh0 = arr(kXh0); double* xh1 = arr(kXh1); double* xh2 = arr(kXh2);
@@ -225,8 +265,7 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
       xh0[k] += wk * (sx - xm0[k]); xh1[k] += wk * (sy - xm1[k]); xh2[k] += wk * (sz - xm2[k]);
       yh0[k] += wk * (tx - ym0[k]); yh1[k] += wk * (ty - ym1[k]); yh2[k] += wk * (tz - ym2[k]);
     }
-    if (withAttr)
-      for (int a = 0; a < PointAttributes::kCount; ++a) {
+    for (int a = 0; a < PointAttributes::kCount; ++a) {
         double* zh = arr(kZh0 + a);
         const double z = p_.z[a][si];
 #pragma omp simd
@@ -239,12 +278,18 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
     xh0[k] *= inv; xh1[k] *= inv; xh2[k] *= inv;
     yh0[k] *= inv; yh1[k] *= inv; yh2[k] *= inv;
   }
-  if (withAttr)
-    for (int a = 0; a < PointAttributes::kCount; ++a) {
-      double* zh = arr(kZh0 + a);
-      for (int k = 0; k < L; ++k) zh[k] /= W[k];
-    }
+  for (int a = 0; a < PointAttributes::kCount; ++a) {
+    double* zh = arr(kZh0 + a);
+    for (int k = 0; k < L; ++k) zh[k] /= W[k];
+  }
+}
 
+VELLUM_SIMD_CLONES void RowEvaluator::accumulateMoments(const double* w) {
+  const int n = p_.count, L = len_, S = stride_;
+  const double* ym0 = arr(kYm0); const double* ym1 = arr(kYm1); const double* ym2 = arr(kYm2);
+  const double* xm0 = arr(kXm0); const double* xm1 = arr(kXm1); const double* xm2 = arr(kXm2);
+  const double* xh0 = arr(kXh0); const double* xh1 = arr(kXh1); const double* xh2 = arr(kXh2);
+  const double* yh0 = arr(kYh0); const double* yh1 = arr(kYh1); const double* yh2 = arr(kYh2);
   // Pass 2: A = sum w q^T q, B = sum w q^T p (and C = sum w q^T r for attributes).
   double* A[6];
   for (int s = 0; s < 6; ++s) A[s] = arr(kA00 + s);
@@ -271,8 +316,7 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
       b10[k] += wq1 * p0; b11[k] += wq1 * p1; b12[k] += wq1 * p2;
       b20[k] += wq2 * p0; b21[k] += wq2 * p1; b22[k] += wq2 * p2;
     }
-    if (withAttr)
-      for (int a = 0; a < PointAttributes::kCount; ++a) {
+    for (int a = 0; a < PointAttributes::kCount; ++a) {
         const double z = p_.z[a][si];
         const double* zh = arr(kZh0 + a);
         double* c0 = arr(kC00 + a);
@@ -287,12 +331,18 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
         }
       }
   }
+}
 
-  // Per node: regularised solve and evaluation.
+VELLUM_SIMD_CLONES void RowEvaluator::solveNodes() {
+  const int L = len_;
+  double* W = arr(kW);
+  double* A[6];
+  for (int s = 0; s < 6; ++s) A[s] = arr(kA00 + s);
+  double* B[9];
+  for (int s = 0; s < 9; ++s) B[s] = arr(kB00 + s);
+  // Per node: regularised solve (M in B; A'^-1 in A for the attribute step).
   const double eps = params_.regularisation;
   const bool constrained = params_.method != MlsMethod::Affine;
-  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
-  const Vec3 sc = p_.sourceCentre;
 #pragma omp simd
   for (int k = 0; k < L; ++k) {
     double a00 = A[0][k], a01 = A[1][k], a02 = A[2][k], a11 = A[3][k], a12 = A[4][k],
@@ -309,26 +359,12 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
       const double c = std::max(det / (mean * mean * mean), 0.0);
       const double r = eps / (eps + c);
       lam = eps * r * r * mean;
-      a00 += lam; a11 += lam; a22 += lam;
-      const double c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22,
-                   c02 = a01 * a12 - a02 * a11, c11 = a00 * a22 - a02 * a02,
-                   c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
-      const double inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02);
-      i00 = c00 * inv; i01 = c01 * inv; i02 = c02 * inv;
-      i11 = c11 * inv; i12 = c12 * inv; i22 = c22 * inv;
+      const Sym3<double> inv = shiftedInverse<double>({a00, a01, a02, a11, a12, a22}, lam);
+      i00 = inv.a00; i01 = inv.a01; i02 = inv.a02; i11 = inv.a11; i12 = inv.a12; i22 = inv.a22;
     } else {
       lam = 1.0;  // no spread at all: M = I (pure translation)
     }
-    if (!constrained) {
-      m[0] += lam; m[4] += lam; m[8] += lam;
-      double r[9];
-      for (int c = 0; c < 3; ++c) {
-        r[0 + c] = i00 * m[c] + i01 * m[3 + c] + i02 * m[6 + c];
-        r[3 + c] = i01 * m[c] + i11 * m[3 + c] + i12 * m[6 + c];
-        r[6 + c] = i02 * m[c] + i12 * m[3 + c] + i22 * m[6 + c];
-      }
-      for (int t = 0; t < 9; ++t) m[t] = r[t];
-    }
+    if (!constrained) affineSolution<double>({i00, i01, i02, i11, i12, i22}, lam, m);
     // Keep inverse rows for the attribute step.
     A[0][k] = i00; A[1][k] = i01; A[2][k] = i02; A[3][k] = i11; A[4][k] = i12; A[5][k] = i22;
     for (int t = 0; t < 9; ++t) B[t][k] = m[t];
@@ -342,6 +378,18 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
       for (int t = 0; t < 9; ++t) B[t][k] = m[t];
     }
   }
+}
+
+VELLUM_SIMD_CLONES void RowEvaluator::writePositions(double* u) const {
+  const int L = len_;
+  const double* ym0 = arr(kYm0); const double* ym1 = arr(kYm1); const double* ym2 = arr(kYm2);
+  const double* xm0 = arr(kXm0); const double* xm1 = arr(kXm1); const double* xm2 = arr(kXm2);
+  const double* xh0 = arr(kXh0); const double* xh1 = arr(kXh1); const double* xh2 = arr(kXh2);
+  const double* yh0 = arr(kYh0); const double* yh1 = arr(kYh1); const double* yh2 = arr(kYh2);
+  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
+  const double* B[9];
+  for (int s = 0; s < 9; ++s) B[s] = arr(kB00 + s);
+  const Vec3 sc = p_.sourceCentre;
   for (int k = 0; k < L; ++k) {
     const double d0 = (vx[k] - ym0[k]) - yh0[k], d1 = (vy[k] - ym1[k]) - yh1[k],
                  d2 = (vz[k] - ym2[k]) - yh2[k];
@@ -355,6 +403,15 @@ VELLUM_SIMD_CLONES void RowEvaluator::solve(const float* rho, double* u, double*
       out[0] = x.x; out[1] = x.y; out[2] = x.z;
     }
   }
+}
+
+VELLUM_SIMD_CLONES void RowEvaluator::writeAttributes(double* attr) const {
+  const int L = len_;
+  const double* ym0 = arr(kYm0); const double* ym1 = arr(kYm1); const double* ym2 = arr(kYm2);
+  const double* yh0 = arr(kYh0); const double* yh1 = arr(kYh1); const double* yh2 = arr(kYh2);
+  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
+  const double* A[6];
+  for (int s = 0; s < 6; ++s) A[s] = arr(kA00 + s);
   if (attr) {
     for (int k = 0; k < L; ++k) {
       double* out = attr + 4 * k;
@@ -449,29 +506,21 @@ VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u, i
         a01[l] = a02[l] = a12[l] = 0;
       }
     }
-    a00 += lam; a11 += lam; a22 += lam;
-    const v4 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
-    const v4 c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
-    const v4 inv = 1.0 / (a00 * c00 + a01 * c01 + a02 * c02);
-    const v4 i00 = c00 * inv, i01 = c01 * inv, i02 = c02 * inv, i11 = c11 * inv, i12 = c12 * inv, i22 = c22 * inv;
-    v4 m00, m01, m02, m10, m11, m12, m20, m21, m22;
+    v4 m[9] = {b00, b01, b02, b10, b11, b12, b20, b21, b22};
     if (!constrained) {
-      b00 += lam; b11 += lam; b22 += lam;
-      m00 = i00 * b00 + i01 * b10 + i02 * b20; m01 = i00 * b01 + i01 * b11 + i02 * b21; m02 = i00 * b02 + i01 * b12 + i02 * b22;
-      m10 = i01 * b00 + i11 * b10 + i12 * b20; m11 = i01 * b01 + i11 * b11 + i12 * b21; m12 = i01 * b02 + i11 * b12 + i12 * b22;
-      m20 = i02 * b00 + i12 * b10 + i22 * b20; m21 = i02 * b01 + i12 * b11 + i22 * b21; m22 = i02 * b02 + i12 * b12 + i22 * b22;
+      affineSolution(shiftedInverse<v4>({a00, a01, a02, a11, a12, a22}, lam), lam, m);
     } else {
       for (int l = 0; l < kLanes; ++l) {
-        double m[9] = {b00[l], b01[l], b02[l], b10[l], b11[l], b12[l], b20[l], b21[l], b22[l]};
-        constrainToRotation(m, tr[l], similarity);
-        m00[l] = m[0]; m01[l] = m[1]; m02[l] = m[2]; m10[l] = m[3]; m11[l] = m[4];
-        m12[l] = m[5]; m20[l] = m[6]; m21[l] = m[7]; m22[l] = m[8];
+        double ml[9];
+        for (int t = 0; t < 9; ++t) ml[t] = m[t][l];
+        constrainToRotation(ml, tr[l], similarity);
+        for (int t = 0; t < 9; ++t) m[t][l] = ml[t];
       }
     }
     const v4 d0 = (load(vx + k0) - ym0) - yh0, d1 = (load(vy + k0) - ym1) - yh1, d2 = (load(vz + k0) - ym2) - yh2;
-    const v4 u0 = d0 * m00 + d1 * m10 + d2 * m20 + (xm0 + xh0) + sc.x;
-    const v4 u1 = d0 * m01 + d1 * m11 + d2 * m21 + (xm1 + xh1) + sc.y;
-    const v4 u2 = d0 * m02 + d1 * m12 + d2 * m22 + (xm2 + xh2) + sc.z;
+    const v4 u0 = d0 * m[0] + d1 * m[3] + d2 * m[6] + (xm0 + xh0) + sc.x;
+    const v4 u1 = d0 * m[1] + d1 * m[4] + d2 * m[7] + (xm1 + xh1) + sc.y;
+    const v4 u2 = d0 * m[2] + d1 * m[5] + d2 * m[8] + (xm2 + xh2) + sc.z;
     const int lanes = std::min(kLanes, L - k0);
     for (int l = 0; l < lanes; ++l) {
       double* out = u + 3 * (k0 + l);
@@ -564,19 +613,11 @@ VELLUM_SIMD_CLONES void RowEvaluator::solveBlockedFloat(const double* w, double*
       redo = redo || !(c[l] > 1e-3f) || !(tr[l] > 0) || hit_[static_cast<size_t>(k0 + l)] >= 0;
     const v8 r = float(eps) / (float(eps) + c);
     const v8 lam = float(eps) * r * r * mean;
-    a00 += lam; a11 += lam; a22 += lam; b00 += lam; b11 += lam; b22 += lam;
-    const v8 c00 = a11 * a22 - a12 * a12, c01 = a02 * a12 - a01 * a22, c02 = a01 * a12 - a02 * a11;
-    const v8 c11 = a00 * a22 - a02 * a02, c12 = a01 * a02 - a00 * a12, c22 = a00 * a11 - a01 * a01;
-    const v8 inv = 1.0f / (a00 * c00 + a01 * c01 + a02 * c02);
-    const v8 i00 = c00 * inv, i01 = c01 * inv, i02 = c02 * inv, i11 = c11 * inv, i12 = c12 * inv, i22 = c22 * inv;
-    const v8 m00 = i00 * b00 + i01 * b10 + i02 * b20, m01 = i00 * b01 + i01 * b11 + i02 * b21,
-             m02 = i00 * b02 + i01 * b12 + i02 * b22, m10 = i01 * b00 + i11 * b10 + i12 * b20,
-             m11 = i01 * b01 + i11 * b11 + i12 * b21, m12 = i01 * b02 + i11 * b12 + i12 * b22,
-             m20 = i02 * b00 + i12 * b10 + i22 * b20, m21 = i02 * b01 + i12 * b11 + i22 * b21,
-             m22 = i02 * b02 + i12 * b12 + i22 * b22;
+    v8 m[9] = {b00, b01, b02, b10, b11, b12, b20, b21, b22};
+    affineSolution(shiftedInverse<v8>({a00, a01, a02, a11, a12, a22}, lam), lam, m);
     const v8 d0 = dv0 - yh0, d1 = dv1 - yh1, d2 = dv2 - yh2;
-    const v8 u0 = d0 * m00 + d1 * m10 + d2 * m20 + xh0, u1 = d0 * m01 + d1 * m11 + d2 * m21 + xh1,
-             u2 = d0 * m02 + d1 * m12 + d2 * m22 + xh2;
+    const v8 u0 = d0 * m[0] + d1 * m[3] + d2 * m[6] + xh0, u1 = d0 * m[1] + d1 * m[4] + d2 * m[7] + xh1,
+             u2 = d0 * m[2] + d1 * m[5] + d2 * m[8] + xh2;
     const int lanes = std::min(kF, L - k0);
     for (int l = 0; l < lanes; ++l) {
       double* out = u + 3 * (k0 + l);

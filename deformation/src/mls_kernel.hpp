@@ -42,8 +42,17 @@ class RowEvaluator {
   static constexpr int kLanes = 4;
   void computeWeights();
   void solveBlocked(const double* w, double* u, int kBegin, int kEnd);
+  // The attribute path's passes (solveWithAttributes calls them in order).
+  void solveWithAttributes(const double* w, double* u, double* attr);
+  void findDominantPoints(const double* w);
+  void accumulateCentroids(const double* w);
+  void accumulateMoments(const double* w);
+  void solveNodes();
+  void writePositions(double* u) const;
+  void writeAttributes(double* attr) const;
   void solveBlockedFloat(const double* w, double* u);
   double* arr(int slot) { return buf_.data() + static_cast<size_t>(slot) * maxLen_; }
+  const double* arr(int slot) const { return buf_.data() + static_cast<size_t>(slot) * maxLen_; }
   const PointData& p_;
   MlsParams params_;
   int maxLen_, len_ = 0, stride_ = 0;

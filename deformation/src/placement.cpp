@@ -1,4 +1,3 @@
-#include "vellum/core/flood_fill.hpp"
 #include "vellum/deformation/placement.hpp"
 
 #include <Eigen/Dense>
@@ -8,6 +7,7 @@
 #include <map>
 #include <optional>
 
+#include "vellum/core/components.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
 
@@ -85,6 +85,34 @@ ControlPoints boxControlPoints(const Geometry& g, int count, double inset) {
   return pts;
 }
 
+namespace {
+
+// Voxel count and first and second moments of the voxel positions (mm) of one component.
+struct Moments {
+  double n = 0;
+  Eigen::Vector3d s = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d ss = Eigen::Matrix3d::Zero();
+};
+
+// Moments per component (index label - 1), from one scan in index order.
+std::vector<Moments> componentMoments(const Components& parts, const Geometry& g) {
+  const Dims d = g.dims;
+  std::vector<Moments> acc(static_cast<size_t>(parts.count()));
+  for (int64_t k = 0; k < d.z; ++k)
+    for (int64_t j = 0; j < d.y; ++j)
+      for (int64_t i = 0; i < d.x; ++i) {
+        const uint32_t l = parts.labels[static_cast<size_t>((k * d.y + j) * d.x + i)];
+        if (l == 0) continue;
+        const Vec3 pm = g.indexToPhysical({double(i), double(j), double(k)});
+        const Eigen::Vector3d v(pm.x, pm.y, pm.z);
+        Moments& a = acc[l - 1];
+        a.n += 1; a.s += v; a.ss += v * v.transpose();
+      }
+  return acc;
+}
+
+}  // namespace
+
 ControlPoints labelControlPoints(const LabelVolume& labels, double inset) {
   if (!(inset >= 0 && inset < 0.5)) throw Error("inset fraction must be in [0, 0.5)");
   const Geometry& g = labels.geometry();
@@ -92,39 +120,8 @@ ControlPoints labelControlPoints(const LabelVolume& labels, double inset) {
   // Per 26-connected component of each label (one label can hold several separate parts,
   // e.g. the phantom's cancellous cores, 11, of both the fibula and the patella): a centroid
   // between two parts would lie in neither.
-  checkMemoryBudget(d, sizeof(int32_t), "label components");
-  std::vector<int32_t> comp(static_cast<size_t>(d.voxelCount()), -1);
-  struct Acc {
-    uint16_t id = 0;
-    double n = 0;
-    Eigen::Vector3d s = Eigen::Vector3d::Zero();
-    Eigen::Matrix3d ss = Eigen::Matrix3d::Zero();
-  };
-  std::vector<Acc> acc;
-  std::vector<int64_t> queue;
-  const int64_t nx = d.x, nxy = d.x * d.y, total = d.voxelCount();
-  const uint16_t* ids = labels.ids().data();
-  for (int64_t start = 0; start < total; ++start) {
-    const uint16_t id = ids[start];
-    if (id == 0 || comp[static_cast<size_t>(start)] >= 0) continue;
-    const int32_t c = static_cast<int32_t>(acc.size());
-    Acc a;
-    a.id = id;
-    comp[static_cast<size_t>(start)] = c;
-    floodFill26(
-        d, start, queue,
-        [&](int64_t q) {
-          if (ids[q] != id || comp[static_cast<size_t>(q)] >= 0) return false;
-          comp[static_cast<size_t>(q)] = c;
-          return true;
-        },
-        [&](int64_t p) {
-          const Vec3 pm = g.indexToPhysical({double(p % nx), double((p / nx) % d.y), double(p / nxy)});
-          const Eigen::Vector3d v(pm.x, pm.y, pm.z);
-          a.n += 1; a.s += v; a.ss += v * v.transpose();
-        });
-    acc.push_back(a);
-  }
+  const Components parts = connectedRegions(labels.ids(), Connectivity::Vertex26);
+  const std::vector<Moments> acc = componentMoments(parts, g);
   ControlPoints pts;
   // Two points closer than a voxel (a core's centroid on its shell's) would be redundant.
   const double minGap = std::max({g.spacing.x, g.spacing.y, g.spacing.z});
@@ -140,7 +137,7 @@ ControlPoints labelControlPoints(const LabelVolume& labels, double inset) {
     add(g.indexToPhysical(idx));
   }
   for (size_t ci = 0; ci < acc.size(); ++ci) {
-    const Acc& a = acc[ci];
+    const Moments& a = acc[ci];
     if (a.n < 8) continue;
     const Eigen::Vector3d mean = a.s / a.n;
     const Eigen::Matrix3d cov = a.ss / a.n - mean * mean.transpose();
@@ -161,7 +158,7 @@ ControlPoints labelControlPoints(const LabelVolume& labels, double inset) {
         const Vec3 idx = g.physicalToIndex(p);
         const int64_t i = std::llround(idx.x), j = std::llround(idx.y), k = std::llround(idx.z);
         if (i < 0 || j < 0 || k < 0 || i >= d.x || j >= d.y || k >= d.z) continue;
-        if (comp[static_cast<size_t>((k * d.y + j) * d.x + i)] == static_cast<int32_t>(ci)) {
+        if (parts.labels[static_cast<size_t>((k * d.y + j) * d.x + i)] == ci + 1) {
           last = p;
           found = true;
         }

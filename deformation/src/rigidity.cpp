@@ -1,18 +1,16 @@
 #include "vellum/deformation/rigidity.hpp"
 
-#include <Eigen/Dense>
-
 #include <algorithm>
 #include <cmath>
-#include <deque>
 #include <mutex>
 #include <variant>
 
 #include "vellum/core/distance_transform.hpp"
 #include "vellum/core/error.hpp"
-#include "vellum/core/flood_fill.hpp"
+#include "vellum/core/components.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/rigid_fit.hpp"
 #include "vellum/deformation/synthesis.hpp"
 
 namespace vellum::deformation {
@@ -30,44 +28,21 @@ Mat3 mmToIndexOf(const Geometry& g) {
 // it rigid (its fit would be noise); it is left to the MLS map.
 constexpr double kMinFitNodes = 8;
 
-// Sums for a Kabsch fit of u ~ R v + t.
-struct FitSums {
-  double n = 0;
-  Eigen::Vector3d sv = Eigen::Vector3d::Zero(), su = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d svu = Eigen::Matrix3d::Zero();
-  void add(const Vec3& v, const Vec3& u) {
-    const Eigen::Vector3d a(v.x, v.y, v.z), b(u.x, u.y, u.z);
-    n += 1; sv += a; su += b; svu += a * b.transpose();
-  }
-  void merge(const FitSums& o) { n += o.n; sv += o.sv; su += o.su; svu += o.svu; }
-};
-
+// A body's best rigid transform v -> u (core's weighted Kabsch fit); invalid for a body
+// covering too few nodes.
 struct RigidFit {
-  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  RigidTransform transform;
   bool valid = false;
-  Vec3 apply(const Vec3& v) const {
-    const Eigen::Vector3d p = r * Eigen::Vector3d(v.x, v.y, v.z) + t;
-    return {p.x(), p.y(), p.z()};
-  }
+  Vec3 apply(const Vec3& v) const { return transform.apply(v); }
 };
 
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-RigidFit kabsch(const FitSums& s) {
+RigidFit fitBody(const RigidFitSums& s) {
   RigidFit f;
-  if (s.n < kMinFitNodes) return f;
-  const Eigen::Vector3d cv = s.sv / s.n, cu = s.su / s.n;
-  const Eigen::Matrix3d h = s.svu - s.n * cv * cu.transpose();  // sum (v - cv)(u - cu)^T
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
-  d(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() < 0 ? -1 : 1;
-  f.r = svd.matrixV() * d * svd.matrixU().transpose();
-  f.t = cu - f.r * cv;
+  if (s.weight < kMinFitNodes) return f;
+  f.transform = fitRigid(s);
   f.valid = true;
   return f;
 }
-#pragma GCC diagnostic pop
 
 // Distance (mm) on `grid` to the nodes where inside[] is true (the shared exact EDT).
 std::vector<float> distanceField(const Geometry& grid, const std::vector<uint8_t>& inside) {
@@ -114,12 +89,12 @@ struct MapView {
 // Kabsch fits of v -> u per component over samples whose u lies in the component.
 std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies) {
   const int nc = bodies.componentCount();
-  std::vector<FitSums> sums(static_cast<size_t>(nc));
+  std::vector<RigidFitSums> sums(static_cast<size_t>(nc));
   std::mutex mutex;
   const Dims d = m.grid.dims;
   const int s = m.stride;
   parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
-    std::vector<FitSums> local(static_cast<size_t>(nc));
+    std::vector<RigidFitSums> local(static_cast<size_t>(nc));
     for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
       for (int64_t j = 0; j < d.y; j += s)
         for (int64_t i = 0; i < d.x; i += s) {
@@ -131,7 +106,7 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies)
     for (int c = 0; c < nc; ++c) sums[static_cast<size_t>(c)].merge(local[static_cast<size_t>(c)]);
   });
   std::vector<RigidFit> fits;
-  for (const auto& f : sums) fits.push_back(kabsch(f));
+  for (const auto& f : sums) fits.push_back(fitBody(f));
   return fits;
 }
 
@@ -194,55 +169,71 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   return r;
 }
 
+// The voxel snap: every body's fit, and the output box its voxels can come from.
+std::shared_ptr<const RigidSnap> makeRigidSnap(const RigidBodies& bodies, const std::vector<RigidFit>& fits,
+                                               const Geometry& grid) {
+  auto snap = std::make_shared<RigidSnap>();
+  // Shares the class voxels with the bodies (aliasing shared_ptr: no copy per frame).
+  snap->classes = std::shared_ptr<const std::vector<uint16_t>>(bodies.classesPtr(), &bodies.classes().voxels());
+  snap->classGrid = bodies.classes().geometry();
+  for (const auto& f : fits) {
+    std::array<double, 12> m{};
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) m[static_cast<size_t>(3 * r + c)] = f.transform.rotation(r, c);
+      m[static_cast<size_t>(9 + r)] = f.transform.translation[r];
+    }
+    snap->fits.push_back(m);
+    snap->valid.push_back(f.valid ? 1 : 0);
+  }
+  // Interpolation errors inside a body are below a control-cell diagonal.
+  snap->maxSnapMm = norm(grid.spacing);
+  // Where the snap can apply, per body: output voxels v with R v + t within maxSnap of the
+  // body's box, i.e. the preimage of the box (expanded) under the fit, bounded in output mm.
+  const Geometry& cg = bodies.classes().geometry();
+  for (int c = 0; c < bodies.componentCount(); ++c) {
+    const auto& b = bodies.boxes()[static_cast<size_t>(c)];
+    std::array<double, 6> box{1e300, 1e300, 1e300, -1e300, -1e300, -1e300};
+    if (fits[static_cast<size_t>(c)].valid && b[3] >= b[0]) {
+      const RigidTransform& fit = fits[static_cast<size_t>(c)].transform;
+      const Mat3 rt = fit.rotation.transposed();
+      for (int q = 0; q < 8; ++q) {
+        const Vec3 idx{(q & 1) ? b[3] + 0.5 : b[0] - 0.5, (q & 2) ? b[4] + 0.5 : b[1] - 0.5,
+                       (q & 4) ? b[5] + 0.5 : b[2] - 0.5};
+        const Vec3 p = cg.indexToPhysical(idx);
+        const Vec3 v = rt * (p - fit.translation);
+        for (int a = 0; a < 3; ++a) {
+          box[static_cast<size_t>(a)] = std::min(box[static_cast<size_t>(a)], v[a] - snap->maxSnapMm);
+          box[static_cast<size_t>(a + 3)] = std::max(box[static_cast<size_t>(a + 3)], v[a] + snap->maxSnapMm);
+        }
+      }
+    }
+    snap->reachMm.push_back(box);
+  }
+  return snap;
+}
+
 }  // namespace
 
 RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
-  // classes: 0 air, 1 soft, 2 rigid (not yet split). Label 26-connected components.
+  // classes: 0 air, 1 soft, 2 rigid (not yet split). 26-connected: a thin cortex shell
+  // touching only along edges/corners stays one body.
   RigidBodies rb;
-  const Dims d = classes.dims();
-  std::vector<int64_t> queue;
-  uint16_t next = 2;
-  std::vector<std::pair<uint16_t, int64_t>> sizes;
-  constexpr uint16_t kUnvisited = 0xFFFF;
-  for (auto& v : classes.voxels()) if (v == 2) v = kUnvisited;
-  const int64_t total = d.voxelCount();
-  for (int64_t start = 0; start < total; ++start) {
-    if (classes.data()[start] != kUnvisited) continue;
-    if (next == kUnvisited - 1) throw Error("rigidity: too many rigid components");
-    const uint16_t id = next++;
-    classes.data()[start] = id;
-    // 26-connected: a thin cortex shell touching only along edges/corners stays one body.
-    const int64_t count = floodFill26(
-        d, start, queue,
-        [&](int64_t q) {
-          if (classes.data()[q] != kUnvisited) return false;
-          classes.data()[q] = id;
-          return true;
-        },
-        [](int64_t) {});
-    sizes.push_back({id, count});
-  }
-  // Drop small components (soft tissue) and renumber the rest 2, 3, ...
-  std::vector<uint16_t> remap(next, 1);
-  remap[0] = 0;
-  remap[1] = 1;
+  VolumeU8 rigid(classes.geometry(), 0, 0);
+  for (size_t t = 0; t < rigid.size(); ++t) rigid.data()[t] = classes.data()[t] == 2;
+  const Components parts = connectedComponents(rigid, Connectivity::Vertex26);
+  // Small components become soft tissue; the rest are numbered 2, 3, ... in scan order.
+  std::vector<uint16_t> remap(parts.sizes.size(), 1);
   uint16_t kept = 2;
-  for (const auto& [id, n] : sizes)
-    if (n >= minVoxels) remap[id] = kept++;
-  for (auto& v : classes.voxels()) v = remap[v];
+  for (size_t l = 1; l < parts.sizes.size(); ++l) {
+    if (parts.sizes[l] < minVoxels) continue;
+    if (kept == 0xFFFF) throw Error("rigidity: too many rigid components");
+    remap[l] = kept++;
+    rb.boxes_.push_back({parts.boxes[l].lo[0], parts.boxes[l].lo[1], parts.boxes[l].lo[2],
+                         parts.boxes[l].hi[0], parts.boxes[l].hi[1], parts.boxes[l].hi[2]});
+  }
+  for (size_t t = 0; t < classes.size(); ++t)
+    if (const uint32_t l = parts.labels[t]) classes.data()[t] = remap[l];
   rb.components_ = kept - 2;
-  // Index-space bounding box of each body (the voxel snap only visits voxels that can map
-  // into one).
-  rb.boxes_.assign(static_cast<size_t>(rb.components_), {d.x, d.y, d.z, -1, -1, -1});
-  for (int64_t k = 0; k < d.z; ++k)
-    for (int64_t j = 0; j < d.y; ++j)
-      for (int64_t i = 0; i < d.x; ++i) {
-        const uint16_t c = classes.data()[(k * d.y + j) * d.x + i];
-        if (c < 2) continue;
-        auto& b = rb.boxes_[c - 2u];
-        b[0] = std::min(b[0], i); b[1] = std::min(b[1], j); b[2] = std::min(b[2], k);
-        b[3] = std::max(b[3], i); b[4] = std::max(b[4], j); b[5] = std::max(b[5], k);
-      }
   rb.mmToIndex_ = mmToIndexOf(classes.geometry());
   rb.classes_ = std::make_shared<const VolumeU16>(std::move(classes));
   return rb;
@@ -353,43 +344,7 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);
         }
   });
-  auto snap = std::make_shared<RigidSnap>();
-  // Shares the class voxels with the bodies (aliasing shared_ptr: no copy per frame).
-  snap->classes = std::shared_ptr<const std::vector<uint16_t>>(bodies.classesPtr(), &bodies.classes().voxels());
-  snap->classGrid = bodies.classes().geometry();
-  for (const auto& f : fits) {
-    std::array<double, 12> m{};
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) m[static_cast<size_t>(3 * r + c)] = f.r(r, c);
-      m[static_cast<size_t>(9 + r)] = f.t(r);
-    }
-    snap->fits.push_back(m);
-    snap->valid.push_back(f.valid ? 1 : 0);
-  }
-  // Interpolation errors inside a body are below a control-cell diagonal.
-  snap->maxSnapMm = norm(cv.grid.spacing);
-  // Where the snap can apply, per body: output voxels v with R v + t within maxSnap of the
-  // body's box, i.e. the preimage of the box (expanded) under the fit, bounded in output mm.
-  const Geometry& cg = bodies.classes().geometry();
-  for (int c = 0; c < nc; ++c) {
-    const auto& b = bodies.boxes()[static_cast<size_t>(c)];
-    std::array<double, 6> box{1e300, 1e300, 1e300, -1e300, -1e300, -1e300};
-    if (fits[static_cast<size_t>(c)].valid && b[3] >= b[0]) {
-      const Eigen::Matrix3d rt = fits[static_cast<size_t>(c)].r.transpose();
-      for (int q = 0; q < 8; ++q) {
-        const Vec3 idx{(q & 1) ? b[3] + 0.5 : b[0] - 0.5, (q & 2) ? b[4] + 0.5 : b[1] - 0.5,
-                       (q & 4) ? b[5] + 0.5 : b[2] - 0.5};
-        const Vec3 p = cg.indexToPhysical(idx);
-        const Eigen::Vector3d v = rt * (Eigen::Vector3d(p.x, p.y, p.z) - fits[static_cast<size_t>(c)].t);
-        for (int a = 0; a < 3; ++a) {
-          box[static_cast<size_t>(a)] = std::min(box[static_cast<size_t>(a)], v(a) - snap->maxSnapMm);
-          box[static_cast<size_t>(a + 3)] = std::max(box[static_cast<size_t>(a + 3)], v(a) + snap->maxSnapMm);
-        }
-      }
-    }
-    snap->reachMm.push_back(box);
-  }
-  cv.rigidSnap = std::move(snap);
+  cv.rigidSnap = makeRigidSnap(bodies, fits, cv.grid);
   progress.end();
 }
 

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "io_detail.hpp"
+#include "vellum/io/nrrd_reader.hpp"
 #include "vellum/io/nrrd_writer.hpp"
 #include "label_fields.hpp"
 #include "vellum/io/atomic_file.hpp"
@@ -209,26 +210,29 @@ std::vector<uint8_t> readAscii(const fs::path& path, uint64_t offset, uint64_t c
 
 }  // namespace
 
-LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFields* extra) {
-  const NrrdHeader h = parseHeader(path);
+namespace {
 
-  const SampleType type = parseNrrdType(path, required(path, h, {"type"}));
-  const int64_t dimension = parseInteger(path, required(path, h, {"dimension"}), "dimension");
-  if (dimension != 3 && dimension != 4)
-    throw FileError(path, "dimension " + std::to_string(dimension) + " not supported (3-D images only)");
-  const auto sizes = parseNumbers(path, required(path, h, {"sizes"}), "sizes", size_t(dimension));
-  for (double s : sizes)
-    if (s != std::floor(s) || s < 1 || s > 1e9)
-      throw FileError(path, "invalid sizes '" + required(path, h, {"sizes"}) + "'");
-  const int first = dimension == 4 ? 1 : 0;  // 4-D: leading non-spatial axis of size 1
-  if (dimension == 4 && sizes[0] != 1)
-    throw FileError(path, "4-D NRRD with " + fmt(sizes[0]) + " components per voxel is not supported");
-
+/// What a header says about the samples and where they are.
+struct NrrdDescription {
+  SampleType type = SampleType::UInt8;
+  std::vector<int64_t> leadingSizes;     ///< non-spatial axes before x (at most one)
+  std::vector<std::string> leadingKinds;
   Geometry g;
-  g.dims = {static_cast<int64_t>(sizes[first]), static_cast<int64_t>(sizes[first + 1]),
-            static_cast<int64_t>(sizes[first + 2])};
-  checkAllocation(path, g.dims, sampleSize(type));
+  fs::path dataPath;
+  uint64_t offset = 0;  ///< first data byte (after 'line skip'; before 'byte skip')
+  int64_t byteSkip = 0;
+  std::string encoding;
+  Endian endian = Endian::Little;
+  uint64_t sampleCount() const {
+    uint64_t n = static_cast<uint64_t>(g.dims.voxelCount());
+    for (int64_t s : leadingSizes) n *= static_cast<uint64_t>(s);
+    return n;
+  }
+};
 
+/// Spacing and direction ('space directions' or 'spacings'), origin and space of the three
+/// spatial axes, which follow `first` leading axes.
+void parseNrrdGeometry(const fs::path& path, const NrrdHeader& h, int64_t dimension, int first, Geometry& g) {
   if (const std::string* dirs = field(h, {"space directions"})) {
     auto vecs = parseVectors(path, *dirs, "space directions");
     if (vecs.size() != static_cast<size_t>(dimension))
@@ -266,63 +270,120 @@ LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFie
       for (int c = 0; c < 3; ++c) g.direction(r, c) *= flip[r];
   }
   checkGeometry(path, g);
+}
 
-  // Where the data are.
-  fs::path dataPath = path;
-  uint64_t offset = h.dataOffset;
+/// The data file, offset, encoding and byte order the header names.
+void locateNrrdData(const fs::path& path, const NrrdHeader& h, NrrdDescription& d) {
+  d.dataPath = path;
+  d.offset = h.dataOffset;
   if (const std::string* df = field(h, {"data file", "datafile"})) {
     if (df->rfind("LIST", 0) == 0 || df->find('%') != std::string::npos)
       throw FileError(path, "multi-file NRRD data ('" + *df + "') is not supported");
-    dataPath = fs::path(*df).is_absolute() ? fs::path(*df) : path.parent_path() / *df;
-    offset = 0;
+    d.dataPath = fs::path(*df).is_absolute() ? fs::path(*df) : path.parent_path() / *df;
+    d.offset = 0;
   } else if (!h.terminated) {
     throw FileError(path, "header has no blank line ending it and no 'data file' field");
   }
-  if (dataPath != path && !fs::exists(dataPath))
-    throw FileError(path, "data file " + dataPath.string() + " does not exist");
+  if (d.dataPath != path && !fs::exists(d.dataPath))
+    throw FileError(path, "data file " + d.dataPath.string() + " does not exist");
 
-  const std::string encoding = lower(required(path, h, {"encoding"}));
-  Endian endian = Endian::Little;
+  d.encoding = lower(required(path, h, {"encoding"}));
   if (const std::string* e = field(h, {"endian"})) {
     const std::string el = lower(*e);
-    if (el == "big") endian = Endian::Big;
+    if (el == "big") d.endian = Endian::Big;
     else if (el != "little") throw FileError(path, "field 'endian': '" + *e + "' (little or big)");
-  } else if (sampleSize(type) > 1 && encoding != "ascii" && encoding != "text" && encoding != "txt") {
+  } else if (sampleSize(d.type) > 1 && d.encoding != "ascii" && d.encoding != "text" && d.encoding != "txt") {
     throw FileError(path, "missing required NRRD field 'endian'");
   }
-  int64_t lineSkip = 0, byteSkip = 0;
+  int64_t lineSkip = 0;
   if (const std::string* ls = field(h, {"line skip", "lineskip"})) lineSkip = parseInteger(path, *ls, "line skip");
-  if (const std::string* bs = field(h, {"byte skip", "byteskip"})) byteSkip = parseInteger(path, *bs, "byte skip");
-  if (lineSkip < 0 || byteSkip < -1) throw FileError(path, "negative line skip or byte skip");
-  offset = skipLines(dataPath, offset, lineSkip);
+  if (const std::string* bs = field(h, {"byte skip", "byteskip"})) d.byteSkip = parseInteger(path, *bs, "byte skip");
+  if (lineSkip < 0 || d.byteSkip < -1) throw FileError(path, "negative line skip or byte skip");
+  d.offset = skipLines(d.dataPath, d.offset, lineSkip);
+}
 
-  const uint64_t count = static_cast<uint64_t>(g.dims.voxelCount());
-  const uint64_t bytes = count * sampleSize(type);
+/// Parses everything but the samples. `maxLeading`: largest leading (non-spatial) axis
+/// accepted (1 for scalar volumes: Slicer's 4-D single-layer segmentations).
+NrrdDescription describeNrrd(const fs::path& path, const NrrdHeader& h, int64_t maxLeading) {
+  NrrdDescription d;
+  d.type = parseNrrdType(path, required(path, h, {"type"}));
+  const int64_t dimension = parseInteger(path, required(path, h, {"dimension"}), "dimension");
+  if (dimension != 3 && dimension != 4)
+    throw FileError(path, "dimension " + std::to_string(dimension) + " not supported (3-D images only)");
+  const auto sizes = parseNumbers(path, required(path, h, {"sizes"}), "sizes", size_t(dimension));
+  for (double s : sizes)
+    if (s != std::floor(s) || s < 1 || s > 1e9)
+      throw FileError(path, "invalid sizes '" + required(path, h, {"sizes"}) + "'");
+  const int first = dimension == 4 ? 1 : 0;  // 4-D: one leading non-spatial axis
+  if (dimension == 4 && sizes[0] > static_cast<double>(maxLeading))
+    throw FileError(path, "4-D NRRD with " + fmt(sizes[0]) + " components per voxel is not supported");
+  if (first) {
+    d.leadingSizes = {static_cast<int64_t>(sizes[0])};
+    const std::string* kinds = field(h, {"kinds"});
+    std::istringstream ks(kinds ? *kinds : std::string());
+    std::string kind;
+    d.leadingKinds = {ks >> kind ? kind : "???"};
+  }
+  d.g.dims = {static_cast<int64_t>(sizes[first]), static_cast<int64_t>(sizes[first + 1]),
+              static_cast<int64_t>(sizes[first + 2])};
+  checkAllocation(path, d.g.dims, sampleSize(d.type) * static_cast<uint64_t>(first ? sizes[0] : 1));
+  parseNrrdGeometry(path, h, dimension, first, d.g);
+  locateNrrdData(path, h, d);
+  return d;
+}
+
+/// The samples as stored (byte order d.endian; ascii text becomes host order and d.endian says so).
+std::vector<uint8_t> readNrrdSamples(NrrdDescription& d, const fs::path& path, Progress* progress) {
+  const uint64_t count = d.sampleCount();
+  const uint64_t bytes = count * sampleSize(d.type);
+  uint64_t offset = d.offset;
   std::vector<uint8_t> data;
-  if (encoding == "raw") {
-    if (byteSkip == -1) {
-      const uint64_t size = fileSize(dataPath);
-      if (size < bytes + offset) throw FileError(dataPath, "truncated: file smaller than the voxel data");
+  if (d.encoding == "raw") {
+    if (d.byteSkip == -1) {
+      const uint64_t size = fileSize(d.dataPath);
+      if (size < bytes + offset) throw FileError(d.dataPath, "truncated: file smaller than the voxel data");
       offset = size - bytes;
     } else {
-      offset += static_cast<uint64_t>(byteSkip);
+      offset += static_cast<uint64_t>(d.byteSkip);
     }
-    data = readBytes(dataPath, offset, bytes, options.progress);
-  } else if (encoding == "gzip" || encoding == "gz") {
-    if (byteSkip < 0) throw FileError(path, "'byte skip: -1' is not allowed with gzip encoding");
-    const uint64_t size = fileSize(dataPath);
-    if (offset > size) throw FileError(dataPath, "truncated: no compressed data");
-    const std::vector<uint8_t> packed = readBytes(dataPath, offset, size - offset, options.progress);
-    data = inflateExact(dataPath, packed.data(), packed.size(), bytes + static_cast<uint64_t>(byteSkip));
-    if (byteSkip > 0) data.erase(data.begin(), data.begin() + byteSkip);
-  } else if (encoding == "ascii" || encoding == "text" || encoding == "txt") {
-    data = readAscii(dataPath, offset + static_cast<uint64_t>(std::max<int64_t>(byteSkip, 0)), count, type);
-    endian = hostEndian();
+    data = readBytes(d.dataPath, offset, bytes, progress);
+  } else if (d.encoding == "gzip" || d.encoding == "gz") {
+    if (d.byteSkip < 0) throw FileError(path, "'byte skip: -1' is not allowed with gzip encoding");
+    const uint64_t size = fileSize(d.dataPath);
+    if (offset > size) throw FileError(d.dataPath, "truncated: no compressed data");
+    const std::vector<uint8_t> packed = readBytes(d.dataPath, offset, size - offset, progress);
+    data = inflateExact(d.dataPath, packed.data(), packed.size(), bytes + static_cast<uint64_t>(d.byteSkip));
+    if (d.byteSkip > 0) data.erase(data.begin(), data.begin() + d.byteSkip);
+  } else if (d.encoding == "ascii" || d.encoding == "text" || d.encoding == "txt") {
+    data = readAscii(d.dataPath, offset + static_cast<uint64_t>(std::max<int64_t>(d.byteSkip, 0)), count, d.type);
+    d.endian = hostEndian();
   } else {
-    throw FileError(path, "unsupported NRRD encoding '" + encoding + "' (raw, gzip or ascii)");
+    throw FileError(path, "unsupported NRRD encoding '" + d.encoding + "' (raw, gzip or ascii)");
   }
+  return data;
+}
 
-  AnyVolume vol = decodeVoxels(dataPath, std::move(data), type, endian, g);
+const char* canonicalTypeName(SampleType t) {
+  switch (t) {
+    case SampleType::Int8: return "signed char";
+    case SampleType::UInt8: return "uchar";
+    case SampleType::Int16: return "short";
+    case SampleType::UInt16: return "ushort";
+    case SampleType::Int32: return "int";
+    case SampleType::UInt32: return "uint";
+    case SampleType::Float32: return "float";
+    case SampleType::Float64: return "double";
+  }
+  return "?";
+}
+
+}  // namespace
+
+LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFields* extra) {
+  const NrrdHeader h = parseHeader(path);
+  NrrdDescription d = describeNrrd(path, h, 1);
+  std::vector<uint8_t> data = readNrrdSamples(d, path, options.progress);
+  AnyVolume vol = decodeVoxels(d.dataPath, std::move(data), d.type, d.endian, d.g);
 
   std::string modality;
   if (const auto it = h.keyValues.find("vellum_modality"); it != h.keyValues.end()) modality = trim(it->second);
@@ -350,3 +411,24 @@ void saveNrrd(const AnyVolume& v, const fs::path& path, bool gzip, const std::st
 }
 
 }  // namespace vellum::io::detail
+
+namespace vellum::io {
+
+NrrdContents readNrrd(const std::filesystem::path& path, Progress* progress) {
+  using namespace detail;
+  const NrrdHeader h = parseHeader(path);
+  NrrdDescription d = describeNrrd(path, h, 1 << 16);
+  NrrdContents c;
+  c.bytes = readNrrdSamples(d, path, progress);
+  if (d.endian != hostEndian()) {  // samples to host order
+    const size_t w = static_cast<size_t>(sampleSize(d.type));
+    for (size_t i = 0; i + w <= c.bytes.size(); i += w) std::reverse(c.bytes.begin() + i, c.bytes.begin() + i + w);
+  }
+  c.layout.type = canonicalTypeName(d.type);
+  c.layout.leadingSizes = d.leadingSizes;
+  c.layout.leadingKinds = d.leadingKinds;
+  c.layout.geometry = d.g;
+  return c;
+}
+
+}  // namespace vellum::io

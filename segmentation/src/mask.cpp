@@ -9,15 +9,6 @@
 
 namespace vellum::segmentation {
 
-Connectivity connectivityFromInt(int n) {
-  switch (n) {
-    case 6: return Connectivity::Face6;
-    case 18: return Connectivity::Edge18;
-    case 26: return Connectivity::Vertex26;
-    default: throw Error("connectivity must be 6, 18 or 26 (got " + std::to_string(n) + ")");
-  }
-}
-
 Mask makeMask(const Geometry& g) { return Mask(g, 0, 0.0); }
 
 int64_t countVoxels(const Mask& m) {

@@ -27,14 +27,6 @@ inline std::vector<Offset> neighborOffsets(Connectivity c) {
   return out;
 }
 
-/// The offsets that precede a voxel in scan order (x fastest): half of neighborOffsets().
-inline std::vector<Offset> backwardOffsets(Connectivity c) {
-  std::vector<Offset> out;
-  for (const Offset& o : neighborOffsets(c))
-    if (o.dk < 0 || (o.dk == 0 && (o.dj < 0 || (o.dj == 0 && o.di < 0)))) out.push_back(o);
-  return out;
-}
-
 /// Breadth-first flood fill from `starts` (linear indices) through voxels where
 /// allowed(linear index) is true; marks them 1 in `out` (which must be zero there before).
 /// Iterative with an explicit queue.

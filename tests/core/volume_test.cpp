@@ -1,6 +1,5 @@
 #include <gtest/gtest.h>
 
-#include "vellum/core/flood_fill.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/volume.hpp"
 
@@ -97,26 +96,4 @@ TEST(LabelVolume, TableAndHistogram) {
   EXPECT_EQ(lv.maxId(), 3);
   EXPECT_EQ(lv.histogram(), (std::vector<uint64_t>{1, 1, 0, 2}));
   EXPECT_NE(defaultLabelColor(1), defaultLabelColor(2));
-}
-
-TEST(FloodFill, GrowsOver26NeighboursOnlyWhereClaimed) {
-  // Two voxels touching only at a corner are one 26-connected component; a third, two voxels
-  // away, is not reached.
-  const Dims d{4, 4, 4};
-  std::vector<uint8_t> mask(64, 0), taken(64, 0);
-  auto at = [&](int i, int j, int k) { return static_cast<int64_t>((k * 4 + j) * 4 + i); };
-  mask[at(0, 0, 0)] = mask[at(1, 1, 1)] = mask[at(3, 3, 3)] = 1;
-  std::vector<int64_t> queue, visited;
-  taken[at(0, 0, 0)] = 1;
-  const int64_t n = floodFill26(
-      d, at(0, 0, 0), queue,
-      [&](int64_t q) {
-        if (!mask[q] || taken[q]) return false;
-        taken[q] = 1;
-        return true;
-      },
-      [&](int64_t p) { visited.push_back(p); });
-  EXPECT_EQ(n, 2);
-  EXPECT_EQ(visited, (std::vector<int64_t>{at(0, 0, 0), at(1, 1, 1)}));
-  EXPECT_FALSE(taken[at(3, 3, 3)]);
 }

@@ -131,6 +131,22 @@ TEST(MapFile, GzipAndRawRoundTripAndErrorsNameTheFile) {
     EXPECT_NE(std::string(e.what()).find("cut.nrrd"), std::string::npos) << e.what();
   }
   EXPECT_THROW(loadBackwardMapNrrd(dir / "missing.nrrd"), FileError);
+  // A detached header (map.nhdr + map.raw.gz) reads back through io's NRRD reader too.
+  saveBackwardMapNrrd(map, g, dir / "map.nhdr", true);
+  EXPECT_TRUE(std::filesystem::exists(dir / "map.raw.gz"));
+  EXPECT_EQ(loadBackwardMapNrrd(dir / "map.nhdr"), map);
+  // A scalar volume is not a map.
+  {
+    std::ofstream(dir / "scalar.nrrd", std::ios::binary)
+        << "NRRD0004\ntype: float\ndimension: 3\nsizes: 1 1 1\nendian: little\nencoding: raw\n\n"
+        << std::string(4, '\0');
+  }
+  try {
+    loadBackwardMapNrrd(dir / "scalar.nrrd");
+    ADD_FAILURE() << "a scalar volume loaded as a map";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("not a Vellum backward map"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Placement, BoxPointsLieInsideWithTheInset) {

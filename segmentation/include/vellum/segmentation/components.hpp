@@ -1,5 +1,5 @@
 #pragma once
-// Connected components, island editing and hole filling.
+// Island editing by seeds and hole filling, over core's connected components.
 #include <vector>
 
 #include "vellum/core/progress.hpp"
@@ -7,27 +7,12 @@
 
 namespace vellum::segmentation {
 
-/// Component labelling of a mask: labels[linear index] = 0 for background, 1..count for the
-/// components, numbered in scan order of their first voxel (x fastest), so the result does
-/// not depend on the number of threads.
-struct Components {
-  Dims dims;
-  std::vector<uint32_t> labels;
-  std::vector<int64_t> sizes;  ///< voxels per component; sizes[0] is unused (0)
-  int64_t count() const { return static_cast<int64_t>(sizes.size()) - 1; }
-  /// Label of the largest component (the lowest label among equals); 0 when there is none.
-  uint32_t largest() const;
-};
+// The labelling itself, keep-largest and island removal are core's (core/components.hpp).
+using vellum::Components;
+using vellum::connectedComponents;
+using vellum::keepLargestComponent;
+using vellum::removeSmallIslands;
 
-/// Union-find labelling over z-slabs in parallel, then merged across slab faces.
-Components connectedComponents(const Mask& m, Connectivity connectivity = Connectivity::Vertex26,
-                               Progress& progress = Progress::none());
-
-/// Only the largest component.
-Mask keepLargestComponent(const Mask& m, Connectivity connectivity = Connectivity::Vertex26);
-/// Removes components smaller than minVolumeMm3.
-Mask removeSmallIslands(const Mask& m, double minVolumeMm3,
-                        Connectivity connectivity = Connectivity::Vertex26);
 /// Keeps the components that contain at least one of the seeds (mm). Seeds outside the grid
 /// throw vellum::Error; seeds on background select nothing.
 Mask keepComponentsWithSeeds(const Mask& m, const std::vector<Vec3>& seedsMm,

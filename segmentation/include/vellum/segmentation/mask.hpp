@@ -4,6 +4,7 @@
 #include <optional>
 #include <vector>
 
+#include "vellum/core/components.hpp"
 #include "vellum/core/volume.hpp"
 
 namespace vellum::segmentation {
@@ -11,11 +12,9 @@ namespace vellum::segmentation {
 /// A binary segmentation: 1 inside, 0 outside, with the geometry of the image it came from.
 using Mask = VolumeU8;
 
-/// Which neighbours touch: faces (6), faces + edges (18), faces + edges + corners (26).
-enum class Connectivity { Face6 = 6, Edge18 = 18, Vertex26 = 26 };
-
-/// Parses 6, 18 or 26; throws vellum::Error otherwise.
-Connectivity connectivityFromInt(int n);
+// 6/18/26 connectivity lives in core (core/components.hpp) with the one component labelling.
+using vellum::Connectivity;
+using vellum::connectivityFromInt;
 
 /// An empty mask (all 0) on `g`.
 Mask makeMask(const Geometry& g);
