@@ -273,4 +273,52 @@ TEST(StudioScript, ViewSettingsAndBookmarksUndoRedoAndSave) {
   EXPECT_EQ(d.view.bookmarks.size(), 0u);
 }
 
+/// Runs `vellum ARGS`, output to DIR/NAME.log; the exit code.
+int runCli(const fs::path& dir, const std::string& name, const std::string& args) {
+  std::string cmd = "\"";
+  cmd += VELLUM_CLI_EXE;
+  cmd += "\" " + args + " > \"" + (dir / (name + ".log")).string() + "\" 2>&1";
+  return std::system(cmd.c_str());
+}
+
+// Issue 10 §2: the 3D view as a shape-aware illustration is what `vellum illustrate` draws
+// for the same shape folder, style and camera; style edits are undo steps and live in the scene.
+TEST(StudioScript, IllustrationMatchesVellumIllustrateAndStyleEditsUndo) {
+  REQUIRE_DISPLAY();
+  const auto dir = test::tempDir("studio-illustration");
+  writePhantom(dir);
+  const std::string ct = (dir / "ct.nrrd").string();
+  ASSERT_EQ(runCli(dir, "shape", "shape \"" + ct + "\" --labels \"" + (dir / "labels.nrrd").string() +
+                                     "\" --segment skin=1 --segment muscle=3 --segment femur=4,5 --segment tibia=6,7 --out \"" +
+                                     (dir / "shape").string() + "\""),
+            0);
+  ASSERT_EQ(runCli(dir, "illustrate", "illustrate \"" + ct + "\" --shape \"" + (dir / "shape").string() +
+                                          "\" --preset textbook --size 200x200 --out \"" + (dir / "cli.png").string() + "\""),
+            0);
+  const std::string script = R"({"actions":[{"open":)" + q(dir / "ct.nrrd") + R"(},{"layout":"3d"},
+    {"shapes":)" + q(dir / "shape") + R"(},{"style":"textbook"},{"illustrate":true},
+    {"screenshot":{"path":)" + q(dir / "studio.png") + R"(,"view":"3d","size":[200,200]}},
+    {"style_set":{"segment":"femur","colour":[1,0,0],"opacity":0.9}},{"save_scene":)" + q(dir / "a.json") + R"(},
+    {"key":"ctrl+z"},{"key":"ctrl+z"},{"save_scene":)" + q(dir / "b.json") + R"(},{"quit":0}]})";
+  const StudioRun r = runStudio(dir, "illustration", script);
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const auto diff = test::compareImages(io::loadImage(dir / "studio.png"), io::loadImage(dir / "cli.png"));
+  EXPECT_GE(diff.psnr, 40.0) << "studio illustration vs `vellum illustrate`";
+
+  const SceneFile a = readSceneFile(dir / "a.json"), b = readSceneFile(dir / "b.json");
+  EXPECT_EQ(a.shapes, (dir / "shape").lexically_normal());
+  EXPECT_TRUE(a.view.illustration.enabled);
+  const auto femurRow = [](const illustration::Style& s) -> const illustration::SegmentStyle* {
+    for (const auto& row : s.segments)
+      if (row.match == "femur") return &row;
+    return nullptr;
+  };
+  const auto* red = femurRow(a.view.illustration.style);
+  ASSERT_NE(red, nullptr) << "the edit gave femur its own row";
+  EXPECT_EQ(red->colour, (illustration::Rgb{1.f, 0.f, 0.f}));
+  EXPECT_FLOAT_EQ(red->opacity, 0.9f);
+  EXPECT_TRUE(b.view.illustration.style == illustration::stylePreset("textbook")) << "two undos: back to the preset";
+  EXPECT_TRUE(b.view.illustration.enabled);
+}
+
 }  // namespace vellum::studio

@@ -137,6 +137,7 @@ int StudioApp::run() {
   }
   loader_.cancel();
   snake_.cancel();
+  shapes_.cancel();
   autosaver_.reset();  // waits for a write in progress
   return exitCode_;
 }
@@ -145,7 +146,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.busy() && !snake_.busy() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() &&
+  return !loader_.busy() && !snake_.busy() && !shapes_.busy() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() &&
          !scene_.authoring.playing;
 }
 
@@ -154,6 +155,7 @@ void StudioApp::frame() {
   glfwPollEvents();
   pollLoader();
   pollSnake();
+  pollShapes();
   {
     const double now = glfwGetTime();
     tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
@@ -194,6 +196,7 @@ void StudioApp::frame() {
       view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
       markSlicesDirty();
     }
+    view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
     for (const Pane& p : panes_)
       if (p.is3d())
         rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());
@@ -250,6 +253,9 @@ void StudioApp::adoptLoad(LoadResult r) {
   recent_.add(r.scene ? r.scenePath : r.volumePath);
   scene_.authoring = Authoring{};
   scene_.authoring.rigidLabels = boneLikeLabels(scene_.labels);
+  scene_.shapes = std::move(r.shapes);
+  scene_.shapesPath = r.shapesPath;
+  ++scene_.shapesRevision;
   if (r.scene) {
     applySceneView(*r.scene, scene_);
   } else {

@@ -15,6 +15,7 @@
 #include "layout.hpp"
 #include "loader.hpp"
 #include "recent_files.hpp"
+#include "shape_job.hpp"
 #include "snake_job.hpp"
 #include "scene.hpp"
 #include "undo.hpp"
@@ -105,6 +106,15 @@ class StudioApp {
   void endViewEdit(const std::string& description);
   /// Camera bookmarks (each one undo step): add the current camera, go to one, delete one.
   void addBookmark(const std::string& name);
+  /// Illustration view: shapes made from the label map or read from a `vellum shape` folder
+  /// (a worker job; the result replaces the scene's shapes), on/off, the style (each one undo
+  /// step). `segment` in setStyleField is a label name, or "default" / "unclassified" / "" (the
+  /// style's top-level fields).
+  void makeShapes(const std::filesystem::path& folder = {});
+  void setIllustration(bool on);
+  void setStylePreset(const std::string& name);
+  void setStyleField(const std::string& segment, const std::string& key, const std::string& value);
+  ShapeJob& shapeJob() { return shapes_; }
   void goToBookmark(size_t index);
   void deleteBookmark(size_t index);
   void resetView();
@@ -241,6 +251,8 @@ class StudioApp {
   void viewChanged();  ///< layout, preset ... changed: redraw slices and the 3D view
   Loader loader_;
   SnakeJob snake_;
+  ShapeJob shapes_;
+  void pollShapes();
   FileBrowser browser_;
   std::vector<Pane> panes_;
   RecentFiles recent_;

@@ -192,6 +192,54 @@ void StudioApp::pollSnake() {
   std::cout << "snake: " << out->iterations << " iterations" << (out->converged ? ", converged" : "") << std::endl;
 }
 
+void StudioApp::makeShapes(const fs::path& folder) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  if (!shapes_.start({scene_.ct, scene_.labels, folder, scene_.volumeGeneration}))
+    throw Error("shapes are already being made; cancel first");
+}
+
+void StudioApp::pollShapes() {
+  auto out = shapes_.take();
+  if (!out) return;
+  if (!out->error.empty()) {
+    std::cerr << "vellum-studio: " << out->error << "\n";
+    if (out->error != "shapes cancelled") showError(out->error);
+    return;
+  }
+  if (out->volumeGeneration != scene_.volumeGeneration) return;  // another volume meanwhile
+  scene_.shapes = std::move(out->shapes);
+  scene_.shapesPath = out->folder;
+  ++scene_.shapesRevision;
+  if (!scene_.illustration.enabled) setIllustration(true);  // what the user made them for
+}
+
+void StudioApp::setIllustration(bool on) {
+  const ViewState before = scene_.viewState();
+  scene_.illustration.enabled = on;
+  pushViewEdit(on ? "illustration on" : "illustration off", before);
+}
+
+void StudioApp::setStylePreset(const std::string& name) {
+  const ViewState before = scene_.viewState();
+  scene_.illustration.style = illustration::stylePreset(name);
+  pushViewEdit("style " + name, before);
+}
+
+void StudioApp::setStyleField(const std::string& segment, const std::string& key, const std::string& value) {
+  const ViewState before = scene_.viewState();
+  illustration::Style& style = scene_.illustration.style;
+  if (segment.empty()) {
+    const auto* f = params::findField(illustration::styleTable(), key);
+    if (!f) throw Error("unknown style field '" + key + "'");
+    params::parse(*f, style, value);
+  } else {
+    const auto* f = params::findField(illustration::segmentStyleTable(), key);
+    if (!f || key == "match") throw Error("unknown segment style field '" + key + "'");
+    params::parse(*f, ownStyleRow(style, segment), value);
+  }
+  pushViewEdit("style " + key, before);
+}
+
 void StudioApp::saveLabels(const fs::path& path) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   io::saveLabels(scene_.labels, path);

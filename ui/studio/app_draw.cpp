@@ -64,8 +64,10 @@ void StudioApp::drawPanes() {
     if (p.is3d()) {
       const GlTexture& t = view3d_->texture();
       if (t.valid()) dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id())), a, b);
-      dl->AddText({a.x + 6, a.y + 4}, IM_COL32(200, 200, 255, 255),
-                  (std::string("3D  ") + render::presetName(scene_.render.preset)).c_str());
+      const std::string title = view3d_->illustrating(scene_)
+                                    ? "3D  illustration: " + scene_.illustration.style.name
+                                    : std::string("3D  ") + render::presetName(scene_.render.preset);
+      dl->AddText({a.x + 6, a.y + 4}, IM_COL32(120, 120, 200, 255), title.c_str());
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawControlPoints(p);
       continue;

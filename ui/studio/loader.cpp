@@ -6,6 +6,15 @@
 namespace vellum::studio {
 namespace fs = std::filesystem;
 
+illustration::ShapeScene loadShapes(const fs::path& folder, const VolumeI16& ct) {
+  illustration::ShapeScene shapes = illustration::loadShapeFolder(folder);
+  if (!shapes.distance.geometry().approxEqual(ct.geometry(), 1e-3))
+    throw FileError(folder, "shape grid " + shapes.distance.dims().str() + " does not match the volume " +
+                                ct.geometry().dims.str() + ": make the shape folder from this CT");
+  shapes.ct = AnyVolume(ct);  // styles with illum = ct or a CT boundary measure read it
+  return shapes;
+}
+
 LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   LoadResult r;
   fs::path volumePath = request.path, labelsPath = request.labels;
@@ -35,6 +44,10 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
     r.labelsPath = labelsPath;
   } else {
     r.labels = LabelVolume(r.ct.geometry());
+  }
+  if (r.scene && !r.scene->shapes.empty()) {
+    r.shapes = std::make_shared<const illustration::ShapeScene>(loadShapes(r.scene->shapes, r.ct));
+    r.shapesPath = r.scene->shapes;
   }
   return r;
 }

@@ -3,6 +3,7 @@
 // cancel. The UI polls take() once per frame; the current scene is replaced only when a
 // load has fully succeeded, so a bad file leaves it untouched.
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -29,6 +30,9 @@ struct LoadResult {
   std::vector<std::string> warnings;
   std::vector<io::SeriesInfo> series;  ///< DICOM: every series found
   std::string seriesUid;
+  /// The scene's shape folder, loaded (null: none).
+  std::shared_ptr<const illustration::ShapeScene> shapes;
+  std::filesystem::path shapesPath;
 };
 
 /// Loads on a worker thread (BackgroundJob); `take()` gives the finished load once.
@@ -50,6 +54,9 @@ class Loader {
                                    return r;
                                  }};
 };
+
+/// A `vellum shape` folder for the volume `ct` (same grid, else FileError naming the folder).
+illustration::ShapeScene loadShapes(const std::filesystem::path& folder, const VolumeI16& ct);
 
 /// The synchronous part (also used by tests): reads request into a LoadResult, throwing
 /// vellum::Error on failure.

@@ -8,6 +8,7 @@
 
 #include "app.hpp"
 #include "panel_deformation.hpp"
+#include "panel_illustration.hpp"
 #include "param_widgets.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
@@ -239,6 +240,7 @@ void drawToolPanel(StudioApp& app, float width, float height) {
   ImGui::PushItemWidth(-130);
   if (ImGui::CollapsingHeader("File", ImGuiTreeNodeFlags_DefaultOpen)) fileSection(app);
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) viewSection(app);
+  if (ImGui::CollapsingHeader("Illustration")) illustrationSection(app);
   if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);

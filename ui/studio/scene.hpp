@@ -2,6 +2,7 @@
 // The studio's document: what a scene file saves and what every view draws from.
 // Plain data, no GL and no ImGui, so that tests and the scene file can use it directly.
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -10,6 +11,7 @@
 #include "view_settings.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/volume.hpp"
+#include "vellum/illustration/illustration_renderer.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/render/render_settings.hpp"
 
@@ -33,6 +35,12 @@ struct Scene {
   ViewSettings view;
   render::RenderSettings render;  ///< the 3D view's preset, camera, window ...; width/height unused
   std::vector<CameraBookmark> bookmarks;
+  IllustrationView illustration;
+  /// Shapes for the illustration (a `vellum shape` folder, or made from the labels in the
+  /// studio); null until made or opened. Replaced as a whole, never edited in place.
+  std::shared_ptr<const illustration::ShapeScene> shapes;
+  std::filesystem::path shapesPath;  ///< the folder they came from (empty: made from the labels)
+  uint64_t shapesRevision = 0;
   Vec3 crosshairMm{0, 0, 0};
   std::set<uint16_t> hiddenLabels;
   std::set<uint16_t> lockedLabels;  ///< segments no edit may change
@@ -46,11 +54,12 @@ struct Scene {
   }
   /// Centres the crosshair and resets the camera (new volume).
   void resetView();
-  ViewState viewState() const { return {view, render, bookmarks}; }
+  ViewState viewState() const { return {view, render, bookmarks, illustration}; }
   void setViewState(const ViewState& v) {
     view = v.view;
     render = v.render;
     bookmarks = v.bookmarks;
+    illustration = v.illustration;
   }
 };
 

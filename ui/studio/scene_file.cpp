@@ -40,6 +40,11 @@ void readView(const json& j, ViewState& v) {
   if (j.contains("view")) params::fromJson(viewSettingsTable(), j["view"], v.view, "view");
   if (j.contains("render")) params::fromJson(render::renderSettingsTable(), j["render"], v.render, "render");
   if (j.contains("pan")) v.render.camera.panMm = jsonVec3(j["pan"]);
+  if (j.contains("illustration")) {
+    const json& il = j["illustration"];
+    v.illustration.enabled = il.value("enabled", false);
+    if (il.contains("style")) v.illustration.style = illustration::styleFromJson(il["style"].dump(), "illustration.style");
+  }
   for (const json& b : j.value("camera_bookmarks", json::array())) {
     CameraBookmark bm{b.at("name").get<std::string>(), {}};
     render::RenderSettings camera;
@@ -101,6 +106,8 @@ json sceneViewJson(const SceneFile& s) {
     bj["name"] = b.name;
     j["camera_bookmarks"].push_back(std::move(bj));
   }
+  j["illustration"] = {{"enabled", s.view.illustration.enabled},
+                       {"style", json::parse(illustration::styleToJson(s.view.illustration.style))}};
   j["crosshair"] = vec3Json(s.crosshairMm);
   j["hidden_labels"] = s.hiddenLabels;
   j["locked_labels"] = s.lockedLabels;
@@ -127,6 +134,7 @@ SceneFile readSceneFile(const fs::path& path) {
     const fs::path base = path.parent_path();
     s.volume = resolvedPath(j.at("volume").get<std::string>(), base);
     s.labels = resolvedPath(j.value("labels", ""), base);
+    s.shapes = resolvedPath(j.value("shapes", ""), base);
     s.seriesUid = j.value("series", "");
     if (version >= 3) readView(j, s.view);
     else readLegacyView(j, s.view);
@@ -156,7 +164,7 @@ SceneFile readSceneFile(const fs::path& path) {
   } catch (const Error& e) {
     throw FileError(path, e.what());
   }
-  for (const fs::path& data : {s.volume, s.labels})
+  for (const fs::path& data : {s.volume, s.labels, s.shapes})
     if (!data.empty() && !fs::exists(data))
       throw FileError(data, "referenced by " + path.filename().string() + " does not exist");
   return s;
@@ -169,6 +177,7 @@ void writeSceneFile(const SceneFile& s, const fs::path& path) {
   j["version"] = kSceneFormatVersion;
   j["volume"] = storedPath(s.volume, base);
   j["labels"] = storedPath(s.labels, base);
+  if (!s.shapes.empty()) j["shapes"] = storedPath(s.shapes, base);
   if (!s.seriesUid.empty()) j["series"] = s.seriesUid;
   j.update(sceneViewJson(s));
   if (s.deformation) {
@@ -194,6 +203,7 @@ SceneFile describeScene(const Scene& scene) {
   s.labels = scene.labelsPath;
   s.seriesUid = scene.series.size() > 1 ? scene.seriesUid : "";
   s.view = scene.viewState();
+  s.shapes = scene.shapesPath;
   s.crosshairMm = scene.crosshairMm;
   s.hiddenLabels = scene.hiddenLabels;
   s.lockedLabels = scene.lockedLabels;

@@ -31,6 +31,7 @@ struct SceneFile {
   std::filesystem::path volume;
   std::filesystem::path labels;  ///< empty: no label map
   std::string seriesUid;         ///< DICOM: the series to load (empty: the largest CT series)
+  std::filesystem::path shapes;  ///< a `vellum shape` folder shown by the illustration (empty: none)
   ViewState view;  ///< layout, windows, opacity, the 3D view's settings and camera bookmarks
   Vec3 crosshairMm;
   std::set<uint16_t> hiddenLabels;

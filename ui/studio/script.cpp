@@ -23,7 +23,8 @@ const std::set<std::string> kActions = {
     "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
     "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
     "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "remove_islands", "hud", "log", "quit",
-    "controls", "drag_point", "attribute_drag", "keyframe", "play", "export_movie", "rigid_labels", "set", "bookmark"};
+    "controls", "drag_point", "attribute_drag", "keyframe", "play", "export_movie", "rigid_labels", "set", "bookmark",
+    "shapes", "illustrate", "style", "style_set"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -269,6 +270,37 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
       const std::string key = it.key();
       const std::string value = it.value().is_string() ? it.value().get<std::string>() : it.value().dump();
       once([key, value](StudioApp& a) { a.setViewParameter(key, value); });
+    }
+    frames(1);
+  } else if (name == "shapes") {
+    // "labels": make shapes from the label map; otherwise a `vellum shape` folder. Waits.
+    const std::string what = v.get<std::string>();
+    once([what](StudioApp& a) { a.makeShapes(what == "labels" ? fs::path() : fs::path(what)); });
+    steps_.push_back([](StudioApp& a) { return !a.shapeJob().busy(); });
+    frames(2);
+    once([](StudioApp& a) {
+      if (!a.scene().shapes) throw Error("no shapes were made (see the message above)");
+    });
+  } else if (name == "illustrate") {
+    const bool on = v.get<bool>();
+    once([on](StudioApp& a) { a.setIllustration(on); });
+    frames(1);
+  } else if (name == "style") {
+    const std::string preset = v.get<std::string>();
+    once([preset](StudioApp& a) { a.setStylePreset(preset); });
+    frames(1);
+  } else if (name == "style_set") {
+    // {"style_set": {"segment": NAME | "default" | "unclassified" | "" (whole style), "KEY": value, ...}}
+    if (!v.is_object()) throw Error("\"style_set\" takes an object");
+    const std::string segment = v.value("segment", "");
+    for (auto it = v.begin(); it != v.end(); ++it) {
+      if (it.key() == "segment") continue;
+      const std::string key = it.key();
+      const json& val = it.value();
+      const std::string text = val.is_string() ? val.get<std::string>()
+                               : val.is_array() && val.size() == 3 ? val[0].dump() + " " + val[1].dump() + " " + val[2].dump()
+                                                                  : val.dump();
+      once([segment, key, text](StudioApp& a) { a.setStyleField(segment, key, text); });
     }
     frames(1);
   } else if (name == "bookmark") {

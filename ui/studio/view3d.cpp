@@ -16,6 +16,18 @@ render::RenderSettings renderSettingsFor(const Scene& scene, int width, int heig
   return s;
 }
 
+illustration::IllustrationSettings illustrationSettingsFor(const Scene& scene, int width, int height) {
+  illustration::IllustrationSettings s;
+  const render::RenderSettings r = renderSettingsFor(scene, width, height);
+  s.render.width = r.width;
+  s.render.height = r.height;
+  s.render.camera = r.camera;
+  s.render.jitter = r.jitter;
+  const auto& bg = scene.illustration.style.background;
+  s.render.background = {bg[0], bg[1], bg[2], 1.f};
+  return s;
+}
+
 CameraBasis cameraBasis(const render::Camera& cam) {
   // As modules/render/src/render_common.cpp builds its frame.
   const double az = cam.azimuthDeg * M_PI / 180.0, el = cam.elevationDeg * M_PI / 180.0;
@@ -220,8 +232,25 @@ void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
   mapRevision_ = revision;
 }
 
+void View3D::setShapes(std::shared_ptr<const illustration::ShapeScene> shapes, uint64_t revision) {
+  if (shapes == shapes_ && revision == shapesRevision_) return;
+  context_.makeCurrent();
+  if (shapes) {
+    if (!illustrator_) illustrator_ = std::make_unique<illustration::IllustrationRenderer>(context_);
+    illustrator_->setScene(*shapes);
+  }
+  shapes_ = std::move(shapes);
+  shapesRevision_ = revision;
+  invalidate();
+}
+
 RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
   context_.makeCurrent();
+  if (illustrating(scene)) {
+    RgbaImage img = illustrator_->render(scene.illustration.style, illustrationSettingsFor(scene, width, height));
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    return img;
+  }
   RgbaImage img = renderer_->render(renderSettingsFor(scene, width, height));
   glBindFramebuffer(GL_FRAMEBUFFER, 0);  // the renderer leaves its FBO bound
   return img;
@@ -261,7 +290,9 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
 
 bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool interacting) {
   if (!hasVolume_ || paneWidth < 2 || paneHeight < 2) return false;
-  const std::string key = viewKey(scene, paneWidth, paneHeight) + " map " + std::to_string(mapRevision_);
+  std::string key = viewKey(scene, paneWidth, paneHeight) + " map " + std::to_string(mapRevision_);
+  if (illustrating(scene))  // the style is small: its JSON is the key
+    key += " shapes " + std::to_string(shapesRevision_) + illustration::styleToJson(scene.illustration.style);
   if (interacting) {  // coarse frames only, each a complete picture
     refining_ = false;
     if (key == lastKey_) return false;
@@ -273,6 +304,15 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
     // Changed without a drag (preset, layout, a panel value): show a coarse frame at once.
     renderCoarse(scene, paneWidth, paneHeight, key);
     refining_ = false;
+    return true;
+  }
+  if (illustrating(scene)) {  // the illustration renderer draws whole frames: one full render
+    const auto t0 = std::chrono::steady_clock::now();
+    coarse_ = renderImage(scene, paneWidth, paneHeight);
+    texture_.upload(coarse_);
+    lastMs_ = refineMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    lastScale_ = 1;
+    refined_ = true;
     return true;
   }
   // Idle: refine to full resolution a band of rows per frame, each band sized to the

@@ -13,6 +13,7 @@
 
 #include "gl_texture.hpp"
 #include "scene.hpp"
+#include "vellum/illustration/illustration_renderer.hpp"
 #include "vellum/render/backward_map.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
@@ -44,6 +45,11 @@ std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, doubl
 /// one voxel before the point (the pickSurface() criterion). MIP hides nothing.
 bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Vec3& mm);
 
+/// The illustration renderer's settings for `scene` at width x height: the 3D view's camera
+/// and jitter, the style's background, the illustration's own ray step (one voxel), as
+/// `vellum illustrate` with the same flags.
+illustration::IllustrationSettings illustrationSettingsFor(const Scene& scene, int width, int height);
+
 /// The `vellum render` command line that writes the 3D view at width x height to `out`.
 std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out);
 
@@ -56,6 +62,10 @@ class View3D {
   /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
   /// a new one renders again (coarse while the user drags, then refined).
   void setBackwardMap(const render::BackwardMap* map, uint64_t revision);
+  /// The shapes the illustration view draws (null: none); `revision` identifies them.
+  void setShapes(std::shared_ptr<const illustration::ShapeScene> shapes, uint64_t revision);
+  /// True when `scene` is drawn as an illustration (enabled and shapes present).
+  bool illustrating(const Scene& scene) const { return scene.illustration.enabled && shapes_ != nullptr; }
   /// Renders when the view changed (or to refine after interaction). Returns true if it
   /// rendered this frame.
   bool update(const Scene& scene, int paneWidth, int paneHeight, bool interacting);
@@ -80,6 +90,9 @@ class View3D {
  private:
   render::GlContext& context_;
   std::unique_ptr<render::VolumeRenderer> renderer_;
+  std::unique_ptr<illustration::IllustrationRenderer> illustrator_;  ///< made on first use
+  std::shared_ptr<const illustration::ShapeScene> shapes_;
+  uint64_t shapesRevision_ = 0;
   GlTexture texture_;
   bool hasVolume_ = false;
   bool refined_ = false;

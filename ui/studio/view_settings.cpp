@@ -1,5 +1,6 @@
 #include "view_settings.hpp"
 
+#include <cctype>
 #include <cmath>
 
 #include "vellum/core/error.hpp"
@@ -36,6 +37,22 @@ const params::Table<ViewSettings>& viewSettingsTable() {
   return t;
 }
 
+illustration::SegmentStyle& ownStyleRow(illustration::Style& style, const std::string& segment) {
+  if (segment == "default") return style.fallback;
+  if (segment == "unclassified") return style.unclassified;
+  const auto lower = [](std::string t) {
+    for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return t;
+  };
+  for (auto& row : style.segments)
+    if (lower(row.match) == lower(segment)) return row;
+  const std::vector<Label> table{{1, segment, {}}};
+  illustration::SegmentStyle row = illustration::resolveRows(style, table, 1)[1];
+  row.match = segment;
+  style.segments.push_back(row);
+  return style.segments.back();
+}
+
 namespace {
 bool sameCamera(const render::Camera& a, const render::Camera& b) {
   return a.azimuthDeg == b.azimuthDeg && a.elevationDeg == b.elevationDeg && a.zoom == b.zoom &&
@@ -47,7 +64,8 @@ bool ViewState::operator==(const ViewState& o) const {
   // Equal when every table field and the pan agree (RenderSettings has no operator==).
   for (const auto& f : render::renderSettingsTable())
     if (f.get(render) != f.get(o.render)) return false;
-  if (!sameCamera(render.camera, o.render.camera) || view != o.view || bookmarks.size() != o.bookmarks.size())
+  if (!sameCamera(render.camera, o.render.camera) || view != o.view || illustration != o.illustration ||
+      bookmarks.size() != o.bookmarks.size())
     return false;
   for (size_t i = 0; i < bookmarks.size(); ++i)
     if (bookmarks[i].name != o.bookmarks[i].name || !sameCamera(bookmarks[i].camera, o.bookmarks[i].camera)) return false;

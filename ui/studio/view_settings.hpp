@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "vellum/core/params.hpp"
+#include "vellum/illustration/style.hpp"
 #include "vellum/render/render_settings.hpp"
 
 namespace vellum::studio {
@@ -48,11 +49,25 @@ struct CameraBookmark {
   bool operator==(const CameraBookmark&) const = default;
 };
 
+/// The 3D view as a shape-aware illustration (the illustration module's renderer and style,
+/// what `vellum illustrate` draws) instead of the render presets.
+struct IllustrationView {
+  bool enabled = false;
+  illustration::Style style = illustration::stylePreset("textbook");
+  bool operator==(const IllustrationView&) const = default;
+};
+
+/// The style row that styles `segment` (a label name; "default" and "unclassified" are the
+/// style's own rows) alone: its named row, or a new one, copied from the row that styles it
+/// now, so editing it changes that segment only.
+illustration::SegmentStyle& ownStyleRow(illustration::Style& style, const std::string& segment);
+
 /// Everything a view edit can change: one undo step holds it before and after.
 struct ViewState {
   ViewSettings view;
   render::RenderSettings render;  ///< width/height unused (the pane's size)
   std::vector<CameraBookmark> bookmarks;
+  IllustrationView illustration;
   bool operator==(const ViewState& o) const;
 };
 

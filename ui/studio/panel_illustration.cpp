@@ -1,0 +1,82 @@
+#include "panel_illustration.hpp"
+
+#include <imgui.h>
+
+#include "app.hpp"
+#include "param_widgets.hpp"
+
+namespace vellum::studio {
+
+namespace {
+
+void shapesSection(StudioApp& app) {
+  Scene& s = app.scene();
+  ShapeJob& job = app.shapeJob();
+  if (job.busy()) {
+    const auto [stage, fraction] = job.progress();
+    ImGui::TextUnformatted(stage.c_str());
+    ImGui::ProgressBar(static_cast<float>(fraction), {-70, 0});
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel##shapes")) job.cancel();
+    return;
+  }
+  if (ImGui::Button("Make shapes from labels")) guarded(app, [&] { app.makeShapes(); });
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("vellum shape with one segment per label: denoised level sets, distance field, segmentation");
+  static char folder[512] = "";
+  ImGui::InputTextWithHint("##shapefolder", "vellum shape folder", folder, sizeof folder);
+  ImGui::SameLine();
+  if (ImGui::Button("Open##shapes") && folder[0]) guarded(app, [&] { app.makeShapes(folder); });
+  if (s.shapes)
+    ImGui::Text("%zu segments (%s)", s.shapes->segments.table().size(),
+                s.shapesPath.empty() ? "from the labels" : s.shapesPath.filename().string().c_str());
+  else
+    ImGui::TextDisabled("no shapes yet");
+}
+
+void styleSection(StudioApp& app) {
+  Scene& s = app.scene();
+  illustration::Style& style = s.illustration.style;
+  const ViewState before = s.viewState();
+  if (ImGui::BeginCombo("Style preset", style.name.c_str())) {
+    for (const auto& name : illustration::stylePresetNames())
+      if (ImGui::Selectable(name.c_str(), name == style.name)) guarded(app, [&] { app.setStylePreset(name); });
+    ImGui::EndCombo();
+  }
+  ParamEdit e;
+  if (ImGui::TreeNode("Whole style")) {
+    e |= editParams(illustration::styleTable(), style, {"name", "description", "texture_volume"});
+    ImGui::TreePop();
+  }
+  // One node per segment of the shapes; opening one gives the segment its own row.
+  std::vector<std::string> rows{"default", "unclassified"};
+  if (s.shapes)
+    for (const Label& l : s.shapes->segments.table()) rows.insert(rows.end() - 2, l.name);
+  for (const std::string& name : rows) {
+    if (!ImGui::TreeNode(name.c_str())) continue;
+    ViewState beforeRow = s.viewState();
+    illustration::SegmentStyle& row = ownStyleRow(style, name);
+    if (!(s.viewState() == beforeRow)) {  // a new row: its own undo step
+      app.beginViewEdit(beforeRow);
+      app.endViewEdit("style row " + name);
+    }
+    e |= editParams(illustration::segmentStyleTable(), row, {"match"});
+    ImGui::TreePop();
+  }
+  if (e.started) app.beginViewEdit(before);
+  if (e.finished) app.endViewEdit("style");
+}
+
+}  // namespace
+
+void illustrationSection(StudioApp& app) {
+  Scene& s = app.scene();
+  shapesSection(app);
+  bool on = s.illustration.enabled;
+  ImGui::BeginDisabled(!s.shapes);
+  if (ImGui::Checkbox("Illustrate the 3D view", &on)) app.setIllustration(on);
+  ImGui::EndDisabled();
+  styleSection(app);
+}
+
+}  // namespace vellum::studio
