@@ -14,6 +14,7 @@
 #include "undo.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/params.hpp"
+#include "vellum/deformation/deform_params.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 
@@ -194,4 +195,40 @@ TEST(StudioParams, ViewEditsAreUndoSteps) {
   ASSERT_TRUE(undo.redo(labels, nullptr, &now));
   EXPECT_TRUE(now == after);
   EXPECT_THROW(undo.undo(labels, nullptr, nullptr), Error) << "a view edit needs the view state";
+}
+
+TEST(StudioParams, EngineParametersRoundTripAndUndo) {
+  const auto dir = test::tempDir("studio-params-engine");
+  SceneFile s;
+  s.volume = sceneWithData(dir);
+  SceneDeformation d;
+  d.track.keyframes.push_back({1.0, {{{0, 0, 0}, {1, 0, 0}, {}}}});
+  d.engine.controlScale = 2;
+  d.engine.mls.power = 2.5;
+  d.engine.density.enabled = false;
+  s.deformation = d;
+  writeSceneFile(s, dir / "scene.json");
+  EXPECT_EQ(readJson(dir / "scene.json")["deformation"]["engine"].size(), deformation::deformParamsTable().size());
+  const SceneFile r = readSceneFile(dir / "scene.json");
+  ASSERT_TRUE(r.deformation);
+  EXPECT_EQ(params::cliArguments(deformation::deformParamsTable(), r.deformation->engine),
+            params::cliArguments(deformation::deformParamsTable(), d.engine));
+
+  // An engine edit is a track-edit undo step that leaves the track alone.
+  UndoStack undo;
+  LabelVolume labels;
+  Authoring a;
+  a.track = d.track;
+  TrackEdit e;
+  e.before = e.after = a.track;
+  e.engineBefore = a.engine;  // the studio's default: s = 4, density-aware
+  a.engine.controlScale = 8;
+  e.engineAfter = a.engine;
+  undo.push(e);
+  ASSERT_TRUE(undo.undo(labels, &a));
+  EXPECT_EQ(a.engine.controlScale, 4);
+  EXPECT_TRUE(a.engine.density.enabled);
+  ASSERT_TRUE(undo.redo(labels, &a));
+  EXPECT_EQ(a.engine.controlScale, 8);
+  EXPECT_EQ(a.track.keyframes.size(), 1u);
 }

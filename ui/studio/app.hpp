@@ -115,6 +115,10 @@ class StudioApp {
   void setStylePreset(const std::string& name);
   void setStyleField(const std::string& segment, const std::string& key, const std::string& value);
   ShapeJob& shapeJob() { return shapes_; }
+  /// A Deformation-panel engine edit: begin with the parameters before it, end records one
+  /// undo step (the track is unchanged).
+  void beginEngineEdit(const deformation::DeformParams& before);
+  void endEngineEdit();
   void goToBookmark(size_t index);
   void deleteBookmark(size_t index);
   void resetView();
@@ -246,7 +250,8 @@ class StudioApp {
   Scene scene_;
   ToolState tools_;
   UndoStack undo_;
-  std::optional<ViewState> viewEditBefore_;  ///< the state before a View-panel edit in progress
+  std::optional<ViewState> viewEditBefore_;
+  std::optional<deformation::DeformParams> engineEditBefore_;  ///< the state before a View-panel edit in progress
   void pushViewEdit(const std::string& description, const ViewState& before);
   void viewChanged();  ///< layout, preset ... changed: redraw slices and the 3D view
   Loader loader_;

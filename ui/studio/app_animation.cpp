@@ -87,7 +87,7 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   c << "vellum animate " << q(scene_.volumePath.string()) << " --keyframes " << q(keys.string()) << " --out "
     << q(o) << " --fps " << fps << " --size " << width << "x" << height
     << params::cliArguments(render::renderSettingsTable(), spec.settings, {"width", "height"})
-    << params::cliArguments(deformation::deformParamsTable(), studioDeformParams());
+    << params::cliArguments(deformation::deformParamsTable(), a.engine);
   if (orbitDeg != 0) c << " --camera-orbit " << orbitDeg;
   const deformation::RigidBodies* bodies = deform_->bodies();
   if (bodies) {
@@ -97,7 +97,7 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   }
   animateCommand_ = c.str();
   a.playing = false;
-  export_ = std::make_unique<ExportJob>(*context_, AnyVolume(scene_.ct), a.track, studioDeformParams(),
+  export_ = std::make_unique<ExportJob>(*context_, AnyVolume(scene_.ct), a.track, a.engine,
                                         animation::MovieRigidity{bodies, a.falloffMm, 0}, spec);
 }
 

@@ -275,9 +275,11 @@ void StudioApp::editTrack(const std::string& description, const std::function<vo
   e.description = description;
   e.before = scene_.authoring.track;
   e.keyframeBefore = scene_.authoring.keyframe;
+  e.engineBefore = scene_.authoring.engine;
   fn(scene_.authoring);
   e.after = scene_.authoring.track;
   e.keyframeAfter = scene_.authoring.keyframe;
+  e.engineAfter = scene_.authoring.engine;
   scene_.authoring.touch();
   undo_.push(std::move(e));
 }
@@ -289,6 +291,23 @@ void StudioApp::pushTrackEdit(const std::string& description, deformation::Keyfr
   e.keyframeBefore = keyframeBefore;
   e.after = scene_.authoring.track;
   e.keyframeAfter = scene_.authoring.keyframe;
+  e.engineBefore = e.engineAfter = scene_.authoring.engine;
+  undo_.push(std::move(e));
+}
+
+void StudioApp::beginEngineEdit(const deformation::DeformParams& before) {
+  if (!engineEditBefore_) engineEditBefore_ = before;
+}
+
+void StudioApp::endEngineEdit() {
+  TrackEdit e;
+  e.description = "engine parameters";
+  e.before = e.after = scene_.authoring.track;
+  e.keyframeBefore = e.keyframeAfter = scene_.authoring.keyframe;
+  e.engineBefore = engineEditBefore_.value_or(scene_.authoring.engine);
+  e.engineAfter = scene_.authoring.engine;
+  engineEditBefore_.reset();
+  scene_.authoring.touch();
   undo_.push(std::move(e));
 }
 

@@ -6,6 +6,17 @@
 #include "vellum/core/error.hpp"
 
 namespace vellum::studio {
+using deformation::DeformParams;
+
+DeformParams studioDeformParams() {
+  // The interactive setting: s = 4 with density-aware weights (tissue-aware motion).
+  // The export's `vellum animate` command passes these explicitly, so the frames still match.
+  DeformParams p;
+  p.controlScale = 4;
+  p.density.enabled = true;
+  return p;
+}
+
 using deformation::ControlPoint;
 using deformation::ControlPoints;
 

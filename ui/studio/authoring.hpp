@@ -8,11 +8,16 @@
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
+#include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/keyframes.hpp"
 
 namespace vellum::studio {
 
 enum class PointEnd { Source, Target };
+
+/// The engine parameters a new scene starts with (s = 4, density-aware weights: the
+/// interactive setting); exports name them on the `vellum animate` command line.
+deformation::DeformParams studioDeformParams();
 
 struct Authoring {
   deformation::KeyframeTrack track;  ///< no keyframes = no deformation
@@ -23,6 +28,8 @@ struct Authoring {
   bool playing = false;
   std::vector<uint16_t> rigidLabels;  ///< label ids that stay rigid (bones); empty = none
   double falloffMm = 10;              ///< `vellum animate --rigid-falloff`
+  /// The engine (Deformation panel, generated from deformParamsTable(); saved in the scene).
+  deformation::DeformParams engine = studioDeformParams();
   uint64_t revision = 0;              ///< bumped by every change of what is drawn
 
   bool active() const { return !track.keyframes.empty(); }

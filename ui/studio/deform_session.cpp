@@ -1,20 +1,13 @@
 #include "deform_session.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "vellum/animation/movie.hpp"
+#include "vellum/deformation/deform_params.hpp"
 
 namespace vellum::studio {
 using namespace vellum::deformation;
-
-DeformParams studioDeformParams() {
-  // The interactive setting: s = 4 with density-aware weights (tissue-aware motion).
-  // The export's `vellum animate` command passes these explicitly, so the frames still match.
-  DeformParams p;
-  p.controlScale = 4;
-  p.density.enabled = true;
-  return p;
-}
 
 const DeformTimings* DeformSession::timings() const { return lastDeformer_ ? &lastDeformer_->timings() : nullptr; }
 
@@ -27,19 +20,21 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     if (had) ++mapRevision_;
     return had;
   }
-  const bool newVolume = scene.volumeGeneration != volumeGeneration_;
+  const std::string engineKey = params::cliArguments(deformParamsTable(), a.engine);
+  const bool newVolume = scene.volumeGeneration != volumeGeneration_ || engineKey != engineKey_;
   const bool newBodies = newVolume || scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_;
   const bool exactDue = preview_ && !interacting;  // the drag ended: replace the preview
   if (!newBodies && !exactDue && a.revision == authoringRevision_ && a.falloffMm == falloffMm_) return false;
   const auto t0 = std::chrono::steady_clock::now();
   if (newVolume || !deformer_) {
-    deformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), studioDeformParams());
+    deformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), a.engine);
     previewDeformer_.reset();
     volumeGeneration_ = scene.volumeGeneration;
+    engineKey_ = engineKey;
   }
   if (interacting && !previewDeformer_) {
-    DeformParams p = studioDeformParams();
-    p.controlScale *= 2;
+    DeformParams p = a.engine;
+    p.controlScale = std::min(2 * p.controlScale, 16);  // the table's limit
     previewDeformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), p);
   }
   Deformer& deformer = interacting ? *previewDeformer_ : *deformer_;

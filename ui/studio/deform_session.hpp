@@ -14,13 +14,9 @@
 
 namespace vellum::studio {
 
-/// The engine parameters the studio uses (s = 4, density-aware weights); exports name them on
-/// the `vellum animate` command line.
-deformation::DeformParams studioDeformParams();
-
 class DeformSession {
  public:
-  /// Re-solves when the points, the volume or the rigid labels changed. While `interacting`
+  /// Re-solves when the points, the volume, the engine parameters or the rigid labels changed. While `interacting`
   /// (a point drag, playback) the map is solved on a control grid twice as coarse (s = 8, its
   /// own Deformer and rho cache), like the 3D view's reduced-resolution frames; once the
   /// interaction ends the exact map (s = 4, what the export renders) replaces it. Returns true
@@ -48,6 +44,7 @@ class DeformSession {
   uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull, authoringRevision_ = ~0ull;
   std::vector<uint16_t> rigidLabels_;
   double falloffMm_ = -1;
+  std::string engineKey_;  ///< the engine parameters the deformers were made with
   uint64_t mapRevision_ = 0;
   double lastMs_ = 0, rigidityMs_ = 0;
 };

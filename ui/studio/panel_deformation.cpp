@@ -8,6 +8,8 @@
 #include <string>
 
 #include "app.hpp"
+#include "param_widgets.hpp"
+#include "vellum/deformation/deform_params.hpp"
 #include "deform_session.hpp"
 
 namespace vellum::studio {
@@ -52,6 +54,15 @@ void pointsRow(StudioApp& app) {
   if (ImGui::SliderFloat("Rigid falloff mm", &falloff, 1.f, 40.f, "%.1f")) {
     a.falloffMm = falloff;
     a.touch();
+  }
+  if (ImGui::TreeNode("Engine (vellum deform)")) {
+    // Generated from the engine's parameter table (the flags of `vellum deform` / `animate`).
+    const deformation::DeformParams before = a.engine;
+    const ParamEdit e = editParams(deformation::deformParamsTable(), a.engine);
+    if (e.changed) a.touch();  // re-solve with the new parameters
+    if (e.started) app.beginEngineEdit(before);
+    if (e.finished) app.endEngineEdit();
+    ImGui::TreePop();
   }
   if (const auto* t = app.deformSession().timings(); t && app.deformSession().map()) {
     ImGui::Text("map update %.1f ms%s", app.deformSession().lastUpdateMs(), app.deformSession().preview() ? " (preview)" : "");

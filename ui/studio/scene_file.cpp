@@ -6,6 +6,7 @@
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/params_json.hpp"
+#include "vellum/deformation/deform_params.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/io/atomic_file.hpp"
 
@@ -155,6 +156,7 @@ SceneFile readSceneFile(const fs::path& path) {
       def.rigidLabels = d.value("rigid_labels", std::vector<uint16_t>{});
       def.falloffMm = d.value("rigid_falloff_mm", 10.0);
       if (!(def.falloffMm > 0 && def.falloffMm < 1e4)) throw FileError(path, "deformation.rigid_falloff_mm must be in (0, 1e4)");
+      if (d.contains("engine")) params::fromJson(deformation::deformParamsTable(), d["engine"], def.engine, "deformation.engine");
       s.deformation = std::move(def);
     }
   } catch (const json::exception& e) {
@@ -187,7 +189,8 @@ void writeSceneFile(const SceneFile& s, const fs::path& path) {
     j["deformation"] = {{"keyframes", storedPath(keys, base)},
                         {"keyframe", s.deformation->keyframe},
                         {"rigid_labels", s.deformation->rigidLabels},
-                        {"rigid_falloff_mm", s.deformation->falloffMm}};
+                        {"rigid_falloff_mm", s.deformation->falloffMm},
+                        {"engine", params::toJson(deformation::deformParamsTable(), s.deformation->engine)}};
   }
   const std::string text = j.dump(2) + "\n";
   io::writeAtomically(path, [&](const fs::path& tmp) {
@@ -209,7 +212,7 @@ SceneFile describeScene(const Scene& scene) {
   s.lockedLabels = scene.lockedLabels;
   if (scene.authoring.active())
     s.deformation = SceneDeformation{{}, scene.authoring.track, scene.authoring.keyframe, scene.authoring.rigidLabels,
-                                     scene.authoring.falloffMm};
+                                     scene.authoring.falloffMm, scene.authoring.engine};
   return s;
 }
 
@@ -224,6 +227,7 @@ void applySceneView(const SceneFile& s, Scene& scene) {
     a.keyframe = s.deformation->keyframe;
     a.rigidLabels = s.deformation->rigidLabels;
     a.falloffMm = s.deformation->falloffMm;
+    a.engine = s.deformation->engine;
     a.selected = -1;
     a.timeS.reset();
     a.playing = false;

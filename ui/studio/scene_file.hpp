@@ -24,6 +24,7 @@ struct SceneDeformation {
   int keyframe = 0;
   std::vector<uint16_t> rigidLabels;
   double falloffMm = 10;
+  deformation::DeformParams engine = studioDeformParams();
 };
 
 /// The saved part of a Scene: data paths (absolute once read) and the view state.

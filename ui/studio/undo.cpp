@@ -79,6 +79,7 @@ void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* author
   if (!authoring) throw Error("undo: a control-point edit needs the authoring state");
   authoring->track = forward ? t.after : t.before;
   authoring->keyframe = forward ? t.keyframeAfter : t.keyframeBefore;
+  authoring->engine = forward ? t.engineAfter : t.engineBefore;
   authoring->timeS.reset();
   authoring->playing = false;
   const int n = authoring->active() ? int(authoring->track.keyframes.front().points.size()) : 0;

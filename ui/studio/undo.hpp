@@ -42,6 +42,8 @@ struct TrackEdit {
   std::string description;
   deformation::KeyframeTrack before, after;
   int keyframeBefore = 0, keyframeAfter = 0;
+  /// The engine parameters (Deformation panel) before and after.
+  deformation::DeformParams engineBefore = studioDeformParams(), engineAfter = studioDeformParams();
   size_t bytes() const;
 };
 
