@@ -101,8 +101,8 @@ int autoLevels(const Dims& d) {
 
 }  // namespace
 
-SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubbles,
-                        const SnakeParams& p, Progress& progress) {
+SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubbles, const SnakeParams& p,
+                        Progress& progress, const SnakeObserver& observe, int observeEvery) {
   if (bubbles.empty()) throw Error("snake: at least one seed bubble is needed");
   if (p.maxIterations < 1) throw Error("snake: iterations must be >= 1");
   if (!(p.cflNumber > 0 && p.cflNumber <= 1)) throw Error("snake: CFL number must be in (0, 1]");
@@ -141,7 +141,17 @@ SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubb
       coarser.reset();
     }
     const std::string stage = l == 0 ? "snake" : "snake (1/" + std::to_string(1 << l) + " resolution)";
-    const LevelSetRunResult r = ev->run(rate, stop, stage, progress, l > 0);
+    const auto toMask = [&](const NarrowBandLevelSet& ls, int iteration) {
+      Mask inside(ls.grid(), 0, 0.0);
+      const float* ph = ls.phi().data();
+      uint8_t* m = inside.data();
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, inside.size(), 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i < r.end(); ++i) m[i] = ph[i] <= 0;
+      });
+      observe(inside, iteration);
+    };
+    const LevelSetRunResult r =
+        observe ? ev->run(rate, stop, stage, progress, l > 0, toMask, observeEvery) : ev->run(rate, stop, stage, progress, l > 0);
     if (l > 0) {
       res.coarseIterations += r.iterations;
       coarser = std::move(ev);

@@ -97,3 +97,26 @@ TEST(Snake, CancelAndBadInput) {
   EXPECT_THROW(evolveSnake(speed, {{{1000, 0, 0}, 4.0}}, {}), Error);
   EXPECT_THROW(evolveSnake(speed, {{s.c, -1.0}}, {}), Error);
 }
+
+// The studio draws the snake live through the observer: it sees the inside grow from the
+// bubble towards the ball, at the iterations asked for, and the result is the last state.
+TEST(Snake, ObserverSeesTheContourGrow) {
+  Scene s;
+  const SpeedImage speed = thresholdSpeed(s.ct, {-500, 300, 60});
+  SnakeParams p;
+  p.coarseLevels = 0;
+  p.curvature = 0;  // pure propagation: the inside only grows
+  std::vector<int> iterations;
+  std::vector<int64_t> voxels;
+  const SnakeResult r = evolveSnake(speed, {{s.c, 4.0}}, p, Progress::none(), [&](const Mask& inside, int it) {
+    EXPECT_EQ(inside.geometry().dims, s.g.dims);
+    iterations.push_back(it);
+    voxels.push_back(countVoxels(inside));
+  }, 3);
+  ASSERT_GE(iterations.size(), 2u);
+  for (size_t i = 0; i < iterations.size(); ++i) EXPECT_EQ(iterations[i], 3 * int(i + 1));
+  for (size_t i = 1; i < voxels.size(); ++i) EXPECT_GE(voxels[i], voxels[i - 1]);
+  EXPECT_GT(voxels.back(), voxels.front());
+  EXPECT_LE(voxels.back(), countVoxels(r.mask));
+  EXPECT_EQ(int(iterations.size()), r.iterations / 3);
+}

@@ -38,6 +38,8 @@ void StudioApp::updateSliceTextures() {
       << scene_.view.sliceWindow.center << ' ' << scene_.view.sliceWindow.width << ' ' << scene_.view.labelOpacity << ' '
       << tools_.thresholdPreview << ' ' << tools_.threshold.lower << ' ' << tools_.threshold.upper << ' '
       << scene_.hiddenLabels.size();
+  const auto [snakeLive, snakeRevision] = snake_.live();
+  if (snakeLive) key << " snake " << snakeRevision;
   for (const Pane& p : panes_) key << ' ' << p.rect.w << 'x' << p.rect.h;
   if (!slicesDirty_ && key.str() == lastSliceKey_) return;
   SliceStyle style;
@@ -46,6 +48,7 @@ void StudioApp::updateSliceTextures() {
   style.labelOpacity = scene_.view.labelOpacity;
   style.hidden = &scene_.hiddenLabels;
   if (tools_.thresholdPreview) style.thresholdPreview = tools_.threshold;
+  style.snakePreview = snakeLive.get();
   for (const Pane& p : panes_) {
     if (p.is3d()) continue;
     const SlicePlane plane = makePlane(*p.slice, scene_.ct.geometry(), scene_.crosshairMm, int(p.rect.w), int(p.rect.h));

@@ -71,6 +71,7 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
   const bool labelsOn = style.labels && !style.labels->ids().empty();
   std::vector<uint16_t> ids(labelsOn ? static_cast<size_t>(plane.width) * plane.height : 0);
   std::vector<uint8_t> preview(style.thresholdPreview ? static_cast<size_t>(plane.width) * plane.height : 0);
+  std::vector<uint8_t> snake(style.snakePreview ? static_cast<size_t>(plane.width) * plane.height : 0);
   std::vector<std::array<uint8_t, 3>> colours(65536, {0, 0, 0});
   if (labelsOn) {
     for (uint16_t id = 1; id < 256; ++id) colours[id] = defaultLabelColor(id);
@@ -94,10 +95,24 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
           const double v = ct.sampleNearest(ijk);
           preview[static_cast<size_t>(y) * plane.width + x] = style.thresholdPreview->contains(v);
         }
+        if (style.snakePreview) {  // its own grid: the coarse levels come first
+          const Geometry& sg = style.snakePreview->geometry();
+          snake[static_cast<size_t>(y) * plane.width + x] =
+              style.snakePreview->sampleNearest(sg.physicalToIndex(g.indexToPhysical(ijk))) != 0;
+        }
       }
     }
   });
   if (labelsOn) overlayLabels(img, ids, colours, style.labelOpacity);
+  if (!snake.empty()) {  // yellow, half-blended: the snake's inside as it evolves
+    for (size_t n = 0; n < snake.size(); ++n) {
+      if (!snake[n]) continue;
+      uint8_t* px = img.pixels.data() + n * 4;
+      px[0] = static_cast<uint8_t>((px[0] + 255) / 2);
+      px[1] = static_cast<uint8_t>((px[1] + 230) / 2);
+      px[2] = static_cast<uint8_t>(px[2] / 4);
+    }
+  }
   if (!preview.empty()) {
     // Drawn last, in magenta (no default label uses it), half-blended so the anatomy shows.
     for (size_t n = 0; n < preview.size(); ++n) {

@@ -39,6 +39,8 @@ struct SliceStyle {
   float labelOpacity = 0.5f;              ///< fill; outlines are drawn opaque
   const std::set<uint16_t>* hidden = nullptr;
   std::optional<segmentation::HuInterval> thresholdPreview;  ///< drawn over the labels
+  /// A running snake's inside (any grid over the volume, sampled nearest), drawn in yellow.
+  const segmentation::Mask* snakePreview = nullptr;
 };
 
 /// Trilinear CT with window/level, labels nearest-neighbour (fill + outline).

@@ -2,6 +2,8 @@
 // The 3D snake (segmentation::evolveSnake) from a seed clicked in a slice, on a worker
 // thread with progress and cancel, like loading. The result is adopted by the UI thread as
 // one label edit (one undo step).
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 
@@ -36,6 +38,9 @@ class SnakeJob {
   bool busy() const { return job_.busy(); }
   std::pair<std::string, double> progress() const { return job_.progress(); }
   void cancel() { job_.cancel(); }
+  /// While the snake runs: its inside so far (on the grid of the level being evolved) and a
+  /// counter that changes with each new contour; null when no snake runs.
+  std::pair<std::shared_ptr<const segmentation::Mask>, uint64_t> live() const;
   /// The finished snake (or its error), once, stamped with the volume it ran on.
   std::optional<SnakeOutcome> take() {
     auto outcome = job_.take();
@@ -45,6 +50,9 @@ class SnakeJob {
 
  private:
   uint64_t generation_ = 0;  ///< volumeGeneration of the running or last snake
+  mutable std::mutex liveMutex_;
+  std::shared_ptr<const segmentation::Mask> live_;
+  uint64_t liveRevision_ = 0;
   BackgroundJob<SnakeOutcome> job_{"snake", [](const std::string& error) {
                                      SnakeOutcome o;
                                      o.error = error;

@@ -71,7 +71,8 @@ double LevelSetStencil::centralDifference(const float* field, int a) const {
   return (double(field[index + hi[a]]) - field[index + lo[a]]) / (h[a] * double(steps == 0 ? 1 : steps));
 }
 
-NarrowBandLevelSet::NarrowBandLevelSet(const Geometry& grid, double cflNumber) : d_(grid.dims), cfl_(cflNumber) {
+NarrowBandLevelSet::NarrowBandLevelSet(const Geometry& grid, double cflNumber)
+    : grid_(grid), d_(grid.dims), cfl_(cflNumber) {
   if (!(cflNumber > 0 && cflNumber <= 1)) throw Error("level set: CFL number must be in (0, 1]");
   sy_ = d_.x;
   sz_ = d_.x * d_.y;
@@ -471,7 +472,9 @@ LevelSetStencil NarrowBandLevelSet::stencil(int64_t q) const {
 }
 
 LevelSetRunResult NarrowBandLevelSet::run(const LevelSetRate& rate, const LevelSetStopping& stop,
-                                          const std::string& stage, Progress& progress, bool redistanceAtEnd) {
+                                          const std::string& stage, Progress& progress, bool redistanceAtEnd,
+                                          const std::function<void(const NarrowBandLevelSet&, int)>& observe,
+                                          int observeEvery) {
   const auto t0 = std::chrono::steady_clock::now();
   LevelSetRunResult r;
   std::deque<int64_t> window;
@@ -491,6 +494,7 @@ LevelSetRunResult NarrowBandLevelSet::run(const LevelSetRate& rate, const LevelS
     ++sinceRebuild;
     ++r.iterations;
     progress.advance();
+    if (observe && observeEvery > 0 && r.iterations % observeEvery == 0) observe(*this, r.iterations);
     window.push_back(change.changed);
     windowSum += change.changed;
     if (static_cast<int>(window.size()) > stop.window) {

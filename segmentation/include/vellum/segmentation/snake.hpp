@@ -10,6 +10,7 @@
 // (a few voxels either side, re-distanced every few steps), so each iteration costs in
 // proportion to the surface, not the volume. Units: phi in mm, speeds in mm per unit time;
 // the time step follows the CFL limit (the contour moves at most `cflNumber` voxels a step).
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -109,9 +110,16 @@ struct SnakeResult {
   int64_t finalContourVoxels = 0;  ///< voxels adjacent to the zero level at the end
 };
 
+/// Sees the snake's inside while it evolves (see evolveSnake).
+using SnakeObserver = std::function<void(const Mask& inside, int iteration)>;
+
 /// Evolves a contour from `bubbles` on `speed`. Throws vellum::Error for no bubbles or a
 /// bubble outside the grid, vellum::Cancelled through `progress` (units = iterations).
+/// `observe`, when given, sees the contour as it evolves: every `observeEvery` iterations the
+/// inside (phi <= 0) on the grid of the level being evolved (coarse levels first), on the
+/// evolving thread. A UI uses it to draw the snake live.
 SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubbles,
-                        const SnakeParams& params = {}, Progress& progress = Progress::none());
+                        const SnakeParams& params = {}, Progress& progress = Progress::none(),
+                        const SnakeObserver& observe = {}, int observeEvery = 10);
 
 }  // namespace vellum::segmentation

@@ -73,6 +73,7 @@ class NarrowBandLevelSet {
   NarrowBandLevelSet(const Geometry& grid, double cflNumber);
 
   std::vector<float>& phi() { return phi_; }
+  const std::vector<float>& phi() const { return phi_; }
   float clampValue() const { return clamp_; }
   double maxSpacing() const { return hmax_; }
   size_t interfaceCount() const { return interfaceCount_; }
@@ -97,8 +98,12 @@ class NarrowBandLevelSet {
 
   /// Steps until convergence or stop.maxIterations (progress units = steps, throws
   /// vellum::Cancelled through it); re-distances at the end when `redistanceAtEnd`.
+  /// `observe`, when given, is called every `observeEvery` steps with the level set and the
+  /// steps done (a UI shows the contour as it evolves; it runs on the evolving thread).
   LevelSetRunResult run(const LevelSetRate& rate, const LevelSetStopping& stop, const std::string& stage,
-                        Progress& progress, bool redistanceAtEnd);
+                        Progress& progress, bool redistanceAtEnd,
+                        const std::function<void(const NarrowBandLevelSet&, int)>& observe = {}, int observeEvery = 10);
+  const Geometry& grid() const { return grid_; }
 
  private:
   bool inside(int64_t q) const { return phi_[q] <= 0; }
@@ -113,6 +118,7 @@ class NarrowBandLevelSet {
   void sortByIndex(std::vector<int64_t>& v);
   LevelSetStencil stencil(int64_t q) const;
 
+  Geometry grid_;
   Dims d_;
   int64_t sy_, sz_;
   double h_[3];
