@@ -9,6 +9,7 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "vellum/app/segment_pipeline.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/phantom/phantom.hpp"
@@ -25,17 +26,9 @@ namespace seg = vellum::segmentation;
 namespace {
 
 struct SegmentArgs {
-  std::string input, out, method = "threshold", preset, speed = "threshold", into, labelName,
-      color, truth, report, overlap = "overwrite";
-  std::optional<double> lower, upper, strong;
-  int classes = 3;
-  std::vector<std::string> seeds;
-  double radius = 5.0;
-  int iterations = 0;  // 0 = the method's default
-  double curvature = 0.2, propagation = 1.0, advection = -1;  // -1: 0 for threshold, 2 for edge
-  double sigma = 1.0, kappa = 120, exponent = 4, multiplier = 2.5;
-  double closeMm = 0, openMm = 0, minIsland = 0;
-  bool keepLargest = false, fillHoles = false, fillHolesSlices = false;
+  std::string input, out, into, labelName, color, truth, report, overlap = "overwrite";
+  std::vector<std::string> seeds;  ///< "x,y,z" (mm), parsed into request.seedsMm
+  app::SegmentRequest request;      ///< method, settings and post-processing: the flags write here
   int labelId = 0;
   std::vector<uint16_t> truthIds;
   InputOptions in;
@@ -58,14 +51,6 @@ std::vector<double> parseNumbers(const std::string& text, size_t n, const char* 
   return v;
 }
 
-seg::HuInterval interval(const SegmentArgs& a, seg::Preset fallback) {
-  seg::HuInterval iv = seg::presetInterval(a.preset.empty() ? fallback : seg::parsePreset(a.preset));
-  if (a.lower) iv.lower = *a.lower;
-  if (a.upper) iv.upper = *a.upper;
-  if (!(iv.upper >= iv.lower)) throw Error("--upper must be >= --lower");
-  return iv;
-}
-
 nlohmann::json metricsJson(const seg::SegmentMetrics& m) {
   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
   return {{"id", m.id}, {"dice", m.dice}, {"jaccard", m.jaccard}, {"voxels", m.voxels},
@@ -75,127 +60,33 @@ nlohmann::json metricsJson(const seg::SegmentMetrics& m) {
           {"mean_surface_distance_mm", num(m.meanSurfaceDistanceMm)}};
 }
 
-/// Runs the chosen method; multi-Otsu fills `classes` instead of returning a mask.
-seg::Mask runMethod(const SegmentArgs& a, const VolumeI16& ct, const std::vector<Vec3>& seeds,
-                    nlohmann::json& info, std::optional<VolumeU16>& classes, Progress& progress) {
-  const std::string& m = a.method;
-  auto needSeeds = [&] {
-    if (seeds.empty()) throw Error("--method " + m + " needs at least one --seed x,y,z (mm)");
-  };
-  if (m == "threshold") {
-    const auto iv = interval(a, seg::Preset::Bone);
-    info["interval_hu"] = {iv.lower, iv.upper};
-    return seg::threshold(ct, iv);
-  }
-  if (m == "otsu" || m == "multi-otsu") {
-    const auto h = seg::histogram(ct, {256, a.lower.value_or(-1024), a.upper.value_or(3071)});
-    if (m == "otsu") {
-      const double t = seg::otsuThreshold(h);
-      info["threshold_hu"] = t;
-      return seg::threshold(ct, {t, 32767});
-    }
-    const auto t = seg::multiOtsuThresholds(h, a.classes);
-    info["thresholds_hu"] = t;
-    classes = seg::classify(ct, t);
-    return {};
-  }
-  if (m == "hysteresis") {
-    seg::HysteresisParams p;  // the library's defaults, unless a flag or preset says otherwise
-    if (!a.preset.empty() || a.lower || a.upper) p.weak = interval(a, seg::Preset::Bone);
-    p.strong = {a.strong.value_or(p.strong.lower), p.weak.upper};
-    params::validate(seg::hysteresisParamsTable(), p);
-    info["weak_hu"] = {p.weak.lower, p.weak.upper};
-    info["strong_hu"] = {p.strong.lower, p.strong.upper};
-    return seg::hysteresis(ct, p);
-  }
-  if (m == "grow") {
-    needSeeds();
-    const auto iv = interval(a, seg::Preset::SoftTissue);
-    info["interval_hu"] = {iv.lower, iv.upper};
-    return seg::connectedThreshold(ct, seeds, iv, seg::Connectivity::Face6, progress);
-  }
-  if (m == "confidence") {
-    needSeeds();
-    seg::ConfidenceParams p;
-    p.multiplier = a.multiplier;
-    if (a.iterations > 0) p.iterations = a.iterations;
-    auto r = seg::confidenceConnected(ct, seeds, p, progress);
-    info["interval_hu"] = {r.finalInterval.lower, r.finalInterval.upper};
-    info["iterations"] = r.iterations;
-    return std::move(r.mask);
-  }
-  if (m == "snake") {
-    needSeeds();
-    const seg::SpeedType type = seg::parseSpeedType(a.speed);
-    seg::SpeedImage speed;
-    if (type == seg::SpeedType::Threshold) {
-      const auto iv = interval(a, seg::Preset::SoftTissue);
-      info["interval_hu"] = {iv.lower, iv.upper};
-      speed = seg::thresholdSpeed(ct, {iv.lower, iv.upper, 60}, progress);
-    } else {
-      speed = seg::edgeSpeed(ct, {a.sigma, a.kappa, a.exponent}, progress);
-      info["edge"] = {{"sigma_mm", a.sigma}, {"kappa_hu_per_mm", a.kappa}, {"exponent", a.exponent}};
-    }
-    seg::SnakeParams p;
-    p.propagation = a.propagation;
-    p.curvature = a.curvature;
-    if (a.advection >= 0) p.advection = a.advection;
-    if (a.iterations > 0) p.maxIterations = a.iterations;
-    std::vector<seg::Bubble> bubbles;
-    for (const Vec3& s : seeds) bubbles.push_back({s, a.radius});
-    auto r = seg::evolveSnake(speed, bubbles, p, progress);
-    info["snake"] = {{"speed", a.speed}, {"iterations", r.iterations}, {"coarse_iterations", r.coarseIterations},
-                     {"converged", r.converged}, {"seconds", r.seconds},
-                     {"ms_per_iteration", 1000 * r.secondsPerIteration},
-                     {"propagation", p.propagation}, {"curvature", p.curvature}, {"advection", seg::resolvedAdvection(p, type)},
-                     {"bubble_radius_mm", a.radius}};
-    return std::move(r.mask);
-  }
-  throw Error("unknown --method '" + m + "' (threshold, otsu, multi-otsu, hysteresis, grow, confidence, snake)");
-}
-
-seg::Mask postProcess(const SegmentArgs& a, seg::Mask m, const std::vector<Vec3>& seeds, nlohmann::json& info) {
-  nlohmann::json steps = nlohmann::json::array();
-  if (a.closeMm > 0) { m = seg::close(m, a.closeMm); steps.push_back({{"close_mm", a.closeMm}}); }
-  if (a.openMm > 0) { m = seg::open(m, a.openMm); steps.push_back({{"open_mm", a.openMm}}); }
-  if (a.fillHoles) { m = seg::fillHoles(m); steps.push_back("fill_holes_3d"); }
-  if (a.fillHolesSlices) { m = seg::fillHolesAllSlices(m); steps.push_back("fill_holes_slices_xyz"); }
-  if (a.minIsland > 0) { m = seg::removeSmallIslands(m, a.minIsland); steps.push_back({{"min_island_mm3", a.minIsland}}); }
-  if (a.keepLargest) {
-    // With seeds, keep the pieces holding them; otherwise the largest.
-    m = seeds.empty() || a.method == "threshold" ? seg::keepLargestComponent(m) : seg::keepComponentsWithSeeds(m, seeds);
-    steps.push_back("keep_largest");
-  }
-  info["post_processing"] = steps;
-  return m;
-}
-
 void runSegment(const SegmentArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   refuseOverwritingInput(a.input, a.out);
   const io::LoadedVolume lv = loadWithProgress(a.input, a.in);
   const VolumeI16 ct = toInt16(lv.volume);
-  std::vector<Vec3> seeds;
+  app::SegmentRequest request = a.request;
   for (const auto& s : a.seeds) {
     const auto v = parseNumbers(s, 3, "--seed");
-    seeds.push_back({v[0], v[1], v[2]});
+    request.seedsMm.push_back({v[0], v[1], v[2]});
   }
   nlohmann::json report;
   report["input"] = a.input;
-  report["method"] = a.method;
+  report["method"] = request.method;
   report["dims"] = {ct.dims().x, ct.dims().y, ct.dims().z};
   report["spacing_mm"] = toJson(ct.geometry().spacing);
   report["load_seconds"] = secondsSince(t0);
 
-  std::optional<VolumeU16> classes;
   const auto t1 = std::chrono::steady_clock::now();
-  seg::Mask mask;
+  app::SegmentOutcome outcome;
   {
     ProgressBar bar;
-    mask = runMethod(a, ct, seeds, report, classes, bar.progress());
+    outcome = app::runSegmentation(ct, request, bar.progress());
     bar.finish();
   }
-  if (!classes) mask = postProcess(a, std::move(mask), seeds, report);
+  report.update(outcome.info);
+  seg::Mask& mask = outcome.mask;
+  std::optional<VolumeU16>& classes = outcome.classes;
   report["segment_seconds"] = secondsSince(t1);
 
   LabelVolume labels = a.into.empty() ? LabelVolume(ct.geometry()) : a.in.loadLabelsOnInputGrid(a.into);
@@ -211,7 +102,7 @@ void runSegment(const SegmentArgs& a) {
   }
   std::vector<uint16_t> written;
   if (classes) {
-    const int n = a.classes;
+    const int n = request.classes;
     for (int c = 1; c <= n; ++c) {
       const uint16_t cid = static_cast<uint16_t>(id + c - 1);
       const seg::Mask m = seg::maskFromIds(*classes, [c](uint16_t v) { return v == c; });
@@ -219,7 +110,7 @@ void runSegment(const SegmentArgs& a) {
       written.push_back(cid);
     }
   } else {
-    const seg::AddResult r = seg::addSegment(labels, mask, {id, a.labelName.empty() ? a.method : a.labelName, rgb}, rule);
+    const seg::AddResult r = seg::addSegment(labels, mask, {id, a.labelName.empty() ? request.method : a.labelName, rgb}, rule);
     report["segment"] = {{"id", id}, {"voxels", r.written}, {"skipped_by_overlap_rule", r.skipped},
                          {"cleared", r.cleared}, {"volume_mm3", seg::maskVolumeMm3(mask)}};
     written.push_back(id);
@@ -228,7 +119,7 @@ void runSegment(const SegmentArgs& a) {
   io::saveLabels(labels, a.out);
   std::cout << a.out << ": segment";
   for (uint16_t w : written) std::cout << " " << w;
-  std::cout << " (" << a.method << ")";
+  std::cout << " (" << request.method << ")";
   if (!classes) std::cout << ", " << seg::countVoxels(mask) << " voxels, " << seg::maskVolumeMm3(mask) / 1000.0 << " cm³";
   std::cout << "\n";
 
@@ -267,29 +158,29 @@ void addSegmentCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("segment", "Segment a CT volume into a label map (thresholds, Otsu, region growing, 3D snakes)");
   cmd->add_option("input", a->input, "input volume (file or DICOM folder)")->required();
   cmd->add_option("--out,-o", a->out, "output label map (.nrrd keeps the label table)")->required();
-  cmd->add_option("--method", a->method, "threshold | otsu | multi-otsu | hysteresis | grow | confidence | snake")->capture_default_str();
-  cmd->add_option("--preset", a->preset, "HU interval preset: bone [700,3071] (cortex), whole-bone [550,3071] (with --fill-holes-slices), soft-tissue [-500,300], skin-air [-500,3071], fat [-190,-30], lung [-950,-500]");
-  cmd->add_option("--lower", a->lower, "lower HU (overrides the preset; otsu: histogram range; hysteresis: weak threshold)");
-  cmd->add_option("--upper", a->upper, "upper HU (overrides the preset)");
-  cmd->add_option("--strong", a->strong, "hysteresis: strong threshold in HU (default: strong_lower in `vellum params`)");
-  cmd->add_option("--classes", a->classes, "multi-otsu: number of classes (2..8)")->capture_default_str();
+  cmd->add_option("--method", a->request.method, "threshold | otsu | multi-otsu | hysteresis | grow | confidence | snake")->capture_default_str();
+  cmd->add_option("--preset", a->request.preset, "HU interval preset: bone [700,3071] (cortex), whole-bone [550,3071] (with --fill-holes-slices), soft-tissue [-500,300], skin-air [-500,3071], fat [-190,-30], lung [-950,-500]");
+  cmd->add_option("--lower", a->request.lower, "lower HU (overrides the preset; otsu: histogram range; hysteresis: weak threshold)");
+  cmd->add_option("--upper", a->request.upper, "upper HU (overrides the preset)");
+  cmd->add_option("--strong", a->request.strong, "hysteresis: strong threshold in HU (default: strong_lower in `vellum params`)");
+  cmd->add_option("--classes", a->request.classes, "multi-otsu: number of classes (2..8)")->capture_default_str();
   cmd->add_option("--seed", a->seeds, "seed point x,y,z in mm (repeatable; snake: bubble centres)");
-  cmd->add_option("--radius", a->radius, "snake: bubble radius in mm")->capture_default_str();
-  cmd->add_option("--speed", a->speed, "snake speed: threshold (region competition) | edge")->capture_default_str();
-  cmd->add_option("--iterations", a->iterations, "snake: iteration limit (default 2000); confidence: passes (default 4)");
-  cmd->add_option("--curvature", a->curvature, "snake: curvature weight")->capture_default_str();
-  cmd->add_option("--propagation", a->propagation, "snake: propagation weight")->capture_default_str();
-  cmd->add_option("--advection", a->advection, "snake: advection weight (default 0 threshold, 2 edge)");
-  cmd->add_option("--sigma", a->sigma, "edge speed: Gaussian sigma in mm")->capture_default_str();
-  cmd->add_option("--kappa", a->kappa, "edge speed: gradient (HU/mm) where g = 0.5")->capture_default_str();
-  cmd->add_option("--exponent", a->exponent, "edge speed: g = 1/(1+(|grad|/kappa)^exponent)")->capture_default_str();
-  cmd->add_option("--multiplier", a->multiplier, "confidence: interval = mean +- multiplier * std")->capture_default_str();
-  cmd->add_option("--close", a->closeMm, "post: morphological closing radius in mm");
-  cmd->add_option("--open", a->openMm, "post: morphological opening radius in mm");
-  cmd->add_flag("--fill-holes", a->fillHoles, "post: fill enclosed cavities (3D)");
-  cmd->add_flag("--fill-holes-slices", a->fillHolesSlices, "post: fill holes enclosed in any axial, coronal or sagittal slice (then 3D)");
-  cmd->add_option("--min-island", a->minIsland, "post: remove pieces smaller than this volume in mm³");
-  cmd->add_flag("--keep-largest", a->keepLargest, "post: keep the largest piece (with seeds: the pieces holding them)");
+  cmd->add_option("--radius", a->request.bubbleRadiusMm, "snake: bubble radius in mm")->capture_default_str();
+  cmd->add_option("--speed", a->request.speed, "snake speed: threshold (region competition) | edge")->capture_default_str();
+  cmd->add_option("--iterations", a->request.iterations, "snake: iteration limit (default 2000); confidence: passes (default 4)");
+  cmd->add_option("--curvature", a->request.curvature, "snake: curvature weight")->capture_default_str();
+  cmd->add_option("--propagation", a->request.propagation, "snake: propagation weight")->capture_default_str();
+  cmd->add_option("--advection", a->request.advection, "snake: advection weight (default 0 threshold, 2 edge)");
+  cmd->add_option("--sigma", a->request.sigma, "edge speed: Gaussian sigma in mm")->capture_default_str();
+  cmd->add_option("--kappa", a->request.kappa, "edge speed: gradient (HU/mm) where g = 0.5")->capture_default_str();
+  cmd->add_option("--exponent", a->request.exponent, "edge speed: g = 1/(1+(|grad|/kappa)^exponent)")->capture_default_str();
+  cmd->add_option("--multiplier", a->request.multiplier, "confidence: interval = mean +- multiplier * std")->capture_default_str();
+  cmd->add_option("--close", a->request.post.closeMm, "post: morphological closing radius in mm");
+  cmd->add_option("--open", a->request.post.openMm, "post: morphological opening radius in mm");
+  cmd->add_flag("--fill-holes", a->request.post.fillHoles, "post: fill enclosed cavities (3D)");
+  cmd->add_flag("--fill-holes-slices", a->request.post.fillHolesSlices, "post: fill holes enclosed in any axial, coronal or sagittal slice (then 3D)");
+  cmd->add_option("--min-island", a->request.post.minIslandMm3, "post: remove pieces smaller than this volume in mm³");
+  cmd->add_flag("--keep-largest", a->request.post.keepLargest, "post: keep the largest piece (with seeds: the pieces holding them)");
   cmd->add_option("--into", a->into, "add the segment into this existing label map (written to --out)");
   cmd->add_option("--label-id", a->labelId, "segment id (default: the lowest free id)");
   cmd->add_option("--label-name", a->labelName, "segment name (default: the method)");

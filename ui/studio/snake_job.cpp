@@ -1,5 +1,6 @@
 #include "snake_job.hpp"
 
+#include "vellum/app/segment_pipeline.hpp"
 #include "vellum/core/error.hpp"
 
 namespace vellum::studio {
@@ -19,10 +20,13 @@ bool SnakeJob::start(SnakeRequest request) {
   }
   return job_.start(
       [this, request = std::move(request)](Progress& progress) {
-        seg::ThresholdSpeedParams speedParams;
-        speedParams.lower = request.interval.lower;
-        speedParams.upper = request.interval.upper;
-        const seg::SpeedImage speed = seg::thresholdSpeed(request.ct, speedParams, progress);
+        // The request `vellum segment --method snake --lower L --upper U --seed S --radius R` makes.
+        app::SegmentRequest snake;
+        snake.method = "snake";
+        snake.lower = request.interval.lower;
+        snake.upper = request.interval.upper;
+        snake.seedsMm = {request.seedMm};
+        snake.bubbleRadiusMm = request.bubbleRadiusMm;
         // Every few iterations the contour so far goes to the slices (live evolution).
         const auto publish = [this](const seg::Mask& inside, int) {
           auto copy = std::make_shared<const seg::Mask>(inside);
@@ -30,11 +34,11 @@ bool SnakeJob::start(SnakeRequest request) {
           live_ = std::move(copy);
           ++liveRevision_;
         };
-        seg::SnakeResult r = seg::evolveSnake(speed, {{request.seedMm, request.bubbleRadiusMm}}, {}, progress, publish, 5);
+        app::SegmentOutcome r = app::runSegmentation(request.ct, snake, progress, publish);
         SnakeOutcome out;
         out.mask = std::move(r.mask);
-        out.iterations = r.iterations;
-        out.converged = r.converged;
+        out.iterations = r.info["snake"]["iterations"].get<int>();
+        out.converged = r.info["snake"]["converged"].get<bool>();
         return out;
       },
       "snake");

@@ -1,0 +1,58 @@
+#pragma once
+// Segmentation as a request: the method (threshold, Otsu, multi-Otsu, hysteresis, region
+// growing, confidence-connected growing, 3D snake), its settings, and the post-processing
+// (morphology, holes, islands, largest component). `vellum segment` fills a request from its
+// flags; the studio's snake tool fills one from a click. Both run runSegmentation, so a
+// setting means the same in both, and the report (`info`) is the same JSON.
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "vellum/core/progress.hpp"
+#include "vellum/core/volume.hpp"
+#include "vellum/segmentation/mask.hpp"
+#include "vellum/segmentation/snake.hpp"
+
+namespace vellum::app {
+
+struct SegmentPostProcessing {
+  double closeMm = 0, openMm = 0;  ///< morphological closing / opening (ball radius, mm); 0 = off
+  bool fillHoles = false;          ///< 3D hole filling
+  bool fillHolesSlices = false;    ///< 2D hole filling in every slice along x, y and z
+  double minIslandMm3 = 0;         ///< drop components smaller than this; 0 = off
+  bool keepLargest = false;        ///< keep the largest component (with seeds: those holding a seed)
+};
+
+struct SegmentRequest {
+  /// threshold | otsu | multi-otsu | hysteresis | grow | confidence | snake
+  std::string method = "threshold";
+  std::string preset;                         ///< HU preset; empty = the method's default
+  std::optional<double> lower, upper;         ///< HU, override the preset's bounds
+  std::optional<double> strong;               ///< hysteresis: lower bound of the strong interval
+  int classes = 3;                            ///< multi-otsu
+  std::vector<Vec3> seedsMm;                  ///< grow, confidence, snake
+  double bubbleRadiusMm = 5;                  ///< snake: seed bubble radius
+  int iterations = 0;                         ///< confidence / snake; 0 = the method's default
+  std::string speed = "threshold";            ///< snake: threshold | edge
+  double curvature = 0.2, propagation = 1.0;  ///< snake weights
+  double advection = -1;                      ///< snake; < 0: the speed's default (0 threshold, 2 edge)
+  double sigma = 1.0, kappa = 120, exponent = 4;  ///< snake edge speed
+  double multiplier = 2.5;                    ///< confidence
+  SegmentPostProcessing post;
+};
+
+struct SegmentOutcome {
+  segmentation::Mask mask;             ///< empty for multi-otsu
+  std::optional<VolumeU16> classes;    ///< multi-otsu: class per voxel (0 .. classes-1)
+  nlohmann::json info = nlohmann::json::object();  ///< what ran: intervals, iterations, post-processing
+};
+
+/// Runs `request` on `ct`. Throws vellum::Error for a bad request (unknown method, missing
+/// seeds, upper < lower), vellum::Cancelled through `progress`. `observe` sees a snake evolve.
+SegmentOutcome runSegmentation(const VolumeI16& ct, const SegmentRequest& request,
+                               Progress& progress = Progress::none(),
+                               const segmentation::SnakeObserver& observe = {});
+
+}  // namespace vellum::app

@@ -1,0 +1,131 @@
+// The segmentation request: method dispatch and post-processing (see segment_pipeline.hpp).
+#include "vellum/app/segment_pipeline.hpp"
+
+#include "vellum/core/error.hpp"
+#include "vellum/core/params.hpp"
+#include "vellum/segmentation/components.hpp"
+#include "vellum/segmentation/morphology.hpp"
+#include "vellum/segmentation/region_growing.hpp"
+#include "vellum/segmentation/threshold.hpp"
+
+namespace vellum::app {
+namespace seg = vellum::segmentation;
+namespace {
+
+seg::HuInterval interval(const SegmentRequest& a, seg::Preset fallback) {
+  seg::HuInterval iv = seg::presetInterval(a.preset.empty() ? fallback : seg::parsePreset(a.preset));
+  if (a.lower) iv.lower = *a.lower;
+  if (a.upper) iv.upper = *a.upper;
+  if (!(iv.upper >= iv.lower)) throw Error("upper must be >= lower (--upper, --lower)");
+  return iv;
+}
+
+/// Runs the chosen method; multi-Otsu fills `classes` instead of returning a mask.
+seg::Mask runMethod(const SegmentRequest& a, const VolumeI16& ct, nlohmann::json& info,
+                    std::optional<VolumeU16>& classes, Progress& progress, const seg::SnakeObserver& observe) {
+  const std::vector<Vec3>& seeds = a.seedsMm;
+  const std::string& m = a.method;
+  auto needSeeds = [&] {
+    if (seeds.empty()) throw Error("method " + m + " needs at least one seed (--seed x,y,z in mm)");
+  };
+  if (m == "threshold") {
+    const auto iv = interval(a, seg::Preset::Bone);
+    info["interval_hu"] = {iv.lower, iv.upper};
+    return seg::threshold(ct, iv);
+  }
+  if (m == "otsu" || m == "multi-otsu") {
+    const auto h = seg::histogram(ct, {256, a.lower.value_or(-1024), a.upper.value_or(3071)});
+    if (m == "otsu") {
+      const double t = seg::otsuThreshold(h);
+      info["threshold_hu"] = t;
+      return seg::threshold(ct, {t, 32767});
+    }
+    const auto t = seg::multiOtsuThresholds(h, a.classes);
+    info["thresholds_hu"] = t;
+    classes = seg::classify(ct, t);
+    return {};
+  }
+  if (m == "hysteresis") {
+    seg::HysteresisParams p;  // the library's defaults, unless a flag or preset says otherwise
+    if (!a.preset.empty() || a.lower || a.upper) p.weak = interval(a, seg::Preset::Bone);
+    p.strong = {a.strong.value_or(p.strong.lower), p.weak.upper};
+    params::validate(seg::hysteresisParamsTable(), p);
+    info["weak_hu"] = {p.weak.lower, p.weak.upper};
+    info["strong_hu"] = {p.strong.lower, p.strong.upper};
+    return seg::hysteresis(ct, p);
+  }
+  if (m == "grow") {
+    needSeeds();
+    const auto iv = interval(a, seg::Preset::SoftTissue);
+    info["interval_hu"] = {iv.lower, iv.upper};
+    return seg::connectedThreshold(ct, seeds, iv, seg::Connectivity::Face6, progress);
+  }
+  if (m == "confidence") {
+    needSeeds();
+    seg::ConfidenceParams p;
+    p.multiplier = a.multiplier;
+    if (a.iterations > 0) p.iterations = a.iterations;
+    auto r = seg::confidenceConnected(ct, seeds, p, progress);
+    info["interval_hu"] = {r.finalInterval.lower, r.finalInterval.upper};
+    info["iterations"] = r.iterations;
+    return std::move(r.mask);
+  }
+  if (m == "snake") {
+    needSeeds();
+    const seg::SpeedType type = seg::parseSpeedType(a.speed);
+    seg::SpeedImage speed;
+    if (type == seg::SpeedType::Threshold) {
+      const auto iv = interval(a, seg::Preset::SoftTissue);
+      info["interval_hu"] = {iv.lower, iv.upper};
+      speed = seg::thresholdSpeed(ct, {iv.lower, iv.upper, 60}, progress);
+    } else {
+      speed = seg::edgeSpeed(ct, {a.sigma, a.kappa, a.exponent}, progress);
+      info["edge"] = {{"sigma_mm", a.sigma}, {"kappa_hu_per_mm", a.kappa}, {"exponent", a.exponent}};
+    }
+    seg::SnakeParams p;
+    p.propagation = a.propagation;
+    p.curvature = a.curvature;
+    if (a.advection >= 0) p.advection = a.advection;
+    if (a.iterations > 0) p.maxIterations = a.iterations;
+    std::vector<seg::Bubble> bubbles;
+    for (const Vec3& s : seeds) bubbles.push_back({s, a.bubbleRadiusMm});
+    auto r = seg::evolveSnake(speed, bubbles, p, progress, observe, 5);
+    info["snake"] = {{"speed", a.speed}, {"iterations", r.iterations}, {"coarse_iterations", r.coarseIterations},
+                     {"converged", r.converged}, {"seconds", r.seconds},
+                     {"ms_per_iteration", 1000 * r.secondsPerIteration},
+                     {"propagation", p.propagation}, {"curvature", p.curvature}, {"advection", seg::resolvedAdvection(p, type)},
+                     {"bubble_radius_mm", a.bubbleRadiusMm}};
+    return std::move(r.mask);
+  }
+  throw Error("unknown method '" + m + "' (threshold, otsu, multi-otsu, hysteresis, grow, confidence, snake)");
+}
+
+seg::Mask postProcess(const SegmentRequest& r, seg::Mask m, nlohmann::json& info) {
+  const SegmentPostProcessing& a = r.post;
+  const std::vector<Vec3>& seeds = r.seedsMm;
+  nlohmann::json steps = nlohmann::json::array();
+  if (a.closeMm > 0) { m = seg::close(m, a.closeMm); steps.push_back({{"close_mm", a.closeMm}}); }
+  if (a.openMm > 0) { m = seg::open(m, a.openMm); steps.push_back({{"open_mm", a.openMm}}); }
+  if (a.fillHoles) { m = seg::fillHoles(m); steps.push_back("fill_holes_3d"); }
+  if (a.fillHolesSlices) { m = seg::fillHolesAllSlices(m); steps.push_back("fill_holes_slices_xyz"); }
+  if (a.minIslandMm3 > 0) { m = seg::removeSmallIslands(m, a.minIslandMm3); steps.push_back({{"min_island_mm3", a.minIslandMm3}}); }
+  if (a.keepLargest) {
+    // With seeds, keep the pieces holding them; otherwise the largest.
+    m = seeds.empty() || r.method == "threshold" ? seg::keepLargestComponent(m) : seg::keepComponentsWithSeeds(m, seeds);
+    steps.push_back("keep_largest");
+  }
+  info["post_processing"] = steps;
+  return m;
+}
+
+}  // namespace
+
+SegmentOutcome runSegmentation(const VolumeI16& ct, const SegmentRequest& request, Progress& progress,
+                               const seg::SnakeObserver& observe) {
+  SegmentOutcome out;
+  out.mask = runMethod(request, ct, out.info, out.classes, progress, observe);
+  if (!out.classes) out.mask = postProcess(request, std::move(out.mask), out.info);
+  return out;
+}
+
+}  // namespace vellum::app
