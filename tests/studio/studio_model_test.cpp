@@ -243,3 +243,24 @@ TEST(StudioMpr, PlanesMapPixelsToMmAndBack) {
 
 }  // namespace
 }  // namespace vellum::studio
+
+namespace vellum::studio {
+TEST(StudioAuthoring, KeyframesReorderKeepingTheTimeline) {
+  Authoring a;
+  const auto pose = [](double x) { return deformation::ControlPoints{{{0, 0, 0}, {x, 0, 0}, {}}}; };
+  a.track.keyframes = {{1.0, pose(0)}, {2.0, pose(5)}, {3.0, pose(9)}};
+  a.keyframe = 1;
+  moveKeyframe(a, 1, +1);
+  EXPECT_EQ(a.keyframe, 2);
+  EXPECT_EQ(a.track.keyframes[2].points[0].target.x, 5);
+  EXPECT_EQ(a.track.keyframes[1].points[0].target.x, 9);
+  EXPECT_EQ(a.track.keyframes[1].durationS, 2.0) << "durations stay in place";
+  EXPECT_EQ(a.track.keyframes[2].durationS, 3.0);
+  moveKeyframe(a, 2, -1);
+  moveKeyframe(a, 1, -1);
+  EXPECT_EQ(a.keyframe, 0);
+  EXPECT_EQ(a.track.keyframes[0].points[0].target.x, 5);
+  EXPECT_THROW(moveKeyframe(a, 0, -1), Error);
+  EXPECT_THROW(moveKeyframe(a, 7, 1), Error);
+}
+}  // namespace vellum::studio

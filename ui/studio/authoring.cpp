@@ -65,6 +65,19 @@ void deleteKeyframe(Authoring& a, int index) {
   a.touch();
 }
 
+void moveKeyframe(Authoring& a, int index, int offset) {
+  const int n = int(a.track.keyframes.size());
+  if (index < 0 || index >= n) throw Error("no keyframe " + std::to_string(index));
+  const int to = index + offset;
+  if (to < 0 || to >= n) throw Error("keyframe " + std::to_string(index) + " cannot move " +
+                                     (offset < 0 ? "earlier" : "later"));
+  // The pose moves; each slot keeps its duration, so the timing of the movie stays as it was.
+  std::swap(a.track.keyframes[size_t(index)].points, a.track.keyframes[size_t(to)].points);
+  a.keyframe = to;
+  a.timeS.reset();
+  a.touch();
+}
+
 void addPoint(Authoring& a, const Vec3& mm) {
   if (!a.active()) a.track.keyframes = {deformation::Keyframe{1.0, {}}};
   for (auto& k : a.track.keyframes) k.points.push_back(ControlPoint{mm, mm, {}});

@@ -47,6 +47,9 @@ void placePoints(Authoring& a, deformation::ControlPoints points);
 /// "Add keyframe" copies the current keyframe (the paper's rule) after it and edits the copy.
 void addKeyframe(Authoring& a);
 void deleteKeyframe(Authoring& a, int index);
+/// Reorders: keyframe `index` swaps its pose with its neighbour `offset` (-1 earlier, +1
+/// later) away; the durations stay with their places in the timeline. It stays the edited one.
+void moveKeyframe(Authoring& a, int index, int offset);
 /// Adds a point (source = target = mm) to every keyframe; it becomes selected.
 void addPoint(Authoring& a, const Vec3& mm);
 void deletePoint(Authoring& a, int index);

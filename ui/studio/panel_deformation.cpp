@@ -118,6 +118,20 @@ void timeline(StudioApp& app) {
     const int k = a.keyframe;
     guarded(app, [&] { app.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); }); });
   }
+  ImGui::SameLine();
+  {
+    const int k = a.keyframe, n = int(a.track.keyframes.size());
+    ImGui::BeginDisabled(k <= 0);
+    if (ImGui::ArrowButton("##earlier", ImGuiDir_Left))
+      guarded(app, [&] { app.editTrack("move keyframe", [k](Authoring& x) { moveKeyframe(x, k, -1); }); });
+    ImGui::EndDisabled();
+    ImGui::SameLine();
+    ImGui::BeginDisabled(k + 1 >= n);
+    if (ImGui::ArrowButton("##later", ImGuiDir_Right))
+      guarded(app, [&] { app.editTrack("move keyframe", [k](Authoring& x) { moveKeyframe(x, k, +1); }); });
+    ImGui::EndDisabled();
+    if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("move the keyframe earlier / later");
+  }
   int interp = static_cast<int>(a.track.interpolation);
   if (ImGui::Combo("Interpolation", &interp, "linear\0smooth\0eased\0")) {
     app.editTrack("interpolation", [interp](Authoring& x) { x.track.interpolation = static_cast<Interpolation>(interp); });

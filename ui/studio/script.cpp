@@ -393,7 +393,7 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
       a.tools().pointTool = *previousTool;
     });
   } else if (name == "keyframe") {
-    // "add" | "delete" | {"select": k, "duration": s, "interpolation": "smooth", "loop": true}
+    // "add" | "delete" | "earlier" | "later" | {"select": k, "duration": s, "interpolation": "smooth", "loop": true}
     const json spec = v;
     once([spec](StudioApp& a) {
       if (spec.is_string()) {
@@ -402,7 +402,10 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
         else if (op == "delete") {
           const int k = a.scene().authoring.keyframe;
           a.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); });
-        } else throw Error("keyframe must be \"add\", \"delete\" or an object");
+        } else if (op == "earlier" || op == "later") {
+          const int k = a.scene().authoring.keyframe, by = op == "earlier" ? -1 : 1;
+          a.editTrack("move keyframe", [k, by](Authoring& x) { moveKeyframe(x, k, by); });
+        } else throw Error("keyframe must be \"add\", \"delete\", \"earlier\", \"later\" or an object");
         return;
       }
       Authoring& au = a.scene().authoring;
