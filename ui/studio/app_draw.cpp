@@ -131,7 +131,9 @@ void StudioApp::drawHud() {
   hud.precision(1);
   hud << "frame " << lastFrameMs_ << " ms   3D " << view3d_->lastRenderMs() << " ms @1/" << view3d_->lastScale();
   if (view3d_->refineProgress() < 1) hud << "  refining " << int(100 * view3d_->refineProgress()) << "%";
-  if (deform_->map()) hud << "   map " << deform_->lastUpdateMs() << " ms" << (deform_->preview() ? " (preview s=8)" : "");
+  if (deform_->map())
+    hud << "   map " << deform_->lastUpdateMs() << " ms"
+        << (deform_->solving() ? " (exact map solving)" : deform_->preview() ? " (preview s=8)" : "");
   if (scene_.hasVolume()) {
     const Pane* p = paneAt(mouseX_, mouseY_);
     if (p && !p->is3d()) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <sstream>
 
 #include "vellum/animation/movie.hpp"
 #include "vellum/deformation/deform_params.hpp"
@@ -9,55 +10,103 @@
 namespace vellum::studio {
 using namespace vellum::deformation;
 
-const DeformTimings* DeformSession::timings() const { return lastDeformer_ ? &lastDeformer_->timings() : nullptr; }
+DeformSession::~DeformSession() { waitForSolve(); }
+
+void DeformSession::waitForSolve() {
+  if (solve_.valid()) solve_.wait(), solve_ = {};
+}
+
+DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoints& points, const RigidBodies* bodies,
+                                           double falloffMm, std::string key) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Solved s;
+  deformer.setPoints(points);
+  ControlVolume cv = deformer.update();
+  const auto t1 = std::chrono::steady_clock::now();
+  if (bodies) applyRigidity(cv, *bodies, {falloffMm});
+  s.rigidityMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+  s.map = animation::toBackwardMap(cv);
+  s.timings = deformer.timings();
+  s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  s.key = std::move(key);
+  return s;
+}
+
+void DeformSession::adopt(Solved s, bool preview) {
+  map_ = std::move(s.map);
+  mapKey_ = preview ? "" : s.key;
+  preview_ = preview;
+  timings_ = s.timings;
+  hasTimings_ = true;
+  lastMs_ = s.ms;
+  rigidityMs_ = s.rigidityMs;
+  ++mapRevision_;
+}
 
 bool DeformSession::update(const Scene& scene, bool interacting) {
   const Authoring& a = scene.authoring;
   if (!scene.hasVolume() || !a.active() || a.currentPoints().empty()) {
+    waitForSolve();
     const bool had = map_.has_value();
     map_.reset();
-    authoringRevision_ = ~0ull;
+    mapKey_.clear();
+    preview_ = false;
     if (had) ++mapRevision_;
     return had;
   }
   const std::string engineKey = params::cliArguments(deformParamsTable(), a.engine);
   const bool newVolume = scene.volumeGeneration != volumeGeneration_ || engineKey != engineKey_;
-  const bool newBodies = newVolume || scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_;
-  const bool exactDue = preview_ && !interacting;  // the drag ended: replace the preview
-  if (!newBodies && !exactDue && a.revision == authoringRevision_ && a.falloffMm == falloffMm_) return false;
-  const auto t0 = std::chrono::steady_clock::now();
   if (newVolume || !deformer_) {
+    waitForSolve();  // the worker may be using the old deformer
     deformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), a.engine);
     previewDeformer_.reset();
     volumeGeneration_ = scene.volumeGeneration;
     engineKey_ = engineKey;
+    labelsRevision_ = ~0ull;
   }
-  if (interacting && !previewDeformer_) {
-    DeformParams p = a.engine;
-    p.controlScale = std::min(2 * p.controlScale, 16);  // the table's limit
-    previewDeformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), p);
-  }
-  Deformer& deformer = interacting ? *previewDeformer_ : *deformer_;
-  lastDeformer_ = &deformer;
-  preview_ = interacting;
-  if (newBodies) {
+  if (scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_) {
     bodies_.reset();
     if (!a.rigidLabels.empty() && !scene.labels.ids().empty() && scene.labels.geometry().dims == scene.ct.geometry().dims)
-      bodies_ = RigidBodies::fromLabels(scene.labels, a.rigidLabels);
+      bodies_ = std::make_shared<const RigidBodies>(RigidBodies::fromLabels(scene.labels, a.rigidLabels));
     labelsRevision_ = scene.labelsRevision;
     rigidLabels_ = a.rigidLabels;
   }
-  deformer.setPoints(a.currentPoints());
-  ControlVolume cv = deformer.update();
-  const auto t1 = std::chrono::steady_clock::now();
-  if (bodies_) applyRigidity(cv, *bodies_, {a.falloffMm});
-  rigidityMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
-  map_ = animation::toBackwardMap(cv);
-  authoringRevision_ = a.revision;
-  falloffMm_ = a.falloffMm;
-  ++mapRevision_;
-  lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  return true;
+  // Everything the map depends on.
+  std::ostringstream k;
+  k.precision(17);
+  k << volumeGeneration_ << ' ' << engineKey_ << ' ' << labelsRevision_ << ' ' << a.revision << ' ' << a.falloffMm;
+  for (uint16_t id : rigidLabels_) k << ' ' << id;
+  const std::string key = k.str();
+
+  bool changed = false;
+  if (solve_.valid() && solve_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    Solved s = solve_.get();
+    solve_ = {};
+    if (s.key == key) {
+      adopt(std::move(s), false);
+      changed = true;
+    }
+  }
+  if (interacting) {  // the preview, at once
+    if (preview_ && previewKey_ == key) return changed;
+    if (!previewDeformer_) {
+      DeformParams p = a.engine;
+      p.controlScale = std::min(2 * p.controlScale, 16);  // the table's limit
+      previewDeformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), p);
+    }
+    adopt(solve(*previewDeformer_, a.currentPoints(), bodies_.get(), a.falloffMm, key), true);
+    previewKey_ = key;
+    return true;
+  }
+  if (mapKey_ == key || solve_.valid()) return changed;  // up to date, or the worker is on it
+  // The exact map on the worker; the inputs are copies, the deformer is the worker's until done.
+  solve_ = std::async(std::launch::async, [deformer = deformer_.get(), points = a.currentPoints(), bodies = bodies_,
+                                           falloff = a.falloffMm, key] {
+    return solve(*deformer, points, bodies.get(), falloff, key);
+  });
+  if (!map_) preview_ = true;  // nothing to show yet: count as a preview until it lands
+  else if (!preview_) preview_ = true;  // the map shown is out of date
+  return changed;
 }
 
 }  // namespace vellum::studio

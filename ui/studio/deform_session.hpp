@@ -3,6 +3,8 @@
 // cache makes target-only drags cheap: no ray casting), rigid bodies from the label map, and
 // the resulting BackwardMap for VolumeRenderer::setBackwardMap. No GL.
 #include <cstdint>
+#include <future>
+#include <string>
 #include <memory>
 #include <optional>
 
@@ -16,37 +18,61 @@ namespace vellum::studio {
 
 class DeformSession {
  public:
-  /// Re-solves when the points, the volume, the engine parameters or the rigid labels changed. While `interacting`
-  /// (a point drag, playback) the map is solved on a control grid twice as coarse (s = 8, its
-  /// own Deformer and rho cache), like the 3D view's reduced-resolution frames; once the
-  /// interaction ends the exact map (s = 4, what the export renders) replaces it. Returns true
-  /// when the map changed (the 3D view must render again).
+  DeformSession() = default;
+  ~DeformSession();  ///< waits for a running solve
+  DeformSession(const DeformSession&) = delete;
+  DeformSession& operator=(const DeformSession&) = delete;
+
+  /// Re-solves when the points, the volume, the engine parameters or the rigid labels changed.
+  /// While `interacting` (a point drag, playback) the map is solved at once on a control grid
+  /// twice as coarse (s = 8, its own Deformer and rho cache), like the 3D view's
+  /// reduced-resolution frames. The exact map (s = 4, what the export renders) is solved on a
+  /// worker thread, so the window never waits for it; it replaces the preview when it is done
+  /// (a solve whose inputs changed meanwhile is dropped and started again). Returns true when
+  /// the map changed (the 3D view must render again).
   bool update(const Scene& scene, bool interacting = false);
-  /// True when the map shown is the coarse preview.
+  /// True when the map shown is the coarse preview (or an exact solve is still running).
   bool preview() const { return preview_; }
+  /// True while the exact map is being solved on the worker.
+  bool solving() const { return solve_.valid(); }
   /// The map to draw, or nullptr (no points / identity).
   const render::BackwardMap* map() const { return map_ ? &*map_ : nullptr; }
   uint64_t mapRevision() const { return mapRevision_; }
-  /// Time of the last re-solve (Deformer update + rigidity + conversion), ms.
+  /// Time of the last adopted solve (Deformer update + rigidity + conversion), ms.
   double lastUpdateMs() const { return lastMs_; }
-  const deformation::DeformTimings* timings() const;
+  const deformation::DeformTimings* timings() const { return hasTimings_ ? &timings_ : nullptr; }
   /// Of lastUpdateMs(): the rigid-bone blend (applyRigidity).
   double lastRigidityMs() const { return rigidityMs_; }
   /// Rigid bodies of the current labels (nullptr without rigid labels).
-  const deformation::RigidBodies* bodies() const { return bodies_ ? &*bodies_ : nullptr; }
+  const deformation::RigidBodies* bodies() const { return bodies_.get(); }
 
  private:
+  struct Solved {
+    render::BackwardMap map;
+    deformation::DeformTimings timings;
+    double ms = 0, rigidityMs = 0;
+    std::string key;  ///< the inputs it was solved for
+  };
+  /// Solves `points` on `deformer` with the rigid blend: the work of both paths.
+  static Solved solve(deformation::Deformer& deformer, const deformation::ControlPoints& points,
+                      const deformation::RigidBodies* bodies, double falloffMm, std::string key);
+  void adopt(Solved s, bool preview);
+  void waitForSolve();
+
   std::unique_ptr<deformation::Deformer> deformer_, previewDeformer_;
+  std::future<Solved> solve_;  ///< the exact solve on the worker (it alone uses deformer_ meanwhile)
   bool preview_ = false;
-  const deformation::Deformer* lastDeformer_ = nullptr;
-  std::optional<deformation::RigidBodies> bodies_;
+  std::shared_ptr<const deformation::RigidBodies> bodies_;
   std::optional<render::BackwardMap> map_;
-  uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull, authoringRevision_ = ~0ull;
+  std::string mapKey_;  ///< inputs of the exact map shown ("" = none or a preview)
+  std::string previewKey_;  ///< inputs of the preview shown
+  uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull;
   std::vector<uint16_t> rigidLabels_;
-  double falloffMm_ = -1;
   std::string engineKey_;  ///< the engine parameters the deformers were made with
   uint64_t mapRevision_ = 0;
   double lastMs_ = 0, rigidityMs_ = 0;
+  deformation::DeformTimings timings_;
+  bool hasTimings_ = false;
 };
 
 }  // namespace vellum::studio
