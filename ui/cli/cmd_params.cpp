@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "vellum/app/segment_pipeline.hpp"
 #include "vellum/deformation/deform_params.hpp"
 #include "vellum/illustration/shape.hpp"
 #include "vellum/render/render_settings.hpp"
@@ -26,6 +27,8 @@ std::string parametersMarkdown() {
          params::markdown(segmentation::hysteresisParamsTable()) + "\n";
   out += "## CT table removal — `BodyMaskParams` (`--remove-table`; flags `--table-<key>`)\n\n" +
          params::markdown(segmentation::bodyMaskParamsTable());
+  out += "\n## Segmentation — `app::SegmentRequest` (`vellum segment`, the studio's snake)\n\n" +
+         params::markdown(app::segmentRequestTable());
   out += "\n## Shape pipeline — `ShapeOptions` (`vellum shape`)\n\n" + params::markdown(illustration::shapeOptionsTable());
   return out;
 }

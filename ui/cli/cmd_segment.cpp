@@ -7,6 +7,7 @@
 #include <memory>
 #include <sstream>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/app/segment_pipeline.hpp"
@@ -158,29 +159,9 @@ void addSegmentCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("segment", "Segment a CT volume into a label map (thresholds, Otsu, region growing, 3D snakes)");
   cmd->add_option("input", a->input, "input volume (file or DICOM folder)")->required();
   cmd->add_option("--out,-o", a->out, "output label map (.nrrd keeps the label table)")->required();
-  cmd->add_option("--method", a->request.method, "threshold | otsu | multi-otsu | hysteresis | grow | confidence | snake")->capture_default_str();
-  cmd->add_option("--preset", a->request.preset, "HU interval preset: bone [700,3071] (cortex), whole-bone [550,3071] (with --fill-holes-slices), soft-tissue [-500,300], skin-air [-500,3071], fat [-190,-30], lung [-950,-500]");
-  cmd->add_option("--lower", a->request.lower, "lower HU (overrides the preset; otsu: histogram range; hysteresis: weak threshold)");
-  cmd->add_option("--upper", a->request.upper, "upper HU (overrides the preset)");
-  cmd->add_option("--strong", a->request.strong, "hysteresis: strong threshold in HU (default: strong_lower in `vellum params`)");
-  cmd->add_option("--classes", a->request.classes, "multi-otsu: number of classes (2..8)")->capture_default_str();
+  // Method, its settings and post-processing: flags generated from the request's table.
+  addFlags(*cmd, a->request, app::segmentRequestTable());
   cmd->add_option("--seed", a->seeds, "seed point x,y,z in mm (repeatable; snake: bubble centres)");
-  cmd->add_option("--radius", a->request.bubbleRadiusMm, "snake: bubble radius in mm")->capture_default_str();
-  cmd->add_option("--speed", a->request.speed, "snake speed: threshold (region competition) | edge")->capture_default_str();
-  cmd->add_option("--iterations", a->request.iterations, "snake: iteration limit (default 2000); confidence: passes (default 4)");
-  cmd->add_option("--curvature", a->request.curvature, "snake: curvature weight")->capture_default_str();
-  cmd->add_option("--propagation", a->request.propagation, "snake: propagation weight")->capture_default_str();
-  cmd->add_option("--advection", a->request.advection, "snake: advection weight (default 0 threshold, 2 edge)");
-  cmd->add_option("--sigma", a->request.sigma, "edge speed: Gaussian sigma in mm")->capture_default_str();
-  cmd->add_option("--kappa", a->request.kappa, "edge speed: gradient (HU/mm) where g = 0.5")->capture_default_str();
-  cmd->add_option("--exponent", a->request.exponent, "edge speed: g = 1/(1+(|grad|/kappa)^exponent)")->capture_default_str();
-  cmd->add_option("--multiplier", a->request.multiplier, "confidence: interval = mean +- multiplier * std")->capture_default_str();
-  cmd->add_option("--close", a->request.post.closeMm, "post: morphological closing radius in mm");
-  cmd->add_option("--open", a->request.post.openMm, "post: morphological opening radius in mm");
-  cmd->add_flag("--fill-holes", a->request.post.fillHoles, "post: fill enclosed cavities (3D)");
-  cmd->add_flag("--fill-holes-slices", a->request.post.fillHolesSlices, "post: fill holes enclosed in any axial, coronal or sagittal slice (then 3D)");
-  cmd->add_option("--min-island", a->request.post.minIslandMm3, "post: remove pieces smaller than this volume in mm³");
-  cmd->add_flag("--keep-largest", a->request.post.keepLargest, "post: keep the largest piece (with seeds: the pieces holding them)");
   cmd->add_option("--into", a->into, "add the segment into this existing label map (written to --out)");
   cmd->add_option("--label-id", a->labelId, "segment id (default: the lowest free id)");
   cmd->add_option("--label-name", a->labelName, "segment name (default: the method)");

@@ -16,6 +16,7 @@
 #include "loader.hpp"
 #include "recent_files.hpp"
 #include "shape_job.hpp"
+#include "vellum/app/segment_pipeline.hpp"
 #include "snake_job.hpp"
 #include "scene.hpp"
 #include "undo.hpp"
@@ -54,6 +55,14 @@ struct ToolState {
   segmentation::HuInterval threshold = segmentation::presetInterval(segmentation::Preset::Bone);
   bool thresholdPreview = false;
   PointTool pointTool = PointTool::Move;
+  /// The snake tool's settings (speed, weights, iterations, post-processing), edited through
+  /// segmentRequestTable() like `vellum segment`'s flags; the seed, the bubble radius (the
+  /// brush radius) and the HU range (the threshold's) come from the tools above.
+  app::SegmentRequest snake = [] {
+    app::SegmentRequest r;
+    r.method = "snake";
+    return r;
+  }();
 };
 
 /// The attribute change of a drag by (dx, dy) pixels from `start` with an attribute tool.

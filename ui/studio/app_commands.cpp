@@ -168,7 +168,7 @@ void StudioApp::otsuThreshold() {
 
 void StudioApp::startSnake(const Vec3& seedMm) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  if (!snake_.start({scene_.ct, seedMm, tools_.brushRadiusMm, tools_.threshold, scene_.volumeGeneration}))
+  if (!snake_.start({scene_.ct, tools_.snake, seedMm, tools_.brushRadiusMm, tools_.threshold, scene_.volumeGeneration}))
     throw Error("a snake is already running; cancel it first (Escape)");
 }
 

@@ -170,6 +170,12 @@ void segmentationSection(StudioApp& app) {
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("click a seed in a slice: 3D level-set snake from a bubble of the brush radius,\n"
                       "inside = the HU range (e.g. the soft-tissue preset); Escape cancels");
+  if (ImGui::TreeNode("Snake settings (vellum segment)")) {
+    // Generated from the request table `vellum segment --method snake` takes its flags from.
+    editParams(app::segmentRequestTable(), app.tools().snake,
+               {"method", "preset", "lower", "upper", "strong", "classes", "radius", "multiplier"});
+    ImGui::TreePop();
+  }
   if (app.snakeJob().busy()) {
     const auto [stage, fraction] = app.snakeJob().progress();
     ImGui::TextUnformatted(stage.c_str());

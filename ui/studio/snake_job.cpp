@@ -21,7 +21,7 @@ bool SnakeJob::start(SnakeRequest request) {
   return job_.start(
       [this, request = std::move(request)](Progress& progress) {
         // The request `vellum segment --method snake --lower L --upper U --seed S --radius R` makes.
-        app::SegmentRequest snake;
+        app::SegmentRequest snake = request.settings;
         snake.method = "snake";
         snake.lower = request.interval.lower;
         snake.upper = request.interval.upper;

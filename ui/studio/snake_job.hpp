@@ -8,6 +8,7 @@
 #include <string>
 
 #include "background_job.hpp"
+#include "vellum/app/segment_pipeline.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/segmentation/snake.hpp"
 #include "vellum/segmentation/threshold.hpp"
@@ -16,6 +17,7 @@ namespace vellum::studio {
 
 struct SnakeRequest {
   VolumeI16 ct;  ///< a copy: the scene may change while the snake runs
+  app::SegmentRequest settings;  ///< speed, weights, iterations, post-processing (method: snake)
   Vec3 seedMm;
   double bubbleRadiusMm = 4;
   segmentation::HuInterval interval{-500, 300};  ///< the threshold speed's inside range

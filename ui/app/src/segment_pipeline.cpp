@@ -64,7 +64,7 @@ seg::Mask runMethod(const SegmentRequest& a, const VolumeI16& ct, nlohmann::json
     needSeeds();
     seg::ConfidenceParams p;
     p.multiplier = a.multiplier;
-    if (a.iterations > 0) p.iterations = a.iterations;
+    if (a.iterations) p.iterations = *a.iterations;
     auto r = seg::confidenceConnected(ct, seeds, p, progress);
     info["interval_hu"] = {r.finalInterval.lower, r.finalInterval.upper};
     info["iterations"] = r.iterations;
@@ -85,8 +85,8 @@ seg::Mask runMethod(const SegmentRequest& a, const VolumeI16& ct, nlohmann::json
     seg::SnakeParams p;
     p.propagation = a.propagation;
     p.curvature = a.curvature;
-    if (a.advection >= 0) p.advection = a.advection;
-    if (a.iterations > 0) p.maxIterations = a.iterations;
+    p.advection = a.advection;
+    if (a.iterations) p.maxIterations = *a.iterations;
     std::vector<seg::Bubble> bubbles;
     for (const Vec3& s : seeds) bubbles.push_back({s, a.bubbleRadiusMm});
     auto r = seg::evolveSnake(speed, bubbles, p, progress, observe, 5);
@@ -120,8 +120,52 @@ seg::Mask postProcess(const SegmentRequest& r, seg::Mask m, nlohmann::json& info
 
 }  // namespace
 
+const params::Table<SegmentRequest>& segmentRequestTable() {
+  using R = SegmentRequest;
+  using params::real, params::integer, params::flag, params::text;
+  static const params::Table<R> t{
+      text<R>("method", [](auto& r) -> auto& { return r.method; }, {"Method", "segmentation method", ""},
+              {"threshold", "otsu", "multi-otsu", "hysteresis", "grow", "confidence", "snake"}),
+      text<R>("preset", [](auto& r) -> auto& { return r.preset; },
+              {"HU preset", "interval preset (bone [700,3071] cortex, whole-bone [550,3071], soft-tissue [-500,300], "
+                            "skin-air [-500,3071], fat [-190,-30], lung [-950,-500]); empty: the method's default", ""}),
+      real<R>("lower", [](auto& r) -> auto& { return r.lower; },
+              {"Lower", "lower bound (overrides the preset; otsu: histogram range; hysteresis: weak threshold)", "HU", -32768, 32767}),
+      real<R>("upper", [](auto& r) -> auto& { return r.upper; }, {"Upper", "upper bound (overrides the preset)", "HU", -32768, 32767}),
+      real<R>("strong", [](auto& r) -> auto& { return r.strong; },
+              {"Strong", "hysteresis: lower bound of the strong interval (unset: the hysteresis table's)", "HU", -32768, 32767}),
+      integer<R>("classes", [](auto& r) -> auto& { return r.classes; }, {"Classes", "multi-otsu: number of classes", "", 2, 8}),
+      real<R>("radius", [](auto& r) -> auto& { return r.bubbleRadiusMm; }, {"Bubble radius", "snake: seed bubble radius", "mm", 0.1, 500}),
+      integer<R>("iterations", [](auto& r) -> auto& { return r.iterations; },
+                 {"Iterations", "snake: iteration limit (unset 2000); confidence: passes (unset 4)", "", 1, 100000}),
+      text<R>("speed", [](auto& r) -> auto& { return r.speed; },
+              {"Snake speed", "threshold (region competition inside the HU interval) | edge (stops at gradients)", ""},
+              {"threshold", "edge"}),
+      real<R>("curvature", [](auto& r) -> auto& { return r.curvature; }, {"Curvature", "snake: curvature weight (smooths)", "mm", 0, 100}),
+      real<R>("propagation", [](auto& r) -> auto& { return r.propagation; }, {"Propagation", "snake: propagation weight", "", -10, 10}),
+      real<R>("advection", [](auto& r) -> auto& { return r.advection; },
+              {"Advection", "snake: advection weight (unset: 0 threshold speed, 2 edge speed)", "", 0, 100}),
+      real<R>("sigma", [](auto& r) -> auto& { return r.sigma; }, {"Edge sigma", "edge speed: Gaussian sigma", "mm", 0, 50}),
+      real<R>("kappa", [](auto& r) -> auto& { return r.kappa; }, {"Edge kappa", "edge speed: gradient where g = 0.5", "HU/mm", 1, 100000}),
+      real<R>("exponent", [](auto& r) -> auto& { return r.exponent; }, {"Edge exponent", "edge speed: g = 1/(1+(|grad|/kappa)^exponent)", "", 0.5, 16}),
+      real<R>("multiplier", [](auto& r) -> auto& { return r.multiplier; },
+              {"Confidence multiplier", "confidence: interval = mean +- multiplier * std", "", 0.1, 20}),
+      real<R>("close", [](auto& r) -> auto& { return r.post.closeMm; }, {"Close", "post: morphological closing radius (0 = off)", "mm", 0, 100}),
+      real<R>("open", [](auto& r) -> auto& { return r.post.openMm; }, {"Open", "post: morphological opening radius (0 = off)", "mm", 0, 100}),
+      flag<R>("fill_holes", [](auto& r) -> auto& { return r.post.fillHoles; }, {"Fill holes", "post: fill enclosed cavities (3D)", ""}),
+      flag<R>("fill_holes_slices", [](auto& r) -> auto& { return r.post.fillHolesSlices; },
+              {"Fill holes in slices", "post: fill holes enclosed in any axial, coronal or sagittal slice (then 3D)", ""}),
+      real<R>("min_island", [](auto& r) -> auto& { return r.post.minIslandMm3; },
+              {"Min island", "post: remove pieces smaller than this volume (0 = off)", "mm³", 0, 1e12}),
+      flag<R>("keep_largest", [](auto& r) -> auto& { return r.post.keepLargest; },
+              {"Keep largest", "post: keep the largest piece (with seeds: the pieces holding them)", ""}),
+  };
+  return t;
+}
+
 SegmentOutcome runSegmentation(const VolumeI16& ct, const SegmentRequest& request, Progress& progress,
                                const seg::SnakeObserver& observe) {
+  params::validate(segmentRequestTable(), request);
   SegmentOutcome out;
   out.mask = runMethod(request, ct, out.info, out.classes, progress, observe);
   if (!out.classes) out.mask = postProcess(request, std::move(out.mask), out.info);

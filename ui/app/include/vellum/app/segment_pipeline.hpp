@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/params.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/segmentation/mask.hpp"
@@ -25,6 +26,8 @@ struct SegmentPostProcessing {
   bool keepLargest = false;        ///< keep the largest component (with seeds: those holding a seed)
 };
 
+/// Every field but the seeds is described once in segmentRequestTable() (`vellum segment`'s
+/// flags, the studio's segmentation settings, docs/parameters.md).
 struct SegmentRequest {
   /// threshold | otsu | multi-otsu | hysteresis | grow | confidence | snake
   std::string method = "threshold";
@@ -34,14 +37,16 @@ struct SegmentRequest {
   int classes = 3;                            ///< multi-otsu
   std::vector<Vec3> seedsMm;                  ///< grow, confidence, snake
   double bubbleRadiusMm = 5;                  ///< snake: seed bubble radius
-  int iterations = 0;                         ///< confidence / snake; 0 = the method's default
+  std::optional<int> iterations;              ///< confidence / snake; unset = the method's default
   std::string speed = "threshold";            ///< snake: threshold | edge
   double curvature = 0.2, propagation = 1.0;  ///< snake weights
-  double advection = -1;                      ///< snake; < 0: the speed's default (0 threshold, 2 edge)
+  std::optional<double> advection;            ///< snake; unset: the speed's default (0 threshold, 2 edge)
   double sigma = 1.0, kappa = 120, exponent = 4;  ///< snake edge speed
   double multiplier = 2.5;                    ///< confidence
   SegmentPostProcessing post;
 };
+
+const params::Table<SegmentRequest>& segmentRequestTable();
 
 struct SegmentOutcome {
   segmentation::Mask mask;             ///< empty for multi-otsu
