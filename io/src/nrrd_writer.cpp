@@ -5,6 +5,7 @@
 #include "io_detail.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/atomic_file.hpp"
+#include "vellum/io/compression.hpp"
 
 namespace vellum::io {
 namespace {
@@ -51,7 +52,7 @@ void writeNrrd(const std::filesystem::path& path, const NrrdLayout& layout, cons
   detail::ByteView body{static_cast<const uint8_t*>(bytes), byteCount};
   if (gzip) {
     if (progress) progress->begin("compressing " + path.filename().string(), 1);
-    packed = detail::deflateBytes(body.data, body.size, true);
+    packed = gzipCompress(body.data, body.size);
     if (progress) progress->end();
     body = {packed.data(), packed.size()};
   }
