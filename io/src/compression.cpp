@@ -98,15 +98,15 @@ void inflateChecked(const std::filesystem::path& path, const uint8_t* src, size_
     }
   }
   inflateEnd(&zs);
-  if (problem.empty() && produced != expected)
-    problem = "compressed data decodes to " + std::to_string(produced) + " bytes, expected " +
-              std::to_string(expected);
+  if (problem.empty() && produced != expected)  // the last member ended early: data are missing
+    problem = "compressed data is truncated (decodes to " + std::to_string(produced) + " bytes, expected " +
+              std::to_string(expected) + ")";
   if (!problem.empty()) throw FileError(path, problem);
 }
 
 }  // namespace
 
-std::vector<uint8_t> gzipCompress(const void* data, size_t n) {
+GzipBytes gzipCompress(const void* data, size_t n) {
   const auto* src = static_cast<const uint8_t*>(data);
   const size_t members = std::max<size_t>(1, (n + kGzipMemberBytes - 1) / kGzipMemberBytes);
   // Each member compresses into its own slot of the worst-case size, then slots are packed.
@@ -118,22 +118,20 @@ std::vector<uint8_t> gzipCompress(const void* data, size_t n) {
       slot[m + 1] = slot[m] + libdeflate_gzip_compress_bound(c.get(), std::min(kGzipMemberBytes, n - m * kGzipMemberBytes));
   }
   checkMemoryBudget(slot[members], "compressed data");
-  std::vector<uint8_t> out(slot[members]);
+  GzipBytes out{std::unique_ptr<uint8_t[]>(new uint8_t[slot[members]]), 0};
   parallelFor(static_cast<int64_t>(members), [&](int64_t b, int64_t e) {
     std::unique_ptr<libdeflate_compressor, CompressorFree> c(libdeflate_alloc_compressor(kLevel));
     if (!c) throw Error("libdeflate: cannot allocate a compressor");
     for (auto m = static_cast<size_t>(b); m < static_cast<size_t>(e); ++m) {
       const size_t offset = m * kGzipMemberBytes, len = std::min(kGzipMemberBytes, n - std::min(n, offset));
-      packed[m] = libdeflate_gzip_compress(c.get(), src + offset, len, out.data() + slot[m], slot[m + 1] - slot[m]);
+      packed[m] = libdeflate_gzip_compress(c.get(), src + offset, len, out.data.get() + slot[m], slot[m + 1] - slot[m]);
       if (packed[m] == 0) throw Error("libdeflate: compression failed");
     }
   });
-  size_t size = 0;
   for (size_t m = 0; m < members; ++m) {
-    std::memmove(out.data() + size, out.data() + slot[m], packed[m]);
-    size += packed[m];
+    std::memmove(out.data.get() + out.size, out.data.get() + slot[m], packed[m]);
+    out.size += packed[m];
   }
-  out.resize(size);
   return out;
 }
 
