@@ -119,6 +119,7 @@ GzipBytes gzipCompress(const void* data, size_t n) {
   }
   checkMemoryBudget(slot[members], "compressed data");
   GzipBytes out{std::unique_ptr<uint8_t[]>(new uint8_t[slot[members]]), 0};
+  adviseHugePages(out.data.get(), slot[members]);
   parallelFor(static_cast<int64_t>(members), [&](int64_t b, int64_t e) {
     std::unique_ptr<libdeflate_compressor, CompressorFree> c(libdeflate_alloc_compressor(kLevel));
     if (!c) throw Error("libdeflate: cannot allocate a compressor");
