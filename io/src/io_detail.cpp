@@ -88,22 +88,21 @@ void checkFileHolds(const fs::path& path, uint64_t offset, uint64_t count) {
 }
 
 void readInto(const fs::path& path, uint64_t offset, uint64_t count, uint8_t* dst, Progress* progress) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw FileError(path, "cannot open for reading");
+  struct Fd {  // closed on every exit, also when progress cancels
+    int fd;
+    ~Fd() { if (fd >= 0) ::close(fd); }
+  } f{::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
+  if (f.fd < 0) throw FileError(path, "cannot open for reading");
   constexpr uint64_t kChunk = 16u << 20;  // large reads straight into the destination
   if (progress) progress->begin("reading " + path.filename().string(), (count + kChunk - 1) / kChunk);
   for (uint64_t done = 0; done < count;) {
-    const ssize_t got = ::pread(fd, dst + done, static_cast<size_t>(std::min(kChunk, count - done)),
-                                static_cast<off_t>(offset + done));
+    const uint64_t want = std::min(kChunk, count - done);
+    const ssize_t got = ::pread(f.fd, dst + done, static_cast<size_t>(want), static_cast<off_t>(offset + done));
     if (got < 0 && errno == EINTR) continue;
-    if (got <= 0) {
-      ::close(fd);
-      throw FileError(path, got == 0 ? "read error (truncated?)" : "read error");
-    }
+    if (got <= 0) throw FileError(path, got == 0 ? "read error (truncated?)" : "read error");
     done += static_cast<uint64_t>(got);
-    if (progress && (done % kChunk == 0 || done == count)) progress->advance();
+    if (progress && (static_cast<uint64_t>(got) == want || done == count)) progress->advance();
   }
-  ::close(fd);
   if (progress) progress->end();
 }
 
