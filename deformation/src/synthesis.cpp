@@ -362,6 +362,17 @@ __attribute__((target("avx2,fma"))) void fetchRowI16Avx2(const VolumeI16& src, c
                 lastZ = _mm256_set1_epi32(static_cast<int>(d.z - 1)), minus1 = _mm256_set1_epi32(-1);
   const __m256i sx = _mm256_set1_epi32(static_cast<int>(d.x)), sxy = _mm256_set1_epi32(static_cast<int>(d.x * d.y));
   const __m256 half = _mm256_set1_ps(0.5f), lo = _mm256_set1_ps(-32768.f), hi = _mm256_set1_ps(32767.f);
+  const auto rounded = [](float v) { return static_cast<int16_t>(std::floor(std::clamp(v, -32768.f, 32767.f) + 0.5f)); };
+  const int16_t background = rounded(bg);
+  // Lanes whose cell leaves the grid: background at once when it lies a voxel or more beyond
+  // the outer centres on some axis (what sampleLinear returns there; NaN included), else the
+  // scalar sample with its background-weighted border.
+  const float ex = static_cast<float>(d.x), ey = static_cast<float>(d.y), ez = static_cast<float>(d.z);
+  const auto scalarAt = [&](int64_t t) -> int16_t {
+    const float x = ux[t], y = uy[t], z = uz[t];
+    if (!(x >= -1.f && y >= -1.f && z >= -1.f && x < ex && y < ey && z < ez)) return background;
+    return rounded(static_cast<float>(src.sampleLinear({x, y, z})));
+  };
   int64_t i = 0;
   for (; i + 8 <= n; i += 8) {
     const __m256 x = _mm256_loadu_ps(ux + i), y = _mm256_loadu_ps(uy + i), z = _mm256_loadu_ps(uz + i);
@@ -373,8 +384,7 @@ __attribute__((target("avx2,fma"))) void fetchRowI16Avx2(const VolumeI16& src, c
         _mm256_and_si256(_mm256_cmpgt_epi32(iz, minus1), _mm256_cmpgt_epi32(lastZ, iz)));
     const int mask = _mm256_movemask_ps(_mm256_castsi256_ps(in));
     if (mask == 0) {
-      for (int l = 0; l < 8; ++l)
-        out[i + l] = static_cast<int16_t>(std::floor(static_cast<float>(src.sampleLinear({ux[i + l], uy[i + l], uz[i + l]})) + 0.5f));
+      for (int l = 0; l < 8; ++l) out[i + l] = scalarAt(i + l);
       continue;
     }
     __m256i base = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(iz, sxy), _mm256_mullo_epi32(iy, sx)), ix);
@@ -395,16 +405,9 @@ __attribute__((target("avx2,fma"))) void fetchRowI16Avx2(const VolumeI16& src, c
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), _mm256_castsi256_si128(r));
     if (mask != 0xFF)
       for (int l = 0; l < 8; ++l)
-        if (!(mask & (1 << l))) {
-          const double s = src.sampleLinear({ux[i + l], uy[i + l], uz[i + l]});
-          out[i + l] = static_cast<int16_t>(std::floor(std::clamp(static_cast<float>(s), -32768.f, 32767.f) + 0.5f));
-        }
+        if (!(mask & (1 << l))) out[i + l] = scalarAt(i + l);
   }
-  for (; i < n; ++i) {
-    const double s = src.sampleLinear({ux[i], uy[i], uz[i]});
-    out[i] = static_cast<int16_t>(std::floor(std::clamp(static_cast<float>(s), -32768.f, 32767.f) + 0.5f));
-  }
-  (void)bg;
+  for (; i < n; ++i) out[i] = scalarAt(i);
 }
 
 bool haveAvx2() {
