@@ -213,7 +213,7 @@ void Deformer::Impl::computeMap(Progress& progress) {
   cv.grid = grid;
   cv.scale = params.controlScale;
   cv.rigidSnap.reset();
-  cv.sourceMm.resize(static_cast<size_t>(d.voxelCount()) * 3);
+  resizeHugePaged(cv.sourceMm, static_cast<size_t>(d.voxelCount()) * 3);
   if (withAttr) cv.attributes.resize(static_cast<size_t>(d.voxelCount()) * 4);
   else cv.attributes.clear();
 

@@ -272,13 +272,32 @@ std::optional<PreparedSnap> prepareSnap(const ControlVolume& cv, const Geometry&
   return p;
 }
 
+// An affine change of frame applied to each z-blended plane of nodes (u' = A u + b, A
+// row-major): the z, y and x weights each sum to 1, so transforming the blended plane equals
+// transforming every node first, without a converted copy of the whole node map.
+struct PlaneAffine {
+  float a[9], b[3];
+};
+
+VELLUM_SIMD_CLONES void applyAffine(const PlaneAffine& m, float* xyz, int64_t nodes) {
+  const float* a = m.a;
+  for (int64_t t = 0; t < nodes; ++t) {
+    float* p = xyz + 3 * t;
+    const float x = p[0], y = p[1], z = p[2];
+    p[0] = a[0] * x + a[1] * y + a[2] * z + m.b[0];
+    p[1] = a[3] * x + a[4] * y + a[5] * z + m.b[1];
+    p[2] = a[6] * x + a[7] * y + a[8] * z + m.b[2];
+  }
+}
+
 // Upsamples the node map `map3` (3 floats per node) to every output voxel, one row at a time:
 // rowFn(k, j, ux, uy, uz) receives the coordinates of output row (j, k) as three arrays.
 // Separable: node planes are blended in z, then rows in y, then voxels in x.
 template <int Taps, class RowFn>
 void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od, int scale,
                   const AxisTaps<Taps>& tx, const AxisTaps<Taps>& ty, const AxisTaps<Taps>& tz,
-                  const PreparedSnap* snap, Progress& progress, const char* stage, RowFn&& rowFn) {
+                  const PlaneAffine* toFrame, const PreparedSnap* snap, Progress& progress,
+                  const char* stage, RowFn&& rowFn) {
   const int64_t planeNodes = nd.x * nd.y;
   // x taps as structure of arrays, node indices premultiplied by 3 (xyz interleaved rows).
   std::vector<int32_t> xi[Taps];
@@ -302,6 +321,7 @@ void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od
       for (int q = 0; q < Taps; ++q)
         if (zw[q] != 0.f)
           axpy(plane.data(), map3.data() + static_cast<size_t>(zi[q] * planeNodes) * 3, zw[q], planeNodes * 3);
+      if (toFrame) applyAffine(*toFrame, plane.data(), planeNodes);
       for (int64_t j = 0; j < od.y; ++j) {
         const auto& yi = ty.idx[static_cast<size_t>(j)];
         const auto& yw = ty.w[static_cast<size_t>(j)];
@@ -342,6 +362,17 @@ __attribute__((target("avx2,fma"))) void fetchRowI16Avx2(const VolumeI16& src, c
                 lastZ = _mm256_set1_epi32(static_cast<int>(d.z - 1)), minus1 = _mm256_set1_epi32(-1);
   const __m256i sx = _mm256_set1_epi32(static_cast<int>(d.x)), sxy = _mm256_set1_epi32(static_cast<int>(d.x * d.y));
   const __m256 half = _mm256_set1_ps(0.5f), lo = _mm256_set1_ps(-32768.f), hi = _mm256_set1_ps(32767.f);
+  const auto rounded = [](float v) { return static_cast<int16_t>(std::floor(std::clamp(v, -32768.f, 32767.f) + 0.5f)); };
+  const int16_t background = rounded(bg);
+  // Lanes whose cell leaves the grid: background at once when it lies a voxel or more beyond
+  // the outer centres on some axis (what sampleLinear returns there; NaN included), else the
+  // scalar sample with its background-weighted border.
+  const float ex = static_cast<float>(d.x), ey = static_cast<float>(d.y), ez = static_cast<float>(d.z);
+  const auto scalarAt = [&](int64_t t) -> int16_t {
+    const float x = ux[t], y = uy[t], z = uz[t];
+    if (!(x >= -1.f && y >= -1.f && z >= -1.f && x < ex && y < ey && z < ez)) return background;
+    return rounded(static_cast<float>(src.sampleLinear({x, y, z})));
+  };
   int64_t i = 0;
   for (; i + 8 <= n; i += 8) {
     const __m256 x = _mm256_loadu_ps(ux + i), y = _mm256_loadu_ps(uy + i), z = _mm256_loadu_ps(uz + i);
@@ -353,8 +384,7 @@ __attribute__((target("avx2,fma"))) void fetchRowI16Avx2(const VolumeI16& src, c
         _mm256_and_si256(_mm256_cmpgt_epi32(iz, minus1), _mm256_cmpgt_epi32(lastZ, iz)));
     const int mask = _mm256_movemask_ps(_mm256_castsi256_ps(in));
     if (mask == 0) {
-      for (int l = 0; l < 8; ++l)
-        out[i + l] = static_cast<int16_t>(std::floor(static_cast<float>(src.sampleLinear({ux[i + l], uy[i + l], uz[i + l]})) + 0.5f));
+      for (int l = 0; l < 8; ++l) out[i + l] = scalarAt(i + l);
       continue;
     }
     __m256i base = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(iz, sxy), _mm256_mullo_epi32(iy, sx)), ix);
@@ -375,16 +405,9 @@ __attribute__((target("avx2,fma"))) void fetchRowI16Avx2(const VolumeI16& src, c
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), _mm256_castsi256_si128(r));
     if (mask != 0xFF)
       for (int l = 0; l < 8; ++l)
-        if (!(mask & (1 << l))) {
-          const double s = src.sampleLinear({ux[i + l], uy[i + l], uz[i + l]});
-          out[i + l] = static_cast<int16_t>(std::floor(std::clamp(static_cast<float>(s), -32768.f, 32767.f) + 0.5f));
-        }
+        if (!(mask & (1 << l))) out[i + l] = scalarAt(i + l);
   }
-  for (; i < n; ++i) {
-    const double s = src.sampleLinear({ux[i], uy[i], uz[i]});
-    out[i] = static_cast<int16_t>(std::floor(std::clamp(static_cast<float>(s), -32768.f, 32767.f) + 0.5f));
-  }
-  (void)bg;
+  for (; i < n; ++i) out[i] = scalarAt(i);
 }
 
 bool haveAvx2() {
@@ -395,14 +418,14 @@ bool haveAvx2() {
 
 template <class RowFn>
 void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od, int s,
-                 Upsampling up, const PreparedSnap* snap, Progress& progress, const char* stage,
-                 RowFn&& rowFn) {
+                 Upsampling up, const PlaneAffine* toFrame, const PreparedSnap* snap, Progress& progress,
+                 const char* stage, RowFn&& rowFn) {
   if (up == Upsampling::Trilinear)
     upsampleRows(map3, nd, od, s, linearTaps(od.x, nd.x, s), linearTaps(od.y, nd.y, s),
-                 linearTaps(od.z, nd.z, s), snap, progress, stage, rowFn);
+                 linearTaps(od.z, nd.z, s), toFrame, snap, progress, stage, rowFn);
   else
     upsampleRows(map3, nd, od, s, gaussianTaps(od.x, nd.x, s), gaussianTaps(od.y, nd.y, s),
-                 gaussianTaps(od.z, nd.z, s), snap, progress, stage, rowFn);
+                 gaussianTaps(od.z, nd.z, s), toFrame, snap, progress, stage, rowFn);
 }
 
 void checkGrid(const Geometry& g, const ControlVolume& cv) {
@@ -418,21 +441,17 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsamplin
                      Progress& progress) {
   const Geometry& g = geometryOf(source);
   checkGrid(g, cv);
-  // Map in source index coordinates (float), so the per-voxel work is interpolation + fetch.
-  const Mat3 toMm = g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0},
-                                                    {0, 0, g.spacing.z});
+  // The map goes to source index coordinates plane by plane (PlaneAffine), so the per-voxel
+  // work is interpolation + fetch.
+  const Mat3 toMm = indexToMm(g);
   Mat3 inv;
   if (!toMm.inverse(inv)) throw Error("synthesize: singular geometry");
-  std::vector<float> mapIdx(cv.sourceMm.size());
-  const int64_t nodes = cv.grid.dims.voxelCount();
-  parallelFor(nodes, [&](int64_t a, int64_t b) {
-    for (int64_t t = a; t < b; ++t) {
-      const Vec3 idx = inv * (cv.sourceAt(t) - g.origin);
-      mapIdx[3 * t] = static_cast<float>(idx.x);
-      mapIdx[3 * t + 1] = static_cast<float>(idx.y);
-      mapIdx[3 * t + 2] = static_cast<float>(idx.z);
-    }
-  }, 4096);
+  const Vec3 shift = inv * g.origin;
+  PlaneAffine toIndex{};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) toIndex.a[3 * r + c] = static_cast<float>(inv(r, c));
+    toIndex.b[r] = static_cast<float>(-shift[r]);
+  }
   const auto snap = prepareSnap(cv, g, toMm, g.origin);
   return std::visit(
       [&](const auto& src) -> AnyVolume {
@@ -445,7 +464,8 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsamplin
         // int32 voxel offsets in the gather path
         const bool avx2 = haveAvx2() && od.voxelCount() < (int64_t{1} << 31) - 4 * od.x * od.y;
 #endif
-        upsampleAny(mapIdx, cv.grid.dims, od, cv.scale, upsampling, snap ? &*snap : nullptr, progress, "synthesis",
+        upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, &toIndex, snap ? &*snap : nullptr, progress,
+                    "synthesis",
                     [&](int64_t k, int64_t j, const float* ux, const float* uy, const float* uz) {
                       T* o = out.data() + (k * od.y + j) * od.x;
 #ifdef VELLUM_HAVE_AVX2_PATH
@@ -470,7 +490,8 @@ std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output, 
   const Dims od = output.dims;
   std::vector<float> out(static_cast<size_t>(od.voxelCount()) * 3);
   const auto snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
-  upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, snap ? &*snap : nullptr, progress, "backward map",
+  upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, nullptr, snap ? &*snap : nullptr, progress,
+              "backward map",
               [&](int64_t k, int64_t j, const float* ux, const float* uy, const float* uz) {
                 float* o = out.data() + static_cast<size_t>((k * od.y + j) * od.x) * 3;
                 for (int64_t i = 0; i < od.x; ++i) {

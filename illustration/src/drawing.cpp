@@ -1,5 +1,6 @@
-// OpenCV side of the curve analogy: C0 from a drawing, and the before/after plate.
-#include <opencv2/imgcodecs.hpp>
+// OpenCV side of the curve analogy: C0 from a drawing, and the before/after plate (PNG codecs
+// through io::codecs, loaded on first use).
+#include <opencv2/imgcodecs.hpp>  // flag constants only
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -8,13 +9,16 @@
 #include "vellum/core/error.hpp"
 #include "vellum/illustration/curve_analogy.hpp"
 #include "vellum/io/atomic_file.hpp"
+#include "vellum/io/image_codecs.hpp"
 
 namespace vellum::illustration {
 
 Polyline2 loadDrawingOutline(const std::filesystem::path& path, int& width, int& height,
                              int darkThreshold) {
-  const cv::Mat grey = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
-  if (grey.empty()) throw FileError(path, "cannot read the drawing (PNG or JPG expected)");
+  cv::Mat grey;
+  std::string error;
+  if (!io::codecs::imread(path, cv::IMREAD_GRAYSCALE, grey, error) || grey.empty())
+    throw FileError(path, "cannot read the drawing (PNG or JPG expected)" + (error.empty() ? "" : ": " + error));
   width = grey.cols;
   height = grey.rows;
   cv::Mat dark;
@@ -70,7 +74,8 @@ namespace {
 void writePng(const std::filesystem::path& path, const cv::Mat& img) {
   io::writeAtomically(path, [&](const std::filesystem::path& tmp) {
     std::vector<uchar> buf;
-    if (!cv::imencode(".png", img, buf)) throw FileError(path, "PNG encoding failed");
+    std::string error;
+    if (!io::codecs::imencode(".png", img, buf, error)) throw FileError(path, "PNG encoding failed" + (error.empty() ? "" : ": " + error));
     std::ofstream os(tmp, std::ios::binary);
     os.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size()));
     if (!os) throw FileError(path, "write failed (disk full?)");

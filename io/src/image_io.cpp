@@ -1,5 +1,5 @@
 // Figures through OpenCV, written atomically (the temporary keeps the extension because
-// cv::imwrite picks the encoder from it).
+// cv::imwrite picks the encoder from it). The codecs are loaded on first use (image_codecs.hpp).
 #include "vellum/io/image_io.hpp"
 
 #include <opencv2/core.hpp>
@@ -12,6 +12,7 @@
 
 #include "vellum/core/error.hpp"
 #include "vellum/io/atomic_file.hpp"
+#include "vellum/io/image_codecs.hpp"
 
 namespace vellum::io {
 
@@ -40,12 +41,9 @@ void saveImage(const RgbaImage& image, const fs::path& path) {
   std::vector<int> params;
   if (jpeg) params = {cv::IMWRITE_JPEG_QUALITY, 95};
   writeAtomically(path, [&](const fs::path& tmp) {
-    bool ok = false;
-    try {
-      ok = cv::imwrite(tmp.string(), out, params);
-    } catch (const cv::Exception& e) {
-      throw FileError(path, std::string("OpenCV could not write the image: ") + e.what());
-    }
+    std::string error;
+    const bool ok = codecs::imwrite(tmp, out, params, error);
+    if (!error.empty()) throw FileError(path, "OpenCV could not write the image: " + error);
     if (!ok) throw FileError(path, "OpenCV could not write the image");
   });
 }
@@ -54,11 +52,8 @@ RgbaImage loadImage(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw FileError(path, "no such file");
   cv::Mat m;
-  try {
-    m = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw FileError(path, std::string("cannot decode image: ") + e.what());
-  }
+  std::string error;
+  if (!codecs::imread(path, cv::IMREAD_UNCHANGED, m, error)) throw FileError(path, "cannot decode image: " + error);
   if (m.empty()) throw FileError(path, "cannot decode image (unsupported or corrupt)");
   if (m.depth() == CV_16U) m.convertTo(m, CV_8U, 1.0 / 257.0);
   else if (m.depth() != CV_8U) m.convertTo(m, CV_8U);

@@ -1,14 +1,17 @@
 #include "io_detail.hpp"
 
-#include <zlib.h>
+#include <fcntl.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <optional>
 
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
@@ -76,13 +79,36 @@ std::string readSmallFile(const fs::path& path, uint64_t maxBytes) {
   return s;
 }
 
-std::vector<uint8_t> readBytes(const fs::path& path, uint64_t offset, uint64_t count,
-                               Progress* progress) {
+void checkFileHolds(const fs::path& path, uint64_t offset, uint64_t count) {
   const uint64_t size = fileSize(path);
   if (offset > size || count > size - offset)
     throw FileError(path, "truncated: needs " + std::to_string(count) + " bytes of data at offset " +
                               std::to_string(offset) + ", file has " + std::to_string(size) +
                               " bytes");
+}
+
+void readInto(const fs::path& path, uint64_t offset, uint64_t count, uint8_t* dst, Progress* progress) {
+  struct Fd {  // closed on every exit, also when progress cancels
+    int fd;
+    ~Fd() { if (fd >= 0) ::close(fd); }
+  } f{::open(path.c_str(), O_RDONLY | O_CLOEXEC)};
+  if (f.fd < 0) throw FileError(path, "cannot open for reading");
+  constexpr uint64_t kChunk = 16u << 20;  // large reads straight into the destination
+  if (progress) progress->begin("reading " + path.filename().string(), (count + kChunk - 1) / kChunk);
+  for (uint64_t done = 0; done < count;) {
+    const uint64_t want = std::min(kChunk, count - done);
+    const ssize_t got = ::pread(f.fd, dst + done, static_cast<size_t>(want), static_cast<off_t>(offset + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) throw FileError(path, got == 0 ? "read error (truncated?)" : "read error");
+    done += static_cast<uint64_t>(got);
+    if (progress && (static_cast<uint64_t>(got) == want || done == count)) progress->advance();
+  }
+  if (progress) progress->end();
+}
+
+std::vector<uint8_t> readBytes(const fs::path& path, uint64_t offset, uint64_t count,
+                               Progress* progress) {
+  checkFileHolds(path, offset, count);
   try {
     checkMemoryBudget(count, "file data");
   } catch (const FileError&) {
@@ -91,109 +117,7 @@ std::vector<uint8_t> readBytes(const fs::path& path, uint64_t offset, uint64_t c
     throw FileError(path, e.what());
   }
   std::vector<uint8_t> out(static_cast<size_t>(count));
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path, "cannot open for reading");
-  in.seekg(static_cast<std::streamoff>(offset));
-  constexpr uint64_t kChunk = 16u << 20;
-  if (progress) progress->begin("reading " + path.filename().string(), (count + kChunk - 1) / kChunk);
-  for (uint64_t done = 0; done < count;) {
-    const uint64_t n = std::min(kChunk, count - done);
-    in.read(reinterpret_cast<char*>(out.data() + done), static_cast<std::streamsize>(n));
-    if (static_cast<uint64_t>(in.gcount()) != n) throw FileError(path, "read error (truncated?)");
-    done += n;
-    if (progress) progress->advance();
-  }
-  if (progress) progress->end();
-  return out;
-}
-
-std::vector<uint8_t> inflateExact(const fs::path& path, const uint8_t* src, size_t n,
-                                  uint64_t expected) {
-  // Deflate expands at most 1032:1: a header that claims more cannot be honest, and we refuse
-  // it before allocating (a tiny file must not cost gigabytes of zeroed memory).
-  if (expected / 1032 > n + 64)
-    throw FileError(path, "truncated: " + std::to_string(n) + " compressed bytes cannot hold the " +
-                              std::to_string(expected) + " bytes the header promises");
-  try {
-    checkMemoryBudget(expected, "decompressed data");
-  } catch (const Error& e) {
-    throw FileError(path, e.what());
-  }
-  std::vector<uint8_t> out(static_cast<size_t>(expected));
-  z_stream zs{};
-  if (inflateInit2(&zs, 15 + 32) != Z_OK) throw FileError(path, "zlib initialisation failed");
-  constexpr size_t kChunk = size_t{1} << 30;  // zlib counts in 32-bit units
-  size_t consumed = 0;
-  uint64_t produced = 0;
-  std::string problem;
-  for (;;) {
-    if (zs.avail_in == 0 && consumed < n) {
-      const size_t c = std::min(kChunk, n - consumed);
-      zs.next_in = const_cast<Bytef*>(src + consumed);
-      zs.avail_in = static_cast<uInt>(c);
-      consumed += c;
-    }
-    uint8_t scratch = 0;
-    const bool full = produced == expected;
-    zs.next_out = full ? &scratch : out.data() + produced;
-    zs.avail_out = full ? 1u : static_cast<uInt>(std::min<uint64_t>(kChunk, expected - produced));
-    const uInt outBefore = zs.avail_out, inBefore = zs.avail_in;
-    const int ret = inflate(&zs, Z_NO_FLUSH);
-    const uInt got = outBefore - zs.avail_out;
-    if (full && got > 0) {
-      problem = "compressed data holds more than the expected " + std::to_string(expected) + " bytes";
-      break;
-    }
-    produced += full ? 0 : got;
-    if (ret == Z_STREAM_END) break;
-    if (ret == Z_DATA_ERROR || ret == Z_NEED_DICT || ret == Z_MEM_ERROR || ret == Z_STREAM_ERROR) {
-      problem = std::string("corrupt compressed data (") + (zs.msg ? zs.msg : "zlib error") + ")";
-      break;
-    }
-    if (got == 0 && inBefore == zs.avail_in) {  // no progress: input exhausted
-      problem = "compressed data is truncated (" + std::to_string(produced) + " of " +
-                std::to_string(expected) + " bytes decoded)";
-      break;
-    }
-  }
-  inflateEnd(&zs);
-  if (problem.empty() && produced != expected)
-    problem = "compressed data decodes to " + std::to_string(produced) + " bytes, expected " +
-              std::to_string(expected);
-  if (!problem.empty()) throw FileError(path, problem);
-  return out;
-}
-
-std::vector<uint8_t> deflateBytes(const void* data, size_t n, bool gzipWrapper) {
-  z_stream zs{};
-  // Level 1: CT compresses nearly as well as at level 6, several times faster.
-  if (deflateInit2(&zs, 1, Z_DEFLATED, 15 + (gzipWrapper ? 16 : 0), 8, Z_DEFAULT_STRATEGY) != Z_OK)
-    throw Error("zlib deflateInit failed");
-  std::vector<uint8_t> out(deflateBound(&zs, n) + 64);
-  constexpr size_t kChunk = size_t{1} << 30;
-  const auto* src = static_cast<const uint8_t*>(data);
-  size_t consumed = 0, produced = 0;
-  int ret = Z_OK;
-  while (ret != Z_STREAM_END) {
-    if (zs.avail_in == 0 && consumed < n) {
-      const size_t c = std::min(kChunk, n - consumed);
-      zs.next_in = const_cast<Bytef*>(src + consumed);
-      zs.avail_in = static_cast<uInt>(c);
-      consumed += c;
-    }
-    if (produced == out.size()) out.resize(out.size() * 2);
-    zs.next_out = out.data() + produced;
-    zs.avail_out = static_cast<uInt>(std::min(kChunk, out.size() - produced));
-    const uInt before = zs.avail_out;
-    ret = deflate(&zs, consumed == n ? Z_FINISH : Z_NO_FLUSH);
-    produced += before - zs.avail_out;
-    if (ret == Z_STREAM_ERROR) {
-      deflateEnd(&zs);
-      throw Error("zlib deflate failed");
-    }
-  }
-  deflateEnd(&zs);
-  out.resize(produced);
+  readInto(path, offset, count, out.data(), progress);
   return out;
 }
 
@@ -276,6 +200,40 @@ AnyVolume decodeVoxels(const fs::path& path, std::vector<uint8_t>&& bytes, Sampl
     throw FileError(path, e.what());
   }
   throw FileError(path, "unsupported sample type");
+}
+
+AnyVolume readVoxels(const fs::path& path, SampleType type, Endian endian, const Geometry& geometry,
+                     const std::function<void(uint8_t* dst, uint64_t bytes)>& fill) {
+  const uint64_t n = static_cast<uint64_t>(geometry.dims.voxelCount());
+  const uint64_t bytes = n * sampleSize(type);
+  const auto inPlace = [&](auto zero) -> AnyVolume {
+    using T = decltype(zero);
+    std::optional<Volume<T>> vol;
+    try {
+      vol.emplace(geometry);
+    } catch (const Error& e) {  // memory budget
+      throw FileError(path, e.what());
+    }
+    auto* dst = reinterpret_cast<uint8_t*>(vol->data());
+    fill(dst, bytes);
+    if (endian != hostEndian()) swapInPlace(dst, n, sizeof(T));
+    return std::move(*vol);
+  };
+  switch (type) {
+    case SampleType::UInt8: return inPlace(uint8_t{});
+    case SampleType::Int16: return inPlace(int16_t{});
+    case SampleType::UInt16: return inPlace(uint16_t{});
+    case SampleType::Float32: return inPlace(float{});
+    default: break;
+  }
+  try {
+    checkMemoryBudget(bytes, "file data");
+  } catch (const Error& e) {
+    throw FileError(path, e.what());
+  }
+  std::vector<uint8_t> raw(static_cast<size_t>(bytes));
+  fill(raw.data(), bytes);
+  return decodeVoxels(path, std::move(raw), type, endian, geometry);
 }
 
 ByteView voxelBytes(const AnyVolume& v) {

@@ -3,6 +3,7 @@
 #include <bit>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -28,15 +29,19 @@ constexpr Endian hostEndian() {
 uint64_t fileSize(const fs::path& path);
 /// Whole small text/binary file (header); refuses files above `maxBytes`.
 std::string readSmallFile(const fs::path& path, uint64_t maxBytes = 64u << 20);
+/// FileError "truncated: ..." unless the file holds `count` bytes from `offset`.
+void checkFileHolds(const fs::path& path, uint64_t offset, uint64_t count);
+/// Exactly `count` bytes from `offset` into `dst` (large pread calls, no staging copy);
+/// FileError when the file ends early. Progress per 16 MiB.
+void readInto(const fs::path& path, uint64_t offset, uint64_t count, uint8_t* dst, Progress* progress);
 /// Exactly `count` bytes from `offset`; FileError when the file is shorter (truncated).
 /// Checks the memory budget before allocating and reports progress per 16 MiB chunk.
 std::vector<uint8_t> readBytes(const fs::path& path, uint64_t offset, uint64_t count,
                                Progress* progress);
-/// Inflates a zlib or gzip stream that must decode to exactly `expected` bytes.
+/// Inflates a zlib or gzip stream (one or more members) that must decode to exactly
+/// `expected` bytes (io::inflateExactInto into a new buffer; compression.cpp).
 std::vector<uint8_t> inflateExact(const fs::path& path, const uint8_t* src, size_t n,
                                   uint64_t expected);
-/// Compresses `n` bytes as a gzip (gzipWrapper) or zlib stream at a fast level.
-std::vector<uint8_t> deflateBytes(const void* data, size_t n, bool gzipWrapper);
 
 /// The voxels of `v` as bytes in host order (writers store host order and say so), no copy.
 struct ByteView {
@@ -55,6 +60,13 @@ void writeBinaryFile(const fs::path& tmp, const std::string& prefix, ByteView bo
 /// float64 -> float32 (FileError when a value exceeds the float range). Consumes `bytes`.
 AnyVolume decodeVoxels(const fs::path& path, std::vector<uint8_t>&& bytes, SampleType type,
                        Endian endian, const Geometry& geometry);
+
+/// The volume for `type` samples: fill(dst, bytes) writes the file's samples straight into the
+/// volume's buffer when they are a Volume type (uint8, int16, uint16, float32; byte-swapped in
+/// place if needed), else into a staging buffer that decodeVoxels converts. Memory budget
+/// errors are FileErrors naming `path`.
+AnyVolume readVoxels(const fs::path& path, SampleType type, Endian endian, const Geometry& geometry,
+                     const std::function<void(uint8_t* dst, uint64_t bytes)>& fill);
 
 /// Scales direction columns to unit length (files such as vtk.js index.json round cos 30 to
 /// 0.866); returns a warning when a column was more than 1e-3 away from unit length.

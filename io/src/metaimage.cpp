@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "io_detail.hpp"
+#include "vellum/io/compression.hpp"
 #include "vellum/io/atomic_file.hpp"
 
 namespace vellum::io::detail {
@@ -138,7 +139,7 @@ LoadedVolume loadMetaImage(const fs::path& path, const LoadOptions& options) {
   }
   const uint64_t bytes = static_cast<uint64_t>(g.dims.voxelCount()) * sampleSize(type);
   const uint64_t dataSize = fileSize(dataPath);
-  std::vector<uint8_t> data;
+  AnyVolume vol;
   if (compressed) {
     if (headerSize < 0) throw FileError(path, "HeaderSize = -1 with compressed data");
     const uint64_t off = static_cast<uint64_t>(headerSize);
@@ -149,10 +150,16 @@ LoadedVolume loadMetaImage(const fs::path& path, const LoadOptions& options) {
       if (v >= 1 && v <= double(packedSize)) packedSize = static_cast<uint64_t>(v);
     }
     const auto packed = readBytes(dataPath, off, packedSize, options.progress);
-    data = inflateExact(dataPath, packed.data(), packed.size(), bytes);
+    checkInflatedSize(dataPath, packed.size(), bytes);
+    vol = readVoxels(dataPath, type, endian, g, [&](uint8_t* dst, uint64_t n) {
+      inflateExactInto(dataPath, packed.data(), packed.size(), dst, n);
+    });
   } else {
     const uint64_t off = headerSize < 0 ? (dataSize >= bytes ? dataSize - bytes : 0) : uint64_t(headerSize);
-    data = readBytes(dataPath, off, bytes, options.progress);
+    checkFileHolds(dataPath, off, bytes);
+    vol = readVoxels(dataPath, type, endian, g, [&](uint8_t* dst, uint64_t n) {
+      readInto(dataPath, off, n, dst, options.progress);
+    });
   }
 
   std::string modality;
@@ -161,7 +168,7 @@ LoadedVolume loadMetaImage(const fs::path& path, const LoadOptions& options) {
     if (modality.rfind("MET_MOD_", 0) == 0) modality = modality.substr(8);
     if (modality == "UNKNOWN") modality.clear();
   }
-  LoadedVolume out = makeLoaded(decodeVoxels(dataPath, std::move(data), type, endian, g), "metaimage", modality);
+  LoadedVolume out = makeLoaded(std::move(vol), "metaimage", modality);
   if (!warning.empty()) out.warnings.push_back(warning);
   return out;
 }

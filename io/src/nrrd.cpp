@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "io_detail.hpp"
+#include "vellum/io/compression.hpp"
 #include "vellum/io/nrrd_reader.hpp"
 #include "vellum/io/nrrd_writer.hpp"
 #include "label_fields.hpp"
@@ -332,35 +333,63 @@ NrrdDescription describeNrrd(const fs::path& path, const NrrdHeader& h, int64_t 
   return d;
 }
 
+/// First byte of raw samples (after 'byte skip'; -1: the data end the file).
+uint64_t rawOffset(const NrrdDescription& d, uint64_t bytes) {
+  if (d.byteSkip != -1) return d.offset + static_cast<uint64_t>(d.byteSkip);
+  const uint64_t size = fileSize(d.dataPath);
+  if (size < bytes + d.offset) throw FileError(d.dataPath, "truncated: file smaller than the voxel data");
+  return size - bytes;
+}
+
+/// The whole gzip stream after the header (and line skips).
+std::vector<uint8_t> readPacked(const NrrdDescription& d, const fs::path& path, Progress* progress) {
+  if (d.byteSkip < 0) throw FileError(path, "'byte skip: -1' is not allowed with gzip encoding");
+  const uint64_t size = fileSize(d.dataPath);
+  if (d.offset > size) throw FileError(d.dataPath, "truncated: no compressed data");
+  return readBytes(d.dataPath, d.offset, size - d.offset, progress);
+}
+
+bool isGzip(const std::string& encoding) { return encoding == "gzip" || encoding == "gz"; }
+
 /// The samples as stored (byte order d.endian; ascii text becomes host order and d.endian says so).
 std::vector<uint8_t> readNrrdSamples(NrrdDescription& d, const fs::path& path, Progress* progress) {
   const uint64_t count = d.sampleCount();
   const uint64_t bytes = count * sampleSize(d.type);
-  uint64_t offset = d.offset;
   std::vector<uint8_t> data;
   if (d.encoding == "raw") {
-    if (d.byteSkip == -1) {
-      const uint64_t size = fileSize(d.dataPath);
-      if (size < bytes + offset) throw FileError(d.dataPath, "truncated: file smaller than the voxel data");
-      offset = size - bytes;
-    } else {
-      offset += static_cast<uint64_t>(d.byteSkip);
-    }
-    data = readBytes(d.dataPath, offset, bytes, progress);
-  } else if (d.encoding == "gzip" || d.encoding == "gz") {
-    if (d.byteSkip < 0) throw FileError(path, "'byte skip: -1' is not allowed with gzip encoding");
-    const uint64_t size = fileSize(d.dataPath);
-    if (offset > size) throw FileError(d.dataPath, "truncated: no compressed data");
-    const std::vector<uint8_t> packed = readBytes(d.dataPath, offset, size - offset, progress);
+    data = readBytes(d.dataPath, rawOffset(d, bytes), bytes, progress);
+  } else if (isGzip(d.encoding)) {
+    const std::vector<uint8_t> packed = readPacked(d, path, progress);
     data = inflateExact(d.dataPath, packed.data(), packed.size(), bytes + static_cast<uint64_t>(d.byteSkip));
     if (d.byteSkip > 0) data.erase(data.begin(), data.begin() + d.byteSkip);
   } else if (d.encoding == "ascii" || d.encoding == "text" || d.encoding == "txt") {
-    data = readAscii(d.dataPath, offset + static_cast<uint64_t>(std::max<int64_t>(d.byteSkip, 0)), count, d.type);
+    data = readAscii(d.dataPath, d.offset + static_cast<uint64_t>(std::max<int64_t>(d.byteSkip, 0)), count, d.type);
     d.endian = hostEndian();
   } else {
     throw FileError(path, "unsupported NRRD encoding '" + d.encoding + "' (raw, gzip or ascii)");
   }
   return data;
+}
+
+/// A scalar volume: raw and gzip samples go straight into the volume's buffer (no staging
+/// copy); ascii and gzip with a byte skip through readNrrdSamples.
+AnyVolume readNrrdVolume(NrrdDescription& d, const fs::path& path, Progress* progress) {
+  const uint64_t bytes = d.sampleCount() * sampleSize(d.type);
+  if (d.encoding == "raw") {
+    const uint64_t offset = rawOffset(d, bytes);
+    checkFileHolds(d.dataPath, offset, bytes);
+    return readVoxels(d.dataPath, d.type, d.endian, d.g,
+                      [&](uint8_t* dst, uint64_t n) { readInto(d.dataPath, offset, n, dst, progress); });
+  }
+  if (isGzip(d.encoding) && d.byteSkip == 0) {
+    const std::vector<uint8_t> packed = readPacked(d, path, progress);
+    checkInflatedSize(d.dataPath, packed.size(), bytes);
+    return readVoxels(d.dataPath, d.type, d.endian, d.g, [&](uint8_t* dst, uint64_t n) {
+      inflateExactInto(d.dataPath, packed.data(), packed.size(), dst, n);
+    });
+  }
+  std::vector<uint8_t> data = readNrrdSamples(d, path, progress);
+  return decodeVoxels(d.dataPath, std::move(data), d.type, d.endian, d.g);
 }
 
 const char* canonicalTypeName(SampleType t) {
@@ -382,8 +411,7 @@ const char* canonicalTypeName(SampleType t) {
 LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFields* extra) {
   const NrrdHeader h = parseHeader(path);
   NrrdDescription d = describeNrrd(path, h, 1);
-  std::vector<uint8_t> data = readNrrdSamples(d, path, options.progress);
-  AnyVolume vol = decodeVoxels(d.dataPath, std::move(data), d.type, d.endian, d.g);
+  AnyVolume vol = readNrrdVolume(d, path, options.progress);
 
   std::string modality;
   if (const auto it = h.keyValues.find("vellum_modality"); it != h.keyValues.end()) modality = trim(it->second);

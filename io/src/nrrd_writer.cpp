@@ -5,6 +5,7 @@
 #include "io_detail.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/atomic_file.hpp"
+#include "vellum/io/compression.hpp"
 
 namespace vellum::io {
 namespace {
@@ -47,13 +48,13 @@ void writeNrrd(const std::filesystem::path& path, const NrrdLayout& layout, cons
   h << layout.extraFields << "\n";
   const std::string header = h.str();
 
-  std::vector<uint8_t> packed;
+  GzipBytes packed;
   detail::ByteView body{static_cast<const uint8_t*>(bytes), byteCount};
   if (gzip) {
     if (progress) progress->begin("compressing " + path.filename().string(), 1);
-    packed = detail::deflateBytes(body.data, body.size, true);
+    packed = gzipCompress(body.data, body.size);
     if (progress) progress->end();
-    body = {packed.data(), packed.size()};
+    body = {packed.data.get(), packed.size};
   }
   const auto writeTo = [&](const std::filesystem::path& target, const std::string& prefix, detail::ByteView data) {
     writeAtomically(target, [&](const std::filesystem::path& tmp) { detail::writeBinaryFile(tmp, prefix, data, progress); });

@@ -120,8 +120,10 @@ LoadedVolume loadRaw(const fs::path& path, const LoadOptions& options) {
     throw FileError(path, "size mismatch: expected " + std::to_string(m.headerBytes + bytes) + " bytes (" +
                               std::to_string(m.headerBytes) + " header + " + m.geometry.dims.str() + " " +
                               sampleTypeName(m.type) + "), file has " + std::to_string(size));
-  auto data = readBytes(path, m.headerBytes, bytes, options.progress);
-  LoadedVolume out = makeLoaded(decodeVoxels(path, std::move(data), m.type, m.endian, m.geometry), "raw", m.modality);
+  AnyVolume vol = readVoxels(path, m.type, m.endian, m.geometry, [&](uint8_t* dst, uint64_t n) {
+    readInto(path, m.headerBytes, n, dst, options.progress);
+  });
+  LoadedVolume out = makeLoaded(std::move(vol), "raw", m.modality);
   if (!warning.empty()) out.warnings.push_back(warning);
   return out;
 }

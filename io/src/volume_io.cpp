@@ -128,6 +128,7 @@ LoadedVolume loadVolume(const fs::path& path, const LoadOptions& options) {
   } else if (auto w = notHuWarning(lv)) {
     lv.warnings.push_back(*w);
   }
+  if (options.region.empty()) return lv;  // applyRegion would copy the whole volume
   try {
     lv.volume = applyRegion(lv.volume, options.region);
   } catch (const FileError&) {

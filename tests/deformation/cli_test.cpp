@@ -59,6 +59,14 @@ TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
   const nlohmann::json r = nlohmann::json::parse(std::ifstream(dir / "report.json"));
   for (const char* stage : {"load", "control_volume", "rigidity", "synthesis", "save", "map_out", "total"})
     EXPECT_TRUE(r["timings_ms"].contains(stage)) << stage;
+  // Process CPU per stage: laps of one clock, so they add up to no more than the total.
+  double laps = 0;
+  for (const char* stage : {"before_command", "points", "load", "control_volume", "rigidity", "synthesis", "psnr", "save"}) {
+    ASSERT_TRUE(r["cpu_ms"].contains(stage)) << stage;
+    EXPECT_GE(r["cpu_ms"][stage].get<double>(), 0.0) << stage;
+    laps += r["cpu_ms"][stage].get<double>();
+  }
+  EXPECT_LE(laps, r["cpu_ms"]["total"].get<double>() + 1e-6);
   EXPECT_EQ(r["rigidity"]["after"]["level"].get<std::string>(), "voxels");
   EXPECT_EQ(r["rigidity"]["after_nodes"]["level"].get<std::string>(), "control-grid nodes");
   EXPECT_EQ(r["rigidity"]["after"]["samples"].get<int64_t>(), 48 * 48 * 56);

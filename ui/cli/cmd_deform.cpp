@@ -1,4 +1,6 @@
 // `vellum deform` (deform a volume with control points) and `vellum controls` (place them).
+#include <sys/resource.h>
+
 #include <chrono>
 #include <cstring>
 #include <fstream>
@@ -74,6 +76,15 @@ namespace {
 
 double msSince(std::chrono::steady_clock::time_point t0) { return secondsSince(t0) * 1000.0; }
 
+// CPU time of the whole process so far (user + system, all threads), ms: on a shared machine
+// the stages' wall times depend on the load, their CPU times much less.
+double processCpuMs() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return (double(u.ru_utime.tv_sec) + double(u.ru_stime.tv_sec)) * 1e3 +
+         (double(u.ru_utime.tv_usec) + double(u.ru_stime.tv_usec)) / 1e3;
+}
+
 struct DeformArgs {
   std::string input, points, output, mapOut, report;
   bool psnr = false;
@@ -107,15 +118,25 @@ void addDeformCommand(CLI::App& app) {
               "--rigid-labels 4,5,6,7,8,9,11 --out bent.nrrd --report bent.json");
   cmd->callback([a] {
     const auto t0 = std::chrono::steady_clock::now();
+    nlohmann::json cpu;
+    cpu["before_command"] = processCpuMs();  // dynamic loading, static initialisers, parsing
+    double c = processCpuMs();
+    const auto cpuLap = [&](const char* stage) {
+      const double now = processCpuMs();
+      cpu[stage] = now - c;
+      c = now;
+    };
     refuseOverwritingInput(a->input, a->output);
     const PointFile pf = loadControlPoints(a->points);
     const DeformParams params = a->engine.params(pf.power);
     const Upsampling up = parseUpsampling(a->engine.upsampling);
     nlohmann::json timings, report;
     auto t = std::chrono::steady_clock::now();
+    cpuLap("points");
     const io::LoadedVolume lv = loadWithProgress(a->input, a->in);
     const Geometry& g = geometryOf(lv.volume);
     timings["load"] = msSince(t);
+    cpuLap("load");
     std::optional<RigidBodies> bodies;
     if (a->rigid.enabled()) {
       t = std::chrono::steady_clock::now();
@@ -132,6 +153,7 @@ void addDeformCommand(CLI::App& app) {
       timings["rho_cache"] = d.timings().rhoCacheMs;
       timings["control_volume"] = d.timings().mapMs;
     }
+    cpuLap("control_volume");
     std::vector<float> fullMap;  // the upsampled map synthesis resamples with (voxel level)
     if (bodies) {
       // Voxel level (primary): over the upsampled map; node level kept for comparison.
@@ -147,6 +169,7 @@ void addDeformCommand(CLI::App& app) {
       report["rigidity"]["after_nodes"] = toJson(measureRigidity(cv, *bodies));
       timings["rigidity_measures"] = msSince(t);
     }
+    if (bodies) cpuLap("rigidity");
     AnyVolume out;
     {
       t = std::chrono::steady_clock::now();
@@ -154,6 +177,7 @@ void addDeformCommand(CLI::App& app) {
       out = synthesize(lv.volume, cv, up, bar.progress());
       timings["synthesis"] = msSince(t);
     }
+    cpuLap("synthesis");
     if (a->psnr && params.controlScale > 1) {
       DeformParams ref = params;
       ref.controlScale = 1;
@@ -163,10 +187,12 @@ void addDeformCommand(CLI::App& app) {
       if (bodies) applyRigidity(full, *bodies, {a->rigid.falloffMm});
       report["psnr_db_vs_s1"] = psnr(synthesize(lv.volume, full, up), out);
     }
+    if (report.contains("psnr_db_vs_s1")) cpuLap("psnr");
     t = std::chrono::steady_clock::now();
     ensureParentFolder(a->output);
     io::saveVolume(out, a->output);
     timings["save"] = msSince(t);
+    cpuLap("save");
     if (!a->mapOut.empty()) {
       t = std::chrono::steady_clock::now();
       ensureParentFolder(a->mapOut);
@@ -192,6 +218,8 @@ void addDeformCommand(CLI::App& app) {
       report["params"] = params::toJson(deformParamsTable(), params);  // keys as in `vellum params`
       report["upsampling"] = upsamplingName(up);
       report["timings_ms"] = timings;
+      cpu["total"] = processCpuMs();
+      report["cpu_ms"] = cpu;  // process CPU time (all threads) per stage; total includes start-up
       writeJsonFile(report, a->report);
     }
   });

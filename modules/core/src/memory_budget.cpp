@@ -1,5 +1,9 @@
 #include "vellum/core/memory_budget.hpp"
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -74,6 +78,19 @@ void checkMemoryBudget(const Dims& dims, uint64_t bytesPerVoxel, const std::stri
       (x * y * z != 0 && bytesPerVoxel > kMax / (x * y * z)))
     throw Error(what + " is too large to address");
   checkMemoryBudget(x * y * z * bytesPerVoxel, what);
+}
+
+void adviseHugePages(void* p, size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr uintptr_t kHuge = uintptr_t{2} << 20;
+  if (!p || bytes < 2 * kHuge) return;
+  const auto begin = (reinterpret_cast<uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
+  const auto end = (reinterpret_cast<uintptr_t>(p) + bytes) & ~(kHuge - 1);
+  if (end > begin) ::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);  // advice only
+#else
+  (void)p;
+  (void)bytes;
+#endif
 }
 
 }  // namespace vellum

@@ -25,9 +25,10 @@ struct NrrdLayout {
 };
 
 /// Writes `bytes` (host byte order) as a NRRD file, atomically. A `.nhdr` path writes a
-/// detached header plus `<stem>.raw[.gz]` beside it. gzip uses a fast level (CT and float
-/// fields gain little from more effort). Throws vellum::FileError naming `path`;
-/// vellum::Cancelled when `progress` is cancelled (nothing is left behind either way).
+/// detached header plus `<stem>.raw[.gz]` beside it. gzip is io::gzipCompress (parallel
+/// members at a fast level: CT and float fields gain little from more effort). Throws
+/// vellum::FileError naming `path`; vellum::Cancelled when `progress` is cancelled (nothing is
+/// left behind either way).
 void writeNrrd(const std::filesystem::path& path, const NrrdLayout& layout, const void* bytes,
                size_t byteCount, bool gzip, Progress* progress = nullptr);
 

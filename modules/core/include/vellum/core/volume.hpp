@@ -42,7 +42,7 @@ class Volume {
   explicit Volume(const Geometry& geometry, T fill = T{}, double background = 0.0)
       : geometry_(geometry), background_(background) {
     checkMemoryBudget(geometry.dims, sizeof(T), voxelTypeName(voxelTypeOf<T>()));
-    data_.assign(static_cast<size_t>(geometry.dims.voxelCount()), fill);
+    resizeHugePaged(data_, static_cast<size_t>(geometry.dims.voxelCount()), fill);
   }
 
   const Geometry& geometry() const { return geometry_; }
