@@ -265,8 +265,12 @@ RigidBodies RigidBodies::fromThreshold(const AnyVolume& ct, double boneHu, doubl
 
 std::shared_ptr<const std::vector<std::vector<float>>> RigidBodies::distanceFields(const Geometry& grid) const {
   std::lock_guard lock(cache_->mutex);
-  if (cache_->fields && cache_->grid.dims == grid.dims && cache_->grid.approxEqual(grid, 1e-6))
-    return cache_->fields;
+  auto& entries = cache_->entries;
+  for (size_t e = 0; e < entries.size(); ++e)
+    if (entries[e].first.dims == grid.dims && entries[e].first.approxEqual(grid, 1e-6)) {
+      std::rotate(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(e), entries.begin() + static_cast<std::ptrdiff_t>(e) + 1);
+      return entries.front().second;
+    }
   const Dims d = grid.dims;
   const size_t nodes = static_cast<size_t>(d.voxelCount());
   checkMemoryBudget(static_cast<uint64_t>(nodes) * (sizeof(double) + sizeof(float) * (components_ + 1)),
@@ -283,8 +287,9 @@ std::shared_ptr<const std::vector<std::vector<float>>> RigidBodies::distanceFiel
     });
     (*fields)[static_cast<size_t>(c)] = distanceField(grid, inside);
   }
-  cache_->grid = grid;
-  cache_->fields = fields;
+  constexpr size_t kGridsKept = 3;
+  entries.insert(entries.begin(), {grid, fields});
+  if (entries.size() > kGridsKept) entries.pop_back();
   return fields;
 }
 

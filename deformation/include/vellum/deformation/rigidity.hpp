@@ -35,14 +35,15 @@ class RigidBodies {
   /// Class at a physical position (nearest voxel; 0 outside).
   uint16_t classAt(const Vec3& mm) const;
   /// Distance (mm) from every node of `grid` to each component, one field per component;
-  /// computed once per grid and cached (thread-safe).
+  /// computed once per grid and cached for the last few grids (an interactive session
+  /// alternates a preview grid and the exact one; thread-safe).
   std::shared_ptr<const std::vector<std::vector<float>>> distanceFields(const Geometry& grid) const;
 
  private:
   struct Cache {
     std::mutex mutex;
-    Geometry grid;
-    std::shared_ptr<const std::vector<std::vector<float>>> fields;
+    /// Most recently used first.
+    std::vector<std::pair<Geometry, std::shared_ptr<const std::vector<std::vector<float>>>>> entries;
   };
   std::shared_ptr<Cache> cache_ = std::make_shared<Cache>();
   static RigidBodies fromMask(VolumeU16 classes, int64_t minVoxels);
