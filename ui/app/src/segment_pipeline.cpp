@@ -156,7 +156,7 @@ const params::Table<SegmentRequest>& segmentRequestTable() {
       flag<R>("fill_holes_slices", [](auto& r) -> auto& { return r.post.fillHolesSlices; },
               {"Fill holes in slices", "post: fill holes enclosed in any axial, coronal or sagittal slice (then 3D)", ""}),
       real<R>("min_island", [](auto& r) -> auto& { return r.post.minIslandMm3; },
-              {"Min island", "post: remove pieces smaller than this volume (0 = off)", "mm³", 0, 1e12}),
+              {"Min island", "post: remove pieces smaller than this volume (0 = off)", "mm^3", 0, 1e12}),
       flag<R>("keep_largest", [](auto& r) -> auto& { return r.post.keepLargest; },
               {"Keep largest", "post: keep the largest piece (with seeds: the pieces holding them)", ""}),
   };
