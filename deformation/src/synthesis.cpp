@@ -14,6 +14,7 @@
 #endif
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/gaussian_upsampling.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 
@@ -45,20 +46,11 @@ AxisTaps<2> linearTaps(int64_t outLen, int64_t nodes, int s) {
 // away from the borders. Border taps are clamped (replicated edge nodes).
 AxisTaps<4> gaussianTaps(int64_t outLen, int64_t nodes, int s) {
   AxisTaps<4> t;
-  constexpr double kSigma = 0.6;
   for (int64_t o = 0; o < outLen; ++o) {
     const int64_t n0 = o / s;
     const double f = static_cast<double>(o - n0 * s) / s;
-    std::array<double, 4> w{};
-    double m1 = 0, m2 = 0;
-    for (int q = 0; q < 4; ++q) {
-      const double x = (q - 1) - f;
-      w[q] = std::exp(-0.5 * x * x / (kSigma * kSigma));
-      m1 += w[q] * x; m2 += w[q] * x * x;
-    }
-    const double beta = -m1 / m2;  // w_q *= 1 + beta (x_q): zero first moment about f
-    double total = 0;
-    for (int q = 0; q < 4; ++q) { w[q] *= 1.0 + beta * ((q - 1) - f); total += w[q]; }
+    const std::array<double, 4> w = gaussianUpsamplingWeights(f);  // shared with the renderer
+    constexpr double total = 1.0;
     // Taps beyond the grid extrapolate the map linearly from the two edge nodes
     // (v(e + m) = v(e) + m (v(e) - v(e -+ 1))), which keeps affine maps exact at the borders.
     std::array<double, 4> wd{};

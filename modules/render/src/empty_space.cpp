@@ -93,7 +93,10 @@ std::vector<uint8_t> blockOccupancy(const BlockRanges& ranges, const TfTable& tf
 }
 
 MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
-                         const BlockRanges& ranges) {
+                         const BlockRanges& ranges, const MapCellSupport* support) {
+  const MapCellSupport sup = support ? *support : MapCellSupport{nodes, 0, 1, 0.0};
+  const Dims& td = sup.texDims;
+  const double margin = 1.0 + sup.marginVoxels;
   MapCells mc;
   mc.cells = {std::max<int64_t>(nodes.x - 1, 1), std::max<int64_t>(nodes.y - 1, 1),
               std::max<int64_t>(nodes.z - 1, 1)};
@@ -106,23 +109,22 @@ MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
       for (int64_t cy = 0; cy < mc.cells.y; ++cy)
         for (int64_t cx = 0; cx < mc.cells.x; ++cx) {
           float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-          for (int c = 0; c < 8; ++c) {
-            const int64_t i = std::min(cx + (c & 1), nodes.x - 1);
-            const int64_t j = std::min(cy + ((c >> 1) & 1), nodes.y - 1);
-            const int64_t k = std::min(cz + ((c >> 2) & 1), nodes.z - 1);
-            const float* u = mapIndex.data() + static_cast<size_t>((k * nodes.y + j) * nodes.x + i) * 3;
-            for (int a = 0; a < 3; ++a) {
-              lo[a] = std::min(lo[a], u[a]);
-              hi[a] = std::max(hi[a], u[a]);
-            }
-          }
+          for (int64_t k = std::max<int64_t>(cz + sup.lo, 0); k <= std::min<int64_t>(cz + sup.hi, td.z - 1); ++k)
+            for (int64_t j = std::max<int64_t>(cy + sup.lo, 0); j <= std::min<int64_t>(cy + sup.hi, td.y - 1); ++j)
+              for (int64_t i = std::max<int64_t>(cx + sup.lo, 0); i <= std::min<int64_t>(cx + sup.hi, td.x - 1); ++i) {
+                const float* u = mapIndex.data() + static_cast<size_t>((k * td.y + j) * td.x + i) * 3;
+                for (int a = 0; a < 3; ++a) {
+                  lo[a] = std::min(lo[a], u[a]);
+                  hi[a] = std::max(hi[a], u[a]);
+                }
+              }
           std::array<int, 6> box{};
           for (int a = 0; a < 3; ++a) {
             const double last = double(nb[a] - 1);
             // Blocks hold voxels [b*B, b*B+B-1] and already see one block beyond; one voxel of
             // margin covers trilinear support and rounding.
-            box[a] = int(std::clamp(std::floor((lo[a] - 1.0) / kBlockSize), 0.0, last));
-            box[a + 3] = int(std::clamp(std::floor((hi[a] + 1.0) / kBlockSize), 0.0, last));
+            box[a] = int(std::clamp(std::floor((lo[a] - margin) / kBlockSize), 0.0, last));
+            box[a + 3] = int(std::clamp(std::floor((hi[a] + margin) / kBlockSize), 0.0, last));
             if (!std::isfinite(lo[a]) || !std::isfinite(hi[a])) {  // NaN in the map: no skipping
               box[a] = 0;
               box[a + 3] = int(last);

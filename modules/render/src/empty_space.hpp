@@ -35,9 +35,19 @@ struct MapCells {
   std::vector<std::array<int, 6>> box;   ///< per cell: inclusive block range x0,y0,z0,x1,y1,z1
   std::vector<float> maxValue;           ///< per cell: largest value its samples can see
 };
-/// `mapIndex`: source index coordinates per node (3 floats, x fastest).
+/// Which texels of the map texture a cell's samples read, and how far beyond their bounding box
+/// u can go: trilinear reads the cell's corner nodes; the Gaussian kernel (positive weights, so u
+/// stays in the box too) reads texels cx .. cx + 4 of the padded texture; a rigid snap moves u
+/// by up to maxSnapMm.
+struct MapCellSupport {
+  Dims texDims;          ///< dims of mapIndex (the nodes, or the padded Gaussian texture)
+  int lo = 0, hi = 1;    ///< texels cx + lo .. cx + hi per axis
+  double marginVoxels = 0;  ///< extra source voxels of margin (snap)
+};
+/// `mapIndex`: source index coordinates per texel (3 floats, x fastest); default support:
+/// trilinear over the nodes themselves.
 MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
-                         const BlockRanges& ranges);
+                         const BlockRanges& ranges, const MapCellSupport* support = nullptr);
 /// Per cell: 255 if any block in its box is occupied.
 std::vector<uint8_t> cellOccupancy(const MapCells& cells, const std::vector<uint8_t>& blockOcc,
                                    const Dims& blocks);

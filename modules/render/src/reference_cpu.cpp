@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "map_sampling.hpp"
 #include "normal_volume.hpp"
 #include "render_common.hpp"
 #include "vellum/core/parallel.hpp"
@@ -14,7 +15,7 @@ using namespace detail;
 
 namespace {
 
-/// Trilinear interpolation of an N-channel float grid with clamp-to-edge (the map textures).
+/// Trilinear interpolation of an N-channel float grid with clamp-to-edge (the attribute texture).
 template <int N>
 std::array<float, N> sampleClamped(const std::vector<float>& grid, const Dims& d, const Vec3& p) {
   auto clampAxis = [](double v, int64_t n) { return std::clamp(v, 0.0, double(n - 1)); };
@@ -40,7 +41,7 @@ struct Context {
   TfTable tf;
   NormalVolume normals;
   const BackwardMap* map = nullptr;
-  std::vector<float> mapIndex;  ///< source index coordinates per map node
+  PreparedMap prepared;  ///< the map in source index coordinates, with its snap
 };
 
 std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float, 4>& n,
@@ -74,8 +75,7 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
         const Vec3 p = clip.o + clip.d * ((static_cast<double>(k) + clip.jitter) * f.stepMm);
         Vec3 u = p;
         if (cx.map) {
-          const auto m = sampleClamped<3>(cx.mapIndex, cx.map->grid.dims, p);
-          u = {m[0], m[1], m[2]};
+          u = cx.prepared.at(p);
         }
         const double v = vol.sampleLinear(u);
         if (mip) {
@@ -125,7 +125,7 @@ RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& sett
     cx.tf = buildTfTable(settings, cx.frame.stepMm);
     if (settings.shading) cx.normals = computeNormalVolume(volume);
   }
-  if (map) cx.mapIndex = mapToSourceIndex(*map, g);
+  if (map) cx.prepared = prepareMap(*map, g);
   RgbaImage image(settings.width, settings.height);
   std::visit(
       [&](const auto& vol) {

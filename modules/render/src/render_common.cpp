@@ -178,7 +178,37 @@ void validateMap(const BackwardMap& map) {
   if (!map.attributes.empty() && map.attributes.size() != 4 * n)
     throw Error("backward map: attributes has " + std::to_string(map.attributes.size()) +
                 " floats, expected 0 or 4 x " + map.grid.dims.str());
+  if (map.rigidSnap && map.rigidSnap->fits.size() > static_cast<size_t>(kMaxSnapBodies))
+    throw Error("backward map: the rigid snap has " + std::to_string(map.rigidSnap->fits.size()) +
+                " bodies; the renderer handles at most " + std::to_string(kMaxSnapBodies));
 }
+
+}  // namespace vellum::render::detail
+
+namespace vellum::render {
+
+BackwardMap identityBackwardMap(const Geometry& grid, std::vector<float> attributes) {
+  grid.validate("backward map grid");
+  BackwardMap m;
+  m.grid = grid;
+  m.sourceMm.resize(static_cast<size_t>(grid.dims.voxelCount()) * 3);
+  size_t n = 0;
+  for (int64_t k = 0; k < grid.dims.z; ++k)
+    for (int64_t j = 0; j < grid.dims.y; ++j)
+      for (int64_t i = 0; i < grid.dims.x; ++i, n += 3) {
+        const Vec3 p = grid.indexToPhysical({double(i), double(j), double(k)});
+        m.sourceMm[n] = float(p.x);
+        m.sourceMm[n + 1] = float(p.y);
+        m.sourceMm[n + 2] = float(p.z);
+      }
+  m.attributes = std::move(attributes);
+  detail::validateMap(m);
+  return m;
+}
+
+}  // namespace vellum::render
+
+namespace vellum::render::detail {
 
 std::vector<float> mapToSourceIndex(const BackwardMap& map, const Geometry& source) {
   validateMap(map);

@@ -4,6 +4,7 @@
 
 #include "empty_space.hpp"
 #include "render_common.hpp"
+#include "vellum/core/gaussian_upsampling.hpp"
 
 namespace vellum::render::detail {
 namespace {
@@ -79,7 +80,20 @@ uniform float uTfLo, uTfInvSpan;
 uniform sampler3D uNormals;
 #endif
 #ifdef DEFORMED
-uniform sampler3D uMap;      // source index coordinates per map node
+uniform sampler3D uMap;      // source index coordinates per map node (GAUSSIAN_MAP: padded)
+#endif
+#ifdef GAUSSIAN_MAP
+uniform vec3 uMapNodes;      // node grid dims; uMap has 1 more texel below, 2 above per axis
+#endif
+#ifdef RIGID_SNAP
+uniform usampler3D uClasses;          // source-space classes: 0 air, 1 soft tissue, 2 + c body c
+uniform mat3 uSrcToClass;             // source index -> class index
+uniform vec3 uSrcToClassOffset;
+uniform mat3 uSrcDeltaToMm;           // source index offset -> mm
+uniform vec4 uBodyRows[3 * MAX_SNAP_BODIES];  // per body: source index = rows . (p, 1)
+uniform uint uBodyValid[(MAX_SNAP_BODIES + 31) / 32];
+uniform int uBodies;
+uniform float uMaxSnap2;              // mm^2
 #endif
 #ifdef ATTRIBUTES
 uniform sampler3D uAttr;     // dL, da, db, density scale
@@ -96,6 +110,61 @@ uniform ivec3 uBlocks;
 float sampleValue(vec3 idx) {
   return texture(uVolume, (idx + 0.5) / uSourceDims).r * uValueScale;
 }
+
+
+#ifdef DEFORMED
+#ifdef GAUSSIAN_MAP
+// Twin of gaussianUpsamplingWeights() in core/gaussian_upsampling.hpp (all four positive).
+vec4 gaussWeights(float f) {
+  vec4 x = vec4(-1.0, 0.0, 1.0, 2.0) - f;
+  vec4 w = exp(x * x * (-0.5 / (GAUSS_SIGMA * GAUSS_SIGMA)));
+  float beta = -dot(w, x) / dot(w, x * x);
+  w *= 1.0 + beta * x;
+  return w / dot(w, vec4(1.0));
+}
+#endif
+
+// u (source index) at map node index p: the node map interpolated as CPU synthesis upsamples it.
+vec3 mapAt(vec3 p) {
+#ifdef GAUSSIAN_MAP
+  // 4 taps per axis as 2 linear fetches (positive weights): 8 trilinear fetches in all.
+  vec3 q = clamp(p, vec3(0.0), uMapNodes - 1.0);
+  vec3 n0 = floor(q), f = q - n0;
+  vec4 wx = gaussWeights(f.x), wy = gaussWeights(f.y), wz = gaussWeights(f.z);
+  vec3 w0 = vec3(wx.x, wy.x, wz.x), w1 = vec3(wx.y, wy.y, wz.y);
+  vec3 w2 = vec3(wx.z, wy.z, wz.z), w3 = vec3(wx.w, wy.w, wz.w);
+  vec3 g0 = w0 + w1, g1 = w2 + w3;
+  vec3 inv = 1.0 / (uMapNodes + 3.0);
+  vec3 h0 = (n0 + w1 / g0 + 0.5) * inv, h1 = (n0 + 2.0 + w3 / g1 + 0.5) * inv;
+  vec3 u = vec3(0.0);
+  for (int c = 0; c < 8; ++c) {
+    bvec3 hi = bvec3((c & 1) != 0, (c & 2) != 0, (c & 4) != 0);
+    vec3 g = mix(g0, g1, hi);
+    u += (g.x * g.y * g.z) * texture(uMap, mix(h0, h1, hi)).xyz;
+  }
+  return u;
+#else
+  return texture(uMap, (p + 0.5) / uBoxDims).xyz;
+#endif
+}
+
+#ifdef RIGID_SNAP
+// CPU synthesis' voxel snap: u in the class voxel of valid body c and R_c v + t_c within
+// maxSnapMm of u -> u = R_c v + t_c.
+vec3 snapRigid(vec3 p, vec3 u) {
+  vec3 c = uSrcToClass * u + uSrcToClassOffset;
+  if (any(lessThanEqual(c, vec3(-0.5)))) return u;
+  ivec3 ci = ivec3(floor(c + 0.5));
+  if (any(greaterThanEqual(ci, textureSize(uClasses, 0)))) return u;
+  int body = int(texelFetch(uClasses, ci, 0).r) - 2;
+  if (body < 0 || body >= uBodies || ((uBodyValid[body >> 5] >> uint(body & 31)) & 1u) == 0u) return u;
+  vec4 p1 = vec4(p, 1.0);
+  vec3 s = vec3(dot(uBodyRows[3 * body], p1), dot(uBodyRows[3 * body + 1], p1), dot(uBodyRows[3 * body + 2], p1));
+  vec3 dmm = uSrcDeltaToMm * (s - u);
+  return dot(dmm, dmm) <= uMaxSnap2 ? s : u;
+}
+#endif
+#endif
 
 #ifndef MODE_MIP
 vec4 tfLookup(float v) {
@@ -179,7 +248,10 @@ void main() {
 #endif
 #ifdef DEFORMED
       vec3 mapTc = (p + 0.5) / uBoxDims;
-      vec3 u = texture(uMap, mapTc).xyz;
+      vec3 u = mapAt(p);
+#ifdef RIGID_SNAP
+      u = snapRigid(p, u);
+#endif
 #else
       vec3 u = p;
 #endif
@@ -227,6 +299,8 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.shading && !v.mip) s << "#define SHADING\n";
   if (v.deformed) s << "#define DEFORMED\n";
   if (v.attributes && v.deformed && !v.mip) s << "#define ATTRIBUTES\n";
+  if (v.gaussian && v.deformed) s << "#define GAUSSIAN_MAP\n";
+  if (v.snap && v.deformed) s << "#define RIGID_SNAP\n#define MAX_SNAP_BODIES " << kMaxSnapBodies << "\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
   s << "#define BLOCK_SIZE " << (v.deformed ? 1 : kBlockSize) << "\n";
@@ -236,6 +310,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define EARLY_ALPHA " << kEarlyTerminationAlpha << "\n";
   s << "#define AMBIENT " << kAmbient << "\n#define DIFFUSE " << kDiffuse << "\n";
   s << "#define SPECULAR " << kSpecular << "\n#define SHININESS " << kShininess << "\n";
+  s << "#define GAUSS_SIGMA " << kGaussianUpsamplingSigma << "\n";
   s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
   s << kFragment << kRayCommon << kFragmentMain;
   return s.str();

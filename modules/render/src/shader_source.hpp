@@ -10,7 +10,12 @@ struct ShaderVariant {
   bool shading = false;     ///< SHADING (DVR only)
   bool deformed = false;    ///< DEFORMED: sample the source at u = map(v)
   bool attributes = false;  ///< ATTRIBUTES: Lab colour shift + density (deformed only)
-  int key() const { return int(mip) | int(shading) << 1 | int(deformed) << 2 | int(attributes) << 3; }
+  bool gaussian = false;    ///< GAUSSIAN_MAP: Gaussian map upsampling (deformed only)
+  bool snap = false;        ///< RIGID_SNAP: voxel-level snap of rigid bodies (deformed only)
+  int key() const {
+    return int(mip) | int(shading) << 1 | int(deformed) << 2 | int(attributes) << 3 | int(gaussian) << 4 |
+           int(snap) << 5;
+  }
 };
 
 std::string vertexShaderSource();

@@ -9,6 +9,7 @@
 
 #include "empty_space.hpp"
 #include "gl_util.hpp"
+#include "map_sampling.hpp"
 #include "normal_volume.hpp"
 #include "render_common.hpp"
 #include "shader_source.hpp"
@@ -21,7 +22,7 @@ using namespace detail;
 namespace {
 
 enum TextureUnit : GLint {
-  kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax
+  kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses
 };
 
 struct VoxelFormat {
@@ -91,7 +92,10 @@ void uploadOccupancy(const SkipGrid& g, const std::vector<uint8_t>& occ) {
 
 struct VolumeRenderer::Impl {
   GlContext& context;
-  GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0;
+  GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0, classTex = 0;
+  /// The class voxels in classTex (re-uploaded only when another class volume arrives).
+  const std::vector<uint16_t>* uploadedClasses = nullptr;
+  std::optional<PreparedSnap> snap;
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
   MapCells mapCells;       ///< the same per map cell, when a map is set
   SkipGrid blockSkip, cellSkip;
@@ -119,7 +123,7 @@ struct VolumeRenderer::Impl {
   ~Impl() {
     context.makeCurrent();
     for (auto& [key, p] : programs) glDeleteProgram(p);
-    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &blockSkip.occupancyTex,
+    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &blockSkip.occupancyTex,
                       &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex})
       deleteTexture(*t);
     glDeleteVertexArrays(1, &vao);
@@ -137,6 +141,7 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uAttr"), kUnitAttr);
     glUniform1i(glGetUniformLocation(p, "uOccupancy"), kUnitOccupancy);
     glUniform1i(glGetUniformLocation(p, "uBlockMax"), kUnitBlockMax);
+    glUniform1i(glGetUniformLocation(p, "uClasses"), kUnitClasses);
     programs[v.key()] = p;
     return p;
   }
@@ -187,14 +192,16 @@ struct VolumeRenderer::Impl {
     if (!map || mapUploaded || !hasVolume) return;
     const Dims& d = map->grid.dims;
     checkTextureSize(d, "backward map grid");
-    const std::vector<float> u = mapToSourceIndex(*map, source);
+    PreparedMap pm = prepareMap(*map, source);
+    const Dims& td = pm.texDims;
+    checkTextureSize(td, "backward map texture");
     deleteTexture(mapTex);
     glGenTextures(1, &mapTex);
     glBindTexture(GL_TEXTURE_3D, mapTex);
-    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGB32F, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGB32F, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z));
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RGB,
-                    GL_FLOAT, u.data());
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z), GL_RGB,
+                    GL_FLOAT, pm.index.data());
     // The map extends its outermost nodes (rays only sample inside its grid box).
     setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
     deleteTexture(attrTex);
@@ -206,10 +213,53 @@ struct VolumeRenderer::Impl {
                       GL_RGBA, GL_FLOAT, map->attributes.data());
       setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
     }
-    mapCells = computeMapCells(d, u, blocks);
+    if (pm.snap) uploadClasses(*map->rigidSnap);
+    MapCellSupport support{td, 0, pm.upsampling == MapUpsampling::Gaussian ? 4 : 1,
+                           pm.snap ? pm.snap->marginVoxels : 0.0};
+    mapCells = computeMapCells(d, pm.index, blocks, &support);
     makeSkipTextures(cellSkip, mapCells.cells, mapCells.maxValue);
+    snap = std::move(pm.snap);
     mapUploaded = true;
     checkGlError("backward map upload");
+  }
+
+  void uploadClasses(const MapRigidSnap& rs) {
+    if (classTex && uploadedClasses == rs.classes.get()) return;
+    const Dims& d = rs.classGrid.dims;
+    checkTextureSize(d, "rigid snap class volume");
+    deleteTexture(classTex);
+    glGenTextures(1, &classTex);
+    glBindTexture(GL_TEXTURE_3D, classTex);
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_R16UI, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RED_INTEGER,
+                    GL_UNSIGNED_SHORT, rs.classes->data());
+    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
+    uploadedClasses = rs.classes.get();
+    classKeepAlive = rs.classes;
+    checkGlError("rigid snap class upload");
+  }
+  std::shared_ptr<const std::vector<uint16_t>> classKeepAlive;  ///< so the pointer above stays unique
+
+  void setSnapUniforms(GLuint p) const {
+    const PreparedSnap& ps = *snap;
+    glActiveTexture(GL_TEXTURE0 + kUnitClasses);
+    glBindTexture(GL_TEXTURE_3D, classTex);
+    glUniformMatrix3fv(glGetUniformLocation(p, "uSrcToClass"), 1, GL_TRUE, ps.toClass.data());
+    glUniform3f(glGetUniformLocation(p, "uSrcToClassOffset"), ps.toClass[9], ps.toClass[10], ps.toClass[11]);
+    glUniformMatrix3fv(glGetUniformLocation(p, "uSrcDeltaToMm"), 1, GL_TRUE, ps.deltaToMm.data());
+    std::vector<float> rows;
+    uint32_t valid[(kMaxSnapBodies + 31) / 32] = {};
+    for (size_t c = 0; c < ps.body.size(); ++c) {
+      const auto& m = ps.body[c];
+      for (int r = 0; r < 3; ++r) rows.insert(rows.end(), {m[3 * r], m[3 * r + 1], m[3 * r + 2], m[9 + r]});
+      if (ps.valid[c]) valid[c / 32] |= 1u << (c % 32);
+    }
+    if (!rows.empty())
+      glUniform4fv(glGetUniformLocation(p, "uBodyRows"), GLsizei(rows.size() / 4), rows.data());
+    glUniform1uiv(glGetUniformLocation(p, "uBodyValid"), GLsizei(std::size(valid)), valid);
+    glUniform1i(glGetUniformLocation(p, "uBodies"), GLint(ps.body.size()));
+    glUniform1f(glGetUniformLocation(p, "uMaxSnap2"), ps.maxSnap2);
   }
 };
 
@@ -235,6 +285,7 @@ void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
   impl_->context.makeCurrent();
   if (!map) {
     impl_->map.reset();
+    impl_->snap.reset();
     deleteTexture(impl_->mapTex);
     deleteTexture(impl_->attrTex);
     return;
@@ -271,6 +322,8 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   variant.shading = s.shading;
   variant.deformed = map != nullptr;
   variant.attributes = map && !map->attributes.empty();
+  variant.gaussian = map && map->upsampling == MapUpsampling::Gaussian;
+  variant.snap = map && m.snap.has_value();
   const GLuint p = m.program(variant);
   m.target.bind(s.width, s.height, "render");
   glUseProgram(p);
@@ -284,6 +337,9 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
     glBindTexture(GL_TEXTURE_3D, m.mapTex);
     glActiveTexture(GL_TEXTURE0 + kUnitAttr);
     glBindTexture(GL_TEXTURE_3D, m.attrTex);
+    if (variant.gaussian)
+      uniform3(p, "uMapNodes", {double(map->grid.dims.x), double(map->grid.dims.y), double(map->grid.dims.z)});
+    if (variant.snap) m.setSnapUniforms(p);
   }
   const SkipGrid& skip = variant.deformed ? m.cellSkip : m.blockSkip;
   glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(skip.dims.x), GLint(skip.dims.y),

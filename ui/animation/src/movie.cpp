@@ -14,11 +14,23 @@ namespace vellum::animation {
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
-render::BackwardMap toBackwardMap(const ControlVolume& cv) {
+render::BackwardMap toBackwardMap(const ControlVolume& cv, Upsampling upsampling) {
   render::BackwardMap m;
   m.grid = cv.grid;
   m.sourceMm = cv.sourceMm;
   m.attributes = cv.attributes;
+  m.upsampling = upsampling == Upsampling::Gaussian ? render::MapUpsampling::Gaussian
+                                                    : render::MapUpsampling::Trilinear;
+  if (cv.rigidSnap && cv.rigidSnap->classes) {
+    const RigidSnap& rs = *cv.rigidSnap;
+    auto snap = std::make_shared<render::MapRigidSnap>();
+    snap->classes = rs.classes;  // shared, not copied
+    snap->classGrid = rs.classGrid;
+    snap->fits = rs.fits;
+    snap->valid = rs.valid;
+    snap->maxSnapMm = rs.maxSnapMm;
+    m.rigidSnap = std::move(snap);
+  }
   return m;
 }
 
@@ -52,11 +64,10 @@ struct MovieRenderer::Impl {
     if (!spec.framesDir.empty()) fs::create_directories(spec.framesDir);
   }
 
-  void measure(ControlVolume& cv) {
-    // Voxel level over the map the renderer samples: the node map upsampled trilinearly on the
-    // GPU, without the CPU synthesis' voxel snap (RigidSnap).
-    cv.rigidSnap.reset();
-    const RigidityReport m = measureRigidityVoxels(cv, geometry, *rigidity.bodies, Upsampling::Trilinear,
+  void measure(const ControlVolume& cv) {
+    // Voxel level over the map the renderer samples: the node map upsampled with the spec's
+    // kernel and the voxel snap, as the GL path applies them (toBackwardMap).
+    const RigidityReport m = measureRigidityVoxels(cv, geometry, *rigidity.bodies, spec.upsampling,
                                                    rigidity.measureStride);
     result.perFrame.push_back({m, measureRigidity(cv, *rigidity.bodies)});
     RigidityReport& w = result.worst;
@@ -74,7 +85,7 @@ struct MovieRenderer::Impl {
 
   // Labels follow the anatomy: each output voxel takes the label at its source position.
   LabelVolume deformedLabels(const ControlVolume& cv) const {
-    const std::vector<float> u = upsampleMap(cv, geometry);
+    const std::vector<float> u = upsampleMap(cv, geometry, spec.upsampling);
     LabelVolume out(spec.labels->ids().geometry());
     for (const Label& l : spec.labels->table()) out.setLabel(l);
     uint16_t* dst = out.ids().data();
@@ -101,7 +112,7 @@ struct MovieRenderer::Impl {
     deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
     ControlVolume cv = deformer.update();
     if (rigidity.bodies) applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm});
-    const render::BackwardMap map = toBackwardMap(cv);
+    const render::BackwardMap map = toBackwardMap(cv, spec.upsampling);
     renderer.setBackwardMap(&map);
     result.deformMs += msSince(t0);
     render::RenderSettings s = spec.settings;

@@ -7,17 +7,40 @@
 // How it is rendered (GL shader and renderReferenceCpu alike):
 // - rays are clipped to the grid's voxel box ([-0.5, dims-0.5] in grid index space) and
 //   stepped by RenderSettings::stepVoxels * the SOURCE volume's smallest spacing;
-// - u is interpolated trilinearly between nodes, clamping to the outermost nodes (no
-//   extrapolation); the source is sampled at u with background outside it;
+// - u is interpolated between nodes, trilinearly or with the Gaussian kernel of CPU synthesis
+//   (core/gaussian_upsampling.hpp; outside the outermost nodes the position is clamped onto
+//   them, no extrapolation); then the rigid snap, if any, exactly as CPU synthesis applies it
+//   per voxel: if u lies in the class voxel of rigid body c (valid), and |R_c v + t_c - u| <=
+//   maxSnapMm, u = R_c v + t_c. The source is sampled at u with background outside it;
 // - shading uses the source's gradient normal at u, NOT rotated by the map's Jacobian
 //   (lighting on strongly rotated parts is approximate);
 // - attributes: (dL, da, db) shift the transfer-function colour in CIE L*a*b* (D65, sRGB),
 //   density scales the optical depth: alpha' = 1 - (1 - alpha)^density. MIP ignores them.
+#include <array>
+#include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "vellum/core/geometry.hpp"
 
 namespace vellum::render {
+
+/// How u is interpolated between map nodes (the same two kernels as CPU synthesis).
+enum class MapUpsampling { Trilinear, Gaussian };
+
+/// Voxel-level snap of rigid bodies (the renderer's copy of deformation::RigidSnap).
+struct MapRigidSnap {
+  /// Source-space classes per voxel of `classGrid` (0 air, 1 soft tissue, 2 + c body c).
+  std::shared_ptr<const std::vector<uint16_t>> classes;
+  Geometry classGrid;
+  /// Per body: R row-major (9) then t (3), mm: u = R v + t. `valid[c]` 0 = body not snapped.
+  std::vector<std::array<double, 12>> fits;
+  std::vector<uint8_t> valid;
+  double maxSnapMm = 0;
+};
+
+/// The GL path keeps the per-body fits in a uniform array of this size.
+constexpr int kMaxSnapBodies = 64;
 
 struct BackwardMap {
   /// Output-space grid of the map nodes (mm geometry). Rays are cast through this box.
@@ -27,6 +50,13 @@ struct BackwardMap {
   /// Empty, or grid.dims.voxelCount() * 4 floats: lightness offset (L*, -100..100),
   /// a offset, b offset (CIE L*a*b*), density scale (1 = unchanged).
   std::vector<float> attributes;
+  MapUpsampling upsampling = MapUpsampling::Trilinear;
+  /// Empty, or the rigid snap applied after interpolating u (at most kMaxSnapBodies bodies).
+  std::shared_ptr<const MapRigidSnap> rigidSnap;
 };
+
+/// The identity map (u = v) on `grid`, optionally carrying attributes (4 floats per node):
+/// renders an already deformed volume with the attribute fields of its deformation.
+BackwardMap identityBackwardMap(const Geometry& grid, std::vector<float> attributes = {});
 
 }  // namespace vellum::render

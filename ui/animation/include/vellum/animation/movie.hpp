@@ -19,9 +19,11 @@
 
 namespace vellum::animation {
 
-/// The renderer's view of a control volume (node map and attributes; the GL path samples the
-/// node map only, see ControlVolume::rigidSnap).
-render::BackwardMap toBackwardMap(const deformation::ControlVolume& cv);
+/// The renderer's view of a control volume: node map, attributes, the rigid snap (class voxels
+/// shared, not copied) and the upsampling kernel, so that the GL frame shows what CPU
+/// synthesis with the same kernel makes. The one ControlVolume -> BackwardMap conversion.
+render::BackwardMap toBackwardMap(const deformation::ControlVolume& cv,
+                                  deformation::Upsampling upsampling = deformation::Upsampling::Trilinear);
 
 struct MovieSpec {
   std::filesystem::path moviePath;  ///< empty: no movie
@@ -29,6 +31,8 @@ struct MovieSpec {
   double fps = 30;
   render::RenderSettings settings;
   double orbitDeg = 0;  ///< camera azimuth turn over the whole animation
+  /// Map upsampling of the frames (and of the voxel-level rigidity measures), as --upsampling.
+  deformation::Upsampling upsampling = deformation::Upsampling::Trilinear;
   /// Figure annotations drawn into every frame (scale bar, orientation letters, labels).
   render::AnnotationOptions annotations;
   /// With annotations.labels: the label map on the volume's grid. Each frame names the

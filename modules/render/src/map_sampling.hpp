@@ -1,0 +1,45 @@
+#pragma once
+// The backward map as both ray casters sample it: node positions in SOURCE index coordinates
+// (padded for the Gaussian kernel), and the rigid snap in the frames the shader works in (map
+// node index p -> source index). The GL shader (shader_source.cpp, mapAt() / snapRigid()) and
+// the CPU reference (PreparedMap::at) follow the same steps; change both together.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "vellum/core/geometry.hpp"
+#include "vellum/render/backward_map.hpp"
+
+namespace vellum::render::detail {
+
+struct PreparedSnap {
+  const uint16_t* classes = nullptr;
+  Dims classDims;
+  std::array<float, 12> toClass{};  ///< class index = A u + b (A row-major, then b), u source index
+  std::array<float, 9> deltaToMm{};  ///< source index offset -> mm
+  /// Per body: source index = M p + m (M row-major, then m) for map node index p.
+  std::vector<std::array<float, 12>> body;
+  std::vector<uint8_t> valid;
+  float maxSnap2 = 0;
+  double marginVoxels = 0;  ///< how far (source voxels, per axis) a snap can move u
+
+  /// u after the snap at node index p (u in source index coordinates).
+  Vec3 apply(const Vec3& p, const Vec3& u) const;
+};
+
+struct PreparedMap {
+  MapUpsampling upsampling = MapUpsampling::Trilinear;
+  Dims nodes;     ///< the map's node grid
+  Dims texDims;   ///< grid of `index`: the nodes, or (Gaussian) nodes + 1 below and + 2 above
+  std::vector<float> index;  ///< source index coordinates per texel (3 floats, x fastest)
+  std::optional<PreparedSnap> snap;
+
+  /// u (source index) at map node index p: interpolated, then snapped.
+  Vec3 at(const Vec3& p) const;
+};
+
+/// Throws vellum::Error for malformed maps (sizes, non-finite snap, more than kMaxSnapBodies).
+PreparedMap prepareMap(const BackwardMap& map, const Geometry& source);
+
+}  // namespace vellum::render::detail
