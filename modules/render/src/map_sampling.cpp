@@ -109,6 +109,22 @@ Vec3 trilinearClamped(const std::vector<float>& grid, const Dims& d, const Vec3&
   return out;
 }
 
+// Node index p of `grid` -> voxel index of `out` (same direction: one scale and offset per axis).
+PreparedMap::OutputAxes outputAxes(const Geometry& out, const Geometry& grid) {
+  out.validate("backward map output grid");
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      if (std::abs(out.direction(r, c) - grid.direction(r, c)) > 1e-6)
+        throw Error("backward map: the output grid's direction differs from the node grid's");
+  PreparedMap::OutputAxes ax;
+  const Vec3 o = out.physicalToIndex(grid.indexToPhysical({0, 0, 0}));
+  const Vec3 one = out.physicalToIndex(grid.indexToPhysical({1, 1, 1}));
+  ax.offset = o;
+  ax.scale = one - o;
+  ax.dims = {double(out.dims.x), double(out.dims.y), double(out.dims.z)};
+  return ax;
+}
+
 }  // namespace
 
 Vec3 PreparedSnap::apply(const Vec3& p, const Vec3& u) const {
@@ -158,6 +174,16 @@ Vec3 PreparedMap::at(const Vec3& p) const {
   return snap ? snap->apply(p, u) : u;
 }
 
+double PreparedMap::outputWeight(const Vec3& p) const {
+  if (!output) return 1.0;
+  double w = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double x = output->scale[a] * p[a] + output->offset[a];
+    w *= std::clamp(std::min(1.0 + x, output->dims[a] - x), 0.0, 1.0);
+  }
+  return w;
+}
+
 PreparedMap prepareMap(const BackwardMap& map, const Geometry& source) {
   PreparedMap pm;
   pm.upsampling = map.upsampling;
@@ -169,6 +195,7 @@ PreparedMap prepareMap(const BackwardMap& map, const Geometry& source) {
     pm.index = padForGaussian(pm.index, pm.nodes, pm.texDims);
   }
   if (map.rigidSnap) pm.snap = prepareSnap(*map.rigidSnap, map.grid, source);
+  if (map.output) pm.output = outputAxes(*map.output, map.grid);
   return pm;
 }
 

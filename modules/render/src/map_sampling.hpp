@@ -34,9 +34,21 @@ struct PreparedMap {
   Dims texDims;   ///< grid of `index`: the nodes, or (Gaussian) nodes + 1 below and + 2 above
   std::vector<float> index;  ///< source index coordinates per texel (3 floats, x fastest)
   std::optional<PreparedSnap> snap;
+  /// With BackwardMap::output: output voxel index x = scale * p + offset per axis (same
+  /// direction), and the output dims.
+  struct OutputAxes {
+    Vec3 scale, offset, dims;
+  };
+  std::optional<OutputAxes> output;
+  /// Source index far outside every volume (its value is the background).
+  static constexpr double kOutside = -1.0e6;
 
   /// u (source index) at map node index p: interpolated, then snapped.
   Vec3 at(const Vec3& p) const;
+  /// How much of the value at p comes from the volume rather than the background: 1 inside
+  /// the output voxel centres, fading to 0 one voxel beyond them, as a texture with the
+  /// background as border colour fades (the synthesised volume rendered plainly).
+  double outputWeight(const Vec3& p) const;
 };
 
 /// Throws vellum::Error for malformed maps (sizes, non-finite snap, more than kMaxSnapBodies).

@@ -74,10 +74,13 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
       for (int64_t k = clip.k0; k <= clip.k1; ++k) {
         const Vec3 p = clip.o + clip.d * ((static_cast<double>(k) + clip.jitter) * f.stepMm);
         Vec3 u = p;
+        double inside = 1.0;  // outside the output box the value fades to the background
         if (cx.map) {
-          u = cx.prepared.at(p);
+          inside = cx.prepared.outputWeight(p);
+          u = inside > 0 ? cx.prepared.at(p) : Vec3{PreparedMap::kOutside, PreparedMap::kOutside, PreparedMap::kOutside};
         }
-        const double v = vol.sampleLinear(u);
+        double v = vol.sampleLinear(u);
+        if (inside < 1.0) v = vol.background() + inside * (v - vol.background());
         if (mip) {
           maxV = std::max(maxV, v);
           hit = true;

@@ -187,7 +187,7 @@ void validateMap(const BackwardMap& map) {
 
 namespace vellum::render {
 
-BackwardMap identityBackwardMap(const Geometry& grid, std::vector<float> attributes) {
+BackwardMap identityBackwardMap(const Geometry& grid, std::vector<float> attributes, std::optional<Geometry> output) {
   grid.validate("backward map grid");
   BackwardMap m;
   m.grid = grid;
@@ -202,6 +202,7 @@ BackwardMap identityBackwardMap(const Geometry& grid, std::vector<float> attribu
         m.sourceMm[n + 2] = float(p.z);
       }
   m.attributes = std::move(attributes);
+  m.output = std::move(output);
   detail::validateMap(m);
   return m;
 }

@@ -3,6 +3,7 @@
 #include <sstream>
 
 #include "empty_space.hpp"
+#include "map_sampling.hpp"
 #include "render_common.hpp"
 #include "vellum/core/gaussian_upsampling.hpp"
 
@@ -84,6 +85,10 @@ uniform sampler3D uMap;      // source index coordinates per map node (GAUSSIAN_
 #endif
 #ifdef GAUSSIAN_MAP
 uniform vec3 uMapNodes;      // node grid dims; uMap has 1 more texel below, 2 above per axis
+#endif
+#ifdef OUTPUT_BOX
+uniform vec3 uOutScale, uOutOffset;   // map node index -> output voxel index, per axis
+uniform vec3 uOutDims;
 #endif
 #ifdef RIGID_SNAP
 uniform usampler3D uClasses;          // source-space classes: 0 air, 1 soft tissue, 2 + c body c
@@ -252,10 +257,21 @@ void main() {
 #ifdef RIGID_SNAP
       u = snapRigid(p, u);
 #endif
+#ifdef OUTPUT_BOX
+      // Beyond the output voxel centres the value fades to the background over one voxel, as
+      // the synthesised volume's texture fades to its border (PreparedMap::outputWeight).
+      vec3 xo = uOutScale * p + uOutOffset;
+      vec3 wo = clamp(min(1.0 + xo, uOutDims - xo), 0.0, 1.0);
+      float inside = wo.x * wo.y * wo.z;
+      if (inside <= 0.0) u = vec3(OUTSIDE);
+#endif
 #else
       vec3 u = p;
 #endif
       float v = sampleValue(u);
+#ifdef OUTPUT_BOX
+      if (inside < 1.0) v = mix(sampleValue(vec3(OUTSIDE)), v, inside);
+#endif
 #ifdef MODE_MIP
       maxV = max(maxV, v);
       hit = true;
@@ -300,6 +316,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.deformed) s << "#define DEFORMED\n";
   if (v.attributes && v.deformed && !v.mip) s << "#define ATTRIBUTES\n";
   if (v.gaussian && v.deformed) s << "#define GAUSSIAN_MAP\n";
+  if (v.outputBox && v.deformed) s << "#define OUTPUT_BOX\n";
   if (v.snap && v.deformed) s << "#define RIGID_SNAP\n#define MAX_SNAP_BODIES " << kMaxSnapBodies << "\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
@@ -310,6 +327,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define EARLY_ALPHA " << kEarlyTerminationAlpha << "\n";
   s << "#define AMBIENT " << kAmbient << "\n#define DIFFUSE " << kDiffuse << "\n";
   s << "#define SPECULAR " << kSpecular << "\n#define SHININESS " << kShininess << "\n";
+  s << "#define OUTSIDE " << PreparedMap::kOutside << "\n";
   s << "#define GAUSS_SIGMA " << kGaussianUpsamplingSigma << "\n";
   s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
   s << kFragment << kRayCommon << kFragmentMain;

@@ -12,9 +12,10 @@ struct ShaderVariant {
   bool attributes = false;  ///< ATTRIBUTES: Lab colour shift + density (deformed only)
   bool gaussian = false;    ///< GAUSSIAN_MAP: Gaussian map upsampling (deformed only)
   bool snap = false;        ///< RIGID_SNAP: voxel-level snap of rigid bodies (deformed only)
+  bool outputBox = false;   ///< OUTPUT_BOX: background outside the output volume's box
   int key() const {
     return int(mip) | int(shading) << 1 | int(deformed) << 2 | int(attributes) << 3 | int(gaussian) << 4 |
-           int(snap) << 5;
+           int(snap) << 5 | int(outputBox) << 6;
   }
 };
 

@@ -96,6 +96,7 @@ struct VolumeRenderer::Impl {
   /// The class voxels in classTex (re-uploaded only when another class volume arrives).
   const std::vector<uint16_t>* uploadedClasses = nullptr;
   std::optional<PreparedSnap> snap;
+  std::optional<PreparedMap::OutputAxes> output;
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
   MapCells mapCells;       ///< the same per map cell, when a map is set
   SkipGrid blockSkip, cellSkip;
@@ -219,6 +220,7 @@ struct VolumeRenderer::Impl {
     mapCells = computeMapCells(d, pm.index, blocks, &support);
     makeSkipTextures(cellSkip, mapCells.cells, mapCells.maxValue);
     snap = std::move(pm.snap);
+    output = pm.output;
     mapUploaded = true;
     checkGlError("backward map upload");
   }
@@ -286,6 +288,7 @@ void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
   if (!map) {
     impl_->map.reset();
     impl_->snap.reset();
+    impl_->output.reset();
     deleteTexture(impl_->mapTex);
     deleteTexture(impl_->attrTex);
     return;
@@ -324,6 +327,7 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   variant.attributes = map && !map->attributes.empty();
   variant.gaussian = map && map->upsampling == MapUpsampling::Gaussian;
   variant.snap = map && m.snap.has_value();
+  variant.outputBox = map && m.output.has_value();
   const GLuint p = m.program(variant);
   m.target.bind(s.width, s.height, "render");
   glUseProgram(p);
@@ -340,6 +344,11 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
     if (variant.gaussian)
       uniform3(p, "uMapNodes", {double(map->grid.dims.x), double(map->grid.dims.y), double(map->grid.dims.z)});
     if (variant.snap) m.setSnapUniforms(p);
+    if (variant.outputBox) {
+      uniform3(p, "uOutScale", m.output->scale);
+      uniform3(p, "uOutOffset", m.output->offset);
+      uniform3(p, "uOutDims", m.output->dims);
+    }
   }
   const SkipGrid& skip = variant.deformed ? m.cellSkip : m.blockSkip;
   glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(skip.dims.x), GLint(skip.dims.y),

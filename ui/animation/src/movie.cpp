@@ -14,9 +14,10 @@ namespace vellum::animation {
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
-render::BackwardMap toBackwardMap(const ControlVolume& cv, Upsampling upsampling) {
+render::BackwardMap toBackwardMap(const ControlVolume& cv, const Geometry& output, Upsampling upsampling) {
   render::BackwardMap m;
   m.grid = cv.grid;
+  m.output = output;
   m.sourceMm = cv.sourceMm;
   m.attributes = cv.attributes;
   m.upsampling = upsampling == Upsampling::Gaussian ? render::MapUpsampling::Gaussian
@@ -112,7 +113,7 @@ struct MovieRenderer::Impl {
     deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
     ControlVolume cv = deformer.update();
     if (rigidity.bodies) applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm});
-    const render::BackwardMap map = toBackwardMap(cv, spec.upsampling);
+    const render::BackwardMap map = toBackwardMap(cv, geometry, spec.upsampling);
     renderer.setBackwardMap(&map);
     result.deformMs += msSince(t0);
     render::RenderSettings s = spec.settings;

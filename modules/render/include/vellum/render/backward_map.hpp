@@ -11,7 +11,8 @@
 //   (core/gaussian_upsampling.hpp; outside the outermost nodes the position is clamped onto
 //   them, no extrapolation); then the rigid snap, if any, exactly as CPU synthesis applies it
 //   per voxel: if u lies in the class voxel of rigid body c (valid), and |R_c v + t_c - u| <=
-//   maxSnapMm, u = R_c v + t_c. The source is sampled at u with background outside it;
+//   maxSnapMm, u = R_c v + t_c. The source is sampled at u with background outside it, and
+//   background also outside the `output` voxel box when that is set;
 // - shading uses the source's gradient normal at u, NOT rotated by the map's Jacobian
 //   (lighting on strongly rotated parts is approximate);
 // - attributes: (dL, da, db) shift the transfer-function colour in CIE L*a*b* (D65, sRGB),
@@ -19,6 +20,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "vellum/core/geometry.hpp"
@@ -53,10 +55,16 @@ struct BackwardMap {
   MapUpsampling upsampling = MapUpsampling::Trilinear;
   /// Empty, or the rigid snap applied after interpolating u (at most kMaxSnapBodies bodies).
   std::shared_ptr<const MapRigidSnap> rigidSnap;
+  /// Empty, or the deformed volume's voxel grid (same direction as `grid`; the node grid of a
+  /// control volume reaches up to s - 1/2 voxels beyond it): samples outside its voxel box see
+  /// the background, as they do when the synthesised volume itself is rendered.
+  std::optional<Geometry> output;
 };
 
-/// The identity map (u = v) on `grid`, optionally carrying attributes (4 floats per node):
-/// renders an already deformed volume with the attribute fields of its deformation.
-BackwardMap identityBackwardMap(const Geometry& grid, std::vector<float> attributes = {});
+/// The identity map (u = v) on `grid`, optionally carrying attributes (4 floats per node) and
+/// the output grid: renders an already deformed volume (`output`, the volume's own grid) with
+/// the attribute fields of its deformation, exactly as the live deformed render draws it.
+BackwardMap identityBackwardMap(const Geometry& grid, std::vector<float> attributes = {},
+                                std::optional<Geometry> output = std::nullopt);
 
 }  // namespace vellum::render

@@ -19,10 +19,11 @@
 
 namespace vellum::animation {
 
-/// The renderer's view of a control volume: node map, attributes, the rigid snap (class voxels
-/// shared, not copied) and the upsampling kernel, so that the GL frame shows what CPU
-/// synthesis with the same kernel makes. The one ControlVolume -> BackwardMap conversion.
-render::BackwardMap toBackwardMap(const deformation::ControlVolume& cv,
+/// The renderer's view of a control volume built for the volume grid `output`: node map,
+/// attributes, the rigid snap (class voxels shared, not copied), the upsampling kernel and the
+/// output box, so that the GL frame shows what CPU synthesis with the same kernel makes. The
+/// one ControlVolume -> BackwardMap conversion.
+render::BackwardMap toBackwardMap(const deformation::ControlVolume& cv, const Geometry& output,
                                   deformation::Upsampling upsampling = deformation::Upsampling::Trilinear);
 
 struct MovieSpec {
