@@ -1,5 +1,6 @@
 #include "vellum/deformation/map_file.hpp"
 
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -24,11 +25,39 @@ void saveBackwardMapNrrd(const std::vector<float>& map, const Geometry& g, const
   io::writeNrrd(path, layout, map.data(), map.size() * sizeof(float), gzip);
 }
 
+void saveAttributeFieldNrrd(const std::vector<float>& attributes, const Geometry& grid, const fs::path& path, bool gzip) {
+  if (attributes.size() != 4 * static_cast<size_t>(grid.dims.voxelCount()))
+    throw FileError(path, "attribute field has " + std::to_string(attributes.size()) + " floats, the grid " +
+                              grid.dims.str() + " needs 4 per node");
+  io::NrrdLayout layout;
+  layout.type = "float";
+  layout.leadingSizes = {4};
+  layout.leadingKinds = {"vector"};
+  layout.geometry = grid;
+  layout.comments = {"Vellum attribute field: dL*, da*, db*, density scale per node of the control grid (output space)"};
+  layout.extraFields = "space units: \"mm\" \"mm\" \"mm\"\n";
+  io::writeNrrd(path, layout, attributes.data(), attributes.size() * sizeof(float), gzip);
+}
+
 std::vector<float> loadBackwardMapNrrd(const fs::path& path, Geometry* gridOut) {
+  return loadFloatVectorNrrd(path, 3, "backward map", gridOut);
+}
+
+std::vector<float> loadAttributeFieldNrrd(const fs::path& path, Geometry* gridOut) {
+  std::vector<float> a = loadFloatVectorNrrd(path, 4, "attribute field", gridOut);
+  for (size_t i = 0; i < a.size(); ++i)
+    if (!std::isfinite(a[i]))
+      throw FileError(path, "attribute field value " + std::to_string(i) + " is not finite");
+  return a;
+}
+
+std::vector<float> loadFloatVectorNrrd(const fs::path& path, int components, const char* what, Geometry* gridOut) {
   io::NrrdContents c = io::readNrrd(path);
   const io::NrrdLayout& l = c.layout;
-  if (l.type != "float" || l.leadingSizes != std::vector<int64_t>{3} || l.leadingKinds != std::vector<std::string>{"vector"})
-    throw FileError(path, "not a Vellum backward map (needs type float, kinds vector domain domain domain, 3 components)");
+  if (l.type != "float" || l.leadingSizes != std::vector<int64_t>{components} ||
+      l.leadingKinds != std::vector<std::string>{"vector"})
+    throw FileError(path, std::string("not a Vellum ") + what + " (needs type float, kinds vector domain domain domain, " +
+                              std::to_string(components) + " components)");
   std::vector<float> map(c.bytes.size() / sizeof(float));
   std::memcpy(map.data(), c.bytes.data(), map.size() * sizeof(float));
   if (gridOut) *gridOut = l.geometry;

@@ -86,7 +86,7 @@ double processCpuMs() {
 }
 
 struct DeformArgs {
-  std::string input, points, output, mapOut, report;
+  std::string input, points, output, mapOut, attributesOut, report;
   bool psnr = false;
   EngineOptions engine;
   RigidOptions rigid;
@@ -109,6 +109,9 @@ void addDeformCommand(CLI::App& app) {
   cmd->add_option("--points", a->points, "control points JSON (mm; see docs/deformation.md)")->required();
   cmd->add_option("--out,-o", a->output, "deformed volume (same geometry and type; any writable format)")->required();
   cmd->add_option("--map-out", a->mapOut, "backward map as a gzip 3-component float32 NRRD (source mm per output voxel)");
+  cmd->add_option("--attributes-out", a->attributesOut,
+                  "attribute field (dL*, da*, db*, density per control-grid node) as a 4-component float NRRD; "
+                  "`vellum render OUT --attributes FILE` draws the output as the live deformed render does");
   cmd->add_option("--report", a->report, "JSON report: stage timings, PSNR, rigidity measures");
   cmd->add_flag("--psnr", a->psnr, "also synthesise at s = 1 and report the PSNR of the result against it");
   a->engine.addTo(*cmd);
@@ -127,6 +130,7 @@ void addDeformCommand(CLI::App& app) {
       c = now;
     };
     refuseOverwritingInput(a->input, a->output);
+    if (!a->attributesOut.empty()) refuseOverwritingInput(a->input, a->attributesOut);
     const PointFile pf = loadControlPoints(a->points);
     const DeformParams params = a->engine.params(pf.power);
     const Upsampling up = parseUpsampling(a->engine.upsampling);
@@ -199,6 +203,14 @@ void addDeformCommand(CLI::App& app) {
       if (fullMap.empty()) fullMap = upsampleMap(cv, g, up);
       saveBackwardMapNrrd(fullMap, g, a->mapOut);
       timings["map_out"] = msSince(t);
+    }
+    if (!a->attributesOut.empty()) {
+      // No point has attributes (or --attributes is off): the neutral field, so scripts can always pass it.
+      std::vector<float> field = cv.attributes;
+      if (field.empty())
+        for (int64_t n = 0; n < cv.grid.dims.voxelCount(); ++n) field.insert(field.end(), {0.f, 0.f, 0.f, 1.f});
+      ensureParentFolder(a->attributesOut);
+      saveAttributeFieldNrrd(field, cv.grid, a->attributesOut);
     }
     timings["total"] = msSince(t0);
     std::cout << a->output << "  " << g.dims.str() << "  " << pf.points.size() << " points  s="

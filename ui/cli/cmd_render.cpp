@@ -6,6 +6,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/deformation/map_file.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
@@ -13,7 +14,7 @@ namespace vellum::cli {
 namespace {
 
 struct RenderArgs {
-  std::string input, output;
+  std::string input, output, attributes;
   std::string preset = render::presetName(render::RenderSettings{}.preset);
   std::string size = "512x512";
   render::RenderSettings settings;  ///< the table's flags write here
@@ -27,6 +28,23 @@ struct RenderArgs {
 /// "fig.png" + "bone" -> "fig-bone.png".
 std::filesystem::path withSuffix(const std::filesystem::path& p, const std::string& suffix) {
   return p.parent_path() / (p.stem().string() + "-" + suffix + p.extension().string());
+}
+
+/// The identity map carrying an attribute field written by `vellum deform --attributes-out`
+/// for a volume of geometry `volume` (its control grid: same origin and direction).
+render::BackwardMap attributeFieldMap(const std::string& path, const Geometry& volume) {
+  Geometry grid;
+  std::vector<float> field = deformation::loadAttributeFieldNrrd(path, &grid);
+  const Vec3 d = grid.origin - volume.origin;
+  bool sameFrame = norm(d) < 1e-3 * std::max(1.0, norm(volume.spacing));
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) sameFrame = sameFrame && std::abs(grid.direction(r, c) - volume.direction(r, c)) < 1e-6;
+  for (int axis = 0; axis < 3; ++axis)  // the nodes must reach the last voxel
+    sameFrame = sameFrame && (grid.dims[axis] - 1) * grid.spacing[axis] >= (volume.dims[axis] - 1) * volume.spacing[axis] - 1e-3;
+  if (!sameFrame)
+    throw FileError(path, "attribute field grid " + grid.dims.str() + " does not cover the volume " + volume.dims.str() +
+                              " (origin, direction and extent must match its control grid)");
+  return render::identityBackwardMap(grid, std::move(field), volume);
 }
 
 }  // namespace
@@ -43,6 +61,9 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z)")->expected(3);
   cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1")->expected(3, 4);
   cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
+  cmd->add_option("--attributes", a->attributes,
+                  "attribute field of `vellum deform --attributes-out` for this (deformed) volume: colour shifts "
+                  "and density drawn as in the live deformed render");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
   a->figure.addTo(*cmd, FigureOptions::LabelSource::File);
@@ -66,14 +87,19 @@ void addRenderCommand(CLI::App& app) {
       if (!labels->geometry().approxEqual(geometryOf(lv.volume), 1e-3))
         throw FileError(a->figure.labelMap, "label map grid " + labels->geometry().dims.str() + " differs from the volume's");
     }
+    const std::optional<render::BackwardMap> attributeMap =
+        a->attributes.empty() ? std::nullopt : std::optional(attributeFieldMap(a->attributes, geometryOf(lv.volume)));
     auto context = render::GlContext::createHeadless();
     render::VolumeRenderer renderer(*context);
     renderer.setVolume(lv.volume);
+    if (attributeMap) renderer.setBackwardMap(&*attributeMap);
+    // The frame's box is the map's node grid when one is set (the annotations must use it too).
+    const Geometry& frameBox = attributeMap ? attributeMap->grid : geometryOf(lv.volume);
     ensureParentFolder(a->output);
     for (render::Preset p : presets) {
       s.preset = p;
       RgbaImage image = renderer.render(s);
-      a->figure.apply(image, geometryOf(lv.volume), s, labels ? &*labels : nullptr);
+      a->figure.apply(image, frameBox, s, labels ? &*labels : nullptr);
       const auto path = presets.size() > 1 ? withSuffix(a->output, render::presetName(p)) : std::filesystem::path(a->output);
       io::saveImage(image, path);
       std::cout << path.string() << "  " << render::presetName(p) << "  " << s.width << "x" << s.height

@@ -21,4 +21,15 @@ void saveBackwardMapNrrd(const std::vector<float>& mapMm, const Geometry& grid,
 /// Throws vellum::FileError naming the file for anything else or a damaged file.
 std::vector<float> loadBackwardMapNrrd(const std::filesystem::path& path, Geometry* grid = nullptr);
 
+/// The attribute field of a control volume (`vellum deform --attributes-out`): 4 floats per node
+/// of the control grid (dL*, da*, db*, density scale; output space), the same NRRD layout with
+/// 4 components. `vellum render --attributes` applies it to the deformed volume.
+void saveAttributeFieldNrrd(const std::vector<float>& attributes, const Geometry& grid,
+                            const std::filesystem::path& path, bool gzip = true);
+std::vector<float> loadAttributeFieldNrrd(const std::filesystem::path& path, Geometry* grid = nullptr);
+
+/// Either file: `components` floats per voxel; `what` names it in errors.
+std::vector<float> loadFloatVectorNrrd(const std::filesystem::path& path, int components, const char* what,
+                                       Geometry* grid = nullptr);
+
 }  // namespace vellum::deformation
