@@ -27,8 +27,9 @@ void KeyframeTrack::validate() const {
   if (keyframes.empty()) throw Error("keyframe track has no keyframes");
   for (size_t k = 0; k < keyframes.size(); ++k) {
     const auto& kf = keyframes[k];
-    if (!(kf.durationS >= 0) || !std::isfinite(kf.durationS))
-      throw Error("keyframe " + std::to_string(k) + ": duration must be >= 0 s");
+    if (!(kf.durationS >= 0 && kf.durationS <= kMaxKeyframeDurationS))
+      throw Error("keyframe " + std::to_string(k) + ": \"duration\" " + std::to_string(kf.durationS) +
+                  " s is outside 0.." + std::to_string(int(kMaxKeyframeDurationS)) + " s");
     if (kf.points.empty()) throw Error("keyframe " + std::to_string(k) + " has no points");
     if (kf.points.size() != keyframes[0].points.size())
       throw Error("keyframe " + std::to_string(k) + " has " + std::to_string(kf.points.size()) +
@@ -104,8 +105,12 @@ ControlPoints KeyframeTrack::at(double timeS) const {
 }
 
 int KeyframeTrack::frameCount(double fps) const {
-  if (!(fps > 0)) throw Error("frames per second must be > 0");
-  const int n = static_cast<int>(std::lround(totalDurationS() * fps));
+  if (!(fps > 0) || !std::isfinite(fps)) throw Error("frames per second must be > 0");
+  const double frames = totalDurationS() * fps;
+  if (!(frames <= kMaxFrames))  // also NaN
+    throw Error("the track lasts " + std::to_string(totalDurationS()) + " s: " + std::to_string(frames) +
+                " frames at " + std::to_string(fps) + " fps is over the limit of " + std::to_string(kMaxFrames));
+  const int n = static_cast<int>(std::lround(frames));
   return loop ? std::max(n, 1) : n + 1;
 }
 

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -26,8 +27,7 @@ json readJson(const fs::path& path) {
 
 void writeJson(const json& j, const fs::path& path) { io::writeTextFile(path, j.dump(2) + "\n"); }
 
-Vec3 readVec(const json& j, const char* key, const fs::path& path, size_t index) {
-  const std::string where = "point " + std::to_string(index) + ": ";
+Vec3 readVec(const json& j, const char* key, const fs::path& path, const std::string& where) {
   if (!j.contains(key)) throw FileError(path, where + "missing \"" + key + "\"");
   const json& v = j.at(key);
   if (!v.is_array() || v.size() != 3 || !v[0].is_number() || !v[1].is_number() || !v[2].is_number())
@@ -37,21 +37,27 @@ Vec3 readVec(const json& j, const char* key, const fs::path& path, size_t index)
   return r;
 }
 
-ControlPoints readPoints(const json& arr, const fs::path& path) {
-  if (!arr.is_array() || arr.empty()) throw FileError(path, "\"points\" must be a non-empty array");
+// `context`: "" for a point file, "keyframe K: " inside a keyframe file.
+ControlPoints readPoints(const json& arr, const fs::path& path, const std::string& context = "") {
+  if (!arr.is_array() || arr.empty()) throw FileError(path, context + "\"points\" must be a non-empty array");
+  if (arr.size() > kMaxControlPoints)
+    throw FileError(path, context + "\"points\" has " + std::to_string(arr.size()) + " entries; at most " +
+                              std::to_string(kMaxControlPoints) + " control points are supported");
   ControlPoints pts;
   for (size_t i = 0; i < arr.size(); ++i) {
     const json& p = arr[i];
-    if (!p.is_object()) throw FileError(path, "point " + std::to_string(i) + " is not an object");
+    const std::string where = context + "point " + std::to_string(i) + ": ";
+    if (!p.is_object()) throw FileError(path, context + "point " + std::to_string(i) + " is not an object");
     ControlPoint cp;
-    cp.source = readVec(p, "source", path, i);
-    cp.target = p.contains("target") ? readVec(p, "target", path, i) : cp.source;
+    cp.source = readVec(p, "source", path, where);
+    cp.target = p.contains("target") ? readVec(p, "target", path, where) : cp.source;
     if (p.contains("attributes")) {
       const json& a = p.at("attributes");
+      if (!a.is_object()) throw FileError(path, where + "\"attributes\" must be an object");
       auto num = [&](const char* k, double def) {
         if (!a.contains(k)) return def;
-        if (!a.at(k).is_number())
-          throw FileError(path, "point " + std::to_string(i) + ": attribute \"" + k + "\" must be a number");
+        if (!a.at(k).is_number() || !std::isfinite(a.at(k).get<double>()))
+          throw FileError(path, where + "attribute \"" + k + "\" must be a finite number");
         return a.at(k).get<double>();
       };
       cp.attributes = {num("lightness", 0), num("a", 0), num("b", 0), num("density", 1)};
@@ -107,23 +113,33 @@ KeyframeTrack loadKeyframes(const fs::path& path) {
   if (!j.is_object()) throw FileError(path, "expected a JSON object with \"keyframes\"");
   checkUnits(j, path);
   KeyframeTrack t;
-  try {
-    if (j.contains("interpolation"))
+  if (j.contains("interpolation")) {
+    if (!j.at("interpolation").is_string()) throw FileError(path, "\"interpolation\" must be linear, smooth or eased");
+    try {
       t.interpolation = parseInterpolation(j.at("interpolation").get<std::string>());
-    if (j.contains("loop")) t.loop = j.at("loop").get<bool>();
-  } catch (const std::exception& e) {
-    throw FileError(path, e.what());
+    } catch (const Error& e) {
+      throw FileError(path, std::string("\"interpolation\": ") + e.what());
+    }
+  }
+  if (j.contains("loop")) {
+    if (!j.at("loop").is_boolean()) throw FileError(path, "\"loop\" must be true or false");
+    t.loop = j.at("loop").get<bool>();
   }
   if (!j.contains("keyframes") || !j.at("keyframes").is_array() || j.at("keyframes").empty())
     throw FileError(path, "\"keyframes\" must be a non-empty array");
+  if (j.at("keyframes").size() > kMaxKeyframes)
+    throw FileError(path, "\"keyframes\" has " + std::to_string(j.at("keyframes").size()) + " entries; at most " +
+                              std::to_string(kMaxKeyframes) + " are supported");
   for (const json& k : j.at("keyframes")) {
+    const std::string where = "keyframe " + std::to_string(t.keyframes.size()) + ": ";
+    if (!k.is_object()) throw FileError(path, where + "not an object");
     Keyframe kf;
     if (k.contains("duration")) {
-      if (!k.at("duration").is_number()) throw FileError(path, "\"duration\" must be a number (s)");
+      if (!k.at("duration").is_number()) throw FileError(path, where + "\"duration\" must be a number (s)");
       kf.durationS = k.at("duration").get<double>();
     }
-    if (!k.contains("points")) throw FileError(path, "a keyframe is missing \"points\"");
-    kf.points = readPoints(k.at("points"), path);
+    if (!k.contains("points")) throw FileError(path, where + "missing \"points\"");
+    kf.points = readPoints(k.at("points"), path, where);
     t.keyframes.push_back(std::move(kf));
   }
   try {

@@ -17,7 +17,6 @@ using nlohmann::json;
 namespace {
 
 json vec3Json(const Vec3& v) { return json::array({v.x, v.y, v.z}); }
-Vec3 jsonVec3(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>(), j.at(2).get<double>()}; }
 
 /// Relative to `base` when that needs no more than one "..", absolute otherwise: a scene
 /// folder moved together with its data keeps working.
@@ -36,17 +35,73 @@ fs::path resolvedPath(const std::string& stored, const fs::path& base) {
   return (p.is_absolute() ? p : base / p).lexically_normal();
 }
 
+/// Typed, range-checked fields: every error names the scene file and the field.
+struct Fields {
+  const fs::path& path;
+
+  [[noreturn]] void fail(const std::string& field, const std::string& what) const {
+    throw FileError(path, "\"" + field + "\" " + what);
+  }
+  double number(const json& v, const std::string& field, double lo, double hi) const {
+    if (!v.is_number()) fail(field, "must be a number");
+    const double x = v.get<double>();
+    if (!(x >= lo && x <= hi)) fail(field, "is " + std::to_string(x) + ", outside " + std::to_string(lo) + ".." + std::to_string(hi));
+    return x;
+  }
+  double number(const json& obj, const char* key, const std::string& field, double def, double lo, double hi) const {
+    return obj.contains(key) ? number(obj.at(key), field, lo, hi) : def;
+  }
+  std::string text(const json& obj, const char* key, const std::string& def) const {
+    if (!obj.contains(key)) return def;
+    if (!obj.at(key).is_string()) fail(key, "must be a string");
+    return obj.at(key).get<std::string>();
+  }
+  bool flag(const json& obj, const char* key, const std::string& field, bool def) const {
+    if (!obj.contains(key)) return def;
+    if (!obj.at(key).is_boolean()) fail(field, "must be true or false");
+    return obj.at(key).get<bool>();
+  }
+  Vec3 vec3(const json& v, const std::string& field) const {
+    if (!v.is_array() || v.size() != 3) fail(field, "must be [x, y, z] in mm");
+    return {number(v[0], field, -1e9, 1e9), number(v[1], field, -1e9, 1e9), number(v[2], field, -1e9, 1e9)};
+  }
+  WindowLevel window(const json& v, const std::string& field) const {
+    if (!v.is_array() || v.size() != 2) fail(field, "must be [center, width]");
+    return {number(v[0], field + "[0]", -1e9, 1e9), number(v[1], field + "[1]", 1e-9, 1e9)};
+  }
+  std::vector<uint16_t> ids(const json& obj, const char* key, const std::string& field) const {
+    std::vector<uint16_t> out;
+    if (!obj.contains(key)) return out;
+    const json& v = obj.at(key);
+    if (!v.is_array() || v.size() > 65536) fail(field, "must be an array of at most 65536 label ids");
+    for (const json& id : v) {
+      if (!id.is_number_integer()) fail(field, "must hold integer label ids");
+      out.push_back(static_cast<uint16_t>(number(id, field, 0, 65535)));
+    }
+    return out;
+  }
+  const json& object(const json& obj, const char* key, const std::string& field) const {
+    const json& v = obj.at(key);
+    if (!v.is_object()) fail(field, "must be an object");
+    return v;
+  }
+};
+
 /// Version 3: the tables' keys (unknown keys are refused, so a typo does not pass silently).
-void readView(const json& j, ViewState& v) {
+void readView(const json& j, ViewState& v, const Fields& f) {
   if (j.contains("view")) params::fromJson(viewSettingsTable(), j["view"], v.view, "view");
   if (j.contains("render")) params::fromJson(render::renderSettingsTable(), j["render"], v.render, "render");
-  if (j.contains("pan")) v.render.camera.panMm = jsonVec3(j["pan"]);
+  if (j.contains("pan")) v.render.camera.panMm = f.vec3(j["pan"], "pan");
   if (j.contains("illustration")) {
-    const json& il = j["illustration"];
-    v.illustration.enabled = il.value("enabled", false);
+    const json& il = f.object(j, "illustration", "illustration");
+    v.illustration.enabled = f.flag(il, "enabled", "illustration.enabled", false);
     if (il.contains("style")) v.illustration.style = illustration::styleFromJson(il["style"].dump(), "illustration.style");
   }
+  if (j.contains("camera_bookmarks") && (!j["camera_bookmarks"].is_array() || j["camera_bookmarks"].size() > 10000))
+    f.fail("camera_bookmarks", "must be an array of at most 10000 cameras");
   for (const json& b : j.value("camera_bookmarks", json::array())) {
+    if (!b.is_object() || !b.contains("name") || !b.at("name").is_string())
+      f.fail("camera_bookmarks", "entries must be objects with a \"name\"");
     CameraBookmark bm{b.at("name").get<std::string>(), {}};
     render::RenderSettings camera;
     json keys = b;
@@ -54,32 +109,50 @@ void readView(const json& j, ViewState& v) {
     keys.erase("pan");
     params::fromJson(render::renderSettingsTable(), keys, camera, "camera_bookmarks");
     bm.camera = camera.camera;
-    if (b.contains("pan")) bm.camera.panMm = jsonVec3(b["pan"]);
+    if (b.contains("pan")) bm.camera.panMm = f.vec3(b["pan"], "camera_bookmarks.pan");
     v.bookmarks.push_back(std::move(bm));
   }
 }
 
 /// Versions 1 and 2 wrote each view field under its own key.
-void readLegacyView(const json& j, ViewState& v) {
-  v.view.layout = parseLayout(j.value("layout", "2x2"));
-  v.render.preset = render::parsePreset(j.value("preset", "soft-tissue"));
+void readLegacyView(const json& j, ViewState& v, const Fields& f) {
+  v.view.layout = parseLayout(f.text(j, "layout", "2x2"));
+  v.render.preset = render::parsePreset(f.text(j, "preset", "soft-tissue"));
   if (j.contains("camera")) {
-    const json& c = j["camera"];
+    const json& c = f.object(j, "camera", "camera");
     render::Camera& cam = v.render.camera;
-    cam.azimuthDeg = c.value("azimuth", cam.azimuthDeg);
-    cam.elevationDeg = c.value("elevation", cam.elevationDeg);
-    cam.zoom = c.value("zoom", cam.zoom);
-    cam.fieldOfViewDeg = c.value("fov", cam.fieldOfViewDeg);
-    if (c.contains("pan")) cam.panMm = jsonVec3(c["pan"]);
+    cam.azimuthDeg = f.number(c, "azimuth", "camera.azimuth", cam.azimuthDeg, -1e6, 1e6);
+    cam.elevationDeg = f.number(c, "elevation", "camera.elevation", cam.elevationDeg, -90, 90);
+    cam.zoom = f.number(c, "zoom", "camera.zoom", cam.zoom, 1e-3, 1e3);
+    cam.fieldOfViewDeg = f.number(c, "fov", "camera.fov", cam.fieldOfViewDeg, 0, 169);
+    if (c.contains("pan")) cam.panMm = f.vec3(c["pan"], "camera.pan");
   }
-  if (j.contains("slice_window"))
-    v.view.sliceWindow = {j["slice_window"].at(0).get<double>(), j["slice_window"].at(1).get<double>()};
-  if (j.contains("render_window"))
-    std::tie(v.render.windowCenter, v.render.windowWidth) =
-        std::pair{j["render_window"].at(0).get<double>(), j["render_window"].at(1).get<double>()};
-  v.view.labelOpacity = j.value("label_opacity", v.view.labelOpacity);
+  if (j.contains("slice_window")) v.view.sliceWindow = f.window(j["slice_window"], "slice_window");
+  if (j.contains("render_window")) {
+    const WindowLevel w = f.window(j["render_window"], "render_window");
+    std::tie(v.render.windowCenter, v.render.windowWidth) = std::pair{w.center, w.width};
+  }
+  v.view.labelOpacity = static_cast<float>(f.number(j, "label_opacity", "label_opacity", v.view.labelOpacity, 0, 1));
   params::validate(viewSettingsTable(), v.view);
   params::validate(render::renderSettingsTable(), v.render);
+}
+
+SceneDeformation readDeformation(const json& j, const Fields& f, const fs::path& base) {
+  const json& d = f.object(j, "deformation", "deformation");
+  if (!d.contains("keyframes") || !d.at("keyframes").is_string()) f.fail("deformation.keyframes", "must be a file name");
+  SceneDeformation def;
+  def.keyframesPath = resolvedPath(d.at("keyframes").get<std::string>(), base);
+  if (!fs::exists(def.keyframesPath))
+    throw FileError(def.keyframesPath, "referenced by " + f.path.filename().string() + " does not exist");
+  def.track = deformation::loadKeyframes(def.keyframesPath);  // names that file on errors
+  def.keyframe = static_cast<int>(f.number(d, "keyframe", "deformation.keyframe", 0, 0, 1e9));
+  if (def.keyframe >= int(def.track.keyframes.size()))
+    throw FileError(f.path, "deformation.keyframe " + std::to_string(def.keyframe) + " is not a keyframe of " +
+                                def.keyframesPath.filename().string());
+  def.rigidLabels = f.ids(d, "rigid_labels", "deformation.rigid_labels");
+  def.falloffMm = f.number(d, "rigid_falloff_mm", "deformation.rigid_falloff_mm", 10.0, 1e-6, 1e4);
+  if (d.contains("engine")) params::fromJson(deformation::deformParamsTable(), d["engine"], def.engine, "deformation.engine");
+  return def;
 }
 
 /// The camera fields of the render table (a bookmark is a camera, nothing else).
@@ -124,41 +197,29 @@ SceneFile readSceneFile(const fs::path& path) {
   } catch (const json::exception& e) {
     throw FileError(path, std::string("not valid JSON: ") + e.what());
   }
+  if (!j.is_object()) throw FileError(path, "not a vellum-studio scene (expected a JSON object)");
+  const Fields f{path};
   SceneFile s;
   try {
-    if (j.value("format", "") != "vellum-studio-scene")
+    if (!j.contains("format") || j.at("format") != "vellum-studio-scene")
       throw FileError(path, "not a vellum-studio scene (\"format\" is not \"vellum-studio-scene\")");
+    if (!j.contains("version") || !j.at("version").is_number_integer()) f.fail("version", "must be an integer");
     const int version = j.at("version").get<int>();
     if (version < 1 || version > kSceneFormatVersion)
       throw FileError(path, "scene version " + std::to_string(version) + " is not supported (this studio reads 1.." +
                                 std::to_string(kSceneFormatVersion) + ")");
     const fs::path base = path.parent_path();
+    if (!j.contains("volume") || !j.at("volume").is_string()) f.fail("volume", "must be a file name");
     s.volume = resolvedPath(j.at("volume").get<std::string>(), base);
-    s.labels = resolvedPath(j.value("labels", ""), base);
-    s.shapes = resolvedPath(j.value("shapes", ""), base);
-    s.seriesUid = j.value("series", "");
-    if (version >= 3) readView(j, s.view);
-    else readLegacyView(j, s.view);
-    if (j.contains("crosshair")) s.crosshairMm = jsonVec3(j["crosshair"]);
-    for (const auto& id : j.value("hidden_labels", json::array())) s.hiddenLabels.insert(id.get<uint16_t>());
-    for (const auto& id : j.value("locked_labels", json::array())) s.lockedLabels.insert(id.get<uint16_t>());
-    if (j.contains("deformation")) {
-      const json& d = j["deformation"];
-      SceneDeformation def;
-      def.keyframesPath = resolvedPath(d.at("keyframes").get<std::string>(), base);
-      if (!fs::exists(def.keyframesPath))
-        throw FileError(def.keyframesPath, "referenced by " + path.filename().string() + " does not exist");
-      def.track = deformation::loadKeyframes(def.keyframesPath);  // names that file on errors
-      def.keyframe = d.value("keyframe", 0);
-      if (def.keyframe < 0 || def.keyframe >= int(def.track.keyframes.size()))
-        throw FileError(path, "deformation.keyframe " + std::to_string(def.keyframe) + " is not a keyframe of " +
-                                  def.keyframesPath.filename().string());
-      def.rigidLabels = d.value("rigid_labels", std::vector<uint16_t>{});
-      def.falloffMm = d.value("rigid_falloff_mm", 10.0);
-      if (!(def.falloffMm > 0 && def.falloffMm < 1e4)) throw FileError(path, "deformation.rigid_falloff_mm must be in (0, 1e4)");
-      if (d.contains("engine")) params::fromJson(deformation::deformParamsTable(), d["engine"], def.engine, "deformation.engine");
-      s.deformation = std::move(def);
-    }
+    s.labels = resolvedPath(f.text(j, "labels", ""), base);
+    s.shapes = resolvedPath(f.text(j, "shapes", ""), base);
+    s.seriesUid = f.text(j, "series", "");
+    if (version >= 3) readView(j, s.view, f);
+    else readLegacyView(j, s.view, f);
+    if (j.contains("crosshair")) s.crosshairMm = f.vec3(j["crosshair"], "crosshair");
+    for (uint16_t id : f.ids(j, "hidden_labels", "hidden_labels")) s.hiddenLabels.insert(id);
+    for (uint16_t id : f.ids(j, "locked_labels", "locked_labels")) s.lockedLabels.insert(id);
+    if (j.contains("deformation")) s.deformation = readDeformation(j, f, base);
   } catch (const json::exception& e) {
     throw FileError(path, std::string("bad scene field: ") + e.what());
   } catch (const FileError&) {

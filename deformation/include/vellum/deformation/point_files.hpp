@@ -11,6 +11,9 @@
 
 namespace vellum::deformation {
 
+/// Control points one file (or keyframe) may hold; more is refused as a named error.
+constexpr size_t kMaxControlPoints = 100000;
+
 struct PointFile {
   ControlPoints points;
   std::optional<double> power;  ///< "power" when the file gives one
