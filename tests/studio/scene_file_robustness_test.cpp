@@ -1,0 +1,103 @@
+// The studio scene reader on damaged scene files: truncated, wrong types, NaN/inf, out-of-range
+// values, empty and huge arrays, a damaged keyframe file beside it. Each must be one line of
+// vellum::FileError naming the file and the field; never a crash or another exception.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+#include "scene_file.hpp"
+#include "test_data.hpp"
+#include "vellum/core/error.hpp"
+
+using namespace vellum;
+using namespace vellum::studio;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The FileError message of reading `text` as a scene; fails the test for anything else.
+std::string sceneError(const fs::path& dir, const std::string& text) {
+  const fs::path file = dir / "scene.json";
+  std::ofstream(file, std::ios::binary) << text;
+  try {
+    (void)readSceneFile(file);
+  } catch (const FileError& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.find('\n'), std::string::npos) << "not one line: " << m;
+    return m;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "not a vellum::FileError: " << e.what() << "\n  input: " << text;
+    return "";
+  }
+  ADD_FAILURE() << "no error for: " << text;
+  return "";
+}
+
+std::string scene(const std::string& fields) {
+  return R"({"format": "vellum-studio-scene", "version": 2, "volume": "ct.nrrd")" + (fields.empty() ? "" : ", " + fields) + "}";
+}
+
+}  // namespace
+
+TEST(StudioSceneFile, DamagedFieldsAreNamedErrors) {
+  const fs::path dir = test::tempDir("studio-scene-robust");
+  std::ofstream(dir / "ct.nrrd") << "placeholder";  // only its existence is checked
+  std::ofstream(dir / "ok.json") << scene("");
+  ASSERT_NO_THROW(readSceneFile(dir / "ok.json"));
+  struct Case {
+    std::string fields, want;
+  };
+  const std::vector<Case> cases = {
+      {R"("camera": {"zoom": 0})", "\"camera.zoom\""},
+      {R"("camera": {"zoom": "big"})", "\"camera.zoom\" must be a number"},
+      {R"("camera": {"fov": 500})", "\"camera.fov\""},
+      {R"("camera": {"elevation": 1e300})", "\"camera.elevation\""},
+      {R"("camera": 5)", "\"camera\" must be an object"},
+      {R"("camera": {"pan": [1, 2]})", "\"camera.pan\""},
+      {R"("camera": {"pan": [1, 2, "3"]})", "\"camera.pan\""},
+      {R"("crosshair": [])", "\"crosshair\""},
+      {R"("slice_window": [40])", "\"slice_window\""},
+      {R"("render_window": [400, 0])", "\"render_window[1]\""},
+      {R"("render_window": [400, -5])", "\"render_window[1]\""},
+      {R"("label_opacity": 7)", "\"label_opacity\""},
+      {R"("label_opacity": null)", "\"label_opacity\""},
+      {R"("hidden_labels": [1, "two"])", "\"hidden_labels\""},
+      {R"("hidden_labels": [70000])", "\"hidden_labels\""},
+      {R"("locked_labels": {"a": 1})", "\"locked_labels\""},
+      {R"("layout": 4)", "\"layout\" must be a string"},
+      {R"("layout": "3x3")", "3x3"},
+      {R"("preset": "shiny")", "shiny"},
+      {R"("labels": ["a"])", "\"labels\" must be a string"},
+      {R"("deformation": [])", "\"deformation\" must be an object"},
+      {R"("deformation": {"keyframes": 3})", "\"deformation.keyframes\""},
+  };
+  for (const Case& c : cases) {
+    const std::string m = sceneError(dir, scene(c.fields));
+    EXPECT_NE(m.find("scene.json"), std::string::npos) << m;
+    EXPECT_NE(m.find(c.want), std::string::npos) << "want " << c.want << " in: " << m;
+  }
+  for (const std::string& top : {std::string("[]"), std::string(R"({"format": "vellum-studio-scene", "version": "2"})"),
+                                 std::string(R"({"format": "vellum-studio-scene", "version": 2, "volume": 1})"),
+                                 std::string(R"({"format": 7})")})
+    EXPECT_NE(sceneError(dir, top).find("scene.json"), std::string::npos) << top;
+  // Huge array: more ids than labels exist.
+  std::string ids = "[";
+  for (int i = 0; i <= 65536; ++i) ids += std::string(i ? "," : "") + "1";
+  EXPECT_NE(sceneError(dir, scene(R"("hidden_labels": )" + ids + "]")).find("\"hidden_labels\""), std::string::npos);
+  // A damaged keyframe file beside the scene: the error names that file and its field.
+  std::ofstream(dir / "track.json") << R"({"keyframes": [{"duration": 1e12, "points": [{"source": [0, 0, 0]}]}]})";
+  const std::string m = sceneError(dir, scene(R"("deformation": {"keyframes": "track.json"})"));
+  EXPECT_NE(m.find("track.json"), std::string::npos) << m;
+  EXPECT_NE(m.find("keyframe 0: \"duration\""), std::string::npos) << m;
+}
+
+TEST(StudioSceneFile, EveryTruncationIsANamedError) {
+  const fs::path dir = test::tempDir("studio-scene-cut");
+  std::ofstream(dir / "ct.nrrd") << "placeholder";
+  const std::string full = scene(R"("camera": {"azimuth": 30, "zoom": 1.5, "pan": [1, 2, 3]}, "slice_window": [40, 400],)"
+                                 R"( "hidden_labels": [3, 7], "label_opacity": 0.5)");
+  std::ofstream(dir / "full.json") << full;
+  ASSERT_NO_THROW(readSceneFile(dir / "full.json"));
+  for (size_t n = 0; n + 1 < full.size(); ++n) (void)sceneError(dir, full.substr(0, n));
+}
