@@ -93,8 +93,10 @@ void uploadOccupancy(const SkipGrid& g, const std::vector<uint8_t>& occ) {
 struct VolumeRenderer::Impl {
   GlContext& context;
   GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0, classTex = 0;
-  /// The class voxels in classTex (re-uploaded only when another class volume arrives).
+  /// The class voxels in classTex (re-uploaded only when another class volume arrives; held,
+  /// so that no other volume can take the same address).
   const std::vector<uint16_t>* uploadedClasses = nullptr;
+  std::shared_ptr<const std::vector<uint16_t>> heldClasses;
   std::optional<PreparedSnap> snap;
   std::optional<PreparedMap::OutputAxes> output;
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
@@ -199,10 +201,14 @@ struct VolumeRenderer::Impl {
     deleteTexture(mapTex);
     glGenTextures(1, &mapTex);
     glBindTexture(GL_TEXTURE_3D, mapTex);
-    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGB32F, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z));
+    // RGBA (w unused): llvmpipe filters 16-byte texels faster than 12-byte ones.
+    std::vector<float> rgba(pm.index.size() / 3 * 4, 0.f);
+    for (size_t t = 0, n = pm.index.size() / 3; t < n; ++t)
+      std::copy_n(pm.index.data() + 3 * t, 3, rgba.data() + 4 * t);
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA32F, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z));
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z), GL_RGB,
-                    GL_FLOAT, pm.index.data());
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z), GL_RGBA,
+                    GL_FLOAT, rgba.data());
     // The map extends its outermost nodes (rays only sample inside its grid box).
     setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
     deleteTexture(attrTex);
@@ -238,10 +244,9 @@ struct VolumeRenderer::Impl {
                     GL_UNSIGNED_SHORT, rs.classes->data());
     setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
     uploadedClasses = rs.classes.get();
-    classKeepAlive = rs.classes;
+    heldClasses = rs.classes;
     checkGlError("rigid snap class upload");
   }
-  std::shared_ptr<const std::vector<uint16_t>> classKeepAlive;  ///< so the pointer above stays unique
 
   void setSnapUniforms(GLuint p) const {
     const PreparedSnap& ps = *snap;
