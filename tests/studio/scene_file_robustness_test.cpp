@@ -34,8 +34,10 @@ std::string sceneError(const fs::path& dir, const std::string& text) {
   return "";
 }
 
-std::string scene(const std::string& fields) {
-  return R"({"format": "vellum-studio-scene", "version": 2, "volume": "ct.nrrd")" + (fields.empty() ? "" : ", " + fields) + "}";
+// Version 2 keeps each view field under its own key; version 3 has the parameter tables.
+std::string scene(const std::string& fields, int version = 2) {
+  return R"({"format": "vellum-studio-scene", "version": )" + std::to_string(version) + R"(, "volume": "ct.nrrd")" +
+         (fields.empty() ? "" : ", " + fields) + "}";
 }
 
 }  // namespace
@@ -75,6 +77,25 @@ TEST(StudioSceneFile, DamagedFieldsAreNamedErrors) {
   for (const Case& c : cases) {
     const std::string m = sceneError(dir, scene(c.fields));
     EXPECT_NE(m.find("scene.json"), std::string::npos) << m;
+    EXPECT_NE(m.find(c.want), std::string::npos) << "want " << c.want << " in: " << m;
+  }
+  const std::vector<Case> v3 = {
+      {R"("render": {"zoom": 0})", "zoom"},
+      {R"("render": {"zoom": "big"})", "zoom"},
+      {R"("render": {"sparkle": 1})", "sparkle"},
+      {R"("view": 5)", "view"},
+      {R"("pan": [1])", "\"pan\""},
+      {R"("pan": [1, 2, null])", "\"pan\""},
+      {R"("illustration": {"enabled": "yes"})", "\"illustration.enabled\""},
+      {R"("illustration": [])", "\"illustration\" must be an object"},
+      {R"("camera_bookmarks": 3)", "\"camera_bookmarks\""},
+      {R"("camera_bookmarks": [{"azimuth": 3}])", "\"camera_bookmarks\""},
+      {R"("camera_bookmarks": [{"name": "a", "pan": [0, 0]}])", "\"camera_bookmarks.pan\""},
+      {R"("crosshair": [1, 2, 3, 4])", "\"crosshair\""},
+      {R"("deformation": {"keyframes": "k.json", "engine": []})", "k.json"},
+  };
+  for (const Case& c : v3) {
+    const std::string m = sceneError(dir, scene(c.fields, 3));
     EXPECT_NE(m.find(c.want), std::string::npos) << "want " << c.want << " in: " << m;
   }
   for (const std::string& top : {std::string("[]"), std::string(R"({"format": "vellum-studio-scene", "version": "2"})"),
