@@ -14,7 +14,7 @@ namespace vellum::cli {
 namespace {
 
 struct RenderArgs {
-  std::string input, output, attributes;
+  std::string input, output, attributes, labelColours;
   std::string preset = render::presetName(render::RenderSettings{}.preset);
   std::string size = "512x512";
   render::RenderSettings settings;  ///< the table's flags write here
@@ -61,6 +61,9 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z)")->expected(3);
   cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1")->expected(3, 4);
   cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
+  cmd->add_option("--label-colours", a->labelColours,
+                  "label map whose table colours tint the volume by --label-blend (default blend 0.5; "
+                  "without this option --label-map's colours are used)");
   cmd->add_option("--attributes", a->attributes,
                   "attribute field of `vellum deform --attributes-out` for this (deformed) volume: colour shifts "
                   "and density drawn as in the live deformed render");
@@ -93,6 +96,21 @@ void addRenderCommand(CLI::App& app) {
     render::VolumeRenderer renderer(*context);
     renderer.setVolume(lv.volume);
     if (attributeMap) renderer.setBackwardMap(&*attributeMap);
+    // Label colours tint the volume (the studio's "Label colours"): --label-colours, or with
+    // --label-blend alone the --label-map's colours.
+    if (!a->labelColours.empty() && s.labelBlend == 0) s.labelBlend = 0.5;
+    if (s.labelBlend > 0) {
+      std::optional<LabelVolume> colours;
+      if (!a->labelColours.empty()) {
+        colours = a->in.loadLabelsOnInputGrid(a->labelColours);
+        if (!colours->geometry().approxEqual(geometryOf(lv.volume), 1e-3))
+          throw FileError(a->labelColours, "label map grid " + colours->geometry().dims.str() + " differs from the volume's");
+      }
+      const LabelVolume* source = colours ? &*colours : labels ? &*labels : nullptr;
+      if (!source) throw Error("--label-blend needs --label-colours (the labels whose colours tint the volume)");
+      const render::LabelTint tint = render::makeLabelTint(*source);
+      renderer.setLabelTint(&tint);
+    }
     // The frame's box is the map's node grid when one is set (the annotations must use it too).
     const Geometry& frameBox = attributeMap ? attributeMap->grid : geometryOf(lv.volume);
     ensureParentFolder(a->output);

@@ -197,6 +197,7 @@ void StudioApp::frame() {
       markSlicesDirty();
     }
     view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
+    view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision, scene_.render.labelBlend > 0);
     for (const Pane& p : panes_)
       if (p.is3d())
         rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());

@@ -197,9 +197,14 @@ std::string cliRenderCommand(const Scene& scene, int width, int height, const st
   c.precision(10);
   auto quoted = [](const std::string& t) { return "'" + t + "'"; };
   // Every render setting from the same table as the CLI's flags, so the two cannot drift.
+  // Label colours need the label file; unsaved labels cannot be named, so the blend is left out.
+  const bool tint = s.labelBlend > 0 && !scene.labelsPath.empty();
+  std::vector<std::string> skip{"width", "height"};
+  if (!tint) skip.push_back("label_blend");
   c << "vellum render " << quoted(scene.volumePath.string()) << " --out " << quoted(out) << " --size " << s.width
-    << "x" << s.height << params::cliArguments(render::renderSettingsTable(), s, {"width", "height"}) << " --pan "
+    << "x" << s.height << params::cliArguments(render::renderSettingsTable(), s, skip) << " --pan "
     << s.camera.panMm.x << ' ' << s.camera.panMm.y << ' ' << s.camera.panMm.z;
+  if (tint) c << " --label-colours " << quoted(scene.labelsPath.string());
   return c.str();
 }
 
@@ -221,7 +226,8 @@ View3D::View3D(render::GlContext& context)
 
 void View3D::setVolume(const VolumeI16& ct) {
   context_.makeCurrent();
-  renderer_->setVolume(AnyVolume(ct));
+  renderer_->setVolume(AnyVolume(ct));  // drops the label tint
+  labelsKey_.clear();
   hasVolume_ = true;
   invalidate();
 }
@@ -230,6 +236,18 @@ void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
   context_.makeCurrent();
   renderer_->setBackwardMap(map);
   mapRevision_ = revision;
+}
+
+void View3D::setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted) {
+  if (!hasVolume_ || !wanted || labels.ids().empty()) return;  // the tint is made when first wanted
+  std::string key = std::to_string(revision);
+  for (uint16_t id : hidden) key += " " + std::to_string(id);
+  if (key == labelsKey_) return;
+  context_.makeCurrent();
+  const render::LabelTint tint = render::makeLabelTint(labels, hidden);
+  renderer_->setLabelTint(&tint);
+  labelsKey_ = key;
+  invalidate();
 }
 
 void View3D::setShapes(std::shared_ptr<const illustration::ShapeScene> shapes, uint64_t revision) {

@@ -62,6 +62,9 @@ class View3D {
   /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
   /// a new one renders again (coarse while the user drags, then refined).
   void setBackwardMap(const render::BackwardMap* map, uint64_t revision);
+  /// Label colours for the 3D view (RenderSettings::labelBlend): re-uploaded when `revision`
+  /// or the hidden set changes and the blend is on; cheap to call every frame.
+  void setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted);
   /// The shapes the illustration view draws (null: none); `revision` identifies them.
   void setShapes(std::shared_ptr<const illustration::ShapeScene> shapes, uint64_t revision);
   /// True when `scene` is drawn as an illustration (enabled and shapes present).
@@ -92,6 +95,7 @@ class View3D {
   std::unique_ptr<render::VolumeRenderer> renderer_;
   std::unique_ptr<illustration::IllustrationRenderer> illustrator_;  ///< made on first use
   std::shared_ptr<const illustration::ShapeScene> shapes_;
+  std::string labelsKey_;  ///< the labels (revision + hidden ids) uploaded as the tint
   uint64_t shapesRevision_ = 0;
   GlTexture texture_;
   bool hasVolume_ = false;

@@ -42,6 +42,7 @@ struct Context {
   NormalVolume normals;
   const BackwardMap* map = nullptr;
   PreparedMap prepared;  ///< the map in source index coordinates, with its snap
+  const LabelTint* tint = nullptr;  ///< set when labels tint the samples
 };
 
 std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float, 4>& n,
@@ -94,6 +95,24 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
           rgb = labShift(rgb, a[0], a[1], a[2]);
           c[3] = 1.f - std::pow(std::max(1.f - c[3], 1e-6f), std::max(a[3], 0.f));
         }
+        if (cx.tint) {  // the label of the most opaque corner voxel (as the shader)
+          const Dims& d = cx.tint->ids.dims();
+          const int64_t bx = int64_t(std::floor(u.x)), by = int64_t(std::floor(u.y)), bz = int64_t(std::floor(u.z));
+          float best = -1.f;
+          int64_t qi = -1, qj = 0, qk = 0;
+          for (int n = 0; n < 8; ++n) {
+            const int64_t i = bx + (n & 1), j = by + ((n >> 1) & 1), k = bz + ((n >> 2) & 1);
+            if (i < 0 || j < 0 || k < 0 || i >= d.x || j >= d.y || k >= d.z) continue;
+            const float a = cx.tf.lookup(double(vol(i, j, k)))[3];
+            if (a > best) best = a, qi = i, qj = j, qk = k;
+          }
+          const uint16_t id = qi >= 0 ? cx.tint->ids(qi, qj, qk) : 0;
+          if (id < kMaxTintLabels) {
+            const auto& lc = cx.tint->colours[id];
+            const float t = float(s.labelBlend) * (lc[3] / 255.f);
+            for (int ch = 0; ch < 3; ++ch) rgb[ch] += t * (lc[ch] / 255.f - rgb[ch]);
+          }
+        }
         if (s.shading) rgb = shade(rgb, cx.normals.sample(u.x, u.y, u.z), -ray.dir);
         const double w = (1 - acc[3]) * c[3];
         for (int ch = 0; ch < 3; ++ch) acc[ch] += w * rgb[ch];
@@ -119,7 +138,7 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
 }  // namespace
 
 RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& settings,
-                             const BackwardMap* map) {
+                             const BackwardMap* map, const LabelTint* tint) {
   checkImageSize(settings.width, settings.height);
   const Geometry& g = geometryOf(volume);
   g.validate("render volume");
@@ -129,6 +148,10 @@ RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& sett
     if (settings.shading) cx.normals = computeNormalVolume(volume);
   }
   if (map) cx.prepared = prepareMap(*map, g);
+  if (tint && settings.labelBlend > 0 && settings.preset != Preset::Mip) {
+    if (!(tint->ids.dims() == g.dims)) throw Error("label tint: label map does not match the volume");
+    cx.tint = tint;
+  }
   RgbaImage image(settings.width, settings.height);
   std::visit(
       [&](const auto& vol) {

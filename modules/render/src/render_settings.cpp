@@ -53,6 +53,8 @@ const params::Table<RenderSettings>& renderSettingsTable() {
                       {"Ray step", "sampling step along rays", "voxels", 0.05, 4}),
       params::flag<R>("jitter", [](auto& s) -> auto& { return s.jitter; },
                       {"Jitter", "fixed per-pixel ray offsets: fine noise instead of wood-grain rings", ""}),
+      params::real<R>("label_blend", [](auto& s) -> auto& { return s.labelBlend; },
+                      {"Label colours", "how much label colours tint the volume (0 = off; needs a label map)", "", 0, 1}),
   };
   return table;
 }

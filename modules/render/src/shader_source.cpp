@@ -6,6 +6,7 @@
 #include "map_sampling.hpp"
 #include "render_common.hpp"
 #include "vellum/core/gaussian_upsampling.hpp"
+#include "vellum/render/label_tint.hpp"
 
 namespace vellum::render::detail {
 namespace {
@@ -99,6 +100,11 @@ uniform vec4 uBodyRows[3 * MAX_SNAP_BODIES];  // per body: source index = rows .
 uniform uint uBodyValid[(MAX_SNAP_BODIES + 31) / 32];
 uniform int uBodies;
 uniform float uMaxSnap2;              // mm^2
+#endif
+#ifdef LABELS
+uniform usampler3D uLabels;       // label id per source voxel
+uniform sampler1D uLabelColours;  // by id: rgb, a = 1 tinted / 0 not
+uniform float uLabelBlend;
 #endif
 #ifdef ATTRIBUTES
 uniform sampler3D uAttr;     // dL, da, db, density scale
@@ -283,6 +289,26 @@ void main() {
         c.rgb = labShift(c.rgb, at.xyz);
         c.a = 1.0 - pow(max(1.0 - c.a, 1e-6), max(at.w, 0.0));
 #endif
+#ifdef LABELS
+        // The label of the voxel, among the 8 around u, that is most opaque in this transfer
+        // function tints the colour before shading: a sample on a bone's surface (where the
+        // bone preset starts to be opaque) takes the bone's label, not the muscle's beside it.
+        {
+          ivec3 b = ivec3(floor(u)), dims = ivec3(uSourceDims), bi = ivec3(-1);
+          float best = -1.0;
+          for (int n = 0; n < 8; ++n) {
+            ivec3 q = b + ivec3(n & 1, (n >> 1) & 1, (n >> 2) & 1);
+            if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
+            float a = tfLookup(texelFetch(uVolume, q, 0).r * uValueScale).a;
+            if (a > best) { best = a; bi = q; }
+          }
+          uint id = bi.x >= 0 ? texelFetch(uLabels, bi, 0).r : 0u;
+          if (id < uint(MAX_TINT_LABELS)) {
+            vec4 lc = texelFetch(uLabelColours, int(id), 0);
+            c.rgb = mix(c.rgb, lc.rgb, uLabelBlend * lc.a);
+          }
+        }
+#endif
 #ifdef SHADING
         c.rgb = shade(c.rgb, texture(uNormals, (u + 0.5) / uSourceDims), -dir);
 #endif
@@ -317,6 +343,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.attributes && v.deformed && !v.mip) s << "#define ATTRIBUTES\n";
   if (v.gaussian && v.deformed) s << "#define GAUSSIAN_MAP\n";
   if (v.outputBox && v.deformed) s << "#define OUTPUT_BOX\n";
+  if (v.labels && !v.mip) s << "#define LABELS\n#define MAX_TINT_LABELS " << kMaxTintLabels << "\n";
   if (v.snap && v.deformed) s << "#define RIGID_SNAP\n#define MAX_SNAP_BODIES " << kMaxSnapBodies << "\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");

@@ -22,7 +22,8 @@ using namespace detail;
 namespace {
 
 enum TextureUnit : GLint {
-  kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses
+  kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses,
+  kUnitLabels, kUnitLabelColours
 };
 
 struct VoxelFormat {
@@ -105,6 +106,8 @@ struct VolumeRenderer::Impl {
   GLuint vao = 0;
   OffscreenTarget target;  ///< destroyed after the body of ~Impl, context still current
   bool hasVolume = false;
+  bool hasLabels = false;
+  GLuint labelTex = 0, labelColourTex = 0;  ///< LabelTint: ids (R16UI) and colours by id (RGBA8)
   Geometry source;
   double valueScale = 1;
   std::optional<BackwardMap> map;
@@ -126,7 +129,7 @@ struct VolumeRenderer::Impl {
   ~Impl() {
     context.makeCurrent();
     for (auto& [key, p] : programs) glDeleteProgram(p);
-    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &blockSkip.occupancyTex,
+    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &blockSkip.occupancyTex,
                       &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex})
       deleteTexture(*t);
     glDeleteVertexArrays(1, &vao);
@@ -145,6 +148,8 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uOccupancy"), kUnitOccupancy);
     glUniform1i(glGetUniformLocation(p, "uBlockMax"), kUnitBlockMax);
     glUniform1i(glGetUniformLocation(p, "uClasses"), kUnitClasses);
+    glUniform1i(glGetUniformLocation(p, "uLabels"), kUnitLabels);
+    glUniform1i(glGetUniformLocation(p, "uLabelColours"), kUnitLabelColours);
     programs[v.key()] = p;
     return p;
   }
@@ -286,6 +291,7 @@ void VolumeRenderer::setVolume(const AnyVolume& volume) {
   impl_->hasVolume = true;
   impl_->mapUploaded = false;  // source index coordinates depend on the source geometry
   impl_->uploadMap();
+  setLabelTint(nullptr);  // the labels belonged to the previous volume
 }
 
 void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
@@ -302,6 +308,37 @@ void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
   impl_->map = *map;
   impl_->mapUploaded = false;
   impl_->uploadMap();
+}
+
+void VolumeRenderer::setLabelTint(const LabelTint* tint) {
+  Impl& m = *impl_;
+  m.context.makeCurrent();
+  deleteTexture(m.labelTex);
+  deleteTexture(m.labelColourTex);
+  m.hasLabels = false;
+  if (!tint) return;
+  if (!m.hasVolume) throw Error("setLabelTint: set the volume first");
+  if (!(tint->ids.dims() == m.source.dims))
+    throw Error("label tint: label map " + tint->ids.dims().str() + " does not match the volume " + m.source.dims.str());
+  if (tint->colours.size() != size_t(kMaxTintLabels)) throw Error("label tint: colour table must have 4096 entries");
+  const Dims d = tint->ids.dims();
+  glGenTextures(1, &m.labelTex);
+  glBindTexture(GL_TEXTURE_3D, m.labelTex);
+  glTexStorage3D(GL_TEXTURE_3D, 1, GL_R16UI, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
+  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RED_INTEGER,
+                  GL_UNSIGNED_SHORT, tint->ids.data());
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  glGenTextures(1, &m.labelColourTex);
+  glBindTexture(GL_TEXTURE_1D, m.labelColourTex);
+  glTexStorage1D(GL_TEXTURE_1D, 1, GL_RGBA8, kMaxTintLabels);
+  glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kMaxTintLabels, GL_RGBA, GL_UNSIGNED_BYTE, tint->colours.data());
+  glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_1D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  checkGlError("label tint upload");
+  m.hasLabels = true;
 }
 
 RgbaImage VolumeRenderer::render(const RenderSettings& s) {
@@ -333,6 +370,7 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   variant.gaussian = map && map->upsampling == MapUpsampling::Gaussian;
   variant.snap = map && m.snap.has_value();
   variant.outputBox = map && m.output.has_value();
+  variant.labels = m.hasLabels && s.labelBlend > 0 && !variant.mip;
   const GLuint p = m.program(variant);
   m.target.bind(s.width, s.height, "render");
   glUseProgram(p);
@@ -341,6 +379,13 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   glBindTexture(GL_TEXTURE_3D, m.volumeTex);
   glActiveTexture(GL_TEXTURE0 + kUnitNormals);
   glBindTexture(GL_TEXTURE_3D, m.normalTex);
+  if (variant.labels) {
+    glActiveTexture(GL_TEXTURE0 + kUnitLabels);
+    glBindTexture(GL_TEXTURE_3D, m.labelTex);
+    glActiveTexture(GL_TEXTURE0 + kUnitLabelColours);
+    glBindTexture(GL_TEXTURE_1D, m.labelColourTex);
+    glUniform1f(glGetUniformLocation(p, "uLabelBlend"), static_cast<float>(s.labelBlend));
+  }
   if (variant.deformed) {
     glActiveTexture(GL_TEXTURE0 + kUnitMap);
     glBindTexture(GL_TEXTURE_3D, m.mapTex);

@@ -61,6 +61,9 @@ struct RenderSettings {
   /// Offsets each ray's samples by a fixed per-pixel fraction of a step (an integer hash of
   /// the pixel, so images stay deterministic): turns "wood-grain" rings into fine noise.
   bool jitter = true;
+  /// Label colours in the 3D view: how much each sample's label colour replaces the transfer
+  /// function's colour (0 = off; needs a LabelTint, see label_tint.hpp). DVR only.
+  double labelBlend = 0.0;
 };
 
 /// Parameter table of RenderSettings (size, preset, camera, window, shading, step, jitter):

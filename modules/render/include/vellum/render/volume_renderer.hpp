@@ -5,6 +5,7 @@
 #include "vellum/core/image.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/render/backward_map.hpp"
+#include "vellum/render/label_tint.hpp"
 #include "vellum/render/gl_context.hpp"
 #include "vellum/render/render_settings.hpp"
 
@@ -37,6 +38,9 @@ class VolumeRenderer {
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
   void setBackwardMap(const BackwardMap* map);
+  /// Label colours for RenderSettings::labelBlend > 0 (ids on the volume's grid; uploaded
+  /// once; call again when they change). nullptr removes them. Call after setVolume.
+  void setLabelTint(const LabelTint* tint);
   /// Renders to an RGBA image (row 0 = top). Throws vellum::Error for sizes over 4096.
   RgbaImage render(const RenderSettings& settings);
   /// Renders only rows [rowBegin, rowEnd) (row 0 = top) of the image `settings` describes
@@ -56,6 +60,6 @@ class VolumeRenderer {
 /// CPU reference ray caster: the same rays, steps, transfer function and compositing as
 /// the shaders, for tests. Slow; intended for small images.
 RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& settings,
-                             const BackwardMap* map = nullptr);
+                             const BackwardMap* map = nullptr, const LabelTint* tint = nullptr);
 
 }  // namespace vellum::render
