@@ -57,10 +57,13 @@ double catmullRom(double p0, double p1, double p2, double p3, double s) {
 
 }  // namespace
 
-ControlPoints KeyframeTrack::at(double timeS) const {
-  validate();
+KeyframeTrack::Segment KeyframeTrack::segmentAt(double timeS) const {
   const int n = static_cast<int>(keyframes.size());
-  if (n == 1) return keyframes[0].points;
+  Segment g;
+  if (n == 1) {
+    g.hold = true;
+    return g;
+  }
   double t = std::clamp(std::isfinite(timeS) ? timeS : 0.0, 0.0, totalDurationS());
   int k = 0;
   while (k < n - 1 && t >= keyframes[static_cast<size_t>(k)].durationS) {
@@ -68,16 +71,29 @@ ControlPoints KeyframeTrack::at(double timeS) const {
     ++k;
   }
   const int last = n - 1;
-  if (k == last && !loop) return keyframes[static_cast<size_t>(last)].points;  // end hold
+  if (k == last && !loop) {  // end hold
+    g.p = g.a = g.b = g.q = last;
+    g.hold = true;
+    return g;
+  }
   const double dur = keyframes[static_cast<size_t>(k)].durationS;
-  double s = dur > 0 ? std::clamp(t / dur, 0.0, 1.0) : 1.0;
-  auto index = [&](int i) {
-    if (loop) return ((i % n) + n) % n;
-    return std::clamp(i, 0, last);
-  };
-  const auto& a = keyframes[static_cast<size_t>(index(k))].points;
-  const auto& b = keyframes[static_cast<size_t>(index(k + 1))].points;
-  if (interpolation == Interpolation::Eased) s = s * s * (3 - 2 * s);
+  g.s = dur > 0 ? std::clamp(t / dur, 0.0, 1.0) : 1.0;
+  if (interpolation == Interpolation::Eased) g.s = g.s * g.s * (3 - 2 * g.s);
+  auto index = [&](int i) { return loop ? ((i % n) + n) % n : std::clamp(i, 0, last); };
+  g.p = index(k - 1);
+  g.a = index(k);
+  g.b = index(k + 1);
+  g.q = index(k + 2);
+  return g;
+}
+
+ControlPoints KeyframeTrack::at(double timeS) const {
+  validate();
+  const Segment g = segmentAt(timeS);
+  if (g.hold) return keyframes[static_cast<size_t>(g.a)].points;
+  const double s = g.s;
+  const auto& a = keyframes[static_cast<size_t>(g.a)].points;
+  const auto& b = keyframes[static_cast<size_t>(g.b)].points;
   ControlPoints out(a.size());
   if (interpolation != Interpolation::Smooth) {
     for (size_t i = 0; i < a.size(); ++i) {
@@ -90,8 +106,8 @@ ControlPoints KeyframeTrack::at(double timeS) const {
     }
     return out;
   }
-  const auto& p = keyframes[static_cast<size_t>(index(k - 1))].points;
-  const auto& q = keyframes[static_cast<size_t>(index(k + 2))].points;
+  const auto& p = keyframes[static_cast<size_t>(g.p)].points;
+  const auto& q = keyframes[static_cast<size_t>(g.q)].points;
   for (size_t i = 0; i < a.size(); ++i) {
     out[i].source = catmullRom(p[i].source, a[i].source, b[i].source, q[i].source, s);
     out[i].target = catmullRom(p[i].target, a[i].target, b[i].target, q[i].target, s);
@@ -102,6 +118,36 @@ ControlPoints KeyframeTrack::at(double timeS) const {
     out[i].attributes = {v[0], v[1], v[2], v[3]};
   }
   return out;
+}
+
+std::optional<KeyframeCamera> KeyframeTrack::cameraAt(double timeS) const {
+  validate();
+  // Keyframes without a camera hold the previous one's (leading ones the first camera's).
+  std::vector<KeyframeCamera> cams(keyframes.size());
+  std::optional<KeyframeCamera> held;
+  for (const auto& k : keyframes)
+    if (k.camera) {
+      held = k.camera;
+      break;
+    }
+  if (!held) return std::nullopt;
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    if (keyframes[i].camera) held = keyframes[i].camera;
+    cams[i] = *held;
+  }
+  const Segment g = segmentAt(timeS);
+  if (g.hold) return cams[static_cast<size_t>(g.a)];
+  const auto &p = cams[size_t(g.p)], &a = cams[size_t(g.a)], &b = cams[size_t(g.b)], &q = cams[size_t(g.q)];
+  const auto blend = [&](double vp, double va, double vb, double vq) {
+    return interpolation == Interpolation::Smooth ? catmullRom(vp, va, vb, vq, g.s) : va + (vb - va) * g.s;
+  };
+  KeyframeCamera c;
+  c.azimuthDeg = blend(p.azimuthDeg, a.azimuthDeg, b.azimuthDeg, q.azimuthDeg);
+  c.elevationDeg = std::clamp(blend(p.elevationDeg, a.elevationDeg, b.elevationDeg, q.elevationDeg), -90.0, 90.0);
+  c.zoom = std::max(0.05, blend(p.zoom, a.zoom, b.zoom, q.zoom));
+  c.panMm = interpolation == Interpolation::Smooth ? catmullRom(p.panMm, a.panMm, b.panMm, q.panMm, g.s)
+                                                   : a.panMm + (b.panMm - a.panMm) * g.s;
+  return c;
 }
 
 int KeyframeTrack::frameCount(double fps) const {

@@ -108,6 +108,40 @@ void saveControlPoints(const PointFile& file, const fs::path& path) {
   writeJson(j, path);
 }
 
+/// A keyframe's "camera": {"azimuth", "elevation", "zoom", "pan": [x, y, z]} (any subset; the
+/// ranges of `vellum render`'s camera flags).
+static KeyframeCamera readCamera(const json& c, const fs::path& path, const std::string& where) {
+  if (!c.is_object()) throw FileError(path, where + "\"camera\" must be an object");
+  KeyframeCamera cam;
+  const auto number = [&](const char* key, double& out, double lo, double hi) {
+    if (!c.contains(key)) return;
+    const json& v = c.at(key);
+    if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < lo || v.get<double>() > hi)
+      throw FileError(path, where + "\"camera\".\"" + key + "\" must be a number in " + std::to_string(int(lo)) +
+                                ".." + std::to_string(int(hi)));
+    out = v.get<double>();
+  };
+  number("azimuth", cam.azimuthDeg, -3600, 3600);
+  number("elevation", cam.elevationDeg, -90, 90);
+  if (c.contains("zoom")) {  // 0.05..50, not an integer range
+    const json& v = c.at("zoom");
+    if (!v.is_number() || !(v.get<double>() >= 0.05 && v.get<double>() <= 50))
+      throw FileError(path, where + "\"camera\".\"zoom\" must be a number in 0.05..50");
+    cam.zoom = v.get<double>();
+  }
+  if (c.contains("pan")) {
+    const json& v = c.at("pan");
+    bool ok = v.is_array() && v.size() == 3;
+    for (size_t i = 0; ok && i < 3; ++i) ok = v[i].is_number() && std::isfinite(v[i].get<double>());
+    if (!ok) throw FileError(path, where + "\"camera\".\"pan\" must be [x, y, z] in mm");
+    cam.panMm = {v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
+  }
+  for (auto it = c.begin(); it != c.end(); ++it)
+    if (it.key() != "azimuth" && it.key() != "elevation" && it.key() != "zoom" && it.key() != "pan")
+      throw FileError(path, where + "\"camera\" has an unknown key \"" + it.key() + "\"");
+  return cam;
+}
+
 KeyframeTrack loadKeyframes(const fs::path& path) {
   const json j = readJson(path);
   if (!j.is_object()) throw FileError(path, "expected a JSON object with \"keyframes\"");
@@ -140,6 +174,7 @@ KeyframeTrack loadKeyframes(const fs::path& path) {
     }
     if (!k.contains("points")) throw FileError(path, where + "missing \"points\"");
     kf.points = readPoints(k.at("points"), path, where);
+    if (k.contains("camera")) kf.camera = readCamera(k.at("camera"), path, where);
     t.keyframes.push_back(std::move(kf));
   }
   try {
@@ -152,8 +187,13 @@ KeyframeTrack loadKeyframes(const fs::path& path) {
 
 void saveKeyframes(const KeyframeTrack& track, const fs::path& path) {
   json arr = json::array();
-  for (const auto& kf : track.keyframes)
-    arr.push_back({{"duration", kf.durationS}, {"points", writePoints(kf.points)}});
+  for (const auto& kf : track.keyframes) {
+    json k = {{"duration", kf.durationS}, {"points", writePoints(kf.points)}};
+    if (kf.camera)
+      k["camera"] = {{"azimuth", kf.camera->azimuthDeg}, {"elevation", kf.camera->elevationDeg},
+                     {"zoom", kf.camera->zoom}, {"pan", {kf.camera->panMm.x, kf.camera->panMm.y, kf.camera->panMm.z}}};
+    arr.push_back(std::move(k));
+  }
   writeJson({{"units", "mm"}, {"interpolation", interpolationName(track.interpolation)},
              {"loop", track.loop}, {"keyframes", arr}}, path);
 }

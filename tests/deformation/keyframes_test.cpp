@@ -257,3 +257,48 @@ TEST(Placement, LabelPointsPerConnectedPartOfALabel) {
   }
   EXPECT_TRUE(second);
 }
+
+// Issue 11: keyframed cameras (turntables, fly-arounds).
+TEST(Keyframes, CamerasInterpolateHoldAndRoundTrip) {
+  KeyframeTrack t = threeKeys(Interpolation::Linear, false);  // durations 1, 2, 3
+  EXPECT_FALSE(t.cameraAt(0.5)) << "no keyframe has a camera";
+  t.keyframes[0].camera = KeyframeCamera{0, 10, 1, {0, 0, 0}};
+  t.keyframes[1].camera = KeyframeCamera{90, 30, 2, {4, 0, -2}};
+  // Keyframe 2 has none: it holds keyframe 1's.
+  const auto mid = t.cameraAt(0.5);
+  ASSERT_TRUE(mid);
+  EXPECT_DOUBLE_EQ(mid->azimuthDeg, 45);
+  EXPECT_DOUBLE_EQ(mid->elevationDeg, 20);
+  EXPECT_DOUBLE_EQ(mid->zoom, 1.5);
+  EXPECT_EQ(mid->panMm, (Vec3{2, 0, -1}));
+  EXPECT_EQ(*t.cameraAt(2.0), *t.keyframes[1].camera);
+  EXPECT_EQ(*t.cameraAt(100.0), *t.keyframes[1].camera) << "end hold";
+
+  const auto dir = test::tempDir("keyframe-cameras");
+  saveKeyframes(t, dir / "k.json");
+  const KeyframeTrack back = loadKeyframes(dir / "k.json");
+  ASSERT_EQ(back.keyframes.size(), 3u);
+  EXPECT_EQ(back.keyframes[1].camera, t.keyframes[1].camera);
+  EXPECT_FALSE(back.keyframes[2].camera);
+
+  // Bad cameras name the file, the keyframe and the field.
+  std::ifstream in(dir / "k.json");
+  const std::string good((std::istreambuf_iterator<char>(in)), {});
+  for (const auto& [bad, needle] : std::vector<std::pair<std::string, std::string>>{
+           {"\"zoom\": 2.0", "\"zoom\": 0"}, {"\"elevation\": 30.0", "\"elevation\": 120"}, {"\"azimuth\": 90.0", "\"azimuthh\": 90"}}) {
+    std::string text = good;
+    const size_t at = text.find(bad);
+    ASSERT_NE(at, std::string::npos) << bad << "\n" << text;
+    text.replace(at, bad.size(), needle);
+    std::ofstream(dir / "bad.json") << text;
+    try {
+      loadKeyframes(dir / "bad.json");
+      ADD_FAILURE() << needle;
+    } catch (const FileError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("bad.json"), std::string::npos) << m;
+      EXPECT_NE(m.find("keyframe 1"), std::string::npos) << m;
+      EXPECT_NE(m.find("camera"), std::string::npos) << m;
+    }
+  }
+}

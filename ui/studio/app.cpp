@@ -159,6 +159,7 @@ void StudioApp::frame() {
   {
     const double now = glfwGetTime();
     tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
+    followKeyframeCamera();
     lastTickS_ = now;
   }
   autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());

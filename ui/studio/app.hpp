@@ -127,6 +127,8 @@ class StudioApp {
   /// A Deformation-panel engine edit: begin with the parameters before it, end records one
   /// undo step (the track is unchanged).
   void beginEngineEdit(const deformation::DeformParams& before);
+  /// While playing or scrubbing a track with keyframed cameras, the 3D view follows them.
+  void followKeyframeCamera();
   void endEngineEdit();
   void goToBookmark(size_t index);
   void deleteBookmark(size_t index);

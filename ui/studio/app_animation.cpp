@@ -60,6 +60,18 @@ void StudioApp::tickAnimation(double dtS) {
   a.touch();
 }
 
+void StudioApp::followKeyframeCamera() {
+  const Authoring& a = scene_.authoring;
+  if (!a.active() || !a.timeS) return;  // only while playing or scrubbing
+  if (const auto c = a.track.cameraAt(*a.timeS)) {
+    render::Camera& cam = scene_.render.camera;
+    cam.azimuthDeg = c->azimuthDeg;
+    cam.elevationDeg = c->elevationDeg;
+    cam.zoom = c->zoom;
+    cam.panMm = c->panMm;
+  }
+}
+
 void StudioApp::startExport(const fs::path& out, double fps, int width, int height, double orbitDeg) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   if (export_) throw Error("an export is running; cancel it first");

@@ -132,6 +132,25 @@ void timeline(StudioApp& app) {
     ImGui::EndDisabled();
     if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("move the keyframe earlier / later");
   }
+  {  // Keyframed camera (turntables, fly-arounds): the view's camera stored in this keyframe.
+    const int k = a.keyframe;
+    if (ImGui::Button("Key camera"))
+      guarded(app, [&] {
+        const render::Camera c = app.scene().render.camera;
+        app.editTrack("keyframe camera", [k, c](Authoring& x) {
+          x.track.keyframes[size_t(k)].camera = deformation::KeyframeCamera{c.azimuthDeg, c.elevationDeg, c.zoom, c.panMm};
+        });
+      });
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("store the 3D view's camera in this keyframe (movies and playback follow it)");
+    if (a.track.keyframes[size_t(k)].camera) {
+      ImGui::SameLine();
+      if (ImGui::Button("Clear camera"))
+        guarded(app, [&] { app.editTrack("clear keyframe camera", [k](Authoring& x) { x.track.keyframes[size_t(k)].camera.reset(); }); });
+      ImGui::SameLine();
+      ImGui::TextDisabled("az %.0f el %.0f zoom %.2f", a.track.keyframes[size_t(k)].camera->azimuthDeg,
+                          a.track.keyframes[size_t(k)].camera->elevationDeg, a.track.keyframes[size_t(k)].camera->zoom);
+    }
+  }
   int interp = static_cast<int>(a.track.interpolation);
   if (ImGui::Combo("Interpolation", &interp, "linear\0smooth\0eased\0")) {
     app.editTrack("interpolation", [interp](Authoring& x) { x.track.interpolation = static_cast<Interpolation>(interp); });

@@ -402,10 +402,16 @@ void ScriptRunner::expand(const json& action, StudioApp&) {
         else if (op == "delete") {
           const int k = a.scene().authoring.keyframe;
           a.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); });
+        } else if (op == "camera") {  // the view's camera into the edited keyframe
+          const int k = a.scene().authoring.keyframe;
+          const render::Camera c = a.scene().render.camera;
+          a.editTrack("keyframe camera", [k, c](Authoring& x) {
+            x.track.keyframes[size_t(k)].camera = deformation::KeyframeCamera{c.azimuthDeg, c.elevationDeg, c.zoom, c.panMm};
+          });
         } else if (op == "earlier" || op == "later") {
           const int k = a.scene().authoring.keyframe, by = op == "earlier" ? -1 : 1;
           a.editTrack("move keyframe", [k, by](Authoring& x) { moveKeyframe(x, k, by); });
-        } else throw Error("keyframe must be \"add\", \"delete\", \"earlier\", \"later\" or an object");
+        } else throw Error("keyframe must be \"add\", \"delete\", \"camera\", \"earlier\", \"later\" or an object");
         return;
       }
       Authoring& au = a.scene().authoring;

@@ -117,6 +117,13 @@ struct MovieRenderer::Impl {
     renderer.setBackwardMap(&map);
     result.deformMs += msSince(t0);
     render::RenderSettings s = spec.settings;
+    // Keyframed cameras (when the track has any) replace the settings' camera, field by field.
+    if (const auto c = track.cameraAt(track.frameTimeS(f, spec.fps))) {
+      s.camera.azimuthDeg = c->azimuthDeg;
+      s.camera.elevationDeg = c->elevationDeg;
+      s.camera.zoom = c->zoom;
+      s.camera.panMm = c->panMm;
+    }
     // Seamless orbit: frame f of n turns f/n of the angle (the last frame does not repeat the first).
     s.camera.azimuthDeg += spec.orbitDeg * f / (track.loop ? frames : std::max(frames - 1, 1));
     const auto t1 = std::chrono::steady_clock::now();

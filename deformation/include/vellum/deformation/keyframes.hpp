@@ -1,6 +1,7 @@
 #pragma once
 // Keyframed deformation animation ([HVD 1.5] in docs/references.md). A keyframe holds the full control-point
 // set; playback interpolates every point (source, target and attributes) between keyframes.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,11 +22,22 @@ constexpr double kMaxKeyframeDurationS = 3600;  ///< one hour per keyframe
 constexpr size_t kMaxKeyframes = 10000;
 constexpr int kMaxFrames = 1000000;             ///< frames of one track at its fps
 
+/// A keyframed camera (the renderer's orbit camera: turn about the superior axis, tilt
+/// towards superior, zoom, pan in mm), for turntables and fly-arounds in movies. Azimuths are
+/// not wrapped: 0 then 360 is a whole turn.
+struct KeyframeCamera {
+  double azimuthDeg = 30, elevationDeg = 15, zoom = 1;
+  Vec3 panMm{0, 0, 0};
+  bool operator==(const KeyframeCamera&) const = default;
+};
+
 struct Keyframe {
   /// Seconds spent travelling from this keyframe to the next. For the last keyframe: a hold
   /// at the end, or (loop) the travel back to the first keyframe.
   double durationS = 1.0;
   ControlPoints points;
+  /// The camera at this keyframe; none: the previous keyframe's (the first: the next one's).
+  std::optional<KeyframeCamera> camera;
 };
 
 struct KeyframeTrack {
@@ -41,10 +53,22 @@ struct KeyframeTrack {
   double totalDurationS() const;
   /// The interpolated control points at time t (s), clamped to [0, total].
   ControlPoints at(double timeS) const;
+  /// The camera at time t, interpolated like the points; nullopt when no keyframe has one.
+  std::optional<KeyframeCamera> cameraAt(double timeS) const;
   /// Frames at `fps`: loop -> round(total*fps) frames at f/fps; otherwise one more (the end).
   /// Throws vellum::Error over kMaxFrames.
   int frameCount(double fps) const;
   double frameTimeS(int frame, double fps) const;
+
+ private:
+  /// Where time t falls: keyframes p, a, b, q around the segment a -> b and the fraction s
+  /// (eased already); hold = the end hold of a non-looping track (a == b).
+  struct Segment {
+    int p = 0, a = 0, b = 0, q = 0;
+    double s = 0;
+    bool hold = false;
+  };
+  Segment segmentAt(double timeS) const;
 };
 
 }  // namespace vellum::deformation
