@@ -168,7 +168,15 @@ void StudioApp::otsuThreshold() {
 
 void StudioApp::startSnake(const Vec3& seedMm) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  if (!snake_.start({scene_.ct, tools_.snake, seedMm, tools_.brushRadiusMm, tools_.threshold, scene_.volumeGeneration}))
+  // The request `vellum segment --method snake --lower L --upper U --seed S --radius R` makes,
+  // with the panel's snake settings.
+  app::SegmentRequest snake = tools_.snake;
+  snake.method = "snake";
+  snake.lower = tools_.threshold.lower;
+  snake.upper = tools_.threshold.upper;
+  snake.seedsMm = {seedMm};
+  snake.bubbleRadiusMm = tools_.brushRadiusMm;
+  if (!snake_.start({scene_.ct, std::move(snake), scene_.volumeGeneration}))
     throw Error("a snake is already running; cancel it first (Escape)");
 }
 

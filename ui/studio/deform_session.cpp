@@ -104,8 +104,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
                                            falloff = a.falloffMm, key] {
     return solve(*deformer, points, bodies.get(), falloff, key);
   });
-  if (!map_) preview_ = true;  // nothing to show yet: count as a preview until it lands
-  else if (!preview_) preview_ = true;  // the map shown is out of date
+  preview_ = true;  // the map shown (if any) is out of date until the exact one lands
   return changed;
 }
 

@@ -20,13 +20,6 @@ bool SnakeJob::start(SnakeRequest request) {
   }
   return job_.start(
       [this, request = std::move(request)](Progress& progress) {
-        // The request `vellum segment --method snake --lower L --upper U --seed S --radius R` makes.
-        app::SegmentRequest snake = request.settings;
-        snake.method = "snake";
-        snake.lower = request.interval.lower;
-        snake.upper = request.interval.upper;
-        snake.seedsMm = {request.seedMm};
-        snake.bubbleRadiusMm = request.bubbleRadiusMm;
         // Every few iterations the contour so far goes to the slices (live evolution).
         const auto publish = [this](const seg::Mask& inside, int) {
           auto copy = std::make_shared<const seg::Mask>(inside);
@@ -34,7 +27,7 @@ bool SnakeJob::start(SnakeRequest request) {
           live_ = std::move(copy);
           ++liveRevision_;
         };
-        app::SegmentOutcome r = app::runSegmentation(request.ct, snake, progress, publish);
+        app::SegmentOutcome r = app::runSegmentation(request.ct, request.segment, progress, publish);
         SnakeOutcome out;
         out.mask = std::move(r.mask);
         out.iterations = r.info["snake"]["iterations"].get<int>();

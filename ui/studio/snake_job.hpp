@@ -11,16 +11,13 @@
 #include "vellum/app/segment_pipeline.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/segmentation/snake.hpp"
-#include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
 
 struct SnakeRequest {
   VolumeI16 ct;  ///< a copy: the scene may change while the snake runs
-  app::SegmentRequest settings;  ///< speed, weights, iterations, post-processing (method: snake)
-  Vec3 seedMm;
-  double bubbleRadiusMm = 4;
-  segmentation::HuInterval interval{-500, 300};  ///< the threshold speed's inside range
+  /// What `vellum segment --method snake` takes: seed, bubble radius, HU range, speed, weights.
+  app::SegmentRequest segment;
   uint64_t volumeGeneration = 0;  ///< Scene::volumeGeneration when started
 };
 
