@@ -11,32 +11,33 @@
 namespace vellum::deformation {
 namespace fs = std::filesystem;
 
-void saveBackwardMapNrrd(const std::vector<float>& map, const Geometry& g, const fs::path& path, bool gzip) {
-  if (map.size() != 3 * static_cast<size_t>(g.dims.voxelCount()))
-    throw FileError(path, "backward map has " + std::to_string(map.size()) + " floats, the grid " +
-                              g.dims.str() + " needs 3 per voxel");
+namespace {
+/// The writer twin of loadFloatVectorNrrd: `components` floats per node of `grid`, as a
+/// float vector NRRD in mm space.
+void saveFloatVectorNrrd(const std::vector<float>& values, int components, const Geometry& grid, const fs::path& path,
+                         bool gzip, const char* what, const char* perWhat, std::string comment) {
+  if (values.size() != size_t(components) * static_cast<size_t>(grid.dims.voxelCount()))
+    throw FileError(path, std::string(what) + " has " + std::to_string(values.size()) + " floats, the grid " +
+                              grid.dims.str() + " needs " + std::to_string(components) + " per " + perWhat);
   io::NrrdLayout layout;
   layout.type = "float";
-  layout.leadingSizes = {3};
+  layout.leadingSizes = {components};
   layout.leadingKinds = {"vector"};
-  layout.geometry = g;
-  layout.comments = {"Vellum backward map: source position (mm, LPS) of every output voxel"};
+  layout.geometry = grid;
+  layout.comments = {std::move(comment)};
   layout.extraFields = "space units: \"mm\" \"mm\" \"mm\"\n";
-  io::writeNrrd(path, layout, map.data(), map.size() * sizeof(float), gzip);
+  io::writeNrrd(path, layout, values.data(), values.size() * sizeof(float), gzip);
+}
+}  // namespace
+
+void saveBackwardMapNrrd(const std::vector<float>& map, const Geometry& g, const fs::path& path, bool gzip) {
+  saveFloatVectorNrrd(map, 3, g, path, gzip, "backward map", "voxel",
+                      "Vellum backward map: source position (mm, LPS) of every output voxel");
 }
 
 void saveAttributeFieldNrrd(const std::vector<float>& attributes, const Geometry& grid, const fs::path& path, bool gzip) {
-  if (attributes.size() != 4 * static_cast<size_t>(grid.dims.voxelCount()))
-    throw FileError(path, "attribute field has " + std::to_string(attributes.size()) + " floats, the grid " +
-                              grid.dims.str() + " needs 4 per node");
-  io::NrrdLayout layout;
-  layout.type = "float";
-  layout.leadingSizes = {4};
-  layout.leadingKinds = {"vector"};
-  layout.geometry = grid;
-  layout.comments = {"Vellum attribute field: dL*, da*, db*, density scale per node of the control grid (output space)"};
-  layout.extraFields = "space units: \"mm\" \"mm\" \"mm\"\n";
-  io::writeNrrd(path, layout, attributes.data(), attributes.size() * sizeof(float), gzip);
+  saveFloatVectorNrrd(attributes, 4, grid, path, gzip, "attribute field", "node",
+                      "Vellum attribute field: dL*, da*, db*, density scale per node of the control grid (output space)");
 }
 
 std::vector<float> loadBackwardMapNrrd(const fs::path& path, Geometry* gridOut) {
