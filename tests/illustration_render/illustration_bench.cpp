@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <iostream>
 #include <string>
-#include <sys/resource.h>
 
 #include "shape_fixtures.hpp"
+#include "vellum/core/process_time.hpp"
 #include "vellum/io/volume_io.hpp"
 
 using namespace vellum;
@@ -29,14 +29,6 @@ illustration::ShapeScene benchScene(int n) {
                              {"vessel", [=](const Vec3& p) { return std::max(-bone(p), vessel(p)); }},
                              {"muscle", [=](const Vec3& p) { return std::max(-inner(p), test::sphereSdf(p, {0, 0, 0}, rm)); }},
                              {"skin", [=](const Vec3& p) { return std::max(rm - norm(p), test::sphereSdf(p, {0, 0, 0}, rs)); }}});
-}
-
-/// CPU seconds of this process (llvmpipe's threads included): on a shared machine, wall
-/// time depends on the neighbours' load; CPU time / 2 estimates the uncontended 2-core wall.
-double cpuSeconds() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 VolumeI16 ctFor(const illustration::ShapeScene& s) {
@@ -84,9 +76,9 @@ int main(int argc, char** argv) {
       std::vector<double> ms, cpu;
       for (int f = 0; f < frames; ++f) {
         s.render.camera.azimuthDeg = 30 + 15 * f;
-        const double c0 = cpuSeconds();
+        const double c0 = processCpuMs();
         r.render(style, s);
-        cpu.push_back(1000 * (cpuSeconds() - c0));
+        cpu.push_back(processCpuMs() - c0);
         ms.push_back(r.lastRenderMs());
       }
       std::sort(ms.begin(), ms.end());

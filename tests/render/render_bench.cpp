@@ -2,22 +2,12 @@
 // Usage: render_bench [volume size, default 256] [image size, default 512] [repeats, default 3]
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cstdlib>
 #include <iostream>
 
 #include "analytic_volumes.hpp"
+#include "vellum/core/process_time.hpp"
 #include "vellum/render/volume_renderer.hpp"
-
-namespace {
-/// CPU seconds of the whole process (llvmpipe's threads included): less sensitive than wall
-/// time to other processes competing for the cores.
-double processCpuMs() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-}
-}  // namespace
 
 int main(int argc, char** argv) {
   using namespace vellum;

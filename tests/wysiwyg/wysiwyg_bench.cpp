@@ -4,22 +4,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
-#include <ctime>
 #include <iostream>
 
 #include "scene.hpp"
 #include "vellum/animation/movie.hpp"
+#include "vellum/core/process_time.hpp"
 #include "vellum/render/volume_renderer.hpp"
-
-namespace {
-/// CPU milliseconds of the whole process (llvmpipe's threads included): less sensitive than
-/// wall time to other processes competing for the cores.
-double processCpuMs() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-}
-}  // namespace
 
 int main(int argc, char** argv) {
   using namespace vellum;

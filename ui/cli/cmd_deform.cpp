@@ -1,6 +1,4 @@
 // `vellum deform` (deform a volume with control points) and `vellum controls` (place them).
-#include <sys/resource.h>
-
 #include <chrono>
 #include <cstring>
 #include <fstream>
@@ -13,6 +11,7 @@
 #include "commands.hpp"
 #include "deform_cli.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/process_time.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/deformation/deform_params.hpp"
 #include "vellum/deformation/map_file.hpp"
@@ -75,15 +74,6 @@ nlohmann::json toJson(const RigidityReport& r) {
 namespace {
 
 double msSince(std::chrono::steady_clock::time_point t0) { return secondsSince(t0) * 1000.0; }
-
-// CPU time of the whole process so far (user + system, all threads), ms: on a shared machine
-// the stages' wall times depend on the load, their CPU times much less.
-double processCpuMs() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return (double(u.ru_utime.tv_sec) + double(u.ru_stime.tv_sec)) * 1e3 +
-         (double(u.ru_utime.tv_usec) + double(u.ru_stime.tv_usec)) / 1e3;
-}
 
 struct DeformArgs {
   std::string input, points, output, mapOut, attributesOut, report;
