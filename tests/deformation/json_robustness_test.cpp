@@ -7,6 +7,7 @@
 #include <functional>
 #include <string>
 
+#include "file_errors.hpp"
 #include "test_data.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/point_files.hpp"
@@ -16,29 +17,6 @@ using namespace vellum::deformation;
 namespace fs = std::filesystem;
 
 namespace {
-
-void writeText(const fs::path& p, const std::string& text) {
-  std::ofstream(p, std::ios::binary) << text;
-}
-
-// The error loading `text` from a file; "" (and a test failure) when there is none or it is
-// not a one-line vellum::FileError naming the file.
-std::string errorOf(const std::function<void(const fs::path&)>& load, const fs::path& file, const std::string& text) {
-  writeText(file, text);
-  try {
-    load(file);
-  } catch (const FileError& e) {
-    const std::string m = e.what();
-    EXPECT_NE(m.find(file.filename().string()), std::string::npos) << m;
-    EXPECT_EQ(m.find('\n'), std::string::npos) << "not one line: " << m;
-    return m;
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "not a vellum::FileError: " << e.what() << "\n  input: " << text;
-    return "";
-  }
-  ADD_FAILURE() << "no error for: " << text;
-  return "";
-}
 
 const char* kPoint = R"({"source": [1, 2, 3], "target": [1.5, 2, 3]})";
 
@@ -84,14 +62,14 @@ TEST(JsonRobustness, ControlPointFileErrorsNameTheField) {
       {R"({"power": 0, "points": )" + one + "}", "\"power\""},
   };
   for (const Case& c : cases) {
-    const std::string m = errorOf(loadPoints, f, c.text);
+    const std::string m = test::fileErrorOf(loadPoints, f, c.text);
     EXPECT_NE(m.find(c.field), std::string::npos) << "want " << c.field << " in: " << m;
   }
   // Huge count: one point over the limit, named with the count.
   std::string many = "[";
   for (size_t i = 0; i <= kMaxControlPoints; ++i) many += std::string(i ? "," : "") + R"({"source":[0,0,0]})";
   many += "]";
-  const std::string m = errorOf(loadPoints, f, pointFile(many));
+  const std::string m = test::fileErrorOf(loadPoints, f, pointFile(many));
   EXPECT_NE(m.find(std::to_string(kMaxControlPoints + 1)), std::string::npos) << m;
 }
 
@@ -121,14 +99,14 @@ TEST(JsonRobustness, KeyframeFileErrorsNameTheKeyframeAndField) {
       {keyframeFile("[" + keyframe("1", pts1) + "]", R"("loop": "yes", )"), "\"loop\""},
   };
   for (const Case& c : cases) {
-    const std::string m = errorOf(loadTrack, f, c.text);
+    const std::string m = test::fileErrorOf(loadTrack, f, c.text);
     EXPECT_NE(m.find(c.field), std::string::npos) << "want " << c.field << " in: " << m;
   }
   // Huge counts: keyframes over the limit.
   std::string many = "[";
   for (size_t i = 0; i <= kMaxKeyframes; ++i) many += std::string(i ? "," : "") + keyframe("0", pts1);
   many += "]";
-  const std::string m = errorOf(loadTrack, f, keyframeFile(many));
+  const std::string m = test::fileErrorOf(loadTrack, f, keyframeFile(many));
   EXPECT_NE(m.find("\"keyframes\" has " + std::to_string(kMaxKeyframes + 1)), std::string::npos) << m;
 }
 
@@ -149,8 +127,8 @@ TEST(JsonRobustness, EveryTruncationOfAValidFileIsANamedError) {
   // a crash, always a FileError.
   const size_t end = full.rfind('}');
   for (size_t n = 0; n < end; n += (n + 40 < end ? 3 : 1)) {
-    (void)errorOf(loadTrack, dir / "cut.json", full.substr(0, n));
-    (void)errorOf(loadPoints, dir / "cut.json", full.substr(0, n));
+    (void)test::fileErrorOf(loadTrack, dir / "cut.json", full.substr(0, n));
+    (void)test::fileErrorOf(loadPoints, dir / "cut.json", full.substr(0, n));
   }
 }
 

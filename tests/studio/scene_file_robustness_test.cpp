@@ -7,6 +7,7 @@
 #include <string>
 
 #include "scene_file.hpp"
+#include "file_errors.hpp"
 #include "test_data.hpp"
 #include "vellum/core/error.hpp"
 
@@ -16,22 +17,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The FileError message of reading `text` as a scene; fails the test for anything else.
+// The FileError message of reading `text` as a scene (errors about a referenced file name that file).
 std::string sceneError(const fs::path& dir, const std::string& text) {
-  const fs::path file = dir / "scene.json";
-  std::ofstream(file, std::ios::binary) << text;
-  try {
-    (void)readSceneFile(file);
-  } catch (const FileError& e) {
-    const std::string m = e.what();
-    EXPECT_EQ(m.find('\n'), std::string::npos) << "not one line: " << m;
-    return m;
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "not a vellum::FileError: " << e.what() << "\n  input: " << text;
-    return "";
-  }
-  ADD_FAILURE() << "no error for: " << text;
-  return "";
+  return test::fileErrorOf([](const fs::path& f) { (void)readSceneFile(f); }, dir / "scene.json", text, false);
 }
 
 // Version 2 keeps each view field under its own key; version 3 has the parameter tables.
