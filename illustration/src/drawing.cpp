@@ -13,6 +13,21 @@
 
 namespace vellum::illustration {
 
+namespace {
+/// The outer contour of `mask` enclosing the largest area (empty when none has any area).
+std::vector<cv::Point> largestOutline(const cv::Mat& mask, double& area) {
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  size_t best = contours.size();
+  area = 0;
+  for (size_t i = 0; i < contours.size(); ++i) {
+    const double a = cv::contourArea(contours[i]);
+    if (a > area) area = a, best = i;
+  }
+  return best == contours.size() ? std::vector<cv::Point>{} : std::move(contours[best]);
+}
+}  // namespace
+
 Polyline2 loadDrawingOutline(const std::filesystem::path& path, int& width, int& height,
                              int darkThreshold) {
   cv::Mat grey;
@@ -26,18 +41,12 @@ Polyline2 loadDrawingOutline(const std::filesystem::path& path, int& width, int&
   // Close small gaps in hand-drawn strokes so the outline is one closed region.
   cv::morphologyEx(dark, dark, cv::MORPH_CLOSE,
                    cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
-  std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(dark, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-  size_t best = contours.size();
-  double bestArea = 0;
-  for (size_t i = 0; i < contours.size(); ++i) {
-    const double a = cv::contourArea(contours[i]);
-    if (a > bestArea) { bestArea = a; best = i; }
-  }
-  if (best == contours.size() || bestArea < 16)
+  double area = 0;
+  const std::vector<cv::Point> outline = largestOutline(dark, area);
+  if (outline.empty() || area < 16)
     throw FileError(path, "no dark outline found (strokes darker than grey " + std::to_string(darkThreshold) + ")");
   Polyline2 c;
-  for (const auto& p : contours[best]) c.push_back({double(p.x), double(p.y)});
+  for (const auto& p : outline) c.push_back({double(p.x), double(p.y)});
   return c;
 }
 
@@ -56,17 +65,11 @@ Polyline2 projectedOutline(const TriMesh& mesh, const render::Projection& proj, 
     const cv::Point tri[3] = {px[f[0]], px[f[1]], px[f[2]]};
     cv::fillConvexPoly(mask, tri, 3, cv::Scalar(255), cv::LINE_8, 4);
   }
-  std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-  size_t best = contours.size();
-  double bestArea = 0;
-  for (size_t i = 0; i < contours.size(); ++i) {
-    const double a = cv::contourArea(contours[i]);
-    if (a > bestArea) { bestArea = a; best = i; }
-  }
-  if (best == contours.size()) throw Error("outline: the mesh covers no pixel of the view");
+  double area = 0;
+  const std::vector<cv::Point> outline = largestOutline(mask, area);
+  if (outline.empty()) throw Error("outline: the mesh covers no pixel of the view");
   Polyline2 c;
-  for (const auto& p : contours[best]) c.push_back({(p.x + 0.5) / ss - 0.5, (p.y + 0.5) / ss - 0.5});
+  for (const auto& p : outline) c.push_back({(p.x + 0.5) / ss - 0.5, (p.y + 0.5) / ss - 0.5});
   return c;
 }
 
