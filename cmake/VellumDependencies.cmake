@@ -13,8 +13,10 @@ set(OpenGL_GL_PREFERENCE GLVND)
 find_package(OpenGL REQUIRED COMPONENTS OpenGL EGL)
 find_package(glfw3 3.3 REQUIRED)
 pkg_check_modules(IMGUI REQUIRED IMPORTED_TARGET imgui)
-# Fast whole-buffer gzip for NRRD data (io only; Debian libdeflate-dev).
+# gzip for NRRD data (io only): ISA-L compresses (Debian libisal-dev), libdeflate decompresses
+# whole buffers (Debian libdeflate-dev); zlib names what is wrong with a bad stream.
 pkg_check_modules(LIBDEFLATE REQUIRED IMPORTED_TARGET libdeflate)
+pkg_check_modules(LIBISAL REQUIRED IMPORTED_TARGET libisal)
 
 find_package(GDCM REQUIRED)
 find_package(OpenCV REQUIRED COMPONENTS core imgproc imgcodecs videoio)

@@ -14,7 +14,7 @@ PACKAGES=(
   libvtk9-dev libopencv-dev libcgal-dev libopenmesh-dev libopenvdb-dev libboost-iostreams-dev
   libglfw3-dev libgdcm-dev libgdcm-tools libimgui-dev libeigen3-dev nlohmann-json3-dev
   libcli11-dev libtbb-dev libgtest-dev libbenchmark-dev libegl-dev libgl-dev libegl-mesa0
-  libgl1-mesa-dri zlib1g-dev libdeflate-dev xvfb xauth ffmpeg
+  libgl1-mesa-dri zlib1g-dev libdeflate-dev libisal-dev xvfb xauth ffmpeg
 )
 
 install_packages() {

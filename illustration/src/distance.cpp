@@ -1,5 +1,6 @@
 // Shape-aware representation: per-segment signed distances of the closed meshes on the CT
-// grid (OpenVDB meshToSignedDistanceField), the union distance and the segmentation volume.
+// grid (OpenVDB meshToSignedDistanceField, in the OpenVDB module), the union distance and the
+// segmentation volume.
 //
 // Distances are computed on an isotropic VDB grid aligned with the CT's index axes, voxel
 // size h = the smallest CT spacing, with vertices expressed in mm along those axes (distance
@@ -13,10 +14,6 @@
 // connected component of the mesh is therefore converted on its own (one closed surface:
 // no cavity), and a point is inside the segment when an odd number of component surfaces
 // enclose it; |d| is the minimum over the components. This is exact for any nesting.
-#include <openvdb/openvdb.h>
-#include <openvdb/tools/Dense.h>
-#include <openvdb/tools/MeshToVolume.h>
-
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -29,6 +26,7 @@
 #include <unordered_map>
 
 #include "shape_internal.hpp"
+#include "vdb_functions.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 
@@ -174,22 +172,23 @@ bool isotropic(const Vec3& s) {
 std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const Geometry& g,
                                        const DistanceOptions& options,
                                        const std::vector<double>& extraBandMm) {
-  static std::once_flag once;
-  std::call_once(once, [] { openvdb::initialize(); });
+  const detail::VdbFunctions& vdb = detail::vdbFunctions();
   const Vec3 sp = g.spacing;
   const double h = std::min({sp.x, sp.y, sp.z});
   const bool iso = isotropic(sp);
-  auto xform = openvdb::math::Transform::createLinearTransform(h);
+  const auto& d = g.dims;
+  const std::array<int, 3> limit{int(std::ceil((d.x - 1) * sp.x / h)) + 1, int(std::ceil((d.y - 1) * sp.y / h)) + 1,
+                                 int(std::ceil((d.z - 1) * sp.z / h)) + 1};
   std::vector<VolumeF32> out;
   out.resize(meshes.size());
   // Meshes in parallel (small meshes leave OpenVDB's own threads idle); each is threaded too.
   tbb::parallel_for(size_t(0), meshes.size(), [&](size_t m) {
     const TriMesh& mesh = meshes[m];
-    std::vector<openvdb::Vec3s> allPts;
+    std::vector<std::array<float, 3>> allPts;
     allPts.reserve(mesh.vertices.size());
     for (const auto& v : mesh.vertices) {
       const Vec3 q = g.physicalToIndex(Vec3{v[0], v[1], v[2]});
-      allPts.emplace_back(float(q.x * sp.x), float(q.y * sp.y), float(q.z * sp.z));
+      allPts.push_back({float(q.x * sp.x), float(q.y * sp.y), float(q.z * sp.z)});
     }
     const auto components = connectedComponents(mesh);
     const double extra = m < extraBandMm.size() ? extraBandMm[m] : 0.0;
@@ -200,8 +199,8 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
     std::vector<uint8_t> parity(dense.size(), 0);  // number of enclosing surfaces, mod 2
     for (const auto& comp : components) {
       // Re-index the component's vertices.
-      std::vector<openvdb::Vec3s> pts;
-      std::vector<openvdb::Vec3I> tris;
+      std::vector<std::array<float, 3>> pts;
+      std::vector<std::array<uint32_t, 3>> tris;
       std::unordered_map<uint32_t, uint32_t> remap;
       for (uint32_t fi : comp) {
         uint32_t idx[3];
@@ -211,7 +210,7 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
           if (inserted) pts.push_back(allPts[v]);
           idx[c] = it->second;
         }
-        tris.emplace_back(idx[0], idx[1], idx[2]);
+        tris.push_back({idx[0], idx[1], idx[2]});
       }
       static const bool profile = std::getenv("VELLUM_SHAPE_PROFILE") != nullptr;
       auto t0 = std::chrono::steady_clock::now();
@@ -221,50 +220,36 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
         std::fprintf(stderr, "  distance %-8s %7.1f ms\n", what, std::chrono::duration<double, std::milli>(t - t0).count());
         t0 = t;
       };
-      // OpenVDB's values in the outer voxels of its band can be short by a voxel (measured:
-      // beyond ~bandwidth - 1): ask for one voxel more and clamp to the declared band.
-      auto grid = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
-          *xform, pts, tris, std::vector<openvdb::Vec4I>{}, bandVox + 1, bandVox + 1);
+      // The component's distance over its band box (dense, isotropic), then sampled at the CT
+      // voxel centres: no tree traversal per voxel. Outside that box: +far.
+      const detail::DenseBox box = vdb.surfaceDistance(pts, tris, h, bandVox, limit, farMm);
       lap("sdf");
-      const auto& d = g.dims;
-      // Copy the (sparse) grid over the mesh's bounding box + band into a dense isotropic
-      // buffer (tiles included: the flood-filled interior keeps its sign), then sample the CT
-      // voxel centres from it: no tree traversal per voxel. Outside that box: +far.
-      openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
-      const openvdb::Coord limit(int(std::ceil((d.x - 1) * sp.x / h)) + 1,
-                                 int(std::ceil((d.y - 1) * sp.y / h)) + 1,
-                                 int(std::ceil((d.z - 1) * sp.z / h)) + 1);
-      box.intersect(openvdb::CoordBBox(openvdb::Coord(0, 0, 0), limit));
-      if (!box.empty()) {
-        const openvdb::Coord lo = box.min(), dim = box.dim();
-        std::vector<float> buf(size_t(dim.x()) * size_t(dim.y()) * size_t(dim.z()), farMm);
-        openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> denseBox(box, buf.data());
-        openvdb::tools::copyToDense(*grid, denseBox);
-        grid.reset();
-        lap("copy");
-        const size_t sy = size_t(dim.x()), sz = size_t(dim.x()) * size_t(dim.y());
+      if (!box.values.empty()) {
+        const std::array<int, 3> lo = box.lo, dim = box.dim;
+        const std::vector<float>& buf = box.values;
+        const size_t sy = size_t(dim[0]), sz = size_t(dim[0]) * size_t(dim[1]);
         parallelFor(d.z, [&](int64_t k0, int64_t k1) {
           for (int64_t k = k0; k < k1; ++k) {
-            const double fz = k * sp.z / h - lo.z();
-            if (fz < 0 || fz > dim.z() - 1) continue;
-            const int64_t z0 = std::min<int64_t>(int64_t(fz), dim.z() - 2 < 0 ? 0 : dim.z() - 2);
-            const double tz = dim.z() > 1 ? fz - z0 : 0;
+            const double fz = k * sp.z / h - lo[2];
+            if (fz < 0 || fz > dim[2] - 1) continue;
+            const int64_t z0 = std::min<int64_t>(int64_t(fz), dim[2] - 2 < 0 ? 0 : dim[2] - 2);
+            const double tz = dim[2] > 1 ? fz - z0 : 0;
             for (int64_t j = 0; j < d.y; ++j) {
-              const double fy = j * sp.y / h - lo.y();
-              if (fy < 0 || fy > dim.y() - 1) continue;
-              const int64_t y0 = std::min<int64_t>(int64_t(fy), dim.y() - 2 < 0 ? 0 : dim.y() - 2);
-              const double ty = dim.y() > 1 ? fy - y0 : 0;
+              const double fy = j * sp.y / h - lo[1];
+              if (fy < 0 || fy > dim[1] - 1) continue;
+              const int64_t y0 = std::min<int64_t>(int64_t(fy), dim[1] - 2 < 0 ? 0 : dim[1] - 2);
+              const double ty = dim[1] > 1 ? fy - y0 : 0;
               for (int64_t i = 0; i < d.x; ++i) {
-                const double fx = i * sp.x / h - lo.x();
-                if (fx < 0 || fx > dim.x() - 1) continue;
-                const int64_t x0 = std::min<int64_t>(int64_t(fx), dim.x() - 2 < 0 ? 0 : dim.x() - 2);
-                const double tx = dim.x() > 1 ? fx - x0 : 0;
+                const double fx = i * sp.x / h - lo[0];
+                if (fx < 0 || fx > dim[0] - 1) continue;
+                const int64_t x0 = std::min<int64_t>(int64_t(fx), dim[0] - 2 < 0 ? 0 : dim[0] - 2);
+                const double tx = dim[0] > 1 ? fx - x0 : 0;
                 const float* p = buf.data() + size_t(z0) * sz + size_t(y0) * sy + size_t(x0);
                 float val;
                 if (iso || (tx == 0 && ty == 0 && tz == 0)) {
                   val = *p;
                 } else {
-                const size_t ox = dim.x() > 1 ? 1 : 0, oy = dim.y() > 1 ? sy : 0, oz = dim.z() > 1 ? sz : 0;
+                const size_t ox = dim[0] > 1 ? 1 : 0, oy = dim[1] > 1 ? sy : 0, oz = dim[2] > 1 ? sz : 0;
                 const double c00 = p[0] + tx * (p[ox] - p[0]);
                 const double c10 = p[oy] + tx * (p[oy + ox] - p[oy]);
                 const double c01 = p[oz] + tx * (p[oz + ox] - p[oz]);

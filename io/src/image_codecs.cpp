@@ -1,11 +1,7 @@
 // Opens the OpenCV codec module (io/codecs/opencv_codecs_module.cpp) on first use.
 #include "vellum/io/image_codecs.hpp"
 
-#include <dlfcn.h>
-
-#include <cstdlib>
-
-#include "vellum/core/error.hpp"
+#include "vellum/core/plugin_module.hpp"
 
 #ifndef VELLUM_CODECS_MODULE_PATH
 #error "VELLUM_CODECS_MODULE_PATH (the codec module's file) must be defined by the build"
@@ -22,29 +18,13 @@ struct Module {
   ImwriteFn imwrite = nullptr;
   ImreadFn imread = nullptr;
   ImencodeFn imencode = nullptr;
-  std::string problem;  ///< why it could not be loaded (empty when loaded)
 };
 
-Module open() {
-  Module m;
-  const char* env = std::getenv("VELLUM_CODECS_MODULE");
-  const std::string file = env && *env ? env : VELLUM_CODECS_MODULE_PATH;
-  void* handle = ::dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL);  // kept open for the process
-  if (!handle) {
-    const char* why = ::dlerror();
-    m.problem = "cannot load the image codec module " + file + " (" + (why ? why : "unknown error") + ")";
-    return m;
-  }
-  m.imwrite = reinterpret_cast<ImwriteFn>(::dlsym(handle, "vellum_codecs_imwrite"));
-  m.imread = reinterpret_cast<ImreadFn>(::dlsym(handle, "vellum_codecs_imread"));
-  m.imencode = reinterpret_cast<ImencodeFn>(::dlsym(handle, "vellum_codecs_imencode"));
-  if (!m.imwrite || !m.imread || !m.imencode) m.problem = "the image codec module " + file + " lacks an entry point";
-  return m;
-}
-
 const Module& module() {
-  static const Module m = open();  // once, thread-safe
-  if (!m.problem.empty()) throw Error(m.problem);
+  static const PluginModule file("the image codec module", "VELLUM_CODECS_MODULE", VELLUM_CODECS_MODULE_PATH);
+  static const Module m{reinterpret_cast<ImwriteFn>(file.symbol("vellum_codecs_imwrite")),
+                        reinterpret_cast<ImreadFn>(file.symbol("vellum_codecs_imread")),
+                        reinterpret_cast<ImencodeFn>(file.symbol("vellum_codecs_imencode"))};
   return m;
 }
 

@@ -106,6 +106,27 @@ TEST(ShapeCli, BadSegmentSpecsGiveOneLineErrors) {
   }
 }
 
+TEST(ShapeCli, AMissingOpenVdbModuleIsAOneLineError) {
+  // OpenVDB is a module opened on first use: without it `vellum shape` must say which file it
+  // could not load, in one line, and write nothing.
+  const fs::path dir = test::tempDir("shape-cli-module");
+  phantom::PhantomOptions po;
+  po.dims = {24, 24, 24};
+  const auto ph = phantom::makePhantom(po);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const fs::path missing = dir / "no-such-module.so";
+  const std::string cmd = "VELLUM_VDB_MODULE='" + missing.string() + "' " + std::string(VELLUM_CLI_PATH) + " shape " +
+                          (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string() +
+                          " --segment bone=4 --out " + (dir / "o").string() + " > " + (dir / "log.txt").string() +
+                          " 2>&1";
+  EXPECT_NE(std::system(cmd.c_str()), 0);
+  const std::string log = slurp(dir / "log.txt");
+  EXPECT_NE(log.find("cannot load the OpenVDB module " + missing.string()), std::string::npos) << log;
+  EXPECT_LE(std::count(log.begin(), log.end(), '\n'), 1) << log;
+  EXPECT_FALSE(fs::exists(dir / "o" / "shape.json"));
+}
+
 TEST(ShapeCli, InterruptExitsCleanly) {
   // SIGINT in the middle of the pipeline: exit 130 ("cancelled"), no shape.json, no
   // temporaries (never a crash: cancellation is checked between stages, outside TBB tasks).

@@ -122,6 +122,24 @@ TEST(Gzip, EmptyInputIsOneEmptyMember) {
   EXPECT_EQ(inflateError(bytes, 0), "");
 }
 
+TEST(Gzip, IncompressibleBytesFitTheirMembersAndRoundTrip) {
+  // Random bytes do not compress: each member must still fit its worst-case slot (stored
+  // blocks), and the stream must decode exactly.
+  std::vector<uint8_t> raw(2 * io::kGzipMemberBytes + 12345);
+  uint64_t state = 0x9E3779B97F4A7C15ull;
+  for (auto& b : raw) {
+    state ^= state << 13, state ^= state >> 7, state ^= state << 17;
+    b = static_cast<uint8_t>(state >> 56);
+  }
+  const auto gz = compressed(raw);
+  EXPECT_GE(gz.size(), raw.size());
+  EXPECT_LT(gz.size(), raw.size() + raw.size() / 1000 + 256) << "stored blocks cost 5 bytes per 64 KiB";
+  EXPECT_EQ(memberOffsets(gz).size(), 3u);
+  std::vector<uint8_t> back(raw.size());
+  io::inflateExactInto("x.gz", gz.data(), gz.size(), back.data(), back.size());
+  EXPECT_EQ(back, raw);
+}
+
 TEST(Gzip, DamageInALaterMemberIsNamed) {
   const auto raw = ctLikeBytes(1'600'000);
   const auto gz = compressed(raw);

@@ -1,4 +1,5 @@
-// Whitaker-style constrained level-set denoising and surface extraction with OpenVDB.
+// The OpenVDB module (see src/vdb_functions.hpp): Whitaker-style constrained level-set
+// denoising, surface extraction, and closed-surface distance fields.
 //
 // The initial level set is the narrow-band signed distance (voxel units) of the binary mask's
 // boundary from tools::topologyToLevelSet (zero crossings on the voxel faces between inside
@@ -13,9 +14,12 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Dense.h>
 #include <openvdb/tools/LevelSetFilter.h>
+#include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/TopologyToLevelSet.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <openvdb/tree/LeafManager.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -23,8 +27,7 @@
 #include <cstdlib>
 #include <mutex>
 
-#include "shape_internal.hpp"
-#include "vellum/core/parallel.hpp"
+#include "../src/vdb_functions.hpp"
 
 namespace vellum::illustration::detail {
 
@@ -39,15 +42,15 @@ constexpr float kHalfWidth = 2.0f;  // narrow band half width (voxels)
 struct LevelSet {
   openvdb::FloatGrid::Ptr grid;
 };
-void LevelSetDeleter::operator()(LevelSet* p) const { delete p; }
 
 namespace {
 /// Voxels of the original binary boundary: inside voxels with an outside face neighbour and
 /// outside voxels with an inside face neighbour (full-grid coordinates).
 std::vector<openvdb::Coord> boundaryVoxels(const MaskBox& m) {
   std::vector<std::vector<openvdb::Coord>> perSlice(static_cast<size_t>(m.nz));
-  parallelFor(m.nz, [&](int64_t k0, int64_t k1) {
-    for (int64_t k = k0; k < k1; ++k)
+  // tbb directly: this module links no Vellum library (its code would be a second copy).
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, m.nz), [&](const tbb::blocked_range<int64_t>& r) {
+    for (int64_t k = r.begin(); k < r.end(); ++k)
       for (int64_t j = 0; j < m.ny; ++j)
         for (int64_t i = 0; i < m.nx; ++i) {
           const int64_t gi = i + m.ox, gj = j + m.oy, gk = k + m.oz;
@@ -82,11 +85,11 @@ void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const std::vector<
   // them in parallel (read-only), fix them serially (setValue may allocate leaves).
   std::vector<openvdb::Coord> bad;
   std::mutex m;
-  parallelFor(static_cast<int64_t>(boundary.size()), [&](int64_t b, int64_t e) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, boundary.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
     auto acc = grid.getConstAccessor();
     std::vector<openvdb::Coord> local;
-    for (int64_t n = b; n < e; ++n) {
-      const auto& c = boundary[static_cast<size_t>(n)];
+    for (size_t n = r.begin(); n < r.end(); ++n) {
+      const auto& c = boundary[n];
       const float v = acc.getValue(c);
       if (mask.at(c.x(), c.y(), c.z()) ? v > -kEps : v < kEps) local.push_back(c);
     }
@@ -94,13 +97,14 @@ void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const std::vector<
       std::lock_guard<std::mutex> lock(m);
       bad.insert(bad.end(), local.begin(), local.end());
     }
-  }, 4096);
+  });
   auto acc = grid.getAccessor();
   for (const auto& c : bad) acc.setValue(c, mask.at(c.x(), c.y(), c.z()) ? -kEps : kEps);
 }
 }  // namespace
 
-LevelSetPtr denoiseLevelSet(const MaskBox& mask, int iterations, double margin) {
+namespace {
+LevelSet* denoise(const MaskBox& mask, int iterations, double margin) {
   const float kEps = static_cast<float>(std::clamp(margin, 1e-3, 0.45));
   initVdb();
   static const bool profile = std::getenv("VELLUM_SHAPE_PROFILE") != nullptr;
@@ -113,11 +117,11 @@ LevelSetPtr denoiseLevelSet(const MaskBox& mask, int iterations, double margin) 
                  (long long)mask.ny, (long long)mask.nz);
     t0 = t;
   };
-  LevelSetPtr ls(new LevelSet);
+  auto ls = std::make_unique<LevelSet>();
   if (mask.count == 0) {
     ls->grid = openvdb::FloatGrid::create(kHalfWidth);
     ls->grid->setGridClass(openvdb::GRID_LEVEL_SET);
-    return ls;
+    return ls.release();
   }
   // The mask's topology (active = inside) from a dense copy of the padded box (constant
   // regions become tiles), then OpenVDB's topologyToLevelSet: a narrow band whose zero
@@ -158,20 +162,21 @@ LevelSetPtr denoiseLevelSet(const MaskBox& mask, int iterations, double margin) 
     }
   }
   lap("flow");
-  return ls;
+  return ls.release();
 }
 
-VolumeF32 levelSetToDense(const LevelSet& ls, const Geometry& g) {
-  VolumeF32 out(g, kHalfWidth, kHalfWidth);
+void release(LevelSet* levelSet) { delete levelSet; }
+
+void toDense(const LevelSet& ls, std::array<int64_t, 3> dims, float* out) {
   const openvdb::CoordBBox box(openvdb::Coord(0, 0, 0),
-                               openvdb::Coord(int(g.dims.x - 1), int(g.dims.y - 1), int(g.dims.z - 1)));
-  openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(box, out.data());
+                               openvdb::Coord(int(dims[0] - 1), int(dims[1] - 1), int(dims[2] - 1)));
+  openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(box, out);
   openvdb::tools::copyToDense(*ls.grid, dense);
-  for (float& v : out.voxels()) v = std::clamp(v, -kHalfWidth, kHalfWidth);
-  return out;
+  const size_t n = size_t(dims[0]) * size_t(dims[1]) * size_t(dims[2]);
+  for (size_t i = 0; i < n; ++i) out[i] = std::clamp(out[i], -kHalfWidth, kHalfWidth);
 }
 
-TriMesh extractIndexMesh(const LevelSet& ls, double adaptivity) {
+TriMesh indexMesh(const LevelSet& ls, double adaptivity) {
   std::vector<openvdb::Vec3s> points;
   std::vector<openvdb::Vec3I> tris;
   std::vector<openvdb::Vec4I> quads;
@@ -189,4 +194,42 @@ TriMesh extractIndexMesh(const LevelSet& ls, double adaptivity) {
   return m;
 }
 
+DenseBox surfaceDistance(const std::vector<std::array<float, 3>>& pointsMm,
+                         const std::vector<std::array<uint32_t, 3>>& triangles, double voxelMm, float bandVoxels,
+                         std::array<int, 3> limit, float farMm) {
+  initVdb();
+  const auto xform = openvdb::math::Transform::createLinearTransform(voxelMm);
+  std::vector<openvdb::Vec3s> pts;
+  pts.reserve(pointsMm.size());
+  for (const auto& p : pointsMm) pts.emplace_back(p[0], p[1], p[2]);
+  std::vector<openvdb::Vec3I> tris;
+  tris.reserve(triangles.size());
+  for (const auto& t : triangles) tris.emplace_back(t[0], t[1], t[2]);
+  // OpenVDB's values in the outer voxels of its band can be short by a voxel (measured:
+  // beyond ~bandwidth - 1): ask for one voxel more; the caller clamps to the declared band.
+  auto grid = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
+      *xform, pts, tris, std::vector<openvdb::Vec4I>{}, bandVoxels + 1, bandVoxels + 1);
+  // The (sparse) grid over the surface's band box as a dense buffer, tiles included: the
+  // flood-filled interior keeps its sign.
+  openvdb::CoordBBox box = grid->evalActiveVoxelBoundingBox();
+  box.intersect(openvdb::CoordBBox(openvdb::Coord(0, 0, 0), openvdb::Coord(limit[0], limit[1], limit[2])));
+  DenseBox out;
+  if (box.empty()) return out;
+  const openvdb::Coord lo = box.min(), dim = box.dim();
+  out.lo = {lo.x(), lo.y(), lo.z()};
+  out.dim = {dim.x(), dim.y(), dim.z()};
+  out.values.assign(size_t(dim.x()) * size_t(dim.y()) * size_t(dim.z()), farMm);
+  openvdb::tools::Dense<float, openvdb::tools::LayoutXYZ> dense(box, out.values.data());
+  openvdb::tools::copyToDense(*grid, dense);
+  return out;
+}
+
+}  // namespace
 }  // namespace vellum::illustration::detail
+
+extern "C" const vellum::illustration::detail::VdbFunctions* vellum_vdb_functions() {
+  namespace d = vellum::illustration::detail;
+  static const d::VdbFunctions functions{d::kVdbFunctionsVersion, d::kHalfWidth, &d::denoise, &d::release,
+                                         &d::toDense, &d::indexMesh, &d::surfaceDistance};
+  return &functions;
+}
