@@ -53,19 +53,39 @@ T get(const uint8_t* h, size_t off, bool swap) {
   return v;
 }
 
-}  // namespace
-
-LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options) {
-  fileSize(path);  // existence and regular-file check
-  GzFile gz;
-  gz.f = gzopen(path.c_str(), "rb");
-  if (!gz.f) throw FileError(path, "cannot open for reading");
-  uint8_t h[348];
-  readExact(path, gz.f, h, sizeof h, "header (shorter than 348 bytes)");
+/// The 348-byte header, its byte order, and what it says about the grid and the samples.
+struct NiftiHeader {
+  uint8_t bytes[348];
   bool swap = false;
+  SampleType type{};
+  Geometry geometry;  ///< dims only, until niftiOrientation()
+  template <class T>
+  T at(size_t offset) const { return get<T>(bytes, offset, swap); }
+};
+
+SampleType niftiSampleType(const fs::path& path, int16_t datatype) {
+  switch (datatype) {
+    case 2: return SampleType::UInt8;
+    case 4: return SampleType::Int16;
+    case 8: return SampleType::Int32;
+    case 16: return SampleType::Float32;
+    case 64: return SampleType::Float64;
+    case 256: return SampleType::Int8;
+    case 512: return SampleType::UInt16;
+    case 768: return SampleType::UInt32;
+    default: throw FileError(path, "unsupported NIfTI datatype " + std::to_string(datatype));
+  }
+}
+
+/// Reads and checks the header: magic, byte order, a 3-D grid, a supported sample type, and
+/// an allocation that would fit.
+NiftiHeader readNiftiHeader(const fs::path& path, gzFile f) {
+  NiftiHeader n;
+  uint8_t* h = n.bytes;
+  readExact(path, f, h, sizeof n.bytes, "header (shorter than 348 bytes)");
   if (get<int32_t>(h, 0, false) != 348) {
     if (get<int32_t>(h, 0, true) != 348) throw FileError(path, "not a NIfTI-1 file (sizeof_hdr is not 348)");
-    swap = true;
+    n.swap = true;
   }
   if (std::memcmp(h + 344, "n+1", 4) != 0) {
     if (std::memcmp(h + 344, "ni1", 4) == 0)
@@ -73,43 +93,31 @@ LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options) {
     throw FileError(path, "not a NIfTI-1 file (magic is not 'n+1')");
   }
   int16_t dim[8];
-  for (int i = 0; i < 8; ++i) dim[i] = get<int16_t>(h, 40 + 2 * size_t(i), swap);
+  for (int i = 0; i < 8; ++i) dim[i] = n.at<int16_t>(40 + 2 * size_t(i));
   if (dim[0] < 1 || dim[0] > 7) throw FileError(path, "invalid dim[0] = " + std::to_string(dim[0]));
   for (int i = 4; i <= dim[0]; ++i)
     if (dim[i] > 1) throw FileError(path, "4-D or higher NIfTI (dim[" + std::to_string(i) + "] = " +
                                               std::to_string(dim[i]) + ") is not supported");
-  Geometry g;
-  g.dims = {dim[1], dim[0] >= 2 ? dim[2] : 1, dim[0] >= 3 ? dim[3] : 1};
-  const int16_t datatype = get<int16_t>(h, 70, swap);
-  SampleType type;
-  switch (datatype) {
-    case 2: type = SampleType::UInt8; break;
-    case 4: type = SampleType::Int16; break;
-    case 8: type = SampleType::Int32; break;
-    case 16: type = SampleType::Float32; break;
-    case 64: type = SampleType::Float64; break;
-    case 256: type = SampleType::Int8; break;
-    case 512: type = SampleType::UInt16; break;
-    case 768: type = SampleType::UInt32; break;
-    default: throw FileError(path, "unsupported NIfTI datatype " + std::to_string(datatype));
-  }
-  checkAllocation(path, g.dims, sampleSize(type));
+  n.geometry.dims = {dim[1], dim[0] >= 2 ? dim[2] : 1, dim[0] >= 3 ? dim[3] : 1};
+  n.type = niftiSampleType(path, n.at<int16_t>(70));
+  checkAllocation(path, n.geometry.dims, sampleSize(n.type));
+  return n;
+}
 
+/// Spacing, origin and direction (LPS) from the sform, else the qform, else pixdim alone.
+void niftiOrientation(const fs::path& path, NiftiHeader& n) {
   float pixdim[8];
-  for (int i = 0; i < 8; ++i) pixdim[i] = get<float>(h, 76 + 4 * size_t(i), swap);
-  const float voxOffset = get<float>(h, 108, swap);
-  const float slope = get<float>(h, 112, swap), inter = get<float>(h, 116, swap);
-  const int16_t qformCode = get<int16_t>(h, 252, swap), sformCode = get<int16_t>(h, 254, swap);
-
+  for (int i = 0; i < 8; ++i) pixdim[i] = n.at<float>(76 + 4 * size_t(i));
+  const int16_t qformCode = n.at<int16_t>(252), sformCode = n.at<int16_t>(254);
   Mat3 m;  // RAS, columns = axis vectors including spacing
   Vec3 origin;
   if (sformCode > 0) {
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) m(r, c) = get<float>(h, 280 + 16 * size_t(r) + 4 * size_t(c), swap);
-      origin[r] = get<float>(h, 280 + 16 * size_t(r) + 12, swap);
+      for (int c = 0; c < 3; ++c) m(r, c) = n.at<float>(280 + 16 * size_t(r) + 4 * size_t(c));
+      origin[r] = n.at<float>(280 + 16 * size_t(r) + 12);
     }
   } else if (qformCode > 0) {
-    const double b = get<float>(h, 256, swap), c = get<float>(h, 260, swap), d = get<float>(h, 264, swap);
+    const double b = n.at<float>(256), c = n.at<float>(260), d = n.at<float>(264);
     const double a = std::sqrt(std::max(0.0, 1.0 - (b * b + c * c + d * d)));
     const Mat3 rot = Mat3::fromColumns({a * a + b * b - c * c - d * d, 2 * (b * c + a * d), 2 * (b * d - a * c)},
                                        {2 * (b * c - a * d), a * a + c * c - b * b - d * d, 2 * (c * d + a * b)},
@@ -120,10 +128,11 @@ LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options) {
       m(r, 1) = rot(r, 1) * pixdim[2];
       m(r, 2) = rot(r, 2) * pixdim[3] * qfac;
     }
-    origin = {get<float>(h, 268, swap), get<float>(h, 272, swap), get<float>(h, 276, swap)};
+    origin = {n.at<float>(268), n.at<float>(272), n.at<float>(276)};
   } else {
     m = Mat3::fromColumns({pixdim[1], 0, 0}, {0, pixdim[2], 0}, {0, 0, pixdim[3]});
   }
+  Geometry& g = n.geometry;
   for (int a = 0; a < 3; ++a) {
     const Vec3 col = m.column(a);
     g.spacing[a] = norm(col);
@@ -135,28 +144,30 @@ LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options) {
   }
   g.origin = {-origin.x, -origin.y, origin.z};
   checkGeometry(path, g);
+}
 
+/// The voxel bytes after vox_offset (extensions skipped). A header may claim far more voxels
+/// than the file holds: never allocate for them first. Plain files are checked against their
+/// size; gzip streams grow the buffer as data arrive.
+std::vector<uint8_t> readNiftiData(const fs::path& path, gzFile f, float voxOffset, uint64_t bytes,
+                                   Progress* progress) {
   if (!std::isfinite(voxOffset) || voxOffset < 348 || voxOffset > 1e9)
     throw FileError(path, "invalid vox_offset " + fmt(voxOffset));
-  // Skip extensions up to the data.
   const uint64_t skip = static_cast<uint64_t>(voxOffset) - 348;
   std::vector<uint8_t> scratch(static_cast<size_t>(std::min<uint64_t>(skip, 1u << 20)));
   for (uint64_t left = skip; left > 0;) {
     const uint64_t n = std::min<uint64_t>(left, scratch.size());
-    readExact(path, gz.f, scratch.data(), n, "file (ends before vox_offset)");
+    readExact(path, f, scratch.data(), n, "file (ends before vox_offset)");
     left -= n;
   }
-  const uint64_t bytes = static_cast<uint64_t>(g.dims.voxelCount()) * sampleSize(type);
   try {
     checkMemoryBudget(bytes, "NIfTI voxel data");
   } catch (const Error& e) {
     throw FileError(path, e.what());
   }
-  // A header may claim far more voxels than the file holds: never allocate for them first.
-  // Plain files are checked against their size; gzip streams grow the buffer as data arrives.
   std::vector<uint8_t> data;
   const uint64_t dataStart = static_cast<uint64_t>(voxOffset);
-  if (gzdirect(gz.f)) {
+  if (gzdirect(f)) {
     const uint64_t size = fileSize(path);
     if (size < dataStart || size - dataStart < bytes)
       throw FileError(path, "truncated voxel data: the header needs " + std::to_string(bytes) + " bytes after vox_offset, the file has " +
@@ -164,32 +175,49 @@ LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options) {
     data.resize(static_cast<size_t>(bytes));
   }
   constexpr uint64_t kChunk = uint64_t{16} << 20;
-  if (options.progress) options.progress->begin("reading " + path.filename().string(), (bytes + kChunk - 1) / kChunk);
+  if (progress) progress->begin("reading " + path.filename().string(), (bytes + kChunk - 1) / kChunk);
   for (uint64_t done = 0; done < bytes;) {
     const uint64_t n = std::min(kChunk, bytes - done);
     if (data.size() < done + n) data.resize(static_cast<size_t>(done + n));
-    readExact(path, gz.f, data.data() + done, n, "voxel data");
+    readExact(path, f, data.data() + done, n, "voxel data");
     done += n;
-    if (options.progress) options.progress->advance();
+    if (progress) progress->advance();
   }
-  if (options.progress) options.progress->end();
+  if (progress) progress->end();
+  return data;
+}
 
-  AnyVolume vol = decodeVoxels(path, std::move(data), type, swap ? (hostEndian() == Endian::Little ? Endian::Big : Endian::Little) : hostEndian(), g);
-
+/// scl_slope / scl_inter applied; integer results that fit int16 (CT stored as uint16 with
+/// inter -1024) stay integers.
+AnyVolume applyNiftiScaling(AnyVolume vol, float slope, float inter) {
   const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0);
-  if (scaled) {
-    VolumeF32 f = toFloat32(vol);
-    float* p = f.data();
-    parallelFor(static_cast<int64_t>(f.size()), [&](int64_t b, int64_t e) {
-      for (int64_t i = b; i < e; ++i) p[i] = p[i] * slope + inter;
-    }, 1 << 16);
-    // Integer results that fit int16 (CT stored as uint16 with inter -1024) stay integers.
-    bool integral = true;
-    for (size_t i = 0; i < f.size() && integral; ++i)
-      integral = p[i] == std::floor(p[i]) && p[i] >= -32768 && p[i] <= 32767;
-    vol = integral ? AnyVolume(toInt16(f)) : AnyVolume(std::move(f));
-  }
-  return makeLoaded(std::move(vol), "nifti", "");
+  if (!scaled) return vol;
+  VolumeF32 f = toFloat32(vol);
+  float* p = f.data();
+  parallelFor(static_cast<int64_t>(f.size()), [&](int64_t b, int64_t e) {
+    for (int64_t i = b; i < e; ++i) p[i] = p[i] * slope + inter;
+  }, 1 << 16);
+  bool integral = true;
+  for (size_t i = 0; i < f.size() && integral; ++i)
+    integral = p[i] == std::floor(p[i]) && p[i] >= -32768 && p[i] <= 32767;
+  return integral ? AnyVolume(toInt16(f)) : AnyVolume(std::move(f));
+}
+
+}  // namespace
+
+LoadedVolume loadNifti(const fs::path& path, const LoadOptions& options) {
+  fileSize(path);  // existence and regular-file check
+  GzFile gz;
+  gz.f = gzopen(path.c_str(), "rb");
+  if (!gz.f) throw FileError(path, "cannot open for reading");
+  NiftiHeader header = readNiftiHeader(path, gz.f);
+  niftiOrientation(path, header);
+  const Geometry& g = header.geometry;
+  const uint64_t bytes = static_cast<uint64_t>(g.dims.voxelCount()) * sampleSize(header.type);
+  std::vector<uint8_t> data = readNiftiData(path, gz.f, header.at<float>(108), bytes, options.progress);
+  const Endian fileEndian = header.swap ? (hostEndian() == Endian::Little ? Endian::Big : Endian::Little) : hostEndian();
+  AnyVolume vol = decodeVoxels(path, std::move(data), header.type, fileEndian, g);
+  return makeLoaded(applyNiftiScaling(std::move(vol), header.at<float>(112), header.at<float>(116)), "nifti", "");
 }
 
 }  // namespace vellum::io::detail
