@@ -65,11 +65,10 @@ VolumeI16 allocate(const fs::path& path, const Geometry& g, double background) {
   }
 }
 
-}  // namespace
-
-LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& options) {
-  Progress* progress = options.progress;
-  ScanResult scanned = scan(path, progress);
+/// The chosen series (with the loader's warnings about the others) and its files, which must
+/// all share one image size. Refuses unreadable files that may belong to it.
+std::vector<const FileHeader*> chooseSeriesFiles(const fs::path& path, const ScanResult& scanned,
+                                                 const LoadOptions& options, LoadedVolume& result) {
   // A damaged DICOM file may be a slice of the series: refuse rather than leave a hole,
   // unless it is known to belong to another series.
   auto refuseUnreadable = [&](const std::string& loadingUid) {
@@ -84,8 +83,6 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
                               (skipped.empty() ? std::string(" (empty folder)")
                                                : " (skipped files: " + skipped + ")"));
   }
-
-  LoadedVolume result;
   result.format = "dicom";
   result.series = summarize(scanned);
   const SeriesInfo& chosen = chooseSeries(path, result.series, options.seriesUid);
@@ -104,7 +101,6 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
                               " series; loaded " + chosen.uid + " (" +
                               std::to_string(chosen.frames) + " images)");
 
-  // The chosen series' files; all must share one image size.
   std::vector<const FileHeader*> files;
   for (const FileHeader& h : scanned.images)
     if (h.seriesUid == chosen.uid) files.push_back(&h);
@@ -115,53 +111,47 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
                                    "x" + std::to_string(h->rows) + " but " +
                                    files.front()->file.filename().string() + " is " +
                                    std::to_string(columns) + "x" + std::to_string(rows));
+  return files;
+}
 
-  std::vector<Frame> frames;
-  for (const FileHeader* h : files) frames.insert(frames.end(), h->frames.begin(), h->frames.end());
-  SlicePlan plan = planSlices(std::move(frames), rows, columns);
-  result.warnings.insert(result.warnings.end(), plan.warnings.begin(), plan.warnings.end());
-
-  const bool ct = chosen.modality == "CT";
-  const double background = ct ? kCtAirHu : 0.0;
-
-  // Map every frame to its destination before decoding anything.
+/// Every frame's destination slot, decided before anything is decoded; `duplicates` counts
+/// the frames that only have to match a kept slice.
+std::map<FrameKey, Target> frameTargets(const SlicePlan& plan, int64_t& duplicates) {
   std::map<FrameKey, Target> targets;
-  int64_t duplicateCount = 0;
+  duplicates = 0;
   for (size_t k = 0; k < plan.slices.size(); ++k) {
     targets[{plan.slices[k].file, plan.slices[k].frameIndex}] = {static_cast<int64_t>(k), false};
     for (const Frame& d : plan.duplicates[k]) {
       targets[{d.file, d.frameIndex}] = {static_cast<int64_t>(k), true};
-      ++duplicateCount;
+      ++duplicates;
     }
   }
-  bool fractionalSlope = false;
-  for (const FileHeader* h : files)
-    for (const Frame& f : h->frames)
-      if (f.slope != std::round(f.slope) || f.intercept != std::round(f.intercept))
-        fractionalSlope = true;
+  return targets;
+}
 
-  Geometry stackGeometry = plan.geometry;
-  stackGeometry.dims.z = static_cast<int64_t>(plan.slices.size());
-  // Headers can claim far more pixels than their files hold (a 1.3 KB file promising
-  // gigabytes, found by the DICOM fuzzer): refuse before allocating. Even run-length or
-  // lossless-JPEG compression of empty slices stays well under 1000:1.
+/// Headers can claim far more pixels than their files hold (a 1.3 KB file promising
+/// gigabytes, found by the DICOM fuzzer): refuse before allocating. Even run-length or
+/// lossless-JPEG compression of empty slices stays well under 1000:1.
+void checkPixelsFitFiles(const fs::path& path, const std::vector<const FileHeader*>& files, const Geometry& stack) {
   uint64_t fileBytes = 0;
   for (const FileHeader* h : files) {
     std::error_code ec;
     const auto n = fs::file_size(h->file, ec);
     if (!ec) fileBytes += n;
   }
-  const double pixelBytes = double(stackGeometry.dims.voxelCount()) * 2.0;
+  const double pixelBytes = double(stack.dims.voxelCount()) * 2.0;
   if (pixelBytes > 1000.0 * double(fileBytes) + double(1u << 20))
     throw FileError(path, "the headers describe " + std::to_string(uint64_t(pixelBytes)) + " bytes of pixels but the files hold only " +
                               std::to_string(fileBytes) + " bytes (corrupt rows, columns or frame counts)");
-  VolumeI16 stack = allocate(path, stackGeometry, background);
-  const int64_t plane = rows * columns;
+}
 
-  // Pass 0 decodes files holding kept slices; pass 1 files holding duplicates, compared
-  // against the kept slice (which pass 0 has filled).
+/// Decodes the files into `stack` (files in parallel): pass 0 the files holding kept slices,
+/// pass 1 those holding duplicates, compared against the kept slice (which pass 0 has filled).
+/// Returns how many values were clamped to int16.
+int64_t decodeIntoStack(const std::vector<const FileHeader*>& files, const std::map<FrameKey, Target>& targets,
+                        const SlicePlan& plan, VolumeI16& stack, Progress* progress) {
+  const int64_t plane = stack.geometry().dims.x * stack.geometry().dims.y;
   std::atomic<int64_t> saturated{0};
-  if (progress) progress->begin("decoding DICOM slices", plan.slices.size() + duplicateCount);
   for (int pass = 0; pass < 2; ++pass) {
     std::vector<const FileHeader*> todo;
     for (const FileHeader* h : files)
@@ -175,34 +165,62 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
     parallelFor(static_cast<int64_t>(todo.size()), [&](int64_t b, int64_t e) {
       for (int64_t t = b; t < e; ++t) {
         const FileHeader& h = *todo[static_cast<size_t>(t)];
-        saturated += decodeFile(
-            h,
-            [&](int64_t frame, const int16_t* values) {
-              auto it = targets.find({h.file, frame});
-              if (it == targets.end() || it->second.duplicate != (pass == 1)) return;
-              int16_t* slot = stack.data() + it->second.slot * plane;
-              if (pass == 0) {
-                std::memcpy(slot, values, static_cast<size_t>(plane) * sizeof(int16_t));
-              } else if (std::memcmp(slot, values, static_cast<size_t>(plane) * sizeof(int16_t)) != 0) {
-                const Frame& kept = plan.slices[static_cast<size_t>(it->second.slot)];
-                throw FileError(h.file, "conflicting slices: same position as " +
-                                            kept.file.filename().string() +
-                                            " but different pixel data");
-              }
-              if (progress) progress->advance();
-            });
+        saturated += decodeFile(h, [&](int64_t frame, const int16_t* values) {
+          auto it = targets.find({h.file, frame});
+          if (it == targets.end() || it->second.duplicate != (pass == 1)) return;
+          int16_t* slot = stack.data() + it->second.slot * plane;
+          if (pass == 0) {
+            std::memcpy(slot, values, static_cast<size_t>(plane) * sizeof(int16_t));
+          } else if (std::memcmp(slot, values, static_cast<size_t>(plane) * sizeof(int16_t)) != 0) {
+            const Frame& kept = plan.slices[static_cast<size_t>(it->second.slot)];
+            throw FileError(h.file, "conflicting slices: same position as " + kept.file.filename().string() +
+                                        " but different pixel data");
+          }
+          if (progress) progress->advance();
+        });
       }
     });
   }
+  return saturated.load();
+}
+
+}  // namespace
+
+LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& options) {
+  Progress* progress = options.progress;
+  const ScanResult scanned = scan(path, progress);
+  LoadedVolume result;
+  const std::vector<const FileHeader*> files = chooseSeriesFiles(path, scanned, options, result);
+
+  std::vector<Frame> frames;
+  for (const FileHeader* h : files) frames.insert(frames.end(), h->frames.begin(), h->frames.end());
+  SlicePlan plan = planSlices(std::move(frames), files.front()->rows, files.front()->columns);
+  result.warnings.insert(result.warnings.end(), plan.warnings.begin(), plan.warnings.end());
+
+  const bool ct = result.modality == "CT";
+  const double background = ct ? kCtAirHu : 0.0;
+  int64_t duplicateCount = 0;
+  const std::map<FrameKey, Target> targets = frameTargets(plan, duplicateCount);
+  bool fractionalSlope = false;
+  for (const FileHeader* h : files)
+    for (const Frame& f : h->frames)
+      if (f.slope != std::round(f.slope) || f.intercept != std::round(f.intercept))
+        fractionalSlope = true;
+
+  Geometry stackGeometry = plan.geometry;
+  stackGeometry.dims.z = static_cast<int64_t>(plan.slices.size());
+  checkPixelsFitFiles(path, files, stackGeometry);
+  VolumeI16 stack = allocate(path, stackGeometry, background);
+  if (progress) progress->begin("decoding DICOM slices", plan.slices.size() + duplicateCount);
+  const int64_t saturated = decodeIntoStack(files, targets, plan, stack, progress);
   if (progress) progress->end();
 
   if (duplicateCount > 0)
     result.warnings.push_back("dropped " + std::to_string(duplicateCount) +
                               " duplicate slice" + (duplicateCount > 1 ? "s" : "") +
                               " (same position and identical pixels)");
-  if (saturated.load() > 0)
-    result.warnings.push_back(std::to_string(saturated.load()) +
-                              " values outside the int16 range were clamped");
+  if (saturated > 0)
+    result.warnings.push_back(std::to_string(saturated) + " values outside the int16 range were clamped");
   if (fractionalSlope && !ct)
     result.warnings.push_back("non-integral rescale slope/intercept: values rounded to integers");
 
