@@ -61,15 +61,8 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-}  // namespace
-
-SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns) {
-  if (frames.empty()) throw Error("DICOM series has no images");
-  SlicePlan plan;
-  const bool single = frames.size() == 1;
-  for (Frame& f : frames) checkFrame(f, single, plan.warnings);
-
-  // Every frame must share the first one's orientation and pixel spacing.
+/// Every frame must share the first one's orientation and pixel spacing.
+void checkSharedOrientation(const std::vector<Frame>& frames) {
   const Frame& ref = frames.front();
   for (const Frame& f : frames) {
     const Vec3 dr = *f.rowCosine - *ref.rowCosine, dc = *f.colCosine - *ref.colCosine;
@@ -87,11 +80,10 @@ SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns) {
                                   ref.file.filename().string() + " has " +
                                   num(*ref.rowSpacing, 4) + "\\" + num(*ref.colSpacing, 4) + " mm");
   }
+}
 
-  const Vec3 row = *ref.rowCosine, col = *ref.colCosine;
-  const Vec3 normal = normalized(cross(row, col));
-  const double sx = *ref.colSpacing, sy = *ref.rowSpacing;  // PixelSpacing is [row, column]
-
+/// Frames sorted along the normal; coincident positions grouped as duplicates of one slice.
+void groupSlices(const std::vector<Frame>& frames, const Vec3& normal, SlicePlan& plan) {
   // Sort along the normal; ties keep a deterministic order (then grouped as duplicates).
   std::vector<double> along(frames.size());
   std::vector<size_t> order(frames.size());
@@ -122,7 +114,11 @@ SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns) {
     plan.slices.push_back(f);
     plan.duplicates.emplace_back();
   }
+}
 
+/// Each slice's offset along the normal and in-plane shift (pixels) from the first; a gantry
+/// tilt (origins moving in-plane along the stack) asks for resampling with shear correction.
+void measureOffsets(const Vec3& row, const Vec3& col, const Vec3& normal, double sx, double sy, SlicePlan& plan) {
   const size_t n = plan.slices.size();
   const Vec3 origin = *plan.slices.front().position;
   const double d0 = dot(origin, normal);
@@ -153,9 +149,14 @@ SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns) {
                             "voxels outside the acquired slices are background");
     plan.resample = true;
   }
+}
 
+/// The output slice spacing and count: uniform stacks keep theirs; uneven ones are resampled
+/// to the smallest regular gap (or the median, when a gap is suspiciously small).
+double sliceSpacing(SlicePlan& plan, int64_t& count) {
+  const size_t n = plan.slices.size();
   double spacing = 1.0;
-  int64_t count = static_cast<int64_t>(n);
+  count = static_cast<int64_t>(n);
   if (n == 1) {
     const Frame& s = plan.slices.front();
     spacing = s.spacingBetweenSlices > 0 ? s.spacingBetweenSlices
@@ -193,10 +194,28 @@ SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns) {
   }
   if (!(spacing > 0) || !std::isfinite(spacing))
     throw FileError(plan.slices.front().file, "invalid slice spacing " + num(spacing, 6));
+  return spacing;
+}
 
+}  // namespace
+
+SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns) {
+  if (frames.empty()) throw Error("DICOM series has no images");
+  SlicePlan plan;
+  const bool single = frames.size() == 1;
+  for (Frame& f : frames) checkFrame(f, single, plan.warnings);
+  checkSharedOrientation(frames);
+  const Frame& ref = frames.front();
+  const Vec3 row = *ref.rowCosine, col = *ref.colCosine;
+  const Vec3 normal = normalized(cross(row, col));
+  const double sx = *ref.colSpacing, sy = *ref.rowSpacing;  // PixelSpacing is [row, column]
+  groupSlices(frames, normal, plan);
+  measureOffsets(row, col, normal, sx, sy, plan);
+  int64_t count = 0;
+  const double spacing = sliceSpacing(plan, count);
   plan.geometry.dims = {columns, rows, count};
   plan.geometry.spacing = {sx, sy, spacing};
-  plan.geometry.origin = origin;
+  plan.geometry.origin = *plan.slices.front().position;
   plan.geometry.direction = Mat3::fromColumns(row, col, normal);
   return plan;
 }
