@@ -6,8 +6,8 @@
 #include <iostream>
 
 #include "cli_params.hpp"
+#include "vellum/app/table_removal.hpp"
 #include "vellum/core/error.hpp"
-#include "vellum/io/nrrd_writer.hpp"
 
 namespace vellum::cli {
 
@@ -81,10 +81,8 @@ void TableRemovalOptions::addTo(CLI::App& cmd) {
 
 AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::path& path) const {
   if (!enabled) return volume;
-  const auto* ct = std::get_if<VolumeI16>(&volume);
-  if (!ct) throw FileError(path, "--remove-table needs a CT in HU (int16); use --rescale for CT numbers");
   ProgressBar bar;
-  return segmentation::removeTable(*ct, params, bar.progress());
+  return app::withoutCtTable(volume, path, params, bar.progress());
 }
 
 void FigureOptions::addTo(CLI::App& cmd, LabelSource source) {
@@ -160,27 +158,10 @@ io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const Input
   return v;
 }
 
-void refuseOverwritingInput(const std::filesystem::path& in, const std::filesystem::path& out) {
-  std::error_code ec;
-  const bool same = std::filesystem::exists(out, ec) && std::filesystem::equivalent(in, out, ec);
-  if (same || std::filesystem::weakly_canonical(in, ec) == std::filesystem::weakly_canonical(out, ec))
-    throw Error(out.string() + ": refusing to overwrite the input");
-}
-
-void ensureParentFolder(const std::filesystem::path& path) {
-  const auto parent = path.parent_path();
-  if (!parent.empty()) std::filesystem::create_directories(parent);
-}
-
 nlohmann::json toJson(const Vec3& v) { return {v.x, v.y, v.z}; }
 
 nlohmann::json toJson(const Mat3& m) {
   return {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}};
-}
-
-void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path) {
-  ensureParentFolder(path);
-  io::writeTextFile(path, j.dump(2) + "\n");
 }
 
 double secondsSince(std::chrono::steady_clock::time_point t0) {

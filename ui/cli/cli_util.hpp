@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/app/outputs.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/render/annotations.hpp"
@@ -99,19 +100,15 @@ class ProgressBar {
 io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
                                   bool quiet = false);
 
-/// Throws vellum::Error if `out` is the same file or folder as `in` (Vellum never
-/// overwrites its input).
-void refuseOverwritingInput(const std::filesystem::path& in, const std::filesystem::path& out);
-
-/// Creates the parent folder of `path` if needed.
-void ensureParentFolder(const std::filesystem::path& path);
+// Never overwrite the input, create the output's folder, write JSON atomically: the rules the
+// app pipelines follow too (vellum/app/outputs.hpp).
+using app::ensureParentFolder;
+using app::refuseOverwritingInput;
+using app::writeJsonFile;
 
 /// JSON for geometry pieces.
 nlohmann::json toJson(const Vec3& v);
 nlohmann::json toJson(const Mat3& m);  ///< row-major array of 3 rows
-
-/// Writes JSON text atomically (pretty-printed, trailing newline).
-void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path);
 
 /// Seconds since `t0`.
 double secondsSince(std::chrono::steady_clock::time_point t0);

@@ -1,5 +1,6 @@
 // `vellum animate` (keyframed deformation movie through the GL renderer) and the deformation
 // part of `vellum demo`.
+#include <algorithm>
 #include <chrono>
 #include <iostream>
 #include <memory>
@@ -8,8 +9,9 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "deform_cli.hpp"
-#include "vellum/core/error.hpp"
 #include "vellum/animation/movie.hpp"
+#include "vellum/app/animate_pipeline.hpp"
+#include "vellum/core/error.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/deformation/synthesis.hpp"
@@ -28,100 +30,58 @@ using animation::MovieSpec;
 
 namespace {
 
-// Per-frame measures as the report writes them.
-nlohmann::json perFrameJson(const std::vector<animation::FrameRigidity>& frames) {
-  nlohmann::json j = nlohmann::json::array();
-  for (const auto& f : frames) j.push_back({{"voxels_as_rendered", toJson(f.voxelsAsRendered)}, {"nodes", toJson(f.nodes)}});
-  return j;
-}
-
 struct AnimateArgs {
-  std::string input, keyframes, output, frames, size = "512x512", report;
-  double fps = 30, orbit = 0;
-  render::RenderSettings settings;  ///< the render table's flags write here
-  bool loop = false;
-  EngineOptions engine;
-  RigidOptions rigid;
+  app::AnimateRequest request;  ///< the flags write here
+  std::string size = "512x512";
   InputOptions in;
   TableRemovalOptions table;
   FigureOptions figure;
 };
 
+void printSummary(const app::AnimateRequest& request, const app::AnimateResult& result) {
+  for (const auto& w : result.warnings) std::cerr << "warning: " << request.input.string() << ": " << w << "\n";
+  const MovieResult& r = result.movie;
+  const int frames = std::max(r.frames, 1);
+  std::cout << request.output.string() << "  " << r.frames << " frames  deform " << r.deformMs / frames
+            << " ms/frame  render " << r.renderMs / frames << " ms/frame\n";
+  if (!request.engine.labels.empty())
+    std::cout << "worst frame: bone RMS residual " << r.worst.boneRmsResidualMm << " mm, fold fraction "
+              << r.worst.foldFraction << "\n";
+}
+
 }  // namespace
 
 void addAnimateCommand(CLI::App& app) {
   auto a = std::make_shared<AnimateArgs>();
+  app::AnimateRequest& r = a->request;
   auto* cmd = app.add_subcommand("animate", "Render a keyframed deformation as an MP4 and/or PNG frames (GL)");
-  cmd->add_option("input", a->input, "volume file or DICOM folder")->required();
-  cmd->add_option("--keyframes", a->keyframes, "keyframe JSON (mm; see docs/deformation.md)")->required();
-  cmd->add_option("--out,-o", a->output, "movie.mp4, or a folder (ending in /) for PNG frames")->required();
-  cmd->add_option("--frames", a->frames, "also write PNG frames into this folder");
-  cmd->add_option("--fps", a->fps, "frames per second")->capture_default_str();
+  cmd->add_option("input", r.input, "volume file or DICOM folder")->required();
+  cmd->add_option("--keyframes", r.keyframes, "keyframe JSON (mm; see docs/deformation.md)")->required();
+  cmd->add_option("--out,-o", r.output, "movie.mp4, or a folder (ending in /) for PNG frames")->required();
+  cmd->add_option("--frames", r.frames, "also write PNG frames into this folder");
   cmd->add_option("--size", a->size, "image size WxH")->capture_default_str();
-  addFlags(*cmd, a->settings, render::renderSettingsTable(), {"width", "height"});
-  cmd->add_option("--camera-orbit", a->orbit, "turn the camera by this many degrees over the animation");
-  cmd->add_flag("--loop", a->loop, "seamless loop: back to the first keyframe, no repeated frame");
-  cmd->add_option("--report", a->report, "JSON report: timings and per-frame rigidity measures");
-  a->engine.addTo(*cmd);
-  a->rigid.addTo(*cmd);
+  addFlags(*cmd, r.settings, render::renderSettingsTable(), {"width", "height"});
+  addFlags(*cmd, r, app::animateRequestTable());  // --fps, --camera-orbit, --loop
+  cmd->add_option("--report", r.report, "JSON report: timings and per-frame rigidity measures");
+  addEngineFlags(*cmd, r.engine);
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
   a->figure.addTo(*cmd, FigureOptions::LabelSource::OtherOption);
   cmd->footer("Example: vellum animate knee.nrrd --keyframes bend.json --labels knee-labels.nrrd "
               "--rigid-labels 4,5,6,7,8,9,11 --camera-orbit 360 --loop --out bend.mp4");
   cmd->callback([a] {
-    const auto t0 = std::chrono::steady_clock::now();
-    KeyframeTrack track = loadKeyframes(a->keyframes);
-    if (a->loop) track.loop = true;
-    const DeformParams params = a->engine.params(std::nullopt);
-    io::LoadedVolume lv = loadWithProgress(a->input, a->in);
-    lv.volume = a->table.apply(std::move(lv.volume), a->input);
-    std::optional<RigidBodies> bodies;
-    if (a->rigid.enabled()) bodies = a->rigid.load(geometryOf(lv.volume), a->in);
-    MovieSpec spec;
-    const fs::path out(a->output);
-    const bool isDir = a->output.back() == '/' || out.extension().empty();
-    if (isDir) spec.framesDir = out;
-    else spec.moviePath = out;
-    if (!a->frames.empty()) spec.framesDir = a->frames;
-    if (!spec.moviePath.empty()) {
-      refuseOverwritingInput(a->input, spec.moviePath);
-      ensureParentFolder(spec.moviePath);
-    }
-    spec.fps = a->fps;
-    spec.orbitDeg = a->orbit;
-    spec.upsampling = parseUpsampling(a->engine.upsampling);
-    spec.settings = a->settings;
-    std::tie(spec.settings.width, spec.settings.height) = parseSize(a->size);
-    std::optional<LabelVolume> names;
-    if (a->figure.wantsLabels()) {
-      if (!a->rigid.enabled()) throw Error("--name-structures needs the label map of --labels");
-      names = a->in.loadLabelsOnInputGrid(a->rigid.labels);
-    }
-    spec.annotations = a->figure.resolved(names.has_value());
-    spec.labels = names ? &*names : nullptr;
-    spec.labelIds = a->figure.labelIds;
-    MovieResult r;
+    app::AnimateRequest request = a->request;
+    std::tie(request.settings.width, request.settings.height) = parseSize(a->size);
+    request.load = a->in.toLoadOptions(nullptr);
+    if (a->table.enabled) request.removeTable = a->table.params;
+    request.annotations = a->figure.resolved(a->figure.wantsLabels());
+    request.labelIds = a->figure.labelIds;
+    app::AnimateResult result;
     {
       ProgressBar bar;
-      auto context = render::GlContext::createHeadless();
-      r = animation::renderTrack(*context, lv.volume, track, params,
-                                 {bodies ? &*bodies : nullptr, a->rigid.falloffMm, a->rigid.measureStride}, spec,
-                                 bar.progress());
+      result = app::runAnimate(request, bar.progress());
     }
-    std::cout << a->output << "  " << r.frames << " frames  deform " << r.deformMs / r.frames
-              << " ms/frame  render " << r.renderMs / r.frames << " ms/frame\n";
-    if (bodies)
-      std::cout << "worst frame: bone RMS residual " << r.worst.boneRmsResidualMm << " mm, fold fraction "
-                << r.worst.foldFraction << "\n";
-    if (!a->report.empty())
-      writeJsonFile({{"frames", r.frames}, {"fps", spec.fps},
-                     {"timings_ms", {{"deform_per_frame", r.deformMs / r.frames},
-                                     {"render_per_frame", r.renderMs / r.frames},
-                                     {"total", secondsSince(t0) * 1000}}},
-                     {"rigidity_worst", bodies ? toJson(r.worst) : nlohmann::json()},
-                     {"rigidity_per_frame", perFrameJson(r.perFrame)}},
-                    a->report);
+    printSummary(request, result);
   });
 }
 

@@ -1,0 +1,65 @@
+#pragma once
+// A keyframed deformation movie as a request: what `vellum animate` does beyond parsing its
+// flags (load the volume, keyframes and rigid bones, remove the CT table, render every frame
+// through animation::MovieRenderer, write the MP4 and/or PNG frames, report). The studio's
+// export fills the same request: its frames come from movieSpec() and MovieRenderer, and the
+// `vellum animate` line it writes beside them is animateArguments() of that request.
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "vellum/animation/movie.hpp"
+#include "vellum/app/deform_pipeline.hpp"
+#include "vellum/core/params.hpp"
+#include "vellum/render/annotations.hpp"
+#include "vellum/render/render_settings.hpp"
+#include "vellum/segmentation/body_mask.hpp"
+
+namespace vellum::app {
+
+struct AnimateRequest {
+  std::filesystem::path input;      ///< volume file or DICOM folder
+  std::filesystem::path keyframes;  ///< keyframe JSON (mm)
+  /// movie.mp4, or a folder (a path ending in '/' or without an extension) for PNG frames.
+  std::filesystem::path output;
+  std::filesystem::path frames;  ///< also PNG frames into this folder; empty: no
+  std::filesystem::path report;  ///< report JSON; empty: not written (still returned)
+  double fps = 30;
+  double orbitDeg = 0;  ///< camera azimuth turn over the whole animation
+  bool loop = false;    ///< seamless loop: back to the first keyframe (overrides the file's "loop")
+  render::RenderSettings settings;  ///< the frame size is settings.width x settings.height
+  DeformEngine engine;              ///< the rigid-bone measures run every `rigidityStride` voxels
+  io::LoadOptions load;             ///< series, raw layout, region (the label map gets the same region)
+  std::optional<segmentation::BodyMaskParams> removeTable;  ///< remove the CT table first
+  /// Figure annotations in every frame; labels need engine.labels (the structures' names).
+  render::AnnotationOptions annotations;
+  std::vector<uint16_t> labelIds;  ///< structures to name (empty: every id of the table)
+};
+
+/// fps, camera_orbit, loop (the size, the render settings and the engine have their own).
+const params::Table<AnimateRequest>& animateRequestTable();
+
+/// The movie outputs, frame rate, camera and upsampling of `request`: what MovieRenderer
+/// needs beyond the volume, the track and the engine.
+animation::MovieSpec movieSpec(const AnimateRequest& request);
+
+/// The `vellum animate` arguments that reproduce `request`'s frames (after "vellum animate"):
+/// paths single-quoted, every setting that differs from its default.
+std::string animateArguments(const AnimateRequest& request);
+
+struct AnimateResult {
+  animation::MovieResult movie;
+  std::vector<std::string> warnings;  ///< the loader's
+  /// frames, fps, timings_ms (deform_per_frame, render_per_frame, total), rigidity_worst,
+  /// rigidity_per_frame: what request.report holds.
+  nlohmann::json report;
+};
+
+/// Renders the request on a headless GL context. FileError naming a bad file, Error for a bad
+/// request, Cancelled through `progress`.
+AnimateResult runAnimate(const AnimateRequest& request, Progress& progress = Progress::none());
+
+}  // namespace vellum::app

@@ -1,0 +1,80 @@
+#pragma once
+// Deformation as a request: what `vellum deform` does beyond parsing its flags (load the
+// volume and the control points, build the control volume, keep the bones rigid, synthesise,
+// write the volume, the backward map and the attribute field, report timings and rigidity
+// measures as JSON), and the engine settings `vellum animate` shares with it. The command
+// line fills a request from its flags; runDeform runs it.
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "vellum/core/params.hpp"
+#include "vellum/core/progress.hpp"
+#include "vellum/core/volume.hpp"
+#include "vellum/deformation/deform_params.hpp"
+#include "vellum/deformation/rigidity.hpp"
+#include "vellum/io/volume_io.hpp"
+
+namespace vellum::app {
+
+/// The deformation engine and its rigid bones: shared by `vellum deform`, `vellum animate`
+/// and the studio's export command line.
+struct DeformEngine {
+  deformation::DeformParams params;  ///< deformParamsTable(): --method, --power, --control-scale ...
+  /// params.mls.power was given explicitly (even at its default): it wins over a point file's power.
+  bool powerGiven = false;
+  deformation::Upsampling upsampling = deformation::Upsampling::Trilinear;
+  std::string labels;              ///< label map on the volume's grid; empty: no rigid bones
+  std::vector<uint16_t> rigidIds;  ///< the label ids that stay rigid
+  double rigidFalloffMm = 10;      ///< blend band outside each bone
+  int rigidityStride = 1;          ///< voxel-level rigidity measures: every N-th voxel per axis
+
+  /// The parameters to run with: `params`, except that a point file's power stands when the
+  /// power was not given. Validated (vellum::Error naming the parameter).
+  deformation::DeformParams resolved(std::optional<double> filePower) const;
+  /// The rigid bodies of `labels` (read through `load`'s region, so that a cropped or
+  /// downsampled volume gets the same region); nullopt without labels. FileError when the
+  /// label map's grid differs from `grid`; Error when labels are given without rigid ids.
+  std::optional<deformation::RigidBodies> rigidBodies(const Geometry& grid, const io::LoadOptions& load) const;
+};
+
+/// upsampling, labels, rigid_falloff, rigidity_stride (the engine's own parameters are
+/// deformParamsTable(); the rigid ids are a list, not a table row).
+const params::Table<DeformEngine>& deformEngineTable();
+
+struct DeformRequest {
+  std::filesystem::path input;   ///< volume file or DICOM folder
+  std::filesystem::path points;  ///< control points JSON (mm)
+  std::filesystem::path output;  ///< the deformed volume (same geometry and type)
+  std::filesystem::path mapOut;         ///< backward map NRRD; empty: not written
+  std::filesystem::path attributesOut;  ///< attribute field NRRD; empty: not written
+  std::filesystem::path report;         ///< report JSON; empty: not written (still returned)
+  bool psnr = false;  ///< also synthesise at s = 1 and report the PSNR against it
+  DeformEngine engine;
+  io::LoadOptions load;  ///< series, raw layout, region (the label map gets the same region)
+};
+
+/// psnr (the paths and the engine's settings have their own flags and tables).
+const params::Table<DeformRequest>& deformRequestTable();
+
+struct DeformResult {
+  AnyVolume output;                   ///< what was written to request.output
+  deformation::DeformParams params;   ///< as run (the point file's power resolved)
+  size_t points = 0;
+  std::vector<std::string> warnings;  ///< the loader's (e.g. resampled slices)
+  /// timings_ms and cpu_ms per stage, rigidity before/after (voxels and nodes), psnr_db_vs_s1,
+  /// input, output, points, dims, params, upsampling: what request.report holds.
+  nlohmann::json report;
+};
+
+/// Runs the request: every output written atomically, the input never overwritten.
+/// Throws FileError naming a bad file, Error for a bad request, Cancelled through `progress`.
+DeformResult runDeform(const DeformRequest& request, Progress& progress = Progress::none());
+
+/// A rigidity report as `vellum deform` and `vellum animate` write it.
+nlohmann::json toJson(const deformation::RigidityReport& r);
+
+}  // namespace vellum::app

@@ -1,0 +1,127 @@
+// The movie request: `vellum animate`'s run and the studio export's spec and command line
+// (see animate_pipeline.hpp).
+#include "vellum/app/animate_pipeline.hpp"
+
+#include <chrono>
+#include <sstream>
+
+#include "vellum/app/outputs.hpp"
+#include "vellum/app/table_removal.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/deformation/point_files.hpp"
+#include "vellum/render/gl_context.hpp"
+
+namespace vellum::app {
+using namespace vellum::deformation;
+namespace {
+
+// Per-frame measures as the report writes them.
+nlohmann::json perFrameJson(const std::vector<animation::FrameRigidity>& frames) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const auto& f : frames) j.push_back({{"voxels_as_rendered", toJson(f.voxelsAsRendered)}, {"nodes", toJson(f.nodes)}});
+  return j;
+}
+
+nlohmann::json reportJson(const animation::MovieResult& r, const AnimateRequest& request, bool rigid, double totalMs) {
+  const int frames = std::max(r.frames, 1);
+  return {{"frames", r.frames},
+          {"fps", request.fps},
+          {"timings_ms", {{"deform_per_frame", r.deformMs / frames}, {"render_per_frame", r.renderMs / frames}, {"total", totalMs}}},
+          {"rigidity_worst", rigid ? toJson(r.worst) : nlohmann::json()},
+          {"rigidity_per_frame", perFrameJson(r.perFrame)}};
+}
+
+std::string quoted(const std::filesystem::path& p) {
+  std::string q(1, '\'');  // built up in steps: GCC 12 warns (-Wrestrict) on "'" + s + "'"
+  q += p.string();
+  q += '\'';
+  return q;
+}
+
+}  // namespace
+
+const params::Table<AnimateRequest>& animateRequestTable() {
+  using R = AnimateRequest;
+  static const params::Table<R> t{
+      params::real<R>("fps", [](auto& r) -> auto& { return r.fps; }, {"FPS", "frames per second", "", 0.01, 240}),
+      params::real<R>("camera_orbit", [](auto& r) -> auto& { return r.orbitDeg; },
+                      {"Camera orbit", "turn the camera by this many degrees over the animation", "deg", -3600, 3600}),
+      params::flag<R>("loop", [](auto& r) -> auto& { return r.loop; },
+                      {"Loop", "seamless loop: back to the first keyframe, no repeated frame", ""}),
+  };
+  return t;
+}
+
+animation::MovieSpec movieSpec(const AnimateRequest& request) {
+  animation::MovieSpec spec;
+  const std::string out = request.output.string();
+  const bool isFolder = !out.empty() && (out.back() == '/' || request.output.extension().empty());
+  (isFolder ? spec.framesDir : spec.moviePath) = request.output;
+  if (!request.frames.empty()) spec.framesDir = request.frames;
+  spec.fps = request.fps;
+  spec.orbitDeg = request.orbitDeg;
+  spec.upsampling = request.engine.upsampling;
+  spec.settings = request.settings;
+  spec.annotations = request.annotations;
+  spec.labelIds = request.labelIds;
+  return spec;
+}
+
+std::string animateArguments(const AnimateRequest& r) {
+  std::ostringstream c;
+  c.precision(10);
+  c << quoted(r.input) << " --keyframes " << quoted(r.keyframes) << " --out " << quoted(r.output);
+  if (!r.frames.empty()) c << " --frames " << quoted(r.frames);
+  c << " --size " << r.settings.width << "x" << r.settings.height
+    << params::cliArguments(animateRequestTable(), r)
+    << params::cliArguments(render::renderSettingsTable(), r.settings, {"width", "height"})
+    << params::cliArguments(deformParamsTable(), r.engine.params)
+    << params::cliArguments(deformEngineTable(), r.engine, {"labels"});
+  if (!r.engine.labels.empty()) {
+    c << " --labels " << quoted(r.engine.labels) << " --rigid-labels ";
+    for (size_t i = 0; i < r.engine.rigidIds.size(); ++i) c << (i ? "," : "") << r.engine.rigidIds[i];
+  }
+  return c.str();
+}
+
+AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  params::validate(animateRequestTable(), request);
+  params::validate(deformEngineTable(), request.engine);
+  const animation::MovieSpec spec = movieSpec(request);
+  if (!spec.moviePath.empty()) refuseOverwritingInput(request.input, spec.moviePath);
+  if (request.annotations.labels && request.engine.labels.empty())
+    throw Error("--name-structures needs the label map of --labels");
+  KeyframeTrack track = loadKeyframes(request.keyframes);
+  if (request.loop) track.loop = true;
+  const DeformParams params = request.engine.resolved(std::nullopt);
+  io::LoadOptions load = request.load;
+  load.progress = &progress;
+  io::LoadedVolume lv = io::loadVolume(request.input, load);
+  if (request.removeTable) lv.volume = withoutCtTable(lv.volume, request.input, *request.removeTable, progress);
+  const Geometry grid = geometryOf(lv.volume);
+  const std::optional<RigidBodies> bodies = request.engine.rigidBodies(grid, request.load);
+  std::optional<LabelVolume> names;
+  animation::MovieSpec withLabels = spec;
+  if (request.annotations.labels) {
+    io::LoadOptions o;
+    o.region = request.load.region;
+    names = io::loadLabels(request.engine.labels, o);
+    withLabels.labels = &*names;
+  }
+  if (!spec.moviePath.empty()) ensureParentFolder(spec.moviePath);
+  AnimateResult result;
+  {
+    auto context = render::GlContext::createHeadless();
+    const animation::MovieRigidity rigidity{bodies ? &*bodies : nullptr, request.engine.rigidFalloffMm,
+                                            request.engine.rigidityStride};
+    result.movie = animation::renderTrack(*context, lv.volume, track, params, rigidity, withLabels, progress);
+  }
+  result.warnings = std::move(lv.warnings);
+  const double totalMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  result.report = reportJson(result.movie, request, bodies.has_value(), totalMs);
+  if (!request.report.empty()) writeJsonFile(result.report, request.report);
+  return result;
+}
+
+}  // namespace vellum::app

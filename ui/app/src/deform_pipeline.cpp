@@ -1,0 +1,237 @@
+// The deformation request: `vellum deform`'s run, stage by stage (see deform_pipeline.hpp).
+#include "vellum/app/deform_pipeline.hpp"
+
+#include <chrono>
+
+#include "vellum/app/outputs.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/core/params_json.hpp"
+#include "vellum/core/process_time.hpp"
+#include "vellum/deformation/deformer.hpp"
+#include "vellum/deformation/map_file.hpp"
+#include "vellum/deformation/point_files.hpp"
+#include "vellum/deformation/synthesis.hpp"
+
+namespace vellum::app {
+using namespace vellum::deformation;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+/// Process CPU time (all threads) per stage: laps of one clock, so they add up to no more
+/// than the total. "before_command" is everything before the run (loading, parsing).
+class CpuLaps {
+ public:
+  CpuLaps() : last_(processCpuMs()) { laps_["before_command"] = last_; }
+  void lap(const char* stage) {
+    const double now = processCpuMs();
+    laps_[stage] = now - last_;
+    last_ = now;
+  }
+  nlohmann::json withTotal() {
+    laps_["total"] = processCpuMs();
+    return laps_;
+  }
+
+ private:
+  double last_;
+  nlohmann::json laps_;
+};
+
+/// What the stages share while a request runs.
+struct Run {
+  const DeformRequest& request;
+  Progress& progress;
+  DeformParams params;
+  PointFile points;
+  io::LoadedVolume loaded;
+  std::optional<RigidBodies> bodies;
+  ControlVolume cv;
+  std::vector<float> fullMap;  ///< the upsampled map (voxel level), when a stage needed it
+  nlohmann::json timings, report;
+  CpuLaps cpu;
+};
+
+void loadInputs(Run& run) {
+  const DeformRequest& r = run.request;
+  run.points = loadControlPoints(r.points);
+  run.params = r.engine.resolved(run.points.power);
+  run.cpu.lap("points");
+  auto t = Clock::now();
+  io::LoadOptions load = r.load;
+  load.progress = &run.progress;
+  run.loaded = io::loadVolume(r.input, load);
+  run.timings["load"] = msSince(t);
+  run.cpu.lap("load");
+  if (!r.engine.labels.empty()) {
+    t = Clock::now();
+    run.bodies = r.engine.rigidBodies(geometryOf(run.loaded.volume), r.load);
+    run.timings["rigid_bodies"] = msSince(t);
+  }
+}
+
+void buildControlVolume(Run& run) {
+  Deformer d(run.loaded.volume, run.params);
+  d.setPoints(run.points.points);
+  run.cv = d.update(run.progress);
+  run.timings["density_build"] = d.timings().densityBuildMs;
+  run.timings["rho_cache"] = d.timings().rhoCacheMs;
+  run.timings["control_volume"] = d.timings().mapMs;
+  run.cpu.lap("control_volume");
+}
+
+/// Rigid bones, measured before and after: at voxel level (primary, over the upsampled map)
+/// and at the control-grid nodes (kept for comparison).
+void keepBonesRigid(Run& run) {
+  const DeformEngine& e = run.request.engine;
+  const Geometry& g = geometryOf(run.loaded.volume);
+  nlohmann::json& rigidity = run.report["rigidity"];
+  rigidity["before"] = toJson(measureRigidityVoxels(run.cv, g, *run.bodies, e.upsampling, e.rigidityStride));
+  rigidity["before_nodes"] = toJson(measureRigidity(run.cv, *run.bodies));
+  auto t = Clock::now();
+  applyRigidity(run.cv, *run.bodies, {e.rigidFalloffMm}, run.progress);
+  run.timings["rigidity"] = msSince(t);
+  t = Clock::now();
+  run.fullMap = upsampleMap(run.cv, g, e.upsampling);
+  rigidity["after"] = toJson(measureRigidityMap(run.fullMap, g, *run.bodies, e.rigidityStride));
+  rigidity["after_nodes"] = toJson(measureRigidity(run.cv, *run.bodies));
+  run.timings["rigidity_measures"] = msSince(t);
+  run.cpu.lap("rigidity");
+}
+
+/// The PSNR of the result against a full-resolution (s = 1) map from the same rho fields.
+void psnrAgainstFullResolution(Run& run, const AnyVolume& out) {
+  DeformParams ref = run.params;
+  ref.controlScale = 1;
+  ref.rhoScale = run.params.controlScale;  // same rho fields; only the map resolution differs
+  ControlVolume full = computeControlVolume(run.loaded.volume, run.points.points, ref, run.progress);
+  if (run.bodies) applyRigidity(full, *run.bodies, {run.request.engine.rigidFalloffMm});
+  run.report["psnr_db_vs_s1"] = psnr(synthesize(run.loaded.volume, full, run.request.engine.upsampling), out);
+  run.cpu.lap("psnr");
+}
+
+void writeOutputs(Run& run, const AnyVolume& out) {
+  const DeformRequest& r = run.request;
+  auto t = Clock::now();
+  ensureParentFolder(r.output);
+  io::saveVolume(out, r.output);
+  run.timings["save"] = msSince(t);
+  run.cpu.lap("save");
+  if (!r.mapOut.empty()) {
+    t = Clock::now();
+    ensureParentFolder(r.mapOut);
+    if (run.fullMap.empty()) run.fullMap = upsampleMap(run.cv, geometryOf(out), r.engine.upsampling);
+    saveBackwardMapNrrd(run.fullMap, geometryOf(out), r.mapOut);
+    run.timings["map_out"] = msSince(t);
+  }
+  if (!r.attributesOut.empty()) {
+    // No point has attributes (or --attributes is off): the neutral field, so scripts can always pass it.
+    std::vector<float> field = run.cv.attributes;
+    if (field.empty())
+      for (int64_t n = 0; n < run.cv.grid.dims.voxelCount(); ++n) field.insert(field.end(), {0.f, 0.f, 0.f, 1.f});
+    ensureParentFolder(r.attributesOut);
+    saveAttributeFieldNrrd(field, run.cv.grid, r.attributesOut);
+  }
+}
+
+void finishReport(Run& run, Clock::time_point t0) {
+  const DeformRequest& r = run.request;
+  const Dims& d = geometryOf(run.loaded.volume).dims;
+  run.timings["total"] = msSince(t0);
+  run.report["input"] = r.input.string();
+  run.report["output"] = r.output.string();
+  run.report["points"] = run.points.points.size();
+  run.report["dims"] = {d.x, d.y, d.z};
+  run.report["params"] = params::toJson(deformParamsTable(), run.params);  // keys as in `vellum params`
+  run.report["upsampling"] = upsamplingName(r.engine.upsampling);
+  run.report["timings_ms"] = run.timings;
+  run.report["cpu_ms"] = run.cpu.withTotal();  // total includes start-up
+  if (!r.report.empty()) writeJsonFile(run.report, r.report);
+}
+
+}  // namespace
+
+DeformParams DeformEngine::resolved(std::optional<double> filePower) const {
+  DeformParams p = params;
+  if (!powerGiven && filePower) p.mls.power = *filePower;
+  validate(p);
+  return p;
+}
+
+std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const io::LoadOptions& load) const {
+  if (labels.empty()) return std::nullopt;
+  if (rigidIds.empty()) throw Error("--labels needs --rigid-labels (the ids that stay rigid)");
+  io::LoadOptions o;
+  o.region = load.region;
+  const LabelVolume lv = io::loadLabels(labels, o);
+  if (!(lv.geometry().dims == grid.dims) || !lv.geometry().approxEqual(grid, 1e-3))
+    throw FileError(labels, "label map grid " + lv.geometry().dims.str() + " differs from the volume's " +
+                                grid.dims.str());
+  return RigidBodies::fromLabels(lv, rigidIds);
+}
+
+const params::Table<DeformEngine>& deformEngineTable() {
+  using E = DeformEngine;
+  static const params::Table<E> t{
+      params::choice<E>("upsampling", [](auto& e) -> auto& { return e.upsampling; }, {"trilinear", "gaussian"},
+                        {"Upsampling", "map upsampling: trilinear | gaussian", ""}),
+      params::text<E>("labels", [](auto& e) -> auto& { return e.labels; },
+                      {"Label map", "label map on the same grid (NRRD ...), for rigid bones", ""}),
+      params::real<E>("rigid_falloff", [](auto& e) -> auto& { return e.rigidFalloffMm; },
+                      {"Rigid falloff", "blend band outside each bone", "mm", 0, 1000}),
+      params::integer<E>("rigidity_stride", [](auto& e) -> auto& { return e.rigidityStride; },
+                         {"Rigidity stride", "voxel-level rigidity measures visit every N-th voxel per axis (1 = all)",
+                          "", 1, 64}),
+  };
+  return t;
+}
+
+const params::Table<DeformRequest>& deformRequestTable() {
+  using R = DeformRequest;
+  static const params::Table<R> t{
+      params::flag<R>("psnr", [](auto& r) -> auto& { return r.psnr; },
+                      {"PSNR", "also synthesise at s = 1 and report the PSNR of the result against it", ""}),
+  };
+  return t;
+}
+
+DeformResult runDeform(const DeformRequest& request, Progress& progress) {
+  const auto t0 = Clock::now();
+  refuseOverwritingInput(request.input, request.output);
+  for (const auto* extra : {&request.mapOut, &request.attributesOut})
+    if (!extra->empty()) refuseOverwritingInput(request.input, *extra);
+  params::validate(deformEngineTable(), request.engine);
+  Run run{request, progress, {}, {}, {}, {}, {}, {}, {}, {}, {}};
+  loadInputs(run);
+  buildControlVolume(run);
+  if (run.bodies) keepBonesRigid(run);
+  auto t = Clock::now();
+  DeformResult result;
+  result.output = synthesize(run.loaded.volume, run.cv, request.engine.upsampling, progress);
+  run.timings["synthesis"] = msSince(t);
+  run.cpu.lap("synthesis");
+  if (request.psnr && run.params.controlScale > 1) psnrAgainstFullResolution(run, result.output);
+  writeOutputs(run, result.output);
+  finishReport(run, t0);
+  result.params = run.params;
+  result.points = run.points.points.size();
+  result.warnings = std::move(run.loaded.warnings);
+  result.report = std::move(run.report);
+  return result;
+}
+
+nlohmann::json toJson(const RigidityReport& r) {
+  return {{"level", r.voxelLevel ? "voxels" : "control-grid nodes"},
+          {"stride", r.stride},
+          {"components", r.components},
+          {"samples", r.nodes},
+          {"bone_samples", r.boneNodes},
+          {"soft_tissue_samples", r.softNodes},
+          {"bone_rms_residual_mm", r.boneRmsResidualMm},
+          {"bone_max_residual_mm", r.boneMaxResidualMm},
+          {"soft_tissue_mean_displacement_mm", r.softTissueMeanDisplacementMm},
+          {"fold_fraction", r.foldFraction}};
+}
+
+}  // namespace vellum::app
