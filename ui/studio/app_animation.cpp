@@ -5,12 +5,12 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 
 #include "app.hpp"
 #include "deform_session.hpp"
 #include "export_job.hpp"
 #include "view3d.hpp"
+#include "vellum/app/animate_pipeline.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/deformation/deform_params.hpp"
@@ -81,33 +81,29 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   if (!(fps > 0 && fps <= 240)) throw Error("fps must be in (0, 240]");
   if (width < 16 || height < 16 || width > 4096 || height > 4096) throw Error("export size must be 16..4096");
   exportError_.clear();
-  animation::MovieSpec spec;
-  const std::string o = out.string();
-  const bool isDir = !o.empty() && (o.back() == '/' || out.extension().empty());
-  (isDir ? spec.framesDir : spec.moviePath) = out;
-  spec.fps = fps;
-  spec.orbitDeg = orbitDeg;
-  spec.settings = renderSettingsFor(scene_, width, height);
-  // The keyframes beside the output, and the `vellum animate` line that renders the same frames.
-  const fs::path keys = isDir ? out / "keyframes.json" : fs::path(o + ".keyframes.json");
-  if (isDir) fs::create_directories(out);
-  else if (out.has_parent_path()) fs::create_directories(out.parent_path());
-  deformation::saveKeyframes(a.track, keys);
-  std::ostringstream c;
-  c.precision(10);
-  auto q = [](const std::string& t) { return "'" + t + "'"; };
-  c << "vellum animate " << q(scene_.volumePath.string()) << " --keyframes " << q(keys.string()) << " --out "
-    << q(o) << " --fps " << fps << " --size " << width << "x" << height
-    << params::cliArguments(render::renderSettingsTable(), spec.settings, {"width", "height"})
-    << params::cliArguments(deformation::deformParamsTable(), a.engine);
-  if (orbitDeg != 0) c << " --camera-orbit " << orbitDeg;
+  // The request `vellum animate` would run: its movie spec drives the export, and its
+  // arguments are the command line written beside the output.
+  app::AnimateRequest request;
+  request.input = scene_.volumePath;
+  request.output = out;
+  request.fps = fps;
+  request.orbitDeg = orbitDeg;
+  request.settings = renderSettingsFor(scene_, width, height);
+  request.engine.params = a.engine;
   const deformation::RigidBodies* bodies = deform_->bodies();
   if (bodies) {
-    c << " --labels " << q(scene_.labelsPath.string()) << " --rigid-labels ";
-    for (size_t i = 0; i < a.rigidLabels.size(); ++i) c << (i ? "," : "") << a.rigidLabels[i];
-    c << " --rigid-falloff " << a.falloffMm;
+    request.engine.labels = scene_.labelsPath.string();
+    request.engine.rigidIds = a.rigidLabels;
+    request.engine.rigidFalloffMm = a.falloffMm;
   }
-  animateCommand_ = c.str();
+  const animation::MovieSpec spec = app::movieSpec(request);
+  // The keyframes beside the output.
+  const bool isDir = !spec.framesDir.empty();
+  request.keyframes = isDir ? out / "keyframes.json" : fs::path(out.string() + ".keyframes.json");
+  if (isDir) fs::create_directories(out);
+  else if (out.has_parent_path()) fs::create_directories(out.parent_path());
+  deformation::saveKeyframes(a.track, request.keyframes);
+  animateCommand_ = "vellum animate " + app::animateArguments(request);
   a.playing = false;
   export_ = std::make_unique<ExportJob>(*context_, AnyVolume(scene_.ct), a.track, a.engine,
                                         animation::MovieRigidity{bodies, a.falloffMm, 0}, spec);
