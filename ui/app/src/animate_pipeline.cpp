@@ -31,7 +31,7 @@ nlohmann::json reportJson(const animation::MovieResult& r, const AnimateRequest&
           {"rigidity_per_frame", perFrameJson(r.perFrame)}};
 }
 
-std::string quoted(const std::filesystem::path& p) {
+std::string singleQuoted(const std::filesystem::path& p) {
   std::string q(1, '\'');  // built up in steps: GCC 12 warns (-Wrestrict) on "'" + s + "'"
   q += p.string();
   q += '\'';
@@ -70,15 +70,15 @@ animation::MovieSpec movieSpec(const AnimateRequest& request) {
 std::string animateArguments(const AnimateRequest& r) {
   std::ostringstream c;
   c.precision(10);
-  c << quoted(r.input) << " --keyframes " << quoted(r.keyframes) << " --out " << quoted(r.output);
-  if (!r.frames.empty()) c << " --frames " << quoted(r.frames);
+  c << singleQuoted(r.input) << " --keyframes " << singleQuoted(r.keyframes) << " --out " << singleQuoted(r.output);
+  if (!r.frames.empty()) c << " --frames " << singleQuoted(r.frames);
   c << " --size " << r.settings.width << "x" << r.settings.height
     << params::cliArguments(animateRequestTable(), r)
     << params::cliArguments(render::renderSettingsTable(), r.settings, {"width", "height"})
     << params::cliArguments(deformParamsTable(), r.engine.params)
     << params::cliArguments(deformEngineTable(), r.engine, {"labels"});
   if (!r.engine.labels.empty()) {
-    c << " --labels " << quoted(r.engine.labels) << " --rigid-labels ";
+    c << " --labels " << singleQuoted(r.engine.labels) << " --rigid-labels ";
     for (size_t i = 0; i < r.engine.rigidIds.size(); ++i) c << (i ? "," : "") << r.engine.rigidIds[i];
   }
   return c.str();
