@@ -437,195 +437,273 @@ VELLUM_SIMD_CLONES void RowEvaluator::writeAttributes(double* attr) const {
   }
 }
 
-// The no-attribute path, register-blocked: kLanes nodes at a time with every accumulator in
-// a vector register (GCC vector extension; AVX2 in the haswell clone, 2 x SSE2 otherwise).
-VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u, int kBegin, int kEnd) {
-  typedef double v4 __attribute__((vector_size(32)));
-  const int n = p_.count, L = len_, S = stride_;
-  const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
-  const double eps = params_.regularisation;
-  const bool constrained = params_.method != MlsMethod::Affine;
-  const bool similarity = params_.method == MlsMethod::Similarity;
-  const Vec3 sc = p_.sourceCentre;
-  auto load = [](const double* p) VELLUM_INLINE_LAMBDA { v4 r; std::memcpy(&r, p, sizeof r); return r; };
-  for (int k0 = kBegin; k0 < std::min(kEnd, L); k0 += kLanes) {
-    // Dominant point per lane.
-    v4 wmax = load(w + k0);
-    v4 domv = {0, 0, 0, 0};
-    for (int i = 1; i < n; ++i) {
-      const v4 wi = load(w + static_cast<size_t>(i) * S + k0);
-      const v4 iv = {double(i), double(i), double(i), double(i)};
-      domv = wi > wmax ? iv : domv;  // branch-free arg-max
-      wmax = wi > wmax ? wi : wmax;
-    }
-    v4 xm0, xm1, xm2, ym0, ym1, ym2;
-    for (int l = 0; l < kLanes; ++l) {
-      const size_t m = static_cast<size_t>(domv[l]);
-      xm0[l] = p_.sx[m]; xm1[l] = p_.sy[m]; xm2[l] = p_.sz[m];
-      ym0[l] = p_.tx[m]; ym1[l] = p_.ty[m]; ym2[l] = p_.tz[m];
-    }
-    // Pass 1: centroids relative to the dominant point.
-    v4 W = {0, 0, 0, 0}, xh0 = W, xh1 = W, xh2 = W, yh0 = W, yh1 = W, yh2 = W;
-    for (int i = 0; i < n; ++i) {
-      const size_t si = static_cast<size_t>(i);
-      const v4 wi = load(w + si * S + k0);
-      W += wi;
-      xh0 += wi * (p_.sx[si] - xm0); xh1 += wi * (p_.sy[si] - xm1); xh2 += wi * (p_.sz[si] - xm2);
-      yh0 += wi * (p_.tx[si] - ym0); yh1 += wi * (p_.ty[si] - ym1); yh2 += wi * (p_.tz[si] - ym2);
-    }
-    const v4 invW = 1.0 / W;
-    xh0 *= invW; xh1 *= invW; xh2 *= invW; yh0 *= invW; yh1 *= invW; yh2 *= invW;
-    // Pass 2: A and B.
-    const v4 z = {0, 0, 0, 0};
-    v4 a00 = z, a01 = z, a02 = z, a11 = z, a12 = z, a22 = z;
-    v4 b00 = z, b01 = z, b02 = z, b10 = z, b11 = z, b12 = z, b20 = z, b21 = z, b22 = z;
-    for (int i = 0; i < n; ++i) {
-      const size_t si = static_cast<size_t>(i);
-      const v4 wi = load(w + si * S + k0);
-      const v4 q0 = (p_.tx[si] - ym0) - yh0, q1 = (p_.ty[si] - ym1) - yh1, q2 = (p_.tz[si] - ym2) - yh2;
-      const v4 p0 = (p_.sx[si] - xm0) - xh0, p1 = (p_.sy[si] - xm1) - xh1, p2 = (p_.sz[si] - xm2) - xh2;
-      const v4 wq0 = wi * q0, wq1 = wi * q1, wq2 = wi * q2;
-      a00 += wq0 * q0; a01 += wq0 * q1; a02 += wq0 * q2; a11 += wq1 * q1; a12 += wq1 * q2; a22 += wq2 * q2;
-      b00 += wq0 * p0; b01 += wq0 * p1; b02 += wq0 * p2;
-      b10 += wq1 * p0; b11 += wq1 * p1; b12 += wq1 * p2;
-      b20 += wq2 * p0; b21 += wq2 * p1; b22 += wq2 * p2;
-    }
-    // Regularised inverse of A (see mls.hpp), lane-wise.
-    const v4 tr = a00 + a11 + a22;
-    const v4 mean = tr / 3.0;
-    const v4 det = a00 * (a11 * a22 - a12 * a12) - a01 * (a01 * a22 - a12 * a02) + a02 * (a01 * a12 - a11 * a02);
-    v4 lam;
-    for (int l = 0; l < kLanes; ++l) {
-      if (tr[l] > 0) {
-        const double c = std::max(det[l] / (mean[l] * mean[l] * mean[l]), 0.0);
-        const double r = eps / (eps + c);
-        lam[l] = eps * r * r * mean[l];
-      } else {
-        lam[l] = 1.0;  // no spread at all: M = I (pure translation)
-        a00[l] = a11[l] = a22[l] = 0;
-        a01[l] = a02[l] = a12[l] = 0;
-      }
-    }
-    v4 m[9] = {b00, b01, b02, b10, b11, b12, b20, b21, b22};
-    if (!constrained) {
-      affineSolution(shiftedInverse<v4>({a00, a01, a02, a11, a12, a22}, lam), lam, m);
+// ---- The register-blocked solves, step by step -------------------------------------------
+// Each block of lanes (4 doubles or 8 floats per AVX2 register) goes through: find each lane's
+// dominant point, accumulate the weighted moments about it, solve for M, apply M to the node.
+// The steps are inlined into the cloned solvers (VELLUM_INLINE_LAMBDA), so the registers and
+// the arithmetic are those of one loop body.
+namespace {
+
+typedef double v4 __attribute__((vector_size(32)));
+typedef float v8 __attribute__((vector_size(32)));
+typedef float v4f __attribute__((vector_size(16)));
+
+VELLUM_INLINE_LAMBDA inline v4 load4(const double* p) { v4 r; std::memcpy(&r, p, sizeof r); return r; }
+
+// The dominant point of each of 4 lanes (the largest weight, the first on ties) and its weight.
+VELLUM_INLINE_LAMBDA inline void dominantPoints(const double* w, int n, int S, int k0, v4& wmax, v4& dom) {
+  wmax = load4(w + k0);
+  dom = v4{0, 0, 0, 0};
+  for (int i = 1; i < n; ++i) {
+    const v4 wi = load4(w + static_cast<size_t>(i) * S + k0);
+    const v4 iv = {double(i), double(i), double(i), double(i)};
+    dom = wi > wmax ? iv : dom;  // branch-free arg-max
+    wmax = wi > wmax ? wi : wmax;
+  }
+}
+
+// Per lane: the dominant point's source (x) and target (y), the origin of the moments.
+template <class V>
+struct Frame {
+  V xm0, xm1, xm2, ym0, ym1, ym2;
+};
+
+// Weighted moments of the points about the lane's frame: the weight sum, the centroids
+// (xh, yh), A = sum w q q^T and B = sum w q^T p (row-major) of the centred offsets.
+template <class V>
+struct Moments {
+  V W, xh0, xh1, xh2, yh0, yh1, yh2;
+  Sym3<V> a;
+  V b[9];
+};
+
+VELLUM_INLINE_LAMBDA inline Frame<v4> frameOf(const PointData& p, const v4& dom) {
+  Frame<v4> f;
+  for (int l = 0; l < 4; ++l) {
+    const size_t m = static_cast<size_t>(dom[l]);
+    f.xm0[l] = p.sx[m]; f.xm1[l] = p.sy[m]; f.xm2[l] = p.sz[m];
+    f.ym0[l] = p.tx[m]; f.ym1[l] = p.ty[m]; f.ym2[l] = p.tz[m];
+  }
+  return f;
+}
+
+// Double precision, two passes: the centroids relative to the dominant point, then A and B
+// about them.
+VELLUM_INLINE_LAMBDA inline void accumulateMoments4(const PointData& p, const double* w, int S, int k0,
+                                                    const Frame<v4>& f, Moments<v4>& m) {
+  const int n = p.count;
+  const v4 z = {0, 0, 0, 0};
+  m.W = m.xh0 = m.xh1 = m.xh2 = m.yh0 = m.yh1 = m.yh2 = z;
+  for (int i = 0; i < n; ++i) {
+    const size_t si = static_cast<size_t>(i);
+    const v4 wi = load4(w + si * S + k0);
+    m.W += wi;
+    m.xh0 += wi * (p.sx[si] - f.xm0); m.xh1 += wi * (p.sy[si] - f.xm1); m.xh2 += wi * (p.sz[si] - f.xm2);
+    m.yh0 += wi * (p.tx[si] - f.ym0); m.yh1 += wi * (p.ty[si] - f.ym1); m.yh2 += wi * (p.tz[si] - f.ym2);
+  }
+  const v4 invW = 1.0 / m.W;
+  m.xh0 *= invW; m.xh1 *= invW; m.xh2 *= invW; m.yh0 *= invW; m.yh1 *= invW; m.yh2 *= invW;
+  Sym3<v4>& a = m.a;
+  a = {z, z, z, z, z, z};
+  for (int t = 0; t < 9; ++t) m.b[t] = z;
+  for (int i = 0; i < n; ++i) {
+    const size_t si = static_cast<size_t>(i);
+    const v4 wi = load4(w + si * S + k0);
+    const v4 q0 = (p.tx[si] - f.ym0) - m.yh0, q1 = (p.ty[si] - f.ym1) - m.yh1, q2 = (p.tz[si] - f.ym2) - m.yh2;
+    const v4 p0 = (p.sx[si] - f.xm0) - m.xh0, p1 = (p.sy[si] - f.xm1) - m.xh1, p2 = (p.sz[si] - f.xm2) - m.xh2;
+    const v4 wq0 = wi * q0, wq1 = wi * q1, wq2 = wi * q2;
+    a.a00 += wq0 * q0; a.a01 += wq0 * q1; a.a02 += wq0 * q2; a.a11 += wq1 * q1; a.a12 += wq1 * q2; a.a22 += wq2 * q2;
+    m.b[0] += wq0 * p0; m.b[1] += wq0 * p1; m.b[2] += wq0 * p2;
+    m.b[3] += wq1 * p0; m.b[4] += wq1 * p1; m.b[5] += wq1 * p2;
+    m.b[6] += wq2 * p0; m.b[7] += wq2 * p1; m.b[8] += wq2 * p2;
+  }
+}
+
+// M per lane from the moments (in m.b on return): the regularised affine solution
+// (see mls.hpp), or the nearest rotation (similarity: scaled) for the constrained methods.
+VELLUM_INLINE_LAMBDA inline void solveLanes4(Moments<v4>& m, double eps, bool constrained, bool similarity) {
+  Sym3<v4>& a = m.a;
+  const v4 tr = a.a00 + a.a11 + a.a22;
+  const v4 mean = tr / 3.0;
+  const v4 det = a.a00 * (a.a11 * a.a22 - a.a12 * a.a12) - a.a01 * (a.a01 * a.a22 - a.a12 * a.a02) +
+                 a.a02 * (a.a01 * a.a12 - a.a11 * a.a02);
+  v4 lam;
+  for (int l = 0; l < 4; ++l) {
+    if (tr[l] > 0) {
+      const double c = std::max(det[l] / (mean[l] * mean[l] * mean[l]), 0.0);
+      const double r = eps / (eps + c);
+      lam[l] = eps * r * r * mean[l];
     } else {
-      for (int l = 0; l < kLanes; ++l) {
-        double ml[9];
-        for (int t = 0; t < 9; ++t) ml[t] = m[t][l];
-        constrainToRotation(ml, tr[l], similarity);
-        for (int t = 0; t < 9; ++t) m[t][l] = ml[t];
-      }
+      lam[l] = 1.0;  // no spread at all: M = I (pure translation)
+      a.a00[l] = a.a11[l] = a.a22[l] = 0;
+      a.a01[l] = a.a02[l] = a.a12[l] = 0;
     }
-    const v4 d0 = (load(vx + k0) - ym0) - yh0, d1 = (load(vy + k0) - ym1) - yh1, d2 = (load(vz + k0) - ym2) - yh2;
-    const v4 u0 = d0 * m[0] + d1 * m[3] + d2 * m[6] + (xm0 + xh0) + sc.x;
-    const v4 u1 = d0 * m[1] + d1 * m[4] + d2 * m[7] + (xm1 + xh1) + sc.y;
-    const v4 u2 = d0 * m[2] + d1 * m[5] + d2 * m[8] + (xm2 + xh2) + sc.z;
-    const int lanes = std::min(kLanes, L - k0);
-    for (int l = 0; l < lanes; ++l) {
-      double* out = u + 3 * (k0 + l);
-      const int h = hit_[static_cast<size_t>(k0 + l)];
-      if (h >= 0) {
-        const Vec3& x = p_.sourceMm[static_cast<size_t>(h)];
-        out[0] = x.x; out[1] = x.y; out[2] = x.z;
-      } else {
-        out[0] = u0[l]; out[1] = u1[l]; out[2] = u2[l];
-      }
+  }
+  if (!constrained) {
+    affineSolution(shiftedInverse<v4>(a, lam), lam, m.b);
+    return;
+  }
+  for (int l = 0; l < 4; ++l) {
+    double ml[9];
+    for (int t = 0; t < 9; ++t) ml[t] = m.b[t][l];
+    constrainToRotation(ml, tr[l], similarity);
+    for (int t = 0; t < 9; ++t) m.b[t][l] = ml[t];
+  }
+}
+
+// u = (v - y*) M + x* per lane, where * is the weighted centroid; a node on a point takes
+// that point's source exactly.
+VELLUM_INLINE_LAMBDA inline void applyLanes4(const PointData& p, const Frame<v4>& f, const Moments<v4>& m,
+                                             const v4 (&v)[3], const int* hit, int lanes, double* u) {
+  const Vec3 sc = p.sourceCentre;
+  const v4* M = m.b;
+  const v4 d0 = (v[0] - f.ym0) - m.yh0, d1 = (v[1] - f.ym1) - m.yh1, d2 = (v[2] - f.ym2) - m.yh2;
+  const v4 u0 = d0 * M[0] + d1 * M[3] + d2 * M[6] + (f.xm0 + m.xh0) + sc.x;
+  const v4 u1 = d0 * M[1] + d1 * M[4] + d2 * M[7] + (f.xm1 + m.xh1) + sc.y;
+  const v4 u2 = d0 * M[2] + d1 * M[5] + d2 * M[8] + (f.xm2 + m.xh2) + sc.z;
+  for (int l = 0; l < lanes; ++l) {
+    double* out = u + 3 * l;
+    if (hit[l] >= 0) {
+      const Vec3& x = p.sourceMm[static_cast<size_t>(hit[l])];
+      out[0] = x.x; out[1] = x.y; out[2] = x.z;
+    } else {
+      out[0] = u0[l]; out[1] = u1[l]; out[2] = u2[l];
     }
   }
 }
 
-// Single-precision variant for grids (8 nodes per AVX2 register). Weights are divided by the
-// node's largest weight first (no float overflow for high powers next to a point). Lanes whose
-// A is ill-conditioned (c < 1e-3, e.g. coplanar points) or that sit on a control point are
-// redone in double precision, so the float path only ever handles well-posed solves.
-VELLUM_SIMD_CLONES void RowEvaluator::solveBlockedFloat(const double* w, double* u) {
-  typedef float v8 __attribute__((vector_size(32)));
-  typedef double v4 __attribute__((vector_size(32)));
-  constexpr int kF = 8;
-  const int n = p_.count, L = len_, S = stride_;
+// 8 doubles -> 8 floats (stride_ is a multiple of 4).
+VELLUM_INLINE_LAMBDA inline v8 load8(const double* p) {
+  const v4f a = __builtin_convertvector(load4(p), v4f), b = __builtin_convertvector(load4(p + 4), v4f);
+  return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
+}
+
+// The float lanes' frame: the dominant point in float, 1 / its weight (weights are divided by
+// it, so no float overflow for high powers next to a point) and v - y_dominant (taken in double).
+struct FloatFrame {
+  float invMax[8], xm[3][8], ym[3][8], dv[3][8];
+};
+
+VELLUM_INLINE_LAMBDA inline void floatFrameOf(const PointData& p, const double* w, int S, int k0,
+                                              const double* const (&v)[3], FloatFrame& f) {
+  v4 wmaxA, wmaxB, domA, domB;
+  dominantPoints(w, p.count, S, k0, wmaxA, domA);
+  dominantPoints(w, p.count, S, k0 + 4, wmaxB, domB);
+  for (int l = 0; l < 8; ++l) {
+    const size_t m = static_cast<size_t>(l < 4 ? domA[l] : domB[l - 4]);
+    f.invMax[l] = static_cast<float>(1.0 / (l < 4 ? wmaxA[l] : wmaxB[l - 4]));
+    f.xm[0][l] = float(p.sx[m]); f.xm[1][l] = float(p.sy[m]); f.xm[2][l] = float(p.sz[m]);
+    f.ym[0][l] = float(p.tx[m]); f.ym[1][l] = float(p.ty[m]); f.ym[2][l] = float(p.tz[m]);
+    f.dv[0][l] = float(v[0][k0 + l] - p.tx[m]); f.dv[1][l] = float(v[1][k0 + l] - p.ty[m]);
+    f.dv[2][l] = float(v[2][k0 + l] - p.tz[m]);
+  }
+}
+
+VELLUM_INLINE_LAMBDA inline v8 lanes8(const float (&values)[8]) { v8 r; std::memcpy(&r, values, 32); return r; }
+
+// Single precision, one pass: moments about the dominant point (its own offsets are exactly 0,
+// so the huge weight next to a point cannot cancel), then centred: A = S_qq - W yh yh^T etc.
+VELLUM_INLINE_LAMBDA inline void accumulateMoments8(const PointData& p, const double* w, int S, int k0,
+                                                    const FloatFrame& f, Moments<v8>& m) {
+  const v8 im = lanes8(f.invMax);
+  const v8 xm0 = lanes8(f.xm[0]), xm1 = lanes8(f.xm[1]), xm2 = lanes8(f.xm[2]);
+  const v8 ym0 = lanes8(f.ym[0]), ym1 = lanes8(f.ym[1]), ym2 = lanes8(f.ym[2]);
+  const v8 z = {0, 0, 0, 0, 0, 0, 0, 0};
+  m.W = m.xh0 = m.xh1 = m.xh2 = m.yh0 = m.yh1 = m.yh2 = z;
+  Sym3<v8>& a = m.a;
+  a = {z, z, z, z, z, z};
+  for (int t = 0; t < 9; ++t) m.b[t] = z;
+  for (int i = 0; i < p.count; ++i) {
+    const size_t si = static_cast<size_t>(i);
+    const v8 wi = load8(w + si * S + k0) * im;
+    const v8 q0 = float(p.tx[si]) - ym0, q1 = float(p.ty[si]) - ym1, q2 = float(p.tz[si]) - ym2;
+    const v8 p0 = float(p.sx[si]) - xm0, p1 = float(p.sy[si]) - xm1, p2 = float(p.sz[si]) - xm2;
+    const v8 wq0 = wi * q0, wq1 = wi * q1, wq2 = wi * q2;
+    m.W += wi;
+    m.yh0 += wq0; m.yh1 += wq1; m.yh2 += wq2;
+    m.xh0 += wi * p0; m.xh1 += wi * p1; m.xh2 += wi * p2;
+    a.a00 += wq0 * q0; a.a01 += wq0 * q1; a.a02 += wq0 * q2; a.a11 += wq1 * q1; a.a12 += wq1 * q2; a.a22 += wq2 * q2;
+    m.b[0] += wq0 * p0; m.b[1] += wq0 * p1; m.b[2] += wq0 * p2;
+    m.b[3] += wq1 * p0; m.b[4] += wq1 * p1; m.b[5] += wq1 * p2;
+    m.b[6] += wq2 * p0; m.b[7] += wq2 * p1; m.b[8] += wq2 * p2;
+  }
+  const v8 invW = 1.0f / m.W, W = m.W;
+  m.yh0 *= invW; m.yh1 *= invW; m.yh2 *= invW; m.xh0 *= invW; m.xh1 *= invW; m.xh2 *= invW;
+  a.a00 -= W * m.yh0 * m.yh0; a.a01 -= W * m.yh0 * m.yh1; a.a02 -= W * m.yh0 * m.yh2;
+  a.a11 -= W * m.yh1 * m.yh1; a.a12 -= W * m.yh1 * m.yh2; a.a22 -= W * m.yh2 * m.yh2;
+  m.b[0] -= W * m.yh0 * m.xh0; m.b[1] -= W * m.yh0 * m.xh1; m.b[2] -= W * m.yh0 * m.xh2;
+  m.b[3] -= W * m.yh1 * m.xh0; m.b[4] -= W * m.yh1 * m.xh1; m.b[5] -= W * m.yh1 * m.xh2;
+  m.b[6] -= W * m.yh2 * m.xh0; m.b[7] -= W * m.yh2 * m.xh1; m.b[8] -= W * m.yh2 * m.xh2;
+}
+
+// The affine M per lane (in m.b on return). False when a lane needs double precision: A
+// ill-conditioned (c < 1e-3, e.g. coplanar points), no spread, or a node on a point.
+VELLUM_INLINE_LAMBDA inline bool solveLanes8(Moments<v8>& m, double eps, const int* hit) {
+  const Sym3<v8>& a = m.a;
+  const v8 tr = a.a00 + a.a11 + a.a22, mean = tr / 3.0f;
+  const v8 det = a.a00 * (a.a11 * a.a22 - a.a12 * a.a12) - a.a01 * (a.a01 * a.a22 - a.a12 * a.a02) +
+                 a.a02 * (a.a01 * a.a12 - a.a11 * a.a02);
+  const v8 c = det / (mean * mean * mean);
+  bool wellPosed = true;
+  for (int l = 0; l < 8; ++l) wellPosed = wellPosed && c[l] > 1e-3f && tr[l] > 0 && hit[l] < 0;
+  const v8 r = float(eps) / (float(eps) + c);
+  const v8 lam = float(eps) * r * r * mean;
+  affineSolution(shiftedInverse<v8>(a, lam), lam, m.b);
+  return wellPosed;
+}
+
+// u = (v - y*) M + x* per lane, back in double around the dominant point.
+VELLUM_INLINE_LAMBDA inline void applyLanes8(const PointData& p, const FloatFrame& f, const Moments<v8>& m,
+                                             int lanes, double* u) {
+  const Vec3 sc = p.sourceCentre;
+  const v8* M = m.b;
+  const v8 d0 = lanes8(f.dv[0]) - m.yh0, d1 = lanes8(f.dv[1]) - m.yh1, d2 = lanes8(f.dv[2]) - m.yh2;
+  const v8 u0 = d0 * M[0] + d1 * M[3] + d2 * M[6] + m.xh0, u1 = d0 * M[1] + d1 * M[4] + d2 * M[7] + m.xh1,
+           u2 = d0 * M[2] + d1 * M[5] + d2 * M[8] + m.xh2;
+  for (int l = 0; l < lanes; ++l) {
+    double* out = u + 3 * l;
+    out[0] = double(u0[l]) + double(f.xm[0][l]) + sc.x;
+    out[1] = double(u1[l]) + double(f.xm[1][l]) + sc.y;
+    out[2] = double(u2[l]) + double(f.xm[2][l]) + sc.z;
+  }
+}
+
+}  // namespace
+
+// The no-attribute path, register-blocked: kLanes nodes at a time with every accumulator in
+// a vector register (GCC vector extension; AVX2 in the haswell clone, 2 x SSE2 otherwise).
+VELLUM_SIMD_CLONES void RowEvaluator::solveBlocked(const double* w, double* u, int kBegin, int kEnd) {
+  const int L = len_, S = stride_;
   const double* vx = arr(kVx); const double* vy = arr(kVy); const double* vz = arr(kVz);
-  const double eps = params_.regularisation;
-  const Vec3 sc = p_.sourceCentre;
-  auto load4 = [](const double* p) VELLUM_INLINE_LAMBDA { v4 r; std::memcpy(&r, p, sizeof r); return r; };
-  typedef float v4f __attribute__((vector_size(16)));
-  auto load8 = [&](const double* p) VELLUM_INLINE_LAMBDA {  // 8 doubles -> 8 floats (stride_ is a multiple of 4)
-    const v4f a = __builtin_convertvector(load4(p), v4f), b = __builtin_convertvector(load4(p + 4), v4f);
-    return __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7);
-  };
+  const bool constrained = params_.method != MlsMethod::Affine;
+  const bool similarity = params_.method == MlsMethod::Similarity;
+  for (int k0 = kBegin; k0 < std::min(kEnd, L); k0 += kLanes) {
+    v4 wmax, dom;
+    dominantPoints(w, p_.count, S, k0, wmax, dom);
+    const Frame<v4> frame = frameOf(p_, dom);
+    Moments<v4> m;
+    accumulateMoments4(p_, w, S, k0, frame, m);
+    solveLanes4(m, params_.regularisation, constrained, similarity);
+    const v4 v[3] = {load4(vx + k0), load4(vy + k0), load4(vz + k0)};
+    applyLanes4(p_, frame, m, v, hit_.data() + k0, std::min(kLanes, L - k0), u + 3 * k0);
+  }
+}
+
+// Single-precision variant for grids (8 nodes per AVX2 register). Lanes that are not
+// well-posed in float (see solveLanes8) are redone in double precision.
+VELLUM_SIMD_CLONES void RowEvaluator::solveBlockedFloat(const double* w, double* u) {
+  constexpr int kF = 8;
+  const int L = len_, S = stride_;
+  const double* const v[3] = {arr(kVx), arr(kVy), arr(kVz)};
   for (int k0 = 0; k0 < L; k0 += kF) {
     if (k0 + kF > S) { solveBlocked(w, u, k0, L); break; }  // tail shorter than 8 lanes
-    // Dominant point and the largest weight per lane (double).
-    v4 wmaxA = load4(w + k0), wmaxB = load4(w + k0 + 4);
-    v4 domA = {0, 0, 0, 0}, domB = domA;
-    for (int i = 1; i < n; ++i) {
-      const v4 a = load4(w + static_cast<size_t>(i) * S + k0), b = load4(w + static_cast<size_t>(i) * S + k0 + 4);
-      const v4 iv = {double(i), double(i), double(i), double(i)};
-      domA = a > wmaxA ? iv : domA; wmaxA = a > wmaxA ? a : wmaxA;
-      domB = b > wmaxB ? iv : domB; wmaxB = b > wmaxB ? b : wmaxB;
-    }
-    float invMax[kF], xmf[3][kF], ymf[3][kF], dvf[3][kF];
-    for (int l = 0; l < kF; ++l) {
-      const size_t m = static_cast<size_t>(l < 4 ? domA[l] : domB[l - 4]);
-      invMax[l] = static_cast<float>(1.0 / (l < 4 ? wmaxA[l] : wmaxB[l - 4]));
-      xmf[0][l] = float(p_.sx[m]); xmf[1][l] = float(p_.sy[m]); xmf[2][l] = float(p_.sz[m]);
-      ymf[0][l] = float(p_.tx[m]); ymf[1][l] = float(p_.ty[m]); ymf[2][l] = float(p_.tz[m]);
-      dvf[0][l] = float(vx[k0 + l] - p_.tx[m]); dvf[1][l] = float(vy[k0 + l] - p_.ty[m]);
-      dvf[2][l] = float(vz[k0 + l] - p_.tz[m]);
-    }
-    v8 im, xm0, xm1, xm2, ym0, ym1, ym2, dv0, dv1, dv2;
-    std::memcpy(&im, invMax, 32);
-    std::memcpy(&xm0, xmf[0], 32); std::memcpy(&xm1, xmf[1], 32); std::memcpy(&xm2, xmf[2], 32);
-    std::memcpy(&ym0, ymf[0], 32); std::memcpy(&ym1, ymf[1], 32); std::memcpy(&ym2, ymf[2], 32);
-    std::memcpy(&dv0, dvf[0], 32); std::memcpy(&dv1, dvf[1], 32); std::memcpy(&dv2, dvf[2], 32);
-    const v8 z = {0, 0, 0, 0, 0, 0, 0, 0};
-    v8 W = z, xh0 = z, xh1 = z, xh2 = z, yh0 = z, yh1 = z, yh2 = z;
-    v8 a00 = z, a01 = z, a02 = z, a11 = z, a12 = z, a22 = z;
-    v8 b00 = z, b01 = z, b02 = z, b10 = z, b11 = z, b12 = z, b20 = z, b21 = z, b22 = z;
-    // One pass: moments about the dominant point (its own offsets are exactly 0, so the huge
-    // weight next to a point cannot cancel), then centred: A = S_qq - W yh yh^T etc.
-    for (int i = 0; i < n; ++i) {
-      const size_t si = static_cast<size_t>(i);
-      const v8 wi = load8(w + si * S + k0) * im;
-      const v8 q0 = float(p_.tx[si]) - ym0, q1 = float(p_.ty[si]) - ym1, q2 = float(p_.tz[si]) - ym2;
-      const v8 p0 = float(p_.sx[si]) - xm0, p1 = float(p_.sy[si]) - xm1, p2 = float(p_.sz[si]) - xm2;
-      const v8 wq0 = wi * q0, wq1 = wi * q1, wq2 = wi * q2;
-      W += wi;
-      yh0 += wq0; yh1 += wq1; yh2 += wq2;
-      xh0 += wi * p0; xh1 += wi * p1; xh2 += wi * p2;
-      a00 += wq0 * q0; a01 += wq0 * q1; a02 += wq0 * q2; a11 += wq1 * q1; a12 += wq1 * q2; a22 += wq2 * q2;
-      b00 += wq0 * p0; b01 += wq0 * p1; b02 += wq0 * p2;
-      b10 += wq1 * p0; b11 += wq1 * p1; b12 += wq1 * p2;
-      b20 += wq2 * p0; b21 += wq2 * p1; b22 += wq2 * p2;
-    }
-    const v8 invW = 1.0f / W;
-    yh0 *= invW; yh1 *= invW; yh2 *= invW; xh0 *= invW; xh1 *= invW; xh2 *= invW;
-    a00 -= W * yh0 * yh0; a01 -= W * yh0 * yh1; a02 -= W * yh0 * yh2;
-    a11 -= W * yh1 * yh1; a12 -= W * yh1 * yh2; a22 -= W * yh2 * yh2;
-    b00 -= W * yh0 * xh0; b01 -= W * yh0 * xh1; b02 -= W * yh0 * xh2;
-    b10 -= W * yh1 * xh0; b11 -= W * yh1 * xh1; b12 -= W * yh1 * xh2;
-    b20 -= W * yh2 * xh0; b21 -= W * yh2 * xh1; b22 -= W * yh2 * xh2;
-    const v8 tr = a00 + a11 + a22, mean = tr / 3.0f;
-    const v8 det = a00 * (a11 * a22 - a12 * a12) - a01 * (a01 * a22 - a12 * a02) + a02 * (a01 * a12 - a11 * a02);
-    const v8 c = det / (mean * mean * mean);
-    bool redo = false;
-    for (int l = 0; l < kF; ++l)
-      redo = redo || !(c[l] > 1e-3f) || !(tr[l] > 0) || hit_[static_cast<size_t>(k0 + l)] >= 0;
-    const v8 r = float(eps) / (float(eps) + c);
-    const v8 lam = float(eps) * r * r * mean;
-    v8 m[9] = {b00, b01, b02, b10, b11, b12, b20, b21, b22};
-    affineSolution(shiftedInverse<v8>({a00, a01, a02, a11, a12, a22}, lam), lam, m);
-    const v8 d0 = dv0 - yh0, d1 = dv1 - yh1, d2 = dv2 - yh2;
-    const v8 u0 = d0 * m[0] + d1 * m[3] + d2 * m[6] + xh0, u1 = d0 * m[1] + d1 * m[4] + d2 * m[7] + xh1,
-             u2 = d0 * m[2] + d1 * m[5] + d2 * m[8] + xh2;
-    const int lanes = std::min(kF, L - k0);
-    for (int l = 0; l < lanes; ++l) {
-      double* out = u + 3 * (k0 + l);
-      out[0] = double(u0[l]) + double(xmf[0][l]) + sc.x;
-      out[1] = double(u1[l]) + double(xmf[1][l]) + sc.y;
-      out[2] = double(u2[l]) + double(xmf[2][l]) + sc.z;
-    }
-    if (redo) solveBlocked(w, u, k0, std::min(k0 + kF, L));
+    FloatFrame frame;
+    floatFrameOf(p_, w, S, k0, v, frame);
+    Moments<v8> m;
+    accumulateMoments8(p_, w, S, k0, frame, m);
+    const bool wellPosed = solveLanes8(m, params_.regularisation, hit_.data() + k0);
+    applyLanes8(p_, frame, m, std::min(kF, L - k0), u + 3 * k0);
+    if (!wellPosed) solveBlocked(w, u, k0, std::min(k0 + kF, L));
   }
 }
 
