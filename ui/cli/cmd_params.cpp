@@ -2,6 +2,8 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "vellum/app/animate_pipeline.hpp"
+#include "vellum/app/deform_pipeline.hpp"
 #include "vellum/app/segment_pipeline.hpp"
 #include "vellum/deformation/deform_params.hpp"
 #include "vellum/illustration/shape.hpp"
@@ -20,6 +22,12 @@ std::string parametersMarkdown() {
       "`--key=false`. Defaults are the structs' own initialisers.\n\n";
   out += "## Deformation engine — `DeformParams` (`vellum deform`, `vellum animate`)\n\n" +
          params::markdown(deformation::deformParamsTable()) + "\n";
+  out += "## Deformation run — `app::DeformEngine` (`vellum deform`, `vellum animate`; with `--rigid-labels ID,...`)\n\n" +
+         params::markdown(app::deformEngineTable()) + "\n";
+  out += "## Deformation request — `app::DeformRequest` (`vellum deform`)\n\n" +
+         params::markdown(app::deformRequestTable()) + "\n";
+  out += "## Movie request — `app::AnimateRequest` (`vellum animate`, the studio's export)\n\n" +
+         params::markdown(app::animateRequestTable()) + "\n";
   out += "## Rendering — `RenderSettings` (`vellum render`, `vellum animate`; `--size WxH` sets width and height)\n\n" +
          params::markdown(render::renderSettingsTable()) + "\n";
   out += "## Hysteresis thresholds — `HysteresisParams` (`vellum segment --method hysteresis`: `--lower`, "

@@ -175,9 +175,9 @@ const params::Table<DeformEngine>& deformEngineTable() {
   using E = DeformEngine;
   static const params::Table<E> t{
       params::choice<E>("upsampling", [](auto& e) -> auto& { return e.upsampling; }, {"trilinear", "gaussian"},
-                        {"Upsampling", "map upsampling: trilinear | gaussian", ""}),
+                        {"Map upsampling", "how the control-grid map reaches every voxel (Gaussian: smoother, slower)", ""}),
       params::text<E>("labels", [](auto& e) -> auto& { return e.labels; },
-                      {"Label map", "label map on the same grid (NRRD ...), for rigid bones", ""}),
+                      {"Rigid-bone labels", "label map on the volume's grid (NRRD ...); the --rigid-labels ids stay rigid", ""}),
       params::real<E>("rigid_falloff", [](auto& e) -> auto& { return e.rigidFalloffMm; },
                       {"Rigid falloff", "blend band outside each bone", "mm", 0, 1000}),
       params::integer<E>("rigidity_stride", [](auto& e) -> auto& { return e.rigidityStride; },
