@@ -1,9 +1,9 @@
-// StudioApp: keyframe playback and the movie export (through animation::MovieRenderer, the
-// code `vellum animate` runs; the export also writes the equivalent `vellum animate` command).
+// StudioApp: keyframe playback and the movie export: an app::AnimateRequest, rendered through
+// animation::MovieRenderer with app::movieSpec (what `vellum animate` runs), and written beside
+// the output as the equivalent `vellum animate` command (app::animateArguments).
 #include <GLFW/glfw3.h>
 
 #include <cmath>
-#include <fstream>
 #include <iostream>
 
 #include "app.hpp"
@@ -12,8 +12,6 @@
 #include "view3d.hpp"
 #include "vellum/app/animate_pipeline.hpp"
 #include "vellum/core/error.hpp"
-#include "vellum/core/params.hpp"
-#include "vellum/deformation/deform_params.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "window_context.hpp"
 

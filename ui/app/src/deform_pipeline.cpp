@@ -41,6 +41,7 @@ class CpuLaps {
 
 /// What the stages share while a request runs.
 struct Run {
+  Run(const DeformRequest& r, Progress& p) : request(r), progress(p) {}
   const DeformRequest& request;
   Progress& progress;
   DeformParams params;
@@ -202,7 +203,7 @@ DeformResult runDeform(const DeformRequest& request, Progress& progress) {
   for (const auto* extra : {&request.mapOut, &request.attributesOut})
     if (!extra->empty()) refuseOverwritingInput(request.input, *extra);
   params::validate(deformEngineTable(), request.engine);
-  Run run{request, progress, {}, {}, {}, {}, {}, {}, {}, {}, {}};
+  Run run(request, progress);
   loadInputs(run);
   buildControlVolume(run);
   if (run.bodies) keepBonesRigid(run);
