@@ -202,6 +202,7 @@ DeformResult runDeform(const DeformRequest& request, Progress& progress) {
   refuseOverwritingInput(request.input, request.output);
   for (const auto* extra : {&request.mapOut, &request.attributesOut})
     if (!extra->empty()) refuseOverwritingInput(request.input, *extra);
+  params::validate(deformRequestTable(), request);
   params::validate(deformEngineTable(), request.engine);
   Run run(request, progress);
   loadInputs(run);
