@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
-#include <set>
+#include <map>
 
 #include "app.hpp"
 #include "vellum/deformation/keyframes.hpp"
@@ -18,13 +18,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-const std::set<std::string> kActions = {
-    "open", "layout", "preset", "click", "drag", "scroll", "key", "frames", "wait_idle", "screenshot",
-    "save_scene", "save_labels", "threshold", "tool", "brush_radius", "active_label", "keep_largest",
-    "fill_holes", "morphology", "otsu", "export_command", "lock_label", "camera", "remove_islands", "hud", "log", "quit",
-    "controls", "drag_point", "attribute_drag", "keyframe", "play", "export_movie", "rigid_labels", "set", "bookmark",
-    "shapes", "illustrate", "style", "style_set"};
 
 int parseButton(const std::string& b) {
   if (b == "left") return GLFW_MOUSE_BUTTON_LEFT;
@@ -67,6 +60,491 @@ std::pair<int, int> parseKey(const std::string& text) {
 
 std::pair<double, double> point(const json& j) { return {j.at(0).get<double>(), j.at(1).get<double>()}; }
 
+/// The steps one action expands to, played one per frame (a step returns true when done,
+/// false to run again next frame).
+struct Steps {
+  const std::string& name;  ///< the action's name (one expander serves click and drag)
+  std::deque<std::function<bool(StudioApp&)>>& list;
+  std::optional<int>& quit;
+  void once(std::function<void(StudioApp&)> f) {
+    list.push_back([f = std::move(f)](StudioApp& a) {
+      f(a);
+      return true;
+    });
+  }
+  void until(std::function<bool(StudioApp&)> f) { list.push_back(std::move(f)); }
+  void frames(int n) {
+    for (int i = 0; i < n; ++i) list.push_back([](StudioApp&) { return true; });
+  }
+  void waitIdle() { list.push_back([](StudioApp& a) { return a.idle(); }); }
+};
+
+using Expander = void (*)(Steps&, const json& value);
+
+void expandOpen(Steps& s, const json& v) {
+  const std::string path = v.is_string() ? v.get<std::string>() : v.at("path").get<std::string>();
+  const std::string labels = v.is_object() ? v.value("labels", "") : "";
+  const std::string series = v.is_object() ? v.value("series", "") : "";
+  const bool expectError = v.is_object() && v.value("expect_error", false);
+  auto before = std::make_shared<fs::path>();
+  s.once([=](StudioApp& a) {
+    *before = a.scene().volumePath;
+    a.requestOpen(path, labels, series);
+  });
+  s.until([](StudioApp& a) { return !a.loading(); });
+  s.frames(1);  // the frame after the worker finished adopts the result
+  s.once([=](StudioApp& a) {
+    const std::string& err = a.lastLoadError();
+    if (expectError) {
+      if (err.empty()) throw Error("expected '" + path + "' to fail, but it opened");
+      if (a.scene().volumePath != *before) throw Error("a failed open changed the scene");
+      std::cout << "expected error: " << err << std::endl;
+    } else if (!err.empty()) {
+      throw Error("open failed: " + err);
+    }
+  });
+}
+
+void expandLayout(Steps& s, const json& v) {
+  const Layout l = parseLayout(v.get<std::string>());
+  s.once([l](StudioApp& a) { a.setLayout(l); });
+  s.frames(1);
+}
+
+void expandPreset(Steps& s, const json& v) {
+  const render::Preset p = render::parsePreset(v.get<std::string>());
+  s.once([p](StudioApp& a) { a.setPreset(p); });
+}
+
+void expandClickOrDrag(Steps& s, const json& v) {
+  const json& spec = v;
+  const bool isClick = s.name == "click";
+  const auto from = point(isClick ? (spec.is_array() ? spec : spec.at("at")) : spec.at("from"));
+  const auto to = isClick ? from : point(spec.at("to"));
+  const int button = parseButton(spec.is_object() ? spec.value("button", "left") : "left");
+  const int mods = spec.is_object() && spec.contains("mods") ? parseMods(spec["mods"]) : 0;
+  const int moves = isClick ? 0 : (spec.is_object() ? spec.value("steps", 8) : 8);
+  s.once([=](StudioApp& a) { a.injectCursorPos(from.first, from.second); });
+  s.once([=](StudioApp& a) { a.injectMouseButton(button, GLFW_PRESS, mods); });
+  for (int i = 1; i <= moves; ++i) {
+    const double t = double(i) / moves;
+    s.once([=](StudioApp& a) {
+      a.injectCursorPos(from.first + (to.first - from.first) * t, from.second + (to.second - from.second) * t);
+    });
+  }
+  s.once([=](StudioApp& a) { a.injectMouseButton(button, GLFW_RELEASE, mods); });
+}
+
+void expandScroll(Steps& s, const json& v) {
+  const auto at = point(v.at("at"));
+  const double dy = v.value("dy", 1.0);
+  s.once([=](StudioApp& a) { a.injectCursorPos(at.first, at.second); });
+  s.once([=](StudioApp& a) { a.injectScroll(0, dy); });
+}
+
+void expandKey(Steps& s, const json& v) {
+  const auto [key, mods] = parseKey(v.get<std::string>());
+  s.once([=](StudioApp& a) { a.injectKey(key, GLFW_PRESS, mods); });
+  s.once([=](StudioApp& a) { a.injectKey(key, GLFW_RELEASE, mods); });
+}
+
+void expandFrames(Steps& s, const json& v) {
+  s.frames(v.get<int>());
+}
+
+void expandWaitIdle(Steps& s, const json&) {
+  s.waitIdle();
+}
+
+void expandScreenshot(Steps& s, const json& v) {
+  const std::string path = v.is_string() ? v.get<std::string>() : v.at("path").get<std::string>();
+  const std::string view = v.is_object() ? v.value("view", "window") : "window";
+  int w = 0, h = 0;
+  if (v.is_object() && v.contains("size")) w = v["size"].at(0).get<int>(), h = v["size"].at(1).get<int>();
+  s.waitIdle();
+  if (view == "3d") {
+    s.once([=](StudioApp& a) { a.save3dScreenshot(path, w, h); });
+  } else if (view == "window") {
+    s.frames(2);  // ImGui settles hover and auto-sized windows over a couple of frames
+    s.once([=](StudioApp& a) { a.requestWindowScreenshot(path); });
+    s.until([](StudioApp& a) {
+      if (a.screenshotPending()) return false;
+      if (auto err = a.takeScreenshotError()) throw Error(*err);
+      return true;
+    });
+  } else {
+    throw Error("screenshot view must be \"window\" or \"3d\"");
+  }
+}
+
+void expandSaveScene(Steps& s, const json& v) {
+  const std::string path = v.get<std::string>();
+  s.once([=](StudioApp& a) { a.saveScene(path); });
+}
+
+void expandSaveLabels(Steps& s, const json& v) {
+  const std::string path = v.get<std::string>();
+  s.once([=](StudioApp& a) { a.saveLabels(path); });
+}
+
+void expandThreshold(Steps& s, const json& v) {
+  const json spec = v;
+  s.once([spec](StudioApp& a) {
+    ToolState& t = a.tools();
+    if (spec.contains("preset")) t.threshold = segmentation::presetInterval(segmentation::parsePreset(spec["preset"]));
+    t.threshold.lower = spec.value("lower", t.threshold.lower);
+    t.threshold.upper = spec.value("upper", t.threshold.upper);
+    if (spec.contains("label")) t.activeLabel = spec["label"].get<uint16_t>();
+    t.thresholdPreview = spec.value("preview", false);
+    if (spec.value("apply", true)) a.applyThreshold();
+  });
+}
+
+void expandTool(Steps& s, const json& v) {
+  const std::string t = v.get<std::string>();
+  const Tool tool = t == "paint"      ? Tool::Paint
+                    : t == "erase"    ? Tool::Erase
+                    : t == "grow"     ? Tool::Grow
+                    : t == "snake"    ? Tool::Snake
+                    : t == "navigate" ? Tool::Navigate
+                                      : throw Error("unknown tool '" + t + "'");
+  s.once([tool](StudioApp& a) { a.tools().tool = tool; });
+}
+
+void expandBrushRadius(Steps& s, const json& v) {
+  const double r = v.get<double>();
+  s.once([r](StudioApp& a) { a.tools().brushRadiusMm = static_cast<float>(r); });
+}
+
+void expandActiveLabel(Steps& s, const json& v) {
+  const auto id = v.get<uint16_t>();
+  s.once([id](StudioApp& a) { a.tools().activeLabel = id; });
+}
+
+void expandKeepLargest(Steps& s, const json&) {
+  s.once([](StudioApp& a) { a.keepLargestOfActive(); });
+}
+
+void expandFillHoles(Steps& s, const json&) {
+  s.once([](StudioApp& a) { a.fillHolesOfActive(); });
+}
+
+void expandMorphology(Steps& s, const json& v) {
+  const std::string op = v.get<std::string>();
+  const Morphology m = op == "dilate" ? Morphology::Dilate
+                       : op == "erode" ? Morphology::Erode
+                       : op == "open"  ? Morphology::Open
+                       : op == "close" ? Morphology::Close
+                                       : throw Error("unknown morphology '" + op + "'");
+  s.once([m](StudioApp& a) { a.morphologyOfActive(m); });
+}
+
+void expandLockLabel(Steps& s, const json& v) {
+  const auto id = v.at("id").get<uint16_t>();
+  const bool on = v.value("locked", true);
+  s.once([id, on](StudioApp& a) { on ? (void)a.scene().lockedLabels.insert(id) : (void)a.scene().lockedLabels.erase(id); });
+}
+
+void expandCamera(Steps& s, const json& v) {
+  const json spec = v;
+  s.once([spec](StudioApp& a) {
+    render::Camera& c = a.scene().render.camera;
+    c.azimuthDeg = spec.value("azimuth", c.azimuthDeg);
+    c.elevationDeg = spec.value("elevation", c.elevationDeg);
+    c.zoom = spec.value("zoom", c.zoom);
+    c.fieldOfViewDeg = spec.value("fov", c.fieldOfViewDeg);
+    if (spec.contains("pan")) c.panMm = {spec["pan"].at(0).get<double>(), spec["pan"].at(1).get<double>(), spec["pan"].at(2).get<double>()};
+  });
+}
+
+void expandSet(Steps& s, const json& v) {
+  // {"set": {"KEY": value, ...}}: view parameters by their table keys (the View panel's and
+  // `vellum render`'s), each one undo step, through the same call as the panel.
+  if (!v.is_object()) throw Error("\"set\" takes an object of view parameters");
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    const std::string key = it.key();
+    const std::string value = it.value().is_string() ? it.value().get<std::string>() : it.value().dump();
+    s.once([key, value](StudioApp& a) { a.setViewParameter(key, value); });
+  }
+  s.frames(1);
+}
+
+void expandShapes(Steps& s, const json& v) {
+  // "labels": make shapes from the label map; otherwise a `vellum shape` folder. Waits.
+  const std::string what = v.get<std::string>();
+  s.once([what](StudioApp& a) { a.makeShapes(what == "labels" ? fs::path() : fs::path(what)); });
+  s.until([](StudioApp& a) { return !a.shapeJob().busy(); });
+  s.frames(2);
+  s.once([](StudioApp& a) {
+    if (!a.scene().shapes) throw Error("no shapes were made (see the message above)");
+  });
+}
+
+void expandIllustrate(Steps& s, const json& v) {
+  const bool on = v.get<bool>();
+  s.once([on](StudioApp& a) { a.setIllustration(on); });
+  s.frames(1);
+}
+
+void expandStyle(Steps& s, const json& v) {
+  const std::string preset = v.get<std::string>();
+  s.once([preset](StudioApp& a) { a.setStylePreset(preset); });
+  s.frames(1);
+}
+
+void expandStyleSet(Steps& s, const json& v) {
+  // {"style_set": {"segment": NAME | "default" | "unclassified" | "" (whole style), "KEY": value, ...}}
+  if (!v.is_object()) throw Error("\"style_set\" takes an object");
+  const std::string segment = v.value("segment", "");
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    if (it.key() == "segment") continue;
+    const std::string key = it.key();
+    const json& val = it.value();
+    const std::string text = val.is_string() ? val.get<std::string>()
+                             : val.is_array() && val.size() == 3 ? val[0].dump() + " " + val[1].dump() + " " + val[2].dump()
+                                                                : val.dump();
+    s.once([segment, key, text](StudioApp& a) { a.setStyleField(segment, key, text); });
+  }
+  s.frames(1);
+}
+
+void expandBookmark(Steps& s, const json& v) {
+  // {"bookmark": {"add": NAME}} | {"bookmark": {"go": NAME}} | {"bookmark": {"delete": NAME}}
+  const auto index = [](StudioApp& a, const std::string& n) {
+    const auto& b = a.scene().bookmarks;
+    for (size_t i = 0; i < b.size(); ++i)
+      if (b[i].name == n) return i;
+    throw Error("no camera bookmark named '" + n + "'");
+  };
+  if (v.contains("add")) {
+    const std::string n = v["add"].get<std::string>();
+    s.once([n](StudioApp& a) { a.addBookmark(n); });
+  } else if (v.contains("go")) {
+    const std::string n = v["go"].get<std::string>();
+    s.once([n, index](StudioApp& a) { a.goToBookmark(index(a, n)); });
+  } else if (v.contains("delete")) {
+    const std::string n = v["delete"].get<std::string>();
+    s.once([n, index](StudioApp& a) { a.deleteBookmark(index(a, n)); });
+  } else {
+    throw Error("\"bookmark\" takes {\"add\"|\"go\"|\"delete\": NAME}");
+  }
+  s.frames(1);
+}
+
+void expandRemoveIslands(Steps& s, const json& v) {
+  const double mm3 = v.get<double>();
+  s.once([mm3](StudioApp& a) {
+    a.tools().minIslandMm3 = static_cast<float>(mm3);
+    a.removeIslandsOfActive();
+  });
+}
+
+void expandOtsu(Steps& s, const json&) {
+  s.once([](StudioApp& a) { a.otsuThreshold(); });
+}
+
+void expandExportCommand(Steps& s, const json& v) {
+  const std::string path = v.at("path").get<std::string>();
+  const std::string out = v.at("figure").get<std::string>();
+  s.once([=](StudioApp& a) {
+    std::ofstream f(path);
+    f << a.cliCommand(out) << "\n";
+    if (!f) throw Error("cannot write " + path);
+  });
+}
+
+void expandHud(Steps& s, const json& v) {
+  const bool on = v.get<bool>();
+  s.once([on](StudioApp& a) { a.hudVisible = on; });
+}
+
+void expandLog(Steps& s, const json& v) {
+  const std::string text = v.get<std::string>();
+  s.once([text](StudioApp&) { std::cout << text << std::endl; });
+}
+
+void expandControls(Steps& s, const json& v) {
+  const std::string which = v.get<std::string>();
+  if (which != "default" && which != "labels") throw Error("controls must be \"default\" or \"labels\"");
+  s.once([which](StudioApp& a) { a.placeControls(which == "labels"); });
+  s.frames(1);
+}
+
+void expandPointDrag(Steps& s, const json& v) {
+  // Finds where the point's end is drawn (3D view first), then drags from there through the
+  // real mouse path: press, `steps` moves, release.
+  const int index = v.at("index").get<int>();
+  const std::string endName = v.value("end", "target");
+  const bool attribute = s.name == "attribute_drag";
+  PointTool tool = PointTool::Move;
+  if (attribute) {
+    const std::string t = v.at("tool").get<std::string>();
+    tool = t == "lightness" ? PointTool::Lightness
+           : t == "hue"     ? PointTool::Hue
+           : t == "density" ? PointTool::Density
+                            : throw Error("attribute_drag tool must be lightness, hue or density");
+  }
+  if (endName != "source" && endName != "target") throw Error("end must be \"source\" or \"target\"");
+  const PointEnd end = endName == "source" ? PointEnd::Source : PointEnd::Target;
+  const auto by = point(v.at("by_px"));
+  const int mods = v.contains("mods") ? parseMods(v["mods"]) : 0;
+  const int moves = std::max(1, v.value("steps", 8));
+  const std::string view = v.value("view", "");
+  auto from = std::make_shared<std::pair<double, double>>();
+  s.frames(1);  // panes laid out
+  auto previousTool = std::make_shared<PointTool>();
+  s.once([=](StudioApp& a) {
+    *previousTool = a.tools().pointTool;
+    a.tools().pointTool = tool;  // the panel's Drag radio buttons
+    const auto p = a.pointOnScreen(index, end, view);
+    if (!p)
+      throw Error("control point " + std::to_string(index) + " is not on screen" + (view.empty() ? "" : " in " + view));
+    *from = *p;
+    a.injectCursorPos(p->first, p->second);
+  });
+  s.once([=](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, mods); });
+  for (int i = 1; i <= moves; ++i) {
+    const double t = double(i) / moves;
+    s.once([=](StudioApp& a) { a.injectCursorPos(from->first + by.first * t, from->second + by.second * t); });
+  }
+  s.once([=](StudioApp& a) {
+    a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
+    a.tools().pointTool = *previousTool;
+  });
+}
+
+void expandKeyframe(Steps& s, const json& v) {
+  // "add" | "delete" | "earlier" | "later" | {"select": k, "duration": s, "interpolation": "smooth", "loop": true}
+  const json spec = v;
+  s.once([spec](StudioApp& a) {
+    if (spec.is_string()) {
+      const std::string op = spec.get<std::string>();
+      if (op == "add") a.editTrack("add keyframe", addKeyframe);
+      else if (op == "delete") {
+        const int k = a.scene().authoring.keyframe;
+        a.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); });
+      } else if (op == "camera") {  // the view's camera into the edited keyframe
+        const int k = a.scene().authoring.keyframe;
+        const render::Camera c = a.scene().render.camera;
+        a.editTrack("keyframe camera", [k, c](Authoring& x) {
+          x.track.keyframes[size_t(k)].camera = deformation::KeyframeCamera{c.azimuthDeg, c.elevationDeg, c.zoom, c.panMm};
+        });
+      } else if (op == "earlier" || op == "later") {
+        const int k = a.scene().authoring.keyframe, by = op == "earlier" ? -1 : 1;
+        a.editTrack("move keyframe", [k, by](Authoring& x) { moveKeyframe(x, k, by); });
+      } else throw Error("keyframe must be \"add\", \"delete\", \"camera\", \"earlier\", \"later\" or an object");
+      return;
+    }
+    Authoring& au = a.scene().authoring;
+    if (!au.active()) throw Error("no keyframes: place control points first");
+    if (spec.contains("select")) {
+      const int k = spec["select"].get<int>();
+      if (k < 0 || k >= int(au.track.keyframes.size())) throw Error("no keyframe " + std::to_string(k));
+      au.keyframe = k;
+      au.timeS.reset();
+      au.touch();
+    }
+    a.editTrack("keyframe settings", [&spec](Authoring& x) {
+      if (spec.contains("duration")) x.track.keyframes[size_t(x.keyframe)].durationS = spec["duration"].get<double>();
+      if (spec.contains("interpolation"))
+        x.track.interpolation = deformation::parseInterpolation(spec["interpolation"].get<std::string>());
+      if (spec.contains("loop")) x.track.loop = spec["loop"].get<bool>();
+    });
+  });
+  s.frames(1);
+}
+
+void expandPlay(Steps& s, const json& v) {
+  const double seconds = v.at("seconds").get<double>();
+  auto until = std::make_shared<double>();
+  s.once([=](StudioApp& a) {
+    a.play(true);
+    *until = glfwGetTime() + seconds;
+  });
+  s.until([=](StudioApp& a) { return glfwGetTime() >= *until || !a.scene().authoring.playing; });
+  s.once([](StudioApp& a) { a.play(false); });
+}
+
+void expandExportMovie(Steps& s, const json& v) {
+  const std::string out = v.at("out").get<std::string>();
+  const double fps = v.value("fps", 30.0);
+  int w = 512, h = 512;
+  if (v.contains("size") && std::sscanf(v["size"].get<std::string>().c_str(), "%dx%d", &w, &h) != 2)
+    throw Error("size must be WxH");
+  const std::string command = v.value("command", "");
+  const double orbit = v.value("orbit", 0.0);
+  s.once([=](StudioApp& a) { a.startExport(out, fps, w, h, orbit); });
+  s.until([](StudioApp& a) { return !a.exporting(); });
+  s.once([=](StudioApp& a) {
+    if (!a.lastExportError().empty()) throw Error("export failed: " + a.lastExportError());
+    if (!command.empty()) {
+      std::ofstream f(command);
+      f << a.lastAnimateCommand() << "\n";
+      if (!f) throw Error("cannot write " + command);
+    }
+  });
+}
+
+void expandRigidLabels(Steps& s, const json& v) {
+  std::vector<uint16_t> ids = v.get<std::vector<uint16_t>>();
+  s.once([ids](StudioApp& a) {
+    a.scene().authoring.rigidLabels = ids;
+    a.scene().authoring.touch();
+  });
+}
+
+void expandQuit(Steps& s, const json& v) {
+  const int code = v.is_number_integer() ? v.get<int>() : 0;
+  s.once([&quit = s.quit, code](StudioApp&) { quit = code; });
+}
+
+/// Every action by name (docs/studio.md, "Scripts").
+const std::map<std::string, Expander>& expanders() {
+  static const std::map<std::string, Expander> table = {
+      {"open", expandOpen},
+      {"layout", expandLayout},
+      {"preset", expandPreset},
+      {"click", expandClickOrDrag},
+      {"drag", expandClickOrDrag},
+      {"scroll", expandScroll},
+      {"key", expandKey},
+      {"frames", expandFrames},
+      {"wait_idle", expandWaitIdle},
+      {"screenshot", expandScreenshot},
+      {"save_scene", expandSaveScene},
+      {"save_labels", expandSaveLabels},
+      {"threshold", expandThreshold},
+      {"tool", expandTool},
+      {"brush_radius", expandBrushRadius},
+      {"active_label", expandActiveLabel},
+      {"keep_largest", expandKeepLargest},
+      {"fill_holes", expandFillHoles},
+      {"morphology", expandMorphology},
+      {"lock_label", expandLockLabel},
+      {"camera", expandCamera},
+      {"set", expandSet},
+      {"shapes", expandShapes},
+      {"illustrate", expandIllustrate},
+      {"style", expandStyle},
+      {"style_set", expandStyleSet},
+      {"bookmark", expandBookmark},
+      {"remove_islands", expandRemoveIslands},
+      {"otsu", expandOtsu},
+      {"export_command", expandExportCommand},
+      {"hud", expandHud},
+      {"log", expandLog},
+      {"controls", expandControls},
+      {"drag_point", expandPointDrag},
+      {"attribute_drag", expandPointDrag},
+      {"keyframe", expandKeyframe},
+      {"play", expandPlay},
+      {"export_movie", expandExportMovie},
+      {"rigid_labels", expandRigidLabels},
+      {"quit", expandQuit},
+  };
+  return table;
+}
+
 }  // namespace
 
 std::unique_ptr<ScriptRunner> ScriptRunner::load(const fs::path& path) {
@@ -84,7 +562,7 @@ std::unique_ptr<ScriptRunner> ScriptRunner::load(const fs::path& path) {
     const json& a = r->actions_[n];
     if (!a.is_object() || a.size() != 1)
       throw FileError(path, "script action #" + std::to_string(n) + ": must be an object with one key");
-    if (!kActions.count(a.begin().key()))
+    if (!expanders().count(a.begin().key()))
       throw FileError(path, "script action #" + std::to_string(n) + ": unknown action '" + a.begin().key() + "'");
   }
   return r;
@@ -114,360 +592,8 @@ std::optional<int> ScriptRunner::step(StudioApp& app) {
 
 void ScriptRunner::expand(const json& action, StudioApp&) {
   const std::string name = action.begin().key();
-  const json& v = action.begin().value();
-  auto once = [this](std::function<void(StudioApp&)> f) {
-    steps_.push_back([f](StudioApp& a) {
-      f(a);
-      return true;
-    });
-  };
-  auto waitIdle = [this] { steps_.push_back([](StudioApp& a) { return a.idle(); }); };
-  auto frames = [this](int n) {
-    for (int i = 0; i < n; ++i) steps_.push_back([](StudioApp&) { return true; });
-  };
-
-  if (name == "open") {
-    const std::string path = v.is_string() ? v.get<std::string>() : v.at("path").get<std::string>();
-    const std::string labels = v.is_object() ? v.value("labels", "") : "";
-    const std::string series = v.is_object() ? v.value("series", "") : "";
-    const bool expectError = v.is_object() && v.value("expect_error", false);
-    auto before = std::make_shared<fs::path>();
-    once([=](StudioApp& a) {
-      *before = a.scene().volumePath;
-      a.requestOpen(path, labels, series);
-    });
-    steps_.push_back([](StudioApp& a) { return !a.loading(); });
-    frames(1);  // the frame after the worker finished adopts the result
-    once([=](StudioApp& a) {
-      const std::string& err = a.lastLoadError();
-      if (expectError) {
-        if (err.empty()) throw Error("expected '" + path + "' to fail, but it opened");
-        if (a.scene().volumePath != *before) throw Error("a failed open changed the scene");
-        std::cout << "expected error: " << err << std::endl;
-      } else if (!err.empty()) {
-        throw Error("open failed: " + err);
-      }
-    });
-  } else if (name == "layout") {
-    const Layout l = parseLayout(v.get<std::string>());
-    once([l](StudioApp& a) { a.setLayout(l); });
-    frames(1);
-  } else if (name == "preset") {
-    const render::Preset p = render::parsePreset(v.get<std::string>());
-    once([p](StudioApp& a) { a.setPreset(p); });
-  } else if (name == "click" || name == "drag") {
-    const json& spec = v;
-    const bool isClick = name == "click";
-    const auto from = point(isClick ? (spec.is_array() ? spec : spec.at("at")) : spec.at("from"));
-    const auto to = isClick ? from : point(spec.at("to"));
-    const int button = parseButton(spec.is_object() ? spec.value("button", "left") : "left");
-    const int mods = spec.is_object() && spec.contains("mods") ? parseMods(spec["mods"]) : 0;
-    const int moves = isClick ? 0 : (spec.is_object() ? spec.value("steps", 8) : 8);
-    once([=](StudioApp& a) { a.injectCursorPos(from.first, from.second); });
-    once([=](StudioApp& a) { a.injectMouseButton(button, GLFW_PRESS, mods); });
-    for (int i = 1; i <= moves; ++i) {
-      const double t = double(i) / moves;
-      once([=](StudioApp& a) {
-        a.injectCursorPos(from.first + (to.first - from.first) * t, from.second + (to.second - from.second) * t);
-      });
-    }
-    once([=](StudioApp& a) { a.injectMouseButton(button, GLFW_RELEASE, mods); });
-  } else if (name == "scroll") {
-    const auto at = point(v.at("at"));
-    const double dy = v.value("dy", 1.0);
-    once([=](StudioApp& a) { a.injectCursorPos(at.first, at.second); });
-    once([=](StudioApp& a) { a.injectScroll(0, dy); });
-  } else if (name == "key") {
-    const auto [key, mods] = parseKey(v.get<std::string>());
-    once([=](StudioApp& a) { a.injectKey(key, GLFW_PRESS, mods); });
-    once([=](StudioApp& a) { a.injectKey(key, GLFW_RELEASE, mods); });
-  } else if (name == "frames") {
-    frames(v.get<int>());
-  } else if (name == "wait_idle") {
-    waitIdle();
-  } else if (name == "screenshot") {
-    const std::string path = v.is_string() ? v.get<std::string>() : v.at("path").get<std::string>();
-    const std::string view = v.is_object() ? v.value("view", "window") : "window";
-    int w = 0, h = 0;
-    if (v.is_object() && v.contains("size")) w = v["size"].at(0).get<int>(), h = v["size"].at(1).get<int>();
-    waitIdle();
-    if (view == "3d") {
-      once([=](StudioApp& a) { a.save3dScreenshot(path, w, h); });
-    } else if (view == "window") {
-      frames(2);  // ImGui settles hover and auto-sized windows over a couple of frames
-      once([=](StudioApp& a) { a.requestWindowScreenshot(path); });
-      steps_.push_back([](StudioApp& a) {
-        if (a.screenshotPending()) return false;
-        if (auto err = a.takeScreenshotError()) throw Error(*err);
-        return true;
-      });
-    } else {
-      throw Error("screenshot view must be \"window\" or \"3d\"");
-    }
-  } else if (name == "save_scene") {
-    const std::string path = v.get<std::string>();
-    once([=](StudioApp& a) { a.saveScene(path); });
-  } else if (name == "save_labels") {
-    const std::string path = v.get<std::string>();
-    once([=](StudioApp& a) { a.saveLabels(path); });
-  } else if (name == "threshold") {
-    const json spec = v;
-    once([spec](StudioApp& a) {
-      ToolState& t = a.tools();
-      if (spec.contains("preset")) t.threshold = segmentation::presetInterval(segmentation::parsePreset(spec["preset"]));
-      t.threshold.lower = spec.value("lower", t.threshold.lower);
-      t.threshold.upper = spec.value("upper", t.threshold.upper);
-      if (spec.contains("label")) t.activeLabel = spec["label"].get<uint16_t>();
-      t.thresholdPreview = spec.value("preview", false);
-      if (spec.value("apply", true)) a.applyThreshold();
-    });
-  } else if (name == "tool") {
-    const std::string t = v.get<std::string>();
-    const Tool tool = t == "paint"      ? Tool::Paint
-                      : t == "erase"    ? Tool::Erase
-                      : t == "grow"     ? Tool::Grow
-                      : t == "snake"    ? Tool::Snake
-                      : t == "navigate" ? Tool::Navigate
-                                        : throw Error("unknown tool '" + t + "'");
-    once([tool](StudioApp& a) { a.tools().tool = tool; });
-  } else if (name == "brush_radius") {
-    const double r = v.get<double>();
-    once([r](StudioApp& a) { a.tools().brushRadiusMm = static_cast<float>(r); });
-  } else if (name == "active_label") {
-    const auto id = v.get<uint16_t>();
-    once([id](StudioApp& a) { a.tools().activeLabel = id; });
-  } else if (name == "keep_largest") {
-    once([](StudioApp& a) { a.keepLargestOfActive(); });
-  } else if (name == "fill_holes") {
-    once([](StudioApp& a) { a.fillHolesOfActive(); });
-  } else if (name == "morphology") {
-    const std::string op = v.get<std::string>();
-    const Morphology m = op == "dilate" ? Morphology::Dilate
-                         : op == "erode" ? Morphology::Erode
-                         : op == "open"  ? Morphology::Open
-                         : op == "close" ? Morphology::Close
-                                         : throw Error("unknown morphology '" + op + "'");
-    once([m](StudioApp& a) { a.morphologyOfActive(m); });
-  } else if (name == "lock_label") {
-    const auto id = v.at("id").get<uint16_t>();
-    const bool on = v.value("locked", true);
-    once([id, on](StudioApp& a) { on ? (void)a.scene().lockedLabels.insert(id) : (void)a.scene().lockedLabels.erase(id); });
-  } else if (name == "camera") {
-    const json spec = v;
-    once([spec](StudioApp& a) {
-      render::Camera& c = a.scene().render.camera;
-      c.azimuthDeg = spec.value("azimuth", c.azimuthDeg);
-      c.elevationDeg = spec.value("elevation", c.elevationDeg);
-      c.zoom = spec.value("zoom", c.zoom);
-      c.fieldOfViewDeg = spec.value("fov", c.fieldOfViewDeg);
-      if (spec.contains("pan")) c.panMm = {spec["pan"].at(0).get<double>(), spec["pan"].at(1).get<double>(), spec["pan"].at(2).get<double>()};
-    });
-  } else if (name == "set") {
-    // {"set": {"KEY": value, ...}}: view parameters by their table keys (the View panel's and
-    // `vellum render`'s), each one undo step, through the same call as the panel.
-    if (!v.is_object()) throw Error("\"set\" takes an object of view parameters");
-    for (auto it = v.begin(); it != v.end(); ++it) {
-      const std::string key = it.key();
-      const std::string value = it.value().is_string() ? it.value().get<std::string>() : it.value().dump();
-      once([key, value](StudioApp& a) { a.setViewParameter(key, value); });
-    }
-    frames(1);
-  } else if (name == "shapes") {
-    // "labels": make shapes from the label map; otherwise a `vellum shape` folder. Waits.
-    const std::string what = v.get<std::string>();
-    once([what](StudioApp& a) { a.makeShapes(what == "labels" ? fs::path() : fs::path(what)); });
-    steps_.push_back([](StudioApp& a) { return !a.shapeJob().busy(); });
-    frames(2);
-    once([](StudioApp& a) {
-      if (!a.scene().shapes) throw Error("no shapes were made (see the message above)");
-    });
-  } else if (name == "illustrate") {
-    const bool on = v.get<bool>();
-    once([on](StudioApp& a) { a.setIllustration(on); });
-    frames(1);
-  } else if (name == "style") {
-    const std::string preset = v.get<std::string>();
-    once([preset](StudioApp& a) { a.setStylePreset(preset); });
-    frames(1);
-  } else if (name == "style_set") {
-    // {"style_set": {"segment": NAME | "default" | "unclassified" | "" (whole style), "KEY": value, ...}}
-    if (!v.is_object()) throw Error("\"style_set\" takes an object");
-    const std::string segment = v.value("segment", "");
-    for (auto it = v.begin(); it != v.end(); ++it) {
-      if (it.key() == "segment") continue;
-      const std::string key = it.key();
-      const json& val = it.value();
-      const std::string text = val.is_string() ? val.get<std::string>()
-                               : val.is_array() && val.size() == 3 ? val[0].dump() + " " + val[1].dump() + " " + val[2].dump()
-                                                                  : val.dump();
-      once([segment, key, text](StudioApp& a) { a.setStyleField(segment, key, text); });
-    }
-    frames(1);
-  } else if (name == "bookmark") {
-    // {"bookmark": {"add": NAME}} | {"bookmark": {"go": NAME}} | {"bookmark": {"delete": NAME}}
-    const auto index = [](StudioApp& a, const std::string& n) {
-      const auto& b = a.scene().bookmarks;
-      for (size_t i = 0; i < b.size(); ++i)
-        if (b[i].name == n) return i;
-      throw Error("no camera bookmark named '" + n + "'");
-    };
-    if (v.contains("add")) {
-      const std::string n = v["add"].get<std::string>();
-      once([n](StudioApp& a) { a.addBookmark(n); });
-    } else if (v.contains("go")) {
-      const std::string n = v["go"].get<std::string>();
-      once([n, index](StudioApp& a) { a.goToBookmark(index(a, n)); });
-    } else if (v.contains("delete")) {
-      const std::string n = v["delete"].get<std::string>();
-      once([n, index](StudioApp& a) { a.deleteBookmark(index(a, n)); });
-    } else {
-      throw Error("\"bookmark\" takes {\"add\"|\"go\"|\"delete\": NAME}");
-    }
-    frames(1);
-  } else if (name == "remove_islands") {
-    const double mm3 = v.get<double>();
-    once([mm3](StudioApp& a) {
-      a.tools().minIslandMm3 = static_cast<float>(mm3);
-      a.removeIslandsOfActive();
-    });
-  } else if (name == "otsu") {
-    once([](StudioApp& a) { a.otsuThreshold(); });
-  } else if (name == "export_command") {
-    const std::string path = v.at("path").get<std::string>();
-    const std::string out = v.at("figure").get<std::string>();
-    once([=](StudioApp& a) {
-      std::ofstream f(path);
-      f << a.cliCommand(out) << "\n";
-      if (!f) throw Error("cannot write " + path);
-    });
-  } else if (name == "hud") {
-    const bool on = v.get<bool>();
-    once([on](StudioApp& a) { a.hudVisible = on; });
-  } else if (name == "log") {
-    const std::string text = v.get<std::string>();
-    once([text](StudioApp&) { std::cout << text << std::endl; });
-  } else if (name == "controls") {
-    const std::string which = v.get<std::string>();
-    if (which != "default" && which != "labels") throw Error("controls must be \"default\" or \"labels\"");
-    once([which](StudioApp& a) { a.placeControls(which == "labels"); });
-    frames(1);
-  } else if (name == "drag_point" || name == "attribute_drag") {
-    // Finds where the point's end is drawn (3D view first), then drags from there through the
-    // real mouse path: press, `steps` moves, release.
-    const int index = v.at("index").get<int>();
-    const std::string endName = v.value("end", "target");
-    const bool attribute = name == "attribute_drag";
-    PointTool tool = PointTool::Move;
-    if (attribute) {
-      const std::string t = v.at("tool").get<std::string>();
-      tool = t == "lightness" ? PointTool::Lightness
-             : t == "hue"     ? PointTool::Hue
-             : t == "density" ? PointTool::Density
-                              : throw Error("attribute_drag tool must be lightness, hue or density");
-    }
-    if (endName != "source" && endName != "target") throw Error("end must be \"source\" or \"target\"");
-    const PointEnd end = endName == "source" ? PointEnd::Source : PointEnd::Target;
-    const auto by = point(v.at("by_px"));
-    const int mods = v.contains("mods") ? parseMods(v["mods"]) : 0;
-    const int moves = std::max(1, v.value("steps", 8));
-    const std::string view = v.value("view", "");
-    auto from = std::make_shared<std::pair<double, double>>();
-    frames(1);  // panes laid out
-    auto previousTool = std::make_shared<PointTool>();
-    once([=](StudioApp& a) {
-      *previousTool = a.tools().pointTool;
-      a.tools().pointTool = tool;  // the panel's Drag radio buttons
-      const auto p = a.pointOnScreen(index, end, view);
-      if (!p)
-        throw Error("control point " + std::to_string(index) + " is not on screen" + (view.empty() ? "" : " in " + view));
-      *from = *p;
-      a.injectCursorPos(p->first, p->second);
-    });
-    once([=](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, mods); });
-    for (int i = 1; i <= moves; ++i) {
-      const double t = double(i) / moves;
-      once([=](StudioApp& a) { a.injectCursorPos(from->first + by.first * t, from->second + by.second * t); });
-    }
-    once([=](StudioApp& a) {
-      a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
-      a.tools().pointTool = *previousTool;
-    });
-  } else if (name == "keyframe") {
-    // "add" | "delete" | "earlier" | "later" | {"select": k, "duration": s, "interpolation": "smooth", "loop": true}
-    const json spec = v;
-    once([spec](StudioApp& a) {
-      if (spec.is_string()) {
-        const std::string op = spec.get<std::string>();
-        if (op == "add") a.editTrack("add keyframe", addKeyframe);
-        else if (op == "delete") {
-          const int k = a.scene().authoring.keyframe;
-          a.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); });
-        } else if (op == "camera") {  // the view's camera into the edited keyframe
-          const int k = a.scene().authoring.keyframe;
-          const render::Camera c = a.scene().render.camera;
-          a.editTrack("keyframe camera", [k, c](Authoring& x) {
-            x.track.keyframes[size_t(k)].camera = deformation::KeyframeCamera{c.azimuthDeg, c.elevationDeg, c.zoom, c.panMm};
-          });
-        } else if (op == "earlier" || op == "later") {
-          const int k = a.scene().authoring.keyframe, by = op == "earlier" ? -1 : 1;
-          a.editTrack("move keyframe", [k, by](Authoring& x) { moveKeyframe(x, k, by); });
-        } else throw Error("keyframe must be \"add\", \"delete\", \"camera\", \"earlier\", \"later\" or an object");
-        return;
-      }
-      Authoring& au = a.scene().authoring;
-      if (!au.active()) throw Error("no keyframes: place control points first");
-      if (spec.contains("select")) {
-        const int k = spec["select"].get<int>();
-        if (k < 0 || k >= int(au.track.keyframes.size())) throw Error("no keyframe " + std::to_string(k));
-        au.keyframe = k;
-        au.timeS.reset();
-        au.touch();
-      }
-      a.editTrack("keyframe settings", [&spec](Authoring& x) {
-        if (spec.contains("duration")) x.track.keyframes[size_t(x.keyframe)].durationS = spec["duration"].get<double>();
-        if (spec.contains("interpolation"))
-          x.track.interpolation = deformation::parseInterpolation(spec["interpolation"].get<std::string>());
-        if (spec.contains("loop")) x.track.loop = spec["loop"].get<bool>();
-      });
-    });
-    frames(1);
-  } else if (name == "play") {
-    const double seconds = v.at("seconds").get<double>();
-    auto until = std::make_shared<double>();
-    once([=](StudioApp& a) {
-      a.play(true);
-      *until = glfwGetTime() + seconds;
-    });
-    steps_.push_back([=](StudioApp& a) { return glfwGetTime() >= *until || !a.scene().authoring.playing; });
-    once([](StudioApp& a) { a.play(false); });
-  } else if (name == "export_movie") {
-    const std::string out = v.at("out").get<std::string>();
-    const double fps = v.value("fps", 30.0);
-    int w = 512, h = 512;
-    if (v.contains("size") && std::sscanf(v["size"].get<std::string>().c_str(), "%dx%d", &w, &h) != 2)
-      throw Error("size must be WxH");
-    const std::string command = v.value("command", "");
-    const double orbit = v.value("orbit", 0.0);
-    once([=](StudioApp& a) { a.startExport(out, fps, w, h, orbit); });
-    steps_.push_back([](StudioApp& a) { return !a.exporting(); });
-    once([=](StudioApp& a) {
-      if (!a.lastExportError().empty()) throw Error("export failed: " + a.lastExportError());
-      if (!command.empty()) {
-        std::ofstream f(command);
-        f << a.lastAnimateCommand() << "\n";
-        if (!f) throw Error("cannot write " + command);
-      }
-    });
-  } else if (name == "rigid_labels") {
-    std::vector<uint16_t> ids = v.get<std::vector<uint16_t>>();
-    once([ids](StudioApp& a) {
-      a.scene().authoring.rigidLabels = ids;
-      a.scene().authoring.touch();
-    });
-  } else if (name == "quit") {
-    const int code = v.is_number_integer() ? v.get<int>() : 0;
-    once([this, code](StudioApp&) { quitCode_ = code; });
-  }
+  Steps steps{name, steps_, quitCode_};
+  expanders().at(name)(steps, action.begin().value());
 }
 
 }  // namespace vellum::studio
