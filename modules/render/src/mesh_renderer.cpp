@@ -34,6 +34,7 @@ in vec3 vPosition;
 in vec3 vNormal;
 uniform vec3 uEye, uForward, uRgb;
 uniform float uPersp;
+uniform float uDepthBias;  // mm nearer than the surface
 layout(location = 0) out vec4 fragColor;
 void main() {
   vec3 rel = vPosition - uEye;
@@ -43,7 +44,7 @@ void main() {
   if (dot(n, n) < 1e-12) n = cross(dFdx(vPosition), dFdy(vPosition));  // unused-normal fallback
   float ndl = abs(dot(normalize(n), l));
   fragColor = vec4(min(uRgb * (AMBIENT + DIFFUSE * ndl) + SPECULAR * pow(ndl, SHININESS), vec3(1.0)), 1.0);
-  gl_FragDepth = clamp(t / DEPTH_RANGE_MM, 0.0, 1.0);
+  gl_FragDepth = clamp((t - uDepthBias) / DEPTH_RANGE_MM, 0.0, 1.0);
 }
 )GLSL";
 
@@ -156,7 +157,8 @@ void MeshRenderer::setMeshes(const std::vector<SurfaceMesh>& meshes) {
 
 size_t MeshRenderer::meshCount() const { return impl_->ranges.size(); }
 
-void MeshRenderer::draw(const Projection& camera, FramebufferTarget& target, const std::vector<bool>& visible) {
+void MeshRenderer::draw(const Projection& camera, FramebufferTarget& target, const std::vector<bool>& visible,
+                        double depthBiasMm) {
   if (camera.width() != target.width() || camera.height() != target.height())
     throw Error("mesh renderer: the camera is " + std::to_string(camera.width()) + "x" + std::to_string(camera.height()) +
                 ", the target " + std::to_string(target.width()) + "x" + std::to_string(target.height()));
@@ -173,6 +175,7 @@ void MeshRenderer::draw(const Projection& camera, FramebufferTarget& target, con
   glUniform3f(glGetUniformLocation(s.program, "uEye"), float(eye.x), float(eye.y), float(eye.z));
   glUniform3f(glGetUniformLocation(s.program, "uForward"), float(fwd.x), float(fwd.y), float(fwd.z));
   glUniform1f(glGetUniformLocation(s.program, "uPersp"), camera.perspective() ? 1.f : 0.f);
+  glUniform1f(glGetUniformLocation(s.program, "uDepthBias"), float(depthBiasMm));
   const GLint rgbLocation = glGetUniformLocation(s.program, "uRgb");
   glBindFramebuffer(GL_FRAMEBUFFER, target.opaqueFramebuffer());
   glViewport(0, 0, target.width(), target.height());

@@ -37,7 +37,12 @@ class MeshRenderer {
   size_t meshCount() const;
   /// Draws mesh i when visible[i] (all when `visible` is empty) with `camera` into the
   /// target's opaque framebuffer; does not clear it. The camera must have the target's size.
-  void draw(const Projection& camera, FramebufferTarget& target, const std::vector<bool>& visible = {});
+  /// `depthBiasMm` > 0 writes the depth that much nearer than the surface (the colour stays
+  /// where it is), so that rays stop short of it: a mesh made from a segment of the volume
+  /// coincides with that segment's own blurred boundary, whose samples would otherwise
+  /// speckle over the mesh.
+  void draw(const Projection& camera, FramebufferTarget& target, const std::vector<bool>& visible = {},
+            double depthBiasMm = 0);
   /// GPU milliseconds of a recent draw (GL timer query, read without stalling; 0 before any).
   double lastDrawMs() const;
 
