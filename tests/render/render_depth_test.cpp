@@ -149,7 +149,7 @@ TEST(RenderDepth, MeshLandsWhereProjectionSaysWithRayDistanceDepth) {
   const SurfaceMesh sphere = sphereMesh(vol.geometry().center() + Vec3{6, -4, 3}, 22, 2, {0.8f, 0.6f, 0.4f});
   MeshRenderer meshes(gl());
   meshes.setMeshes({sphere});
-  FramebufferTarget target;
+  FramebufferTarget target(gl());
   for (double fov : {30.0, 0.0}) {
     const RenderSettings s = settingsOf(Preset::Bone, 96, 80, fov);
     const Projection cam(vol.geometry(), s);
@@ -198,7 +198,7 @@ TEST(RenderDepth, RenderIntoWithoutDepthEqualsRender) {
   const AnyVolume v = test::makeAnalyticVolume(48);
   VolumeRenderer r(gl());
   r.setVolume(v);
-  FramebufferTarget target;
+  FramebufferTarget target(gl());
   for (Preset p : {Preset::SoftTissueBone, Preset::Mip}) {
     const RenderSettings s = settingsOf(p, 96, 70, 30);
     const RgbaImage reference = r.render(s);
@@ -227,7 +227,7 @@ TEST(RenderDepth, SphereInPhantomMatchesCpuReference) {
   meshes.setMeshes({sphereMesh(g.center() + Vec3{0, 0, 10}, 0.22 * g.dims.x * g.spacing.x, 3, {0.2f, 0.5f, 0.9f})});
   VolumeRenderer r(gl());
   r.setVolume(v);
-  FramebufferTarget target;
+  FramebufferTarget target(gl());
   for (auto [preset, fov] : {std::pair{Preset::SoftTissueBone, 30.0}, {Preset::Skin, 0.0}, {Preset::Mip, 30.0}}) {
     const RenderSettings s = settingsOf(preset, 112, 96, fov);
     target.resize(s.width, s.height);
@@ -268,7 +268,7 @@ TEST(RenderDepth, MeshInFrontHidesTheVolume) {
   meshes.setMeshes({facingSquare(cam, g.center(), radius + 3, 4 * radius, {0.4f, 0.2f, 0.6f})});
   VolumeRenderer r(gl());
   r.setVolume(v);
-  FramebufferTarget target;
+  FramebufferTarget target(gl());
   target.resize(s.width, s.height);
   target.clear({0, 0, 0, 0});
   meshes.draw(cam, target);
@@ -299,7 +299,7 @@ TEST(RenderDepth, MeshBehindAnOpaqueSlabIsHidden) {
   RenderSettings s = settingsOf(Preset::Bone, 64, 64, 0, 0, 0);  // looking along +y (anterior view)
   s.transferFunction.points = {{-1000, {0, 0, 0, 0}}, {400, {0, 0, 0, 0}}, {600, {0.9f, 0.9f, 0.8f, 1}}, {3000, {0.9f, 0.9f, 0.8f, 1}}};
   s.windowWidth = 0;  // the transfer function as given
-  FramebufferTarget target;
+  FramebufferTarget target(gl());
   target.resize(s.width, s.height);
   MeshRenderer meshes(gl());
   VolumeRenderer r(gl());

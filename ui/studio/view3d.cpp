@@ -222,7 +222,8 @@ std::string viewKey(const Scene& s, int w, int h) {
 }  // namespace
 
 View3D::View3D(render::GlContext& context)
-    : context_(context), renderer_(std::make_unique<render::VolumeRenderer>(context)) {}
+    : context_(context), renderer_(std::make_unique<render::VolumeRenderer>(context)), coarse_(context), full_(context),
+      meshLayer_(context) {}
 
 void View3D::setVolume(const VolumeI16& ct) {
   context_.makeCurrent();
@@ -299,7 +300,7 @@ bool View3D::drawingMeshes(const Scene& scene) const {
 
 void View3D::drawFrame(const Scene& scene, render::FramebufferTarget& target) {
   const render::RenderSettings s = renderSettingsFor(scene, target.width(), target.height());
-  const bool meshes = drawingMeshes(scene);
+  const bool meshes = meshesDrawn_ = drawingMeshes(scene);
   if (meshes) {
     target.clear({0, 0, 0, 0});
     meshRenderer_->draw(render::Projection(scene.ct.geometry(), s), target, meshVisible_, meshDepthBiasMm(scene));
@@ -307,10 +308,9 @@ void View3D::drawFrame(const Scene& scene, render::FramebufferTarget& target) {
   renderer_->renderInto(s, target.volumeTarget(meshes));
 }
 
-double View3D::gpuMs() const {
-  meshMs_ = meshRenderer_ && meshMsWanted_ ? meshRenderer_->lastDrawMs() : 0.0;
-  return renderer_->lastGpuMs() + meshMs_;
-}
+double View3D::lastMeshMs() const { return meshesDrawn_ ? meshRenderer_->lastDrawMs() : 0.0; }
+
+double View3D::gpuMs() const { return renderer_->lastGpuMs() + lastMeshMs(); }
 
 RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
   context_.makeCurrent();
@@ -325,7 +325,7 @@ RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
     glBindFramebuffer(GL_FRAMEBUFFER, 0);  // the renderer leaves its FBO bound
     return img;
   }
-  render::FramebufferTarget target;
+  render::FramebufferTarget target(context_);
   target.resize(s.width, s.height);
   drawFrame(scene, target);
   return target.readColour();
@@ -361,7 +361,6 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
   } else {  // drawn in place; the cost is the GPU's, measured without waiting for it
     context_.makeCurrent();
     coarse_.resize(w, h);
-    meshMsWanted_ = drawingMeshes(scene);
     drawFrame(scene, coarse_);
     shown_ = coarse_.colourTexture();
     shownBottomUp_ = true;
@@ -386,7 +385,7 @@ void View3D::startRefinement(const Scene& scene, int paneWidth, int paneHeight) 
   // Start from the coarse frame scaled up, so each band can be shown as it lands.
   full_.resize(paneWidth, paneHeight);
   full_.copyColourScaled(coarse_);
-  if (drawingMeshes(scene)) {  // the meshes once at full resolution; each band copies its rows
+  if ((meshesDrawn_ = drawingMeshes(scene))) {  // the meshes once at full resolution; each band copies its rows
     meshLayer_.resize(paneWidth, paneHeight);
     meshLayer_.clear({0, 0, 0, 0});
     meshRenderer_->draw(render::Projection(scene.ct.geometry(), renderSettingsFor(scene, paneWidth, paneHeight)),

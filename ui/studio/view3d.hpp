@@ -1,11 +1,12 @@
 #pragma once
-// The 3D pane: the shared VolumeRenderer drawing into the view's own framebuffer on the
-// window's context (no read-back: ImGui shows the framebuffer's colour texture), the shape
-// meshes first when they are on (rays stop at them). Progressive refinement: while the user drags, frames render at 1/2..1/8 of the
-// pane's resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when
-// the view rests, the full-resolution picture is rendered a band of rows per frame
-// (VolumeRenderer::renderIntoRows, each band sized to the same budget), each band shown over the
-// scaled-up coarse picture as it lands, so the window stays responsive throughout.
+// The 3D pane: the shared VolumeRenderer drawing into the view's own framebuffers on the
+// window's context (no read-back: ImGui shows a framebuffer's colour texture), the shape
+// meshes first when they are on (render::MeshRenderer; rays stop at their depth).
+// Progressive refinement: while the user drags, frames render at 1/2..1/8 of the pane's
+// resolution (the factor adapts to keep a render near kInteractiveBudgetMs, measured by GL
+// timer queries); when the view rests, the full-resolution picture is rendered a band of rows
+// per frame (VolumeRenderer::renderIntoRows, each band sized to the same budget) over the
+// scaled-up coarse picture, so the window stays responsive throughout.
 #include <memory>
 #include <optional>
 #include <string>
@@ -93,8 +94,8 @@ class View3D {
   /// Milliseconds of the last 3D render: GPU time by timer query for the volume (+ meshes),
   /// wall time for the illustration.
   double lastRenderMs() const { return lastMs_; }
-  /// GPU milliseconds of the last mesh pass (0 when meshes are off).
-  double lastMeshMs() const { return meshMs_; }
+  /// GPU milliseconds of a recent mesh pass (timer query; 0 when the last frame drew none).
+  double lastMeshMs() const;
   int lastScale() const { return lastScale_; }
   /// While refining: the fraction of rows done (0..1); 1 when refined or not refining.
   double refineProgress() const {
@@ -124,13 +125,12 @@ class View3D {
   unsigned shown_ = 0;
   bool shownBottomUp_ = false;
   bool hasVolume_ = false, hasMap_ = false;
-  bool meshMsWanted_ = false;  ///< the last coarse frame drew meshes
+  bool meshesDrawn_ = false;  ///< the last frame (coarse, or refinement start) drew meshes
   bool refined_ = false;
   std::string lastKey_;
   uint64_t mapRevision_ = 0;
   int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
   double lastMs_ = 0;
-  mutable double meshMs_ = 0;
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
   /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
   void drawFrame(const Scene& scene, render::FramebufferTarget& target);

@@ -12,9 +12,11 @@ namespace vellum::render {
 
 using namespace detail;
 
-FramebufferTarget::FramebufferTarget() = default;
+FramebufferTarget::FramebufferTarget(GlContext& context) : context_(context) {}
 
 FramebufferTarget::~FramebufferTarget() {
+  if (!opaqueFbo_) return;
+  context_.makeCurrent();
   for (GLuint f : {opaqueFbo_, volumeFbo_})
     if (f) glDeleteFramebuffers(1, &f);
   for (GLuint t : {colour_, depth_})
@@ -44,6 +46,7 @@ void checkComplete(int w, int h) {
 
 void FramebufferTarget::resize(int width, int height) {
   checkImageSize(width, height);
+  context_.makeCurrent();
   if (width == width_ && height == height_ && colour_) return;
   for (GLuint* t : {&colour_, &depth_})
     if (*t) glDeleteTextures(1, t), *t = 0;
@@ -67,6 +70,7 @@ void FramebufferTarget::resize(int width, int height) {
 
 void FramebufferTarget::clear(const std::array<float, 4>& rgba) {
   if (!opaqueFbo_) throw Error("framebuffer target: resize() it first");
+  context_.makeCurrent();
   glBindFramebuffer(GL_FRAMEBUFFER, opaqueFbo_);
   glDisable(GL_SCISSOR_TEST);
   glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
@@ -83,6 +87,7 @@ RenderTarget FramebufferTarget::volumeTarget(bool withDepth) const {
 
 void FramebufferTarget::copyColourRows(const FramebufferTarget& from, int rowBegin, int rowEnd) {
   if (from.width_ != width_ || from.height_ != height_) throw Error("copyColourRows: the targets' sizes differ");
+  context_.makeCurrent();
   const int y0 = height_ - rowEnd, y1 = height_ - rowBegin;  // GL rows count from the bottom
   glBindFramebuffer(GL_READ_FRAMEBUFFER, from.volumeFbo_);
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, volumeFbo_);
@@ -92,6 +97,7 @@ void FramebufferTarget::copyColourRows(const FramebufferTarget& from, int rowBeg
 }
 
 void FramebufferTarget::copyColourScaled(const FramebufferTarget& from) {
+  context_.makeCurrent();
   glBindFramebuffer(GL_READ_FRAMEBUFFER, from.volumeFbo_);
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, volumeFbo_);
   glDisable(GL_SCISSOR_TEST);
@@ -103,6 +109,7 @@ RgbaImage FramebufferTarget::readColour() const {
   RgbaImage image(width_, height_);
   const size_t stride = static_cast<size_t>(width_) * 4;
   std::vector<uint8_t> pixels(stride * static_cast<size_t>(height_));
+  context_.makeCurrent();
   glBindFramebuffer(GL_READ_FRAMEBUFFER, volumeFbo_);
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
   glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
@@ -116,6 +123,7 @@ RgbaImage FramebufferTarget::readColour() const {
 std::vector<float> FramebufferTarget::readRayDistanceMm() const {
   const size_t w = static_cast<size_t>(width_), h = static_cast<size_t>(height_);
   std::vector<float> depth(w * h), out(w * h);
+  context_.makeCurrent();
   glBindFramebuffer(GL_READ_FRAMEBUFFER, opaqueFbo_);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());

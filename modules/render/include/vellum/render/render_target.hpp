@@ -36,11 +36,11 @@ struct RenderTarget {
 /// An RGBA8 colour texture plus a 32-bit float depth texture, with two framebuffers over
 /// them: one with both attachments (the opaque pass: meshes write colour and depth) and one
 /// with the colour only (the volume pass, which reads the depth as a texture). What the
-/// studio's 3D view displays, and what tests read back. Needs a current context (the one it
-/// was made with) for every call, including destruction.
+/// studio's 3D view displays, and what tests read back. Every call makes `context` current
+/// (it must outlive the target), the destructor too.
 class FramebufferTarget {
  public:
-  FramebufferTarget();
+  explicit FramebufferTarget(GlContext& context);
   ~FramebufferTarget();
   FramebufferTarget(const FramebufferTarget&) = delete;
   FramebufferTarget& operator=(const FramebufferTarget&) = delete;
@@ -69,6 +69,7 @@ class FramebufferTarget {
   std::vector<float> readRayDistanceMm() const;
 
  private:
+  GlContext& context_;
   unsigned opaqueFbo_ = 0, volumeFbo_ = 0, colour_ = 0, depth_ = 0;
   int width_ = 0, height_ = 0;
 };
