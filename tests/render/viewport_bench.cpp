@@ -12,6 +12,7 @@
 #include <GL/glcorearb.h>
 
 #include "analytic_volumes.hpp"
+#include "vellum/core/process_time.hpp"
 #include "vellum/render/mesh_renderer.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
@@ -49,14 +50,22 @@ double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// Best wall time of `body` (which ends with a read-back or a finish) over `repeats`.
-double best(int repeats, const std::function<void()>& body) {
+/// Best wall and best process CPU time (all llvmpipe threads: the load-independent measure
+/// on a shared machine) of `body`, which ends with a read-back or a finish.
+struct Times {
+  double wall = 1e30, cpu = 1e30;
+};
+std::ostream& operator<<(std::ostream& o, const Times& t) { return o << t.wall << " ms wall, " << t.cpu << " ms CPU"; }
+
+Times best(int repeats, const std::function<void()>& body) {
   body();  // compiles programs, allocates targets
-  double b = 1e30;
+  Times b;
   for (int i = 0; i < repeats; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = processCpuMs();
     body();
-    b = std::min(b, msSince(t0));
+    b.cpu = std::min(b.cpu, processCpuMs() - c0);
+    b.wall = std::min(b.wall, msSince(t0));
   }
   return b;
 }
@@ -79,15 +88,21 @@ int main(int argc, char** argv) {
   s.height = h;
   render::FramebufferTarget target(*context);
   target.resize(w, h);
-  const double withReadBack = best(repeats, [&] { renderer.render(s); });
+  const Times withReadBack = best(repeats, [&] { renderer.render(s); });
   std::cout << "render() (draw + glFinish + read-back): " << withReadBack << " ms\n";
-  const double into = best(repeats, [&] {
+  const Times into = best(repeats, [&] {
     renderer.renderInto(s, target.volumeTarget(false));
     glFinish();  // only to time it: the studio never waits
   });
-  std::cout << "renderInto() (draw + glFinish, no read-back): " << into << " ms; GPU timer " << renderer.lastGpuMs() << " ms\n";
-  const double colourRead = best(repeats, [&] { target.readColour(); });
+  std::cout << "renderInto() (draw + glFinish, no read-back): " << into << " ms; GPU timer " << renderer.lastGpuMs() << " ms (last run)\n";
+  const Times colourRead = best(repeats, [&] { target.readColour(); });
   std::cout << "colour read-back alone (" << w << "x" << h << " RGBA8): " << colourRead << " ms\n";
+  const Times emptyDepth = best(repeats, [&] {
+    target.clear({0, 0, 0, 0});  // depth 1 everywhere: no geometry
+    renderer.renderInto(s, target.volumeTarget(true));
+    glFinish();
+  });
+  std::cout << "renderInto() with an empty opaque depth: " << emptyDepth << " ms\n";
 
   const Geometry& g = vol.geometry();
   const double r = 0.3 * std::min({g.dims.x * g.spacing.x, g.dims.y * g.spacing.y, g.dims.z * g.spacing.z});
@@ -96,14 +111,14 @@ int main(int argc, char** argv) {
   for (int levels : {4, 6, 8}) {
     const render::SurfaceMesh m = sphere(g.center(), r, levels);
     meshes.setMeshes({m});
-    const double pass = best(repeats, [&] {
+    const Times pass = best(repeats, [&] {
       target.clear({0, 0, 0, 0});
       meshes.draw(cam, target);
       glFinish();
     });
     std::cout << "mesh pass, " << m.triangles.size() / 3 << " triangles: " << pass << " ms (clear + draw + glFinish); GPU timer "
               << meshes.lastDrawMs() << " ms\n";
-    const double composite = best(repeats, [&] {
+    const Times composite = best(repeats, [&] {
       target.clear({0, 0, 0, 0});
       meshes.draw(cam, target);
       renderer.renderInto(s, target.volumeTarget(true));

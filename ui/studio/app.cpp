@@ -219,11 +219,11 @@ void StudioApp::frame() {
   glfwSwapBuffers(window_);
   lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (options_.logFrames)
-    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f mesh_ms %.2f\n",
+    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f\n",
                 frameNumber_, lastFrameMs_, rendered3d ? 1 : 0, rendered3d ? view3d_->lastRenderMs() : 0.0,
                 view3d_->lastScale(), dragPane_ ? 1 : 0, mapUpdated ? deform_->lastUpdateMs() : 0.0,
                 mapUpdated ? deform_->timings()->mapMs : 0.0, mapUpdated ? deform_->timings()->rhoCacheMs : 0.0,
-                mapUpdated ? deform_->lastRigidityMs() : 0.0, rendered3d ? view3d_->lastMeshMs() : 0.0);
+                mapUpdated ? deform_->lastRigidityMs() : 0.0);
   if (options_.logFrames) std::fflush(stdout);  // the log is read while the studio runs
   ++frameNumber_;
 }

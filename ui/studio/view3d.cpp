@@ -300,17 +300,13 @@ bool View3D::drawingMeshes(const Scene& scene) const {
 
 void View3D::drawFrame(const Scene& scene, render::FramebufferTarget& target) {
   const render::RenderSettings s = renderSettingsFor(scene, target.width(), target.height());
-  const bool meshes = meshesDrawn_ = drawingMeshes(scene);
+  const bool meshes = drawingMeshes(scene);
   if (meshes) {
     target.clear({0, 0, 0, 0});
     meshRenderer_->draw(render::Projection(scene.ct.geometry(), s), target, meshVisible_, meshDepthBiasMm(scene));
   }
   renderer_->renderInto(s, target.volumeTarget(meshes));
 }
-
-double View3D::lastMeshMs() const { return meshesDrawn_ ? meshRenderer_->lastDrawMs() : 0.0; }
-
-double View3D::gpuMs() const { return renderer_->lastGpuMs() + lastMeshMs(); }
 
 RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
   context_.makeCurrent();
@@ -358,13 +354,16 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
     shown_ = texture_.id();
     shownBottomUp_ = false;
     lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  } else {  // drawn in place; the cost is the GPU's, measured without waiting for it
+  } else {  // drawn in place: nothing read back or uploaded
     context_.makeCurrent();
     coarse_.resize(w, h);
     drawFrame(scene, coarse_);
+    // Pacing needs the frame's real cost: llvmpipe's timer queries miss deferred rasterisation
+    // (docs/benchmarks-render.md), so wait for the draw (the swap would wait for it anyway).
+    glFinish();
     shown_ = coarse_.colourTexture();
     shownBottomUp_ = true;
-    lastMs_ = gpuMs();
+    lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   lastScale_ = scale_;
   lastKey_ = key;
@@ -380,12 +379,11 @@ void View3D::startRefinement(const Scene& scene, int paneWidth, int paneHeight) 
   refineRow_ = 0;
   refineHeight_ = paneHeight;
   refineMs_ = 0;
-  lastBandCost_ = 0;
   context_.makeCurrent();
   // Start from the coarse frame scaled up, so each band can be shown as it lands.
   full_.resize(paneWidth, paneHeight);
   full_.copyColourScaled(coarse_);
-  if ((meshesDrawn_ = drawingMeshes(scene))) {  // the meshes once at full resolution; each band copies its rows
+  if (drawingMeshes(scene)) {  // the meshes once at full resolution; each band copies its rows
     meshLayer_.resize(paneWidth, paneHeight);
     meshLayer_.clear({0, 0, 0, 0});
     meshRenderer_->draw(render::Projection(scene.ct.geometry(), renderSettingsFor(scene, paneWidth, paneHeight)),
@@ -433,13 +431,6 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   // Idle: refine to full resolution a band of rows per frame, each band sized to the
   // interactive budget, so that no frame blocks for a whole full-resolution render.
   if (!refining_) startRefinement(scene, paneWidth, paneHeight);
-  // The GPU time of the previous band (finished by the swap since) teaches the cost per row.
-  context_.makeCurrent();
-  if (lastBandCost_ > 0) {
-    lastMs_ = renderer_->lastGpuMs();
-    msPerCost_ = std::max(1e-4, lastMs_ / lastBandCost_);
-    refineMs_ += lastMs_;
-  }
   // The band: as many rows as the predicted cost allows within the budget (at least 4).
   int rows = 0;
   for (double cost = 0; refineRow_ + rows < paneHeight; ++rows) {
@@ -448,13 +439,18 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   }
   double bandCost = 0;
   for (int r = 0; r < rows; ++r) bandCost += rowCost_[static_cast<size_t>(refineRow_ + r)];
+  const auto t0 = std::chrono::steady_clock::now();
+  context_.makeCurrent();
   render::RenderTarget target = full_.volumeTarget(false);
   if (drawingMeshes(scene)) {  // the meshes' rows under the band, rays stopped at their depth
     full_.copyColourRows(meshLayer_, refineRow_, refineRow_ + rows);
     target.opaqueDepth = meshLayer_.depthTexture();
   }
   renderer_->renderIntoRows(renderSettingsFor(scene, paneWidth, paneHeight), target, refineRow_, refineRow_ + rows);
-  lastBandCost_ = bandCost;
+  glFinish();  // the band's real cost teaches the cost per row (see renderCoarse)
+  lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  msPerCost_ = std::max(1e-4, lastMs_ / bandCost);
+  refineMs_ += lastMs_;
   lastScale_ = 1;
   refineRow_ += rows;
   if (refineRow_ >= paneHeight) {

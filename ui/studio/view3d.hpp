@@ -3,8 +3,7 @@
 // window's context (no read-back: ImGui shows a framebuffer's colour texture), the shape
 // meshes first when they are on (render::MeshRenderer; rays stop at their depth).
 // Progressive refinement: while the user drags, frames render at 1/2..1/8 of the pane's
-// resolution (the factor adapts to keep a render near kInteractiveBudgetMs, measured by GL
-// timer queries); when the view rests, the full-resolution picture is rendered a band of rows
+// resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when the view rests, the full-resolution picture is rendered a band of rows
 // per frame (VolumeRenderer::renderIntoRows, each band sized to the same budget) over the
 // scaled-up coarse picture, so the window stays responsive throughout.
 #include <memory>
@@ -91,11 +90,8 @@ class View3D {
   bool textureBottomUp() const { return shownBottomUp_; }
   /// True when the displayed image is full resolution and up to date.
   bool refined() const { return refined_; }
-  /// Milliseconds of the last 3D render: GPU time by timer query for the volume (+ meshes),
-  /// wall time for the illustration.
+  /// Wall milliseconds of the last 3D render (meshes + volume, or a band), waited for.
   double lastRenderMs() const { return lastMs_; }
-  /// GPU milliseconds of a recent mesh pass (timer query; 0 when the last frame drew none).
-  double lastMeshMs() const;
   int lastScale() const { return lastScale_; }
   /// While refining: the fraction of rows done (0..1); 1 when refined or not refining.
   double refineProgress() const {
@@ -125,7 +121,6 @@ class View3D {
   unsigned shown_ = 0;
   bool shownBottomUp_ = false;
   bool hasVolume_ = false, hasMap_ = false;
-  bool meshesDrawn_ = false;  ///< the last frame (coarse, or refinement start) drew meshes
   bool refined_ = false;
   std::string lastKey_;
   uint64_t mapRevision_ = 0;
@@ -134,8 +129,6 @@ class View3D {
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
   /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
   void drawFrame(const Scene& scene, render::FramebufferTarget& target);
-  /// Measured cost of the last renderInto and mesh pass (timer queries, no stall).
-  double gpuMs() const;
   void startRefinement(const Scene& scene, int paneWidth, int paneHeight);
   // Banded refinement state.
   bool refining_ = false;
@@ -143,7 +136,6 @@ class View3D {
   RgbaImage coarseImage_;         ///< the last reduced-resolution frame (row cost predictor)
   std::vector<double> rowCost_;   ///< predicted relative cost of each full-resolution row
   double msPerCost_ = 0.01;       ///< learnt from each band
-  double lastBandCost_ = 0;       ///< predicted cost of the band last submitted (0: none yet)
   double refineMs_ = 0;
   std::vector<double> predictRowCosts(const RgbaImage& coarse, int height) const;
 };
