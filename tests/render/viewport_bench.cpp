@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
   const VolumeI16 vol = test::makeAnalyticVolume(n);
   auto context = render::GlContext::createHeadless();
   std::cout << "GL: " << context->renderer() << "\nvolume " << vol.dims().str() << ", image " << w << "x" << h
-            << ", soft-tissue, best of " << repeats << " (wall ms)\n";
+            << ", soft-tissue, best of " << repeats << "\n";
   render::VolumeRenderer renderer(*context);
   renderer.setVolume(vol);
   render::RenderSettings s;
@@ -89,20 +89,20 @@ int main(int argc, char** argv) {
   render::FramebufferTarget target(*context);
   target.resize(w, h);
   const Times withReadBack = best(repeats, [&] { renderer.render(s); });
-  std::cout << "render() (draw + glFinish + read-back): " << withReadBack << " ms\n";
+  std::cout << "render() (draw + glFinish + read-back): " << withReadBack << "\n";
   const Times into = best(repeats, [&] {
     renderer.renderInto(s, target.volumeTarget(false));
     glFinish();  // only to time it: the studio never waits
   });
-  std::cout << "renderInto() (draw + glFinish, no read-back): " << into << " ms; GPU timer " << renderer.lastGpuMs() << " ms (last run)\n";
+  std::cout << "renderInto() (draw + glFinish, no read-back): " << into << "; GPU timer " << renderer.lastGpuMs() << " ms (last run)\n";
   const Times colourRead = best(repeats, [&] { target.readColour(); });
-  std::cout << "colour read-back alone (" << w << "x" << h << " RGBA8): " << colourRead << " ms\n";
+  std::cout << "colour read-back alone (" << w << "x" << h << " RGBA8): " << colourRead << "\n";
   const Times emptyDepth = best(repeats, [&] {
     target.clear({0, 0, 0, 0});  // depth 1 everywhere: no geometry
     renderer.renderInto(s, target.volumeTarget(true));
     glFinish();
   });
-  std::cout << "renderInto() with an empty opaque depth: " << emptyDepth << " ms\n";
+  std::cout << "renderInto() with an empty opaque depth: " << emptyDepth << "\n";
 
   const Geometry& g = vol.geometry();
   const double r = 0.3 * std::min({g.dims.x * g.spacing.x, g.dims.y * g.spacing.y, g.dims.z * g.spacing.z});
@@ -116,7 +116,7 @@ int main(int argc, char** argv) {
       meshes.draw(cam, target);
       glFinish();
     });
-    std::cout << "mesh pass, " << m.triangles.size() / 3 << " triangles: " << pass << " ms (clear + draw + glFinish); GPU timer "
+    std::cout << "mesh pass, " << m.triangles.size() / 3 << " triangles: " << pass << " (clear + draw + glFinish); GPU timer "
               << meshes.lastDrawMs() << " ms\n";
     const Times composite = best(repeats, [&] {
       target.clear({0, 0, 0, 0});
@@ -124,7 +124,7 @@ int main(int argc, char** argv) {
       renderer.renderInto(s, target.volumeTarget(true));
       glFinish();
     });
-    std::cout << "  meshes + renderInto() with their depth: " << composite << " ms; GPU timer " << renderer.lastGpuMs() << " ms\n";
+    std::cout << "  meshes + renderInto() with their depth: " << composite << "; GPU timer " << renderer.lastGpuMs() << " ms\n";
   }
   return 0;
 }
