@@ -382,14 +382,14 @@ void View3D::startRefinement(const Scene& scene, int paneWidth, int paneHeight) 
   context_.makeCurrent();
   // Start from the coarse frame scaled up, so each band can be shown as it lands.
   full_.resize(paneWidth, paneHeight);
-  full_.copyColourScaled(coarse_);
+  if (coarse_.width() > 0) full_.copyColourScaled(coarse_);
   if (drawingMeshes(scene)) {  // the meshes once at full resolution; each band copies its rows
     meshLayer_.resize(paneWidth, paneHeight);
     meshLayer_.clear({0, 0, 0, 0});
     meshRenderer_->draw(render::Projection(scene.ct.geometry(), renderSettingsFor(scene, paneWidth, paneHeight)),
                         meshLayer_, meshVisible_, meshDepthBiasMm(scene));
   }
-  coarseImage_ = coarse_.readColour();  // small, and finished frames ago
+  coarseImage_ = coarse_.width() > 0 ? coarse_.readColour() : RgbaImage();  // small, finished frames ago
   rowCost_ = predictRowCosts(coarseImage_, paneHeight);
   shown_ = full_.colourTexture();
   shownBottomUp_ = true;

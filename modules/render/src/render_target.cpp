@@ -86,7 +86,8 @@ RenderTarget FramebufferTarget::volumeTarget(bool withDepth) const {
 }
 
 void FramebufferTarget::copyColourRows(const FramebufferTarget& from, int rowBegin, int rowEnd) {
-  if (from.width_ != width_ || from.height_ != height_) throw Error("copyColourRows: the targets' sizes differ");
+  if (!colour_ || from.width_ != width_ || from.height_ != height_)
+    throw Error("copyColourRows: the targets must have the same (non-zero) size");
   context_.makeCurrent();
   const int y0 = height_ - rowEnd, y1 = height_ - rowBegin;  // GL rows count from the bottom
   glBindFramebuffer(GL_READ_FRAMEBUFFER, from.volumeFbo_);
@@ -97,6 +98,7 @@ void FramebufferTarget::copyColourRows(const FramebufferTarget& from, int rowBeg
 }
 
 void FramebufferTarget::copyColourScaled(const FramebufferTarget& from) {
+  if (!from.colour_ || !colour_) throw Error("copyColourScaled: resize() both targets first");
   context_.makeCurrent();
   glBindFramebuffer(GL_READ_FRAMEBUFFER, from.volumeFbo_);
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, volumeFbo_);
@@ -106,6 +108,7 @@ void FramebufferTarget::copyColourScaled(const FramebufferTarget& from) {
 }
 
 RgbaImage FramebufferTarget::readColour() const {
+  if (!colour_) return {};
   RgbaImage image(width_, height_);
   const size_t stride = static_cast<size_t>(width_) * 4;
   std::vector<uint8_t> pixels(stride * static_cast<size_t>(height_));
@@ -121,6 +124,7 @@ RgbaImage FramebufferTarget::readColour() const {
 }
 
 std::vector<float> FramebufferTarget::readRayDistanceMm() const {
+  if (!depth_) return {};
   const size_t w = static_cast<size_t>(width_), h = static_cast<size_t>(height_);
   std::vector<float> depth(w * h), out(w * h);
   context_.makeCurrent();

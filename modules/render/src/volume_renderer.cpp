@@ -259,6 +259,11 @@ struct VolumeRenderer::Impl {
   /// framebuffer `fbo` (viewport = the whole image, the rest scissored away); with an opaque
   /// depth texture, rays stop at it and the result is blended over the colour there.
   void draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth);
+  /// The program of this frame's variant, in use, with its textures bound and the transfer
+  /// function (or MIP window) and skip grid set.
+  GLuint useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform, bool opaqueDepth);
+  /// Camera, box, step, background and value-scale uniforms.
+  void setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const;
 
   void setSnapUniforms(GLuint p) const {
     const PreparedSnap& ps = *snap;
@@ -282,11 +287,8 @@ struct VolumeRenderer::Impl {
   }
 };
 
-void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth) {
-  uploadMap();
-  const BackwardMap* deform = map ? &*map : nullptr;
-  const Frame f = makeFrame(source, deform ? &deform->grid : nullptr, s);
-
+GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform,
+                                        bool opaqueDepth) {
   ShaderVariant variant;
   variant.mip = s.preset == Preset::Mip;
   variant.shading = s.shading;
@@ -296,7 +298,7 @@ void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegi
   variant.snap = deform && snap.has_value();
   variant.outputBox = deform && output.has_value();
   variant.labels = hasLabels && s.labelBlend > 0 && !variant.mip;
-  variant.opaqueDepth = opaqueDepth != 0;
+  variant.opaqueDepth = opaqueDepth;
   const GLuint p = program(variant);
   glUseProgram(p);
 
@@ -347,6 +349,10 @@ void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegi
     glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
   }
+  return p;
+}
+
+void VolumeRenderer::Impl::setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const {
   glUniform2f(glGetUniformLocation(p, "uViewport"), float(s.width), float(s.height));
   uniform3(p, "uEye", f.eye);
   uniform3(p, "uRight", f.right);
@@ -368,6 +374,15 @@ void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegi
   uniform3(p, "uSourceDims",
            {double(source.dims.x), double(source.dims.y), double(source.dims.z)});
 
+}
+
+void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth) {
+  uploadMap();
+  const BackwardMap* deform = map ? &*map : nullptr;
+  const Frame f = makeFrame(source, deform ? &deform->grid : nullptr, s);
+
+  const GLuint p = useProgram(s, f, deform, opaqueDepth != 0);
+  setFrameUniforms(p, s, f);
   glBindFramebuffer(GL_FRAMEBUFFER, fbo);
   glViewport(0, 0, s.width, s.height);
   glDisable(GL_DEPTH_TEST);
