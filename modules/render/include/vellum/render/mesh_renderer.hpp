@@ -44,6 +44,7 @@ class MeshRenderer {
   void draw(const Projection& camera, FramebufferTarget& target, const std::vector<bool>& visible = {},
             double depthBiasMm = 0);
   /// GPU milliseconds of a recent draw (GL timer query, read without stalling; 0 before any).
+  /// Not a measure on llvmpipe, which rasterises after the query ends (see lastGpuMs()).
   double lastDrawMs() const;
 
  private:

@@ -64,7 +64,9 @@ class VolumeRenderer {
   void renderIntoRows(const RenderSettings& settings, const RenderTarget& target, int rowBegin, int rowEnd);
   /// Milliseconds the last render() spent on the GPU side (glFinish-bounded).
   double lastRenderMs() const;
-  /// GPU milliseconds of a recent renderInto() (GL timer query, read without stalling).
+  /// GPU milliseconds of a recent renderInto() (GL_TIME_ELAPSED, read without stalling). On
+  /// llvmpipe this misses rasterisation deferred past the query (docs/benchmarks-render.md):
+  /// time with glFinish there.
   double lastGpuMs() const;
 
  private:
