@@ -8,6 +8,7 @@
 #include "label_tools.hpp"
 #include "loader.hpp"
 #include "recent_files.hpp"
+#include "segment_meshes.hpp"
 #include "mpr.hpp"
 #include "scene_file.hpp"
 #include "test_data.hpp"
@@ -263,4 +264,51 @@ TEST(StudioAuthoring, KeyframesReorderKeepingTheTimeline) {
   EXPECT_THROW(moveKeyframe(a, 0, -1), Error);
   EXPECT_THROW(moveKeyframe(a, 7, 1), Error);
 }
+
+// The meshes of a `vellum shape` folder for the 3D view: named and given label ids by
+// shape.json, coloured by the segment table, PLY only; hidden when all of their ids are.
+TEST(SegmentMeshes, LoadFromAShapeFolderAndHideByLabels) {
+  namespace fs = std::filesystem;
+  const fs::path dir = test::tempDir("segment-meshes");
+  fs::create_directories(dir / "meshes");
+  illustration::TriMesh tet;
+  tet.vertices = {{0, 0, 0}, {10, 0, 0}, {0, 10, 0}, {0, 0, 10}};
+  tet.faces = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  illustration::saveMesh(tet, dir / "meshes" / "femur bone.ply", "ply");
+  illustration::saveMesh(tet, dir / "meshes" / "tibia.obj", "obj");
+  std::ofstream(dir / "shape.json") << R"({"segments":[{"name":"femur bone","ids":[4,5]},{"name":"tibia","ids":[6]}]})";
+  Geometry g;
+  g.dims = {4, 4, 4};
+  LabelVolume segments(g);
+  segments.setLabel({1, "femur bone", {10, 20, 30}});
+  const SegmentMeshes meshes = loadSegmentMeshes(dir, segments);
+  ASSERT_EQ(meshes.size(), 1u) << "the OBJ segment is left out";
+  EXPECT_EQ(meshes[0].name, "femur bone");
+  EXPECT_EQ(meshes[0].labelIds, (std::vector<uint16_t>{4, 5}));
+  EXPECT_EQ(meshes[0].rgb, (std::array<uint8_t, 3>{10, 20, 30}));
+  EXPECT_EQ(meshes[0].mesh.faces.size(), 4u);
+  const auto surface = toSurfaceMeshes(meshes);
+  ASSERT_EQ(surface.size(), 1u);
+  EXPECT_EQ(surface[0].positionsMm.size(), 12u);
+  EXPECT_FLOAT_EQ(surface[0].positionsMm[3], 10.f);
+  EXPECT_EQ(surface[0].triangles, (std::vector<uint32_t>{0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3}));
+  EXPECT_FLOAT_EQ(surface[0].rgb[2], 30.f / 255.f);
+  EXPECT_EQ(visibleMeshes(meshes, {4}), std::vector<bool>{true}) << "one of its ids still shows";
+  EXPECT_EQ(visibleMeshes(meshes, {4, 5, 9}), std::vector<bool>{false});
+  // Without shape.json: every PLY, no ids (never hidden).
+  fs::remove(dir / "shape.json");
+  const SegmentMeshes bare = loadSegmentMeshes(dir, segments);
+  ASSERT_EQ(bare.size(), 1u);
+  EXPECT_TRUE(bare[0].labelIds.empty());
+  EXPECT_EQ(visibleMeshes(bare, {4, 5}), std::vector<bool>{true});
+  // A broken report names itself.
+  std::ofstream(dir / "shape.json") << "{\"segments\": 3";
+  try {
+    loadSegmentMeshes(dir, segments);
+    FAIL() << "no error";
+  } catch (const FileError& e) {
+    EXPECT_NE(std::string(e.what()).find("shape.json"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace vellum::studio

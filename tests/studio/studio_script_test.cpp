@@ -2,7 +2,9 @@
 // in; CI: xvfb-run -a ctest) through the same input handlers as a user.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
+#include <iostream>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -15,6 +17,8 @@
 #include "vellum/io/image_io.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
+#include "vellum/illustration/shape.hpp"
+#include "vellum/render/projection.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::studio {
@@ -321,4 +325,74 @@ TEST(StudioScript, IllustrationMatchesVellumIllustrateAndStyleEditsUndo) {
   EXPECT_TRUE(b.view.illustration.enabled);
 }
 
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+
+// Issue 10 §1: the shape folder's meshes in the 3D view's depth buffer. With "meshes_3d" on,
+// where the (recoloured blue) femur mesh projects the view turns blue under the translucent
+// soft tissue; far from every mesh the
+// pixels are exactly the meshes-off view's (which is `vellum render`'s); the key is saved.
+TEST(StudioScript, MeshesInThe3dViewShareItsDepth) {
+  REQUIRE_DISPLAY();
+  const auto dir = test::tempDir("studio-meshes");
+  writePhantom(dir);
+  ASSERT_EQ(runCli(dir, "shape", "shape \"" + (dir / "ct.nrrd").string() + "\" --labels \"" + (dir / "labels.nrrd").string() +
+                                     "\" --segment femur=4,5 --segment tibia=6,7 --out \"" + (dir / "shape").string() + "\""),
+            0);
+  // The femur's colour (segments.nrrd's table) made pure blue: no tissue or bone colour is.
+  LabelVolume segments = io::loadLabels(dir / "shape" / "segments.nrrd");
+  for (Label l : segments.table())
+    if (l.name == "femur") l.rgb = {0, 0, 255}, segments.setLabel(l);
+  io::saveLabels(segments, dir / "shape" / "segments.nrrd");
+  const std::string script = R"({"actions":[{"open":)" + q(dir / "ct.nrrd") + R"(},{"layout":"3d"},
+    {"shapes":)" + q(dir / "shape") + R"(},{"illustrate":false},{"preset":"soft-tissue"},{"set":{"meshes_3d":true}},
+    {"screenshot":{"path":)" + q(dir / "on.png") + R"(,"view":"3d","size":[200,200]}},{"save_scene":)" + q(dir / "on.json") + R"(},
+    {"set":{"meshes_3d":false}},
+    {"screenshot":{"path":)" + q(dir / "off.png") + R"(,"view":"3d","size":[200,200]}},{"quit":0}]})";
+  const StudioRun r = runStudio(dir, "meshes", script);
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const SceneFile sf = readSceneFile(dir / "on.json");
+  EXPECT_TRUE(sf.view.view.meshesIn3d);
+  const RgbaImage on = io::loadImage(dir / "on.png"), off = io::loadImage(dir / "off.png");
+  ASSERT_EQ(on.width, 200);
+  ASSERT_EQ(off.width, 200);
+
+  // Where the meshes project (every vertex, widened by 6 px): the femur's pixels and the rest.
+  Scene scene;
+  applySceneView(sf, scene);
+  const render::Projection cam(geometryOf(io::loadVolume(dir / "ct.nrrd").volume), renderSettingsFor(scene, 200, 200));
+  std::vector<uint8_t> femur(200 * 200, 0), nearMesh(200 * 200, 0);
+  for (const char* name : {"femur", "tibia"})
+    for (const auto& v : illustration::loadMesh(dir / "shape" / "meshes" / (std::string(name) + ".ply")).vertices) {
+      const auto p = cam.toPixel({v[0], v[1], v[2]});
+      ASSERT_TRUE(p.has_value());
+      const int x = int(std::lround(p->x)), y = int(std::lround(p->y));
+      for (int dy = -6; dy <= 6; ++dy)
+        for (int dx = -6; dx <= 6; ++dx)
+          if (x + dx >= 0 && x + dx < 200 && y + dy >= 0 && y + dy < 200) nearMesh[size_t((y + dy) * 200 + x + dx)] = 1;
+      if (std::string(name) == "femur" && x >= 0 && x < 200 && y >= 0 && y < 200) femur[size_t(y * 200 + x)] = 1;
+    }
+  double blueOn = 0, blueOff = 0;
+  int femurPixels = 0, farPixels = 0, farDiffer = 0;
+  for (int i = 0; i < 200 * 200; ++i) {
+    const uint8_t *a = on.pixels.data() + 4 * i, *b = off.pixels.data() + 4 * i;
+    if (femur[size_t(i)]) {
+      blueOn += a[2] - 0.5 * (a[0] + a[1]);
+      blueOff += b[2] - 0.5 * (b[0] + b[1]);
+      ++femurPixels;
+    }
+    if (!nearMesh[size_t(i)]) farDiffer += !std::equal(a, a + 4, b), ++farPixels;
+  }
+  ASSERT_GT(femurPixels, 200);
+  blueOn /= femurPixels, blueOff /= femurPixels;
+  std::cout << "[ mesh ] femur pixels " << femurPixels << ": blue excess on " << blueOn << ", off " << blueOff << "; far pixels "
+            << farPixels << ", differing " << farDiffer << "\n";
+  EXPECT_GT(blueOn, blueOff + 40) << "the blue femur mesh shows where it projects";
+  EXPECT_GT(farPixels, 20000);
+  EXPECT_EQ(farDiffer, 0) << "far from the meshes the view is the meshes-off one";
+}
+
+}  // namespace
 }  // namespace vellum::studio

@@ -198,6 +198,7 @@ void StudioApp::frame() {
       markSlicesDirty();
     }
     view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
+    view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
     view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision, scene_.render.labelBlend > 0);
     for (const Pane& p : panes_)
       if (p.is3d())
@@ -256,6 +257,7 @@ void StudioApp::adoptLoad(LoadResult r) {
   scene_.authoring = Authoring{};
   scene_.authoring.rigidLabels = boneLikeLabels(scene_.labels);
   scene_.shapes = std::move(r.shapes);
+  scene_.shapeMeshes = std::move(r.shapeMeshes);
   scene_.shapesPath = r.shapesPath;
   ++scene_.shapesRevision;
   if (r.scene) {

@@ -216,6 +216,7 @@ void StudioApp::pollShapes() {
   }
   if (out->volumeGeneration != scene_.volumeGeneration) return;  // another volume meanwhile
   scene_.shapes = std::move(out->shapes);
+  scene_.shapeMeshes = std::move(out->meshes);
   scene_.shapesPath = out->folder;
   ++scene_.shapesRevision;
   if (!scene_.illustration.enabled) setIllustration(true);  // what the user made them for

@@ -65,8 +65,10 @@ void StudioApp::drawPanes() {
     dl->AddRectFilled(a, b, IM_COL32(0, 0, 0, 255));
     if (!scene_.hasVolume()) continue;
     if (p.is3d()) {
-      const GlTexture& t = view3d_->texture();
-      if (t.valid()) dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id())), a, b);
+      // A framebuffer's colour (drawn in place, row 0 at the bottom) or an uploaded image.
+      if (const unsigned id = view3d_->textureId())
+        dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(id)), a, b,
+                     {0, view3d_->textureBottomUp() ? 1.f : 0.f}, {1, view3d_->textureBottomUp() ? 0.f : 1.f});
       const std::string title = view3d_->illustrating(scene_)
                                     ? "3D  illustration: " + scene_.illustration.style.name
                                     : std::string("3D  ") + render::presetName(scene_.render.preset);

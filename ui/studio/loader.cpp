@@ -47,6 +47,7 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   }
   if (r.scene && !r.scene->shapes.empty()) {
     r.shapes = std::make_shared<const illustration::ShapeScene>(loadShapes(r.scene->shapes, r.ct));
+    r.shapeMeshes = std::make_shared<const SegmentMeshes>(loadSegmentMeshes(r.scene->shapes, r.shapes->segments));
     r.shapesPath = r.scene->shapes;
   }
   return r;

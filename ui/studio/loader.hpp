@@ -9,6 +9,7 @@
 
 #include "background_job.hpp"
 #include "scene_file.hpp"
+#include "segment_meshes.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -32,6 +33,7 @@ struct LoadResult {
   std::string seriesUid;
   /// The scene's shape folder, loaded (null: none).
   std::shared_ptr<const illustration::ShapeScene> shapes;
+  std::shared_ptr<const SegmentMeshes> shapeMeshes;  ///< the folder's meshes
   std::filesystem::path shapesPath;
 };
 

@@ -67,6 +67,22 @@ void styleSection(StudioApp& app) {
   if (e.finished) app.endViewEdit("style");
 }
 
+/// "Meshes in 3D view": the view-settings table's meshes_3d field alone (one description for
+/// the widget, the scene key and the script's `set`).
+void meshesToggle(StudioApp& app) {
+  Scene& s = app.scene();
+  std::vector<std::string> others;
+  for (const auto& f : viewSettingsTable())
+    if (f.key != "meshes_3d") others.push_back(f.key);
+  const ViewState before = s.viewState();
+  ImGui::BeginDisabled(!s.shapeMeshes || s.shapeMeshes->empty());
+  const ParamEdit e = editParams(viewSettingsTable(), s.view, others);
+  ImGui::EndDisabled();
+  if (s.shapeMeshes) ImGui::SameLine(), ImGui::TextDisabled("(%zu meshes)", s.shapeMeshes->size());
+  if (e.started) app.beginViewEdit(before);
+  if (e.finished) app.endViewEdit("meshes in 3D view");
+}
+
 }  // namespace
 
 void illustrationSection(StudioApp& app) {
@@ -76,6 +92,7 @@ void illustrationSection(StudioApp& app) {
   ImGui::BeginDisabled(!s.shapes);
   if (ImGui::Checkbox("Illustrate the 3D view", &on)) app.setIllustration(on);
   ImGui::EndDisabled();
+  meshesToggle(app);
   styleSection(app);
 }
 

@@ -106,7 +106,7 @@ void viewSection(StudioApp& app) {
   // use; one undo step per finished edit.
   const ViewState before = s.viewState();
   ImGui::PushItemWidth(ImGui::GetContentRegionAvail().x * 0.5f);  // room for "Field of view (degrees)"
-  ParamEdit e = editParams(viewSettingsTable(), s.view);
+  ParamEdit e = editParams(viewSettingsTable(), s.view, {"meshes_3d"});  // in the Illustration panel
   if (ImGui::TreeNodeEx("3D view (vellum render)", ImGuiTreeNodeFlags_DefaultOpen)) {
     e |= editParams(render::renderSettingsTable(), s.render, renderKeysNotInScene());
     ImGui::TreePop();

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "authoring.hpp"
+#include "segment_meshes.hpp"
 #include "view_settings.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/volume.hpp"
@@ -40,6 +41,8 @@ struct Scene {
   /// studio); null until made or opened. Replaced as a whole, never edited in place.
   std::shared_ptr<const illustration::ShapeScene> shapes;
   std::filesystem::path shapesPath;  ///< the folder they came from (empty: made from the labels)
+  /// The shapes' segment meshes (ViewSettings::meshesIn3d draws them); null or empty: none.
+  std::shared_ptr<const SegmentMeshes> shapeMeshes;
   uint64_t shapesRevision = 0;
   Vec3 crosshairMm{0, 0, 0};
   std::set<uint16_t> hiddenLabels;

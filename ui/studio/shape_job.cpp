@@ -29,6 +29,7 @@ ShapeOutcome makeShapes(const ShapeRequest& request, Progress& progress) {
   o.folder = request.folder;
   if (!request.folder.empty()) {
     o.shapes = std::make_shared<const illustration::ShapeScene>(loadShapes(request.folder, request.ct));
+    o.meshes = std::make_shared<const SegmentMeshes>(loadSegmentMeshes(request.folder, o.shapes->segments));
     return o;
   }
   const illustration::ShapeResult r = illustration::runShapePipeline(
@@ -39,6 +40,7 @@ ShapeOutcome makeShapes(const ShapeRequest& request, Progress& progress) {
   scene->segments = r.segmentation;
   scene->ct = AnyVolume(request.ct);
   o.shapes = std::move(scene);
+  o.meshes = std::make_shared<const SegmentMeshes>(segmentMeshesOf(r.shapes));
   return o;
 }
 

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "background_job.hpp"
+#include "segment_meshes.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
 #include "vellum/illustration/shape.hpp"
@@ -24,6 +25,7 @@ struct ShapeRequest {
 struct ShapeOutcome {
   std::string error;
   std::shared_ptr<const illustration::ShapeScene> shapes;
+  std::shared_ptr<const SegmentMeshes> meshes;
   std::filesystem::path folder;
   uint64_t volumeGeneration = 0;
 };

@@ -222,7 +222,8 @@ std::string viewKey(const Scene& s, int w, int h) {
 }  // namespace
 
 View3D::View3D(render::GlContext& context)
-    : context_(context), renderer_(std::make_unique<render::VolumeRenderer>(context)) {}
+    : context_(context), renderer_(std::make_unique<render::VolumeRenderer>(context)), coarse_(context), full_(context),
+      meshLayer_(context) {}
 
 void View3D::setVolume(const VolumeI16& ct) {
   context_.makeCurrent();
@@ -235,6 +236,7 @@ void View3D::setVolume(const VolumeI16& ct) {
 void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
   context_.makeCurrent();
   renderer_->setBackwardMap(map);
+  hasMap_ = map != nullptr;
   mapRevision_ = revision;
 }
 
@@ -262,6 +264,50 @@ void View3D::setShapes(std::shared_ptr<const illustration::ShapeScene> shapes, u
   invalidate();
 }
 
+void View3D::setMeshes(std::shared_ptr<const SegmentMeshes> meshes, const std::set<uint16_t>& hidden, uint64_t revision) {
+  if (meshes != meshes_ || revision != meshesRevision_) {
+    meshes_ = std::move(meshes);
+    meshesRevision_ = revision;
+    if (meshes_ && !meshes_->empty()) {
+      context_.makeCurrent();
+      if (!meshRenderer_) meshRenderer_ = std::make_unique<render::MeshRenderer>(context_);
+      meshRenderer_->setMeshes(toSurfaceMeshes(*meshes_));
+    }
+    invalidate();
+  }
+  // Which meshes show is part of the view key (update()), so hiding a label re-renders only
+  // when the meshes are drawn.
+  meshVisible_ = meshes_ ? visibleMeshes(*meshes_, hidden) : std::vector<bool>{};
+}
+
+namespace {
+/// Rays stop this many voxels short of a mesh: a mesh made from a segment coincides with the
+/// segment's blurred boundary in the CT, whose first opaque samples (jittered) otherwise
+/// speckle over it. 1 voxel still speckled at silhouettes on the phantom; 2 did not.
+constexpr double kMeshDepthBiasVoxels = 2.0;
+
+double meshDepthBiasMm(const Scene& scene) {
+  const Vec3& sp = scene.ct.geometry().spacing;
+  return kMeshDepthBiasVoxels * std::min({sp.x, sp.y, sp.z});
+}
+}  // namespace
+
+bool View3D::drawingMeshes(const Scene& scene) const {
+  // Meshes live in the source's space: through a deformation they would not match the volume.
+  return scene.view.meshesIn3d && !illustrating(scene) && !hasMap_ && meshRenderer_ && meshes_ &&
+         std::find(meshVisible_.begin(), meshVisible_.end(), true) != meshVisible_.end();
+}
+
+void View3D::drawFrame(const Scene& scene, render::FramebufferTarget& target) {
+  const render::RenderSettings s = renderSettingsFor(scene, target.width(), target.height());
+  const bool meshes = drawingMeshes(scene);
+  if (meshes) {
+    target.clear({0, 0, 0, 0});
+    meshRenderer_->draw(render::Projection(scene.ct.geometry(), s), target, meshVisible_, meshDepthBiasMm(scene));
+  }
+  renderer_->renderInto(s, target.volumeTarget(meshes));
+}
+
 RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
   context_.makeCurrent();
   if (illustrating(scene)) {
@@ -269,9 +315,16 @@ RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     return img;
   }
-  RgbaImage img = renderer_->render(renderSettingsFor(scene, width, height));
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);  // the renderer leaves its FBO bound
-  return img;
+  const render::RenderSettings s = renderSettingsFor(scene, width, height);
+  if (!drawingMeshes(scene)) {  // `vellum render`'s pixels
+    RgbaImage img = renderer_->render(s);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);  // the renderer leaves its FBO bound
+    return img;
+  }
+  render::FramebufferTarget target(context_);
+  target.resize(s.width, s.height);
+  drawFrame(scene, target);
+  return target.readColour();
 }
 
 std::vector<double> View3D::predictRowCosts(const RgbaImage& coarse, int height) const {
@@ -294,9 +347,24 @@ std::vector<double> View3D::predictRowCosts(const RgbaImage& coarse, int height)
 
 void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key) {
   const auto t0 = std::chrono::steady_clock::now();
-  coarse_ = renderImage(scene, std::max(1, paneWidth / scale_), std::max(1, paneHeight / scale_));
-  texture_.upload(coarse_);
-  lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  const int w = std::max(1, paneWidth / scale_), h = std::max(1, paneHeight / scale_);
+  if (illustrating(scene)) {  // the illustration renderer reads back: upload its image
+    coarseImage_ = renderImage(scene, w, h);
+    texture_.upload(coarseImage_);
+    shown_ = texture_.id();
+    shownBottomUp_ = false;
+    lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  } else {  // drawn in place: nothing read back or uploaded
+    context_.makeCurrent();
+    coarse_.resize(w, h);
+    drawFrame(scene, coarse_);
+    // Pacing needs the frame's real cost: llvmpipe's timer queries miss deferred rasterisation
+    // (docs/benchmarks-render.md), so wait for the draw (the swap would wait for it anyway).
+    glFinish();
+    shown_ = coarse_.colourTexture();
+    shownBottomUp_ = true;
+    lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  }
   lastScale_ = scale_;
   lastKey_ = key;
   refined_ = false;
@@ -306,11 +374,36 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
   else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) scale_ /= 2;
 }
 
+void View3D::startRefinement(const Scene& scene, int paneWidth, int paneHeight) {
+  refining_ = true;
+  refineRow_ = 0;
+  refineHeight_ = paneHeight;
+  refineMs_ = 0;
+  context_.makeCurrent();
+  // Start from the coarse frame scaled up, so each band can be shown as it lands.
+  full_.resize(paneWidth, paneHeight);
+  if (coarse_.width() > 0) full_.copyColourScaled(coarse_);
+  if (drawingMeshes(scene)) {  // the meshes once at full resolution; each band copies its rows
+    meshLayer_.resize(paneWidth, paneHeight);
+    meshLayer_.clear({0, 0, 0, 0});
+    meshRenderer_->draw(render::Projection(scene.ct.geometry(), renderSettingsFor(scene, paneWidth, paneHeight)),
+                        meshLayer_, meshVisible_, meshDepthBiasMm(scene));
+  }
+  coarseImage_ = coarse_.width() > 0 ? coarse_.readColour() : RgbaImage();  // small, finished frames ago
+  rowCost_ = predictRowCosts(coarseImage_, paneHeight);
+  shown_ = full_.colourTexture();
+  shownBottomUp_ = true;
+}
+
 bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool interacting) {
   if (!hasVolume_ || paneWidth < 2 || paneHeight < 2) return false;
   std::string key = viewKey(scene, paneWidth, paneHeight) + " map " + std::to_string(mapRevision_);
   if (illustrating(scene))  // the style is small: its JSON is the key
     key += " shapes " + std::to_string(shapesRevision_) + illustration::styleToJson(scene.illustration.style);
+  if (drawingMeshes(scene)) {
+    key += " meshes " + std::to_string(meshesRevision_) + ' ';
+    for (bool v : meshVisible_) key += v ? '1' : '0';
+  }
   if (interacting) {  // coarse frames only, each a complete picture
     refining_ = false;
     if (key == lastKey_) return false;
@@ -326,8 +419,10 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   }
   if (illustrating(scene)) {  // the illustration renderer draws whole frames: one full render
     const auto t0 = std::chrono::steady_clock::now();
-    coarse_ = renderImage(scene, paneWidth, paneHeight);
-    texture_.upload(coarse_);
+    coarseImage_ = renderImage(scene, paneWidth, paneHeight);
+    texture_.upload(coarseImage_);
+    shown_ = texture_.id();
+    shownBottomUp_ = false;
     lastMs_ = refineMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     lastScale_ = 1;
     refined_ = true;
@@ -335,21 +430,7 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   }
   // Idle: refine to full resolution a band of rows per frame, each band sized to the
   // interactive budget, so that no frame blocks for a whole full-resolution render.
-  if (!refining_) {
-    refining_ = true;
-    // Start from the coarse frame scaled up, so each band can be shown as it lands.
-    refineImage_ = RgbaImage(paneWidth, paneHeight);
-    if (coarse_.width > 0 && coarse_.height > 0)
-      for (int y = 0; y < paneHeight; ++y) {
-        const int cy = std::min(coarse_.height - 1, y * coarse_.height / paneHeight);
-        for (int x = 0; x < paneWidth; ++x)
-          std::copy_n(coarse_.at(std::min(coarse_.width - 1, x * coarse_.width / paneWidth), cy), 4,
-                      refineImage_.at(x, y));
-      }
-    refineRow_ = 0;
-    refineMs_ = 0;
-    rowCost_ = predictRowCosts(coarse_, paneHeight);
-  }
+  if (!refining_) startRefinement(scene, paneWidth, paneHeight);
   // The band: as many rows as the predicted cost allows within the budget (at least 4).
   int rows = 0;
   for (double cost = 0; refineRow_ + rows < paneHeight; ++rows) {
@@ -360,14 +441,18 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   for (int r = 0; r < rows; ++r) bandCost += rowCost_[static_cast<size_t>(refineRow_ + r)];
   const auto t0 = std::chrono::steady_clock::now();
   context_.makeCurrent();
-  renderer_->renderRows(renderSettingsFor(scene, paneWidth, paneHeight), refineRow_, refineRow_ + rows, refineImage_);
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  render::RenderTarget target = full_.volumeTarget(false);
+  if (drawingMeshes(scene)) {  // the meshes' rows under the band, rays stopped at their depth
+    full_.copyColourRows(meshLayer_, refineRow_, refineRow_ + rows);
+    target.opaqueDepth = meshLayer_.depthTexture();
+  }
+  renderer_->renderIntoRows(renderSettingsFor(scene, paneWidth, paneHeight), target, refineRow_, refineRow_ + rows);
+  glFinish();  // the band's real cost teaches the cost per row (see renderCoarse)
   lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   msPerCost_ = std::max(1e-4, lastMs_ / bandCost);
   refineMs_ += lastMs_;
   lastScale_ = 1;
   refineRow_ += rows;
-  texture_.upload(refineImage_);  // sharp rows sweep down over the coarse picture
   if (refineRow_ >= paneHeight) {
     refined_ = true;
     refining_ = false;

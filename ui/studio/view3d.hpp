@@ -1,10 +1,11 @@
 #pragma once
-// The 3D pane: the shared VolumeRenderer drawing into the window's context, displayed as a
-// texture. Progressive refinement: while the user drags, frames render at 1/2..1/8 of the
-// pane's resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when
-// the view rests, the full-resolution picture is rendered a band of rows per frame
-// (VolumeRenderer::renderRows, each band sized to the same budget), each band shown over the
-// scaled-up coarse picture as it lands, so the window stays responsive throughout.
+// The 3D pane: the shared VolumeRenderer drawing into the view's own framebuffers on the
+// window's context (no read-back: ImGui shows a framebuffer's colour texture), the shape
+// meshes first when they are on (render::MeshRenderer; rays stop at their depth).
+// Progressive refinement: while the user drags, frames render at 1/2..1/8 of the pane's
+// resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when the view rests, the full-resolution picture is rendered a band of rows
+// per frame (VolumeRenderer::renderIntoRows, each band sized to the same budget) over the
+// scaled-up coarse picture, so the window stays responsive throughout.
 #include <memory>
 #include <optional>
 #include <string>
@@ -15,6 +16,8 @@
 #include "scene.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
 #include "vellum/render/backward_map.hpp"
+#include "vellum/render/mesh_renderer.hpp"
+#include "vellum/render/render_target.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::studio {
@@ -67,21 +70,32 @@ class View3D {
   void setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted);
   /// The shapes the illustration view draws (null: none); `revision` identifies them.
   void setShapes(std::shared_ptr<const illustration::ShapeScene> shapes, uint64_t revision);
+  /// The segment meshes drawn when ViewSettings::meshesIn3d is on (null: none), uploaded when
+  /// `revision` changes; meshes whose label ids are all hidden are left out. Cheap every frame.
+  void setMeshes(std::shared_ptr<const SegmentMeshes> meshes, const std::set<uint16_t>& hidden, uint64_t revision);
   /// True when `scene` is drawn as an illustration (enabled and shapes present).
   bool illustrating(const Scene& scene) const { return scene.illustration.enabled && shapes_ != nullptr; }
+  /// True when `scene` draws the meshes (render presets, meshes on, one of them visible).
+  bool drawingMeshes(const Scene& scene) const;
   /// Renders when the view changed (or to refine after interaction). Returns true if it
   /// rendered this frame.
   bool update(const Scene& scene, int paneWidth, int paneHeight, bool interacting);
-  /// A full-resolution render at any size up to 4096² (screenshots).
+  /// A full-resolution render at any size up to 4096² (screenshots): with meshes off the
+  /// pixels of `vellum render`.
   RgbaImage renderImage(const Scene& scene, int width, int height);
-  const GlTexture& texture() const { return texture_; }
+  /// The GL texture to show (0: nothing yet): the view's own framebuffer colour, drawn in
+  /// place by the renderer (no read-back), or the illustration's uploaded image.
+  unsigned textureId() const { return shown_; }
+  /// True when that texture's row 0 is the bottom (a framebuffer's), false for an upload.
+  bool textureBottomUp() const { return shownBottomUp_; }
   /// True when the displayed image is full resolution and up to date.
   bool refined() const { return refined_; }
+  /// Wall milliseconds of the last 3D render (meshes + volume, or a band), waited for.
   double lastRenderMs() const { return lastMs_; }
   int lastScale() const { return lastScale_; }
   /// While refining: the fraction of rows done (0..1); 1 when refined or not refining.
   double refineProgress() const {
-    return refining_ && refineImage_.height > 0 ? double(refineRow_) / refineImage_.height : 1.0;
+    return refining_ && refineHeight_ > 0 ? double(refineRow_) / refineHeight_ : 1.0;
   }
   /// Sum of the band renders of the last completed (or running) refinement.
   double refineMs() const { return refineMs_; }
@@ -94,22 +108,32 @@ class View3D {
   render::GlContext& context_;
   std::unique_ptr<render::VolumeRenderer> renderer_;
   std::unique_ptr<illustration::IllustrationRenderer> illustrator_;  ///< made on first use
+  std::unique_ptr<render::MeshRenderer> meshRenderer_;                ///< made on first use
   std::shared_ptr<const illustration::ShapeScene> shapes_;
+  std::shared_ptr<const SegmentMeshes> meshes_;
+  std::vector<bool> meshVisible_;
   std::string labelsKey_;  ///< the labels (revision + hidden ids) uploaded as the tint
-  uint64_t shapesRevision_ = 0;
-  GlTexture texture_;
-  bool hasVolume_ = false;
+  uint64_t shapesRevision_ = 0, meshesRevision_ = 0;
+  GlTexture texture_;                   ///< the illustration's image
+  render::FramebufferTarget coarse_;    ///< reduced-resolution frames (meshes + volume)
+  render::FramebufferTarget full_;      ///< the refined picture, filled band by band
+  render::FramebufferTarget meshLayer_; ///< full-resolution meshes: colour + opaque depth
+  unsigned shown_ = 0;
+  bool shownBottomUp_ = false;
+  bool hasVolume_ = false, hasMap_ = false;
   bool refined_ = false;
   std::string lastKey_;
   uint64_t mapRevision_ = 0;
   int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
   double lastMs_ = 0;
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
+  /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
+  void drawFrame(const Scene& scene, render::FramebufferTarget& target);
+  void startRefinement(const Scene& scene, int paneWidth, int paneHeight);
   // Banded refinement state.
   bool refining_ = false;
-  RgbaImage refineImage_;
-  int refineRow_ = 0;
-  RgbaImage coarse_;              ///< the last reduced-resolution frame (row cost predictor)
+  int refineRow_ = 0, refineHeight_ = 0;
+  RgbaImage coarseImage_;         ///< the last reduced-resolution frame (row cost predictor)
   std::vector<double> rowCost_;   ///< predicted relative cost of each full-resolution row
   double msPerCost_ = 0.01;       ///< learnt from each band
   double refineMs_ = 0;

@@ -33,6 +33,8 @@ const params::Table<ViewSettings>& viewSettingsTable() {
                       {"Slice window", "width of the slices' grey-value window", "HU", 1, 10000}),
       params::real<V>("label_opacity", [](auto& v) -> auto& { return v.labelOpacity; },
                       {"Label opacity", "fill opacity of the label overlay in the slices (outlines stay opaque)", "", 0, 1}),
+      params::flag<V>("meshes_3d", [](auto& v) -> auto& { return v.meshesIn3d; },
+                      {"Meshes in 3D view", "draw the shape folder's segment meshes opaque in the 3D view (render presets); the volume in front of them is composited over them", ""}),
   };
   return t;
 }

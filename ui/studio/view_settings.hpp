@@ -31,9 +31,11 @@ struct ViewSettings {
   Layout layout = Layout::TwoByTwo;
   WindowLevel sliceWindow{40, 400};
   float labelOpacity = 0.4f;  ///< fill of the label overlay in the slices (outlines are opaque)
+  /// The shape folder's meshes drawn opaque in the 3D view, the volume composited over them.
+  bool meshesIn3d = false;
   bool operator==(const ViewSettings&) const = default;
 };
-/// Keys: layout, slice_window_center, slice_window_width, label_opacity.
+/// Keys: layout, slice_window_center, slice_window_width, label_opacity, meshes_3d.
 const params::Table<ViewSettings>& viewSettingsTable();
 
 /// Render-table keys that are not part of a scene (the 3D view's size is the window's).

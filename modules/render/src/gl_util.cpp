@@ -89,4 +89,45 @@ void OffscreenTarget::bind(int w, int h, const char* who) {
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
 }
 
+GpuTimer::~GpuTimer() {
+  if (queries_[0]) glDeleteQueries(kQueries, queries_);
+}
+
+void GpuTimer::collect() {
+  // Oldest first, so lastMs_ ends at the newest finished span.
+  for (int i = 0; i < kQueries; ++i) {
+    const int q = (next_ + i) % kQueries;
+    if (!pending_[q]) continue;
+    GLint available = 0;
+    glGetQueryObjectiv(queries_[q], GL_QUERY_RESULT_AVAILABLE, &available);
+    if (!available) continue;
+    GLuint64 ns = 0;
+    glGetQueryObjectui64v(queries_[q], GL_QUERY_RESULT, &ns);
+    lastMs_ = double(ns) * 1e-6;
+    pending_[q] = false;
+  }
+}
+
+void GpuTimer::begin() {
+  if (!queries_[0]) glGenQueries(kQueries, queries_);
+  collect();
+  if (pending_[next_]) {  // every query still in flight: wait for the oldest
+    GLuint64 ns = 0;
+    glGetQueryObjectui64v(queries_[next_], GL_QUERY_RESULT, &ns);
+    pending_[next_] = false;
+  }
+  glBeginQuery(GL_TIME_ELAPSED, queries_[next_]);
+}
+
+void GpuTimer::end() {
+  glEndQuery(GL_TIME_ELAPSED);
+  pending_[next_] = true;
+  next_ = (next_ + 1) % kQueries;
+}
+
+double GpuTimer::lastMs() {
+  if (queries_[0]) collect();
+  return lastMs_;
+}
+
 }  // namespace vellum::render::detail

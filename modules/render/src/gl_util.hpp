@@ -30,4 +30,27 @@ class OffscreenTarget {
   int width_ = 0, height_ = 0;
 };
 
+/// GPU time of a span of GL commands by GL_TIME_ELAPSED queries, read without stalling: each
+/// begin() first collects the previous span's result if the GPU has finished it. A ring of
+/// queries so that a pending one is never restarted. Destroy with the context current.
+class GpuTimer {
+ public:
+  GpuTimer() = default;
+  ~GpuTimer();
+  GpuTimer(const GpuTimer&) = delete;
+  GpuTimer& operator=(const GpuTimer&) = delete;
+  void begin();
+  void end();
+  /// Milliseconds of the latest finished span (0 before any).
+  double lastMs();
+
+ private:
+  static constexpr int kQueries = 4;
+  GLuint queries_[kQueries] = {};
+  bool pending_[kQueries] = {};
+  int next_ = 0;
+  double lastMs_ = 0;
+  void collect();
+};
+
 }  // namespace vellum::render::detail

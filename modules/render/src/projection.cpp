@@ -36,4 +36,29 @@ double Projection::pixelsPerMm() const {
   return width_ / extentMm;
 }
 
+std::array<double, 16> Projection::viewProjectionGl(double nearMm, double farMm) const {
+  // Rows act on (p, 1): x = right.(p - eye) / halfW, y = up.(p - eye) / halfH; perspective
+  // divides both by w = forward.(p - eye), the depth toPixel() divides by.
+  auto row = [&](const Vec3& axis, double scale) {
+    return std::array<double, 4>{axis.x * scale, axis.y * scale, axis.z * scale, -dot(axis, eye_) * scale};
+  };
+  const std::array<double, 4> depth = row(forward_, 1.0);
+  std::array<std::array<double, 4>, 4> m{row(right_, 1 / halfW_), row(up_, 1 / halfH_), {}, {}};
+  const double span = farMm - nearMm;
+  if (perspective_) {  // z_ndc = (a depth + b) / depth: -1 at near, +1 at far
+    const double a = (farMm + nearMm) / span, b = -2 * farMm * nearMm / span;
+    for (int c = 0; c < 4; ++c) m[2][c] = a * depth[c];
+    m[2][3] += b;
+    m[3] = depth;
+  } else {  // z_ndc = (2 depth - far - near) / span
+    for (int c = 0; c < 4; ++c) m[2][c] = 2 * depth[c] / span;
+    m[2][3] -= (farMm + nearMm) / span;
+    m[3] = {0, 0, 0, 1};
+  }
+  std::array<double, 16> columnMajor{};
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) columnMajor[size_t(c * 4 + r)] = m[size_t(r)][size_t(c)];
+  return columnMajor;
+}
+
 }  // namespace vellum::render

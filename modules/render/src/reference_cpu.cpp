@@ -43,6 +43,7 @@ struct Context {
   const BackwardMap* map = nullptr;
   PreparedMap prepared;  ///< the map in source index coordinates, with its snap
   const LabelTint* tint = nullptr;  ///< set when labels tint the samples
+  const OpaqueLayer* opaque = nullptr;
 };
 
 std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float, 4>& n,
@@ -68,7 +69,12 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
   for (int y = y0; y < y1; ++y)
     for (int x = 0; x < s.width; ++x) {
       const Ray ray = pixelRay(f, x, y);
-      const Clip clip = clipRay(f, ray, s.jitter ? pixelJitter(x, y) : 0.0);
+      Clip clip = clipRay(f, ray, s.jitter ? pixelJitter(x, y) : 0.0);
+      // Opaque geometry ends the ray: samples at (k + jitter) step < its distance (the shader's rule).
+      const double surfaceT = cx.opaque ? double(cx.opaque->distanceMm[size_t(y) * size_t(s.width) + size_t(x)])
+                                        : std::numeric_limits<double>::infinity();
+      const bool surface = std::isfinite(surfaceT);
+      if (surface) clip.k1 = std::min(clip.k1, int64_t(std::ceil(surfaceT / f.stepMm - clip.jitter)) - 1);
       std::array<double, 4> acc{0, 0, 0, 0};
       double maxV = -std::numeric_limits<double>::infinity();
       bool hit = false;
@@ -123,9 +129,14 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
         const double g = mipGrey(s, maxV);
         acc = {g, g, g, g};
       }
-      const double bgA = s.background[3];
+      std::array<double, 4> under{s.background[0], s.background[1], s.background[2], s.background[3]};
+      if (surface) {
+        const uint8_t* c = cx.opaque->colour.at(x, y);
+        under = {c[0] / 255.0, c[1] / 255.0, c[2] / 255.0, 1.0};
+      }
+      const double bgA = under[3];
       std::array<double, 4> out{};
-      for (int ch = 0; ch < 3; ++ch) out[ch] = acc[ch] + (1 - acc[3]) * s.background[ch] * bgA;
+      for (int ch = 0; ch < 3; ++ch) out[ch] = acc[ch] + (1 - acc[3]) * under[ch] * bgA;
       out[3] = acc[3] + (1 - acc[3]) * bgA;
       uint8_t* px = image.at(x, y);
       for (int ch = 0; ch < 4; ++ch) {
@@ -138,7 +149,7 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
 }  // namespace
 
 RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& settings,
-                             const BackwardMap* map, const LabelTint* tint) {
+                             const BackwardMap* map, const LabelTint* tint, const OpaqueLayer* opaque) {
   checkImageSize(settings.width, settings.height);
   const Geometry& g = geometryOf(volume);
   g.validate("render volume");
@@ -151,6 +162,13 @@ RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& sett
   if (tint && settings.labelBlend > 0 && settings.preset != Preset::Mip) {
     if (!(tint->ids.dims() == g.dims)) throw Error("label tint: label map does not match the volume");
     cx.tint = tint;
+  }
+  if (opaque) {
+    const size_t n = size_t(settings.width) * size_t(settings.height);
+    if (opaque->colour.width != settings.width || opaque->colour.height != settings.height || opaque->distanceMm.size() != n)
+      throw Error("opaque layer: colour and distances must be " + std::to_string(settings.width) + "x" +
+                  std::to_string(settings.height));
+    cx.opaque = opaque;
   }
   RgbaImage image(settings.width, settings.height);
   std::visit(

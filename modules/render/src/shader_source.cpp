@@ -7,6 +7,7 @@
 #include "render_common.hpp"
 #include "vellum/core/gaussian_upsampling.hpp"
 #include "vellum/render/label_tint.hpp"
+#include "vellum/render/render_target.hpp"
 
 namespace vellum::render::detail {
 namespace {
@@ -108,6 +109,9 @@ uniform float uLabelBlend;
 #endif
 #ifdef ATTRIBUTES
 uniform sampler3D uAttr;     // dL, da, db, density scale
+#endif
+#ifdef OPAQUE_DEPTH
+uniform sampler2D uOpaqueDepth;  // ray distance / OPAQUE_RANGE_MM of opaque geometry; 1: none
 #endif
 #ifdef SKIP_EMPTY
 uniform sampler3D uOccupancy;  // per block: 1 where the TF has opacity in its value range
@@ -231,9 +235,17 @@ void main() {
   bool hit = false;
 #endif
   float jitter = uJitter * pixelJitter(uint(gl_FragCoord.x), uint(uViewport.y - gl_FragCoord.y));
+#ifdef OPAQUE_DEPTH
+  // Opaque geometry ends the ray: only samples at t < its distance count (clipOpaque() on the CPU).
+  float surfaceT = texelFetch(uOpaqueDepth, ivec2(gl_FragCoord.xy), 0).r * OPAQUE_RANGE_MM;
+  bool surface = surfaceT < OPAQUE_RANGE_MM;
+#endif
   if (tmax >= tmin) {
     int k0 = int(ceil(tmin / uStep - jitter));
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
+#ifdef OPAQUE_DEPTH
+    if (surface) k1 = min(k1, int(ceil(surfaceT / uStep - jitter)) - 1);
+#endif
     for (int k = k0; k <= k1; ++k) {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
 #if defined(SKIP_EMPTY) || defined(SKIP_MIP)
@@ -322,8 +334,16 @@ void main() {
 #ifdef MODE_MIP
   if (hit) acc = vec4(clamp((maxV - uWinLo) * uWinInvWidth, 0.0, 1.0));
 #endif
+#ifdef OPAQUE_DEPTH
+  // Premultiplied, blended (ONE, ONE_MINUS_SRC_ALPHA) over the surface colour in the target.
+  if (surface) { fragColor = acc; return; }
+#endif
   vec4 outc = acc + (1.0 - acc.a) * vec4(uBackground.rgb * uBackground.a, uBackground.a);
+#ifdef OPAQUE_DEPTH
+  fragColor = vec4(min(outc.rgb, vec3(outc.a)), outc.a);  // premultiplied (blending is on)
+#else
   fragColor = outc.a > 0.0 ? vec4(min(outc.rgb / outc.a, vec3(1.0)), outc.a) : vec4(0.0);
+#endif
 }
 )GLSL";
 
@@ -344,6 +364,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.gaussian && v.deformed) s << "#define GAUSSIAN_MAP\n";
   if (v.outputBox && v.deformed) s << "#define OUTPUT_BOX\n";
   if (v.labels && !v.mip) s << "#define LABELS\n#define MAX_TINT_LABELS " << kMaxTintLabels << "\n";
+  if (v.opaqueDepth) s << "#define OPAQUE_DEPTH\n";
   if (v.snap && v.deformed) s << "#define RIGID_SNAP\n#define MAX_SNAP_BODIES " << kMaxSnapBodies << "\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
@@ -356,6 +377,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define SPECULAR " << kSpecular << "\n#define SHININESS " << kShininess << "\n";
   s << "#define OUTSIDE " << PreparedMap::kOutside << "\n";
   s << "#define GAUSS_SIGMA " << kGaussianUpsamplingSigma << "\n";
+  s << "#define OPAQUE_RANGE_MM " << kOpaqueDepthRangeMm << "\n";
   s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
   s << kFragment << kRayCommon << kFragmentMain;
   return s.str();

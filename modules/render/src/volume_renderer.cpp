@@ -23,7 +23,7 @@ namespace {
 
 enum TextureUnit : GLint {
   kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses,
-  kUnitLabels, kUnitLabelColours
+  kUnitLabels, kUnitLabelColours, kUnitOpaqueDepth
 };
 
 struct VoxelFormat {
@@ -114,6 +114,7 @@ struct VolumeRenderer::Impl {
   bool mapUploaded = false;
   std::map<int, GLuint> programs;
   double lastMs = 0;
+  GpuTimer timer;  ///< renderInto: GPU time without a stall
 
   explicit Impl(GlContext& c) : context(c) {
     context.makeCurrent();
@@ -150,6 +151,7 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uClasses"), kUnitClasses);
     glUniform1i(glGetUniformLocation(p, "uLabels"), kUnitLabels);
     glUniform1i(glGetUniformLocation(p, "uLabelColours"), kUnitLabelColours);
+    glUniform1i(glGetUniformLocation(p, "uOpaqueDepth"), kUnitOpaqueDepth);
     programs[v.key()] = p;
     return p;
   }
@@ -253,6 +255,16 @@ struct VolumeRenderer::Impl {
     checkGlError("rigid snap class upload");
   }
 
+  /// Ray casts rows [rowBegin, rowEnd) (row 0 = top) of the image `s` describes into the bound
+  /// framebuffer `fbo` (viewport = the whole image, the rest scissored away); with an opaque
+  /// depth texture, rays stop at it and the result is blended over the colour there.
+  void draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth);
+  /// The program of this frame's variant, in use, with its textures bound and the transfer
+  /// function (or MIP window) and skip grid set.
+  GLuint useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform, bool opaqueDepth);
+  /// Camera, box, step, background and value-scale uniforms.
+  void setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const;
+
   void setSnapUniforms(GLuint p) const {
     const PreparedSnap& ps = *snap;
     glActiveTexture(GL_TEXTURE0 + kUnitClasses);
@@ -274,6 +286,125 @@ struct VolumeRenderer::Impl {
     glUniform1f(glGetUniformLocation(p, "uMaxSnap2"), ps.maxSnap2);
   }
 };
+
+GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform,
+                                        bool opaqueDepth) {
+  ShaderVariant variant;
+  variant.mip = s.preset == Preset::Mip;
+  variant.shading = s.shading;
+  variant.deformed = deform != nullptr;
+  variant.attributes = deform && !deform->attributes.empty();
+  variant.gaussian = deform && deform->upsampling == MapUpsampling::Gaussian;
+  variant.snap = deform && snap.has_value();
+  variant.outputBox = deform && output.has_value();
+  variant.labels = hasLabels && s.labelBlend > 0 && !variant.mip;
+  variant.opaqueDepth = opaqueDepth;
+  const GLuint p = program(variant);
+  glUseProgram(p);
+
+  glActiveTexture(GL_TEXTURE0 + kUnitVolume);
+  glBindTexture(GL_TEXTURE_3D, volumeTex);
+  glActiveTexture(GL_TEXTURE0 + kUnitNormals);
+  glBindTexture(GL_TEXTURE_3D, normalTex);
+  if (variant.labels) {
+    glActiveTexture(GL_TEXTURE0 + kUnitLabels);
+    glBindTexture(GL_TEXTURE_3D, labelTex);
+    glActiveTexture(GL_TEXTURE0 + kUnitLabelColours);
+    glBindTexture(GL_TEXTURE_1D, labelColourTex);
+    glUniform1f(glGetUniformLocation(p, "uLabelBlend"), static_cast<float>(s.labelBlend));
+  }
+  if (variant.deformed) {
+    glActiveTexture(GL_TEXTURE0 + kUnitMap);
+    glBindTexture(GL_TEXTURE_3D, mapTex);
+    glActiveTexture(GL_TEXTURE0 + kUnitAttr);
+    glBindTexture(GL_TEXTURE_3D, attrTex);
+    if (variant.gaussian)
+      uniform3(p, "uMapNodes", {double(deform->grid.dims.x), double(deform->grid.dims.y), double(deform->grid.dims.z)});
+    if (variant.snap) setSnapUniforms(p);
+    if (variant.outputBox) {
+      uniform3(p, "uOutScale", output->scale);
+      uniform3(p, "uOutOffset", output->offset);
+      uniform3(p, "uOutDims", output->dims);
+    }
+  }
+  const SkipGrid& skip = variant.deformed ? cellSkip : blockSkip;
+  glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(skip.dims.x), GLint(skip.dims.y),
+              GLint(skip.dims.z));
+  if (variant.mip) {
+    const double width = s.windowWidth > 0 ? s.windowWidth : 1.0;
+    uniform1(p, "uWinLo", s.windowCenter - 0.5 * width);
+    uniform1(p, "uWinInvWidth", 1.0 / width);
+    glActiveTexture(GL_TEXTURE0 + kUnitBlockMax);
+    glBindTexture(GL_TEXTURE_3D, skip.maxTex);
+  } else {
+    const TfTable tf = buildTfTable(s, f.stepMm);
+    glActiveTexture(GL_TEXTURE0 + kUnitTf);
+    glBindTexture(GL_TEXTURE_1D, tfTex);
+    glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfTableSize, GL_RGBA, GL_FLOAT, tf.rgba.data());
+    uniform1(p, "uTfLo", tf.lo);
+    std::vector<uint8_t> occ = blockOccupancy(blocks, tf);
+    if (variant.deformed) occ = cellOccupancy(mapCells, occ, blocks.blocks);
+    uploadOccupancy(skip, occ);
+    glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
+    glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
+    uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
+  }
+  return p;
+}
+
+void VolumeRenderer::Impl::setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const {
+  glUniform2f(glGetUniformLocation(p, "uViewport"), float(s.width), float(s.height));
+  uniform3(p, "uEye", f.eye);
+  uniform3(p, "uRight", f.right);
+  uniform3(p, "uUp", f.up);
+  uniform3(p, "uForward", f.forward);
+  glUniform2f(glGetUniformLocation(p, "uHalf"), float(f.halfW), float(f.halfH));
+  uniform1(p, "uPersp", f.perspective ? 1.0 : 0.0);
+  float mat[9];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) mat[r * 3 + c] = float(f.physToBox(r, c));
+  glUniformMatrix3fv(glGetUniformLocation(p, "uPhysToBox"), 1, GL_TRUE, mat);
+  uniform3(p, "uBoxOrigin", f.box.origin);
+  uniform3(p, "uBoxDims", {double(f.box.dims.x), double(f.box.dims.y), double(f.box.dims.z)});
+  uniform1(p, "uStep", f.stepMm);
+  uniform1(p, "uJitter", s.jitter ? 1.0 : 0.0);
+  glUniform4f(glGetUniformLocation(p, "uBackground"), s.background[0], s.background[1],
+              s.background[2], s.background[3]);
+  uniform1(p, "uValueScale", valueScale);
+  uniform3(p, "uSourceDims",
+           {double(source.dims.x), double(source.dims.y), double(source.dims.z)});
+
+}
+
+void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth) {
+  uploadMap();
+  const BackwardMap* deform = map ? &*map : nullptr;
+  const Frame f = makeFrame(source, deform ? &deform->grid : nullptr, s);
+
+  const GLuint p = useProgram(s, f, deform, opaqueDepth != 0);
+  setFrameUniforms(p, s, f);
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+  glViewport(0, 0, s.width, s.height);
+  glDisable(GL_DEPTH_TEST);
+  if (opaqueDepth) {
+    // The volume in front of the surface (premultiplied) over the surface colour already there.
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+    glActiveTexture(GL_TEXTURE0 + kUnitOpaqueDepth);
+    glBindTexture(GL_TEXTURE_2D, opaqueDepth);
+  } else {
+    glDisable(GL_BLEND);
+  }
+  // Rows [rowBegin, rowEnd) from the top are GL rows [height - rowEnd, height - rowBegin).
+  const int glRow0 = s.height - rowEnd, rows = rowEnd - rowBegin;
+  glEnable(GL_SCISSOR_TEST);
+  glScissor(0, glRow0, s.width, rows);
+  glBindVertexArray(vao);
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glDisable(GL_SCISSOR_TEST);
+  glDisable(GL_BLEND);
+}
 
 VolumeRenderer::VolumeRenderer(GlContext& context) : impl_(std::make_unique<Impl>(context)) {}
 VolumeRenderer::~VolumeRenderer() = default;
@@ -358,109 +489,17 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
   Impl& m = *impl_;
   m.context.makeCurrent();
-  m.uploadMap();
-  const BackwardMap* map = m.map ? &*m.map : nullptr;
-  const Frame f = makeFrame(m.source, map ? &map->grid : nullptr, s);
-
-  ShaderVariant variant;
-  variant.mip = s.preset == Preset::Mip;
-  variant.shading = s.shading;
-  variant.deformed = map != nullptr;
-  variant.attributes = map && !map->attributes.empty();
-  variant.gaussian = map && map->upsampling == MapUpsampling::Gaussian;
-  variant.snap = map && m.snap.has_value();
-  variant.outputBox = map && m.output.has_value();
-  variant.labels = m.hasLabels && s.labelBlend > 0 && !variant.mip;
-  const GLuint p = m.program(variant);
   m.target.bind(s.width, s.height, "render");
-  glUseProgram(p);
-
-  glActiveTexture(GL_TEXTURE0 + kUnitVolume);
-  glBindTexture(GL_TEXTURE_3D, m.volumeTex);
-  glActiveTexture(GL_TEXTURE0 + kUnitNormals);
-  glBindTexture(GL_TEXTURE_3D, m.normalTex);
-  if (variant.labels) {
-    glActiveTexture(GL_TEXTURE0 + kUnitLabels);
-    glBindTexture(GL_TEXTURE_3D, m.labelTex);
-    glActiveTexture(GL_TEXTURE0 + kUnitLabelColours);
-    glBindTexture(GL_TEXTURE_1D, m.labelColourTex);
-    glUniform1f(glGetUniformLocation(p, "uLabelBlend"), static_cast<float>(s.labelBlend));
-  }
-  if (variant.deformed) {
-    glActiveTexture(GL_TEXTURE0 + kUnitMap);
-    glBindTexture(GL_TEXTURE_3D, m.mapTex);
-    glActiveTexture(GL_TEXTURE0 + kUnitAttr);
-    glBindTexture(GL_TEXTURE_3D, m.attrTex);
-    if (variant.gaussian)
-      uniform3(p, "uMapNodes", {double(map->grid.dims.x), double(map->grid.dims.y), double(map->grid.dims.z)});
-    if (variant.snap) m.setSnapUniforms(p);
-    if (variant.outputBox) {
-      uniform3(p, "uOutScale", m.output->scale);
-      uniform3(p, "uOutOffset", m.output->offset);
-      uniform3(p, "uOutDims", m.output->dims);
-    }
-  }
-  const SkipGrid& skip = variant.deformed ? m.cellSkip : m.blockSkip;
-  glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(skip.dims.x), GLint(skip.dims.y),
-              GLint(skip.dims.z));
-  if (variant.mip) {
-    const double width = s.windowWidth > 0 ? s.windowWidth : 1.0;
-    uniform1(p, "uWinLo", s.windowCenter - 0.5 * width);
-    uniform1(p, "uWinInvWidth", 1.0 / width);
-    glActiveTexture(GL_TEXTURE0 + kUnitBlockMax);
-    glBindTexture(GL_TEXTURE_3D, skip.maxTex);
-  } else {
-    const TfTable tf = buildTfTable(s, f.stepMm);
-    glActiveTexture(GL_TEXTURE0 + kUnitTf);
-    glBindTexture(GL_TEXTURE_1D, m.tfTex);
-    glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfTableSize, GL_RGBA, GL_FLOAT, tf.rgba.data());
-    uniform1(p, "uTfLo", tf.lo);
-    std::vector<uint8_t> occ = blockOccupancy(m.blocks, tf);
-    if (variant.deformed) occ = cellOccupancy(m.mapCells, occ, m.blocks.blocks);
-    uploadOccupancy(skip, occ);
-    glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
-    glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
-    uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
-  }
-  glUniform2f(glGetUniformLocation(p, "uViewport"), float(s.width), float(s.height));
-  uniform3(p, "uEye", f.eye);
-  uniform3(p, "uRight", f.right);
-  uniform3(p, "uUp", f.up);
-  uniform3(p, "uForward", f.forward);
-  glUniform2f(glGetUniformLocation(p, "uHalf"), float(f.halfW), float(f.halfH));
-  uniform1(p, "uPersp", f.perspective ? 1.0 : 0.0);
-  float mat[9];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) mat[r * 3 + c] = float(f.physToBox(r, c));
-  glUniformMatrix3fv(glGetUniformLocation(p, "uPhysToBox"), 1, GL_TRUE, mat);
-  uniform3(p, "uBoxOrigin", f.box.origin);
-  uniform3(p, "uBoxDims", {double(f.box.dims.x), double(f.box.dims.y), double(f.box.dims.z)});
-  uniform1(p, "uStep", f.stepMm);
-  uniform1(p, "uJitter", s.jitter ? 1.0 : 0.0);
-  glUniform4f(glGetUniformLocation(p, "uBackground"), s.background[0], s.background[1],
-              s.background[2], s.background[3]);
-  uniform1(p, "uValueScale", m.valueScale);
-  uniform3(p, "uSourceDims",
-           {double(m.source.dims.x), double(m.source.dims.y), double(m.source.dims.z)});
-
-  glBindFramebuffer(GL_FRAMEBUFFER, m.target.framebuffer());
-  glViewport(0, 0, s.width, s.height);
-  glDisable(GL_BLEND);
-  glDisable(GL_DEPTH_TEST);
-  // Rows [rowBegin, rowEnd) from the top are GL rows [height - rowEnd, height - rowBegin).
-  const int glRow0 = s.height - rowEnd, rows = rowEnd - rowBegin;
-  glEnable(GL_SCISSOR_TEST);
-  glScissor(0, glRow0, s.width, rows);
-  glBindVertexArray(m.vao);
   const auto t0 = std::chrono::steady_clock::now();
-  glDrawArrays(GL_TRIANGLES, 0, 3);
+  m.draw(s, m.target.framebuffer(), rowBegin, rowEnd, 0);
   glFinish();
-  glDisable(GL_SCISSOR_TEST);
   m.lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   checkGlError("ray casting");
 
+  const int glRow0 = s.height - rowEnd, rows = rowEnd - rowBegin;
   const size_t stride = static_cast<size_t>(s.width) * 4;
   std::vector<uint8_t> pixels(stride * static_cast<size_t>(rows));
+  glBindFramebuffer(GL_FRAMEBUFFER, m.target.framebuffer());
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
   glReadPixels(0, glRow0, s.width, rows, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
   checkGlError("glReadPixels");
@@ -469,6 +508,30 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
+void VolumeRenderer::renderInto(const RenderSettings& s, const RenderTarget& target) {
+  renderIntoRows(s, target, 0, s.height);
+}
+
+void VolumeRenderer::renderIntoRows(const RenderSettings& s, const RenderTarget& target, int rowBegin, int rowEnd) {
+  checkImageSize(s.width, s.height);
+  if (target.width != s.width || target.height != s.height)
+    throw Error("renderInto: the target is " + std::to_string(target.width) + "x" + std::to_string(target.height) +
+                ", the settings " + std::to_string(s.width) + "x" + std::to_string(s.height));
+  rowBegin = std::clamp(rowBegin, 0, s.height);
+  rowEnd = std::clamp(rowEnd, rowBegin, s.height);
+  if (rowBegin == rowEnd) return;
+  if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
+  Impl& m = *impl_;
+  m.context.makeCurrent();
+  m.timer.begin();
+  m.draw(s, target.framebuffer, rowBegin, rowEnd, target.opaqueDepth);
+  m.timer.end();
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  checkGlError("ray casting into a target");
+}
+
 double VolumeRenderer::lastRenderMs() const { return impl_->lastMs; }
+
+double VolumeRenderer::lastGpuMs() const { return impl_->timer.lastMs(); }
 
 }  // namespace vellum::render

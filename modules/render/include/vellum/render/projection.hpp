@@ -1,6 +1,7 @@
 #pragma once
 // Where physical points land in a rendered image: the renderer's own camera model, for
 // annotations (scale bars, labels, leader lines) and picking.
+#include <array>
 #include <optional>
 
 #include "vellum/core/geometry.hpp"
@@ -26,6 +27,13 @@ class Projection {
   const Vec3& screenRight() const { return right_; }
   const Vec3& screenUp() const { return up_; }
   const Vec3& viewDirection() const { return forward_; }
+  /// The eye (perspective) or the centre of the eye plane (orthographic), mm.
+  const Vec3& eye() const { return eye_; }
+  /// The same camera as a GL view-projection matrix (column-major, for glUniformMatrix4fv):
+  /// after the divide by w, GL's viewport transform puts a point at toPixel()'s pixel (GL
+  /// window x = pixel x + 0.5, window y = height - 0.5 - pixel y); z maps view depths
+  /// [nearMm, farMm] to [-1, 1]. Used by MeshRenderer, so meshes land where rays go.
+  std::array<double, 16> viewProjectionGl(double nearMm, double farMm) const;
 
  private:
   int width_ = 0, height_ = 0;

@@ -8,6 +8,7 @@
 #include "vellum/render/label_tint.hpp"
 #include "vellum/render/gl_context.hpp"
 #include "vellum/render/render_settings.hpp"
+#include "vellum/render/render_target.hpp"
 
 namespace vellum::render {
 
@@ -49,17 +50,44 @@ class VolumeRenderer {
   /// rest of the image is scissored away), so an interactive viewer can spread one
   /// full-resolution frame over several display frames.
   void renderRows(const RenderSettings& settings, int rowBegin, int rowEnd, RgbaImage& image);
+  /// Draws into a caller's framebuffer: no glFinish, no read-back (the caller displays or
+  /// reads the target). The target must be settings.width x settings.height. Without
+  /// target.opaqueDepth the pixels written are exactly render()'s. With it (the convention of
+  /// render_target.hpp), each ray keeps only the samples in front of the opaque surface
+  /// (t < its ray distance) and the volume composited from them is blended, premultiplied, over
+  /// the colour already in the target (GL_ONE, GL_ONE_MINUS_SRC_ALPHA): the surface colour
+  /// where there is geometry; elsewhere the result is render()'s composite over
+  /// settings.background, premultiplied (the same bytes for an opaque background).
+  void renderInto(const RenderSettings& settings, const RenderTarget& target);
+  /// renderInto() for rows [rowBegin, rowEnd) only (row 0 = top; the rest is scissored away):
+  /// the studio's banded refinement.
+  void renderIntoRows(const RenderSettings& settings, const RenderTarget& target, int rowBegin, int rowEnd);
   /// Milliseconds the last render() spent on the GPU side (glFinish-bounded).
   double lastRenderMs() const;
+  /// GPU milliseconds of a recent renderInto() (GL_TIME_ELAPSED, read without stalling). On
+  /// llvmpipe this misses rasterisation deferred past the query (docs/benchmarks-render.md):
+  /// time with glFinish there.
+  double lastGpuMs() const;
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
 
+/// Opaque geometry for the CPU reference, per pixel (row 0 = top, settings' size): the
+/// surface colour (alpha ignored: opaque) and the ray distance in mm (+inf: none). What a
+/// FramebufferTarget holds after the mesh pass (readColour, readRayDistanceMm).
+struct OpaqueLayer {
+  RgbaImage colour;
+  std::vector<float> distanceMm;
+};
+
 /// CPU reference ray caster: the same rays, steps, transfer function and compositing as
-/// the shaders, for tests. Slow; intended for small images.
+/// the shaders, for tests. Slow; intended for small images. With `opaque`, as renderInto()
+/// with an opaque depth: samples at t < the surface distance, then the volume over the surface
+/// colour where there is one.
 RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& settings,
-                             const BackwardMap* map = nullptr, const LabelTint* tint = nullptr);
+                             const BackwardMap* map = nullptr, const LabelTint* tint = nullptr,
+                             const OpaqueLayer* opaque = nullptr);
 
 }  // namespace vellum::render
