@@ -67,6 +67,7 @@ void StudioApp::followKeyframeCamera() {
     cam.elevationDeg = c->elevationDeg;
     cam.zoom = c->zoom;
     cam.panMm = c->panMm;
+    if (c->fieldOfViewDeg) cam.fieldOfViewDeg = *c->fieldOfViewDeg;
   }
 }
 

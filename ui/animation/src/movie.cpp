@@ -123,6 +123,7 @@ struct MovieRenderer::Impl {
       s.camera.elevationDeg = c->elevationDeg;
       s.camera.zoom = c->zoom;
       s.camera.panMm = c->panMm;
+      if (c->fieldOfViewDeg) s.camera.fieldOfViewDeg = *c->fieldOfViewDeg;
     }
     // Seamless orbit: frame f of n turns f/n of the angle (the last frame does not repeat the first).
     s.camera.azimuthDeg += spec.orbitDeg * f / (track.loop ? frames : std::max(frames - 1, 1));
