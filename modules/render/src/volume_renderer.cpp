@@ -58,6 +58,12 @@ void uniform3(GLuint p, const char* name, const Vec3& v) {
 void uniform1(GLuint p, const char* name, double v) {
   glUniform1f(glGetUniformLocation(p, name), float(v));
 }
+void uniformMat3(GLuint p, const char* name, const Mat3& m) {
+  float rows[9];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) rows[r * 3 + c] = float(m(r, c));
+  glUniformMatrix3fv(glGetUniformLocation(p, name), 1, GL_TRUE, rows);
+}
 
 /// Textures for skipping over a coarse grid (source blocks, or map cells): an R8 occupancy
 /// (rewritten per render from the transfer function) and R32F maxima (for MIP).
@@ -100,6 +106,7 @@ struct VolumeRenderer::Impl {
   std::shared_ptr<const std::vector<uint16_t>> heldClasses;
   std::optional<PreparedSnap> snap;
   std::optional<PreparedMap::OutputAxes> output;
+  Mat3 normalToSourceIndex, nodeIndexToNormal;  ///< PreparedMap's, for TURN_NORMALS
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
   MapCells mapCells;       ///< the same per map cell, when a map is set
   SkipGrid blockSkip, cellSkip;
@@ -232,6 +239,8 @@ struct VolumeRenderer::Impl {
     makeSkipTextures(cellSkip, mapCells.cells, mapCells.maxValue);
     snap = std::move(pm.snap);
     output = pm.output;
+    normalToSourceIndex = pm.normalToSourceIndex;
+    nodeIndexToNormal = pm.nodeIndexToNormal;
     mapUploaded = true;
     checkGlError("backward map upload");
   }
@@ -371,6 +380,7 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   variant.snap = map && m.snap.has_value();
   variant.outputBox = map && m.output.has_value();
   variant.labels = m.hasLabels && s.labelBlend > 0 && !variant.mip;
+  variant.turnNormals = map && s.shading && s.turnDeformedNormals && !variant.mip;
   const GLuint p = m.program(variant);
   m.target.bind(s.width, s.height, "render");
   glUseProgram(p);
@@ -394,6 +404,10 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
     if (variant.gaussian)
       uniform3(p, "uMapNodes", {double(map->grid.dims.x), double(map->grid.dims.y), double(map->grid.dims.z)});
     if (variant.snap) m.setSnapUniforms(p);
+    if (variant.turnNormals) {
+      uniformMat3(p, "uNormalToSrcIndex", m.normalToSourceIndex);
+      uniformMat3(p, "uNodeIndexToNormal", m.nodeIndexToNormal);
+    }
     if (variant.outputBox) {
       uniform3(p, "uOutScale", m.output->scale);
       uniform3(p, "uOutOffset", m.output->offset);
