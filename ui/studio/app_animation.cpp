@@ -89,6 +89,7 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   request.orbitDeg = orbitDeg;
   request.settings = renderSettingsFor(scene_, width, height);
   request.engine.params = a.engine;
+  request.engine.upsampling = scene_.view.deformedUpsampling;  // the live view's map kernel
   const deformation::RigidBodies* bodies = deform_->bodies();
   if (bodies) {
     request.engine.labels = scene_.labelsPath.string();

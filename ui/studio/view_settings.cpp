@@ -33,6 +33,10 @@ const params::Table<ViewSettings>& viewSettingsTable() {
                       {"Slice window", "width of the slices' grey-value window", "HU", 1, 10000}),
       params::real<V>("label_opacity", [](auto& v) -> auto& { return v.labelOpacity; },
                       {"Label opacity", "fill opacity of the label overlay in the slices (outlines stay opaque)", "", 0, 1}),
+      params::choice<V>("deformed_upsampling", [](auto& v) -> auto& { return v.deformedUpsampling; },
+                        {"trilinear", "gaussian"},  // deformation::parseUpsampling's names, in enum order
+                        {"Map upsampling", "how the deformed view and the movie export interpolate the map between "
+                                           "control nodes (vellum deform/animate --upsampling)", ""}),
   };
   return t;
 }
