@@ -160,15 +160,21 @@ std::array<float, 4> PreparedMap::turnNormal(const Vec3& p, const std::array<flo
   // Where shade() ignores the normal (no gradient, or one below its fade-in), skip the work.
   if (!(len > 1e-4) || !(n[3] > kGradLow)) return n;
   const double h = kNormalStepNodes;
-  const Vec3 jx = interpolated(p + Vec3{h, 0, 0}) - interpolated(p - Vec3{h, 0, 0});
-  const Vec3 jy = interpolated(p + Vec3{0, h, 0}) - interpolated(p - Vec3{0, h, 0});
-  const Vec3 jz = interpolated(p + Vec3{0, 0, h}) - interpolated(p - Vec3{0, 0, h});
+  const Vec3 jx = nodeTexture(p + Vec3{h, 0, 0}) - nodeTexture(p - Vec3{h, 0, 0});
+  const Vec3 jy = nodeTexture(p + Vec3{0, h, 0}) - nodeTexture(p - Vec3{0, h, 0});
+  const Vec3 jz = nodeTexture(p + Vec3{0, 0, h}) - nodeTexture(p - Vec3{0, 0, h});
   const Mat3 jt = Mat3::fromColumns(jx, jy, jz).transposed();  // (2h du/dp)^T; the scale cancels
   const Vec3 m = nodeIndexToNormal * (jt * (normalToSourceIndex * ns));
   const double ml = norm(m);
   if (!(ml > 0) || !std::isfinite(ml)) return n;
   const Vec3 t = m * (len / ml);
   return {float(t.x), float(t.y), float(t.z), n[3]};
+}
+
+Vec3 PreparedMap::nodeTexture(const Vec3& p) const {
+  // The Gaussian kernel's texture has one padding texel below every node.
+  const double pad = upsampling == MapUpsampling::Gaussian ? 1.0 : 0.0;
+  return trilinearClamped(index, texDims, p + Vec3{pad, pad, pad});
 }
 
 Vec3 PreparedMap::interpolated(const Vec3& p) const {

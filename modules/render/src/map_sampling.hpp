@@ -48,9 +48,14 @@ struct PreparedMap {
   /// u at p interpolated from the nodes, without the snap (mapAt() in the shader).
   Vec3 interpolated(const Vec3& p) const;
 
+  /// The node texture `index` filtered trilinearly at node index p (clamped to its texels):
+  /// the map the shading normals differentiate, one hardware fetch in the shader under either
+  /// kernel (the Gaussian kernel's 8 fetches per evaluation would make them 48).
+  Vec3 nodeTexture(const Vec3& p) const;
+
   /// Shading normals of deformed samples. The deformed volume is f(u(x)), so its gradient is
   /// J^T grad f(u) with J = du/dx: the source normal `n` (physical, sampled at u(p)) turned
-  /// into output space. J comes from central differences of the interpolated map
+  /// into output space. J comes from central differences of the node texture (nodeTexture)
   /// kNormalStepNodes either side of p (the snap is left out: inside a rigid body the node map
   /// is already that body's motion). The result keeps n's length and magnitude channel, so
   /// the shading's weak-gradient fade is the source's; the shader's deformedNormal() is its twin.

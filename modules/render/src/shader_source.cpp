@@ -164,14 +164,23 @@ vec3 mapAt(vec3 p) {
 }
 
 #ifdef TURN_NORMALS
+// Twin of PreparedMap::nodeTexture(): the node texture, hardware-filtered (either kernel).
+vec3 nodeTexture(vec3 p) {
+#ifdef GAUSSIAN_MAP
+  return texture(uMap, (p + 1.5) / (uMapNodes + 3.0)).xyz;
+#else
+  return texture(uMap, (p + 0.5) / uBoxDims).xyz;
+#endif
+}
+
 // Twin of PreparedMap::turnNormal(): the source normal at u(p) turned into output space by
-// J^T (J = du/dp by central differences of the interpolated map), keeping its length.
+// J^T (J = du/dp by central differences of the node texture), keeping its length.
 vec4 deformedNormal(vec3 p, vec4 n) {
   float len = length(n.xyz);
   if (!(len > 1e-4) || !(n.w > GRAD_LOW)) return n;
-  vec3 jx = mapAt(p + vec3(NORMAL_STEP, 0.0, 0.0)) - mapAt(p - vec3(NORMAL_STEP, 0.0, 0.0));
-  vec3 jy = mapAt(p + vec3(0.0, NORMAL_STEP, 0.0)) - mapAt(p - vec3(0.0, NORMAL_STEP, 0.0));
-  vec3 jz = mapAt(p + vec3(0.0, 0.0, NORMAL_STEP)) - mapAt(p - vec3(0.0, 0.0, NORMAL_STEP));
+  vec3 jx = nodeTexture(p + vec3(NORMAL_STEP, 0.0, 0.0)) - nodeTexture(p - vec3(NORMAL_STEP, 0.0, 0.0));
+  vec3 jy = nodeTexture(p + vec3(0.0, NORMAL_STEP, 0.0)) - nodeTexture(p - vec3(0.0, NORMAL_STEP, 0.0));
+  vec3 jz = nodeTexture(p + vec3(0.0, 0.0, NORMAL_STEP)) - nodeTexture(p - vec3(0.0, 0.0, NORMAL_STEP));
   vec3 m = uNodeIndexToNormal * (transpose(mat3(jx, jy, jz)) * (uNormalToSrcIndex * n.xyz));
   float ml = length(m);
   return ml > 0.0 ? vec4(m * (len / ml), n.w) : n;
