@@ -55,6 +55,22 @@ double catmullRom(double p0, double p1, double p2, double p3, double s) {
   return catmullRom(Vec3{p0, 0, 0}, Vec3{p1, 0, 0}, Vec3{p2, 0, 0}, Vec3{p3, 0, 0}, s).x;
 }
 
+// The field of view is held on its own: cameras without one take the previous camera's that
+// has one (leading ones the first such); when no camera has one, none gets one.
+void holdFieldOfView(std::vector<KeyframeCamera>& cams) {
+  std::optional<double> held;
+  for (const auto& c : cams)
+    if (c.fieldOfViewDeg) {
+      held = c.fieldOfViewDeg;
+      break;
+    }
+  if (!held) return;
+  for (auto& c : cams) {
+    if (c.fieldOfViewDeg) held = c.fieldOfViewDeg;
+    c.fieldOfViewDeg = held;
+  }
+}
+
 }  // namespace
 
 KeyframeTrack::Segment KeyframeTrack::segmentAt(double timeS) const {
@@ -135,6 +151,7 @@ std::optional<KeyframeCamera> KeyframeTrack::cameraAt(double timeS) const {
     if (keyframes[i].camera) held = keyframes[i].camera;
     cams[i] = *held;
   }
+  holdFieldOfView(cams);
   const Segment g = segmentAt(timeS);
   if (g.hold) return cams[static_cast<size_t>(g.a)];
   const auto &p = cams[size_t(g.p)], &a = cams[size_t(g.a)], &b = cams[size_t(g.b)], &q = cams[size_t(g.q)];
@@ -147,6 +164,9 @@ std::optional<KeyframeCamera> KeyframeTrack::cameraAt(double timeS) const {
   c.zoom = std::max(0.05, blend(p.zoom, a.zoom, b.zoom, q.zoom));
   c.panMm = interpolation == Interpolation::Smooth ? catmullRom(p.panMm, a.panMm, b.panMm, q.panMm, g.s)
                                                    : a.panMm + (b.panMm - a.panMm) * g.s;
+  if (a.fieldOfViewDeg)  // holdFieldOfView() set it on every camera or on none
+    c.fieldOfViewDeg = std::clamp(blend(*p.fieldOfViewDeg, *a.fieldOfViewDeg, *b.fieldOfViewDeg, *q.fieldOfViewDeg),
+                                  0.0, kMaxKeyframeFieldOfViewDeg);
   return c;
 }
 

@@ -108,8 +108,8 @@ void saveControlPoints(const PointFile& file, const fs::path& path) {
   writeJson(j, path);
 }
 
-/// A keyframe's "camera": {"azimuth", "elevation", "zoom", "pan": [x, y, z]} (any subset; the
-/// ranges of `vellum render`'s camera flags).
+/// A keyframe's "camera": {"azimuth", "elevation", "zoom", "pan": [x, y, z], "fov"} (any subset;
+/// the ranges of `vellum render`'s camera flags).
 static KeyframeCamera readCamera(const json& c, const fs::path& path, const std::string& where) {
   if (!c.is_object()) throw FileError(path, where + "\"camera\" must be an object");
   KeyframeCamera cam;
@@ -129,6 +129,13 @@ static KeyframeCamera readCamera(const json& c, const fs::path& path, const std:
       throw FileError(path, where + "\"camera\".\"zoom\" must be a number in 0.05..50");
     cam.zoom = v.get<double>();
   }
+  if (c.contains("fov")) {  // degrees, 0 = orthographic
+    const json& v = c.at("fov");
+    if (!v.is_number() || !(v.get<double>() >= 0 && v.get<double>() <= kMaxKeyframeFieldOfViewDeg))
+      throw FileError(path, where + "\"camera\".\"fov\" must be a number in 0.." +
+                                std::to_string(int(kMaxKeyframeFieldOfViewDeg)) + " (degrees, 0 = orthographic)");
+    cam.fieldOfViewDeg = v.get<double>();
+  }
   if (c.contains("pan")) {
     const json& v = c.at("pan");
     bool ok = v.is_array() && v.size() == 3;
@@ -137,7 +144,8 @@ static KeyframeCamera readCamera(const json& c, const fs::path& path, const std:
     cam.panMm = {v[0].get<double>(), v[1].get<double>(), v[2].get<double>()};
   }
   for (auto it = c.begin(); it != c.end(); ++it)
-    if (it.key() != "azimuth" && it.key() != "elevation" && it.key() != "zoom" && it.key() != "pan")
+    if (it.key() != "azimuth" && it.key() != "elevation" && it.key() != "zoom" && it.key() != "pan" &&
+        it.key() != "fov")
       throw FileError(path, where + "\"camera\" has an unknown key \"" + it.key() + "\"");
   return cam;
 }
@@ -189,9 +197,11 @@ void saveKeyframes(const KeyframeTrack& track, const fs::path& path) {
   json arr = json::array();
   for (const auto& kf : track.keyframes) {
     json k = {{"duration", kf.durationS}, {"points", writePoints(kf.points)}};
-    if (kf.camera)
+    if (kf.camera) {
       k["camera"] = {{"azimuth", kf.camera->azimuthDeg}, {"elevation", kf.camera->elevationDeg},
                      {"zoom", kf.camera->zoom}, {"pan", {kf.camera->panMm.x, kf.camera->panMm.y, kf.camera->panMm.z}}};
+      if (kf.camera->fieldOfViewDeg) k["camera"]["fov"] = *kf.camera->fieldOfViewDeg;
+    }
     arr.push_back(std::move(k));
   }
   writeJson({{"units", "mm"}, {"interpolation", interpolationName(track.interpolation)},

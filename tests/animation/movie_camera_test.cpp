@@ -38,8 +38,8 @@ TEST(MovieCamera, FramesFollowKeyframedCameras) {
   spec.settings.preset = render::Preset::Bone;
 
   deformation::KeyframeTrack turning;
-  turning.keyframes = {{1.0, still, deformation::KeyframeCamera{0, 0, 1, {0, 0, 0}}},
-                       {0.0, still, deformation::KeyframeCamera{90, 20, 1.5, {0, 0, 0}}}};
+  turning.keyframes = {{1.0, still, deformation::KeyframeCamera{0, 0, 1, {0, 0, 0}, std::nullopt}},
+                       {0.0, still, deformation::KeyframeCamera{90, 20, 1.5, {0, 0, 0}, std::nullopt}}};
   const auto turned = frames(ct, turning, spec);
   ASSERT_EQ(turned.size(), 3u);
 
@@ -57,4 +57,43 @@ TEST(MovieCamera, FramesFollowKeyframedCameras) {
   EXPECT_EQ(turned[1].pixels, at(45, 10, 1.25).pixels) << "half way: interpolated";
   EXPECT_EQ(turned[2].pixels, at(90, 20, 1.5).pixels);
   EXPECT_NE(turned[0].pixels, turned[2].pixels);
+}
+
+// The keyed field of view: a frame between keys is the render at the interpolated field of
+// view (the frame `vellum render --fov` makes with the same camera); cameras without one keep
+// the settings' field of view.
+TEST(MovieCamera, FramesFollowTheKeyedFieldOfView) {
+  const VolumeI16 ct = boxVolume();
+  const deformation::ControlPoints still = deformation::boxControlPoints(ct.geometry(), 16, 0.1);  // identity
+  animation::MovieSpec spec;
+  spec.fps = 2;  // frames at 0, 0.5 and 1 s
+  spec.settings.width = spec.settings.height = 96;
+  spec.settings.preset = render::Preset::Bone;
+  spec.settings.camera.fieldOfViewDeg = 50;
+  const deformation::KeyframeCamera wide{20, 10, 1, {0, 0, 0}, 80.0}, ortho{20, 10, 1, {0, 0, 0}, 0.0};
+
+  deformation::KeyframeTrack plain;
+  plain.keyframes = {{0.0, still, std::nullopt}};
+  const auto at = [&](double fov) {
+    animation::MovieSpec s = spec;
+    s.settings.camera.azimuthDeg = 20;
+    s.settings.camera.elevationDeg = 10;
+    s.settings.camera.fieldOfViewDeg = fov;
+    return frames(ct, plain, s).front();
+  };
+  deformation::KeyframeTrack zooming;
+  zooming.keyframes = {{1.0, still, wide}, {0.0, still, ortho}};
+  const auto zoomed = frames(ct, zooming, spec);
+  ASSERT_EQ(zoomed.size(), 3u);
+  EXPECT_EQ(zoomed[0].pixels, at(80).pixels);
+  EXPECT_EQ(zoomed[1].pixels, at(40).pixels) << "half way: 40 degrees";
+  EXPECT_EQ(zoomed[2].pixels, at(0).pixels) << "orthographic";
+  EXPECT_NE(zoomed[1].pixels, zoomed[0].pixels);
+  EXPECT_NE(zoomed[1].pixels, zoomed[2].pixels);
+
+  // Cameras without a field of view: the settings' 50 degrees throughout.
+  deformation::KeyframeTrack turning = zooming;
+  turning.keyframes[0].camera->fieldOfViewDeg.reset();
+  turning.keyframes[1].camera->fieldOfViewDeg.reset();
+  EXPECT_EQ(frames(ct, turning, spec)[1].pixels, at(50).pixels);
 }

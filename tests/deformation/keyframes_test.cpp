@@ -4,6 +4,7 @@
 #include <fstream>
 #include <set>
 
+#include "file_errors.hpp"
 #include "test_data.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/map_file.hpp"
@@ -262,8 +263,8 @@ TEST(Placement, LabelPointsPerConnectedPartOfALabel) {
 TEST(Keyframes, CamerasInterpolateHoldAndRoundTrip) {
   KeyframeTrack t = threeKeys(Interpolation::Linear, false);  // durations 1, 2, 3
   EXPECT_FALSE(t.cameraAt(0.5)) << "no keyframe has a camera";
-  t.keyframes[0].camera = KeyframeCamera{0, 10, 1, {0, 0, 0}};
-  t.keyframes[1].camera = KeyframeCamera{90, 30, 2, {4, 0, -2}};
+  t.keyframes[0].camera = KeyframeCamera{0, 10, 1, {0, 0, 0}, std::nullopt};
+  t.keyframes[1].camera = KeyframeCamera{90, 30, 2, {4, 0, -2}, std::nullopt};
   // Keyframe 2 has none: it holds keyframe 1's.
   const auto mid = t.cameraAt(0.5);
   ASSERT_TRUE(mid);
@@ -300,5 +301,56 @@ TEST(Keyframes, CamerasInterpolateHoldAndRoundTrip) {
       EXPECT_NE(m.find("keyframe 1"), std::string::npos) << m;
       EXPECT_NE(m.find("camera"), std::string::npos) << m;
     }
+  }
+}
+
+// Issue 11: the field of view is keyed too (dolly-zooms, perspective <-> orthographic), held
+// on its own when a keyframe's camera has none, and absent when no camera has one (the
+// render settings' field of view stays).
+TEST(Keyframes, FieldOfViewInterpolatesHoldsAndRoundTrips) {
+  KeyframeTrack t = threeKeys(Interpolation::Linear, false);  // durations 1, 2, 3
+  t.keyframes[0].camera = KeyframeCamera{0, 10, 1, {0, 0, 0}, std::nullopt};
+  t.keyframes[1].camera = KeyframeCamera{90, 30, 2, {0, 0, 0}, std::nullopt};
+  EXPECT_FALSE(t.cameraAt(0.5)->fieldOfViewDeg) << "no camera has a field of view";
+  t.keyframes[0].camera->fieldOfViewDeg = 20;
+  t.keyframes[1].camera->fieldOfViewDeg = 60;
+  EXPECT_DOUBLE_EQ(*t.cameraAt(0.25)->fieldOfViewDeg, 30);
+  EXPECT_DOUBLE_EQ(*t.cameraAt(0.5)->fieldOfViewDeg, 40);
+  EXPECT_DOUBLE_EQ(*t.cameraAt(2.0)->fieldOfViewDeg, 60) << "keyframe 2 has no camera: held";
+  EXPECT_DOUBLE_EQ(*t.cameraAt(100.0)->fieldOfViewDeg, 60) << "end hold";
+  // Keyframe 1's camera without a field of view holds keyframe 0's: 20 all the way.
+  t.keyframes[1].camera->fieldOfViewDeg.reset();
+  EXPECT_DOUBLE_EQ(*t.cameraAt(0.5)->fieldOfViewDeg, 20);
+  EXPECT_DOUBLE_EQ(t.cameraAt(0.5)->azimuthDeg, 45) << "the rest still interpolates";
+  // A leading camera without one takes the first one given; 0 (orthographic) blends too.
+  t.keyframes[0].camera->fieldOfViewDeg.reset();
+  t.keyframes[1].camera->fieldOfViewDeg = 0;
+  EXPECT_DOUBLE_EQ(*t.cameraAt(0.0)->fieldOfViewDeg, 0);
+  t.keyframes[0].camera->fieldOfViewDeg = 40;
+  t.interpolation = Interpolation::Smooth;
+  EXPECT_NEAR(*t.cameraAt(0.5)->fieldOfViewDeg, 20, 1e-9) << "Catmull-Rom through 40, 0, 0";
+
+  const auto dir = test::tempDir("keyframe-fov");
+  saveKeyframes(t, dir / "k.json");
+  const KeyframeTrack back = loadKeyframes(dir / "k.json");
+  ASSERT_EQ(back.keyframes.size(), 3u);
+  EXPECT_EQ(back.keyframes[0].camera, t.keyframes[0].camera);
+  EXPECT_EQ(back.keyframes[1].camera, t.keyframes[1].camera);
+  EXPECT_EQ(back.keyframes[1].camera->fieldOfViewDeg, 0.0);
+  t.keyframes[1].camera->fieldOfViewDeg.reset();
+  saveKeyframes(t, dir / "k2.json");
+  EXPECT_FALSE(loadKeyframes(dir / "k2.json").keyframes[1].camera->fieldOfViewDeg) << "absent stays absent";
+
+  // Bad values name the file, the keyframe and the field.
+  std::ifstream in(dir / "k.json");
+  const std::string good((std::istreambuf_iterator<char>(in)), {});
+  for (const std::string& bad : {"\"fov\": 121", "\"fov\": -1", "\"fov\": \"wide\"", "\"fov\": null"}) {
+    std::string text = good;
+    const size_t at = text.find("\"fov\": 0.0");
+    ASSERT_NE(at, std::string::npos) << text;
+    text.replace(at, std::string("\"fov\": 0.0").size(), bad);
+    const std::string m = test::fileErrorOf([](const auto& p) { loadKeyframes(p); }, dir / "bad.json", text);
+    EXPECT_NE(m.find("keyframe 1"), std::string::npos) << m;
+    EXPECT_NE(m.find("\"camera\".\"fov\""), std::string::npos) << m;
   }
 }

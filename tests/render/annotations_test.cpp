@@ -125,3 +125,48 @@ TEST(Annotations, LabelsDoNotOverlapAndLeadersEndOnTheirStructures) {
     EXPECT_NE(id, 0) << "leader ends off every structure";
   }
 }
+
+// Deformed frames: a structure's centre is its voxel nearest the centroid, and its drawn
+// position is the forward image through the backward map (here u(x) = R^T (x - c - t) + c,
+// a turn R about a tilted axis and a shift t, on an anisotropic node grid; both kernels).
+TEST(Annotations, DeformedPositionsInvertTheBackwardMap) {
+  Geometry g = cube(24, 2.0);
+  LabelVolume labels(g);
+  labels.setLabel({3, "ball", {}});
+  const Vec3 centre = g.indexToPhysical({14, 9, 11});
+  for (int64_t k = 0; k < 24; ++k)
+    for (int64_t j = 0; j < 24; ++j)
+      for (int64_t i = 0; i < 24; ++i)
+        if (norm(g.indexToPhysical({double(i), double(j), double(k)}) - centre) <= 6.5) labels(i, j, k) = 3;
+  const auto centres = structureCentres(labels, {});
+  ASSERT_EQ(centres.size(), 1u);
+  EXPECT_EQ(centres[0].id, 3);
+  EXPECT_LT(norm(centres[0].mm - centre), 1e-9);
+
+  const Vec3 c = g.center(), t{5, -3, 2}, axis = normalized(Vec3{1, 2, 3});
+  const double a = 0.5;  // radians
+  const auto turn = [&](const Vec3& v, double s) {  // Rodrigues, angle s * a about axis
+    return v * std::cos(s * a) + cross(axis, v) * std::sin(s * a) + axis * (dot(axis, v) * (1 - std::cos(s * a)));
+  };
+  BackwardMap map;
+  map.grid.dims = {14, 12, 10};
+  map.grid.spacing = {4.5, 5.0, 6.0};
+  map.grid.origin = c - Vec3{30, 28, 27};
+  for (int64_t k = 0; k < 10; ++k)
+    for (int64_t j = 0; j < 12; ++j)
+      for (int64_t i = 0; i < 14; ++i) {
+        const Vec3 u = turn(map.grid.indexToPhysical({double(i), double(j), double(k)}) - c - t, -1) + c;
+        map.sourceMm.insert(map.sourceMm.end(), {float(u.x), float(u.y), float(u.z)});
+      }
+  for (const MapUpsampling up : {MapUpsampling::Trilinear, MapUpsampling::Gaussian}) {
+    map.upsampling = up;
+    const std::vector<Vec3> points{centre, c, c + Vec3{-9, 7, 4}, c + Vec3{1000, 0, 0}};
+    const auto drawn = deformedPositions(map, g, points);
+    ASSERT_EQ(drawn.size(), 4u);
+    for (size_t p = 0; p < 3; ++p) {
+      ASSERT_TRUE(drawn[p]) << p;
+      EXPECT_LT(norm(*drawn[p] - (turn(points[p] - c, 1) + c + t)), 0.02) << p;  // a hundredth of a voxel
+    }
+    EXPECT_FALSE(drawn[3]) << "a point no output position maps to";
+  }
+}

@@ -28,15 +28,18 @@ int main(int argc, char** argv) {
   std::cout << "setVolume (upload + normal volume): " << ms(t0) << " ms\n";
   std::cout << "image " << size << "x" << size << ", step 0.5 voxel, best of " << repeats << "\n";
   const render::BackwardMap map = test::makeTwistMap(vol.geometry(), 17, true);
-  for (int mode = 0; mode < 3; ++mode)  // shaded, unshaded, shaded + deformed (17^3 twist map)
+  // shaded, unshaded, shaded + deformed (17^3 twist map), the same with the source's unturned
+  // normals (the cost of turning them by the map's Jacobian)
+  for (int mode = 0; mode < 4; ++mode)
     for (render::Preset p : render::allPresets()) {
       const bool shading = mode != 1;
-      if (!shading && p == render::Preset::Mip) continue;
-      if (mode == 2) renderer.setBackwardMap(&map);
+      if ((!shading || mode == 3) && p == render::Preset::Mip) continue;
+      if (mode >= 2) renderer.setBackwardMap(&map);
       render::RenderSettings s;
       s.preset = p;
       s.width = s.height = size;
       s.shading = shading;
+      s.turnDeformedNormals = mode != 3;
       renderer.render(s);  // compiles the program
       double best = 1e30, bestCpu = 1e30;
       for (int i = 0; i < repeats; ++i) {
@@ -46,7 +49,7 @@ int main(int argc, char** argv) {
         best = std::min(best, renderer.lastRenderMs());
       }
       std::cout << render::presetName(p) << (shading ? "" : " (no shading)")
-                << (mode == 2 ? " (deformed)" : "") << ": " << best
+                << (mode >= 2 ? " (deformed)" : "") << (mode == 3 ? " (unturned normals)" : "") << ": " << best
                 << " ms wall (GL draw + glFinish), " << bestCpu
                 << " ms CPU (whole render() incl. read-back, all threads)\n";
     }

@@ -341,4 +341,95 @@ TEST(RenderGl, LabelColoursTintTheVolume) {
   EXPECT_THROW(r.setLabelTint(&wrong), Error);
 }
 
+namespace {
+// Anisotropic voxels (1.0, 1.2, 1.5 mm) on a 48 mm cube, centred at the origin: a tilted slab
+// of bone (flat faces: its lighting shows the normals' direction) and a soft-tissue ball, all
+// within 20 mm of the superior axis, so a turn about it keeps them inside the box.
+VolumeI16 tiltedSlabVolume() {
+  Geometry g;
+  g.dims = {48, 40, 32};
+  g.spacing = {1.0, 1.2, 1.5};
+  g.origin = {-23.5, -23.4, -23.25};  // box [-24, 24] mm on every axis
+  VolumeI16 vol(g, -1000, -1000.0);
+  const Vec3 slabNormal = normalized(Vec3{1, 2, 0.5});
+  const auto ramp = [](double d) { return std::clamp(0.5 - d / 2.0, 0.0, 1.0); };  // 2 mm edges
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const Vec3 q = g.indexToPhysical({double(i), double(j), double(k)});
+        const Vec3 b = q - Vec3{-6, 4, 2};
+        const double slab = std::max({std::abs(dot(b, slabNormal)) - 4.0, std::hypot(b.x, b.y) - 14.0, std::abs(b.z) - 16.0});
+        double v = -1000 + ramp(norm(q - Vec3{8, -6, -4}) - 9.0) * 1040;  // soft tissue
+        v += ramp(slab) * (1000 - v);
+        vol(i, j, k) = int16_t(std::lround(v));
+      }
+  return vol;
+}
+
+// u(v) = R^T (v - c) + c, R = turn by `deg` about +z: the volume turned by R about the box centre
+// c (the origin). Nodes every other voxel, with the same box as the volume's (so the camera
+// frames both alike).
+BackwardMap turnAboutZ(const Geometry& volume, double deg) {
+  BackwardMap m;
+  m.grid = volume;
+  m.grid.dims = {volume.dims.x / 2, volume.dims.y / 2, volume.dims.z / 2};
+  m.grid.spacing = volume.spacing * 2.0;
+  m.grid.origin = volume.origin + volume.spacing * 0.5;
+  const double a = deg * std::numbers::pi / 180;
+  const Dims& d = m.grid.dims;
+  for (int64_t k = 0; k < d.z; ++k)
+    for (int64_t j = 0; j < d.y; ++j)
+      for (int64_t i = 0; i < d.x; ++i) {
+        const Vec3 v = m.grid.indexToPhysical({double(i), double(j), double(k)});
+        const Vec3 u{std::cos(a) * v.x + std::sin(a) * v.y, -std::sin(a) * v.x + std::cos(a) * v.y, v.z};
+        m.sourceMm.insert(m.sourceMm.end(), {float(u.x), float(u.y), float(u.z)});
+      }
+  return m;
+}
+}  // namespace
+
+// Issue 11: a deformed render shades with the normals the deformation turned. A map that
+// turns the volume 30 degrees about the superior axis looks like the plain volume seen from a
+// camera turned -30 degrees; with the source's unturned normals the lighting is clearly off.
+TEST(RenderGl, DeformedShadingTurnsNormalsWithTheMap) {
+  const VolumeI16 vol = tiltedSlabVolume();
+  BackwardMap turn = turnAboutZ(vol.geometry(), 30);
+  ASSERT_NEAR(norm(turn.grid.indexToPhysical({-0.5, -0.5, -0.5}) - vol.geometry().indexToPhysical({-0.5, -0.5, -0.5})), 0, 1e-9);
+  VolumeRenderer r(gl());
+  r.setVolume(vol);
+  RenderSettings s = baseSettings(Preset::SoftTissueBone);
+  s.camera.azimuthDeg = 40;
+  s.camera.elevationDeg = 20;
+  RenderSettings truthSettings = s;
+  truthSettings.camera.azimuthDeg = 40 - 30;
+  const RgbaImage truth = r.render(truthSettings);
+  EXPECT_GT(coverage(truth), 0.05);
+  for (const MapUpsampling up : {MapUpsampling::Trilinear, MapUpsampling::Gaussian}) {  // both reproduce a turn
+    const std::string kernel = up == MapUpsampling::Gaussian ? "gaussian" : "trilinear";
+    turn.upsampling = up;
+    r.setBackwardMap(&turn);
+    const RgbaImage turned = r.render(s);
+    s.turnDeformedNormals = false;
+    const RgbaImage unturned = r.render(s);
+    s.turnDeformedNormals = true;
+    if (std::getenv("VELLUM_DUMP")) {
+      test::writePng(truth, "/tmp/a2-truth.png");
+      test::writePng(turned, "/tmp/a2-turned.png");
+      test::writePng(unturned, "/tmp/a2-unturned.png");
+    }
+    const std::vector<uint8_t> mask = test::objectMask(truth, turned, {0, 0, 0, 255});
+    const double pTurned = test::compareImages(turned, truth, &mask).psnr;
+    const double pUnturned = test::compareImages(unturned, truth, &mask).psnr;
+    std::cout << "[ psnr ] " << kernel << ": turned map vs turned camera " << pTurned << " dB; unturned normals "
+              << pUnturned << " dB\n";
+    EXPECT_GE(pTurned, 40.0) << kernel;
+    EXPECT_LT(pUnturned, 32.0) << kernel << ": the source's normals light the turned slab as if unturned";
+    // The CPU reference turns them the same way.
+    const RgbaImage cpu = renderReferenceCpu(vol, s, &turn);
+    expectClose(turned, cpu, "turned normals, GL vs CPU, " + kernel);
+    EXPECT_GE(test::compareImages(turned, cpu).psnr, 40.0) << kernel;
+    EXPECT_GE(test::compareImages(cpu, renderReferenceCpu(vol, truthSettings), &mask).psnr, 40.0) << kernel;
+  }
+}
+
 }  // namespace vellum::render

@@ -4,8 +4,10 @@
 // against `vellum animate` on the same keyframes.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <fstream>
+#include <thread>
 #include <sstream>
 #include <string>
 
@@ -17,6 +19,7 @@
 #include "test_data.hpp"
 #include "undo.hpp"
 #include "view3d.hpp"
+#include "vellum/animation/movie.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
@@ -24,6 +27,7 @@
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 #include "vellum/render/projection.hpp"
+#include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::studio {
 namespace {
@@ -129,6 +133,55 @@ TEST(StudioAuthoringModel, SceneFileKeepsTheTrackBesideItAndNamesBadKeyframes) {
   }
 }
 
+// Issue 11: the live deformed view uses the map upsampling of the View settings; with
+// "gaussian" its frame is the frame `vellum animate --upsampling gaussian` renders (the movie
+// renderer), pixel for pixel, and differs from the trilinear one.
+TEST(StudioAuthoringModel, LiveViewUsesTheChosenUpsamplingLikeVellumAnimate) {
+  phantom::PhantomOptions o;
+  o.dims = {40, 40, 40};
+  const auto ph = phantom::makePhantom(o);
+  Scene scene;
+  scene.ct = ph.ct;
+  scene.view.deformedUpsampling = Upsampling::Gaussian;
+  Authoring& a = scene.authoring;
+  placePoints(a, boxControlPoints(ph.ct.geometry()));
+  a.editablePoints()[5].target += Vec3{6, -4, 3};
+  a.touch();
+  DeformSession session;
+  session.update(scene);
+  for (int i = 0; i < 600 && (session.solving() || session.preview()); ++i) {  // the exact map, on the worker
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    session.update(scene);
+  }
+  ASSERT_TRUE(session.map() && !session.preview());
+  EXPECT_EQ(session.map()->upsampling, render::MapUpsampling::Gaussian);
+
+  auto context = render::GlContext::createHeadless();
+  const render::RenderSettings s = renderSettingsFor(scene, 96, 80);
+  render::VolumeRenderer live(*context);
+  live.setVolume(ph.ct);
+  live.setBackwardMap(session.map());
+  const RgbaImage liveFrame = live.render(s);
+  const auto movieFrame = [&](Upsampling up) {
+    animation::MovieSpec spec;
+    spec.settings = s;
+    spec.upsampling = up;
+    animation::MovieRenderer movie(*context, ph.ct, a.track, a.engine, {}, spec);
+    return movie.renderNext();
+  };
+  EXPECT_EQ(liveFrame.pixels, movieFrame(Upsampling::Gaussian).pixels);
+  EXPECT_NE(liveFrame.pixels, movieFrame(Upsampling::Trilinear).pixels) << "the kernel changes the picture";
+  // Changing the setting re-solves: the map follows it.
+  scene.view.deformedUpsampling = Upsampling::Trilinear;
+  session.update(scene);
+  for (int i = 0; i < 600 && (session.solving() || session.preview()); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    session.update(scene);
+  }
+  ASSERT_TRUE(session.map());
+  EXPECT_EQ(session.map()->upsampling, render::MapUpsampling::Trilinear);
+}
+
 TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
   const fs::path d = test::tempDir("studio-authoring");
@@ -139,7 +192,7 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
   io::saveLabels(ph.labels, d / "labels.nrrd");
   const std::string script = R"({"actions":[
     {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
-    {"layout":"3d"},{"hud":false},
+    {"layout":"3d"},{"hud":false},{"set":{"deformed_upsampling":"gaussian"}},
     {"controls":"default"},{"save_scene":)" + q(d / "s0.json") + R"(},
     {"drag_point":{"index":4,"end":"target","by_px":[40,-30]}},{"wait_idle":true},
     {"save_scene":)" + q(d / "s1.json") + R"(},
@@ -217,6 +270,8 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
   // The studio's frames are `vellum animate`'s frames on the same keyframes, pixel for pixel.
   std::string cmd = slurp(d / "cmd.txt");
   ASSERT_NE(cmd.find("vellum animate "), std::string::npos) << cmd;
+  EXPECT_NE(cmd.find(" --upsampling gaussian"), std::string::npos) << "the live view's kernel: " << cmd;
+  EXPECT_EQ(s5.view.view.deformedUpsampling, Upsampling::Gaussian) << "saved in the scene";
   const std::string studioOut = "'" + (d / "studio/").string() + "'";
   ASSERT_NE(cmd.find(studioOut), std::string::npos) << cmd;
   cmd.replace(cmd.find(studioOut), studioOut.size(), "'" + (d / "cli/").string() + "'");

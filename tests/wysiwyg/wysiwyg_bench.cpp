@@ -1,6 +1,6 @@
 // GL frame time of the deformed render with the rigid snap and Gaussian upsampling (not a test).
 // Usage: wysiwyg_bench [phantom size, default 128] [image size, default 512] [control scale, default 2]
-//        [repeats, default 3]
+//        [repeats, default 3] [turned normals 1|0, default 1: 0 shades with the source's normals]
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
@@ -18,13 +18,15 @@ int main(int argc, char** argv) {
   const int size = argc > 2 ? std::atoi(argv[2]) : 512;
   const int scale = argc > 3 ? std::atoi(argv[3]) : 2;
   const int repeats = argc > 4 ? std::max(1, std::atoi(argv[4])) : 3;
+  const bool turnNormals = argc > 5 ? std::atoi(argv[5]) != 0 : true;
   const auto t0 = std::chrono::steady_clock::now();
   const test::BentKnee k = test::makeBentKnee(n, scale);
   std::cout << "phantom " << k.ph.ct.dims().str() << ", control grid " << k.rigid.grid.dims.str() << " (s=" << scale
             << "), bent + rigid bones in "
             << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s\n";
   auto context = render::GlContext::createHeadless();
-  std::cout << "GL: " << context->renderer() << "\nimage " << size << "x" << size << ", best of " << repeats << "\n";
+  std::cout << "GL: " << context->renderer() << "\nimage " << size << "x" << size << ", best of " << repeats
+            << (turnNormals ? ", normals turned by the map\n" : ", the source's unturned normals\n");
   render::VolumeRenderer renderer(*context);
   renderer.setVolume(AnyVolume(k.ph.ct));
   ControlVolume unsnapped = k.rigid;
@@ -39,6 +41,7 @@ int main(int argc, char** argv) {
         s.preset = p;
         s.width = s.height = size;
         s.camera.azimuthDeg = 90;
+        s.turnDeformedNormals = turnNormals;
         renderer.render(s);  // uploads the map, compiles the program
         const double firstMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - u0).count();
         double best = 1e30, bestCpu = 1e30;

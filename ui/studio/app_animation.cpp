@@ -67,6 +67,7 @@ void StudioApp::followKeyframeCamera() {
     cam.elevationDeg = c->elevationDeg;
     cam.zoom = c->zoom;
     cam.panMm = c->panMm;
+    if (c->fieldOfViewDeg) cam.fieldOfViewDeg = *c->fieldOfViewDeg;
   }
 }
 
@@ -88,6 +89,7 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   request.orbitDeg = orbitDeg;
   request.settings = renderSettingsFor(scene_, width, height);
   request.engine.params = a.engine;
+  request.engine.upsampling = scene_.view.deformedUpsampling;  // the live view's map kernel
   const deformation::RigidBodies* bodies = deform_->bodies();
   if (bodies) {
     request.engine.labels = scene_.labelsPath.string();

@@ -78,6 +78,10 @@ void moveKeyframe(Authoring& a, int index, int offset) {
   a.touch();
 }
 
+deformation::KeyframeCamera keyframeCameraOf(const render::Camera& c) {
+  return {c.azimuthDeg, c.elevationDeg, c.zoom, c.panMm, c.fieldOfViewDeg};
+}
+
 void addPoint(Authoring& a, const Vec3& mm) {
   if (!a.active()) a.track.keyframes = {deformation::Keyframe{1.0, {}}};
   for (auto& k : a.track.keyframes) k.points.push_back(ControlPoint{mm, mm, {}});

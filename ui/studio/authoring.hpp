@@ -10,6 +10,7 @@
 #include "vellum/core/label_volume.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/keyframes.hpp"
+#include "vellum/render/render_settings.hpp"
 
 namespace vellum::studio {
 
@@ -50,6 +51,8 @@ void deleteKeyframe(Authoring& a, int index);
 /// Reorders: keyframe `index` swaps its pose with its neighbour `offset` (-1 earlier, +1
 /// later) away; the durations stay with their places in the timeline. It stays the edited one.
 void moveKeyframe(Authoring& a, int index, int offset);
+/// "Key camera": the view's whole camera (field of view included) as a keyframe camera.
+deformation::KeyframeCamera keyframeCameraOf(const render::Camera& c);
 /// Adds a point (source = target = mm) to every keyframe; it becomes selected.
 void addPoint(Authoring& a, const Vec3& mm);
 void deletePoint(Authoring& a, int index);

@@ -17,7 +17,7 @@ void DeformSession::waitForSolve() {
 }
 
 DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoints& points, const RigidBodies* bodies,
-                                           double falloffMm, std::string key) {
+                                           double falloffMm, Upsampling upsampling, std::string key) {
   const auto t0 = std::chrono::steady_clock::now();
   Solved s;
   deformer.setPoints(points);
@@ -25,7 +25,7 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoin
   const auto t1 = std::chrono::steady_clock::now();
   if (bodies) applyRigidity(cv, *bodies, {falloffMm});
   s.rigidityMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
-  s.map = animation::toBackwardMap(cv, deformer.outputGeometry());
+  s.map = animation::toBackwardMap(cv, deformer.outputGeometry(), upsampling);
   s.timings = deformer.timings();
   s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   s.key = std::move(key);
@@ -74,7 +74,9 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   // Everything the map depends on.
   std::ostringstream k;
   k.precision(17);
-  k << volumeGeneration_ << ' ' << engineKey_ << ' ' << labelsRevision_ << ' ' << a.revision << ' ' << a.falloffMm;
+  const Upsampling upsampling = scene.view.deformedUpsampling;
+  k << volumeGeneration_ << ' ' << engineKey_ << ' ' << labelsRevision_ << ' ' << a.revision << ' ' << a.falloffMm
+    << ' ' << upsamplingName(upsampling);
   for (uint16_t id : rigidLabels_) k << ' ' << id;
   const std::string key = k.str();
 
@@ -94,15 +96,15 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
       p.controlScale = std::min(2 * p.controlScale, 16);  // the table's limit
       previewDeformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), p);
     }
-    adopt(solve(*previewDeformer_, a.currentPoints(), bodies_.get(), a.falloffMm, key), true);
+    adopt(solve(*previewDeformer_, a.currentPoints(), bodies_.get(), a.falloffMm, upsampling, key), true);
     previewKey_ = key;
     return true;
   }
   if (mapKey_ == key || solve_.valid()) return changed;  // up to date, or the worker is on it
   // The exact map on the worker; the inputs are copies, the deformer is the worker's until done.
   solve_ = std::async(std::launch::async, [deformer = deformer_.get(), points = a.currentPoints(), bodies = bodies_,
-                                           falloff = a.falloffMm, key] {
-    return solve(*deformer, points, bodies.get(), falloff, key);
+                                           falloff = a.falloffMm, upsampling, key] {
+    return solve(*deformer, points, bodies.get(), falloff, upsampling, key);
   });
   preview_ = true;  // the map shown (if any) is out of date until the exact one lands
   return changed;

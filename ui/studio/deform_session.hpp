@@ -23,7 +23,8 @@ class DeformSession {
   DeformSession(const DeformSession&) = delete;
   DeformSession& operator=(const DeformSession&) = delete;
 
-  /// Re-solves when the points, the volume, the engine parameters or the rigid labels changed.
+  /// Re-solves when the points, the volume, the engine parameters, the rigid labels or the
+  /// map upsampling (ViewSettings::deformedUpsampling) changed.
   /// While `interacting` (a point drag, playback) the map is solved at once on a control grid
   /// twice as coarse (s = 8, its own Deformer and rho cache), like the 3D view's
   /// reduced-resolution frames. The exact map (s = 4, what the export renders) is solved on a
@@ -55,7 +56,8 @@ class DeformSession {
   };
   /// Solves `points` on `deformer` with the rigid blend: the work of both paths.
   static Solved solve(deformation::Deformer& deformer, const deformation::ControlPoints& points,
-                      const deformation::RigidBodies* bodies, double falloffMm, std::string key);
+                      const deformation::RigidBodies* bodies, double falloffMm, deformation::Upsampling upsampling,
+                      std::string key);
   void adopt(Solved s, bool preview);
   void waitForSolve();
 

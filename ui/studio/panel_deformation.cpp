@@ -138,7 +138,7 @@ void timeline(StudioApp& app) {
       guarded(app, [&] {
         const render::Camera c = app.scene().render.camera;
         app.editTrack("keyframe camera", [k, c](Authoring& x) {
-          x.track.keyframes[size_t(k)].camera = deformation::KeyframeCamera{c.azimuthDeg, c.elevationDeg, c.zoom, c.panMm};
+          x.track.keyframes[size_t(k)].camera = keyframeCameraOf(c);
         });
       });
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("store the 3D view's camera in this keyframe (movies and playback follow it)");
@@ -147,8 +147,9 @@ void timeline(StudioApp& app) {
       if (ImGui::Button("Clear camera"))
         guarded(app, [&] { app.editTrack("clear keyframe camera", [k](Authoring& x) { x.track.keyframes[size_t(k)].camera.reset(); }); });
       ImGui::SameLine();
-      ImGui::TextDisabled("az %.0f el %.0f zoom %.2f", a.track.keyframes[size_t(k)].camera->azimuthDeg,
-                          a.track.keyframes[size_t(k)].camera->elevationDeg, a.track.keyframes[size_t(k)].camera->zoom);
+      const deformation::KeyframeCamera& kc = *a.track.keyframes[size_t(k)].camera;
+      ImGui::TextDisabled("az %.0f el %.0f zoom %.2f fov %.0f", kc.azimuthDeg, kc.elevationDeg, kc.zoom,
+                          kc.fieldOfViewDeg.value_or(app.scene().render.camera.fieldOfViewDeg));
     }
   }
   int interp = static_cast<int>(a.track.interpolation);

@@ -427,7 +427,7 @@ void expandKeyframe(Steps& s, const json& v) {
         const int k = a.scene().authoring.keyframe;
         const render::Camera c = a.scene().render.camera;
         a.editTrack("keyframe camera", [k, c](Authoring& x) {
-          x.track.keyframes[size_t(k)].camera = deformation::KeyframeCamera{c.azimuthDeg, c.elevationDeg, c.zoom, c.panMm};
+          x.track.keyframes[size_t(k)].camera = keyframeCameraOf(c);
         });
       } else if (op == "earlier" || op == "later") {
         const int k = a.scene().authoring.keyframe, by = op == "earlier" ? -1 : 1;

@@ -35,6 +35,10 @@ const params::Table<ViewSettings>& viewSettingsTable() {
                       {"Label opacity", "fill opacity of the label overlay in the slices (outlines stay opaque)", "", 0, 1}),
       params::flag<V>("meshes_3d", [](auto& v) -> auto& { return v.meshesIn3d; },
                       {"Meshes in 3D view", "draw the shape folder's segment meshes opaque in the 3D view (render presets); the volume in front of them is composited over them", ""}),
+      params::choice<V>("deformed_upsampling", [](auto& v) -> auto& { return v.deformedUpsampling; },
+                        {"trilinear", "gaussian"},  // deformation::parseUpsampling's names, in enum order
+                        {"Map upsampling", "how the deformed view and the movie export interpolate the map between "
+                                           "control nodes (vellum deform/animate --upsampling)", ""}),
   };
   return t;
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "vellum/core/params.hpp"
+#include "vellum/deformation/control_volume.hpp"
 #include "vellum/illustration/style.hpp"
 #include "vellum/render/render_settings.hpp"
 
@@ -33,9 +34,13 @@ struct ViewSettings {
   float labelOpacity = 0.4f;  ///< fill of the label overlay in the slices (outlines are opaque)
   /// The shape folder's meshes drawn opaque in the 3D view, the volume composited over them.
   bool meshesIn3d = false;
+  /// How the live deformed view and the movie export interpolate the backward map between
+  /// control nodes (`vellum deform/animate --upsampling`).
+  deformation::Upsampling deformedUpsampling = deformation::Upsampling::Trilinear;
   bool operator==(const ViewSettings&) const = default;
 };
-/// Keys: layout, slice_window_center, slice_window_width, label_opacity, meshes_3d.
+/// Keys: layout, slice_window_center, slice_window_width, label_opacity, meshes_3d,
+/// deformed_upsampling.
 const params::Table<ViewSettings>& viewSettingsTable();
 
 /// Render-table keys that are not part of a scene (the 3D view's size is the window's).

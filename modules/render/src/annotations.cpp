@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "map_sampling.hpp"
 #include "vellum/core/error.hpp"
 
 namespace vellum::render {
@@ -133,6 +134,95 @@ std::vector<StructureAnchor> structureAnchors(const LabelVolume& labels, std::ve
   }
   if (footprintOut) *footprintOut = std::move(seen);
   return anchors;
+}
+
+std::vector<StructureCentre> structureCentres(const LabelVolume& labels, std::vector<uint16_t> ids) {
+  if (ids.empty())
+    for (const Label& l : labels.table()) ids.push_back(l.id);
+  const Geometry& g = labels.geometry();
+  const Dims d = g.dims;
+  std::vector<Vec3> sum(65536, Vec3{0, 0, 0});
+  std::vector<int64_t> count(65536, 0);
+  for (int64_t k = 0; k < d.z; ++k)
+    for (int64_t j = 0; j < d.y; ++j)
+      for (int64_t i = 0; i < d.x; ++i) {
+        const uint16_t id = labels(i, j, k);
+        sum[id] += Vec3{double(i), double(j), double(k)};
+        ++count[id];
+      }
+  // The voxel nearest the centroid (index space; a second pass over the wanted ids only).
+  std::vector<double> best(65536, std::numeric_limits<double>::infinity());
+  std::vector<Vec3> nearest(65536);
+  std::vector<uint8_t> wanted(65536, 0);
+  for (uint16_t id : ids) wanted[id] = id != 0 && count[id] > 0;
+  for (int64_t k = 0; k < d.z; ++k)
+    for (int64_t j = 0; j < d.y; ++j)
+      for (int64_t i = 0; i < d.x; ++i) {
+        const uint16_t id = labels(i, j, k);
+        if (!wanted[id]) continue;
+        const Vec3 v{double(i), double(j), double(k)};
+        const Vec3 off = v - sum[id] * (1.0 / double(count[id]));
+        const double d2 = dot(off, off);
+        if (d2 < best[id]) best[id] = d2, nearest[id] = v;
+      }
+  std::vector<StructureCentre> out;
+  for (uint16_t id : ids)
+    if (wanted[id]) out.push_back({id, g.indexToPhysical(nearest[id])});
+  return out;
+}
+
+std::vector<std::optional<Vec3>> deformedPositions(const BackwardMap& map, const Geometry& source,
+                                                   const std::vector<Vec3>& sourceMm) {
+  const detail::PreparedMap pm = detail::prepareMap(map, source);
+  const Geometry& grid = map.grid;
+  const double tolerance = 0.01 * std::min({source.spacing.x, source.spacing.y, source.spacing.z});
+  const double h = detail::PreparedMap::kNormalStepNodes;
+  Mat3 mmToNode;  // output mm offsets -> node index offsets
+  const Mat3 nodeToMm = grid.direction * Mat3::fromColumns({grid.spacing.x, 0, 0}, {0, grid.spacing.y, 0},
+                                                           {0, 0, grid.spacing.z});
+  if (!nodeToMm.inverse(mmToNode)) throw Error("backward map: singular node grid geometry");
+  // u in mm at output mm x (as the renderer samples it), and du/dx (mm per mm).
+  const auto uMm = [&](const Vec3& x) { return source.indexToPhysical(pm.at(grid.physicalToIndex(x))); };
+  const auto jacobian = [&](const Vec3& x) {
+    const Vec3 q = grid.physicalToIndex(x);
+    Vec3 col[3];
+    for (int a = 0; a < 3; ++a) {
+      Vec3 e{0, 0, 0};
+      e[a] = h;
+      col[a] = (source.indexToPhysical(pm.interpolated(q + e)) - source.indexToPhysical(pm.interpolated(q - e))) *
+               (0.5 / h);
+    }
+    return Mat3::fromColumns(col[0], col[1], col[2]) * mmToNode;  // du/dq * dq/dx
+  };
+  std::vector<std::optional<Vec3>> out;
+  for (const Vec3& p : sourceMm) {
+    Vec3 x = p;
+    std::optional<Vec3> found;
+    for (int it = 0; it < 30 && !found; ++it) {
+      const Vec3 r = uMm(x) - p;
+      if (norm(r) <= tolerance) found = x;
+      Mat3 jInv;
+      if (!jacobian(x).inverse(jInv)) break;
+      x = x - jInv * r;
+    }
+    out.push_back(found);
+  }
+  return out;
+}
+
+void moveAnchorsToCentres(std::vector<StructureAnchor>& anchors, const std::vector<StructureCentre>& drawnMm,
+                          const Projection& projection, const std::vector<uint16_t>& footprint) {
+  const int w = projection.width(), h = projection.height();
+  for (StructureAnchor& a : anchors)
+    for (const StructureCentre& c : drawnMm) {
+      if (c.id != a.id) continue;
+      const auto px = projection.toPixel(c.mm);
+      if (!px) continue;
+      const int x = int(std::lround(px->x)), y = int(std::lround(px->y));
+      if (x < 0 || y < 0 || x >= w || y >= h || footprint[size_t(y) * w + x] != a.id) continue;
+      a.x = x;
+      a.y = y;
+    }
 }
 
 AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const AnnotationOptions& options,

@@ -150,6 +150,34 @@ Vec3 PreparedSnap::apply(const Vec3& p, const Vec3& u) const {
 }
 
 Vec3 PreparedMap::at(const Vec3& p) const {
+  const Vec3 u = interpolated(p);
+  return snap ? snap->apply(p, u) : u;
+}
+
+std::array<float, 4> PreparedMap::turnNormal(const Vec3& p, const std::array<float, 4>& n) const {
+  const Vec3 ns{n[0], n[1], n[2]};
+  const double len = norm(ns);
+  // Where shade() ignores the normal (no gradient, or one below its fade-in), skip the work.
+  if (!(len > 1e-4) || !(n[3] > kGradLow)) return n;
+  const double h = kNormalStepNodes;
+  const Vec3 jx = nodeTexture(p + Vec3{h, 0, 0}) - nodeTexture(p - Vec3{h, 0, 0});
+  const Vec3 jy = nodeTexture(p + Vec3{0, h, 0}) - nodeTexture(p - Vec3{0, h, 0});
+  const Vec3 jz = nodeTexture(p + Vec3{0, 0, h}) - nodeTexture(p - Vec3{0, 0, h});
+  const Mat3 jt = Mat3::fromColumns(jx, jy, jz).transposed();  // (2h du/dp)^T; the scale cancels
+  const Vec3 m = nodeIndexToNormal * (jt * (normalToSourceIndex * ns));
+  const double ml = norm(m);
+  if (!(ml > 0) || !std::isfinite(ml)) return n;
+  const Vec3 t = m * (len / ml);
+  return {float(t.x), float(t.y), float(t.z), n[3]};
+}
+
+Vec3 PreparedMap::nodeTexture(const Vec3& p) const {
+  // The Gaussian kernel's texture has one padding texel below every node.
+  const double pad = upsampling == MapUpsampling::Gaussian ? 1.0 : 0.0;
+  return trilinearClamped(index, texDims, p + Vec3{pad, pad, pad});
+}
+
+Vec3 PreparedMap::interpolated(const Vec3& p) const {
   Vec3 u;
   if (upsampling == MapUpsampling::Trilinear) {
     u = trilinearClamped(index, nodes, p);
@@ -171,7 +199,7 @@ Vec3 PreparedMap::at(const Vec3& p) const {
           u += Vec3{v[0], v[1], v[2]} * (w[0][i] * w[1][j] * w[2][k]);
         }
   }
-  return snap ? snap->apply(p, u) : u;
+  return u;
 }
 
 double PreparedMap::outputWeight(const Vec3& p) const {
@@ -195,6 +223,10 @@ PreparedMap prepareMap(const BackwardMap& map, const Geometry& source) {
     pm.index = padForGaussian(pm.index, pm.nodes, pm.texDims);
   }
   if (map.rigidSnap) pm.snap = prepareSnap(*map.rigidSnap, map.grid, source);
+  Mat3 gInv;
+  if (!indexToMm(map.grid).inverse(gInv)) throw Error("backward map: singular node grid geometry");
+  pm.normalToSourceIndex = indexToMm(source).transposed();
+  pm.nodeIndexToNormal = gInv.transposed();
   if (map.output) pm.output = outputAxes(*map.output, map.grid);
   return pm;
 }

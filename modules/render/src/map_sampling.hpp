@@ -45,6 +45,26 @@ struct PreparedMap {
 
   /// u (source index) at map node index p: interpolated, then snapped.
   Vec3 at(const Vec3& p) const;
+  /// u at p interpolated from the nodes, without the snap (mapAt() in the shader).
+  Vec3 interpolated(const Vec3& p) const;
+
+  /// The node texture `index` filtered trilinearly at node index p (clamped to its texels):
+  /// the map the shading normals differentiate, one hardware fetch in the shader under either
+  /// kernel (the Gaussian kernel's 8 fetches per evaluation would make them 48).
+  Vec3 nodeTexture(const Vec3& p) const;
+
+  /// Shading normals of deformed samples. The deformed volume is f(u(x)), so its gradient is
+  /// J^T grad f(u) with J = du/dx: the source normal `n` (physical, sampled at u(p)) turned
+  /// into output space. J comes from central differences of the node texture (nodeTexture)
+  /// kNormalStepNodes either side of p (the snap is left out: inside a rigid body the node map
+  /// is already that body's motion). The result keeps n's length and magnitude channel, so
+  /// the shading's weak-gradient fade is the source's; the shader's deformedNormal() is its twin.
+  std::array<float, 4> turnNormal(const Vec3& p, const std::array<float, 4>& n) const;
+  static constexpr double kNormalStepNodes = 0.5;
+  /// For turnNormal() and the shader: physical normal -> source index covector (S^T for
+  /// S = source index -> mm), and node index covector -> physical normal (G^-T, G = node
+  /// index -> mm).
+  Mat3 normalToSourceIndex, nodeIndexToNormal;
   /// How much of the value at p comes from the volume rather than the background: 1 inside
   /// the output voxel centres, fading to 0 one voxel beyond them, as a texture with the
   /// background as border colour fades (the synthesised volume rendered plainly).

@@ -4,8 +4,8 @@
 
 namespace vellum::render {
 
-Projection::Projection(const Geometry& volume, const RenderSettings& settings) {
-  const detail::Frame f = detail::makeFrame(volume, nullptr, settings);
+Projection::Projection(const Geometry& volume, const RenderSettings& settings, const Geometry* mapGrid) {
+  const detail::Frame f = detail::makeFrame(volume, mapGrid, settings);
   width_ = f.width;
   height_ = f.height;
   eye_ = f.eye;
@@ -15,7 +15,7 @@ Projection::Projection(const Geometry& volume, const RenderSettings& settings) {
   halfW_ = f.halfW;
   halfH_ = f.halfH;
   perspective_ = f.perspective;
-  lookAt_ = volume.center() + settings.camera.panMm;
+  lookAt_ = f.box.center() + settings.camera.panMm;  // the framed box: the volume or the map grid
 }
 
 std::optional<Vec3> Projection::toPixel(const Vec3& mm) const {

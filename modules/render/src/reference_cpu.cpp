@@ -119,7 +119,11 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
             for (int ch = 0; ch < 3; ++ch) rgb[ch] += t * (lc[ch] / 255.f - rgb[ch]);
           }
         }
-        if (s.shading) rgb = shade(rgb, cx.normals.sample(u.x, u.y, u.z), -ray.dir);
+        if (s.shading) {
+          std::array<float, 4> n = cx.normals.sample(u.x, u.y, u.z);
+          if (cx.map && s.turnDeformedNormals) n = cx.prepared.turnNormal(p, n);
+          rgb = shade(rgb, n, -ray.dir);
+        }
         const double w = (1 - acc[3]) * c[3];
         for (int ch = 0; ch < 3; ++ch) acc[ch] += w * rgb[ch];
         acc[3] += w;

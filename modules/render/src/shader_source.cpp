@@ -85,6 +85,10 @@ uniform sampler3D uNormals;
 #ifdef DEFORMED
 uniform sampler3D uMap;      // source index coordinates per map node (GAUSSIAN_MAP: padded)
 #endif
+#ifdef TURN_NORMALS
+uniform mat3 uNormalToSrcIndex;   // physical normal -> source index covector
+uniform mat3 uNodeIndexToNormal;  // map node index covector -> physical normal
+#endif
 #ifdef GAUSSIAN_MAP
 uniform vec3 uMapNodes;      // node grid dims; uMap has 1 more texel below, 2 above per axis
 #endif
@@ -162,6 +166,30 @@ vec3 mapAt(vec3 p) {
   return texture(uMap, (p + 0.5) / uBoxDims).xyz;
 #endif
 }
+
+#ifdef TURN_NORMALS
+// Twin of PreparedMap::nodeTexture(): the node texture, hardware-filtered (either kernel).
+vec3 nodeTexture(vec3 p) {
+#ifdef GAUSSIAN_MAP
+  return texture(uMap, (p + 1.5) / (uMapNodes + 3.0)).xyz;
+#else
+  return texture(uMap, (p + 0.5) / uBoxDims).xyz;
+#endif
+}
+
+// Twin of PreparedMap::turnNormal(): the source normal at u(p) turned into output space by
+// J^T (J = du/dp by central differences of the node texture), keeping its length.
+vec4 deformedNormal(vec3 p, vec4 n) {
+  float len = length(n.xyz);
+  if (!(len > 1e-4) || !(n.w > GRAD_LOW)) return n;
+  vec3 jx = nodeTexture(p + vec3(NORMAL_STEP, 0.0, 0.0)) - nodeTexture(p - vec3(NORMAL_STEP, 0.0, 0.0));
+  vec3 jy = nodeTexture(p + vec3(0.0, NORMAL_STEP, 0.0)) - nodeTexture(p - vec3(0.0, NORMAL_STEP, 0.0));
+  vec3 jz = nodeTexture(p + vec3(0.0, 0.0, NORMAL_STEP)) - nodeTexture(p - vec3(0.0, 0.0, NORMAL_STEP));
+  vec3 m = uNodeIndexToNormal * (transpose(mat3(jx, jy, jz)) * (uNormalToSrcIndex * n.xyz));
+  float ml = length(m);
+  return ml > 0.0 ? vec4(m * (len / ml), n.w) : n;
+}
+#endif
 
 #ifdef RIGID_SNAP
 // CPU synthesis' voxel snap: u in the class voxel of valid body c and R_c v + t_c within
@@ -322,7 +350,11 @@ void main() {
         }
 #endif
 #ifdef SHADING
-        c.rgb = shade(c.rgb, texture(uNormals, (u + 0.5) / uSourceDims), -dir);
+        vec4 n = texture(uNormals, (u + 0.5) / uSourceDims);
+#ifdef TURN_NORMALS
+        n = deformedNormal(p, n);
+#endif
+        c.rgb = shade(c.rgb, n, -dir);
 #endif
         acc.rgb += (1.0 - acc.a) * c.a * c.rgb;
         acc.a += (1.0 - acc.a) * c.a;
@@ -366,6 +398,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.labels && !v.mip) s << "#define LABELS\n#define MAX_TINT_LABELS " << kMaxTintLabels << "\n";
   if (v.opaqueDepth) s << "#define OPAQUE_DEPTH\n";
   if (v.snap && v.deformed) s << "#define RIGID_SNAP\n#define MAX_SNAP_BODIES " << kMaxSnapBodies << "\n";
+  if (v.turnNormals && v.deformed && v.shading && !v.mip) s << "#define TURN_NORMALS\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
   s << "#define BLOCK_SIZE " << (v.deformed ? 1 : kBlockSize) << "\n";
@@ -378,6 +411,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define OUTSIDE " << PreparedMap::kOutside << "\n";
   s << "#define GAUSS_SIGMA " << kGaussianUpsamplingSigma << "\n";
   s << "#define OPAQUE_RANGE_MM " << kOpaqueDepthRangeMm << "\n";
+  s << "#define NORMAL_STEP " << PreparedMap::kNormalStepNodes << "\n";
   s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
   s << kFragment << kRayCommon << kFragmentMain;
   return s.str();

@@ -58,6 +58,12 @@ void uniform3(GLuint p, const char* name, const Vec3& v) {
 void uniform1(GLuint p, const char* name, double v) {
   glUniform1f(glGetUniformLocation(p, name), float(v));
 }
+void uniformMat3(GLuint p, const char* name, const Mat3& m) {
+  float rows[9];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) rows[r * 3 + c] = float(m(r, c));
+  glUniformMatrix3fv(glGetUniformLocation(p, name), 1, GL_TRUE, rows);
+}
 
 /// Textures for skipping over a coarse grid (source blocks, or map cells): an R8 occupancy
 /// (rewritten per render from the transfer function) and R32F maxima (for MIP).
@@ -100,6 +106,7 @@ struct VolumeRenderer::Impl {
   std::shared_ptr<const std::vector<uint16_t>> heldClasses;
   std::optional<PreparedSnap> snap;
   std::optional<PreparedMap::OutputAxes> output;
+  Mat3 normalToSourceIndex, nodeIndexToNormal;  ///< PreparedMap's, for TURN_NORMALS
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
   MapCells mapCells;       ///< the same per map cell, when a map is set
   SkipGrid blockSkip, cellSkip;
@@ -234,6 +241,8 @@ struct VolumeRenderer::Impl {
     makeSkipTextures(cellSkip, mapCells.cells, mapCells.maxValue);
     snap = std::move(pm.snap);
     output = pm.output;
+    normalToSourceIndex = pm.normalToSourceIndex;
+    nodeIndexToNormal = pm.nodeIndexToNormal;
     mapUploaded = true;
     checkGlError("backward map upload");
   }
@@ -299,6 +308,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.outputBox = deform && output.has_value();
   variant.labels = hasLabels && s.labelBlend > 0 && !variant.mip;
   variant.opaqueDepth = opaqueDepth;
+  variant.turnNormals = deform && s.shading && s.turnDeformedNormals && !variant.mip;
   const GLuint p = program(variant);
   glUseProgram(p);
 
@@ -321,6 +331,10 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     if (variant.gaussian)
       uniform3(p, "uMapNodes", {double(deform->grid.dims.x), double(deform->grid.dims.y), double(deform->grid.dims.z)});
     if (variant.snap) setSnapUniforms(p);
+    if (variant.turnNormals) {
+      uniformMat3(p, "uNormalToSrcIndex", normalToSourceIndex);
+      uniformMat3(p, "uNodeIndexToNormal", nodeIndexToNormal);
+    }
     if (variant.outputBox) {
       uniform3(p, "uOutScale", output->scale);
       uniform3(p, "uOutOffset", output->offset);

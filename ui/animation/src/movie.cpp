@@ -50,6 +50,7 @@ struct MovieRenderer::Impl {
   MovieSpec spec;
   Geometry geometry;
   std::unique_ptr<io::VideoWriter> video;
+  std::optional<std::vector<render::StructureCentre>> centres;  ///< of spec.labels, source mm
   int frames = 0, next = 0;
   MovieResult result;
 
@@ -95,13 +96,31 @@ struct MovieRenderer::Impl {
     return out;
   }
 
-  void annotate(RgbaImage& img, const render::RenderSettings& s, const ControlVolume& cv) {
+  // Each named structure's centre where this frame draws it (the forward image of its source
+  // position through the map the renderer samples).
+  std::vector<render::StructureCentre> drawnCentres(const render::BackwardMap& map) {
+    if (!centres) centres = render::structureCentres(*spec.labels, spec.labelIds);  // source space, once
+    std::vector<Vec3> sourceMm;
+    for (const auto& c : *centres) sourceMm.push_back(c.mm);
+    const auto drawn = render::deformedPositions(map, geometry, sourceMm);
+    std::vector<render::StructureCentre> out;
+    for (size_t i = 0; i < drawn.size(); ++i)
+      if (drawn[i]) out.push_back({(*centres)[i].id, *drawn[i]});
+    return out;
+  }
+
+  void annotate(RgbaImage& img, const render::RenderSettings& s, const ControlVolume& cv,
+                const render::BackwardMap& map) {
     const auto& o = spec.annotations;
     if (!o.scaleBar && !o.orientation && !(o.labels && spec.labels)) return;
-    const render::Projection projection(geometry, s);
+    const render::Projection projection(geometry, s, &map.grid);  // framed as the renderer frames the map
     std::vector<render::StructureAnchor> anchors;
     if (o.labels && spec.labels) {
-      anchors = render::structureAnchors(deformedLabels(cv), spec.labelIds, projection, img);
+      // Which structures show and where (occlusion), from the labels pulled through the map;
+      // then each leader line ends on its structure's drawn centre when that is visible.
+      std::vector<uint16_t> footprint;
+      anchors = render::structureAnchors(deformedLabels(cv), spec.labelIds, projection, img, 30, &footprint);
+      render::moveAnchorsToCentres(anchors, drawnCentres(map), projection, footprint);
       result.anchors.push_back(anchors);
     }
     render::annotate(img, projection, o, anchors);
@@ -123,13 +142,14 @@ struct MovieRenderer::Impl {
       s.camera.elevationDeg = c->elevationDeg;
       s.camera.zoom = c->zoom;
       s.camera.panMm = c->panMm;
+      if (c->fieldOfViewDeg) s.camera.fieldOfViewDeg = *c->fieldOfViewDeg;
     }
     // Seamless orbit: frame f of n turns f/n of the angle (the last frame does not repeat the first).
     s.camera.azimuthDeg += spec.orbitDeg * f / (track.loop ? frames : std::max(frames - 1, 1));
     const auto t1 = std::chrono::steady_clock::now();
     RgbaImage img = renderer.render(s);
     result.renderMs += msSince(t1);
-    annotate(img, s, cv);
+    annotate(img, s, cv, map);
     if (video) video->addFrame(img);
     if (!spec.framesDir.empty()) {
       char name[32];

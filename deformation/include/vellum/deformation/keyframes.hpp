@@ -21,13 +21,19 @@ Interpolation parseInterpolation(const std::string& name);  ///< "linear", "smoo
 constexpr double kMaxKeyframeDurationS = 3600;  ///< one hour per keyframe
 constexpr size_t kMaxKeyframes = 10000;
 constexpr int kMaxFrames = 1000000;             ///< frames of one track at its fps
+constexpr double kMaxKeyframeFieldOfViewDeg = 120;  ///< as `vellum render --fov`
 
 /// A keyframed camera (the renderer's orbit camera: turn about the superior axis, tilt
-/// towards superior, zoom, pan in mm), for turntables and fly-arounds in movies. Azimuths are
-/// not wrapped: 0 then 360 is a whole turn.
+/// towards superior, zoom, pan in mm, vertical field of view), for turntables, fly-arounds and
+/// dolly-zooms in movies. Azimuths are not wrapped: 0 then 360 is a whole turn.
 struct KeyframeCamera {
   double azimuthDeg = 30, elevationDeg = 15, zoom = 1;
   Vec3 panMm{0, 0, 0};
+  /// Vertical field of view in degrees, 0 = orthographic (render::Camera::fieldOfViewDeg).
+  /// None: held from the previous keyframe that has one; none anywhere: the render settings'.
+  /// Blending towards 0 approaches the orthographic view continuously (the perspective camera
+  /// backs away so the volume keeps its size), so a perspective <-> orthographic change glides.
+  std::optional<double> fieldOfViewDeg;
   bool operator==(const KeyframeCamera&) const = default;
 };
 
@@ -54,6 +60,7 @@ struct KeyframeTrack {
   /// The interpolated control points at time t (s), clamped to [0, total].
   ControlPoints at(double timeS) const;
   /// The camera at time t, interpolated like the points; nullopt when no keyframe has one.
+  /// Its field of view is set when some keyframe's camera has one.
   std::optional<KeyframeCamera> cameraAt(double timeS) const;
   /// Frames at `fps`: loop -> round(total*fps) frames at f/fps; otherwise one more (the end).
   /// Throws vellum::Error over kMaxFrames.

@@ -8,8 +8,11 @@
 #include <string>
 #include <vector>
 
+#include <optional>
+
 #include "vellum/core/image.hpp"
 #include "vellum/core/label_volume.hpp"
+#include "vellum/render/backward_map.hpp"
 #include "vellum/render/projection.hpp"
 
 namespace vellum::render {
@@ -44,6 +47,27 @@ std::vector<StructureAnchor> structureAnchors(const LabelVolume& labels, std::ve
                                               const Projection& projection, const RgbaImage& rendered,
                                               int64_t minPixels = 30, std::vector<uint16_t>* footprint = nullptr,
                                               AnchorOcclusion occlusion = AnchorOcclusion::FrontMost);
+
+/// A point on each structure of `ids` (all ids of the table when empty) that stays on it: the
+/// voxel of the label nearest the label's centroid (mm). Ids without voxels are left out.
+struct StructureCentre {
+  uint16_t id = 0;
+  Vec3 mm;
+};
+std::vector<StructureCentre> structureCentres(const LabelVolume& labels, std::vector<uint16_t> ids);
+
+/// Where source points (mm) are drawn in a render deformed by `map`: the output positions x
+/// with u(x) = p for the map as the renderer samples it (interpolated, then snapped), found by
+/// Newton iterations from x = p with the map's central-difference Jacobian. nullopt where they
+/// do not reach p to within a hundredth of the source's smallest spacing.
+std::vector<std::optional<Vec3>> deformedPositions(const BackwardMap& map, const Geometry& source,
+                                                   const std::vector<Vec3>& sourceMm);
+
+/// Deformed frames: moves each anchor to where its structure's centre is drawn (`drawnMm`,
+/// by id), when that pixel belongs to the structure in `footprint` (structureAnchors'; so the
+/// leader line still ends on visible anatomy); otherwise the anchor stays where it was.
+void moveAnchorsToCentres(std::vector<StructureAnchor>& anchors, const std::vector<StructureCentre>& drawnMm,
+                          const Projection& projection, const std::vector<uint16_t>& footprint);
 
 /// Where things were drawn (for tests and reports).
 struct AnnotationLayout {

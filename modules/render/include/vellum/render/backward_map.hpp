@@ -13,8 +13,10 @@
 //   per voxel: if u lies in the class voxel of rigid body c (valid), and |R_c v + t_c - u| <=
 //   maxSnapMm, u = R_c v + t_c. The source is sampled at u with background outside it, and
 //   background also outside the `output` voxel box when that is set;
-// - shading uses the source's gradient normal at u, NOT rotated by the map's Jacobian
-//   (lighting on strongly rotated parts is approximate);
+// - shading uses the source's gradient normal at u turned by the map: n ~ J^T n_source with
+//   J = du/dv from central differences of the interpolated map half a node either side
+//   (without the snap), so rotated parts are lit as rotated (RenderSettings::
+//   turnDeformedNormals = false shades with n_source itself, the old behaviour);
 // - attributes: (dL, da, db) shift the transfer-function colour in CIE L*a*b* (D65, sRGB),
 //   density scales the optical depth: alpha' = 1 - (1 - alpha)^density. MIP ignores them.
 #include <array>

@@ -11,8 +11,9 @@ namespace vellum::render {
 
 class Projection {
  public:
-  /// The camera of `settings` around `volume` (the same frame the renderer builds).
-  Projection(const Geometry& volume, const RenderSettings& settings);
+  /// The camera of `settings` around `volume` (the same frame the renderer builds). Deformed
+  /// renders frame the backward map's node grid instead: pass it as `mapGrid`.
+  Projection(const Geometry& volume, const RenderSettings& settings, const Geometry* mapGrid = nullptr);
 
   /// Pixel coordinates (x right, y down; the centre of pixel (0,0) is at (0,0)) and the depth
   /// along the viewing direction (mm) of a physical point; nullopt behind a perspective eye.

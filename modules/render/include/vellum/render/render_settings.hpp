@@ -56,6 +56,10 @@ struct RenderSettings {
   double windowCenter = 400.0;
   double windowWidth = 2000.0;
   bool shading = true;                          ///< gradient (Blinn-Phong) shading, DVR only
+  /// Deformed renders shade with the source's normals turned by the backward map's Jacobian
+  /// (J^T grad, so bent anatomy is lit as bent). false: the source's normals as they are (the
+  /// old shading; for comparisons, not in the parameter table).
+  bool turnDeformedNormals = true;
   std::array<float, 4> background{0.f, 0.f, 0.f, 1.f};  ///< alpha 0 => transparent PNG
   double stepVoxels = 0.5;                      ///< ray step in voxels of the smallest spacing
   /// Offsets each ray's samples by a fixed per-pixel fraction of a step (an integer hash of

@@ -37,7 +37,9 @@ struct MovieSpec {
   /// Figure annotations drawn into every frame (scale bar, orientation letters, labels).
   render::AnnotationOptions annotations;
   /// With annotations.labels: the label map on the volume's grid. Each frame names the
-  /// structures where the frame's deformation has moved them (labels pulled through the map).
+  /// structures where the frame's deformation has moved them: which show, from the labels
+  /// pulled through the map; each leader line ends on the structure's centre where the frame
+  /// draws it (render::deformedPositions), framed as the renderer frames the map's grid.
   const LabelVolume* labels = nullptr;
   std::vector<uint16_t> labelIds;  ///< structures to name (empty: every id of the table)
 };
