@@ -3,6 +3,7 @@
 // cache makes target-only drags cheap: no ray casting), rigid bodies from the label map, and
 // the resulting BackwardMap for VolumeRenderer::setBackwardMap. No GL.
 #include <cstdint>
+#include <chrono>
 #include <future>
 #include <string>
 #include <memory>
@@ -36,6 +37,11 @@ class DeformSession {
   bool preview() const { return preview_; }
   /// True while the exact map is being solved on the worker.
   bool solving() const { return solve_.valid(); }
+  /// Blocks up to `timeout` for the worker's solve (no-op when none runs): the window's frame
+  /// loop waits here instead of spinning, so the solve has the cores.
+  void awaitSolve(std::chrono::milliseconds timeout) const {
+    if (solve_.valid()) solve_.wait_for(timeout);
+  }
   /// The map to draw, or nullptr (no points / identity).
   const render::BackwardMap* map() const { return map_ ? &*map_ : nullptr; }
   uint64_t mapRevision() const { return mapRevision_; }
