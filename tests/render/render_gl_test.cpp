@@ -433,3 +433,45 @@ TEST(RenderGl, DeformedShadingTurnsNormalsWithTheMap) {
 }
 
 }  // namespace vellum::render
+
+namespace vellum::render {
+
+// Where the rigid snap moves a sample, its normal turns with the snapping body exactly, not
+// with the node map's differences (which straddle rigid and blended motion near a bone's
+// surface). Here the node map is the identity and one body covering the whole volume turns it
+// 30 degrees: the positions and the lighting must both be the turned slab's.
+TEST(RenderGl, SnappedSamplesShadeWithTheirBodysTurn) {
+  const VolumeI16 vol = tiltedSlabVolume();
+  BackwardMap map = turnAboutZ(vol.geometry(), 0);  // identity nodes
+  auto snap = std::make_shared<MapRigidSnap>();
+  snap->classGrid = vol.geometry();
+  snap->classes = std::make_shared<const std::vector<uint16_t>>(static_cast<size_t>(vol.geometry().dims.voxelCount()), uint16_t{2});
+  const double a = 30 * std::numbers::pi / 180;  // u = R v as turnAboutZ(30) maps
+  snap->fits = {{std::cos(a), std::sin(a), 0, -std::sin(a), std::cos(a), 0, 0, 0, 1, 0, 0, 0}};
+  snap->valid = {1};
+  snap->maxSnapMm = 1000;
+  map.rigidSnap = snap;
+  VolumeRenderer r(gl());
+  r.setVolume(vol);
+  RenderSettings s = baseSettings(Preset::SoftTissueBone);
+  s.camera.azimuthDeg = 40;
+  s.camera.elevationDeg = 20;
+  RenderSettings truthSettings = s;
+  truthSettings.camera.azimuthDeg = 40 - 30;
+  const RgbaImage truth = r.render(truthSettings);
+  r.setBackwardMap(&map);
+  const RgbaImage snapped = r.render(s);
+  s.turnDeformedNormals = false;
+  const RgbaImage unturned = r.render(s);
+  s.turnDeformedNormals = true;
+  const std::vector<uint8_t> mask = test::objectMask(truth, snapped, {0, 0, 0, 255});
+  const double pSnapped = test::compareImages(snapped, truth, &mask).psnr;
+  const double pUnturned = test::compareImages(unturned, truth, &mask).psnr;
+  std::cout << "[ psnr ] body-turned normals vs turned camera " << pSnapped << " dB; unturned " << pUnturned << " dB\n";
+  EXPECT_GE(pSnapped, 40.0);
+  EXPECT_LT(pUnturned, 32.0) << "the identity node map alone would leave the normals unturned";
+  const RgbaImage cpu = renderReferenceCpu(vol, s, &map);
+  EXPECT_GE(test::compareImages(snapped, cpu).psnr, 40.0) << "GL vs CPU reference";
+}
+
+}  // namespace vellum::render

@@ -127,7 +127,8 @@ PreparedMap::OutputAxes outputAxes(const Geometry& out, const Geometry& grid) {
 
 }  // namespace
 
-Vec3 PreparedSnap::apply(const Vec3& p, const Vec3& u) const {
+Vec3 PreparedSnap::apply(const Vec3& p, const Vec3& u, int* snappedBody) const {
+  if (snappedBody) *snappedBody = -1;
   int64_t ci[3];
   for (int a = 0; a < 3; ++a) {
     const double x = toClass[3 * a] * u.x + toClass[3 * a + 1] * u.y + toClass[3 * a + 2] * u.z + toClass[9 + a];
@@ -146,24 +147,33 @@ Vec3 PreparedSnap::apply(const Vec3& p, const Vec3& u) const {
     const double e = deltaToMm[3 * a] * d.x + deltaToMm[3 * a + 1] * d.y + deltaToMm[3 * a + 2] * d.z;
     d2 += e * e;
   }
-  return d2 <= maxSnap2 ? s : u;
+  if (!(d2 <= maxSnap2)) return u;
+  if (snappedBody) *snappedBody = c;
+  return s;
 }
 
-Vec3 PreparedMap::at(const Vec3& p) const {
+Vec3 PreparedMap::at(const Vec3& p, int* snappedBody) const {
+  if (snappedBody) *snappedBody = -1;
   const Vec3 u = interpolated(p);
-  return snap ? snap->apply(p, u) : u;
+  return snap ? snap->apply(p, u, snappedBody) : u;
 }
 
-std::array<float, 4> PreparedMap::turnNormal(const Vec3& p, const std::array<float, 4>& n) const {
+std::array<float, 4> PreparedMap::turnNormal(const Vec3& p, const std::array<float, 4>& n, int snappedBody) const {
   const Vec3 ns{n[0], n[1], n[2]};
   const double len = norm(ns);
   // Where shade() ignores the normal (no gradient, or one below its fade-in), skip the work.
   if (!(len > 1e-4) || !(n[3] > kGradLow)) return n;
-  const double h = kNormalStepNodes;
-  const Vec3 jx = nodeTexture(p + Vec3{h, 0, 0}) - nodeTexture(p - Vec3{h, 0, 0});
-  const Vec3 jy = nodeTexture(p + Vec3{0, h, 0}) - nodeTexture(p - Vec3{0, h, 0});
-  const Vec3 jz = nodeTexture(p + Vec3{0, 0, h}) - nodeTexture(p - Vec3{0, 0, h});
-  const Mat3 jt = Mat3::fromColumns(jx, jy, jz).transposed();  // (2h du/dp)^T; the scale cancels
+  Mat3 jt;  // J^T up to a scale, which cancels
+  if (snappedBody >= 0 && snap) {  // u = M p + m: J = M, J^T's columns are M's rows
+    const auto& m = snap->body[static_cast<size_t>(snappedBody)];
+    jt = Mat3::fromColumns({m[0], m[1], m[2]}, {m[3], m[4], m[5]}, {m[6], m[7], m[8]});
+  } else {
+    const double h = kNormalStepNodes;
+    const Vec3 jx = nodeTexture(p + Vec3{h, 0, 0}) - nodeTexture(p - Vec3{h, 0, 0});
+    const Vec3 jy = nodeTexture(p + Vec3{0, h, 0}) - nodeTexture(p - Vec3{0, h, 0});
+    const Vec3 jz = nodeTexture(p + Vec3{0, 0, h}) - nodeTexture(p - Vec3{0, 0, h});
+    jt = Mat3::fromColumns(jx, jy, jz).transposed();  // (2h du/dp)^T
+  }
   const Vec3 m = nodeIndexToNormal * (jt * (normalToSourceIndex * ns));
   const double ml = norm(m);
   if (!(ml > 0) || !std::isfinite(ml)) return n;

@@ -24,8 +24,9 @@ struct PreparedSnap {
   float maxSnap2 = 0;
   double marginVoxels = 0;  ///< how far (source voxels, per axis) a snap can move u
 
-  /// u after the snap at node index p (u in source index coordinates).
-  Vec3 apply(const Vec3& p, const Vec3& u) const;
+  /// u after the snap at node index p (u in source index coordinates). `snappedBody`, when
+  /// given, receives the body that moved u, or -1.
+  Vec3 apply(const Vec3& p, const Vec3& u, int* snappedBody = nullptr) const;
 };
 
 struct PreparedMap {
@@ -43,8 +44,9 @@ struct PreparedMap {
   /// Source index far outside every volume (its value is the background).
   static constexpr double kOutside = -1.0e6;
 
-  /// u (source index) at map node index p: interpolated, then snapped.
-  Vec3 at(const Vec3& p) const;
+  /// u (source index) at map node index p: interpolated, then snapped (`snappedBody`: the
+  /// body that moved it, or -1).
+  Vec3 at(const Vec3& p, int* snappedBody = nullptr) const;
   /// u at p interpolated from the nodes, without the snap (mapAt() in the shader).
   Vec3 interpolated(const Vec3& p) const;
 
@@ -56,10 +58,12 @@ struct PreparedMap {
   /// Shading normals of deformed samples. The deformed volume is f(u(x)), so its gradient is
   /// J^T grad f(u) with J = du/dx: the source normal `n` (physical, sampled at u(p)) turned
   /// into output space. J comes from central differences of the node texture (nodeTexture)
-  /// kNormalStepNodes either side of p (the snap is left out: inside a rigid body the node map
-  /// is already that body's motion). The result keeps n's length and magnitude channel, so
-  /// the shading's weak-gradient fade is the source's; the shader's deformedNormal() is its twin.
-  std::array<float, 4> turnNormal(const Vec3& p, const std::array<float, 4>& n) const;
+  /// kNormalStepNodes either side of p; where the rigid snap moved the sample (`snappedBody`
+  /// >= 0) J is that body's linear part, exactly: near a bone's surface the node map's
+  /// differences straddle the rigid and the blended motion. The result keeps n's length and
+  /// magnitude channel, so the shading's weak-gradient fade is the source's; the shader's
+  /// deformedNormal() is its twin.
+  std::array<float, 4> turnNormal(const Vec3& p, const std::array<float, 4>& n, int snappedBody = -1) const;
   static constexpr double kNormalStepNodes = 0.5;
   /// For turnNormal() and the shader: physical normal -> source index covector (S^T for
   /// S = source index -> mm), and node index covector -> physical normal (G^-T, G = node

@@ -82,9 +82,11 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
         const Vec3 p = clip.o + clip.d * ((static_cast<double>(k) + clip.jitter) * f.stepMm);
         Vec3 u = p;
         double inside = 1.0;  // outside the output box the value fades to the background
+        int snappedBody = -1;
         if (cx.map) {
           inside = cx.prepared.outputWeight(p);
-          u = inside > 0 ? cx.prepared.at(p) : Vec3{PreparedMap::kOutside, PreparedMap::kOutside, PreparedMap::kOutside};
+          u = inside > 0 ? cx.prepared.at(p, &snappedBody)
+                         : Vec3{PreparedMap::kOutside, PreparedMap::kOutside, PreparedMap::kOutside};
         }
         double v = vol.sampleLinear(u);
         if (inside < 1.0) v = vol.background() + inside * (v - vol.background());
@@ -121,7 +123,7 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
         }
         if (s.shading) {
           std::array<float, 4> n = cx.normals.sample(u.x, u.y, u.z);
-          if (cx.map && s.turnDeformedNormals) n = cx.prepared.turnNormal(p, n);
+          if (cx.map && s.turnDeformedNormals) n = cx.prepared.turnNormal(p, n, snappedBody);
           rgb = shade(rgb, n, -ray.dir);
         }
         const double w = (1 - acc[3]) * c[3];

@@ -179,13 +179,24 @@ vec3 nodeTexture(vec3 p) {
 
 // Twin of PreparedMap::turnNormal(): the source normal at u(p) turned into output space by
 // J^T (J = du/dp by central differences of the node texture), keeping its length.
-vec4 deformedNormal(vec3 p, vec4 n) {
+// A sample the rigid snap moved (snappedBody >= 0) turns with that body exactly: J^T's
+// columns are the body's rows.
+vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
   float len = length(n.xyz);
   if (!(len > 1e-4) || !(n.w > GRAD_LOW)) return n;
-  vec3 jx = nodeTexture(p + vec3(NORMAL_STEP, 0.0, 0.0)) - nodeTexture(p - vec3(NORMAL_STEP, 0.0, 0.0));
-  vec3 jy = nodeTexture(p + vec3(0.0, NORMAL_STEP, 0.0)) - nodeTexture(p - vec3(0.0, NORMAL_STEP, 0.0));
-  vec3 jz = nodeTexture(p + vec3(0.0, 0.0, NORMAL_STEP)) - nodeTexture(p - vec3(0.0, 0.0, NORMAL_STEP));
-  vec3 m = uNodeIndexToNormal * (transpose(mat3(jx, jy, jz)) * (uNormalToSrcIndex * n.xyz));
+  mat3 jt;
+#ifdef RIGID_SNAP
+  if (snappedBody >= 0) {
+    jt = mat3(uBodyRows[3 * snappedBody].xyz, uBodyRows[3 * snappedBody + 1].xyz, uBodyRows[3 * snappedBody + 2].xyz);
+  } else
+#endif
+  {
+    vec3 jx = nodeTexture(p + vec3(NORMAL_STEP, 0.0, 0.0)) - nodeTexture(p - vec3(NORMAL_STEP, 0.0, 0.0));
+    vec3 jy = nodeTexture(p + vec3(0.0, NORMAL_STEP, 0.0)) - nodeTexture(p - vec3(0.0, NORMAL_STEP, 0.0));
+    vec3 jz = nodeTexture(p + vec3(0.0, 0.0, NORMAL_STEP)) - nodeTexture(p - vec3(0.0, 0.0, NORMAL_STEP));
+    jt = transpose(mat3(jx, jy, jz));
+  }
+  vec3 m = uNodeIndexToNormal * (jt * (uNormalToSrcIndex * n.xyz));
   float ml = length(m);
   return ml > 0.0 ? vec4(m * (len / ml), n.w) : n;
 }
@@ -194,7 +205,8 @@ vec4 deformedNormal(vec3 p, vec4 n) {
 #ifdef RIGID_SNAP
 // CPU synthesis' voxel snap: u in the class voxel of valid body c and R_c v + t_c within
 // maxSnapMm of u -> u = R_c v + t_c.
-vec3 snapRigid(vec3 p, vec3 u) {
+vec3 snapRigid(vec3 p, vec3 u, out int snappedBody) {
+  snappedBody = -1;
   vec3 c = uSrcToClass * u + uSrcToClassOffset;
   if (any(lessThanEqual(c, vec3(-0.5)))) return u;
   ivec3 ci = ivec3(floor(c + 0.5));
@@ -204,7 +216,9 @@ vec3 snapRigid(vec3 p, vec3 u) {
   vec4 p1 = vec4(p, 1.0);
   vec3 s = vec3(dot(uBodyRows[3 * body], p1), dot(uBodyRows[3 * body + 1], p1), dot(uBodyRows[3 * body + 2], p1));
   vec3 dmm = uSrcDeltaToMm * (s - u);
-  return dot(dmm, dmm) <= uMaxSnap2 ? s : u;
+  if (!(dot(dmm, dmm) <= uMaxSnap2)) return u;
+  snappedBody = body;
+  return s;
 }
 #endif
 #endif
@@ -300,8 +314,9 @@ void main() {
 #ifdef DEFORMED
       vec3 mapTc = (p + 0.5) / uBoxDims;
       vec3 u = mapAt(p);
+      int snappedBody = -1;
 #ifdef RIGID_SNAP
-      u = snapRigid(p, u);
+      u = snapRigid(p, u, snappedBody);
 #endif
 #ifdef OUTPUT_BOX
       // Beyond the output voxel centres the value fades to the background over one voxel, as
@@ -352,7 +367,7 @@ void main() {
 #ifdef SHADING
         vec4 n = texture(uNormals, (u + 0.5) / uSourceDims);
 #ifdef TURN_NORMALS
-        n = deformedNormal(p, n);
+        n = deformedNormal(p, n, snappedBody);
 #endif
         c.rgb = shade(c.rgb, n, -dir);
 #endif
