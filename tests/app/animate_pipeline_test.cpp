@@ -143,12 +143,14 @@ TEST(AnimatePipeline, AnimateArgumentsReproduceTheRequestThroughTheCli) {
   r.engine.upsampling = Upsampling::Gaussian;
   r.loop = true;
   r.settings.camera.elevationDeg = 20;
+  r.settings.camera.panMm = {6, -4, 2.5};  // a panned view (the studio's middle drag)
   app::runAnimate(r);
   app::AnimateRequest viaCli = r;
   viaCli.output = c.dir / "cli/";
   const std::string args = app::animateArguments(viaCli);
   EXPECT_NE(args.find("--control-scale 3"), std::string::npos) << args;
   EXPECT_NE(args.find("--loop=true"), std::string::npos) << args;
+  EXPECT_NE(args.find("--pan 6 -4 2.5"), std::string::npos) << args;
   runCli(splitArguments(args));
   const auto a = framesIn(c.dir / "app"), b = framesIn(c.dir / "cli");
   ASSERT_EQ(a.size(), b.size());

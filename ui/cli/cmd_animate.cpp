@@ -33,6 +33,7 @@ namespace {
 struct AnimateArgs {
   app::AnimateRequest request;  ///< the flags write here
   std::string size = "512x512";
+  std::vector<double> pan;  ///< the camera's look-at shift, mm (as `vellum render --pan`)
   InputOptions in;
   TableRemovalOptions table;
   FigureOptions figure;
@@ -61,6 +62,7 @@ void addAnimateCommand(CLI::App& app) {
   cmd->add_option("--frames", r.frames, "also write PNG frames into this folder");
   cmd->add_option("--size", a->size, "image size WxH")->capture_default_str();
   addFlags(*cmd, r.settings, render::renderSettingsTable(), {"width", "height"});
+  cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z)")->expected(3);
   addFlags(*cmd, r, app::animateRequestTable());  // --fps, --camera-orbit, --loop
   cmd->add_option("--report", r.report, "JSON report: timings and per-frame rigidity measures");
   addEngineFlags(*cmd, r.engine);
@@ -72,6 +74,7 @@ void addAnimateCommand(CLI::App& app) {
   cmd->callback([a] {
     app::AnimateRequest request = a->request;
     std::tie(request.settings.width, request.settings.height) = parseSize(a->size);
+    if (!a->pan.empty()) request.settings.camera.panMm = {a->pan[0], a->pan[1], a->pan[2]};
     request.load = a->in.toLoadOptions(nullptr);
     if (a->table.enabled) request.removeTable = a->table.params;
     request.annotations = a->figure.resolved(a->figure.wantsLabels());

@@ -74,8 +74,10 @@ std::string animateArguments(const AnimateRequest& r) {
   if (!r.frames.empty()) c << " --frames " << singleQuoted(r.frames);
   c << " --size " << r.settings.width << "x" << r.settings.height
     << params::cliArguments(animateRequestTable(), r)
-    << params::cliArguments(render::renderSettingsTable(), r.settings, {"width", "height"})
-    << params::cliArguments(deformParamsTable(), r.engine.params)
+    << params::cliArguments(render::renderSettingsTable(), r.settings, {"width", "height"});
+  if (const Vec3& pan = r.settings.camera.panMm; pan.x != 0 || pan.y != 0 || pan.z != 0)
+    c << " --pan " << pan.x << ' ' << pan.y << ' ' << pan.z;
+  c << params::cliArguments(deformParamsTable(), r.engine.params)
     << params::cliArguments(deformEngineTable(), r.engine, {"labels"});
   if (!r.engine.labels.empty()) {
     c << " --labels " << singleQuoted(r.engine.labels) << " --rigid-labels ";
