@@ -322,4 +322,34 @@ TEST(StudioAuthoringScript, PointsFromLabelsAndASliceDragStaysInTheSlicePlane) {
 }
 
 }  // namespace
+// The rigid bones are an undoable edit: the script's `rigid_labels` (the panel's checkboxes
+// make the same call) sets them and re-solves with them; Ctrl+Z restores the labels chosen
+// from the names, Ctrl+Shift+Z the edit.
+TEST(StudioAuthoringScript, RigidLabelEditsUndoAndRedo) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const fs::path d = test::tempDir("studio-authoring-rigid");
+  phantom::PhantomOptions o;
+  o.dims = {40, 40, 40};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
+  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const std::string script = R"({"actions":[
+    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+    {"layout":"3d"},{"controls":"default"},{"save_scene":)" + q(d / "a.json") + R"(},
+    {"rigid_labels":[6,4,6]},{"save_scene":)" + q(d / "b.json") + R"(},
+    {"key":"ctrl+z"},{"save_scene":)" + q(d / "c.json") + R"(},
+    {"key":"ctrl+shift+z"},{"save_scene":)" + q(d / "e.json") + R"(},{"quit":0}]})";
+  std::string log;
+  ASSERT_EQ(runStudio(d, "rigid", script, &log), 0) << log;
+  const auto rigid = [&](const char* name) { return readSceneFile(d / name).deformation->rigidLabels; };
+  EXPECT_EQ(rigid("a.json"), boneLikeLabels(ph.labels));  // chosen from the label names on open
+  EXPECT_NE(rigid("a.json"), (std::vector<uint16_t>{4, 6}));
+  EXPECT_EQ(rigid("b.json"), (std::vector<uint16_t>{4, 6}));  // sorted, each id once
+  EXPECT_EQ(rigid("c.json"), rigid("a.json"));
+  EXPECT_EQ(rigid("e.json"), (std::vector<uint16_t>{4, 6}));
+  // The control points are untouched by these edits.
+  EXPECT_EQ(readSceneFile(d / "e.json").deformation->track.keyframes[0].points,
+            readSceneFile(d / "a.json").deformation->track.keyframes[0].points);
+}
+
 }  // namespace vellum::studio

@@ -130,6 +130,11 @@ class StudioApp {
   /// While playing or scrubbing a track with keyframed cameras, the 3D view follows them.
   void followKeyframeCamera();
   void endEngineEdit();
+  /// The rigid bones (label ids kept rigid, falloff in mm) set to `labels` / `falloffMm`, one
+  /// undo step (the Deformation panel's checkboxes, the falloff slider's finished drag, the
+  /// script's `rigid_labels`). `before` is the state the step undoes to (default: now).
+  void setRigid(std::vector<uint16_t> labels, double falloffMm, const std::string& description,
+                std::optional<std::pair<std::vector<uint16_t>, double>> before = std::nullopt);
   void goToBookmark(size_t index);
   void deleteBookmark(size_t index);
   void resetView();

@@ -311,6 +311,24 @@ void StudioApp::endEngineEdit() {
   undo_.push(std::move(e));
 }
 
+void StudioApp::setRigid(std::vector<uint16_t> labels, double falloffMm, const std::string& description,
+                         std::optional<std::pair<std::vector<uint16_t>, double>> before) {
+  Authoring& a = scene_.authoring;
+  TrackEdit e;
+  e.description = description;
+  e.before = e.after = a.track;
+  e.keyframeBefore = e.keyframeAfter = a.keyframe;
+  e.engineBefore = e.engineAfter = a.engine;
+  e.rigidBefore = before ? TrackEdit::Rigid{before->first, before->second} : TrackEdit::Rigid{a.rigidLabels, a.falloffMm};
+  std::sort(labels.begin(), labels.end());
+  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
+  e.rigidAfter = TrackEdit::Rigid{labels, falloffMm};
+  a.rigidLabels = std::move(labels);
+  a.falloffMm = falloffMm;
+  a.touch();
+  undo_.push(std::move(e));
+}
+
 void StudioApp::placeControls(bool fromLabels) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   if (fromLabels && scene_.labels.ids().empty()) throw Error("no label map is open");

@@ -17,6 +17,42 @@ using deformation::Interpolation;
 
 namespace {
 
+/// The labels kept rigid (bones) and the falloff of their blend, each change one undo step.
+void rigidBones(StudioApp& app) {
+  Authoring& a = app.scene().authoring;
+  std::string rigid;
+  for (uint16_t id : a.rigidLabels) rigid += (rigid.empty() ? "" : ",") + std::to_string(id);
+  const bool open = ImGui::TreeNode("rigid", "Rigid labels: %s", rigid.empty() ? "none" : rigid.c_str());
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("labels kept rigid (bones); initially those whose names say bone");
+  if (open) {
+    for (const Label& l : app.scene().labels.table()) {
+      bool on = std::find(a.rigidLabels.begin(), a.rigidLabels.end(), l.id) != a.rigidLabels.end();
+      const std::string text = std::to_string(l.id) + " " + l.name;
+      if (ImGui::Checkbox(text.c_str(), &on)) {
+        std::vector<uint16_t> ids = a.rigidLabels;
+        if (on) ids.push_back(l.id);
+        else ids.erase(std::remove(ids.begin(), ids.end(), l.id), ids.end());
+        app.setRigid(std::move(ids), a.falloffMm, on ? "rigid label on" : "rigid label off");
+      }
+    }
+    if (app.scene().labels.table().empty()) ImGui::TextDisabled("no label table");
+    ImGui::TreePop();
+  }
+  // The falloff re-solves live while dragged and is recorded once, when the drag ends.
+  static std::optional<std::pair<std::vector<uint16_t>, double>> dragStart;
+  float falloff = float(a.falloffMm);
+  const bool changed = ImGui::SliderFloat("Rigid falloff mm", &falloff, 1.f, 40.f, "%.1f");
+  if (ImGui::IsItemActivated()) dragStart = std::make_pair(a.rigidLabels, a.falloffMm);
+  if (changed) {
+    a.falloffMm = falloff;
+    a.touch();
+  }
+  if (ImGui::IsItemDeactivatedAfterEdit() && dragStart) {
+    app.setRigid(a.rigidLabels, a.falloffMm, "rigid falloff", dragStart);
+    dragStart.reset();
+  }
+}
+
 void pointsRow(StudioApp& app) {
   Scene& s = app.scene();
   Authoring& a = s.authoring;
@@ -46,15 +82,7 @@ void pointsRow(StudioApp& app) {
     ImGui::Text("   L %+.0f a %+.0f b %+.0f density %.2f", p.attributes.lightness, p.attributes.a, p.attributes.b,
                 p.attributes.density);
   }
-  std::string rigid;
-  for (uint16_t id : a.rigidLabels) rigid += (rigid.empty() ? "" : ",") + std::to_string(id);
-  ImGui::Text("Rigid labels: %s", rigid.empty() ? "none" : rigid.c_str());
-  if (ImGui::IsItemHovered()) ImGui::SetTooltip("label ids kept rigid (bones), from the label names");
-  float falloff = float(a.falloffMm);
-  if (ImGui::SliderFloat("Rigid falloff mm", &falloff, 1.f, 40.f, "%.1f")) {
-    a.falloffMm = falloff;
-    a.touch();
-  }
+  rigidBones(app);
   if (ImGui::TreeNode("Engine (vellum deform)")) {
     // Generated from the engine's parameter table (the flags of `vellum deform` / `animate`).
     const deformation::DeformParams before = a.engine;

@@ -486,11 +486,8 @@ void expandExportMovie(Steps& s, const json& v) {
 }
 
 void expandRigidLabels(Steps& s, const json& v) {
-  std::vector<uint16_t> ids = v.get<std::vector<uint16_t>>();
-  s.once([ids](StudioApp& a) {
-    a.scene().authoring.rigidLabels = ids;
-    a.scene().authoring.touch();
-  });
+  const std::vector<uint16_t> ids = v.get<std::vector<uint16_t>>();
+  s.once([ids](StudioApp& a) { a.setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
 }
 
 void expandQuit(Steps& s, const json& v) {

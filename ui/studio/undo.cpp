@@ -80,6 +80,10 @@ void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* author
   authoring->track = forward ? t.after : t.before;
   authoring->keyframe = forward ? t.keyframeAfter : t.keyframeBefore;
   authoring->engine = forward ? t.engineAfter : t.engineBefore;
+  if (const auto& rigid = forward ? t.rigidAfter : t.rigidBefore) {
+    authoring->rigidLabels = rigid->labels;
+    authoring->falloffMm = rigid->falloffMm;
+  }
   authoring->timeS.reset();
   authoring->playing = false;
   const int n = authoring->active() ? int(authoring->track.keyframes.front().points.size()) : 0;

@@ -3,6 +3,7 @@
 // new ids are each constant (a threshold or a brush stroke is a few thousand runs, not a
 // copy of the 256³ label map), plus the label table before and after.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -44,6 +45,12 @@ struct TrackEdit {
   int keyframeBefore = 0, keyframeAfter = 0;
   /// The engine parameters (Deformation panel) before and after.
   deformation::DeformParams engineBefore = studioDeformParams(), engineAfter = studioDeformParams();
+  /// The rigid bones (label ids, falloff) before and after; unset: this edit left them alone.
+  struct Rigid {
+    std::vector<uint16_t> labels;
+    double falloffMm = 10;
+  };
+  std::optional<Rigid> rigidBefore, rigidAfter;
   size_t bytes() const;
 };
 
