@@ -55,7 +55,9 @@ case "$cmd" in
     shift
     build -DVELLUM_BUILD_TESTS=ON "$@"
     # Under Xvfb so that the GLFW window tests run too (headless EGL tests need no display).
-    xvfb-run -a ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" -LE long
+    # CTEST_ARGS: extra ctest arguments (the CI's sanitizer run passes a retry, see .ci/run).
+    # shellcheck disable=SC2086
+    xvfb-run -a ctest --test-dir "$BUILD_DIR" --output-on-failure -j "$JOBS" -LE long ${CTEST_ARGS:-}
     ;;
   *) echo "usage: scripts/setup.sh demo [OUT_DIR] | test | deps" >&2; exit 2 ;;
 esac

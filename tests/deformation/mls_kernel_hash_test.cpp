@@ -44,6 +44,11 @@ bool fastCloneRuns() { return __builtin_cpu_supports("avx2") && __builtin_cpu_su
 
 TEST(MlsKernelBits, ControlVolumesHashAsRecorded) {
   if (!fastCloneRuns()) GTEST_SKIP() << "hashes recorded on AVX2+FMA; this CPU runs the default clone";
+#ifndef __OPTIMIZE__
+  // Unoptimised builds (the Debug sanitizer suite) do not fuse multiply-adds as -O2 does, so
+  // their last bits differ: the hashes hold for optimised builds only.
+  GTEST_SKIP() << "hashes recorded in an optimised build";
+#endif
   struct Case {
     const char* name;
     void (*configure)(DeformParams&);
