@@ -9,14 +9,18 @@
 #include <sstream>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "image_compare.hpp"
 #include "label_tools.hpp"
+#include "layout.hpp"
 #include "scene_file.hpp"
 #include "test_data.hpp"
 #include "view3d.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
+#include "vellum/illustration/curve_analogy.hpp"
 #include "vellum/illustration/shape.hpp"
 #include "vellum/render/projection.hpp"
 #include "vellum/render/volume_renderer.hpp"
@@ -392,6 +396,82 @@ TEST(StudioScript, MeshesInThe3dViewShareItsDepth) {
   EXPECT_GT(blueOn, blueOff + 40) << "the blue femur mesh shows where it projects";
   EXPECT_GT(farPixels, 20000);
   EXPECT_EQ(farDiffer, 0) << "far from the meshes the view is the meshes-off one";
+}
+
+// Issue 10 §2: curve analogy by drawing. C0 is traced with the mouse over the 3D view (the
+// skin's projected outline, widened); Apply bends the skin (carrying the bone) into a new shape
+// folder that becomes the scene's shapes; undo and redo swap the folders; the result is what
+// `vellum curve-analogy` makes from the same C0, view and segments.
+TEST(StudioScript, CurveAnalogyByTracingMatchesTheCliAndUndoes) {
+  REQUIRE_DISPLAY();
+  const auto dir = test::tempDir("studio-curve");
+  writePhantom(dir);
+  ASSERT_EQ(runCli(dir, "shape", "shape \"" + (dir / "ct.nrrd").string() + "\" --labels \"" + (dir / "labels.nrrd").string() +
+                                     "\" --segment skin=1,2,3,4,5,6,7,8,9,10,11 --segment bone=4,5,6,7,8,9,11 --out \"" +
+                                     (dir / "shape").string() + "\""),
+            0);
+  const std::string opening = R"({"open":{"path":)" + q(dir / "ct.nrrd") + R"(,"labels":)" + q(dir / "labels.nrrd") +
+                              R"(}},{"layout":"3d"},{"shapes":)" + q(dir / "shape") + R"(},)";
+  // The camera the studio opens with (saved), in the plate view Trace switches to.
+  StudioRun r = runStudio(dir, "camera", "{\"actions\":[" + opening + R"({"save_scene":)" + q(dir / "s0.json") + R"(},{"quit":0}]})");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  Scene scene;
+  applySceneView(readSceneFile(dir / "s0.json"), scene);
+  const Pane pane = layoutPanes(Layout::ThreeD, {kToolPanelWidth, 0, 1024 - kToolPanelWidth, 700}).front();
+  const int w = int(pane.rect.w), h = int(pane.rect.h);
+  render::RenderSettings view = renderSettingsFor(scene, w, h);
+  view.camera.fieldOfViewDeg = 0;
+  view.camera.zoom = 1;
+  view.camera.panMm = {0, 0, 0};
+  const Geometry grid = geometryOf(io::loadVolume(dir / "ct.nrrd").volume);
+  const illustration::Polyline2 outline =
+      illustration::projectedOutline(illustration::loadMesh(dir / "shape" / "meshes" / "skin.ply"), render::Projection(grid, view));
+  ASSERT_GT(outline.size(), 20u);
+  // C0: the outline 8 % wider about its centre (a fuller leg), every few points, whole pixels.
+  double cx = 0;
+  for (const auto& p : outline) cx += p.x / double(outline.size());
+  illustration::Polyline2 c0;
+  std::string trace;
+  for (size_t i = 0; i < outline.size(); i += std::max<size_t>(1, outline.size() / 60)) {
+    const illustration::Point2 p{std::round(cx + 1.08 * (outline[i].x - cx)), std::round(outline[i].y)};
+    if (!c0.empty() && p.x == c0.back().x && p.y == c0.back().y) continue;
+    c0.push_back(p);
+    trace += (trace.empty() ? "[" : ",[") + std::to_string(pane.rect.x + p.x) + "," + std::to_string(pane.rect.y + p.y) + "]";
+  }
+  const std::string script = "{\"actions\":[" + opening + R"({"curve_analogy":{"segment":"skin","transfer":["bone"],"trace":[)" +
+                             trace + R"(]}},{"save_scene":)" + q(dir / "a.json") + R"(},
+    {"key":"ctrl+z"},{"wait_idle":true},{"save_scene":)" + q(dir / "b.json") + R"(},
+    {"key":"ctrl+shift+z"},{"wait_idle":true},{"save_scene":)" + q(dir / "c.json") + R"(},{"quit":0}]})";
+  r = runStudio(dir, "curve", script);
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  const fs::path bent = dir / "shape-curve-1";
+  EXPECT_EQ(fs::weakly_canonical(readSceneFile(dir / "a.json").shapes), fs::weakly_canonical(bent));
+  EXPECT_EQ(fs::weakly_canonical(readSceneFile(dir / "b.json").shapes), fs::weakly_canonical(dir / "shape"));
+  EXPECT_EQ(fs::weakly_canonical(readSceneFile(dir / "c.json").shapes), fs::weakly_canonical(bent));
+  const nlohmann::json studio = nlohmann::json::parse(std::ifstream(bent / "shape.json"))["curve_analogy"];
+  EXPECT_EQ(studio["c0"], "studio trace");
+  EXPECT_EQ(studio["moved"], nlohmann::json({"skin", "bone"}));
+  EXPECT_LT(studio["hausdorff_after_px"].get<double>(), studio["hausdorff_before_px"].get<double>());
+  std::cout << "[ curve ] Hausdorff " << studio["hausdorff_before_px"] << " -> " << studio["hausdorff_after_px"]
+            << " px, C0 " << c0.size() << " points\n";
+
+  // The command line with the traced C0 (pane pixels) and the same view.
+  nlohmann::json c0json;
+  for (const auto& p : c0) c0json["points"].push_back({p.x, p.y});
+  std::ofstream(dir / "c0.json") << c0json.dump();
+  std::ostringstream args;
+  args.precision(17);
+  args << "curve-analogy \"" << (dir / "shape").string() << "\" --segment skin --transfer bone --curve \""
+       << (dir / "c0.json").string() << "\" --size " << w << "x" << h << " --azimuth " << view.camera.azimuthDeg
+       << " --elevation " << view.camera.elevationDeg << " --out \"" << (dir / "cli").string() << "\"";
+  ASSERT_EQ(runCli(dir, "cli", args.str()), 0);
+  const nlohmann::json cli = nlohmann::json::parse(std::ifstream(dir / "cli" / "shape.json"))["curve_analogy"];
+  EXPECT_DOUBLE_EQ(studio["hausdorff_before_px"].get<double>(), cli["hausdorff_before_px"].get<double>());
+  EXPECT_DOUBLE_EQ(studio["hausdorff_after_px"].get<double>(), cli["hausdorff_after_px"].get<double>());
+  for (const char* name : {"skin", "bone"})
+    EXPECT_EQ(illustration::loadMesh(bent / "meshes" / (std::string(name) + ".ply")).vertices,
+              illustration::loadMesh(dir / "cli" / "meshes" / (std::string(name) + ".ply")).vertices)
+        << name;
 }
 
 }  // namespace

@@ -146,7 +146,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.busy() && !snake_.busy() && !shapes_.busy() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->solving() &&
+  return !loader_.busy() && !snake_.busy() && !shapes_.busy() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->solving() && !curve_.busy() &&
          !scene_.authoring.playing;
 }
 
@@ -156,6 +156,7 @@ void StudioApp::frame() {
   pollLoader();
   pollSnake();
   pollShapes();
+  pollCurveAnalogy();
   {
     const double now = glfwGetTime();
     tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);

@@ -15,6 +15,7 @@
 #include "layout.hpp"
 #include "loader.hpp"
 #include "recent_files.hpp"
+#include "curve_tool.hpp"
 #include "shape_job.hpp"
 #include "vellum/app/segment_pipeline.hpp"
 #include "snake_job.hpp"
@@ -124,6 +125,13 @@ class StudioApp {
   void setStylePreset(const std::string& name);
   void setStyleField(const std::string& segment, const std::string& key, const std::string& value);
   ShapeJob& shapeJob() { return shapes_; }
+  /// Curve analogy by drawing (Illustration panel): the tool's state, tracing on/off (on sets
+  /// the plate view), a drawing's outline as C0, and Apply: app::runCurveAnalogy on a worker
+  /// into `<shapes>-curve-N`, loaded as the scene's shapes when done, one undo step.
+  CurveTool& curveTool() { return curve_; }
+  void setTracing(bool on);
+  void loadCurveDrawing(const std::filesystem::path& path);
+  void applyCurveAnalogy();
   /// A Deformation-panel engine edit: begin with the parameters before it, end records one
   /// undo step (the track is unchanged).
   void beginEngineEdit(const deformation::DeformParams& before);
@@ -274,6 +282,11 @@ class StudioApp {
   SnakeJob snake_;
   ShapeJob shapes_;
   void pollShapes();
+  CurveTool curve_;
+  void pollCurveAnalogy();
+  void drawCurveTrace(const Pane& pane);
+  /// The plate view at w x h: the scene's azimuth and elevation, orthographic, zoom 1, no pan.
+  render::RenderSettings curvePlateView(int w, int h) const;
   FileBrowser browser_;
   std::vector<Pane> panes_;
   RecentFiles recent_;

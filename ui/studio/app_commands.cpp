@@ -115,6 +115,7 @@ bool StudioApp::undo() {
   if (!undo_.undo(scene_.labels, &scene_.authoring, &view)) return false;
   if (undo_.lastWasLabels()) scene_.touchLabels();
   if (undo_.lastWasView()) scene_.setViewState(view), view3d_->invalidate();
+  if (const auto folder = undo_.takeShapesToLoad()) makeShapes(*folder);
   markSlicesDirty();
   return true;
 }
@@ -125,6 +126,7 @@ bool StudioApp::redo() {
   if (!undo_.redo(scene_.labels, &scene_.authoring, &view)) return false;
   if (undo_.lastWasLabels()) scene_.touchLabels();
   if (undo_.lastWasView()) scene_.setViewState(view), view3d_->invalidate();
+  if (const auto folder = undo_.takeShapesToLoad()) makeShapes(*folder);
   markSlicesDirty();
   return true;
 }

@@ -75,6 +75,7 @@ void StudioApp::drawPanes() {
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(120, 120, 200, 255), title.c_str());
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawControlPoints(p);
+      drawCurveTrace(p);
       continue;
     }
     const GlTexture& t = *sliceTextures_[static_cast<size_t>(*p.slice)];

@@ -33,6 +33,12 @@ void StudioApp::onCursorPos(double x, double y) {
     movePointDrag(x, y);
     return;
   }
+  if (curve_.stroke) {  // tracing C0 in the 3D view's pixels
+    const Pane& pane = *dragPane_;
+    const illustration::Point2 q{x - pane.rect.x, y - pane.rect.y};
+    if (curve_.c0.empty() || std::hypot(q.x - curve_.c0.back().x, q.y - curve_.c0.back().y) >= 1.0) curve_.c0.push_back(q);
+    return;
+  }
   const Pane& pane = *dragPane_;
   const bool shift = dragMods_ & GLFW_MOD_SHIFT;
   if (!pane.is3d()) {
@@ -77,6 +83,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
     }
     if (button == dragButton_) {
       if (pointDrag_) endPointDrag();
+      curve_.stroke = false;
       dragPane_.reset();
       dragButton_ = -1;
     }
@@ -92,6 +99,14 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   dragPane_ = *pane;
   dragButton_ = button;
   dragMods_ = mods;
+  if (curve_.tracing && pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {  // a new C0
+    curve_.stroke = true;
+    curve_.drawing.clear();
+    curve_.c0 = {{mouseX_ - pane->rect.x, mouseY_ - pane->rect.y}};
+    curve_.viewWidth = int(pane->rect.w);
+    curve_.viewHeight = int(pane->rect.h);
+    return;
+  }
   // A press on a control point's dot drags that point (Shift: along one axis) in any tool.
   if (button == GLFW_MOUSE_BUTTON_LEFT && beginPointDrag(*pane, mouseX_, mouseY_, mods)) return;
   if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {

@@ -83,6 +83,52 @@ void meshesToggle(StudioApp& app) {
   if (e.finished) app.endViewEdit("meshes in 3D view");
 }
 
+/// Curve analogy by drawing: trace C0 over the 3D view (or load a drawing), pick the structure
+/// (and what it carries), Apply: a new shape folder, one undo step.
+void curveSection(StudioApp& app) {
+  Scene& s = app.scene();
+  CurveTool& c = app.curveTool();
+  if (!ImGui::TreeNode("Curve analogy")) return;
+  if (s.shapesPath.empty() || !s.shapeMeshes || s.shapeMeshes->empty()) {
+    ImGui::TextDisabled("needs shapes opened from a vellum shape folder");
+    ImGui::TreePop();
+    return;
+  }
+  if (c.busy()) {
+    ImGui::TextUnformatted("bending ... (vellum curve-analogy)");
+    ImGui::TreePop();
+    return;
+  }
+  if (ImGui::BeginCombo("Structure", c.segment.empty() ? "(pick)" : c.segment.c_str())) {
+    for (const auto& m : *s.shapeMeshes)
+      if (ImGui::Selectable(m.name.c_str(), m.name == c.segment)) c.segment = m.name;
+    ImGui::EndCombo();
+  }
+  if (ImGui::TreeNode("Carried along")) {
+    for (const auto& m : *s.shapeMeshes) {
+      if (m.name == c.segment) continue;
+      bool on = c.transfer.count(m.name) != 0;
+      if (ImGui::Checkbox(m.name.c_str(), &on)) on ? (void)c.transfer.insert(m.name) : (void)c.transfer.erase(m.name);
+    }
+    ImGui::TreePop();
+  }
+  bool tracing = c.tracing;
+  if (ImGui::Checkbox("Trace C0", &tracing)) app.setTracing(tracing);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("left-drag in the 3D view draws the outline the structure should follow (plate view: orthographic)");
+  static char drawing[512] = "";
+  ImGui::InputTextWithHint("##drawing", "drawing (PNG)", drawing, sizeof drawing);
+  ImGui::SameLine();
+  if (ImGui::Button("Load##drawing") && drawing[0]) guarded(app, [&] { app.loadCurveDrawing(drawing); });
+  ImGui::Text("C0: %zu points%s", c.c0.size(), c.drawing.empty() ? "" : " (drawing)");
+  ImGui::SameLine();
+  if (ImGui::SmallButton("Clear")) c.c0.clear(), c.drawing.clear();
+  ImGui::BeginDisabled(c.c0.size() < 3 || c.segment.empty());
+  if (ImGui::Button("Apply curve analogy")) guarded(app, [&] { app.applyCurveAnalogy(); });
+  ImGui::EndDisabled();
+  ImGui::TreePop();
+}
+
 }  // namespace
 
 void illustrationSection(StudioApp& app) {
@@ -94,6 +140,7 @@ void illustrationSection(StudioApp& app) {
   ImGui::EndDisabled();
   meshesToggle(app);
   styleSection(app);
+  curveSection(app);
 }
 
 }  // namespace vellum::studio

@@ -495,6 +495,47 @@ void expandQuit(Steps& s, const json& v) {
   s.once([&quit = s.quit, code](StudioApp&) { quit = code; });
 }
 
+void expandCurveAnalogy(Steps& s, const json& v) {
+  // {"curve_analogy": {"segment": NAME, "trace": [[x, y], ...] (window pixels, dragged through
+  // the real mouse path with Trace on) | "drawing": PNG, "transfer": [NAME, ...], "apply": true}}:
+  // applies (unless "apply" is false) and waits until the bent shapes are the scene's.
+  const std::string segment = v.at("segment").get<std::string>();
+  const std::vector<std::string> transfer = v.value("transfer", std::vector<std::string>{});
+  if (v.contains("trace")) {
+    std::vector<std::pair<double, double>> trace;
+    for (const auto& p : v["trace"]) trace.push_back(point(p));
+    if (trace.size() < 3) throw Error("\"trace\" needs at least 3 points");
+    s.once([](StudioApp& a) { a.setTracing(true); });
+    s.frames(2);
+    s.once([p = trace.front()](StudioApp& a) { a.injectCursorPos(p.first, p.second); });
+    s.once([](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0); });
+    for (size_t i = 1; i < trace.size(); ++i)
+      s.once([p = trace[i]](StudioApp& a) { a.injectCursorPos(p.first, p.second); });
+    s.once([](StudioApp& a) {
+      a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
+      a.setTracing(false);
+    });
+  } else {
+    const std::string drawing = v.at("drawing").get<std::string>();
+    s.once([drawing](StudioApp& a) { a.loadCurveDrawing(drawing); });
+  }
+  const bool apply = v.value("apply", true);
+  s.once([segment, transfer, apply](StudioApp& a) {
+    a.curveTool().segment = segment;
+    a.curveTool().transfer = {transfer.begin(), transfer.end()};
+    if (apply) a.applyCurveAnalogy();
+  });
+  if (!apply) return;  // C0 and the structure are set; the panel's Apply (or another action) runs it
+  s.until([](StudioApp& a) { return !a.curveTool().busy(); });
+  s.frames(1);  // the frame that adopts the result starts loading the new folder
+  s.until([](StudioApp& a) { return !a.shapeJob().busy(); });
+  s.frames(2);
+  s.once([](StudioApp& a) {
+    if (!a.curveTool().lastError.empty()) throw Error("curve analogy failed: " + a.curveTool().lastError);
+    if (a.scene().shapesPath != a.curveTool().jobOut) throw Error("the bent shapes were not loaded");
+  });
+}
+
 /// Every action by name (docs/studio.md, "Scripts").
 const std::map<std::string, Expander>& expanders() {
   static const std::map<std::string, Expander> table = {
@@ -531,6 +572,7 @@ const std::map<std::string, Expander>& expanders() {
       {"hud", expandHud},
       {"log", expandLog},
       {"controls", expandControls},
+      {"curve_analogy", expandCurveAnalogy},
       {"drag_point", expandPointDrag},
       {"attribute_drag", expandPointDrag},
       {"keyframe", expandKeyframe},

@@ -61,8 +61,19 @@ void UndoStack::push(ViewEdit edit) {
   redo_.clear();
 }
 
+void UndoStack::push(ShapesEdit edit) {
+  if (edit.before == edit.after) return;
+  undo_.emplace_back(std::move(edit));
+  redo_.clear();
+}
+
 void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, ViewState* view, bool forward) {
   lastWasView_ = false;
+  if (const auto* s = std::get_if<ShapesEdit>(&e)) {
+    shapesToLoad_ = forward ? s->after : s->before;  // the studio loads it (a worker job)
+    lastWasLabels_ = false;
+    return;
+  }
   if (const auto* d = std::get_if<LabelDelta>(&e)) {
     applyDelta(labels, *d, forward);
     lastWasLabels_ = true;

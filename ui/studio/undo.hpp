@@ -3,8 +3,10 @@
 // new ids are each constant (a threshold or a brush stroke is a few thousand runs, not a
 // copy of the 256³ label map), plus the label table before and after.
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -64,7 +66,15 @@ struct ViewEdit {
   size_t bytes() const { return sizeof(ViewEdit); }
 };
 
-using UndoEntry = std::variant<LabelDelta, TrackEdit, ViewEdit>;
+/// A change of the scene's shape folder (the curve analogy's result replacing its input):
+/// undo and redo load the other folder.
+struct ShapesEdit {
+  std::string description;
+  std::filesystem::path before, after;
+  size_t bytes() const { return sizeof(ShapesEdit); }
+};
+
+using UndoEntry = std::variant<LabelDelta, TrackEdit, ViewEdit, ShapesEdit>;
 
 class UndoStack {
  public:
@@ -72,6 +82,9 @@ class UndoStack {
   void push(LabelDelta delta);
   void push(TrackEdit edit);
   void push(ViewEdit edit);
+  void push(ShapesEdit edit);
+  /// After an undo/redo of a ShapesEdit: the folder to load (once), else nullopt.
+  std::optional<std::filesystem::path> takeShapesToLoad() { return std::exchange(shapesToLoad_, std::nullopt); }
   bool canUndo() const { return !undo_.empty(); }
   bool canRedo() const { return !redo_.empty(); }
   /// Reverts the last edit on `labels` (`authoring` for track edits, `view` for view edits:
@@ -89,6 +102,7 @@ class UndoStack {
  private:
   std::vector<UndoEntry> undo_, redo_;
   bool lastWasLabels_ = true, lastWasView_ = false;
+  std::optional<std::filesystem::path> shapesToLoad_;
   void apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, ViewState* view, bool forward);
 };
 
