@@ -6,7 +6,7 @@
 #include <cstring>
 #include <map>
 
-#include "gl_util.hpp"        // modules/render: buildProgram, checkGlError
+#include "gl_util.hpp"        // modules/render: buildProgram, checkGlError, readRgbaRows
 #include "illustration_renderer_common.hpp"
 #include "illustration_renderer_shader.hpp"
 #include "render_common.hpp"  // modules/render: makeFrame (same camera and rays)
@@ -18,6 +18,7 @@ namespace vellum::illustration {
 using namespace detail;
 using render::detail::buildProgram;
 using render::detail::checkGlError;
+using render::detail::readRgbaRows;
 
 namespace {
 
@@ -281,13 +282,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   checkGlError("illustration ray casting");
 
   RgbaImage image(s.width, s.height);
-  std::vector<uint8_t> rows(image.pixels.size());
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, s.width, s.height, GL_RGBA, GL_UNSIGNED_BYTE, rows.data());
-  checkGlError("glReadPixels");
-  const size_t stride = size_t(s.width) * 4;
-  for (int y = 0; y < s.height; ++y) std::memcpy(image.at(0, y), rows.data() + size_t(s.height - 1 - y) * stride, stride);
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  readRgbaRows(m.target.framebuffer(), 0, s.height, image, "glReadPixels");
   return image;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <vector>
 
 #include "vellum/core/error.hpp"
@@ -65,6 +66,20 @@ void checkGlError(const char* what) {
     std::snprintf(buf, sizeof buf, "0x%04X", e);
     throw Error(std::string("OpenGL error ") + buf + " in " + what);
   }
+}
+
+void readRgbaRows(GLuint framebuffer, int rowBegin, int rowEnd, RgbaImage& image, const char* what) {
+  const int rows = rowEnd - rowBegin;
+  if (rows <= 0) return;
+  const size_t stride = static_cast<size_t>(image.width) * 4;
+  std::vector<uint8_t> pixels(stride * static_cast<size_t>(rows));
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, image.height - rowEnd, image.width, rows, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  checkGlError(what);
+  for (int y = rowBegin; y < rowEnd; ++y)
+    std::memcpy(image.at(0, y), pixels.data() + static_cast<size_t>(rowEnd - 1 - y) * stride, stride);
 }
 
 OffscreenTarget::~OffscreenTarget() {

@@ -5,6 +5,8 @@
 
 #include <string>
 
+#include "vellum/core/image.hpp"
+
 namespace vellum::render::detail {
 
 /// Compiles and links a program; throws vellum::Error with the info log on failure.
@@ -12,6 +14,11 @@ GLuint buildProgram(const std::string& vertexSource, const std::string& fragment
 
 /// Throws vellum::Error naming `what` if glGetError() reports an error.
 void checkGlError(const char* what);
+
+/// Reads rows [rowBegin, rowEnd) (row 0 = top) of `framebuffer`'s RGBA8 colour, whose height
+/// is image.height, into the same rows of `image` (GL's row 0 is the bottom: flipped). Leaves
+/// the default framebuffer bound; throws vellum::Error naming `what` on a GL error.
+void readRgbaRows(GLuint framebuffer, int rowBegin, int rowEnd, RgbaImage& image, const char* what);
 
 /// An RGBA8 framebuffer for offscreen rendering, re-made only when its size changes. Needs a
 /// current context; destroy it while that context is still current.

@@ -110,16 +110,8 @@ void FramebufferTarget::copyColourScaled(const FramebufferTarget& from) {
 RgbaImage FramebufferTarget::readColour() const {
   if (!colour_) return {};
   RgbaImage image(width_, height_);
-  const size_t stride = static_cast<size_t>(width_) * 4;
-  std::vector<uint8_t> pixels(stride * static_cast<size_t>(height_));
   context_.makeCurrent();
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, volumeFbo_);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
-  checkGlError("framebuffer target colour read-back");
-  for (int y = 0; y < height_; ++y)
-    std::memcpy(image.at(0, y), pixels.data() + static_cast<size_t>(height_ - 1 - y) * stride, stride);
+  readRgbaRows(volumeFbo_, 0, height_, image, "framebuffer target colour read-back");
   return image;
 }
 

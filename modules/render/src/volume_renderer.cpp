@@ -510,16 +510,7 @@ void VolumeRenderer::renderRows(const RenderSettings& s, int rowBegin, int rowEn
   m.lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   checkGlError("ray casting");
 
-  const int glRow0 = s.height - rowEnd, rows = rowEnd - rowBegin;
-  const size_t stride = static_cast<size_t>(s.width) * 4;
-  std::vector<uint8_t> pixels(stride * static_cast<size_t>(rows));
-  glBindFramebuffer(GL_FRAMEBUFFER, m.target.framebuffer());
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadPixels(0, glRow0, s.width, rows, GL_RGBA, GL_UNSIGNED_BYTE, pixels.data());
-  checkGlError("glReadPixels");
-  for (int y = rowBegin; y < rowEnd; ++y)  // GL row 0 is the bottom
-    std::memcpy(image.at(0, y), pixels.data() + static_cast<size_t>(rowEnd - 1 - y) * stride, stride);
-  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  readRgbaRows(m.target.framebuffer(), rowBegin, rowEnd, image, "glReadPixels");
 }
 
 void VolumeRenderer::renderInto(const RenderSettings& s, const RenderTarget& target) {
