@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "commands.hpp"
+#include "file_errors.hpp"
 #include "test_data.hpp"
 #include "vellum/app/animate_pipeline.hpp"
 #include "vellum/deformation/placement.hpp"
@@ -162,17 +163,7 @@ TEST(AnimatePipeline, AnimateArgumentsReproduceTheRequestThroughTheCli) {
 
 TEST(AnimatePipeline, BadRequestsNameTheFieldOrFile) {
   const Case c = makeCase("app-animate-bad");
-  auto errorOf = [](const app::AnimateRequest& r) {
-    try {
-      app::runAnimate(r);
-    } catch (const Error& e) {
-      const std::string m = e.what();
-      EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-      return m;
-    }
-    ADD_FAILURE() << "no error";
-    return std::string();
-  };
+  auto errorOf = [](const app::AnimateRequest& r) { return test::errorOf([&] { app::runAnimate(r); }); };
   app::AnimateRequest r = requestFor(c, c.dir / "out/");
   r.keyframes = c.dir / "missing.json";
   EXPECT_NE(errorOf(r).find("missing.json"), std::string::npos);

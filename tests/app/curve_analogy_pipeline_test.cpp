@@ -6,6 +6,7 @@
 #include <fstream>
 #include <string>
 
+#include "file_errors.hpp"
 #include "test_data.hpp"
 #include "vellum/app/curve_analogy_pipeline.hpp"
 #include "vellum/core/error.hpp"
@@ -14,17 +15,7 @@ using namespace vellum;
 namespace fs = std::filesystem;
 
 namespace {
-std::string errorOf(const app::CurveAnalogyRequest& r) {
-  try {
-    app::runCurveAnalogy(r);
-  } catch (const Error& e) {
-    const std::string m = e.what();
-    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
-    return m;
-  }
-  ADD_FAILURE() << "no error";
-  return "";
-}
+std::string errorOf(const app::CurveAnalogyRequest& r) { return test::errorOf([&] { app::runCurveAnalogy(r); }); }
 }  // namespace
 
 TEST(CurveAnalogyPipeline, BadRequestsNameTheFieldOrFile) {

@@ -24,6 +24,7 @@ using namespace vellum::deformation;
 namespace fs = std::filesystem;
 
 namespace {
+using test::errorOf;
 
 const std::vector<uint16_t> kBones = {4, 5, 6, 7, 8, 9, 11};
 
@@ -67,18 +68,6 @@ void runCli(std::vector<std::string> args) {
   app.parse(static_cast<int>(argv.size()), argv.data());
 }
 
-/// The one-line vellum::Error (or FileError) `run` throws; "" and a failure otherwise.
-std::string errorOf(const std::function<void()>& run) {
-  try {
-    run();
-  } catch (const Error& e) {
-    const std::string m = e.what();
-    EXPECT_EQ(m.find('\n'), std::string::npos) << "not one line: " << m;
-    return m;
-  }
-  ADD_FAILURE() << "no error";
-  return "";
-}
 
 }  // namespace
 

@@ -1,6 +1,7 @@
 #pragma once
-// Bad-input tests: write `text` to `file`, load it, and return the one-line vellum::FileError
-// it must raise (a test failure, and "", for no error or any other exception).
+// Bad-input tests: the one-line vellum::Error a call must raise (errorOf), and the
+// vellum::FileError that loading a written file must raise (fileErrorOf); a test failure, and
+// "", for no error.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -11,6 +12,19 @@
 #include "vellum/core/error.hpp"
 
 namespace vellum::test {
+
+/// The one-line vellum::Error (or FileError) `run` throws; "" and a failure otherwise.
+inline std::string errorOf(const std::function<void()>& run) {
+  try {
+    run();
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.find('\n'), std::string::npos) << "not one line: " << m;
+    return m;
+  }
+  ADD_FAILURE() << "no error";
+  return "";
+}
 
 /// With `namesFile`, the message must also name `file` (errors about a file it references name
 /// that one instead).
