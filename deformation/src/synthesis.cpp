@@ -28,55 +28,64 @@ struct AxisTaps {
   std::vector<std::array<float, Taps>> w;
 };
 
-// Trilinear: the two nodes around o/s.
+// Trilinear taps of output coordinate o (voxel index along the axis, 0 <= o <= (nodes - 1) s,
+// not necessarily whole): the two nodes around o/s. One definition for the voxels of
+// synthesize() / upsampleMap() and the arbitrary positions of MapSampler.
+void linearTap(double o, int64_t nodes, int s, std::array<int32_t, 2>& idx, std::array<float, 2>& w) {
+  const int64_t n0 = std::min(static_cast<int64_t>(std::floor(o / s)), nodes - 1);
+  const int64_t n1 = std::min(n0 + 1, nodes - 1);
+  const float f = static_cast<float>(o - static_cast<double>(n0 * s)) / static_cast<float>(s);
+  idx = {static_cast<int32_t>(n0), static_cast<int32_t>(n1)};
+  w = {1.f - f, f};
+}
+
 AxisTaps<2> linearTaps(int64_t outLen, int64_t nodes, int s) {
   AxisTaps<2> t;
-  for (int64_t o = 0; o < outLen; ++o) {
-    const int64_t n0 = std::min(o / s, nodes - 1);
-    const int64_t n1 = std::min(n0 + 1, nodes - 1);
-    const float f = static_cast<float>(o - n0 * s) / static_cast<float>(s);
-    t.idx.push_back({static_cast<int32_t>(n0), static_cast<int32_t>(n1)});
-    t.w.push_back({1.f - f, f});
-  }
+  t.idx.resize(static_cast<size_t>(outLen));
+  t.w.resize(static_cast<size_t>(outLen));
+  for (int64_t o = 0; o < outLen; ++o)
+    linearTap(static_cast<double>(o), nodes, s, t.idx[static_cast<size_t>(o)], t.w[static_cast<size_t>(o)]);
   return t;
 }
 
 // Separable Gaussian over the 4 nodes around o/s (sigma 0.6 node spacings), with weights
 // adjusted so that the first moment is exact: a linear (affine) map is reproduced exactly
-// away from the borders. Border taps are clamped (replicated edge nodes).
+// away from the borders. Border taps are clamped (replicated edge nodes). Same range of o as
+// linearTap().
+void gaussianTap(double o, int64_t nodes, int s, std::array<int32_t, 4>& id, std::array<float, 4>& wf) {
+  const int64_t n0 = static_cast<int64_t>(std::floor(o / s));
+  const double f = (o - static_cast<double>(n0 * s)) / s;
+  const std::array<double, 4> w = gaussianUpsamplingWeights(f);  // shared with the renderer
+  constexpr double total = 1.0;
+  // Taps beyond the grid extrapolate the map linearly from the two edge nodes
+  // (v(e + m) = v(e) + m (v(e) - v(e -+ 1))), which keeps affine maps exact at the borders.
+  std::array<double, 4> wd{};
+  for (int q = 0; q < 4; ++q) id[q] = static_cast<int32_t>(std::clamp<int64_t>(n0 - 1 + q, 0, nodes - 1));
+  auto add = [&](int64_t node, double weight) {
+    for (int q = 0; q < 4; ++q)
+      if (id[q] == node) { wd[q] += weight; return; }
+  };
+  for (int q = 0; q < 4; ++q) {
+    const int64_t m = n0 - 1 + q;
+    const double wq = w[q] / total;
+    if (nodes < 2 || (m >= 0 && m < nodes)) {
+      add(std::clamp<int64_t>(m, 0, nodes - 1), wq);
+    } else if (m < 0) {
+      add(0, wq * (1 - m)); add(1, wq * m);  // v(m) = v(0) + m (v(1) - v(0))
+    } else {
+      const int64_t e = nodes - 1;
+      add(e, wq * (1 + (m - e))); add(e - 1, -wq * (m - e));
+    }
+  }
+  for (int q = 0; q < 4; ++q) wf[q] = static_cast<float>(wd[q]);
+}
+
 AxisTaps<4> gaussianTaps(int64_t outLen, int64_t nodes, int s) {
   AxisTaps<4> t;
-  for (int64_t o = 0; o < outLen; ++o) {
-    const int64_t n0 = o / s;
-    const double f = static_cast<double>(o - n0 * s) / s;
-    const std::array<double, 4> w = gaussianUpsamplingWeights(f);  // shared with the renderer
-    constexpr double total = 1.0;
-    // Taps beyond the grid extrapolate the map linearly from the two edge nodes
-    // (v(e + m) = v(e) + m (v(e) - v(e -+ 1))), which keeps affine maps exact at the borders.
-    std::array<double, 4> wd{};
-    std::array<int32_t, 4> id{};
-    for (int q = 0; q < 4; ++q) id[q] = static_cast<int32_t>(std::clamp<int64_t>(n0 - 1 + q, 0, nodes - 1));
-    auto add = [&](int64_t node, double weight) {
-      for (int q = 0; q < 4; ++q)
-        if (id[q] == node) { wd[q] += weight; return; }
-    };
-    for (int q = 0; q < 4; ++q) {
-      const int64_t m = n0 - 1 + q;
-      const double wq = w[q] / total;
-      if (nodes < 2 || (m >= 0 && m < nodes)) {
-        add(std::clamp<int64_t>(m, 0, nodes - 1), wq);
-      } else if (m < 0) {
-        add(0, wq * (1 - m)); add(1, wq * m);  // v(m) = v(0) + m (v(1) - v(0))
-      } else {
-        const int64_t e = nodes - 1;
-        add(e, wq * (1 + (m - e))); add(e - 1, -wq * (m - e));
-      }
-    }
-    std::array<float, 4> wf{};
-    for (int q = 0; q < 4; ++q) wf[q] = static_cast<float>(wd[q]);
-    t.idx.push_back(id);
-    t.w.push_back(wf);
-  }
+  t.idx.resize(static_cast<size_t>(outLen));
+  t.w.resize(static_cast<size_t>(outLen));
+  for (int64_t o = 0; o < outLen; ++o)
+    gaussianTap(static_cast<double>(o), nodes, s, t.idx[static_cast<size_t>(o)], t.w[static_cast<size_t>(o)]);
   return t;
 }
 
@@ -164,8 +173,47 @@ struct PreparedSnap {
   // Per body: output-index box {min i, j, k, max i, j, k} the snap can reach (inclusive).
   std::vector<std::array<int64_t, 6>> reach;
 
-  void row(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const {
+  // The snap of one output voxel (index v, not necessarily whole) whose upsampled source is u.
+  void point(const float v[3], float& ux, float& uy, float& uz) const {
     const int nb = static_cast<int>(body.size());
+    const float u[3] = {ux, uy, uz};
+    int64_t ci[3];
+    bool in = true;
+    for (int a = 0; a < 3; ++a) {
+      const float x = toCls[3 * a] * u[0] + toCls[3 * a + 1] * u[1] + toCls[3 * a + 2] * u[2] + toCls[9 + a];
+      ci[a] = static_cast<int64_t>(std::floor(x + 0.5f));
+      in = in && x > -0.5f;
+    }
+    if (!in || ci[0] >= cd.x || ci[1] >= cd.y || ci[2] >= cd.z) return;
+    const int c = int(classes[(ci[2] * cd.y + ci[1]) * cd.x + ci[0]]) - 2;
+    if (c < 0 || c >= nb || !valid[static_cast<size_t>(c)]) return;
+    const auto& m = body[static_cast<size_t>(c)];
+    float snapped[3], d[3];
+    for (int a = 0; a < 3; ++a) {
+      snapped[a] = m[3 * a] * v[0] + m[3 * a + 1] * v[1] + m[3 * a + 2] * v[2] + m[9 + a];
+      d[a] = snapped[a] - u[a];
+    }
+    float d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const float e = deltaToMm[3 * a] * d[0] + deltaToMm[3 * a + 1] * d[1] + deltaToMm[3 * a + 2] * d[2];
+      d2 += e * e;
+    }
+    if (d2 > maxSnap2) return;
+    ux = snapped[0]; uy = snapped[1]; uz = snapped[2];
+  }
+
+  // True when row()'s voxel range for row (j, k) holds v (continuous v: the same bounds).
+  bool reaches(const Vec3& v) const {
+    double lo = 1e300, hi = -1e300;
+    for (const auto& r : reach)
+      if (v.y >= double(r[1]) && v.y <= double(r[4]) && v.z >= double(r[2]) && v.z <= double(r[5])) {
+        lo = std::min(lo, double(r[0]));
+        hi = std::max(hi, double(r[3]));
+      }
+    return v.x >= lo && v.x <= hi;
+  }
+
+  void row(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const {
     int64_t lo = n, hi = -1;
     for (const auto& r : reach)
       if (j >= r[1] && j <= r[4] && k >= r[2] && k <= r[5]) {
@@ -173,31 +221,8 @@ struct PreparedSnap {
         hi = std::max(hi, std::min<int64_t>(r[3], n - 1));
       }
     for (int64_t i = lo; i <= hi; ++i) {
-      const float u[3] = {ux[i], uy[i], uz[i]};
-      int64_t ci[3];
-      bool in = true;
-      for (int a = 0; a < 3; ++a) {
-        const float x = toCls[3 * a] * u[0] + toCls[3 * a + 1] * u[1] + toCls[3 * a + 2] * u[2] + toCls[9 + a];
-        ci[a] = static_cast<int64_t>(std::floor(x + 0.5f));
-        in = in && x > -0.5f;
-      }
-      if (!in || ci[0] >= cd.x || ci[1] >= cd.y || ci[2] >= cd.z) continue;
-      const int c = int(classes[(ci[2] * cd.y + ci[1]) * cd.x + ci[0]]) - 2;
-      if (c < 0 || c >= nb || !valid[static_cast<size_t>(c)]) continue;
-      const auto& m = body[static_cast<size_t>(c)];
       const float v[3] = {static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
-      float snapped[3], d[3];
-      for (int a = 0; a < 3; ++a) {
-        snapped[a] = m[3 * a] * v[0] + m[3 * a + 1] * v[1] + m[3 * a + 2] * v[2] + m[9 + a];
-        d[a] = snapped[a] - u[a];
-      }
-      float d2 = 0;
-      for (int a = 0; a < 3; ++a) {
-        const float e = deltaToMm[3 * a] * d[0] + deltaToMm[3 * a + 1] * d[1] + deltaToMm[3 * a + 2] * d[2];
-        d2 += e * e;
-      }
-      if (d2 > maxSnap2) continue;
-      ux[i] = snapped[0]; uy[i] = snapped[1]; uz[i] = snapped[2];
+      point(v, ux[i], uy[i], uz[i]);
     }
   }
 };
@@ -492,6 +517,79 @@ std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output, 
               });
   return out;
 }
+
+struct MapSampler::Impl {
+  std::vector<float> nodes;  // cv.sourceMm
+  Dims nd, od;
+  int scale = 1;
+  Geometry output;
+  Upsampling upsampling = Upsampling::Trilinear;
+  std::optional<PreparedSnap> snap;  // in mm, as upsampleMap() applies it
+
+  // u at output index o (inside the voxel centres): the separable sum in synthesis' order
+  // (z-blended nodes, then y, then x), in float.
+  template <int Taps, class TapFn>
+  Vec3 interpolate(const Vec3& o, TapFn&& tap) const {
+    std::array<int32_t, Taps> ix, iy, iz;
+    std::array<float, Taps> wx, wy, wz;
+    tap(o.x, nd.x, ix, wx);
+    tap(o.y, nd.y, iy, wy);
+    tap(o.z, nd.z, iz, wz);
+    float u[3] = {0, 0, 0};
+    for (int a = 0; a < Taps; ++a) {
+      float row[3] = {0, 0, 0};
+      for (int b = 0; b < Taps; ++b) {
+        if (wy[b] == 0.f) continue;
+        float plane[3] = {0, 0, 0};
+        for (int c = 0; c < Taps; ++c) {
+          if (wz[c] == 0.f) continue;
+          const float* p = nodes.data() + 3 * ((int64_t(iz[c]) * nd.y + iy[b]) * nd.x + ix[a]);
+          for (int q = 0; q < 3; ++q) plane[q] += wz[c] * p[q];
+        }
+        for (int q = 0; q < 3; ++q) row[q] += wy[b] * plane[q];
+      }
+      for (int q = 0; q < 3; ++q) u[q] += wx[a] * row[q];
+    }
+    if (snap && snap->reaches(o)) {  // where synthesis applies it
+      const float v[3] = {static_cast<float>(o.x), static_cast<float>(o.y), static_cast<float>(o.z)};
+      snap->point(v, u[0], u[1], u[2]);
+    }
+    return {u[0], u[1], u[2]};
+  }
+};
+
+MapSampler::MapSampler(const ControlVolume& cv, const Geometry& output, Upsampling upsampling) {
+  checkGrid(output, cv);
+  auto impl = std::make_shared<Impl>();
+  impl->nodes = cv.sourceMm;
+  impl->nd = cv.grid.dims;
+  impl->od = output.dims;
+  impl->scale = cv.scale;
+  impl->output = output;
+  impl->upsampling = upsampling;
+  impl->snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
+  impl_ = std::move(impl);
+}
+
+std::optional<Vec3> MapSampler::sourceMm(const Vec3& outputMm) const {
+  const Impl& m = *impl_;
+  Vec3 o = m.output.physicalToIndex(outputMm);
+  const int64_t dims[3] = {m.od.x, m.od.y, m.od.z};
+  for (int a = 0; a < 3; ++a) {
+    if (!(o[a] >= -0.5 && o[a] <= double(dims[a]) - 0.5)) return std::nullopt;  // NaN too
+    o[a] = std::clamp(o[a], 0.0, double(dims[a] - 1));
+    // A voxel centre that comes back from mm as 3.9999999 must read its own taps: the
+    // Gaussian kernel's 4-node window jumps at the nodes.
+    if (std::abs(o[a] - std::round(o[a])) < 1e-6) o[a] = std::round(o[a]);
+  }
+  const int s = m.scale;
+  if (m.upsampling == Upsampling::Trilinear)
+    return m.interpolate<2>(o, [s](double x, int64_t n, auto& idx, auto& w) { linearTap(x, n, s, idx, w); });
+  return m.interpolate<4>(o, [s](double x, int64_t n, auto& idx, auto& w) { gaussianTap(x, n, s, idx, w); });
+}
+
+const Geometry& MapSampler::output() const { return impl_->output; }
+Upsampling MapSampler::upsampling() const { return impl_->upsampling; }
 
 double psnr(const AnyVolume& reference, const AnyVolume& test) {
   if (!(geometryOf(reference).dims == geometryOf(test).dims))

@@ -192,15 +192,14 @@ void StudioApp::frame() {
   }
 
   bool rendered3d = false, mapUpdated = false;
+  slicesRendered_ = false;
   if (scene_.hasVolume()) {
     // Nothing to draw until the exact map lands (the 3D view holds its frame, below): wait on
     // the worker for up to a frame's time rather than spin frames that compete with it.
     if (!interacting3d()) deform_->awaitSolve(std::chrono::milliseconds(15));
-    updateSliceTextures();
-    if ((mapUpdated = deform_->update(scene_, pointDrag_.has_value() || scene_.authoring.playing))) {
+    if ((mapUpdated = deform_->update(scene_, pointDrag_.has_value() || scene_.authoring.playing)))
       view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
-      markSlicesDirty();
-    }
+    updateSliceTextures();  // after the map: deformed slices show this frame's map
     view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
     view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
     view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision, scene_.render.labelBlend > 0);
@@ -227,11 +226,12 @@ void StudioApp::frame() {
   glfwSwapBuffers(window_);
   lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   if (options_.logFrames)
-    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f\n",
+    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d\n",
                 frameNumber_, lastFrameMs_, rendered3d ? 1 : 0, rendered3d ? view3d_->lastRenderMs() : 0.0,
                 view3d_->lastScale(), dragPane_ ? 1 : 0, mapUpdated ? deform_->lastUpdateMs() : 0.0,
                 mapUpdated ? deform_->timings()->mapMs : 0.0, mapUpdated ? deform_->timings()->rhoCacheMs : 0.0,
-                mapUpdated ? deform_->lastRigidityMs() : 0.0);
+                mapUpdated ? deform_->lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0,
+                sliceMap() ? 1 : 0);
   if (options_.logFrames) std::fflush(stdout);  // the log is read while the studio runs
   ++frameNumber_;
 }

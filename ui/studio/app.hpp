@@ -14,6 +14,7 @@
 #include "label_tools.hpp"
 #include "layout.hpp"
 #include "loader.hpp"
+#include "mpr.hpp"
 #include "recent_files.hpp"
 #include "curve_tool.hpp"
 #include "shape_job.hpp"
@@ -187,6 +188,18 @@ class StudioApp {
   /// Window screenshot after the next completed frame, or a 3D render (size 0 = pane size).
   void requestWindowScreenshot(const std::filesystem::path& path);
   void save3dScreenshot(const std::filesystem::path& path, int width = 0, int height = 0);
+  /// Writes the slice image last drawn in `axis`'s pane (the texture's pixels, without the
+  /// crosshair, dots and text drawn over it). Throws when that slice is not shown.
+  void saveSliceScreenshot(const std::filesystem::path& path, SliceAxis axis) const;
+  /// The backward map the slice views are drawn through, or nullptr (no deformation shown, or
+  /// View > Deformed slices off).
+  const deformation::MapSampler* sliceMap() const;
+  /// Where a position picked in a slice view lies in the undeformed volume (what label edits
+  /// change): through sliceMap() when the slices are deformed; nullopt where the deformed
+  /// volume is background.
+  std::optional<Vec3> sliceSourceMm(const Vec3& mm) const;
+  /// Time of the last slice re-render (all slice panes), ms.
+  double lastSlicesMs() const { return lastSlicesMs_; }
   void quit(int code);
   void showError(const std::string& message);
 
@@ -271,6 +284,9 @@ class StudioApp {
   std::unique_ptr<ScriptRunner> script_;
   std::unique_ptr<Autosaver> autosaver_;
   std::array<std::unique_ptr<GlTexture>, 3> sliceTextures_;
+  std::array<RgbaImage, 3> sliceImages_;  ///< what the textures hold (screenshots of a slice)
+  double lastSlicesMs_ = 0;
+  bool slicesRendered_ = false;  ///< in this frame (--log-frames)
   Scene scene_;
   ToolState tools_;
   UndoStack undo_;

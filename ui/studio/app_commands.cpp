@@ -275,13 +275,14 @@ void StudioApp::quit(int code) {
 void StudioApp::paintAt(const Pane& pane, double x, double y) {
   const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
   const uint16_t id = tools_.tool == Tool::Paint ? tools_.activeLabel : 0;
-  if (paintSphere(scene_.labels, plane.toMm(x - pane.rect.x, y - pane.rect.y), tools_.brushRadiusMm, id, scene_.lockedLabels) > 0)
-    markSlicesDirty();
+  // Deformed slices: the ball goes around the source of the pixel under the pointer.
+  const auto at = sliceSourceMm(plane.toMm(x - pane.rect.x, y - pane.rect.y));
+  if (at && paintSphere(scene_.labels, *at, tools_.brushRadiusMm, id, scene_.lockedLabels) > 0) markSlicesDirty();
 }
 
 void StudioApp::growAt(const Pane& pane, double x, double y) {
   const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
-  growFromPoint(plane.toMm(x - pane.rect.x, y - pane.rect.y));
+  if (const auto seed = sliceSourceMm(plane.toMm(x - pane.rect.x, y - pane.rect.y))) growFromPoint(*seed);
 }
 
 void StudioApp::growFromPoint(const Vec3& seed) {

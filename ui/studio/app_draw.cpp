@@ -4,6 +4,7 @@
 #include <imgui.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <tuple>
@@ -31,17 +32,31 @@ ImU32 planeColour(const Vec3& normal) {
 
 // ---- slices ----------------------------------------------------------------------------
 
+const deformation::MapSampler* StudioApp::sliceMap() const {
+  return scene_.view.deformedSlices ? deform_->sampler() : nullptr;
+}
+
+std::optional<Vec3> StudioApp::sliceSourceMm(const Vec3& mm) const {
+  const deformation::MapSampler* map = sliceMap();
+  return map ? map->sourceMm(mm) : std::optional<Vec3>(mm);
+}
+
 void StudioApp::updateSliceTextures() {
+  slicesRendered_ = false;
+  const deformation::MapSampler* map = sliceMap();
   std::ostringstream key;
   key.precision(10);
   key << scene_.crosshairMm.x << ' ' << scene_.crosshairMm.y << ' ' << scene_.crosshairMm.z << ' '
       << scene_.view.sliceWindow.center << ' ' << scene_.view.sliceWindow.width << ' ' << scene_.view.labelOpacity << ' '
       << tools_.thresholdPreview << ' ' << tools_.threshold.lower << ' ' << tools_.threshold.upper << ' '
       << scene_.hiddenLabels.size();
+  // Deformed slices follow the map (every move of a drag); undeformed ones ignore it.
+  key << " map " << (map ? deform_->mapRevision() : 0);
   const auto [snakeLive, snakeRevision] = snake_.live();
   if (snakeLive) key << " snake " << snakeRevision;
   for (const Pane& p : panes_) key << ' ' << p.rect.w << 'x' << p.rect.h;
   if (!slicesDirty_ && key.str() == lastSliceKey_) return;
+  const auto t0 = std::chrono::steady_clock::now();
   SliceStyle style;
   style.window = scene_.view.sliceWindow;
   style.labels = &scene_.labels;
@@ -49,13 +64,25 @@ void StudioApp::updateSliceTextures() {
   style.hidden = &scene_.hiddenLabels;
   if (tools_.thresholdPreview) style.thresholdPreview = tools_.threshold;
   style.snakePreview = snakeLive.get();
+  style.map = map;
   for (const Pane& p : panes_) {
     if (p.is3d()) continue;
     const SlicePlane plane = makePlane(*p.slice, scene_.ct.geometry(), scene_.crosshairMm, int(p.rect.w), int(p.rect.h));
-    sliceTextures_[static_cast<size_t>(*p.slice)]->upload(renderSlice(scene_.ct, plane, style));
+    const auto axis = static_cast<size_t>(*p.slice);
+    sliceImages_[axis] = renderSlice(scene_.ct, plane, style);
+    sliceTextures_[axis]->upload(sliceImages_[axis]);
   }
   slicesDirty_ = false;
   lastSliceKey_ = key.str();
+  slicesRendered_ = true;
+  lastSlicesMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void StudioApp::saveSliceScreenshot(const fs::path& path, SliceAxis axis) const {
+  const bool shown = std::any_of(panes_.begin(), panes_.end(), [&](const Pane& p) { return p.slice == axis; });
+  const RgbaImage& img = sliceImages_[static_cast<size_t>(axis)];
+  if (!shown || img.pixels.empty()) throw Error(std::string("the ") + sliceAxisName(axis) + " slice is not shown");
+  io::saveImage(img, path);
 }
 
 void StudioApp::drawPanes() {
@@ -137,15 +164,20 @@ void StudioApp::drawHud() {
   if (deform_->map())
     hud << "   map " << deform_->lastUpdateMs() << " ms"
         << (deform_->solving() ? " (exact map solving)" : deform_->preview() ? " (preview s=8)" : "");
+  if (sliceMap()) hud << "   deformed slices " << lastSlicesMs_ << " ms";
   if (scene_.hasVolume()) {
     const Pane* p = paneAt(mouseX_, mouseY_);
     if (p && !p->is3d()) {
       const SlicePlane plane = makePlane(*p->slice, scene_.ct.geometry(), scene_.crosshairMm, int(p->rect.w), int(p->rect.h));
       const Vec3 mm = plane.toMm(mouseX_ - p->rect.x, mouseY_ - p->rect.y);
-      const Vec3 ijk = scene_.ct.geometry().physicalToIndex(mm);
+      hud << "\n(" << mm.x << ", " << mm.y << ", " << mm.z << ") mm  ";
+      // Deformed slices: the voxel shown is the source's (what painting and seeds act on).
+      const std::optional<Vec3> src = sliceSourceMm(mm);
+      if (sliceMap() && src) hud << "from (" << src->x << ", " << src->y << ", " << src->z << ") mm  ";
+      const Vec3 ijk = scene_.ct.geometry().physicalToIndex(src.value_or(Vec3{1e9, 1e9, 1e9}));
       const auto i = std::lround(ijk.x), j = std::lround(ijk.y), k = std::lround(ijk.z);
-      hud << "\n(" << mm.x << ", " << mm.y << ", " << mm.z << ") mm  [" << i << ' ' << j << ' ' << k << "]  ";
-      if (scene_.ct.geometry().contains(i, j, k)) {
+      if (src) hud << "[" << i << ' ' << j << ' ' << k << "]  ";
+      if (src && scene_.ct.geometry().contains(i, j, k)) {
         hud << "HU " << scene_.ct(i, j, k) << "  label " << scene_.labels(i, j, k);
         if (auto l = scene_.labels.label(scene_.labels(i, j, k))) hud << " " << l->name;
       } else {

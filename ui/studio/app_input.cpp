@@ -117,7 +117,8 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
     if (tools_.tool == Tool::Snake) {
       const SlicePlane plane = makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane->rect.w), int(pane->rect.h));
       try {
-        startSnake(plane.toMm(mouseX_ - pane->rect.x, mouseY_ - pane->rect.y));
+        if (const auto seed = sliceSourceMm(plane.toMm(mouseX_ - pane->rect.x, mouseY_ - pane->rect.y)))
+          startSnake(*seed);
       } catch (const std::exception& e) {
         showError(e.what());
       }

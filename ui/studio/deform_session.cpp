@@ -26,6 +26,7 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoin
   if (bodies) applyRigidity(cv, *bodies, {falloffMm});
   s.rigidityMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   s.map = animation::toBackwardMap(cv, deformer.outputGeometry(), upsampling);
+  s.sampler = std::make_shared<const MapSampler>(cv, deformer.outputGeometry(), upsampling);
   s.timings = deformer.timings();
   s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   s.key = std::move(key);
@@ -34,6 +35,7 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoin
 
 void DeformSession::adopt(Solved s, bool preview) {
   map_ = std::move(s.map);
+  sampler_ = std::move(s.sampler);
   mapKey_ = preview ? "" : s.key;
   preview_ = preview;
   timings_ = s.timings;
@@ -49,6 +51,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     waitForSolve();
     const bool had = map_.has_value();
     map_.reset();
+    sampler_.reset();
     mapKey_.clear();
     preview_ = false;
     if (had) ++mapRevision_;

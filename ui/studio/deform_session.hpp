@@ -13,6 +13,7 @@
 #include "scene.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/rigidity.hpp"
+#include "vellum/deformation/synthesis.hpp"
 #include "vellum/render/backward_map.hpp"
 
 namespace vellum::studio {
@@ -44,6 +45,10 @@ class DeformSession {
   }
   /// The map to draw, or nullptr (no points / identity).
   const render::BackwardMap* map() const { return map_ ? &*map_ : nullptr; }
+  /// The same map for CPU sampling at any output position (the deformed slice views), or
+  /// nullptr exactly when map() is: the control volume with its rigid snap, upsampled as
+  /// CPU synthesis does it.
+  const deformation::MapSampler* sampler() const { return map_ ? sampler_.get() : nullptr; }
   uint64_t mapRevision() const { return mapRevision_; }
   /// Time of the last adopted solve (Deformer update + rigidity + conversion), ms.
   double lastUpdateMs() const { return lastMs_; }
@@ -56,6 +61,7 @@ class DeformSession {
  private:
   struct Solved {
     render::BackwardMap map;
+    std::shared_ptr<const deformation::MapSampler> sampler;
     deformation::DeformTimings timings;
     double ms = 0, rigidityMs = 0;
     std::string key;  ///< the inputs it was solved for
@@ -72,6 +78,7 @@ class DeformSession {
   bool preview_ = false;
   std::shared_ptr<const deformation::RigidBodies> bodies_;
   std::optional<render::BackwardMap> map_;
+  std::shared_ptr<const deformation::MapSampler> sampler_;
   std::string mapKey_;  ///< inputs of the exact map shown ("" = none or a preview)
   std::string previewKey_;  ///< inputs of the preview shown
   uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull;

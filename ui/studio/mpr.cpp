@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 
 namespace vellum::studio {
@@ -77,10 +78,19 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
     for (uint16_t id = 1; id < 256; ++id) colours[id] = defaultLabelColor(id);
     for (const Label& l : style.labels->table()) colours[l.id] = l.rgb;
   }
+  const deformation::MapSampler* map = style.map;
+  if (map && !(map->output().dims == g.dims && map->output().approxEqual(g)))
+    throw Error("deformed slice: the map was not built for this volume's grid");
+  // Where the deformed volume is background: a source index far outside every grid.
+  const Vec3 outside{-1e6, -1e6, -1e6};
   parallelFor(plane.height, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       for (int x = 0; x < plane.width; ++x) {
-        const Vec3 ijk = origin + dx * double(x) + dy * double(y);
+        Vec3 ijk = origin + dx * double(x) + dy * double(y);
+        if (map) {  // the pixel shows the source at u = map(v)
+          const std::optional<Vec3> u = map->sourceMm(g.indexToPhysical(ijk));
+          ijk = u ? g.physicalToIndex(*u) : outside;
+        }
         const double hu = ct.sampleLinear(ijk);
         const auto grey = static_cast<uint8_t>(std::clamp((hu - lo) * scale, 0.0, 255.0));
         uint8_t* px = img.at(x, static_cast<int>(y));

@@ -9,6 +9,7 @@
 
 #include "scene.hpp"
 #include "vellum/core/image.hpp"
+#include "vellum/deformation/synthesis.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
@@ -41,6 +42,10 @@ struct SliceStyle {
   std::optional<segmentation::HuInterval> thresholdPreview;  ///< drawn over the labels
   /// A running snake's inside (any grid over the volume, sampled nearest), drawn in yellow.
   const segmentation::Mask* snakePreview = nullptr;
+  /// Deformed slices: nullptr, or the backward map (built for the CT's grid). Each pixel at
+  /// output position v then shows the source at u = map(v): CT trilinear, labels, threshold and
+  /// snake previews nearest; outside the deformed volume's voxel box, background and no label.
+  const deformation::MapSampler* map = nullptr;
 };
 
 /// Trilinear CT with window/level, labels nearest-neighbour (fill + outline).

@@ -172,8 +172,12 @@ void expandScreenshot(Steps& s, const json& v) {
       if (auto err = a.takeScreenshotError()) throw Error(*err);
       return true;
     });
+  } else if (view == "axial" || view == "coronal" || view == "sagittal") {  // the slice image alone
+    const SliceAxis axis = view == "axial" ? SliceAxis::Axial : view == "coronal" ? SliceAxis::Coronal : SliceAxis::Sagittal;
+    s.frames(1);  // the slices are re-rendered at the start of a frame
+    s.once([=](StudioApp& a) { a.saveSliceScreenshot(path, axis); });
   } else {
-    throw Error("screenshot view must be \"window\" or \"3d\"");
+    throw Error("screenshot view must be \"window\", \"3d\", \"axial\", \"coronal\" or \"sagittal\"");
   }
 }
 

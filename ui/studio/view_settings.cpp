@@ -39,6 +39,9 @@ const params::Table<ViewSettings>& viewSettingsTable() {
                         {"trilinear", "gaussian"},  // deformation::parseUpsampling's names, in enum order
                         {"Map upsampling", "how the deformed view and the movie export interpolate the map between "
                                            "control nodes (vellum deform/animate --upsampling)", ""}),
+      params::flag<V>("deformed_slices", [](auto& v) -> auto& { return v.deformedSlices; },
+                      {"Deformed slices", "while a deformation is shown, the slice views show the CT and labels "
+                                          "through it, as the 3D view does; off: the undeformed volume", ""}),
   };
   return t;
 }

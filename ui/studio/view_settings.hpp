@@ -37,10 +37,13 @@ struct ViewSettings {
   /// How the live deformed view and the movie export interpolate the backward map between
   /// control nodes (`vellum deform/animate --upsampling`).
   deformation::Upsampling deformedUpsampling = deformation::Upsampling::Trilinear;
+  /// While a deformation is shown, the slice views resample the CT and labels through its
+  /// backward map, as the 3D view does; off: the undeformed volume (what label edits change).
+  bool deformedSlices = true;
   bool operator==(const ViewSettings&) const = default;
 };
 /// Keys: layout, slice_window_center, slice_window_width, label_opacity, meshes_3d,
-/// deformed_upsampling.
+/// deformed_upsampling, deformed_slices.
 const params::Table<ViewSettings>& viewSettingsTable();
 
 /// Render-table keys that are not part of a scene (the 3D view's size is the window's).

@@ -2,6 +2,9 @@
 // Full-resolution synthesis of a deformed volume ([HVD 1.4] in docs/references.md): upsample the control
 // volume's COORDINATES to every output voxel, then fetch the source there (trilinear,
 // background outside). Same geometry and voxel type as the source.
+#include <memory>
+#include <optional>
+
 #include "vellum/core/progress.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/deformation/control_volume.hpp"
@@ -19,6 +22,27 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv,
 std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output,
                                Upsampling upsampling = Upsampling::Trilinear,
                                Progress& progress = Progress::none());
+
+/// The backward map at arbitrary output positions (mm), for pictures whose pixels are not
+/// voxels (the studio's slice views): the nodes interpolated with the taps upsampleMap() uses
+/// at the voxels, then the rigid snap, so at every output voxel centre it gives what
+/// upsampleMap() gives (float rounding aside). Holds a copy of the node map; thread-safe.
+class MapSampler {
+ public:
+  /// `cv` must be built for `output` (throws vellum::Error otherwise, as synthesize() does).
+  MapSampler(const ControlVolume& cv, const Geometry& output, Upsampling upsampling = Upsampling::Trilinear);
+  /// The source position (mm) of output position `outputMm`; nullopt outside the output
+  /// grid's voxel box (beyond half a voxel from the outer voxel centres: the deformed volume
+  /// is background there). Between the outer centres and the box's faces the map is clamped
+  /// onto the outer centres (upsampleMap() defines it at the voxels only).
+  std::optional<Vec3> sourceMm(const Vec3& outputMm) const;
+  const Geometry& output() const;
+  Upsampling upsampling() const;
+
+ private:
+  struct Impl;
+  std::shared_ptr<const Impl> impl_;
+};
 
 /// Peak signal-to-noise ratio (dB) of `test` against `reference` (same dims), with the peak
 /// taken as the reference's value range. +infinity when identical.
