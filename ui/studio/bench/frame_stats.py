@@ -36,6 +36,11 @@ def main(path):
             if coarse:
                 line += f"; reduced-resolution 3D frames: median {statistics.median(coarse):.1f} ms, max {coarse[-1]:.1f} ms"
             print(line)
+        slices = sorted(float(f["slices_ms"]) for f in fr if float(f.get("slices_ms", 0)) > 0)
+        if slices:  # slice views re-rendered (all slice panes of the frame)
+            deformed = sum(1 for f in fr if float(f.get("slices_ms", 0)) > 0 and f.get("deformed_slices") == "1")
+            print(f"{'':<12}slice re-renders {len(slices)} ({deformed} deformed): median "
+                  f"{statistics.median(slices):.1f} ms, max {slices[-1]:.1f} ms")
     full = [float(line.split()[7]) for line in open(path)
             if line.startswith("frame") and " render3d 1 " in line and " scale 1 " in line]
     if full:
