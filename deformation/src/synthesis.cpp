@@ -523,6 +523,7 @@ struct MapSampler::Impl {
   Dims nd, od;
   int scale = 1;
   Geometry output;
+  Mat3 mmToIndex;  // output.physicalToIndex without inverting the direction per call
   Upsampling upsampling = Upsampling::Trilinear;
   std::optional<PreparedSnap> snap;  // in mm, as upsampleMap() applies it
 
@@ -566,6 +567,7 @@ MapSampler::MapSampler(const ControlVolume& cv, const Geometry& output, Upsampli
   impl->od = output.dims;
   impl->scale = cv.scale;
   impl->output = output;
+  if (!output.direction.inverse(impl->mmToIndex)) impl->mmToIndex = output.direction.transposed();
   impl->upsampling = upsampling;
   impl->snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
   impl_ = std::move(impl);
@@ -573,7 +575,7 @@ MapSampler::MapSampler(const ControlVolume& cv, const Geometry& output, Upsampli
 
 std::optional<Vec3> MapSampler::sourceMm(const Vec3& outputMm) const {
   const Impl& m = *impl_;
-  Vec3 o = m.output.physicalToIndex(outputMm);
+  Vec3 o = div(m.mmToIndex * (outputMm - m.output.origin), m.output.spacing);
   const int64_t dims[3] = {m.od.x, m.od.y, m.od.z};
   for (int a = 0; a < 3; ++a) {
     if (!(o[a] >= -0.5 && o[a] <= double(dims[a]) - 0.5)) return std::nullopt;  // NaN too

@@ -83,13 +83,15 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
     throw Error("deformed slice: the map was not built for this volume's grid");
   // Where the deformed volume is background: a source index far outside every grid.
   const Vec3 outside{-1e6, -1e6, -1e6};
+  Mat3 mmToIndex;  // g.physicalToIndex without inverting the direction per pixel
+  if (!g.direction.inverse(mmToIndex)) mmToIndex = g.direction.transposed();
   parallelFor(plane.height, [&](int64_t y0, int64_t y1) {
     for (int64_t y = y0; y < y1; ++y) {
       for (int x = 0; x < plane.width; ++x) {
         Vec3 ijk = origin + dx * double(x) + dy * double(y);
         if (map) {  // the pixel shows the source at u = map(v)
           const std::optional<Vec3> u = map->sourceMm(g.indexToPhysical(ijk));
-          ijk = u ? g.physicalToIndex(*u) : outside;
+          ijk = u ? div(mmToIndex * (*u - g.origin), g.spacing) : outside;
         }
         const double hu = ct.sampleLinear(ijk);
         const auto grey = static_cast<uint8_t>(std::clamp((hu - lo) * scale, 0.0, 255.0));
