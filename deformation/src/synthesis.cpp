@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <type_traits>
 #include <variant>
 
 #if defined(__x86_64__)
@@ -518,6 +519,16 @@ std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output, 
   return out;
 }
 
+// Output index x along an axis of `dim` voxels, inside the voxel box: clamped onto the outer
+// centres, and a voxel centre that comes back from mm as 3.9999999 made whole (the Gaussian
+// kernel's 4-node window jumps at the nodes: it must read the voxel's own taps).
+bool axisIndex(double x, int64_t dim, double& o) {
+  if (!(x >= -0.5 && x <= double(dim) - 0.5)) return false;  // NaN too
+  o = std::clamp(x, 0.0, double(dim - 1));
+  if (std::abs(o - std::round(o)) < 1e-6) o = std::round(o);
+  return true;
+}
+
 struct MapSampler::Impl {
   std::vector<float> nodes;  // cv.sourceMm
   Dims nd, od;
@@ -526,6 +537,15 @@ struct MapSampler::Impl {
   Mat3 mmToIndex;  // output.physicalToIndex without inverting the direction per call
   Upsampling upsampling = Upsampling::Trilinear;
   std::optional<PreparedSnap> snap;  // in mm, as upsampleMap() applies it
+
+  Vec3 toIndex(const Vec3& mm) const { return div(mmToIndex * (mm - output.origin), output.spacing); }
+
+  // The snap at output index o (where synthesis applies it).
+  void snapAt(const Vec3& o, float u[3]) const {
+    if (!snap || !snap->reaches(o)) return;
+    const float v[3] = {static_cast<float>(o.x), static_cast<float>(o.y), static_cast<float>(o.z)};
+    snap->point(v, u[0], u[1], u[2]);
+  }
 
   // u at output index o (inside the voxel centres): the separable sum in synthesis' order
   // (z-blended nodes, then y, then x), in float.
@@ -551,11 +571,89 @@ struct MapSampler::Impl {
       }
       for (int q = 0; q < 3; ++q) u[q] += wx[a] * row[q];
     }
-    if (snap && snap->reaches(o)) {  // where synthesis applies it
-      const float v[3] = {static_cast<float>(o.x), static_cast<float>(o.y), static_cast<float>(o.z)};
-      snap->point(v, u[0], u[1], u[2]);
-    }
+    snapAt(o, u);
     return {u[0], u[1], u[2]};
+  }
+
+  template <int Taps, class TapFn>
+  void point(const Vec3& mm, float* out, uint8_t* inside, TapFn&& tap) const {
+    const Vec3 x = toIndex(mm);
+    Vec3 o;
+    *inside = axisIndex(x.x, od.x, o.x) && axisIndex(x.y, od.y, o.y) && axisIndex(x.z, od.z, o.z);
+    if (!*inside) return;
+    const Vec3 u = interpolate<Taps>(o, tap);
+    out[0] = float(u.x), out[1] = float(u.y), out[2] = float(u.z);
+  }
+
+  // A row along one output grid axis (`axis`; the other two index coordinates fixed): those
+  // two axes are blended into one line of nodes once, then each position reads Taps of them.
+  template <int Taps, class TapFn>
+  void axisRow(int axis, const Vec3& x0, double step, int n, float* out, uint8_t* inside, TapFn&& tap) const {
+    const int64_t dims[3] = {od.x, od.y, od.z}, nodeDims[3] = {nd.x, nd.y, nd.z};
+    const int64_t stride[3] = {1, nd.x, nd.x * nd.y};
+    const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    Vec3 o = x0;
+    if (!axisIndex(x0[a1], dims[a1], o[a1]) || !axisIndex(x0[a2], dims[a2], o[a2])) {
+      std::fill(inside, inside + n, uint8_t{0});
+      return;
+    }
+    std::array<int32_t, Taps> i1, i2;
+    std::array<float, Taps> w1, w2;
+    tap(o[a1], nodeDims[a1], i1, w1);
+    tap(o[a2], nodeDims[a2], i2, w2);
+    std::vector<float> line(static_cast<size_t>(nodeDims[axis]) * 3, 0.f);
+    // The inner sum runs over the later axis (z before y before x), as in interpolate().
+    const bool innerIsA2 = a2 > a1;
+    for (int64_t m = 0; m < nodeDims[axis]; ++m) {
+      float* l = line.data() + 3 * m;
+      for (int b = 0; b < Taps; ++b) {
+        const int32_t iOuter = innerIsA2 ? i1[b] : i2[b];
+        const float wOuter = innerIsA2 ? w1[b] : w2[b];
+        if (wOuter == 0.f) continue;
+        float inner[3] = {0, 0, 0};
+        for (int c = 0; c < Taps; ++c) {
+          const int32_t iIn = innerIsA2 ? i2[c] : i1[c];
+          const float wIn = innerIsA2 ? w2[c] : w1[c];
+          if (wIn == 0.f) continue;
+          const int64_t node = m * stride[axis] + int64_t(iOuter) * stride[innerIsA2 ? a1 : a2] + int64_t(iIn) * stride[innerIsA2 ? a2 : a1];
+          for (int q = 0; q < 3; ++q) inner[q] += wIn * nodes[static_cast<size_t>(3 * node + q)];
+        }
+        for (int q = 0; q < 3; ++q) l[q] += wOuter * inner[q];
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      if (!(inside[i] = axisIndex(x0[axis] + step * i, dims[axis], o[axis]))) continue;
+      std::array<int32_t, Taps> ia;
+      std::array<float, Taps> wa;
+      tap(o[axis], nodeDims[axis], ia, wa);
+      float u[3] = {0, 0, 0};
+      for (int a = 0; a < Taps; ++a)
+        for (int q = 0; q < 3; ++q) u[q] += wa[a] * line[static_cast<size_t>(3 * ia[a] + q)];
+      snapAt(o, u);
+      std::copy_n(u, 3, out + 3 * i);
+    }
+  }
+
+  template <int Taps, class TapFn>
+  void row(const Vec3& firstMm, const Vec3& stepMm, int n, float* out, uint8_t* inside, TapFn&& tap) const {
+    const Vec3 x0 = toIndex(firstMm), dx = toIndex(firstMm + stepMm) - x0;
+    int axis = -1, moving = 0;
+    for (int a = 0; a < 3; ++a)
+      if (std::abs(dx[a]) > 1e-12) axis = a, ++moving;
+    if (moving == 1) {
+      axisRow<Taps>(axis, x0, dx[axis], n, out, inside, tap);
+      return;
+    }
+    for (int i = 0; i < n; ++i) point<Taps>(firstMm + stepMm * double(i), out + 3 * i, inside + i, tap);
+  }
+
+  template <class Fn>
+  void withKernel(Fn&& fn) const {
+    const int s = scale;
+    if (upsampling == Upsampling::Trilinear)
+      fn(std::integral_constant<int, 2>{}, [s](double x, int64_t n, auto& idx, auto& w) { linearTap(x, n, s, idx, w); });
+    else
+      fn(std::integral_constant<int, 4>{}, [s](double x, int64_t n, auto& idx, auto& w) { gaussianTap(x, n, s, idx, w); });
   }
 };
 
@@ -574,20 +672,15 @@ MapSampler::MapSampler(const ControlVolume& cv, const Geometry& output, Upsampli
 }
 
 std::optional<Vec3> MapSampler::sourceMm(const Vec3& outputMm) const {
-  const Impl& m = *impl_;
-  Vec3 o = div(m.mmToIndex * (outputMm - m.output.origin), m.output.spacing);
-  const int64_t dims[3] = {m.od.x, m.od.y, m.od.z};
-  for (int a = 0; a < 3; ++a) {
-    if (!(o[a] >= -0.5 && o[a] <= double(dims[a]) - 0.5)) return std::nullopt;  // NaN too
-    o[a] = std::clamp(o[a], 0.0, double(dims[a] - 1));
-    // A voxel centre that comes back from mm as 3.9999999 must read its own taps: the
-    // Gaussian kernel's 4-node window jumps at the nodes.
-    if (std::abs(o[a] - std::round(o[a])) < 1e-6) o[a] = std::round(o[a]);
-  }
-  const int s = m.scale;
-  if (m.upsampling == Upsampling::Trilinear)
-    return m.interpolate<2>(o, [s](double x, int64_t n, auto& idx, auto& w) { linearTap(x, n, s, idx, w); });
-  return m.interpolate<4>(o, [s](double x, int64_t n, auto& idx, auto& w) { gaussianTap(x, n, s, idx, w); });
+  float u[3];
+  uint8_t inside = 0;
+  impl_->withKernel([&](auto taps, auto&& tap) { impl_->point<decltype(taps)::value>(outputMm, u, &inside, tap); });
+  if (!inside) return std::nullopt;
+  return Vec3{u[0], u[1], u[2]};
+}
+
+void MapSampler::sourceMmRow(const Vec3& firstMm, const Vec3& stepMm, int n, float* out, uint8_t* inside) const {
+  impl_->withKernel([&](auto taps, auto&& tap) { impl_->row<decltype(taps)::value>(firstMm, stepMm, n, out, inside, tap); });
 }
 
 const Geometry& MapSampler::output() const { return impl_->output; }

@@ -131,3 +131,35 @@ TEST(MapSampler, AffineMapsAreExactAnywhereAndOutsideIsNone) {
   }
   EXPECT_THROW(MapSampler(cv, [&] { Geometry h = g; h.dims.x += 9; return h; }()), Error);
 }
+
+TEST(MapSampler, RowsEqualPointByPointSampling) {
+  // Rows along each grid axis (the fast path: two axes blended once) and an oblique row (point
+  // by point), crossing the volume's border (no position exactly on it), with the rigid snap.
+  const Bent& k = bentKnee();
+  const Geometry& g = k.ph.ct.geometry();
+  const Vec3 sp = g.spacing;
+  const std::vector<std::pair<Vec3, Vec3>> rows{
+      {g.indexToPhysical({-3.35, 20.25, 30}), {0.7 * sp.x, 0, 0}},
+      {g.indexToPhysical({17.5, -2.05, 25.5}), {0, 0.9 * sp.y, 0}},
+      {g.indexToPhysical({24, 26.4, -4}), {0, 0, 1.1 * sp.z}},
+      {g.indexToPhysical({-2, 3, 5}), {0.6 * sp.x, 0.5 * sp.y, 0.7 * sp.z}}};
+  for (const Upsampling up : {Upsampling::Trilinear, Upsampling::Gaussian}) {
+    const MapSampler sampler(k.cv, g, up);
+    for (const auto& [first, step] : rows) {
+      const int n = 80;
+      std::vector<float> out(3 * n, -7.f);
+      std::vector<uint8_t> inside(n, 2);
+      sampler.sourceMmRow(first, step, n, out.data(), inside.data());
+      int in = 0;
+      for (int i = 0; i < n; ++i) {
+        const auto u = sampler.sourceMm(first + step * double(i));
+        ASSERT_EQ(bool(inside[i]), bool(u)) << upsamplingName(up) << " position " << i;
+        if (!u) continue;
+        ++in;
+        EXPECT_LT(norm(*u - Vec3{out[3 * i], out[3 * i + 1], out[3 * i + 2]}), 1e-4) << upsamplingName(up) << " " << i;
+      }
+      EXPECT_GT(in, 20);
+      EXPECT_LT(in, n);  // the row leaves the volume
+    }
+  }
+}

@@ -33,7 +33,11 @@ ImU32 planeColour(const Vec3& normal) {
 // ---- slices ----------------------------------------------------------------------------
 
 const deformation::MapSampler* StudioApp::sliceMap() const {
-  return scene_.view.deformedSlices ? deform_->sampler() : nullptr;
+  const deformation::MapSampler* map = scene_.view.deformedSlices ? deform_->sampler() : nullptr;
+  // A map solved for the previous volume is not drawn over a new one (renderSlice refuses it).
+  return map && map->output().dims == scene_.ct.geometry().dims && map->output().approxEqual(scene_.ct.geometry())
+             ? map
+             : nullptr;
 }
 
 std::optional<Vec3> StudioApp::sliceSourceMm(const Vec3& mm) const {

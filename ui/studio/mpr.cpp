@@ -86,12 +86,17 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
   Mat3 mmToIndex;  // g.physicalToIndex without inverting the direction per pixel
   if (!g.direction.inverse(mmToIndex)) mmToIndex = g.direction.transposed();
   parallelFor(plane.height, [&](int64_t y0, int64_t y1) {
+    std::vector<float> source(map ? 3 * static_cast<size_t>(plane.width) : 0);
+    std::vector<uint8_t> inside(map ? static_cast<size_t>(plane.width) : 0);
     for (int64_t y = y0; y < y1; ++y) {
+      if (map)  // each pixel shows the source at u = map(v)
+        map->sourceMmRow(plane.toMm(0.5, double(y) + 0.5), plane.u * plane.mmPerPixel, plane.width, source.data(),
+                         inside.data());
       for (int x = 0; x < plane.width; ++x) {
         Vec3 ijk = origin + dx * double(x) + dy * double(y);
-        if (map) {  // the pixel shows the source at u = map(v)
-          const std::optional<Vec3> u = map->sourceMm(g.indexToPhysical(ijk));
-          ijk = u ? div(mmToIndex * (*u - g.origin), g.spacing) : outside;
+        if (map) {
+          const float* u = source.data() + 3 * x;
+          ijk = inside[static_cast<size_t>(x)] ? div(mmToIndex * (Vec3{u[0], u[1], u[2]} - g.origin), g.spacing) : outside;
         }
         const double hu = ct.sampleLinear(ijk);
         const auto grey = static_cast<uint8_t>(std::clamp((hu - lo) * scale, 0.0, 255.0));

@@ -36,6 +36,11 @@ class MapSampler {
   /// is background there). Between the outer centres and the box's faces the map is clamped
   /// onto the outer centres (upsampleMap() defines it at the voxels only).
   std::optional<Vec3> sourceMm(const Vec3& outputMm) const;
+  /// sourceMm() along a row of n positions firstMm + i stepMm: 3 floats per position into
+  /// `out`, and inside[i] = 0 where sourceMm() gives nullopt (out left as it was). Equal to
+  /// sourceMm() up to float rounding; faster when the row runs along an output grid axis (a
+  /// slice pixel row of a volume with identity direction): the two other axes are blended once.
+  void sourceMmRow(const Vec3& firstMm, const Vec3& stepMm, int n, float* out, uint8_t* inside) const;
   const Geometry& output() const;
   Upsampling upsampling() const;
 
