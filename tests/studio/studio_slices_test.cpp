@@ -6,16 +6,23 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 #include <string>
 
+#include <chrono>
+#include <thread>
+
+#include "deform_session.hpp"
+#include "layout.hpp"
 #include "mpr.hpp"
 #include "scene_file.hpp"
 #include "test_data.hpp"
 #include "vellum/deformation/deformer.hpp"
+#include "vellum/deformation/keyframes.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/rigidity.hpp"
 #include "vellum/deformation/synthesis.hpp"
@@ -234,6 +241,80 @@ TEST(StudioDeformedSlicesScript, ToggleOffRestoresTheUndeformedSliceAndTheSceneK
     {"screenshot":{"path":)" + q(d / "reopened.png") + R"(,"view":"axial"}},{"quit":0}]})";
   ASSERT_EQ(runStudio(d, "reopen", reopen, &log), 0) << log;
   EXPECT_EQ(io::loadImage(d / "reopened.png").pixels, before.pixels);
+}
+
+
+// Painting in a deformed slice edits the undeformed label map at the source of the pixel under
+// the pointer: the sphere lands around u = map(v), not around v.
+TEST(StudioDeformedSlicesScript, PaintingInADeformedSliceLandsAtTheClickedPixelsSource) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const fs::path d = test::tempDir("studio-deformed-paint");
+  phantom::PhantomOptions o;
+  o.dims = {48, 48, 48};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
+  io::saveLabels(ph.labels, d / "labels.nrrd");
+  // The knee bent 30°, the axial slice through the calf (64 mm below the flexion axis).
+  SceneFile f;
+  f.volume = d / "ct.nrrd";
+  f.labels = d / "labels.nrrd";
+  f.crosshairMm = {0, 0, -40};
+  f.deformation = SceneDeformation{d / "s.keyframes.json",
+                                   kneeBendTrack(ph.ct.geometry(), 30.0, 2.0, phantom::flexionAxisPointMm()), 1, kBones,
+                                   10.0, studioDeformParams()};
+  writeSceneFile(f, d / "s.json");
+  const std::vector<Pane> panes = layoutPanes(Layout::TwoByTwo, {kToolPanelWidth, 0, 1024 - kToolPanelWidth, 700});
+  const Pane* axial = nullptr;
+  for (const Pane& p : panes)
+    if (p.slice == SliceAxis::Axial) axial = &p;
+  ASSERT_TRUE(axial);
+  const double px = std::floor(axial->rect.w * 0.5) + 0.5, py = std::floor(axial->rect.h * 0.55) + 0.5;
+  const std::string click = "[" + std::to_string(axial->rect.x + px) + "," + std::to_string(axial->rect.y + py) + "]";
+  const uint16_t id = 20;  // not a phantom label
+  const std::string script = R"({"actions":[{"open":)" + q(d / "s.json") + R"(},{"wait_idle":true},
+    {"tool":"paint"},{"brush_radius":6},{"active_label":20},{"click":)" + click + R"(},
+    {"save_labels":)" + q(d / "painted.nrrd") + R"(},{"quit":0}]})";
+  std::string log;
+  ASSERT_EQ(runStudio(d, "paint", script, &log), 0) << log;
+
+  // The same map as the window's (the session the studio runs, on the same scene).
+  const SceneFile read = readSceneFile(d / "s.json");
+  Scene scene;
+  scene.ct = ph.ct;
+  scene.labels = ph.labels;
+  scene.authoring.track = read.deformation->track;
+  scene.authoring.keyframe = read.deformation->keyframe;
+  scene.authoring.rigidLabels = read.deformation->rigidLabels;
+  scene.authoring.falloffMm = read.deformation->falloffMm;
+  scene.authoring.engine = read.deformation->engine;
+  scene.authoring.touch();
+  DeformSession session;
+  session.update(scene);
+  for (int i = 0; i < 600 && (session.solving() || session.preview()); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    session.update(scene);
+  }
+  ASSERT_TRUE(session.sampler() && !session.preview());
+  const Geometry& g = ph.ct.geometry();
+  const SlicePlane plane = makePlane(SliceAxis::Axial, g, f.crosshairMm, int(axial->rect.w), int(axial->rect.h));
+  const Vec3 v = plane.toMm(px, py);
+  const auto u = session.sampler()->sourceMm(v);
+  ASSERT_TRUE(u);
+  std::cout << "[ slices ] click at " << v.x << ", " << v.y << ", " << v.z << " mm paints around its source " << u->x
+            << ", " << u->y << ", " << u->z << " mm\n";
+  ASSERT_GT(norm(*u - v), 6 + 3 * g.spacing.x) << "the bend must move the clicked tissue well beyond the brush";
+  const LabelVolume painted = io::loadLabels(d / "painted.nrrd");
+  int64_t count = 0;
+  double farthest = 0;
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i)
+        if (painted(i, j, k) == id) {
+          ++count;
+          farthest = std::max(farthest, norm(g.indexToPhysical({double(i), double(j), double(k)}) - *u));
+        }
+  EXPECT_GT(count, 0);
+  EXPECT_LE(farthest, 6.0 + 1e-6) << "every painted voxel lies in the brush sphere around the source";
 }
 
 }  // namespace
