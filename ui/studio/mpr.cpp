@@ -60,13 +60,52 @@ void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
                    const std::vector<std::array<uint8_t, 3>>& colours, float opacity);
 }  // namespace
 
+namespace {
+/// Source index coordinates of the slice's pixels, a row at a time: the plane's own positions
+/// (stepped: they are affine in the pixel), or (deformed slices) u = map(v) of each pixel's v.
+class PixelSources {
+ public:
+  PixelSources(const Geometry& g, const SlicePlane& plane, const deformation::MapSampler* map)
+      : g_(g), plane_(plane), map_(map) {
+    origin_ = g.physicalToIndex(plane.toMm(0.5, 0.5));
+    dx_ = g.physicalToIndex(plane.toMm(1.5, 0.5)) - origin_;
+    dy_ = g.physicalToIndex(plane.toMm(0.5, 1.5)) - origin_;
+    if (map && !(map->output().dims == g.dims && map->output().approxEqual(g)))
+      throw Error("deformed slice: the map was not built for this volume's grid");
+    if (!g.direction.inverse(mmToIndex_)) mmToIndex_ = g.direction.transposed();  // once, not per pixel
+  }
+
+  /// Row y into ijk[0 .. width); `u` and `inside` are the caller's scratch (one per thread).
+  void row(int64_t y, Vec3* ijk, std::vector<float>& u, std::vector<uint8_t>& inside) const {
+    const int w = plane_.width;
+    if (!map_) {
+      for (int x = 0; x < w; ++x) ijk[x] = origin_ + dx_ * double(x) + dy_ * double(y);
+      return;
+    }
+    u.resize(3 * static_cast<size_t>(w));
+    inside.resize(static_cast<size_t>(w));
+    map_->sourceMmRow(plane_.toMm(0.5, double(y) + 0.5), plane_.u * plane_.mmPerPixel, w, u.data(), inside.data());
+    const Vec3 outside{-1e6, -1e6, -1e6};  // where the deformed volume is background
+    for (int x = 0; x < w; ++x) {
+      const float* p = u.data() + 3 * x;
+      ijk[x] = inside[static_cast<size_t>(x)] ? div(mmToIndex_ * (Vec3{p[0], p[1], p[2]} - g_.origin), g_.spacing)
+                                              : outside;
+    }
+  }
+
+ private:
+  const Geometry& g_;
+  const SlicePlane& plane_;
+  const deformation::MapSampler* map_;
+  Vec3 origin_, dx_, dy_;
+  Mat3 mmToIndex_;
+};
+}  // namespace
+
 RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceStyle& style) {
   RgbaImage img(plane.width, plane.height);
   const Geometry& g = ct.geometry();
-  // Index coordinates are affine in the pixel position: step them instead of mapping each pixel.
-  const Vec3 origin = g.physicalToIndex(plane.toMm(0.5, 0.5));
-  const Vec3 dx = g.physicalToIndex(plane.toMm(1.5, 0.5)) - origin;
-  const Vec3 dy = g.physicalToIndex(plane.toMm(0.5, 1.5)) - origin;
+  const PixelSources sources(g, plane, style.map);
   const double lo = style.window.center - style.window.width / 2;
   const double scale = 255.0 / std::max(1e-6, style.window.width);
   const bool labelsOn = style.labels && !style.labels->ids().empty();
@@ -78,26 +117,14 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
     for (uint16_t id = 1; id < 256; ++id) colours[id] = defaultLabelColor(id);
     for (const Label& l : style.labels->table()) colours[l.id] = l.rgb;
   }
-  const deformation::MapSampler* map = style.map;
-  if (map && !(map->output().dims == g.dims && map->output().approxEqual(g)))
-    throw Error("deformed slice: the map was not built for this volume's grid");
-  // Where the deformed volume is background: a source index far outside every grid.
-  const Vec3 outside{-1e6, -1e6, -1e6};
-  Mat3 mmToIndex;  // g.physicalToIndex without inverting the direction per pixel
-  if (!g.direction.inverse(mmToIndex)) mmToIndex = g.direction.transposed();
   parallelFor(plane.height, [&](int64_t y0, int64_t y1) {
-    std::vector<float> source(map ? 3 * static_cast<size_t>(plane.width) : 0);
-    std::vector<uint8_t> inside(map ? static_cast<size_t>(plane.width) : 0);
+    std::vector<Vec3> row(static_cast<size_t>(plane.width));
+    std::vector<float> scratch;
+    std::vector<uint8_t> inside;
     for (int64_t y = y0; y < y1; ++y) {
-      if (map)  // each pixel shows the source at u = map(v)
-        map->sourceMmRow(plane.toMm(0.5, double(y) + 0.5), plane.u * plane.mmPerPixel, plane.width, source.data(),
-                         inside.data());
+      sources.row(y, row.data(), scratch, inside);
       for (int x = 0; x < plane.width; ++x) {
-        Vec3 ijk = origin + dx * double(x) + dy * double(y);
-        if (map) {
-          const float* u = source.data() + 3 * x;
-          ijk = inside[static_cast<size_t>(x)] ? div(mmToIndex * (Vec3{u[0], u[1], u[2]} - g.origin), g.spacing) : outside;
-        }
+        const Vec3& ijk = row[static_cast<size_t>(x)];
         const double hu = ct.sampleLinear(ijk);
         const auto grey = static_cast<uint8_t>(std::clamp((hu - lo) * scale, 0.0, 255.0));
         uint8_t* px = img.at(x, static_cast<int>(y));
