@@ -6,17 +6,7 @@
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/rigid_fit.hpp"
-
-// AVX2/FMA clone of the hot loops with run-time dispatch (falls back to baseline x86-64).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VELLUM_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define VELLUM_SIMD_CLONES
-#endif
-// Lambdas inside the cloned functions must be inlined: called out of line (as at -O0) they
-// are compiled for the baseline target, and passing 32-byte vectors between an AVX2 caller
-// and a baseline callee mismatches the ABI (a stack overflow under AddressSanitizer).
-#define VELLUM_INLINE_LAMBDA __attribute__((always_inline))
+#include "vellum/core/simd_clones.hpp"
 
 namespace vellum::deformation::detail {
 namespace {
