@@ -193,11 +193,17 @@ void StudioApp::frame() {
 
   bool rendered3d = false, mapUpdated = false;
   if (scene_.hasVolume()) {
-    // Nothing to draw until the exact map lands (the 3D view holds its frame, below): wait on
-    // the worker for up to a frame's time rather than spin frames that compete with it.
-    if (!interacting3d()) deform_->awaitSolve(std::chrono::milliseconds(15));
     updateSliceTextures();
-    if ((mapUpdated = deform_->update(scene_, pointDrag_.has_value() || scene_.authoring.playing))) {
+    const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
+    mapUpdated = deform_->update(scene_, livePoints);
+    if (deform_->solving() && !interacting3d()) {
+      // The exact map is on the worker (just started, or still running): wait for it, up to
+      // one drag frame's time (~100 ms at 256³), rather than draw a frame that takes cores
+      // from it and that the map would replace. At 256³, s = 4 it lands within the wait.
+      deform_->awaitSolve(std::chrono::milliseconds(100));
+      mapUpdated = deform_->update(scene_, livePoints) || mapUpdated;
+    }
+    if (mapUpdated) {
       view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
       markSlicesDirty();
     }
