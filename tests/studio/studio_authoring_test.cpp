@@ -353,3 +353,60 @@ TEST(StudioAuthoringScript, RigidLabelEditsUndoAndRedo) {
 }
 
 }  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+// The timeline's blocks through the real mouse path: a block dragged onto another moves its
+// pose there (the durations stay in place), its right-edge handle dragged sideways retimes
+// it; each drag is one undo step.
+TEST(StudioAuthoringScript, TimelineBlocksReorderAndRetimeByDragging) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const fs::path d = test::tempDir("studio-authoring-timeline");
+  phantom::PhantomOptions o;
+  o.dims = {40, 40, 40};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
+  const std::string script = R"({"actions":[
+    {"open":)" + q(d / "ct.nrrd") + R"(},{"layout":"3d"},{"controls":"default"},
+    {"drag_point":{"index":4,"end":"target","by_px":[20,0]}},{"keyframe":"add"},
+    {"drag_point":{"index":4,"end":"target","by_px":[0,20]}},{"keyframe":"add"},
+    {"drag_point":{"index":4,"end":"target","by_px":[-20,0]}},
+    {"keyframe":{"select":0,"duration":1}},{"keyframe":{"select":1,"duration":2}},
+    {"keyframe":{"select":2,"duration":3}},{"save_scene":)" + q(d / "a.json") + R"(},
+    {"keyframe_drag":{"from":0,"to":2}},{"save_scene":)" + q(d / "b.json") + R"(},
+    {"key":"ctrl+z"},{"save_scene":)" + q(d / "c.json") + R"(},
+    {"keyframe_drag":{"index":1,"by_px":30}},{"save_scene":)" + q(d / "e.json") + R"(},
+    {"key":"ctrl+z"},{"save_scene":)" + q(d / "f.json") + R"(},
+    {"keyframe_drag":{"from":0,"to":9}},{"quit":0}]})";
+  std::string log;
+  // The last action names a block that does not exist: the script fails there, naming it.
+  ASSERT_EQ(runStudio(d, "timeline", script, &log), 3) << log;
+  EXPECT_NE(log.find("no keyframe block 9"), std::string::npos) << log;
+  const auto track = [&](const char* name) { return readSceneFile(d / name).deformation->track; };
+  const KeyframeTrack a = track("a.json"), b = track("b.json"), c = track("c.json"), e = track("e.json"),
+                      f = track("f.json");
+  ASSERT_EQ(a.keyframes.size(), 3u);
+  // The poses differ in point 4's target (dragged differently in each keyframe).
+  const auto pose = [](const KeyframeTrack& t, size_t k) { return t.keyframes[k].points[4].target; };
+  ASSERT_NE(pose(a, 0), pose(a, 1));
+  ASSERT_NE(pose(a, 1), pose(a, 2));
+  // K0's pose went to the end, the others moved up one place; the durations stayed.
+  EXPECT_EQ(pose(b, 0), pose(a, 1));
+  EXPECT_EQ(pose(b, 1), pose(a, 2));
+  EXPECT_EQ(pose(b, 2), pose(a, 0));
+  EXPECT_TRUE(b.keyframes[2].points == a.keyframes[0].points) << "the whole pose moved";
+  for (size_t k = 0; k < 3; ++k) EXPECT_EQ(b.keyframes[k].durationS, a.keyframes[k].durationS) << k;
+  EXPECT_EQ(readSceneFile(d / "b.json").deformation->keyframe, 2) << "the moved keyframe is the edited one";
+  for (size_t k = 0; k < 3; ++k) EXPECT_TRUE(c.keyframes[k].points == a.keyframes[k].points) << "undone, " << k;
+  // The handle: 30 px right lengthens K1 by 30 px of the timeline's scale (total 6 s over the
+  // panel's width, a few hundred px), the others keep theirs; undo restores 2 s.
+  EXPECT_GT(e.keyframes[1].durationS, 2.2);
+  EXPECT_LT(e.keyframes[1].durationS, 3.5);
+  EXPECT_EQ(e.keyframes[0].durationS, 1);
+  EXPECT_EQ(e.keyframes[2].durationS, 3);
+  EXPECT_EQ(pose(e, 1), pose(a, 1));
+  EXPECT_EQ(f.keyframes[1].durationS, 2);
+}
+
+}  // namespace
+}  // namespace vellum::studio

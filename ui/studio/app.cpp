@@ -177,6 +177,7 @@ void StudioApp::frame() {
   int w = 0, h = 0;
   glfwGetWindowSize(window_, &w, &h);
   panes_ = layoutPanes(scene_.view.layout, {kPanelWidth, 0, std::max(1.f, w - kPanelWidth), float(h)});
+  keyframeBlocks_.clear();  // the timeline records them again if it is drawn
   drawToolPanel(*this, kPanelWidth, float(h));
   browser_.draw();
   if (errorPopupPending_) {
