@@ -4,6 +4,7 @@
 // against `vellum animate` on the same keyframes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
@@ -24,6 +25,7 @@
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/io/image_io.hpp"
+#include "vellum/io/video_io.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 #include "vellum/render/projection.hpp"
@@ -406,6 +408,53 @@ TEST(StudioAuthoringScript, TimelineBlocksReorderAndRetimeByDragging) {
   EXPECT_EQ(e.keyframes[2].durationS, 3);
   EXPECT_EQ(pose(e, 1), pose(a, 1));
   EXPECT_EQ(f.keyframes[1].durationS, 2);
+}
+
+}  // namespace
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+// Decoded frames of a movie, one MD5 per frame (ffmpeg's framemd5 muxer), without the header.
+std::string decodedFrameHashes(const fs::path& movie, const fs::path& out) {
+  const std::string cmd = "ffmpeg -v error -i \"" + movie.string() + "\" -f framemd5 - > \"" + out.string() + "\"";
+  if (std::system(cmd.c_str()) != 0) return "ffmpeg failed on " + movie.string();
+  std::istringstream in(slurp(out));
+  std::string line, hashes;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] != '#') hashes += line + "\n";
+  return hashes;
+}
+
+// The MP4 export: the studio's movie and `vellum animate`'s on the same keyframes decode to
+// the same frames.
+TEST(StudioAuthoringScript, Mp4ExportDecodesToTheFramesOfVellumAnimate) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  if (!io::videoEncoderAvailable()) GTEST_SKIP() << "no ffmpeg on PATH";
+  const fs::path d = test::tempDir("studio-authoring-mp4");
+  phantom::PhantomOptions o;
+  o.dims = {40, 40, 40};
+  io::saveVolume(AnyVolume(phantom::makePhantom(o).ct), d / "ct.nrrd");
+  const std::string script = R"({"actions":[
+    {"open":)" + q(d / "ct.nrrd") + R"(},{"layout":"3d"},{"controls":"default"},
+    {"keyframe":{"select":0,"duration":0.5}},{"keyframe":"add"},
+    {"drag_point":{"index":4,"end":"target","by_px":[30,-20]}},
+    {"export_movie":{"out":)" + q(d / "studio.mp4") + R"(,"fps":10,"size":"64x48","command":)" + q(d / "cmd.txt") + R"(}},
+    {"quit":0}]})";
+  std::string log;
+  ASSERT_EQ(runStudio(d, "mp4", script, &log), 0) << log;
+  std::string cmd = slurp(d / "cmd.txt");
+  const std::string studioOut = "'" + (d / "studio.mp4").string() + "'";
+  ASSERT_NE(cmd.find(studioOut), std::string::npos) << cmd;
+  cmd.replace(cmd.find(studioOut), studioOut.size(), "'" + (d / "cli.mp4").string() + "'");
+  cmd.replace(0, std::string("vellum").size(), std::string("\"") + VELLUM_CLI_EXE + "\"");
+  cmd.pop_back();  // newline
+  ASSERT_EQ(std::system((cmd + " > \"" + (d / "cli.log").string() + "\" 2>&1").c_str()), 0) << slurp(d / "cli.log");
+  const std::string a = decodedFrameHashes(d / "studio.mp4", d / "studio.md5");
+  const std::string b = decodedFrameHashes(d / "cli.mp4", d / "cli.md5");
+  // Two keyframes of 0.5 s (the added one copies the duration) at 10 fps, and the end frame.
+  EXPECT_EQ(std::count(a.begin(), a.end(), '\n'), 11) << a;
+  EXPECT_EQ(a, b);
 }
 
 }  // namespace
