@@ -440,6 +440,8 @@ TEST(StudioAuthoringScript, Mp4ExportDecodesToTheFramesOfVellumAnimate) {
     {"keyframe":{"select":0,"duration":0.5}},{"keyframe":"add"},
     {"drag_point":{"index":4,"end":"target","by_px":[30,-20]}},
     {"export_movie":{"out":)" + q(d / "studio.mp4") + R"(,"fps":10,"size":"64x48","command":)" + q(d / "cmd.txt") + R"(}},
+    {"export_movie":{"out":)" + q(d / "cancelled" / "m.mp4") + R"(,"fps":60,"size":"256x256","wait":false}},
+    {"frames":2},{"key":"escape"},{"frames":2},
     {"quit":0}]})";
   std::string log;
   ASSERT_EQ(runStudio(d, "mp4", script, &log), 0) << log;
@@ -452,6 +454,11 @@ TEST(StudioAuthoringScript, Mp4ExportDecodesToTheFramesOfVellumAnimate) {
   ASSERT_EQ(std::system((cmd + " > \"" + (d / "cli.log").string() + "\" 2>&1").c_str()), 0) << slurp(d / "cli.log");
   const std::string a = decodedFrameHashes(d / "studio.mp4", d / "studio.md5");
   const std::string b = decodedFrameHashes(d / "cli.mp4", d / "cli.md5");
+  // Escape during the second export cancelled it: no movie and no temporary left beside it
+  // (the keyframes file written at the start stays).
+  ASSERT_TRUE(fs::exists(d / "cancelled"));
+  for (const auto& e : fs::directory_iterator(d / "cancelled"))
+    EXPECT_EQ(e.path().filename(), "m.mp4.keyframes.json");
   // Two keyframes of 0.5 s (the added one copies the duration) at 10 fps, and the end frame.
   EXPECT_EQ(std::count(a.begin(), a.end(), '\n'), 11) << a;
   EXPECT_EQ(a, b);

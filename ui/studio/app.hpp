@@ -172,8 +172,8 @@ class StudioApp {
   /// The window's size in screen pixels (what scripted coordinates refer to).
   std::pair<int, int> windowSize() const;
   void play(bool on);
-  /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4, one frame per
-  /// window frame through animation::MovieRenderer (what `vellum animate` runs).
+  /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4 on a worker with
+  /// its own headless context, through animation::MovieRenderer (what `vellum animate` runs).
   /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`).
   void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0);
   void cancelExport();

@@ -52,6 +52,7 @@ class DeformSession {
   double lastRigidityMs() const { return rigidityMs_; }
   /// Rigid bodies of the current labels (nullptr without rigid labels).
   const deformation::RigidBodies* bodies() const { return bodies_.get(); }
+  const std::shared_ptr<const deformation::RigidBodies>& sharedBodies() const { return bodies_; }
 
  private:
   struct Solved {

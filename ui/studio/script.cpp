@@ -528,6 +528,7 @@ void expandExportMovie(Steps& s, const json& v) {
   const std::string command = v.value("command", "");
   const double orbit = v.value("orbit", 0.0);
   s.once([=](StudioApp& a) { a.startExport(out, fps, w, h, orbit); });
+  if (!v.value("wait", true)) return;  // e.g. to press Escape while it runs
   s.until([](StudioApp& a) { return !a.exporting(); });
   s.once([=](StudioApp& a) {
     if (!a.lastExportError().empty()) throw Error("export failed: " + a.lastExportError());
