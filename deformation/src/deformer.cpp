@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 
 #include "mls_kernel.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/simd_clones.hpp"
 #include "vellum/deformation/deform_params.hpp"
 
 namespace vellum::deformation {
@@ -15,6 +17,29 @@ namespace {
 
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The trilinear blend of all n rho fields at one position: rho[p] = sum over the 8 corners of
+// weight * field value (a node's n fields are contiguous in the cache). Blocks of 8 points are
+// one vector each: one AVX2 multiply-add per corner in the fast clone, two SSE ones otherwise.
+VELLUM_SIMD_CLONES void blendRhoCorners(const float* fields, const int64_t* offsets,
+                                        const float* weights, int n, float* rho, int stride) {
+  using Float8 = float __attribute__((vector_size(32)));
+  int p0 = 0;
+  for (; p0 + 8 <= n; p0 += 8) {
+    Float8 acc = {};
+    for (int q = 0; q < 8; ++q) {
+      Float8 f;
+      std::memcpy(&f, fields + offsets[q] * n + p0, sizeof f);
+      acc += weights[q] * f;
+    }
+    for (int p = 0; p < 8; ++p) rho[static_cast<size_t>(p0 + p) * stride] = acc[p];
+  }
+  for (; p0 < n; ++p0) {
+    float acc = 0;
+    for (int q = 0; q < 8; ++q) acc += weights[q] * fields[offsets[q] * n + p0];
+    rho[static_cast<size_t>(p0) * stride] = acc;
+  }
 }
 
 }  // namespace
@@ -163,18 +188,7 @@ void Deformer::Impl::lookupRho(const Vec3& ui, float* rho, int stride) const {
       float((1 - c[0]) * c[1] * (1 - c[2])), float(c[0] * c[1] * (1 - c[2])),
       float((1 - c[0]) * (1 - c[1]) * c[2]), float(c[0] * (1 - c[1]) * c[2]),
       float((1 - c[0]) * c[1] * c[2]), float(c[0] * c[1] * c[2])};
-  float acc[256];
-  for (int p0 = 0; p0 < n; p0 += 256) {
-    const int m = std::min(256, n - p0);
-    std::fill(acc, acc + m, 0.f);
-    for (int q = 0; q < 8; ++q) {
-      const float* f = rhoFields.data() + static_cast<size_t>(off[q]) * n + p0;
-      const float wq = wgt[q];
-#pragma omp simd
-      for (int p = 0; p < m; ++p) acc[p] += wq * f[p];
-    }
-    for (int p = 0; p < m; ++p) rho[static_cast<size_t>(p0 + p) * stride] = acc[p];
-  }
+  blendRhoCorners(rhoFields.data(), off, wgt, n, rho, stride);
 }
 
 // Solves the row already set in w.eval: plain MLS, then the density fixed point. Result in w.u.

@@ -6,17 +6,7 @@
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/rigid_fit.hpp"
-
-// AVX2/FMA clone of the hot loops with run-time dispatch (falls back to baseline x86-64).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VELLUM_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#else
-#define VELLUM_SIMD_CLONES
-#endif
-// Lambdas inside the cloned functions must be inlined: called out of line (as at -O0) they
-// are compiled for the baseline target, and passing 32-byte vectors between an AVX2 caller
-// and a baseline callee mismatches the ABI (a stack overflow under AddressSanitizer).
-#define VELLUM_INLINE_LAMBDA __attribute__((always_inline))
+#include "vellum/core/simd_clones.hpp"
 
 namespace vellum::deformation::detail {
 namespace {
@@ -95,6 +85,8 @@ PointData PointData::from(const ControlPoints& points, bool withAttributes) {
     const Vec3 s = p.source - d.sourceCentre, t = p.target - d.targetCentre;
     d.sx.push_back(s.x); d.sy.push_back(s.y); d.sz.push_back(s.z);
     d.tx.push_back(t.x); d.ty.push_back(t.y); d.tz.push_back(t.z);
+    d.sxf.push_back(float(s.x)); d.syf.push_back(float(s.y)); d.szf.push_back(float(s.z));
+    d.txf.push_back(float(t.x)); d.tyf.push_back(float(t.y)); d.tzf.push_back(float(t.z));
     d.sourceMm.push_back(p.source);
     const auto v = p.attributes.values();
     d.zi.push_back(v);
@@ -616,8 +608,8 @@ VELLUM_INLINE_LAMBDA inline void accumulateMoments8(const PointData& p, const do
   for (int i = 0; i < p.count; ++i) {
     const size_t si = static_cast<size_t>(i);
     const v8 wi = load8(w + si * S + k0) * im;
-    const v8 q0 = float(p.tx[si]) - ym0, q1 = float(p.ty[si]) - ym1, q2 = float(p.tz[si]) - ym2;
-    const v8 p0 = float(p.sx[si]) - xm0, p1 = float(p.sy[si]) - xm1, p2 = float(p.sz[si]) - xm2;
+    const v8 q0 = p.txf[si] - ym0, q1 = p.tyf[si] - ym1, q2 = p.tzf[si] - ym2;
+    const v8 p0 = p.sxf[si] - xm0, p1 = p.syf[si] - xm1, p2 = p.szf[si] - xm2;
     const v8 wq0 = wi * q0, wq1 = wi * q1, wq2 = wi * q2;
     m.W += wi;
     m.yh0 += wq0; m.yh1 += wq1; m.yh2 += wq2;

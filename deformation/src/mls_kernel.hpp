@@ -13,6 +13,7 @@ struct PointData {
   int count = 0;
   Vec3 sourceCentre, targetCentre;
   std::vector<double> sx, sy, sz, tx, ty, tz;
+  std::vector<float> sxf, syf, szf, txf, tyf, tzf;  ///< the same, rounded once for float lanes
   bool attributes = false;
   std::vector<double> z[PointAttributes::kCount];
   std::vector<Vec3> sourceMm;  ///< exact x_i for hits

@@ -1,7 +1,9 @@
 #include "vellum/deformation/rigidity.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <variant>
 
@@ -63,17 +65,74 @@ double sampleClamped(const std::vector<float>& f, const Dims& d, const Vec3& idx
     i0[a] = std::min<int64_t>(static_cast<int64_t>(g), std::max<int64_t>(dd[a] - 2, 0));
     c[a] = dd[a] > 1 ? g - double(i0[a]) : 0.0;
   }
-  auto at = [&](int64_t i, int64_t j, int64_t k) {
-    return double(f[static_cast<size_t>((std::min(k, d.z - 1) * d.y + std::min(j, d.y - 1)) * d.x +
-                                        std::min(i, d.x - 1))]);
-  };
+  // A one-node axis has no upper neighbour: its weight there is 0, so reuse the lower node.
+  const int64_t step[3] = {d.x > 1 ? 1 : 0, d.y > 1 ? d.x : 0, d.z > 1 ? d.x * d.y : 0};
+  const float* base = f.data() + (i0[2] * d.y + i0[1]) * d.x + i0[0];
   double r = 0;
   for (int q = 0; q < 8; ++q) {
     const int ox = q & 1, oy = (q >> 1) & 1, oz = (q >> 2) & 1;
     const double w = (ox ? c[0] : 1 - c[0]) * (oy ? c[1] : 1 - c[1]) * (oz ? c[2] : 1 - c[2]);
-    if (w != 0) r += w * at(i0[0] + ox, i0[1] + oy, i0[2] + oz);
+    if (w != 0) r += w * double(base[ox * step[0] + oy * step[1] + oz * step[2]]);
   }
   return r;
+}
+
+// classAt() on a grid's positions, skipping the voxel lookup (a cache miss in a large volume)
+// where the cell holds no body: those positions are never class >= 2.
+struct BodyClassLookup {
+  const RigidBodies& bodies;
+  const Geometry& grid;
+  const std::vector<uint8_t>& bodyCells;
+  Mat3 gridIdx = mmToIndexOf(grid);
+  // Body class at u, or 0/1 (not a body) without telling which.
+  uint16_t bodyClassAt(const Vec3& u) const {
+    const Vec3 g = gridIdx * (u - grid.origin);
+    const Dims& d = grid.dims;
+    if (g.x >= 0 && g.y >= 0 && g.z >= 0 && g.x <= double(d.x - 1) && g.y <= double(d.y - 1) &&
+        g.z <= double(d.z - 1) && d.x > 1 && d.y > 1 && d.z > 1) {
+      const int64_t i = std::min<int64_t>(static_cast<int64_t>(g.x), d.x - 2);
+      const int64_t j = std::min<int64_t>(static_cast<int64_t>(g.y), d.y - 2);
+      const int64_t k = std::min<int64_t>(static_cast<int64_t>(g.z), d.z - 2);
+      if (!bodyCells[static_cast<size_t>((k * d.y + j) * d.x + i)]) return 0;
+    }
+    return bodies.classAt(u);
+  }
+};
+
+// Marks the cells of `grid` that a rigid voxel's nearest-voxel region (the voxel +- half a
+// voxel per axis) reaches into.
+std::vector<uint8_t> bodyCellsOf(const VolumeU16& classes, const Geometry& grid) {
+  const Dims d = grid.dims, cd = classes.dims();
+  std::vector<uint8_t> cells(static_cast<size_t>(d.voxelCount()), 0);
+  if (d.x < 2 || d.y < 2 || d.z < 2) return cells;
+  const Geometry& cg = classes.geometry();
+  // Class index -> grid index: g = G x + g0; the half-voxel box maps into g +- delta.
+  const Mat3 G = mmToIndexOf(grid) * cg.direction *
+                 Mat3::fromColumns({cg.spacing.x, 0, 0}, {0, cg.spacing.y, 0}, {0, 0, cg.spacing.z});
+  const Vec3 g0 = mmToIndexOf(grid) * (cg.origin - grid.origin);
+  Vec3 delta;
+  for (int a = 0; a < 3; ++a)
+    delta[a] = 0.5 * (std::abs(G(a, 0)) + std::abs(G(a, 1)) + std::abs(G(a, 2))) + 1e-6;
+  const int64_t hi[3] = {d.x - 2, d.y - 2, d.z - 2};
+  parallelFor(cd.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < cd.y; ++j)
+        for (int64_t i = 0; i < cd.x; ++i) {
+          if (classes(i, j, k) < 2) continue;
+          const Vec3 g = G * Vec3{double(i), double(j), double(k)} + g0;
+          int64_t lo[3], up[3];
+          for (int a = 0; a < 3; ++a) {
+            lo[a] = std::clamp<int64_t>(static_cast<int64_t>(std::floor(g[a] - delta[a])), 0, hi[a]);
+            up[a] = std::clamp<int64_t>(static_cast<int64_t>(std::floor(g[a] + delta[a])), 0, hi[a]);
+          }
+          for (int64_t c = lo[2]; c <= up[2]; ++c)
+            for (int64_t b = lo[1]; b <= up[1]; ++b)
+              for (int64_t a = lo[0]; a <= up[0]; ++a)
+                std::atomic_ref<uint8_t>(cells[static_cast<size_t>((c * d.y + b) * d.x + a)])
+                    .store(1, std::memory_order_relaxed);
+        }
+  });
+  return cells;
 }
 
 // A backward map sampled on a grid (control-grid nodes or full-resolution voxels): 3 floats
@@ -87,7 +146,8 @@ struct MapView {
 };
 
 // Kabsch fits of v -> u per component over samples whose u lies in the component.
-std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies) {
+template <class ClassOf>
+std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies, const ClassOf& classOf) {
   const int nc = bodies.componentCount();
   std::vector<RigidFitSums> sums(static_cast<size_t>(nc));
   std::mutex mutex;
@@ -99,7 +159,7 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies)
       for (int64_t j = 0; j < d.y; j += s)
         for (int64_t i = 0; i < d.x; i += s) {
           const Vec3 u = m.at((k * d.y + j) * d.x + i);
-          const uint16_t c = bodies.classAt(u);
+          const uint16_t c = classOf(u);
           if (c >= 2) local[c - 2u].add(m.grid.indexToPhysical({double(i), double(j), double(k)}), u);
         }
     std::lock_guard lock(mutex);
@@ -110,8 +170,8 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies)
   return fits;
 }
 
-std::vector<RigidFit> fitComponents(const ControlVolume& cv, const RigidBodies& bodies) {
-  return fitComponents(MapView{cv.sourceMm.data(), cv.grid, 1}, bodies);
+std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies) {
+  return fitComponents(m, bodies, [&](const Vec3& u) { return bodies.classAt(u); });
 }
 
 RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
@@ -263,7 +323,7 @@ RigidBodies RigidBodies::fromThreshold(const AnyVolume& ct, double boneHu, doubl
   return fromMask(std::move(cls), minVoxels);
 }
 
-std::shared_ptr<const std::vector<std::vector<float>>> RigidBodies::distanceFields(const Geometry& grid) const {
+std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geometry& grid) const {
   std::lock_guard lock(cache_->mutex);
   auto& entries = cache_->entries;
   for (size_t e = 0; e < entries.size(); ++e)
@@ -275,7 +335,9 @@ std::shared_ptr<const std::vector<std::vector<float>>> RigidBodies::distanceFiel
   const size_t nodes = static_cast<size_t>(d.voxelCount());
   checkMemoryBudget(static_cast<uint64_t>(nodes) * (sizeof(double) + sizeof(float) * (components_ + 1)),
                     "rigid-body distance fields");
-  auto fields = std::make_shared<std::vector<std::vector<float>>>(static_cast<size_t>(components_));
+  auto fields = std::make_shared<GridFields>();
+  fields->perBody.resize(static_cast<size_t>(components_));
+  fields->nearest.assign(nodes, std::numeric_limits<float>::infinity());
   std::vector<uint8_t> inside(nodes);
   for (int c = 0; c < components_; ++c) {
     parallelFor(d.z, [&](int64_t k0, int64_t k1) {
@@ -285,8 +347,11 @@ std::shared_ptr<const std::vector<std::vector<float>>> RigidBodies::distanceFiel
             inside[static_cast<size_t>((k * d.y + j) * d.x + i)] =
                 classAt(grid.indexToPhysical({double(i), double(j), double(k)})) == c + 2;
     });
-    (*fields)[static_cast<size_t>(c)] = distanceField(grid, inside);
+    auto& field = fields->perBody[static_cast<size_t>(c)];
+    field = distanceField(grid, inside);
+    for (size_t t = 0; t < nodes; ++t) fields->nearest[t] = std::min(fields->nearest[t], field[t]);
   }
+  fields->bodyCells = bodyCellsOf(*classes_, grid);
   constexpr size_t kGridsKept = 3;
   entries.insert(entries.begin(), {grid, fields});
   if (entries.size() > kGridsKept) entries.pop_back();
@@ -305,10 +370,12 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
   if (nc == 0) return;
   const Dims d = cv.grid.dims;
   progress.begin("rigid bodies", static_cast<uint64_t>(nc) + 1);
-  const auto fits = fitComponents(cv, bodies);
   // Distance fields (mm, source space sampled on the control grid) per component: built once
   // per grid and kept in the bodies (an animation re-blends every frame on the same grid).
-  const auto dist = bodies.distanceFields(cv.grid);
+  const auto dist = bodies.gridFields(cv.grid);
+  const BodyClassLookup lookup{bodies, cv.grid, dist->bodyCells};
+  const auto fits = fitComponents(MapView{cv.sourceMm.data(), cv.grid, 1}, bodies,
+                                  [&](const Vec3& u) { return lookup.bodyClassAt(u); });
   progress.advance(static_cast<uint64_t>(nc));
   const Mat3 gridIdx = mmToIndexOf(cv.grid);
   // Weight 1 within one control spacing of the body. A wider core (a whole cell diagonal) makes
@@ -322,19 +389,23 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
     const double t = (dm - margin) / falloff;
     return 1.0 - t * t * (3 - 2 * t);
   };
+  // Trilinear weights are positive, so a field interpolated at gi is never below the nearest-
+  // body field interpolated there: beyond the band in that one field, every weight is 0.
+  const double reach = falloff > 0 ? margin + falloff : margin;
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < d.y; ++j)
         for (int64_t i = 0; i < d.x; ++i) {
           const int64_t node = (k * d.y + j) * d.x + i;
           const Vec3 u = cv.sourceAt(node);
-          const Vec3 v = cv.grid.indexToPhysical({double(i), double(j), double(k)});
           const Vec3 gi = gridIdx * (u - cv.grid.origin);
+          if (sampleClamped(dist->nearest, d, gi) > reach) continue;
+          const Vec3 v = cv.grid.indexToPhysical({double(i), double(j), double(k)});
           double sum = 0;
           Vec3 acc{};
           for (int c = 0; c < nc; ++c) {
             if (!fits[static_cast<size_t>(c)].valid) continue;
-            const double a = weight(sampleClamped((*dist)[static_cast<size_t>(c)], d, gi));
+            const double a = weight(sampleClamped(dist->perBody[static_cast<size_t>(c)], d, gi));
             if (a <= 0) continue;
             sum += a;
             acc += fits[static_cast<size_t>(c)].apply(v) * a;
@@ -343,7 +414,7 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           Vec3 out = sum >= 1 ? acc / sum : u * (1 - sum) + acc;
           // A node that now lands inside a body follows that body exactly (only happens in
           // the inner band where the weight is already ~1, so the snap is invisible).
-          const uint16_t c2 = bodies.classAt(out);
+          const uint16_t c2 = lookup.bodyClassAt(out);
           if (c2 >= 2 && fits[c2 - 2u].valid) out = fits[c2 - 2u].apply(v);
           float* o = cv.sourceMm.data() + 3 * node;
           o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);

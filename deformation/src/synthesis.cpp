@@ -15,6 +15,7 @@
 #endif
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/simd_clones.hpp"
 #include "vellum/core/gaussian_upsampling.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
@@ -120,13 +121,6 @@ inline T toVoxel(float v) {
     return static_cast<T>(std::floor(std::clamp(v, lo, hi) + 0.5f));
   }
 }
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define VELLUM_SIMD_CLONES __attribute__((target_clones("arch=x86-64-v3", "default")))
-#define VELLUM_HAVE_AVX2_PATH 1
-#else
-#define VELLUM_SIMD_CLONES
-#endif
 
 // Trilinear x step without tables: voxels c*s .. c*s+s-1 lie on the segment from node c to c+1.
 VELLUM_SIMD_CLONES void upsampleXLinear(const float* row, int64_t nodes, int s, int64_t n, float* ox,

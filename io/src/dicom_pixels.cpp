@@ -101,6 +101,90 @@ std::string checkJpeg2000(const gdcm::DataElement& pixelData, int64_t rows, int6
   return streams > 0 ? "" : "no JPEG 2000 codestream";
 }
 
+/// The pixel data of all frames as stored samples (uncompressed: whole words, their bits
+/// extracted later; compressed: decoded by the codec), `expected` bytes.
+std::vector<char> decodePixels(const FileHeader& h, const gdcm::DataElement& pixelData,
+                               const gdcm::TransferSyntax& ts, uint64_t expected) {
+  const fs::path& file = h.file;
+  gdcm::Image image;
+  image.SetNumberOfDimensions(h.frameCount > 1 ? 3 : 2);
+  image.SetDimension(0, static_cast<unsigned int>(h.columns));
+  image.SetDimension(1, static_cast<unsigned int>(h.rows));
+  if (h.frameCount > 1) image.SetDimension(2, static_cast<unsigned int>(h.frameCount));
+  // Uncompressed: GDCM gets the full word (it would mask to BitsStored assuming HighBit =
+  // BitsStored - 1) and rescaleFrames extracts the stored bits. Compressed: the codec
+  // returns the values themselves.
+  const bool encapsulated = ts.IsEncapsulated();
+  const auto ba = static_cast<unsigned short>(h.bitsAllocated);
+  const auto bs = static_cast<unsigned short>(encapsulated ? h.bitsStored : h.bitsAllocated);
+  image.SetPixelFormat(gdcm::PixelFormat(1, ba, bs, static_cast<unsigned short>(bs - 1),
+                                         h.signedPixels ? 1 : 0));
+  image.SetPhotometricInterpretation(h.monochrome1 ? gdcm::PhotometricInterpretation::MONOCHROME1
+                                                   : gdcm::PhotometricInterpretation::MONOCHROME2);
+  image.SetTransferSyntax(ts);
+  image.SetDataElement(pixelData);
+  if (image.GetBufferLength() != expected)
+    throw FileError(file, "unsupported pixel layout");
+
+  try {
+    checkMemoryBudget(expected, "decoded pixel data");
+  } catch (const FileError&) {
+    throw;
+  } catch (const Error& e) {
+    throw FileError(file, e.what());
+  }
+  std::vector<char> buffer(expected);
+  bool decoded = false;
+  try {
+    decoded = image.GetBuffer(buffer.data());
+  } catch (const std::exception& e) {
+    throw FileError(file, std::string("cannot decode pixel data: ") + e.what());
+  }
+  if (!decoded)
+    throw FileError(file, std::string("cannot decode pixel data (transfer syntax ") +
+                              ts.GetString() + ")");
+
+  return buffer;
+}
+
+/// Real values per frame (stored bits extracted, rescale slope and intercept, rounded and
+/// saturated to int16) to `sink`; returns how many values saturated.
+int64_t rescaleFrames(const FileHeader& h, const std::vector<char>& buffer, bool encapsulated,
+                      const std::function<void(int64_t frame, const int16_t* values)>& sink) {
+  const fs::path& file = h.file;
+  const int bytesPerSample = h.bitsAllocated / 8;
+  const uint64_t plane = static_cast<uint64_t>(h.rows * h.columns);
+  BitField field;
+  field.bits = encapsulated ? h.bitsAllocated : h.bitsStored;
+  field.shift = encapsulated ? 0 : h.highBit + 1 - h.bitsStored;
+  field.isSigned = h.signedPixels;
+  std::vector<int16_t> values(plane);
+  int64_t saturated = 0;
+  const auto n = static_cast<int64_t>(plane);
+  for (int64_t f = 0; f < h.frameCount; ++f) {
+    const char* src = buffer.data() + static_cast<uint64_t>(f) * plane * bytesPerSample;
+    const Frame& fr = h.frames[static_cast<size_t>(f)];
+    const double s = fr.slope, b = fr.intercept;
+    switch (h.bitsAllocated) {
+      case 8:
+        saturated += h.signedPixels ? rescaleFrame<int8_t>(src, n, field, s, b, values.data())
+                                    : rescaleFrame<uint8_t>(src, n, field, s, b, values.data());
+        break;
+      case 16:
+        saturated += h.signedPixels ? rescaleFrame<int16_t>(src, n, field, s, b, values.data())
+                                    : rescaleFrame<uint16_t>(src, n, field, s, b, values.data());
+        break;
+      case 32:
+        saturated += h.signedPixels ? rescaleFrame<int32_t>(src, n, field, s, b, values.data())
+                                    : rescaleFrame<uint32_t>(src, n, field, s, b, values.data());
+        break;
+      default: throw FileError(file, "unsupported BitsAllocated " + std::to_string(h.bitsAllocated));
+    }
+    sink(f, values.data());
+  }
+  return saturated;
+}
+
 }  // namespace
 
 int64_t decodeFile(const FileHeader& h,
@@ -141,73 +225,8 @@ int64_t decodeFile(const FileHeader& h,
     if (std::string why = checkJpeg2000(pixelData, h.rows, h.columns); !why.empty())
       throw FileError(file, why);
 
-  gdcm::Image image;
-  image.SetNumberOfDimensions(h.frameCount > 1 ? 3 : 2);
-  image.SetDimension(0, static_cast<unsigned int>(h.columns));
-  image.SetDimension(1, static_cast<unsigned int>(h.rows));
-  if (h.frameCount > 1) image.SetDimension(2, static_cast<unsigned int>(h.frameCount));
-  // Uncompressed: GDCM gets the full word (it would mask to BitsStored assuming HighBit =
-  // BitsStored - 1) and BitField below extracts the stored bits. Compressed: the codec
-  // returns the values themselves.
-  const bool encapsulated = ts.IsEncapsulated();
-  const auto ba = static_cast<unsigned short>(h.bitsAllocated);
-  const auto bs = static_cast<unsigned short>(encapsulated ? h.bitsStored : h.bitsAllocated);
-  image.SetPixelFormat(gdcm::PixelFormat(1, ba, bs, static_cast<unsigned short>(bs - 1),
-                                         h.signedPixels ? 1 : 0));
-  image.SetPhotometricInterpretation(h.monochrome1 ? gdcm::PhotometricInterpretation::MONOCHROME1
-                                                   : gdcm::PhotometricInterpretation::MONOCHROME2);
-  image.SetTransferSyntax(ts);
-  image.SetDataElement(pixelData);
-  if (image.GetBufferLength() != expected)
-    throw FileError(file, "unsupported pixel layout");
-
-  try {
-    checkMemoryBudget(expected, "decoded pixel data");
-  } catch (const FileError&) {
-    throw;
-  } catch (const Error& e) {
-    throw FileError(file, e.what());
-  }
-  std::vector<char> buffer(expected);
-  bool decoded = false;
-  try {
-    decoded = image.GetBuffer(buffer.data());
-  } catch (const std::exception& e) {
-    throw FileError(file, std::string("cannot decode pixel data: ") + e.what());
-  }
-  if (!decoded)
-    throw FileError(file, std::string("cannot decode pixel data (transfer syntax ") +
-                              ts.GetString() + ")");
-
-  BitField field;
-  field.bits = encapsulated ? h.bitsAllocated : h.bitsStored;
-  field.shift = encapsulated ? 0 : h.highBit + 1 - h.bitsStored;
-  field.isSigned = h.signedPixels;
-  std::vector<int16_t> values(plane);
-  int64_t saturated = 0;
-  const auto n = static_cast<int64_t>(plane);
-  for (int64_t f = 0; f < h.frameCount; ++f) {
-    const char* src = buffer.data() + static_cast<uint64_t>(f) * plane * bytesPerSample;
-    const Frame& fr = h.frames[static_cast<size_t>(f)];
-    const double s = fr.slope, b = fr.intercept;
-    switch (h.bitsAllocated) {
-      case 8:
-        saturated += h.signedPixels ? rescaleFrame<int8_t>(src, n, field, s, b, values.data())
-                                    : rescaleFrame<uint8_t>(src, n, field, s, b, values.data());
-        break;
-      case 16:
-        saturated += h.signedPixels ? rescaleFrame<int16_t>(src, n, field, s, b, values.data())
-                                    : rescaleFrame<uint16_t>(src, n, field, s, b, values.data());
-        break;
-      case 32:
-        saturated += h.signedPixels ? rescaleFrame<int32_t>(src, n, field, s, b, values.data())
-                                    : rescaleFrame<uint32_t>(src, n, field, s, b, values.data());
-        break;
-      default: throw FileError(file, "unsupported BitsAllocated " + std::to_string(h.bitsAllocated));
-    }
-    sink(f, values.data());
-  }
-  return saturated;
+  const std::vector<char> buffer = decodePixels(h, pixelData, ts, expected);
+  return rescaleFrames(h, buffer, ts.IsEncapsulated(), sink);
 }
 
 }  // namespace vellum::io::detail::dicom

@@ -101,6 +101,40 @@ struct FileResult {
   std::string problem;
 };
 
+/// The frames of an image file: the frame count, and each frame's geometry from the image
+/// attributes, the shared and the per-frame functional groups; returns the problem ("" when usable).
+std::string readFrames(const gdcm::DataSet& ds, const fs::path& file, FileHeader& h) {
+  h.frameCount = 1;
+  if (auto n = number(ds, kFrames)) {
+    if (!(*n >= 1 && *n <= kMaxFrames) || *n != std::floor(*n)) return "absurd NumberOfFrames " + num(*n, 0);
+    h.frameCount = static_cast<int64_t>(*n);
+  }
+
+  Frame base;
+  base.file = file;
+  if (auto n = number(ds, kInstanceNumber); n && std::abs(*n) < 1e15)
+    base.instanceNumber = static_cast<int64_t>(*n);
+  applyImageAttributes(ds, base);
+  if (auto shared = firstItem(ds, kSharedGroups)) applyFunctionalGroup(*shared, base);
+
+  gdcm::SmartPointer<gdcm::SequenceOfItems> perFrame = sequence(ds, kPerFrameGroups);
+  const int64_t perFrameItems = perFrame ? static_cast<int64_t>(perFrame->GetNumberOfItems()) : 0;
+  if (perFrameItems > 0 && perFrameItems != h.frameCount)
+    return "per-frame functional groups list " + std::to_string(perFrameItems) +
+           " frames but NumberOfFrames is " + std::to_string(h.frameCount);
+  h.frames.reserve(static_cast<size_t>(h.frameCount));
+  for (int64_t f = 0; f < h.frameCount; ++f) {
+    Frame fr = base;
+    fr.frameIndex = f;
+    if (perFrameItems > 0)
+      applyFunctionalGroup(perFrame->GetItem(static_cast<gdcm::SequenceOfItems::SizeType>(f + 1))
+                               .GetNestedDataSet(),
+                           fr);
+    h.frames.push_back(std::move(fr));
+  }
+  return {};
+}
+
 FileResult readHeader(const fs::path& file) {
   FileResult r;
   // GDCM may abort on damaged files: only structurally sound ones go to GDCM.
@@ -158,40 +192,10 @@ FileResult readHeader(const fs::path& file) {
   h.modality = stringValue(ds, kModality);
   h.description = stringValue(ds, kSeriesDescription);
   h.sopInstanceUid = stringValue(ds, kSopInstance);
-  h.frameCount = 1;
-  if (auto n = number(ds, kFrames)) {
-    if (!(*n >= 1 && *n <= kMaxFrames) || *n != std::floor(*n)) {
-      r.outcome = Outcome::Unreadable;
-      r.problem = "absurd NumberOfFrames " + num(*n, 0);
-      return r;
-    }
-    h.frameCount = static_cast<int64_t>(*n);
-  }
-
-  Frame base;
-  base.file = file;
-  if (auto n = number(ds, kInstanceNumber); n && std::abs(*n) < 1e15)
-    base.instanceNumber = static_cast<int64_t>(*n);
-  applyImageAttributes(ds, base);
-  if (auto shared = firstItem(ds, kSharedGroups)) applyFunctionalGroup(*shared, base);
-
-  gdcm::SmartPointer<gdcm::SequenceOfItems> perFrame = sequence(ds, kPerFrameGroups);
-  const int64_t perFrameItems = perFrame ? static_cast<int64_t>(perFrame->GetNumberOfItems()) : 0;
-  if (perFrameItems > 0 && perFrameItems != h.frameCount) {
+  if (std::string why = readFrames(ds, file, h); !why.empty()) {
     r.outcome = Outcome::Unreadable;
-    r.problem = "per-frame functional groups list " + std::to_string(perFrameItems) +
-                " frames but NumberOfFrames is " + std::to_string(h.frameCount);
+    r.problem = why;
     return r;
-  }
-  h.frames.reserve(static_cast<size_t>(h.frameCount));
-  for (int64_t f = 0; f < h.frameCount; ++f) {
-    Frame fr = base;
-    fr.frameIndex = f;
-    if (perFrameItems > 0)
-      applyFunctionalGroup(perFrame->GetItem(static_cast<gdcm::SequenceOfItems::SizeType>(f + 1))
-                               .GetNestedDataSet(),
-                           fr);
-    h.frames.push_back(std::move(fr));
   }
   r.outcome = Outcome::Image;
   return r;

@@ -18,6 +18,7 @@
 #include <cstring>
 #include <ctime>
 #include <limits>
+#include <tuple>
 #include <type_traits>
 
 #include "dicom.hpp"
@@ -144,6 +145,68 @@ std::string formatUtc(std::time_t t, const char* format) {
   return buf;
 }
 
+/// What every slice of one series shares.
+struct SeriesTags {
+  std::string modality, description, studyUid, seriesUid, frameUid, date, time;
+  bool ct = false;
+  Encoding enc;
+  double lo = 0, hi = 0;  ///< value range in real units (the display window)
+  Vec3 row, col, axis, normal;
+  std::vector<std::string> sopUids;  ///< per slice
+};
+
+/// The header of slice k: SOP common, patient, study, series, equipment, frame of reference,
+/// image plane and the image pixel module (signed 16-bit monochrome).
+void fillSliceHeader(gdcm::DataSet& ds, const SeriesTags& s, const Geometry& g, int64_t k) {
+  const Vec3 ipp = g.origin + s.axis * (static_cast<double>(k) * g.spacing.z);
+  using gdcm::VR;
+  // SOP common, patient, study, series, equipment, frame of reference.
+  put(ds, 0x0008, 0x0008, VR::CS, "DERIVED\\SECONDARY\\AXIAL");
+  put(ds, 0x0008, 0x0016, VR::UI, s.ct ? kCtImageStorage : kSecondaryCapture);
+  put(ds, 0x0008, 0x0018, VR::UI, s.sopUids[static_cast<size_t>(k)]);
+  put(ds, 0x0008, 0x0020, VR::DA, s.date);
+  put(ds, 0x0008, 0x0030, VR::TM, s.time);
+  put(ds, 0x0008, 0x0050, VR::SH, "");
+  put(ds, 0x0008, 0x0060, VR::CS, s.modality);
+  if (!s.ct) put(ds, 0x0008, 0x0064, VR::CS, "WSD");  // SC conversion type
+  put(ds, 0x0008, 0x0070, VR::LO, "Vellum");
+  put(ds, 0x0008, 0x0090, VR::PN, "");
+  put(ds, 0x0008, 0x103e, VR::LO, s.description);
+  put(ds, 0x0010, 0x0010, VR::PN, "Vellum^Phantom");
+  put(ds, 0x0010, 0x0020, VR::LO, "VELLUM");
+  put(ds, 0x0010, 0x0030, VR::DA, "");
+  put(ds, 0x0010, 0x0040, VR::CS, "O");
+  if (s.ct) put(ds, 0x0018, 0x0060, VR::DS, "");  // KVP (type 2)
+  put(ds, 0x0018, 0x0050, VR::DS, formatDS(g.spacing.z));
+  put(ds, 0x0018, 0x0088, VR::DS, formatDS(g.spacing.z));
+  put(ds, 0x0020, 0x000d, VR::UI, s.studyUid);
+  put(ds, 0x0020, 0x000e, VR::UI, s.seriesUid);
+  put(ds, 0x0020, 0x0010, VR::SH, "1");
+  put(ds, 0x0020, 0x0011, VR::IS, "1");
+  put(ds, 0x0020, 0x0012, VR::IS, "1");
+  put(ds, 0x0020, 0x0013, VR::IS, std::to_string(k + 1));
+  put(ds, 0x0020, 0x0032, VR::DS, join({ipp.x, ipp.y, ipp.z}));
+  put(ds, 0x0020, 0x0037, VR::DS, join({s.row.x, s.row.y, s.row.z, s.col.x, s.col.y, s.col.z}));
+  put(ds, 0x0020, 0x0052, VR::UI, s.frameUid);
+  put(ds, 0x0020, 0x1040, VR::LO, "");
+  put(ds, 0x0020, 0x1041, VR::DS, formatDS(dot(ipp, s.normal)));
+  // Image pixel: signed 16-bit monochrome.
+  putUS(ds, 0x0028, 0x0002, 1);
+  put(ds, 0x0028, 0x0004, VR::CS, "MONOCHROME2");
+  putUS(ds, 0x0028, 0x0010, static_cast<uint16_t>(g.dims.y));
+  putUS(ds, 0x0028, 0x0011, static_cast<uint16_t>(g.dims.x));
+  put(ds, 0x0028, 0x0030, VR::DS, join({g.spacing.y, g.spacing.x}));  // row, column
+  putUS(ds, 0x0028, 0x0100, 16);
+  putUS(ds, 0x0028, 0x0101, 16);
+  putUS(ds, 0x0028, 0x0102, 15);
+  putUS(ds, 0x0028, 0x0103, 1);
+  put(ds, 0x0028, 0x1050, VR::DS, formatDS(0.5 * (s.lo + s.hi)));
+  put(ds, 0x0028, 0x1051, VR::DS, formatDS(std::max(1.0, s.hi - s.lo)));
+  put(ds, 0x0028, 0x1052, VR::DS, formatDS(s.enc.intercept));
+  put(ds, 0x0028, 0x1053, VR::DS, formatDS(s.enc.slope));
+  put(ds, 0x0028, 0x1054, VR::LO, s.ct ? "HU" : "US");
+}
+
 }  // namespace
 
 void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
@@ -160,28 +223,25 @@ void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
   if (g.dims.x > 65535 || g.dims.y > 65535)
     throw FileError(dir, "slices of " + g.dims.str() + " exceed the DICOM limit of 65535 pixels");
 
-  const std::string modality = options.modality.empty() ? "OT" : cleanText(options.modality, 16);
-  const bool ct = modality == "CT";
-  const Encoding enc = std::visit([](const auto& v) { return chooseEncoding(v); }, volume);
-
-  // Value range (for the display window) in real units.
-  // Plain variables, not a structured binding: lambdas below capture them (clang 14 cannot).
-  const auto range = std::visit([](const auto& v) { return v.valueRange(); }, volume);
-  const double lo = range.first, hi = range.second;
-
+  SeriesTags series;
+  series.modality = options.modality.empty() ? "OT" : cleanText(options.modality, 16);
+  series.description = cleanText(options.seriesDescription, 64);
+  series.ct = series.modality == "CT";
+  series.enc = std::visit([](const auto& v) { return chooseEncoding(v); }, volume);
+  std::tie(series.lo, series.hi) = std::visit([](const auto& v) { return v.valueRange(); }, volume);
   gdcm::UIDGenerator uidGen;
-  const std::string studyUid = uidGen.Generate();
-  const std::string seriesUid = uidGen.Generate();
-  const std::string frameUid = uidGen.Generate();
-  std::vector<std::string> sopUids;
-  for (int64_t k = 0; k < g.dims.z; ++k) sopUids.emplace_back(uidGen.Generate());
-
-  const Vec3 row = normalized(g.direction.column(0)), col = normalized(g.direction.column(1));
-  const Vec3 axis = normalized(g.direction.column(2));
-  const Vec3 normal = normalized(cross(row, col));
+  series.studyUid = uidGen.Generate();
+  series.seriesUid = uidGen.Generate();
+  series.frameUid = uidGen.Generate();
+  for (int64_t k = 0; k < g.dims.z; ++k) series.sopUids.emplace_back(uidGen.Generate());
+  series.row = normalized(g.direction.column(0));
+  series.col = normalized(g.direction.column(1));
+  series.axis = normalized(g.direction.column(2));
+  series.normal = normalized(cross(series.row, series.col));
   // One clock reading for both tags, so date and time cannot straddle midnight.
   const std::time_t now = std::time(nullptr);
-  const std::string date = formatUtc(now, "%Y%m%d"), time = formatUtc(now, "%H%M%S");
+  series.date = formatUtc(now, "%Y%m%d");
+  series.time = formatUtc(now, "%H%M%S");
   const int digits = std::max<int>(4, static_cast<int>(std::to_string(g.dims.z).size()));
   Progress* progress = options.progress;
 
@@ -193,9 +253,7 @@ void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
     parallelFor(g.dims.z, [&](int64_t k0, int64_t k1) {
       std::vector<int16_t> pixels(static_cast<size_t>(g.dims.x * g.dims.y));
       for (int64_t k = k0; k < k1; ++k) {
-        std::visit([&](const auto& v) { encodeSlice(v, k, enc, pixels.data()); }, volume);
-        const Vec3 ipp = g.origin + axis * (static_cast<double>(k) * g.spacing.z);
-
+        std::visit([&](const auto& v) { encodeSlice(v, k, series.enc, pixels.data()); }, volume);
         gdcm::Writer writer;
         char name[64];
         std::snprintf(name, sizeof name, "IMG%0*lld.dcm", digits, static_cast<long long>(k + 1));
@@ -204,54 +262,9 @@ void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
         gdcm::File& f = writer.GetFile();
         f.GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
         gdcm::DataSet& ds = f.GetDataSet();
-        using gdcm::VR;
-        // SOP common, patient, study, series, equipment, frame of reference.
-        put(ds, 0x0008, 0x0008, VR::CS, "DERIVED\\SECONDARY\\AXIAL");
-        put(ds, 0x0008, 0x0016, VR::UI, ct ? kCtImageStorage : kSecondaryCapture);
-        put(ds, 0x0008, 0x0018, VR::UI, sopUids[static_cast<size_t>(k)]);
-        put(ds, 0x0008, 0x0020, VR::DA, date);
-        put(ds, 0x0008, 0x0030, VR::TM, time);
-        put(ds, 0x0008, 0x0050, VR::SH, "");
-        put(ds, 0x0008, 0x0060, VR::CS, modality);
-        if (!ct) put(ds, 0x0008, 0x0064, VR::CS, "WSD");  // SC conversion type
-        put(ds, 0x0008, 0x0070, VR::LO, "Vellum");
-        put(ds, 0x0008, 0x0090, VR::PN, "");
-        put(ds, 0x0008, 0x103e, VR::LO, cleanText(options.seriesDescription, 64));
-        put(ds, 0x0010, 0x0010, VR::PN, "Vellum^Phantom");
-        put(ds, 0x0010, 0x0020, VR::LO, "VELLUM");
-        put(ds, 0x0010, 0x0030, VR::DA, "");
-        put(ds, 0x0010, 0x0040, VR::CS, "O");
-        if (ct) put(ds, 0x0018, 0x0060, VR::DS, "");  // KVP (type 2)
-        put(ds, 0x0018, 0x0050, VR::DS, formatDS(g.spacing.z));
-        put(ds, 0x0018, 0x0088, VR::DS, formatDS(g.spacing.z));
-        put(ds, 0x0020, 0x000d, VR::UI, studyUid);
-        put(ds, 0x0020, 0x000e, VR::UI, seriesUid);
-        put(ds, 0x0020, 0x0010, VR::SH, "1");
-        put(ds, 0x0020, 0x0011, VR::IS, "1");
-        put(ds, 0x0020, 0x0012, VR::IS, "1");
-        put(ds, 0x0020, 0x0013, VR::IS, std::to_string(k + 1));
-        put(ds, 0x0020, 0x0032, VR::DS, join({ipp.x, ipp.y, ipp.z}));
-        put(ds, 0x0020, 0x0037, VR::DS, join({row.x, row.y, row.z, col.x, col.y, col.z}));
-        put(ds, 0x0020, 0x0052, VR::UI, frameUid);
-        put(ds, 0x0020, 0x1040, VR::LO, "");
-        put(ds, 0x0020, 0x1041, VR::DS, formatDS(dot(ipp, normal)));
-        // Image pixel: signed 16-bit monochrome.
-        putUS(ds, 0x0028, 0x0002, 1);
-        put(ds, 0x0028, 0x0004, VR::CS, "MONOCHROME2");
-        putUS(ds, 0x0028, 0x0010, static_cast<uint16_t>(g.dims.y));
-        putUS(ds, 0x0028, 0x0011, static_cast<uint16_t>(g.dims.x));
-        put(ds, 0x0028, 0x0030, VR::DS, join({g.spacing.y, g.spacing.x}));  // row, column
-        putUS(ds, 0x0028, 0x0100, 16);
-        putUS(ds, 0x0028, 0x0101, 16);
-        putUS(ds, 0x0028, 0x0102, 15);
-        putUS(ds, 0x0028, 0x0103, 1);
-        put(ds, 0x0028, 0x1050, VR::DS, formatDS(0.5 * (lo + hi)));
-        put(ds, 0x0028, 0x1051, VR::DS, formatDS(std::max(1.0, hi - lo)));
-        put(ds, 0x0028, 0x1052, VR::DS, formatDS(enc.intercept));
-        put(ds, 0x0028, 0x1053, VR::DS, formatDS(enc.slope));
-        put(ds, 0x0028, 0x1054, VR::LO, ct ? "HU" : "US");
+        fillSliceHeader(ds, series, g, k);
         gdcm::DataElement pixelData(gdcm::Tag(0x7fe0, 0x0010));
-        pixelData.SetVR(VR::OW);
+        pixelData.SetVR(gdcm::VR::OW);
         pixelData.SetByteValue(reinterpret_cast<const char*>(pixels.data()),
                                static_cast<uint32_t>(pixels.size() * sizeof(int16_t)));
         ds.Replace(pixelData);

@@ -4,6 +4,7 @@
 // against `vellum animate` on the same keyframes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
@@ -24,6 +25,7 @@
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/io/image_io.hpp"
+#include "vellum/io/video_io.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 #include "vellum/render/projection.hpp"
@@ -352,4 +354,115 @@ TEST(StudioAuthoringScript, RigidLabelEditsUndoAndRedo) {
             readSceneFile(d / "a.json").deformation->track.keyframes[0].points);
 }
 
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+// The timeline's blocks through the real mouse path: a block dragged onto another moves its
+// pose there (the durations stay in place), its right-edge handle dragged sideways retimes
+// it; each drag is one undo step.
+TEST(StudioAuthoringScript, TimelineBlocksReorderAndRetimeByDragging) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const fs::path d = test::tempDir("studio-authoring-timeline");
+  phantom::PhantomOptions o;
+  o.dims = {40, 40, 40};
+  const auto ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
+  const std::string script = R"({"actions":[
+    {"open":)" + q(d / "ct.nrrd") + R"(},{"layout":"3d"},{"controls":"default"},
+    {"drag_point":{"index":4,"end":"target","by_px":[20,0]}},{"keyframe":"add"},
+    {"drag_point":{"index":4,"end":"target","by_px":[0,20]}},{"keyframe":"add"},
+    {"drag_point":{"index":4,"end":"target","by_px":[-20,0]}},
+    {"keyframe":{"select":0,"duration":1}},{"keyframe":{"select":1,"duration":2}},
+    {"keyframe":{"select":2,"duration":3}},{"save_scene":)" + q(d / "a.json") + R"(},
+    {"keyframe_drag":{"from":0,"to":2}},{"save_scene":)" + q(d / "b.json") + R"(},
+    {"key":"ctrl+z"},{"save_scene":)" + q(d / "c.json") + R"(},
+    {"keyframe_drag":{"index":1,"by_px":30}},{"save_scene":)" + q(d / "e.json") + R"(},
+    {"key":"ctrl+z"},{"save_scene":)" + q(d / "f.json") + R"(},
+    {"keyframe_drag":{"from":0,"to":9}},{"quit":0}]})";
+  std::string log;
+  // The last action names a block that does not exist: the script fails there, naming it.
+  ASSERT_EQ(runStudio(d, "timeline", script, &log), 3) << log;
+  EXPECT_NE(log.find("no keyframe block 9"), std::string::npos) << log;
+  const auto track = [&](const char* name) { return readSceneFile(d / name).deformation->track; };
+  const KeyframeTrack a = track("a.json"), b = track("b.json"), c = track("c.json"), e = track("e.json"),
+                      f = track("f.json");
+  ASSERT_EQ(a.keyframes.size(), 3u);
+  // The poses differ in point 4's target (dragged differently in each keyframe).
+  const auto pose = [](const KeyframeTrack& t, size_t k) { return t.keyframes[k].points[4].target; };
+  ASSERT_NE(pose(a, 0), pose(a, 1));
+  ASSERT_NE(pose(a, 1), pose(a, 2));
+  // K0's pose went to the end, the others moved up one place; the durations stayed.
+  EXPECT_EQ(pose(b, 0), pose(a, 1));
+  EXPECT_EQ(pose(b, 1), pose(a, 2));
+  EXPECT_EQ(pose(b, 2), pose(a, 0));
+  EXPECT_TRUE(b.keyframes[2].points == a.keyframes[0].points) << "the whole pose moved";
+  for (size_t k = 0; k < 3; ++k) EXPECT_EQ(b.keyframes[k].durationS, a.keyframes[k].durationS) << k;
+  EXPECT_EQ(readSceneFile(d / "b.json").deformation->keyframe, 2) << "the moved keyframe is the edited one";
+  for (size_t k = 0; k < 3; ++k) EXPECT_TRUE(c.keyframes[k].points == a.keyframes[k].points) << "undone, " << k;
+  // The handle: 30 px right lengthens K1 by 30 px of the timeline's scale (total 6 s over the
+  // panel's width, a few hundred px), the others keep theirs; undo restores 2 s.
+  EXPECT_GT(e.keyframes[1].durationS, 2.2);
+  EXPECT_LT(e.keyframes[1].durationS, 3.5);
+  EXPECT_EQ(e.keyframes[0].durationS, 1);
+  EXPECT_EQ(e.keyframes[2].durationS, 3);
+  EXPECT_EQ(pose(e, 1), pose(a, 1));
+  EXPECT_EQ(f.keyframes[1].durationS, 2);
+}
+
+}  // namespace
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+// Decoded frames of a movie, one MD5 per frame (ffmpeg's framemd5 muxer), without the header.
+std::string decodedFrameHashes(const fs::path& movie, const fs::path& out) {
+  const std::string cmd = "ffmpeg -v error -i \"" + movie.string() + "\" -f framemd5 - > \"" + out.string() + "\"";
+  if (std::system(cmd.c_str()) != 0) return "ffmpeg failed on " + movie.string();
+  std::istringstream in(slurp(out));
+  std::string line, hashes;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] != '#') hashes += line + "\n";
+  return hashes;
+}
+
+// The MP4 export: the studio's movie and `vellum animate`'s on the same keyframes decode to
+// the same frames.
+TEST(StudioAuthoringScript, Mp4ExportDecodesToTheFramesOfVellumAnimate) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  if (!io::videoEncoderAvailable()) GTEST_SKIP() << "no ffmpeg on PATH";
+  const fs::path d = test::tempDir("studio-authoring-mp4");
+  phantom::PhantomOptions o;
+  o.dims = {40, 40, 40};
+  io::saveVolume(AnyVolume(phantom::makePhantom(o).ct), d / "ct.nrrd");
+  const std::string script = R"({"actions":[
+    {"open":)" + q(d / "ct.nrrd") + R"(},{"layout":"3d"},{"controls":"default"},
+    {"keyframe":{"select":0,"duration":0.5}},{"keyframe":"add"},
+    {"drag_point":{"index":4,"end":"target","by_px":[30,-20]}},
+    {"export_movie":{"out":)" + q(d / "studio.mp4") + R"(,"fps":10,"size":"64x48","command":)" + q(d / "cmd.txt") + R"(}},
+    {"export_movie":{"out":)" + q(d / "cancelled" / "m.mp4") + R"(,"fps":60,"size":"256x256","wait":false}},
+    {"frames":2},{"key":"escape"},{"frames":2},
+    {"quit":0}]})";
+  std::string log;
+  ASSERT_EQ(runStudio(d, "mp4", script, &log), 0) << log;
+  std::string cmd = slurp(d / "cmd.txt");
+  const std::string studioOut = "'" + (d / "studio.mp4").string() + "'";
+  ASSERT_NE(cmd.find(studioOut), std::string::npos) << cmd;
+  cmd.replace(cmd.find(studioOut), studioOut.size(), "'" + (d / "cli.mp4").string() + "'");
+  cmd.replace(0, std::string("vellum").size(), std::string("\"") + VELLUM_CLI_EXE + "\"");
+  cmd.pop_back();  // newline
+  ASSERT_EQ(std::system((cmd + " > \"" + (d / "cli.log").string() + "\" 2>&1").c_str()), 0) << slurp(d / "cli.log");
+  const std::string a = decodedFrameHashes(d / "studio.mp4", d / "studio.md5");
+  const std::string b = decodedFrameHashes(d / "cli.mp4", d / "cli.md5");
+  // Escape during the second export cancelled it: no movie and no temporary left beside it
+  // (the keyframes file written at the start stays).
+  ASSERT_TRUE(fs::exists(d / "cancelled"));
+  for (const auto& e : fs::directory_iterator(d / "cancelled"))
+    EXPECT_EQ(e.path().filename(), "m.mp4.keyframes.json");
+  // Two keyframes of 0.5 s (the added one copies the duration) at 10 fps, and the end frame.
+  EXPECT_EQ(std::count(a.begin(), a.end(), '\n'), 11) << a;
+  EXPECT_EQ(a, b);
+}
+
+}  // namespace
 }  // namespace vellum::studio

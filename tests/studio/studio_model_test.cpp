@@ -263,6 +263,19 @@ TEST(StudioAuthoring, KeyframesReorderKeepingTheTimeline) {
   EXPECT_EQ(a.track.keyframes[0].points[0].target.x, 5);
   EXPECT_THROW(moveKeyframe(a, 0, -1), Error);
   EXPECT_THROW(moveKeyframe(a, 7, 1), Error);
+  // Dragged over several places: poses 5, 0, 9 -> K2's pose first, the others shift later.
+  moveKeyframeTo(a, 2, 0);
+  EXPECT_EQ(a.keyframe, 0);
+  EXPECT_EQ(a.track.keyframes[0].points[0].target.x, 9);
+  EXPECT_EQ(a.track.keyframes[1].points[0].target.x, 5);
+  EXPECT_EQ(a.track.keyframes[2].points[0].target.x, 0);
+  moveKeyframeTo(a, 0, 2);  // and back
+  EXPECT_EQ(a.track.keyframes[0].points[0].target.x, 5);
+  EXPECT_EQ(a.track.keyframes[2].points[0].target.x, 9);
+  EXPECT_EQ(a.track.keyframes[0].durationS, 1.0);
+  EXPECT_EQ(a.track.keyframes[2].durationS, 3.0);
+  EXPECT_THROW(moveKeyframeTo(a, 0, 3), Error);
+  EXPECT_THROW(moveKeyframeTo(a, -1, 0), Error);
 }
 
 // The meshes of a `vellum shape` folder for the 3D view: named and given label ids by

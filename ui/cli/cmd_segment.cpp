@@ -61,6 +61,64 @@ nlohmann::json metricsJson(const seg::SegmentMetrics& m) {
           {"mean_surface_distance_mm", num(m.meanSurfaceDistanceMm)}};
 }
 
+/// Adds the segmentation to `labels` as label `id` (or, for k-means classes, ids id..id+k-1);
+/// returns the ids written and reports the single segment's counts.
+std::vector<uint16_t> addToLabels(const SegmentArgs& a, const app::SegmentRequest& request,
+                                  const app::SegmentOutcome& outcome, uint16_t id, LabelVolume& labels,
+                                  nlohmann::json& report) {
+  const seg::OverlapRule rule = seg::parseOverlapRule(a.overlap);
+  std::array<uint8_t, 3> rgb = defaultLabelColor(id);
+  if (!a.color.empty()) {
+    const auto c = parseNumbers(a.color, 3, "--color");
+    for (int i = 0; i < 3; ++i) {
+      if (c[i] < 0 || c[i] > 255) throw Error("--color: components must be in 0..255");
+      rgb[i] = static_cast<uint8_t>(c[i]);
+    }
+  }
+  std::vector<uint16_t> written;
+  if (outcome.classes) {
+    for (int c = 1; c <= request.classes; ++c) {
+      const uint16_t cid = static_cast<uint16_t>(id + c - 1);
+      const seg::Mask m = seg::maskFromIds(*outcome.classes, [c](uint16_t v) { return v == c; });
+      seg::addSegment(labels, m, {cid, (a.labelName.empty() ? "class " : a.labelName + " ") + std::to_string(c), defaultLabelColor(cid)}, rule);
+      written.push_back(cid);
+    }
+  } else {
+    const seg::AddResult r = seg::addSegment(labels, outcome.mask, {id, a.labelName.empty() ? request.method : a.labelName, rgb}, rule);
+    report["segment"] = {{"id", id}, {"voxels", r.written}, {"skipped_by_overlap_rule", r.skipped},
+                         {"cleared", r.cleared}, {"volume_mm3", seg::maskVolumeMm3(outcome.mask)}};
+    written.push_back(id);
+  }
+  return written;
+}
+
+/// --truth: Dice, Jaccard, HD95 and volume difference of the written labels (or of the segment
+/// against the union of --truth-ids), printed and returned for the report.
+nlohmann::json truthMetrics(const SegmentArgs& a, const LabelVolume& labels, const seg::Mask& mask, bool classes,
+                            uint16_t id, const std::vector<uint16_t>& written) {
+  const LabelVolume truth = a.in.loadLabelsOnInputGrid(a.truth);
+  nlohmann::json metrics = nlohmann::json::array();
+  if (!a.truthIds.empty() && !classes) {
+    // The new segment against the union of the given truth ids.
+    const auto& ids = a.truthIds;
+    const seg::Mask t = seg::maskFromIds(truth.ids(), [&](uint16_t v) {
+      return std::find(ids.begin(), ids.end(), v) != ids.end();
+    });
+    seg::SegmentMetrics m = seg::compareMasks(mask, t);
+    m.id = id;
+    metrics.push_back(metricsJson(m));
+    std::printf("segment %u vs truth ids:", id);
+    for (uint16_t v : ids) std::printf(" %u", v);
+    std::printf("  Dice %.4f  Jaccard %.4f  HD95 %.2f mm  volume %+.2f%%\n", m.dice, m.jaccard, m.hd95Mm, m.volumeDifferencePercent);
+  } else {
+    for (const auto& m : seg::compareLabels(labels.ids(), truth.ids(), written)) {
+      metrics.push_back(metricsJson(m));
+      std::printf("label %u  Dice %.4f  Jaccard %.4f  HD95 %.2f mm  volume %+.2f%%\n", m.id, m.dice, m.jaccard, m.hd95Mm, m.volumeDifferencePercent);
+    }
+  }
+  return metrics;
+}
+
 void runSegment(const SegmentArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   refuseOverwritingInput(a.input, a.out);
@@ -86,36 +144,13 @@ void runSegment(const SegmentArgs& a) {
     bar.finish();
   }
   report.update(outcome.info);
-  seg::Mask& mask = outcome.mask;
-  std::optional<VolumeU16>& classes = outcome.classes;
+  const seg::Mask& mask = outcome.mask;
+  const std::optional<VolumeU16>& classes = outcome.classes;
   report["segment_seconds"] = secondsSince(t1);
 
   LabelVolume labels = a.into.empty() ? LabelVolume(ct.geometry()) : a.in.loadLabelsOnInputGrid(a.into);
-  const seg::OverlapRule rule = seg::parseOverlapRule(a.overlap);
   const uint16_t id = a.labelId > 0 ? static_cast<uint16_t>(a.labelId) : labels.nextFreeId();
-  std::array<uint8_t, 3> rgb = defaultLabelColor(id);
-  if (!a.color.empty()) {
-    const auto c = parseNumbers(a.color, 3, "--color");
-    for (int i = 0; i < 3; ++i) {
-      if (c[i] < 0 || c[i] > 255) throw Error("--color: components must be in 0..255");
-      rgb[i] = static_cast<uint8_t>(c[i]);
-    }
-  }
-  std::vector<uint16_t> written;
-  if (classes) {
-    const int n = request.classes;
-    for (int c = 1; c <= n; ++c) {
-      const uint16_t cid = static_cast<uint16_t>(id + c - 1);
-      const seg::Mask m = seg::maskFromIds(*classes, [c](uint16_t v) { return v == c; });
-      seg::addSegment(labels, m, {cid, (a.labelName.empty() ? "class " : a.labelName + " ") + std::to_string(c), defaultLabelColor(cid)}, rule);
-      written.push_back(cid);
-    }
-  } else {
-    const seg::AddResult r = seg::addSegment(labels, mask, {id, a.labelName.empty() ? request.method : a.labelName, rgb}, rule);
-    report["segment"] = {{"id", id}, {"voxels", r.written}, {"skipped_by_overlap_rule", r.skipped},
-                         {"cleared", r.cleared}, {"volume_mm3", seg::maskVolumeMm3(mask)}};
-    written.push_back(id);
-  }
+  const std::vector<uint16_t> written = addToLabels(a, request, outcome, id, labels, report);
   ensureParentFolder(a.out);
   io::saveLabels(labels, a.out);
   std::cout << a.out << ": segment";
@@ -125,28 +160,8 @@ void runSegment(const SegmentArgs& a) {
   std::cout << "\n";
 
   if (!a.truth.empty()) {
-    const LabelVolume truth = a.in.loadLabelsOnInputGrid(a.truth);
-    nlohmann::json metrics = nlohmann::json::array();
-    if (!a.truthIds.empty() && !classes) {
-      // The new segment against the union of the given truth ids.
-      const auto& ids = a.truthIds;
-      const seg::Mask t = seg::maskFromIds(truth.ids(), [&](uint16_t v) {
-        return std::find(ids.begin(), ids.end(), v) != ids.end();
-      });
-      seg::SegmentMetrics m = seg::compareMasks(mask, t);
-      m.id = id;
-      metrics.push_back(metricsJson(m));
-      std::printf("segment %u vs truth ids:", id);
-      for (uint16_t v : ids) std::printf(" %u", v);
-      std::printf("  Dice %.4f  Jaccard %.4f  HD95 %.2f mm  volume %+.2f%%\n", m.dice, m.jaccard, m.hd95Mm, m.volumeDifferencePercent);
-    } else {
-      for (const auto& m : seg::compareLabels(labels.ids(), truth.ids(), written)) {
-        metrics.push_back(metricsJson(m));
-        std::printf("label %u  Dice %.4f  Jaccard %.4f  HD95 %.2f mm  volume %+.2f%%\n", m.id, m.dice, m.jaccard, m.hd95Mm, m.volumeDifferencePercent);
-      }
-    }
     report["truth"] = a.truth;
-    report["metrics"] = metrics;
+    report["metrics"] = truthMetrics(a, labels, mask, classes.has_value(), id, written);
   }
   report["seconds"] = secondsSince(t0);
   if (!a.report.empty()) writeJsonFile(report, a.report);

@@ -58,68 +58,42 @@ nlohmann::json checksJson(const ill::SegmentShape& s) {
           {"max_boundary_distance_mm", c.maxBoundaryDistanceMm}};
 }
 
-void runShape(const ShapeArgs& a) {
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
-  if (a.meshFormat != "ply" && a.meshFormat != "obj" && a.meshFormat != "stl")
-    throw Error("--mesh-format '" + a.meshFormat + "': expected ply, obj or stl");
+/// The CT and its labels on the same grid; the labels lose the table with --remove-table.
+struct ShapeInputs {
+  io::LoadedVolume ct;
+  LabelVolume labels;
+};
+
+ShapeInputs loadShapeInputs(const ShapeArgs& a) {
   refuseOverwritingInput(a.input, a.out);
   refuseOverwritingInput(a.labels, a.out);
-  const io::LoadedVolume lv = loadWithProgress(a.input, a.in);
-  const Geometry& ctGeom = geometryOf(lv.volume);
+  ShapeInputs in{loadWithProgress(a.input, a.in), {}};
+  const Geometry& ctGeom = geometryOf(in.ct.volume);
   // The labels get the input's --crop / --downsample (the raw-input flags describe IN only).
-  LabelVolume labels = a.in.loadLabelsOnInputGrid(a.labels);
-  if (!(labels.geometry().dims == ctGeom.dims))
-    throw Error("--labels " + a.labels + ": dims " + labels.geometry().dims.str() +
+  in.labels = a.in.loadLabelsOnInputGrid(a.labels);
+  if (!(in.labels.geometry().dims == ctGeom.dims))
+    throw Error("--labels " + a.labels + ": dims " + in.labels.geometry().dims.str() +
                 " differ from the CT's " + ctGeom.dims.str());
-  if (!labels.geometry().approxEqual(ctGeom, 1e-3))
+  if (!in.labels.geometry().approxEqual(ctGeom, 1e-3))
     throw Error("--labels " + a.labels + ": spacing/origin/direction differ from the CT's");
   if (a.table.enabled) {
     // Labels from a threshold include the CT table: keep only what lies in the body.
-    const auto* ct = std::get_if<VolumeI16>(&lv.volume);
+    const auto* ct = std::get_if<VolumeI16>(&in.ct.volume);
     if (!ct) throw FileError(a.input, "--remove-table needs a CT in HU (int16)");
     ProgressBar bar;
     const segmentation::Mask body = segmentation::bodyMask(*ct, a.table.params, bar.progress());
-    uint16_t* ids = labels.ids().data();
-    for (size_t v = 0; v < labels.ids().size(); ++v)
+    uint16_t* ids = in.labels.ids().data();
+    for (size_t v = 0; v < in.labels.ids().size(); ++v)
       if (!body.data()[v]) ids[v] = 0;
   }
-  const double loadMs = 1000 * secondsSince(t0);
+  return in;
+}
 
-  std::vector<ill::Segment> segments;
-  for (const auto& s : a.segments) segments.push_back(ill::parseSegmentSpec(s, labels));
-  std::vector<ill::Shell> shells;
-  for (const auto& s : a.shells) {
-    auto [name, mm] = parseNameMm(s, "--shell");
-    shells.push_back({name, mm});
-  }
-  std::vector<ill::Grow> grows;
-  for (const auto& s : a.grows) {
-    auto [name, mm] = parseNameMm(s, "--grow");
-    grows.push_back({name, mm});
-  }
+/// shape.json: inputs, options, per-segment checks, the label table, shells, grows, timings.
+nlohmann::json shapeReport(const ShapeArgs& a, const Geometry& ctGeom, const ill::ShapeResult& r,
+                           const std::vector<ill::Shell>& shells, const std::vector<ill::Grow>& grows,
+                           nlohmann::json timings) {
   const ill::ShapeOptions& opt = a.options;
-  params::validate(ill::shapeOptionsTable(), opt);
-  ill::ShapeResult r;
-  const auto tp = Clock::now();
-  {
-    ProgressBar bar;
-    r = ill::runShapePipeline(labels, segments, shells, grows, opt, bar.progress());
-    bar.finish();
-  }
-  const double pipelineMs = 1000 * secondsSince(tp);
-  r.distance.setGeometry(ctGeom);
-
-  const auto tw = Clock::now();
-  const fs::path dir = a.out;
-  fs::create_directories(dir / "meshes");
-  io::SaveOptions raw;
-  raw.gzip = false;  // 4 bytes a voxel of smooth floats: gzip would cost seconds for little
-  io::saveVolume(r.distance, dir / "distance.nrrd", raw);
-  io::saveLabels(r.segmentation, dir / "segments.nrrd");
-  for (const auto& s : r.shapes) ill::saveMesh(s.mesh, dir / "meshes" / (s.segment.name + "." + a.meshFormat), a.meshFormat);
-  const double writeMs = 1000 * secondsSince(tw);
-
   nlohmann::json j;
   j["input"] = a.input;
   j["labels"] = a.labels;
@@ -135,14 +109,13 @@ void runShape(const ShapeArgs& a) {
     j["labels_out"].push_back({{"id", l.id}, {"name", l.name}, {"rgb", l.rgb}});
   for (const auto& s : shells) j["shells"].push_back({{"segment", s.segment}, {"thickness_mm", s.thicknessMm}});
   for (const auto& g : grows) j["grows"].push_back({{"segment", g.segment}, {"offset_mm", g.offsetMm}});
-  const auto& t = r.times;
-  j["timings_ms"] = {{"load", loadMs}, {"denoise", t.denoiseMs}, {"mesh", t.meshMs},
-                     {"process", t.processMs}, {"distances", t.distancesMs},
-                     {"segmentation", t.segmentationMs}, {"pipeline", pipelineMs},
-                     {"write", writeMs}, {"total", 1000 * secondsSince(t0)}};
+  j["timings_ms"] = std::move(timings);
   j["threads"] = workerCount();
-  writeJsonFile(j, dir / "shape.json");
-  if (!a.report.empty()) writeJsonFile(j, a.report);
+  return j;
+}
+
+void printShapeSummary(const ill::ShapeResult& r, const fs::path& dir, double pipelineMs) {
+  const auto& t = r.times;
   std::printf("%zu segments -> %s (pipeline %.2f s: denoise %.0f, mesh %.0f, process %.0f, distances %.0f, segmentation %.0f ms)\n",
               r.shapes.size(), dir.string().c_str(), pipelineMs / 1000, t.denoiseMs, t.meshMs, t.processMs,
               t.distancesMs, t.segmentationMs);
@@ -151,6 +124,59 @@ void runShape(const ShapeArgs& a) {
                 s.segment.name.c_str(), s.mesh.faces.size(), s.checks.closed, s.checks.manifold, s.checks.outward,
                 static_cast<long long>(s.checks.selfIntersections), s.checks.volumeMm3, s.checks.voxelVolumeMm3,
                 s.checks.maxBoundaryDistanceMm);
+}
+
+void runShape(const ShapeArgs& a) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  if (a.meshFormat != "ply" && a.meshFormat != "obj" && a.meshFormat != "stl")
+    throw Error("--mesh-format '" + a.meshFormat + "': expected ply, obj or stl");
+  const ShapeInputs in = loadShapeInputs(a);
+  const Geometry& ctGeom = geometryOf(in.ct.volume);
+  const double loadMs = 1000 * secondsSince(t0);
+
+  std::vector<ill::Segment> segments;
+  for (const auto& s : a.segments) segments.push_back(ill::parseSegmentSpec(s, in.labels));
+  std::vector<ill::Shell> shells;
+  for (const auto& s : a.shells) {
+    auto [name, mm] = parseNameMm(s, "--shell");
+    shells.push_back({name, mm});
+  }
+  std::vector<ill::Grow> grows;
+  for (const auto& s : a.grows) {
+    auto [name, mm] = parseNameMm(s, "--grow");
+    grows.push_back({name, mm});
+  }
+  params::validate(ill::shapeOptionsTable(), a.options);
+  ill::ShapeResult r;
+  const auto tp = Clock::now();
+  {
+    ProgressBar bar;
+    r = ill::runShapePipeline(in.labels, segments, shells, grows, a.options, bar.progress());
+    bar.finish();
+  }
+  const double pipelineMs = 1000 * secondsSince(tp);
+  r.distance.setGeometry(ctGeom);
+
+  const auto tw = Clock::now();
+  const fs::path dir = a.out;
+  fs::create_directories(dir / "meshes");
+  io::SaveOptions raw;
+  raw.gzip = false;  // 4 bytes a voxel of smooth floats: gzip would cost seconds for little
+  io::saveVolume(r.distance, dir / "distance.nrrd", raw);
+  io::saveLabels(r.segmentation, dir / "segments.nrrd");
+  for (const auto& s : r.shapes) ill::saveMesh(s.mesh, dir / "meshes" / (s.segment.name + "." + a.meshFormat), a.meshFormat);
+  const double writeMs = 1000 * secondsSince(tw);
+
+  const auto& t = r.times;
+  const nlohmann::json j = shapeReport(a, ctGeom, r, shells, grows,
+                                       {{"load", loadMs}, {"denoise", t.denoiseMs}, {"mesh", t.meshMs},
+                                        {"process", t.processMs}, {"distances", t.distancesMs},
+                                        {"segmentation", t.segmentationMs}, {"pipeline", pipelineMs},
+                                        {"write", writeMs}, {"total", 1000 * secondsSince(t0)}});
+  writeJsonFile(j, dir / "shape.json");
+  if (!a.report.empty()) writeJsonFile(j, a.report);
+  printShapeSummary(r, dir, pipelineMs);
 }
 
 }  // namespace

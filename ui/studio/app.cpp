@@ -177,6 +177,7 @@ void StudioApp::frame() {
   int w = 0, h = 0;
   glfwGetWindowSize(window_, &w, &h);
   panes_ = layoutPanes(scene_.view.layout, {kPanelWidth, 0, std::max(1.f, w - kPanelWidth), float(h)});
+  keyframeBlocks_.clear();  // the timeline records them again if it is drawn
   drawToolPanel(*this, kPanelWidth, float(h));
   browser_.draw();
   if (errorPopupPending_) {
@@ -194,11 +195,16 @@ void StudioApp::frame() {
   bool rendered3d = false, mapUpdated = false;
   slicesRendered_ = false;
   if (scene_.hasVolume()) {
-    // Nothing to draw until the exact map lands (the 3D view holds its frame, below): wait on
-    // the worker for up to a frame's time rather than spin frames that compete with it.
-    if (!interacting3d()) deform_->awaitSolve(std::chrono::milliseconds(15));
-    if ((mapUpdated = deform_->update(scene_, pointDrag_.has_value() || scene_.authoring.playing)))
-      view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
+    const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
+    mapUpdated = deform_->update(scene_, livePoints);
+    if (deform_->solving() && !interacting3d()) {
+      // The exact map is on the worker (just started, or still running): wait for it, up to
+      // one drag frame's time (~100 ms at 256³), rather than draw a frame that takes cores
+      // from it and that the map would replace. At 256³, s = 4 it lands within the wait.
+      deform_->awaitSolve(std::chrono::milliseconds(100));
+      mapUpdated = deform_->update(scene_, livePoints) || mapUpdated;
+    }
+    if (mapUpdated) view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
     updateSliceTextures();  // after the map: deformed slices show this frame's map
     view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
     view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);

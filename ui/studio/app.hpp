@@ -166,9 +166,15 @@ class StudioApp {
   /// Window pixel where point `index`'s end is drawn in the first pane that shows it (3D first),
   /// or in the pane named `view` ("3d", "axial", "coronal", "sagittal").
   std::optional<std::pair<double, double>> pointOnScreen(int index, PointEnd end, const std::string& view = "") const;
+  /// Where the timeline drew each keyframe's block in the last frame (window pixels: x, y,
+  /// width, height); its rightmost kKeyframeHandlePx are the duration handle.
+  static constexpr float kKeyframeHandlePx = 6;
+  std::vector<std::array<float, 4>>& keyframeBlocks() { return keyframeBlocks_; }
+  /// The window's size in screen pixels (what scripted coordinates refer to).
+  std::pair<int, int> windowSize() const;
   void play(bool on);
-  /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4, one frame per
-  /// window frame through animation::MovieRenderer (what `vellum animate` runs).
+  /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4 on a worker with
+  /// its own headless context, through animation::MovieRenderer (what `vellum animate` runs).
   /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`).
   void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0);
   void cancelExport();
@@ -275,6 +281,7 @@ class StudioApp {
   std::vector<std::array<bool, 2>> occlusion_;  ///< per point: source, target hidden in 3D
   std::unique_ptr<DeformSession> deform_;
   std::unique_ptr<ExportJob> export_;
+  std::vector<std::array<float, 4>> keyframeBlocks_;
   std::string exportError_, animateCommand_;
 
   StudioOptions options_;

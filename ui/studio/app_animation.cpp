@@ -3,6 +3,7 @@
 // the output as the equivalent `vellum animate` command (app::animateArguments).
 #include <GLFW/glfw3.h>
 
+#include <chrono>
 #include <cmath>
 #include <iostream>
 
@@ -29,6 +30,7 @@ void StudioApp::play(bool on) {
 void StudioApp::tickAnimation(double dtS) {
   if (export_) {
     try {
+      export_->await(std::chrono::milliseconds(50));  // the frame waits: the export has the cores
       if (export_->step()) {
         const auto& r = export_->result();
         std::cout << "export: " << r.frames << " frames, deform " << r.deformMs / std::max(1, r.frames)
@@ -105,8 +107,8 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   deformation::saveKeyframes(a.track, request.keyframes);
   animateCommand_ = "vellum animate " + app::animateArguments(request);
   a.playing = false;
-  export_ = std::make_unique<ExportJob>(*context_, AnyVolume(scene_.ct), a.track, a.engine,
-                                        animation::MovieRigidity{bodies, a.falloffMm, 0}, spec);
+  export_ = std::make_unique<ExportJob>(AnyVolume(scene_.ct), a.track, a.engine, deform_->sharedBodies(), a.falloffMm,
+                                        spec);
 }
 
 void StudioApp::cancelExport() { export_.reset(); }

@@ -339,3 +339,11 @@ void StudioApp::placeControls(bool fromLabels) {
 }
 
 }  // namespace vellum::studio
+
+namespace vellum::studio {
+std::pair<int, int> StudioApp::windowSize() const {
+  int w = 0, h = 0;
+  glfwGetWindowSize(window_, &w, &h);
+  return {w, h};
+}
+}  // namespace vellum::studio

@@ -71,8 +71,17 @@ void moveKeyframe(Authoring& a, int index, int offset) {
   const int to = index + offset;
   if (to < 0 || to >= n) throw Error("keyframe " + std::to_string(index) + " cannot move " +
                                      (offset < 0 ? "earlier" : "later"));
-  // The pose moves; each slot keeps its duration, so the timing of the movie stays as it was.
-  std::swap(a.track.keyframes[size_t(index)].points, a.track.keyframes[size_t(to)].points);
+  moveKeyframeTo(a, index, to);
+}
+
+void moveKeyframeTo(Authoring& a, int from, int to) {
+  const int n = int(a.track.keyframes.size());
+  if (from < 0 || from >= n) throw Error("no keyframe " + std::to_string(from));
+  if (to < 0 || to >= n) throw Error("no place " + std::to_string(to) + " for keyframe " + std::to_string(from));
+  // The poses move; each place keeps its duration, so the timing of the movie stays as it was.
+  auto& k = a.track.keyframes;
+  for (int i = from; i < to; ++i) std::swap(k[size_t(i)].points, k[size_t(i + 1)].points);
+  for (int i = from; i > to; --i) std::swap(k[size_t(i)].points, k[size_t(i - 1)].points);
   a.keyframe = to;
   a.timeS.reset();
   a.touch();

@@ -51,6 +51,9 @@ void deleteKeyframe(Authoring& a, int index);
 /// Reorders: keyframe `index` swaps its pose with its neighbour `offset` (-1 earlier, +1
 /// later) away; the durations stay with their places in the timeline. It stays the edited one.
 void moveKeyframe(Authoring& a, int index, int offset);
+/// Reorders by dragging: keyframe `from`'s pose moves to place `to`, the poses between shift
+/// one place towards `from`; the durations stay with their places. `to` becomes the edited one.
+void moveKeyframeTo(Authoring& a, int from, int to);
 /// "Key camera": the view's whole camera (field of view included) as a keyframe camera.
 deformation::KeyframeCamera keyframeCameraOf(const render::Camera& c);
 /// Adds a point (source = target = mm) to every keyframe; it becomes selected.

@@ -10,10 +10,33 @@
 namespace vellum::studio {
 using namespace vellum::deformation;
 
-DeformSession::~DeformSession() { waitForSolve(); }
+DeformSession::~DeformSession() {
+  waitForSolve();
+  if (previewBuild_.valid()) previewBuild_.wait();
+}
 
 void DeformSession::waitForSolve() {
   if (solve_.valid()) solve_.wait(), solve_ = {};
+}
+
+namespace {
+DeformParams previewParams(const DeformParams& exact) {
+  DeformParams p = exact;
+  p.controlScale = std::min(2 * p.controlScale, 16);  // the table's limit
+  return p;
+}
+}  // namespace
+
+void DeformSession::prebuildPreview(const Scene& scene, const std::string& key) {
+  if (previewDeformer_ || previewBuild_.valid()) return;
+  const Authoring& a = scene.authoring;
+  previewBuild_ = std::async(std::launch::async, [volume = AnyVolume(scene.ct), params = previewParams(a.engine),
+                                                  points = a.currentPoints(), bodies = bodies_, falloff = a.falloffMm,
+                                                  upsampling = scene.view.deformedUpsampling, key] {
+    auto deformer = std::make_unique<Deformer>(volume, params);
+    solve(*deformer, points, bodies.get(), falloff, upsampling, key);
+    return deformer;
+  });
 }
 
 DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoints& points, const RigidBodies* bodies,
@@ -61,6 +84,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   const bool newVolume = scene.volumeGeneration != volumeGeneration_ || engineKey != engineKey_;
   if (newVolume || !deformer_) {
     waitForSolve();  // the worker may be using the old deformer
+    if (previewBuild_.valid()) previewBuild_.wait(), previewBuild_ = {};  // built for the old one
     deformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), a.engine);
     previewDeformer_.reset();
     volumeGeneration_ = scene.volumeGeneration;
@@ -94,16 +118,18 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   }
   if (interacting) {  // the preview, at once
     if (preview_ && previewKey_ == key) return changed;
-    if (!previewDeformer_) {
-      DeformParams p = a.engine;
-      p.controlScale = std::min(2 * p.controlScale, 16);  // the table's limit
-      previewDeformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), p);
-    }
+    if (!previewDeformer_)
+      previewDeformer_ = previewBuild_.valid() ? previewBuild_.get()
+                                               : std::make_unique<Deformer>(AnyVolume(scene.ct), previewParams(a.engine));
     adopt(solve(*previewDeformer_, a.currentPoints(), bodies_.get(), a.falloffMm, upsampling, key), true);
     previewKey_ = key;
     return true;
   }
-  if (mapKey_ == key || solve_.valid()) return changed;  // up to date, or the worker is on it
+  if (mapKey_ == key) {  // up to date: get the preview ready for the next drag
+    prebuildPreview(scene, key);
+    return changed;
+  }
+  if (solve_.valid()) return changed;  // the worker is on it
   // The exact map on the worker; the inputs are copies, the deformer is the worker's until done.
   solve_ = std::async(std::launch::async, [deformer = deformer_.get(), points = a.currentPoints(), bodies = bodies_,
                                            falloff = a.falloffMm, upsampling, key] {

@@ -21,7 +21,7 @@ namespace vellum::studio {
 class DeformSession {
  public:
   DeformSession() = default;
-  ~DeformSession();  ///< waits for a running solve
+  ~DeformSession();  ///< waits for a running solve or preview build
   DeformSession(const DeformSession&) = delete;
   DeformSession& operator=(const DeformSession&) = delete;
 
@@ -57,6 +57,7 @@ class DeformSession {
   double lastRigidityMs() const { return rigidityMs_; }
   /// Rigid bodies of the current labels (nullptr without rigid labels).
   const deformation::RigidBodies* bodies() const { return bodies_.get(); }
+  const std::shared_ptr<const deformation::RigidBodies>& sharedBodies() const { return bodies_; }
 
  private:
   struct Solved {
@@ -72,9 +73,13 @@ class DeformSession {
                       std::string key);
   void adopt(Solved s, bool preview);
   void waitForSolve();
+  /// Builds the preview's Deformer on a worker and solves once with it (rho fields, the rigid
+  /// bodies' fields on its grid), so that the first drag starts without that wait.
+  void prebuildPreview(const Scene& scene, const std::string& key);
 
   std::unique_ptr<deformation::Deformer> deformer_, previewDeformer_;
   std::future<Solved> solve_;  ///< the exact solve on the worker (it alone uses deformer_ meanwhile)
+  std::future<std::unique_ptr<deformation::Deformer>> previewBuild_;  ///< see prebuildPreview()
   bool preview_ = false;
   std::shared_ptr<const deformation::RigidBodies> bodies_;
   std::optional<render::BackwardMap> map_;

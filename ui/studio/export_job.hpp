@@ -1,8 +1,11 @@
 #pragma once
-// The studio's movie export: animation::MovieRenderer (the code `vellum animate` runs) driven
-// one frame per window frame, so the window shows progress and can cancel.
+// The studio's movie export: animation::MovieRenderer (the code `vellum animate` runs) on a
+// worker thread with its own headless GL context, as `vellum animate` renders, so the window
+// stays interactive, shows the progress and can cancel between frames.
+#include <atomic>
+#include <chrono>
+#include <future>
 #include <memory>
-#include <string>
 
 #include "vellum/animation/movie.hpp"
 
@@ -10,24 +13,30 @@ namespace vellum::studio {
 
 class ExportJob {
  public:
-  ExportJob(render::GlContext& context, const AnyVolume& volume, const deformation::KeyframeTrack& track,
-            const deformation::DeformParams& params, animation::MovieRigidity rigidity, animation::MovieSpec spec)
-      : movie_(context, volume, track, params, rigidity, std::move(spec)) {}
-  /// Renders the next frame; true when the export has finished (then the movie is closed).
-  bool step() {
-    if (!movie_.done()) movie_.renderNext();
-    if (movie_.done() && !finished_) {
-      result_ = movie_.finish();
-      finished_ = true;
-    }
-    return finished_;
+  /// Starts rendering at once. `bodies` (may be null) is kept alive by the job.
+  ExportJob(AnyVolume volume, deformation::KeyframeTrack track, deformation::DeformParams params,
+            std::shared_ptr<const deformation::RigidBodies> bodies, double falloffMm, animation::MovieSpec spec);
+  /// Cancels (the frame being rendered finishes first) and waits; an unfinished movie is
+  /// abandoned (nothing is left at its path).
+  ~ExportJob();
+  ExportJob(const ExportJob&) = delete;
+  ExportJob& operator=(const ExportJob&) = delete;
+
+  /// True when the export has finished (then the movie is closed); rethrows its error.
+  bool step();
+  /// Blocks up to `timeout` for the export to finish (the window's frames wait here so the
+  /// export has the cores).
+  void await(std::chrono::milliseconds timeout) const {
+    if (work_.valid()) work_.wait_for(timeout);
   }
-  int framesDone() const { return movie_.framesDone(); }
-  int frameCount() const { return movie_.frameCount(); }
+  int framesDone() const { return done_; }
+  int frameCount() const { return count_; }
   const animation::MovieResult& result() const { return result_; }
 
  private:
-  animation::MovieRenderer movie_;
+  std::atomic<bool> cancel_{false};
+  std::atomic<int> done_{0}, count_{0};
+  std::future<animation::MovieResult> work_;
   animation::MovieResult result_;
   bool finished_ = false;
 };

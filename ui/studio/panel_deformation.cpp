@@ -99,29 +99,51 @@ void pointsRow(StudioApp& app) {
   }
 }
 
-void timeline(StudioApp& app) {
+// One block per keyframe, as wide as its duration: click to edit that keyframe, drag it onto
+// another block to move its pose there, drag its right edge (the handle) to change its
+// duration. Each drag is one undo step.
+void keyframeBlocks(StudioApp& app) {
   Authoring& a = app.scene().authoring;
-  if (!a.active()) return;
-  // Blocks: one per keyframe, as wide as its duration; click to edit that keyframe.
   const float width = ImGui::GetContentRegionAvail().x;
   const double total = std::max(1e-6, a.track.totalDurationS());
-  for (int k = 0; k < int(a.track.keyframes.size()); ++k) {
+  const int n = int(a.track.keyframes.size());
+  const float handle = StudioApp::kKeyframeHandlePx;
+  static std::optional<deformation::KeyframeTrack> before;
+  static int beforeKeyframe = 0;
+  for (int k = 0; k < n; ++k) {
     if (k) ImGui::SameLine(0, 2);
-    const float w = std::max(18.f, float(a.track.keyframes[size_t(k)].durationS / total) * (width - 2 * a.track.keyframes.size()));
+    const float w = std::max(18.f, float(a.track.keyframes[size_t(k)].durationS / total) * (width - 2 * float(n)));
     const bool current = k == a.keyframe && !a.timeS;
+    const ImVec2 at = ImGui::GetCursorScreenPos();
+    app.keyframeBlocks().push_back({at.x, at.y, w, 24});
     ImGui::PushStyleColor(ImGuiCol_Button, current ? ImVec4(0.2f, 0.6f, 0.3f, 1) : ImVec4(0.3f, 0.3f, 0.35f, 1));
-    if (ImGui::Button(("K" + std::to_string(k) + "##kf" + std::to_string(k)).c_str(), {w, 24})) {
+    if (ImGui::Button(("K" + std::to_string(k) + "##kf" + std::to_string(k)).c_str(), {w - handle, 24})) {
       a.keyframe = k;
       a.timeS.reset();
       a.playing = false;
       a.touch();
     }
     ImGui::PopStyleColor();
-    // Dragging a block sideways changes its duration (one undo step per drag).
-    static std::optional<deformation::KeyframeTrack> before;
-    static int beforeKeyframe = 0;
+    if (ImGui::BeginDragDropSource()) {
+      ImGui::SetDragDropPayload("VELLUM_KEYFRAME", &k, sizeof k);
+      ImGui::Text("move K%d", k);
+      ImGui::EndDragDropSource();
+    }
+    if (ImGui::BeginDragDropTarget()) {
+      if (const ImGuiPayload* p = ImGui::AcceptDragDropPayload("VELLUM_KEYFRAME")) {
+        const int from = *static_cast<const int*>(p->Data);
+        if (from != k)
+          guarded(app, [&] { app.editTrack("move keyframe", [from, k](Authoring& x) { moveKeyframeTo(x, from, k); }); });
+      }
+      ImGui::EndDragDropTarget();
+    }
+    ImGui::SameLine(0, 0);
+    ImGui::PushStyleColor(ImGuiCol_Button, ImVec4(0.55f, 0.55f, 0.6f, 1));
+    ImGui::Button(("##dur" + std::to_string(k)).c_str(), {handle, 24});
+    ImGui::PopStyleColor();
+    if (ImGui::IsItemHovered() || ImGui::IsItemActive()) ImGui::SetMouseCursor(ImGuiMouseCursor_ResizeEW);
     if (ImGui::IsItemActivated()) before = a.track, beforeKeyframe = a.keyframe;
-    if (ImGui::IsItemActive() && ImGui::IsMouseDragging(ImGuiMouseButton_Left, 2.f)) {
+    if (ImGui::IsItemActive() && ImGui::IsMouseDragging(ImGuiMouseButton_Left, 0.f)) {
       const double secondsPerPx = total / std::max(1.f, width);
       double& d = a.track.keyframes[size_t(k)].durationS;
       d = std::clamp(d + ImGui::GetIO().MouseDelta.x * secondsPerPx, 0.05, 600.0);
@@ -133,7 +155,15 @@ void timeline(StudioApp& app) {
         app.pushTrackEdit("keyframe duration", std::move(*before), beforeKeyframe);
       before.reset();
     }
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("drag to change K%d's duration", k);
   }
+}
+
+void timeline(StudioApp& app) {
+  Authoring& a = app.scene().authoring;
+  if (!a.active()) return;
+  keyframeBlocks(app);
+  const double total = std::max(1e-6, a.track.totalDurationS());
   float duration = float(a.track.keyframes[size_t(a.keyframe)].durationS);
   if (ImGui::DragFloat("Duration s", &duration, 0.05f, 0.05f, 60.f, "%.2f")) {
     const int k = a.keyframe;

@@ -458,6 +458,60 @@ void expandKeyframe(Steps& s, const json& v) {
   s.frames(1);
 }
 
+void expandKeyframeDrag(Steps& s, const json& v) {
+  // {"from": k, "to": j}: drags block k onto block j (moves its pose); {"index": k, "by_px": dx}:
+  // drags block k's duration handle. Through the real mouse path, from where the timeline drew
+  // the blocks in the last frame.
+  const bool move = v.contains("from");
+  const int index = move ? v.at("from").get<int>() : v.at("index").get<int>();
+  const int to = move ? v.at("to").get<int>() : index;
+  const double byPx = move ? 0.0 : v.at("by_px").get<double>();
+  const int moves = std::max(2, v.value("steps", 8));
+  auto path = std::make_shared<std::array<double, 4>>();  // from x, y, to x, y
+  s.frames(1);  // the timeline drawn
+  // Scroll the tool panel with the wheel until the blocks are inside the window.
+  auto tries = std::make_shared<int>(0);
+  s.until([tries](StudioApp& a) {
+    const auto& blocks = a.keyframeBlocks();
+    if (blocks.empty()) return true;  // reported below
+    const double top = blocks.front()[1], bottom = top + blocks.front()[3];
+    const int height = a.windowSize().second;
+    if (top >= 0 && bottom <= height) return true;
+    if (++*tries > 200) throw Error("the keyframe timeline cannot be scrolled into the window");
+    a.injectCursorPos(0.5 * blocks.front()[2] + blocks.front()[0], 0.5 * height);
+    a.injectScroll(0, bottom > height ? -1 : 1);
+    return false;
+  });
+  s.once([=](StudioApp& a) {
+    const auto& blocks = a.keyframeBlocks();
+    const int n = int(blocks.size());
+    if (n == 0) throw Error("the keyframe timeline is not on screen");
+    if (index < 0 || index >= n || to < 0 || to >= n)
+      throw Error("no keyframe block " + std::to_string(index < 0 || index >= n ? index : to));
+    const auto& b = blocks[size_t(index)];
+    const double y = b[1] + 0.5 * b[3];
+    if (move) {
+      const auto& t = blocks[size_t(to)];
+      const double body = StudioApp::kKeyframeHandlePx;
+      *path = {b[0] + 0.5 * (b[2] - body), y, t[0] + 0.5 * (t[2] - body), t[1] + 0.5 * t[3]};
+    } else {
+      const double hx = b[0] + b[2] - 0.5 * StudioApp::kKeyframeHandlePx;
+      *path = {hx, y, hx + byPx, y};
+    }
+    a.injectCursorPos((*path)[0], (*path)[1]);
+  });
+  s.once([](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0); });
+  for (int i = 1; i <= moves; ++i) {
+    const double t = double(i) / moves;
+    s.once([=](StudioApp& a) {
+      const auto& p = *path;
+      a.injectCursorPos(p[0] + (p[2] - p[0]) * t, p[1] + (p[3] - p[1]) * t);
+    });
+  }
+  s.once([](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0); });
+  s.frames(1);
+}
+
 void expandPlay(Steps& s, const json& v) {
   const double seconds = v.at("seconds").get<double>();
   auto until = std::make_shared<double>();
@@ -478,6 +532,7 @@ void expandExportMovie(Steps& s, const json& v) {
   const std::string command = v.value("command", "");
   const double orbit = v.value("orbit", 0.0);
   s.once([=](StudioApp& a) { a.startExport(out, fps, w, h, orbit); });
+  if (!v.value("wait", true)) return;  // e.g. to press Escape while it runs
   s.until([](StudioApp& a) { return !a.exporting(); });
   s.once([=](StudioApp& a) {
     if (!a.lastExportError().empty()) throw Error("export failed: " + a.lastExportError());
@@ -580,6 +635,7 @@ const std::map<std::string, Expander>& expanders() {
       {"drag_point", expandPointDrag},
       {"attribute_drag", expandPointDrag},
       {"keyframe", expandKeyframe},
+      {"keyframe_drag", expandKeyframeDrag},
       {"play", expandPlay},
       {"export_movie", expandExportMovie},
       {"rigid_labels", expandRigidLabels},

@@ -34,16 +34,24 @@ class RigidBodies {
   const std::vector<std::array<int64_t, 6>>& boxes() const { return boxes_; }
   /// Class at a physical position (nearest voxel; 0 outside).
   uint16_t classAt(const Vec3& mm) const;
-  /// Distance (mm) from every node of `grid` to each component, one field per component;
-  /// computed once per grid and cached for the last few grids (an interactive session
-  /// alternates a preview grid and the exact one; thread-safe).
-  std::shared_ptr<const std::vector<std::vector<float>>> distanceFields(const Geometry& grid) const;
+  /// What the rigid blend needs on one grid: distances (mm) from its nodes to the components,
+  /// and which of its cells can hold a body voxel.
+  struct GridFields {
+    std::vector<std::vector<float>> perBody;  ///< one distance field per component
+    std::vector<float> nearest;               ///< the minimum over the components
+    /// Per cell (indexed by its lowest node): 1 where some rigid voxel's nearest-voxel region
+    /// reaches into the cell, so classAt() can be >= 2 only at positions in such cells.
+    std::vector<uint8_t> bodyCells;
+  };
+  /// The fields on `grid`, computed once per grid and cached for the last few grids (an
+  /// interactive session alternates a preview grid and the exact one; thread-safe).
+  std::shared_ptr<const GridFields> gridFields(const Geometry& grid) const;
 
  private:
   struct Cache {
     std::mutex mutex;
     /// Most recently used first.
-    std::vector<std::pair<Geometry, std::shared_ptr<const std::vector<std::vector<float>>>>> entries;
+    std::vector<std::pair<Geometry, std::shared_ptr<const GridFields>>> entries;
   };
   std::shared_ptr<Cache> cache_ = std::make_shared<Cache>();
   static RigidBodies fromMask(VolumeU16 classes, int64_t minVoxels);
