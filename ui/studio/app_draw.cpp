@@ -194,7 +194,8 @@ void StudioApp::drawHud() {
   float bottom = 0;
   for (const Pane& p : panes_) bottom = std::max(bottom, p.rect.y + p.rect.h);
   const float x = panes_.front().rect.x + 8, y = bottom - 44;
-  ImGui::GetForegroundDrawList()->AddRectFilled({x - 4, y - 2}, {x + 520, y + 36}, IM_COL32(0, 0, 0, 150));
+  const float width = std::max(520.f, ImGui::CalcTextSize(hud.str().c_str()).x + 8);  // deformed slices add a position
+  ImGui::GetForegroundDrawList()->AddRectFilled({x - 4, y - 2}, {x + width, y + 36}, IM_COL32(0, 0, 0, 150));
   ImGui::GetForegroundDrawList()->AddText({x, y}, IM_COL32(255, 255, 160, 255), hud.str().c_str());
 }
 
