@@ -466,3 +466,40 @@ TEST(StudioAuthoringScript, Mp4ExportDecodesToTheFramesOfVellumAnimate) {
 
 }  // namespace
 }  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+// A drag solves the exact map at once while that is cheap (a target moved, the last exact
+// solve within the budget); a moved source needs a rho field rebuilt: the coarse preview.
+TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview) {
+  phantom::PhantomOptions o;
+  o.dims = {40, 40, 40};
+  Scene scene;
+  scene.ct = phantom::makePhantom(o).ct;
+  Authoring& a = scene.authoring;
+  placePoints(a, boxControlPoints(scene.ct.geometry()));
+  a.touch();
+  DeformSession session;
+  session.update(scene);
+  for (int i = 0; i < 600 && (session.solving() || session.preview()); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    session.update(scene);
+  }
+  ASSERT_TRUE(session.map() && !session.preview());
+  // A target moves during a drag: the exact map, in this call, with no worker.
+  a.editablePoints()[5].target += Vec3{4, 0, 0};
+  a.touch();
+  EXPECT_TRUE(session.update(scene, true));
+  EXPECT_FALSE(session.preview());
+  EXPECT_FALSE(session.solving());
+  EXPECT_EQ(session.map()->grid.dims, controlGrid(scene.ct.geometry(), a.engine.controlScale).dims);
+  // A source moves: the preview on the coarser grid.
+  a.editablePoints()[5].source += Vec3{4, 0, 0};
+  a.touch();
+  EXPECT_TRUE(session.update(scene, true));
+  EXPECT_TRUE(session.preview());
+  EXPECT_EQ(session.map()->grid.dims, controlGrid(scene.ct.geometry(), 2 * a.engine.controlScale).dims);
+}
+
+}  // namespace
+}  // namespace vellum::studio

@@ -45,6 +45,11 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoin
   Solved s;
   deformer.setPoints(points);
   ControlVolume cv = deformer.update();
+  if (bodies) {  // the bodies' fields on this grid: built once per grid, timed apart
+    const auto tf = std::chrono::steady_clock::now();
+    bodies->gridFields(cv.grid);
+    s.fieldsMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tf).count();
+  }
   const auto t1 = std::chrono::steady_clock::now();
   if (bodies) applyRigidity(cv, *bodies, {falloffMm});
   s.rigidityMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
@@ -53,7 +58,15 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoin
   s.timings = deformer.timings();
   s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   s.key = std::move(key);
+  for (const auto& p : points) s.sources.push_back(p.source);
   return s;
+}
+
+bool DeformSession::liveExact(const ControlPoints& points) const {
+  if (!(exactUpdateMs_ <= kLiveExactBudgetMs) || points.size() != exactSources_.size()) return false;
+  for (size_t i = 0; i < points.size(); ++i)
+    if (points[i].source != exactSources_[i]) return false;  // a rho field to rebuild: preview
+  return true;
 }
 
 void DeformSession::adopt(Solved s, bool preview) {
@@ -65,6 +78,10 @@ void DeformSession::adopt(Solved s, bool preview) {
   hasTimings_ = true;
   lastMs_ = s.ms;
   rigidityMs_ = s.rigidityMs;
+  if (!preview) {
+    exactUpdateMs_ = s.ms - s.timings.rhoCacheMs - s.fieldsMs;  // what the next target move costs
+    exactSources_ = std::move(s.sources);
+  }
   ++mapRevision_;
 }
 
@@ -87,6 +104,8 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     if (previewBuild_.valid()) previewBuild_.wait(), previewBuild_ = {};  // built for the old one
     deformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), a.engine);
     previewDeformer_.reset();
+    exactUpdateMs_ = 1e300;  // unknown until the new deformer has solved once
+    exactSources_.clear();
     volumeGeneration_ = scene.volumeGeneration;
     engineKey_ = engineKey;
     labelsRevision_ = ~0ull;
@@ -115,6 +134,12 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
       adopt(std::move(s), false);
       changed = true;
     }
+  }
+  if (interacting && liveExact(a.currentPoints())) {  // the exact map itself, at once
+    if (mapKey_ == key) return changed;
+    waitForSolve();  // a solve of older inputs holds the deformer
+    adopt(solve(*deformer_, a.currentPoints(), bodies_.get(), a.falloffMm, upsampling, key), false);
+    return true;
   }
   if (interacting) {  // the preview, at once
     if (preview_ && previewKey_ == key) return changed;

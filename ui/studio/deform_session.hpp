@@ -27,13 +27,17 @@ class DeformSession {
 
   /// Re-solves when the points, the volume, the engine parameters, the rigid labels or the
   /// map upsampling (ViewSettings::deformedUpsampling) changed.
-  /// While `interacting` (a point drag, playback) the map is solved at once on a control grid
-  /// twice as coarse (s = 8, its own Deformer and rho cache), like the 3D view's
-  /// reduced-resolution frames. The exact map (s = 4, what the export renders) is solved on a
-  /// worker thread, so the window never waits for it; it replaces the preview when it is done
-  /// (a solve whose inputs changed meanwhile is dropped and started again). Returns true when
+  /// While `interacting` (a point drag, playback) the map is solved at once: the exact map
+  /// (s = 4, what the export renders) when its last solve took at most kLiveExactBudgetMs
+  /// without rebuilding rho fields and no source moved since (target drags: no rho field to
+  /// rebuild); otherwise a preview on a control grid twice as coarse (s = 8, its own Deformer
+  /// and rho cache), like the 3D view's reduced-resolution frames, and the exact map follows
+  /// on a worker thread when the interaction ends; it replaces the preview when it is done (a
+  /// solve whose inputs changed meanwhile is dropped and started again). Returns true when
   /// the map changed (the 3D view must render again).
   bool update(const Scene& scene, bool interacting = false);
+  /// The exact map is solved live while its updates take at most this (the target).
+  static constexpr double kLiveExactBudgetMs = 50;
   /// True when the map shown is the coarse preview (or an exact solve is still running).
   bool preview() const { return preview_; }
   /// True while the exact map is being solved on the worker.
@@ -65,8 +69,12 @@ class DeformSession {
     std::shared_ptr<const deformation::MapSampler> sampler;
     deformation::DeformTimings timings;
     double ms = 0, rigidityMs = 0;
+    double fieldsMs = 0;  ///< of ms: the rigid bodies' fields on the grid (once per grid)
     std::string key;  ///< the inputs it was solved for
+    std::vector<Vec3> sources;  ///< the points' sources (their rho fields are now cached)
   };
+  /// True when the exact map can be solved live for `points` (see update()).
+  bool liveExact(const deformation::ControlPoints& points) const;
   /// Solves `points` on `deformer` with the rigid blend: the work of both paths.
   static Solved solve(deformation::Deformer& deformer, const deformation::ControlPoints& points,
                       const deformation::RigidBodies* bodies, double falloffMm, deformation::Upsampling upsampling,
@@ -86,6 +94,8 @@ class DeformSession {
   std::shared_ptr<const deformation::MapSampler> sampler_;
   std::string mapKey_;  ///< inputs of the exact map shown ("" = none or a preview)
   std::string previewKey_;  ///< inputs of the preview shown
+  double exactUpdateMs_ = 1e300;  ///< the last exact solve, less its rho-field rebuilds
+  std::vector<Vec3> exactSources_;  ///< the sources of the last exact solve
   uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull;
   std::vector<uint16_t> rigidLabels_;
   std::string engineKey_;  ///< the engine parameters the deformers were made with
