@@ -651,10 +651,9 @@ struct MapSampler::Impl {
   }
 };
 
-MapSampler::MapSampler(const ControlVolume& cv, const Geometry& output, Upsampling upsampling) {
+MapSampler::MapSampler(ControlVolume cv, const Geometry& output, Upsampling upsampling) {
   checkGrid(output, cv);
   auto impl = std::make_shared<Impl>();
-  impl->nodes = cv.sourceMm;
   impl->nd = cv.grid.dims;
   impl->od = output.dims;
   impl->scale = cv.scale;
@@ -662,6 +661,7 @@ MapSampler::MapSampler(const ControlVolume& cv, const Geometry& output, Upsampli
   if (!output.direction.inverse(impl->mmToIndex)) impl->mmToIndex = output.direction.transposed();
   impl->upsampling = upsampling;
   impl->snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
+  impl->nodes = std::move(cv.sourceMm);
   impl_ = std::move(impl);
 }
 

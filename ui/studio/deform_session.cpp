@@ -54,7 +54,7 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoin
   if (bodies) applyRigidity(cv, *bodies, {falloffMm});
   s.rigidityMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   s.map = animation::toBackwardMap(cv, deformer.outputGeometry(), upsampling);
-  s.sampler = std::make_shared<const MapSampler>(cv, deformer.outputGeometry(), upsampling);
+  s.sampler = std::make_shared<const MapSampler>(std::move(cv), deformer.outputGeometry(), upsampling);  // last use
   s.timings = deformer.timings();
   s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   s.key = std::move(key);

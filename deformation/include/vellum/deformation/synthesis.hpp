@@ -26,11 +26,12 @@ std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output,
 /// The backward map at arbitrary output positions (mm), for pictures whose pixels are not
 /// voxels (the studio's slice views): the nodes interpolated with the taps upsampleMap() uses
 /// at the voxels, then the rigid snap, so at every output voxel centre it gives what
-/// upsampleMap() gives (float rounding aside). Holds a copy of the node map; thread-safe.
+/// upsampleMap() gives (float rounding aside). Owns its node map (move the control volume in
+/// to spare the copy); thread-safe.
 class MapSampler {
  public:
   /// `cv` must be built for `output` (throws vellum::Error otherwise, as synthesize() does).
-  MapSampler(const ControlVolume& cv, const Geometry& output, Upsampling upsampling = Upsampling::Trilinear);
+  MapSampler(ControlVolume cv, const Geometry& output, Upsampling upsampling = Upsampling::Trilinear);
   /// The source position (mm) of output position `outputMm`; nullopt outside the output
   /// grid's voxel box (beyond half a voxel from the outer voxel centres: the deformed volume
   /// is background there). Between the outer centres and the box's faces the map is clamped
