@@ -1,8 +1,8 @@
 // The slice views through the deformation (issue #11): renderSlice with the control volume's
 // map (deformation::MapSampler) against analytic truth (a translation shifts the slice) and
 // against CPU synthesis resampled on the same plane; and in the window (skipped without
-// $DISPLAY): View > Deformed slices off restores the undeformed slice byte for byte, and the
-// scene file keeps the setting.
+// $DISPLAY): View > Deformed slices off restores the undeformed slice byte for byte, the
+// scene file keeps the setting, and a Paint click lands at the clicked pixel's source.
 #include <gtest/gtest.h>
 
 #include <algorithm>
