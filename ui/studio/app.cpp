@@ -210,8 +210,8 @@ void StudioApp::frame() {
     view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
     view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision, scene_.render.labelBlend > 0);
     // While the exact map is being solved the 3D view keeps its last frame instead of refining
-    // a picture the map is about to replace: the solve gets both cores (47 instead of ~100 ms
-    // at 256³, s = 4), and no refinement is thrown away.
+    // a picture the map is about to replace: the solve gets both cores, and no refinement is
+    // thrown away.
     const bool holdFor3d = deform_->solving() && !interacting3d();
     for (const Pane& p : panes_)
       if (p.is3d() && !holdFor3d)
