@@ -17,6 +17,7 @@
 #include "layout.hpp"
 #include "mpr.hpp"
 #include "scene_file.hpp"
+#include "studio_run.hpp"
 #include "test_data.hpp"
 #include "undo.hpp"
 #include "view3d.hpp"
@@ -36,30 +37,10 @@ namespace {
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-/// Runs the studio on `script` (written into dir); returns the exit code, output in *log.
-int runStudio(const fs::path& dir, const std::string& name, const std::string& script, std::string* log) {
-  std::ofstream(dir / (name + ".json")) << script;
-  const fs::path out = dir / (name + ".log");
-  const std::string cmd = std::string("\"") + VELLUM_STUDIO_EXE + "\" --size 1024x700 --script \"" +
-                          (dir / (name + ".json")).string() + "\" > \"" + out.string() + "\" 2>&1";
-  const int status = std::system(cmd.c_str());
-  *log = slurp(out);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-std::string q(const fs::path& p) {
-  std::string s = p.generic_string();
-  s.insert(s.begin(), '"');
-  s.push_back('"');
-  return s;
-}
+using vellum::test::studio::q;
+using vellum::test::studio::runStudio;
+using vellum::test::studio::writePhantom;
+using vellum::test::studio::slurp;
 
 TEST(StudioAuthoringModel, AddKeyframeCopiesAndTrackEditsUndoExactly) {
   Geometry g;
@@ -187,11 +168,7 @@ TEST(StudioAuthoringModel, LiveViewUsesTheChosenUpsamplingLikeVellumAnimate) {
 TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
   const fs::path d = test::tempDir("studio-authoring");
-  phantom::PhantomOptions o;
-  o.dims = {64, 64, 64};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
-  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const auto ph = writePhantom(d, 64);
   const std::string script = R"({"actions":[
     {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
     {"layout":"3d"},{"hud":false},{"set":{"deformed_upsampling":"gaussian"}},
@@ -294,11 +271,7 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
 TEST(StudioAuthoringScript, PointsFromLabelsAndASliceDragStaysInTheSlicePlane) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
   const fs::path d = test::tempDir("studio-authoring-slice");
-  phantom::PhantomOptions o;
-  o.dims = {48, 48, 48};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
-  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const auto ph = writePhantom(d, 48);
   const std::string script = R"({"actions":[
     {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
     {"layout":"2x2"},{"controls":"labels"},{"save_scene":)" + q(d / "a.json") + R"(},
@@ -330,11 +303,7 @@ TEST(StudioAuthoringScript, PointsFromLabelsAndASliceDragStaysInTheSlicePlane) {
 TEST(StudioAuthoringScript, RigidLabelEditsUndoAndRedo) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
   const fs::path d = test::tempDir("studio-authoring-rigid");
-  phantom::PhantomOptions o;
-  o.dims = {40, 40, 40};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
-  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const auto ph = writePhantom(d, 40);
   const std::string script = R"({"actions":[
     {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
     {"layout":"3d"},{"controls":"default"},{"save_scene":)" + q(d / "a.json") + R"(},

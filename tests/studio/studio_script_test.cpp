@@ -15,6 +15,7 @@
 #include "label_tools.hpp"
 #include "layout.hpp"
 #include "scene_file.hpp"
+#include "studio_run.hpp"
 #include "test_data.hpp"
 #include "view3d.hpp"
 #include "vellum/io/image_io.hpp"
@@ -34,45 +35,13 @@ namespace fs = std::filesystem;
     if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)"; \
   } while (0)
 
-struct StudioRun {
-  int exitCode = -1;
-  std::string output;  ///< stdout + stderr
-};
-
-/// Writes `script` next to the outputs and runs the studio on it.
-StudioRun runStudio(const fs::path& dir, const std::string& name, const std::string& script,
-              const std::string& args = "") {
-  const fs::path scriptPath = dir / (name + ".json");
-  std::ofstream(scriptPath) << script;
-  const fs::path log = dir / (name + ".log");
-  const std::string cmd = std::string("\"") + VELLUM_STUDIO_EXE + "\" " + args + " --size 1024x700 --script \"" +
-                          scriptPath.string() + "\" > \"" + log.string() + "\" 2>&1";
-  const int status = std::system(cmd.c_str());
-  StudioRun r;
-  r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  std::ifstream in(log);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  r.output = ss.str();
-  return r;
-}
+using vellum::test::studio::q;
+using vellum::test::studio::runStudio;
+using vellum::test::studio::StudioRun;
 
 /// A small phantom CT and its label map in `dir`.
-void writePhantom(const fs::path& dir) {
-  phantom::PhantomOptions o;
-  o.dims = {64, 64, 64};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(AnyVolume(ph.ct), dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
-}
+void writePhantom(const fs::path& dir) { vellum::test::studio::writePhantom(dir, 64); }
 
-/// A path as a JSON string (built in place: GCC 12 warns falsely on "\"" + s + "\"").
-std::string q(const fs::path& p) {
-  std::string s = p.generic_string();
-  s.insert(s.begin(), '"');
-  s.push_back('"');
-  return s;
-}
 
 TEST(StudioScript, ThresholdUndoRedoSceneReopenAndCliRender) {
   REQUIRE_DISPLAY();

@@ -20,6 +20,7 @@
 #include "layout.hpp"
 #include "mpr.hpp"
 #include "scene_file.hpp"
+#include "studio_run.hpp"
 #include "test_data.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/keyframes.hpp"
@@ -186,29 +187,14 @@ TEST(StudioDeformedSlices, AMapForAnotherGridIsRefused) {
   EXPECT_THROW(renderSlice(ph.ct, plane, styleWith(nullptr, &map)), Error);
 }
 
-std::string q(const fs::path& p) { return "\"" + p.generic_string() + "\""; }
-
-int runStudio(const fs::path& dir, const std::string& name, const std::string& script, std::string* log) {
-  std::ofstream(dir / (name + ".json")) << script;
-  const fs::path out = dir / (name + ".log");
-  const std::string cmd = std::string("\"") + VELLUM_STUDIO_EXE + "\" --size 1024x700 --script \"" +
-                          (dir / (name + ".json")).string() + "\" > \"" + out.string() + "\" 2>&1";
-  const int status = std::system(cmd.c_str());
-  std::ifstream in(out);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  *log = ss.str();
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using vellum::test::studio::q;
+using vellum::test::studio::runStudio;
+using vellum::test::studio::writePhantom;
 
 TEST(StudioDeformedSlicesScript, ToggleOffRestoresTheUndeformedSliceAndTheSceneKeepsIt) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
   const fs::path d = test::tempDir("studio-deformed-slices");
-  phantom::PhantomOptions o;
-  o.dims = {48, 48, 48};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
-  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const auto ph = writePhantom(d, 48);
   const std::string script = R"({"actions":[
     {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
     {"layout":"2x2"},{"hud":false},{"screenshot":{"path":)" + q(d / "before.png") + R"(,"view":"axial"}},
@@ -249,11 +235,7 @@ TEST(StudioDeformedSlicesScript, ToggleOffRestoresTheUndeformedSliceAndTheSceneK
 TEST(StudioDeformedSlicesScript, PaintingInADeformedSliceLandsAtTheClickedPixelsSource) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
   const fs::path d = test::tempDir("studio-deformed-paint");
-  phantom::PhantomOptions o;
-  o.dims = {48, 48, 48};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
-  io::saveLabels(ph.labels, d / "labels.nrrd");
+  const auto ph = writePhantom(d, 48);
   // The knee bent 30°, the axial slice through the calf (64 mm below the flexion axis).
   SceneFile f;
   f.volume = d / "ct.nrrd";

@@ -1,0 +1,66 @@
+#pragma once
+// Running vellum-studio on a script from the studio's tests (VELLUM_STUDIO_EXE is the binary).
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+
+namespace vellum::test::studio {
+
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// A path as a JSON string (built in place: GCC 12 warns falsely on "\"" + s + "\"").
+inline std::string q(const std::filesystem::path& p) {
+  std::string s = p.generic_string();
+  s.insert(s.begin(), '"');
+  s.push_back('"');
+  return s;
+}
+
+struct StudioRun {
+  int exitCode = -1;
+  std::string output;  ///< stdout + stderr
+};
+
+/// Writes `script` to DIR/NAME.json and runs the studio on it in a 1024x700 window (`args`
+/// before the script: a file to open, --autosave, ...); the output goes to DIR/NAME.log.
+inline StudioRun runStudio(const std::filesystem::path& dir, const std::string& name, const std::string& script,
+                           const std::string& args = "") {
+  const std::filesystem::path scriptPath = dir / (name + ".json"), log = dir / (name + ".log");
+  std::ofstream(scriptPath) << script;
+  const std::string cmd = std::string("\"") + VELLUM_STUDIO_EXE + "\" " + args + " --size 1024x700 --script \"" +
+                          scriptPath.string() + "\" > \"" + log.string() + "\" 2>&1";
+  const int status = std::system(cmd.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(log)};
+}
+
+/// The same, returning the exit code and the output in *output.
+inline int runStudio(const std::filesystem::path& dir, const std::string& name, const std::string& script,
+                     std::string* output) {
+  StudioRun r = runStudio(dir, name, script);
+  *output = std::move(r.output);
+  return r.exitCode;
+}
+
+/// An n³ knee phantom written as DIR/ct.nrrd and DIR/labels.nrrd, returned for the checks.
+inline phantom::Phantom writePhantom(const std::filesystem::path& dir, int n) {
+  phantom::PhantomOptions o;
+  o.dims = {n, n, n};
+  phantom::Phantom ph = phantom::makePhantom(o);
+  io::saveVolume(AnyVolume(ph.ct), dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  return ph;
+}
+
+}  // namespace vellum::test::studio
