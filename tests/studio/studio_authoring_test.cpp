@@ -472,3 +472,65 @@ TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview)
 
 }  // namespace
 }  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+// Ctrl+click in a deformed 3D view picks the surface where the view draws it: a translation
+// of 10 mm away from the eye moves the picked point 10 mm along the ray.
+TEST(StudioAuthoringModel, PickingThroughTheDeformationFindsTheDrawnSurface) {
+  phantom::PhantomOptions o;
+  o.dims = {64, 64, 64};
+  Scene scene;
+  scene.ct = phantom::makePhantom(o).ct;
+  const Geometry& g = scene.ct.geometry();
+  const auto p0 = pickSurface(scene, 200, 200, 100, 100);  // the centre pixel: its ray passes the centre
+  ASSERT_TRUE(p0);
+  const Vec3 t = normalized(g.center() - *p0) * 10.0;
+  ControlPoints points = boxControlPoints(g);
+  for (auto& p : points) p.target = p.source + t;
+  const MapSampler map(computeControlVolume(AnyVolume(scene.ct), points, DeformParams{}), g);
+  const auto p1 = pickSurface(scene, 200, 200, 100, 100, &map);
+  ASSERT_TRUE(p1);
+  const double voxel = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  EXPECT_LT(norm(*p1 - (*p0 + t)), voxel) << "picked " << norm(*p1 - *p0) << " mm from the undeformed surface";
+  // The picked point's source is the undeformed surface point (where seeds go).
+  EXPECT_LT(norm(*map.sourceMm(*p1) - *p0), voxel);
+}
+
+}  // namespace
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+// Box points stacked along the axial view's normal share one dot there: a press on it takes
+// the point nearest the slice plane (the one the slice shows), not the lowest index.
+TEST(StudioAuthoringScript, StackedDotsPickThePointNearestTheSlice) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  const fs::path d = test::tempDir("studio-authoring-stacked");
+  writePhantom(d, 48);
+  const std::string script = R"({"actions":[
+    {"open":)" + q(d / "ct.nrrd") + R"(},{"layout":"2x2"},{"controls":"default"},{"save_scene":)" + q(d / "a.json") + R"(},
+    {"drag_point":{"index":0,"end":"target","by_px":[15,-10],"view":"axial"}},{"save_scene":)" + q(d / "b.json") + R"(},
+    {"quit":0}]})";
+  std::string log;
+  ASSERT_EQ(runStudio(d, "stacked", script, &log), 0) << log;
+  const SceneFile a = readSceneFile(d / "a.json"), b = readSceneFile(d / "b.json");
+  const ControlPoints& pa = a.deformation->track.keyframes[0].points;
+  const ControlPoints& pb = b.deformation->track.keyframes[0].points;
+  // The points under point 0's axial dot, and the one nearest the axial plane.
+  std::vector<size_t> stacked;
+  size_t nearest = 0;
+  for (size_t i = 0; i < pa.size(); ++i)
+    if (std::abs(pa[i].target.x - pa[0].target.x) < 1e-6 && std::abs(pa[i].target.y - pa[0].target.y) < 1e-6) {
+      stacked.push_back(i);
+      if (std::abs(pa[i].target.z - a.crosshairMm.z) < std::abs(pa[nearest].target.z - a.crosshairMm.z)) nearest = i;
+    }
+  ASSERT_GE(stacked.size(), 2u) << "the default box stacks points along z";
+  ASSERT_NE(nearest, 0u);
+  for (size_t i = 0; i < pa.size(); ++i)
+    if (i == nearest) EXPECT_NE(pb[i].target, pa[i].target) << "the dragged point";
+    else EXPECT_EQ(pb[i].target, pa[i].target) << i;
+}
+
+}  // namespace
+}  // namespace vellum::studio

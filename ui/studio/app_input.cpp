@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "app.hpp"
+#include "deform_session.hpp"
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
 
@@ -130,15 +131,21 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
 }
 
 void StudioApp::clickIn3d(const Pane& pane, double x, double y) {
-  const auto p = pickSurface(scene_, int(pane.rect.w), int(pane.rect.h), x - pane.rect.x, y - pane.rect.y);
+  // The surface as the view draws it, through the deformation when one is shown.
+  const deformation::MapSampler* map = deform_->sampler();
+  const auto p = pickSurface(scene_, int(pane.rect.w), int(pane.rect.h), x - pane.rect.x, y - pane.rect.y, map);
   if (!p) return;  // nothing visible under the pointer
+  // Labels live in the undeformed volume: seeds go to the picked point's source. The crosshair
+  // goes where the slices show that tissue: the point itself in deformed slices.
+  const std::optional<Vec3> source = map ? map->sourceMm(*p) : p;
+  if (!source) return;
   try {
     if (tools_.tool == Tool::Grow) {
-      growFromPoint(*p);
+      growFromPoint(*source);
     } else if (tools_.tool == Tool::Snake) {
-      startSnake(*p);
+      startSnake(*source);
     } else {
-      scene_.crosshairMm = *p;  // the slices jump to the clicked surface point
+      scene_.crosshairMm = map && scene_.view.deformedSlices ? *p : *source;  // the slices jump there
       markSlicesDirty();
     }
   } catch (const std::exception& e) {

@@ -64,14 +64,28 @@ std::optional<std::pair<double, double>> StudioApp::pointInPane(const Pane& pane
 
 std::optional<PointHandle> StudioApp::pickPoint(const Pane& pane, double x, double y) const {
   const ControlPoints pts = scene_.authoring.currentPoints();
+  // Dots that coincide on screen (points stacked along the view axis) are told apart by depth:
+  // in 3D the one nearest the eye, in a slice the one nearest the slice plane.
+  std::optional<render::Projection> proj;
+  std::optional<SlicePlane> plane;
+  if (pane.is3d()) proj.emplace(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
+  else plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  auto depthOf = [&](const Vec3& mm) {
+    if (plane) return std::abs(dot(mm - scene_.crosshairMm, plane->normal));
+    const auto px = proj->toPixel(mm);
+    return px ? px->z : 1e300;
+  };
+  constexpr double kSameDotPx = 1.0;
   std::optional<PointHandle> best;
-  double bestD = kPickRadiusPx;
+  double bestD = kPickRadiusPx, bestDepth = 1e300;
   for (int i = 0; i < int(pts.size()); ++i)
     for (PointEnd e : {PointEnd::Target, PointEnd::Source}) {  // targets win ties: they are what one drags
-      const auto p = pointInPane(pane, endOf(pts[size_t(i)], e));
+      const Vec3 mm = endOf(pts[size_t(i)], e);
+      const auto p = pointInPane(pane, mm);
       if (!p) continue;
-      const double d = std::hypot(p->first - x, p->second - y);
-      if (d < bestD) bestD = d, best = PointHandle{i, e};
+      const double d = std::hypot(p->first - x, p->second - y), depth = depthOf(mm);
+      const bool sameDot = best && std::abs(d - bestD) <= kSameDotPx;
+      if (sameDot ? depth < bestDepth - 1e-9 : d < bestD) bestD = d, bestDepth = depth, best = PointHandle{i, e};
     }
   return best;
 }
@@ -111,7 +125,7 @@ void StudioApp::drawControlPoints(const Pane& pane) {
   const double nearMm = 1.5 * std::max({sp.x, sp.y, sp.z});
   // In the 3D view, dots behind the volume's first visible surface are dimmed (depth test
   // on the CPU along the eye ray, through the deformation the view draws).
-  const render::BackwardMap* map = deform_->map();
+  const deformation::MapSampler* map = deform_->sampler();
   auto hidden = [&](const Vec3& mm) {
     return plane ? std::abs(dot(mm - scene_.crosshairMm, plane->normal)) > nearMm : occludedInView(scene_, map, mm);
   };

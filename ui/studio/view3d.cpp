@@ -84,7 +84,41 @@ double boundingRadius(const Geometry& g) {
 }
 }  // namespace
 
-std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py) {
+namespace {
+/// Marches the ray origin + t dir, 0 <= t < stop, through the volume as the 3D view draws it
+/// (through `map` when given: the volume is background where the map has no source), and
+/// returns the first t where the preset's opacity (shifted by the render window as the
+/// renderer does) has stopped half the light; for MIP, the t of the maximum when it is above
+/// the window's floor.
+std::optional<double> firstVisible(const Scene& scene, const deformation::MapSampler* map, const Vec3& origin,
+                                   const Vec3& dir, double stop) {
+  const Geometry& g = scene.ct.geometry();
+  const Vec3& sp = g.spacing;
+  const double step = 0.5 * std::min({sp.x, sp.y, sp.z});
+  const bool mip = scene.render.preset == render::Preset::Mip;
+  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.render.preset);
+  const double w = scene.render.windowWidth > 0 ? scene.render.windowWidth : 2000.0;
+  double transmitted = 1, best = -1e300;
+  std::optional<double> bestT;
+  for (double t = 0; t < stop; t += step) {
+    const Vec3 v = origin + dir * t;
+    const std::optional<Vec3> u = map ? map->sourceMm(v) : std::optional<Vec3>(v);
+    const double hu = u ? scene.ct.sampleLinearMm(*u) : scene.ct.background();
+    if (mip) {
+      if (hu > best) best = hu, bestT = t;
+      continue;
+    }
+    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.render.windowCenter) * 2000.0 / w)[3];
+    transmitted *= std::pow(1.0 - std::clamp(alphaPerMm, 0.0, 0.999999), step);
+    if (transmitted <= 0.5) return t;
+  }
+  if (mip && best > scene.render.windowCenter - 0.5 * w) return bestT;
+  return std::nullopt;
+}
+}  // namespace
+
+std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py,
+                                const deformation::MapSampler* map) {
   if (!scene.hasVolume() || width < 1 || height < 1) return std::nullopt;
   const Geometry& g = scene.ct.geometry();
   const render::Camera& cam = scene.render.camera;
@@ -105,62 +139,12 @@ std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, doubl
              b.right * (ndcX * radius / cam.zoom * sx) + b.up * (ndcY * radius / cam.zoom * sy);
     dir = b.forward;
   }
-  const Vec3& sp = g.spacing;
-  const double step = 0.5 * std::min({sp.x, sp.y, sp.z});
-  const double length = norm(origin - g.center()) + 2 * radius;
-  const bool mip = scene.render.preset == render::Preset::Mip;
-  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.render.preset);
-  // The renderer shifts/scales the preset's value axis from its default window (400, 2000).
-  const double w = scene.render.windowWidth > 0 ? scene.render.windowWidth : 2000.0;
-  double transmitted = 1, best = -1e300;
-  std::optional<Vec3> bestPoint;
-  for (double t = 0; t < length; t += step) {
-    const Vec3 p = origin + dir * t;
-    const double hu = scene.ct.sampleLinearMm(p);
-    if (mip) {
-      if (hu > best) best = hu, bestPoint = p;
-      continue;
-    }
-    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.render.windowCenter) * 2000.0 / w)[3];
-    transmitted *= std::pow(1.0 - std::clamp(alphaPerMm, 0.0, 0.999999), step);
-    if (transmitted <= 0.5) return p;
-  }
-  if (mip && best > scene.render.windowCenter - 0.5 * w) return bestPoint;
-  return std::nullopt;
+  const auto t = firstVisible(scene, map, origin, dir, norm(origin - g.center()) + 2 * radius);
+  if (!t) return std::nullopt;
+  return origin + dir * *t;
 }
 
-namespace {
-/// u(v): the backward map interpolated trilinearly between nodes, clamped to the outermost
-/// nodes (the renderer's rule, modules/render/include/vellum/render/backward_map.hpp).
-Vec3 mapAt(const render::BackwardMap& m, const Vec3& v) {
-  const Geometry& g = m.grid;
-  const Vec3 ijk = g.physicalToIndex(v);
-  int64_t i0[3];
-  double f[3];
-  const int64_t dims[3] = {g.dims.x, g.dims.y, g.dims.z};
-  for (int a = 0; a < 3; ++a) {
-    const double c = std::clamp(ijk[a], 0.0, double(dims[a] - 1));
-    i0[a] = std::min<int64_t>(int64_t(c), std::max<int64_t>(dims[a] - 2, 0));
-    f[a] = dims[a] > 1 ? c - double(i0[a]) : 0.0;
-  }
-  Vec3 u{0, 0, 0};
-  for (int c = 0; c < 8; ++c) {
-    int64_t idx[3];
-    double w = 1;
-    for (int a = 0; a < 3; ++a) {
-      const int bit = (c >> a) & 1;
-      idx[a] = std::min(i0[a] + bit, dims[a] - 1);
-      w *= bit ? f[a] : 1 - f[a];
-    }
-    if (w == 0) continue;
-    const size_t n = size_t((idx[2] * dims[1] + idx[1]) * dims[0] + idx[0]) * 3;
-    u += Vec3{m.sourceMm[n], m.sourceMm[n + 1], m.sourceMm[n + 2]} * w;
-  }
-  return u;
-}
-}  // namespace
-
-bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Vec3& mm) {
+bool occludedInView(const Scene& scene, const deformation::MapSampler* map, const Vec3& mm) {
   if (!scene.hasVolume() || scene.render.preset == render::Preset::Mip) return false;
   const Geometry& g = scene.ct.geometry();
   const render::Camera& cam = scene.render.camera;
@@ -177,18 +161,7 @@ bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Ve
   }
   const Vec3& sp = g.spacing;
   const double voxel = std::min({sp.x, sp.y, sp.z});
-  const double step = 0.5 * voxel, stop = norm(mm - origin) - voxel;
-  const render::TransferFunction tf = render::TransferFunction::forPreset(scene.render.preset);
-  const double w = scene.render.windowWidth > 0 ? scene.render.windowWidth : 2000.0;
-  double transmitted = 1;
-  for (double t = 0; t < stop; t += step) {
-    const Vec3 v = origin + dir * t;
-    const double hu = scene.ct.sampleLinearMm(map ? mapAt(*map, v) : v);
-    const double alphaPerMm = tf.evaluate(400.0 + (hu - scene.render.windowCenter) * 2000.0 / w)[3];
-    transmitted *= std::pow(1.0 - std::clamp(alphaPerMm, 0.0, 0.999999), step);
-    if (transmitted <= 0.5) return true;
-  }
-  return false;
+  return firstVisible(scene, map, origin, dir, norm(mm - origin) - voxel).has_value();
 }
 
 std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out) {

@@ -14,6 +14,7 @@
 
 #include "gl_texture.hpp"
 #include "scene.hpp"
+#include "vellum/deformation/synthesis.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
 #include "vellum/render/backward_map.hpp"
 #include "vellum/render/mesh_renderer.hpp"
@@ -41,12 +42,15 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
 /// the preset's transfer function (shifted by the render window as the renderer does) has
 /// accumulated half opacity, or for MIP the maximum along the ray. nullopt when the ray
 /// meets nothing visible. Used to seed and to move the crosshair by clicking the 3D view.
-std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py);
+/// `map`: the deformation the view draws (nullptr: none); the point returned is where the
+/// surface is drawn (output space).
+std::optional<Vec3> pickSurface(const Scene& scene, int width, int height, double px, double py,
+                                const deformation::MapSampler* map = nullptr);
 
 /// True when the point mm (LPS) is hidden in the 3D view: along the ray from the eye to it, the
 /// volume (deformed by `map` when given, as the renderer draws it) reaches half opacity more than
 /// one voxel before the point (the pickSurface() criterion). MIP hides nothing.
-bool occludedInView(const Scene& scene, const render::BackwardMap* map, const Vec3& mm);
+bool occludedInView(const Scene& scene, const deformation::MapSampler* map, const Vec3& mm);
 
 /// The illustration renderer's settings for `scene` at width x height: the 3D view's camera
 /// and jitter, the style's background, the illustration's own ray step (one voxel), as
