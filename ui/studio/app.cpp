@@ -153,17 +153,33 @@ bool StudioApp::idle() const {
 void StudioApp::frame() {
   const auto t0 = std::chrono::steady_clock::now();
   glfwPollEvents();
+  pollWorkers();
+  beginUiFrame();
+  slicesRendered_ = false;
+  const FrameViews views = scene_.hasVolume() ? updateViews() : FrameViews{};
+  drawPanes();
+  if (hudVisible) drawHud();
+  ImGui::Render();
+  presentFrame();
+  lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (options_.logFrames) logFrame(views);
+  ++frameNumber_;
+}
+
+void StudioApp::pollWorkers() {
   pollLoader();
   pollSnake();
   pollShapes();
   pollCurveAnalogy();
-  {
-    const double now = glfwGetTime();
-    tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
-    followKeyframeCamera();
-    lastTickS_ = now;
-  }
+  const double now = glfwGetTime();
+  tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
+  followKeyframeCamera();
+  lastTickS_ = now;
   autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());
+}
+
+// ImGui's frame: the tool panel, the file browser, the error popup; the panes laid out.
+void StudioApp::beginUiFrame() {
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   if (script_) {
@@ -173,7 +189,6 @@ void StudioApp::frame() {
     for (int b = 0; b < 3; ++b) io.MouseDown[b] = virtualDown_[b];
   }
   ImGui::NewFrame();
-
   int w = 0, h = 0;
   glfwGetWindowSize(window_, &w, &h);
   panes_ = layoutPanes(scene_.view.layout, {kPanelWidth, 0, std::max(1.f, w - kPanelWidth), float(h)});
@@ -191,36 +206,36 @@ void StudioApp::frame() {
     if (ImGui::Button("OK", {120, 0})) ImGui::CloseCurrentPopup();
     ImGui::EndPopup();
   }
+}
 
-  bool rendered3d = false, mapUpdated = false;
-  slicesRendered_ = false;
-  if (scene_.hasVolume()) {
-    const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
-    mapUpdated = deform_->update(scene_, livePoints);
-    if (deform_->solving() && !interacting3d()) {
-      // The exact map is on the worker (just started, or still running): wait for it, up to
-      // one drag frame's time (~100 ms at 256³), rather than draw a frame that takes cores
-      // from it and that the map would replace. At 256³, s = 4 it lands within the wait.
-      deform_->awaitSolve(std::chrono::milliseconds(100));
-      mapUpdated = deform_->update(scene_, livePoints) || mapUpdated;
-    }
-    if (mapUpdated) view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
-    updateSliceTextures();  // after the map: deformed slices show this frame's map
-    view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
-    view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
-    view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision, scene_.render.labelBlend > 0);
-    // While the exact map is being solved the 3D view keeps its last frame instead of refining
-    // a picture the map is about to replace: the solve gets both cores, and no refinement is
-    // thrown away.
-    const bool holdFor3d = deform_->solving() && !interacting3d();
-    for (const Pane& p : panes_)
-      if (p.is3d() && !holdFor3d)
-        rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());
+// The deformation map, the slice textures and the 3D view brought up to date.
+StudioApp::FrameViews StudioApp::updateViews() {
+  FrameViews v;
+  const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
+  v.mapUpdated = deform_->update(scene_, livePoints);
+  if (deform_->solving() && !interacting3d()) {
+    // The exact map is on the worker (just started, or still running): wait for it, up to
+    // one drag frame's time (~100 ms at 256³), rather than draw a frame that takes cores
+    // from it and that the map would replace. At 256³, s = 4 it lands within the wait.
+    deform_->awaitSolve(std::chrono::milliseconds(100));
+    v.mapUpdated = deform_->update(scene_, livePoints) || v.mapUpdated;
   }
-  drawPanes();
-  if (hudVisible) drawHud();
-  ImGui::Render();
+  if (v.mapUpdated) view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
+  updateSliceTextures();  // after the map: deformed slices show this frame's map
+  view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
+  view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
+  view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision, scene_.render.labelBlend > 0);
+  // While the exact map is being solved the 3D view keeps its last frame instead of refining
+  // a picture the map is about to replace: the solve gets both cores, and no refinement is
+  // thrown away.
+  const bool holdFor3d = deform_->solving() && !interacting3d();
+  for (const Pane& p : panes_)
+    if (p.is3d() && !holdFor3d)
+      v.rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());
+  return v;
+}
 
+void StudioApp::presentFrame() {
   int fbw = 0, fbh = 0;
   glfwGetFramebufferSize(window_, &fbw, &fbh);
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
@@ -230,16 +245,17 @@ void StudioApp::frame() {
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
   if (!pendingScreenshot_.empty()) captureWindow();
   glfwSwapBuffers(window_);
-  lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  if (options_.logFrames)
-    std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d\n",
-                frameNumber_, lastFrameMs_, rendered3d ? 1 : 0, rendered3d ? view3d_->lastRenderMs() : 0.0,
-                view3d_->lastScale(), dragPane_ ? 1 : 0, mapUpdated ? deform_->lastUpdateMs() : 0.0,
-                mapUpdated ? deform_->timings()->mapMs : 0.0, mapUpdated ? deform_->timings()->rhoCacheMs : 0.0,
-                mapUpdated ? deform_->lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0,
-                sliceMap() ? 1 : 0);
-  if (options_.logFrames) std::fflush(stdout);  // the log is read while the studio runs
-  ++frameNumber_;
+}
+
+// --log-frames: one line per frame (docs/studio.md; ui/studio/bench/frame_stats.py reads it).
+void StudioApp::logFrame(const FrameViews& v) {
+  const bool map = v.mapUpdated;
+  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d\n",
+              frameNumber_, lastFrameMs_, v.rendered3d ? 1 : 0, v.rendered3d ? view3d_->lastRenderMs() : 0.0,
+              view3d_->lastScale(), dragPane_ ? 1 : 0, map ? deform_->lastUpdateMs() : 0.0,
+              map ? deform_->timings()->mapMs : 0.0, map ? deform_->timings()->rhoCacheMs : 0.0,
+              map ? deform_->lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0, sliceMap() ? 1 : 0);
+  std::fflush(stdout);  // the log is read while the studio runs
 }
 
 // ---- loading ---------------------------------------------------------------------------

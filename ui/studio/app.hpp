@@ -236,6 +236,15 @@ class StudioApp {
  private:
   void createWindow();
   void frame();
+  /// What a frame did, for the frame log.
+  struct FrameViews {
+    bool mapUpdated = false, rendered3d = false;
+  };
+  void pollWorkers();
+  void beginUiFrame();
+  FrameViews updateViews();
+  void presentFrame();
+  void logFrame(const FrameViews& v);
   void pollLoader();
   void pollSnake();
   void adoptLoad(LoadResult r);
