@@ -25,13 +25,12 @@ namespace ill = vellum::illustration;
 namespace fs = std::filesystem;
 namespace {
 
+/// The request's fields (and defaults) are the flags; C0 and the view come from these.
 struct CurveArgs {
-  std::string dir, segment, curve, drawing, view = "front", out, mapOut, report, size = "512x512";
-  std::vector<std::string> transfer;
+  app::CurveAnalogyRequest request;
+  std::string curve, drawing, view = "front", size = "512x512";
   double azimuth = std::numeric_limits<double>::quiet_NaN(), elevation = 0;
-  double lambda = 10.0;
-  int anchors = 4, samples = 200, mapStep = 4, darkThreshold = 128;
-  int64_t proxyFaces = 2000;
+  int darkThreshold = 128;
 };
 
 render::RenderSettings viewSettings(const CurveArgs& a, int width, int height) {
@@ -62,18 +61,7 @@ render::RenderSettings viewSettings(const CurveArgs& a, int width, int height) {
 void runCurveAnalogy(const CurveArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
   if (a.curve.empty() == a.drawing.empty()) throw Error("give exactly one of --curve C0.json or --drawing IMG");
-  app::CurveAnalogyRequest r;
-  r.dir = a.dir;
-  r.out = a.out;
-  r.mapOut = a.mapOut;
-  r.report = a.report;
-  r.segment = a.segment;
-  r.transfer = a.transfer;
-  r.samples = a.samples;
-  r.anchors = a.anchors;
-  r.mapStep = a.mapStep;
-  r.lambda = a.lambda;
-  r.proxyFaces = a.proxyFaces;
+  app::CurveAnalogyRequest r = a.request;
   // C0 and the view: the drawing is read as the view's image at the drawing's own size.
   int width = 0, height = 0;
   if (!a.drawing.empty()) {
@@ -88,7 +76,7 @@ void runCurveAnalogy(const CurveArgs& a) {
   const app::CurveAnalogyOutcome o = app::runCurveAnalogy(r);
   const nlohmann::json& ca = o.report;
   std::printf("curve analogy of %s -> %s: Hausdorff %.2f -> %.2f px (%.2f -> %.2f mm); proxy %zu faces; %.2f s\n",
-              a.segment.c_str(), a.out.c_str(), ca["hausdorff_before_px"].get<double>(),
+              r.segment.c_str(), r.out.string().c_str(), ca["hausdorff_before_px"].get<double>(),
               ca["hausdorff_after_px"].get<double>(), ca["hausdorff_before_mm"].get<double>(),
               ca["hausdorff_after_mm"].get<double>(), ca["proxy"]["faces"].get<size_t>(), secondsSince(t0));
   for (const auto& s : o.shape["segments"])
@@ -143,24 +131,24 @@ void demoCurveAnalogy(const DemoContext& ctx) {
 void addCurveAnalogyCommand(CLI::App& app) {
   auto a = std::make_shared<CurveArgs>();
   auto* cmd = app.add_subcommand("curve-analogy", "Bend a shape folder's segment toward an illustrator's outline (curve analogy), carry other segments and the CT along");
-  cmd->add_option("dir", a->dir, "input shape folder (from `vellum shape`)")->required();
-  cmd->add_option("--segment,-s", a->segment, "segment whose outline follows the curve")->required();
+  cmd->add_option("dir", a->request.dir, "input shape folder (from `vellum shape`)")->required();
+  cmd->add_option("--segment,-s", a->request.segment, "segment whose outline follows the curve")->required();
   cmd->add_option("--curve", a->curve, "C0 as JSON {\"points\": [[x, y], ...]} in image pixels of the view (--size)");
   cmd->add_option("--drawing", a->drawing, "C0 from a drawing (PNG/JPG): outer contour of its dark strokes; the view's image has the drawing's size");
   cmd->add_option("--view", a->view, "front | side | top | oblique (orthographic)")->capture_default_str();
   cmd->add_option("--azimuth", a->azimuth, "camera azimuth (deg), overrides --view");
   cmd->add_option("--elevation", a->elevation, "camera elevation (deg), with --azimuth")->capture_default_str();
   cmd->add_option("--size", a->size, "image size WxH the --curve pixels refer to")->capture_default_str();
-  cmd->add_option("--lambda", a->lambda, "anchor weight of the Laplacian curve deformation")->capture_default_str();
-  cmd->add_option("--anchors", a->anchors, "curve points kept in place (where the drawing agrees best)")->capture_default_str();
-  cmd->add_option("--samples", a->samples, "points of the resampled curves")->capture_default_str();
-  cmd->add_option("--proxy-faces", a->proxyFaces, "face budget of the proxy (cage) mesh; doubled (twice at most) while a moved mesh self-intersects")->capture_default_str();
-  cmd->add_option("--transfer", a->transfer, "NAME[,NAME..]: other segments moved by the cage");
+  cmd->add_option("--lambda", a->request.lambda, "anchor weight of the Laplacian curve deformation")->capture_default_str();
+  cmd->add_option("--anchors", a->request.anchors, "curve points kept in place (where the drawing agrees best)")->capture_default_str();
+  cmd->add_option("--samples", a->request.samples, "points of the resampled curves")->capture_default_str();
+  cmd->add_option("--proxy-faces", a->request.proxyFaces, "face budget of the proxy (cage) mesh; doubled (twice at most) while a moved mesh self-intersects")->capture_default_str();
+  cmd->add_option("--transfer", a->request.transfer, "NAME[,NAME..]: other segments moved by the cage");
   cmd->add_option("--dark-threshold", a->darkThreshold, "--drawing: grey level below which a pixel is a stroke")->capture_default_str();
-  cmd->add_option("--out,-o", a->out, "output shape folder (+ curve_analogy/ with curves, proxies, before_after.png)")->required();
-  cmd->add_option("--map-out", a->mapOut, "CT backward map NRRD (format of `deform --map-out`)");
-  cmd->add_option("--map-step", a->mapStep, "voxels between exact map samples (trilinear in between)")->capture_default_str();
-  cmd->add_option("--report", a->report, "also write the curve-analogy report JSON here");
+  cmd->add_option("--out,-o", a->request.out, "output shape folder (+ curve_analogy/ with curves, proxies, before_after.png)")->required();
+  cmd->add_option("--map-out", a->request.mapOut, "CT backward map NRRD (format of `deform --map-out`)");
+  cmd->add_option("--map-step", a->request.mapStep, "voxels between exact map samples (trilinear in between)")->capture_default_str();
+  cmd->add_option("--report", a->request.report, "also write the curve-analogy report JSON here");
   cmd->footer("Example: vellum curve-analogy shape/ --segment skin --drawing calf.png --view side --transfer bone --out shape-bent/ --map-out bent-map.nrrd");
   cmd->callback([a] { runCurveAnalogy(*a); });
 }
