@@ -37,10 +37,11 @@ namespace {
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
+using vellum::test::studio::awaitExactMap;
 using vellum::test::studio::q;
 using vellum::test::studio::runStudio;
-using vellum::test::studio::writePhantom;
 using vellum::test::studio::slurp;
+using vellum::test::studio::writePhantom;
 
 TEST(StudioAuthoringModel, AddKeyframeCopiesAndTrackEditsUndoExactly) {
   Geometry g;
@@ -131,11 +132,7 @@ TEST(StudioAuthoringModel, LiveViewUsesTheChosenUpsamplingLikeVellumAnimate) {
   a.editablePoints()[5].target += Vec3{6, -4, 3};
   a.touch();
   DeformSession session;
-  session.update(scene);
-  for (int i = 0; i < 600 && (session.solving() || session.preview()); ++i) {  // the exact map, on the worker
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    session.update(scene);
-  }
+  awaitExactMap(session, scene);
   ASSERT_TRUE(session.map() && !session.preview());
   EXPECT_EQ(session.map()->upsampling, render::MapUpsampling::Gaussian);
 
@@ -156,11 +153,7 @@ TEST(StudioAuthoringModel, LiveViewUsesTheChosenUpsamplingLikeVellumAnimate) {
   EXPECT_NE(liveFrame.pixels, movieFrame(Upsampling::Trilinear).pixels) << "the kernel changes the picture";
   // Changing the setting re-solves: the map follows it.
   scene.view.deformedUpsampling = Upsampling::Trilinear;
-  session.update(scene);
-  for (int i = 0; i < 600 && (session.solving() || session.preview()); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    session.update(scene);
-  }
+  awaitExactMap(session, scene);
   ASSERT_TRUE(session.map());
   EXPECT_EQ(session.map()->upsampling, render::MapUpsampling::Trilinear);
 }
@@ -449,11 +442,7 @@ TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview)
   placePoints(a, boxControlPoints(scene.ct.geometry()));
   a.touch();
   DeformSession session;
-  session.update(scene);
-  for (int i = 0; i < 600 && (session.solving() || session.preview()); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    session.update(scene);
-  }
+  awaitExactMap(session, scene);
   ASSERT_TRUE(session.map() && !session.preview());
   // A target moves during a drag: the exact map, in this call, with no worker.
   a.editablePoints()[5].target += Vec3{4, 0, 0};

@@ -1,13 +1,17 @@
 #pragma once
-// Running vellum-studio on a script from the studio's tests (VELLUM_STUDIO_EXE is the binary).
+// The studio's tests: running vellum-studio on a script (VELLUM_STUDIO_EXE is the binary), a
+// phantom on disk, waiting for the exact deformation map.
 #include <sys/wait.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 
+#include "deform_session.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 
@@ -61,6 +65,16 @@ inline phantom::Phantom writePhantom(const std::filesystem::path& dir, int n) {
   io::saveVolume(AnyVolume(ph.ct), dir / "ct.nrrd");
   io::saveLabels(ph.labels, dir / "labels.nrrd");
   return ph;
+}
+
+/// Updates `session` for `scene` until the exact map has landed from the worker (at most 30 s).
+inline void awaitExactMap(::vellum::studio::DeformSession& session, const ::vellum::studio::Scene& scene) {
+  session.update(scene);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while ((session.solving() || session.preview()) && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    session.update(scene);
+  }
 }
 
 }  // namespace vellum::test::studio

@@ -187,6 +187,7 @@ TEST(StudioDeformedSlices, AMapForAnotherGridIsRefused) {
   EXPECT_THROW(renderSlice(ph.ct, plane, styleWith(nullptr, &map)), Error);
 }
 
+using vellum::test::studio::awaitExactMap;
 using vellum::test::studio::q;
 using vellum::test::studio::runStudio;
 using vellum::test::studio::writePhantom;
@@ -271,11 +272,7 @@ TEST(StudioDeformedSlicesScript, PaintingInADeformedSliceLandsAtTheClickedPixels
   scene.authoring.engine = read.deformation->engine;
   scene.authoring.touch();
   DeformSession session;
-  session.update(scene);
-  for (int i = 0; i < 600 && (session.solving() || session.preview()); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    session.update(scene);
-  }
+  awaitExactMap(session, scene);
   ASSERT_TRUE(session.sampler() && !session.preview());
   const Geometry& g = ph.ct.geometry();
   const SlicePlane plane = makePlane(SliceAxis::Axial, g, f.crosshairMm, int(axial->rect.w), int(axial->rect.h));
