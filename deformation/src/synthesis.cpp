@@ -41,14 +41,18 @@ void linearTap(double o, int64_t nodes, int s, std::array<int32_t, 2>& idx, std:
   w = {1.f - f, f};
 }
 
-AxisTaps<2> linearTaps(int64_t outLen, int64_t nodes, int s) {
-  AxisTaps<2> t;
+// The taps of every voxel 0 <= o < outLen along an axis, from a per-position tap function.
+template <int Taps, class TapFn>
+AxisTaps<Taps> axisTaps(int64_t outLen, int64_t nodes, int s, TapFn tap) {
+  AxisTaps<Taps> t;
   t.idx.resize(static_cast<size_t>(outLen));
   t.w.resize(static_cast<size_t>(outLen));
   for (int64_t o = 0; o < outLen; ++o)
-    linearTap(static_cast<double>(o), nodes, s, t.idx[static_cast<size_t>(o)], t.w[static_cast<size_t>(o)]);
+    tap(static_cast<double>(o), nodes, s, t.idx[static_cast<size_t>(o)], t.w[static_cast<size_t>(o)]);
   return t;
 }
+
+AxisTaps<2> linearTaps(int64_t outLen, int64_t nodes, int s) { return axisTaps<2>(outLen, nodes, s, linearTap); }
 
 // Separable Gaussian over the 4 nodes around o/s (sigma 0.6 node spacings), with weights
 // adjusted so that the first moment is exact: a linear (affine) map is reproduced exactly
@@ -82,14 +86,7 @@ void gaussianTap(double o, int64_t nodes, int s, std::array<int32_t, 4>& id, std
   for (int q = 0; q < 4; ++q) wf[q] = static_cast<float>(wd[q]);
 }
 
-AxisTaps<4> gaussianTaps(int64_t outLen, int64_t nodes, int s) {
-  AxisTaps<4> t;
-  t.idx.resize(static_cast<size_t>(outLen));
-  t.w.resize(static_cast<size_t>(outLen));
-  for (int64_t o = 0; o < outLen; ++o)
-    gaussianTap(static_cast<double>(o), nodes, s, t.idx[static_cast<size_t>(o)], t.w[static_cast<size_t>(o)]);
-  return t;
-}
+AxisTaps<4> gaussianTaps(int64_t outLen, int64_t nodes, int s) { return axisTaps<4>(outLen, nodes, s, gaussianTap); }
 
 template <class T>
 inline float fetch(const Volume<T>& v, const T* data, int64_t dx, int64_t dy, int64_t dz,

@@ -46,7 +46,6 @@ std::optional<Vec3> StudioApp::sliceSourceMm(const Vec3& mm) const {
 }
 
 void StudioApp::updateSliceTextures() {
-  slicesRendered_ = false;
   const deformation::MapSampler* map = sliceMap();
   std::ostringstream key;
   key.precision(10);
