@@ -386,6 +386,15 @@ BackwardMap turnAboutZ(const Geometry& volume, double deg) {
       }
   return m;
 }
+
+// The tilted slab seen from azimuth 40 + turnDeg, elevation 20: a 30 degree turn of the volume
+// about the superior axis looks like the camera turned by -30.
+RenderSettings slabView(double turnDeg) {
+  RenderSettings s = baseSettings(Preset::SoftTissueBone);
+  s.camera.azimuthDeg = 40 + turnDeg;
+  s.camera.elevationDeg = 20;
+  return s;
+}
 }  // namespace
 
 // Issue 11: a deformed render shades with the normals the deformation turned. A map that
@@ -397,11 +406,7 @@ TEST(RenderGl, DeformedShadingTurnsNormalsWithTheMap) {
   ASSERT_NEAR(norm(turn.grid.indexToPhysical({-0.5, -0.5, -0.5}) - vol.geometry().indexToPhysical({-0.5, -0.5, -0.5})), 0, 1e-9);
   VolumeRenderer r(gl());
   r.setVolume(vol);
-  RenderSettings s = baseSettings(Preset::SoftTissueBone);
-  s.camera.azimuthDeg = 40;
-  s.camera.elevationDeg = 20;
-  RenderSettings truthSettings = s;
-  truthSettings.camera.azimuthDeg = 40 - 30;
+  RenderSettings s = slabView(0), truthSettings = slabView(-30);
   const RgbaImage truth = r.render(truthSettings);
   EXPECT_GT(coverage(truth), 0.05);
   for (const MapUpsampling up : {MapUpsampling::Trilinear, MapUpsampling::Gaussian}) {  // both reproduce a turn
@@ -453,11 +458,7 @@ TEST(RenderGl, SnappedSamplesShadeWithTheirBodysTurn) {
   map.rigidSnap = snap;
   VolumeRenderer r(gl());
   r.setVolume(vol);
-  RenderSettings s = baseSettings(Preset::SoftTissueBone);
-  s.camera.azimuthDeg = 40;
-  s.camera.elevationDeg = 20;
-  RenderSettings truthSettings = s;
-  truthSettings.camera.azimuthDeg = 40 - 30;
+  RenderSettings s = slabView(0), truthSettings = slabView(-30);
   const RgbaImage truth = r.render(truthSettings);
   r.setBackwardMap(&map);
   const RgbaImage snapped = r.render(s);
