@@ -289,7 +289,6 @@ TEST(StudioAuthoringScript, PointsFromLabelsAndASliceDragStaysInTheSlicePlane) {
   EXPECT_DOUBLE_EQ(pb[0].target.z, pa[0].target.z);
 }
 
-}  // namespace
 // The rigid bones are an undoable edit: the script's `rigid_labels` (the panel's checkboxes
 // make the same call) sets them and re-solves with them; Ctrl+Z restores the labels chosen
 // from the names, Ctrl+Shift+Z the edit.
@@ -316,10 +315,6 @@ TEST(StudioAuthoringScript, RigidLabelEditsUndoAndRedo) {
             readSceneFile(d / "a.json").deformation->track.keyframes[0].points);
 }
 
-}  // namespace vellum::studio
-
-namespace vellum::studio {
-namespace {
 // The timeline's blocks through the real mouse path: a block dragged onto another moves its
 // pose there (the durations stay in place), its right-edge handle dragged sideways retimes
 // it; each drag is one undo step.
@@ -372,11 +367,6 @@ TEST(StudioAuthoringScript, TimelineBlocksReorderAndRetimeByDragging) {
   EXPECT_EQ(f.keyframes[1].durationS, 2);
 }
 
-}  // namespace
-}  // namespace vellum::studio
-
-namespace vellum::studio {
-namespace {
 // Decoded frames of a movie, one MD5 per frame (ffmpeg's framemd5 muxer), without the header.
 std::string decodedFrameHashes(const fs::path& movie, const fs::path& out) {
   const std::string cmd = "ffmpeg -v error -i \"" + movie.string() + "\" -f framemd5 - > \"" + out.string() + "\"";
@@ -426,11 +416,6 @@ TEST(StudioAuthoringScript, Mp4ExportDecodesToTheFramesOfVellumAnimate) {
   EXPECT_EQ(a, b);
 }
 
-}  // namespace
-}  // namespace vellum::studio
-
-namespace vellum::studio {
-namespace {
 // A drag solves the exact map at once while that is cheap (a target moved, the last exact
 // solve within the budget); a moved source needs a rho field rebuilt: the coarse preview.
 TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview) {
@@ -459,11 +444,6 @@ TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview)
   EXPECT_EQ(session.map()->grid.dims, controlGrid(scene.ct.geometry(), 2 * a.engine.controlScale).dims);
 }
 
-}  // namespace
-}  // namespace vellum::studio
-
-namespace vellum::studio {
-namespace {
 // Ctrl+click in a deformed 3D view picks the surface where the view draws it: a translation
 // of 10 mm away from the eye moves the picked point 10 mm along the ray.
 TEST(StudioAuthoringModel, PickingThroughTheDeformationFindsTheDrawnSurface) {
@@ -486,11 +466,6 @@ TEST(StudioAuthoringModel, PickingThroughTheDeformationFindsTheDrawnSurface) {
   EXPECT_LT(norm(*map.sourceMm(*p1) - *p0), voxel);
 }
 
-}  // namespace
-}  // namespace vellum::studio
-
-namespace vellum::studio {
-namespace {
 // Box points stacked along the axial view's normal share one dot there: a press on it takes
 // the point nearest the slice plane (the one the slice shows), not the lowest index.
 TEST(StudioAuthoringScript, StackedDotsPickThePointNearestTheSlice) {
