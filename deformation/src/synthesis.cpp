@@ -525,11 +525,9 @@ struct MapSampler::Impl {
   Dims nd, od;
   int scale = 1;
   Geometry output;
-  Mat3 mmToIndex;  // output.physicalToIndex without inverting the direction per call
+  Geometry::ToIndex toIndex;  // output.physicalToIndex without inverting the direction per call
   Upsampling upsampling = Upsampling::Trilinear;
   std::optional<PreparedSnap> snap;  // in mm, as upsampleMap() applies it
-
-  Vec3 toIndex(const Vec3& mm) const { return div(mmToIndex * (mm - output.origin), output.spacing); }
 
   // The snap at output index o (where synthesis applies it).
   void snapAt(const Vec3& o, float u[3]) const {
@@ -655,7 +653,7 @@ MapSampler::MapSampler(ControlVolume cv, const Geometry& output, Upsampling upsa
   impl->od = output.dims;
   impl->scale = cv.scale;
   impl->output = output;
-  if (!output.direction.inverse(impl->mmToIndex)) impl->mmToIndex = output.direction.transposed();
+  impl->toIndex = output.physicalToIndexMap();
   impl->upsampling = upsampling;
   impl->snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
   impl->nodes = std::move(cv.sourceMm);

@@ -66,13 +66,12 @@ namespace {
 class PixelSources {
  public:
   PixelSources(const Geometry& g, const SlicePlane& plane, const deformation::MapSampler* map)
-      : g_(g), plane_(plane), map_(map) {
+      : plane_(plane), map_(map), toIndex_(g.physicalToIndexMap()) {
     origin_ = g.physicalToIndex(plane.toMm(0.5, 0.5));
     dx_ = g.physicalToIndex(plane.toMm(1.5, 0.5)) - origin_;
     dy_ = g.physicalToIndex(plane.toMm(0.5, 1.5)) - origin_;
     if (map && !(map->output().dims == g.dims && map->output().approxEqual(g)))
       throw Error("deformed slice: the map was not built for this volume's grid");
-    if (!g.direction.inverse(mmToIndex_)) mmToIndex_ = g.direction.transposed();  // once, not per pixel
   }
 
   /// Row y into ijk[0 .. width); `u` and `inside` are the caller's scratch (one per thread).
@@ -88,17 +87,15 @@ class PixelSources {
     const Vec3 outside{-1e6, -1e6, -1e6};  // where the deformed volume is background
     for (int x = 0; x < w; ++x) {
       const float* p = u.data() + 3 * x;
-      ijk[x] = inside[static_cast<size_t>(x)] ? div(mmToIndex_ * (Vec3{p[0], p[1], p[2]} - g_.origin), g_.spacing)
-                                              : outside;
+      ijk[x] = inside[static_cast<size_t>(x)] ? toIndex_(Vec3{p[0], p[1], p[2]}) : outside;
     }
   }
 
  private:
-  const Geometry& g_;
   const SlicePlane& plane_;
   const deformation::MapSampler* map_;
+  Geometry::ToIndex toIndex_;  // the inverse direction found once, not per pixel
   Vec3 origin_, dx_, dy_;
-  Mat3 mmToIndex_;
 };
 }  // namespace
 

@@ -11,10 +11,12 @@ std::string Dims::str() const {
   return std::to_string(x) + "x" + std::to_string(y) + "x" + std::to_string(z);
 }
 
-Vec3 Geometry::physicalToIndex(const Vec3& p) const {
+Vec3 Geometry::physicalToIndex(const Vec3& p) const { return physicalToIndexMap()(p); }
+
+Geometry::ToIndex Geometry::physicalToIndexMap() const {
   Mat3 inv;
   if (!direction.inverse(inv)) inv = direction.transposed();
-  return div(inv * (p - origin), spacing);
+  return {origin, spacing, inv};
 }
 
 Vec3 Geometry::center() const {

@@ -29,6 +29,13 @@ struct Geometry {
   /// Physical position in mm -> continuous index. Uses the inverse direction (which equals
   /// the transpose for orthonormal directions; general inverse otherwise).
   Vec3 physicalToIndex(const Vec3& p) const;
+  /// physicalToIndex() for many points: the inverse direction is found once.
+  struct ToIndex {
+    Vec3 origin, spacing;
+    Mat3 inverseDirection;
+    Vec3 operator()(const Vec3& p) const { return div(inverseDirection * (p - origin), spacing); }
+  };
+  ToIndex physicalToIndexMap() const;
   /// Physical centre of the grid (mm).
   Vec3 center() const;
   /// Physical extent of the voxel-centre box along each index axis (mm).
