@@ -36,7 +36,37 @@ void removeQuietly(const fs::path& p) {
   fs::remove_all(p, ec);
 }
 
+/// A FileError about the hidden temporary names the target instead: users know the target.
+[[noreturn]] void rethrowNamingTarget(const fs::path& tmp, const fs::path& target) {
+  try {
+    throw;
+  } catch (const FileError& e) {
+    const std::string where = e.path().string(), what = e.what();
+    if (where.rfind(tmp.string(), 0) != 0 || what.rfind(where + ": ", 0) != 0) throw;
+    // A file inside a temporary folder keeps its name relative to the folder.
+    const fs::path rel = e.path().lexically_relative(tmp);
+    throw FileError(rel.empty() || rel == "." ? target : target / rel, what.substr(where.size() + 2));
+  }
+}
+
 }  // namespace
+
+namespace detail {
+
+fs::path temporarySibling(const fs::path& target, const char* tag) { return uniqueSibling(target, tag); }
+
+void removeTemporary(const fs::path& p) { removeQuietly(p); }
+
+void writeTemporary(const fs::path& target, const fs::path& tmp, const std::function<void(const fs::path&)>& write) {
+  try {
+    write(tmp);
+  } catch (...) {
+    removeQuietly(tmp);
+    rethrowNamingTarget(tmp, target);
+  }
+}
+
+}  // namespace detail
 
 void writeAtomically(const fs::path& target,
                      const std::function<void(const fs::path& tmp)>& write) {
@@ -45,41 +75,17 @@ void writeAtomically(const fs::path& target,
   std::error_code ec;
   if (!folder.empty() && !fs::is_directory(folder, ec))
     throw FileError(target, "folder " + folder.string() + " does not exist");
+  if (fs::is_directory(target, ec)) throw FileError(target, "is a folder; refusing to replace it with a file");
 
   const fs::path tmp = uniqueSibling(target, "tmp");
-  try {
-    write(tmp);
-  } catch (...) {
-    removeQuietly(tmp);
-    throw;
-  }
+  detail::writeTemporary(target, tmp, write);
 
   const auto st = fs::status(tmp, ec);
   if (!fs::exists(st)) throw FileError(target, "writer produced no output");
-
   if (fs::is_directory(st)) {
-    // Folders cannot be renamed over non-empty folders: move the old one aside first, so a
-    // reader sees either the complete old or the complete new folder (never a mix).
-    fs::path old;
-    if (fs::exists(target, ec)) {
-      old = uniqueSibling(target, "old");
-      fs::rename(target, old, ec);
-      if (ec) {
-        removeQuietly(tmp);
-        throw FileError(target, "cannot replace existing folder: " + ec.message());
-      }
-    }
-    fs::rename(tmp, target, ec);
-    if (ec) {
-      const std::string why = ec.message();
-      if (!old.empty()) fs::rename(old, target, ec);  // put the old one back
-      removeQuietly(tmp);
-      throw FileError(target, "cannot move new folder into place: " + why);
-    }
-    if (!old.empty()) removeQuietly(old);
-    return;
+    removeQuietly(tmp);
+    throw FileError(target, "a folder output must be written with writeFolderAtomically");
   }
-
   if (fs::is_directory(target, ec)) {
     removeQuietly(tmp);
     throw FileError(target, "is a folder; refusing to replace it with a file");

@@ -100,9 +100,11 @@ SlicePlan planSlices(std::vector<Frame> frames, int64_t rows, int64_t columns);
 /// applies each frame's rescale, rounds and saturates to int16, and calls
 /// sink(frameIndex, values) with rows*columns values (i fastest) per frame. Returns how many
 /// values were saturated. Throws FileError naming the file on missing or truncated pixel data,
-/// size mismatches and undecodable data.
+/// size mismatches and undecodable data. With `storedValues` the rescale is skipped (the
+/// caller applies one fractional slope itself, to keep non-integer values).
 int64_t decodeFile(const FileHeader& header,
-                   const std::function<void(int64_t frame, const int16_t* values)>& sink);
+                   const std::function<void(int64_t frame, const int16_t* values)>& sink,
+                   bool storedValues = false);
 
 /// Resamples the stack (one input slice per plan slice, i fastest) onto plan.geometry:
 /// linear along the normal between neighbouring slices, bilinear in-plane for shifted

@@ -150,7 +150,7 @@ std::vector<char> decodePixels(const FileHeader& h, const gdcm::DataElement& pix
 /// Real values per frame (stored bits extracted, rescale slope and intercept, rounded and
 /// saturated to int16) to `sink`; returns how many values saturated.
 int64_t rescaleFrames(const FileHeader& h, const std::vector<char>& buffer, bool encapsulated,
-                      const std::function<void(int64_t frame, const int16_t* values)>& sink) {
+                      const std::function<void(int64_t frame, const int16_t* values)>& sink, bool storedValues) {
   const fs::path& file = h.file;
   const int bytesPerSample = h.bitsAllocated / 8;
   const uint64_t plane = static_cast<uint64_t>(h.rows * h.columns);
@@ -164,7 +164,7 @@ int64_t rescaleFrames(const FileHeader& h, const std::vector<char>& buffer, bool
   for (int64_t f = 0; f < h.frameCount; ++f) {
     const char* src = buffer.data() + static_cast<uint64_t>(f) * plane * bytesPerSample;
     const Frame& fr = h.frames[static_cast<size_t>(f)];
-    const double s = fr.slope, b = fr.intercept;
+    const double s = storedValues ? 1.0 : fr.slope, b = storedValues ? 0.0 : fr.intercept;
     switch (h.bitsAllocated) {
       case 8:
         saturated += h.signedPixels ? rescaleFrame<int8_t>(src, n, field, s, b, values.data())
@@ -188,7 +188,7 @@ int64_t rescaleFrames(const FileHeader& h, const std::vector<char>& buffer, bool
 }  // namespace
 
 int64_t decodeFile(const FileHeader& h,
-                   const std::function<void(int64_t frame, const int16_t* values)>& sink) {
+                   const std::function<void(int64_t frame, const int16_t* values)>& sink, bool storedValues) {
   quietGdcm();
   const fs::path& file = h.file;
   gdcm::Reader reader;
@@ -226,7 +226,7 @@ int64_t decodeFile(const FileHeader& h,
       throw FileError(file, why);
 
   const std::vector<char> buffer = decodePixels(h, pixelData, ts, expected);
-  return rescaleFrames(h, buffer, ts.IsEncapsulated(), sink);
+  return rescaleFrames(h, buffer, ts.IsEncapsulated(), sink, storedValues);
 }
 
 }  // namespace vellum::io::detail::dicom

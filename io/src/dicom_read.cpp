@@ -149,7 +149,7 @@ void checkPixelsFitFiles(const fs::path& path, const std::vector<const FileHeade
 /// pass 1 those holding duplicates, compared against the kept slice (which pass 0 has filled).
 /// Returns how many values were clamped to int16.
 int64_t decodeIntoStack(const std::vector<const FileHeader*>& files, const std::map<FrameKey, Target>& targets,
-                        const SlicePlan& plan, VolumeI16& stack, Progress* progress) {
+                        const SlicePlan& plan, VolumeI16& stack, Progress* progress, bool storedValues) {
   const int64_t plane = stack.geometry().dims.x * stack.geometry().dims.y;
   std::atomic<int64_t> saturated{0};
   for (int pass = 0; pass < 2; ++pass) {
@@ -177,7 +177,7 @@ int64_t decodeIntoStack(const std::vector<const FileHeader*>& files, const std::
                                         " but different pixel data");
           }
           if (progress) progress->advance();
-        });
+        }, storedValues);
       }
     });
   }
@@ -201,18 +201,25 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
   const double background = ct ? kCtAirHu : 0.0;
   int64_t duplicateCount = 0;
   const std::map<FrameKey, Target> targets = frameTargets(plan, duplicateCount);
-  bool fractionalSlope = false;
+  bool fractionalSlope = false, oneRescale = true;
+  const Frame& first = files.front()->frames.front();
   for (const FileHeader* h : files)
-    for (const Frame& f : h->frames)
-      if (f.slope != std::round(f.slope) || f.intercept != std::round(f.intercept))
-        fractionalSlope = true;
+    for (const Frame& f : h->frames) {
+      if (f.slope != std::round(f.slope) || f.intercept != std::round(f.intercept)) fractionalSlope = true;
+      oneRescale = oneRescale && f.slope == first.slope && f.intercept == first.intercept;
+    }
+  // Non-CT data with one fractional rescale (a float volume Vellum wrote, a PET or dose map):
+  // decode the stored int16 values and return stored * slope + intercept as float32, instead
+  // of rounding the real values to integers.
+  bool asFloat = fractionalSlope && !ct && oneRescale;
+  for (const FileHeader* h : files) asFloat = asFloat && h->bitsAllocated == 16 && h->signedPixels;
 
   Geometry stackGeometry = plan.geometry;
   stackGeometry.dims.z = static_cast<int64_t>(plan.slices.size());
   checkPixelsFitFiles(path, files, stackGeometry);
   VolumeI16 stack = allocate(path, stackGeometry, background);
   if (progress) progress->begin("decoding DICOM slices", plan.slices.size() + duplicateCount);
-  const int64_t saturated = decodeIntoStack(files, targets, plan, stack, progress);
+  const int64_t saturated = decodeIntoStack(files, targets, plan, stack, progress, asFloat);
   if (progress) progress->end();
 
   if (duplicateCount > 0)
@@ -221,7 +228,7 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
                               " (same position and identical pixels)");
   if (saturated > 0)
     result.warnings.push_back(std::to_string(saturated) + " values outside the int16 range were clamped");
-  if (fractionalSlope && !ct)
+  if (fractionalSlope && !ct && !asFloat)
     result.warnings.push_back("non-integral rescale slope/intercept: values rounded to integers");
 
   if (plan.resample) {
@@ -230,6 +237,12 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
     result.volume = std::move(out);
   } else {
     result.volume = std::move(stack);
+  }
+  if (asFloat) {
+    VolumeF32 real = convertVolume<float>(result.volume);
+    for (float& x : real.voxels()) x = static_cast<float>(x * first.slope + first.intercept);
+    real.setBackground(0.0);
+    result.volume = std::move(real);
   }
   try {
     geometryOf(result.volume).validate(path.string());

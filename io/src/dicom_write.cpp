@@ -18,6 +18,7 @@
 #include <cstring>
 #include <ctime>
 #include <limits>
+#include <sstream>
 #include <tuple>
 #include <type_traits>
 
@@ -26,7 +27,8 @@
 #include "dicom_internal.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
-#include "vellum/io/atomic_file.hpp"
+#include "io_detail.hpp"
+#include "vellum/io/output_policy.hpp"
 
 namespace vellum::io::detail {
 
@@ -177,6 +179,8 @@ void fillSliceHeader(gdcm::DataSet& ds, const SeriesTags& s, const Geometry& g, 
   put(ds, 0x0010, 0x0030, VR::DA, "");
   put(ds, 0x0010, 0x0040, VR::CS, "O");
   if (s.ct) put(ds, 0x0018, 0x0060, VR::DS, "");  // KVP (type 2)
+  // Patient Position (type 2C for CT): the series is written in LPS as a supine, head-first scan.
+  put(ds, 0x0018, 0x5100, VR::CS, "HFS");
   put(ds, 0x0018, 0x0050, VR::DS, formatDS(g.spacing.z));
   put(ds, 0x0018, 0x0088, VR::DS, formatDS(g.spacing.z));
   put(ds, 0x0020, 0x000d, VR::UI, s.studyUid);
@@ -245,10 +249,7 @@ void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
   const int digits = std::max<int>(4, static_cast<int>(std::to_string(g.dims.z).size()));
   Progress* progress = options.progress;
 
-  writeAtomically(dir, [&](const std::filesystem::path& tmp) {
-    std::error_code ec;
-    std::filesystem::create_directory(tmp, ec);
-    if (ec) throw FileError(tmp, "cannot create folder: " + ec.message());
+  writeFolderAtomically(dir, FolderKind::DicomSeries, [&](const std::filesystem::path& tmp) {
     if (progress) progress->begin("writing DICOM slices", static_cast<uint64_t>(g.dims.z));
     parallelFor(g.dims.z, [&](int64_t k0, int64_t k1) {
       std::vector<int16_t> pixels(static_cast<size_t>(g.dims.x * g.dims.y));
@@ -258,7 +259,10 @@ void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
         char name[64];
         std::snprintf(name, sizeof name, "IMG%0*lld.dcm", digits, static_cast<long long>(k + 1));
         const std::filesystem::path file = tmp / name;
-        writer.SetFileName(file.string().c_str());
+        // GDCM encodes into memory and we write the bytes: its own file stream asserts (and
+        // aborts) when the disk fills; ours throws a FileError and the folder is removed.
+        std::ostringstream encoded;
+        writer.SetStream(encoded);
         gdcm::File& f = writer.GetFile();
         f.GetHeader().SetDataSetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
         gdcm::DataSet& ds = f.GetDataSet();
@@ -268,12 +272,13 @@ void saveDicomSeries(const AnyVolume& volume, const std::filesystem::path& dir,
         pixelData.SetByteValue(reinterpret_cast<const char*>(pixels.data()),
                                static_cast<uint32_t>(pixels.size() * sizeof(int16_t)));
         ds.Replace(pixelData);
-        if (!writer.Write()) throw FileError(file, "cannot write DICOM file");
+        if (!writer.Write()) throw FileError(file, "cannot encode DICOM file");
+        detail::writeBinaryFile(file, encoded.str(), {});
         if (progress) progress->advance();
       }
     });
     if (progress) progress->end();
-  });
+  }, options.force);
 }
 
 }  // namespace vellum::io::detail

@@ -55,6 +55,15 @@ ByteView voxelBytes(const AnyVolume& v);
 void writeBinaryFile(const fs::path& tmp, const std::string& prefix, ByteView body,
                      Progress* progress = nullptr);
 
+/// A free hidden name next to `target` (".vellum-TAG-<pid>-<n>-<name>"): same folder, so the
+/// final rename stays on one file system (atomic_file.cpp).
+fs::path temporarySibling(const fs::path& target, const char* tag);
+/// Removes a temporary file or folder, ignoring errors.
+void removeTemporary(const fs::path& path);
+/// Runs write(tmp); on any exception removes `tmp` and rethrows, a FileError about `tmp` (or
+/// a file inside it) renamed to name `target`.
+void writeTemporary(const fs::path& target, const fs::path& tmp, const std::function<void(const fs::path&)>& write);
+
 /// Turns `bytes` (geometry.dims.voxelCount() samples of `type`, byte order `endian`) into a
 /// volume. int8 -> int16; int32/uint32 -> int16 or uint16 when every value fits, else float32;
 /// float64 -> float32 (FileError when a value exceeds the float range). Consumes `bytes`.

@@ -120,8 +120,30 @@ std::optional<std::string> notHuWarning(const LoadedVolume& lv) {
          "load with --rescale 1 -1024 (slope, intercept)";
 }
 
+/// NaN and infinite voxels (float data) would poison every sum, threshold and render: they
+/// become the background, and the load says how many there were.
+std::optional<std::string> replaceNonFinite(AnyVolume& volume) {
+  auto* f = std::get_if<VolumeF32>(&volume);
+  if (!f) return std::nullopt;
+  const float background = static_cast<float>(f->background());
+  int64_t count = 0;
+  for (float& x : f->voxels())
+    if (!std::isfinite(x)) {
+      x = background;
+      ++count;
+    }
+  if (count == 0) return std::nullopt;
+  return std::to_string(count) + " voxel" + (count > 1 ? "s are" : " is") + " NaN or infinite: set to the background " +
+         fmt(background);
+}
+
 LoadedVolume loadVolume(const fs::path& path, const LoadOptions& options) {
+  if (options.rescale && (!std::isfinite(options.rescale->first) || !std::isfinite(options.rescale->second) ||
+                          options.rescale->first == 0))
+    throw FileError(path, "rescale slope " + fmt(options.rescale->first) + " and intercept " +
+                              fmt(options.rescale->second) + ": both must be finite and the slope non-zero");
   LoadedVolume lv = loadAsStored(path, options);
+  if (auto w = replaceNonFinite(lv.volume)) lv.warnings.push_back(*w);
   if (options.rescale) {
     lv.volume = rescaledToHu(lv.volume, options.rescale->first, options.rescale->second);
     lv.modality = "CT";

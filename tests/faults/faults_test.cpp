@@ -41,7 +41,9 @@ int run(const std::vector<std::string>& args, const fs::path& errFile,
 int leftoverTemps(const fs::path& dir) {
   int n = 0;
   for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.path().filename().string().rfind(".vellum-", 0) == 0) ++n;
+    if (e.path().filename().string().rfind(".vellum-tmp-", 0) == 0 ||
+        e.path().filename().string().rfind(".vellum-old-", 0) == 0)
+      ++n;
   return n;
 }
 
@@ -59,7 +61,8 @@ void writePhantom(const fs::path& dir, int size) {
 TEST(Faults, DiskFullKeepsTheExistingOutputIntact) {
   const auto dir = test::tempDir("fault-fsize");
   writePhantom(dir, 48);
-  const std::string old = "an earlier result that must survive";
+  // An earlier NRRD (the output policy lets only a NRRD replace a NRRD).
+  const std::string old = "NRRD0004\n# an earlier result that must survive\n";
   std::ofstream(dir / "out.nrrd") << old;
   // RLIMIT_FSIZE makes every write past 64 KiB fail with EFBIG, as a full disk would.
   const int rc = run({"convert", (dir / "knee.nrrd").string(), (dir / "out.nrrd").string(), "--no-gzip"},
@@ -121,7 +124,7 @@ static bool killJustBeforeRename(const std::vector<std::string>& args, const fs:
 TEST(Faults, SigkillMidWriteLeavesTheOldOutputIntact) {
   const auto dir = test::tempDir("fault-kill");
   writePhantom(dir, 32);
-  const std::string old = "previous output";
+  const std::string old = "NRRD0004\n# previous output\n";
   std::ofstream(dir / "out.nrrd") << old;
   ASSERT_TRUE(killJustBeforeRename({"convert", (dir / "knee.nrrd").string(), (dir / "out.nrrd").string()},
                                    dir / "err.txt"))

@@ -148,7 +148,7 @@ TEST(ShapeCli, InterruptExitsCleanly) {
   EXPECT_NE(slurp(dir / "log.txt").find("cancelled"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir / "o" / "shape.json"));
   for (const auto& e : fs::recursive_directory_iterator(dir))
-    EXPECT_EQ(e.path().filename().string().find(".vellum-"), std::string::npos) << e.path();
+    EXPECT_EQ(e.path().filename().string().find(".vellum-tmp-"), std::string::npos) << e.path();
 }
 
 // Issue 12: labels thresholded from a real scan include the CT table; --remove-table keeps

@@ -5,6 +5,7 @@
 #include "io_test_util.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/atomic_file.hpp"
+#include "vellum/io/output_policy.hpp"
 
 using namespace vellum;
 using namespace vellum::test;
@@ -48,31 +49,57 @@ TEST(AtomicFile, ReplacesExistingFile) {
 
 TEST(AtomicFile, FolderTargetIsSwappedWhole) {
   const fs::path dir = tempDir("atomic-folder");
-  fs::create_directories(dir / "series");
-  writeFile(dir / "series" / "old1.dcm", "x");
-  writeFile(dir / "series" / "old2.dcm", "y");
-  io::writeAtomically(dir / "series", [](const fs::path& tmp) {
-    fs::create_directory(tmp);
-    writeFile(tmp / "new1.dcm", "n");
+  io::writeFolderAtomically(dir / "series", io::FolderKind::DicomSeries, [](const fs::path& tmp) {
+    writeFile(tmp / "old1.dcm", "x");
+    writeFile(tmp / "old2.dcm", "y");
   });
+  io::writeFolderAtomically(dir / "series", io::FolderKind::DicomSeries,
+                            [](const fs::path& tmp) { writeFile(tmp / "new1.dcm", "n"); });
   EXPECT_TRUE(fs::exists(dir / "series" / "new1.dcm"));
+  EXPECT_TRUE(fs::exists(dir / "series" / ".vellum-series"));
   EXPECT_FALSE(fs::exists(dir / "series" / "old1.dcm"));
   EXPECT_EQ(leftoverTemps(dir), 0);
 }
 
 TEST(AtomicFile, ThrowingFolderWriterKeepsOldFolder) {
   const fs::path dir = tempDir("atomic-folder-throw");
-  fs::create_directories(dir / "series");
-  writeFile(dir / "series" / "old1.dcm", "x");
-  EXPECT_THROW(io::writeAtomically(dir / "series",
-                                   [](const fs::path& tmp) {
-                                     fs::create_directory(tmp);
-                                     writeFile(tmp / "new1.dcm", "n");
-                                     throw Cancelled();
-                                   }),
+  io::writeFolderAtomically(dir / "series", io::FolderKind::DicomSeries,
+                            [](const fs::path& tmp) { writeFile(tmp / "old1.dcm", "x"); });
+  EXPECT_THROW(io::writeFolderAtomically(dir / "series", io::FolderKind::DicomSeries,
+                                         [](const fs::path& tmp) {
+                                           writeFile(tmp / "new1.dcm", "n");
+                                           throw Cancelled();
+                                         }),
                Cancelled);
   EXPECT_TRUE(fs::exists(dir / "series" / "old1.dcm"));
   EXPECT_FALSE(fs::exists(dir / "series" / "new1.dcm"));
+  EXPECT_EQ(leftoverTemps(dir), 0);
+}
+
+TEST(AtomicFile, ErrorsNameTheTargetNotTheTemporary) {
+  const fs::path dir = tempDir("atomic-names");
+  try {
+    io::writeAtomically(dir / "out.nrrd", [](const fs::path& tmp) { throw FileError(tmp, "No space left on device"); });
+    FAIL() << "no error";
+  } catch (const FileError& e) {
+    EXPECT_EQ(std::string(e.what()), (dir / "out.nrrd").string() + ": No space left on device");
+  }
+  try {
+    io::writeFolderAtomically(dir / "series", io::FolderKind::DicomSeries,
+                              [](const fs::path& tmp) { throw FileError(tmp / "IMG0001.dcm", "No space left on device"); });
+    FAIL() << "no error";
+  } catch (const FileError& e) {
+    EXPECT_EQ(std::string(e.what()), (dir / "series" / "IMG0001.dcm").string() + ": No space left on device");
+  }
+  EXPECT_EQ(leftoverTemps(dir), 0);
+}
+
+TEST(AtomicFile, AFolderIsNeverReplacedByAFileWriter) {
+  const fs::path dir = tempDir("atomic-dir-file");
+  fs::create_directories(dir / "x.nrrd");
+  writeFile(dir / "x.nrrd" / "keep.txt", "k");
+  EXPECT_THROW(io::writeAtomically(dir / "x.nrrd", [](const fs::path& tmp) { writeFile(tmp, "n"); }), FileError);
+  EXPECT_EQ(readFile(dir / "x.nrrd" / "keep.txt"), "k");
   EXPECT_EQ(leftoverTemps(dir), 0);
 }
 

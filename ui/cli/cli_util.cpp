@@ -177,4 +177,10 @@ std::pair<int, int> parseSize(const std::string& text) {
   return {w, h};
 }
 
+void addForceFlag(CLI::App& cmd, bool& force) {
+  cmd.add_flag("--force", force,
+               "let an output folder replace a folder Vellum wrote as another kind of output (never a folder "
+               "Vellum did not write)");
+}
+
 }  // namespace vellum::cli

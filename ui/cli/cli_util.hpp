@@ -100,11 +100,16 @@ class ProgressBar {
 io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
                                   bool quiet = false);
 
-// Never overwrite the input, create the output's folder, write JSON atomically: the rules the
-// app pipelines follow too (vellum/app/outputs.hpp).
+// The output policy, the output's folder, JSON written atomically, no half-finished result:
+// the rules the app pipelines follow too (vellum/app/outputs.hpp).
 using app::ensureParentFolder;
-using app::refuseOverwritingInput;
+using app::RunOutputs;
 using app::writeJsonFile;
+using io::OutputPlan;
+
+/// --force: an output folder may replace a folder Vellum wrote as another kind of output (a
+/// folder Vellum did not write is never replaced).
+void addForceFlag(CLI::App& cmd, bool& force);
 
 /// JSON for geometry pieces.
 nlohmann::json toJson(const Vec3& v);

@@ -65,6 +65,7 @@ void addAnimateCommand(CLI::App& app) {
   cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z)")->expected(3);
   addFlags(*cmd, r, app::animateRequestTable());  // --fps, --camera-orbit, --loop
   cmd->add_option("--report", r.report, "JSON report: timings and per-frame rigidity measures");
+  addForceFlag(*cmd, r.force);
   addEngineFlags(*cmd, r.engine);
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);

@@ -13,6 +13,7 @@ struct ConvertArgs {
   std::string input, output, type;
   bool labels = false;
   bool rawEncoding = false;
+  bool force = false;
   InputOptions in;
 };
 
@@ -37,12 +38,14 @@ void addConvertCommand(CLI::App& app) {
   cmd->add_flag("--labels", a->labels, "treat the input as a label map (keeps the label table)");
   cmd->add_flag("--no-gzip", a->rawEncoding, "NRRD: raw encoding instead of gzip");
   a->in.addTo(*cmd);
+  addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum convert ../shared/data/ct-head-phantom head.nrrd");
   cmd->callback([a] {
-    refuseOverwritingInput(a->input, a->output);
+    OutputPlan().input(a->input).output(a->output, "the output", !a->rawEncoding).force(a->force).check();
     ensureParentFolder(a->output);
     io::SaveOptions so;
     so.gzip = !a->rawEncoding;
+    so.force = a->force;
     if (a->labels) {
       const LabelVolume labels = io::loadLabels(a->input, a->in.toLoadOptions(nullptr));
       io::saveLabels(labels, a->output, so);

@@ -149,6 +149,7 @@ void addCurveAnalogyCommand(CLI::App& app) {
   cmd->add_option("--map-out", a->request.mapOut, "CT backward map NRRD (format of `deform --map-out`)");
   cmd->add_option("--map-step", a->request.mapStep, "voxels between exact map samples (trilinear in between)")->capture_default_str();
   cmd->add_option("--report", a->request.report, "also write the curve-analogy report JSON here");
+  addForceFlag(*cmd, a->request.force);
   cmd->footer("Example: vellum curve-analogy shape/ --segment skin --drawing calf.png --view side --transfer bone --out shape-bent/ --map-out bent-map.nrrd");
   cmd->callback([a] { runCurveAnalogy(*a); });
 }

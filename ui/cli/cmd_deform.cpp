@@ -70,6 +70,7 @@ void addDeformCommand(CLI::App& app) {
                   "attribute field (dL*, da*, db*, density per control-grid node) as a 4-component float NRRD; "
                   "`vellum render OUT --attributes FILE` draws the output as the live deformed render does");
   cmd->add_option("--report", r.report, "JSON report: stage timings, PSNR, rigidity measures");
+  addForceFlag(*cmd, r.force);
   addFlags(*cmd, r, app::deformRequestTable());
   addEngineFlags(*cmd, r.engine);
   a->in.addTo(*cmd);
@@ -99,7 +100,7 @@ void addControlsCommand(CLI::App& app) {
                   "plus 8 box anchors");
   a->in.addTo(*cmd);
   cmd->callback([a] {
-    refuseOverwritingInput(a->input, a->output);
+    OutputPlan().input(a->input).input(a->fromLabels, "the --from-labels map").json(a->output, "--out").check();
     const io::LoadedVolume lv = loadWithProgress(a->input, a->in, true);
     const Geometry& g = geometryOf(lv.volume);
     PointFile pf;

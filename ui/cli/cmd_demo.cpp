@@ -20,6 +20,7 @@ struct DemoArgs {
   int imageSize = 512;
   uint64_t seed = 1;
   bool skipDicom = false;
+  bool force = false;
 };
 
 struct View {
@@ -37,11 +38,14 @@ void addDemoCommand(CLI::App& app) {
   cmd->add_option("--image-size", a->imageSize, "figure size in pixels (square)")->capture_default_str()->check(CLI::Range(64, 4096));
   cmd->add_option("--seed", a->seed, "phantom noise seed")->capture_default_str();
   cmd->add_flag("--no-dicom", a->skipDicom, "do not write the phantom as a DICOM series");
+  addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum demo --out vellum-demo --size 192");
   cmd->callback([a] {
     const auto t0 = std::chrono::steady_clock::now();
     const std::filesystem::path out = a->out;
-    std::filesystem::create_directories(out);
+    // A new folder, or one an earlier demo wrote (its outputs are listed as they are made, so
+    // it is written in place rather than swapped in whole).
+    io::prepareFolderInPlace(out, io::FolderKind::Demo, a->force);
     nlohmann::json summary;
 
     // 1. The phantom, in the formats other tools open.

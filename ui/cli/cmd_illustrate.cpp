@@ -107,8 +107,15 @@ void addIllustrateCommand(CLI::App& app) {
       s.render.background = {float(a->background[0]), float(a->background[1]), float(a->background[2]),
                              a->background.size() > 3 ? float(a->background[3]) : 1.f};
     if (a->transparent) s.render.background[3] = 0.f;
-    refuseOverwritingInput(a->input, a->output);
-    refuseOverwritingInput(a->shape, a->output);
+    OutputPlan()
+        .input(a->input)
+        .input(a->shape, "the --shape folder")
+        .input(a->style, "the --style file")
+        .input(a->figure.labelMap, "the --label-map")
+        .output(a->output, "--out")
+        .json(a->saveStyle, "--save-style")
+        .json(a->report, "--report")
+        .check();
 
     illustration::ShapeScene scene = illustration::loadShapeFolder(a->shape);
     io::LoadedVolume lv = loadWithProgress(a->input, a->in);
@@ -123,11 +130,18 @@ void addIllustrateCommand(CLI::App& app) {
     illustration::IllustrationRenderer renderer(*context);
     renderer.setScene(scene);
     RgbaImage image = renderer.render(style, s);
+    // A GL draw cannot be interrupted: Ctrl-C during it cancels here, before anything is written.
+    Progress::none().checkCancelled();
     // Illustrations are see-through: name each structure where it alone shows.
     a->figure.apply(image, scene.distance.geometry(), s.render, &scene.segments, render::AnchorOcclusion::InnerFirst);
+    RunOutputs outputs;
     ensureParentFolder(a->output);
     io::saveImage(image, a->output);
-    if (!a->saveStyle.empty()) illustration::saveStyle(style, a->saveStyle);
+    outputs.wrote(a->output);
+    if (!a->saveStyle.empty()) {
+      illustration::saveStyle(style, a->saveStyle);
+      outputs.wrote(a->saveStyle);
+    }
     std::cout << a->output << "  " << style.name << "  " << s.render.width << "x" << s.render.height << "  "
               << illustration::interpolationName(s.interpolation) << "  " << renderer.lastRenderMs() << " ms\n";
     if (!a->report.empty()) {
@@ -148,6 +162,7 @@ void addIllustrateCommand(CLI::App& app) {
       r["total_seconds"] = secondsSince(t0);
       writeJsonFile(r, a->report);
     }
+    outputs.commit();
   });
 }
 

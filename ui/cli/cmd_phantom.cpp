@@ -18,6 +18,7 @@ struct PhantomArgs {
   double noise = 15.0;
   double flexion = 0.0;
   bool noPartialVolume = false;
+  bool force = false;
 };
 
 }  // namespace
@@ -35,6 +36,7 @@ void addPhantomCommand(CLI::App& app) {
   cmd->add_option("--noise", a->noise, "noise standard deviation in HU")->capture_default_str();
   cmd->add_option("--flexion", a->flexion, "knee flexion in degrees")->capture_default_str();
   cmd->add_flag("--no-partial-volume", a->noPartialVolume, "hard tissue edges (no supersampling)");
+  addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum phantom --size 256 --out knee.nrrd --labels knee-labels.nrrd");
   cmd->callback([a] {
     phantom::PhantomOptions o;
@@ -44,17 +46,23 @@ void addPhantomCommand(CLI::App& app) {
     o.noiseSigmaHu = a->noise;
     o.kneeFlexionDeg = a->flexion;
     o.partialVolume = !a->noPartialVolume;
+    OutputPlan().output(a->out, "--out").output(a->labels, "--labels").force(a->force).check();
     const auto t0 = std::chrono::steady_clock::now();
     ProgressBar bar;
     phantom::Phantom p = phantom::makePhantom(o, bar.progress());
     bar.finish();
     const double genSeconds = secondsSince(t0);
+    io::SaveOptions so;
+    so.force = a->force;
+    RunOutputs outputs;
     ensureParentFolder(a->out);
-    io::saveVolume(p.ct, a->out);
+    io::saveVolume(p.ct, a->out, so);
+    outputs.wrote(a->out);
     if (!a->labels.empty()) {
       ensureParentFolder(a->labels);
-      io::saveLabels(p.labels, a->labels);
+      io::saveLabels(p.labels, a->labels, so);
     }
+    outputs.commit();
     std::cout << "phantom " << o.dims.str() << " generated in " << genSeconds << " s -> " << a->out
               << (a->labels.empty() ? "" : " + " + a->labels) << "\n";
   });

@@ -26,8 +26,11 @@ struct RenderArgs {
 };
 
 /// "fig.png" + "bone" -> "fig-bone.png".
-std::filesystem::path withSuffix(const std::filesystem::path& p, const std::string& suffix) {
-  return p.parent_path() / (p.stem().string() + "-" + suffix + p.extension().string());
+/// --out for one preset: "fig.png", or "fig-bone.png" ... when several presets are drawn.
+std::filesystem::path figurePath(const std::filesystem::path& out, const std::vector<render::Preset>& presets,
+                                 render::Preset p) {
+  if (presets.size() == 1) return out;
+  return out.parent_path() / (out.stem().string() + "-" + render::presetName(p) + out.extension().string());
 }
 
 /// The identity map carrying an attribute field written by `vellum deform --attributes-out`
@@ -72,6 +75,15 @@ void addRenderCommand(CLI::App& app) {
   a->figure.addTo(*cmd, FigureOptions::LabelSource::File);
   cmd->footer("Example: vellum render knee.nrrd --preset all --size 1024x1024 --out figs/knee.png");
   cmd->callback([a] {
+    const std::vector<render::Preset> presets =
+        a->preset == "all" ? render::allPresets() : std::vector{render::parsePreset(a->preset)};
+    OutputPlan plan;
+    plan.input(a->input)
+        .input(a->figure.labelMap, "the --label-map")
+        .input(a->labelColours, "the --label-colours map")
+        .input(a->attributes, "the --attributes field");
+    for (render::Preset p : presets) plan.output(figurePath(a->output, presets, p), "--out");
+    plan.check();
     io::LoadedVolume lv = loadWithProgress(a->input, a->in);
     lv.volume = a->table.apply(std::move(lv.volume), a->input);
     render::RenderSettings s = a->settings;
@@ -81,9 +93,6 @@ void addRenderCommand(CLI::App& app) {
       s.background = {float(a->background[0]), float(a->background[1]), float(a->background[2]),
                       a->background.size() > 3 ? float(a->background[3]) : 1.f};
     if (a->transparent) s.background[3] = 0.f;
-    const std::vector<render::Preset> presets =
-        a->preset == "all" ? render::allPresets() : std::vector{render::parsePreset(a->preset)};
-
     std::optional<LabelVolume> labels;
     if (!a->figure.labelMap.empty()) {
       labels = a->in.loadLabelsOnInputGrid(a->figure.labelMap);
@@ -114,15 +123,20 @@ void addRenderCommand(CLI::App& app) {
     // The frame's box is the map's node grid when one is set (the annotations must use it too).
     const Geometry& frameBox = attributeMap ? attributeMap->grid : geometryOf(lv.volume);
     ensureParentFolder(a->output);
+    RunOutputs outputs;  // Ctrl-C between presets leaves no figure of this run
     for (render::Preset p : presets) {
       s.preset = p;
       RgbaImage image = renderer.render(s);
+      // A GL draw cannot be interrupted: Ctrl-C during it cancels here, before anything is written.
+      Progress::none().checkCancelled();
       a->figure.apply(image, frameBox, s, labels ? &*labels : nullptr);
-      const auto path = presets.size() > 1 ? withSuffix(a->output, render::presetName(p)) : std::filesystem::path(a->output);
+      const auto path = figurePath(a->output, presets, p);
       io::saveImage(image, path);
+      outputs.wrote(path);
       std::cout << path.string() << "  " << render::presetName(p) << "  " << s.width << "x" << s.height
                 << "  " << renderer.lastRenderMs() << " ms\n";
     }
+    outputs.commit();
   });
 }
 

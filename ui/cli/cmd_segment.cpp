@@ -32,6 +32,7 @@ struct SegmentArgs {
   app::SegmentRequest request;      ///< method, settings and post-processing: the flags write here
   int labelId = 0;
   std::vector<uint16_t> truthIds;
+  bool force = false;
   InputOptions in;
 };
 
@@ -121,7 +122,14 @@ nlohmann::json truthMetrics(const SegmentArgs& a, const LabelVolume& labels, con
 
 void runSegment(const SegmentArgs& a) {
   const auto t0 = std::chrono::steady_clock::now();
-  refuseOverwritingInput(a.input, a.out);
+  OutputPlan()
+      .input(a.input)
+      .input(a.into, "the --into label map")
+      .input(a.truth, "the --truth label map")
+      .output(a.out, "--out")
+      .json(a.report, "--report")
+      .force(a.force)
+      .check();
   const io::LoadedVolume lv = loadWithProgress(a.input, a.in);
   const VolumeI16 ct = toInt16(lv.volume);
   app::SegmentRequest request = a.request;
@@ -151,20 +159,26 @@ void runSegment(const SegmentArgs& a) {
   LabelVolume labels = a.into.empty() ? LabelVolume(ct.geometry()) : a.in.loadLabelsOnInputGrid(a.into);
   const uint16_t id = a.labelId > 0 ? static_cast<uint16_t>(a.labelId) : labels.nextFreeId();
   const std::vector<uint16_t> written = addToLabels(a, request, outcome, id, labels, report);
+  // The truth comparison runs before anything is written: a truth map that cannot be read
+  // leaves no output behind.
+  if (!a.truth.empty()) {
+    report["truth"] = a.truth;
+    report["metrics"] = truthMetrics(a, labels, mask, classes.has_value(), id, written);
+  }
+  RunOutputs outputs;
   ensureParentFolder(a.out);
-  io::saveLabels(labels, a.out);
+  io::SaveOptions so;
+  so.force = a.force;
+  io::saveLabels(labels, a.out, so);
+  outputs.wrote(a.out);
+  report["seconds"] = secondsSince(t0);
+  if (!a.report.empty()) writeJsonFile(report, a.report);
+  outputs.commit();
   std::cout << a.out << ": segment";
   for (uint16_t w : written) std::cout << " " << w;
   std::cout << " (" << request.method << ")";
   if (!classes) std::cout << ", " << seg::countVoxels(mask) << " voxels, " << seg::maskVolumeMm3(mask) / 1000.0 << " cm³";
   std::cout << "\n";
-
-  if (!a.truth.empty()) {
-    report["truth"] = a.truth;
-    report["metrics"] = truthMetrics(a, labels, mask, classes.has_value(), id, written);
-  }
-  report["seconds"] = secondsSince(t0);
-  if (!a.report.empty()) writeJsonFile(report, a.report);
 }
 
 }  // namespace
@@ -186,6 +200,7 @@ void addSegmentCommand(CLI::App& app) {
   cmd->add_option("--truth-ids", a->truthIds, "compare against the union of these truth ids (default: the same id)")->delimiter(',');
   cmd->add_option("--report", a->report, "write parameters, timings, iterations and metrics as JSON");
   a->in.addTo(*cmd);
+  addForceFlag(*cmd, a->force);
   cmd->footer(
       "Examples:\n"
       "  vellum segment knee.nrrd --out bone.nrrd --preset whole-bone --fill-holes-slices --min-island 100\n"

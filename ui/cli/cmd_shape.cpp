@@ -23,6 +23,7 @@ namespace {
 struct ShapeArgs {
   std::string input, labels, out, report, meshFormat = "ply";
   std::vector<std::string> segments, shells, grows;
+  bool force = false;
   ill::ShapeOptions options;  ///< the shape table's flags write here
   InputOptions in;
   TableRemovalOptions table;
@@ -65,8 +66,13 @@ struct ShapeInputs {
 };
 
 ShapeInputs loadShapeInputs(const ShapeArgs& a) {
-  refuseOverwritingInput(a.input, a.out);
-  refuseOverwritingInput(a.labels, a.out);
+  OutputPlan()
+      .input(a.input)
+      .input(a.labels, "the --labels map")
+      .folder(a.out, io::FolderKind::Shape, "--out")
+      .json(a.report, "--report")
+      .force(a.force)
+      .check();
   ShapeInputs in{loadWithProgress(a.input, a.in), {}};
   const Geometry& ctGeom = geometryOf(in.ct.volume);
   // The labels get the input's --crop / --downsample (the raw-input flags describe IN only).
@@ -158,24 +164,29 @@ void runShape(const ShapeArgs& a) {
   const double pipelineMs = 1000 * secondsSince(tp);
   r.distance.setGeometry(ctGeom);
 
+  // The folder is written whole beside its target and then moved into place (a reader never
+  // sees a mix of two runs' meshes), with the report first: nothing claims a finished result
+  // that is not there.
   const auto tw = Clock::now();
   const fs::path dir = a.out;
-  fs::create_directories(dir / "meshes");
-  io::SaveOptions raw;
-  raw.gzip = false;  // 4 bytes a voxel of smooth floats: gzip would cost seconds for little
-  io::saveVolume(r.distance, dir / "distance.nrrd", raw);
-  io::saveLabels(r.segmentation, dir / "segments.nrrd");
-  for (const auto& s : r.shapes) ill::saveMesh(s.mesh, dir / "meshes" / (s.segment.name + "." + a.meshFormat), a.meshFormat);
-  const double writeMs = 1000 * secondsSince(tw);
-
-  const auto& t = r.times;
-  const nlohmann::json j = shapeReport(a, ctGeom, r, shells, grows,
-                                       {{"load", loadMs}, {"denoise", t.denoiseMs}, {"mesh", t.meshMs},
-                                        {"process", t.processMs}, {"distances", t.distancesMs},
-                                        {"segmentation", t.segmentationMs}, {"pipeline", pipelineMs},
-                                        {"write", writeMs}, {"total", 1000 * secondsSince(t0)}});
-  writeJsonFile(j, dir / "shape.json");
-  if (!a.report.empty()) writeJsonFile(j, a.report);
+  ensureParentFolder(dir);
+  io::writeFolderAtomically(dir, io::FolderKind::Shape, [&](const fs::path& tmp) {
+    fs::create_directories(tmp / "meshes");
+    io::SaveOptions raw;
+    raw.gzip = false;  // 4 bytes a voxel of smooth floats: gzip would cost seconds for little
+    io::saveVolume(r.distance, tmp / "distance.nrrd", raw);
+    io::saveLabels(r.segmentation, tmp / "segments.nrrd");
+    for (const auto& s : r.shapes) ill::saveMesh(s.mesh, tmp / "meshes" / (s.segment.name + "." + a.meshFormat), a.meshFormat);
+    const double writeMs = 1000 * secondsSince(tw);
+    const auto& t = r.times;
+    const nlohmann::json j = shapeReport(a, ctGeom, r, shells, grows,
+                                         {{"load", loadMs}, {"denoise", t.denoiseMs}, {"mesh", t.meshMs},
+                                          {"process", t.processMs}, {"distances", t.distancesMs},
+                                          {"segmentation", t.segmentationMs}, {"pipeline", pipelineMs},
+                                          {"write", writeMs}, {"total", 1000 * secondsSince(t0)}});
+    writeJsonFile(j, tmp / "shape.json");
+    if (!a.report.empty()) writeJsonFile(j, a.report);
+  }, a.force);
   printShapeSummary(r, dir, pipelineMs);
 }
 
@@ -206,6 +217,7 @@ void addShapeCommand(CLI::App& app) {
   cmd->add_option("--report", a->report, "also write shape.json here");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
+  addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum shape knee.nrrd --labels knee-labels.nrrd --segment bone=4,5,6,7,8,9,11 --segment skin=1 --shell bone:1.5 --out shape/");
   cmd->callback([a] { runShape(*a); });
 }

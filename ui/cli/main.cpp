@@ -23,6 +23,9 @@ extern "C" void onInterrupt(int sig) {
 int main(int argc, char** argv) {
   std::signal(SIGINT, onInterrupt);
   std::signal(SIGTERM, onInterrupt);
+  // Past RLIMIT_FSIZE a write fails with EFBIG instead of killing us: it is then reported as
+  // a full disk is (a one-line error naming the target, nothing half-written left behind).
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"Vellum: CT volume loading, segmentation, deformation and rendering", "vellum"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "vellum 0.1.0");

@@ -58,6 +58,7 @@ animation::MovieSpec movieSpec(const AnimateRequest& request) {
   const bool isFolder = !out.empty() && (out.back() == '/' || request.output.extension().empty());
   (isFolder ? spec.framesDir : spec.moviePath) = request.output;
   if (!request.frames.empty()) spec.framesDir = request.frames;
+  if (spec.framesDir.filename().empty()) spec.framesDir = spec.framesDir.parent_path();  // "frames/"
   spec.fps = request.fps;
   spec.orbitDeg = request.orbitDeg;
   spec.upsampling = request.engine.upsampling;
@@ -91,7 +92,15 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   params::validate(animateRequestTable(), request);
   params::validate(deformEngineTable(), request.engine);
   const animation::MovieSpec spec = movieSpec(request);
-  if (!spec.moviePath.empty()) refuseOverwritingInput(request.input, spec.moviePath);
+  io::OutputPlan()
+      .input(request.input)
+      .input(request.keyframes, "the --keyframes file")
+      .input(request.engine.labels, "the --labels map")
+      .output(spec.moviePath, "--out")
+      .folder(spec.framesDir, io::FolderKind::Frames, request.frames.empty() ? "--out" : "--frames")
+      .json(request.report, "--report")
+      .force(request.force)
+      .check();
   if (request.annotations.labels && request.engine.labels.empty())
     throw Error("--name-structures needs the label map of --labels");
   KeyframeTrack track = loadKeyframes(request.keyframes);
@@ -112,17 +121,32 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
     withLabels.labels = &*names;
   }
   if (!spec.moviePath.empty()) ensureParentFolder(spec.moviePath);
+  if (!spec.framesDir.empty()) ensureParentFolder(spec.framesDir);
   AnimateResult result;
-  {
+  const auto render = [&](const animation::MovieSpec& s) {
     auto context = render::GlContext::createHeadless();
     const animation::MovieRigidity rigidity{bodies ? &*bodies : nullptr, request.engine.rigidFalloffMm,
                                             request.engine.rigidityStride};
-    result.movie = animation::renderTrack(*context, lv.volume, track, params, rigidity, withLabels, progress);
+    result.movie = animation::renderTrack(*context, lv.volume, track, params, rigidity, s, progress);
+  };
+  if (spec.framesDir.empty()) {
+    render(withLabels);
+  } else {
+    // The frames appear as one folder when the last is written (a cancelled export leaves none).
+    io::writeFolderAtomically(spec.framesDir, io::FolderKind::Frames, [&](const std::filesystem::path& tmp) {
+      animation::MovieSpec s = withLabels;
+      s.framesDir = tmp;
+      render(s);
+    }, request.force);
   }
   result.warnings = std::move(lv.warnings);
   const double totalMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   result.report = reportJson(result.movie, request, bodies.has_value(), totalMs);
+  RunOutputs written;  // a report that cannot be written takes the movie with it
+  if (!spec.moviePath.empty()) written.wrote(spec.moviePath);
+  if (!spec.framesDir.empty()) written.wrote(spec.framesDir);
   if (!request.report.empty()) writeJsonFile(result.report, request.report);
+  written.commit();
   return result;
 }
 

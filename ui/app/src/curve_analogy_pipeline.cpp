@@ -166,11 +166,10 @@ void rebuildVolumes(const ShapeFolder& f, const std::vector<ill::TriMesh>& meshe
   unionDistance.setGeometry(grid);
 }
 
-/// OUT/meshes, OUT/curve_analogy (proxies, curves, the before/after plate) and the map.
-/// Returns shape.json's content for OUT (the input's, with the new segments' checks).
-nlohmann::json writeOutputs(const CurveAnalogyRequest& a, const ShapeFolder& f, const Bent& b, int width, int height,
-                            const std::vector<float>& map) {
-  const fs::path out = a.out;
+/// `out`/meshes, `out`/curve_analogy (proxies, curves, the before/after plate) and the map.
+/// Returns shape.json's content for the output folder (the input's, with the new segments' checks).
+nlohmann::json writeOutputs(const CurveAnalogyRequest& a, const fs::path& out, const ShapeFolder& f, const Bent& b,
+                            int width, int height, const std::vector<float>& map) {
   fs::create_directories(out / "meshes");
   nlohmann::json j = f.shape;
   j["segments"] = nlohmann::json::array();
@@ -240,7 +239,15 @@ CurveAnalogyOutcome runCurveAnalogy(const CurveAnalogyRequest& a) {
     throw Error("curve analogy: C0 (" + (a.curveSource.empty() ? std::string("the curve") : a.curveSource) +
                 ") has " + std::to_string(a.curve.size()) + " points; at least 3 are needed");
   if (a.out.empty()) throw Error("curve analogy: no output folder");
-  refuseOverwritingInput(a.dir, a.out);
+  std::error_code ec;
+  io::OutputPlan()
+      .input(a.dir, "the input shape folder")
+      .input(fs::is_regular_file(a.curveSource, ec) ? fs::path(a.curveSource) : fs::path(), "C0's file")
+      .folder(a.out, io::FolderKind::Shape, "--out")
+      .output(a.mapOut, "--map-out")
+      .json(a.report, "--report")
+      .force(a.force)
+      .check();
   const ShapeFolder folder = loadShapeFolder(a.dir);
   const Geometry& grid = folder.labels.geometry();
   const std::vector<size_t> carried = carriedSegments(folder, a);
@@ -271,22 +278,26 @@ CurveAnalogyOutcome runCurveAnalogy(const CurveAnalogyRequest& a) {
   }
 
   tt = Clock::now();
-  const fs::path out = a.out;
-  fs::create_directories(out);
-  io::SaveOptions raw;
-  raw.gzip = false;
-  io::saveVolume(unionDistance, out / "distance.nrrd", raw);
-  io::saveLabels(segmentation, out / "segments.nrrd");
-  nlohmann::json j = writeOutputs(a, folder, bent, width, height, map);
-  const double writeMs = msSince(tt);
-
-  nlohmann::json ca = curveAnalogyReport(a, folder, carried, bent, a.view, proj, width, height);
-  ca["timings_ms"] = {{"load", loadMs}, {"proxy", r.proxyMs}, {"curve", r.curveMs}, {"arap", r.arapMs},
-                      {"transfer", bent.transferMs}, {"volumes", volumesMs}, {"map", mapMs},
-                      {"write", writeMs}, {"total", msSince(t0)}};
-  j["curve_analogy"] = ca;
-  writeJsonFile(j, out / "shape.json");
-  if (!a.report.empty()) writeJsonFile(ca, a.report);
+  nlohmann::json j, ca;
+  ensureParentFolder(a.out);
+  RunOutputs written;
+  io::writeFolderAtomically(a.out, io::FolderKind::Shape, [&](const fs::path& out) {
+    io::SaveOptions raw;
+    raw.gzip = false;
+    io::saveVolume(unionDistance, out / "distance.nrrd", raw);
+    io::saveLabels(segmentation, out / "segments.nrrd");
+    j = writeOutputs(a, out, folder, bent, width, height, map);
+    if (!map.empty()) written.wrote(a.mapOut);
+    const double writeMs = msSince(tt);
+    ca = curveAnalogyReport(a, folder, carried, bent, a.view, proj, width, height);
+    ca["timings_ms"] = {{"load", loadMs}, {"proxy", r.proxyMs}, {"curve", r.curveMs}, {"arap", r.arapMs},
+                        {"transfer", bent.transferMs}, {"volumes", volumesMs}, {"map", mapMs},
+                        {"write", writeMs}, {"total", msSince(t0)}};
+    j["curve_analogy"] = ca;
+    writeJsonFile(j, out / "shape.json");
+    if (!a.report.empty()) writeJsonFile(ca, a.report);
+  }, a.force);
+  written.commit();
   return {j, ca};
 }
 

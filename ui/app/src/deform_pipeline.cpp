@@ -112,11 +112,14 @@ void psnrAgainstFullResolution(Run& run, const AnyVolume& out) {
   run.cpu.lap("psnr");
 }
 
-void writeOutputs(Run& run, const AnyVolume& out) {
+void writeOutputs(Run& run, const AnyVolume& out, RunOutputs& written) {
   const DeformRequest& r = run.request;
   auto t = Clock::now();
   ensureParentFolder(r.output);
-  io::saveVolume(out, r.output);
+  io::SaveOptions so;
+  so.force = r.force;
+  io::saveVolume(out, r.output, so);
+  written.wrote(r.output);
   run.timings["save"] = msSince(t);
   run.cpu.lap("save");
   if (!r.mapOut.empty()) {
@@ -124,6 +127,7 @@ void writeOutputs(Run& run, const AnyVolume& out) {
     ensureParentFolder(r.mapOut);
     if (run.fullMap.empty()) run.fullMap = upsampleMap(run.cv, geometryOf(out), r.engine.upsampling);
     saveBackwardMapNrrd(run.fullMap, geometryOf(out), r.mapOut);
+    written.wrote(r.mapOut);
     run.timings["map_out"] = msSince(t);
   }
   if (!r.attributesOut.empty()) {
@@ -133,6 +137,7 @@ void writeOutputs(Run& run, const AnyVolume& out) {
       for (int64_t n = 0; n < run.cv.grid.dims.voxelCount(); ++n) field.insert(field.end(), {0.f, 0.f, 0.f, 1.f});
     ensureParentFolder(r.attributesOut);
     saveAttributeFieldNrrd(field, run.cv.grid, r.attributesOut);
+    written.wrote(r.attributesOut);
   }
 }
 
@@ -199,9 +204,16 @@ const params::Table<DeformRequest>& deformRequestTable() {
 
 DeformResult runDeform(const DeformRequest& request, Progress& progress) {
   const auto t0 = Clock::now();
-  refuseOverwritingInput(request.input, request.output);
-  for (const auto* extra : {&request.mapOut, &request.attributesOut})
-    if (!extra->empty()) refuseOverwritingInput(request.input, *extra);
+  io::OutputPlan()
+      .input(request.input)
+      .input(request.points, "the --points file")
+      .input(request.engine.labels, "the --labels map")
+      .output(request.output, "--out")
+      .output(request.mapOut, "--map-out")
+      .output(request.attributesOut, "--attributes-out")
+      .json(request.report, "--report")
+      .force(request.force)
+      .check();
   params::validate(deformRequestTable(), request);
   params::validate(deformEngineTable(), request.engine);
   Run run(request, progress);
@@ -214,8 +226,10 @@ DeformResult runDeform(const DeformRequest& request, Progress& progress) {
   run.timings["synthesis"] = msSince(t);
   run.cpu.lap("synthesis");
   if (request.psnr && run.params.controlScale > 1) psnrAgainstFullResolution(run, result.output);
-  writeOutputs(run, result.output);
+  RunOutputs written;
+  writeOutputs(run, result.output, written);
   finishReport(run, t0);
+  written.commit();
   result.params = run.params;
   result.points = run.points.points.size();
   result.warnings = std::move(run.loaded.warnings);

@@ -12,8 +12,8 @@
 //   *.vti                   VTK XML image data
 // Every loader validates what it reads and throws vellum::FileError naming the file and the
 // problem (truncated, wrong magic, absurd dims, zero/NaN spacing ...). Writers write to a
-// temporary file next to the target and rename it into place (atomic), and refuse to write
-// over the file they are asked to read from (checked by the CLI).
+// temporary file next to the target and rename it into place (atomic); what they may replace
+// is the output policy's (output_policy.hpp: never an input, never a folder Vellum did not write).
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -85,6 +85,9 @@ struct SaveOptions {
   std::string modality = "CT"; ///< DICOM: written as CT Image Storage when "CT"
   std::string seriesDescription = "Vellum";
   Progress* progress = nullptr;
+  /// DICOM: replace a folder Vellum wrote as another kind of output (output_policy.hpp); a
+  /// folder Vellum did not write is never replaced.
+  bool force = false;
 };
 
 /// Saves a volume (format from the extension, or options.format). Atomic: a reader never

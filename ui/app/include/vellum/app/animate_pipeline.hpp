@@ -27,6 +27,7 @@ struct AnimateRequest {
   std::filesystem::path output;
   std::filesystem::path frames;  ///< also PNG frames into this folder; empty: no
   std::filesystem::path report;  ///< report JSON; empty: not written (still returned)
+  bool force = false;  ///< a frames folder may replace a Vellum folder of another kind
   double fps = 30;
   double orbitDeg = 0;  ///< camera azimuth turn over the whole animation
   bool loop = false;    ///< seamless loop: back to the first keyframe (overrides the file's "loop")

@@ -27,6 +27,7 @@ struct CurveAnalogyRequest {
   int samples = 200, anchors = 4, mapStep = 4;
   double lambda = 10.0;
   int64_t proxyFaces = 2000;
+  bool force = false;  ///< `out` may replace a Vellum folder of another kind
 };
 
 struct CurveAnalogyOutcome {

@@ -53,6 +53,7 @@ struct DeformRequest {
   std::filesystem::path attributesOut;  ///< attribute field NRRD; empty: not written
   std::filesystem::path report;         ///< report JSON; empty: not written (still returned)
   bool psnr = false;  ///< also synthesise at s = 1 and report the PSNR against it
+  bool force = false;  ///< a DICOM output may replace a Vellum folder of another kind
   DeformEngine engine;
   io::LoadOptions load;  ///< series, raw layout, region (the label map gets the same region)
 };
