@@ -137,9 +137,10 @@ TEST(StudioSafetyScript, AutosaveLandsInTheStateFolderAndIsRecoveredOnTheNextSta
             std::string::npos)
       << refused.output;
 
-  // Later: the autosave stays, untouched.
+  // Later: the autosave stays, untouched even by this session's own edits and autosaves.
   const auto writtenAt = fs::last_write_time(autosave);
-  const StudioRun later = runStudio(d, "later", R"({"actions":[{"dialog":"later"},{"quit":0}]})", open);
+  const StudioRun later = runStudio(d, "later", R"({"actions":[{"dialog":"later"},
+      {"threshold":{"preset":"soft-tissue","label":2}},{"frames":40},{"quit":0}]})", open + " --autosave 0.05");
   ASSERT_EQ(later.exitCode, 0) << later.output;
   ASSERT_TRUE(fs::exists(autosave));
   EXPECT_EQ(fs::last_write_time(autosave), writtenAt);
