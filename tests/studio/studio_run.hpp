@@ -37,14 +37,19 @@ struct StudioRun {
   std::string output;  ///< stdout + stderr
 };
 
+/// The user's state folder the studio gets in runStudio (autosaves): DIR/state, never the
+/// real home's.
+inline std::filesystem::path stateHome(const std::filesystem::path& dir) { return dir / "state"; }
+
 /// Writes `script` to DIR/NAME.json and runs the studio on it in a 1024x700 window (`args`
-/// before the script: a file to open, --autosave, ...); the output goes to DIR/NAME.log.
+/// before the script: a file to open, --autosave, ...) with XDG_STATE_HOME=stateHome(DIR);
+/// the output goes to DIR/NAME.log.
 inline StudioRun runStudio(const std::filesystem::path& dir, const std::string& name, const std::string& script,
                            const std::string& args = "") {
   const std::filesystem::path scriptPath = dir / (name + ".json"), log = dir / (name + ".log");
   std::ofstream(scriptPath) << script;
-  const std::string cmd = std::string("\"") + VELLUM_STUDIO_EXE + "\" " + args + " --size 1024x700 --script \"" +
-                          scriptPath.string() + "\" > \"" + log.string() + "\" 2>&1";
+  const std::string cmd = "XDG_STATE_HOME=\"" + stateHome(dir).string() + "\" \"" + VELLUM_STUDIO_EXE + "\" " + args +
+                          " --size 1024x700 --script \"" + scriptPath.string() + "\" > \"" + log.string() + "\" 2>&1";
   const int status = std::system(cmd.c_str());
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(log)};
 }

@@ -175,23 +175,6 @@ TEST(StudioScript, CtrlClickIn3dMovesTheCrosshairToTheVisibleSurface) {
       << sf.crosshairMm.x << " " << sf.crosshairMm.y << " " << sf.crosshairMm.z;
 }
 
-TEST(StudioScript, AutosaveWritesASiblingSceneWithTheEditedLabels) {
-  REQUIRE_DISPLAY();
-  const fs::path d = test::tempDir("studio-autosave");
-  writePhantom(d);
-  const StudioRun r = runStudio(d, "autosave", R"({"actions":[{"open":)" + q(d / "ct.nrrd") + R"(},
-      {"threshold":{"preset":"bone","label":1}},{"frames":40},{"quit":0}]})", "--autosave 0.05");
-  ASSERT_EQ(r.exitCode, 0) << r.output;
-  ASSERT_TRUE(fs::exists(d / "ct.autosave.json")) << r.output;
-  const SceneFile sf = readSceneFile(d / "ct.autosave.json");
-  EXPECT_EQ(sf.volume, (d / "ct.nrrd").lexically_normal());
-  ASSERT_EQ(sf.labels, (d / "ct.autosave.labels.nrrd").lexically_normal());
-  const VolumeI16 ct = toInt16(io::loadVolume(d / "ct.nrrd").volume);
-  LabelVolume expected(ct.geometry());
-  thresholdInto(expected, ct, segmentation::presetInterval(segmentation::Preset::Bone), {1, "bone", {1, 1, 1}});
-  EXPECT_EQ(io::loadLabels(sf.labels).ids().voxels(), expected.ids().voxels());
-}
-
 TEST(StudioScript, BadFileLeavesSceneAndFailuresNameTheAction) {
   REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-bad");

@@ -119,8 +119,13 @@ int StudioApp::run() {
   autosaver_ = std::make_unique<Autosaver>(options_.autosaveSeconds >= 0 ? options_.autosaveSeconds
                                            : script_                     ? 0.0
                                                                          : 60.0);
-  if (!options_.input.empty()) requestOpen(options_.input, options_.labels);
-  while (!quitRequested_ && !glfwWindowShouldClose(window_)) {
+  if (!options_.input.empty()) {
+    if (script_) script_->openFirst(options_.input, options_.labels);  // a failure fails the script
+    else requestOpen(options_.input, options_.labels);
+  }
+  while (!quitRequested_) {
+    if (glfwWindowShouldClose(window_)) onWindowClose();
+    if (quitRequested_) break;
     if (gInterrupted) {
       exitCode_ = 130;
       break;
@@ -138,6 +143,7 @@ int StudioApp::run() {
   loader_.cancel();
   snake_.cancel();
   shapes_.cancel();
+  if (!unsavedChanges()) autosaver_->removeOwn();  // everything is saved: the autosave is stale
   autosaver_.reset();  // waits for a write in progress
   return exitCode_;
 }
@@ -175,7 +181,7 @@ void StudioApp::pollWorkers() {
   tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
   followKeyframeCamera();
   lastTickS_ = now;
-  autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());
+  if (unsavedChanges()) autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());  // nothing to keep otherwise
 }
 
 // ImGui's frame: the tool panel, the file browser, the error popup; the panes laid out.
@@ -195,17 +201,7 @@ void StudioApp::beginUiFrame() {
   keyframeBlocks_.clear();  // the timeline records them again if it is drawn
   drawToolPanel(*this, kPanelWidth, float(h));
   browser_.draw();
-  if (errorPopupPending_) {
-    ImGui::OpenPopup("Error");
-    errorPopupPending_ = false;
-  }
-  if (ImGui::BeginPopupModal("Error", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
-    ImGui::PushTextWrapPos(560);
-    ImGui::TextUnformatted(errorMessage_.c_str());
-    ImGui::PopTextWrapPos();
-    if (ImGui::Button("OK", {120, 0})) ImGui::CloseCurrentPopup();
-    ImGui::EndPopup();
-  }
+  drawDialogs();
 }
 
 // The deformation map, the slice textures and the 3D view brought up to date.
@@ -271,6 +267,7 @@ void StudioApp::pollLoader() {
 void StudioApp::adoptLoad(LoadResult r) {
   lastLoadError_ = r.error;
   if (!r.error.empty()) {
+    recovering_.reset();
     showError(r.error);  // the current scene stays as it was
     return;
   }
@@ -283,7 +280,6 @@ void StudioApp::adoptLoad(LoadResult r) {
   scene_.labelsModified = false;
   scene_.series = std::move(r.series);
   scene_.seriesUid = r.seriesUid;
-  recent_.add(r.scene ? r.scenePath : r.volumePath);
   scene_.authoring = Authoring{};
   scene_.authoring.rigidLabels = boneLikeLabels(scene_.labels);
   scene_.shapes = std::move(r.shapes);
@@ -299,14 +295,17 @@ void StudioApp::adoptLoad(LoadResult r) {
   tools_.activeLabel = std::max<uint16_t>(1, scene_.labels.table().empty() ? 1 : scene_.labels.table().front().id);
   view3d_->setVolume(scene_.ct);
   markSlicesDirty();
-  glfwSetWindowTitle(window_, ("Vellum Studio - " + (r.scene ? r.scenePath : r.volumePath).filename().string()).c_str());
+  afterLoad(r);
+  const fs::path& opened = scene_.scenePath.empty() ? scene_.volumePath : scene_.scenePath;
+  recent_.add(opened);
+  glfwSetWindowTitle(window_, ("Vellum Studio - " + opened.filename().string()).c_str());
   for (const auto& w : r.warnings) std::cerr << "vellum-studio: warning: " << w << "\n";
 }
 
 void StudioApp::showError(const std::string& message) {
   std::cerr << "vellum-studio: " << message << "\n";
   errorMessage_ = message;
-  errorPopupPending_ = true;
+  errorOpen_ = true;
 }
 
 void StudioApp::injectCursorPos(double x, double y) { cursorPosCallback(window_, x, y); }

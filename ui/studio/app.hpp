@@ -209,6 +209,27 @@ class StudioApp {
   void quit(int code);
   void showError(const std::string& message);
 
+  // Modal dialogs (app_dialogs.cpp), answered by their buttons or by a script's "dialog".
+  /// The title of the modal dialog that is open ("" when none): the error box, the autosave
+  /// recovery, the unsaved-changes question or the file browser.
+  std::string openDialog() const;
+  bool errorBoxOpen() const { return errorOpen_; }
+  /// Answers the open dialog as its button named `answer` (lower case) does: "ok" (error);
+  /// "recover", "discard", "later" (recovery); "save", "discard", "cancel" (unsaved
+  /// changes); "cancel" (file browser). Throws vellum::Error for no dialog or another answer.
+  void answerDialog(const std::string& answer);
+  /// Answers the file browser with `path`, as typing it and pressing Open/Save does.
+  void answerFileBrowser(const std::filesystem::path& path);
+  /// Asks the window to close, as its close button does (Ctrl+Q, File > Quit, the script's
+  /// "close"): the frame loop quits, or asks Save / Discard / Cancel when unsaved changes.
+  void requestClose();
+  /// Edits since the scene was opened or saved (undo steps, label edits, a recovered autosave);
+  /// mouse navigation is none, as for undo.
+  bool unsavedChanges() const;
+  /// Saves to the scene's file, or asks for one (the Save As browser) when it has none; `then`
+  /// runs after a successful save. Errors go to the error box.
+  void saveSceneOrAsk(std::function<void()> then = {});
+
   // State for panels and scripts.
   Scene& scene() { return scene_; }
   ToolState& tools() { return tools_; }
@@ -326,7 +347,25 @@ class StudioApp {
   std::string lastSliceKey_;
   std::string lastLoadError_;
   std::string errorMessage_;
-  bool errorPopupPending_ = false;
+  bool errorOpen_ = false;
+  // Dialogs (app_dialogs.cpp). One of the two questions at a time; the error box goes first.
+  enum class Dialog { None, Recovery, Unsaved };
+  Dialog dialog_ = Dialog::None;
+  std::filesystem::path recoveryPath_;  ///< the autosave the Recovery dialog offers
+  /// A Recover in progress: the autosave being opened and the scene file it stands for.
+  struct Recovering {
+    std::filesystem::path autosave, scenePath;
+  };
+  std::optional<Recovering> recovering_;
+  /// undo_.changes() when the scene was last opened or saved (kNeverSaved: a recovered autosave).
+  uint64_t savedChanges_ = 0;
+  static constexpr uint64_t kNeverSaved = ~uint64_t{0};
+  void drawDialogs();
+  /// The window's close flag is up: quit, or ask about unsaved changes (and keep the window).
+  void onWindowClose();
+  /// After a successful load: a recovered autosave becomes the unsaved session, any other
+  /// scene is offered its newer autosave.
+  void afterLoad(const LoadResult& r);
 
   // Mouse state (window pixels).
   double mouseX_ = 0, mouseY_ = 0, pressX_ = 0, pressY_ = 0;

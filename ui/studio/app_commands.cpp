@@ -265,6 +265,7 @@ void StudioApp::saveScene(const fs::path& path) {
     saveLabels(path.parent_path() / (path.stem().string() + ".labels.nrrd"));
   writeSceneFile(describeScene(scene_), path);
   scene_.scenePath = path;
+  savedChanges_ = undo_.changes();
 }
 
 void StudioApp::quit(int code) {

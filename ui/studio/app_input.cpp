@@ -179,10 +179,9 @@ void StudioApp::onKey(int key, int action, int mods) {
     } else if (ctrl && key == GLFW_KEY_O) {
       browser_.open(FileBrowser::Mode::Open, "Open volume or scene", [this](const fs::path& p) { requestOpen(p); });
     } else if (ctrl && key == GLFW_KEY_S) {
-      if (scene_.scenePath.empty())
-        browser_.open(FileBrowser::Mode::Save, "Save scene as", [this](const fs::path& p) { saveScene(p); });
-      else
-        saveScene(scene_.scenePath);
+      saveSceneOrAsk();
+    } else if (ctrl && key == GLFW_KEY_Q) {
+      requestClose();
     } else if (!ctrl && key == GLFW_KEY_R) {
       resetView();
     } else if (!ctrl && key >= GLFW_KEY_1 && key <= GLFW_KEY_3) {

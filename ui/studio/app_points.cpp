@@ -278,10 +278,7 @@ void StudioApp::endPointDrag() {
   e.after = scene_.authoring.track;
   e.keyframeAfter = scene_.authoring.keyframe;
   pointDrag_.reset();
-  if (!(e.before.keyframes.size() == e.after.keyframes.size() &&
-        std::equal(e.before.keyframes.begin(), e.before.keyframes.end(), e.after.keyframes.begin(),
-                   [](const auto& a, const auto& b) { return a.points == b.points; })))
-    undo_.push(std::move(e));  // a click without motion only selects
+  if (!samePoints(e.before, e.after)) undo_.push(std::move(e));  // a click without motion only selects
 }
 
 void StudioApp::editTrack(const std::string& description, const std::function<void(Authoring&)>& fn) {

@@ -122,4 +122,10 @@ std::vector<uint16_t> boneLikeLabels(const LabelVolume& labels) {
   return ids;
 }
 
+bool samePoints(const deformation::KeyframeTrack& a, const deformation::KeyframeTrack& b) {
+  return a.keyframes.size() == b.keyframes.size() &&
+         std::equal(a.keyframes.begin(), a.keyframes.end(), b.keyframes.begin(),
+                    [](const auto& x, const auto& y) { return x.points == y.points; });
+}
+
 }  // namespace vellum::studio

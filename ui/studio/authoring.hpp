@@ -60,6 +60,9 @@ deformation::KeyframeCamera keyframeCameraOf(const render::Camera& c);
 void addPoint(Authoring& a, const Vec3& mm);
 void deletePoint(Authoring& a, int index);
 
+/// True when both tracks have the same keyframes' points (positions and attributes).
+bool samePoints(const deformation::KeyframeTrack& a, const deformation::KeyframeTrack& b);
+
 /// Label ids that look like bone by name (femur, tibia, fibula, patella, bone, ...): the
 /// default rigid bodies of a label map.
 std::vector<uint16_t> boneLikeLabels(const LabelVolume& labels);

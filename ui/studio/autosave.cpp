@@ -1,16 +1,54 @@
 #include "autosave.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <iostream>
-#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "scene_file.hpp"
+#include "user_dirs.hpp"
 #include "vellum/io/volume_io.hpp"
 
 namespace vellum::studio {
 namespace fs = std::filesystem;
+
+namespace {
+
+std::string withoutExtension(const fs::path& p) {
+  std::string stem = p.filename().string();
+  for (const char* ext : {".json", ".nii.gz", ".nrrd", ".nhdr", ".mha", ".mhd", ".nii", ".vti", ".raw", ".dcm"})
+    if (stem.size() > std::strlen(ext) && stem.ends_with(ext)) {
+      stem.resize(stem.size() - std::strlen(ext));
+      break;
+    }
+  return stem;
+}
+
+/// 12 hex digits of FNV-1a over `text`: short, stable across runs and builds.
+std::string shortHash(const std::string& text) {
+  uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  char out[16];
+  std::snprintf(out, sizeof out, "%012llx", static_cast<unsigned long long>(h >> 16));
+  return out;
+}
+
+fs::path absoluteOf(const fs::path& p) {
+  std::error_code ec;
+  const fs::path c = fs::weakly_canonical(p, ec);
+  return ec ? fs::absolute(p).lexically_normal() : c;
+}
+
+/// Last write time, or the oldest time for a path that cannot be read.
+fs::file_time_type writeTime(const fs::path& p) {
+  std::error_code ec;
+  const auto t = fs::last_write_time(p, ec);
+  return ec ? fs::file_time_type::min() : t;
+}
+
+}  // namespace
 
 Autosaver::~Autosaver() {
   if (job_.valid()) job_.wait();  // never leave a half-written autosave behind a running thread
@@ -18,14 +56,39 @@ Autosaver::~Autosaver() {
 
 fs::path Autosaver::targetFor(const Scene& scene) {
   if (!scene.hasVolume()) return {};
-  const fs::path base = scene.scenePath.empty() ? scene.volumePath : scene.scenePath;
-  std::string stem = base.filename().string();
-  for (const char* ext : {".json", ".nii.gz", ".nrrd", ".nhdr", ".mha", ".mhd", ".nii", ".vti", ".raw", ".dcm"})
-    if (stem.size() > std::strlen(ext) && stem.ends_with(ext)) {
-      stem.resize(stem.size() - std::strlen(ext));
-      break;
-    }
-  return base.parent_path() / (stem + ".autosave.json");
+  if (!scene.scenePath.empty())
+    return scene.scenePath.parent_path() / (withoutExtension(scene.scenePath) + ".autosave.json");
+  const fs::path state = userFolder("XDG_STATE_HOME", ".local/state");
+  if (state.empty()) return {};
+  const std::string key = absoluteOf(scene.volumePath).string() + "|" + scene.seriesUid;
+  return state / "autosave" / (withoutExtension(scene.volumePath) + "-" + shortHash(key) + ".autosave.json");
+}
+
+fs::path Autosaver::labelsFor(const fs::path& target) {
+  return target.parent_path() / (target.stem().string() + ".labels.nrrd");
+}
+
+std::optional<fs::path> Autosaver::recoverable(const Scene& scene) {
+  const fs::path target = targetFor(scene);
+  std::error_code ec;
+  if (target.empty() || !fs::exists(target, ec)) return std::nullopt;
+  const fs::path& opened = scene.scenePath.empty() ? scene.volumePath : scene.scenePath;
+  const auto newestSource = std::max(writeTime(opened), scene.labelsPath.empty() ? fs::file_time_type::min()
+                                                                                  : writeTime(scene.labelsPath));
+  if (writeTime(target) <= newestSource) return std::nullopt;
+  return target;
+}
+
+void Autosaver::remove(const fs::path& target) {
+  std::error_code ec;  // best effort: a file already gone is fine
+  for (const fs::path& p : {target, labelsFor(target), target.parent_path() / (target.stem().string() + ".keyframes.json")})
+    fs::remove(p, ec);
+}
+
+void Autosaver::removeOwn() {
+  if (job_.valid()) job_.wait();  // a write in progress would bring a file back
+  for (const fs::path& t : own_) remove(t);
+  own_.clear();
 }
 
 std::string Autosaver::lastError() {
@@ -42,12 +105,15 @@ void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
   }
   lastCheck_ = now;
   const fs::path target = targetFor(scene);
+  if (target.empty() || kept_.count(target)) return;
   SceneFile file = describeScene(scene);
-  const bool labelsEdited = scene.labelsModified && labelsRevision != savedLabelsRevision_;
-  fs::path labelsTarget = target.parent_path() / (target.stem().string() + ".labels.nrrd");
+  const fs::path labelsTarget = labelsFor(target);
+  // Edited since the last write, or the target moved (the scene was saved elsewhere).
+  const bool labelsEdited =
+      scene.labelsModified && (labelsRevision != savedLabelsRevision_ || labelsTarget != savedLabelsTarget_);
   if (scene.labelsModified) file.labels = labelsTarget;  // the edited map lives in the autosave
   // Compare what would be written with the last autosave: unchanged scenes are not rewritten.
-  std::string text = file.volume.string() + "|" + file.labels.string();
+  std::string text = target.string() + "|" + file.volume.string() + "|" + file.labels.string();
   text += sceneViewJson(file).dump();
   // The keyframe track (control points): its revision counts every edit (and playback).
   if (file.deformation) text += " track " + std::to_string(scene.authoring.revision);
@@ -57,9 +123,12 @@ void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
   if (labelsEdited) {
     labels = scene.labels;  // a copy: the user keeps editing while it is written
     savedLabelsRevision_ = labelsRevision;
+    savedLabelsTarget_ = labelsTarget;
   }
+  own_.insert(target);
   job_ = std::async(std::launch::async, [file, target, labelsTarget, labels = std::move(labels)]() -> std::string {
     try {
+      fs::create_directories(target.parent_path());
       if (labels) io::saveLabels(*labels, labelsTarget);
       writeSceneFile(file, target);
       return "";

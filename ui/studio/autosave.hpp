@@ -1,11 +1,16 @@
 #pragma once
-// Autosave: every `intervalSeconds`, if the scene changed, writes a sibling scene
-// "<name>.autosave.json" (next to the scene file, or to the volume when the scene was never
-// saved) and, when the labels were edited, "<name>.autosave.labels.nrrd". Writing runs on a
-// worker thread with a copy of the labels, so the UI does not stall; opening the autosave
-// file like any scene recovers the session.
+// Autosave: every `intervalSeconds`, if the scene changed, writes a scene file and, when the
+// labels were edited, its label map "<name>.labels.nrrd" beside it. Where: beside the saved
+// scene ("<scene>.autosave.json") once the scene has been saved, else in the user's state
+// folder ($XDG_STATE_HOME/vellum/autosave/, else ~/.local/state/vellum/autosave/) as
+// "<volume>-<hash>.autosave.json", the hash of the volume's absolute path (and DICOM series)
+// keeping two volumes of the same name apart. Never beside the data: that may be a DICOM
+// export, a read-only share or a PACS mount. Writing runs on a worker thread with a copy of
+// the labels, so the UI does not stall; opening the autosave like any scene recovers it.
 #include <filesystem>
 #include <future>
+#include <optional>
+#include <set>
 #include <string>
 
 #include "scene.hpp"
@@ -21,8 +26,21 @@ class Autosaver {
 
   /// Call once per frame. `labelsRevision` changes whenever the label map changes.
   void tick(const Scene& scene, uint64_t labelsRevision, double nowSeconds);
-  /// The autosave scene path for `scene` (empty without a volume).
+  /// The autosave scene path for `scene` (empty without a volume, or without a state folder
+  /// for a scene never saved).
   static std::filesystem::path targetFor(const Scene& scene);
+  /// The label map written with the autosave `target`.
+  static std::filesystem::path labelsFor(const std::filesystem::path& target);
+  /// The autosave of `scene` when it is newer than the files the scene was opened from.
+  static std::optional<std::filesystem::path> recoverable(const Scene& scene);
+  /// Deletes the autosave `target` and the files written with it (labels, keyframes).
+  static void remove(const std::filesystem::path& target);
+  /// Never writes over `target` in this session (the user chose to keep it for later).
+  void keep(const std::filesystem::path& target) { kept_.insert(target); }
+  /// Counts `target` as this session's own (a recovered autosave), for removeOwn().
+  void adopt(const std::filesystem::path& target) { own_.insert(target); }
+  /// Deletes every autosave this session wrote or adopted (the scene is saved: a clean exit).
+  void removeOwn();
   /// The last write's error ("" when fine).
   std::string lastError();
 
@@ -31,7 +49,8 @@ class Autosaver {
   double lastCheck_ = 0;
   std::string lastSceneText_;
   uint64_t savedLabelsRevision_ = 0;
-  std::filesystem::path savedLabelsPath_;
+  std::filesystem::path savedLabelsTarget_;
+  std::set<std::filesystem::path> kept_, own_;
   std::future<std::string> job_;  ///< returns the error message, "" on success
   std::string lastError_;
 };

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <utility>
 
 namespace vellum::studio {
 namespace fs = std::filesystem;
@@ -13,6 +14,8 @@ void FileBrowser::open(Mode mode, const std::string& title, Callback onChoose) {
   title_ = title;
   onChoose_ = std::move(onChoose);
   open_ = popupRequested_ = true;
+  cancelRequested_ = false;
+  answer_.clear();
   pathField_[0] = '\0';
   list(dir_.empty() ? fs::current_path() : dir_);
 }
@@ -80,7 +83,8 @@ void FileBrowser::draw() {
     chosen = p.is_absolute() ? p : dir_ / p;
   }
   ImGui::SameLine();
-  if (ImGui::Button("Cancel")) open_ = false;
+  if (ImGui::Button("Cancel") || std::exchange(cancelRequested_, false)) open_ = false;
+  if (!answer_.empty()) chosen = std::exchange(answer_, {});
   if (!chosen.empty()) {
     open_ = false;
     if (onChoose_) onChoose_(chosen);

@@ -18,10 +18,16 @@ class FileBrowser {
   /// Draws the dialog when open; call once per frame inside the ImGui frame.
   void draw();
   bool isOpen() const { return open_; }
+  const std::string& title() const { return title_; }
+  /// Answers the open dialog in the next draw, as typing `path` and confirming does (scripts).
+  void choose(const std::filesystem::path& path) { answer_ = path; }
+  /// Closes the open dialog in the next draw, as its Cancel button does.
+  void cancel() { cancelRequested_ = true; }
 
  private:
   void list(const std::filesystem::path& dir);
-  bool open_ = false, popupRequested_ = false;
+  bool open_ = false, popupRequested_ = false, cancelRequested_ = false;
+  std::filesystem::path answer_;  ///< choose()'s path, taken by the next draw
   Mode mode_ = Mode::Open;
   std::string title_;
   Callback onChoose_;

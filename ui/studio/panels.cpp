@@ -25,17 +25,13 @@ void fileSection(StudioApp& app) {
                            [&app](const fs::path& p) { app.requestOpen(p); });
   }
   ImGui::SameLine();
-  if (ImGui::Button("Save scene") && s.hasVolume()) {
-    if (s.scenePath.empty())
-      app.fileBrowser().open(FileBrowser::Mode::Save, "Save scene as",
-                             [&app](const fs::path& p) { guarded(app, [&] { app.saveScene(p); }); });
-    else
-      guarded(app, [&] { app.saveScene(s.scenePath); });
-  }
+  if (ImGui::Button("Save scene")) app.saveSceneOrAsk();
   ImGui::SameLine();
   if (ImGui::Button("Save as...") && s.hasVolume())
     app.fileBrowser().open(FileBrowser::Mode::Save, "Save scene as",
                            [&app](const fs::path& p) { guarded(app, [&] { app.saveScene(p); }); });
+  ImGui::SameLine();
+  if (ImGui::Button("Quit")) app.requestClose();  // asks about unsaved changes
   if (ImGui::Button("Save labels...") && s.hasVolume())
     app.fileBrowser().open(FileBrowser::Mode::Save, "Save label map as",
                            [&app](const fs::path& p) { guarded(app, [&] { app.saveLabels(p); }); });

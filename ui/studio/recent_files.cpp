@@ -1,21 +1,19 @@
 #include "recent_files.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <fstream>
 #include <string>
 #include <system_error>
 
+#include "user_dirs.hpp"
 #include "vellum/io/atomic_file.hpp"
 
 namespace vellum::studio {
 namespace fs = std::filesystem;
 
 fs::path RecentFiles::defaultStorage() {
-  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg) return fs::path(xdg) / "vellum" / "studio-recent.txt";
-  if (const char* home = std::getenv("HOME"); home && *home)
-    return fs::path(home) / ".config" / "vellum" / "studio-recent.txt";
-  return {};
+  const fs::path folder = userFolder("XDG_CONFIG_HOME", ".config");
+  return folder.empty() ? folder : folder / "studio-recent.txt";
 }
 
 RecentFiles::RecentFiles(fs::path storage) : storage_(std::move(storage)) {

@@ -99,6 +99,7 @@ void expandOpen(Steps& s, const json& v) {
       if (err.empty()) throw Error("expected '" + path + "' to fail, but it opened");
       if (a.scene().volumePath != *before) throw Error("a failed open changed the scene");
       std::cout << "expected error: " << err << std::endl;
+      if (a.errorBoxOpen()) a.answerDialog("ok");  // the box the script expected
     } else if (!err.empty()) {
       throw Error("open failed: " + err);
     }
@@ -397,7 +398,9 @@ void expandPointDrag(Steps& s, const json& v) {
   auto from = std::make_shared<std::pair<double, double>>();
   s.frames(1);  // panes laid out
   auto previousTool = std::make_shared<PointTool>();
+  auto trackBefore = std::make_shared<deformation::KeyframeTrack>();
   s.once([=](StudioApp& a) {
+    *trackBefore = a.scene().authoring.track;
     *previousTool = a.tools().pointTool;
     a.tools().pointTool = tool;  // the panel's Drag radio buttons
     const auto p = a.pointOnScreen(index, end, view);
@@ -414,6 +417,8 @@ void expandPointDrag(Steps& s, const json& v) {
   s.once([=](StudioApp& a) {
     a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
     a.tools().pointTool = *previousTool;
+    // The press landed elsewhere (another dot, a panel), or the drag was clamped away.
+    if (samePoints(*trackBefore, a.scene().authoring.track)) throw Error(attribute ? "changed nothing" : "moved nothing");
   });
 }
 
@@ -549,6 +554,27 @@ void expandRigidLabels(Steps& s, const json& v) {
   s.once([ids](StudioApp& a) { a.setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
 }
 
+void expandDialog(Steps& s, const json& v) {
+  // "recover" | "discard" | "later" | "save" | "cancel" | "ok": the open dialog's button;
+  // {"path": P}: the file browser's answer. Waits a few frames for the dialog to open.
+  if (!v.is_string() && !(v.is_object() && v.contains("path")))
+    throw Error("\"dialog\" takes a button name or {\"path\": P}");
+  auto waited = std::make_shared<int>(0);
+  s.until([waited](StudioApp& a) {
+    if (!a.openDialog().empty()) return true;
+    if (++*waited > 30) throw Error("no dialog is open");
+    return false;
+  });
+  if (v.is_string()) s.once([answer = v.get<std::string>()](StudioApp& a) { a.answerDialog(answer); });
+  else s.once([path = v["path"].get<std::string>()](StudioApp& a) { a.answerFileBrowser(path); });
+  s.frames(2);  // ImGui closes the popup and the next dialog (if any) opens
+}
+
+void expandClose(Steps& s, const json&) {
+  s.once([](StudioApp& a) { a.requestClose(); });
+  s.frames(2);  // the frame loop sees the close flag: quits, or asks about unsaved changes
+}
+
 void expandQuit(Steps& s, const json& v) {
   const int code = v.is_number_integer() ? v.get<int>() : 0;
   s.once([&quit = s.quit, code](StudioApp&) { quit = code; });
@@ -639,6 +665,8 @@ const std::map<std::string, Expander>& expanders() {
       {"play", expandPlay},
       {"export_movie", expandExportMovie},
       {"rigid_labels", expandRigidLabels},
+      {"dialog", expandDialog},
+      {"close", expandClose},
       {"quit", expandQuit},
   };
   return table;
@@ -667,14 +695,32 @@ std::unique_ptr<ScriptRunner> ScriptRunner::load(const fs::path& path) {
   return r;
 }
 
+namespace {
+/// Actions a script may run while a modal dialog is open (they do not go through the UI).
+bool runsBesideADialog(const std::string& name) {
+  return name == "dialog" || name == "frames" || name == "wait_idle" || name == "log" || name == "screenshot" ||
+         name == "quit";
+}
+}  // namespace
+
+void ScriptRunner::openFirst(const fs::path& path, const fs::path& labels) {
+  where_ = "command line";
+  Steps steps{"open", steps_, quitCode_};
+  expandOpen(steps, json{{"path", path.string()}, {"labels", labels.string()}});
+}
+
 std::optional<int> ScriptRunner::step(StudioApp& app) {
   if (quitCode_) return quitCode_;
   try {
     while (steps_.empty()) {
       if (next_ >= actions_.size()) return 0;  // the end of the list quits successfully
-      current_ = next_++;
-      currentName_ = actions_[current_].begin().key();
-      expand(actions_[current_], app);
+      const size_t n = next_++;
+      const std::string name = actions_[n].begin().key();
+      where_ = "script action #" + std::to_string(n) + " (" + name + ")";
+      // A user's click would land on the dialog, not on the panel or view the action means.
+      if (const std::string dialog = app.openDialog(); !dialog.empty() && !runsBesideADialog(name))
+        throw Error("refused: the '" + dialog + "' dialog is open (answer it with a \"dialog\" action)");
+      expand(actions_[n], app);
     }
     if (steps_.front()(app)) {
       steps_.pop_front();
@@ -683,7 +729,7 @@ std::optional<int> ScriptRunner::step(StudioApp& app) {
       throw Error("timed out waiting");
     }
   } catch (const std::exception& e) {
-    std::cerr << "vellum-studio: script action #" << current_ << " (" << currentName_ << "): " << e.what() << "\n";
+    std::cerr << "vellum-studio: " << where_ << ": " << e.what() << "\n";
     return 3;
   }
   return quitCode_;

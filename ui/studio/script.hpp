@@ -22,6 +22,9 @@ class ScriptRunner {
   /// Runs the next step. Returns the exit code when the script has finished (quit, end of
   /// the list, or failure: non-zero, with "script action #N (name): why" on stderr).
   std::optional<int> step(StudioApp& app);
+  /// Opens the file given on the command line before the first action; a failure fails the
+  /// script ("command line: open failed: ...").
+  void openFirst(const std::filesystem::path& path, const std::filesystem::path& labels);
 
  private:
   /// A step returns true when done, false to run again next frame (waiting).
@@ -30,8 +33,7 @@ class ScriptRunner {
 
   nlohmann::json actions_;
   size_t next_ = 0;
-  size_t current_ = 0;
-  std::string currentName_;
+  std::string where_;  ///< what runs now, for failures: "script action #7 (drag_point)"
   std::deque<Step> steps_;
   int waitedFrames_ = 0;
   std::optional<int> quitCode_;

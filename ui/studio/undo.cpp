@@ -44,31 +44,34 @@ size_t TrackEdit::bytes() const {
   return n;
 }
 
+void UndoStack::record(UndoEntry entry) {
+  undo_.push_back(std::move(entry));
+  redo_.clear();
+  ++changes_;
+}
+
 void UndoStack::push(LabelDelta delta) {
   if (delta.empty()) return;
-  undo_.emplace_back(std::move(delta));
-  redo_.clear();
+  record(std::move(delta));
 }
 
 void UndoStack::push(TrackEdit edit) {
-  undo_.emplace_back(std::move(edit));
-  redo_.clear();
+  record(std::move(edit));
 }
 
 void UndoStack::push(ViewEdit edit) {
   if (edit.before == edit.after) return;
-  undo_.emplace_back(std::move(edit));
-  redo_.clear();
+  record(std::move(edit));
 }
 
 void UndoStack::push(ShapesEdit edit) {
   if (edit.before == edit.after) return;
-  undo_.emplace_back(std::move(edit));
-  redo_.clear();
+  record(std::move(edit));
 }
 
 void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, ViewState* view, bool forward) {
   lastWasView_ = false;
+  ++changes_;
   if (const auto* s = std::get_if<ShapesEdit>(&e)) {
     shapesToLoad_ = forward ? s->after : s->before;  // the studio loads it (a worker job)
     lastWasLabels_ = false;

@@ -96,6 +96,9 @@ class UndoStack {
   /// True when the last undo/redo changed the view state.
   bool lastWasView() const { return lastWasView_; }
   void clear();
+  /// Counts every push, undo and redo (never reset): the document changed since a save when
+  /// this differs from its value then (undoing back to the saved state still counts).
+  uint64_t changes() const { return changes_; }
   const std::vector<UndoEntry>& undoEntries() const { return undo_; }
   size_t bytes() const;
 
@@ -103,6 +106,8 @@ class UndoStack {
   std::vector<UndoEntry> undo_, redo_;
   bool lastWasLabels_ = true, lastWasView_ = false;
   std::optional<std::filesystem::path> shapesToLoad_;
+  uint64_t changes_ = 0;
+  void record(UndoEntry entry);
   void apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, ViewState* view, bool forward);
 };
 
