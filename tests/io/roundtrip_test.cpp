@@ -1,6 +1,8 @@
 // Every writable format: voxels exact, geometry within 1e-5, types and CT-ness preserved.
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "io_test_util.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -155,4 +157,28 @@ TEST(RoundTrip, NonCtInt16StaysNonCtAndUint8IsNeverMarkedCt) {
   mr.modality = "MR";
   io::saveVolume(v, dir / "v.mha", mr);
   EXPECT_EQ(io::loadVolume(dir / "v.mha").modality, "MR");
+}
+
+TEST(RoundTrip, NonFiniteVoxelsBecomeTheBackgroundWithAWarning) {
+  const fs::path dir = tempDir("rt-nonfinite");
+  Geometry g;
+  g.dims = {4, 3, 2};
+  VolumeF32 f(g);
+  for (size_t n = 0; n < f.size(); ++n) f.voxels()[n] = static_cast<float>(n);
+  f.voxels()[3] = std::numeric_limits<float>::quiet_NaN();
+  f.voxels()[7] = std::numeric_limits<float>::infinity();
+  io::saveVolume(f, dir / "f.nrrd");
+  const io::LoadedVolume lv = io::loadVolume(dir / "f.nrrd");
+  const VolumeF32& r = std::get<VolumeF32>(lv.volume);
+  EXPECT_EQ(r.voxels()[3], 0.f);
+  EXPECT_EQ(r.voxels()[7], 0.f);
+  EXPECT_EQ(r.voxels()[8], 8.f);
+  ASSERT_EQ(lv.warnings.size(), 1u);
+  EXPECT_NE(lv.warnings[0].find("2 voxels are NaN or infinite"), std::string::npos) << lv.warnings[0];
+  // A rescale that is not a number is refused, naming the file.
+  io::LoadOptions o;
+  o.rescale = std::pair{std::numeric_limits<double>::quiet_NaN(), 0.0};
+  EXPECT_THROW(io::loadVolume(dir / "f.nrrd", o), FileError);
+  o.rescale = std::pair{0.0, -1024.0};
+  EXPECT_THROW(io::loadVolume(dir / "f.nrrd", o), FileError);
 }

@@ -131,6 +131,24 @@ TEST(DicomRoundTrip, FloatUsesSlopeThatKeepsPrecision) {
   for (size_t n = 0; n < f.size(); ++n) EXPECT_NEAR(r.voxels()[n], f.voxels()[n], 0.5 + slope);
 }
 
+TEST(DicomRoundTrip, NonCtFloatReadsBackAsFloat) {
+  Geometry g;
+  g.dims = {6, 5, 3};
+  VolumeF32 f(g);
+  for (size_t n = 0; n < f.size(); ++n) f.voxels()[n] = 0.125f * static_cast<float>(n) - 3.3f;  // a dose map, say
+  const fs::path dir = tempDir("dicom-float-ot") / "series";
+  io::SaveOptions o;
+  o.modality = "OT";
+  io::saveVolume(f, dir, o);
+  const double slope = std::stod(getTag(sliceFiles(dir)[0], 0x0028, 0x1053));
+  const io::LoadedVolume lv = io::loadVolume(dir);
+  ASSERT_TRUE(std::holds_alternative<VolumeF32>(lv.volume)) << "rounded to integers";
+  const VolumeF32& r = std::get<VolumeF32>(lv.volume);
+  for (size_t n = 0; n < f.size(); ++n) EXPECT_NEAR(r.voxels()[n], f.voxels()[n], 0.5 * slope + 1e-5);
+  for (const auto& w : lv.warnings) EXPECT_EQ(w.find("rounded"), std::string::npos) << w;
+  EXPECT_EQ(getTag(sliceFiles(dir)[0], 0x0018, 0x5100), "HFS");  // Patient Position
+}
+
 TEST(DicomRoundTrip, IntegralFloatIsStoredExactly) {
   Geometry g;
   g.dims = {4, 4, 2};

@@ -13,6 +13,7 @@
 #include "view3d.hpp"
 #include "vellum/app/animate_pipeline.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/io/output_policy.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "window_context.hpp"
 
@@ -101,8 +102,16 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   const animation::MovieSpec spec = app::movieSpec(request);
   // The keyframes beside the output.
   const bool isDir = !spec.framesDir.empty();
-  request.keyframes = isDir ? out / "keyframes.json" : fs::path(out.string() + ".keyframes.json");
-  if (isDir) fs::create_directories(out);
+  request.keyframes = isDir ? spec.framesDir / "keyframes.json" : fs::path(out.string() + ".keyframes.json");
+  // The output policy, as `vellum animate` follows it: never an input, never a folder Vellum
+  // did not write. The frames are written into their (marked) folder as they are made.
+  io::OutputPlan()
+      .input(scene_.volumePath)
+      .input(request.engine.labels, "the label map")
+      .output(spec.moviePath, "the movie")
+      .json(isDir ? fs::path() : request.keyframes, "the keyframes file")
+      .check();
+  if (isDir) io::prepareFolderInPlace(spec.framesDir, io::FolderKind::Frames);
   else if (out.has_parent_path()) fs::create_directories(out.parent_path());
   deformation::saveKeyframes(a.track, request.keyframes);
   animateCommand_ = "vellum animate " + app::animateArguments(request);

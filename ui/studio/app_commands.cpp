@@ -10,6 +10,7 @@
 #include "vellum/segmentation/label_map.hpp"
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/io/output_policy.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/core/params.hpp"
 
@@ -253,6 +254,8 @@ void StudioApp::setStyleField(const std::string& segment, const std::string& key
 
 void StudioApp::saveLabels(const fs::path& path) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
+  // The output policy: the labels never replace the CT, nor a folder or file of another kind.
+  io::OutputPlan().input(scene_.volumePath, "the open volume").output(path, "the label map").check();
   io::saveLabels(scene_.labels, path);
   scene_.labelsPath = path;
   scene_.labelsModified = false;
@@ -261,6 +264,7 @@ void StudioApp::saveLabels(const fs::path& path) {
 void StudioApp::saveScene(const fs::path& path) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   const bool hasLabels = !scene_.labels.table().empty() || scene_.labelsModified;
+  io::OutputPlan().input(scene_.volumePath, "the open volume").json(path, "the scene").check();
   if (hasLabels && (scene_.labelsPath.empty() || scene_.labelsModified))
     saveLabels(path.parent_path() / (path.stem().string() + ".labels.nrrd"));
   writeSceneFile(describeScene(scene_), path);
