@@ -171,7 +171,7 @@ TEST(AnimatePipeline, BadRequestsNameTheFieldOrFile) {
   r.fps = 0;
   EXPECT_NE(errorOf(r).find("fps"), std::string::npos);
   r = requestFor(c, c.ct);
-  EXPECT_NE(errorOf(r).find("refusing to overwrite the input"), std::string::npos);
+  EXPECT_NE(errorOf(r).find("refusing to overwrite an input"), std::string::npos);
   r = requestFor(c, c.dir / "out/");
   r.engine.labels.clear();
   r.annotations.labels = true;

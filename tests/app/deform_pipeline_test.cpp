@@ -174,7 +174,7 @@ TEST(DeformPipeline, BadRequestsNameTheFieldOrFile) {
   EXPECT_NE(errorOf([&] { app::runDeform(r); }).find("missing.json"), std::string::npos);
   r = requestFor(c);
   r.output = c.ct;
-  EXPECT_NE(errorOf([&] { app::runDeform(r); }).find("refusing to overwrite the input"), std::string::npos);
+  EXPECT_NE(errorOf([&] { app::runDeform(r); }).find("refusing to overwrite an input"), std::string::npos);
   r = requestFor(c);
   r.engine.rigidityStride = 0;
   EXPECT_NE(errorOf([&] { app::runDeform(r); }).find("rigidity_stride"), std::string::npos);

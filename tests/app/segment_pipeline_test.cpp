@@ -23,7 +23,7 @@ const phantom::Phantom& knee() {
 }  // namespace
 
 TEST(SegmentPipeline, ThresholdIsTheLibraryThresholdAndReportsItsInterval) {
-  app::SegmentRequest r;
+  app::SegmentSettings r;
   r.preset = "bone";
   r.upper = 2000;
   const auto out = app::runSegmentation(knee().ct, r);
@@ -35,7 +35,7 @@ TEST(SegmentPipeline, ThresholdIsTheLibraryThresholdAndReportsItsInterval) {
 }
 
 TEST(SegmentPipeline, PostProcessingKeepsTheLargestPiece) {
-  app::SegmentRequest r;
+  app::SegmentSettings r;
   r.preset = "bone";
   r.post.keepLargest = true;
   const auto out = app::runSegmentation(knee().ct, r);
@@ -56,7 +56,7 @@ TEST(SegmentPipeline, SnakeFromASeedIsObservedAndFillsTheMuscle) {
       found = true;
     }
   ASSERT_TRUE(found);
-  app::SegmentRequest r;
+  app::SegmentSettings r;
   r.method = "snake";
   r.seedsMm = {seed};
   r.bubbleRadiusMm = 3;
@@ -69,10 +69,10 @@ TEST(SegmentPipeline, SnakeFromASeedIsObservedAndFillsTheMuscle) {
 }
 
 TEST(SegmentPipeline, BadRequestsAreOneLineErrors) {
-  app::SegmentRequest unknown;
+  app::SegmentSettings unknown;
   unknown.method = "magic";
   EXPECT_THROW(app::runSegmentation(knee().ct, unknown), Error);
-  app::SegmentRequest noSeed;
+  app::SegmentSettings noSeed;
   noSeed.method = "grow";
   try {
     app::runSegmentation(knee().ct, noSeed);
@@ -80,7 +80,7 @@ TEST(SegmentPipeline, BadRequestsAreOneLineErrors) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("seed"), std::string::npos) << e.what();
   }
-  app::SegmentRequest reversed;
+  app::SegmentSettings reversed;
   reversed.lower = 500;
   reversed.upper = 100;
   EXPECT_THROW(app::runSegmentation(knee().ct, reversed), Error);

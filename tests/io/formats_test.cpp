@@ -331,7 +331,8 @@ TEST(Dispatch, DicomFolderRoundTripThroughSaveAndLoadVolume) {
   expectGeometryNear(ct.geometry(), geometryOf(lv.volume), 1e-4);
   // One slice file without an extension is recognised by content.
   fs::path first;
-  for (const auto& e : fs::directory_iterator(dir / "series")) first = e.path();
+  for (const auto& e : fs::directory_iterator(dir / "series"))
+    if (e.path().extension() == ".dcm") first = e.path();  // a slice, not the folder's marker
   fs::copy_file(first, dir / "IM0001");
   EXPECT_EQ(io::loadVolume(dir / "IM0001").format, "dicom");
   writeFile(dir / "README", "not an image");

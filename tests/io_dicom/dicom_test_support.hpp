@@ -50,7 +50,8 @@ inline VolumeI16 makeVolume(Dims dims = {12, 10, 6}, Vec3 spacing = {0.7, 0.9, 2
 inline std::vector<fs::path> sliceFiles(const fs::path& dir) {
   std::vector<fs::path> files;
   for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) files.push_back(e.path());
+    if (e.is_regular_file() && e.path().filename().string().rfind(".vellum-", 0) != 0)  // not the marker
+      files.push_back(e.path());
   std::sort(files.begin(), files.end());
   return files;
 }

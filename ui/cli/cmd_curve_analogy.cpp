@@ -73,7 +73,7 @@ void runCurveAnalogy(const CurveArgs& a) {
     r.curveSource = a.curve;
   }
   r.view = viewSettings(a, width, height);
-  const app::CurveAnalogyOutcome o = app::runCurveAnalogy(r);
+  const app::CurveAnalogyResult o = app::runCurveAnalogy(r);
   const nlohmann::json& ca = o.report;
   std::printf("curve analogy of %s -> %s: Hausdorff %.2f -> %.2f px (%.2f -> %.2f mm); proxy %zu faces; %.2f s\n",
               r.segment.c_str(), r.out.string().c_str(), ca["hausdorff_before_px"].get<double>(),

@@ -35,8 +35,8 @@ std::string parametersMarkdown() {
          params::markdown(segmentation::hysteresisParamsTable()) + "\n";
   out += "## CT table removal — `BodyMaskParams` (`--remove-table`; flags `--table-<key>`)\n\n" +
          params::markdown(segmentation::bodyMaskParamsTable());
-  out += "\n## Segmentation — `app::SegmentRequest` (`vellum segment`, the studio's snake)\n\n" +
-         params::markdown(app::segmentRequestTable());
+  out += "\n## Segmentation — `app::SegmentSettings` (`vellum segment`, the studio's snake)\n\n" +
+         params::markdown(app::segmentSettingsTable());
   out += "\n## Shape pipeline — `ShapeOptions` (`vellum shape`)\n\n" + params::markdown(illustration::shapeOptionsTable());
   return out;
 }

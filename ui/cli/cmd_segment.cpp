@@ -1,7 +1,9 @@
 // `vellum segment IN --out LABELS.nrrd`: thresholds, Otsu, hysteresis, region growing,
 // confidence-connected growing and 3D snakes, with morphology/island post-processing, adding
 // into an existing label map, and quality metrics against a truth label map.
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -26,13 +28,11 @@ namespace vellum::cli {
 namespace seg = vellum::segmentation;
 namespace {
 
+/// The flags: the app request's fields, and the texts parsed into it (seeds, colour).
 struct SegmentArgs {
-  std::string input, out, into, labelName, color, truth, report, overlap = "overwrite";
-  std::vector<std::string> seeds;  ///< "x,y,z" (mm), parsed into request.seedsMm
-  app::SegmentRequest request;      ///< method, settings and post-processing: the flags write here
-  int labelId = 0;
-  std::vector<uint16_t> truthIds;
-  bool force = false;
+  app::SegmentRequest request;
+  std::vector<std::string> seeds;  ///< "x,y,z" (mm)
+  std::string colour;              ///< "R,G,B" (0..255)
   InputOptions in;
 };
 
@@ -53,132 +53,52 @@ std::vector<double> parseNumbers(const std::string& text, size_t n, const char* 
   return v;
 }
 
-nlohmann::json metricsJson(const seg::SegmentMetrics& m) {
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
-  return {{"id", m.id}, {"dice", m.dice}, {"jaccard", m.jaccard}, {"voxels", m.voxels},
-          {"truth_voxels", m.truthVoxels}, {"volume_mm3", m.volumeMm3}, {"truth_volume_mm3", m.truthVolumeMm3},
-          {"volume_difference_mm3", m.volumeDifferenceMm3}, {"volume_difference_percent", m.volumeDifferencePercent},
-          {"hd95_mm", num(m.hd95Mm)}, {"hausdorff_mm", num(m.hausdorffMm)},
-          {"mean_surface_distance_mm", num(m.meanSurfaceDistanceMm)}};
+/// The result on stdout: the segment, then each truth comparison.
+void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& result) {
+  const nlohmann::json& j = result.report;
+  std::cout << r.output.string() << ": segment";
+  for (uint16_t w : result.written) std::cout << " " << w;
+  std::cout << " (" << r.settings.method << ")";
+  if (j.contains("segment"))
+    std::cout << ", " << j["segment"]["voxels"].get<int64_t>() << " voxels, "
+              << j["segment"]["volume_mm3"].get<double>() / 1000.0 << " cm³";
+  std::cout << "\n";
+  if (!j.contains("metrics")) return;
+  for (const auto& m : j["metrics"]) {
+    if (m.contains("truth_ids")) {
+      std::printf("segment %u vs truth ids:", m["id"].get<unsigned>());
+      for (const auto& v : m["truth_ids"]) std::printf(" %u", v.get<unsigned>());
+    } else {
+      std::printf("label %u", m["id"].get<unsigned>());
+    }
+    const double hd95 = m["hd95_mm"].is_null() ? NAN : m["hd95_mm"].get<double>();
+    std::printf("  Dice %.4f  Jaccard %.4f  HD95 %.2f mm  volume %+.2f%%\n", m["dice"].get<double>(),
+                m["jaccard"].get<double>(), hd95, m["volume_difference_percent"].get<double>());
+  }
+  std::fflush(stdout);
 }
 
-/// Adds the segmentation to `labels` as label `id` (or, for k-means classes, ids id..id+k-1);
-/// returns the ids written and reports the single segment's counts.
-std::vector<uint16_t> addToLabels(const SegmentArgs& a, const app::SegmentRequest& request,
-                                  const app::SegmentOutcome& outcome, uint16_t id, LabelVolume& labels,
-                                  nlohmann::json& report) {
-  const seg::OverlapRule rule = seg::parseOverlapRule(a.overlap);
-  std::array<uint8_t, 3> rgb = defaultLabelColor(id);
-  if (!a.color.empty()) {
-    const auto c = parseNumbers(a.color, 3, "--color");
+void runSegment(SegmentArgs& a) {
+  app::SegmentRequest& r = a.request;
+  for (const auto& s : a.seeds) {
+    const auto v = parseNumbers(s, 3, "--seed");
+    r.settings.seedsMm.push_back({v[0], v[1], v[2]});
+  }
+  if (!a.colour.empty()) {
+    const auto c = parseNumbers(a.colour, 3, "--color");
+    std::array<uint8_t, 3> rgb{};
     for (int i = 0; i < 3; ++i) {
       if (c[i] < 0 || c[i] > 255) throw Error("--color: components must be in 0..255");
       rgb[i] = static_cast<uint8_t>(c[i]);
     }
+    r.colour = rgb;
   }
-  std::vector<uint16_t> written;
-  if (outcome.classes) {
-    for (int c = 1; c <= request.classes; ++c) {
-      const uint16_t cid = static_cast<uint16_t>(id + c - 1);
-      const seg::Mask m = seg::maskFromIds(*outcome.classes, [c](uint16_t v) { return v == c; });
-      seg::addSegment(labels, m, {cid, (a.labelName.empty() ? "class " : a.labelName + " ") + std::to_string(c), defaultLabelColor(cid)}, rule);
-      written.push_back(cid);
-    }
-  } else {
-    const seg::AddResult r = seg::addSegment(labels, outcome.mask, {id, a.labelName.empty() ? request.method : a.labelName, rgb}, rule);
-    report["segment"] = {{"id", id}, {"voxels", r.written}, {"skipped_by_overlap_rule", r.skipped},
-                         {"cleared", r.cleared}, {"volume_mm3", seg::maskVolumeMm3(outcome.mask)}};
-    written.push_back(id);
-  }
-  return written;
-}
-
-/// --truth: Dice, Jaccard, HD95 and volume difference of the written labels (or of the segment
-/// against the union of --truth-ids), printed and returned for the report.
-nlohmann::json truthMetrics(const SegmentArgs& a, const LabelVolume& labels, const seg::Mask& mask, bool classes,
-                            uint16_t id, const std::vector<uint16_t>& written) {
-  const LabelVolume truth = a.in.loadLabelsOnInputGrid(a.truth);
-  nlohmann::json metrics = nlohmann::json::array();
-  if (!a.truthIds.empty() && !classes) {
-    // The new segment against the union of the given truth ids.
-    const auto& ids = a.truthIds;
-    const seg::Mask t = seg::maskFromIds(truth.ids(), [&](uint16_t v) {
-      return std::find(ids.begin(), ids.end(), v) != ids.end();
-    });
-    seg::SegmentMetrics m = seg::compareMasks(mask, t);
-    m.id = id;
-    metrics.push_back(metricsJson(m));
-    std::printf("segment %u vs truth ids:", id);
-    for (uint16_t v : ids) std::printf(" %u", v);
-    std::printf("  Dice %.4f  Jaccard %.4f  HD95 %.2f mm  volume %+.2f%%\n", m.dice, m.jaccard, m.hd95Mm, m.volumeDifferencePercent);
-  } else {
-    for (const auto& m : seg::compareLabels(labels.ids(), truth.ids(), written)) {
-      metrics.push_back(metricsJson(m));
-      std::printf("label %u  Dice %.4f  Jaccard %.4f  HD95 %.2f mm  volume %+.2f%%\n", m.id, m.dice, m.jaccard, m.hd95Mm, m.volumeDifferencePercent);
-    }
-  }
-  return metrics;
-}
-
-void runSegment(const SegmentArgs& a) {
-  const auto t0 = std::chrono::steady_clock::now();
-  OutputPlan()
-      .input(a.input)
-      .input(a.into, "the --into label map")
-      .input(a.truth, "the --truth label map")
-      .output(a.out, "--out")
-      .json(a.report, "--report")
-      .force(a.force)
-      .check();
-  const io::LoadedVolume lv = loadWithProgress(a.input, a.in);
-  const VolumeI16 ct = toInt16(lv.volume);
-  app::SegmentRequest request = a.request;
-  for (const auto& s : a.seeds) {
-    const auto v = parseNumbers(s, 3, "--seed");
-    request.seedsMm.push_back({v[0], v[1], v[2]});
-  }
-  nlohmann::json report;
-  report["input"] = a.input;
-  report["method"] = request.method;
-  report["dims"] = {ct.dims().x, ct.dims().y, ct.dims().z};
-  report["spacing_mm"] = toJson(ct.geometry().spacing);
-  report["load_seconds"] = secondsSince(t0);
-
-  const auto t1 = std::chrono::steady_clock::now();
-  app::SegmentOutcome outcome;
-  {
-    ProgressBar bar;
-    outcome = app::runSegmentation(ct, request, bar.progress());
-    bar.finish();
-  }
-  report.update(outcome.info);
-  const seg::Mask& mask = outcome.mask;
-  const std::optional<VolumeU16>& classes = outcome.classes;
-  report["segment_seconds"] = secondsSince(t1);
-
-  LabelVolume labels = a.into.empty() ? LabelVolume(ct.geometry()) : a.in.loadLabelsOnInputGrid(a.into);
-  const uint16_t id = a.labelId > 0 ? static_cast<uint16_t>(a.labelId) : labels.nextFreeId();
-  const std::vector<uint16_t> written = addToLabels(a, request, outcome, id, labels, report);
-  // The truth comparison runs before anything is written: a truth map that cannot be read
-  // leaves no output behind.
-  if (!a.truth.empty()) {
-    report["truth"] = a.truth;
-    report["metrics"] = truthMetrics(a, labels, mask, classes.has_value(), id, written);
-  }
-  RunOutputs outputs;
-  ensureParentFolder(a.out);
-  io::SaveOptions so;
-  so.force = a.force;
-  io::saveLabels(labels, a.out, so);
-  outputs.wrote(a.out);
-  report["seconds"] = secondsSince(t0);
-  if (!a.report.empty()) writeJsonFile(report, a.report);
-  outputs.commit();
-  std::cout << a.out << ": segment";
-  for (uint16_t w : written) std::cout << " " << w;
-  std::cout << " (" << request.method << ")";
-  if (!classes) std::cout << ", " << seg::countVoxels(mask) << " voxels, " << seg::maskVolumeMm3(mask) / 1000.0 << " cm³";
-  std::cout << "\n";
+  ProgressBar bar;
+  r.load = a.in.toLoadOptions(nullptr);
+  const app::SegmentResult result = app::runSegment(r, bar.progress());
+  bar.finish();
+  for (const auto& w : result.warnings) std::cerr << "warning: " << r.input.string() << ": " << w << "\n";
+  printSegmentResult(r, result);
 }
 
 }  // namespace
@@ -186,21 +106,22 @@ void runSegment(const SegmentArgs& a) {
 void addSegmentCommand(CLI::App& app) {
   auto a = std::make_shared<SegmentArgs>();
   auto* cmd = app.add_subcommand("segment", "Segment a CT volume into a label map (thresholds, Otsu, region growing, 3D snakes)");
-  cmd->add_option("input", a->input, "input volume (file or DICOM folder)")->required();
-  cmd->add_option("--out,-o", a->out, "output label map (.nrrd keeps the label table)")->required();
+  app::SegmentRequest& r = a->request;
+  cmd->add_option("input", r.input, "input volume (file or DICOM folder)")->required();
+  cmd->add_option("--out,-o", r.output, "output label map (.nrrd keeps the label table)")->required();
   // Method, its settings and post-processing: flags generated from the request's table.
-  addFlags(*cmd, a->request, app::segmentRequestTable());
+  addFlags(*cmd, r.settings, app::segmentSettingsTable());
   cmd->add_option("--seed", a->seeds, "seed point x,y,z in mm (repeatable; snake: bubble centres)");
-  cmd->add_option("--into", a->into, "add the segment into this existing label map (written to --out)");
-  cmd->add_option("--label-id", a->labelId, "segment id (default: the lowest free id)");
-  cmd->add_option("--label-name", a->labelName, "segment name (default: the method)");
-  cmd->add_option("--color", a->color, "segment colour R,G,B (0..255)");
-  cmd->add_option("--overlap", a->overlap, "where segments overlap: overwrite | keep-existing | replace")->capture_default_str();
-  cmd->add_option("--truth", a->truth, "truth label map: report Dice, Jaccard, volume difference, HD95");
-  cmd->add_option("--truth-ids", a->truthIds, "compare against the union of these truth ids (default: the same id)")->delimiter(',');
-  cmd->add_option("--report", a->report, "write parameters, timings, iterations and metrics as JSON");
+  cmd->add_option("--into", r.into, "add the segment into this existing label map (written to --out)");
+  cmd->add_option("--label-id", r.labelId, "segment id (default: the lowest free id)");
+  cmd->add_option("--label-name", r.labelName, "segment name (default: the method)");
+  cmd->add_option("--color", a->colour, "segment colour R,G,B (0..255)");
+  cmd->add_option("--overlap", r.overlap, "where segments overlap: overwrite | keep-existing | replace")->capture_default_str();
+  cmd->add_option("--truth", r.truth, "truth label map: report Dice, Jaccard, volume difference, HD95");
+  cmd->add_option("--truth-ids", r.truthIds, "compare against the union of these truth ids (default: the same id)")->delimiter(',');
+  cmd->add_option("--report", r.report, "write parameters, timings, iterations and metrics as JSON");
   a->in.addTo(*cmd);
-  addForceFlag(*cmd, a->force);
+  addForceFlag(*cmd, r.force);
   cmd->footer(
       "Examples:\n"
       "  vellum segment knee.nrrd --out bone.nrrd --preset whole-bone --fill-holes-slices --min-island 100\n"

@@ -58,10 +58,10 @@ struct ToolState {
   bool thresholdPreview = false;
   PointTool pointTool = PointTool::Move;
   /// The snake tool's settings (speed, weights, iterations, post-processing), edited through
-  /// segmentRequestTable() like `vellum segment`'s flags; the seed, the bubble radius (the
+  /// segmentSettingsTable() like `vellum segment`'s flags; the seed, the bubble radius (the
   /// brush radius) and the HU range (the threshold's) come from the tools above.
-  app::SegmentRequest snake = [] {
-    app::SegmentRequest r;
+  app::SegmentSettings snake = [] {
+    app::SegmentSettings r;
     r.method = "snake";
     return r;
   }();

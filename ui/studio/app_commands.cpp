@@ -173,7 +173,7 @@ void StudioApp::startSnake(const Vec3& seedMm) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   // The request `vellum segment --method snake --lower L --upper U --seed S --radius R` makes,
   // with the panel's snake settings.
-  app::SegmentRequest snake = tools_.snake;
+  app::SegmentSettings snake = tools_.snake;
   snake.method = "snake";
   snake.lower = tools_.threshold.lower;
   snake.upper = tools_.threshold.upper;

@@ -23,7 +23,7 @@ struct CurveTool {
   std::string segment;            ///< the structure to bend
   std::set<std::string> transfer;  ///< structures carried along
 
-  std::future<app::CurveAnalogyOutcome> job;
+  std::future<app::CurveAnalogyResult> job;
   std::filesystem::path jobBefore, jobOut;  ///< the shape folders the job goes from and to
   std::string lastError;
   bool busy() const { return job.valid(); }

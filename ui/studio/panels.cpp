@@ -168,7 +168,7 @@ void segmentationSection(StudioApp& app) {
                       "inside = the HU range (e.g. the soft-tissue preset); Escape cancels");
   if (ImGui::TreeNode("Snake settings (vellum segment)")) {
     // Generated from the request table `vellum segment --method snake` takes its flags from.
-    editParams(app::segmentRequestTable(), app.tools().snake,
+    editParams(app::segmentSettingsTable(), app.tools().snake,
                {"method", "preset", "lower", "upper", "strong", "classes", "radius", "multiplier"});
     ImGui::TreePop();
   }

@@ -27,7 +27,7 @@ bool SnakeJob::start(SnakeRequest request) {
           live_ = std::move(copy);
           ++liveRevision_;
         };
-        app::SegmentOutcome r = app::runSegmentation(request.ct, request.segment, progress, publish);
+        app::SegmentationResult r = app::runSegmentation(request.ct, request.segment, progress, publish);
         SnakeOutcome out;
         out.mask = std::move(r.mask);
         out.iterations = r.info["snake"]["iterations"].get<int>();

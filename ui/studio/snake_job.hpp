@@ -17,7 +17,7 @@ namespace vellum::studio {
 struct SnakeRequest {
   VolumeI16 ct;  ///< a copy: the scene may change while the snake runs
   /// What `vellum segment --method snake` takes: seed, bubble radius, HU range, speed, weights.
-  app::SegmentRequest segment;
+  app::SegmentSettings segment;
   uint64_t volumeGeneration = 0;  ///< Scene::volumeGeneration when started
 };
 

@@ -232,7 +232,7 @@ nlohmann::json curveAnalogyReport(const CurveAnalogyRequest& a, const ShapeFolde
 
 }  // namespace
 
-CurveAnalogyOutcome runCurveAnalogy(const CurveAnalogyRequest& a) {
+CurveAnalogyResult runCurveAnalogy(const CurveAnalogyRequest& a, Progress& progress) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   if (a.curve.size() < 3)
@@ -248,12 +248,14 @@ CurveAnalogyOutcome runCurveAnalogy(const CurveAnalogyRequest& a) {
       .json(a.report, "--report")
       .force(a.force)
       .check();
+  progress.begin("curve analogy", 5);
   const ShapeFolder folder = loadShapeFolder(a.dir);
   const Geometry& grid = folder.labels.geometry();
   const std::vector<size_t> carried = carriedSegments(folder, a);
   const int width = a.view.width, height = a.view.height;
   const render::Projection proj(grid, a.view);
   const double loadMs = msSince(t0);
+  progress.advance();
 
   ill::CurveAnalogyOptions opt;
   opt.samples = a.samples;
@@ -262,12 +264,14 @@ CurveAnalogyOutcome runCurveAnalogy(const CurveAnalogyRequest& a) {
   opt.proxyFaces = a.proxyFaces;
   const Bent bent = bendWithRetries(folder, carried, a.curve, proj, opt);
   const ill::CurveAnalogyResult& r = bent.result;
+  progress.advance();
 
   auto tt = Clock::now();
   VolumeF32 unionDistance;
   LabelVolume segmentation;
   rebuildVolumes(folder, bent.meshes, unionDistance, segmentation);
   const double volumesMs = msSince(tt);
+  progress.advance();
 
   tt = Clock::now();
   double mapMs = 0;
@@ -276,6 +280,7 @@ CurveAnalogyOutcome runCurveAnalogy(const CurveAnalogyRequest& a) {
     map = ill::cageBackwardMap(ill::cageOf(r.proxy), r.proxyDeformed, grid, a.mapStep);
     mapMs = msSince(tt);
   }
+  progress.advance();
 
   tt = Clock::now();
   nlohmann::json j, ca;
@@ -298,6 +303,8 @@ CurveAnalogyOutcome runCurveAnalogy(const CurveAnalogyRequest& a) {
     if (!a.report.empty()) writeJsonFile(ca, a.report);
   }, a.force);
   written.commit();
+  progress.advance();
+  progress.end();
   return {j, ca};
 }
 

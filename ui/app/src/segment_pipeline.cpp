@@ -12,7 +12,7 @@ namespace vellum::app {
 namespace seg = vellum::segmentation;
 namespace {
 
-seg::HuInterval interval(const SegmentRequest& a, seg::Preset fallback) {
+seg::HuInterval interval(const SegmentSettings& a, seg::Preset fallback) {
   seg::HuInterval iv = seg::presetInterval(a.preset.empty() ? fallback : seg::parsePreset(a.preset));
   if (a.lower) iv.lower = *a.lower;
   if (a.upper) iv.upper = *a.upper;
@@ -21,7 +21,7 @@ seg::HuInterval interval(const SegmentRequest& a, seg::Preset fallback) {
 }
 
 /// Runs the chosen method; multi-Otsu fills `classes` instead of returning a mask.
-seg::Mask runMethod(const SegmentRequest& a, const VolumeI16& ct, nlohmann::json& info,
+seg::Mask runMethod(const SegmentSettings& a, const VolumeI16& ct, nlohmann::json& info,
                     std::optional<VolumeU16>& classes, Progress& progress, const seg::SnakeObserver& observe) {
   const std::vector<Vec3>& seeds = a.seedsMm;
   const std::string& m = a.method;
@@ -100,7 +100,7 @@ seg::Mask runMethod(const SegmentRequest& a, const VolumeI16& ct, nlohmann::json
   throw Error("unknown method '" + m + "' (threshold, otsu, multi-otsu, hysteresis, grow, confidence, snake)");
 }
 
-seg::Mask postProcess(const SegmentRequest& r, seg::Mask m, nlohmann::json& info) {
+seg::Mask postProcess(const SegmentSettings& r, seg::Mask m, nlohmann::json& info) {
   const SegmentPostProcessing& a = r.post;
   const std::vector<Vec3>& seeds = r.seedsMm;
   nlohmann::json steps = nlohmann::json::array();
@@ -120,8 +120,8 @@ seg::Mask postProcess(const SegmentRequest& r, seg::Mask m, nlohmann::json& info
 
 }  // namespace
 
-const params::Table<SegmentRequest>& segmentRequestTable() {
-  using R = SegmentRequest;
+const params::Table<SegmentSettings>& segmentSettingsTable() {
+  using R = SegmentSettings;
   using params::real, params::integer, params::flag, params::text;
   static const params::Table<R> t{
       text<R>("method", [](auto& r) -> auto& { return r.method; }, {"Method", "segmentation method", ""},
@@ -163,10 +163,10 @@ const params::Table<SegmentRequest>& segmentRequestTable() {
   return t;
 }
 
-SegmentOutcome runSegmentation(const VolumeI16& ct, const SegmentRequest& request, Progress& progress,
+SegmentationResult runSegmentation(const VolumeI16& ct, const SegmentSettings& request, Progress& progress,
                                const seg::SnakeObserver& observe) {
-  params::validate(segmentRequestTable(), request);
-  SegmentOutcome out;
+  params::validate(segmentSettingsTable(), request);
+  SegmentationResult out;
   out.mask = runMethod(request, ct, out.info, out.classes, progress, observe);
   if (!out.classes) out.mask = postProcess(request, std::move(out.mask), out.info);
   return out;

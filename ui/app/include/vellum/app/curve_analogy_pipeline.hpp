@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "vellum/core/progress.hpp"
 #include "vellum/illustration/curve.hpp"
 #include "vellum/render/render_settings.hpp"
 
@@ -30,13 +31,14 @@ struct CurveAnalogyRequest {
   bool force = false;  ///< `out` may replace a Vellum folder of another kind
 };
 
-struct CurveAnalogyOutcome {
+struct CurveAnalogyResult {
   nlohmann::json shape;   ///< the output's shape.json (segments with their mesh checks)
   nlohmann::json report;  ///< its "curve_analogy" entry (Hausdorff before/after, timings ...)
 };
 
 /// Runs the request; throws vellum::Error (one line, naming the file or field) for a missing
-/// folder, an unknown segment, C0 with fewer than 3 points, or an output that is the input.
-CurveAnalogyOutcome runCurveAnalogy(const CurveAnalogyRequest& request);
+/// folder, an unknown segment, C0 with fewer than 3 points, or an output that is the input;
+/// vellum::Cancelled through `progress` between its stages (load, bend, volumes, map, write).
+CurveAnalogyResult runCurveAnalogy(const CurveAnalogyRequest& request, Progress& progress = Progress::none());
 
 }  // namespace vellum::app

@@ -6,6 +6,8 @@
 // setting means the same in both, and the report (`info`) is the same JSON.
 #include <nlohmann/json.hpp>
 
+#include <array>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -13,6 +15,7 @@
 #include "vellum/core/params.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/core/volume.hpp"
+#include "vellum/io/volume_io.hpp"
 #include "vellum/segmentation/mask.hpp"
 #include "vellum/segmentation/snake.hpp"
 
@@ -26,9 +29,9 @@ struct SegmentPostProcessing {
   bool keepLargest = false;        ///< keep the largest component (with seeds: those holding a seed)
 };
 
-/// Every field but the seeds is described once in segmentRequestTable() (`vellum segment`'s
+/// Every field but the seeds is described once in segmentSettingsTable() (`vellum segment`'s
 /// flags, the studio's segmentation settings, docs/parameters.md).
-struct SegmentRequest {
+struct SegmentSettings {
   /// threshold | otsu | multi-otsu | hysteresis | grow | confidence | snake
   std::string method = "threshold";
   std::string preset;                         ///< HU preset; empty = the method's default
@@ -46,9 +49,9 @@ struct SegmentRequest {
   SegmentPostProcessing post;
 };
 
-const params::Table<SegmentRequest>& segmentRequestTable();
+const params::Table<SegmentSettings>& segmentSettingsTable();
 
-struct SegmentOutcome {
+struct SegmentationResult {
   segmentation::Mask mask;             ///< empty for multi-otsu
   std::optional<VolumeU16> classes;    ///< multi-otsu: class per voxel (0 .. classes-1)
   nlohmann::json info = nlohmann::json::object();  ///< what ran: intervals, iterations, post-processing
@@ -56,8 +59,36 @@ struct SegmentOutcome {
 
 /// Runs `request` on `ct`. Throws vellum::Error for a bad request (unknown method, missing
 /// seeds, upper < lower), vellum::Cancelled through `progress`. `observe` sees a snake evolve.
-SegmentOutcome runSegmentation(const VolumeI16& ct, const SegmentRequest& request,
+SegmentationResult runSegmentation(const VolumeI16& ct, const SegmentSettings& request,
                                Progress& progress = Progress::none(),
                                const segmentation::SnakeObserver& observe = {});
+
+/// `vellum segment` as a request: load the CT, segment it, add the segment to a label map,
+/// compare with a truth label map, write the map and the report.
+struct SegmentRequest {
+  std::filesystem::path input;   ///< CT volume file or DICOM folder
+  std::filesystem::path output;  ///< the label map (.nrrd keeps the label table)
+  std::filesystem::path into;    ///< add the segment into this label map; empty: a new map
+  std::filesystem::path truth;   ///< truth label map for Dice, Jaccard, HD95; empty: none
+  std::vector<uint16_t> truthIds;  ///< compare with the union of these truth ids (empty: same ids)
+  std::filesystem::path report;    ///< report JSON; empty: not written (still returned)
+  SegmentSettings settings;
+  uint16_t labelId = 0;                         ///< 0: the lowest free id
+  std::string labelName;                        ///< empty: the method's name
+  std::optional<std::array<uint8_t, 3>> colour;  ///< empty: the id's default colour
+  std::string overlap = "overwrite";            ///< overwrite | keep-existing | replace
+  io::LoadOptions load;  ///< series, raw layout, region (the label maps get the same region)
+  bool force = false;    ///< a DICOM output may replace a Vellum folder of another kind
+};
+
+struct SegmentResult {
+  std::vector<uint16_t> written;      ///< the label ids written
+  nlohmann::json report;              ///< what `report` holds: method, counts, timings, metrics
+  std::vector<std::string> warnings;  ///< the load's warnings
+};
+
+/// Runs the request under the output policy (nothing is written when the truth comparison or
+/// the report fails). Throws vellum::Error / FileError, vellum::Cancelled through `progress`.
+SegmentResult runSegment(const SegmentRequest& request, Progress& progress = Progress::none());
 
 }  // namespace vellum::app
