@@ -10,6 +10,7 @@
 #include "illustration_renderer_common.hpp"
 #include "illustration_renderer_shader.hpp"
 #include "render_common.hpp"  // modules/render: makeFrame (same camera and rays)
+#include "shader_source.hpp"  // modules/render: the full-screen vertex shader
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 
@@ -23,13 +24,6 @@ using render::detail::readRgbaRows;
 namespace {
 
 enum Unit : GLint { kUnitLabels = 0, kUnitGrad, kUnitStyle, kUnitOcc, kUnitCt, kUnitTf, kUnitTexVol };
-
-constexpr const char* kVertex = R"GLSL(#version 450 core
-void main() {
-  vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2));
-  gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
-}
-)GLSL";
 
 void params(GLenum target, GLint filter, GLint wrap) {
   glTexParameteri(target, GL_TEXTURE_MIN_FILTER, filter);
@@ -108,7 +102,7 @@ struct IllustrationRenderer::Impl {
   GLuint program(const ShaderVariant& v) {
     auto it = programs.find(v.key());
     if (it != programs.end()) return it->second;
-    const GLuint p = buildProgram(kVertex, illustrationFragmentSource(v));
+    const GLuint p = buildProgram(render::detail::vertexShaderSource(), illustrationFragmentSource(v));
     glUseProgram(p);
     const std::pair<const char*, GLint> units[] = {{"uLabels", kUnitLabels}, {"uGrad", kUnitGrad}, {"uStyle", kUnitStyle},
                                                    {"uOccupancy", kUnitOcc}, {"uCt", kUnitCt}, {"uTf", kUnitTf},

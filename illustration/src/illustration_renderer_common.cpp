@@ -1,11 +1,10 @@
 // Shared pieces of the illustration renderer: style packing, gradient volumes, block
-// visibility, texture volumes, and the per-sample model (mirrored in the shader).
+// visibility, texture volumes, and the per-sample model (the CPU reference of the shader's).
 #include "illustration_renderer_common.hpp"
 
 #include <algorithm>
 #include <bit>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
 #include "solid_texture.hpp"
@@ -234,17 +233,15 @@ std::vector<uint8_t> blockOccupancy(const BlockLabels& b, const StyleTable& t) {
   const bool haveCtRange = !b.ctMin.empty();
   for (int l = 0; l < kMaxLabels; ++l) {
     if (!t.visible[size_t(l)]) continue;
-    const float* R1 = t.row(l, 1);
-    const float* R7 = t.row(l, 7);
-    const float* R8 = t.row(l, 8);
-    const float* R11 = t.row(l, 11);
-    const bool ctAlpha = R1[0] > 0.f && R11[0] > 0.5f;
+    const StyleRow r = t.row(l);
+    const bool ctAlpha = r[slot::LambdaIllum] > 0.f && r[slot::Illum] == IllumMode::Ct;
     // Boundary-only rows: k_c = 0 on the distance measure, and no CT-alpha term.
-    const bool bandOnly = R7[3] < 0.5f && R8[0] <= 0.f && !ctAlpha;
-    const bool onlyCt = haveCtRange && ctAlpha && R1[1] <= 0.f && R1[2] <= 0.f;
+    const bool bandOnly =
+        r[slot::BoundaryMeasure] == BoundaryMeasure::Distance && r[slot::BoundaryKc] <= 0.f && !ctAlpha;
+    const bool onlyCt = haveCtRange && ctAlpha && r[slot::LambdaColouring] <= 0.f && r[slot::LambdaTexture] <= 0.f;
     auto& set = onlyCt ? ctOnly : bandOnly ? band : vis;
     set[size_t(l >> 6)] |= uint64_t(1) << (l & 63);
-    bandWidth[size_t(l)] = R8[3];
+    bandWidth[size_t(l)] = r[slot::BoundaryWidthMm];
   }
   // Prefix count of TF entries with opacity: "any opacity in [i0, i1]" in O(1).
   std::vector<int> opaque(kTfSize + 1, 0);
@@ -296,6 +293,48 @@ float TextureVolume::sampleRepeat(float x, float y, float z) const {
   return out;
 }
 
+namespace {
+
+/// One segment's row; depths in mm become fractions of the bounding sphere's diameter.
+void packRow(const SegmentStyle& r, bool visible, double diameter, float* p) {
+  put(p, slot::Colour, r.colour);
+  put(p, slot::Opacity, r.opacity);
+  put(p, slot::LambdaIllum, r.lambdaIllum);
+  put(p, slot::LambdaColouring, r.lambdaColouring);
+  put(p, slot::LambdaTexture, r.lambdaTexture);
+  put(p, slot::Visible, visible);
+  put(p, slot::ToneWarm, r.warm);
+  put(p, slot::ToneBeta, r.toneBeta);
+  put(p, slot::ToneCool, r.cool);
+  put(p, slot::ToneAlpha, r.toneAlpha);
+  put(p, slot::DepthColour, r.dimColour);
+  put(p, slot::DepthStrength, r.dimStrength);
+  const bool mm = r.dimUnits == DepthUnits::Mm;
+  put(p, slot::DepthStart, mm ? float(r.dimStart / diameter) : r.dimStart);
+  put(p, slot::DepthEnd, mm ? float(r.dimEnd / diameter) : r.dimEnd);
+  put(p, slot::ToneAmount, r.toneAmount);
+  put(p, slot::Texture, r.texture);
+  put(p, slot::TextureColour1, r.textureColour1);
+  put(p, slot::TextureScaleMm, r.textureScaleMm);
+  put(p, slot::TextureColour2, r.textureColour2);
+  put(p, slot::BoundaryMeasure, r.boundaryMeasure);
+  put(p, slot::BoundaryKc, r.boundaryKc);
+  put(p, slot::BoundaryKs, r.boundaryKs);
+  put(p, slot::BoundaryKe, r.boundaryKe);
+  put(p, slot::BoundaryWidthMm, r.boundaryWidthMm);
+  put(p, slot::SilhouetteKc, r.silhouetteKc);
+  put(p, slot::SilhouetteKs, r.silhouetteKs);
+  put(p, slot::SilhouetteKe, r.silhouetteKe);
+  put(p, slot::CtGradientScale, r.ctGradientScale);
+  put(p, slot::Ambient, r.ambient);
+  put(p, slot::Diffuse, r.diffuse);
+  put(p, slot::Specular, r.specular);
+  put(p, slot::Shininess, r.shininess);
+  put(p, slot::Illum, r.illum);
+}
+
+}  // namespace
+
 StyleTable packStyle(const Style& style, const std::vector<Label>& table, int maxId, const Geometry& g) {
   if (maxId >= kMaxLabels)
     throw Error("illustrate: segment ids must be <= 255 (found " + std::to_string(maxId) + ")");
@@ -316,22 +355,7 @@ StyleTable packStyle(const Style& style, const std::vector<Label>& table, int ma
     const SegmentStyle& r = rows[size_t(l)];
     const bool vis = r.visible && (r.lambdaIllum + r.lambdaColouring + r.lambdaTexture) > 0 &&
                      (r.opacity > 0 || (r.illum == IllumMode::Ct && r.lambdaIllum > 0));
-    float* p = t.texels.data() + size_t(l) * kRowTexels * 4;
-    const float row[kRowTexels * 4] = {
-        r.colour[0], r.colour[1], r.colour[2], r.opacity,
-        r.lambdaIllum, r.lambdaColouring, r.lambdaTexture, vis ? 1.f : 0.f,
-        r.warm[0], r.warm[1], r.warm[2], r.toneBeta,
-        r.cool[0], r.cool[1], r.cool[2], r.toneAlpha,
-        r.dimColour[0], r.dimColour[1], r.dimColour[2], r.dimStrength,
-        r.dimUnits == DepthUnits::Mm ? float(r.dimStart / diameter) : r.dimStart,
-        r.dimUnits == DepthUnits::Mm ? float(r.dimEnd / diameter) : r.dimEnd, r.toneAmount, float(int(r.texture)),
-        r.textureColour1[0], r.textureColour1[1], r.textureColour1[2], r.textureScaleMm,
-        r.textureColour2[0], r.textureColour2[1], r.textureColour2[2], float(int(r.boundaryMeasure)),
-        r.boundaryKc, r.boundaryKs, r.boundaryKe, r.boundaryWidthMm,
-        r.silhouetteKc, r.silhouetteKs, r.silhouetteKe, r.ctGradientScale,
-        r.ambient, r.diffuse, r.specular, r.shininess,
-        float(int(r.illum)), 0.f, 0.f, 0.f};
-    std::memcpy(p, row, sizeof row);
+    packRow(r, vis, diameter, t.texels.data() + size_t(l) * kRowTexels * 4);
     t.visible[size_t(l)] = vis;
     if (!vis || l > maxId) continue;  // features of rows no voxel uses do not matter
     if ((r.illum == IllumMode::Ct && r.lambdaIllum > 0) || r.boundaryMeasure == BoundaryMeasure::Ct)
@@ -367,65 +391,62 @@ Vec3f normalizeOrZero(Vec3f v, float& len) {
 
 }  // namespace
 
-// Mirror of styledSample() in the shader (illustration_renderer_shader.cpp).
+// CPU reference of styled() in illustration/shaders/illustration_sample.frag.glsl (same terms, same order).
 std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g4, const float* ct4,
                                   const TextureVolume* texVol, Vec3f pMm, float depth, Vec3f view,
                                   const SampleFrame& f) {
-  const float* R0 = t.row(label, 0);
-  const float* R1 = t.row(label, 1);
-  if (R1[3] < 0.5f) return {0, 0, 0, 0};
-  const float* R2 = t.row(label, 2);
-  const float* R3 = t.row(label, 3);
-  const float* R4 = t.row(label, 4);
-  const float* R5 = t.row(label, 5);
-  const float* R6 = t.row(label, 6);
-  const float* R7 = t.row(label, 7);
-  const float* R8 = t.row(label, 8);
-  const float* R9 = t.row(label, 9);
-  const float* R10 = t.row(label, 10);
-  const float* R11 = t.row(label, 11);
+  const StyleRow r = t.row(label);
+  if (!r[slot::Visible]) return {0, 0, 0, 0};
+  const float l1 = r[slot::LambdaIllum], l2 = r[slot::LambdaColouring], l3 = r[slot::LambdaTexture];
+  const float width = r[slot::BoundaryWidthMm];
 
   float glen;
   const Vec3f n = normalizeOrZero({g4[0], g4[1], g4[2]}, glen);
   const float d = g4[3];
   // Opacity modulation first (as the shader: m = 0 -> transparent, nothing else computed).
   float b;
-  if (R7[3] > 0.5f && ct4) b = clamp01(std::sqrt(ct4[0] * ct4[0] + ct4[1] * ct4[1] + ct4[2] * ct4[2]) / R9[3]);
-  else b = clamp01(1.f - std::abs(d) / R8[3]);
+  if (r[slot::BoundaryMeasure] == BoundaryMeasure::Ct && ct4)
+    b = clamp01(std::sqrt(ct4[0] * ct4[0] + ct4[1] * ct4[1] + ct4[2] * ct4[2]) / r[slot::CtGradientScale]);
+  else b = clamp01(1.f - std::abs(d) / width);
   // As the shader: normal-based terms fade to neutral from 2 to 4 boundary widths inside
   // (deeper, the distance gradient only shows the medial axis).
-  const float sw = 1.f - smoothstep(2.f * R8[3], 4.f * R8[3], std::abs(d));
+  const float sw = 1.f - smoothstep(2.f * width, 4.f * width, std::abs(d));
   const float ndv = glen > 1e-6f ? 1.f + sw * (std::abs(dot(n, view)) - 1.f) : 1.f;
-  float mb = R8[0], ms = R9[0];
-  if (R8[1] > 0.f) mb += R8[1] * std::pow(b, R8[2]);
-  if (R9[1] > 0.f) ms += R9[1] * std::pow(std::max(1.f - ndv, 0.f), R9[2]);
+  float mb = r[slot::BoundaryKc], ms = r[slot::SilhouetteKc];
+  if (r[slot::BoundaryKs] > 0.f) mb += r[slot::BoundaryKs] * std::pow(b, r[slot::BoundaryKe]);
+  if (r[slot::SilhouetteKs] > 0.f) ms += r[slot::SilhouetteKs] * std::pow(std::max(1.f - ndv, 0.f), r[slot::SilhouetteKe]);
   const float m = mb * ms;
   if (!(m > 0.f)) return {0, 0, 0, 0};
   const Vec3f L = f.light;
   float hl;
   const Vec3f H = normalizeOrZero(L + view, hl);
   const float ndl = sw * dot(n, L);
-  const float col[3] = {R0[0], R0[1], R0[2]};
+  const float* col = r[slot::Colour];
 
   // I_coloring: Gooch tone, then depth dimming.
   const float k = (1.f + ndl) * 0.5f;
+  const float *warm = r[slot::ToneWarm], *cool = r[slot::ToneCool];
   float cc[3];
   for (int c = 0; c < 3; ++c) {
-    const float tone = clamp01(k * (R2[c] + R2[3] * col[c]) + (1.f - k) * (R3[c] + R3[3] * col[c]));
-    cc[c] = col[c] + R5[2] * (tone - col[c]);
+    const float tone = clamp01(k * (warm[c] + r[slot::ToneBeta] * col[c]) + (1.f - k) * (cool[c] + r[slot::ToneAlpha] * col[c]));
+    cc[c] = col[c] + r[slot::ToneAmount] * (tone - col[c]);
   }
-  const float dimW = R4[3] * clamp01((depth - R5[0]) / std::max(R5[1] - R5[0], 1e-4f));
-  for (int c = 0; c < 3; ++c) cc[c] = cc[c] + dimW * (R4[c] - cc[c]);
+  const float start = r[slot::DepthStart], end = r[slot::DepthEnd];
+  const float dimW = r[slot::DepthStrength] * clamp01((depth - start) / std::max(end - start, 1e-4f));
+  const float* dimColour = r[slot::DepthColour];
+  for (int c = 0; c < 3; ++c) cc[c] = cc[c] + dimW * (dimColour[c] - cc[c]);
 
-  const float lit = R10[0] + R10[1] * std::max(ndl, 0.f);
+  const float ambient = r[slot::Ambient], diffuse = r[slot::Diffuse];
+  const float specular = r[slot::Specular], shininess = r[slot::Shininess];
+  const float lit = ambient + diffuse * std::max(ndl, 0.f);
   const float coverage = label > 0 ? clamp01(0.5f - d / f.coverageH) : 1.f;
-  const float aSeg = R0[3] * coverage;
+  const float aSeg = r[slot::Opacity] * coverage;
 
   // I_illum
   float c1[3] = {0, 0, 0}, a1 = 0;
-  if (R1[0] <= 0.f) {
+  if (l1 <= 0.f) {
     // I_illum has no weight: not evaluated (as in the shader)
-  } else if (R11[0] > 0.5f && ct4) {
+  } else if (r[slot::Illum] == IllumMode::Ct && ct4) {
     const float x = clamp01((ct4[3] - t.tfLo) / (t.tfHi - t.tfLo)) * float(kTfSize - 1);
     const int i = std::min(int(x), kTfSize - 2);
     const float fr = x - float(i);
@@ -434,32 +455,33 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
     float cl;
     const Vec3f cn = normalizeOrZero({ct4[0], ct4[1], ct4[2]}, cl);
     const float cdl = std::abs(dot(cn, L));
-    const float spec = cl > 1e-6f ? R10[2] * std::pow(std::abs(dot(cn, H)), R10[3]) : 0.f;
-    for (int c = 0; c < 3; ++c) c1[c] = std::min(tf[c] * (R10[0] + R10[1] * cdl) + spec, 1.f);
+    const float spec = cl > 1e-6f ? specular * std::pow(std::abs(dot(cn, H)), shininess) : 0.f;
+    for (int c = 0; c < 3; ++c) c1[c] = std::min(tf[c] * (ambient + diffuse * cdl) + spec, 1.f);
     a1 = tf[3];
   } else {
-    const float spec = glen > 1e-6f ? sw * R10[2] * std::pow(std::max(dot(n, H), 0.f), R10[3]) : 0.f;
+    const float spec = glen > 1e-6f ? sw * specular * std::pow(std::max(dot(n, H), 0.f), shininess) : 0.f;
     for (int c = 0; c < 3; ++c) c1[c] = std::min(col[c] * lit + spec, 1.f);
     a1 = aSeg;
   }
 
   // I_solidtex
   float c3[3] = {0, 0, 0};
-  const int kind = int(R5[3] + 0.5f);
-  if (R1[2] > 0.f && kind > 0) {
-    const float s = 1.f / R6[3];
+  const SolidTexture kind = r[slot::Texture];
+  if (l3 > 0.f && kind != SolidTexture::None) {
+    const float s = 1.f / r[slot::TextureScaleMm];
     float tv = 0;
-    if (kind == int(SolidTexture::Volume)) {
+    if (kind == SolidTexture::Volume) {
       if (texVol) tv = texVol->sampleRepeat(pMm.x * s - 0.5f, pMm.y * s - 0.5f, pMm.z * s - 0.5f);
     } else {
       tv = solidTextureAt(kind, pMm.x * s, pMm.y * s, pMm.z * s);
     }
-    for (int c = 0; c < 3; ++c) c3[c] = std::min((R6[c] + tv * (R7[c] - R6[c])) * lit, 1.f);
+    const float *t1 = r[slot::TextureColour1], *t2 = r[slot::TextureColour2];
+    for (int c = 0; c < 3; ++c) c3[c] = std::min((t1[c] + tv * (t2[c] - t1[c])) * lit, 1.f);
   }
 
   float rgb[3];
-  for (int c = 0; c < 3; ++c) rgb[c] = R1[0] * a1 * c1[c] + R1[1] * aSeg * cc[c] + R1[2] * aSeg * c3[c];
-  const float a = R1[0] * a1 + R1[1] * aSeg + R1[2] * aSeg;
+  for (int c = 0; c < 3; ++c) rgb[c] = l1 * a1 * c1[c] + l2 * aSeg * cc[c] + l3 * aSeg * c3[c];
+  const float a = l1 * a1 + l2 * aSeg + l3 * aSeg;
   if (!(a > 0.f)) return {0, 0, 0, 0};
 
   const float am = std::min(a * m, 1.f);

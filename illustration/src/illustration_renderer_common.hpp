@@ -1,17 +1,17 @@
 #pragma once
-// What the GL illustration shader and the CPU reference share (internal): the style table
-// layout, the precomputed gradient volumes, per-block visibility, and the per-sample model in
-// C++ (mirrored line by line in illustration_renderer_shader.cpp; change both together).
+// What the GL illustration shader and the CPU reference share (internal): the packed style
+// table (its layout: style_layout.hpp), the precomputed gradient volumes, per-block
+// visibility, and the per-sample model in C++ (the CPU reference of styled() in
+// illustration/shaders/illustration_sample.frag.glsl, line for line).
 #include <array>
 #include <cstdint>
 #include <vector>
 
+#include "style_layout.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
 
 namespace vellum::illustration::detail {
 
-/// Texels (RGBA float) per style row; the table is kRowTexels x rows.
-constexpr int kRowTexels = 12;
 constexpr int kMaxLabels = 256;
 constexpr int kBlock = 8;          ///< empty-space skipping block, voxels per axis
 constexpr int kTfSize = 1024;      ///< CT transfer-function table entries (alpha per mm)
@@ -37,9 +37,7 @@ struct StyleTable {
   Vec3f light;                               ///< camera space, normalised
   std::vector<float> tf;                     ///< CT TF: 4 * kTfSize, alpha per mm
   float tfLo = 0, tfHi = 1;
-  const float* row(int label, int texel) const {
-    return texels.data() + (static_cast<size_t>(label) * kRowTexels + texel) * 4;
-  }
+  StyleRow row(int label) const { return StyleRow(texels.data() + static_cast<size_t>(label) * kRowTexels * 4); }
 };
 /// Rows for ids 0..255 (features only from ids <= maxId); g: the scene grid (depths in mm).
 StyleTable packStyle(const Style& style, const std::vector<Label>& table, int maxId, const Geometry& g);

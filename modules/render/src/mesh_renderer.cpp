@@ -8,45 +8,13 @@
 #include "gl_util.hpp"
 #include "render_common.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum_render_glsl.hpp"  // generated from ../shaders/*.glsl
 
 namespace vellum::render {
 
 using namespace detail;
 
 namespace {
-
-constexpr const char* kMeshVertex = R"GLSL(#version 450 core
-layout(location = 0) in vec3 aPosition;
-layout(location = 1) in vec3 aNormal;
-uniform mat4 uViewProjection;
-out vec3 vPosition;
-out vec3 vNormal;
-void main() {
-  vPosition = aPosition;
-  vNormal = aNormal;
-  gl_Position = uViewProjection * vec4(aPosition, 1.0);
-}
-)GLSL";
-
-// Headlight shading as the ray caster's shade(); the depth is the ray distance / range.
-constexpr const char* kMeshFragment = R"GLSL(
-in vec3 vPosition;
-in vec3 vNormal;
-uniform vec3 uEye, uForward, uRgb;
-uniform float uPersp;
-uniform float uDepthBias;  // mm nearer than the surface
-layout(location = 0) out vec4 fragColor;
-void main() {
-  vec3 rel = vPosition - uEye;
-  float t = uPersp > 0.5 ? length(rel) : dot(rel, uForward);
-  vec3 l = uPersp > 0.5 ? -normalize(rel) : -uForward;
-  vec3 n = vNormal;
-  if (dot(n, n) < 1e-12) n = cross(dFdx(vPosition), dFdy(vPosition));  // unused-normal fallback
-  float ndl = abs(dot(normalize(n), l));
-  fragColor = vec4(min(uRgb * (AMBIENT + DIFFUSE * ndl) + SPECULAR * pow(ndl, SHININESS), vec3(1.0)), 1.0);
-  gl_FragDepth = clamp((t - uDepthBias) / DEPTH_RANGE_MM, 0.0, 1.0);
-}
-)GLSL";
 
 std::string meshFragmentSource() {
   std::ostringstream s;
@@ -55,7 +23,7 @@ std::string meshFragmentSource() {
   s << "#define AMBIENT " << kAmbient << "\n#define DIFFUSE " << kDiffuse << "\n";
   s << "#define SPECULAR " << kSpecular << "\n#define SHININESS " << kShininess << "\n";
   s << "#define DEPTH_RANGE_MM " << kOpaqueDepthRangeMm << "\n";
-  s << kMeshFragment;
+  s << glsl::kMeshFrag;
   return s.str();
 }
 
@@ -103,7 +71,7 @@ struct MeshRenderer::Impl {
 
   explicit Impl(GlContext& c) : context(c) {
     context.makeCurrent();
-    program = buildProgram(kMeshVertex, meshFragmentSource());
+    program = buildProgram(glsl::kMeshVert, meshFragmentSource());
     glGenVertexArrays(1, &vao);
     glGenBuffers(1, &vertexBuffer);
     glGenBuffers(1, &indexBuffer);

@@ -1,6 +1,7 @@
 #pragma once
-// GLSL sources of the ray caster. The fragment shader is specialised per mode with #defines
-// prepended at compile time (llvmpipe executes both sides of a uniform branch).
+// GLSL sources of the ray caster (modules/render/shaders/*.glsl, built in by embed_glsl.cmake).
+// The fragment shader is specialised per mode with #defines prepended at compile time
+// (llvmpipe executes both sides of a uniform branch).
 #include <string>
 
 namespace vellum::render::detail {

@@ -1,0 +1,139 @@
+// Illustration ray caster, part 1: uniforms and the per-sample style model styled() (its CPU
+// reference: styledSample() in illustration_renderer_common.cpp); then modules/render's
+// ray_common.glsl and illustration_main.frag.glsl. illustrationFragmentSource() prepends
+// #version, the variant's #defines (EIGHT/NEAREST, USE_CT, USE_TEXTURE, USE_TEXVOL), the
+// constants, the style layout (STYLE_* accessors and enum constants, style_layout.hpp) and
+// solid_texture.glsl.
+layout(location = 0) out vec4 fragColor;
+
+uniform vec2 uViewport;
+uniform vec3 uEye, uRight, uUp, uForward;
+uniform vec2 uHalf;
+uniform float uPersp;
+uniform mat3 uPhysToBox, uBoxToPhys;
+uniform vec3 uBoxOrigin, uBoxDims;
+uniform float uStep, uJitter;
+uniform vec4 uBackground;
+uniform vec3 uLight, uCentre;
+uniform float uRadius, uCoverageH;
+uniform usampler3D uLabels;
+uniform sampler3D uGrad;       // grad d (physical), d
+uniform sampler2D uStyle;      // STYLE_ROW_TEXELS x 256: read with the STYLE_* macros
+uniform sampler3D uOccupancy;
+uniform ivec3 uBlocks;
+#ifdef USE_CT
+uniform sampler3D uCt;         // grad CT (physical, HU/mm), CT
+uniform sampler1D uTf;
+uniform float uTfLo, uTfHi;
+#endif
+#ifdef USE_TEXVOL
+uniform sampler3D uTexVol;
+uniform vec3 uTexDims;
+#endif
+
+struct Row { vec4 t[STYLE_ROW_TEXELS]; };
+Row loadRow(int label) {
+  Row r;
+  for (int i = 0; i < STYLE_ROW_TEXELS; ++i) r.t[i] = texelFetch(uStyle, ivec2(i, label), 0);
+  return r;
+}
+
+vec3 normOrZero(vec3 v, out float len) {
+  len = length(v);
+  return len > 1e-6 ? v / len : vec3(0.0);
+}
+
+// The solid texture value depends on the row and the sample position only: computed once
+// per sample and row (not per voxel corner).
+float texValue(Row r, vec3 pMm) {
+  float tv = 0.0;
+#if defined(USE_TEXTURE) || defined(USE_TEXVOL)
+  int kind = STYLE_TEXTURE(r);
+  if (STYLE_LAMBDA_TEXTURE(r) > 0.0 && kind != TEXTURE_NONE) {
+    float s = 1.0 / STYLE_TEXTURE_SCALE_MM(r);
+#ifdef USE_TEXVOL
+    if (kind == TEXTURE_VOLUME) tv = texture(uTexVol, (pMm * s) / uTexDims).r;
+#endif
+#ifdef USE_TEXTURE
+    if (kind != TEXTURE_VOLUME) tv = solidTexture(kind, pMm * s);
+#endif
+  }
+#endif
+  return tv;
+}
+
+vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 view, vec3 H) {
+  float glen;
+  vec3 n = normOrZero(g4.xyz, glen);
+  float d = g4.w;
+  // Opacity modulation first: where it is 0 (e.g. boundary k_c = 0 away from surfaces) the
+  // sample is transparent whatever its colour, so nothing else is computed.
+  float b;
+#ifdef USE_CT
+  if (STYLE_BOUNDARY_MEASURE(r) == BOUNDARY_MEASURE_CT)
+    b = clamp(length(ct4.xyz) / STYLE_CT_GRADIENT_SCALE(r), 0.0, 1.0);
+  else
+#endif
+  b = clamp(1.0 - abs(d) / STYLE_BOUNDARY_WIDTH_MM(r), 0.0, 1.0);
+  // Deep inside a segment the distance gradient only shows the medial axis (creases where the
+  // nearest boundary point jumps): normal-based terms fade to neutral from 2 to 4 boundary
+  // widths inside, so translucent segments show their surface shading, not an X of creases.
+  float sw = 1.0 - smoothstep(2.0 * STYLE_BOUNDARY_WIDTH_MM(r), 4.0 * STYLE_BOUNDARY_WIDTH_MM(r), abs(d));
+  float ndv = glen > 1e-6 ? mix(1.0, abs(dot(n, view)), sw) : 1.0;
+  float mb = STYLE_BOUNDARY_KC(r), ms = STYLE_SILHOUETTE_KC(r);
+  if (STYLE_BOUNDARY_KS(r) > 0.0) mb += STYLE_BOUNDARY_KS(r) * pow(b, STYLE_BOUNDARY_KE(r));
+  if (STYLE_SILHOUETTE_KS(r) > 0.0) ms += STYLE_SILHOUETTE_KS(r) * pow(max(1.0 - ndv, 0.0), STYLE_SILHOUETTE_KE(r));
+  float m = mb * ms;
+  if (!(m > 0.0)) return vec4(0.0);
+  float ndl = sw * dot(n, uLight);
+  vec3 col = STYLE_COLOUR(r);
+  float k = (1.0 + ndl) * 0.5;
+  vec3 tone = clamp(k * (STYLE_TONE_WARM(r) + STYLE_TONE_BETA(r) * col) +
+                        (1.0 - k) * (STYLE_TONE_COOL(r) + STYLE_TONE_ALPHA(r) * col), 0.0, 1.0);
+  vec3 cc = col + STYLE_TONE_AMOUNT(r) * (tone - col);
+  float start = STYLE_DEPTH_START(r), end = STYLE_DEPTH_END(r);
+  float dimW = STYLE_DEPTH_STRENGTH(r) * clamp((depth - start) / max(end - start, 1e-4), 0.0, 1.0);
+  cc = cc + dimW * (STYLE_DEPTH_COLOUR(r) - cc);
+  float lit = STYLE_AMBIENT(r) + STYLE_DIFFUSE(r) * max(ndl, 0.0);
+  float coverage = label > 0 ? clamp(0.5 - d / uCoverageH, 0.0, 1.0) : 1.0;
+  float aSeg = STYLE_OPACITY(r) * coverage;
+
+  vec3 c1 = vec3(0.0);
+  float a1 = 0.0;
+  if (STYLE_LAMBDA_ILLUM(r) > 0.0) {
+#ifdef USE_CT
+  if (STYLE_ILLUM(r) == ILLUM_CT) {
+    float x = clamp((ct4.w - uTfLo) / (uTfHi - uTfLo), 0.0, 1.0) * float(TF_SIZE - 1);
+    int i = min(int(x), TF_SIZE - 2);
+    vec4 tf = mix(texelFetch(uTf, i, 0), texelFetch(uTf, i + 1, 0), x - float(i));
+    float cl;
+    vec3 cn = normOrZero(ct4.xyz, cl);
+    float cdl = abs(dot(cn, uLight));
+    float spec = cl > 1e-6 ? STYLE_SPECULAR(r) * pow(abs(dot(cn, H)), STYLE_SHININESS(r)) : 0.0;
+    c1 = min(tf.rgb * (STYLE_AMBIENT(r) + STYLE_DIFFUSE(r) * cdl) + spec, vec3(1.0));
+    a1 = tf.a;
+  } else
+#endif
+  {
+    float spec = glen > 1e-6 ? sw * STYLE_SPECULAR(r) * pow(max(dot(n, H), 0.0), STYLE_SHININESS(r)) : 0.0;
+    c1 = min(col * lit + spec, vec3(1.0));
+    a1 = aSeg;
+  }
+  }
+
+  vec3 c3 = vec3(0.0);
+#if defined(USE_TEXTURE) || defined(USE_TEXVOL)
+  if (STYLE_LAMBDA_TEXTURE(r) > 0.0 && STYLE_TEXTURE(r) != TEXTURE_NONE) {
+    vec3 t1 = STYLE_TEXTURE_COLOUR1(r), t2 = STYLE_TEXTURE_COLOUR2(r);
+    c3 = min((t1 + tv * (t2 - t1)) * lit, vec3(1.0));
+  }
+#endif
+
+  float l1 = STYLE_LAMBDA_ILLUM(r), l2 = STYLE_LAMBDA_COLOURING(r), l3 = STYLE_LAMBDA_TEXTURE(r);
+  vec3 rgb = l1 * a1 * c1 + l2 * aSeg * cc + l3 * aSeg * c3;
+  float a = l1 * a1 + l2 * aSeg + l3 * aSeg;
+  if (!(a > 0.0)) return vec4(0.0);
+  float am = min(a * m, 1.0);
+  return vec4(rgb * (am / a), am);
+}
+

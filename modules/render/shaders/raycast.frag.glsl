@@ -1,0 +1,208 @@
+// Volume ray caster, part 1: uniforms and helpers; then ray_common.glsl and
+// raycast_main.frag.glsl. fragmentShaderSource() prepends #version and the per-mode #defines
+// (MODE_MIP/MODE_DVR, SHADING, DEFORMED, ...) and constants (TF_SIZE, BLOCK_SIZE, ...).
+layout(location = 0) out vec4 fragColor;
+
+uniform vec2 uViewport;
+uniform vec3 uEye, uRight, uUp, uForward;
+uniform vec2 uHalf;          // perspective: tangents; orthographic: mm
+uniform float uPersp;        // 1 perspective, 0 orthographic
+uniform mat3 uPhysToBox;     // physical offset -> box index offset
+uniform vec3 uBoxOrigin;     // physical position of box index (0,0,0)
+uniform vec3 uBoxDims;
+uniform float uStep;         // mm
+uniform float uJitter;       // 1: per-pixel sample offset, 0: none
+uniform vec4 uBackground;
+uniform float uValueScale;   // normalised texel -> value
+uniform vec3 uSourceDims;
+uniform sampler3D uVolume;
+#ifdef MODE_MIP
+uniform float uWinLo, uWinInvWidth;
+#else
+uniform sampler1D uTf;
+uniform float uTfLo, uTfInvSpan;
+#endif
+#ifdef SHADING
+uniform sampler3D uNormals;
+#endif
+#ifdef DEFORMED
+uniform sampler3D uMap;      // source index coordinates per map node (GAUSSIAN_MAP: padded)
+#endif
+#ifdef TURN_NORMALS
+uniform mat3 uNormalToSrcIndex;   // physical normal -> source index covector
+uniform mat3 uNodeIndexToNormal;  // map node index covector -> physical normal
+#endif
+#ifdef GAUSSIAN_MAP
+uniform vec3 uMapNodes;      // node grid dims; uMap has 1 more texel below, 2 above per axis
+#endif
+#ifdef OUTPUT_BOX
+uniform vec3 uOutScale, uOutOffset;   // map node index -> output voxel index, per axis
+uniform vec3 uOutDims;
+#endif
+#ifdef RIGID_SNAP
+uniform usampler3D uClasses;          // source-space classes: 0 air, 1 soft tissue, 2 + c body c
+uniform mat3 uSrcToClass;             // source index -> class index
+uniform vec3 uSrcToClassOffset;
+uniform mat3 uSrcDeltaToMm;           // source index offset -> mm
+uniform vec4 uBodyRows[3 * MAX_SNAP_BODIES];  // per body: source index = rows . (p, 1)
+uniform uint uBodyValid[(MAX_SNAP_BODIES + 31) / 32];
+uniform int uBodies;
+uniform float uMaxSnap2;              // mm^2
+#endif
+#ifdef LABELS
+uniform usampler3D uLabels;       // label id per source voxel
+uniform sampler1D uLabelColours;  // by id: rgb, a = 1 tinted / 0 not
+uniform float uLabelBlend;
+#endif
+#ifdef ATTRIBUTES
+uniform sampler3D uAttr;     // dL, da, db, density scale
+#endif
+#ifdef OPAQUE_DEPTH
+uniform sampler2D uOpaqueDepth;  // ray distance / OPAQUE_RANGE_MM of opaque geometry; 1: none
+#endif
+#ifdef SKIP_EMPTY
+uniform sampler3D uOccupancy;  // per block: 1 where the TF has opacity in its value range
+uniform ivec3 uBlocks;
+#endif
+#ifdef SKIP_MIP
+uniform sampler3D uBlockMax;   // per block: largest value its samples can see
+uniform ivec3 uBlocks;
+#endif
+
+float sampleValue(vec3 idx) {
+  return texture(uVolume, (idx + 0.5) / uSourceDims).r * uValueScale;
+}
+
+
+#ifdef DEFORMED
+#ifdef GAUSSIAN_MAP
+// Twin of gaussianUpsamplingWeights() in core/gaussian_upsampling.hpp (all four positive).
+vec4 gaussWeights(float f) {
+  vec4 x = vec4(-1.0, 0.0, 1.0, 2.0) - f;
+  vec4 w = exp(x * x * (-0.5 / (GAUSS_SIGMA * GAUSS_SIGMA)));
+  float beta = -dot(w, x) / dot(w, x * x);
+  w *= 1.0 + beta * x;
+  return w / dot(w, vec4(1.0));
+}
+#endif
+
+// u (source index) at map node index p: the node map interpolated as CPU synthesis upsamples it.
+vec3 mapAt(vec3 p) {
+#ifdef GAUSSIAN_MAP
+  // 4 taps per axis as 2 linear fetches (positive weights): 8 trilinear fetches in all.
+  vec3 q = clamp(p, vec3(0.0), uMapNodes - 1.0);
+  vec3 n0 = floor(q), f = q - n0;
+  vec4 wx = gaussWeights(f.x), wy = gaussWeights(f.y), wz = gaussWeights(f.z);
+  vec3 w0 = vec3(wx.x, wy.x, wz.x), w1 = vec3(wx.y, wy.y, wz.y);
+  vec3 w2 = vec3(wx.z, wy.z, wz.z), w3 = vec3(wx.w, wy.w, wz.w);
+  vec3 g0 = w0 + w1, g1 = w2 + w3;
+  vec3 inv = 1.0 / (uMapNodes + 3.0);
+  vec3 h0 = (n0 + w1 / g0 + 0.5) * inv, h1 = (n0 + 2.0 + w3 / g1 + 0.5) * inv;
+  vec3 u = vec3(0.0);
+  for (int c = 0; c < 8; ++c) {
+    bvec3 hi = bvec3((c & 1) != 0, (c & 2) != 0, (c & 4) != 0);
+    vec3 g = mix(g0, g1, hi);
+    u += (g.x * g.y * g.z) * texture(uMap, mix(h0, h1, hi)).xyz;
+  }
+  return u;
+#else
+  return texture(uMap, (p + 0.5) / uBoxDims).xyz;
+#endif
+}
+
+#ifdef TURN_NORMALS
+// Twin of PreparedMap::nodeTexture(): the node texture, hardware-filtered (either kernel).
+vec3 nodeTexture(vec3 p) {
+#ifdef GAUSSIAN_MAP
+  return texture(uMap, (p + 1.5) / (uMapNodes + 3.0)).xyz;
+#else
+  return texture(uMap, (p + 0.5) / uBoxDims).xyz;
+#endif
+}
+
+// Twin of PreparedMap::turnNormal(): the source normal at u(p) turned into output space by
+// J^T (J = du/dp by central differences of the node texture), keeping its length.
+// A sample the rigid snap moved (snappedBody >= 0) turns with that body exactly: J^T's
+// columns are the body's rows.
+vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
+  float len = length(n.xyz);
+  if (!(len > 1e-4) || !(n.w > GRAD_LOW)) return n;
+  mat3 jt;
+#ifdef RIGID_SNAP
+  if (snappedBody >= 0) {
+    jt = mat3(uBodyRows[3 * snappedBody].xyz, uBodyRows[3 * snappedBody + 1].xyz, uBodyRows[3 * snappedBody + 2].xyz);
+  } else
+#endif
+  {
+    vec3 jx = nodeTexture(p + vec3(NORMAL_STEP, 0.0, 0.0)) - nodeTexture(p - vec3(NORMAL_STEP, 0.0, 0.0));
+    vec3 jy = nodeTexture(p + vec3(0.0, NORMAL_STEP, 0.0)) - nodeTexture(p - vec3(0.0, NORMAL_STEP, 0.0));
+    vec3 jz = nodeTexture(p + vec3(0.0, 0.0, NORMAL_STEP)) - nodeTexture(p - vec3(0.0, 0.0, NORMAL_STEP));
+    jt = transpose(mat3(jx, jy, jz));
+  }
+  vec3 m = uNodeIndexToNormal * (jt * (uNormalToSrcIndex * n.xyz));
+  float ml = length(m);
+  return ml > 0.0 ? vec4(m * (len / ml), n.w) : n;
+}
+#endif
+
+#ifdef RIGID_SNAP
+// CPU synthesis' voxel snap: u in the class voxel of valid body c and R_c v + t_c within
+// maxSnapMm of u -> u = R_c v + t_c.
+vec3 snapRigid(vec3 p, vec3 u, out int snappedBody) {
+  snappedBody = -1;
+  vec3 c = uSrcToClass * u + uSrcToClassOffset;
+  if (any(lessThanEqual(c, vec3(-0.5)))) return u;
+  ivec3 ci = ivec3(floor(c + 0.5));
+  if (any(greaterThanEqual(ci, textureSize(uClasses, 0)))) return u;
+  int body = int(texelFetch(uClasses, ci, 0).r) - 2;
+  if (body < 0 || body >= uBodies || ((uBodyValid[body >> 5] >> uint(body & 31)) & 1u) == 0u) return u;
+  vec4 p1 = vec4(p, 1.0);
+  vec3 s = vec3(dot(uBodyRows[3 * body], p1), dot(uBodyRows[3 * body + 1], p1), dot(uBodyRows[3 * body + 2], p1));
+  vec3 dmm = uSrcDeltaToMm * (s - u);
+  if (!(dot(dmm, dmm) <= uMaxSnap2)) return u;
+  snappedBody = body;
+  return s;
+}
+#endif
+#endif
+
+#ifndef MODE_MIP
+vec4 tfLookup(float v) {
+  float x = clamp((v - uTfLo) * uTfInvSpan, 0.0, 1.0) * float(TF_SIZE - 1);
+  int i = min(int(x), TF_SIZE - 2);
+  return mix(texelFetch(uTf, i, 0), texelFetch(uTf, i + 1, 0), x - float(i));
+}
+#endif
+
+#ifdef SHADING
+vec3 shade(vec3 c, vec4 n, vec3 l) {
+  float len = length(n.xyz);
+  float w = len > 1e-4 ? clamp((n.w - GRAD_LOW) / (GRAD_HIGH - GRAD_LOW), 0.0, 1.0) : 0.0;
+  float ndl = abs(dot(n.xyz, l)) / max(len, 1e-4);
+  vec3 lit = c * (AMBIENT + DIFFUSE * ndl) + SPECULAR * pow(ndl, SHININESS);
+  return mix(c, min(lit, vec3(1.0)), w);
+}
+#endif
+
+#ifdef ATTRIBUTES
+float toLinear(float c) { return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4); }
+float toSrgb(float c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055; }
+const float kD = 6.0 / 29.0;
+float labF(float t) { return t > kD * kD * kD ? pow(t, 1.0 / 3.0) : t / (3.0 * kD * kD) + 4.0 / 29.0; }
+float labFInv(float t) { return t > kD ? t * t * t : 3.0 * kD * kD * (t - 4.0 / 29.0); }
+vec3 labShift(vec3 rgb, vec3 dLab) {
+  vec3 lin = vec3(toLinear(rgb.r), toLinear(rgb.g), toLinear(rgb.b));
+  float X = 0.4124 * lin.r + 0.3576 * lin.g + 0.1805 * lin.b;
+  float Y = 0.2126 * lin.r + 0.7152 * lin.g + 0.0722 * lin.b;
+  float Z = 0.0193 * lin.r + 0.1192 * lin.g + 0.9505 * lin.b;
+  float fx = labF(X / 0.95047), fy = labF(Y), fz = labF(Z / 1.08883);
+  float L = 116.0 * fy - 16.0 + dLab.x, A = 500.0 * (fx - fy) + dLab.y, B = 200.0 * (fy - fz) + dLab.z;
+  float gy = (L + 16.0) / 116.0, gx = gy + A / 500.0, gz = gy - B / 200.0;
+  float X2 = 0.95047 * labFInv(gx), Y2 = labFInv(gy), Z2 = 1.08883 * labFInv(gz);
+  vec3 l2 = vec3(3.2406 * X2 - 1.5372 * Y2 - 0.4986 * Z2, -0.9689 * X2 + 1.8758 * Y2 + 0.0415 * Z2,
+                 0.0557 * X2 - 0.2040 * Y2 + 1.0570 * Z2);
+  l2 = max(l2, vec3(0.0));
+  return clamp(vec3(toSrgb(l2.r), toSrgb(l2.g), toSrgb(l2.b)), 0.0, 1.0);
+}
+#endif
+

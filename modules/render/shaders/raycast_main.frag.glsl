@@ -1,0 +1,127 @@
+// Volume ray caster, part 3: the ray march (CPU reference: reference_cpu.cpp).
+void main() {
+  FragmentRay ray = fragmentRay();
+  vec3 origin = ray.origin, dir = ray.dir, o = ray.o, d = ray.d, inv = ray.inv;
+  float tmin = ray.tmin, tmax = ray.tmax;
+
+  vec4 acc = vec4(0.0);
+#ifdef MODE_MIP
+  float maxV = -3.0e38;
+  bool hit = false;
+#endif
+  float jitter = uJitter * pixelJitter(uint(gl_FragCoord.x), uint(uViewport.y - gl_FragCoord.y));
+#ifdef OPAQUE_DEPTH
+  // Opaque geometry ends the ray: only samples at t < its distance count (clipOpaque() on the CPU).
+  float surfaceT = texelFetch(uOpaqueDepth, ivec2(gl_FragCoord.xy), 0).r * OPAQUE_RANGE_MM;
+  bool surface = surfaceT < OPAQUE_RANGE_MM;
+#endif
+  if (tmax >= tmin) {
+    int k0 = int(ceil(tmin / uStep - jitter));
+    int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
+#ifdef OPAQUE_DEPTH
+    if (surface) k1 = min(k1, int(ceil(surfaceT / uStep - jitter)) - 1);
+#endif
+    for (int k = k0; k <= k1; ++k) {
+      vec3 p = o + ((float(k) + jitter) * uStep) * d;
+#if defined(SKIP_EMPTY) || defined(SKIP_MIP)
+      // In a block that cannot change the result (every sample has opacity 0, or for MIP
+      // none exceeds the maximum so far): jump to the first step beyond it.
+      ivec3 b = clamp(ivec3(floor(p / float(BLOCK_SIZE))), ivec3(0), uBlocks - 1);
+#ifdef SKIP_EMPTY
+      bool skip = texelFetch(uOccupancy, b, 0).r < 0.5;
+#else
+      bool skip = texelFetch(uBlockMax, b, 0).r <= maxV;
+#endif
+      if (skip) {
+        vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
+        vec3 hi = mix(vec3((b + 1) * BLOCK_SIZE), uBoxDims + 2.0, equal(b, uBlocks - 1));
+        vec3 tb = (mix(lo, hi, greaterThan(d, vec3(0.0))) - o) * inv;
+        // An axis the ray does not move along never exits the block (its inv is infinite and
+        // 0 * inf or -inf would end the ray early); the step is clamped before int().
+        tb = mix(tb, vec3(1.0e30), equal(d, vec3(0.0)));
+        float tExit = min(min(tb.x, tb.y), tb.z);
+        k = max(k, int(clamp(ceil(tExit / uStep - jitter), float(k), float(k1 + 1))) - 1);
+        continue;
+      }
+#endif
+#ifdef DEFORMED
+      vec3 mapTc = (p + 0.5) / uBoxDims;
+      vec3 u = mapAt(p);
+      int snappedBody = -1;
+#ifdef RIGID_SNAP
+      u = snapRigid(p, u, snappedBody);
+#endif
+#ifdef OUTPUT_BOX
+      // Beyond the output voxel centres the value fades to the background over one voxel, as
+      // the synthesised volume's texture fades to its border (PreparedMap::outputWeight).
+      vec3 xo = uOutScale * p + uOutOffset;
+      vec3 wo = clamp(min(1.0 + xo, uOutDims - xo), 0.0, 1.0);
+      float inside = wo.x * wo.y * wo.z;
+      if (inside <= 0.0) u = vec3(OUTSIDE);
+#endif
+#else
+      vec3 u = p;
+#endif
+      float v = sampleValue(u);
+#ifdef OUTPUT_BOX
+      if (inside < 1.0) v = mix(sampleValue(vec3(OUTSIDE)), v, inside);
+#endif
+#ifdef MODE_MIP
+      maxV = max(maxV, v);
+      hit = true;
+#else
+      vec4 c = tfLookup(v);
+      if (c.a > 0.0) {
+#ifdef ATTRIBUTES
+        vec4 at = texture(uAttr, mapTc);
+        c.rgb = labShift(c.rgb, at.xyz);
+        c.a = 1.0 - pow(max(1.0 - c.a, 1e-6), max(at.w, 0.0));
+#endif
+#ifdef LABELS
+        // The label of the voxel, among the 8 around u, that is most opaque in this transfer
+        // function tints the colour before shading: a sample on a bone's surface (where the
+        // bone preset starts to be opaque) takes the bone's label, not the muscle's beside it.
+        {
+          ivec3 b = ivec3(floor(u)), dims = ivec3(uSourceDims), bi = ivec3(-1);
+          float best = -1.0;
+          for (int n = 0; n < 8; ++n) {
+            ivec3 q = b + ivec3(n & 1, (n >> 1) & 1, (n >> 2) & 1);
+            if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
+            float a = tfLookup(texelFetch(uVolume, q, 0).r * uValueScale).a;
+            if (a > best) { best = a; bi = q; }
+          }
+          uint id = bi.x >= 0 ? texelFetch(uLabels, bi, 0).r : 0u;
+          if (id < uint(MAX_TINT_LABELS)) {
+            vec4 lc = texelFetch(uLabelColours, int(id), 0);
+            c.rgb = mix(c.rgb, lc.rgb, uLabelBlend * lc.a);
+          }
+        }
+#endif
+#ifdef SHADING
+        vec4 n = texture(uNormals, (u + 0.5) / uSourceDims);
+#ifdef TURN_NORMALS
+        n = deformedNormal(p, n, snappedBody);
+#endif
+        c.rgb = shade(c.rgb, n, -dir);
+#endif
+        acc.rgb += (1.0 - acc.a) * c.a * c.rgb;
+        acc.a += (1.0 - acc.a) * c.a;
+        if (acc.a >= EARLY_ALPHA) break;
+      }
+#endif
+    }
+  }
+#ifdef MODE_MIP
+  if (hit) acc = vec4(clamp((maxV - uWinLo) * uWinInvWidth, 0.0, 1.0));
+#endif
+#ifdef OPAQUE_DEPTH
+  // Premultiplied, blended (ONE, ONE_MINUS_SRC_ALPHA) over the surface colour in the target.
+  if (surface) { fragColor = acc; return; }
+#endif
+  vec4 outc = acc + (1.0 - acc.a) * vec4(uBackground.rgb * uBackground.a, uBackground.a);
+#ifdef OPAQUE_DEPTH
+  fragColor = vec4(min(outc.rgb, vec3(outc.a)), outc.a);  // premultiplied (blending is on)
+#else
+  fragColor = outc.a > 0.0 ? vec4(min(outc.rgb / outc.a, vec3(1.0)), outc.a) : vec4(0.0);
+#endif
+}
