@@ -1,6 +1,8 @@
 // One description per parameter: the tables drive validation, CLI flags, JSON and the docs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -128,6 +130,28 @@ TEST(Params, GeneratedCliFlagsWriteTheStructAndCheckRanges) {
                             parseArgs(a2, {"--elevation", "91"}); }),
               "elevation = 91 is outside -90..90");
   }
+}
+
+TEST(Params, ABooleanFlagTakesItsValueAfterASpace) {
+  CLI::App app;
+  render::RenderSettings s;
+  auto* sub = app.add_subcommand("render");
+  std::string input;
+  sub->add_option("input", input);
+  cli::addFlags(*sub, s, render::renderSettingsTable(), {"width", "height"});
+  const std::vector<std::string> joined =
+      cli::joinBooleanFlagValues(app, {"render", "--shading", "false", "in.nrrd", "--azimuth", "0"});
+  EXPECT_EQ(joined, (std::vector<std::string>{"render", "--shading=false", "in.nrrd", "--azimuth", "0"}));
+  // A positional after a flag stays a positional; a number after a valued option is its value.
+  EXPECT_EQ(cli::joinBooleanFlagValues(app, {"render", "--shading", "in.nrrd"}),
+            (std::vector<std::string>{"render", "--shading", "in.nrrd"}));
+  EXPECT_EQ(cli::joinBooleanFlagValues(app, {"render", "--azimuth", "1"}),
+            (std::vector<std::string>{"render", "--azimuth", "1"}));
+  std::vector<std::string> args = joined;
+  std::reverse(args.begin(), args.end());
+  app.parse(args);
+  EXPECT_FALSE(s.shading);
+  EXPECT_EQ(input, "in.nrrd");
 }
 
 TEST(Params, JsonRoundTripAndClearErrors) {

@@ -1,11 +1,36 @@
 #include "cli_params.hpp"
 
+#include <set>
+
 namespace vellum::cli {
 
 std::string flagHelp(const params::Info& info, const std::string& range) {
   std::string help = info.label + ": " + info.help;
   if (!info.unit.empty()) help += " [" + info.unit + "]";
   return help + " (" + range + ")";
+}
+
+// "--flag false" means "--flag=false" for a boolean flag of the chosen subcommand (CLI11
+/// takes only the "=" form; a following word that is not a boolean stays a positional).
+std::vector<std::string> joinBooleanFlagValues(CLI::App& app, std::vector<std::string> args) {
+  CLI::App* sub = nullptr;
+  for (size_t i = 0; i + 1 < args.size(); ++i) {
+    if (!sub) {
+      if (args[i].rfind("-", 0) == 0) continue;
+      for (CLI::App* s : app.get_subcommands([](CLI::App*) { return true; }))
+        if (s->check_name(args[i])) sub = s;
+      continue;
+    }
+    const std::string& next = args[i + 1];
+    static const std::set<std::string> kBooleans{"true", "false", "on", "off", "yes", "no", "1", "0"};
+    if (args[i].rfind("--", 0) != 0 || args[i].find('=') != std::string::npos || !kBooleans.count(next)) continue;
+    const CLI::Option* o = sub->get_option_no_throw(args[i]);
+    if (o && o->get_expected_max() == 0) {
+      args[i] += "=" + next;
+      args.erase(args.begin() + static_cast<std::ptrdiff_t>(i) + 1);
+    }
+  }
+  return args;
 }
 
 }  // namespace vellum::cli

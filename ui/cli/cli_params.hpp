@@ -7,6 +7,7 @@
 #include <map>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "vellum/core/params.hpp"
 
@@ -14,6 +15,11 @@ namespace vellum::cli {
 
 /// "Control scale: the map is ... [voxels] (1..16)".
 std::string flagHelp(const params::Info& info, const std::string& range);
+
+/// The command line (without the program name) with "--flag false" (true/false, on/off,
+/// yes/no, 1/0) joined into "--flag=false" for every boolean flag of the subcommand named in
+/// it: CLI11 parses only the "=" form, and a boolean word after a flag is never a positional.
+std::vector<std::string> joinBooleanFlagValues(CLI::App& app, std::vector<std::string> args);
 
 /// Adds the flags of `table` (except the keys in `skip`) to `cmd`, each named
 /// params::cliFlag(prefix + key); parsing writes into `target`, which must outlive the parse.

@@ -1,9 +1,13 @@
 // `vellum`: the headless command line of the Vellum volume workstation.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <csignal>
+#include <string>
+#include <vector>
 #include <iostream>
 
+#include "cli_params.hpp"
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/progress.hpp"
@@ -44,7 +48,9 @@ int main(int argc, char** argv) {
   addDemoCommand(app);
   addParamsCommand(app);
   try {
-    app.parse(argc, argv);
+    std::vector<std::string> args = joinBooleanFlagValues(app, std::vector<std::string>(argv + 1, argv + argc));
+    std::reverse(args.begin(), args.end());  // CLI11 takes them last first
+    app.parse(args);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const vellum::Cancelled&) {
