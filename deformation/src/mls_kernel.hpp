@@ -40,27 +40,20 @@ class RowEvaluator {
   void setSinglePrecision(bool on) { singlePrecision_ = on; }
 
  private:
-  static constexpr int kLanes = 4;
+  static constexpr int kLanes = 4;  // doubles per AVX2 register: rows are padded to a multiple
   void computeWeights();
-  void solveBlocked(const double* w, double* u, int kBegin, int kEnd);
-  // The attribute path's passes (solveWithAttributes calls them in order).
-  void solveWithAttributes(const double* w, double* u, double* attr);
-  void findDominantPoints(const double* w);
-  void accumulateCentroids(const double* w);
-  void accumulateMoments(const double* w);
-  void solveNodes();
-  void writePositions(double* u) const;
-  void writeAttributes(double* attr) const;
+  // The lane solver over nodes [kBegin, kEnd) in double precision (with attributes when attr).
+  void solveBlocked(const double* w, double* u, double* attr, int kBegin, int kEnd);
+  // The same in float lanes, 8 nodes at a time; blocks not well-posed in float are redone in double.
   void solveBlockedFloat(const double* w, double* u);
-  double* arr(int slot) { return buf_.data() + static_cast<size_t>(slot) * maxLen_; }
-  const double* arr(int slot) const { return buf_.data() + static_cast<size_t>(slot) * maxLen_; }
   const PointData& p_;
   MlsParams params_;
   int maxLen_, len_ = 0, stride_ = 0;
   bool singlePrecision_ = false;
   std::vector<double> w0_, w_;  // point-major weights
-  std::vector<double> buf_;     // accumulator arrays, one slot per quantity
-  std::vector<int> hit_, dom_;
+  std::vector<double> vx_, vy_, vz_;  // node positions relative to the targets' centre
+  std::vector<double> md2_, mid_;  // per node: the nearest point's squared distance and index
+  std::vector<int> hit_;
 };
 
 }  // namespace vellum::deformation::detail
