@@ -11,6 +11,7 @@
 #include "app.hpp"
 #include "vellum/deformation/keyframes.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
 #include "vellum/render/render_settings.hpp"
 
 namespace vellum::studio {
@@ -647,11 +648,9 @@ const std::map<std::string, Expander>& expanders() {
 }  // namespace
 
 std::unique_ptr<ScriptRunner> ScriptRunner::load(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "cannot open script");
   auto r = std::unique_ptr<ScriptRunner>(new ScriptRunner);
+  const json j = readJsonFile(path, 16u << 20, "studio script");  // scripts are hand-written: KBs
   try {
-    const json j = json::parse(in);
     r->actions_ = j.at("actions");
   } catch (const json::exception& e) {
     throw FileError(path, std::string("bad script: ") + e.what());
