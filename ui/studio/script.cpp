@@ -145,8 +145,9 @@ void expandScroll(Steps& s, const json& v) {
 
 void expandKey(Steps& s, const json& v) {
   const auto [key, mods] = parseKey(v.get<std::string>());
-  s.once([=](StudioApp& a) { a.injectKey(key, GLFW_PRESS, mods); });
-  s.once([=](StudioApp& a) { a.injectKey(key, GLFW_RELEASE, mods); });
+  // Init-captures: clang before 16 cannot capture structured bindings (the fuzz build).
+  s.once([key = key, mods = mods](StudioApp& a) { a.injectKey(key, GLFW_PRESS, mods); });
+  s.once([key = key, mods = mods](StudioApp& a) { a.injectKey(key, GLFW_RELEASE, mods); });
 }
 
 void expandFrames(Steps& s, const json& v) {
