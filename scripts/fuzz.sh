@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Coverage-guided fuzzing of one reader with libFuzzer (clang-14, ASan + UBSan).
 #   scripts/fuzz.sh TARGET SECONDS [extra libFuzzer flags]
-# TARGET: nrrd nhdr metaimage nifti vti raw_sidecar labels dicom control_points keyframes
+# TARGET: nrrd nhdr metaimage nifti vti raw_sidecar labels dicom control_points keyframes style curve
+#         scene script
 # The seed corpus is fuzz/corpus/TARGET (read only); new inputs go to build-fuzz/corpus/TARGET;
 # crashes, hangs (> 5 s) and out-of-memory (> 2 GB) land in build-fuzz/findings/TARGET: keep
 # each fixed one under tests/fuzz-regressions/TARGET (ctest replays them).

@@ -3,10 +3,9 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
 #include "vellum/io/nrrd_writer.hpp"
 
 namespace vellum::deformation {
@@ -15,15 +14,9 @@ namespace {
 using nlohmann::json;
 namespace fs = std::filesystem;
 
-json readJson(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "cannot open");
-  try {
-    return json::parse(in);
-  } catch (const json::exception& e) {
-    throw FileError(path, std::string("not valid JSON: ") + e.what());
-  }
-}
+// kMaxControlPoints points are about 15 MB of JSON; a keyframe track holds several such sets.
+constexpr uint64_t kMaxPointFileBytes = 64u << 20;
+constexpr uint64_t kMaxKeyframeFileBytes = 512u << 20;
 
 void writeJson(const json& j, const fs::path& path) { io::writeTextFile(path, j.dump(2) + "\n"); }
 
@@ -88,7 +81,7 @@ void checkUnits(const json& j, const fs::path& path) {
 }  // namespace
 
 PointFile loadControlPoints(const fs::path& path) {
-  const json j = readJson(path);
+  const json j = readJsonFile(path, kMaxPointFileBytes, "control-point file");
   if (!j.is_object()) throw FileError(path, "expected a JSON object with \"points\"");
   checkUnits(j, path);
   PointFile f;
@@ -151,7 +144,7 @@ static KeyframeCamera readCamera(const json& c, const fs::path& path, const std:
 }
 
 KeyframeTrack loadKeyframes(const fs::path& path) {
-  const json j = readJson(path);
+  const json j = readJsonFile(path, kMaxKeyframeFileBytes, "keyframe file");
   if (!j.is_object()) throw FileError(path, "expected a JSON object with \"keyframes\"");
   checkUnits(j, path);
   KeyframeTrack t;

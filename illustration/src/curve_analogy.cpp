@@ -5,13 +5,13 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <numeric>
 
 #include "curve_analogy_internal.hpp"
 #include "shape_internal.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
 
 namespace vellum::illustration {
 
@@ -72,14 +72,8 @@ std::vector<int> pickAnchors(const Polyline2& a, const Polyline2& b, int count) 
 }  // namespace
 
 Polyline2 loadCurveJson(const std::filesystem::path& path) {
-  std::ifstream is(path);
-  if (!is) throw FileError(path, "cannot open the curve file");
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(is);
-  } catch (const std::exception& e) {
-    throw FileError(path, std::string("not valid JSON: ") + e.what());
-  }
+  // A drawn curve has hundreds of points; 16 MiB holds about half a million.
+  const nlohmann::json j = readJsonFile(path, 16u << 20, "curve file");
   if (!j.is_object() || !j.contains("points") || !j["points"].is_array())
     throw FileError(path, "expected {\"points\": [[x, y], ...]}");
   Polyline2 c;

@@ -13,6 +13,8 @@
 #include <sstream>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
+#include "vellum/core/memory_budget.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/io/atomic_file.hpp"
 
@@ -196,15 +198,12 @@ const std::vector<StyleFieldDoc>& styleFields() {
 const params::Table<SegmentStyle>& segmentStyleTable() { return segmentTable(); }
 const params::Table<Style>& styleTable() { return globalTable(); }
 
-Style styleFromJson(const std::string& text, const std::string& source) {
-  json j;
-  try {
-    j = json::parse(text);
-  } catch (const json::parse_error& e) {
-    std::string msg = e.what();
-    const auto pos = msg.find("parse error");
-    throw FileError(source, "malformed JSON: " + (pos == std::string::npos ? msg : msg.substr(pos)));
-  }
+namespace {
+
+/// A style's JSON is a few KB; a megabyte is no style (and is refused unread).
+constexpr uint64_t kMaxStyleBytes = 1u << 20;
+
+Style styleFrom(const json& j, const std::string& source) {
   Style s;
   try {
     if (!j.is_object()) throw FieldProblem{"expected a JSON object at the top level, got " + describe(j)};
@@ -233,6 +232,13 @@ Style styleFromJson(const std::string& text, const std::string& source) {
   return s;
 }
 
+}  // namespace
+
+Style styleFromJson(const std::string& text, const std::string& source) {
+  if (text.size() > kMaxStyleBytes) throw FileError(source, "more than " + formatBytes(kMaxStyleBytes) + " of style JSON");
+  return styleFrom(parseJson(text, source), source);
+}
+
 std::string styleToJson(const Style& s) {
   json j = json::object();
   j["version"] = 1;
@@ -245,11 +251,7 @@ std::string styleToJson(const Style& s) {
 }
 
 Style loadStyle(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path, std::filesystem::exists(path) ? "cannot be read" : "no such style file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  Style s = styleFromJson(ss.str(), path.string());
+  Style s = styleFrom(readJsonFile(path, kMaxStyleBytes, "style file"), path.string());
   if (!s.textureVolume.empty() && std::filesystem::path(s.textureVolume).is_relative())
     s.textureVolume = (path.parent_path() / s.textureVolume).string();
   return s;

@@ -79,6 +79,22 @@ std::string readSmallFile(const fs::path& path, uint64_t maxBytes) {
   return s;
 }
 
+fs::path headerDataFile(const fs::path& header, const std::string& name, bool allowOutside) {
+  const fs::path named(name);
+  const fs::path file = named.is_absolute() ? named : header.parent_path() / named;
+  if (allowOutside) return file;
+  const std::string refusal = "data file '" + oneLine(name) + "' ";
+  const std::string permit = " (--allow-outside-data reads it)";
+  if (named.is_absolute()) throw FileError(header, refusal + "is an absolute path" + permit);
+  std::error_code ec, fileEc;
+  const fs::path folder = fs::weakly_canonical(fs::absolute(header, ec).parent_path(), ec);
+  const fs::path real = fs::weakly_canonical(fs::absolute(file, fileEc), fileEc);
+  if (ec || fileEc) throw FileError(header, refusal + "cannot be resolved: " + (ec ? ec : fileEc).message());
+  if (std::mismatch(folder.begin(), folder.end(), real.begin(), real.end()).first != folder.end())
+    throw FileError(header, refusal + "lies outside the header's folder" + permit);
+  return file;
+}
+
 void checkFileHolds(const fs::path& path, uint64_t offset, uint64_t count) {
   const uint64_t size = fileSize(path);
   if (offset > size || count > size - offset)

@@ -29,6 +29,10 @@ constexpr Endian hostEndian() {
 uint64_t fileSize(const fs::path& path);
 /// Whole small text/binary file (header); refuses files above `maxBytes`.
 std::string readSmallFile(const fs::path& path, uint64_t maxBytes = 64u << 20);
+/// The data file `name` that the detached header `header` names, relative to the header's
+/// folder. FileError naming the header when it is absolute or lies outside that folder (after
+/// "..", symlinks), unless `allowOutside` (LoadOptions::allowOutsideData).
+fs::path headerDataFile(const fs::path& header, const std::string& name, bool allowOutside);
 /// FileError "truncated: ..." unless the file holds `count` bytes from `offset`.
 void checkFileHolds(const fs::path& path, uint64_t offset, uint64_t count);
 /// Exactly `count` bytes from `offset` into `dst` (large pread calls, no staging copy);

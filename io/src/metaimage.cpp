@@ -137,7 +137,7 @@ struct MetaData {
   bool compressed = false;
 };
 
-MetaData metaDataLocation(const MetaHeader& h) {
+MetaData metaDataLocation(const MetaHeader& h, bool allowOutsideData) {
   const fs::path& path = h.path;
   if (const auto* b = h.optional({"BinaryData"}); b && !parseBool(path, "BinaryData", *b))
     throw FileError(path, "ASCII MetaImage data (BinaryData = False) is not supported");
@@ -153,7 +153,7 @@ MetaData metaDataLocation(const MetaHeader& h) {
   }
   if (dataFile.rfind("LIST", 0) == 0 || dataFile.find('%') != std::string::npos)
     throw FileError(path, "multi-file MetaImage data ('" + dataFile + "') is not supported");
-  d.file = fs::path(dataFile).is_absolute() ? fs::path(dataFile) : path.parent_path() / dataFile;
+  d.file = headerDataFile(path, dataFile, allowOutsideData);
   if (!fs::exists(d.file)) throw FileError(path, "data file " + d.file.string() + " does not exist");
   if (const auto* hs = h.optional({"HeaderSize"})) {
     const double v = h.number("HeaderSize", *hs);
@@ -196,7 +196,7 @@ LoadedVolume loadMetaImage(const fs::path& path, const LoadOptions& options) {
   SampleType type{};
   std::string warning;
   const Geometry g = metaGeometry(header, type, warning);
-  const MetaData data = metaDataLocation(header);
+  const MetaData data = metaDataLocation(header, options.allowOutsideData);
   AnyVolume vol = readMetaVoxels(header, data, type, g, options);
   std::string modality;
   if (const auto* m = header.optional({"Modality"})) {

@@ -274,13 +274,13 @@ void parseNrrdGeometry(const fs::path& path, const NrrdHeader& h, int64_t dimens
 }
 
 /// The data file, offset, encoding and byte order the header names.
-void locateNrrdData(const fs::path& path, const NrrdHeader& h, NrrdDescription& d) {
+void locateNrrdData(const fs::path& path, const NrrdHeader& h, NrrdDescription& d, bool allowOutsideData) {
   d.dataPath = path;
   d.offset = h.dataOffset;
   if (const std::string* df = field(h, {"data file", "datafile"})) {
     if (df->rfind("LIST", 0) == 0 || df->find('%') != std::string::npos)
       throw FileError(path, "multi-file NRRD data ('" + *df + "') is not supported");
-    d.dataPath = fs::path(*df).is_absolute() ? fs::path(*df) : path.parent_path() / *df;
+    d.dataPath = headerDataFile(path, *df, allowOutsideData);
     d.offset = 0;
   } else if (!h.terminated) {
     throw FileError(path, "header has no blank line ending it and no 'data file' field");
@@ -305,7 +305,7 @@ void locateNrrdData(const fs::path& path, const NrrdHeader& h, NrrdDescription& 
 
 /// Parses everything but the samples. `maxLeading`: largest leading (non-spatial) axis
 /// accepted (1 for scalar volumes: Slicer's 4-D single-layer segmentations).
-NrrdDescription describeNrrd(const fs::path& path, const NrrdHeader& h, int64_t maxLeading) {
+NrrdDescription describeNrrd(const fs::path& path, const NrrdHeader& h, int64_t maxLeading, bool allowOutsideData) {
   NrrdDescription d;
   d.type = parseNrrdType(path, required(path, h, {"type"}));
   const int64_t dimension = parseInteger(path, required(path, h, {"dimension"}), "dimension");
@@ -329,7 +329,7 @@ NrrdDescription describeNrrd(const fs::path& path, const NrrdHeader& h, int64_t 
               static_cast<int64_t>(sizes[first + 2])};
   checkAllocation(path, d.g.dims, sampleSize(d.type) * static_cast<uint64_t>(first ? sizes[0] : 1));
   parseNrrdGeometry(path, h, dimension, first, d.g);
-  locateNrrdData(path, h, d);
+  locateNrrdData(path, h, d, allowOutsideData);
   return d;
 }
 
@@ -410,7 +410,7 @@ const char* canonicalTypeName(SampleType t) {
 
 LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFields* extra) {
   const NrrdHeader h = parseHeader(path);
-  NrrdDescription d = describeNrrd(path, h, 1);
+  NrrdDescription d = describeNrrd(path, h, 1, options.allowOutsideData);
   AnyVolume vol = readNrrdVolume(d, path, options.progress);
 
   std::string modality;
@@ -445,7 +445,7 @@ namespace vellum::io {
 NrrdContents readNrrd(const std::filesystem::path& path, Progress* progress) {
   using namespace detail;
   const NrrdHeader h = parseHeader(path);
-  NrrdDescription d = describeNrrd(path, h, 1 << 16);
+  NrrdDescription d = describeNrrd(path, h, 1 << 16, false);
   NrrdContents c;
   c.bytes = readNrrdSamples(d, path, progress);
   if (d.endian != hostEndian()) {  // samples to host order

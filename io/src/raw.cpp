@@ -8,9 +8,9 @@
 //   headerBytes (default 0).
 #include <nlohmann/json.hpp>
 
-#include <fstream>
 
 #include "io_detail.hpp"
+#include "vellum/core/json_input.hpp"
 #include "vellum/io/atomic_file.hpp"
 
 namespace vellum::io::detail {
@@ -54,12 +54,7 @@ struct RawMeta {
 };
 
 RawMeta readSidecar(const fs::path& side) {
-  json j;
-  try {
-    j = json::parse(readSmallFile(side, 1u << 20));
-  } catch (const json::exception& e) {
-    throw FileError(side, std::string("malformed JSON: ") + e.what());
-  }
+  const json j = readJsonFile(side, 1u << 20, "raw sidecar");  // a sidecar is a few hundred bytes
   if (!j.is_object()) throw FileError(side, "sidecar must be a JSON object");
   RawMeta m;
   const auto dims = numbers(side, j, "dims", 3);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "file_errors.hpp"
+#include "hostile_json.hpp"
 #include "test_data.hpp"
 #include "vellum/app/curve_analogy_pipeline.hpp"
 #include "vellum/core/error.hpp"
@@ -35,4 +36,16 @@ TEST(CurveAnalogyPipeline, BadRequestsNameTheFieldOrFile) {
   r.out.clear();
   EXPECT_NE(errorOf(r).find("no output folder"), std::string::npos);
   EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+TEST(CurveAnalogyPipeline, DeepOrOversizeShapeReportIsRefused) {
+  const fs::path dir = test::tempDir("app-curve-hostile");
+  fs::create_directories(dir / "shape");
+  app::CurveAnalogyRequest r;
+  r.dir = dir / "shape";
+  r.out = dir / "out";
+  r.segment = "skin";
+  r.view.width = r.view.height = 64;
+  r.curve = {{10, 10}, {50, 10}, {30, 50}};
+  test::expectHostileJsonRefused(dir / "shape" / "shape.json", 16u << 20, [&] { app::runCurveAnalogy(r); });
 }

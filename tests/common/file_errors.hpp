@@ -35,7 +35,9 @@ inline std::string fileErrorOf(const std::function<void(const std::filesystem::p
     load(file);
   } catch (const FileError& e) {
     const std::string m = e.what();
-    if (namesFile) EXPECT_NE(m.find(file.filename().string()), std::string::npos) << m;
+    if (namesFile) {
+      EXPECT_NE(m.find(file.filename().string()), std::string::npos) << m;
+    }
     EXPECT_EQ(m.find('\n'), std::string::npos) << "not one line: " << m;
     return m;
   } catch (const std::exception& e) {

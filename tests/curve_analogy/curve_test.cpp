@@ -4,7 +4,10 @@
 #include <cmath>
 #include <numbers>
 
+#include "hostile_json.hpp"
+#include "test_data.hpp"
 #include "vellum/illustration/curve.hpp"
+#include "vellum/illustration/curve_analogy.hpp"
 
 namespace ill = vellum::illustration;
 
@@ -103,4 +106,9 @@ TEST(Curve, Hausdorff) {
   ill::Polyline2 b = a;
   for (auto& p : b) p.x += 2;
   EXPECT_NEAR(ill::hausdorff(a, b, true, true), 2.0, 1e-12);
+}
+
+TEST(Curve, DeepOrOversizeCurveFilesAreRefused) {
+  const auto dir = vellum::test::tempDir("curve-hostile");
+  vellum::test::expectHostileJsonRefused(dir / "c0.json", 16u << 20, [&] { (void)ill::loadCurveJson(dir / "c0.json"); });
 }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "file_errors.hpp"
+#include "hostile_json.hpp"
 #include "test_data.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/point_files.hpp"
@@ -145,4 +146,10 @@ TEST(KeyframeTrack, FrameCountRefusesAbsurdTracks) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("keyframe 0: \"duration\""), std::string::npos) << e.what();
   }
+}
+
+TEST(JsonRobustness, DeepOrOversizeFilesAreRefusedWithoutParsing) {
+  const fs::path dir = test::tempDir("json-hostile");
+  test::expectHostileJsonRefused(dir / "cp.json", 64u << 20, [&] { loadPoints(dir / "cp.json"); });
+  test::expectHostileJsonRefused(dir / "kf.json", 512u << 20, [&] { loadTrack(dir / "kf.json"); });
 }

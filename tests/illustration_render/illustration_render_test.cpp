@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <algorithm>
 
+#include "hostile_json.hpp"
 #include "image_compare.hpp"
 #include "shape_fixtures.hpp"
 #include "test_data.hpp"
@@ -389,8 +390,9 @@ void expectOneLineError(const std::string& text, const std::string& mustContain)
 }
 
 TEST(IllustrationStyle, MalformedJsonGivesOneLineErrors) {
-  expectOneLineError("{ \"segments\": [ {\"match\": ", "malformed JSON");
-  expectOneLineError("", "malformed JSON");
+  expectOneLineError("{ \"segments\": [ {\"match\": ", "not valid JSON: line 1");
+  expectOneLineError("", "not valid JSON");
+  expectOneLineError(test::deepJson(), "JSON nested deeper than 64 levels");  // was SIGSEGV
   expectOneLineError("[1, 2]", "top level");
   expectOneLineError(R"({"segments": [{"match": "bone", "opacity": 2}]})", "segments[0].opacity");
   expectOneLineError(R"({"segments": [{"match": "bone", "opacity": "x"}]})", "segments[0].opacity");
@@ -405,6 +407,11 @@ TEST(IllustrationStyle, MalformedJsonGivesOneLineErrors) {
   expectOneLineError(R"({"unclassified": 3})", "unclassified");
   EXPECT_THROW(loadStyle("/nonexistent/style.json"), FileError);
   EXPECT_THROW(stylePreset("rococo"), Error);
+}
+
+TEST(IllustrationStyle, DeepOrOversizeFilesAreRefusedWithoutParsing) {
+  const auto dir = test::tempDir("style-hostile");
+  test::expectHostileJsonRefused(dir / "s.json", 1u << 20, [&] { (void)loadStyle(dir / "s.json"); });
 }
 
 TEST(IllustrationStyle, RowsResolveByName) {
@@ -497,6 +504,16 @@ TEST(IllustrationCli, RendersAFixtureAndNamesBadInputs) {
   EXPECT_NE(runCli(base + " --style " + (dir / "bad.json").string() + " --out " + (dir / "x.png").string(), err), 0);
   e = readText(err);
   EXPECT_NE(e.find("bad.json"), std::string::npos) << e;
+  EXPECT_EQ(std::count(e.begin(), e.end(), '\n'), 1) << e;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
+
+  // 200 000 nested arrays crashed `vellum illustrate --style` with SIGSEGV: now an error exit
+  // (not a signal) and one line.
+  std::ofstream(dir / "deep.json") << test::deepJson();
+  const int rc = runCli(base + " --style " + (dir / "deep.json").string() + " --out " + (dir / "x.png").string(), err);
+  EXPECT_TRUE(rc > 0 && rc < 128) << rc;
+  e = readText(err);
+  EXPECT_NE(e.find("deep.json: JSON nested deeper than 64 levels"), std::string::npos) << e;
   EXPECT_EQ(std::count(e.begin(), e.end(), '\n'), 1) << e;
   EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
 }

@@ -6,6 +6,7 @@
 #include <functional>
 #include <iostream>
 
+#include "hostile_json.hpp"
 #include "io_test_util.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -130,7 +131,7 @@ const std::vector<Malformed>& cases() {
       {"nhdr_missing_data_file", "a.nhdr", "does not exist",
        [](auto d) { writeFile(d / "a.nhdr", "NRRD0004\n" + kOk + "data file: gone.raw\n"); }},
       {"raw_no_sidecar", "a.raw", "no sidecar", [](auto d) { writeFile(d / "a.raw", std::string(8, '\0')); }},
-      {"raw_malformed_json", "a.raw", "malformed json",
+      {"raw_malformed_json", "a.raw", "not valid json: line 1",
        [](auto d) { writeFile(d / "a.raw", std::string(8, '\0')); writeFile(d / "a.raw.json", "{\"dims\": [2,1,"); }},
       {"raw_sidecar_missing_dims", "a.raw", "'dims'",
        [](auto d) { writeFile(d / "a.raw", std::string(8, '\0')); writeFile(d / "a.raw.json", R"({"type":"int16"})"); }},
@@ -214,6 +215,12 @@ TEST_P(MalformedFile, ThrowsFileErrorNamingFileAndProblem) {
 
 INSTANTIATE_TEST_SUITE_P(Cases, MalformedFile, ::testing::Range<size_t>(0, cases().size()),
                          [](const auto& info) { return std::string(cases()[info.param].name); });
+
+TEST(MalformedRawSidecar, DeepOrOversizeJsonIsRefusedWithoutParsing) {
+  const fs::path dir = tempDir("malformed-sidecar");
+  writeFile(dir / "a.raw", std::string(8, '\0'));
+  expectHostileJsonRefused(dir / "a.raw.json", 1u << 20, [&] { (void)io::loadVolume(dir / "a.raw"); });
+}
 
 TEST(MalformedLabels, BadLabelTableEntryNamesKeyAndFile) {
   const fs::path dir = tempDir("malformed-labels");

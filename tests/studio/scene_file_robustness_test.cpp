@@ -1,6 +1,7 @@
 // The studio scene reader on damaged scene files: truncated, wrong types, NaN/inf, out-of-range
 // values, empty and huge arrays, a damaged keyframe file beside it. Each must be one line of
-// vellum::FileError naming the file and the field; never a crash or another exception.
+// vellum::FileError naming the file and the field; never a crash or another exception. Also the
+// studio's other JSON readers (scripts, shape reports) on deep and oversize files.
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -8,6 +9,9 @@
 
 #include "scene_file.hpp"
 #include "file_errors.hpp"
+#include "hostile_json.hpp"
+#include "script.hpp"
+#include "segment_meshes.hpp"
 #include "test_data.hpp"
 #include "vellum/core/error.hpp"
 
@@ -109,4 +113,11 @@ TEST(StudioSceneFile, EveryTruncationIsANamedError) {
   std::ofstream(dir / "full.json") << full;
   ASSERT_NO_THROW(readSceneFile(dir / "full.json"));
   for (size_t n = 0; n + 1 < full.size(); ++n) (void)sceneError(dir, full.substr(0, n));
+}
+
+TEST(StudioJsonReaders, DeepOrOversizeFilesAreRefusedWithoutParsing) {
+  const fs::path dir = test::tempDir("studio-json-hostile");
+  test::expectHostileJsonRefused(dir / "scene.json", 16u << 20, [&] { (void)readSceneFile(dir / "scene.json"); });
+  test::expectHostileJsonRefused(dir / "script.json", 16u << 20, [&] { (void)ScriptRunner::load(dir / "script.json"); });
+  test::expectHostileJsonRefused(dir / "shape.json", 16u << 20, [&] { (void)loadSegmentMeshes(dir, LabelVolume()); });
 }

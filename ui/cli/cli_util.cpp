@@ -32,6 +32,9 @@ void InputOptions::addTo(CLI::App& cmd) {
   cmd.add_option("--crop-mm", cropMm, "keep the voxels inside the box x0 x1 y0 y1 z0 z1 (mm, LPS)")->expected(6);
   cmd.add_option("--downsample", downsample, "reduce every N^3 block to one voxel on load (mean; label maps: "
                                              "most frequent id)")->check(CLI::Range(1, 16));
+  cmd.add_flag("--allow-outside-data", allowOutsideData,
+               ".nhdr/.mhd: read a data file the header names outside its own folder (absolute, '..', "
+               "a symlink leading out)");
 }
 
 Region InputOptions::region() const {
@@ -46,6 +49,7 @@ Region InputOptions::region() const {
 LabelVolume InputOptions::loadLabelsOnInputGrid(const std::filesystem::path& path) const {
   io::LoadOptions o;
   o.region = region();
+  o.allowOutsideData = allowOutsideData;
   return io::loadLabels(path, o);
 }
 
@@ -54,6 +58,7 @@ io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
   o.seriesUid = seriesUid;
   o.progress = progress;
   o.region = region();
+  o.allowOutsideData = allowOutsideData;
   if (!rescale.empty()) o.rescale = std::pair{rescale[0], rescale[1]};
   if (!rawDims.empty()) {
     io::RawLayout r;

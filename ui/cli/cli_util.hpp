@@ -31,9 +31,11 @@ struct InputOptions {
   std::vector<double> cropMm;       ///< x0 x1 y0 y1 z0 z1
   int downsample = 1;
   std::vector<double> rescale;      ///< slope intercept
+  bool allowOutsideData = false;    ///< --allow-outside-data (io::LoadOptions::allowOutsideData)
 
   /// Adds --series, --raw-dims, --raw-type, --raw-spacing, --raw-origin, --raw-direction,
-  /// --raw-endian, --raw-header, --rescale, --crop, --crop-mm, --downsample to `cmd`.
+  /// --raw-endian, --raw-header, --rescale, --crop, --crop-mm, --downsample,
+  /// --allow-outside-data to `cmd`.
   void addTo(CLI::App& cmd);
   /// Turns the flags into io::LoadOptions (with `progress` attached).
   io::LoadOptions toLoadOptions(Progress* progress) const;

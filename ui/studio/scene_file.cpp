@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/deformation/deform_params.hpp"
 #include "vellum/deformation/point_files.hpp"
@@ -189,14 +190,8 @@ json sceneViewJson(const SceneFile& s) {
 }
 
 SceneFile readSceneFile(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "cannot open scene file");
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::exception& e) {
-    throw FileError(path, std::string("not valid JSON: ") + e.what());
-  }
+  // A scene is a few KB (its keyframes live in their own file); 16 MiB is room for bookmarks.
+  const json j = readJsonFile(path, 16u << 20, "scene file");
   if (!j.is_object()) throw FileError(path, "not a vellum-studio scene (expected a JSON object)");
   const Fields f{path};
   SceneFile s;

@@ -11,6 +11,7 @@
 #include "app.hpp"
 #include "vellum/deformation/keyframes.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
 #include "vellum/render/render_settings.hpp"
 
 namespace vellum::studio {
@@ -145,8 +146,9 @@ void expandScroll(Steps& s, const json& v) {
 
 void expandKey(Steps& s, const json& v) {
   const auto [key, mods] = parseKey(v.get<std::string>());
-  s.once([=](StudioApp& a) { a.injectKey(key, GLFW_PRESS, mods); });
-  s.once([=](StudioApp& a) { a.injectKey(key, GLFW_RELEASE, mods); });
+  // Init-captures: clang before 16 cannot capture structured bindings (the fuzz build).
+  s.once([key = key, mods = mods](StudioApp& a) { a.injectKey(key, GLFW_PRESS, mods); });
+  s.once([key = key, mods = mods](StudioApp& a) { a.injectKey(key, GLFW_RELEASE, mods); });
 }
 
 void expandFrames(Steps& s, const json& v) {
@@ -675,11 +677,9 @@ const std::map<std::string, Expander>& expanders() {
 }  // namespace
 
 std::unique_ptr<ScriptRunner> ScriptRunner::load(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "cannot open script");
   auto r = std::unique_ptr<ScriptRunner>(new ScriptRunner);
+  const json j = readJsonFile(path, 16u << 20, "studio script");  // scripts are hand-written: KBs
   try {
-    const json j = json::parse(in);
     r->actions_ = j.at("actions");
   } catch (const json::exception& e) {
     throw FileError(path, std::string("bad script: ") + e.what());

@@ -1,10 +1,10 @@
 #include "segment_meshes.hpp"
 
 #include <algorithm>
-#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
 
 namespace vellum::studio {
 namespace fs = std::filesystem;
@@ -28,10 +28,8 @@ SegmentMeshes loadSegmentMeshes(const fs::path& folder, const LabelVolume& segme
     out.push_back({name, std::move(ids), colourOf(segments, name), illustration::loadMesh(file)});
   };
   if (fs::exists(report)) {
-    nlohmann::json j;
+    const nlohmann::json j = readJsonFile(report, 16u << 20, "shape report");  // a segment list: KBs
     try {
-      std::ifstream in(report);
-      j = nlohmann::json::parse(in);
       for (const auto& s : j.at("segments")) add(s.at("name").get<std::string>(), s.value("ids", std::vector<uint16_t>{}));
     } catch (const nlohmann::json::exception& e) {
       throw FileError(report, std::string("not a vellum shape report: ") + e.what());

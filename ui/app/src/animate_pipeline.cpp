@@ -117,6 +117,7 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   if (request.annotations.labels) {
     io::LoadOptions o;
     o.region = request.load.region;
+    o.allowOutsideData = request.load.allowOutsideData;
     names = io::loadLabels(request.engine.labels, o);
     withLabels.labels = &*names;
   }

@@ -4,11 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 
 #include "vellum/app/outputs.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/deformation/map_file.hpp"
 #include "vellum/illustration/curve_analogy.hpp"
@@ -26,13 +26,8 @@ double msSince(std::chrono::steady_clock::time_point t0) {
 
 nlohmann::json readShapeJson(const fs::path& dir) {
   const fs::path p = dir / "shape.json";
-  std::ifstream is(p);
-  if (!is) throw FileError(p, "cannot open (is " + dir.string() + " a `vellum shape` folder?)");
-  try {
-    return nlohmann::json::parse(is);
-  } catch (const std::exception& e) {
-    throw FileError(p, std::string("not valid JSON: ") + e.what());
-  }
+  if (!fs::exists(p)) throw FileError(p, "no such file (is " + dir.string() + " a `vellum shape` folder?)");
+  return readJsonFile(p, 16u << 20, "shape report");  // a segment list: KBs
 }
 
 nlohmann::json curveJson(const ill::Polyline2& c) {

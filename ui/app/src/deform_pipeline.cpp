@@ -170,6 +170,7 @@ std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const
   if (rigidIds.empty()) throw Error("--labels needs --rigid-labels (the ids that stay rigid)");
   io::LoadOptions o;
   o.region = load.region;
+  o.allowOutsideData = load.allowOutsideData;
   const LabelVolume lv = io::loadLabels(labels, o);
   if (!(lv.geometry().dims == grid.dims) || !lv.geometry().approxEqual(grid, 1e-3))
     throw FileError(labels, "label map grid " + lv.geometry().dims.str() + " differs from the volume's " +

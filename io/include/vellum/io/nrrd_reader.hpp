@@ -20,7 +20,8 @@ struct NrrdContents {
   std::vector<uint8_t> bytes;  ///< the samples in host byte order, leading axis fastest
 };
 
-/// Reads `path`; vellum::FileError naming the file (or its data file) for anything wrong.
+/// Reads `path`; vellum::FileError naming the file (or its data file) for anything wrong. A
+/// detached header's data file must lie in the header's folder (LoadOptions::allowOutsideData).
 NrrdContents readNrrd(const std::filesystem::path& path, Progress* progress = nullptr);
 
 }  // namespace vellum::io

@@ -61,6 +61,11 @@ struct LoadOptions {
   /// (int16 HU, rounded and saturated, background -1000). For data that is not in HU, e.g.
   /// CT numbers 0..4095 from a bare RAW: {1, -1024}.
   std::optional<std::pair<double, double>> rescale;
+  /// NRRD (.nhdr "data file") and MetaImage (.mhd "ElementDataFile"): read a data file that is
+  /// absolute or lies outside the header's folder ("..", a symlink leading out). Off by default:
+  /// a downloaded header must not be a way to read any file the user can (CLI:
+  /// --allow-outside-data).
+  bool allowOutsideData = false;
 };
 
 struct LoadedVolume {
