@@ -164,6 +164,25 @@ TEST(Faults, InterruptCancelsAndLeavesNoTemporaryFiles) {
   }
 }
 
+// Issue 19: a GL draw cannot be interrupted, so Ctrl-C during `render` cancels right after it:
+// exit 130 and no figure (not even the presets already drawn).
+TEST(Faults, InterruptDuringAGlRenderWritesNoFigure) {
+  const auto dir = test::tempDir("fault-int-render");
+  writePhantom(dir, 64);
+  Child c({"render", (dir / "knee.nrrd").string(), "--preset", "all", "--size", "1536x1536", "--out",
+           (dir / "fig.png").string()},
+          dir / "err.txt");
+  ASSERT_TRUE(c.waitUntilCatching(SIGINT));
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));  // into the first draws
+  ::kill(c.pid, SIGINT);
+  const int rc = c.wait();
+  if (rc == 0) GTEST_SKIP() << "finished before the interrupt (fast machine)";
+  EXPECT_EQ(rc, 130) << c.errors();
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_NE(e.path().extension(), ".png") << e.path();
+  EXPECT_EQ(leftoverTemps(dir), 0);
+}
+
 TEST(Faults, NoCommandModifiesItsInputs) {
   const auto dir = test::tempDir("fault-inputs");
   writePhantom(dir, 40);

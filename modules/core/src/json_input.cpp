@@ -63,6 +63,7 @@ nlohmann::json readJsonFile(const std::filesystem::path& path, uint64_t maxBytes
   std::error_code ec;
   const auto status = fs::status(path, ec);
   if (!fs::exists(status)) throw FileError(path, std::string("no such ") + what);
+  if (fs::is_directory(status)) throw FileError(path, std::string("is a folder (a ") + what + " is expected)");
   if (!fs::is_regular_file(status)) throw FileError(path, std::string("not a regular file (a ") + what + " is expected)");
   const uint64_t size = fs::file_size(path, ec);
   if (ec) throw FileError(path, "cannot read the file size: " + ec.message());
