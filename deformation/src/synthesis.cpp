@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <climits>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -15,6 +14,7 @@
 #endif
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/index_frame.hpp"
 #include "vellum/core/simd_clones.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
@@ -111,73 +111,11 @@ VELLUM_SIMD_CLONES void axpy(float* dst, const float* src, float w, int64_t n) {
   for (int64_t t = 0; t < n; ++t) dst[t] += w * src[t];
 }
 
-// The rigid snap in the frame of the upsampled coordinates (mm for upsampleMap, source index
-// for synthesize), at output voxel indices, plus where each body can reach.
-struct PreparedSnap {
-  SnapFrame frame;
-  // Per body: output-index box {min i, j, k, max i, j, k} the snap can reach (inclusive).
-  std::vector<std::array<int64_t, 6>> reach;
-
-  // The snap of one output voxel (index v, not necessarily whole) whose upsampled source is u.
-  void point(const float v[3], float& ux, float& uy, float& uz) const {
-    float u[3] = {ux, uy, uz};
-    if (frame.apply(v, u) < 0) return;
-    ux = u[0]; uy = u[1]; uz = u[2];
-  }
-
-  // True when row()'s voxel range for row (j, k) holds v (continuous v: the same bounds).
-  bool reaches(const Vec3& v) const {
-    double lo = 1e300, hi = -1e300;
-    for (const auto& r : reach)
-      if (v.y >= double(r[1]) && v.y <= double(r[4]) && v.z >= double(r[2]) && v.z <= double(r[5])) {
-        lo = std::min(lo, double(r[0]));
-        hi = std::max(hi, double(r[3]));
-      }
-    return v.x >= lo && v.x <= hi;
-  }
-
-  void row(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const {
-    int64_t lo = n, hi = -1;
-    for (const auto& r : reach)
-      if (j >= r[1] && j <= r[4] && k >= r[2] && k <= r[5]) {
-        lo = std::min(lo, std::max<int64_t>(r[0], 0));
-        hi = std::max(hi, std::min<int64_t>(r[3], n - 1));
-      }
-    for (int64_t i = lo; i <= hi; ++i) {
-      const float v[3] = {static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
-      point(v, ux[i], uy[i], uz[i]);
-    }
-  }
-};
-
-Mat3 indexToMm(const Geometry& g) {
-  return g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0}, {0, 0, g.spacing.z});
-}
-
-// Prepares cv.rigidSnap (or nothing) for output geometry g and coordinate frame mm = L u + o.
-std::optional<PreparedSnap> prepareSnap(const ControlVolume& cv, const Geometry& g, const Mat3& L, const Vec3& o) {
+// The rigid snap (or nothing) in the frame of the upsampled coordinates, mm = L u + o (mm for
+// upsampleMap, source index for synthesize), at the voxel indices of output geometry g.
+std::optional<SnapFrame> prepareSnap(const ControlVolume& cv, const Geometry& g, const Mat3& L, const Vec3& o) {
   if (!cv.rigidSnap || !cv.rigidSnap->classes) return std::nullopt;
-  const RigidSnap& rs = *cv.rigidSnap;
-  PreparedSnap p{snapFrame(rs, g, L, o), {}};
-  if (rs.reachMm.size() == rs.fits.size()) {
-    // Output-index bounds of each body's reach box (its 8 corners through mm -> index).
-    for (const auto& b : rs.reachMm) {
-      if (b[3] < b[0]) continue;
-      std::array<int64_t, 6> r{INT64_MAX, INT64_MAX, INT64_MAX, INT64_MIN, INT64_MIN, INT64_MIN};
-      for (int q = 0; q < 8; ++q) {
-        const Vec3 idx = g.physicalToIndex({(q & 1) ? b[3] : b[0], (q & 2) ? b[4] : b[1], (q & 4) ? b[5] : b[2]});
-        for (int a = 0; a < 3; ++a) {
-          const double lo = std::clamp(std::floor(idx[a]), -1.0, 1e15), hi = std::clamp(std::ceil(idx[a]), -1.0, 1e15);
-          r[static_cast<size_t>(a)] = std::min(r[static_cast<size_t>(a)], static_cast<int64_t>(lo));
-          r[static_cast<size_t>(a + 3)] = std::max(r[static_cast<size_t>(a + 3)], static_cast<int64_t>(hi));
-        }
-      }
-      p.reach.push_back(r);
-    }
-  } else {
-    p.reach.push_back({0, 0, 0, INT64_MAX / 2, INT64_MAX / 2, INT64_MAX / 2});  // everywhere
-  }
-  return p;
+  return snapFrame(*cv.rigidSnap, g, L, o);
 }
 
 // An affine change of frame applied to each z-blended plane of nodes (u' = A u + b, A
@@ -204,7 +142,7 @@ VELLUM_SIMD_CLONES void applyAffine(const PlaneAffine& m, float* xyz, int64_t no
 template <int Taps, class RowFn>
 void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od, int scale,
                   const AxisTaps<Taps>& tx, const AxisTaps<Taps>& ty, const AxisTaps<Taps>& tz,
-                  const PlaneAffine* toFrame, const PreparedSnap* snap, Progress& progress,
+                  const PlaneAffine* toFrame, const SnapFrame* snap, Progress& progress,
                   const char* stage, RowFn&& rowFn) {
   const int64_t planeNodes = nd.x * nd.y;
   // x taps as structure of arrays, node indices premultiplied by 3 (xyz interleaved rows).
@@ -240,7 +178,7 @@ void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od
           upsampleXLinear(row.data(), nd.x, scale, od.x, ox.data(), oy.data(), oz.data());
         else
           upsampleX4(row.data(), xiP, xwP, od.x, ox.data(), oy.data(), oz.data());
-        if (snap) snap->row(j, k, od.x, ox.data(), oy.data(), oz.data());
+        if (snap) snap->applyRow(j, k, od.x, ox.data(), oy.data(), oz.data());
         rowFn(k, j, ox.data(), oy.data(), oz.data());
       }
       progress.advance();
@@ -326,7 +264,7 @@ bool haveAvx2() {
 
 template <class RowFn>
 void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od, int s,
-                 Upsampling up, const PlaneAffine* toFrame, const PreparedSnap* snap, Progress& progress,
+                 Upsampling up, const PlaneAffine* toFrame, const SnapFrame* snap, Progress& progress,
                  const char* stage, RowFn&& rowFn) {
   if (up == Upsampling::Trilinear)
     upsampleRows(map3, nd, od, s, linearTaps(od.x, nd.x, s), linearTaps(od.y, nd.y, s),
@@ -426,13 +364,13 @@ struct MapSampler::Impl {
   Geometry output;
   Geometry::ToIndex toIndex;  // output.physicalToIndex without inverting the direction per call
   Upsampling upsampling = Upsampling::Trilinear;
-  std::optional<PreparedSnap> snap;  // in mm, as upsampleMap() applies it
+  std::optional<SnapFrame> snap;  // in mm, as upsampleMap() applies it
 
   // The snap at output index o (where synthesis applies it).
   void snapAt(const Vec3& o, float u[3]) const {
     if (!snap || !snap->reaches(o)) return;
     const float v[3] = {static_cast<float>(o.x), static_cast<float>(o.y), static_cast<float>(o.z)};
-    snap->point(v, u[0], u[1], u[2]);
+    snap->apply(v, u);
   }
 
   // u at output index o (inside the voxel centres): the nodes interpolated, then the snap.

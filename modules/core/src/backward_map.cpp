@@ -1,15 +1,14 @@
 #include "vellum/core/backward_map.hpp"
 
+#include <climits>
+
 #include "vellum/core/error.hpp"
+#include "vellum/core/index_frame.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 
 namespace vellum {
 namespace {
-
-Mat3 indexToMm(const Geometry& g) {
-  return g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0}, {0, 0, g.spacing.z});
-}
 
 void put(std::array<float, 12>& e, const Mat3& m, const Vec3& b) {
   for (int r = 0; r < 3; ++r) {
@@ -133,7 +132,50 @@ SnapFrame snapFrame(const RigidSnap& rs, const Geometry& pointGrid, const Mat3& 
   p.valid = rs.valid;
   p.valid.resize(p.body.size(), 0);
   p.maxSnap2 = static_cast<float>(rs.maxSnapMm * rs.maxSnapMm);
+  if (rs.reachMm.size() == rs.fits.size()) {
+    // Point-index bounds of each body's reach box (its 8 corners through mm -> index).
+    for (const auto& b : rs.reachMm) {
+      if (b[3] < b[0]) continue;
+      std::array<int64_t, 6> r{INT64_MAX, INT64_MAX, INT64_MAX, INT64_MIN, INT64_MIN, INT64_MIN};
+      for (int q = 0; q < 8; ++q) {
+        const Vec3 idx = pointGrid.physicalToIndex({(q & 1) ? b[3] : b[0], (q & 2) ? b[4] : b[1], (q & 4) ? b[5] : b[2]});
+        for (int a = 0; a < 3; ++a) {
+          const double lo = std::clamp(std::floor(idx[a]), -1.0, 1e15), hi = std::clamp(std::ceil(idx[a]), -1.0, 1e15);
+          r[static_cast<size_t>(a)] = std::min(r[static_cast<size_t>(a)], static_cast<int64_t>(lo));
+          r[static_cast<size_t>(a + 3)] = std::max(r[static_cast<size_t>(a + 3)], static_cast<int64_t>(hi));
+        }
+      }
+      p.reach.push_back(r);
+    }
+  } else {
+    p.reach.push_back({0, 0, 0, INT64_MAX / 2, INT64_MAX / 2, INT64_MAX / 2});  // everywhere
+  }
   return p;
+}
+
+bool SnapFrame::reaches(const Vec3& v) const {
+  double lo = 1e300, hi = -1e300;
+  for (const auto& r : reach)
+    if (v.y >= double(r[1]) && v.y <= double(r[4]) && v.z >= double(r[2]) && v.z <= double(r[5])) {
+      lo = std::min(lo, double(r[0]));
+      hi = std::max(hi, double(r[3]));
+    }
+  return v.x >= lo && v.x <= hi;
+}
+
+void SnapFrame::applyRow(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const {
+  int64_t lo = n, hi = -1;
+  for (const auto& r : reach)
+    if (j >= r[1] && j <= r[4] && k >= r[2] && k <= r[5]) {
+      lo = std::min(lo, std::max<int64_t>(r[0], 0));
+      hi = std::max(hi, std::min<int64_t>(r[3], n - 1));
+    }
+  for (int64_t i = lo; i <= hi; ++i) {
+    const float v[3] = {static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
+    float u[3] = {ux[i], uy[i], uz[i]};
+    if (apply(v, u) < 0) continue;
+    ux[i] = u[0]; uy[i] = u[1]; uz[i] = u[2];
+  }
 }
 
 }  // namespace vellum

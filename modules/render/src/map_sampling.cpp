@@ -6,13 +6,10 @@
 
 #include "render_common.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/index_frame.hpp"
 
 namespace vellum::render::detail {
 namespace {
-
-Mat3 indexToMm(const Geometry& g) {
-  return g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0}, {0, 0, g.spacing.z});
-}
 
 // The Gaussian kernel reads nodes -1 .. n + 1 per axis: pad the grid so that every tap is a texel.
 std::vector<float> padForGaussian(const std::vector<float>& nodes, const Dims& nd, const Dims& pd) {

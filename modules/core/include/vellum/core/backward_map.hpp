@@ -94,7 +94,7 @@ struct RigidSnap {
   std::vector<uint8_t> valid;
   double maxSnapMm = 0;
   /// Per body: axis-aligned box (output mm: min xyz, max xyz) holding every output position
-  /// the snap can move to that body (lets synthesis skip the rest quickly). Empty = everywhere.
+  /// the snap can move to that body (SnapFrame::reach). Empty = everywhere.
   std::vector<std::array<double, 6>> reachMm;
 };
 
@@ -136,11 +136,19 @@ struct SnapFrame {
   std::vector<std::array<float, 12>> body;
   std::vector<uint8_t> valid;
   float maxSnap2 = 0;  ///< mm^2
+  /// Per body with a reach box (RigidSnap::reachMm): the point-index box {min i, j, k, max i,
+  /// j, k} (inclusive) where the snap can move u to it; one box for everywhere without them.
+  std::vector<std::array<int64_t, 6>> reach;
 
   /// The snap at point v of the interpolated u (both in this frame's coordinates), in Real
   /// arithmetic: u replaced and the body returned, or u unchanged and -1.
   template <class Real>
   int apply(const Real v[3], Real u[3]) const;
+  /// apply() along the whole points (0..n-1, j, k) of a row that some body can reach (u as
+  /// three float arrays): synthesis skips the rest of the volume quickly.
+  void applyRow(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const;
+  /// True when applyRow() of v's row would visit v (continuous v: the same bounds).
+  bool reaches(const Vec3& v) const;
 };
 
 /// `snap` for points of `pointGrid` and u with mm = uToMm u + uOriginMm. Throws vellum::Error for
