@@ -12,6 +12,7 @@
 #include "vellum/core/components.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/index_frame.hpp"
 #include "vellum/core/rigid_fit.hpp"
 #include "vellum/deformation/synthesis.hpp"
 
@@ -19,8 +20,7 @@ namespace vellum::deformation {
 namespace {
 
 Mat3 mmToIndexOf(const Geometry& g) {
-  const Mat3 toMm = g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0},
-                                                    {0, 0, g.spacing.z});
+  const Mat3 toMm = indexToMm(g);
   Mat3 inv;
   if (!toMm.inverse(inv)) throw Error("rigidity: singular geometry");
   return inv;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <climits>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -15,8 +14,8 @@
 #endif
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/index_frame.hpp"
 #include "vellum/core/simd_clones.hpp"
-#include "vellum/core/gaussian_upsampling.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 
@@ -30,16 +29,8 @@ struct AxisTaps {
   std::vector<std::array<float, Taps>> w;
 };
 
-// Trilinear taps of output coordinate o (voxel index along the axis, 0 <= o <= (nodes - 1) s,
-// not necessarily whole): the two nodes around o/s. One definition for the voxels of
-// synthesize() / upsampleMap() and the arbitrary positions of MapSampler.
-void linearTap(double o, int64_t nodes, int s, std::array<int32_t, 2>& idx, std::array<float, 2>& w) {
-  const int64_t n0 = std::min(static_cast<int64_t>(std::floor(o / s)), nodes - 1);
-  const int64_t n1 = std::min(n0 + 1, nodes - 1);
-  const float f = static_cast<float>(o - static_cast<double>(n0 * s)) / static_cast<float>(s);
-  idx = {static_cast<int32_t>(n0), static_cast<int32_t>(n1)};
-  w = {1.f - f, f};
-}
+// The kernel's taps (linearTap, gaussianTap) are core's (core/backward_map.hpp): the same for
+// the voxels of synthesize() / upsampleMap() and the arbitrary positions of MapSampler.
 
 // The taps of every voxel 0 <= o < outLen along an axis, from a per-position tap function.
 template <int Taps, class TapFn>
@@ -53,38 +44,6 @@ AxisTaps<Taps> axisTaps(int64_t outLen, int64_t nodes, int s, TapFn tap) {
 }
 
 AxisTaps<2> linearTaps(int64_t outLen, int64_t nodes, int s) { return axisTaps<2>(outLen, nodes, s, linearTap); }
-
-// Separable Gaussian over the 4 nodes around o/s (sigma 0.6 node spacings), with weights
-// adjusted so that the first moment is exact: a linear (affine) map is reproduced exactly
-// away from the borders. Border taps are clamped (replicated edge nodes). Same range of o as
-// linearTap().
-void gaussianTap(double o, int64_t nodes, int s, std::array<int32_t, 4>& id, std::array<float, 4>& wf) {
-  const int64_t n0 = static_cast<int64_t>(std::floor(o / s));
-  const double f = (o - static_cast<double>(n0 * s)) / s;
-  const std::array<double, 4> w = gaussianUpsamplingWeights(f);  // shared with the renderer
-  constexpr double total = 1.0;
-  // Taps beyond the grid extrapolate the map linearly from the two edge nodes
-  // (v(e + m) = v(e) + m (v(e) - v(e -+ 1))), which keeps affine maps exact at the borders.
-  std::array<double, 4> wd{};
-  for (int q = 0; q < 4; ++q) id[q] = static_cast<int32_t>(std::clamp<int64_t>(n0 - 1 + q, 0, nodes - 1));
-  auto add = [&](int64_t node, double weight) {
-    for (int q = 0; q < 4; ++q)
-      if (id[q] == node) { wd[q] += weight; return; }
-  };
-  for (int q = 0; q < 4; ++q) {
-    const int64_t m = n0 - 1 + q;
-    const double wq = w[q] / total;
-    if (nodes < 2 || (m >= 0 && m < nodes)) {
-      add(std::clamp<int64_t>(m, 0, nodes - 1), wq);
-    } else if (m < 0) {
-      add(0, wq * (1 - m)); add(1, wq * m);  // v(m) = v(0) + m (v(1) - v(0))
-    } else {
-      const int64_t e = nodes - 1;
-      add(e, wq * (1 + (m - e))); add(e - 1, -wq * (m - e));
-    }
-  }
-  for (int q = 0; q < 4; ++q) wf[q] = static_cast<float>(wd[q]);
-}
 
 AxisTaps<4> gaussianTaps(int64_t outLen, int64_t nodes, int s) { return axisTaps<4>(outLen, nodes, s, gaussianTap); }
 
@@ -152,133 +111,11 @@ VELLUM_SIMD_CLONES void axpy(float* dst, const float* src, float w, int64_t n) {
   for (int64_t t = 0; t < n; ++t) dst[t] += w * src[t];
 }
 
-// RigidSnap in the frame of the upsampled coordinates (mm for upsampleMap, source index for
-// synthesize): mm = L u + o.
-struct PreparedSnap {
-  const uint16_t* classes = nullptr;
-  Dims cd;
-  float toCls[12];                         // class index = A u + b (A row-major, then b)
-  std::vector<std::array<float, 12>> body;  // u = M (i, j, k) + m per body
-  std::vector<uint8_t> valid;
-  float deltaToMm[9];
-  float maxSnap2 = 0;
-  // Per body: output-index box {min i, j, k, max i, j, k} the snap can reach (inclusive).
-  std::vector<std::array<int64_t, 6>> reach;
-
-  // The snap of one output voxel (index v, not necessarily whole) whose upsampled source is u.
-  void point(const float v[3], float& ux, float& uy, float& uz) const {
-    const int nb = static_cast<int>(body.size());
-    const float u[3] = {ux, uy, uz};
-    int64_t ci[3];
-    bool in = true;
-    for (int a = 0; a < 3; ++a) {
-      const float x = toCls[3 * a] * u[0] + toCls[3 * a + 1] * u[1] + toCls[3 * a + 2] * u[2] + toCls[9 + a];
-      ci[a] = static_cast<int64_t>(std::floor(x + 0.5f));
-      in = in && x > -0.5f;
-    }
-    if (!in || ci[0] >= cd.x || ci[1] >= cd.y || ci[2] >= cd.z) return;
-    const int c = int(classes[(ci[2] * cd.y + ci[1]) * cd.x + ci[0]]) - 2;
-    if (c < 0 || c >= nb || !valid[static_cast<size_t>(c)]) return;
-    const auto& m = body[static_cast<size_t>(c)];
-    float snapped[3], d[3];
-    for (int a = 0; a < 3; ++a) {
-      snapped[a] = m[3 * a] * v[0] + m[3 * a + 1] * v[1] + m[3 * a + 2] * v[2] + m[9 + a];
-      d[a] = snapped[a] - u[a];
-    }
-    float d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const float e = deltaToMm[3 * a] * d[0] + deltaToMm[3 * a + 1] * d[1] + deltaToMm[3 * a + 2] * d[2];
-      d2 += e * e;
-    }
-    if (d2 > maxSnap2) return;
-    ux = snapped[0]; uy = snapped[1]; uz = snapped[2];
-  }
-
-  // True when row()'s voxel range for row (j, k) holds v (continuous v: the same bounds).
-  bool reaches(const Vec3& v) const {
-    double lo = 1e300, hi = -1e300;
-    for (const auto& r : reach)
-      if (v.y >= double(r[1]) && v.y <= double(r[4]) && v.z >= double(r[2]) && v.z <= double(r[5])) {
-        lo = std::min(lo, double(r[0]));
-        hi = std::max(hi, double(r[3]));
-      }
-    return v.x >= lo && v.x <= hi;
-  }
-
-  void row(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const {
-    int64_t lo = n, hi = -1;
-    for (const auto& r : reach)
-      if (j >= r[1] && j <= r[4] && k >= r[2] && k <= r[5]) {
-        lo = std::min(lo, std::max<int64_t>(r[0], 0));
-        hi = std::max(hi, std::min<int64_t>(r[3], n - 1));
-      }
-    for (int64_t i = lo; i <= hi; ++i) {
-      const float v[3] = {static_cast<float>(i), static_cast<float>(j), static_cast<float>(k)};
-      point(v, ux[i], uy[i], uz[i]);
-    }
-  }
-};
-
-Mat3 indexToMm(const Geometry& g) {
-  return g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0}, {0, 0, g.spacing.z});
-}
-
-// Prepares cv.rigidSnap (or nothing) for output geometry g and coordinate frame mm = L u + o.
-std::optional<PreparedSnap> prepareSnap(const ControlVolume& cv, const Geometry& g, const Mat3& L, const Vec3& o) {
+// The rigid snap (or nothing) in the frame of the upsampled coordinates, mm = L u + o (mm for
+// upsampleMap, source index for synthesize), at the voxel indices of output geometry g.
+std::optional<SnapFrame> prepareSnap(const ControlVolume& cv, const Geometry& g, const Mat3& L, const Vec3& o) {
   if (!cv.rigidSnap || !cv.rigidSnap->classes) return std::nullopt;
-  const RigidSnap& rs = *cv.rigidSnap;
-  if (rs.classes->size() != static_cast<size_t>(rs.classGrid.dims.voxelCount()))
-    throw Error("rigid snap: class volume size does not match its grid");
-  Mat3 cinv, linv;
-  if (!indexToMm(rs.classGrid).inverse(cinv) || !L.inverse(linv)) throw Error("rigid snap: singular geometry");
-  PreparedSnap p;
-  p.classes = rs.classes->data();
-  p.cd = rs.classGrid.dims;
-  const Mat3 a = cinv * L;
-  const Vec3 b = cinv * (o - rs.classGrid.origin);
-  const Mat3 G = indexToMm(g);
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) {
-      p.toCls[3 * r + c] = static_cast<float>(a(r, c));
-      p.deltaToMm[3 * r + c] = static_cast<float>(L(r, c));
-    }
-    p.toCls[9 + r] = static_cast<float>(b[r]);
-  }
-  for (size_t c = 0; c < rs.fits.size(); ++c) {
-    const auto& f = rs.fits[c];
-    const Mat3 R = Mat3::fromColumns({f[0], f[3], f[6]}, {f[1], f[4], f[7]}, {f[2], f[5], f[8]});
-    const Vec3 t{f[9], f[10], f[11]};
-    const Mat3 M = linv * R * G;
-    const Vec3 m = linv * (R * g.origin + t - o);
-    std::array<float, 12> e{};
-    for (int r = 0; r < 3; ++r) {
-      for (int q = 0; q < 3; ++q) e[static_cast<size_t>(3 * r + q)] = static_cast<float>(M(r, q));
-      e[static_cast<size_t>(9 + r)] = static_cast<float>(m[r]);
-    }
-    p.body.push_back(e);
-  }
-  p.valid = rs.valid;
-  p.valid.resize(p.body.size(), 0);
-  p.maxSnap2 = static_cast<float>(rs.maxSnapMm * rs.maxSnapMm);
-  if (rs.reachMm.size() == rs.fits.size()) {
-    // Output-index bounds of each body's reach box (its 8 corners through mm -> index).
-    for (const auto& b : rs.reachMm) {
-      if (b[3] < b[0]) continue;
-      std::array<int64_t, 6> r{INT64_MAX, INT64_MAX, INT64_MAX, INT64_MIN, INT64_MIN, INT64_MIN};
-      for (int q = 0; q < 8; ++q) {
-        const Vec3 idx = g.physicalToIndex({(q & 1) ? b[3] : b[0], (q & 2) ? b[4] : b[1], (q & 4) ? b[5] : b[2]});
-        for (int a = 0; a < 3; ++a) {
-          const double lo = std::clamp(std::floor(idx[a]), -1.0, 1e15), hi = std::clamp(std::ceil(idx[a]), -1.0, 1e15);
-          r[static_cast<size_t>(a)] = std::min(r[static_cast<size_t>(a)], static_cast<int64_t>(lo));
-          r[static_cast<size_t>(a + 3)] = std::max(r[static_cast<size_t>(a + 3)], static_cast<int64_t>(hi));
-        }
-      }
-      p.reach.push_back(r);
-    }
-  } else {
-    p.reach.push_back({0, 0, 0, INT64_MAX / 2, INT64_MAX / 2, INT64_MAX / 2});  // everywhere
-  }
-  return p;
+  return snapFrame(*cv.rigidSnap, g, L, o);
 }
 
 // An affine change of frame applied to each z-blended plane of nodes (u' = A u + b, A
@@ -305,7 +142,7 @@ VELLUM_SIMD_CLONES void applyAffine(const PlaneAffine& m, float* xyz, int64_t no
 template <int Taps, class RowFn>
 void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od, int scale,
                   const AxisTaps<Taps>& tx, const AxisTaps<Taps>& ty, const AxisTaps<Taps>& tz,
-                  const PlaneAffine* toFrame, const PreparedSnap* snap, Progress& progress,
+                  const PlaneAffine* toFrame, const SnapFrame* snap, Progress& progress,
                   const char* stage, RowFn&& rowFn) {
   const int64_t planeNodes = nd.x * nd.y;
   // x taps as structure of arrays, node indices premultiplied by 3 (xyz interleaved rows).
@@ -341,7 +178,7 @@ void upsampleRows(const std::vector<float>& map3, const Dims& nd, const Dims& od
           upsampleXLinear(row.data(), nd.x, scale, od.x, ox.data(), oy.data(), oz.data());
         else
           upsampleX4(row.data(), xiP, xwP, od.x, ox.data(), oy.data(), oz.data());
-        if (snap) snap->row(j, k, od.x, ox.data(), oy.data(), oz.data());
+        if (snap) snap->applyRow(j, k, od.x, ox.data(), oy.data(), oz.data());
         rowFn(k, j, ox.data(), oy.data(), oz.data());
       }
       progress.advance();
@@ -427,7 +264,7 @@ bool haveAvx2() {
 
 template <class RowFn>
 void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od, int s,
-                 Upsampling up, const PlaneAffine* toFrame, const PreparedSnap* snap, Progress& progress,
+                 Upsampling up, const PlaneAffine* toFrame, const SnapFrame* snap, Progress& progress,
                  const char* stage, RowFn&& rowFn) {
   if (up == Upsampling::Trilinear)
     upsampleRows(map3, nd, od, s, linearTaps(od.x, nd.x, s), linearTaps(od.y, nd.y, s),
@@ -527,50 +364,29 @@ struct MapSampler::Impl {
   Geometry output;
   Geometry::ToIndex toIndex;  // output.physicalToIndex without inverting the direction per call
   Upsampling upsampling = Upsampling::Trilinear;
-  std::optional<PreparedSnap> snap;  // in mm, as upsampleMap() applies it
+  std::optional<SnapFrame> snap;  // in mm, as upsampleMap() applies it
 
   // The snap at output index o (where synthesis applies it).
   void snapAt(const Vec3& o, float u[3]) const {
     if (!snap || !snap->reaches(o)) return;
     const float v[3] = {static_cast<float>(o.x), static_cast<float>(o.y), static_cast<float>(o.z)};
-    snap->point(v, u[0], u[1], u[2]);
+    snap->apply(v, u);
   }
 
-  // u at output index o (inside the voxel centres): the separable sum in synthesis' order
-  // (z-blended nodes, then y, then x), in float.
-  template <int Taps, class TapFn>
-  Vec3 interpolate(const Vec3& o, TapFn&& tap) const {
-    std::array<int32_t, Taps> ix, iy, iz;
-    std::array<float, Taps> wx, wy, wz;
-    tap(o.x, nd.x, ix, wx);
-    tap(o.y, nd.y, iy, wy);
-    tap(o.z, nd.z, iz, wz);
-    float u[3] = {0, 0, 0};
-    for (int a = 0; a < Taps; ++a) {
-      float row[3] = {0, 0, 0};
-      for (int b = 0; b < Taps; ++b) {
-        if (wy[b] == 0.f) continue;
-        float plane[3] = {0, 0, 0};
-        for (int c = 0; c < Taps; ++c) {
-          if (wz[c] == 0.f) continue;
-          const float* p = nodes.data() + 3 * ((int64_t(iz[c]) * nd.y + iy[b]) * nd.x + ix[a]);
-          for (int q = 0; q < 3; ++q) plane[q] += wz[c] * p[q];
-        }
-        for (int q = 0; q < 3; ++q) row[q] += wy[b] * plane[q];
-      }
-      for (int q = 0; q < 3; ++q) u[q] += wx[a] * row[q];
-    }
+  // u at output index o (inside the voxel centres): the nodes interpolated, then the snap.
+  Vec3 interpolate(const Vec3& o) const {
+    const Vec3 v = interpolateNodes(nodes.data(), nd, upsampling, scale, o);
+    float u[3] = {float(v.x), float(v.y), float(v.z)};
     snapAt(o, u);
     return {u[0], u[1], u[2]};
   }
 
-  template <int Taps, class TapFn>
-  void point(const Vec3& mm, float* out, uint8_t* inside, TapFn&& tap) const {
+  void point(const Vec3& mm, float* out, uint8_t* inside) const {
     const Vec3 x = toIndex(mm);
     Vec3 o;
     *inside = axisIndex(x.x, od.x, o.x) && axisIndex(x.y, od.y, o.y) && axisIndex(x.z, od.z, o.z);
     if (!*inside) return;
-    const Vec3 u = interpolate<Taps>(o, tap);
+    const Vec3 u = interpolate(o);
     out[0] = float(u.x), out[1] = float(u.y), out[2] = float(u.z);
   }
 
@@ -633,7 +449,7 @@ struct MapSampler::Impl {
       axisRow<Taps>(axis, x0, dx[axis], n, out, inside, tap);
       return;
     }
-    for (int i = 0; i < n; ++i) point<Taps>(firstMm + stepMm * double(i), out + 3 * i, inside + i, tap);
+    for (int i = 0; i < n; ++i) point(firstMm + stepMm * double(i), out + 3 * i, inside + i);
   }
 
   template <class Fn>
@@ -663,7 +479,7 @@ MapSampler::MapSampler(ControlVolume cv, const Geometry& output, Upsampling upsa
 std::optional<Vec3> MapSampler::sourceMm(const Vec3& outputMm) const {
   float u[3];
   uint8_t inside = 0;
-  impl_->withKernel([&](auto taps, auto&& tap) { impl_->point<decltype(taps)::value>(outputMm, u, &inside, tap); });
+  impl_->point(outputMm, u, &inside);
   if (!inside) return std::nullopt;
   return Vec3{u[0], u[1], u[2]};
 }

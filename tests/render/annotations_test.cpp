@@ -158,7 +158,7 @@ TEST(Annotations, DeformedPositionsInvertTheBackwardMap) {
         const Vec3 u = turn(map.grid.indexToPhysical({double(i), double(j), double(k)}) - c - t, -1) + c;
         map.sourceMm.insert(map.sourceMm.end(), {float(u.x), float(u.y), float(u.z)});
       }
-  for (const MapUpsampling up : {MapUpsampling::Trilinear, MapUpsampling::Gaussian}) {
+  for (const Upsampling up : {Upsampling::Trilinear, Upsampling::Gaussian}) {
     map.upsampling = up;
     const std::vector<Vec3> points{centre, c, c + Vec3{-9, 7, 4}, c + Vec3{1000, 0, 0}};
     const auto drawn = deformedPositions(map, g, points);

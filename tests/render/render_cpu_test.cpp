@@ -4,15 +4,35 @@
 
 #include <cmath>
 #include <numbers>
+#include <string>
 
 #include "analytic_volumes.hpp"
 #include "empty_space.hpp"
+#include "map_layout.hpp"
 #include "render_common.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::render {
 namespace {
+
+// The ray caster's map constants come from core's model (map_layout.hpp), not from numbers
+// spelled again in the GLSL.
+TEST(MapLayout, GlslNamesTheModelsKernelsAndSnapUniforms) {
+  const std::string g = detail::mapLayoutGlsl(Upsampling::Gaussian, true);
+  EXPECT_NE(g.find("#define MAP_TRILINEAR " + std::to_string(int(Upsampling::Trilinear)) + "\n"), std::string::npos) << g;
+  EXPECT_NE(g.find("#define MAP_GAUSSIAN " + std::to_string(int(Upsampling::Gaussian)) + "\n"), std::string::npos) << g;
+  EXPECT_NE(g.find("#define MAP_KERNEL " + std::to_string(int(Upsampling::Gaussian)) + "\n"), std::string::npos) << g;
+  EXPECT_NE(g.find("#define MAX_SNAP_BODIES " + std::to_string(kMaxSnapBodies) + "\n"), std::string::npos) << g;
+  namespace u = detail::snap_uniform;
+  for (const char* name : {u::kClasses, u::kSrcToClass, u::kSrcToClassOffset, u::kSrcDeltaToMm, u::kBodyRows,
+                           u::kBodyValid, u::kBodies, u::kMaxSnap2})
+    EXPECT_NE(g.find(std::string(" ") + name), std::string::npos) << name;
+  const std::string t = detail::mapLayoutGlsl(Upsampling::Trilinear, false);
+  EXPECT_NE(t.find("#define MAP_KERNEL 0\n"), std::string::npos) << t;
+  EXPECT_EQ(t.find("RIGID_SNAP"), std::string::npos) << t;
+  EXPECT_EQ(t.find("uniform"), std::string::npos) << t;
+}
 
 TEST(RenderSettings, PresetNamesRoundTrip) {
   for (Preset p : allPresets()) EXPECT_EQ(parsePreset(presetName(p)), p);

@@ -409,8 +409,8 @@ TEST(RenderGl, DeformedShadingTurnsNormalsWithTheMap) {
   RenderSettings s = slabView(0), truthSettings = slabView(-30);
   const RgbaImage truth = r.render(truthSettings);
   EXPECT_GT(coverage(truth), 0.05);
-  for (const MapUpsampling up : {MapUpsampling::Trilinear, MapUpsampling::Gaussian}) {  // both reproduce a turn
-    const std::string kernel = up == MapUpsampling::Gaussian ? "gaussian" : "trilinear";
+  for (const Upsampling up : {Upsampling::Trilinear, Upsampling::Gaussian}) {  // both reproduce a turn
+    const std::string kernel = up == Upsampling::Gaussian ? "gaussian" : "trilinear";
     turn.upsampling = up;
     r.setBackwardMap(&turn);
     const RgbaImage turned = r.render(s);
@@ -448,7 +448,7 @@ namespace vellum::render {
 TEST(RenderGl, SnappedSamplesShadeWithTheirBodysTurn) {
   const VolumeI16 vol = tiltedSlabVolume();
   BackwardMap map = turnAboutZ(vol.geometry(), 0);  // identity nodes
-  auto snap = std::make_shared<MapRigidSnap>();
+  auto snap = std::make_shared<RigidSnap>();
   snap->classGrid = vol.geometry();
   snap->classes = std::make_shared<const std::vector<uint16_t>>(static_cast<size_t>(vol.geometry().dims.voxelCount()), uint16_t{2});
   const double a = 30 * std::numbers::pi / 180;  // u = R v as turnAboutZ(30) maps

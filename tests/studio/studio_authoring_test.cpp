@@ -134,7 +134,7 @@ TEST(StudioAuthoringModel, LiveViewUsesTheChosenUpsamplingLikeVellumAnimate) {
   DeformSession session;
   awaitExactMap(session, scene);
   ASSERT_TRUE(session.map() && !session.preview());
-  EXPECT_EQ(session.map()->upsampling, render::MapUpsampling::Gaussian);
+  EXPECT_EQ(session.map()->upsampling, Upsampling::Gaussian);
 
   auto context = render::GlContext::createHeadless();
   const render::RenderSettings s = renderSettingsFor(scene, 96, 80);
@@ -155,7 +155,7 @@ TEST(StudioAuthoringModel, LiveViewUsesTheChosenUpsamplingLikeVellumAnimate) {
   scene.view.deformedUpsampling = Upsampling::Trilinear;
   awaitExactMap(session, scene);
   ASSERT_TRUE(session.map());
-  EXPECT_EQ(session.map()->upsampling, render::MapUpsampling::Trilinear);
+  EXPECT_EQ(session.map()->upsampling, Upsampling::Trilinear);
 }
 
 TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {

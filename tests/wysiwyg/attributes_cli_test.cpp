@@ -77,7 +77,7 @@ TEST(WysiwygCli, DeformedVolumeWithItsAttributeFieldRendersLikeTheLiveRender) {
   auto context = render::GlContext::createHeadless();
   render::VolumeRenderer renderer(*context);
   renderer.setVolume(AnyVolume(ph.ct));
-  const render::BackwardMap live = animation::toBackwardMap(cv, ph.ct.geometry(), Upsampling::Gaussian);
+  const render::BackwardMap live = deformation::renderedMap(cv, ph.ct.geometry(), Upsampling::Gaussian);
   renderer.setBackwardMap(&live);
   render::RenderSettings s;
   s.width = s.height = 128;

@@ -24,7 +24,7 @@ struct MapDiff {
 
 // Largest |renderer u - upsampleMap u| over every `stride`-th output voxel.
 MapDiff compareWithSynthesis(const ControlVolume& cv, const Geometry& g, Upsampling up, int stride) {
-  const render::BackwardMap map = animation::toBackwardMap(cv, g, up);
+  const render::BackwardMap map = deformation::renderedMap(cv, g, up);
   const render::detail::PreparedMap pm = render::detail::prepareMap(map, g);
   const std::vector<float> full = upsampleMap(cv, g, up);
   ControlVolume noSnap = cv;
@@ -73,7 +73,7 @@ TEST(WysiwygMap, GaussianReproducesAnAffineMapUpToTheBorder) {
   g.origin = {-5, 4, 1};
   render::BackwardMap map;
   map.grid = g;
-  map.upsampling = render::MapUpsampling::Gaussian;
+  map.upsampling = Upsampling::Gaussian;
   auto affine = [](const Vec3& v) { return Vec3{1.1 * v.x + 0.2 * v.y + 3, -0.1 * v.x + 0.9 * v.z - 2, 0.3 * v.y + 1.05 * v.z}; };
   for (int64_t k = 0; k < g.dims.z; ++k)
     for (int64_t j = 0; j < g.dims.y; ++j)
@@ -96,7 +96,7 @@ TEST(WysiwygMap, GaussianReproducesAnAffineMapUpToTheBorder) {
 
 TEST(WysiwygMap, TooManySnapBodiesIsANamedError) {
   render::BackwardMap map = render::identityBackwardMap(Geometry{{4, 4, 4}, {1, 1, 1}, {0, 0, 0}, Mat3::identity()});
-  auto snap = std::make_shared<render::MapRigidSnap>();
+  auto snap = std::make_shared<RigidSnap>();
   snap->classGrid = map.grid;
   snap->classes = std::make_shared<std::vector<uint16_t>>(64, 0);
   snap->fits.resize(render::kMaxSnapBodies + 1);

@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
   for (const render::Preset p : {render::Preset::SoftTissueBone, render::Preset::Bone})
     for (const Upsampling up : {Upsampling::Trilinear, Upsampling::Gaussian})
       for (const bool snap : {false, true}) {
-        const render::BackwardMap map = animation::toBackwardMap(snap ? k.rigid : unsnapped, k.ph.ct.geometry(), up);
+        const render::BackwardMap map = deformation::renderedMap(snap ? k.rigid : unsnapped, k.ph.ct.geometry(), up);
         const auto u0 = std::chrono::steady_clock::now();
         renderer.setBackwardMap(&map);
         render::RenderSettings s;

@@ -57,7 +57,7 @@ TEST(WysiwygGl, GlMatchesTheCpuReferenceWithSnapAndAttributes) {
     for (const render::Preset preset : {render::Preset::SoftTissueBone, render::Preset::Mip}) {
       render::RenderSettings s = sideView();
       s.preset = preset;
-      const render::BackwardMap map = animation::toBackwardMap(k.rigid, k.ph.ct.geometry(), up);
+      const render::BackwardMap map = deformation::renderedMap(k.rigid, k.ph.ct.geometry(), up);
       ASSERT_TRUE(map.rigidSnap);
       renderer.setBackwardMap(&map);
       const RgbaImage frame = renderer.render(s);
@@ -76,7 +76,7 @@ TEST(WysiwygGl, LiveFrameMatchesTheSynthesisedVolumeWithItsAttributes) {
     render::RenderSettings s = sideView();
     s.shading = false;  // normals: source gradient at u vs gradient of the deformed volume
     renderer.setVolume(ct);
-    const render::BackwardMap live = animation::toBackwardMap(k.rigid, k.ph.ct.geometry(), up);
+    const render::BackwardMap live = deformation::renderedMap(k.rigid, k.ph.ct.geometry(), up);
     renderer.setBackwardMap(&live);
     const RgbaImage liveFrame = renderer.render(s);
     renderer.setVolume(synthesize(ct, k.rigid, up));
@@ -107,7 +107,7 @@ TEST(WysiwygGl, ShadedLiveFrameWithTurnedNormalsIsCloserToTheSynthesisedVolume) 
   renderer.setBackwardMap(&identity);
   const RgbaImage exported = renderer.render(s);
   renderer.setVolume(ct);
-  const render::BackwardMap live = animation::toBackwardMap(k.rigid, k.ph.ct.geometry(), Upsampling::Trilinear);
+  const render::BackwardMap live = deformation::renderedMap(k.rigid, k.ph.ct.geometry(), Upsampling::Trilinear);
   renderer.setBackwardMap(&live);
   const RgbaImage turned = renderer.render(s);
   s.turnDeformedNormals = false;
@@ -198,8 +198,8 @@ TEST(WysiwygGl, RenderedBonesFollowTheirRigidTransform) {
       const RgbaImage truth = renderer.render(s);
       double before = 0, after = 0;
       for (const Upsampling up : {Upsampling::Trilinear, Upsampling::Gaussian}) {
-        const render::BackwardMap a = animation::toBackwardMap(k.rigid, k.ph.ct.geometry(), up);
-        const render::BackwardMap b = animation::toBackwardMap(unsnapped, k.ph.ct.geometry(), up);
+        const render::BackwardMap a = deformation::renderedMap(k.rigid, k.ph.ct.geometry(), up);
+        const render::BackwardMap b = deformation::renderedMap(unsnapped, k.ph.ct.geometry(), up);
         renderer.setBackwardMap(&a);
         after = std::max(after, pixelMm * silhouetteOffsetPx(renderer.render(s), truth));
         renderer.setBackwardMap(&b);

@@ -121,7 +121,7 @@ void demoDeformation(const DemoContext& ctx) {
     render::VolumeRenderer renderer(*context);
     renderer.setVolume(lv.volume);
     io::saveImage(renderer.render(s), ctx.outDir / "deform-before.png");
-    const render::BackwardMap map = animation::toBackwardMap(cv, g);
+    const render::BackwardMap map = deformation::renderedMap(cv, g);
     renderer.setBackwardMap(&map);
     io::saveImage(renderer.render(s), ctx.outDir / "deform-after.png");
     s.preset = render::Preset::Bone;

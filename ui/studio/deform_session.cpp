@@ -53,7 +53,7 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoin
   const auto t1 = std::chrono::steady_clock::now();
   if (bodies) applyRigidity(cv, *bodies, {falloffMm});
   s.rigidityMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
-  s.map = animation::toBackwardMap(cv, deformer.outputGeometry(), upsampling);
+  s.map = deformation::renderedMap(cv, deformer.outputGeometry(), upsampling);
   s.sampler = std::make_shared<const MapSampler>(std::move(cv), deformer.outputGeometry(), upsampling);  // last use
   s.timings = deformer.timings();
   s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

@@ -26,29 +26,21 @@ uniform float uTfLo, uTfInvSpan;
 uniform sampler3D uNormals;
 #endif
 #ifdef DEFORMED
-uniform sampler3D uMap;      // source index coordinates per map node (GAUSSIAN_MAP: padded)
+uniform sampler3D uMap;      // source index coordinates per map node (Gaussian kernel: padded)
 #endif
 #ifdef TURN_NORMALS
 uniform mat3 uNormalToSrcIndex;   // physical normal -> source index covector
 uniform mat3 uNodeIndexToNormal;  // map node index covector -> physical normal
 #endif
-#ifdef GAUSSIAN_MAP
+#if MAP_KERNEL == MAP_GAUSSIAN
 uniform vec3 uMapNodes;      // node grid dims; uMap has 1 more texel below, 2 above per axis
 #endif
 #ifdef OUTPUT_BOX
 uniform vec3 uOutScale, uOutOffset;   // map node index -> output voxel index, per axis
 uniform vec3 uOutDims;
 #endif
-#ifdef RIGID_SNAP
-uniform usampler3D uClasses;          // source-space classes: 0 air, 1 soft tissue, 2 + c body c
-uniform mat3 uSrcToClass;             // source index -> class index
-uniform vec3 uSrcToClassOffset;
-uniform mat3 uSrcDeltaToMm;           // source index offset -> mm
-uniform vec4 uBodyRows[3 * MAX_SNAP_BODIES];  // per body: source index = rows . (p, 1)
-uniform uint uBodyValid[(MAX_SNAP_BODIES + 31) / 32];
-uniform int uBodies;
-uniform float uMaxSnap2;              // mm^2
-#endif
+// RIGID_SNAP: the snap uniforms (uClasses, uSrcToClass, ..., uMaxSnap2) are declared by the
+// generated prefix (map_layout.hpp).
 #ifdef LABELS
 uniform usampler3D uLabels;       // label id per source voxel
 uniform sampler1D uLabelColours;  // by id: rgb, a = 1 tinted / 0 not
@@ -75,8 +67,8 @@ float sampleValue(vec3 idx) {
 
 
 #ifdef DEFORMED
-#ifdef GAUSSIAN_MAP
-// Twin of gaussianUpsamplingWeights() in core/gaussian_upsampling.hpp (all four positive).
+#if MAP_KERNEL == MAP_GAUSSIAN
+// gaussianUpsamplingWeights() of core/backward_map.hpp, in GLSL (all four positive).
 vec4 gaussWeights(float f) {
   vec4 x = vec4(-1.0, 0.0, 1.0, 2.0) - f;
   vec4 w = exp(x * x * (-0.5 / (GAUSS_SIGMA * GAUSS_SIGMA)));
@@ -88,7 +80,7 @@ vec4 gaussWeights(float f) {
 
 // u (source index) at map node index p: the node map interpolated as CPU synthesis upsamples it.
 vec3 mapAt(vec3 p) {
-#ifdef GAUSSIAN_MAP
+#if MAP_KERNEL == MAP_GAUSSIAN
   // 4 taps per axis as 2 linear fetches (positive weights): 8 trilinear fetches in all.
   vec3 q = clamp(p, vec3(0.0), uMapNodes - 1.0);
   vec3 n0 = floor(q), f = q - n0;
@@ -113,7 +105,7 @@ vec3 mapAt(vec3 p) {
 #ifdef TURN_NORMALS
 // Twin of PreparedMap::nodeTexture(): the node texture, hardware-filtered (either kernel).
 vec3 nodeTexture(vec3 p) {
-#ifdef GAUSSIAN_MAP
+#if MAP_KERNEL == MAP_GAUSSIAN
   return texture(uMap, (p + 1.5) / (uMapNodes + 3.0)).xyz;
 #else
   return texture(uMap, (p + 0.5) / uBoxDims).xyz;
@@ -130,7 +122,8 @@ vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
   mat3 jt;
 #ifdef RIGID_SNAP
   if (snappedBody >= 0) {
-    jt = mat3(uBodyRows[3 * snappedBody].xyz, uBodyRows[3 * snappedBody + 1].xyz, uBodyRows[3 * snappedBody + 2].xyz);
+    jt = mat3(uBodyRows[SNAP_BODY_ROWS * snappedBody].xyz, uBodyRows[SNAP_BODY_ROWS * snappedBody + 1].xyz,
+              uBodyRows[SNAP_BODY_ROWS * snappedBody + 2].xyz);
   } else
 #endif
   {
@@ -157,7 +150,8 @@ vec3 snapRigid(vec3 p, vec3 u, out int snappedBody) {
   int body = int(texelFetch(uClasses, ci, 0).r) - 2;
   if (body < 0 || body >= uBodies || ((uBodyValid[body >> 5] >> uint(body & 31)) & 1u) == 0u) return u;
   vec4 p1 = vec4(p, 1.0);
-  vec3 s = vec3(dot(uBodyRows[3 * body], p1), dot(uBodyRows[3 * body + 1], p1), dot(uBodyRows[3 * body + 2], p1));
+  int r = SNAP_BODY_ROWS * body;
+  vec3 s = vec3(dot(uBodyRows[r], p1), dot(uBodyRows[r + 1], p1), dot(uBodyRows[r + 2], p1));
   vec3 dmm = uSrcDeltaToMm * (s - u);
   if (!(dot(dmm, dmm) <= uMaxSnap2)) return u;
   snappedBody = body;

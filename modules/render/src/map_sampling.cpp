@@ -6,27 +6,10 @@
 
 #include "render_common.hpp"
 #include "vellum/core/error.hpp"
-#include "vellum/core/gaussian_upsampling.hpp"
+#include "vellum/core/index_frame.hpp"
 
 namespace vellum::render::detail {
 namespace {
-
-Mat3 indexToMm(const Geometry& g) {
-  return g.direction * Mat3::fromColumns({g.spacing.x, 0, 0}, {0, g.spacing.y, 0}, {0, 0, g.spacing.z});
-}
-
-// Node m in [-1, n + 1] of an axis of n nodes as up to two real nodes: beyond the grid the map
-// is extrapolated linearly from the two edge nodes, as CPU synthesis' Gaussian taps fold it.
-struct AxisTap {
-  int64_t i0 = 0, i1 = 0;
-  double w0 = 1, w1 = 0;
-};
-AxisTap extendedNode(int64_t m, int64_t n) {
-  if (n < 2 || (m >= 0 && m < n)) return {std::clamp<int64_t>(m, 0, n - 1), 0, 1, 0};
-  if (m < 0) return {0, 1, double(1 - m), double(m)};
-  const int64_t e = n - 1;
-  return {e, e - 1, double(1 + (m - e)), double(-(m - e))};
-}
 
 // The Gaussian kernel reads nodes -1 .. n + 1 per axis: pad the grid so that every tap is a texel.
 std::vector<float> padForGaussian(const std::vector<float>& nodes, const Dims& nd, const Dims& pd) {
@@ -34,7 +17,7 @@ std::vector<float> padForGaussian(const std::vector<float>& nodes, const Dims& n
   for (int64_t z = 0; z < pd.z; ++z)
     for (int64_t y = 0; y < pd.y; ++y)
       for (int64_t x = 0; x < pd.x; ++x) {
-        const AxisTap tx = extendedNode(x - 1, nd.x), ty = extendedNode(y - 1, nd.y), tz = extendedNode(z - 1, nd.z);
+        const NodeTap tx = extendedNode(x - 1, nd.x), ty = extendedNode(y - 1, nd.y), tz = extendedNode(z - 1, nd.z);
         double acc[3] = {0, 0, 0};
         for (int c = 0; c < 8; ++c) {
           const double w = ((c & 1) ? tx.w1 : tx.w0) * ((c & 2) ? ty.w1 : ty.w0) * ((c & 4) ? tz.w1 : tz.w0);
@@ -49,47 +32,12 @@ std::vector<float> padForGaussian(const std::vector<float>& nodes, const Dims& n
   return out;
 }
 
-void put(std::array<float, 12>& e, const Mat3& m, const Vec3& b) {
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) e[static_cast<size_t>(3 * r + c)] = static_cast<float>(m(r, c));
-    e[static_cast<size_t>(9 + r)] = static_cast<float>(b[r]);
-  }
-}
-
-PreparedSnap prepareSnap(const MapRigidSnap& rs, const Geometry& grid, const Geometry& source) {
-  if (!rs.classes || rs.classes->size() != static_cast<size_t>(rs.classGrid.dims.voxelCount()))
-    throw Error("backward map: the rigid snap's class volume does not match its grid");
+// The snap for the shader's frames: u in source index, points p in map node index.
+SnapFrame prepareSnap(const RigidSnap& rs, const Geometry& grid, const Geometry& source) {
   if (rs.fits.size() > static_cast<size_t>(kMaxSnapBodies))
     throw Error("backward map: the rigid snap has " + std::to_string(rs.fits.size()) +
                 " bodies; the renderer handles at most " + std::to_string(kMaxSnapBodies));
-  if (!std::isfinite(rs.maxSnapMm) || rs.maxSnapMm < 0)
-    throw Error("backward map: the rigid snap distance must be finite and >= 0");
-  rs.classGrid.validate("rigid snap class grid");
-  const Mat3 S = indexToMm(source), C = indexToMm(rs.classGrid), G = indexToMm(grid);
-  Mat3 sInv, cInv;
-  if (!S.inverse(sInv) || !C.inverse(cInv)) throw Error("backward map: singular rigid snap geometry");
-  PreparedSnap p;
-  p.classes = rs.classes->data();
-  p.classDims = rs.classGrid.dims;
-  std::array<float, 12> toClass{};
-  put(toClass, cInv * S, cInv * (source.origin - rs.classGrid.origin));
-  p.toClass = toClass;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) p.deltaToMm[static_cast<size_t>(3 * r + c)] = static_cast<float>(S(r, c));
-  for (const auto& f : rs.fits) {
-    for (double v : f)
-      if (!std::isfinite(v)) throw Error("backward map: a rigid snap fit is not finite");
-    const Mat3 R = Mat3::fromColumns({f[0], f[3], f[6]}, {f[1], f[4], f[7]}, {f[2], f[5], f[8]});
-    const Vec3 t{f[9], f[10], f[11]};
-    std::array<float, 12> e{};
-    put(e, sInv * R * G, sInv * (R * grid.origin + t - source.origin));
-    p.body.push_back(e);
-  }
-  p.valid = rs.valid;
-  p.valid.resize(p.body.size(), 0);
-  p.maxSnap2 = static_cast<float>(rs.maxSnapMm * rs.maxSnapMm);
-  p.marginVoxels = rs.maxSnapMm / std::min({source.spacing.x, source.spacing.y, source.spacing.z});
-  return p;
+  return snapFrame(rs, grid, indexToMm(source), source.origin);
 }
 
 Vec3 trilinearClamped(const std::vector<float>& grid, const Dims& d, const Vec3& p) {
@@ -127,35 +75,15 @@ PreparedMap::OutputAxes outputAxes(const Geometry& out, const Geometry& grid) {
 
 }  // namespace
 
-Vec3 PreparedSnap::apply(const Vec3& p, const Vec3& u, int* snappedBody) const {
-  if (snappedBody) *snappedBody = -1;
-  int64_t ci[3];
-  for (int a = 0; a < 3; ++a) {
-    const double x = toClass[3 * a] * u.x + toClass[3 * a + 1] * u.y + toClass[3 * a + 2] * u.z + toClass[9 + a];
-    if (!(x > -0.5)) return u;
-    ci[a] = static_cast<int64_t>(std::floor(x + 0.5));
-  }
-  if (ci[0] >= classDims.x || ci[1] >= classDims.y || ci[2] >= classDims.z) return u;
-  const int c = int(classes[(ci[2] * classDims.y + ci[1]) * classDims.x + ci[0]]) - 2;
-  if (c < 0 || c >= int(body.size()) || !valid[static_cast<size_t>(c)]) return u;
-  const auto& m = body[static_cast<size_t>(c)];
-  Vec3 s;
-  for (int a = 0; a < 3; ++a) s[a] = m[3 * a] * p.x + m[3 * a + 1] * p.y + m[3 * a + 2] * p.z + m[9 + a];
-  const Vec3 d = s - u;
-  double d2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    const double e = deltaToMm[3 * a] * d.x + deltaToMm[3 * a + 1] * d.y + deltaToMm[3 * a + 2] * d.z;
-    d2 += e * e;
-  }
-  if (!(d2 <= maxSnap2)) return u;
-  if (snappedBody) *snappedBody = c;
-  return s;
-}
-
 Vec3 PreparedMap::at(const Vec3& p, int* snappedBody) const {
   if (snappedBody) *snappedBody = -1;
   const Vec3 u = interpolated(p);
-  return snap ? snap->apply(p, u, snappedBody) : u;
+  if (!snap) return u;
+  const double v[3] = {p.x, p.y, p.z};
+  double w[3] = {u.x, u.y, u.z};
+  const int body = snap->apply(v, w);
+  if (snappedBody) *snappedBody = body;
+  return {w[0], w[1], w[2]};
 }
 
 std::array<float, 4> PreparedMap::turnNormal(const Vec3& p, const std::array<float, 4>& n, int snappedBody) const {
@@ -183,33 +111,14 @@ std::array<float, 4> PreparedMap::turnNormal(const Vec3& p, const std::array<flo
 
 Vec3 PreparedMap::nodeTexture(const Vec3& p) const {
   // The Gaussian kernel's texture has one padding texel below every node.
-  const double pad = upsampling == MapUpsampling::Gaussian ? 1.0 : 0.0;
-  return trilinearClamped(index, texDims, p + Vec3{pad, pad, pad});
+  const double pad = upsampling == Upsampling::Gaussian ? 1.0 : 0.0;
+  return trilinearClamped(texture(), texDims, p + Vec3{pad, pad, pad});
 }
 
 Vec3 PreparedMap::interpolated(const Vec3& p) const {
-  Vec3 u;
-  if (upsampling == MapUpsampling::Trilinear) {
-    u = trilinearClamped(index, nodes, p);
-  } else {
-    // Position clamped onto the nodes; taps n0 - 1 .. n0 + 2 are texels n0 .. n0 + 3.
-    int64_t n0[3];
-    std::array<double, 4> w[3];
-    for (int a = 0; a < 3; ++a) {
-      const double q = std::clamp(p[a], 0.0, double(nodes[a] - 1));
-      n0[a] = std::min<int64_t>(int64_t(std::floor(q)), nodes[a] - 1);
-      w[a] = gaussianUpsamplingWeights(q - double(n0[a]));
-    }
-    u = {0, 0, 0};
-    for (int k = 0; k < 4; ++k)
-      for (int j = 0; j < 4; ++j)
-        for (int i = 0; i < 4; ++i) {
-          const float* v = index.data() +
-                           static_cast<size_t>(((n0[2] + k) * texDims.y + n0[1] + j) * texDims.x + n0[0] + i) * 3;
-          u += Vec3{v[0], v[1], v[2]} * (w[0][i] * w[1][j] * w[2][k]);
-        }
-  }
-  return u;
+  Vec3 q;
+  for (int a = 0; a < 3; ++a) q[a] = std::clamp(p[a], 0.0, double(nodes[a] - 1));
+  return interpolateNodes(index.data(), nodes, upsampling, 1, q);
 }
 
 double PreparedMap::outputWeight(const Vec3& p) const {
@@ -228,11 +137,14 @@ PreparedMap prepareMap(const BackwardMap& map, const Geometry& source) {
   pm.nodes = map.grid.dims;
   pm.index = mapToSourceIndex(map, source);
   pm.texDims = pm.nodes;
-  if (map.upsampling == MapUpsampling::Gaussian) {
+  if (map.upsampling == Upsampling::Gaussian) {
     pm.texDims = {pm.nodes.x + 3, pm.nodes.y + 3, pm.nodes.z + 3};
-    pm.index = padForGaussian(pm.index, pm.nodes, pm.texDims);
+    pm.padded = padForGaussian(pm.index, pm.nodes, pm.texDims);
   }
-  if (map.rigidSnap) pm.snap = prepareSnap(*map.rigidSnap, map.grid, source);
+  if (map.rigidSnap) {
+    pm.snap = prepareSnap(*map.rigidSnap, map.grid, source);
+    pm.snapMarginVoxels = map.rigidSnap->maxSnapMm / std::min({source.spacing.x, source.spacing.y, source.spacing.z});
+  }
   Mat3 gInv;
   if (!indexToMm(map.grid).inverse(gInv)) throw Error("backward map: singular node grid geometry");
   pm.normalToSourceIndex = indexToMm(source).transposed();

@@ -1,8 +1,8 @@
 #pragma once
 // The backward map as both ray casters sample it: node positions in SOURCE index coordinates
-// (padded for the Gaussian kernel), and the rigid snap in the frames the shader works in (map
-// node index p -> source index). The GL shader (shader_source.cpp, mapAt() / snapRigid()) and
-// the CPU reference (PreparedMap::at) follow the same steps; change both together.
+// (padded for the Gaussian kernel), and the rigid snap (core SnapFrame) in the frames the shader
+// works in (map node index p -> source index). The CPU reference (PreparedMap::at) is what
+// the GLSL (shaders/raycast.frag.glsl: mapAt(), snapRigid()) computes, on the CPU.
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -13,28 +13,16 @@
 
 namespace vellum::render::detail {
 
-struct PreparedSnap {
-  const uint16_t* classes = nullptr;
-  Dims classDims;
-  std::array<float, 12> toClass{};  ///< class index = A u + b (A row-major, then b), u source index
-  std::array<float, 9> deltaToMm{};  ///< source index offset -> mm
-  /// Per body: source index = M p + m (M row-major, then m) for map node index p.
-  std::vector<std::array<float, 12>> body;
-  std::vector<uint8_t> valid;
-  float maxSnap2 = 0;
-  double marginVoxels = 0;  ///< how far (source voxels, per axis) a snap can move u
-
-  /// u after the snap at node index p (u in source index coordinates). `snappedBody`, when
-  /// given, receives the body that moved u, or -1.
-  Vec3 apply(const Vec3& p, const Vec3& u, int* snappedBody = nullptr) const;
-};
-
 struct PreparedMap {
-  MapUpsampling upsampling = MapUpsampling::Trilinear;
+  Upsampling upsampling = Upsampling::Trilinear;
   Dims nodes;     ///< the map's node grid
-  Dims texDims;   ///< grid of `index`: the nodes, or (Gaussian) nodes + 1 below and + 2 above
-  std::vector<float> index;  ///< source index coordinates per texel (3 floats, x fastest)
-  std::optional<PreparedSnap> snap;
+  Dims texDims;   ///< grid of texture(): the nodes, or (Gaussian) nodes + 1 below and + 2 above
+  std::vector<float> index;   ///< source index coordinates per node (3 floats, x fastest)
+  std::vector<float> padded;  ///< Gaussian: `index` padded to texDims; empty for trilinear
+  /// The node texture the GL path uploads (3 floats per texel of texDims).
+  const std::vector<float>& texture() const { return padded.empty() ? index : padded; }
+  std::optional<SnapFrame> snap;
+  double snapMarginVoxels = 0;  ///< how far (source voxels, per axis) the snap can move u
   /// With BackwardMap::output: output voxel index x = scale * p + offset per axis (same
   /// direction), and the output dims.
   struct OutputAxes {
@@ -47,7 +35,8 @@ struct PreparedMap {
   /// u (source index) at map node index p: interpolated, then snapped (`snappedBody`: the
   /// body that moved it, or -1).
   Vec3 at(const Vec3& p, int* snappedBody = nullptr) const;
-  /// u at p interpolated from the nodes, without the snap (mapAt() in the shader).
+  /// u at p interpolated from the nodes (core interpolateNodes, the position clamped onto the
+  /// nodes), without the snap (mapAt() in the shader).
   Vec3 interpolated(const Vec3& p) const;
 
   /// The node texture `index` filtered trilinearly at node index p (clamped to its texels):
@@ -62,7 +51,7 @@ struct PreparedMap {
   /// >= 0) J is that body's linear part, exactly: near a bone's surface the node map's
   /// differences straddle the rigid and the blended motion. The result keeps n's length and
   /// magnitude channel, so the shading's weak-gradient fade is the source's; the shader's
-  /// deformedNormal() is its twin.
+  /// deformedNormal() computes the same.
   std::array<float, 4> turnNormal(const Vec3& p, const std::array<float, 4>& n, int snappedBody = -1) const;
   static constexpr double kNormalStepNodes = 0.5;
   /// For turnNormal() and the shader: physical normal -> source index covector (S^T for

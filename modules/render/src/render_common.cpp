@@ -191,16 +191,7 @@ BackwardMap identityBackwardMap(const Geometry& grid, std::vector<float> attribu
   grid.validate("backward map grid");
   BackwardMap m;
   m.grid = grid;
-  m.sourceMm.resize(static_cast<size_t>(grid.dims.voxelCount()) * 3);
-  size_t n = 0;
-  for (int64_t k = 0; k < grid.dims.z; ++k)
-    for (int64_t j = 0; j < grid.dims.y; ++j)
-      for (int64_t i = 0; i < grid.dims.x; ++i, n += 3) {
-        const Vec3 p = grid.indexToPhysical({double(i), double(j), double(k)});
-        m.sourceMm[n] = float(p.x);
-        m.sourceMm[n + 1] = float(p.y);
-        m.sourceMm[n + 2] = float(p.z);
-      }
+  m.sourceMm = identityNodes(grid);
   m.attributes = std::move(attributes);
   m.output = std::move(output);
   detail::validateMap(m);

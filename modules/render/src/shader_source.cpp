@@ -3,9 +3,9 @@
 #include <sstream>
 
 #include "empty_space.hpp"
+#include "map_layout.hpp"
 #include "map_sampling.hpp"
 #include "render_common.hpp"
-#include "vellum/core/gaussian_upsampling.hpp"
 #include "vellum/render/label_tint.hpp"
 #include "vellum/render/render_target.hpp"
 #include "vellum_render_glsl.hpp"  // generated from ../shaders/*.glsl
@@ -24,11 +24,9 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.shading && !v.mip) s << "#define SHADING\n";
   if (v.deformed) s << "#define DEFORMED\n";
   if (v.attributes && v.deformed && !v.mip) s << "#define ATTRIBUTES\n";
-  if (v.gaussian && v.deformed) s << "#define GAUSSIAN_MAP\n";
   if (v.outputBox && v.deformed) s << "#define OUTPUT_BOX\n";
   if (v.labels && !v.mip) s << "#define LABELS\n#define MAX_TINT_LABELS " << kMaxTintLabels << "\n";
   if (v.opaqueDepth) s << "#define OPAQUE_DEPTH\n";
-  if (v.snap && v.deformed) s << "#define RIGID_SNAP\n#define MAX_SNAP_BODIES " << kMaxSnapBodies << "\n";
   if (v.turnNormals && v.deformed && v.shading && !v.mip) s << "#define TURN_NORMALS\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
@@ -40,10 +38,10 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define AMBIENT " << kAmbient << "\n#define DIFFUSE " << kDiffuse << "\n";
   s << "#define SPECULAR " << kSpecular << "\n#define SHININESS " << kShininess << "\n";
   s << "#define OUTSIDE " << PreparedMap::kOutside << "\n";
-  s << "#define GAUSS_SIGMA " << kGaussianUpsamplingSigma << "\n";
   s << "#define OPAQUE_RANGE_MM " << kOpaqueDepthRangeMm << "\n";
   s << "#define NORMAL_STEP " << PreparedMap::kNormalStepNodes << "\n";
   s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
+  s << mapLayoutGlsl(v.gaussian && v.deformed ? Upsampling::Gaussian : Upsampling::Trilinear, v.snap && v.deformed);
   s << glsl::kRaycastFrag << glsl::kRayCommon << glsl::kRaycastMainFrag;
   return s.str();
 }

@@ -11,8 +11,8 @@ struct ShaderVariant {
   bool shading = false;     ///< SHADING (DVR only)
   bool deformed = false;    ///< DEFORMED: sample the source at u = map(v)
   bool attributes = false;  ///< ATTRIBUTES: Lab colour shift + density (deformed only)
-  bool gaussian = false;    ///< GAUSSIAN_MAP: Gaussian map upsampling (deformed only)
-  bool snap = false;        ///< RIGID_SNAP: voxel-level snap of rigid bodies (deformed only)
+  bool gaussian = false;    ///< MAP_KERNEL == MAP_GAUSSIAN (map_layout.hpp): Gaussian map upsampling (deformed only)
+  bool snap = false;        ///< RIGID_SNAP (map_layout.hpp): voxel-level snap of rigid bodies (deformed only)
   bool outputBox = false;   ///< OUTPUT_BOX: background outside the output volume's box
   bool labels = false;      ///< LABELS: label colours tint the samples (DVR only)
   bool opaqueDepth = false; ///< OPAQUE_DEPTH: rays stop at opaque geometry (render_target.hpp)

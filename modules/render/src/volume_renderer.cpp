@@ -9,6 +9,7 @@
 
 #include "empty_space.hpp"
 #include "gl_util.hpp"
+#include "map_layout.hpp"
 #include "map_sampling.hpp"
 #include "normal_volume.hpp"
 #include "render_common.hpp"
@@ -104,7 +105,7 @@ struct VolumeRenderer::Impl {
   /// so that no other volume can take the same address).
   const std::vector<uint16_t>* uploadedClasses = nullptr;
   std::shared_ptr<const std::vector<uint16_t>> heldClasses;
-  std::optional<PreparedSnap> snap;
+  std::optional<SnapFrame> snap;
   std::optional<PreparedMap::OutputAxes> output;
   Mat3 normalToSourceIndex, nodeIndexToNormal;  ///< PreparedMap's, for TURN_NORMALS
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
@@ -155,7 +156,7 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uAttr"), kUnitAttr);
     glUniform1i(glGetUniformLocation(p, "uOccupancy"), kUnitOccupancy);
     glUniform1i(glGetUniformLocation(p, "uBlockMax"), kUnitBlockMax);
-    glUniform1i(glGetUniformLocation(p, "uClasses"), kUnitClasses);
+    glUniform1i(glGetUniformLocation(p, snap_uniform::kClasses), kUnitClasses);
     glUniform1i(glGetUniformLocation(p, "uLabels"), kUnitLabels);
     glUniform1i(glGetUniformLocation(p, "uLabelColours"), kUnitLabelColours);
     glUniform1i(glGetUniformLocation(p, "uOpaqueDepth"), kUnitOpaqueDepth);
@@ -216,9 +217,10 @@ struct VolumeRenderer::Impl {
     glGenTextures(1, &mapTex);
     glBindTexture(GL_TEXTURE_3D, mapTex);
     // RGBA (w unused): llvmpipe filters 16-byte texels faster than 12-byte ones.
-    std::vector<float> rgba(pm.index.size() / 3 * 4, 0.f);
-    for (size_t t = 0, n = pm.index.size() / 3; t < n; ++t)
-      std::copy_n(pm.index.data() + 3 * t, 3, rgba.data() + 4 * t);
+    const std::vector<float>& texels = pm.texture();
+    std::vector<float> rgba(texels.size() / 3 * 4, 0.f);
+    for (size_t t = 0, n = texels.size() / 3; t < n; ++t)
+      std::copy_n(texels.data() + 3 * t, 3, rgba.data() + 4 * t);
     glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA32F, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z));
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z), GL_RGBA,
@@ -235,9 +237,9 @@ struct VolumeRenderer::Impl {
       setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
     }
     if (pm.snap) uploadClasses(*map->rigidSnap);
-    MapCellSupport support{td, 0, pm.upsampling == MapUpsampling::Gaussian ? 4 : 1,
-                           pm.snap ? pm.snap->marginVoxels : 0.0};
-    mapCells = computeMapCells(d, pm.index, blocks, &support);
+    MapCellSupport support{td, 0, pm.upsampling == Upsampling::Gaussian ? 4 : 1,
+                           pm.snapMarginVoxels};
+    mapCells = computeMapCells(d, pm.texture(), blocks, &support);
     makeSkipTextures(cellSkip, mapCells.cells, mapCells.maxValue);
     snap = std::move(pm.snap);
     output = pm.output;
@@ -247,7 +249,7 @@ struct VolumeRenderer::Impl {
     checkGlError("backward map upload");
   }
 
-  void uploadClasses(const MapRigidSnap& rs) {
+  void uploadClasses(const RigidSnap& rs) {
     if (classTex && uploadedClasses == rs.classes.get()) return;
     const Dims& d = rs.classGrid.dims;
     checkTextureSize(d, "rigid snap class volume");
@@ -275,24 +277,25 @@ struct VolumeRenderer::Impl {
   void setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const;
 
   void setSnapUniforms(GLuint p) const {
-    const PreparedSnap& ps = *snap;
+    const SnapFrame& ps = *snap;
     glActiveTexture(GL_TEXTURE0 + kUnitClasses);
     glBindTexture(GL_TEXTURE_3D, classTex);
-    glUniformMatrix3fv(glGetUniformLocation(p, "uSrcToClass"), 1, GL_TRUE, ps.toClass.data());
-    glUniform3f(glGetUniformLocation(p, "uSrcToClassOffset"), ps.toClass[9], ps.toClass[10], ps.toClass[11]);
-    glUniformMatrix3fv(glGetUniformLocation(p, "uSrcDeltaToMm"), 1, GL_TRUE, ps.deltaToMm.data());
+    namespace u = snap_uniform;
+    glUniformMatrix3fv(glGetUniformLocation(p, u::kSrcToClass), 1, GL_TRUE, ps.toClass.data());
+    glUniform3f(glGetUniformLocation(p, u::kSrcToClassOffset), ps.toClass[9], ps.toClass[10], ps.toClass[11]);
+    glUniformMatrix3fv(glGetUniformLocation(p, u::kSrcDeltaToMm), 1, GL_TRUE, ps.deltaToMm.data());
     std::vector<float> rows;
     uint32_t valid[(kMaxSnapBodies + 31) / 32] = {};
     for (size_t c = 0; c < ps.body.size(); ++c) {
       const auto& m = ps.body[c];
-      for (int r = 0; r < 3; ++r) rows.insert(rows.end(), {m[3 * r], m[3 * r + 1], m[3 * r + 2], m[9 + r]});
+      for (int r = 0; r < kSnapBodyRows; ++r) rows.insert(rows.end(), {m[3 * r], m[3 * r + 1], m[3 * r + 2], m[9 + r]});
       if (ps.valid[c]) valid[c / 32] |= 1u << (c % 32);
     }
     if (!rows.empty())
-      glUniform4fv(glGetUniformLocation(p, "uBodyRows"), GLsizei(rows.size() / 4), rows.data());
-    glUniform1uiv(glGetUniformLocation(p, "uBodyValid"), GLsizei(std::size(valid)), valid);
-    glUniform1i(glGetUniformLocation(p, "uBodies"), GLint(ps.body.size()));
-    glUniform1f(glGetUniformLocation(p, "uMaxSnap2"), ps.maxSnap2);
+      glUniform4fv(glGetUniformLocation(p, u::kBodyRows), GLsizei(rows.size() / 4), rows.data());
+    glUniform1uiv(glGetUniformLocation(p, u::kBodyValid), GLsizei(std::size(valid)), valid);
+    glUniform1i(glGetUniformLocation(p, u::kBodies), GLint(ps.body.size()));
+    glUniform1f(glGetUniformLocation(p, u::kMaxSnap2), ps.maxSnap2);
   }
 };
 
@@ -303,7 +306,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.shading = s.shading;
   variant.deformed = deform != nullptr;
   variant.attributes = deform && !deform->attributes.empty();
-  variant.gaussian = deform && deform->upsampling == MapUpsampling::Gaussian;
+  variant.gaussian = deform && deform->upsampling == Upsampling::Gaussian;
   variant.snap = deform && snap.has_value();
   variant.outputBox = deform && output.has_value();
   variant.labels = hasLabels && s.labelBlend > 0 && !variant.mip;

@@ -14,27 +14,6 @@ namespace vellum::animation {
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
-render::BackwardMap toBackwardMap(const ControlVolume& cv, const Geometry& output, Upsampling upsampling) {
-  render::BackwardMap m;
-  m.grid = cv.grid;
-  m.output = output;
-  m.sourceMm = cv.sourceMm;
-  m.attributes = cv.attributes;
-  m.upsampling = upsampling == Upsampling::Gaussian ? render::MapUpsampling::Gaussian
-                                                    : render::MapUpsampling::Trilinear;
-  if (cv.rigidSnap && cv.rigidSnap->classes) {
-    const RigidSnap& rs = *cv.rigidSnap;
-    auto snap = std::make_shared<render::MapRigidSnap>();
-    snap->classes = rs.classes;  // shared, not copied
-    snap->classGrid = rs.classGrid;
-    snap->fits = rs.fits;
-    snap->valid = rs.valid;
-    snap->maxSnapMm = rs.maxSnapMm;
-    m.rigidSnap = std::move(snap);
-  }
-  return m;
-}
-
 namespace {
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -68,7 +47,7 @@ struct MovieRenderer::Impl {
 
   void measure(const ControlVolume& cv) {
     // Voxel level over the map the renderer samples: the node map upsampled with the spec's
-    // kernel and the voxel snap, as the GL path applies them (toBackwardMap).
+    // kernel and the voxel snap, as the GL path applies them (deformation::rendered).
     const RigidityReport m = measureRigidityVoxels(cv, geometry, *rigidity.bodies, spec.upsampling,
                                                    rigidity.measureStride);
     result.perFrame.push_back({m, measureRigidity(cv, *rigidity.bodies)});
@@ -132,7 +111,7 @@ struct MovieRenderer::Impl {
     deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
     ControlVolume cv = deformer.update();
     if (rigidity.bodies) applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm});
-    const render::BackwardMap map = toBackwardMap(cv, geometry, spec.upsampling);
+    const render::BackwardMap map = renderedMap(cv, geometry, spec.upsampling);
     renderer.setBackwardMap(&map);
     result.deformMs += msSince(t0);
     render::RenderSettings s = spec.settings;

@@ -19,13 +19,6 @@
 
 namespace vellum::animation {
 
-/// The renderer's view of a control volume built for the volume grid `output`: node map,
-/// attributes, the rigid snap (class voxels shared, not copied), the upsampling kernel and the
-/// output box, so that the GL frame shows what CPU synthesis with the same kernel makes. The
-/// one ControlVolume -> BackwardMap conversion.
-render::BackwardMap toBackwardMap(const deformation::ControlVolume& cv, const Geometry& output,
-                                  deformation::Upsampling upsampling = deformation::Upsampling::Trilinear);
-
 struct MovieSpec {
   std::filesystem::path moviePath;  ///< empty: no movie
   std::filesystem::path framesDir;  ///< empty: no PNG frames (frame-00000.png, ...)
