@@ -33,6 +33,11 @@ std::string readSmallFile(const fs::path& path, uint64_t maxBytes = 64u << 20);
 /// folder. FileError naming the header when it is absolute or lies outside that folder (after
 /// "..", symlinks), unless `allowOutside` (LoadOptions::allowOutsideData).
 fs::path headerDataFile(const fs::path& header, const std::string& name, bool allowOutside);
+/// The name of the detached data file a NRRD header ("data file") or MetaImage header
+/// ("ElementDataFile") gives, as written, read with the format's own header parser; "" when
+/// the data are attached (LOCAL), the header is not one of these or cannot be read.
+std::string nrrdDataFileName(const fs::path& header);
+std::string metaDataFileName(const fs::path& header);
 /// FileError "truncated: ..." unless the file holds `count` bytes from `offset`.
 void checkFileHolds(const fs::path& path, uint64_t offset, uint64_t count);
 /// Exactly `count` bytes from `offset` into `dst` (large pread calls, no staging copy);

@@ -94,6 +94,19 @@ MetaHeader readMetaHeader(const fs::path& path) {
   throw FileError(path, "missing required field 'ElementDataFile'");
 }
 
+}  // namespace
+
+std::string metaDataFileName(const fs::path& header) {
+  try {
+    const std::string name = readMetaHeader(header).required("ElementDataFile");
+    return name == "LOCAL" ? std::string() : name;
+  } catch (const FileError&) {
+    return {};  // not a readable MetaImage header: it names no data file
+  }
+}
+
+namespace {
+
 /// Dims, sample type, spacing, origin and direction; refuses non-3-D, multi-channel and
 /// oversized images before anything is allocated. `warning`: the direction normalisation's
 /// note, if any.

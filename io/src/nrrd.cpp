@@ -273,6 +273,20 @@ void parseNrrdGeometry(const fs::path& path, const NrrdHeader& h, int64_t dimens
   checkGeometry(path, g);
 }
 
+}  // namespace
+
+std::string nrrdDataFileName(const fs::path& header) {
+  try {
+    const NrrdHeader h = parseHeader(header);  // `field` points into it
+    const std::string* df = field(h, {"data file", "datafile"});
+    return df ? *df : std::string();
+  } catch (const FileError&) {
+    return {};  // not a readable NRRD header: it names no data file
+  }
+}
+
+namespace {
+
 /// The data file, offset, encoding and byte order the header names.
 void locateNrrdData(const fs::path& path, const NrrdHeader& h, NrrdDescription& d, bool allowOutsideData) {
   d.dataPath = path;

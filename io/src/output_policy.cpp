@@ -56,42 +56,26 @@ std::string head(const fs::path& p, size_t n) {
   return s;
 }
 
-/// The value of the first header line starting with one of `keys` (NRRD "data file:",
-/// MetaImage "ElementDataFile ="), trimmed; "" when absent.
-std::string headerField(const std::string& text, std::initializer_list<const char*> keys, char separator) {
-  size_t pos = 0;
-  while (pos < text.size()) {
-    size_t end = text.find('\n', pos);
-    if (end == std::string::npos) end = text.size();
-    std::string line = text.substr(pos, end - pos);
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    for (const char* key : keys) {
-      const std::string k = key;
-      if (line.rfind(k, 0) != 0) continue;
-      const size_t sep = line.find(separator, k.size());
-      if (sep == std::string::npos) continue;
-      std::string value = line.substr(sep + 1);
-      value.erase(0, value.find_first_not_of(" \t"));
-      value.erase(value.find_last_not_of(" \t") + 1);
-      return value;
-    }
-    pos = end + 1;
-  }
-  return {};
-}
-
-/// The detached data file a NRRD or MetaImage header names ("" when attached, a list or
-/// pattern, or unreadable).
+/// The detached data file a NRRD or MetaImage header names, resolved against its folder ("" when
+/// attached, a list or pattern, or unreadable): the readers' own header parsers say.
 fs::path detachedDataFile(const fs::path& header) {
   const std::string ext = lowerExtension(header);
   std::string name;
-  if (ext == ".nhdr" || ext == ".nrrd") name = headerField(head(header, 64 << 10), {"data file", "datafile"}, ':');
-  else if (ext == ".mhd" || ext == ".mha") name = headerField(head(header, 64 << 10), {"ElementDataFile"}, '=');
-  if (name.empty() || name == "LOCAL" || name.rfind("LIST", 0) == 0 || name.find(' ') != std::string::npos ||
+  if (ext == ".nhdr" || ext == ".nrrd") name = detail::nrrdDataFileName(header);
+  else if (ext == ".mhd" || ext == ".mha") name = detail::metaDataFileName(header);
+  if (name.empty() || name.rfind("LIST", 0) == 0 || name.find(' ') != std::string::npos ||
       name.find('%') != std::string::npos)
     return {};
   const fs::path p(name);
   return p.is_absolute() ? p : header.parent_path() / p;
+}
+
+/// Marks `folder` as Vellum's output of `kind`.
+void writeMarker(const fs::path& folder, FolderKind kind) {
+  detail::writeBinaryFile(folder / folderMarkerName(kind),
+                          std::string("Written by Vellum: this folder holds a ") + folderKindName(kind) +
+                              " output and may be replaced by the next one.\n",
+                          {});
 }
 
 /// The kind of folder `folder` holds by its marker, if any.
@@ -166,10 +150,7 @@ void writeFolderAtomically(const fs::path& target, FolderKind kind, const std::f
   detail::writeTemporary(target, tmp, [&](const fs::path& t) {
     fs::create_directory(t);
     write(t);
-    detail::writeBinaryFile(t / folderMarkerName(kind),
-                            std::string("Written by Vellum: this folder holds a ") + folderKindName(kind) +
-                                " output and may be replaced by the next one.\n",
-                            {});
+    writeMarker(t, kind);
   });
 
   // Folders cannot be renamed over non-empty folders: move the old one aside first, so a
@@ -201,10 +182,7 @@ void prepareFolderInPlace(const fs::path& folder, FolderKind kind, bool force) {
   if (ec) throw FileError(folder, "cannot create the folder: " + ec.message());
   for (FolderKind k : kFolderKinds)
     if (k != kind) fs::remove(folder / folderMarkerName(k), ec);  // --force changed its kind
-  detail::writeBinaryFile(folder / folderMarkerName(kind),
-                          std::string("Written by Vellum: this folder holds a ") + folderKindName(kind) +
-                              " output and may be replaced by the next one.\n",
-                          {});
+  writeMarker(folder, kind);
 }
 
 std::vector<fs::path> filesReadFrom(const fs::path& path) {

@@ -25,7 +25,6 @@ struct RenderArgs {
   FigureOptions figure;
 };
 
-/// "fig.png" + "bone" -> "fig-bone.png".
 /// --out for one preset: "fig.png", or "fig-bone.png" ... when several presets are drawn.
 std::filesystem::path figurePath(const std::filesystem::path& out, const std::vector<render::Preset>& presets,
                                  render::Preset p) {
