@@ -1,6 +1,11 @@
 // The segmentation request shared by `vellum segment` and the studio.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <filesystem>
+
+#include "test_data.hpp"
+#include "vellum/app/label_edit.hpp"
 #include "vellum/app/segment_pipeline.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/phantom/phantom.hpp"
@@ -84,4 +89,80 @@ TEST(SegmentPipeline, BadRequestsAreOneLineErrors) {
   reversed.lower = 500;
   reversed.upper = 100;
   EXPECT_THROW(app::runSegmentation(knee().ct, reversed), Error);
+}
+
+namespace {
+/// A CT of two bone balls (1000 HU, radii 8 and 6 mm) joined by a 2 mm bar, in air.
+VolumeI16 dumbbellCt() {
+  Geometry g;
+  g.dims = {56, 28, 28};
+  VolumeI16 ct(g, -1000, kCtAirHu);
+  const Vec3 a{14, 14, 14}, b{42, 14, 14};
+  for (int64_t k = 0; k < 28; ++k)
+    for (int64_t j = 0; j < 28; ++j)
+      for (int64_t i = 0; i < 56; ++i) {
+        const Vec3 p{double(i), double(j), double(k)};
+        const double bar = std::hypot(p.y - 14, p.z - 14);
+        if (norm(p - a) <= 8 || norm(p - b) <= 6 || (p.x > 14 && p.x < 42 && bar <= 1.2)) ct(i, j, k) = 1000;
+      }
+  return ct;
+}
+}  // namespace
+
+TEST(SegmentPipeline, SplitWritesOneIdPerObjectAndLabelEditMergesThem) {
+  const auto dir = test::tempDir("segment-split");
+  io::saveVolume(AnyVolume(dumbbellCt()), dir / "ct.nrrd");
+  app::SegmentRequest r;
+  r.input = dir / "ct.nrrd";
+  r.output = dir / "bones.nrrd";
+  r.report = dir / "bones.json";
+  r.labelName = "bone";
+  r.settings.lower = 500;
+  r.settings.post.split = true;
+  r.settings.post.splitParams.minVolumeMm3 = 100;
+  const app::SegmentResult result = app::runSegment(r);
+  ASSERT_EQ(result.written, (std::vector<uint16_t>{1, 2}));
+  const LabelVolume labels = io::loadLabels(r.output);
+  EXPECT_EQ(labels.ids()(14, 14, 14), 1);  // the larger ball first
+  EXPECT_EQ(labels.ids()(42, 14, 14), 2);
+  EXPECT_EQ(labels.label(1)->name, "bone 1");
+  EXPECT_EQ(labels.label(2)->name, "bone 2");
+  const auto& objects = result.report["segment"]["objects"];
+  ASSERT_EQ(objects.size(), 2u);
+  EXPECT_NEAR(objects[0]["volume_mm3"].get<double>(), 4.0 / 3 * M_PI * 512, 0.1 * 2145);
+  EXPECT_EQ(result.report["split"]["markers"].get<int>(), 2);
+
+  // The two pieces made one bone again, renamed; an id that is not there is refused.
+  app::LabelEditRequest edit;
+  edit.input = r.output;
+  edit.output = dir / "merged.nrrd";
+  edit.assign = {{{1, 2}, 5}};
+  edit.names[5] = "pelvis";
+  const app::LabelEditResult e = app::runLabelEdit(edit);
+  ASSERT_EQ(e.after.size(), 1u);
+  EXPECT_EQ(e.after[0].id, 5);
+  EXPECT_EQ(e.after[0].name, "pelvis");
+  EXPECT_EQ(e.after[0].voxels, e.before[0].voxels + e.before[1].voxels);
+  const LabelVolume merged = io::loadLabels(edit.output);
+  EXPECT_EQ(merged.ids()(14, 14, 14), 5);
+  EXPECT_EQ(merged.ids()(42, 14, 14), 5);
+  ASSERT_EQ(merged.table().size(), 1u);
+
+  app::LabelEditRequest bad = edit;
+  bad.output = dir / "bad.nrrd";
+  bad.assign = {{{9}, 5}};
+  EXPECT_THROW(app::runLabelEdit(bad), FileError);
+  EXPECT_FALSE(std::filesystem::exists(bad.output));
+  bad.assign = {{{1}, 5}, {{1}, 6}};
+  EXPECT_THROW(app::runLabelEdit(bad), Error);
+  // Dropping one ball and keeping nothing else.
+  app::LabelEditRequest drop = edit;
+  drop.output = dir / "dropped.nrrd";
+  drop.assign.clear();
+  drop.names.clear();
+  drop.drop = {2};
+  const app::LabelEditResult d = app::runLabelEdit(drop);
+  ASSERT_EQ(d.after.size(), 1u);
+  EXPECT_EQ(d.after[0].id, 1);
+  EXPECT_EQ(d.after[0].name, "bone 1");
 }

@@ -32,6 +32,7 @@ namespace {
 struct SegmentArgs {
   app::SegmentRequest request;
   std::vector<std::string> seeds;  ///< "x,y,z" (mm)
+  std::vector<std::string> splitSeeds;  ///< "x,y,z" (mm), one object each
   std::string colour;              ///< "R,G,B" (0..255)
   InputOptions in;
 };
@@ -63,6 +64,11 @@ void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& 
     std::cout << ", " << j["segment"]["voxels"].get<int64_t>() << " voxels, "
               << j["segment"]["volume_mm3"].get<double>() / 1000.0 << " cm³";
   std::cout << "\n";
+  if (j.contains("segment") && j["segment"].contains("objects")) {
+    for (const auto& o : j["segment"]["objects"])
+      std::printf("  id %u: %.2f cm³\n", o["id"].get<unsigned>(), o["volume_mm3"].get<double>() / 1000.0);
+    if (j.contains("split")) std::printf("  dropped %.2f cm³ (pieces below --split-min-volume)\n", j["split"]["dropped_mm3"].get<double>() / 1000.0);
+  }
   if (!j.contains("metrics")) return;
   for (const auto& m : j["metrics"]) {
     if (m.contains("truth_ids")) {
@@ -84,6 +90,11 @@ void runSegment(SegmentArgs& a) {
     const auto v = parseNumbers(s, 3, "--seed");
     r.settings.seedsMm.push_back({v[0], v[1], v[2]});
   }
+  for (const auto& s : a.splitSeeds) {
+    const auto v = parseNumbers(s, 3, "--split-seed");
+    r.settings.post.splitParams.seedsMm.push_back({v[0], v[1], v[2]});
+  }
+  if (!a.splitSeeds.empty() && !r.settings.post.split) throw Error("--split-seed needs --split");
   if (!a.colour.empty()) {
     const auto c = parseNumbers(a.colour, 3, "--color");
     std::array<uint8_t, 3> rgb{};
@@ -112,6 +123,8 @@ void addSegmentCommand(CLI::App& app) {
   // Method, its settings and post-processing: flags generated from the request's table.
   addFlags(*cmd, r.settings, app::segmentSettingsTable());
   cmd->add_option("--seed", a->seeds, "seed point x,y,z in mm (repeatable; snake: bubble centres)");
+  cmd->add_option("--split-seed", a->splitSeeds, "with --split: one object per seed x,y,z in mm (repeatable; "
+                                                  "pieces without a seed are dropped)");
   cmd->add_option("--into", r.into, "add the segment into this existing label map (written to --out)");
   cmd->add_option("--label-id", r.labelId, "segment id (default: the lowest free id)");
   cmd->add_option("--label-name", r.labelName, "segment name (default: the method)");
@@ -125,6 +138,7 @@ void addSegmentCommand(CLI::App& app) {
   cmd->footer(
       "Examples:\n"
       "  vellum segment knee.nrrd --out bone.nrrd --preset whole-bone --fill-holes-slices --min-island 100\n"
+      "  vellum segment feet/ --out bones.nrrd --preset whole-bone --fill-holes-slices --split --label-name bone\n"
       "  vellum segment knee.nrrd --out soft.nrrd --method snake --seed 0,35,60 --radius 10 \\\n"
       "      --truth knee-labels.nrrd --truth-ids 1,2,3,10 --report soft.json");
   cmd->callback([a] { runSegment(*a); });

@@ -21,6 +21,7 @@ void addAnimateCommand(CLI::App& app);    // issue 3
 void addShapeCommand(CLI::App& app);      // issue 8
 void addIllustrateCommand(CLI::App& app); // issue 8
 void addCurveAnalogyCommand(CLI::App& app);  // issue 9
+void addLabelsCommand(CLI::App& app);       // issue 23: ids of bones
 void addParamsCommand(CLI::App& app);
 
 /// docs/parameters.md: every parameter table as Markdown (cmd_params.cpp).

@@ -39,6 +39,7 @@ int main(int argc, char** argv) {
   addConvertCommand(app);
   addRenderCommand(app);
   addSegmentCommand(app);
+  addLabelsCommand(app);
   addDeformCommand(app);
   addControlsCommand(app);
   addAnimateCommand(app);

@@ -6,6 +6,7 @@
 #include "vellum/segmentation/components.hpp"
 #include "vellum/segmentation/morphology.hpp"
 #include "vellum/segmentation/region_growing.hpp"
+#include "vellum/segmentation/split.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::app {
@@ -118,12 +119,32 @@ seg::Mask postProcess(const SegmentSettings& r, seg::Mask m, nlohmann::json& inf
   return m;
 }
 
+/// The fields of `sub` as fields of S under `prefix` (the split's own table, described once).
+template <class S, class Sub, class Ref>
+std::vector<params::Field<S>> embedded(const std::string& prefix, Ref ref, const params::Table<Sub>& sub) {
+  std::vector<params::Field<S>> out;
+  for (const params::Field<Sub>& f : sub) {
+    params::Field<S> e = params::makeField<S>(prefix + f.key, f.info, f.kind);
+    e.optional = f.optional;
+    e.choices = f.choices;
+    if (f.get) e.get = [ref, g = f.get](const S& s) { return g(ref(s)); };
+    if (f.set) e.set = [ref, st = f.set](S& s, std::optional<double> v) { st(ref(s), v); };
+    if (f.getText) e.getText = [ref, g = f.getText](const S& s) { return g(ref(s)); };
+    if (f.setText) e.setText = [ref, st = f.setText](S& s, const std::string& v) { st(ref(s), v); };
+    if (f.getVector) e.getVector = [ref, g = f.getVector](const S& s) { return g(ref(s)); };
+    if (f.setVector) e.setVector = [ref, st = f.setVector](S& s, const std::array<double, 3>& v) { st(ref(s), v); };
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
 }  // namespace
 
 const params::Table<SegmentSettings>& segmentSettingsTable() {
   using R = SegmentSettings;
   using params::real, params::integer, params::flag, params::text;
-  static const params::Table<R> t{
+  static const params::Table<R> t = [] {
+    params::Table<R> rows{
       text<R>("method", [](auto& r) -> auto& { return r.method; }, {"Method", "segmentation method", ""},
               {"threshold", "otsu", "multi-otsu", "hysteresis", "grow", "confidence", "snake"}),
       text<R>("preset", [](auto& r) -> auto& { return r.preset; },
@@ -159,7 +180,15 @@ const params::Table<SegmentSettings>& segmentSettingsTable() {
               {"Min island", "post: remove pieces smaller than this volume (0 = off)", "mm^3", 0, 1e12}),
       flag<R>("keep_largest", [](auto& r) -> auto& { return r.post.keepLargest; },
               {"Keep largest", "post: keep the largest piece (with seeds: the pieces holding them)", ""}),
-  };
+      flag<R>("split", [](auto& r) -> auto& { return r.post.split; },
+              {"Split objects", "post, last: split into separate objects (bones touching at joints, two feet), "
+                                "one label id each, largest first (watershed on the depth below the surface)", ""}),
+    };
+    for (auto& f : embedded<R, seg::SplitParams>("split_", [](auto& r) -> auto& { return r.post.splitParams; },
+                                                  seg::splitParamsTable()))
+      rows.push_back(std::move(f));
+    return rows;
+  }();
   return t;
 }
 
@@ -169,6 +198,18 @@ SegmentationResult runSegmentation(const VolumeI16& ct, const SegmentSettings& r
   SegmentationResult out;
   out.mask = runMethod(request, ct, out.info, out.classes, progress, observe);
   if (!out.classes) out.mask = postProcess(request, std::move(out.mask), out.info);
+  if (!out.classes && request.post.split) {
+    seg::SplitResult split = seg::splitObjects(out.mask, request.post.splitParams, progress);
+    nlohmann::json objects = nlohmann::json::array();
+    for (int o = 1; o <= split.count(); ++o) objects.push_back({{"object", o}, {"volume_mm3", split.volumesMm3[o]}});
+    out.info["split"] = {{"neck_mm", request.post.splitParams.neckMm},
+                         {"min_volume_mm3", request.post.splitParams.minVolumeMm3},
+                         {"seeds", request.post.splitParams.seedsMm.size()},
+                         {"markers", split.markers},
+                         {"objects", objects},
+                         {"dropped_mm3", split.droppedMm3}};
+    out.objects = std::move(split.objects);
+  }
   return out;
 }
 

@@ -50,6 +50,30 @@ std::vector<uint16_t> addToLabels(const SegmentRequest& r, const SegmentationRes
     return written;
   }
   const std::string name = r.labelName.empty() ? r.settings.method : r.labelName;
+  if (s.objects) {
+    // One id per object: `id` and the next ids free in `labels` (an --into map keeps its own).
+    const nlohmann::json& split = s.info["split"]["objects"];  // volumes, largest first
+    const int count = static_cast<int>(split.size());
+    std::vector<uint16_t> ids;
+    for (uint32_t candidate = id; int(ids.size()) < count; ++candidate) {
+      if (candidate > 65535) throw Error("split: not enough free label ids for " + std::to_string(count) + " objects");
+      if (candidate == id || !labels.label(static_cast<uint16_t>(candidate))) ids.push_back(static_cast<uint16_t>(candidate));
+    }
+    std::vector<Label> entries;
+    for (int o = 1; o <= count; ++o) {
+      const uint16_t oid = ids[o - 1];
+      const auto colour = o == 1 && r.colour ? *r.colour : defaultLabelColor(oid);
+      entries.push_back({oid, name + " " + std::to_string(o), colour});
+      written.push_back(oid);
+    }
+    seg::addSegments(labels, *s.objects, entries, rule);
+    nlohmann::json objects = nlohmann::json::array();
+    for (int o = 1; o <= count; ++o)
+      objects.push_back({{"id", ids[o - 1]}, {"volume_mm3", split[o - 1]["volume_mm3"]}});
+    report["segment"] = {{"id", id}, {"voxels", seg::countVoxels(s.mask)}, {"volume_mm3", seg::maskVolumeMm3(s.mask)},
+                         {"objects", objects}};
+    return written;
+  }
   const seg::AddResult a = seg::addSegment(labels, s.mask, {id, name, r.colour.value_or(defaultLabelColor(id))}, rule);
   report["segment"] = {{"id", id}, {"voxels", a.written}, {"skipped_by_overlap_rule", a.skipped},
                        {"cleared", a.cleared}, {"volume_mm3", seg::maskVolumeMm3(s.mask)}};

@@ -1,7 +1,9 @@
 #pragma once
 // Adding binary segments into a multi-label map.
 #include <array>
+#include <map>
 #include <string>
+#include <vector>
 
 #include "vellum/core/label_volume.hpp"
 #include "vellum/segmentation/mask.hpp"
@@ -28,7 +30,18 @@ struct AddResult {
 AddResult addSegment(LabelVolume& labels, const Mask& mask, const Label& label,
                      OverlapRule rule = OverlapRule::Overwrite);
 
+/// addSegment for many segments in one pass: voxels with object o (1..entries.size()) get
+/// entries[o-1].id; 0 and larger values are not part of any segment. Counts are totals.
+AddResult addSegments(LabelVolume& labels, const VolumeU16& objects, const std::vector<Label>& entries,
+                      OverlapRule rule = OverlapRule::Overwrite);
+
 /// The voxels of one id.
 Mask segmentMask(const LabelVolume& labels, uint16_t id);
+
+/// Moves ids: the voxels of each key get its value (0 drops them); ids not in `mapping` stay.
+/// Pieces of a bone split apart become one id this way, and one id can be split off into a
+/// new one. The table follows: a target without an entry takes its first source's name and
+/// colour; ids left with no voxels lose their entries.
+LabelVolume relabel(const LabelVolume& labels, const std::map<uint16_t, uint16_t>& mapping);
 
 }  // namespace vellum::segmentation

@@ -18,6 +18,7 @@
 #include "vellum/io/volume_io.hpp"
 #include "vellum/segmentation/mask.hpp"
 #include "vellum/segmentation/snake.hpp"
+#include "vellum/segmentation/split.hpp"
 
 namespace vellum::app {
 
@@ -27,6 +28,9 @@ struct SegmentPostProcessing {
   bool fillHolesSlices = false;    ///< 2D hole filling in every slice along x, y and z
   double minIslandMm3 = 0;         ///< drop components smaller than this; 0 = off
   bool keepLargest = false;        ///< keep the largest component (with seeds: those holding a seed)
+  /// Last: split the mask into separate objects (bones), each written under its own id.
+  bool split = false;
+  segmentation::SplitParams splitParams;  ///< neck, minimum volume, seeds (`--split-seed`)
 };
 
 /// Every field but the seeds is described once in segmentSettingsTable() (`vellum segment`'s
@@ -54,6 +58,7 @@ const params::Table<SegmentSettings>& segmentSettingsTable();
 struct SegmentationResult {
   segmentation::Mask mask;             ///< empty for multi-otsu
   std::optional<VolumeU16> classes;    ///< multi-otsu: class per voxel (0 .. classes-1)
+  std::optional<VolumeU16> objects;    ///< with post.split: object per voxel (0, 1 .. n, largest first)
   nlohmann::json info = nlohmann::json::object();  ///< what ran: intervals, iterations, post-processing
 };
 

@@ -1,0 +1,220 @@
+// Marker-based watershed on the depth below the mask's surface (split.hpp).
+#include "vellum/segmentation/split.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <queue>
+
+#include "vellum/core/components.hpp"
+#include "vellum/core/distance_transform.hpp"
+#include "vellum/core/error.hpp"
+
+namespace vellum::segmentation {
+
+const params::Table<SplitParams>& splitParamsTable() {
+  using S = SplitParams;
+  static const params::Table<S> table{
+      params::real<S>("neck", [](auto& p) -> auto& { return p.neckMm; },
+                      {"Split neck", "contacts narrower than about twice this are cut (0 = split only unconnected pieces)",
+                       "mm", 0, 50}),
+      params::real<S>("min_volume", [](auto& p) -> auto& { return p.minVolumeMm3; },
+                      {"Split minimum volume", "smaller objects merge into their largest-contact neighbour or are dropped",
+                       "mm^3", 0, 1e12}),
+  };
+  return table;
+}
+
+namespace {
+
+/// The 26 neighbour offsets of a voxel (as index steps) and their (di, dj, dk).
+struct Neighbours {
+  std::array<std::array<int, 3>, 26> steps{};
+  Neighbours() {
+    int n = 0;
+    for (int dk = -1; dk <= 1; ++dk)
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di)
+          if (di || dj || dk) steps[n++] = {di, dj, dk};
+  }
+};
+
+/// Calls f(neighbour linear index) for each in-grid 26-neighbour of voxel (i, j, k).
+template <class F>
+void forNeighbours(const Dims& d, int64_t i, int64_t j, int64_t k, F&& f) {
+  static const Neighbours nb;
+  for (const auto& s : nb.steps) {
+    const int64_t a = i + s[0], b = j + s[1], c = k + s[2];
+    if (a < 0 || b < 0 || c < 0 || a >= d.x || b >= d.y || c >= d.z) continue;
+    f((c * d.y + b) * d.x + a);
+  }
+}
+
+/// Markers: one id per seed voxel, or per 26-connected piece deeper than neckMm.
+int placeMarkers(const Mask& mask, const VolumeF32& depth2, const SplitParams& p, std::vector<uint16_t>& ids) {
+  const Geometry& g = mask.geometry();
+  if (!p.seedsMm.empty()) {
+    if (p.seedsMm.size() > 65535) throw Error("split: at most 65535 seeds");
+    uint16_t next = 0;
+    for (const Index3& v : seedsToVoxels(g, p.seedsMm)) {
+      const size_t n = static_cast<size_t>((v.k * g.dims.y + v.j) * g.dims.x + v.i);
+      const Vec3& s = p.seedsMm[next];
+      if (!mask.data()[n])
+        throw Error("split: seed (" + std::to_string(s.x) + ", " + std::to_string(s.y) + ", " + std::to_string(s.z) +
+                    ") mm is not on the mask");
+      ids[n] = ++next;  // two seeds in one voxel: the later one wins, the earlier id stays empty
+    }
+    return next;
+  }
+  const float neck2 = static_cast<float>(p.neckMm * p.neckMm);
+  Mask core = makeMask(g);
+  for (size_t n = 0; n < core.size(); ++n) core.data()[n] = mask.data()[n] && depth2.data()[n] > neck2;
+  const Components c = connectedComponents(core, Connectivity::Vertex26);
+  if (c.count() > 65535) throw Error("split: more than 65535 markers; raise the neck");
+  for (size_t n = 0; n < ids.size(); ++n) ids[n] = static_cast<uint16_t>(c.labels[n]);
+  return static_cast<int>(c.count());
+}
+
+/// Priority flood from the markers over the mask, deepest voxels first: a voxel takes the label
+/// of the voxel that reached it first (FIFO among equal depth, so fronts meet halfway and the
+/// result depends on nothing but the input).
+void flood(const Mask& mask, const VolumeF32& depth2, std::vector<uint16_t>& ids, Progress& progress) {
+  const Dims d = mask.dims();
+  struct Item {
+    float depth2;
+    uint64_t order;
+    uint32_t index;
+    bool operator<(const Item& o) const { return depth2 != o.depth2 ? depth2 < o.depth2 : order > o.order; }
+  };
+  std::priority_queue<Item> queue;
+  uint64_t order = 0;
+  std::vector<uint16_t> reachedBy(ids.size(), 0);  // the label a queued voxel will take
+  auto pushNeighbours = [&](size_t n) {
+    const int64_t i = static_cast<int64_t>(n % d.x), j = static_cast<int64_t>((n / d.x) % d.y),
+                  k = static_cast<int64_t>(n / (d.x * d.y));
+    forNeighbours(d, i, j, k, [&](int64_t m) {
+      if (!mask.data()[m] || ids[m] || reachedBy[m]) return;
+      reachedBy[m] = ids[n];
+      queue.push({depth2.data()[m], order++, static_cast<uint32_t>(m)});
+    });
+  };
+  for (size_t n = 0; n < ids.size(); ++n)
+    if (ids[n]) pushNeighbours(n);
+  int64_t done = 0;
+  while (!queue.empty()) {
+    const size_t n = queue.top().index;
+    queue.pop();
+    ids[n] = reachedBy[n];
+    pushNeighbours(n);
+    if ((++done & 0xFFFF) == 0) progress.advance();
+  }
+}
+
+}  // namespace
+
+SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progress) {
+  params::validate(splitParamsTable(), p);
+  const Geometry& g = mask.geometry();
+  const Dims d = g.dims;
+  if (static_cast<uint64_t>(mask.size()) > 0xFFFFFFFFull) throw Error("split: more than 2^32 voxels");
+  const VolumeF32 depth2 = squaredDistanceMm(maskNot(mask), progress);  // 0 on background
+  std::vector<uint16_t> ids(mask.size(), 0);
+  const int markers = placeMarkers(mask, depth2, p, ids);
+  progress.begin("Splitting objects", static_cast<uint64_t>(countVoxels(mask)) / 65536 + 1);
+  flood(mask, depth2, ids, progress);
+
+  // Mask pieces no marker reached (thinner than the neck everywhere): objects of their own,
+  // unless seeds chose the objects.
+  std::vector<double> volume(markers + 1, 0.0);
+  const double voxelMm3 = voxelVolumeMm3(g);
+  int count = markers;
+  {
+    Mask unreached = makeMask(g);
+    bool any = false;
+    for (size_t n = 0; n < ids.size(); ++n) {
+      unreached.data()[n] = mask.data()[n] && !ids[n];
+      any = any || unreached.data()[n];
+    }
+    if (any && p.seedsMm.empty()) {
+      const Components c = connectedComponents(unreached, Connectivity::Vertex26);
+      if (count + c.count() > 65535) throw Error("split: more than 65535 objects; raise the neck");
+      for (size_t n = 0; n < ids.size(); ++n)
+        if (c.labels[n]) ids[n] = static_cast<uint16_t>(count + c.labels[n]);
+      count += static_cast<int>(c.count());
+    }
+  }
+  volume.assign(count + 1, 0.0);
+  for (uint16_t id : ids) volume[id] += voxelMm3;
+
+  // Contacts between objects (26 neighbours, each pair counted from both sides alike).
+  std::map<std::pair<uint16_t, uint16_t>, int64_t> contact;
+  for (int64_t k = 0; k < d.z; ++k)
+    for (int64_t j = 0; j < d.y; ++j)
+      for (int64_t i = 0; i < d.x; ++i) {
+        const uint16_t a = ids[(k * d.y + j) * d.x + i];
+        if (!a) continue;
+        forNeighbours(d, i, j, k, [&](int64_t m) {
+          const uint16_t b = ids[m];
+          if (b && b != a) ++contact[{a, b}];
+        });
+      }
+  // Small objects, smallest first, join the neighbour they touch most (or are dropped).
+  std::vector<uint16_t> parent(count + 1);
+  std::iota(parent.begin(), parent.end(), uint16_t{0});
+  auto root = [&](uint16_t a) {
+    while (parent[a] != a) a = parent[a];
+    return a;
+  };
+  std::vector<uint16_t> order(count);
+  std::iota(order.begin(), order.end(), uint16_t{1});
+  std::stable_sort(order.begin(), order.end(), [&](uint16_t a, uint16_t b) { return volume[a] < volume[b]; });
+  double dropped = 0;
+  for (uint16_t a : order) {
+    if (root(a) != a || volume[a] >= p.minVolumeMm3) continue;
+    std::map<uint16_t, int64_t> touching;
+    for (const auto& [pair, n] : contact) {
+      if (root(pair.first) != a) continue;
+      const uint16_t b = root(pair.second);
+      if (b != a) touching[b] += n;
+    }
+    uint16_t target = 0;
+    int64_t most = 0;
+    for (const auto& [b, n] : touching)
+      if (n > most) { most = n; target = b; }
+    if (target) {
+      parent[a] = target;
+      volume[target] += volume[a];
+    } else {
+      parent[a] = 0;  // dropped
+      dropped += volume[a];
+    }
+    volume[a] = 0;
+  }
+  if (!p.seedsMm.empty()) {  // unseeded pieces
+    int64_t left = 0;
+    for (size_t n = 0; n < ids.size(); ++n) left += mask.data()[n] && !ids[n];
+    dropped += left * voxelMm3;
+  }
+  // Renumber the surviving roots by volume, largest first (ties: lower old id first).
+  std::vector<uint16_t> roots;
+  for (uint16_t a = 1; a <= count; ++a)
+    if (root(a) == a && volume[a] > 0) roots.push_back(a);
+  std::stable_sort(roots.begin(), roots.end(), [&](uint16_t a, uint16_t b) { return volume[a] > volume[b]; });
+  std::vector<uint16_t> newId(count + 1, 0);
+  SplitResult out;
+  out.volumesMm3.push_back(0.0);
+  for (size_t r = 0; r < roots.size(); ++r) {
+    newId[roots[r]] = static_cast<uint16_t>(r + 1);
+    out.volumesMm3.push_back(volume[roots[r]]);
+  }
+  out.objects = VolumeU16(g, 0, 0.0);
+  uint16_t* o = out.objects.data();
+  for (size_t n = 0; n < ids.size(); ++n) o[n] = ids[n] ? newId[root(ids[n])] : 0;
+  out.droppedMm3 = dropped;
+  out.markers = markers;
+  progress.end();
+  return out;
+}
+
+}  // namespace vellum::segmentation

@@ -1,0 +1,115 @@
+// Splitting a mask into objects (split.hpp) on analytic shapes: a dumbbell cut at its bar,
+// small pieces merged or dropped, seeds choosing the objects.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "test_volumes.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/segmentation/split.hpp"
+
+namespace vellum::segmentation {
+namespace {
+using test::grid;
+
+/// Sets the voxels within r of the segment a-b (a capsule).
+void addCapsule(Mask& m, Vec3 a, Vec3 b, double r) {
+  const Geometry& g = m.geometry();
+  const Vec3 ab = b - a;
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        const double len2 = dot(ab, ab);  // 0: a ball
+        const double t = len2 > 0 ? std::clamp(dot(p - a, ab) / len2, 0.0, 1.0) : 0.0;
+        if (norm(p - (a + ab * t)) <= r) m(i, j, k) = 1;
+      }
+}
+
+TEST(SplitObjects, DumbbellIsCutAtItsBar) {
+  Mask m = makeMask(grid(60, 30, 30));
+  const Vec3 big{15, 15, 15}, small{45, 15, 15};
+  addCapsule(m, big, big, 9);    // 3054 mm³
+  addCapsule(m, small, small, 7);  // 1437 mm³
+  addCapsule(m, big, small, 1.2);  // the contact: a bar 3 voxels across
+  const SplitResult r = splitObjects(m, {2.0, 100.0, {}});
+  ASSERT_EQ(r.count(), 2);
+  EXPECT_EQ(r.objects(15, 15, 15), 1);  // the larger sphere first
+  EXPECT_EQ(r.objects(45, 15, 15), 2);
+  // Every sphere voxel away from the bar belongs to its own sphere.
+  for (int64_t k = 0; k < 30; ++k)
+    for (int64_t j = 0; j < 30; ++j)
+      for (int64_t i = 0; i < 60; ++i) {
+        if (!m(i, j, k)) { EXPECT_EQ(r.objects(i, j, k), 0); continue; }
+        const Vec3 p{double(i), double(j), double(k)};
+        if (norm(p - big) <= 7) EXPECT_EQ(r.objects(i, j, k), 1);
+        if (norm(p - small) <= 5) EXPECT_EQ(r.objects(i, j, k), 2);
+      }
+  EXPECT_NEAR(r.volumesMm3[1], 4.0 / 3 * M_PI * 729, 0.08 * 3054);
+  EXPECT_NEAR(r.volumesMm3[2], 4.0 / 3 * M_PI * 343, 0.12 * 1437);
+  EXPECT_DOUBLE_EQ(r.droppedMm3, 0.0);
+  EXPECT_NEAR(r.volumesMm3[1] + r.volumesMm3[2], maskVolumeMm3(m), 1e-6);
+}
+
+TEST(SplitObjects, WithoutANeckOnlyUnconnectedPiecesSplit) {
+  Mask m = makeMask(grid(60, 30, 30));
+  addCapsule(m, {15, 15, 15}, {15, 15, 15}, 9);
+  addCapsule(m, {45, 15, 15}, {45, 15, 15}, 7);
+  addCapsule(m, {15, 15, 15}, {45, 15, 15}, 1.2);
+  EXPECT_EQ(splitObjects(m, {0.0, 100.0, {}}).count(), 1);  // joined by the bar
+  Mask apart = makeMask(grid(60, 30, 30));
+  addCapsule(apart, {15, 15, 15}, {15, 15, 15}, 9);
+  addCapsule(apart, {45, 15, 15}, {45, 15, 15}, 7);
+  EXPECT_EQ(splitObjects(apart, {0.0, 100.0, {}}).count(), 2);
+}
+
+TEST(SplitObjects, SmallPiecesMergeIntoTheirNeighbourOrAreDropped) {
+  Mask m = makeMask(grid(50, 40, 40));
+  addCapsule(m, {20, 20, 20}, {20, 20, 20}, 10);
+  addCapsule(m, {35, 20, 20}, {35, 20, 20}, 3.5);  // a knob on a stalk: its own marker, 180 mm³
+  addCapsule(m, {20, 20, 20}, {35, 20, 20}, 1.2);
+  addCapsule(m, {44, 35, 35}, {44, 35, 35}, 2);    // a speck far away: 33 mm³
+  const double speck = [&] {
+    Mask s = makeMask(m.geometry());
+    addCapsule(s, {44, 35, 35}, {44, 35, 35}, 2);
+    return maskVolumeMm3(s);
+  }();
+  const SplitResult r = splitObjects(m, {2.0, 500.0, {}});
+  EXPECT_GE(r.markers, 2);
+  ASSERT_EQ(r.count(), 1);
+  EXPECT_EQ(r.objects(35, 20, 20), 1);  // the knob joined the sphere
+  EXPECT_EQ(r.objects(44, 35, 35), 0);  // the speck is gone
+  EXPECT_NEAR(r.droppedMm3, speck, 1e-9);
+  EXPECT_NEAR(r.volumesMm3[1] + r.droppedMm3, maskVolumeMm3(m), 1e-6);
+}
+
+TEST(SplitObjects, SeedsChooseTheObjects) {
+  Mask m = makeMask(grid(60, 20, 20));
+  addCapsule(m, {8, 10, 10}, {40, 10, 10}, 5);   // one rod, no neck anywhere
+  addCapsule(m, {54, 10, 10}, {54, 10, 10}, 4);  // an unseeded blob
+  const SplitResult r = splitObjects(m, {2.0, 0.0, {{8, 10, 10}, {40, 10, 10}}});
+  ASSERT_EQ(r.count(), 2);
+  // The rod is shared between the two seeds, near its middle (both halves alike).
+  EXPECT_NE(r.objects(8, 10, 10), r.objects(40, 10, 10));
+  EXPECT_EQ(r.objects(12, 10, 10), r.objects(8, 10, 10));
+  EXPECT_EQ(r.objects(36, 10, 10), r.objects(40, 10, 10));
+  EXPECT_NEAR(r.volumesMm3[1], r.volumesMm3[2], 0.15 * r.volumesMm3[1]);
+  EXPECT_EQ(r.objects(54, 10, 10), 0);
+  EXPECT_GT(r.droppedMm3, 200.0);
+  EXPECT_THROW(splitObjects(m, {2.0, 0.0, {{24, 2, 2}}}), Error);     // on background
+  EXPECT_THROW(splitObjects(m, {2.0, 0.0, {{500, 10, 10}}}), Error);  // outside the grid
+}
+
+TEST(SplitObjects, AnisotropicSpacingMeasuresTheNeckInMm) {
+  // 1 x 1 x 3 mm voxels: a 3 mm bar along x still splits at neck 2 mm.
+  Mask m = makeMask(grid(60, 30, 12, {1, 1, 3}));
+  addCapsule(m, {15, 15, 16.5}, {15, 15, 16.5}, 9);
+  addCapsule(m, {45, 15, 16.5}, {45, 15, 16.5}, 9);
+  addCapsule(m, {15, 15, 16.5}, {45, 15, 16.5}, 1.5);
+  const SplitResult r = splitObjects(m, {2.0, 100.0, {}});
+  ASSERT_EQ(r.count(), 2);
+  EXPECT_NE(r.objects(15, 15, 5), r.objects(45, 15, 5));
+}
+
+}  // namespace
+}  // namespace vellum::segmentation
