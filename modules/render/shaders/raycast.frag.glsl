@@ -25,6 +25,13 @@ uniform float uTfLo, uTfInvSpan;
 #ifdef SHADING
 uniform sampler3D uNormals;
 #endif
+#ifdef LIGHTING
+uniform sampler3D uLight;      // per cell: transmittance to the key light, ambient openness
+uniform vec3 uLightScale;      // source index + 0.5 -> texture coordinate
+uniform vec3 uLightOffset;     // one cell towards the light, in source voxels
+uniform vec3 uLightDir;        // physical, towards the key light
+uniform float uShadowAmount, uOcclusionAmount;
+#endif
 #ifdef DEFORMED
 uniform sampler3D uMap;      // source index coordinates per map node (Gaussian kernel: padded)
 #endif
@@ -175,6 +182,25 @@ vec3 shade(vec3 c, vec4 n, vec3 l) {
   float ndl = abs(dot(n.xyz, l)) / max(len, 1e-4);
   vec3 lit = c * (AMBIENT + DIFFUSE * ndl) + SPECULAR * pow(ndl, SHININESS);
   return mix(c, min(lit, vec3(1.0)), w);
+}
+#endif
+
+#ifdef LIGHTING
+// Twin of shadeLit() in reference_cpu.cpp: the key light (shadowed) with a headlight fill,
+// ambient scaled by the openness; regions without a gradient keep their colour, darkened alike.
+vec3 shadeLit(vec3 c, vec4 n, vec3 v, vec3 u) {
+  vec2 lo = texture(uLight, (u + uLightOffset + 0.5) * uLightScale).rg;
+  float T = mix(1.0, lo.r, uShadowAmount), A = mix(1.0, lo.g, uOcclusionAmount);
+  float len = length(n.xyz);
+  float w = len > 1e-4 ? clamp((n.w - GRAD_LOW) / (GRAD_HIGH - GRAD_LOW), 0.0, 1.0) : 0.0;
+  vec3 nn = len > 1e-4 ? n.xyz / len : v;
+  if (dot(nn, v) < 0.0) nn = -nn;
+  float key = max(dot(nn, uLightDir), 0.0), head = max(dot(nn, v), 0.0);
+  vec3 h = normalize(uLightDir + v);
+  float spec = SPECULAR * pow(max(dot(nn, h), 0.0), SHININESS) * T;
+  vec3 lit = c * (AMBIENT * A + DIFFUSE * (KEY_SHARE * key * T + (1.0 - KEY_SHARE) * head)) + spec;
+  vec3 plain = c * (AMBIENT * A + DIFFUSE * (KEY_SHARE * T + (1.0 - KEY_SHARE)));
+  return mix(plain, min(lit, vec3(1.0)), w);
 }
 #endif
 

@@ -102,7 +102,11 @@ void main() {
 #ifdef TURN_NORMALS
         n = deformedNormal(p, n, snappedBody);
 #endif
+#ifdef LIGHTING
+        c.rgb = shadeLit(c.rgb, n, -dir, u);
+#else
         c.rgb = shade(c.rgb, n, -dir);
+#endif
 #endif
         acc.rgb += (1.0 - acc.a) * c.a * c.rgb;
         acc.a += (1.0 - acc.a) * c.a;

@@ -2,7 +2,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
+#include "light_volume.hpp"
 #include "map_sampling.hpp"
 #include "normal_volume.hpp"
 #include "render_common.hpp"
@@ -44,6 +46,8 @@ struct Context {
   PreparedMap prepared;  ///< the map in source index coordinates, with its snap
   const LabelTint* tint = nullptr;  ///< set when labels tint the samples
   const OpaqueLayer* opaque = nullptr;
+  std::optional<LightVolume> light;  ///< cinematic lighting (light_volume.hpp)
+  Vec3 lightDir;
 };
 
 std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float, 4>& n,
@@ -56,6 +60,32 @@ std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float
   for (int k = 0; k < 3; ++k) {
     const float lit = std::min(c[k] * (kAmbient + kDiffuse * ndl) + spec, 1.f);
     out[k] = c[k] + w * (lit - c[k]);
+  }
+  return out;
+}
+
+/// Twin of shadeLit() in raycast.frag.glsl.
+std::array<float, 3> shadeLit(const std::array<float, 3>& c, const std::array<float, 4>& n, const Vec3& v,
+                              const Vec3& u, const Context& cx) {
+  const auto lo = cx.light->sample(u + cx.light->towardsLight);
+  const Lighting& l = cx.s.lighting;
+  const float T = float(1 + l.shadows * (lo[0] - 1)), A = float(1 + l.occlusion * (lo[1] - 1));
+  const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  const float w = len > 1e-4f ? std::clamp((n[3] - kGradLow) / (kGradHigh - kGradLow), 0.f, 1.f) : 0.f;
+  Vec3 nn = len > 1e-4f ? Vec3{n[0] / len, n[1] / len, n[2] / len} : v;
+  if (dot(nn, v) < 0) nn = nn * -1.0;
+  const Vec3& L = cx.lightDir;
+  const float key = float(std::max(dot(nn, L), 0.0)), head = float(std::max(dot(nn, v), 0.0));
+  const Vec3 hv = L + v;
+  const Vec3 h = hv * (1.0 / norm(hv));
+  const float spec = kSpecular * std::pow(float(std::max(dot(nn, h), 0.0)), kShininess) * T;
+  const float diffuse = kDiffuse * (kKeyLightShare * key * T + (1 - kKeyLightShare) * head);
+  const float plain = kAmbient * A + kDiffuse * (kKeyLightShare * T + (1 - kKeyLightShare));
+  std::array<float, 3> out{};
+  for (int k = 0; k < 3; ++k) {
+    const float lit = std::min(c[k] * (kAmbient * A + diffuse) + spec, 1.f);
+    const float flat = c[k] * plain;
+    out[k] = flat + w * (lit - flat);
   }
   return out;
 }
@@ -124,7 +154,7 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
         if (s.shading) {
           std::array<float, 4> n = cx.normals.sample(u.x, u.y, u.z);
           if (cx.map && s.turnDeformedNormals) n = cx.prepared.turnNormal(p, n, snappedBody);
-          rgb = shade(rgb, n, -ray.dir);
+          rgb = cx.light ? shadeLit(rgb, n, ray.dir * -1.0, u, cx) : shade(rgb, n, -ray.dir);
         }
         const double w = (1 - acc[3]) * c[3];
         for (int ch = 0; ch < 3; ++ch) acc[ch] += w * rgb[ch];
@@ -163,6 +193,10 @@ RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& sett
   if (settings.preset != Preset::Mip) {
     cx.tf = buildTfTable(settings, cx.frame.stepMm);
     if (settings.shading) cx.normals = computeNormalVolume(volume);
+    if (settings.shading && settings.lighting.on()) {
+      cx.lightDir = keyLightDirection(cx.frame, settings.lighting);
+      cx.light = computeLightVolume(makeLightSource(volume), cx.tf, cx.frame.stepMm, cx.lightDir, settings.lighting);
+    }
   }
   if (map) cx.prepared = prepareMap(*map, g);
   if (tint && settings.labelBlend > 0 && settings.preset != Preset::Mip) {

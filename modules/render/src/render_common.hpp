@@ -28,6 +28,10 @@ constexpr float kAmbient = 0.35f;
 constexpr float kDiffuse = 0.65f;
 constexpr float kSpecular = 0.2f;
 constexpr float kShininess = 24.f;
+/// With cinematic lighting (RenderSettings::lighting): the share of the diffuse term that comes
+/// from the key light (shadowed); the rest stays a headlight fill, so faces turned from the key
+/// light keep their form.
+constexpr float kKeyLightShare = 0.75f;
 /// Shading fades in between these encoded gradient magnitudes (see normal_volume.hpp):
 /// homogeneous regions (noise-level gradients) keep their unshaded TF colour.
 constexpr float kGradLow = 0.02f;

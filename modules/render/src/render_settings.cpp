@@ -55,6 +55,16 @@ const params::Table<RenderSettings>& renderSettingsTable() {
                       {"Jitter", "fixed per-pixel ray offsets: fine noise instead of wood-grain rings", ""}),
       params::real<R>("label_blend", [](auto& s) -> auto& { return s.labelBlend; },
                       {"Label colours", "how much label colours tint the volume (0 = off; needs a label map)", "", 0, 1}),
+      params::real<R>("shadows", [](auto& s) -> auto& { return s.lighting.shadows; },
+                      {"Shadows", "volumetric shadows of the key light: how much they darken (0 = off; shaded DVR)", "", 0, 1}),
+      params::real<R>("occlusion", [](auto& s) -> auto& { return s.lighting.occlusion; },
+                      {"Ambient occlusion", "how much crevices darken, from the opacity around each sample (0 = off)", "", 0, 1}),
+      params::real<R>("occlusion_radius", [](auto& s) -> auto& { return s.lighting.occlusionRadiusMm; },
+                      {"Occlusion radius", "the neighbourhood whose opacity occludes", "mm", 1, 100}),
+      params::real<R>("light_azimuth", [](auto& s) -> auto& { return s.lighting.azimuthDeg; },
+                      {"Light azimuth", "key light turned about the view's up axis; 0 = from the eye, negative = from the left", "degrees", -180, 180}),
+      params::real<R>("light_elevation", [](auto& s) -> auto& { return s.lighting.elevationDeg; },
+                      {"Light elevation", "key light raised towards the top of the view", "degrees", -90, 90}),
   };
   return table;
 }

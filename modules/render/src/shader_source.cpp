@@ -28,6 +28,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.labels && !v.mip) s << "#define LABELS\n#define MAX_TINT_LABELS " << kMaxTintLabels << "\n";
   if (v.opaqueDepth) s << "#define OPAQUE_DEPTH\n";
   if (v.turnNormals && v.deformed && v.shading && !v.mip) s << "#define TURN_NORMALS\n";
+  if (v.lighting && v.shading && !v.mip) s << "#define LIGHTING\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
   s << "#define BLOCK_SIZE " << (v.deformed ? 1 : kBlockSize) << "\n";
@@ -37,6 +38,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define EARLY_ALPHA " << kEarlyTerminationAlpha << "\n";
   s << "#define AMBIENT " << kAmbient << "\n#define DIFFUSE " << kDiffuse << "\n";
   s << "#define SPECULAR " << kSpecular << "\n#define SHININESS " << kShininess << "\n";
+  s << "#define KEY_SHARE " << kKeyLightShare << "\n";
   s << "#define OUTSIDE " << PreparedMap::kOutside << "\n";
   s << "#define OPAQUE_RANGE_MM " << kOpaqueDepthRangeMm << "\n";
   s << "#define NORMAL_STEP " << PreparedMap::kNormalStepNodes << "\n";

@@ -9,6 +9,7 @@
 
 #include "empty_space.hpp"
 #include "gl_util.hpp"
+#include "light_volume.hpp"
 #include "map_layout.hpp"
 #include "map_sampling.hpp"
 #include "normal_volume.hpp"
@@ -24,7 +25,7 @@ namespace {
 
 enum TextureUnit : GLint {
   kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses,
-  kUnitLabels, kUnitLabelColours, kUnitOpaqueDepth
+  kUnitLabels, kUnitLabelColours, kUnitOpaqueDepth, kUnitLight
 };
 
 struct VoxelFormat {
@@ -123,6 +124,14 @@ struct VolumeRenderer::Impl {
   std::map<int, GLuint> programs;
   double lastMs = 0;
   GpuTimer timer;  ///< renderInto: GPU time without a stall
+  /// Cinematic lighting: the values the light volume is made from, and the light volume in
+  /// lightTex for the transfer function's opacity, light direction and radius it was made for.
+  std::optional<LightSource> lightSource;
+  GLuint lightTex = 0;
+  LightVolume light;
+  std::vector<float> lightAlpha;
+  Vec3 lightDir;
+  double lightRadius = -1;
 
   explicit Impl(GlContext& c) : context(c) {
     context.makeCurrent();
@@ -138,7 +147,7 @@ struct VolumeRenderer::Impl {
   ~Impl() {
     context.makeCurrent();
     for (auto& [key, p] : programs) glDeleteProgram(p);
-    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &blockSkip.occupancyTex,
+    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &lightTex, &blockSkip.occupancyTex,
                       &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex})
       deleteTexture(*t);
     glDeleteVertexArrays(1, &vao);
@@ -160,6 +169,7 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uLabels"), kUnitLabels);
     glUniform1i(glGetUniformLocation(p, "uLabelColours"), kUnitLabelColours);
     glUniform1i(glGetUniformLocation(p, "uOpaqueDepth"), kUnitOpaqueDepth);
+    glUniform1i(glGetUniformLocation(p, "uLight"), kUnitLight);
     programs[v.key()] = p;
     return p;
   }
@@ -249,6 +259,47 @@ struct VolumeRenderer::Impl {
     checkGlError("backward map upload");
   }
 
+  /// The light volume for this transfer function, light and radius (recomputed only when one
+  /// of them changed), bound with its uniforms.
+  void useLight(GLuint p, const RenderSettings& s, const TfTable& tf, const Frame& f) {
+    const Vec3 dir = keyLightDirection(f, s.lighting);
+    std::vector<float> alpha(tf.rgba.size() / 4);
+    for (size_t i = 0; i < alpha.size(); ++i) alpha[i] = tf.rgba[4 * i + 3];
+    const bool same = lightTex && alpha == lightAlpha && norm(dir - lightDir) < 1e-9 &&
+                      lightRadius == s.lighting.occlusionRadiusMm;
+    if (!same) {
+      light = computeLightVolume(*lightSource, tf, f.stepMm, dir, s.lighting);
+      deleteTexture(lightTex);
+      glActiveTexture(GL_TEXTURE0 + kUnitLight);  // not the unit bound last (the skip grid's)
+      glGenTextures(1, &lightTex);
+      glBindTexture(GL_TEXTURE_3D, lightTex);
+      const Dims& d = light.dims;
+      // RGBA8 (b, a unused): llvmpipe filters 4-byte texels on its fast path, RG8 not.
+      std::vector<uint8_t> rgba(light.rg.size() * 2, 0);
+      for (size_t i = 0, n = light.rg.size() / 2; i < n; ++i) {
+        rgba[4 * i] = light.rg[2 * i];
+        rgba[4 * i + 1] = light.rg[2 * i + 1];
+      }
+      glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA8, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+      glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+      glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RGBA, GL_UNSIGNED_BYTE,
+                      rgba.data());
+      setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
+      checkGlError("light volume upload");
+      lightAlpha = std::move(alpha);
+      lightDir = dir;
+      lightRadius = s.lighting.occlusionRadiusMm;
+    }
+    glActiveTexture(GL_TEXTURE0 + kUnitLight);
+    glBindTexture(GL_TEXTURE_3D, lightTex);
+    const Dims& d = light.dims;
+    uniform3(p, "uLightScale", {1.0 / (light.factor * d.x), 1.0 / (light.factor * d.y), 1.0 / (light.factor * d.z)});
+    uniform3(p, "uLightOffset", light.towardsLight);
+    uniform3(p, "uLightDir", dir);
+    uniform1(p, "uShadowAmount", s.lighting.shadows);
+    uniform1(p, "uOcclusionAmount", s.lighting.occlusion);
+  }
+
   void uploadClasses(const RigidSnap& rs) {
     if (classTex && uploadedClasses == rs.classes.get()) return;
     const Dims& d = rs.classGrid.dims;
@@ -312,6 +363,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.labels = hasLabels && s.labelBlend > 0 && !variant.mip;
   variant.opaqueDepth = opaqueDepth;
   variant.turnNormals = deform && s.shading && s.turnDeformedNormals && !variant.mip;
+  variant.lighting = s.lighting.on() && s.shading && !variant.mip && lightSource.has_value();
   const GLuint p = program(variant);
   glUseProgram(p);
 
@@ -365,6 +417,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
     glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
+    if (variant.lighting) useLight(p, s, tf, f);
   }
   return p;
 }
@@ -434,6 +487,8 @@ void VolumeRenderer::setVolume(const AnyVolume& volume) {
   std::visit([&](const auto& v) { impl_->uploadVolume(v); }, volume);
   impl_->uploadNormals(computeNormalVolume(volume));
   impl_->blocks = computeBlockRanges(volume);
+  impl_->lightSource = makeLightSource(volume);
+  deleteTexture(impl_->lightTex);  // made for the previous volume
   makeSkipTextures(impl_->blockSkip, impl_->blocks.blocks, impl_->blocks.maxValue);
   impl_->source = g;
   impl_->hasVolume = true;

@@ -44,6 +44,17 @@ struct Camera {
   double fieldOfViewDeg = 30.0;  ///< vertical; 0 selects orthographic projection
 };
 
+/// Cinematic lighting terms (docs/lighting.md): a key light with volumetric shadows and ambient
+/// occlusion, both from the transfer function's opacity. Both 0 = the plain headlight shading.
+struct Lighting {
+  double shadows = 0;            ///< 0..1: how much the key light's shadow darkens (0 = off)
+  double occlusion = 0;          ///< 0..1: how much ambient occlusion darkens (0 = off)
+  double occlusionRadiusMm = 8;  ///< neighbourhood that occludes
+  double azimuthDeg = -45;       ///< key light turned about the view's up axis; 0 = from the eye, < 0 from the left
+  double elevationDeg = 40;      ///< key light raised towards the view's up axis
+  bool on() const { return shadows > 0 || occlusion > 0; }
+};
+
 struct RenderSettings {
   int width = 512;   ///< 1..4096
   int height = 512;  ///< 1..4096
@@ -68,6 +79,7 @@ struct RenderSettings {
   /// Label colours in the 3D view: how much each sample's label colour replaces the transfer
   /// function's colour (0 = off; needs a LabelTint, see label_tint.hpp). DVR only.
   double labelBlend = 0.0;
+  Lighting lighting;  ///< DVR with shading only
 };
 
 /// Parameter table of RenderSettings (size, preset, camera, window, shading, step, jitter):

@@ -1,0 +1,221 @@
+// The light volume: shadow sweep and ambient openness (light_volume.hpp).
+#include "light_volume.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::render::detail {
+namespace {
+
+constexpr int kCellsPerAxis = 192;  ///< target cells along the largest axis
+
+uint8_t toByte(double v) { return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255.0)); }
+
+/// Index-space step per mm along a physical direction.
+Vec3 indexPerMm(const Geometry& g, const Vec3& dir) { return g.physicalToIndex(g.origin + dir) - g.physicalToIndex(g.origin); }
+
+/// One axis of a separable Gaussian over a cell grid, outside = 0 (air).
+void blurAxis(std::vector<float>& v, const Dims& d, int axis, double sigmaCells) {
+  if (sigmaCells < 0.3) return;
+  const int r = static_cast<int>(std::ceil(3 * sigmaCells));
+  std::vector<float> w(2 * r + 1);
+  double sum = 0;
+  for (int t = -r; t <= r; ++t) sum += w[t + r] = float(std::exp(-0.5 * t * t / (sigmaCells * sigmaCells)));
+  for (float& x : w) x = float(x / sum);
+  const int64_t n[3] = {d.x, d.y, d.z};
+  const int a = axis, b = (axis + 1) % 3, c = (axis + 2) % 3;
+  const int64_t stride[3] = {1, d.x, d.x * d.y};
+  const std::vector<float> in = v;
+  parallelFor(n[c], [&](int64_t c0, int64_t c1) {
+    std::vector<float> line(n[a]);
+    for (int64_t k = c0; k < c1; ++k)
+      for (int64_t j = 0; j < n[b]; ++j) {
+        const int64_t base = k * stride[c] + j * stride[b];
+        for (int64_t i = 0; i < n[a]; ++i) {
+          double acc = 0;
+          for (int t = -r; t <= r; ++t) {
+            const int64_t q = i + t;
+            if (q >= 0 && q < n[a]) acc += w[t + r] * in[base + q * stride[a]];
+          }
+          line[i] = float(acc);
+        }
+        for (int64_t i = 0; i < n[a]; ++i) v[base + i * stride[a]] = line[i];
+      }
+  });
+}
+
+}  // namespace
+
+Vec3 keyLightDirection(const Frame& f, const Lighting& l) {
+  const double az = l.azimuthDeg * M_PI / 180, el = l.elevationDeg * M_PI / 180;
+  const Vec3 towardsEye = f.forward * -1.0;
+  const Vec3 d = (towardsEye * std::cos(az) + f.right * std::sin(az)) * std::cos(el) + f.up * std::sin(el);
+  return d * (1.0 / norm(d));
+}
+
+Vec3 LightVolume::cellOf(const Vec3& u) const {
+  const double s = 1.0 / factor;
+  return {(u.x + 0.5) * s - 0.5, (u.y + 0.5) * s - 0.5, (u.z + 0.5) * s - 0.5};
+}
+
+std::array<float, 2> LightVolume::sample(const Vec3& u) const {
+  const Vec3 c = cellOf(u);
+  auto axis = [](double v, int64_t n, int64_t& i0, int64_t& i1, double& t) {
+    v = std::clamp(v, 0.0, double(n - 1));
+    i0 = std::min<int64_t>(int64_t(v), n - 1);
+    i1 = std::min<int64_t>(i0 + 1, n - 1);
+    t = v - double(i0);
+  };
+  int64_t i0, i1, j0, j1, k0, k1;
+  double tx, ty, tz;
+  axis(c.x, dims.x, i0, i1, tx);
+  axis(c.y, dims.y, j0, j1, ty);
+  axis(c.z, dims.z, k0, k1, tz);
+  std::array<float, 2> out{0, 0};
+  for (int n = 0; n < 8; ++n) {
+    const int64_t i = (n & 1) ? i1 : i0, j = (n & 2) ? j1 : j0, k = (n & 4) ? k1 : k0;
+    const double w = ((n & 1) ? tx : 1 - tx) * ((n & 2) ? ty : 1 - ty) * ((n & 4) ? tz : 1 - tz);
+    const uint8_t* t = rg.data() + 2 * static_cast<size_t>((k * dims.y + j) * dims.x + i);
+    out[0] += float(w * t[0] / 255.0);
+    out[1] += float(w * t[1] / 255.0);
+  }
+  return out;
+}
+
+LightSource makeLightSource(const AnyVolume& volume) {
+  LightSource out;
+  out.source = geometryOf(volume);
+  const Dims d = out.source.dims;
+  const int64_t largest = std::max({d.x, d.y, d.z});
+  out.factor = largest > kCellsPerAxis ? 2 : 1;
+  const int f = out.factor;
+  Geometry g = out.source;
+  g.dims = {(d.x + f - 1) / f, (d.y + f - 1) / f, (d.z + f - 1) / f};
+  g.spacing = {g.spacing.x * f, g.spacing.y * f, g.spacing.z * f};
+  std::visit(
+      [&](const auto& v) {
+        out.values = VolumeF32(g, 0.f, v.background());
+        float* dst = out.values.data();
+        parallelFor(g.dims.z, [&](int64_t k0, int64_t k1) {
+          for (int64_t k = k0; k < k1; ++k)
+            for (int64_t j = 0; j < g.dims.y; ++j)
+              for (int64_t i = 0; i < g.dims.x; ++i) {
+                double sum = 0;
+                int count = 0;
+                for (int64_t c = k * f; c < std::min(d.z, (k + 1) * f); ++c)
+                  for (int64_t b = j * f; b < std::min(d.y, (j + 1) * f); ++b)
+                    for (int64_t a = i * f; a < std::min(d.x, (i + 1) * f); ++a, ++count) sum += double(v(a, b, c));
+                dst[(k * g.dims.y + j) * g.dims.x + i] = float(sum / count);
+              }
+        });
+      },
+      volume);
+  return out;
+}
+
+LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double stepMm, const Vec3& lightDir,
+                               const Lighting& lighting) {
+  const Dims sd = src.source.dims;
+  const int64_t largest = std::max({sd.x, sd.y, sd.z});
+  // Cells: a multiple of the value grid's factor, about kCellsPerAxis along the largest axis.
+  const int64_t perValue = std::max<int64_t>(1, (largest + int64_t(src.factor) * kCellsPerAxis - 1) /
+                                                    (int64_t(src.factor) * kCellsPerAxis));
+  LightVolume lv;
+  lv.factor = int(perValue) * src.factor;
+  const int f = lv.factor;
+  const int64_t fv = perValue;  // value voxels per cell
+  const Dims vd = src.values.dims();
+  lv.dims = {(sd.x + f - 1) / f, (sd.y + f - 1) / f, (sd.z + f - 1) / f};
+  const Dims d = lv.dims;
+  const size_t cells = static_cast<size_t>(d.x * d.y * d.z);
+  const Vec3 cellMm = src.source.spacing * double(f);
+
+  // Extinction per mm, averaged over each cell's value voxels.
+  std::vector<float> sigma(cells, 0.f);
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          double sum = 0;
+          int count = 0;
+          for (int64_t c = k * fv; c < std::min(vd.z, (k + 1) * fv); ++c)
+            for (int64_t b = j * fv; b < std::min(vd.y, (j + 1) * fv); ++b)
+              for (int64_t a = i * fv; a < std::min(vd.x, (i + 1) * fv); ++a, ++count) {
+                const double alpha = std::min<double>(tf.lookup(src.values(a, b, c))[3], 0.9999);
+                sum += -std::log1p(-alpha) / stepMm;
+              }
+          sigma[static_cast<size_t>((k * d.y + j) * d.x + i)] = count ? float(sum / count) : 0.f;
+        }
+  });
+
+  // Shadow: slices across the axis the light runs most along, from the light's side inwards.
+  Geometry cellGrid = src.source;
+  cellGrid.dims = d;
+  cellGrid.spacing = cellMm;
+  const Vec3 di = indexPerMm(cellGrid, lightDir);  // cells per mm towards the light
+  const double comp[3] = {di.x, di.y, di.z};
+  int a = 0;
+  for (int t = 1; t < 3; ++t)
+    if (std::abs(comp[t]) > std::abs(comp[a])) a = t;
+  const int b = (a + 1) % 3, c = (a + 2) % 3;
+  const double along = std::abs(comp[a]);
+  const double ds = 1.0 / along;                                  // mm of light path per slice
+  const double shiftB = comp[b] / along, shiftC = comp[c] / along;  // cells per slice towards the light
+  const int sign = comp[a] > 0 ? 1 : -1;
+  const int64_t n[3] = {d.x, d.y, d.z};
+  const int64_t stride[3] = {1, d.x, d.x * d.y};
+  std::vector<float> trans(cells, 1.f);
+  auto at = [&](int64_t s, int64_t p, int64_t q) { return s * stride[a] + p * stride[b] + q * stride[c]; };
+  const int64_t first = sign > 0 ? n[a] - 1 : 0;
+  for (int64_t step = 1; step < n[a]; ++step) {
+    const int64_t s = first - sign * step, prev = s + sign;
+    parallelFor(n[c], [&](int64_t q0, int64_t q1) {
+      for (int64_t q = q0; q < q1; ++q)
+        for (int64_t p = 0; p < n[b]; ++p) {
+          // Bilinear in the previous slice at the point one slice towards the light; outside
+          // the box the light arrives unattenuated through air.
+          const double pb = double(p) + shiftB, pc = double(q) + shiftC;
+          const int64_t b0 = int64_t(std::floor(pb)), c0 = int64_t(std::floor(pc));
+          const double tb = pb - double(b0), tc = pc - double(c0);
+          double tPrev = 0, sPrev = 0;
+          for (int corner = 0; corner < 4; ++corner) {
+            const int64_t bb = b0 + (corner & 1), cc = c0 + (corner >> 1);
+            const double w = ((corner & 1) ? tb : 1 - tb) * ((corner >> 1) ? tc : 1 - tc);
+            if (bb < 0 || cc < 0 || bb >= n[b] || cc >= n[c]) {
+              tPrev += w;
+              continue;
+            }
+            const size_t idx = static_cast<size_t>(at(prev, bb, cc));
+            tPrev += w * trans[idx];
+            sPrev += w * sigma[idx];
+          }
+          const size_t here = static_cast<size_t>(at(s, p, q));
+          trans[here] = float(tPrev * std::exp(-0.5 * (sigma[here] + sPrev) * ds));
+        }
+    });
+  }
+
+  // Openness: the local mean of each cell's opacity over its own length, air outside.
+  std::vector<float> occ(cells);
+  const double cellLen = std::cbrt(cellMm.x * cellMm.y * cellMm.z);
+  for (size_t i = 0; i < cells; ++i) occ[i] = float(1.0 - std::exp(-double(sigma[i]) * cellLen));
+  const double sigmaMm = 0.5 * lighting.occlusionRadiusMm;
+  blurAxis(occ, d, 0, sigmaMm / cellMm.x);
+  blurAxis(occ, d, 1, sigmaMm / cellMm.y);
+  blurAxis(occ, d, 2, sigmaMm / cellMm.z);
+
+  lv.rg.resize(2 * cells);
+  for (size_t i = 0; i < cells; ++i) {
+    lv.rg[2 * i] = toByte(trans[i]);
+    lv.rg[2 * i + 1] = toByte(2.0 * (1.0 - occ[i]));
+  }
+  // One cell towards the light, in source voxels.
+  const Vec3 srcPerMm = indexPerMm(src.source, lightDir);
+  const double srcAlong = std::max({std::abs(srcPerMm.x), std::abs(srcPerMm.y), std::abs(srcPerMm.z)});
+  lv.towardsLight = srcPerMm * (double(f) / srcAlong);
+  return lv;
+}
+
+}  // namespace vellum::render::detail

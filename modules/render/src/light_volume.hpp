@@ -1,0 +1,52 @@
+#pragma once
+// The light volume of the cinematic lighting terms (docs/lighting.md): per cell of a coarse
+// grid over the source volume, the transmittance towards a directional key light (volumetric
+// shadow) and the ambient openness (1 - occlusion), both from the transfer function's opacity.
+// The GL ray caster samples it as an RG8 texture, the CPU reference with sample(); both from
+// the same bytes. Internal to modules/render.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "render_common.hpp"
+#include "vellum/core/volume.hpp"
+
+namespace vellum::render::detail {
+
+/// The key light's direction (unit, physical, pointing from the scene towards the light) for a
+/// frame's camera basis.
+Vec3 keyLightDirection(const Frame& f, const Lighting& l);
+
+struct LightVolume {
+  Dims dims;       ///< cells
+  int factor = 1;  ///< source voxels per cell along each axis
+  std::vector<uint8_t> rg;  ///< per cell: transmittance, openness (0..255), x fastest
+  /// Source index u -> cell index: (u + 0.5) / factor - 0.5 (the texture coordinate is
+  /// (u + 0.5) / (factor * dims)).
+  Vec3 cellOf(const Vec3& u) const;
+  /// Source index offset that moves one cell towards the light (against self-shadowing).
+  Vec3 towardsLight;
+  /// Trilinear, clamped to the edge, as GL filters the RG8 texture: {transmittance, openness}.
+  std::array<float, 2> sample(const Vec3& u) const;
+};
+
+/// The values the light volume is made from, kept by the renderer (the GL textures are not
+/// readable back): the source itself (as float) up to 192 voxels per axis, else the means of
+/// 2x2x2 blocks (an eighth of the voxels), with the source voxels per value voxel.
+struct LightSource {
+  VolumeF32 values;
+  int factor = 1;
+  Geometry source;
+};
+LightSource makeLightSource(const AnyVolume& volume);
+
+/// Cells of about 1/192 of the largest axis (a multiple of the source's factor); extinction
+/// per mm from the table's alpha (per step of stepMm), averaged per cell; the shadow swept
+/// slice by slice away from the light (exact for a directional light, bilinear between
+/// slices); openness 2 * (1 - local mean cell opacity) clamped to [0, 1], the mean over a
+/// Gaussian of lighting.occlusionRadiusMm / 2 with air outside the box (a flat surface is
+/// open, a crevice dark). Parallel; deterministic.
+LightVolume computeLightVolume(const LightSource& source, const TfTable& tf, double stepMm, const Vec3& lightDir,
+                               const Lighting& lighting);
+
+}  // namespace vellum::render::detail
