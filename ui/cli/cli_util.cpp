@@ -182,6 +182,11 @@ std::pair<int, int> parseSize(const std::string& text) {
   return {w, h};
 }
 
+std::string& commandLine() {
+  static std::string line;
+  return line;
+}
+
 void addForceFlag(CLI::App& cmd, bool& force) {
   cmd.add_flag("--force", force,
                "let an output folder replace a folder Vellum wrote as another kind of output (never a folder "

@@ -113,6 +113,9 @@ using io::OutputPlan;
 /// folder Vellum did not write is never replaced).
 void addForceFlag(CLI::App& cmd, bool& force);
 
+/// The command line as typed ("vellum render ..."), for reports; main() sets it.
+std::string& commandLine();
+
 /// JSON for geometry pieces.
 nlohmann::json toJson(const Vec3& v);
 nlohmann::json toJson(const Mat3& m);  ///< row-major array of 3 rows

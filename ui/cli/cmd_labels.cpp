@@ -102,6 +102,7 @@ void addLabelsCommand(CLI::App& app) {
         throw Error("--color: '" + s + "' needs three components in 0..255");
       r.colours[parseId(id, "--color")] = {uint8_t(c[0]), uint8_t(c[1]), uint8_t(c[2])};
     }
+    r.commandLine = commandLine();
     ProgressBar bar;
     const app::LabelEditResult result = app::runLabelEdit(r, bar.progress());
     bar.finish();

@@ -5,7 +5,9 @@
 #include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/params_json.hpp"
 #include "vellum/deformation/map_file.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/render/volume_renderer.hpp"
@@ -14,7 +16,7 @@ namespace vellum::cli {
 namespace {
 
 struct RenderArgs {
-  std::string input, output, attributes, labelColours;
+  std::string input, output, attributes, labelColours, report;
   std::string preset = render::presetName(render::RenderSettings{}.preset);
   std::string size = "512x512";
   render::RenderSettings settings;  ///< the table's flags write here
@@ -69,6 +71,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("--attributes", a->attributes,
                   "attribute field of `vellum deform --attributes-out` for this (deformed) volume: colour shifts "
                   "and density drawn as in the live deformed render");
+  cmd->add_option("--report", a->report,
+                  "write a JSON report: version, command, inputs and outputs with fingerprints, settings, timings, memory");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
   a->figure.addTo(*cmd, FigureOptions::LabelSource::File);
@@ -82,8 +86,16 @@ void addRenderCommand(CLI::App& app) {
         .input(a->labelColours, "the --label-colours map")
         .input(a->attributes, "the --attributes field");
     for (render::Preset p : presets) plan.output(figurePath(a->output, presets, p), "--out");
+    plan.json(a->report, "--report");
     plan.check();
+    app::RunReport run(commandLine());
+    run.input(a->input, "volume");
+    run.input(a->figure.labelMap, "label map");
+    run.input(a->labelColours, "label colours");
+    run.input(a->attributes, "attribute field");
     io::LoadedVolume lv = loadWithProgress(a->input, a->in);
+    run.loaded(a->input, lv);
+    run.mark("load");
     lv.volume = a->table.apply(std::move(lv.volume), a->input);
     render::RenderSettings s = a->settings;
     std::tie(s.width, s.height) = parseSize(a->size);
@@ -123,6 +135,8 @@ void addRenderCommand(CLI::App& app) {
     const Geometry& frameBox = attributeMap ? attributeMap->grid : geometryOf(lv.volume);
     ensureParentFolder(a->output);
     RunOutputs outputs;  // Ctrl-C between presets leaves no figure of this run
+    nlohmann::json figures = nlohmann::json::array();
+    run.mark("prepare");
     for (render::Preset p : presets) {
       s.preset = p;
       RgbaImage image = renderer.render(s);
@@ -132,8 +146,16 @@ void addRenderCommand(CLI::App& app) {
       const auto path = figurePath(a->output, presets, p);
       io::saveImage(image, path);
       outputs.wrote(path);
+      run.mark(std::string("render ") + render::presetName(p));
+      run.output(path);
+      figures.push_back({{"path", path.string()}, {"preset", render::presetName(p)}, {"draw_ms", renderer.lastRenderMs()}});
       std::cout << path.string() << "  " << render::presetName(p) << "  " << s.width << "x" << s.height
                 << "  " << renderer.lastRenderMs() << " ms\n";
+    }
+    if (!a->report.empty()) {
+      nlohmann::json report = {{"figures", figures}, {"settings", params::toJson(render::renderSettingsTable(), s)}};
+      run.stamp(report);
+      app::writeJsonFile(report, a->report);
     }
     outputs.commit();
   });

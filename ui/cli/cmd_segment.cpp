@@ -106,6 +106,7 @@ void runSegment(SegmentArgs& a) {
   }
   ProgressBar bar;
   r.load = a.in.toLoadOptions(nullptr);
+  r.commandLine = commandLine();
   const app::SegmentResult result = app::runSegment(r, bar.progress());
   bar.finish();
   for (const auto& w : result.warnings) std::cerr << "warning: " << r.input.string() << ": " << w << "\n";

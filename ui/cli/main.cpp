@@ -8,7 +8,9 @@
 #include <iostream>
 
 #include "cli_params.hpp"
+#include "cli_util.hpp"
 #include "commands.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/progress.hpp"
 
@@ -32,7 +34,8 @@ int main(int argc, char** argv) {
   std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"Vellum: CT volume loading, segmentation, deformation and rendering", "vellum"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "vellum 0.1.0");
+  const std::string commit = vellum::app::vellumGitCommit();
+  app.set_version_flag("--version", "vellum " + vellum::app::vellumVersion() + (commit.empty() ? "" : " (" + commit + ")"));
   using namespace vellum::cli;
   addInfoCommand(app);
   addPhantomCommand(app);
@@ -48,6 +51,16 @@ int main(int argc, char** argv) {
   addCurveAnalogyCommand(app);
   addDemoCommand(app);
   addParamsCommand(app);
+  // Quoted where needed, so that the line in a report can be pasted back into a shell.
+  for (int i = 0; i < argc; ++i) {
+    std::string a = i == 0 ? std::string("vellum") : std::string(argv[i]);
+    if (a.empty() || a.find_first_of(" \t'\"$\\") != std::string::npos) {
+      std::string q = "'";
+      for (char c : a) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      a = q + "'";
+    }
+    commandLine() += (i ? " " : "") + a;
+  }
   try {
     std::vector<std::string> args = joinBooleanFlagValues(app, std::vector<std::string>(argv + 1, argv + argc));
     std::reverse(args.begin(), args.end());  // CLI11 takes them last first

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "vellum/app/outputs.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/segmentation/label_map.hpp"
 #include "vellum/segmentation/mask.hpp"
@@ -37,9 +38,12 @@ nlohmann::json entriesJson(const std::vector<LabelEditResult::Entry>& es) {
 
 LabelEditResult runLabelEdit(const LabelEditRequest& r, Progress& progress) {
   io::OutputPlan().input(r.input).output(r.output, "--out").json(r.report, "--report").force(r.force).check();
+  RunReport run(r.commandLine);
+  run.input(r.input, "label map");
   io::LoadOptions load = r.load;
   load.progress = &progress;
   const LabelVolume labels = io::loadLabels(r.input, load);
+  run.mark("load");
   LabelEditResult result;
   result.before = entries(labels);
   auto present = [&](uint16_t id) {
@@ -88,10 +92,13 @@ LabelEditResult runLabelEdit(const LabelEditRequest& r, Progress& progress) {
   so.force = r.force;
   io::saveLabels(edited, r.output, so);
   outputs.wrote(r.output);
-  if (!r.report.empty())
-    writeJsonFile({{"input", r.input.string()}, {"output", r.output.string()},
-                   {"before", entriesJson(result.before)}, {"after", entriesJson(result.after)}},
-                  r.report);
+  run.mark("edit and write");
+  if (!r.report.empty()) {
+    for (const auto& f : io::filesWrittenTo(r.output)) run.output(f);
+    nlohmann::json report = {{"before", entriesJson(result.before)}, {"after", entriesJson(result.after)}};
+    run.stamp(report);
+    writeJsonFile(report, r.report);
+  }
   outputs.commit();
   return result;
 }

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "vellum/app/outputs.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/app/segment_pipeline.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/segmentation/label_map.hpp"
@@ -115,9 +116,15 @@ SegmentResult runSegment(const SegmentRequest& r, Progress& progress) {
       .json(r.report, "--report")
       .force(r.force)
       .check();
+  RunReport run(r.commandLine);
+  run.input(r.input, "volume");
+  run.input(r.into, "label map to add into");
+  run.input(r.truth, "truth label map");
   io::LoadOptions load = r.load;
   load.progress = &progress;
   io::LoadedVolume lv = io::loadVolume(r.input, load);
+  run.loaded(r.input, lv);
+  run.mark("load");
   const VolumeI16 ct = toInt16(lv.volume);
   SegmentResult result;
   result.warnings = std::move(lv.warnings);
@@ -148,8 +155,14 @@ SegmentResult runSegment(const SegmentRequest& r, Progress& progress) {
   so.force = r.force;
   io::saveLabels(labels, r.output, so);
   outputs.wrote(r.output);
+  run.mark("segment and write");
   report["seconds"] = secondsSince(t0);
-  if (!r.report.empty()) writeJsonFile(report, r.report);
+  if (!r.report.empty()) {
+    for (const auto& f : io::filesWrittenTo(r.output)) run.output(f);
+    nlohmann::json stamped = report;
+    run.stamp(stamped);
+    writeJsonFile(stamped, r.report);
+  }
   outputs.commit();
   return result;
 }

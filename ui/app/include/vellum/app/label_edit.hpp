@@ -26,6 +26,7 @@ struct LabelEditRequest {
   std::filesystem::path report;  ///< JSON: ids, voxels and volumes before and after; empty: none
   bool force = false;            ///< a DICOM output may replace a Vellum folder of another kind
   io::LoadOptions load;          ///< region (crop, downsample), raw layout
+  std::string commandLine;       ///< for the report (run_report.hpp)
 };
 
 struct LabelEditResult {

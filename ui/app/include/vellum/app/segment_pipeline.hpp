@@ -84,6 +84,7 @@ struct SegmentRequest {
   std::string overlap = "overwrite";            ///< overwrite | keep-existing | replace
   io::LoadOptions load;  ///< series, raw layout, region (the label maps get the same region)
   bool force = false;    ///< a DICOM output may replace a Vellum folder of another kind
+  std::string commandLine;  ///< for the report (run_report.hpp); empty from the studio
 };
 
 struct SegmentResult {

@@ -1,0 +1,72 @@
+// The report envelope every command shares (run_report.hpp): fingerprints that change with the
+// content and nothing else, and `vellum render --report` naming its inputs and outputs with the
+// same fingerprints.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "child_process.hpp"
+#include "test_data.hpp"
+#include "vellum/app/run_report.hpp"
+#include "vellum/io/volume_io.hpp"
+#include "vellum/phantom/phantom.hpp"
+
+using namespace vellum;
+namespace fs = std::filesystem;
+
+namespace {
+void write(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
+}  // namespace
+
+TEST(RunReport, FingerprintsFollowTheContentOnly) {
+  const auto dir = test::tempDir("fingerprint");
+  write(dir / "a.bin", "the same bytes");
+  write(dir / "b.bin", "the same bytes");
+  write(dir / "c.bin", "the same byteS");
+  write(dir / "d.bin", "the same bytes ");
+  const std::string a = app::contentFingerprint(dir / "a.bin");
+  EXPECT_EQ(a.size(), 16u);
+  EXPECT_EQ(a, app::contentFingerprint(dir / "b.bin"));
+  EXPECT_NE(a, app::contentFingerprint(dir / "c.bin"));
+  EXPECT_NE(a, app::contentFingerprint(dir / "d.bin"));
+  // A folder: names and contents, whatever the order the files were made in.
+  fs::create_directories(dir / "f1");
+  fs::create_directories(dir / "f2");
+  write(dir / "f1" / "x", "1");
+  write(dir / "f1" / "y", "2");
+  write(dir / "f2" / "y", "2");
+  write(dir / "f2" / "x", "1");
+  EXPECT_EQ(app::contentFingerprint(dir / "f1"), app::contentFingerprint(dir / "f2"));
+  fs::rename(dir / "f2" / "y", dir / "f2" / "z");
+  EXPECT_NE(app::contentFingerprint(dir / "f1"), app::contentFingerprint(dir / "f2"));
+  EXPECT_THROW(app::contentFingerprint(dir / "missing"), Error);
+}
+
+TEST(RunReport, RenderReportNamesInputsOutputsAndSettings) {
+  const auto dir = test::tempDir("render-report");
+  phantom::PhantomOptions o;
+  o.dims = {32, 32, 32};
+  io::saveVolume(phantom::makePhantom(o).ct, dir / "ct.nrrd");
+  const fs::path fig = dir / "fig.png", report = dir / "fig.json";
+  const int rc = test::Child({"render", (dir / "ct.nrrd").string(), "--out", fig.string(), "--size",
+                              "64x64", "--preset", "bone", "--shadows", "0.5", "--report", report.string()},
+                             dir / "log.txt")
+                     .wait();
+  ASSERT_EQ(rc, 0) << test::readAll(dir / "log.txt");
+  std::ifstream in(report);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["vellum"]["version"], app::vellumVersion());
+  EXPECT_EQ(j["vellum"]["report_schema"], 1);
+  EXPECT_NE(j["command"].get<std::string>().find("render"), std::string::npos);
+  ASSERT_EQ(j["inputs"].size(), 1u);
+  EXPECT_EQ(j["inputs"][0]["fingerprint"], app::contentFingerprint(dir / "ct.nrrd"));
+  EXPECT_EQ(j["inputs"][0]["dims"], nlohmann::json({32, 32, 32}));
+  ASSERT_EQ(j["outputs"].size(), 1u);
+  EXPECT_EQ(j["outputs"][0]["path"], fig.string());
+  EXPECT_EQ(j["outputs"][0]["fingerprint"], app::contentFingerprint(fig));
+  EXPECT_EQ(j["settings"]["shadows"], 0.5);
+  EXPECT_EQ(j["settings"]["width"], 64);
+  EXPECT_TRUE(j["stage_ms"].contains("load"));
+  EXPECT_GT(j["peak_memory_mb"].get<double>(), 1.0);
+}
