@@ -101,8 +101,8 @@ struct BodyClassLookup {
 };
 
 // Marks the cells of `grid` that a rigid voxel's nearest-voxel region (the voxel +- half a
-// voxel per axis) reaches into.
-std::vector<uint8_t> bodyCellsOf(const VolumeU16& classes, const Geometry& grid) {
+// voxel per axis) reaches into: of every body, or of class `only` alone.
+std::vector<uint8_t> bodyCellsOf(const VolumeU16& classes, const Geometry& grid, uint16_t only = 0) {
   const Dims d = grid.dims, cd = classes.dims();
   std::vector<uint8_t> cells(static_cast<size_t>(d.voxelCount()), 0);
   if (d.x < 2 || d.y < 2 || d.z < 2) return cells;
@@ -119,7 +119,7 @@ std::vector<uint8_t> bodyCellsOf(const VolumeU16& classes, const Geometry& grid)
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < cd.y; ++j)
         for (int64_t i = 0; i < cd.x; ++i) {
-          if (classes(i, j, k) < 2) continue;
+          if (classes(i, j, k) < 2 || (only && classes(i, j, k) != only)) continue;
           const Vec3 g = G * Vec3{double(i), double(j), double(k)} + g0;
           int64_t lo[3], up[3];
           for (int a = 0; a < 3; ++a) {
@@ -182,17 +182,22 @@ double rotationAngleDeg(const Mat3& r) {
   return std::acos(c) * 180.0 / 3.14159265358979323846;
 }
 
+// Fixed content shown this far (mm) from where it is counts as moved elsewhere (float
+// rounding of the identity is ~1e-5 mm).
+constexpr double kFixedElsewhereMm = 1e-3;
+
 // Per-thread sums of measure().
 struct MeasureSums {
   explicit MeasureSums(size_t bodies) : bodySe(bodies, 0), bodyMax(bodies, 0), bodyN(bodies, 0) {}
-  double se = 0, maxRes = 0, soft = 0, softMax = 0, fixedSum = 0, fixedSe = 0, fixedMax = 0;
+  double se = 0, maxRes = 0, soft = 0, softMax = 0, fixedSum = 0, fixedSe = 0, fixedMax = 0, elsewhereMax = 0;
   double minDet = std::numeric_limits<double>::infinity();
-  int64_t boneN = 0, softN = 0, folds = 0, tissue = 0, fixedN = 0;
+  int64_t boneN = 0, softN = 0, folds = 0, tissue = 0, fixedN = 0, elsewhereN = 0;
   std::vector<double> bodySe, bodyMax;
   std::vector<int64_t> bodyN;
   void merge(const MeasureSums& o) {
     se += o.se; maxRes = std::max(maxRes, o.maxRes); soft += o.soft; softMax = std::max(softMax, o.softMax);
-    fixedSum += o.fixedSum; fixedSe += o.fixedSe; fixedMax = std::max(fixedMax, o.fixedMax); minDet = std::min(minDet, o.minDet);
+    fixedSum += o.fixedSum; fixedSe += o.fixedSe; fixedMax = std::max(fixedMax, o.fixedMax);
+    elsewhereN += o.elsewhereN; elsewhereMax = std::max(elsewhereMax, o.elsewhereMax); minDet = std::min(minDet, o.minDet);
     boneN += o.boneN; softN += o.softN; folds += o.folds; tissue += o.tissue; fixedN += o.fixedN;
     for (size_t c = 0; c < bodySe.size(); ++c) {
       bodySe[c] += o.bodySe[c]; bodyMax[c] = std::max(bodyMax[c], o.bodyMax[c]); bodyN[c] += o.bodyN[c];
@@ -226,11 +231,17 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
           const Vec3 u = m.at(t);
           const Vec3 v = m.grid.indexToPhysical({double(i), double(j), double(k)});
           const uint16_t c = bodies.classAt(u);
-          // The fixed regions must not move: neither their voxels (output v in them) nor
-          // their content (source u in them).
-          if (fixed >= 0 && (c == fixedClass || bodies.classAt(v) == fixedClass)) {
-            const double e = norm(u - v);
-            l.fixedSum += e; l.fixedSe += e * e; l.fixedMax = std::max(l.fixedMax, e); ++l.fixedN;
+          // The fixed regions must not move: their voxels (output v in them) show what was
+          // there. Their content shown elsewhere (u in them, v outside, moved) is counted apart:
+          // a moving bone's rigid transform reaching into a fixed one at a joint (a collision).
+          if (fixed >= 0) {
+            if (bodies.classAt(v) == fixedClass) {
+              const double e = norm(u - v);
+              l.fixedSum += e; l.fixedSe += e * e; l.fixedMax = std::max(l.fixedMax, e); ++l.fixedN;
+            } else if (c == fixedClass) {
+              const double e = norm(u - v);
+              if (e > kFixedElsewhereMm) { ++l.elsewhereN; l.elsewhereMax = std::max(l.elsewhereMax, e); }
+            }
           }
           if (c >= 2 && c != fixedClass) {
             const size_t b = c - 2u;
@@ -274,6 +285,8 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   r.fixedSamples = total.fixedN;
   r.fixedMaxDisplacementMm = total.fixedMax;
   r.fixedMeanDisplacementMm = total.fixedN ? total.fixedSum / double(total.fixedN) : 0;
+  r.fixedContentElsewhere = total.elsewhereN;
+  r.fixedContentElsewhereMaxMm = total.elsewhereMax;
   for (size_t b = 0; b < nb; ++b) {
     RigidityReport::Body o;
     o.ids = bodies.bodies()[b].ids;
@@ -668,6 +681,25 @@ std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geo
     parallelFor(static_cast<int64_t>(nodes), [&](int64_t t0, int64_t t1) {
       for (int64_t t = t0; t < t1; ++t) inside[static_cast<size_t>(t)] = nodeClass[static_cast<size_t>(t)] == cls;
     });
+    if (c == fixedBody_ && d.x > 1 && d.y > 1 && d.z > 1) {
+      // The fixed regions: every corner of a cell that holds one of their voxels, so that a
+      // fixed structure thinner than the node spacing (a cortex shell between nodes) still has
+      // identity nodes all around it and its voxels interpolate to where they are.
+      const std::vector<uint8_t> cells = bodyCellsOf(*classes_, grid, cls);
+      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+        for (int64_t k = k0; k < k1; ++k)
+          for (int64_t j = 0; j < d.y; ++j)
+            for (int64_t i = 0; i < d.x; ++i) {
+              bool any = false;
+              for (int q = 0; q < 8 && !any; ++q) {
+                const int64_t a = i - (q & 1), b = j - ((q >> 1) & 1), e = k - ((q >> 2) & 1);
+                if (a < 0 || b < 0 || e < 0 || a > d.x - 2 || b > d.y - 2 || e > d.z - 2) continue;
+                any = cells[static_cast<size_t>((e * d.y + b) * d.x + a)] != 0;
+              }
+              if (any) inside[static_cast<size_t>((k * d.y + j) * d.x + i)] = 1;
+            }
+      });
+    }
     auto& field = fields->perBody[static_cast<size_t>(c)];
     field = distanceField(grid, inside);
     for (size_t t = 0; t < nodes; ++t) fields->nearest[t] = std::min(fields->nearest[t], field[t]);
@@ -782,6 +814,8 @@ RigidityReport worstOf(const std::vector<RigidityReport>& reports) {
     w.minJacobian = std::min(w.minJacobian, m.minJacobian);
     w.fixedMaxDisplacementMm = std::max(w.fixedMaxDisplacementMm, m.fixedMaxDisplacementMm);
     w.fixedMeanDisplacementMm = std::max(w.fixedMeanDisplacementMm, m.fixedMeanDisplacementMm);
+    w.fixedContentElsewhere = std::max(w.fixedContentElsewhere, m.fixedContentElsewhere);
+    w.fixedContentElsewhereMaxMm = std::max(w.fixedContentElsewhereMaxMm, m.fixedContentElsewhereMaxMm);
     w.nodes = std::max(w.nodes, m.nodes);
     w.boneNodes = std::max(w.boneNodes, m.boneNodes);
     w.softNodes = std::max(w.softNodes, m.softNodes);

@@ -187,7 +187,8 @@ TEST(RigidIds, FixedRegionDoesNotMove) {
   EXPECT_GT(movedBefore, 2.0);
   EXPECT_LT(movedAfter, 1e-4);  // float: the identity stored in single precision
   const RigidityReport r = measureRigidityMap(map, s.g, bodies);
-  EXPECT_GE(r.fixedSamples, fixedVoxels);
+  EXPECT_EQ(r.fixedSamples, fixedVoxels);
+  EXPECT_EQ(r.fixedContentElsewhere, 0);
   EXPECT_LT(r.fixedMaxDisplacementMm, 1e-4);
   EXPECT_LT(r.fixedMeanDisplacementMm, 1e-5);
   EXPECT_TRUE(r.bodies[2].fixed);

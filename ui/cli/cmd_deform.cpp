@@ -78,7 +78,9 @@ void printSummary(const app::DeformRequest& request, const app::DeformResult& r)
   }
   if (!after["fixed"].is_null())
     std::cout << "  fixed regions moved: max " << mm(after["fixed"]["max_displacement_mm"]) << ", mean "
-              << mm(after["fixed"]["mean_displacement_mm"]) << "\n";
+              << mm(after["fixed"]["mean_displacement_mm"]) << "; their content shown moved elsewhere in "
+              << after["fixed"]["content_moved_elsewhere_samples"].get<int64_t>() << " voxels (max "
+              << mm(after["fixed"]["content_moved_elsewhere_max_mm"]) << ")\n";
   if (!after["fold_fraction"].is_null())
     std::cout << "  folds in tissue: " << 100.0 * after["fold_fraction"].get<double>() << " % (min Jacobian "
               << after["min_jacobian"].get<double>() << ")\n";

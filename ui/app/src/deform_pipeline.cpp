@@ -309,7 +309,9 @@ nlohmann::json toJson(const RigidityReport& r) {
     const bool has = r.fixedSamples > 0;
     j["fixed"] = {{"samples", r.fixedSamples},
                   {"max_displacement_mm", has ? nlohmann::json(r.fixedMaxDisplacementMm) : nlohmann::json()},
-                  {"mean_displacement_mm", has ? nlohmann::json(r.fixedMeanDisplacementMm) : nlohmann::json()}};
+                  {"mean_displacement_mm", has ? nlohmann::json(r.fixedMeanDisplacementMm) : nlohmann::json()},
+                  {"content_moved_elsewhere_samples", r.fixedContentElsewhere},
+                  {"content_moved_elsewhere_max_mm", r.fixedContentElsewhereMaxMm}};
     if (!has) notMeasured["fixed"] = "no sample lies in the fixed regions";
   } else {
     j["fixed"] = nullptr;

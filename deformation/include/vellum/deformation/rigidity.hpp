@@ -151,10 +151,15 @@ struct RigidityReport {
     Vec3 translationMm{0, 0, 0};
   };
   std::vector<Body> bodies;
-  /// The fixed regions: |u - v| over the samples whose output position v or source position u
-  /// lies in them (they must not move: 0).
+  /// The fixed regions: |u - v| over the samples whose output position v lies in them (they
+  /// must not move: 0).
   int64_t fixedSamples = 0;
   double fixedMaxDisplacementMm = 0, fixedMeanDisplacementMm = 0;
+  /// Samples outside the fixed regions that show their content moved (u in them, |u - v| >
+  /// 1e-3 mm): a moving bone's rigid transform reaching into a fixed bone at a joint, or the
+  /// blend band dragging fixed tissue; and the largest such |u - v|.
+  int64_t fixedContentElsewhere = 0;
+  double fixedContentElsewhereMaxMm = 0;
 };
 
 /// The worst of several reports (an animation's frames): per measure the worst value (largest
