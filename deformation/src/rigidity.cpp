@@ -494,13 +494,28 @@ PieceContacts contactsOf(const Components& parts) {
 
 RigidBodies RigidBodies::fromLabels(const LabelVolume& labels, const std::vector<uint16_t>& rigidIds,
                                     int64_t minVoxels, const FixedRegions& fixed) {
+  std::vector<std::vector<uint16_t>> groups;
+  for (uint16_t id : rigidIds)
+    if (std::none_of(groups.begin(), groups.end(), [&](const auto& g) { return g.front() == id; })) groups.push_back({id});
+  return fromLabelGroups(labels, groups, minVoxels, fixed);
+}
+
+RigidBodies RigidBodies::fromLabelGroups(const LabelVolume& labels, const std::vector<std::vector<uint16_t>>& groups,
+                                         int64_t minVoxels, const FixedRegions& fixed) {
   const Geometry& g = labels.geometry();
   const auto& ids = labels.ids().voxels();
   enum Role : uint8_t { kOther = 0, kRigid = 1, kFixed = 2 };
   std::vector<uint8_t> role(65536, kOther);
-  for (uint16_t id : rigidIds) {
-    if (id == 0) throw Error("rigid label id 0 is background");
-    role[id] = kRigid;
+  std::vector<std::vector<int>> groupsOfId(65536);
+  const int ng = static_cast<int>(groups.size());
+  if (ng + 3 >= 0xFFFF) throw Error("rigidity: too many rigid bodies");
+  for (int gi = 0; gi < ng; ++gi) {
+    if (groups[static_cast<size_t>(gi)].empty()) throw Error("rigid labels: an empty body (a '+' with no id)");
+    for (uint16_t id : groups[static_cast<size_t>(gi)]) {
+      if (id == 0) throw Error("rigid label id 0 is background");
+      role[id] = kRigid;
+      if (std::find(groupsOfId[id].begin(), groupsOfId[id].end(), gi) == groupsOfId[id].end()) groupsOfId[id].push_back(gi);
+    }
   }
   for (uint16_t id : fixed.ids) {
     if (id == 0) throw Error("fixed label id 0 is background (use a fixed box for a region of air)");
@@ -521,90 +536,121 @@ RigidBodies RigidBodies::fromLabels(const LabelVolume& labels, const std::vector
   const Components parts = connectedRegions(rigid, Connectivity::Vertex26);
   const size_t np = parts.sizes.size();
   const PieceContacts contacts = contactsOf(parts);
+  std::map<std::pair<uint32_t, uint16_t>, int64_t> withId;  // (piece, other id) -> faces
+  for (const auto& [key, n] : contacts.with) withId[{key.first, parts.values[key.second]}] += n;
 
-  // Contacts with each other rigid ID (all its pieces together: a cortex label is often
-  // several thin pieces around one marrow piece).
-  std::vector<int64_t> rigidContacts(np, 0);
-  std::vector<uint16_t> coreOf(np, 0);  // the id a piece is the core of (0: none)
+  // Each piece's group: its id's, or for an id listed in several groups (the phantom's 11 in
+  // 8+11 and 9+11) the group whose other ids it touches most (ties and no contact: the first).
+  std::vector<int> groupOf(np, -1);
+  for (size_t p = 1; p < np; ++p) {
+    const auto& cands = groupsOfId[parts.values[p]];
+    int best = cands.front();
+    int64_t bestN = 0;
+    if (cands.size() > 1)
+      for (int gi : cands) {
+        int64_t n = 0;
+        for (uint16_t other : groups[static_cast<size_t>(gi)])
+          if (other != parts.values[p])
+            if (const auto it = withId.find({static_cast<uint32_t>(p), other}); it != withId.end()) n += it->second;
+        if (n > bestN) { bestN = n; best = gi; }
+      }
+    groupOf[p] = best;
+  }
+  // Contacts with each other group (all its pieces together: a cortex label is often several
+  // thin pieces around one marrow piece). A piece more than half of whose faces touch one
+  // other group is its core.
+  std::vector<int64_t> rigidContacts(np, 0);  // faces touching any other piece (any id)
+  for (const auto& [key, n] : contacts.with) rigidContacts[key.first] += n;
+  std::vector<int> coreOf(np, -1);
   {
-    std::map<std::pair<uint32_t, uint16_t>, int64_t> withId;
-    for (const auto& [key, n] : contacts.with) withId[{key.first, parts.values[key.second]}] += n;
-    for (const auto& [key, n] : withId) {
-      rigidContacts[key.first] += n;
-      // More than half of its faces: at most one id can.
-      if (2 * n > contacts.total[key.first]) coreOf[key.first] = key.second;
+    std::map<std::pair<uint32_t, int>, int64_t> withGroup;
+    for (const auto& [key, n] : contacts.with)
+      if (groupOf[key.first] != groupOf[key.second]) withGroup[{key.first, groupOf[key.second]}] += n;
+    for (const auto& [key, n] : withGroup) {
+      if (2 * n > contacts.total[key.first]) coreOf[key.first] = key.second;  // at most one group can
     }
   }
-  std::vector<int64_t> largestSize(65536, 0), idVoxels(65536, 0);
+  std::vector<int64_t> largestSize(static_cast<size_t>(ng), 0), groupVoxels(static_cast<size_t>(ng), 0);
   for (size_t p = 1; p < np; ++p) {
-    largestSize[parts.values[p]] = std::max(largestSize[parts.values[p]], parts.sizes[p]);
-    idVoxels[parts.values[p]] += parts.sizes[p];
+    const size_t gi = static_cast<size_t>(groupOf[p]);
+    largestSize[gi] = std::max(largestSize[gi], parts.sizes[p]);
+    groupVoxels[gi] += parts.sizes[p];
   }
-  // Specks: small isolated pieces (touching no other rigid voxel), not their id's largest.
+  // Specks: small isolated pieces (touching no other rigid piece), not their group's largest.
   std::vector<uint8_t> speck(np, 0);
-  std::vector<int> own(65536, 0);           // pieces that are neither cores nor specks
-  std::vector<int64_t> largestPiece(65536, -1);  // largest non-speck piece per id
+  std::vector<int> own(static_cast<size_t>(ng), 0);             // pieces neither cores nor specks
+  std::vector<int64_t> largestPiece(static_cast<size_t>(ng), -1);  // largest non-speck piece
   for (size_t p = 1; p < np; ++p) {
-    const uint16_t id = parts.values[p];
-    speck[p] = coreOf[p] == 0 && rigidContacts[p] == 0 && parts.sizes[p] < minVoxels && parts.sizes[p] != largestSize[id];
+    const size_t gi = static_cast<size_t>(groupOf[p]);
+    speck[p] = coreOf[p] < 0 && rigidContacts[p] == 0 && parts.sizes[p] < minVoxels && parts.sizes[p] != largestSize[gi];
     if (speck[p]) continue;
-    if (coreOf[p] == 0) ++own[id];
-    if (largestPiece[id] < 0 || parts.sizes[p] > parts.sizes[static_cast<size_t>(largestPiece[id])]) largestPiece[id] = static_cast<int64_t>(p);
+    if (coreOf[p] < 0) ++own[gi];
+    if (largestPiece[gi] < 0 || parts.sizes[p] > parts.sizes[static_cast<size_t>(largestPiece[gi])])
+      largestPiece[gi] = static_cast<int64_t>(p);
   }
-  // The id whose body an id's cores end in: itself when it has pieces of its own, else where
-  // its largest piece is a core. A cycle of ids all cores of each other (never seen) gives its
-  // id with the most voxels a body.
-  std::vector<int> resolved(65536, -2);  // -2 unknown, -1 no body, else the body's id
-  std::vector<uint8_t> promoted(65536, 0);
-  const auto resolve = [&](uint16_t id) {
-    std::vector<uint16_t> path;
-    uint16_t x = id;
-    int r = -1;
+  // The group whose body a group's cores end in: itself when it has pieces of its own, else
+  // where its largest piece is a core. A cycle of groups all cores of each other (never seen)
+  // gives its group with the most voxels a body.
+  std::vector<int> resolved(static_cast<size_t>(ng), -2);  // -2 unknown, -1 no body, else a group
+  std::vector<uint8_t> promoted(static_cast<size_t>(ng), 0);
+  const auto resolve = [&](int start) {
+    std::vector<int> path;
+    int x = start, r = -1;
     for (;;) {
-      if (resolved[x] != -2) { r = resolved[x]; break; }
-      if (own[x] > 0) { r = x; break; }
+      if (resolved[static_cast<size_t>(x)] != -2) { r = resolved[static_cast<size_t>(x)]; break; }
+      if (own[static_cast<size_t>(x)] > 0) { r = x; break; }
       if (const auto it = std::find(path.begin(), path.end(), x); it != path.end()) {
-        r = *std::max_element(it, path.end(), [&](uint16_t a, uint16_t b) { return idVoxels[a] < idVoxels[b]; });
+        r = *std::max_element(it, path.end(), [&](int a, int b) { return groupVoxels[static_cast<size_t>(a)] < groupVoxels[static_cast<size_t>(b)]; });
         promoted[static_cast<size_t>(r)] = 1;
         break;
       }
       path.push_back(x);
-      const int64_t lp = largestPiece[x];
-      if (lp < 0 || coreOf[static_cast<size_t>(lp)] == 0) break;  // only specks: no body
+      const int64_t lp = largestPiece[static_cast<size_t>(x)];
+      if (lp < 0 || coreOf[static_cast<size_t>(lp)] < 0) break;  // only specks: no body
       x = coreOf[static_cast<size_t>(lp)];
     }
-    for (uint16_t y : path) resolved[y] = r;
-    resolved[id] = r;
+    for (int y : path) resolved[static_cast<size_t>(y)] = r;
+    resolved[static_cast<size_t>(start)] = r;
     return r;
   };
-  for (size_t p = 1; p < np; ++p) {
-    resolve(parts.values[p]);
-    if (coreOf[p]) resolve(coreOf[p]);
-  }
+  for (int gi = 0; gi < ng; ++gi) resolve(gi);
 
-  // Bodies in the order of rigidIds (an id with no piece of its own has none).
+  // Bodies in the order of the groups (a group with no piece of its own has none).
   RigidBodies rb;
-  std::vector<int> bodyOfId(65536, -1);
-  for (uint16_t id : rigidIds) {
-    if (bodyOfId[id] >= 0 || (own[id] == 0 && !promoted[id])) continue;
-    if (rb.bodies_.size() + 3 >= 0xFFFF) throw Error("rigidity: too many rigid bodies");
-    bodyOfId[id] = static_cast<int>(rb.bodies_.size());
-    rb.bodies_.push_back(Body{{id}, 0, own[id], false});
+  std::vector<int> bodyOfGroup(static_cast<size_t>(ng), -1);
+  for (int gi = 0; gi < ng; ++gi) {
+    if (own[static_cast<size_t>(gi)] == 0 && !promoted[static_cast<size_t>(gi)]) continue;
+    bodyOfGroup[static_cast<size_t>(gi)] = static_cast<int>(rb.bodies_.size());
+    rb.bodies_.push_back(Body{{}, 0, own[static_cast<size_t>(gi)], false});
   }
-  // Piece -> class.
+  // Piece -> class; a body's ids are those of the pieces it holds (its group's first).
   std::vector<uint16_t> classOfPiece(np, 1);
+  std::vector<std::vector<uint16_t>> idsOf(rb.bodies_.size());
   for (size_t p = 1; p < np; ++p) {
-    const int owner = speck[p] ? -1 : coreOf[p] ? resolved[coreOf[p]] : resolved[parts.values[p]];
-    if (owner < 0 || bodyOfId[static_cast<size_t>(owner)] < 0) {
+    const int owner = speck[p] ? -1 : resolved[static_cast<size_t>(coreOf[p] >= 0 ? coreOf[p] : groupOf[p])];
+    if (owner < 0 || bodyOfGroup[static_cast<size_t>(owner)] < 0) {
       rb.dropped_ += parts.sizes[p];
       continue;
     }
-    const int b = bodyOfId[static_cast<size_t>(owner)];
+    const int b = bodyOfGroup[static_cast<size_t>(owner)];
     classOfPiece[p] = static_cast<uint16_t>(b + 2);
-    auto& bodyIds = rb.bodies_[static_cast<size_t>(b)].ids;
-    if (std::find(bodyIds.begin(), bodyIds.end(), parts.values[p]) == bodyIds.end()) bodyIds.push_back(parts.values[p]);
+    auto& v = idsOf[static_cast<size_t>(b)];
+    if (std::find(v.begin(), v.end(), parts.values[p]) == v.end()) v.push_back(parts.values[p]);
   }
-  for (auto& b : rb.bodies_) std::sort(b.ids.begin() + 1, b.ids.end());
+  for (int gi = 0; gi < ng; ++gi) {
+    const int b = bodyOfGroup[static_cast<size_t>(gi)];
+    if (b < 0) continue;
+    auto& out = rb.bodies_[static_cast<size_t>(b)].ids;
+    for (uint16_t id : groups[static_cast<size_t>(gi)])  // the group's own ids first, as given
+      if (std::find(idsOf[static_cast<size_t>(b)].begin(), idsOf[static_cast<size_t>(b)].end(), id) != idsOf[static_cast<size_t>(b)].end() &&
+          std::find(out.begin(), out.end(), id) == out.end())
+        out.push_back(id);
+    std::vector<uint16_t> rest;
+    for (uint16_t id : idsOf[static_cast<size_t>(b)])
+      if (std::find(out.begin(), out.end(), id) == out.end()) rest.push_back(id);
+    std::sort(rest.begin(), rest.end());
+    out.insert(out.end(), rest.begin(), rest.end());
+  }
   // Fixed regions: one body, last.
   int64_t fixedVoxels = 0;
   for (size_t t = 0; t < ids.size(); ++t) fixedVoxels += isFixed(t) ? 1 : 0;

@@ -5,12 +5,15 @@
 
 #include <cmath>
 #include <iostream>
+#include <map>
+#include <set>
 
 #include "vellum/core/rigid_fit.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/rigidity.hpp"
 #include "vellum/deformation/synthesis.hpp"
+#include "vellum/phantom/phantom.hpp"
 
 using namespace vellum;
 using namespace vellum::deformation;
@@ -236,4 +239,27 @@ TEST(RigidIds, FoldsCountInTissueOnlyAndEmptyClassesAreNotMeasured) {
   const RigidityReport f = measureRigidityVoxels(folded, s.g, RigidBodies::fromLabels(s.labels, {kBone, kNeighbour}));
   EXPECT_GT(f.foldFraction, 0.01);
   EXPECT_LT(f.minJacobian, 0.0);
+}
+// Groups: `--rigid-labels 4+5,6+7,8+11,9+11` makes the phantom's four bones even where the
+// cortex is thinner than a voxel (48 voxels across: cortex labels in fragments, so the core
+// rule cannot find the marrow inside them and the flat list gives 6 bodies); the shared id 11
+// splits by piece to the bone it touches. The bodies are exactly phantom::boneMap's bones.
+// (At 32 voxels the fibula's and patella's cortex has no voxel left: there is nothing to group.)
+TEST(RigidIds, GroupsMakeThePhantomsBonesAtAnyResolution) {
+  for (int n : {48, 64}) {
+    phantom::PhantomOptions o;
+    o.dims = {n, n, n * 5 / 4};
+    const phantom::Phantom ph = phantom::makePhantom(o);
+    const RigidBodies b = RigidBodies::fromLabelGroups(ph.labels, {{4, 5}, {6, 7}, {8, 11}, {9, 11}});
+    ASSERT_EQ(b.componentCount(), 4) << n;
+    const VolumeU8 bones = phantom::boneMap(ph.labels);
+    std::map<int, std::set<int>> bodiesOf;
+    for (size_t t = 0; t < bones.size(); ++t)
+      if (bones.data()[t] != 0) bodiesOf[bones.data()[t]].insert(b.classes().data()[t]);
+    for (int bone = 1; bone <= 4; ++bone)
+      EXPECT_EQ(bodiesOf[bone], std::set<int>{bone + 1}) << "bone " << bone << " at " << n;
+    EXPECT_EQ(b.bodies()[0].ids, (std::vector<uint16_t>{4, 5})) << n;
+    EXPECT_EQ(b.bodies()[2].ids, (std::vector<uint16_t>{8, 11})) << n;
+    if (n == 48) EXPECT_EQ(RigidBodies::fromLabels(ph.labels, {4, 5, 6, 7, 8, 9, 11}).componentCount(), 6);
+  }
 }

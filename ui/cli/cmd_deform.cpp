@@ -22,10 +22,12 @@ using namespace vellum::deformation;
 void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
   const auto engineFlags = addFlags(cmd, engine.params, deformParamsTable());
   addFlags(cmd, engine, app::deformEngineTable());
-  cmd.add_option("--rigid-labels", engine.rigidIds,
+  // Tokens "4", "4+5": parsed into the engine when the command line is complete.
+  auto rigidTokens = std::make_shared<std::vector<std::string>>();
+  cmd.add_option("--rigid-labels", *rigidTokens,
                  "label ids that stay rigid: each id is one rigid body whatever its connectivity, different ids "
                  "are different bodies (a piece mostly enclosed by another id, e.g. marrow in cortex, moves with "
-                 "it); the phantom: 4,5,6,7,8,9,11")
+                 "it); ids joined by + make one body; the phantom: 4+5,6+7,8+11,9+11 (or 4,5,6,7,8,9,11)")
       ->delimiter(',');
   cmd.add_option("--fixed-labels", engine.fixedIds,
                  "label ids that do not move at all (displacement 0; blended outside over --rigid-falloff)")
@@ -35,7 +37,10 @@ void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
       ->delimiter(',')
       ->expected(6);
   CLI::Option* power = engineFlags.at("power");
-  cmd.parse_complete_callback([&engine, power] { engine.powerGiven = power->count() > 0; });
+  cmd.parse_complete_callback([&engine, power, rigidTokens] {
+    engine.powerGiven = power->count() > 0;
+    if (!rigidTokens->empty()) engine.setRigidLabels(*rigidTokens);
+  });
 }
 
 namespace {

@@ -89,8 +89,7 @@ std::string animateArguments(const AnimateRequest& r) {
     << params::cliArguments(deformEngineTable(), r.engine, {"labels"});
   if (!r.engine.labels.empty()) {
     c << " --labels " << singleQuoted(r.engine.labels);
-    if (!r.engine.rigidIds.empty()) c << " --rigid-labels ";
-    for (size_t i = 0; i < r.engine.rigidIds.size(); ++i) c << (i ? "," : "") << r.engine.rigidIds[i];
+    if (const std::string rigid = r.engine.rigidLabelsArgument(); !rigid.empty()) c << " --rigid-labels " << rigid;
     if (!r.engine.fixedIds.empty()) c << " --fixed-labels ";
     for (size_t i = 0; i < r.engine.fixedIds.size(); ++i) c << (i ? "," : "") << r.engine.fixedIds[i];
     if (!r.engine.fixedBoxMm.empty()) c << " --fixed-box ";

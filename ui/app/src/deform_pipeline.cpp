@@ -67,7 +67,7 @@ void loadInputs(Run& run) {
   run.loaded = io::loadVolume(r.input, load);
   run.timings["load"] = msSince(t);
   run.cpu.lap("load");
-  if (!r.engine.labels.empty()) {
+  if (!r.engine.labels.empty() || !r.engine.fixedIds.empty() || !r.engine.fixedBoxMm.empty()) {
     t = Clock::now();
     run.bodies = r.engine.rigidBodies(geometryOf(run.loaded.volume), r.load);
     run.timings["rigid_bodies"] = msSince(t);
@@ -186,7 +186,7 @@ std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const
     if (!fixed.empty()) throw Error("--fixed-labels and --fixed-box need --labels (the label map says what is tissue)");
     return std::nullopt;
   }
-  if (rigidIds.empty() && fixed.empty())
+  if (rigidIds.empty() && rigidGroups.empty() && fixed.empty())
     throw Error("--labels needs --rigid-labels (the ids that stay rigid) or --fixed-labels / --fixed-box");
   io::LoadOptions o;
   o.region = load.region;
@@ -195,7 +195,50 @@ std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const
   if (!(lv.geometry().dims == grid.dims) || !lv.geometry().approxEqual(grid, 1e-3))
     throw FileError(labels, "label map grid " + lv.geometry().dims.str() + " differs from the volume's " +
                                 grid.dims.str());
-  return RigidBodies::fromLabels(lv, rigidIds, 20, fixed);
+  return RigidBodies::fromLabelGroups(lv, bodyGroups(), 20, fixed);
+}
+
+std::vector<std::vector<uint16_t>> DeformEngine::bodyGroups() const {
+  std::vector<std::vector<uint16_t>> all = rigidGroups;
+  for (uint16_t id : rigidIds) all.push_back({id});
+  return all;
+}
+
+void DeformEngine::setRigidLabels(const std::vector<std::string>& tokens) {
+  rigidIds.clear();
+  rigidGroups.clear();
+  for (const std::string& token : tokens) {
+    std::vector<uint16_t> group;
+    size_t start = 0;
+    for (;;) {
+      const size_t plus = token.find('+', start);
+      const std::string part = token.substr(start, plus == std::string::npos ? std::string::npos : plus - start);
+      size_t used = 0;
+      long id = -1;
+      try {
+        id = std::stol(part, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (part.empty() || used != part.size() || id < 1 || id > 65535)
+        throw Error("--rigid-labels: \"" + token + "\" is not a label id 1..65535 or ids joined by '+' (e.g. 4+5)");
+      group.push_back(static_cast<uint16_t>(id));
+      if (plus == std::string::npos) break;
+      start = plus + 1;
+    }
+    if (group.size() == 1) rigidIds.push_back(group.front());
+    else rigidGroups.push_back(group);
+  }
+}
+
+std::string DeformEngine::rigidLabelsArgument() const {
+  std::string out;
+  for (const auto& g : rigidGroups) {
+    out += out.empty() ? "" : ",";
+    for (size_t i = 0; i < g.size(); ++i) out += (i ? "+" : "") + std::to_string(g[i]);
+  }
+  for (uint16_t id : rigidIds) out += (out.empty() ? "" : ",") + std::to_string(id);
+  return out;
 }
 
 const params::Table<DeformEngine>& deformEngineTable() {

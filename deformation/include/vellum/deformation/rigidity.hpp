@@ -44,6 +44,12 @@ class RigidBodies {
   /// rigid and fixed.
   static RigidBodies fromLabels(const LabelVolume& labels, const std::vector<uint16_t>& rigidIds,
                                 int64_t minVoxels = 20, const FixedRegions& fixed = {});
+  /// The same with bodies of several ids (`--rigid-labels 4+5,6+7`): each group is one body
+  /// (the pieces rules apply between groups). An id listed in several groups (the phantom's
+  /// 11 in 8+11 and 9+11) is split by piece: each goes to the group whose other ids it touches
+  /// most (no contact: the first group listing it). fromLabels() is one group per id.
+  static RigidBodies fromLabelGroups(const LabelVolume& labels, const std::vector<std::vector<uint16_t>>& groups,
+                                     int64_t minVoxels = 20, const FixedRegions& fixed = {});
   /// Rigid voxels = value >= boneHu, one body per 26-connected component (components smaller
   /// than `minVoxels` are soft tissue); soft tissue = airHu < value < boneHu. Without labels
   /// nothing says which piece is which bone, so pieces of one bone are separate bodies.
@@ -52,9 +58,9 @@ class RigidBodies {
 
   /// What one body is made of.
   struct Body {
-    std::vector<uint16_t> ids;  ///< label ids (the first is the body's own; then its cores); empty from a threshold
+    std::vector<uint16_t> ids;  ///< label ids (its group's, as given; then the cores that joined); empty from a threshold
     int64_t voxels = 0;
-    int pieces = 0;             ///< 26-connected pieces of its own id (cores not counted)
+    int pieces = 0;             ///< 26-connected pieces of its group's ids (cores of other groups not counted)
     bool fixed = false;         ///< the fixed regions: identity transform, never fitted
   };
   /// Bodies, movable ones first, then (when there are fixed regions) the fixed one.
