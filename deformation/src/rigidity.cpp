@@ -5,11 +5,9 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
-#include <variant>
 
 #include "vellum/core/distance_transform.hpp"
 #include "vellum/core/error.hpp"
-#include "vellum/core/components.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/core/index_frame.hpp"
@@ -100,8 +98,8 @@ struct BodyClassLookup {
 };
 
 // Marks the cells of `grid` that a rigid voxel's nearest-voxel region (the voxel +- half a
-// voxel per axis) reaches into.
-std::vector<uint8_t> bodyCellsOf(const VolumeU16& classes, const Geometry& grid) {
+// voxel per axis) reaches into: of every body, or of class `only` alone.
+std::vector<uint8_t> bodyCellsOf(const VolumeU16& classes, const Geometry& grid, uint16_t only = 0) {
   const Dims d = grid.dims, cd = classes.dims();
   std::vector<uint8_t> cells(static_cast<size_t>(d.voxelCount()), 0);
   if (d.x < 2 || d.y < 2 || d.z < 2) return cells;
@@ -118,7 +116,7 @@ std::vector<uint8_t> bodyCellsOf(const VolumeU16& classes, const Geometry& grid)
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < cd.y; ++j)
         for (int64_t i = 0; i < cd.x; ++i) {
-          if (classes(i, j, k) < 2) continue;
+          if (classes(i, j, k) < 2 || (only && classes(i, j, k) != only)) continue;
           const Vec3 g = G * Vec3{double(i), double(j), double(k)} + g0;
           int64_t lo[3], up[3];
           for (int a = 0; a < 3; ++a) {
@@ -167,12 +165,42 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies,
   });
   std::vector<RigidFit> fits;
   for (const auto& f : sums) fits.push_back(fitBody(f));
+  // The fixed regions are not fitted: they stay where they are.
+  if (const int f = bodies.fixedBody(); f >= 0) fits[static_cast<size_t>(f)] = RigidFit{RigidTransform{}, true};
   return fits;
 }
 
 std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies) {
   return fitComponents(m, bodies, [&](const Vec3& u) { return bodies.classAt(u); });
 }
+
+double rotationAngleDeg(const Mat3& r) {
+  const double c = std::clamp((r(0, 0) + r(1, 1) + r(2, 2) - 1) / 2, -1.0, 1.0);
+  return std::acos(c) * 180.0 / 3.14159265358979323846;
+}
+
+// Fixed content shown this far (mm) from where it is counts as moved elsewhere (float
+// rounding of the identity is ~1e-5 mm).
+constexpr double kFixedElsewhereMm = 1e-3;
+
+// Per-thread sums of measure().
+struct MeasureSums {
+  explicit MeasureSums(size_t bodies) : bodySe(bodies, 0), bodyMax(bodies, 0), bodyN(bodies, 0) {}
+  double se = 0, maxRes = 0, soft = 0, softMax = 0, fixedSum = 0, fixedSe = 0, fixedMax = 0, elsewhereMax = 0;
+  double minDet = std::numeric_limits<double>::infinity();
+  int64_t boneN = 0, softN = 0, folds = 0, tissue = 0, fixedN = 0, elsewhereN = 0;
+  std::vector<double> bodySe, bodyMax;
+  std::vector<int64_t> bodyN;
+  void merge(const MeasureSums& o) {
+    se += o.se; maxRes = std::max(maxRes, o.maxRes); soft += o.soft; softMax = std::max(softMax, o.softMax);
+    fixedSum += o.fixedSum; fixedSe += o.fixedSe; fixedMax = std::max(fixedMax, o.fixedMax);
+    elsewhereN += o.elsewhereN; elsewhereMax = std::max(elsewhereMax, o.elsewhereMax); minDet = std::min(minDet, o.minDet);
+    boneN += o.boneN; softN += o.softN; folds += o.folds; tissue += o.tissue; fixedN += o.fixedN;
+    for (size_t c = 0; c < bodySe.size(); ++c) {
+      bodySe[c] += o.bodySe[c]; bodyMax[c] = std::max(bodyMax[c], o.bodyMax[c]); bodyN[c] += o.bodyN[c];
+    }
+  }
+};
 
 RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   RigidityReport r;
@@ -182,16 +210,17 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   const int s = m.stride;
   r.nodes = m.count(d.x) * m.count(d.y) * m.count(d.z);
   const auto fits = fitComponents(m, bodies);
+  const size_t nb = static_cast<size_t>(bodies.componentCount());
+  const int fixed = bodies.fixedBody();
+  const uint16_t fixedClass = fixed >= 0 ? static_cast<uint16_t>(fixed + 2) : 0;
   std::mutex mutex;
-  double se = 0, maxRes = 0, soft = 0;
-  int64_t boneN = 0, softN = 0, folds = 0, interior = 0;
+  MeasureSums total(nb);
   const Mat3 toMm = m.grid.direction * Mat3::fromColumns({m.grid.spacing.x, 0, 0},
                                                          {0, m.grid.spacing.y, 0},
                                                          {0, 0, m.grid.spacing.z});
   const double detIdx = toMm.determinant();
   parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
-    double lse = 0, lmax = 0, lsoft = 0;
-    int64_t lb = 0, ls = 0, lf = 0, li = 0;
+    MeasureSums l(nb);
     for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
       for (int64_t j = 0; j < d.y; j += s)
         for (int64_t i = 0; i < d.x; i += s) {
@@ -199,33 +228,82 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
           const Vec3 u = m.at(t);
           const Vec3 v = m.grid.indexToPhysical({double(i), double(j), double(k)});
           const uint16_t c = bodies.classAt(u);
-          if (c >= 2 && fits[c - 2u].valid) {
-            const double e = norm(u - fits[c - 2u].apply(v));
-            lse += e * e; lmax = std::max(lmax, e); ++lb;
-          } else if (c == 1) {
-            lsoft += norm(u - v); ++ls;
+          // The fixed regions must not move: their voxels (output v in them) show what was
+          // there. Their content shown elsewhere (u in them, v outside, moved) is counted apart:
+          // a moving bone's rigid transform reaching into a fixed one at a joint (a collision).
+          if (fixed >= 0) {
+            if (bodies.classAt(v) == fixedClass) {
+              const double e = norm(u - v);
+              l.fixedSum += e; l.fixedSe += e * e; l.fixedMax = std::max(l.fixedMax, e); ++l.fixedN;
+            } else if (c == fixedClass) {
+              const double e = norm(u - v);
+              if (e > kFixedElsewhereMm) { ++l.elsewhereN; l.elsewhereMax = std::max(l.elsewhereMax, e); }
+            }
           }
-          if (i > 0 && j > 0 && k > 0 && i + 1 < d.x && j + 1 < d.y && k + 1 < d.z) {
+          if (c >= 2 && c != fixedClass) {
+            const size_t b = c - 2u;
+            if (fits[b].valid) {
+              const double e = norm(u - fits[b].apply(v));
+              l.se += e * e; l.maxRes = std::max(l.maxRes, e); ++l.boneN;
+              l.bodySe[b] += e * e; l.bodyMax[b] = std::max(l.bodyMax[b], e);
+            }
+            ++l.bodyN[b];
+          } else if (c == 1) {
+            const double e = norm(u - v);
+            l.soft += e; l.softMax = std::max(l.softMax, e); ++l.softN;
+          }
+          // Folds count in tissue only: air may fold without harm (and the 0.13 %
+          // over all samples hid 0.3-0.6 % in tissue).
+          if (i > 0 && j > 0 && k > 0 && i + 1 < d.x && j + 1 < d.y && k + 1 < d.z && c >= 1 &&
+              (c != fixedClass || bodies.tissueAt(u))) {
             // Central differences between the sample's direct neighbours (not stride apart).
             const Vec3 dx = (m.at(t + 1) - m.at(t - 1)) * 0.5;
             const Vec3 dy = (m.at(t + d.x) - m.at(t - d.x)) * 0.5;
             const Vec3 dz = (m.at(t + d.x * d.y) - m.at(t - d.x * d.y)) * 0.5;
             // det(du/dv) = det(du/didx) / det(dv/didx)
             const double det = dot(dx, cross(dy, dz)) / detIdx;
-            if (!(det > 0)) ++lf;
-            ++li;
+            if (!(det > 0)) ++l.folds;
+            l.minDet = std::min(l.minDet, det);
+            ++l.tissue;
           }
         }
     std::lock_guard lock(mutex);
-    se += lse; maxRes = std::max(maxRes, lmax); soft += lsoft;
-    boneN += lb; softN += ls; folds += lf; interior += li;
+    total.merge(l);
   });
-  r.boneNodes = boneN;
-  r.softNodes = softN;
-  r.boneRmsResidualMm = boneN ? std::sqrt(se / double(boneN)) : 0;
-  r.boneMaxResidualMm = maxRes;
-  r.softTissueMeanDisplacementMm = softN ? soft / double(softN) : 0;
-  r.foldFraction = interior ? double(folds) / double(interior) : 0;
+  r.boneNodes = total.boneN;
+  r.softNodes = total.softN;
+  r.boneRmsResidualMm = total.boneN ? std::sqrt(total.se / double(total.boneN)) : 0;
+  r.boneMaxResidualMm = total.maxRes;
+  r.softTissueMeanDisplacementMm = total.softN ? total.soft / double(total.softN) : 0;
+  r.softTissueMaxDisplacementMm = total.softMax;
+  r.tissueSamples = total.tissue;
+  r.foldFraction = total.tissue ? double(total.folds) / double(total.tissue) : 0;
+  r.minJacobian = total.minDet;
+  r.fixedSamples = total.fixedN;
+  r.fixedMaxDisplacementMm = total.fixedMax;
+  r.fixedMeanDisplacementMm = total.fixedN ? total.fixedSum / double(total.fixedN) : 0;
+  r.fixedContentElsewhere = total.elsewhereN;
+  r.fixedContentElsewhereMaxMm = total.elsewhereMax;
+  for (size_t b = 0; b < nb; ++b) {
+    RigidityReport::Body o;
+    o.ids = bodies.bodies()[b].ids;
+    o.fixed = bodies.bodies()[b].fixed;
+    o.samples = total.bodyN[b];
+    if (o.fixed) {
+      o.samples = total.fixedN;
+      o.fitted = true;
+      // About the identity: the displacement itself.
+      o.rmsResidualMm = total.fixedN ? std::sqrt(total.fixedSe / double(total.fixedN)) : 0;
+      o.maxResidualMm = total.fixedMax;
+    } else if (fits[b].valid) {
+      o.fitted = true;
+      o.rmsResidualMm = o.samples ? std::sqrt(total.bodySe[b] / double(o.samples)) : 0;
+      o.maxResidualMm = total.bodyMax[b];
+      o.rotationDeg = rotationAngleDeg(fits[b].transform.rotation);
+      o.translationMm = fits[b].transform.translation;
+    }
+    r.bodies.push_back(std::move(o));
+  }
   return r;
 }
 
@@ -274,55 +352,6 @@ std::shared_ptr<const RigidSnap> makeRigidSnap(const RigidBodies& bodies, const 
 
 }  // namespace
 
-RigidBodies RigidBodies::fromMask(VolumeU16 classes, int64_t minVoxels) {
-  // classes: 0 air, 1 soft, 2 rigid (not yet split). 26-connected: a thin cortex shell
-  // touching only along edges/corners stays one body.
-  RigidBodies rb;
-  VolumeU8 rigid(classes.geometry(), 0, 0);
-  for (size_t t = 0; t < rigid.size(); ++t) rigid.data()[t] = classes.data()[t] == 2;
-  const Components parts = connectedComponents(rigid, Connectivity::Vertex26);
-  // Small components become soft tissue; the rest are numbered 2, 3, ... in scan order.
-  std::vector<uint16_t> remap(parts.sizes.size(), 1);
-  uint16_t kept = 2;
-  for (size_t l = 1; l < parts.sizes.size(); ++l) {
-    if (parts.sizes[l] < minVoxels) continue;
-    if (kept == 0xFFFF) throw Error("rigidity: too many rigid components");
-    remap[l] = kept++;
-    rb.boxes_.push_back({parts.boxes[l].lo[0], parts.boxes[l].lo[1], parts.boxes[l].lo[2],
-                         parts.boxes[l].hi[0], parts.boxes[l].hi[1], parts.boxes[l].hi[2]});
-  }
-  for (size_t t = 0; t < classes.size(); ++t)
-    if (const uint32_t l = parts.labels[t]) classes.data()[t] = remap[l];
-  rb.components_ = kept - 2;
-  rb.mmToIndex_ = mmToIndexOf(classes.geometry());
-  rb.classes_ = std::make_shared<const VolumeU16>(std::move(classes));
-  return rb;
-}
-
-RigidBodies RigidBodies::fromLabels(const LabelVolume& labels, const std::vector<uint16_t>& rigidIds,
-                                    int64_t minVoxels) {
-  VolumeU16 cls(labels.geometry(), 0, 0);
-  const auto& ids = labels.ids().voxels();
-  for (size_t t = 0; t < ids.size(); ++t) {
-    const uint16_t id = ids[t];
-    cls.data()[t] = id == 0 ? 0
-                    : std::find(rigidIds.begin(), rigidIds.end(), id) != rigidIds.end() ? 2 : 1;
-  }
-  return fromMask(std::move(cls), minVoxels);
-}
-
-RigidBodies RigidBodies::fromThreshold(const AnyVolume& ct, double boneHu, double airHu,
-                                       int64_t minVoxels) {
-  VolumeU16 cls(geometryOf(ct), 0, 0);
-  std::visit([&](const auto& vol) {
-    for (size_t t = 0; t < vol.size(); ++t) {
-      const double v = static_cast<double>(vol.data()[t]);
-      cls.data()[t] = v >= boneHu ? 2 : v > airHu ? 1 : 0;
-    }
-  }, ct);
-  return fromMask(std::move(cls), minVoxels);
-}
-
 std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geometry& grid) const {
   std::lock_guard lock(cache_->mutex);
   auto& entries = cache_->entries;
@@ -333,20 +362,46 @@ std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geo
     }
   const Dims d = grid.dims;
   const size_t nodes = static_cast<size_t>(d.voxelCount());
-  checkMemoryBudget(static_cast<uint64_t>(nodes) * (sizeof(double) + sizeof(float) * (components_ + 1)),
+  const int nc = componentCount();
+  checkMemoryBudget(static_cast<uint64_t>(nodes) * (sizeof(double) + sizeof(uint16_t) + sizeof(float) * (nc + 1)),
                     "rigid-body distance fields");
   auto fields = std::make_shared<GridFields>();
-  fields->perBody.resize(static_cast<size_t>(components_));
+  fields->perBody.resize(static_cast<size_t>(nc));
   fields->nearest.assign(nodes, std::numeric_limits<float>::infinity());
+  // The class at every node once (a body may have many pieces; the classes are looked up once).
+  std::vector<uint16_t> nodeClass(nodes);
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i)
+          nodeClass[static_cast<size_t>((k * d.y + j) * d.x + i)] =
+              classAt(grid.indexToPhysical({double(i), double(j), double(k)}));
+  });
   std::vector<uint8_t> inside(nodes);
-  for (int c = 0; c < components_; ++c) {
-    parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-      for (int64_t k = k0; k < k1; ++k)
-        for (int64_t j = 0; j < d.y; ++j)
-          for (int64_t i = 0; i < d.x; ++i)
-            inside[static_cast<size_t>((k * d.y + j) * d.x + i)] =
-                classAt(grid.indexToPhysical({double(i), double(j), double(k)})) == c + 2;
+  for (int c = 0; c < nc; ++c) {
+    const uint16_t cls = static_cast<uint16_t>(c + 2);
+    parallelFor(static_cast<int64_t>(nodes), [&](int64_t t0, int64_t t1) {
+      for (int64_t t = t0; t < t1; ++t) inside[static_cast<size_t>(t)] = nodeClass[static_cast<size_t>(t)] == cls;
     });
+    if (c == fixedBody_ && d.x > 1 && d.y > 1 && d.z > 1) {
+      // The fixed regions: every corner of a cell that holds one of their voxels, so that a
+      // fixed structure thinner than the node spacing (a cortex shell between nodes) still has
+      // identity nodes all around it and its voxels interpolate to where they are.
+      const std::vector<uint8_t> cells = bodyCellsOf(*classes_, grid, cls);
+      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+        for (int64_t k = k0; k < k1; ++k)
+          for (int64_t j = 0; j < d.y; ++j)
+            for (int64_t i = 0; i < d.x; ++i) {
+              bool any = false;
+              for (int q = 0; q < 8 && !any; ++q) {
+                const int64_t a = i - (q & 1), b = j - ((q >> 1) & 1), e = k - ((q >> 2) & 1);
+                if (a < 0 || b < 0 || e < 0 || a > d.x - 2 || b > d.y - 2 || e > d.z - 2) continue;
+                any = cells[static_cast<size_t>((e * d.y + b) * d.x + a)] != 0;
+              }
+              if (any) inside[static_cast<size_t>((k * d.y + j) * d.x + i)] = 1;
+            }
+      });
+    }
     auto& field = fields->perBody[static_cast<size_t>(c)];
     field = distanceField(grid, inside);
     for (size_t t = 0; t < nodes; ++t) fields->nearest[t] = std::min(fields->nearest[t], field[t]);
@@ -356,11 +411,6 @@ std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geo
   entries.insert(entries.begin(), {grid, fields});
   if (entries.size() > kGridsKept) entries.pop_back();
   return fields;
-}
-
-uint16_t RigidBodies::classAt(const Vec3& mm) const {
-  const Vec3 idx = mmToIndex_ * (mm - classes_->geometry().origin);
-  return static_cast<uint16_t>(classes_->sampleNearest(idx));
 }
 
 void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params,
@@ -382,16 +432,21 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
   // nodes between two bones (joint gap < cell) average both fits, which is worse; the voxel
   // snap (RigidSnap) makes voxels inside the body exact instead.
   const double margin = std::max({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
+  // The fixed regions take a whole cell diagonal: every node of a cell that holds a fixed
+  // voxel is then exactly v, so interpolation leaves their voxels where they are (and the snap
+  // makes them exact); nothing is averaged with them there.
+  const double fixedMargin = norm(cv.grid.spacing);
   const double falloff = params.falloffMm;
-  auto weight = [&](double dm) {
-    if (dm <= margin) return 1.0;
-    if (falloff <= 0 || dm >= margin + falloff) return 0.0;
-    const double t = (dm - margin) / falloff;
+  auto weight = [&](double dm, double core) {
+    if (dm <= core) return 1.0;
+    if (falloff <= 0 || dm >= core + falloff) return 0.0;
+    const double t = (dm - core) / falloff;
     return 1.0 - t * t * (3 - 2 * t);
   };
+  const int fixedBody = bodies.fixedBody();
   // Trilinear weights are positive, so a field interpolated at gi is never below the nearest-
   // body field interpolated there: beyond the band in that one field, every weight is 0.
-  const double reach = falloff > 0 ? margin + falloff : margin;
+  const double reach = (fixedBody >= 0 ? fixedMargin : margin) + std::max(falloff, 0.0);
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < d.y; ++j)
@@ -399,13 +454,25 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           const int64_t node = (k * d.y + j) * d.x + i;
           const Vec3 u = cv.sourceAt(node);
           const Vec3 gi = gridIdx * (u - cv.grid.origin);
-          if (sampleClamped(dist->nearest, d, gi) > reach) continue;
+          // The fixed regions count at the node itself too (v: the output must not move there).
+          const bool nearFixed = fixedBody >= 0 && double(dist->perBody[static_cast<size_t>(fixedBody)][static_cast<size_t>(node)]) <= reach;
+          if (!nearFixed && sampleClamped(dist->nearest, d, gi) > reach) continue;
           const Vec3 v = cv.grid.indexToPhysical({double(i), double(j), double(k)});
-          double sum = 0;
-          Vec3 acc{};
+          float* o = cv.sourceMm.data() + 3 * node;
+          double fixedW = 0;
+          if (fixedBody >= 0) {
+            const auto& f = dist->perBody[static_cast<size_t>(fixedBody)];
+            fixedW = weight(std::min(sampleClamped(f, d, gi), double(f[static_cast<size_t>(node)])), fixedMargin);
+            if (fixedW >= 1) {  // exactly where it was
+              o[0] = static_cast<float>(v.x); o[1] = static_cast<float>(v.y); o[2] = static_cast<float>(v.z);
+              continue;
+            }
+          }
+          double sum = fixedW;
+          Vec3 acc = v * fixedW;
           for (int c = 0; c < nc; ++c) {
-            if (!fits[static_cast<size_t>(c)].valid) continue;
-            const double a = weight(sampleClamped(dist->perBody[static_cast<size_t>(c)], d, gi));
+            if (c == fixedBody || !fits[static_cast<size_t>(c)].valid) continue;
+            const double a = weight(sampleClamped(dist->perBody[static_cast<size_t>(c)], d, gi), margin);
             if (a <= 0) continue;
             sum += a;
             acc += fits[static_cast<size_t>(c)].apply(v) * a;
@@ -416,12 +483,47 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           // the inner band where the weight is already ~1, so the snap is invisible).
           const uint16_t c2 = lookup.bodyClassAt(out);
           if (c2 >= 2 && fits[c2 - 2u].valid) out = fits[c2 - 2u].apply(v);
-          float* o = cv.sourceMm.data() + 3 * node;
           o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);
         }
   });
   cv.rigidSnap = makeRigidSnap(bodies, fits, cv.grid);
   progress.end();
+}
+
+RigidityReport worstOf(const std::vector<RigidityReport>& reports) {
+  if (reports.empty()) return {};
+  RigidityReport w = reports.front();
+  for (size_t f = 1; f < reports.size(); ++f) {
+    const RigidityReport& m = reports[f];
+    w.boneRmsResidualMm = std::max(w.boneRmsResidualMm, m.boneRmsResidualMm);
+    w.boneMaxResidualMm = std::max(w.boneMaxResidualMm, m.boneMaxResidualMm);
+    w.softTissueMeanDisplacementMm = std::max(w.softTissueMeanDisplacementMm, m.softTissueMeanDisplacementMm);
+    w.softTissueMaxDisplacementMm = std::max(w.softTissueMaxDisplacementMm, m.softTissueMaxDisplacementMm);
+    w.foldFraction = std::max(w.foldFraction, m.foldFraction);
+    w.minJacobian = std::min(w.minJacobian, m.minJacobian);
+    w.fixedMaxDisplacementMm = std::max(w.fixedMaxDisplacementMm, m.fixedMaxDisplacementMm);
+    w.fixedMeanDisplacementMm = std::max(w.fixedMeanDisplacementMm, m.fixedMeanDisplacementMm);
+    w.fixedContentElsewhere = std::max(w.fixedContentElsewhere, m.fixedContentElsewhere);
+    w.fixedContentElsewhereMaxMm = std::max(w.fixedContentElsewhereMaxMm, m.fixedContentElsewhereMaxMm);
+    w.nodes = std::max(w.nodes, m.nodes);
+    w.boneNodes = std::max(w.boneNodes, m.boneNodes);
+    w.softNodes = std::max(w.softNodes, m.softNodes);
+    w.tissueSamples = std::max(w.tissueSamples, m.tissueSamples);
+    w.fixedSamples = std::max(w.fixedSamples, m.fixedSamples);
+    for (size_t b = 0; b < std::min(w.bodies.size(), m.bodies.size()); ++b) {
+      auto& x = w.bodies[b];
+      const auto& y = m.bodies[b];
+      x.samples = std::max(x.samples, y.samples);
+      x.fitted = x.fitted || y.fitted;
+      x.rmsResidualMm = std::max(x.rmsResidualMm, y.rmsResidualMm);
+      x.maxResidualMm = std::max(x.maxResidualMm, y.maxResidualMm);
+      if (y.rotationDeg > x.rotationDeg) {  // the frame where it turns most
+        x.rotationDeg = y.rotationDeg;
+        x.translationMm = y.translationMm;
+      }
+    }
+  }
+  return w;
 }
 
 RigidityReport measureRigidity(const ControlVolume& cv, const RigidBodies& bodies) {

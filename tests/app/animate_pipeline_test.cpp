@@ -134,6 +134,10 @@ TEST(AnimatePipeline, FramesAreRenderTracksAndTheReportCountsThem) {
   for (const char* key : {"deform_per_frame", "render_per_frame", "total"}) EXPECT_TRUE(j["timings_ms"].contains(key)) << key;
   EXPECT_EQ(j["rigidity_per_frame"].size(), static_cast<size_t>(expected));
   EXPECT_LT(j["rigidity_worst"]["bone_rms_residual_mm"].get<double>(), 0.5);
+  // The worst frame per body too (one per id at this size), and no fixed regions: null.
+  ASSERT_GE(j["rigidity_worst"]["bodies"].size(), 3u);
+  for (const auto& b : j["rigidity_worst"]["bodies"]) EXPECT_LT(b["rms_residual_mm"].get<double>(), 0.5) << b.dump();
+  EXPECT_TRUE(j["rigidity_worst"]["fixed"].is_null());
 }
 
 // The arguments the studio writes beside its export make `vellum animate` render the request's frames.
@@ -145,13 +149,23 @@ TEST(AnimatePipeline, AnimateArgumentsReproduceTheRequestThroughTheCli) {
   r.loop = true;
   r.settings.camera.elevationDeg = 20;
   r.settings.camera.panMm = {6, -4, 2.5};  // a panned view (the studio's middle drag)
-  app::runAnimate(r);
+  // The thigh stays put: the femur by label, the top slab by a box (mm).
+  r.engine.setRigidLabels({"6+7", "8+11", "9+11"});
+  r.engine.fixedIds = {4, 5};
+  const Geometry& g = c.ph.ct.geometry();
+  const Vec3 lo = g.indexToPhysical({0, 0, double(g.dims.z - 6)}), hi = g.indexToPhysical({double(g.dims.x - 1), double(g.dims.y - 1), double(g.dims.z - 1)});
+  r.engine.fixedBoxMm = {lo.x, lo.y, lo.z, hi.x, hi.y, hi.z};
+  const app::AnimateResult result = app::runAnimate(r);
+  EXPECT_LT(result.report["rigidity_worst"]["fixed"]["max_displacement_mm"].get<double>(), 1e-4);
   app::AnimateRequest viaCli = r;
   viaCli.output = c.dir / "cli/";
   const std::string args = app::animateArguments(viaCli);
   EXPECT_NE(args.find("--control-scale 3"), std::string::npos) << args;
   EXPECT_NE(args.find("--loop=true"), std::string::npos) << args;
   EXPECT_NE(args.find("--pan 6 -4 2.5"), std::string::npos) << args;
+  EXPECT_NE(args.find("--rigid-labels 6+7,8+11,9+11"), std::string::npos) << args;
+  EXPECT_NE(args.find("--fixed-labels 4,5"), std::string::npos) << args;
+  EXPECT_NE(args.find("--fixed-box "), std::string::npos) << args;
   runCli(splitArguments(args));
   const auto a = framesIn(c.dir / "app"), b = framesIn(c.dir / "cli");
   ASSERT_EQ(a.size(), b.size());

@@ -180,7 +180,23 @@ TEST(DeformPipeline, BadRequestsNameTheFieldOrFile) {
   EXPECT_NE(errorOf([&] { app::runDeform(r); }).find("rigidity_stride"), std::string::npos);
   r = requestFor(c);
   r.engine.labels = c.labels.string();
-  EXPECT_EQ(errorOf([&] { app::runDeform(r); }), "--labels needs --rigid-labels (the ids that stay rigid)");
+  EXPECT_EQ(errorOf([&] { app::runDeform(r); }),
+            "--labels needs --rigid-labels (the ids that stay rigid) or --fixed-labels / --fixed-box");
+  r.engine.labels.clear();
+  r.engine.fixedIds = {3};
+  EXPECT_NE(errorOf([&] { app::runDeform(r); }).find("need --labels"), std::string::npos);
+  r.engine.fixedIds.clear();
+  r.engine.labels = c.labels.string();
+  r.engine.rigidIds = {3};
+  r.engine.fixedIds = {3};
+  EXPECT_EQ(errorOf([&] { app::runDeform(r); }), "label 3 is both rigid and fixed");
+  r.engine.rigidIds.clear();
+  r.engine.fixedIds.clear();
+  r.engine.fixedBoxMm = {1, 2, 3};
+  EXPECT_NE(errorOf([&] { app::runDeform(r); }).find("6 numbers"), std::string::npos);
+  r.engine.fixedBoxMm = {500, 500, 500, 600, 600, 600};
+  EXPECT_NE(errorOf([&] { app::runDeform(r); }).find("hold no voxel"), std::string::npos);
+  r.engine.fixedBoxMm.clear();
   // A label map on another grid names the label file.
   phantom::PhantomOptions o;
   o.dims = {16, 16, 16};
@@ -197,4 +213,75 @@ TEST(DeformPipeline, BadRequestsNameTheFieldOrFile) {
     app::runDeform(bad);
   }, c.dir / "broken.json", "{\"points\": [");
   EXPECT_FALSE(fs::exists(r.output)) << "no output after a failed request";
+}
+
+// The report per body, the fixed regions and "not measured": a bone-only label map has no
+// soft tissue, so its displacement is null with a reason (not "moved 0 mm"); the fixed label
+// and box move 0 and their voxels are the input's; the CLI's --fixed-labels / --fixed-box
+// fill the same request.
+TEST(DeformPipeline, ReportsPerBodyFixedRegionsAndWhatWasNotMeasured) {
+  const Case c = makeCase("app-deform-honest");
+  // Bone-only: every non-bone id cleared.
+  LabelVolume bones = c.ph.labels;
+  for (auto& id : bones.ids().voxels())
+    if (!phantom::isBone(id)) id = 0;
+  io::saveLabels(bones, c.dir / "bones.nrrd");
+  app::DeformRequest r = requestFor(c);
+  r.engine.labels = (c.dir / "bones.nrrd").string();
+  r.engine.setRigidLabels({"4+5", "6+7", "8+11", "9+11"});
+  r.report = c.dir / "bones.json";
+  const nlohmann::json j = app::runDeform(r).report;
+  const nlohmann::json& after = j["rigidity"]["after"];
+  EXPECT_EQ(after["soft_tissue_samples"], 0);
+  EXPECT_TRUE(after["soft_tissue_mean_displacement_mm"].is_null());
+  EXPECT_TRUE(after["not_measured"].contains("soft_tissue_mean_displacement_mm"));
+  EXPECT_TRUE(after["fixed"].is_null());
+  EXPECT_TRUE(after["not_measured"].contains("fixed"));
+  EXPECT_TRUE(after["fold_fraction"].is_number()) << "bone is tissue: folds are measured";
+  // One entry per bone (femur 4+5, tibia 6+7, fibula 8+11, patella 9+11; at 32 voxels the
+  // fibula's and patella's cortex has no voxel: 11 goes to the first group), each with its fit.
+  ASSERT_EQ(after["bodies"].size(), j["rigid_bodies"].size());
+  ASSERT_GE(after["bodies"].size(), 3u);
+  EXPECT_EQ(after["bodies"][0]["ids"], nlohmann::json({4, 5}));
+  for (const auto& b : after["bodies"]) {
+    EXPECT_TRUE(b["rms_residual_mm"].is_number()) << b.dump();
+    EXPECT_LT(b["rms_residual_mm"].get<double>(), 0.5) << b.dump();
+    EXPECT_TRUE(b["rotation_deg"].is_number()) << b.dump();
+  }
+  EXPECT_EQ(j["rigid_bodies"][1]["ids"], nlohmann::json({6, 7}));
+  // The flat list: one body per id (and the --rigid-labels syntax round-trips).
+  app::DeformEngine e;
+  e.setRigidLabels({"4+5", "6", "8+11", "9+11"});
+  EXPECT_EQ(e.rigidLabelsArgument(), "4+5,8+11,9+11,6");
+  EXPECT_THROW(e.setRigidLabels({"4+"}), Error);
+  EXPECT_THROW(e.setRigidLabels({"x"}), Error);
+
+  // The whole leg, the femur's muscle fixed by label and the thigh's top by a box (mm).
+  const Geometry& g = c.ph.ct.geometry();
+  const Vec3 lo = g.indexToPhysical({0, 0, 32}), hi = g.indexToPhysical({31, 31, 39});
+  const std::string box = std::to_string(lo.x) + "," + std::to_string(lo.y) + "," + std::to_string(lo.z) + "," +
+                          std::to_string(hi.x) + "," + std::to_string(hi.y) + "," + std::to_string(hi.z);
+  const fs::path out = c.dir / "fixed.nrrd", report = c.dir / "fixed.json";
+  runCli({c.ct.string(), "--points", c.points.string(), "--out", out.string(), "--labels", c.labels.string(),
+          "--rigid-labels", "6+7,8+11,9+11", "--fixed-labels", "4,5", "--fixed-box", box, "--report", report.string()});
+  const nlohmann::json f = nlohmann::json::parse(std::ifstream(report));
+  const nlohmann::json& fa = f["rigidity"]["after"];
+  EXPECT_GT(fa["fixed"]["samples"].get<int64_t>(), 1000);
+  EXPECT_LT(fa["fixed"]["max_displacement_mm"].get<double>(), 1e-4);
+  EXPECT_TRUE(fa["soft_tissue_mean_displacement_mm"].is_number());
+  EXPECT_TRUE(f["rigid_bodies"].back()["fixed"].get<bool>());
+  EXPECT_EQ(f["rigid_bodies"].back()["ids"], nlohmann::json({4, 5}));
+  const auto moved = io::loadVolume(out);
+  const auto& v = std::get<VolumeI16>(moved.volume);
+  int64_t checked = 0;
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t jj = 0; jj < g.dims.y; ++jj)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const uint16_t id = c.ph.labels(i, jj, k);
+        if (id != 4 && id != 5 && k < 32) continue;
+        ++checked;
+        ASSERT_EQ(v(i, jj, k), c.ph.ct(i, jj, k)) << "fixed voxel " << i << "," << jj << "," << k << " changed";
+      }
+  EXPECT_GT(checked, 32 * 32 * 8);
+  EXPECT_NE(v.voxels(), c.ph.ct.voxels()) << "the bend must still move the calf";
 }

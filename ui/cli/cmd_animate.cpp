@@ -71,7 +71,7 @@ void addAnimateCommand(CLI::App& app) {
   a->table.addTo(*cmd);
   a->figure.addTo(*cmd, FigureOptions::LabelSource::OtherOption);
   cmd->footer("Example: vellum animate knee.nrrd --keyframes bend.json --labels knee-labels.nrrd "
-              "--rigid-labels 4,5,6,7,8,9,11 --camera-orbit 360 --loop --out bend.mp4");
+              "--rigid-labels 4+5,6+7,8+11,9+11 --camera-orbit 360 --loop --out bend.mp4");
   cmd->callback([a] {
     app::AnimateRequest request = a->request;
     std::tie(request.settings.width, request.settings.height) = parseSize(a->size);
@@ -93,8 +93,10 @@ void demoDeformation(const DemoContext& ctx) {
   const auto t0 = std::chrono::steady_clock::now();
   const io::LoadedVolume lv = io::loadVolume(ctx.phantomCt);
   const Geometry& g = geometryOf(lv.volume);
-  const std::vector<uint16_t> bones = {4, 5, 6, 7, 8, 9, 11};  // every phantom::isBone id
-  const RigidBodies bodies = RigidBodies::fromLabels(io::loadLabels(ctx.phantomLabels), bones);
+  // One body per bone: cortex + marrow (4+5, 6+7), and the cancellous id 11 split between the
+  // fibula's and the patella's cores (`--rigid-labels 4+5,6+7,8+11,9+11`).
+  const RigidBodies bodies =
+      RigidBodies::fromLabelGroups(io::loadLabels(ctx.phantomLabels), {{4, 5}, {6, 7}, {8, 11}, {9, 11}});
   const Vec3 pivot = phantom::flexionAxisPointMm();  // the tibia swings about the knee's axis
   const KeyframeTrack track = kneeBendTrack(g, 20.0, 2.0, pivot);
   saveKeyframes(track, ctx.outDir / "deform-keyframes.json");
@@ -144,7 +146,7 @@ void demoDeformation(const DemoContext& ctx) {
     r = animation::renderTrack(*context, lv.volume, track, params, {&bodies, falloff, 1}, spec, bar.progress());
   }
   writeJsonFile({{"keyframes", "deform-keyframes.json"},
-                 {"rigid_label_ids", bones},
+                 {"rigid_labels", "4+5,6+7,8+11,9+11"},
                  {"rigid_falloff_mm", falloff},
                  {"flexion_pivot_mm", {pivot.x, pivot.y, pivot.z}},
                  {"strongest_bend", {{"plain_mls", toJson(plain)},

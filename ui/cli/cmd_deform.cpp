@@ -1,6 +1,7 @@
 // `vellum deform` (deform a volume with control points) and `vellum controls` (place them).
 #include <iostream>
 #include <memory>
+#include <sstream>
 
 #include "cli_params.hpp"
 #include "cli_util.hpp"
@@ -21,11 +22,25 @@ using namespace vellum::deformation;
 void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
   const auto engineFlags = addFlags(cmd, engine.params, deformParamsTable());
   addFlags(cmd, engine, app::deformEngineTable());
-  cmd.add_option("--rigid-labels", engine.rigidIds,
-                 "label ids that stay rigid, e.g. 4,5,6,7,8,9,11 (every bone id of the phantom)")
+  // Tokens "4", "4+5": parsed into the engine when the command line is complete.
+  auto rigidTokens = std::make_shared<std::vector<std::string>>();
+  cmd.add_option("--rigid-labels", *rigidTokens,
+                 "label ids that stay rigid: each id is one rigid body whatever its connectivity, different ids "
+                 "are different bodies (a piece mostly enclosed by another id, e.g. marrow in cortex, moves with "
+                 "it); ids joined by + make one body; the phantom: 4+5,6+7,8+11,9+11 (or 4,5,6,7,8,9,11)")
       ->delimiter(',');
+  cmd.add_option("--fixed-labels", engine.fixedIds,
+                 "label ids that do not move at all (displacement 0; blended outside over --rigid-falloff)")
+      ->delimiter(',');
+  cmd.add_option("--fixed-box", engine.fixedBoxMm,
+                 "x0,y0,z0,x1,y1,z1: a box (mm, physical LPS) whose voxels do not move at all (needs --labels)")
+      ->delimiter(',')
+      ->expected(6);
   CLI::Option* power = engineFlags.at("power");
-  cmd.parse_complete_callback([&engine, power] { engine.powerGiven = power->count() > 0; });
+  cmd.parse_complete_callback([&engine, power, rigidTokens] {
+    engine.powerGiven = power->count() > 0;
+    if (!rigidTokens->empty()) engine.setRigidLabels(*rigidTokens);
+  });
 }
 
 namespace {
@@ -48,12 +63,32 @@ void printSummary(const app::DeformRequest& request, const app::DeformResult& r)
   std::cout << request.output.string() << "  " << g.dims.str() << "  " << r.points << " points  s="
             << r.params.controlScale << "  " << r.report["timings_ms"]["total"].get<double>() / 1000.0 << " s\n";
   if (!r.report.contains("rigidity")) return;
-  const nlohmann::json& rigidity = r.report["rigidity"];
-  std::cout << "bone RMS residual " << rigidity["after"]["bone_rms_residual_mm"].get<double>() << " mm (before "
-            << rigidity["before"]["bone_rms_residual_mm"].get<double>() << "), soft tissue moved "
-            << rigidity["after"]["soft_tissue_mean_displacement_mm"].get<double>()
-            << " mm (voxel level; control-grid nodes: " << rigidity["after_nodes"]["bone_rms_residual_mm"].get<double>()
-            << " mm)\n";
+  // Null measures (no sample) are said so, not printed as 0.
+  const auto mm = [](const nlohmann::json& v) {
+    std::ostringstream o;
+    if (v.is_null()) return std::string("not measured");
+    o << v.get<double>() << " mm";
+    return o.str();
+  };
+  const nlohmann::json& after = r.report["rigidity"]["after"];
+  std::cout << "bone RMS residual " << mm(after["bone_rms_residual_mm"]) << " (before "
+            << mm(r.report["rigidity"]["before"]["bone_rms_residual_mm"]) << "), soft tissue moved "
+            << mm(after["soft_tissue_mean_displacement_mm"]) << " (voxel level)\n";
+  for (const auto& b : after["bodies"]) {
+    std::cout << "  body";
+    for (const auto& id : b["ids"]) std::cout << ' ' << id.get<int>();
+    std::cout << ": RMS " << mm(b["rms_residual_mm"]) << ", max " << mm(b["max_residual_mm"]);
+    if (!b["rotation_deg"].is_null()) std::cout << ", turned " << b["rotation_deg"].get<double>() << " deg";
+    std::cout << "\n";
+  }
+  if (!after["fixed"].is_null())
+    std::cout << "  fixed regions moved: max " << mm(after["fixed"]["max_displacement_mm"]) << ", mean "
+              << mm(after["fixed"]["mean_displacement_mm"]) << "; their content shown moved elsewhere in "
+              << after["fixed"]["content_moved_elsewhere_samples"].get<int64_t>() << " voxels (max "
+              << mm(after["fixed"]["content_moved_elsewhere_max_mm"]) << ")\n";
+  if (!after["fold_fraction"].is_null())
+    std::cout << "  folds in tissue: " << 100.0 * after["fold_fraction"].get<double>() << " % (min Jacobian "
+              << after["min_jacobian"].get<double>() << ")\n";
 }
 
 }  // namespace
@@ -75,7 +110,8 @@ void addDeformCommand(CLI::App& app) {
   addEngineFlags(*cmd, r.engine);
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum deform knee.nrrd --points cp.json --labels knee-labels.nrrd "
-              "--rigid-labels 4,5,6,7,8,9,11 --out bent.nrrd --report bent.json");
+              "--rigid-labels 4,5,6,7,8,9,11 --out bent.nrrd --report bent.json; "
+              "the other leg still: --fixed-box x0,y0,z0,x1,y1,z1 or --fixed-labels IDS");
   cmd->callback([a] {
     app::DeformRequest request = a->request;
     request.load = a->in.toLoadOptions(nullptr);

@@ -22,12 +22,19 @@ nlohmann::json perFrameJson(const std::vector<animation::FrameRigidity>& frames)
   return j;
 }
 
+// The worst frame as rendered, every measure (per body, fixed regions, tissue folds).
+RigidityReport worstOfFrames(const animation::MovieResult& r) {
+  std::vector<RigidityReport> frames;
+  for (const auto& f : r.perFrame) frames.push_back(f.voxelsAsRendered);
+  return frames.empty() ? r.worst : worstOf(frames);
+}
+
 nlohmann::json reportJson(const animation::MovieResult& r, const AnimateRequest& request, bool rigid, double totalMs) {
   const int frames = std::max(r.frames, 1);
   return {{"frames", r.frames},
           {"fps", request.fps},
           {"timings_ms", {{"deform_per_frame", r.deformMs / frames}, {"render_per_frame", r.renderMs / frames}, {"total", totalMs}}},
-          {"rigidity_worst", rigid ? toJson(r.worst) : nlohmann::json()},
+          {"rigidity_worst", rigid ? toJson(worstOfFrames(r)) : nlohmann::json()},
           {"rigidity_per_frame", perFrameJson(r.perFrame)}};
 }
 
@@ -81,8 +88,12 @@ std::string animateArguments(const AnimateRequest& r) {
   c << params::cliArguments(deformParamsTable(), r.engine.params)
     << params::cliArguments(deformEngineTable(), r.engine, {"labels"});
   if (!r.engine.labels.empty()) {
-    c << " --labels " << singleQuoted(r.engine.labels) << " --rigid-labels ";
-    for (size_t i = 0; i < r.engine.rigidIds.size(); ++i) c << (i ? "," : "") << r.engine.rigidIds[i];
+    c << " --labels " << singleQuoted(r.engine.labels);
+    if (const std::string rigid = r.engine.rigidLabelsArgument(); !rigid.empty()) c << " --rigid-labels " << rigid;
+    if (!r.engine.fixedIds.empty()) c << " --fixed-labels ";
+    for (size_t i = 0; i < r.engine.fixedIds.size(); ++i) c << (i ? "," : "") << r.engine.fixedIds[i];
+    if (!r.engine.fixedBoxMm.empty()) c << " --fixed-box ";
+    for (size_t i = 0; i < r.engine.fixedBoxMm.size(); ++i) c << (i ? "," : "") << r.engine.fixedBoxMm[i];
   }
   return c.str();
 }

@@ -1,6 +1,8 @@
 // The deformation request: `vellum deform`'s run, stage by stage (see deform_pipeline.hpp).
 #include "vellum/app/deform_pipeline.hpp"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 
 #include "vellum/app/outputs.hpp"
@@ -65,10 +67,16 @@ void loadInputs(Run& run) {
   run.loaded = io::loadVolume(r.input, load);
   run.timings["load"] = msSince(t);
   run.cpu.lap("load");
-  if (!r.engine.labels.empty()) {
+  if (!r.engine.labels.empty() || !r.engine.fixedIds.empty() || !r.engine.fixedBoxMm.empty()) {
     t = Clock::now();
     run.bodies = r.engine.rigidBodies(geometryOf(run.loaded.volume), r.load);
     run.timings["rigid_bodies"] = msSince(t);
+    // What each body is made of: its ids (own id, then the cores that joined it), voxels, pieces.
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& b : run.bodies->bodies())
+      list.push_back({{"ids", b.ids}, {"voxels", b.voxels}, {"pieces", b.pieces}, {"fixed", b.fixed}});
+    run.report["rigid_bodies"] = std::move(list);
+    run.report["rigid_specks_voxels"] = run.bodies->droppedVoxels();
   }
 }
 
@@ -166,8 +174,20 @@ DeformParams DeformEngine::resolved(std::optional<double> filePower) const {
 }
 
 std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const io::LoadOptions& load) const {
-  if (labels.empty()) return std::nullopt;
-  if (rigidIds.empty()) throw Error("--labels needs --rigid-labels (the ids that stay rigid)");
+  FixedRegions fixed;
+  fixed.ids = fixedIds;
+  if (!fixedBoxMm.empty()) {
+    if (fixedBoxMm.size() != 6) throw Error("--fixed-box needs 6 numbers: x0,y0,z0,x1,y1,z1 (mm)");
+    std::array<double, 6> b{};
+    std::copy(fixedBoxMm.begin(), fixedBoxMm.end(), b.begin());
+    fixed.boxesMm.push_back(b);
+  }
+  if (labels.empty()) {
+    if (!fixed.empty()) throw Error("--fixed-labels and --fixed-box need --labels (the label map says what is tissue)");
+    return std::nullopt;
+  }
+  if (rigidIds.empty() && rigidGroups.empty() && fixed.empty())
+    throw Error("--labels needs --rigid-labels (the ids that stay rigid) or --fixed-labels / --fixed-box");
   io::LoadOptions o;
   o.region = load.region;
   o.allowOutsideData = load.allowOutsideData;
@@ -175,7 +195,50 @@ std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const
   if (!(lv.geometry().dims == grid.dims) || !lv.geometry().approxEqual(grid, 1e-3))
     throw FileError(labels, "label map grid " + lv.geometry().dims.str() + " differs from the volume's " +
                                 grid.dims.str());
-  return RigidBodies::fromLabels(lv, rigidIds);
+  return RigidBodies::fromLabelGroups(lv, bodyGroups(), 20, fixed);
+}
+
+std::vector<std::vector<uint16_t>> DeformEngine::bodyGroups() const {
+  std::vector<std::vector<uint16_t>> all = rigidGroups;
+  for (uint16_t id : rigidIds) all.push_back({id});
+  return all;
+}
+
+void DeformEngine::setRigidLabels(const std::vector<std::string>& tokens) {
+  rigidIds.clear();
+  rigidGroups.clear();
+  for (const std::string& token : tokens) {
+    std::vector<uint16_t> group;
+    size_t start = 0;
+    for (;;) {
+      const size_t plus = token.find('+', start);
+      const std::string part = token.substr(start, plus == std::string::npos ? std::string::npos : plus - start);
+      size_t used = 0;
+      long id = -1;
+      try {
+        id = std::stol(part, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (part.empty() || used != part.size() || id < 1 || id > 65535)
+        throw Error("--rigid-labels: \"" + token + "\" is not a label id 1..65535 or ids joined by '+' (e.g. 4+5)");
+      group.push_back(static_cast<uint16_t>(id));
+      if (plus == std::string::npos) break;
+      start = plus + 1;
+    }
+    if (group.size() == 1) rigidIds.push_back(group.front());
+    else rigidGroups.push_back(group);
+  }
+}
+
+std::string DeformEngine::rigidLabelsArgument() const {
+  std::string out;
+  for (const auto& g : rigidGroups) {
+    out += out.empty() ? "" : ",";
+    for (size_t i = 0; i < g.size(); ++i) out += (i ? "+" : "") + std::to_string(g[i]);
+  }
+  for (uint16_t id : rigidIds) out += (out.empty() ? "" : ",") + std::to_string(id);
+  return out;
 }
 
 const params::Table<DeformEngine>& deformEngineTable() {
@@ -238,17 +301,67 @@ DeformResult runDeform(const DeformRequest& request, Progress& progress) {
   return result;
 }
 
+namespace {
+// A measure, or null with the reason in `notMeasured` when no sample exists.
+nlohmann::json measured(bool has, double value, nlohmann::json& notMeasured, const std::string& key,
+                        const std::string& why) {
+  if (has) return value;
+  notMeasured[key] = why;
+  return nullptr;
+}
+}  // namespace
+
 nlohmann::json toJson(const RigidityReport& r) {
-  return {{"level", r.voxelLevel ? "voxels" : "control-grid nodes"},
-          {"stride", r.stride},
-          {"components", r.components},
-          {"samples", r.nodes},
-          {"bone_samples", r.boneNodes},
-          {"soft_tissue_samples", r.softNodes},
-          {"bone_rms_residual_mm", r.boneRmsResidualMm},
-          {"bone_max_residual_mm", r.boneMaxResidualMm},
-          {"soft_tissue_mean_displacement_mm", r.softTissueMeanDisplacementMm},
-          {"fold_fraction", r.foldFraction}};
+  nlohmann::json notMeasured = nlohmann::json::object();
+  const bool bone = r.boneNodes > 0, soft = r.softNodes > 0, tissue = r.tissueSamples > 0;
+  nlohmann::json j = {
+      {"level", r.voxelLevel ? "voxels" : "control-grid nodes"},
+      {"stride", r.stride},
+      {"components", r.components},
+      {"samples", r.nodes},
+      {"bone_samples", r.boneNodes},
+      {"soft_tissue_samples", r.softNodes},
+      {"tissue_samples", r.tissueSamples},
+      {"bone_rms_residual_mm", measured(bone, r.boneRmsResidualMm, notMeasured, "bone_rms_residual_mm",
+                                        "no sample lands in a fitted rigid body")},
+      {"bone_max_residual_mm", bone ? nlohmann::json(r.boneMaxResidualMm) : nlohmann::json()},
+      {"soft_tissue_mean_displacement_mm",
+       measured(soft, r.softTissueMeanDisplacementMm, notMeasured, "soft_tissue_mean_displacement_mm",
+                "no soft-tissue sample (no label outside the rigid and fixed ids)")},
+      {"soft_tissue_max_displacement_mm", soft ? nlohmann::json(r.softTissueMaxDisplacementMm) : nlohmann::json()},
+      {"fold_fraction", measured(tissue, r.foldFraction, notMeasured, "fold_fraction",
+                                 "no interior tissue sample (folds are counted in tissue only, not air)")},
+      {"min_jacobian", tissue ? nlohmann::json(r.minJacobian) : nlohmann::json()},
+  };
+  nlohmann::json bodies = nlohmann::json::array();
+  for (const auto& b : r.bodies) {
+    if (b.fixed) continue;
+    nlohmann::json o = {{"ids", b.ids}, {"samples", b.samples}};
+    const bool has = b.fitted && b.samples > 0;
+    o["rms_residual_mm"] = has ? nlohmann::json(b.rmsResidualMm) : nlohmann::json();
+    o["max_residual_mm"] = has ? nlohmann::json(b.maxResidualMm) : nlohmann::json();
+    o["rotation_deg"] = b.fitted ? nlohmann::json(b.rotationDeg) : nlohmann::json();
+    o["translation_mm"] = b.fitted ? nlohmann::json({b.translationMm.x, b.translationMm.y, b.translationMm.z})
+                                   : nlohmann::json();
+    if (!has) o["not_measured"] = b.samples ? "too few samples for a rigid fit" : "no sample lands in this body";
+    bodies.push_back(std::move(o));
+  }
+  j["bodies"] = std::move(bodies);
+  const bool hasFixed = std::any_of(r.bodies.begin(), r.bodies.end(), [](const auto& b) { return b.fixed; });
+  if (hasFixed) {
+    const bool has = r.fixedSamples > 0;
+    j["fixed"] = {{"samples", r.fixedSamples},
+                  {"max_displacement_mm", has ? nlohmann::json(r.fixedMaxDisplacementMm) : nlohmann::json()},
+                  {"mean_displacement_mm", has ? nlohmann::json(r.fixedMeanDisplacementMm) : nlohmann::json()},
+                  {"content_moved_elsewhere_samples", r.fixedContentElsewhere},
+                  {"content_moved_elsewhere_max_mm", r.fixedContentElsewhereMaxMm}};
+    if (!has) notMeasured["fixed"] = "no sample lies in the fixed regions";
+  } else {
+    j["fixed"] = nullptr;
+    notMeasured["fixed"] = "no fixed regions (--fixed-labels, --fixed-box)";
+  }
+  j["not_measured"] = std::move(notMeasured);
+  return j;
 }
 
 }  // namespace vellum::app

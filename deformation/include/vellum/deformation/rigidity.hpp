@@ -14,26 +14,70 @@
 
 namespace vellum::deformation {
 
-/// Tissue classes over the SOURCE volume: 0 air/background, 1 soft tissue, 2 + c rigid
-/// component c (26-connected components of the rigid voxels: on the phantom, one per bone).
+/// What stays put: label ids and boxes (mm, physical LPS) whose voxels do not move at all
+/// (displacement exactly 0 there; the map blends back to the MLS map outside them over the
+/// same band as a rigid body). Every voxel inside a box is fixed, air and bone included.
+struct FixedRegions {
+  std::vector<uint16_t> ids;
+  std::vector<std::array<double, 6>> boxesMm;  ///< {x0, y0, z0, x1, y1, z1}, any corner order
+  bool empty() const { return ids.empty() && boxesMm.empty(); }
+};
+
+/// Tissue classes over the SOURCE volume: 0 air/background, 1 soft tissue, 2 + c body c.
+/// From labels, body c is one rigid label id (all its voxels, whatever their connectivity);
+/// from a HU threshold, one 26-connected component. With fixed regions, the last body is
+/// them: a body whose transform is the identity, not fitted.
 class RigidBodies {
  public:
-  /// Rigid voxels = labels in `rigidIds`; soft tissue = every other non-zero label.
-  /// Components smaller than `minVoxels` count as soft tissue (stray voxels of a noisy
-  /// segmentation; the phantom's bones are whole components and lose nothing).
+  /// One rigid body per id of `rigidIds`, whatever its connectivity (a bone split by a bad
+  /// slice stays one body); different ids are different bodies even where they touch.
+  /// Two rules for the pieces (26-connected parts of one id):
+  ///  - a piece mostly enclosed by another rigid id (more than half of its face contacts are
+  ///    with that id's voxels, all its pieces together) is that id's core and joins its body:
+  ///    a marrow or cancellous label inside a cortex label (the phantom's 5 in 4, 7 in 6, 11
+  ///    in 8 and in 9) moves with its bone; an id all of whose pieces are cores has no body of
+  ///    its own (its cores go where its largest piece goes);
+  ///  - a piece smaller than `minVoxels` that touches no other rigid voxel and is not its id's
+  ///    largest piece is soft tissue (specks of a noisy segmentation); every other piece,
+  ///    however far from the id's main mass, is that id's body.
+  /// `fixed` (ids and boxes) override the rigid ids. Throws vellum::Error for an id both
+  /// rigid and fixed.
   static RigidBodies fromLabels(const LabelVolume& labels, const std::vector<uint16_t>& rigidIds,
-                                int64_t minVoxels = 20);
-  /// Rigid voxels = value >= boneHu; soft tissue = airHu < value < boneHu.
+                                int64_t minVoxels = 20, const FixedRegions& fixed = {});
+  /// The same with bodies of several ids (`--rigid-labels 4+5,6+7`): each group is one body
+  /// (the pieces rules apply between groups). An id listed in several groups (the phantom's
+  /// 11 in 8+11 and 9+11) is split by piece: each goes to the group whose other ids it touches
+  /// most (no contact: the first group listing it). fromLabels() is one group per id.
+  static RigidBodies fromLabelGroups(const LabelVolume& labels, const std::vector<std::vector<uint16_t>>& groups,
+                                     int64_t minVoxels = 20, const FixedRegions& fixed = {});
+  /// Rigid voxels = value >= boneHu, one body per 26-connected component (components smaller
+  /// than `minVoxels` are soft tissue); soft tissue = airHu < value < boneHu. Without labels
+  /// nothing says which piece is which bone, so pieces of one bone are separate bodies.
   static RigidBodies fromThreshold(const AnyVolume& ct, double boneHu = 300, double airHu = -500,
                                    int64_t minVoxels = 20);
 
-  int componentCount() const { return components_; }
+  /// What one body is made of.
+  struct Body {
+    std::vector<uint16_t> ids;  ///< label ids (its group's, as given; then the cores that joined); empty from a threshold
+    int64_t voxels = 0;
+    int pieces = 0;             ///< 26-connected pieces of its group's ids (cores of other groups not counted)
+    bool fixed = false;         ///< the fixed regions: identity transform, never fitted
+  };
+  /// Bodies, movable ones first, then (when there are fixed regions) the fixed one.
+  int componentCount() const { return static_cast<int>(bodies_.size()); }
+  const std::vector<Body>& bodies() const { return bodies_; }
+  /// Index of the fixed body, or -1.
+  int fixedBody() const { return fixedBody_; }
+  /// Voxels of specks (pieces under minVoxels) left to soft tissue.
+  int64_t droppedVoxels() const { return dropped_; }
   const VolumeU16& classes() const { return *classes_; }
   const std::shared_ptr<const VolumeU16>& classesPtr() const { return classes_; }
   /// Per component: index-space bounding box {min i, j, k, max i, j, k} in classes().
   const std::vector<std::array<int64_t, 6>>& boxes() const { return boxes_; }
   /// Class at a physical position (nearest voxel; 0 outside).
   uint16_t classAt(const Vec3& mm) const;
+  /// True where the nearest voxel is tissue (not air, not outside): what the fold measure counts.
+  bool tissueAt(const Vec3& mm) const;
   /// What the rigid blend needs on one grid: distances (mm) from its nodes to the components,
   /// and which of its cells can hold a body voxel.
   struct GridFields {
@@ -55,8 +99,13 @@ class RigidBodies {
   };
   std::shared_ptr<Cache> cache_ = std::make_shared<Cache>();
   static RigidBodies fromMask(VolumeU16 classes, int64_t minVoxels);
+  void finish(VolumeU16 classes);
   std::shared_ptr<const VolumeU16> classes_ = std::make_shared<VolumeU16>();
-  int components_ = 0;
+  /// Fixed-box voxels that are air (class = the fixed body, but not tissue); empty without boxes.
+  std::shared_ptr<const VolumeU8> boxAir_;
+  std::vector<Body> bodies_;
+  int fixedBody_ = -1;
+  int64_t dropped_ = 0;
   std::vector<std::array<int64_t, 6>> boxes_;  // per component: min ijk, max ijk
   Mat3 mmToIndex_;
 };
@@ -68,8 +117,10 @@ struct RigidityParams {
   double falloffMm = 10.0;
 };
 
-/// Blends `cv` towards each component's best rigid transform (Kabsch fit of v -> u over the
-/// nodes whose u lies in the component). Overlapping bands are normalised. Also sets
+/// Blends `cv` towards each body's best rigid transform (Kabsch fit of v -> u over the
+/// nodes whose u lies in the body, all its pieces together). Overlapping bands are
+/// normalised. The fixed body (if any) is the identity and wins: a node within a control-cell
+/// diagonal of it (at v or at u) is exactly v, and its band blends like a rigid body's. Also sets
 /// cv.rigidSnap, so that synthesize() / upsampleMap() give every voxel whose source lands in a
 /// body exactly that body's transform (see RigidSnap).
 void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params = {},
@@ -84,13 +135,43 @@ struct RigidityReport {
   int components = 0;
   /// Samples (nodes or voxels) classed bone / soft tissue, and all samples visited.
   int64_t boneNodes = 0, softNodes = 0, nodes = 0;
-  double boneRmsResidualMm = 0;  ///< RMS of u - (R v + t) over bone samples, per-component fits
+  double boneRmsResidualMm = 0;  ///< RMS of u - (R v + t) over bone samples, per-body fits
   double boneMaxResidualMm = 0;
-  double softTissueMeanDisplacementMm = 0;  ///< mean |u(v) - v| over soft-tissue samples
-  /// Fraction of interior samples with Jacobian det(du/dv) <= 0 (central differences between
-  /// direct neighbours on the sampled grid).
+  double softTissueMeanDisplacementMm = 0;  ///< mean |u(v) - v| over soft-tissue samples (0 when none: see softNodes)
+  double softTissueMaxDisplacementMm = 0;
+  /// Fraction of the interior TISSUE samples (source position not air) with Jacobian
+  /// det(du/dv) <= 0 (central differences between direct neighbours on the sampled grid), and
+  /// the smallest det over them; 0 and +inf when there are none (see tissueSamples).
   double foldFraction = 0;
+  double minJacobian = 0;
+  int64_t tissueSamples = 0;
+  /// Per body (RigidBodies::bodies() order): the best rigid fit of the whole body over the
+  /// samples whose source lies in it, and the non-rigid residual about it.
+  struct Body {
+    std::vector<uint16_t> ids;
+    bool fixed = false;
+    int64_t samples = 0;
+    bool fitted = false;  ///< false: too few samples for a fit (not measured)
+    double rmsResidualMm = 0, maxResidualMm = 0;
+    double rotationDeg = 0;  ///< angle of the fit's rotation
+    Vec3 translationMm{0, 0, 0};
+  };
+  std::vector<Body> bodies;
+  /// The fixed regions: |u - v| over the samples whose output position v lies in them (they
+  /// must not move: 0).
+  int64_t fixedSamples = 0;
+  double fixedMaxDisplacementMm = 0, fixedMeanDisplacementMm = 0;
+  /// Samples outside the fixed regions that show their content moved (u in them, |u - v| >
+  /// 1e-3 mm): a moving bone's rigid transform reaching into a fixed bone at a joint, or the
+  /// blend band dragging fixed tissue; and the largest such |u - v|.
+  int64_t fixedContentElsewhere = 0;
+  double fixedContentElsewhereMaxMm = 0;
 };
+
+/// The worst of several reports (an animation's frames): per measure the worst value (largest
+/// residuals, displacements of the fixed regions and fold fraction; smallest Jacobian), per
+/// body too; sample counts are the largest. Empty input: a default report.
+RigidityReport worstOf(const std::vector<RigidityReport>& reports);
 
 /// Node level: measures a control volume on its nodes (a node belongs to the class found at
 /// its source position u(v)). Per-component rigid fits from the nodes.

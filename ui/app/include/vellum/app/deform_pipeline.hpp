@@ -28,7 +28,18 @@ struct DeformEngine {
   bool powerGiven = false;
   deformation::Upsampling upsampling = deformation::Upsampling::Trilinear;
   std::string labels;              ///< label map on the volume's grid; empty: no rigid bones
-  std::vector<uint16_t> rigidIds;  ///< the label ids that stay rigid
+  std::vector<uint16_t> rigidIds;  ///< the label ids that stay rigid: one body per id, whatever its connectivity
+  /// Bodies of several ids (`--rigid-labels 4+5,6+7`: one body each; ids of one-id entries go to
+  /// rigidIds). An id may be in several groups (split by piece: RigidBodies::fromLabelGroups).
+  std::vector<std::vector<uint16_t>> rigidGroups;
+  /// All bodies: rigidGroups, then one per id of rigidIds.
+  std::vector<std::vector<uint16_t>> bodyGroups() const;
+  /// Fills rigidGroups / rigidIds from `--rigid-labels` tokens ("4+5", "6", ...). Error on a bad token.
+  void setRigidLabels(const std::vector<std::string>& tokens);
+  /// The `--rigid-labels` value: groups joined by '+', then the single ids, comma-separated.
+  std::string rigidLabelsArgument() const;
+  std::vector<uint16_t> fixedIds;  ///< label ids that do not move at all
+  std::vector<double> fixedBoxMm;  ///< empty, or x0,y0,z0,x1,y1,z1 (mm, physical LPS): a box that does not move
   double rigidFalloffMm = 10;      ///< blend band outside each bone
   int rigidityStride = 1;          ///< voxel-level rigidity measures: every N-th voxel per axis
 
@@ -37,7 +48,8 @@ struct DeformEngine {
   deformation::DeformParams resolved(std::optional<double> filePower) const;
   /// The rigid bodies of `labels` (read through `load`'s region, so that a cropped or
   /// downsampled volume gets the same region); nullopt without labels. FileError when the
-  /// label map's grid differs from `grid`; Error when labels are given without rigid ids.
+  /// label map's grid differs from `grid`; Error when labels are given without rigid or fixed
+  /// ids (or a fixed region without labels).
   std::optional<deformation::RigidBodies> rigidBodies(const Geometry& grid, const io::LoadOptions& load) const;
 };
 
