@@ -47,6 +47,8 @@ int main(int argc, char** argv) {
   addCurveAnalogyCommand(app);
   addDemoCommand(app);
   addParamsCommand(app);
+  addCompareCommand(app);
+  addQaCommand(app);
   try {
     std::vector<std::string> args = joinBooleanFlagValues(app, std::vector<std::string>(argv + 1, argv + argc));
     std::reverse(args.begin(), args.end());  // CLI11 takes them last first
