@@ -162,13 +162,17 @@ void compareLabelMaps(const VolumeU16& a, const VolumeU16& b, const CompareReque
     auto in = [](const std::vector<uint16_t>& ids) {
       return [&ids](uint16_t v) { return v != 0 && std::find(ids.begin(), ids.end(), v) != ids.end(); };
     };
-    seg::SegmentMetrics m = seg::compareMasks(seg::maskFromIds(a, in(ai)), seg::maskFromIds(b, in(bi)));
+    const seg::Mask ma = seg::maskFromIds(a, in(ai)), mb = seg::maskFromIds(b, in(bi));
+    seg::SegmentMetrics m = seg::compareMasks(ma, mb);
     m.id = 0;
     rows.push_back(m);
     r.report["a_ids"] = ai;
     r.report["b_ids"] = bi;
+    // The pictures show the two masks compared (as label 1), not the whole maps.
+    labelPictures(convertVolume<uint16_t>(AnyVolume(ma)), convertVolume<uint16_t>(AnyVolume(mb)), r);
   } else {
     rows = seg::compareLabels(a, b, q.ids);
+    labelPictures(a, b, r);
   }
   nlohmann::json list = nlohmann::json::array();
   for (const auto& m : rows) {
@@ -181,7 +185,6 @@ void compareLabelMaps(const VolumeU16& a, const VolumeU16& b, const CompareReque
       r.failures.push_back(who + ": ASSD " + fmt(m.meanSurfaceDistanceMm) + " mm > " + fmt(*t.maxAssdMm) + " mm");
   }
   r.report["labels"] = list;
-  labelPictures(a, b, r);
 }
 
 // ---- grey volumes ----------------------------------------------------------------------
@@ -221,11 +224,13 @@ VoxelDiff diffVoxels(const Volume<A>& a, const Volume<B>& b, double tolerance) {
       });
 }
 
-/// The axial slice through the largest difference: A and B windowed to A's value range, |A-B|
-/// in "inferno" scaled to the slice's largest difference.
+/// The axial slice through the largest difference: A and B in grey (CT: window -1000..1000 HU;
+/// otherwise A's value range), |A-B| in "inferno" on a square-root scale up to the slice's
+/// largest difference (so that small differences beside one large one still show) over A dimmed.
 void volumePictures(const AnyVolume& av, const AnyVolume& bv, int64_t k, CompareResult& r) {
   const VolumeF32 a = toFloat32(av), b = toFloat32(bv);
-  const auto [lo, hi] = a.valueRange();
+  const bool ct = voxelTypeOf(av) == VoxelType::Int16;
+  const auto [lo, hi] = ct ? std::pair<double, double>{-1000.0, 1000.0} : a.valueRange();
   const double span = hi > lo ? hi - lo : 1.0;
   const Dims d = a.dims();
   const int w = static_cast<int>(d.x), h = static_cast<int>(d.y);
@@ -244,7 +249,9 @@ void volumePictures(const AnyVolume& av, const AnyVolume& bv, int64_t k, Compare
       put(r.pictureA, x, y, grey(a(x, y, k)));
       put(r.pictureB, x, y, grey(b(x, y, k)));
       const double diff = std::abs(a(x, y, k) - b(x, y, k));
-      put(r.heatmap, x, y, sliceMax > 0 ? inferno(diff / sliceMax) : std::array<uint8_t, 3>{0, 0, 0});
+      // Unchanged voxels as A's grey at a third of its brightness (as the image heat map).
+      const auto g = static_cast<uint8_t>(grey(a(x, y, k))[0] / 3);
+      put(r.heatmap, x, y, diff > 0 ? inferno(0.25 + 0.75 * std::sqrt(diff / sliceMax)) : std::array<uint8_t, 3>{g, g, g});
     }
   r.report["picture_slice"] = k;
 }

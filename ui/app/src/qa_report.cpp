@@ -89,7 +89,7 @@ std::string compareNumbers(const nlohmann::json& c) {
   if (c.contains("labels")) {
     h += "<table class=n><tr><th>id</th><th>Dice</th><th>Jaccard</th><th>HD95 mm</th><th>ASSD mm</th><th>volume Δ %</th></tr>";
     for (const auto& m : c["labels"])
-      h += "<tr><td>" + std::to_string(m["id"].get<int>()) + "</td><td>" + number(m["dice"], 6) + "</td><td>" +
+      h += "<tr><td>" + (m["id"].get<int>() ? std::to_string(m["id"].get<int>()) : std::string("ids")) + "</td><td>" + number(m["dice"], 6) + "</td><td>" +
            number(m["jaccard"], 6) + "</td><td>" + number(m["hd95_mm"]) + "</td><td>" + number(m["assd_mm"]) +
            "</td><td>" + number(m["volume_difference_percent"]) + "</td></tr>";
     h += "</table>";
