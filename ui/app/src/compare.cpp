@@ -18,6 +18,7 @@
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/label_volume.hpp"
+#include "vellum/core/parallel.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/segmentation/mask.hpp"
@@ -129,9 +130,11 @@ nlohmann::json metricsJson(const seg::SegmentMetrics& m) {
 void labelPictures(const VolumeU16& a, const VolumeU16& b, CompareResult& r) {
   const Dims d = a.dims();
   std::vector<int64_t> perSlice(static_cast<size_t>(d.z), 0);
-  for (int64_t k = 0; k < d.z; ++k)
-    for (int64_t j = 0; j < d.y; ++j)
-      for (int64_t i = 0; i < d.x; ++i) perSlice[static_cast<size_t>(k)] += a(i, j, k) != b(i, j, k);
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) perSlice[static_cast<size_t>(k)] += a(i, j, k) != b(i, j, k);
+  });
   const auto best = std::max_element(perSlice.begin(), perSlice.end());
   const int64_t k = *best > 0 ? best - perSlice.begin() : d.z / 2;
   const int w = static_cast<int>(d.x), h = static_cast<int>(d.y);
@@ -228,29 +231,34 @@ VoxelDiff diffVoxels(const Volume<A>& a, const Volume<B>& b, double tolerance) {
 /// otherwise A's value range), |A-B| in "inferno" on a square-root scale up to the slice's
 /// largest difference (so that small differences beside one large one still show) over A dimmed.
 void volumePictures(const AnyVolume& av, const AnyVolume& bv, int64_t k, CompareResult& r) {
-  const VolumeF32 a = toFloat32(av), b = toFloat32(bv);
   const bool ct = voxelTypeOf(av) == VoxelType::Int16;
-  const auto [lo, hi] = ct ? std::pair<double, double>{-1000.0, 1000.0} : a.valueRange();
+  const auto [lo, hi] = ct ? std::pair<double, double>{-1000.0, 1000.0}
+                           : std::visit([](const auto& v) { return v.valueRange(); }, av);
   const double span = hi > lo ? hi - lo : 1.0;
-  const Dims d = a.dims();
+  const Dims d = geometryOf(av).dims;
+  // Only this slice is read (a copy of whole volumes as float would double the memory).
+  auto at = [k](const AnyVolume& v) {
+    return [&v, k](int x, int y) { return std::visit([&](const auto& w) { return double(w(x, y, k)); }, v); };
+  };
+  const auto a = at(av), b = at(bv);
   const int w = static_cast<int>(d.x), h = static_cast<int>(d.y);
   r.pictureA = RgbaImage(w, h);
   r.pictureB = RgbaImage(w, h);
   r.heatmap = RgbaImage(w, h);
   double sliceMax = 0;
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) sliceMax = std::max(sliceMax, double(std::abs(a(x, y, k) - b(x, y, k))));
+    for (int x = 0; x < w; ++x) sliceMax = std::max(sliceMax, std::abs(a(x, y) - b(x, y)));
   auto grey = [&](double v) {
     const auto g = static_cast<uint8_t>(std::clamp((v - lo) / span * 255.0, 0.0, 255.0));
     return std::array<uint8_t, 3>{g, g, g};
   };
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
-      put(r.pictureA, x, y, grey(a(x, y, k)));
-      put(r.pictureB, x, y, grey(b(x, y, k)));
-      const double diff = std::abs(a(x, y, k) - b(x, y, k));
+      put(r.pictureA, x, y, grey(a(x, y)));
+      put(r.pictureB, x, y, grey(b(x, y)));
+      const double diff = std::abs(a(x, y) - b(x, y));
       // Unchanged voxels as A's grey at a third of its brightness (as the image heat map).
-      const auto g = static_cast<uint8_t>(grey(a(x, y, k))[0] / 3);
+      const auto g = static_cast<uint8_t>(grey(a(x, y))[0] / 3);
       put(r.heatmap, x, y, diff > 0 ? inferno(0.25 + 0.75 * std::sqrt(diff / sliceMax)) : std::array<uint8_t, 3>{g, g, g});
     }
   r.report["picture_slice"] = k;
