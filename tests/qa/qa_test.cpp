@@ -150,11 +150,19 @@ TEST(Qa, AFailingCommandFailsOnlyItsCase) {
                    {{"name", "broken"}, {"command", {"info", "{manifest_dir}/missing.nrrd"}}},
                    {{"name", "missing-output"},
                     {"command", {"phantom", "--size", "16", "--out", "ct.nrrd"}},
-                    {"checks", {{{"baseline", "other.nrrd"}}}}}}}},
+                    {"checks", {{{"baseline", "other.nrrd"}}}}},
+                   {{"name", "slow"}, {"timeout_s", 0.3}, {"command", {"phantom", "--size", "320", "--out", "ct.nrrd"}}},
+                   {{"name", "no-scan"}, {"scan", "absent/ct.nrrd"}, {"command", {"info", "{scan}"}}}}}},
                 dir / "qa.json");
   const Outcome r = runVellum({"qa", (dir / "qa.json").string(), "--out", (dir / "run").string(), "--jobs", "2"}, dir);
   EXPECT_EQ(r.rc, 1) << r.log;
-  EXPECT_EQ(parseJUnit(dir / "run" / "junit.xml"), "3 2 broken missing-output");
+  EXPECT_EQ(parseJUnit(dir / "run" / "junit.xml"), "5 4 broken missing-output slow no-scan");
+  const nlohmann::json slow = readJsonFile(dir / "run" / "cases" / "slow" / "result.json", 1 << 20, "result");
+  EXPECT_NE(slow["failures"][0].get<std::string>().find("timeout"), std::string::npos) << slow.dump(2);
+  EXPECT_TRUE(slow["commands"][0]["timed_out"].get<bool>());
+  EXPECT_FALSE(fs::exists(dir / "run" / "cases" / "slow" / "ct.nrrd"));  // cancelled: nothing half-written
+  const nlohmann::json noScan = readJsonFile(dir / "run" / "cases" / "no-scan" / "result.json", 1 << 20, "result");
+  EXPECT_NE(noScan["failures"][0].get<std::string>().find("not found"), std::string::npos) << noScan.dump(2);
   const nlohmann::json broken = readJsonFile(dir / "run" / "cases" / "broken" / "result.json", 1 << 20, "result");
   EXPECT_NE(broken["failures"][0].get<std::string>().find("exit code 1"), std::string::npos);
   EXPECT_NE(broken["log_tail"].get<std::string>().find("missing.nrrd"), std::string::npos);

@@ -367,7 +367,12 @@ bool runQaCase(const QaManifest& m, const QaCase& c, const QaRunOptions& o) {
   double seconds = 0, peakMb = 0;
   bool commandsOk = true;
   const fs::path log = dir / "log.txt";
+  if (!c.scan.empty() && !fs::exists(c.scan)) {  // sample data absent on this machine: a failure that says so
+    failures.push_back("scan " + c.scan.string() + " not found");
+    commandsOk = false;
+  }
   for (const auto& raw : c.commands) {
+    if (!commandsOk) break;
     std::vector<std::string> args;
     for (const auto& a : raw) args.push_back(substitute(a, vars));
     commandLines.push_back(joinArgs(args));
