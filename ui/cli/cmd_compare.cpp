@@ -39,8 +39,11 @@ void run(const CompareArgs& a) {
   plan.output(a.heatmap, "--heatmap").check();
   const app::CompareResult r = app::compareFiles(q);
   RunOutputs outputs;
-  if (!a.heatmap.empty()) {
-    if (r.heatmap.width == 0) throw Error("--heatmap: nothing to draw (" + r.failures.front() + ")");
+  if (!a.heatmap.empty() && r.heatmap.width == 0) {
+    // Grids or image sizes differ: a result (exit 1), with nothing to draw.
+    std::cerr << "vellum: warning: --heatmap: nothing to draw (" << (r.failures.empty() ? "" : r.failures.front())
+              << "); " << a.heatmap << " not written\n";
+  } else if (!a.heatmap.empty()) {
     ensureParentFolder(a.heatmap);
     io::saveImage(r.heatmap, a.heatmap);
     outputs.wrote(a.heatmap);
