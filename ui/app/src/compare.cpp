@@ -464,6 +464,8 @@ CompareResult compareFiles(const CompareRequest& q) {
       const Geometry &ga = geometryOf(a.volume), &gb = geometryOf(b.volume);
       if (const std::string why = geometryDifference(ga, gb); !why.empty())
         r.failures.push_back(why);
+      else if (q.load.region.downsample > 1)  // label maps downsample by the most frequent id, not the mean
+        compareLabelMaps(io::loadLabels(q.a, q.load).ids(), io::loadLabels(q.b, q.load).ids(), q, r);
       else
         compareLabelMaps(convertVolume<uint16_t>(a.volume), convertVolume<uint16_t>(b.volume), q, r);
     } else {
