@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <set>
 
 #include "child_process.hpp"
 #include "test_data.hpp"
@@ -207,4 +208,46 @@ TEST(CompareCli, ExitCodesJsonAndHeatMap) {
   const std::string x = (dir / "x.png").string(), y = (dir / "y.png").string();
   EXPECT_EQ(runVellum({"compare", x, y}, dir, &log), 1) << log;
   EXPECT_EQ(runVellum({"compare", x, y, "--tolerance", "1"}, dir, &log), 0) << log;
+}
+
+// The JSON of each kind has the keys docs/qa.md lists (a renamed key breaks CI scripts).
+TEST(Compare, ReportSchema) {
+  const fs::path dir = test::tempDir("qa-compare-schema");
+  auto keys = [](const nlohmann::json& j) {
+    std::set<std::string> k;
+    for (auto it = j.begin(); it != j.end(); ++it) k.insert(it.key());
+    return k;
+  };
+  const std::set<std::string> top{"tool", "vellum_version", "kind", "pass", "failures", "tolerances", "a", "b"};
+  auto expectTop = [&](const nlohmann::json& j, const std::string& part) {
+    std::set<std::string> want = top;
+    want.insert(part);
+    if (part != "image") want.insert("picture_slice");
+    EXPECT_EQ(keys(j), want) << j.dump(1);
+  };
+  io::saveLabels(cube(5), dir / "a.nrrd");
+  app::CompareRequest q;
+  q.a = q.b = dir / "a.nrrd";
+  nlohmann::json j = app::compareFiles(q).report;
+  expectTop(j, "labels");
+  EXPECT_EQ(keys(j["labels"][0]),
+            (std::set<std::string>{"id", "dice", "jaccard", "hd95_mm", "assd_mm", "hausdorff_mm", "voxels_a", "voxels_b",
+                                   "volume_a_mm3", "volume_b_mm3", "volume_difference_mm3", "volume_difference_percent"}));
+  EXPECT_EQ(keys(j["tolerances"]), (std::set<std::string>{"min_dice", "tolerance", "max_differing_percent", "percentile"}));
+  io::saveImage(flat(8, 8, 3), dir / "a.png");
+  q.a = q.b = dir / "a.png";
+  j = app::compareFiles(q).report;
+  expectTop(j, "image");
+  EXPECT_EQ(keys(j["image"]), (std::set<std::string>{"max_difference", "mean_difference", "percentile", "percentile_difference",
+                                                     "differing_pixels", "differing_percent", "psnr_db", "ssim"}));
+  EXPECT_TRUE(j["image"]["psnr_db"].is_null());  // identical: infinite
+  Geometry g;
+  g.dims = {4, 4, 4};
+  io::saveVolume(VolumeI16(g, 0, kCtAirHu), dir / "v.nrrd");
+  q.a = q.b = dir / "v.nrrd";
+  j = app::compareFiles(q).report;
+  expectTop(j, "volume");
+  EXPECT_EQ(keys(j["volume"]), (std::set<std::string>{"dims_equal", "geometry_equal", "types_equal", "max_abs_difference",
+                                                      "mean_abs_difference", "differing_voxels", "differing_percent",
+                                                      "max_at_index", "max_at_mm", "unit"}));
 }

@@ -97,6 +97,7 @@ TEST(QaSlurm, ProfileRunsEachCaseAsASlurmJob) {
                       << "NodeName=" << host << " CPUs=" << std::max(1u, std::thread::hardware_concurrency()) << " RealMemory=16000 State=UNKNOWN\n"
                       << "PartitionName=qa Nodes=ALL Default=YES MaxTime=INFINITE State=UP\n";
   ::setenv("SLURM_CONF", conf.c_str(), 1);  // sbatch, sinfo and the daemons read this configuration
+  ::setenv("XDG_CACHE_HOME", (dir / "cache").c_str(), 1);  // Snakemake's cache stays in the test's folder
   Daemon munge({"/usr/sbin/munged", "-F", "--force", "--socket=" + socket.string(),
                 "--key-file=" + (dir / "munge" / "munge.key").string(), "--pid-file=" + (dir / "munge" / "munged.pid").string(),
                 "--log-file=" + (dir / "munge" / "munged.log").string(), "--seed-file=" + (dir / "munge" / "munged.seed").string()},
@@ -113,6 +114,7 @@ TEST(QaSlurm, ProfileRunsEachCaseAsASlurmJob) {
   if (state != "idle") {
     const std::string why = test::readAll(dir / "slurmctld.log") + test::readAll(dir / "slurmd.log");
     ::unsetenv("SLURM_CONF");
+    ::unsetenv("XDG_CACHE_HOME");
     GTEST_SKIP() << "the single-node Slurm did not start (node state '" << state << "'): the Slurm profile is not tested\n"
                  << why.substr(why.size() > 1500 ? why.size() - 1500 : 0);
   }
@@ -129,6 +131,7 @@ TEST(QaSlurm, ProfileRunsEachCaseAsASlurmJob) {
                              dir / "qa.log")
                      .wait();
   ::unsetenv("SLURM_CONF");
+  ::unsetenv("XDG_CACHE_HOME");
   EXPECT_EQ(rc, 0) << test::readAll(dir / "qa.log");
   const nlohmann::json sum = readJsonFile(dir / "run" / "summary.json", 1 << 20, "summary");
   EXPECT_EQ(sum["cases"].get<int>(), 3);
