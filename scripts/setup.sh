@@ -15,6 +15,7 @@ PACKAGES=(
   libglfw3-dev libgdcm-dev libgdcm-tools libimgui-dev libeigen3-dev nlohmann-json3-dev
   libcli11-dev libtbb-dev libgtest-dev libbenchmark-dev libegl-dev libgl-dev libegl-mesa0
   libgl1-mesa-dri zlib1g-dev libdeflate-dev libisal-dev xvfb xauth ffmpeg
+  snakemake  # `vellum qa --snakemake` and its test (docs/qa.md)
 )
 
 install_packages() {

@@ -16,8 +16,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr std::array<FolderKind, 4> kFolderKinds{FolderKind::DicomSeries, FolderKind::Shape, FolderKind::Frames,
-                                                 FolderKind::Demo};
+constexpr std::array<FolderKind, 5> kFolderKinds{FolderKind::DicomSeries, FolderKind::Shape, FolderKind::Frames,
+                                                 FolderKind::Demo, FolderKind::Qa};
 
 std::string lowerExtension(const fs::path& p) { return detail::lower(p.extension().string()); }
 
@@ -114,6 +114,7 @@ const char* folderKindName(FolderKind kind) {
     case FolderKind::Shape: return "shape";
     case FolderKind::Frames: return "frames";
     case FolderKind::Demo: return "demo";
+    case FolderKind::Qa: return "qa";
   }
   return "folder";
 }

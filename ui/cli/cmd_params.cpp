@@ -3,6 +3,7 @@
 
 #include "commands.hpp"
 #include "vellum/app/animate_pipeline.hpp"
+#include "vellum/app/compare.hpp"
 #include "vellum/app/deform_pipeline.hpp"
 #include "vellum/app/segment_pipeline.hpp"
 #include "vellum/deformation/deform_params.hpp"
@@ -37,6 +38,8 @@ std::string parametersMarkdown() {
          params::markdown(segmentation::bodyMaskParamsTable());
   out += "\n## Segmentation — `app::SegmentSettings` (`vellum segment`, the studio's snake)\n\n" +
          params::markdown(app::segmentSettingsTable());
+  out += "\n## Comparison tolerances — `app::CompareTolerances` (`vellum compare`; a `vellum qa` check's \"tolerances\")\n\n" +
+         params::markdown(app::compareTolerancesTable());
   out += "\n## Shape pipeline — `ShapeOptions` (`vellum shape`)\n\n" + params::markdown(illustration::shapeOptionsTable());
   return out;
 }

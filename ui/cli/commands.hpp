@@ -23,6 +23,8 @@ void addIllustrateCommand(CLI::App& app); // issue 8
 void addCurveAnalogyCommand(CLI::App& app);  // issue 9
 void addLabelsCommand(CLI::App& app);       // issue 23: ids of bones
 void addParamsCommand(CLI::App& app);
+void addCompareCommand(CLI::App& app);  // issue 25
+void addQaCommand(CLI::App& app);       // issue 25
 
 /// docs/parameters.md: every parameter table as Markdown (cmd_params.cpp).
 std::string parametersMarkdown();

@@ -19,10 +19,11 @@
 
 namespace vellum::io {
 
-/// Folder outputs Vellum writes; the marker ".vellum-<name>" inside names the kind.
-enum class FolderKind { DicomSeries, Shape, Frames, Demo };
+/// Folder outputs Vellum writes; the marker ".vellum-<name>" inside names the kind (Qa: a
+/// `vellum qa` run folder).
+enum class FolderKind { DicomSeries, Shape, Frames, Demo, Qa };
 
-/// "series", "shape", "frames", "demo".
+/// "series", "shape", "frames", "demo", "qa".
 const char* folderKindName(FolderKind kind);
 /// The marker file's name inside a folder of `kind` (".vellum-series", ...).
 std::string folderMarkerName(FolderKind kind);

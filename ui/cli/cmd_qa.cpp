@@ -1,0 +1,141 @@
+// `vellum qa MANIFEST --out DIR`: the regression cases of a manifest, several at once or as a
+// Snakemake workflow, with a baseline store and a report (app/qa.hpp, docs/qa.md).
+// Exit 0 when every case passes, 1 when any fails, 2 on a manifest or usage error.
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <thread>
+
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "vellum/app/qa.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
+#include "vellum/io/atomic_file.hpp"
+
+extern char** environ;
+
+namespace vellum::cli {
+namespace fs = std::filesystem;
+namespace {
+
+struct QaArgs {
+  std::string manifest, out, baselines, caseName, reportFrom, profile;
+  bool update = false, listCases = false, snakemake = false, snakefileOnly = false, force = false;
+  int jobs = std::max(1u, std::thread::hardware_concurrency());
+};
+
+int finish(const app::QaSummary& s, const fs::path& out) {
+  std::cout << s.cases - s.failures << " of " << s.cases << " cases pass; report: " << (out / "report.html").string()
+            << ", " << (out / "junit.xml").string() << "\n";
+  return s.failures ? 1 : 0;
+}
+
+/// Runs the workflow written to OUT/workflow through the `snakemake` on PATH.
+int runSnakemake(const QaArgs& a, const fs::path& out) {
+  const fs::path workflow = out / "workflow";
+  fs::create_directories(workflow);
+  io::writeAtomically(workflow / "Snakefile", [](const fs::path& tmp) {
+    std::ofstream f(tmp);
+    f << app::qaSnakefile();
+    if (!f) throw FileError(tmp, "cannot write");
+  });
+  const std::string self = fs::read_symlink("/proc/self/exe").string();
+  if (a.snakefileOnly) {
+    std::cout << "wrote " << (workflow / "Snakefile").string() << "; run:\n  snakemake -s " << (workflow / "Snakefile").string()
+              << " --directory " << workflow.string() << " --cores " << a.jobs << " --config out=" << out.string()
+              << " vellum=" << self << "\n";
+    return 0;
+  }
+  std::vector<std::string> args{"snakemake", "-s", (workflow / "Snakefile").string(), "--directory", workflow.string(),
+                                "--cores", std::to_string(a.jobs), "--quiet", "--config", "out=" + out.string(),
+                                "vellum=" + self};
+  if (!a.profile.empty()) args.insert(args.end(), {"--profile", a.profile});
+  std::vector<char*> argv;
+  for (auto& s : args) argv.push_back(s.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawnp(&pid, "snakemake", nullptr, nullptr, argv.data(), environ) != 0)
+    throw Error("--snakemake: cannot start `snakemake` (Debian package snakemake)");
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw Error("--snakemake: snakemake failed (exit " + std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status)) +
+                "); its log is under " + (workflow / ".snakemake" / "log").string());
+  const nlohmann::json s = readJsonFile(out / "summary.json", 1 << 20, "QA summary");
+  app::QaSummary sum;
+  sum.cases = s["cases"].get<int>();
+  sum.failures = s["failures"].get<int>();
+  return finish(sum, out);
+}
+
+int run(const QaArgs& a) {
+  if (!a.reportFrom.empty()) {
+    if (!a.manifest.empty()) throw Error("--report-from takes no manifest");
+    return finish(app::writeQaReport(a.reportFrom), a.reportFrom);
+  }
+  if (a.manifest.empty()) throw Error("a manifest is needed (or --report-from DIR)");
+  const app::QaManifest m = app::readQaManifest(a.manifest);
+  if (a.listCases) {
+    for (const auto& c : m.cases) std::cout << c.name << "\n";
+    return 0;
+  }
+  if (a.out.empty()) throw Error("--out DIR is needed (the run folder)");
+  app::QaRunOptions o;
+  o.out = fs::absolute(a.out).lexically_normal();
+  o.baselines = a.baselines;
+  o.updateBaselines = a.update;
+  o.jobs = a.jobs;
+  o.force = a.force;
+  if (!a.caseName.empty()) {
+    for (const auto& c : m.cases)
+      if (c.name == a.caseName) return app::runQaCase(m, c, o) ? 0 : 1;
+    throw FileError(a.manifest, "no case named '" + a.caseName + "'");
+  }
+  app::prepareQaRun(m, o);
+  if (a.snakemake || a.snakefileOnly) return runSnakemake(a, o.out);
+  app::runQaCases(m, o);
+  return finish(app::writeQaReport(o.out), o.out);
+}
+
+}  // namespace
+
+void addQaCommand(CLI::App& app) {
+  auto a = std::make_shared<QaArgs>();
+  auto* cmd = app.add_subcommand(
+      "qa", "Run a QA manifest's cases (vellum commands, checks against baselines and references, time and memory "
+            "ceilings) in parallel or on Snakemake; JUnit XML and HTML report; exit 0 all pass, 1 any failure, 2 error");
+  cmd->add_option("manifest", a->manifest, "the QA manifest (JSON; docs/qa.md)");
+  cmd->add_option("--out,-o", a->out, "the run folder: case outputs, logs, report.html, junit.xml, summary.json");
+  cmd->add_option("--jobs,-j", a->jobs, "cases at once (Snakemake: --cores)")->capture_default_str()->check(CLI::Range(1, 1024));
+  cmd->add_option("--baselines", a->baselines, "the baseline store (default: the manifest's \"baselines\", else baselines/ beside it)");
+  cmd->add_flag("--update-baselines", a->update, "write the cases' outputs into the baseline store (with a sidecar "
+                                                 "naming the commands and the Vellum version) instead of comparing");
+  cmd->add_option("--case", a->caseName, "run only this case, in this process (what each parallel or Snakemake job runs)");
+  cmd->add_flag("--list-cases", a->listCases, "print the manifest's case names");
+  cmd->add_option("--report-from", a->reportFrom, "write the report of a run folder from its cases' results");
+  cmd->add_flag("--snakemake", a->snakemake, "run the cases as a Snakemake workflow (one job per case, the report last)");
+  cmd->add_flag("--snakefile-only", a->snakefileOnly, "write the workflow to OUT/workflow and print how to run it");
+  cmd->add_option("--profile", a->profile, "--snakemake: a Snakemake profile (e.g. scripts/qa/slurm for Slurm)");
+  addForceFlag(*cmd, a->force);
+  cmd->footer("Example: vellum qa qa.json --out qa-run --jobs 4   (first run: --update-baselines)\n"
+              "         vellum qa qa.json --out qa-run --snakemake --profile scripts/qa/slurm");
+  cmd->callback([a] {
+    int code = 0;
+    try {
+      code = run(*a);
+    } catch (const Cancelled&) {
+      throw;
+    } catch (const std::exception& e) {
+      std::cerr << "vellum: error: " << e.what() << "\n";
+      code = 2;
+    }
+    std::cout.flush();
+    if (code != 0) throw CLI::RuntimeError(code);
+  });
+}
+
+}  // namespace vellum::cli
