@@ -6,7 +6,16 @@
 #include <cmath>
 #include <limits>
 
+#include <nlohmann/json.hpp>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <sys/wait.h>
+
 #include "shape_fixtures.hpp"
+#include "test_data.hpp"
+#include "vellum/io/volume_io.hpp"
 #include "vellum/illustration/figure.hpp"
 #include "vellum/render/annotations.hpp"
 #include "vellum/render/framing.hpp"
@@ -274,6 +283,63 @@ TEST(FigureLabels, OnlyDrawnSegmentsAreLabelled) {
   for (const auto& b : lo.labelBoxes) EXPECT_TRUE(b.x1 < in.left || b.x0 >= 160 - in.right) << b.x0 << ".." << b.x1;
   EXPECT_GT(in.bottom, 160 - lo.scaleBarStart[1]);
   EXPECT_GT(in.top, 0);
+}
+
+std::string readText(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Runs `vellum illustrate ARGS` with stderr captured; returns the exit code.
+int illustrate(const std::string& args, const std::filesystem::path& errFile) {
+  const std::string cmd = std::string(VELLUM_CLI_PATH) + " illustrate " + args + " > /dev/null 2> " + errFile.string();
+  const int rc = std::system(cmd.c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+// The command: an invisible muscle gets no label and no room in the frame; the bone's label
+// has its display name; a display name for a structure that does not exist is an error.
+TEST(FigureCli, IllustrateFramesAndLabelsOnlyWhatItDraws) {
+  const auto dir = test::tempDir("figure-cli");
+  const ShapeScene scene = test::twoSpheres(40);
+  test::writeShapeFolder(scene, dir / "shape");
+  io::saveVolume(VolumeI16(scene.distance.geometry(), -1000, -1000), dir / "ct.nrrd");
+  Style st = twoRows();
+  st.segments[1].visible = false;
+  saveStyle(st, dir / "style.json");
+  const std::string base = (dir / "ct.nrrd").string() + " --shape " + (dir / "shape").string() + " --style " +
+                           (dir / "style.json").string() + " --size 160x120 --fov 0 --azimuth 0 --elevation 0 ";
+  const auto err = dir / "err.txt";
+  ASSERT_EQ(illustrate(base + "--labels --label-name 'bone=Tibia and fibula' --label-size 9 --report " +
+                           (dir / "r.json").string() + " --out " + (dir / "fig.png").string(),
+                       err),
+            0)
+      << readText(err);
+  const auto r = nlohmann::json::parse(readText(dir / "r.json"));
+  EXPECT_EQ(r["labels"], nlohmann::json::array({"Tibia and fibula"}));
+  EXPECT_EQ(r["camera"]["frame"], "drawn");
+  EXPECT_EQ(r["camera"]["zoom"], 1.0);
+  // The bone sphere alone (radius 8.8 voxels) against the grid's bounding sphere (34.6): the
+  // fit zooms in about 3x even with the label columns' room.
+  EXPECT_GT(r["camera"]["zoom_applied"].get<double>(), 2.0);
+
+  ASSERT_EQ(illustrate(base + "--frame volume --report " + (dir / "v.json").string() + " --out " +
+                           (dir / "v.png").string(), err),
+            0)
+      << readText(err);
+  EXPECT_EQ(nlohmann::json::parse(readText(dir / "v.json"))["camera"]["zoom_applied"], 1.0);
+
+  EXPECT_EQ(illustrate(base + "--labels --label-name nerve=Nerve --out " + (dir / "x.png").string(), err), 1);
+  std::string e = readText(err);
+  EXPECT_NE(e.find("--label-name nerve"), std::string::npos) << e;
+  EXPECT_EQ(std::count(e.begin(), e.end(), '\n'), 1) << e;
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
+  // Not NAME=TEXT.
+  EXPECT_EQ(illustrate(base + "--labels --label-name bone --out " + (dir / "x.png").string(), err), 1);
+  e = readText(err);
+  EXPECT_NE(e.find("NAME=TEXT"), std::string::npos) << e;
 }
 
 }  // namespace
