@@ -93,7 +93,7 @@ TEST(Framing, FitsPointsAndCentresThem) {
 }
 
 // Insets keep the annotations' room free: the points fit the rest of the image, centred in
-// it; insets that would leave less than half the image are ignored.
+// it; insets that would leave less than half the image shrink to leave half.
 TEST(Framing, InsetsKeepTheEdgesFree) {
   const Geometry g = grid(100, 2.0);
   const std::vector<Vec3> box = corners({20, 30, 120}, {60, 50, 180});
@@ -113,12 +113,13 @@ TEST(Framing, InsetsKeepTheEdgesFree) {
   EXPECT_NEAR(0.5 * (e.x0 + e.x1), 60 + 0.5 * 320 - 0.5, 1.0);
   EXPECT_NEAR(0.5 * (e.y0 + e.y1), 10 + 0.5 * 240 - 0.5, 1.0);
   EXPECT_NEAR(std::max((e.x1 - e.x0 + 1) / 320, (e.y1 - e.y0 + 1) / 240), 1.0, 0.01);
-  // Too wide to honour: ignored along x, kept along y.
+  // Too wide to honour: 250 px of 400 shrink to 120 + 80, the anatomy keeps 200.
   render::RenderSettings w = s;
   w.camera = render::fitCamera(g, s, box, 0.0, {150, 100, 10, 50});
   const Extent ew = projected(g, w, box);
-  EXPECT_NEAR(0.5 * (ew.x0 + ew.x1), 199.5, 1.0);
+  EXPECT_NEAR(0.5 * (ew.x0 + ew.x1), 120 + 100 - 0.5, 1.0);
   EXPECT_NEAR(0.5 * (ew.y0 + ew.y1), 129.5, 1.0);
+  EXPECT_NEAR(std::max((ew.x1 - ew.x0 + 1) / 200, (ew.y1 - ew.y0 + 1) / 240), 1.0, 0.01);
 }
 
 // The outline of a set of voxels holds the whole voxels' corners, so the fit never cuts a
@@ -283,6 +284,15 @@ TEST(FigureLabels, OnlyDrawnSegmentsAreLabelled) {
   for (const auto& b : lo.labelBoxes) EXPECT_TRUE(b.x1 < in.left || b.x0 >= 160 - in.right) << b.x0 << ".." << b.x1;
   EXPECT_GT(in.bottom, 160 - lo.scaleBarStart[1]);
   EXPECT_GT(in.top, 0);
+  // One column on the right (figures framed on their anatomy): only that side's room grows.
+  o.labelSide = render::AnnotationOptions::LabelSide::Right;
+  RgbaImage oneSide = a;
+  const render::AnnotationLayout lr = render::annotate(oneSide, projection, o, all);
+  const render::ImageInsets inR = render::annotationInsets(o, 160, 160, lr.labelTexts);
+  ASSERT_EQ(lr.labelBoxes.size(), 2u);
+  for (const auto& b : lr.labelBoxes) EXPECT_GE(b.x0, 160 - inR.right) << b.x0;
+  EXPECT_EQ(inR.right, in.right);
+  EXPECT_LT(inR.left, in.left);
 }
 
 std::string readText(const std::filesystem::path& p) {

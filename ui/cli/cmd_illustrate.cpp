@@ -83,6 +83,7 @@ void demoIllustration(const DemoContext& ctx) {
   s.render.camera.fieldOfViewDeg = 0;
   FigureOptions annotations;
   annotations.annotateAll = annotations.labelFlag = true;
+  annotations.annotations.labelSide = render::AnnotationOptions::LabelSide::Right;
   annotations.labelIds = {2, 3, 4, 5, 6};  // muscle and the bones (skin would hide its own anchor)
   s.render.camera = illustration::frameFigure(scene.segments, textbook, s.render, illustration::Framing::Drawn,
                                               annotationRoom(annotations, scene.segments, textbook, s.render));
@@ -151,6 +152,8 @@ void addIllustrateCommand(CLI::App& app) {
         .check();
 
     const illustration::Framing framing = illustration::parseFraming(a->frame);
+    // A figure framed on its anatomy keeps room for one label column, on the right.
+    if (framing != illustration::Framing::Volume) a->figure.annotations.labelSide = render::AnnotationOptions::LabelSide::Right;
     illustration::ShapeScene scene = illustration::loadShapeFolder(a->shape);
     if (a->figure.wantsLabels()) a->figure.checkLabelNames(scene.segments);
     io::LoadedVolume lv = loadWithProgress(a->input, a->in);

@@ -270,8 +270,8 @@ ImageInsets annotationInsets(const AnnotationOptions& options, int width, int he
       widest = std::max(widest, cv::getTextSize(t, kFont, scale, strokeWidth(scale), &baseline).width);
     const int indent = options.orientation ? margin + letterW : 0;
     const int column = margin + indent + widest + margin / 2 + air;
-    in.left = std::max(in.left, column);
-    in.right = std::max(in.right, column);
+    if (options.labelSide != AnnotationOptions::LabelSide::Right) in.left = std::max(in.left, column);
+    if (options.labelSide != AnnotationOptions::LabelSide::Left) in.right = std::max(in.right, column);
   }
   return in;
 }
@@ -325,8 +325,11 @@ AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const 
     const int top = margin + 2 * textH, bottom = image.height - margin - 3 * textH;
     for (int side = 0; side < 2; ++side) {
       std::vector<const StructureAnchor*> column;
-      for (const auto& a : anchors)
-        if ((a.x < image.width / 2) == (side == 0)) column.push_back(&a);
+      using Side = AnnotationOptions::LabelSide;
+      for (const auto& a : anchors) {
+        const bool left = options.labelSide == Side::Nearest ? a.x < image.width / 2 : options.labelSide == Side::Left;
+        if (left == (side == 0)) column.push_back(&a);
+      }
       std::sort(column.begin(), column.end(), [](auto* a, auto* b) { return a->y < b->y; });
       std::vector<int> ys;
       for (const auto* a : column) ys.push_back(std::clamp(a->y, top, bottom));

@@ -12,8 +12,15 @@ Camera fitCamera(const Geometry& volume, const RenderSettings& settings, const s
                  double margin, ImageInsets insets) {
   Camera cam = settings.camera;
   if (pointsMm.empty()) return cam;
-  if (2 * (insets.left + insets.right) > settings.width) insets.left = insets.right = 0;
-  if (2 * (insets.top + insets.bottom) > settings.height) insets.top = insets.bottom = 0;
+  // At least half the image for the anatomy: wider insets shrink in proportion (the
+  // annotations then overlap its edges rather than leave it a sliver).
+  const auto limit = [](int& a, int& b, int size) {
+    if (2 * (a + b) <= size) return;
+    const double f = 0.5 * size / (a + b);
+    a = int(a * f), b = int(b * f);
+  };
+  limit(insets.left, insets.right, settings.width);
+  limit(insets.top, insets.bottom, settings.height);
   const double areaW = settings.width - insets.left - insets.right;
   const double areaH = settings.height - insets.top - insets.bottom;
   // The area's centre, in pixel-centre coordinates.

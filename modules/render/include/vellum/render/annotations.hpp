@@ -30,6 +30,10 @@ struct AnnotationOptions {
   /// The text drawn for a structure instead of its label-table name: (key, text), the key a
   /// table name (case-insensitive) or an id ("bone", "Tibia and fibula").
   std::vector<std::pair<std::string, std::string>> displayNames;
+  /// Which margin column a label goes to: the nearer side of its anchor, or all to one side
+  /// (a figure framed on its anatomy keeps room for one column only).
+  enum class LabelSide { Nearest, Left, Right };
+  LabelSide labelSide = LabelSide::Nearest;
 };
 
 /// The text annotate() draws for structure `id` named `name` in the label table.
@@ -94,7 +98,7 @@ struct AnnotationLayout {
 };
 
 /// The room annotate() takes at the image's edges (orientation letters, scale bar and caption,
-/// label columns wide enough for `labelTexts` on both sides), so that a figure framed on its
+/// label columns wide enough for `labelTexts` on the sides options.labelSide allows), so that a figure framed on its
 /// anatomy (render::fitCamera) leaves the annotations on paper.
 ImageInsets annotationInsets(const AnnotationOptions& options, int width, int height,
                              const std::vector<std::string>& labelTexts);

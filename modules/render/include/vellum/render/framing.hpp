@@ -18,7 +18,7 @@ struct ImageInsets {
 /// The camera of `settings` around `volume` (azimuth, elevation, field of view kept), panned
 /// and zoomed so that every point of `pointsMm` lands inside the image less `insets`, with
 /// `margin` (a fraction of that area's width/height) left free on the tighter side, centred in
-/// it. Insets that would leave less than half the image are ignored. `settings.camera.zoom`
+/// it. Insets that would leave less than half the image shrink in proportion to leave half. `settings.camera.zoom`
 /// and `panMm` act on top of that fit (the zoom multiplies, the pan adds): zoom 1 is the fit.
 /// Returns the camera unchanged when `pointsMm` is empty.
 Camera fitCamera(const Geometry& volume, const RenderSettings& settings, const std::vector<Vec3>& pointsMm,
