@@ -346,6 +346,33 @@ TEST(FigureCli, IllustrateFramesAndLabelsOnlyWhatItDraws) {
   EXPECT_NE(e.find("--label-name nerve"), std::string::npos) << e;
   EXPECT_EQ(std::count(e.begin(), e.end(), '\n'), 1) << e;
   EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
+  // --remove-table on a CT with two legs and a slab behind them: both legs kept, in the
+  // report and in one line on stderr.
+  VolumeI16 legs(scene.distance.geometry(), -1000, -1000);
+  const Geometry& g = legs.geometry();
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        for (double cx : {-10.0, 10.0})
+          if ((p.x - cx) * (p.x - cx) + p.y * p.y <= 49) legs(i, j, k) = 40;
+        if (p.y >= 10 && p.y < 13) legs(i, j, k) = 300;  // the slab, 3 mm from the legs
+      }
+  io::saveVolume(legs, dir / "legs.nrrd");
+  ASSERT_EQ(illustrate((dir / "legs.nrrd").string() + " --shape " + (dir / "shape").string() +
+                           " --preset textbook --size 64x64 --remove-table --table-min-part-volume 1 "
+                           "--table-min-part-thickness 10 --report " + (dir / "t.json").string() + " --out " +
+                           (dir / "t.png").string(),
+                       err),
+            0)
+      << readText(err);
+  const auto t = nlohmann::json::parse(readText(dir / "t.json"))["table_removal"];
+  ASSERT_EQ(t["kept_parts_ml"].size(), 2u) << t;
+  for (const auto& ml : t["kept_parts_ml"]) EXPECT_NEAR(ml.get<double>(), 3.14159 * 49 * 40 / 1000, 0.4) << t;
+  EXPECT_NEAR(t["removed_ml"].get<double>(), 40 * 3 * 40 / 1000.0, 0.2) << t;
+  e = readText(err);
+  EXPECT_NE(e.find("--remove-table: kept 2 body parts"), std::string::npos) << e;
+
   // Not NAME=TEXT.
   EXPECT_EQ(illustrate(base + "--labels --label-name bone --out " + (dir / "x.png").string(), err), 1);
   e = readText(err);
