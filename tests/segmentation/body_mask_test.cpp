@@ -1,6 +1,8 @@
 // --remove-table: the CT table and its pads go, every body voxel stays (issue 12).
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "vellum/phantom/phantom.hpp"
 #include "vellum/segmentation/body_mask.hpp"
 #include "vellum/segmentation/metrics.hpp"
@@ -75,4 +77,90 @@ TEST(BodyMask, MatchesThePhantomsBodyAndKeepsEnclosedAir) {
       for (int64_t i = 30; i < 34; ++i) ct(i, j, k) = -1000;
   const Mask body = bodyMask(ct);
   EXPECT_TRUE(body(31, 31, 22));
+}
+
+namespace {
+
+// Two legs (cylinders along z, 25 mm radius, 20 mm apart) lying on a 10 mm table slab that
+// spans the whole width, each leg resting on it through a thin pad (real scans: a mattress or
+// a sheet above the foam); and a small dense blob (a marker, a stray cable) beside them.
+struct TwoLegs {
+  VolumeI16 ct;
+  Mask legs, table, blob;
+};
+
+TwoLegs twoLegsOnATable() {
+  Geometry g;
+  g.dims = {100, 70, 40};
+  g.spacing = {1.5, 1.5, 2.0};
+  TwoLegs s{VolumeI16(g, int16_t(-1000), -1000), makeMask(g), makeMask(g), makeMask(g)};
+  const double cy = 30 * 1.5, r = 25;
+  const double cx[2] = {50 * 1.5 - 35, 50 * 1.5 + 35};
+  const double slabTop = cy + r + 3;  // 3 mm of pad between the legs and the slab
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const double x = i * 1.5, y = j * 1.5, z = k * 2.0;
+        for (double c : cx)
+          if ((x - c) * (x - c) + (y - cy) * (y - cy) <= r * r) s.ct(i, j, k) = 40, s.legs(i, j, k) = 1;
+        if (y >= slabTop && y < slabTop + 10) s.ct(i, j, k) = 200, s.table(i, j, k) = 1;
+        // The pads: 3 mm wide strips under each leg, from the skin to the slab.
+        for (double c : cx)
+          if (std::abs(x - c) <= 1.5 && y > cy && y < slabTop && !s.legs(i, j, k)) s.ct(i, j, k) = 0;
+        // A 6 mm cube (0.2 mL), well away from everything.
+        if (x >= 4 && x < 10 && y >= 4 && y < 10 && z >= 30 && z < 36) s.ct(i, j, k) = 300, s.blob(i, j, k) = 1;
+      }
+  return s;
+}
+
+}  // namespace
+
+// Issue 21: --remove-table kept only the largest component and dropped one leg of two.
+TEST(BodyMask, KeepsBothLegsAndDropsTheTableAndAStrayBlob) {
+  const TwoLegs s = twoLegsOnATable();
+  BodyMaskReport report;
+  const Mask body = bodyMask(s.ct, {}, Progress::none(), &report);
+  int64_t tableKept = 0, blobKept = 0;
+  for (size_t i = 0; i < body.size(); ++i) {
+    tableKept += body.data()[i] && s.table.data()[i];
+    blobKept += body.data()[i] && s.blob.data()[i];
+  }
+  EXPECT_EQ(tableKept, 0);
+  EXPECT_EQ(blobKept, 0);
+  EXPECT_GE(compareMasks(body, s.legs).dice, 0.995);
+  // Each leg is pi 25^2 80 mm^3 = 157 mL (voxelised); both kept, reported largest first.
+  ASSERT_EQ(report.keptPartsMl.size(), 2u);
+  for (double ml : report.keptPartsMl) EXPECT_NEAR(ml, 157.1, 4.0);
+  EXPECT_GE(report.keptPartsMl[0], report.keptPartsMl[1]);
+  EXPECT_FALSE(report.keptLargestBelowMinimum);
+  // Removed: the slab (150 x 10 x 80 mm^3 = 120 mL, voxelised), the pads and the blob.
+  double tableMl = 0;
+  for (size_t i = 0; i < s.table.size(); ++i) tableMl += s.table.data()[i];
+  tableMl *= voxelVolumeMm3(s.ct.geometry()) / 1000;
+  EXPECT_GE(report.removedMl, tableMl + 0.2);
+  EXPECT_LE(report.removedMl, tableMl + 2.0);
+  EXPECT_GE(report.removedParts, 1);  // the slab (the opening already took the blob)
+
+  // A blob over the minimum volume and thickness is a body part; under either it is not
+  // (without the opening, which would take the 6 mm cube anyway).
+  BodyMaskParams smallParts;
+  smallParts.openingRadiusMm = 0;
+  smallParts.minPartMl = 0.1;
+  smallParts.minPartThicknessMm = 5;
+  const Mask withBlob = bodyMask(s.ct, smallParts);
+  EXPECT_TRUE(withBlob(4, 4, 16));
+  smallParts.minPartThicknessMm = 8;  // the cube is 6 mm thick
+  EXPECT_FALSE(bodyMask(s.ct, smallParts)(4, 4, 16));
+  smallParts.minPartThicknessMm = 5;
+  smallParts.minPartMl = 0.3;  // the cube is 0.22 mL
+  EXPECT_FALSE(bodyMask(s.ct, smallParts)(4, 4, 16));
+
+  // The old behaviour (keep the largest part) is what a huge minimum gives, and it says so.
+  BodyMaskParams one;
+  one.minPartMl = 1e5;
+  BodyMaskReport r1;
+  const Mask largest = bodyMask(s.ct, one, Progress::none(), &r1);
+  EXPECT_TRUE(r1.keptLargestBelowMinimum);
+  ASSERT_EQ(r1.keptPartsMl.size(), 1u);
+  EXPECT_NEAR(maskVolumeMm3(largest) / 1000, 157.1, 4.0);
 }

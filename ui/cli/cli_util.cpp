@@ -80,14 +80,37 @@ io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
 
 void TableRemovalOptions::addTo(CLI::App& cmd) {
   cmd.add_flag("--remove-table", enabled,
-               "remove the CT table, pads and head holders: keep the largest body component above air");
+               "remove the CT table, pads and head holders: keep every body part above air at least "
+               "--table-min-part-volume large and --table-min-part-thickness thick (two legs, two feet)");
   addFlags(cmd, params, segmentation::bodyMaskParamsTable(), {}, "table_");
 }
 
-AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::path& path) const {
+AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::path& path) {
   if (!enabled) return volume;
-  ProgressBar bar;
-  return app::withoutCtTable(volume, path, params, bar.progress());
+  segmentation::BodyMaskReport r;
+  {
+    ProgressBar bar;
+    volume = app::withoutCtTable(volume, path, params, bar.progress(), &r);
+  }
+  std::cerr << app::tableRemovalSummary(r) << "\n";
+  report = r;
+  return volume;
+}
+
+segmentation::Mask TableRemovalOptions::bodyMask(const AnyVolume& volume, const std::filesystem::path& path) {
+  segmentation::BodyMaskReport r;
+  segmentation::Mask body;
+  {
+    ProgressBar bar;
+    body = app::ctBodyMask(volume, path, params, bar.progress(), &r);
+  }
+  std::cerr << app::tableRemovalSummary(r) << "\n";
+  report = r;
+  return body;
+}
+
+void TableRemovalOptions::addToReport(nlohmann::json& j) const {
+  if (report) j["table_removal"] = app::tableRemovalJson(*report);
 }
 
 void FigureOptions::addTo(CLI::App& cmd, LabelSource source) {
@@ -102,12 +125,20 @@ void FigureOptions::addTo(CLI::App& cmd, LabelSource source) {
   else
     cmd.add_option("--label-map", labelMap, "label map on the volume's grid: name its visible structures, with leader lines");
   cmd.add_option("--label-ids", labelIds, "structures to name (default: every id of the label table)")->delimiter(',');
+  cmd.add_option("--label-name", labelNames,
+                 "text of a structure's label instead of its table name: NAME=TEXT or ID=TEXT, e.g. "
+                 "--label-name bone=\"Tibia and fibula\" (repeat for more)");
+  cmd.add_option("--label-size", annotations.textHeightPx,
+                 "height of the annotation text's capitals in pixels (labels, scale bar, orientation letters; "
+                 "default: scaled with the figure)")
+      ->check(CLI::Range(4.0, 400.0));
   cmd.add_flag("--annotate", annotateAll, "scale bar and orientation letters (and labels with --label-map / --labels)");
 }
 
 void FigureOptions::apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
                           const LabelVolume* labels, render::AnchorOcclusion occlusion) const {
   if (!any()) return;
+  if (labels && wantsLabels()) checkLabelNames(*labels);
   const render::AnnotationOptions o = resolved(labels != nullptr);
   const render::Projection projection(volume, settings);
   const auto anchors = o.labels ? render::structureAnchors(*labels, labelIds, projection, image, 30, nullptr, occlusion)
@@ -119,7 +150,34 @@ render::AnnotationOptions FigureOptions::resolved(bool haveLabels) const {
   render::AnnotationOptions o = annotations;
   if (annotateAll) o.scaleBar = o.orientation = true;
   o.labels = wantsLabels() && haveLabels;
+  for (const std::string& n : labelNames) {
+    const auto eq = n.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == n.size())
+      throw Error("--label-name '" + n + "': expected NAME=TEXT or ID=TEXT");
+    o.displayNames.emplace_back(n.substr(0, eq), n.substr(eq + 1));
+  }
   return o;
+}
+
+void FigureOptions::checkLabelNames(const LabelVolume& labels) const {
+  std::string known;
+  for (const Label& l : labels.table()) known += (known.empty() ? "" : ", ") + l.name;
+  for (const auto& entry : resolved(true).displayNames) {
+    const std::string& key = entry.first;
+    // The key as annotate() matches it (render::displayName): the name without case, or the id.
+    render::AnnotationOptions one;
+    one.displayNames = {{key, "\x01"}};
+    bool found = false;
+    for (const Label& l : labels.table()) found = found || render::displayName(one, l.id, l.name) == "\x01";
+    if (!found) throw Error("--label-name " + key + ": no structure of that name or id (structures: " + known + ")");
+  }
+}
+
+render::AnnotationLayout FigureOptions::apply(RgbaImage& image, const Geometry& volume,
+                                              const render::RenderSettings& settings,
+                                              const std::vector<render::StructureAnchor>& anchors) const {
+  if (!any()) return {};
+  return render::annotate(image, render::Projection(volume, settings), resolved(true), anchors);
 }
 
 ProgressBar::ProgressBar()

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,13 +46,20 @@ struct InputOptions {
   LabelVolume loadLabelsOnInputGrid(const std::filesystem::path& path) const;
 };
 
-/// --remove-table and its parameters (--table-air-threshold, --table-opening-radius).
+/// --remove-table and its parameters (--table-air-threshold, --table-opening-radius,
+/// --table-min-part-volume, --table-min-part-thickness).
 struct TableRemovalOptions {
   bool enabled = false;
   segmentation::BodyMaskParams params;
+  std::optional<segmentation::BodyMaskReport> report;  ///< what the last apply()/bodyMask() removed
   void addTo(CLI::App& cmd);
-  /// The volume without the table when enabled (a CT is required), else unchanged.
-  AnyVolume apply(AnyVolume volume, const std::filesystem::path& path) const;
+  /// The volume without the table when enabled (a CT is required), else unchanged; prints
+  /// the one-line summary (app::tableRemovalSummary) to stderr.
+  AnyVolume apply(AnyVolume volume, const std::filesystem::path& path);
+  /// The body mask (app::ctBodyMask) with the same summary; for label maps on the CT's grid.
+  segmentation::Mask bodyMask(const AnyVolume& volume, const std::filesystem::path& path);
+  /// Adds "table_removal" (app::tableRemovalJson) to a command's report when it ran.
+  void addToReport(nlohmann::json& report) const;
 };
 
 /// --scale-bar, --scale-bar-mm, --orientation, --label-ids, --annotate (and, where a command
@@ -62,6 +70,7 @@ struct FigureOptions {
   bool annotateAll = false;
   bool labelFlag = false;  ///< --labels (commands whose structures come with their input)
   std::string labelMap;    ///< --label-map (commands without a label map of their own)
+  std::vector<std::string> labelNames;  ///< --label-name KEY=TEXT (render::AnnotationOptions::displayNames)
 
   /// Where the names come from: a --label-map FILE, the command's own label map (illustrate:
   /// the shape's segments; flag --labels), or the label map another option already loads
@@ -76,6 +85,11 @@ struct FigureOptions {
   void apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
              const LabelVolume* labels,
              render::AnchorOcclusion occlusion = render::AnchorOcclusion::FrontMost) const;
+  /// The same with the labels' anchors found by the caller (illustrate: only drawn segments).
+  render::AnnotationLayout apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
+                                 const std::vector<render::StructureAnchor>& anchors) const;
+  /// Throws vellum::Error for a --label-name whose key names no structure of `labels`.
+  void checkLabelNames(const LabelVolume& labels) const;
 };
 
 /// A progress bar on stderr. It stays silent for the first second (fast work prints

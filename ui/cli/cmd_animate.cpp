@@ -41,6 +41,7 @@ struct AnimateArgs {
 
 void printSummary(const app::AnimateRequest& request, const app::AnimateResult& result) {
   for (const auto& w : result.warnings) std::cerr << "warning: " << request.input.string() << ": " << w << "\n";
+  if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
   const MovieResult& r = result.movie;
   const int frames = std::max(r.frames, 1);
   std::cout << request.output.string() << "  " << r.frames << " frames  deform " << r.deformMs / frames

@@ -1,4 +1,5 @@
 // `vellum illustrate IN --shape DIR (--style S.json | --preset NAME) --out FIG.png [...]`
+#include <algorithm>
 #include <iostream>
 #include <memory>
 
@@ -6,6 +7,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/illustration/figure.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/render/contact_sheet.hpp"
@@ -15,7 +17,7 @@ namespace {
 
 struct IllustrateArgs {
   std::string input, shape, style, preset, output, saveStyle, report;
-  std::string size = "512x512", interp = "eight";
+  std::string size = "512x512", interp = "eight", frame = "drawn";
   render::RenderSettings camera = [] {  // the render table's camera and step flags write here
     render::RenderSettings s;
     s.stepVoxels = 1.0;  // distance fields are smooth: a voxel step suffices
@@ -27,6 +29,23 @@ struct IllustrateArgs {
   TableRemovalOptions table;
   FigureOptions figure;
 };
+
+/// The room the annotations will take (labels: the drawable candidates' texts, both sides).
+render::ImageInsets annotationRoom(const FigureOptions& figure, const LabelVolume& segments,
+                                   const illustration::Style& style, const render::RenderSettings& settings) {
+  if (!figure.any()) return {};
+  const render::AnnotationOptions o = figure.resolved(true);
+  std::vector<std::string> texts;
+  if (o.labels) {
+    const std::vector<uint8_t> drawable = illustration::styleDrawnIds(style, segments);
+    for (const Label& l : segments.table()) {
+      const bool asked = figure.labelIds.empty() ||
+                         std::find(figure.labelIds.begin(), figure.labelIds.end(), l.id) != figure.labelIds.end();
+      if (asked && l.id < drawable.size() && drawable[l.id]) texts.push_back(render::displayName(o, l.id, l.name));
+    }
+  }
+  return render::annotationInsets(o, settings.width, settings.height, texts);
+}
 
 }  // namespace
 
@@ -43,8 +62,10 @@ void demoIllustration(const DemoContext& ctx) {
   s.render.width = s.render.height = 512;
   s.render.camera.azimuthDeg = 35;
   s.render.camera.elevationDeg = 10;
-  s.render.camera.zoom = 1.4;
   s.render.stepVoxels = 1.0;
+  // Every plate framed alike: on all the segments, whatever each style draws.
+  s.render.camera = illustration::frameFigure(scene.segments, illustration::stylePreset("dvr"), s.render,
+                                              illustration::Framing::Segments);
   // The paper's comparison: plain DVR, colour shading, opacity modulation, side by side.
   std::vector<RgbaImage> tiles;
   for (const char* preset : {"dvr", "dvr-colour", "opacity-modulation"}) {
@@ -56,13 +77,22 @@ void demoIllustration(const DemoContext& ctx) {
   // A labelled textbook figure, orthographic so that its scale bar is exact.
   const illustration::Style textbook = illustration::stylePreset("textbook");
   s.render.width = s.render.height = 768;
+  s.render.camera = render::Camera{};
+  s.render.camera.azimuthDeg = 35;
+  s.render.camera.elevationDeg = 10;
   s.render.camera.fieldOfViewDeg = 0;
-  s.render.background = {textbook.background[0], textbook.background[1], textbook.background[2], 1.f};
-  RgbaImage figure = renderer.render(textbook, s);
   FigureOptions annotations;
   annotations.annotateAll = annotations.labelFlag = true;
+  annotations.annotations.labelSide = render::AnnotationOptions::LabelSide::Right;
   annotations.labelIds = {2, 3, 4, 5, 6};  // muscle and the bones (skin would hide its own anchor)
-  annotations.apply(figure, scene.distance.geometry(), s.render, &scene.segments, render::AnchorOcclusion::InnerFirst);
+  s.render.camera = illustration::frameFigure(scene.segments, textbook, s.render, illustration::Framing::Drawn,
+                                              annotationRoom(annotations, scene.segments, textbook, s.render));
+  s.render.background = {textbook.background[0], textbook.background[1], textbook.background[2], 1.f};
+  RgbaImage figure = renderer.render(textbook, s);
+  illustration::LabelSearch search;
+  search.ids = annotations.labelIds;
+  annotations.apply(figure, scene.distance.geometry(), s.render,
+                    illustration::drawnSegmentAnchors(renderer, textbook, s, scene.segments, figure, search));
   io::saveImage(figure, ctx.outDir / "illustration-textbook.png");
   std::cout << "shape folder shape/ + illustration-plate.png (dvr | dvr-colour | opacity-modulation) + "
                "illustration-textbook.png in "
@@ -82,6 +112,10 @@ void addIllustrateCommand(CLI::App& app) {
   cmd->add_option("--size", a->size, "image size WxH, up to 4096x4096")->capture_default_str();
   addFlags(*cmd, a->camera, render::renderSettingsTable(),
            {"width", "height", "preset", "window_center", "window_width", "shading", "jitter"});
+  cmd->add_option("--frame", a->frame,
+                  "what --zoom 1 fits: drawn (the segments the style draws) | segments (every segment: the same "
+                  "framing for every style) | volume (the volume's bounding sphere)")
+      ->capture_default_str();
   cmd->add_option("--interp", a->interp, "eight (styled colour at the 8 voxel centres, interpolated) | nearest (fast)")
       ->capture_default_str();
   cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1 (default: the style's)")->expected(3, 4);
@@ -117,23 +151,40 @@ void addIllustrateCommand(CLI::App& app) {
         .json(a->report, "--report")
         .check();
 
+    const illustration::Framing framing = illustration::parseFraming(a->frame);
+    // A figure framed on its anatomy keeps room for one label column, on the right.
+    if (framing != illustration::Framing::Volume) a->figure.annotations.labelSide = render::AnnotationOptions::LabelSide::Right;
     illustration::ShapeScene scene = illustration::loadShapeFolder(a->shape);
+    if (a->figure.wantsLabels()) a->figure.checkLabelNames(scene.segments);
     io::LoadedVolume lv = loadWithProgress(a->input, a->in);
     lv.volume = a->table.apply(std::move(lv.volume), a->input);
     if (!geometryOf(lv.volume).approxEqual(scene.distance.geometry()))
       throw FileError(a->shape, "grid " + scene.distance.dims().str() + " does not match the CT " + a->input + " (" +
                                     geometryOf(lv.volume).dims.str() + "): make the shape folder from this CT");
     scene.ct = lv.volume;
+    // Zoom 1 fits what the figure shows (--frame), not the volume's bounding sphere, and
+    // leaves the annotations their room.
+    s.render.camera = illustration::frameFigure(scene.segments, style, s.render, framing,
+                                                annotationRoom(a->figure, scene.segments, style, s.render));
     const double loadS = secondsSince(t0);
 
     auto context = render::GlContext::createHeadless();
     illustration::IllustrationRenderer renderer(*context);
     renderer.setScene(scene);
     RgbaImage image = renderer.render(style, s);
+    const double renderMs = renderer.lastRenderMs();  // before the label probes render again
     // A GL draw cannot be interrupted: Ctrl-C during it cancels here, before anything is written.
     Progress::none().checkCancelled();
-    // Illustrations are see-through: name each structure where it alone shows.
-    a->figure.apply(image, scene.distance.geometry(), s.render, &scene.segments, render::AnchorOcclusion::InnerFirst);
+    // Labels only for segments the figure shows, each where it shows (alone, where it can).
+    std::vector<render::StructureAnchor> anchors;
+    const auto tl = std::chrono::steady_clock::now();
+    if (a->figure.wantsLabels()) {
+      illustration::LabelSearch search;
+      search.ids = a->figure.labelIds;
+      anchors = illustration::drawnSegmentAnchors(renderer, style, s, scene.segments, image, search);
+    }
+    const render::AnnotationLayout layout = a->figure.apply(image, scene.distance.geometry(), s.render, anchors);
+    const double annotateS = secondsSince(tl);
     RunOutputs outputs;
     ensureParentFolder(a->output);
     io::saveImage(image, a->output);
@@ -143,7 +194,7 @@ void addIllustrateCommand(CLI::App& app) {
       outputs.wrote(a->saveStyle);
     }
     std::cout << a->output << "  " << style.name << "  " << s.render.width << "x" << s.render.height << "  "
-              << illustration::interpolationName(s.interpolation) << "  " << renderer.lastRenderMs() << " ms\n";
+              << illustration::interpolationName(s.interpolation) << "  " << renderMs << " ms\n";
     if (!a->report.empty()) {
       nlohmann::json r;
       r["input"] = a->input;
@@ -152,12 +203,17 @@ void addIllustrateCommand(CLI::App& app) {
       r["output"] = a->output;
       r["size"] = {s.render.width, s.render.height};
       r["interpolation"] = illustration::interpolationName(s.interpolation);
-      r["camera"] = {{"azimuth", s.render.camera.azimuthDeg}, {"elevation", s.render.camera.elevationDeg},
-                     {"zoom", s.render.camera.zoom}, {"fov", s.render.camera.fieldOfViewDeg}};
+      const auto& cam = s.render.camera;
+      r["camera"] = {{"azimuth", cam.azimuthDeg}, {"elevation", cam.elevationDeg}, {"zoom", a->camera.camera.zoom},
+                     {"fov", cam.fieldOfViewDeg}, {"frame", illustration::framingName(framing)},
+                     {"zoom_applied", cam.zoom}, {"pan_applied_mm", toJson(cam.panMm)}};
+      r["labels"] = layout.labelTexts;
+      a->table.addToReport(r);
       r["dims"] = {scene.distance.dims().x, scene.distance.dims().y, scene.distance.dims().z};
       r["load_seconds"] = loadS;
       r["upload_ms"] = renderer.lastUploadMs();
-      r["render_ms"] = renderer.lastRenderMs();
+      r["render_ms"] = renderMs;
+      r["annotate_seconds"] = annotateS;  // labels: probe renders and anchors
       r["renderer"] = context->renderer();
       r["total_seconds"] = secondsSince(t0);
       writeJsonFile(r, a->report);

@@ -63,6 +63,7 @@ nlohmann::json checksJson(const ill::SegmentShape& s) {
 struct ShapeInputs {
   io::LoadedVolume ct;
   LabelVolume labels;
+  TableRemovalOptions table;  ///< with its report when --remove-table ran
 };
 
 ShapeInputs loadShapeInputs(const ShapeArgs& a) {
@@ -73,7 +74,7 @@ ShapeInputs loadShapeInputs(const ShapeArgs& a) {
       .json(a.report, "--report")
       .force(a.force)
       .check();
-  ShapeInputs in{loadWithProgress(a.input, a.in), {}};
+  ShapeInputs in{loadWithProgress(a.input, a.in), {}, {}};
   const Geometry& ctGeom = geometryOf(in.ct.volume);
   // The labels get the input's --crop / --downsample (the raw-input flags describe IN only).
   in.labels = a.in.loadLabelsOnInputGrid(a.labels);
@@ -84,10 +85,8 @@ ShapeInputs loadShapeInputs(const ShapeArgs& a) {
     throw Error("--labels " + a.labels + ": spacing/origin/direction differ from the CT's");
   if (a.table.enabled) {
     // Labels from a threshold include the CT table: keep only what lies in the body.
-    const auto* ct = std::get_if<VolumeI16>(&in.ct.volume);
-    if (!ct) throw FileError(a.input, "--remove-table needs a CT in HU (int16)");
-    ProgressBar bar;
-    const segmentation::Mask body = segmentation::bodyMask(*ct, a.table.params, bar.progress());
+    in.table = a.table;
+    const segmentation::Mask body = in.table.bodyMask(in.ct.volume, a.input);
     uint16_t* ids = in.labels.ids().data();
     for (size_t v = 0; v < in.labels.ids().size(); ++v)
       if (!body.data()[v]) ids[v] = 0;
@@ -179,11 +178,12 @@ void runShape(const ShapeArgs& a) {
     for (const auto& s : r.shapes) ill::saveMesh(s.mesh, tmp / "meshes" / (s.segment.name + "." + a.meshFormat), a.meshFormat);
     const double writeMs = 1000 * secondsSince(tw);
     const auto& t = r.times;
-    const nlohmann::json j = shapeReport(a, ctGeom, r, shells, grows,
+    nlohmann::json j = shapeReport(a, ctGeom, r, shells, grows,
                                          {{"load", loadMs}, {"denoise", t.denoiseMs}, {"mesh", t.meshMs},
                                           {"process", t.processMs}, {"distances", t.distancesMs},
                                           {"segmentation", t.segmentationMs}, {"pipeline", pipelineMs},
                                           {"write", writeMs}, {"total", 1000 * secondsSince(t0)}});
+    in.table.addToReport(j);
     writeJsonFile(j, tmp / "shape.json");
     if (!a.report.empty()) writeJsonFile(j, a.report);
   }, a.force);

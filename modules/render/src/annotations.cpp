@@ -3,6 +3,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <limits>
 
@@ -27,7 +28,24 @@ Ink inkFor(const RgbaImage& image) {
   return {cv::Scalar(240, 240, 240, 255), cv::Scalar(0, 0, 0, 255)};
 }
 
-double fontScale(const RgbaImage& image) { return std::max(0.35, std::min(image.width, image.height) / 900.0); }
+double fontScale(int width, int height) { return std::max(0.35, std::min(width, height) / 900.0); }
+
+// The Hershey scale whose capital letters are `px` pixels high.
+double fontScaleForHeight(double px) {
+  int baseline = 0;
+  return px / cv::getTextSize("H", kFont, 1.0, 1, &baseline).height;
+}
+
+double textScale(const AnnotationOptions& o, int width, int height) {
+  return o.textHeightPx > 0 ? fontScaleForHeight(o.textHeightPx) : fontScale(width, height);
+}
+int marginPx(int height) { return std::max(6, height / 40); }
+int barThickness(int height) { return std::max(2, height / 200); }
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
 int strokeWidth(double scale) { return std::max(1, int(std::lround(scale * 1.6))); }
 
 void text(cv::Mat& m, const std::string& s, cv::Point at, double scale, const Ink& ink) {
@@ -51,6 +69,13 @@ std::string formatMm(double mm) {
 }
 
 }  // namespace
+
+std::string displayName(const AnnotationOptions& options, uint16_t id, const std::string& name) {
+  const std::string key = lower(name);
+  for (const auto& [k, text] : options.displayNames)
+    if (lower(k) == key || k == std::to_string(id)) return text;
+  return name;
+}
 
 std::string anatomicalLetters(const Vec3& d) {
   struct Axis {
@@ -225,6 +250,32 @@ void moveAnchorsToCentres(std::vector<StructureAnchor>& anchors, const std::vect
     }
 }
 
+ImageInsets annotationInsets(const AnnotationOptions& options, int width, int height,
+                             const std::vector<std::string>& labelTexts) {
+  // The same measures as annotate() below, plus half a margin of air.
+  ImageInsets in;
+  const double scale = textScale(options, width, height);
+  const int margin = marginPx(height), air = margin / 2;
+  int baseline = 0;
+  const int textH = cv::getTextSize("Ag", kFont, scale, strokeWidth(scale), &baseline).height;
+  const int letterW = cv::getTextSize("RA", kFont, scale, strokeWidth(scale), &baseline).width;
+  if (options.orientation) {
+    in.left = in.right = margin + letterW + air;
+    in.top = in.bottom = margin + textH + air;
+  }
+  if (options.scaleBar) in.bottom = std::max(in.bottom, margin + barThickness(height) + margin / 2 + textH + air);
+  if (options.labels && !labelTexts.empty()) {
+    int widest = 0;
+    for (const std::string& t : labelTexts)
+      widest = std::max(widest, cv::getTextSize(t, kFont, scale, strokeWidth(scale), &baseline).width);
+    const int indent = options.orientation ? margin + letterW : 0;
+    const int column = margin + indent + widest + margin / 2 + air;
+    if (options.labelSide != AnnotationOptions::LabelSide::Right) in.left = std::max(in.left, column);
+    if (options.labelSide != AnnotationOptions::LabelSide::Left) in.right = std::max(in.right, column);
+  }
+  return in;
+}
+
 AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const AnnotationOptions& options,
                           const std::vector<StructureAnchor>& anchors) {
   if (image.width != projection.width() || image.height != projection.height())
@@ -232,8 +283,8 @@ AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const 
   AnnotationLayout layout;
   cv::Mat m(image.height, image.width, CV_8UC4, image.pixels.data());
   const Ink ink = inkFor(image);
-  const double scale = fontScale(image);
-  const int margin = std::max(6, image.height / 40);
+  const double scale = textScale(options, image.width, image.height);
+  const int margin = marginPx(image.height);
   int baseline = 0;
   const int textH = cv::getTextSize("Ag", kFont, scale, strokeWidth(scale), &baseline).height;
 
@@ -244,7 +295,7 @@ AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const 
     if (px > image.width - 2 * margin) throw Error("scale bar of " + formatMm(mm) + " does not fit the figure");
     const int x0 = margin, y = image.height - margin;
     const int x1 = x0 + int(std::lround(px)) - 1;  // covers pixels x0..x1: px pixels in all
-    const int thick = std::max(2, image.height / 200);
+    const int thick = barThickness(image.height);
     cv::rectangle(m, {x0 - 1, y - thick - 1}, {x1 + 1, y + 1}, ink.halo, cv::FILLED);
     cv::rectangle(m, {x0, y - thick}, {x1, y}, ink.colour, cv::FILLED);
     const std::string caption = formatMm(mm) + (projection.perspective() ? " at the centre" : "");
@@ -274,8 +325,11 @@ AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const 
     const int top = margin + 2 * textH, bottom = image.height - margin - 3 * textH;
     for (int side = 0; side < 2; ++side) {
       std::vector<const StructureAnchor*> column;
-      for (const auto& a : anchors)
-        if ((a.x < image.width / 2) == (side == 0)) column.push_back(&a);
+      using Side = AnnotationOptions::LabelSide;
+      for (const auto& a : anchors) {
+        const bool left = options.labelSide == Side::Nearest ? a.x < image.width / 2 : options.labelSide == Side::Left;
+        if (left == (side == 0)) column.push_back(&a);
+      }
       std::sort(column.begin(), column.end(), [](auto* a, auto* b) { return a->y < b->y; });
       std::vector<int> ys;
       for (const auto* a : column) ys.push_back(std::clamp(a->y, top, bottom));
@@ -286,7 +340,8 @@ AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const 
       }
       for (size_t i = 0; i < column.size(); ++i) {
         const auto& a = *column[i];
-        const cv::Size sz = cv::getTextSize(a.name, kFont, scale, strokeWidth(scale), &baseline);
+        const std::string name = displayName(options, a.id, a.name);
+        const cv::Size sz = cv::getTextSize(name, kFont, scale, strokeWidth(scale), &baseline);
         // Beside the orientation letter of that edge, not on it.
         const int indent = options.orientation ? margin + cv::getTextSize("RA", kFont, scale, strokeWidth(scale), &baseline).width : 0;
         const int x0 = side == 0 ? margin + indent : image.width - margin - indent - sz.width;
@@ -297,8 +352,9 @@ AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const 
         cv::line(m, {lx, ly}, {a.x, a.y}, ink.halo, strokeWidth(scale) + 2, cv::LINE_AA);
         cv::line(m, {lx, ly}, {a.x, a.y}, ink.colour, strokeWidth(scale), cv::LINE_AA);
         cv::circle(m, {a.x, a.y}, strokeWidth(scale) + 1, ink.colour, cv::FILLED, cv::LINE_AA);
-        text(m, a.name, {x0, yBase}, scale, ink);
+        text(m, name, {x0, yBase}, scale, ink);
         layout.labelBoxes.push_back(box);
+        layout.labelTexts.push_back(name);
         layout.leaderLines.push_back({lx, ly, a.x, a.y});
       }
     }

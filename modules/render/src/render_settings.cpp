@@ -40,7 +40,7 @@ const params::Table<RenderSettings>& renderSettingsTable() {
       params::real<R>("elevation", [](auto& s) -> auto& { return s.camera.elevationDeg; },
                       {"Elevation", "camera tilt towards superior", "degrees", -90, 90}),
       params::real<R>("zoom", [](auto& s) -> auto& { return s.camera.zoom; },
-                      {"Zoom", "1 = the volume's bounding sphere fills the view", "", 0.05, 50}),
+                      {"Zoom", "1 = the volume's bounding sphere fills the view (illustrate: what it draws, see --frame)", "", 0.05, 50}),
       params::real<R>("fov", [](auto& s) -> auto& { return s.camera.fieldOfViewDeg; },
                       {"Field of view", "vertical; 0 = orthographic projection", "degrees", 0, 120}),
       params::real<R>("window_center", [](auto& s) -> auto& { return s.windowCenter; },

@@ -120,7 +120,9 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   io::LoadOptions load = request.load;
   load.progress = &progress;
   io::LoadedVolume lv = io::loadVolume(request.input, load);
-  if (request.removeTable) lv.volume = withoutCtTable(lv.volume, request.input, *request.removeTable, progress);
+  std::optional<segmentation::BodyMaskReport> tableRemoval;
+  if (request.removeTable)
+    lv.volume = withoutCtTable(lv.volume, request.input, *request.removeTable, progress, &tableRemoval.emplace());
   const Geometry grid = geometryOf(lv.volume);
   const std::optional<RigidBodies> bodies = request.engine.rigidBodies(grid, request.load);
   std::optional<LabelVolume> names;
@@ -154,6 +156,10 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   result.warnings = std::move(lv.warnings);
   const double totalMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   result.report = reportJson(result.movie, request, bodies.has_value(), totalMs);
+  if (tableRemoval) {
+    result.report["table_removal"] = tableRemovalJson(*tableRemoval);
+    result.tableRemoval = tableRemovalSummary(*tableRemoval);
+  }
   RunOutputs written;  // a report that cannot be written takes the movie with it
   if (!spec.moviePath.empty()) written.wrote(spec.moviePath);
   if (!spec.framesDir.empty()) written.wrote(spec.framesDir);

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <optional>
@@ -13,6 +14,7 @@
 #include "vellum/core/image.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/render/backward_map.hpp"
+#include "vellum/render/framing.hpp"
 #include "vellum/render/projection.hpp"
 
 namespace vellum::render {
@@ -22,7 +24,20 @@ struct AnnotationOptions {
   double scaleBarMm = 0;  ///< 0: a round length (1, 2, 5 x 10^k mm) near a fifth of the width
   bool orientation = false;
   bool labels = false;
+  /// Height of capital letters of the annotation text (labels, scale-bar caption, orientation
+  /// letters) in pixels; 0 = scaled with the image (about its shorter side / 43).
+  double textHeightPx = 0;
+  /// The text drawn for a structure instead of its label-table name: (key, text), the key a
+  /// table name (case-insensitive) or an id ("bone", "Tibia and fibula").
+  std::vector<std::pair<std::string, std::string>> displayNames;
+  /// Which margin column a label goes to: the nearer side of its anchor, or all to one side
+  /// (a figure framed on its anatomy keeps room for one column only).
+  enum class LabelSide { Nearest, Left, Right };
+  LabelSide labelSide = LabelSide::Nearest;
 };
+
+/// The text annotate() draws for structure `id` named `name` in the label table.
+std::string displayName(const AnnotationOptions& options, uint16_t id, const std::string& name);
 
 /// A structure to label: its name and the pixel its leader line points at.
 struct StructureAnchor {
@@ -77,9 +92,16 @@ struct AnnotationLayout {
     int x0, y0, x1, y1;  ///< inclusive text box
   };
   std::vector<Box> labelBoxes;                       ///< in the order of the anchors drawn
+  std::vector<std::string> labelTexts;               ///< the text of each box
   std::vector<std::array<int, 4>> leaderLines;       ///< x0 y0 (box side) x1 y1 (anchor)
   std::array<std::string, 4> orientationLetters;     ///< right, left, top, bottom
 };
+
+/// The room annotate() takes at the image's edges (orientation letters, scale bar and caption,
+/// label columns wide enough for `labelTexts` on the sides options.labelSide allows), so that a figure framed on its
+/// anatomy (render::fitCamera) leaves the annotations on paper.
+ImageInsets annotationInsets(const AnnotationOptions& options, int width, int height,
+                             const std::vector<std::string>& labelTexts);
 
 /// Draws the chosen annotations into `image` (white ink on dark backgrounds, black on light).
 AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const AnnotationOptions& options,

@@ -54,6 +54,7 @@ std::string animateArguments(const AnimateRequest& request);
 struct AnimateResult {
   animation::MovieResult movie;
   std::vector<std::string> warnings;  ///< the loader's
+  std::string tableRemoval;  ///< --remove-table's one-line summary (app::tableRemovalSummary); empty without it
   /// frames, fps, timings_ms (deform_per_frame, render_per_frame, total), rigidity_worst,
   /// rigidity_per_frame: what request.report holds.
   nlohmann::json report;
