@@ -106,7 +106,7 @@ nlohmann::json shapeReport(const ShapeArgs& a, const Geometry& ctGeom, const ill
   j["dims"] = {ctGeom.dims.x, ctGeom.dims.y, ctGeom.dims.z};
   j["spacing_mm"] = toJson(ctGeom.spacing);
   j["options"] = params::toJson(ill::shapeOptionsTable(), opt);  // keys as in `vellum params`
-  j["options"]["exact_band_mm"] = opt.exactBandMm > 0 ? opt.exactBandMm : 3 * std::min({ctGeom.spacing.x, ctGeom.spacing.y, ctGeom.spacing.z});
+  j["options"]["exact_band_mm"] = opt.exactBandMm > 0 ? opt.exactBandMm : ill::defaultExactBandMm(ctGeom);
   j["options"]["mesh_format"] = a.meshFormat;
   j["segments"] = nlohmann::json::array();
   for (const auto& s : r.shapes) j["segments"].push_back(checksJson(s));
@@ -163,6 +163,7 @@ void runShape(const ShapeArgs& a) {
   }
   const double pipelineMs = 1000 * secondsSince(tp);
   r.distance.setGeometry(ctGeom);
+  for (auto& f : r.fields) f.distance.setGeometry(ctGeom);
 
   // The folder is written whole beside its target and then moved into place (a reader never
   // sees a mix of two runs' meshes), with the report first: nothing claims a finished result
@@ -176,6 +177,7 @@ void runShape(const ShapeArgs& a) {
     raw.gzip = false;  // 4 bytes a voxel of smooth floats: gzip would cost seconds for little
     io::saveVolume(r.distance, tmp / "distance.nrrd", raw);
     io::saveLabels(r.segmentation, tmp / "segments.nrrd");
+    ill::saveSegmentFields(r.fields, tmp);  // per-segment distances (docs/shape.md)
     for (const auto& s : r.shapes) ill::saveMesh(s.mesh, tmp / "meshes" / (s.segment.name + "." + a.meshFormat), a.meshFormat);
     const double writeMs = 1000 * secondsSince(tw);
     const auto& t = r.times;
