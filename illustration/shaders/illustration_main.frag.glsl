@@ -66,15 +66,19 @@ void main() {
       vec3 G[SLOT_CAP];
       for (int g = 0; g < NGROUPS; ++g) {
         vec4 c = fieldAt(p, g);
+        vec4 gx = vec4(0.0), gy = vec4(0.0), gz = vec4(0.0);
+        // Gradients only where they can change the picture (gradientWindows).
+        if (any(bvec4(uvec4(greaterThan(c, uGradLo[g])) & uvec4(lessThan(c, uGradHi[g]))))) {
 #ifdef EIGHT
-        vec4 gx = 0.5 * (fieldAt(p + vec3(1.0, 0.0, 0.0), g) - fieldAt(p - vec3(1.0, 0.0, 0.0), g));
-        vec4 gy = 0.5 * (fieldAt(p + vec3(0.0, 1.0, 0.0), g) - fieldAt(p - vec3(0.0, 1.0, 0.0), g));
-        vec4 gz = 0.5 * (fieldAt(p + vec3(0.0, 0.0, 1.0), g) - fieldAt(p - vec3(0.0, 0.0, 1.0), g));
+          gx = 0.5 * (fieldAt(p + vec3(1.0, 0.0, 0.0), g) - fieldAt(p - vec3(1.0, 0.0, 0.0), g));
+          gy = 0.5 * (fieldAt(p + vec3(0.0, 1.0, 0.0), g) - fieldAt(p - vec3(0.0, 1.0, 0.0), g));
+          gz = 0.5 * (fieldAt(p + vec3(0.0, 0.0, 1.0), g) - fieldAt(p - vec3(0.0, 0.0, 1.0), g));
 #else
-        vec4 gx = fieldAt(p + vec3(1.0, 0.0, 0.0), g) - c;
-        vec4 gy = fieldAt(p + vec3(0.0, 1.0, 0.0), g) - c;
-        vec4 gz = fieldAt(p + vec3(0.0, 0.0, 1.0), g) - c;
+          gx = fieldAt(p + vec3(1.0, 0.0, 0.0), g) - c;
+          gy = fieldAt(p + vec3(0.0, 1.0, 0.0), g) - c;
+          gz = fieldAt(p + vec3(0.0, 0.0, 1.0), g) - c;
 #endif
+        }
         for (int j = 0; j < 4; ++j) {
           int s = 4 * g + j;
           if (s < NSLOTS) {

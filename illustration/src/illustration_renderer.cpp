@@ -266,6 +266,10 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     }
     if (!m.slots.empty()) glUniform4fv(glGetUniformLocation(p, "uSlots"), GLsizei(m.slots.size()), slots.data());
     glUniformMatrix3fv(glGetUniformLocation(p, "uGradToPhys"), 1, GL_TRUE, sf.gradToPhys.data());
+    std::vector<float> lo, hi;
+    gradientWindows(table, m.slots, sf.coverageH, lo, hi);
+    glUniform4fv(glGetUniformLocation(p, "uGradLo"), GLsizei(lo.size() / 4), lo.data());
+    glUniform4fv(glGetUniformLocation(p, "uGradHi"), GLsizei(hi.size() / 4), hi.data());
   }
   u1(p, "uTfLo", table.tfLo);
   u1(p, "uTfHi", table.tfHi);

@@ -152,7 +152,30 @@ void packFieldSlab(const ShapeScene& scene, int group, int64_t z0, int64_t z1, s
   }
 }
 
-void FieldVolume::sample(float x, float y, float z, bool central, float* d, Vec3f* g) const {
+void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH,
+                     std::vector<float>& lo, std::vector<float>& hi) {
+  const size_t n = (slots.size() + 3) / 4 * 4;
+  const float big = 1e30f;
+  lo.assign(std::max<size_t>(n, 4), big);
+  hi.assign(std::max<size_t>(n, 4), -big);
+  for (size_t s = 0; s < slots.size(); ++s) {
+    if (t.visible[0]) {
+      lo[s] = -big;
+      hi[s] = big;
+      continue;
+    }
+    const PaintSlot& sl = slots[s];
+    float reach = -1;  // 4 boundary widths of the slot's visible rows (deeper: sw = 0)
+    for (int id : {sl.id, sl.shellId})
+      if (id > 0 && id < kMaxLabels && t.visible[size_t(id)]) reach = std::max(reach, 4.f * t.row(id)[slot::BoundaryWidthMm]);
+    if (reach < 0) continue;
+    lo[s] = -(reach + (sl.shellId > 0 ? sl.shellMm + coverageH : 0.f));
+    hi[s] = 0.5f * coverageH;
+  }
+}
+
+void FieldVolume::sample(float x, float y, float z, bool central, const float* lo, const float* hi, float* d,
+                         Vec3f* g) const {
   // As the shader: p clamped to the grid (clamp to edge), trilinear per group texel fetch.
   const size_t n = size_t(dims.voxelCount());
   auto fetch = [&](float px, float py, float pz, int grp) {
@@ -179,8 +202,11 @@ void FieldVolume::sample(float x, float y, float z, bool central, float* d, Vec3
   };
   for (int grp = 0; grp < groups; ++grp) {
     const auto c = fetch(x, y, z, grp);
-    std::array<float, 4> gx, gy, gz;
-    if (central) {
+    std::array<float, 4> gx{}, gy{}, gz{};
+    bool need = false;
+    for (int ch = 0; ch < 4; ++ch) need = need || (c[size_t(ch)] > lo[grp * 4 + ch] && c[size_t(ch)] < hi[grp * 4 + ch]);
+    if (!need) {
+    } else if (central) {
       const auto xp = fetch(x + 1, y, z, grp), xm = fetch(x - 1, y, z, grp);
       const auto yp = fetch(x, y + 1, z, grp), ym = fetch(x, y - 1, z, grp);
       const auto zp = fetch(x, y, z + 1, grp), zm = fetch(x, y, z - 1, grp);

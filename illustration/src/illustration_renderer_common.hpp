@@ -79,8 +79,17 @@ struct FieldVolume {
   std::vector<float> value;  ///< CPU only: decoded mm, [group][z][y][x][4]
   /// Trilinear (clamp to edge) at continuous index p for every slot: d (mm) and the index-
   /// space gradient of the interpolated field, central (+-1 voxel) or forward differences.
-  void sample(float x, float y, float z, bool central, float* d, Vec3f* gradIndex) const;
+  /// A group none of whose slots s has lo[s] < d < hi[s] gets zero gradients (not fetched:
+  /// they would never be used; gradientWindows).
+  void sample(float x, float y, float z, bool central, const float* lo, const float* hi, float* d,
+              Vec3f* gradIndex) const;
 };
+/// Per slot (padded to whole groups), the open distance interval (lo, hi) where its gradient
+/// can change the picture: the slot covers the sample (d < h/2), one of its rows is visible,
+/// and the normal terms have not faded out (|d| < 4 boundary widths, see styledSample);
+/// everywhere when label 0 shows (it takes the nearest surface's gradient); empty otherwise.
+void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH,
+                     std::vector<float>& lo, std::vector<float>& hi);
 /// Slots from the scene; `decode` fills value (the CPU reference).
 FieldVolume makeFieldVolume(const ShapeScene& scene, bool decode);
 /// Interleaved RGBA int16 texels of group g, slices [z0, z1) (the GL upload, slab by slab).

@@ -96,6 +96,8 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
   std::vector<float> d(ns + 1);
   std::vector<Vec3f> gi(ns + 1), gp(ns + 1);
   const auto& m = cx.sf.gradToPhys;
+  std::vector<float> lo, hi;
+  gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
   for (int y = y0; y < y1; ++y)
     for (int x = 0; x < s.width; ++x) {
       const render::detail::Ray ray = render::detail::pixelRay(f, x, y);
@@ -107,7 +109,7 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
         const double t = (double(k) + clip.jitter) * f.stepMm;
         const Vec3f pMm = f3(ray.origin + ray.dir * t);
         const float depth = float((dot(ray.origin - c0, f.forward) + t * dot(ray.dir, f.forward)) / (2.0 * cx.sf.radius) + 0.5);
-        cx.fields.sample(float(p.x), float(p.y), float(p.z), central, d.data(), gi.data());
+        cx.fields.sample(float(p.x), float(p.y), float(p.z), central, lo.data(), hi.data(), d.data(), gi.data());
         for (size_t i = 0; i < ns; ++i) {
           const Vec3f g = gi[i];
           gp[i] = {m[0] * g.x + m[1] * g.y + m[2] * g.z, m[3] * g.x + m[4] * g.y + m[5] * g.z,
