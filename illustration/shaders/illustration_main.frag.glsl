@@ -87,35 +87,65 @@ void main() {
           }
         }
       }
-      // Soft painter's order (shadeSample in illustration_renderer_common.cpp).
+      // Soft painter's order (shadeSample in illustration_renderer_common.cpp), as one loop
+      // over rows with a single styled() call site and a uniform trip count: the shader
+      // compiler then keeps one copy of the style model (unrolled copies made llvmpipe's
+      // masked execution several times slower). Item 2k: slot n-1-k's shell row, or the
+      // slot's row when it has no shell; 2k+1: its core row (shells only); 2n: label 0.
       vec4 sum = vec4(0.0);
-      float rest = 1.0;
-      for (int s = NSLOTS - 1; s >= 0; --s) {
-        if (!(rest > 0.0)) break;
-        float ds = D[s];
-        float c = clamp(0.5 - ds / uCoverageH, 0.0, 1.0);
-        if (!(c > 0.0)) continue;
-        float w = c * rest;
-        rest *= 1.0 - c;
-        vec4 sl = uSlots[s];
-        int id = int(sl.x), shellId = int(sl.y);
-        if (shellId > 0) {
-          float sf = clamp(0.5 + (ds + sl.z) / uCoverageH, 0.0, 1.0);
-          addRow(shellId, w * sf, ds > -0.5 * sl.z ? G[s] : -G[s], max(ds, -sl.z - ds), ct4, pMm, depth, view, H, sum);
-          addRow(id, w * (1.0 - sf), G[s], ds + sl.z, ct4, pMm, depth, view, H, sum);
-        } else {
-          addRow(id, w, G[s], ds, ct4, pMm, depth, view, H, sum);
-        }
-      }
-      if (rest > 0.0 && zeroVisible) {
-        int best = -1;
-        float bd = FIELD_SCALE;
-        for (int s = 0; s < NSLOTS; ++s)
-          if (D[s] < bd) {
-            bd = D[s];
-            best = s;
+      float rest = 1.0, wSlot = 0.0;
+      int n = uNumSlots;
+      for (int i = 0; i <= 2 * n; ++i) {
+        int id;
+        float w, dd;
+        vec3 g;
+        if (i < 2 * n) {
+          int s = n - 1 - i / 2;
+          bool first = (i & 1) == 0;
+          vec4 sl = uSlots[s];
+          float ds = D[s];
+          if (first) {
+            if (!(rest > 0.0)) break;
+            float c = clamp(0.5 - ds / uCoverageH, 0.0, 1.0);
+            wSlot = c * rest;
+            rest *= 1.0 - c;
           }
-        addRow(0, rest, best >= 0 ? G[best] : vec3(0.0), bd, ct4, pMm, depth, view, H, sum);
+          if (!(wSlot > 0.0)) continue;
+          if (sl.y > 0.0) {
+            float sf = clamp(0.5 + (ds + sl.z) / uCoverageH, 0.0, 1.0);
+            if (first) {
+              id = int(sl.y);
+              w = wSlot * sf;
+              g = ds > -0.5 * sl.z ? G[s] : -G[s];
+              dd = max(ds, -sl.z - ds);
+            } else {
+              id = int(sl.x);
+              w = wSlot * (1.0 - sf);
+              g = G[s];
+              dd = ds + sl.z;
+            }
+          } else {
+            if (!first) continue;
+            id = int(sl.x);
+            w = wSlot;
+            g = G[s];
+            dd = ds;
+          }
+        } else {
+          if (!(rest > 0.0) || !zeroVisible) break;
+          int best = -1;
+          float bd = FIELD_SCALE;
+          for (int s = 0; s < n; ++s)
+            if (D[s] < bd) {
+              bd = D[s];
+              best = s;
+            }
+          id = 0;
+          w = rest;
+          g = best >= 0 ? G[best] : vec3(0.0);
+          dd = bd;
+        }
+        addRow(id, w, g, dd, ct4, pMm, depth, view, H, sum);
       }
       if (sum.a > 0.0) {
         vec3 rgb = sum.rgb / sum.a;

@@ -17,7 +17,8 @@ uniform vec4 uBackground;
 uniform vec3 uLight, uCentre;
 uniform float uRadius, uCoverageH;
 uniform sampler3D uFields;     // per-segment distances, RGBA16_SNORM, groups of 4 stacked in z
-uniform vec4 uSlots[NSLOTS];   // (id, shell id, shell mm, 0) in paint order
+uniform vec4 uSlots[SLOT_CAP];  // (id, shell id, shell mm, 0) in paint order
+uniform int uNumSlots;         // = NSLOTS, as a uniform: loops over it are not unrolled
 uniform mat3 uGradToPhys;      // index-space gradient -> physical
 uniform vec4 uGradLo[NGROUPS], uGradHi[NGROUPS];  // where each slot's gradient matters
 uniform sampler2D uStyle;      // STYLE_ROW_TEXELS x 256: read with the STYLE_* macros

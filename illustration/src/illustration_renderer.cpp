@@ -265,6 +265,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
       slots[i * 4 + 2] = m.slots[i].shellMm;
     }
     if (!m.slots.empty()) glUniform4fv(glGetUniformLocation(p, "uSlots"), GLsizei(m.slots.size()), slots.data());
+    glUniform1i(glGetUniformLocation(p, "uNumSlots"), GLint(m.slots.size()));
     glUniformMatrix3fv(glGetUniformLocation(p, "uGradToPhys"), 1, GL_TRUE, sf.gradToPhys.data());
     std::vector<float> lo, hi;
     gradientWindows(table, m.slots, sf.coverageH, lo, hi);
