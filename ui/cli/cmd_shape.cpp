@@ -1,6 +1,7 @@
 // `vellum shape IN --labels L --segment NAME=ID[,ID..] --out DIR`: clean shapes (level-set
-// denoising, meshing, mesh repair) and the shape-aware representation (distance volume,
-// segmentation volume with shells and grown segments) for the illustration renderer.
+// denoising, meshing, mesh repair) and the shape-aware representation (per-segment distances,
+// union distance, segmentation volume with shells and grown segments) for the illustration
+// renderer.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -211,7 +212,7 @@ void addShapeCommand(CLI::App& app) {
   cmd->add_option("input", a->input, "input CT volume (file or DICOM folder)")->required();
   cmd->add_option("--labels,-l", a->labels, "label map with the segments (NRRD keeps the label table)")->required();
   cmd->add_option("--segment,-s", a->segments, "NAME=ID[,ID..] (repeatable; ids form one segment; NAME defaults to the label name for one id)")->required();
-  cmd->add_option("--out,-o", a->out, "output folder: distance.nrrd, segments.nrrd, shape.json, meshes/")->required();
+  cmd->add_option("--out,-o", a->out, "output folder: distance-<id>.nrrd + distances.json (each segment's own distance), distance.nrrd, segments.nrrd, shape.json, meshes/")->required();
   cmd->add_option("--shell", a->shells, "NAME:MM adds a 'NAME boundary' segment MM thick inside NAME (repeatable)");
   cmd->add_option("--grow", a->grows, "NAME:MM grows (MM > 0) or shrinks (MM < 0) a segment (repeatable)");
   addFlags(*cmd, a->options, ill::shapeOptionsTable());
