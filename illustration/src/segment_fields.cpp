@@ -41,7 +41,6 @@ std::vector<SegmentField> makeSegmentFields(const std::vector<VolumeF32>& distan
                                             const std::vector<Segment>& segments,
                                             const std::vector<Shell>& shells) {
   std::vector<SegmentField> out(distances.size());
-  std::vector<VolumeI16> q(distances.size());
   for (size_t i = 0; i < distances.size(); ++i) {
     out[i].id = static_cast<uint16_t>(i + 1);
     out[i].name = i < segments.size() ? segments[i].name : std::to_string(i + 1);

@@ -71,7 +71,7 @@ class IllustrationRenderer {
   /// Milliseconds of the last render's draw (glFinish-bounded), excluding uploads and the
   /// shader's first-use compilation.
   double lastRenderMs() const;
-  /// Milliseconds setScene() spent (gradient precompute + upload).
+  /// Milliseconds setScene() spent (packing + upload of the distances, block ranges).
   double lastUploadMs() const;
 
  private:
