@@ -1,4 +1,24 @@
 // Illustration ray caster, part 3: the ray march (CPU reference: illustration_renderer_cpu.cpp).
+
+// Group g of the per-segment distances (mm) at continuous index p, clamped to the grid (each
+// group is its own stack of slices: no filtering across the seam).
+vec4 fieldAt(vec3 p, int g) {
+  vec3 pc = clamp(p, vec3(0.0), uBoxDims - 1.0);
+  pc.z += float(g) * uBoxDims.z;
+  return texture(uFields, (pc + 0.5) / vec3(uBoxDims.xy, uBoxDims.z * float(NGROUPS))) * FIELD_SCALE;
+}
+
+// The style row last loaded (consecutive samples mostly style the same rows).
+int gCur = -1;
+Row gRow;
+void addRow(int id, float w, vec3 g, float dd, vec4 ct4, vec3 pMm, float depth, vec3 view, vec3 H, inout vec4 sum) {
+  if (!(w > 0.0) || !STYLE_VISIBLE_AT(id)) return;
+  if (id != gCur) {
+    gCur = id;
+    gRow = loadRow(id);
+  }
+  sum += w * styled(gRow, id, vec4(g, dd), ct4, texValue(gRow, pMm), depth, view, H);
+}
 void main() {
   FragmentRay ray = fragmentRay();
   vec3 origin = ray.origin, dir = ray.dir, o = ray.o, d = ray.d, inv = ray.inv;
@@ -7,18 +27,14 @@ void main() {
   vec3 H = normalize(uLight + view);
   bool zeroVisible = STYLE_VISIBLE_AT(0);
   float depth0 = dot(origin - uCentre, uForward), depthRate = dot(dir, uForward);
-  ivec3 dims = ivec3(uBoxDims);
 
   vec4 acc = vec4(0.0);
   float jitter = uJitter * pixelJitter(uint(gl_FragCoord.x), uint(uViewport.y - gl_FragCoord.y));
   if (tmax >= tmin) {
     int k0 = int(ceil(tmin / uStep - jitter));
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
-    int cur = -1;
-    bool visible = false;
     ivec3 lastBlock = ivec3(-1);
     bool blockOccupied = false;
-    Row r;
     for (int k = k0; k <= k1; ++k) {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
       ivec3 b = clamp(ivec3(floor(p / float(BLOCK_SIZE))), ivec3(0), uBlocks - 1);
@@ -40,101 +56,97 @@ void main() {
       float t = (float(k) + jitter) * uStep;
       vec3 pMm = origin + t * dir;
       float depth = (depth0 + t * depthRate) / (2.0 * uRadius) + 0.5;
+#ifdef USE_CT
+      vec4 ct4 = texture(uCt, (p + 0.5) / uBoxDims);
+#else
       vec4 ct4 = vec4(0.0);
+#endif
+      // Every segment's own distance and its gradient, from the interpolated field.
+      float D[SLOT_CAP];
+      vec3 G[SLOT_CAP];
+      for (int g = 0; g < NGROUPS; ++g) {
+        vec4 c = fieldAt(p, g);
+        vec4 gx = vec4(0.0), gy = vec4(0.0), gz = vec4(0.0);
+        // Gradients only where they can change the picture (gradientWindows).
+        if (any(bvec4(uvec4(greaterThan(c, uGradLo[g])) & uvec4(lessThan(c, uGradHi[g]))))) {
 #ifdef EIGHT
-      vec3 fl = floor(p);
-      ivec3 i0 = ivec3(fl);
-      vec3 tt = p - fl;
-      vec4 sum = vec4(0.0);
-      int tvLab = -1;
-      float tv = 0.0;
-      int labs[8];
-      bool anyZero = false;
-      for (int c = 0; c < 8; ++c) {
-        ivec3 v = i0 + ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        bool inside = all(greaterThanEqual(v, ivec3(0))) && all(lessThan(v, dims));
-        labs[c] = inside ? int(texelFetch(uLabels, v, 0).r) : -1;
-        anyZero = anyZero || labs[c] == 0;
-      }
-      // Outer surfaces: unclassified corners just outside a segment (0 < d) take the style of
-      // the heaviest visible segment corner, so that its coverage clamp(0.5 - d/h) follows the
-      // smooth zero level of d instead of the voxel staircase. Ids themselves are never mixed.
-      int dom = -1;
-      if (anyZero && !zeroVisible) {
-        float domW = 0.0;
-        for (int c = 0; c < 8; ++c) {
-          if (labs[c] <= 0 || !STYLE_VISIBLE_AT(labs[c])) continue;
-          vec3 wv = mix(1.0 - tt, tt, vec3(ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1)));
-          float w = wv.x * wv.y * wv.z;
-          if (w > domW) {
-            domW = w;
-            dom = labs[c];
+          gx = 0.5 * (fieldAt(p + vec3(1.0, 0.0, 0.0), g) - fieldAt(p - vec3(1.0, 0.0, 0.0), g));
+          gy = 0.5 * (fieldAt(p + vec3(0.0, 1.0, 0.0), g) - fieldAt(p - vec3(0.0, 1.0, 0.0), g));
+          gz = 0.5 * (fieldAt(p + vec3(0.0, 0.0, 1.0), g) - fieldAt(p - vec3(0.0, 0.0, 1.0), g));
+#else
+          gx = fieldAt(p + vec3(1.0, 0.0, 0.0), g) - c;
+          gy = fieldAt(p + vec3(0.0, 1.0, 0.0), g) - c;
+          gz = fieldAt(p + vec3(0.0, 0.0, 1.0), g) - c;
+#endif
+        }
+        for (int j = 0; j < 4; ++j) {
+          int s = 4 * g + j;
+          if (s < NSLOTS) {
+            D[s] = c[j];
+            G[s] = uGradToPhys * vec3(gx[j], gy[j], gz[j]);
           }
         }
       }
-      for (int c = 0; c < 8; ++c) {
-        ivec3 cc = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        ivec3 v = i0 + cc;
-        int lab = labs[c];
-        if (lab < 0) continue;
-        vec4 g4 = texelFetch(uGrad, v, 0);
-        if (lab == 0 && dom > 0 && g4.w > 0.0) lab = dom;
-        if (lab != cur) {  // visibility first: invisible rows are never loaded
-          cur = lab;
-          visible = STYLE_VISIBLE_AT(lab);
-          if (visible) r = loadRow(lab);
+      // Soft painter's order (shadeSample in illustration_renderer_common.cpp), as one loop
+      // over rows with a single styled() call site and a uniform trip count: the shader
+      // compiler then keeps one copy of the style model (unrolled copies made llvmpipe's
+      // masked execution several times slower). Item 2k: slot n-1-k's shell row, or the
+      // slot's row when it has no shell; 2k+1: its core row (shells only); 2n: label 0.
+      vec4 sum = vec4(0.0);
+      float rest = 1.0, wSlot = 0.0;
+      int n = uNumSlots;
+      for (int i = 0; i <= 2 * n; ++i) {
+        int id;
+        float w, dd;
+        vec3 g;
+        if (i < 2 * n) {
+          int s = n - 1 - i / 2;
+          bool first = (i & 1) == 0;
+          vec4 sl = uSlots[s];
+          float ds = D[s];
+          if (first) {
+            if (!(rest > 0.0)) break;
+            float c = clamp(0.5 - ds / uCoverageH, 0.0, 1.0);
+            wSlot = c * rest;
+            rest *= 1.0 - c;
+          }
+          if (!(wSlot > 0.0)) continue;
+          if (sl.y > 0.0) {
+            float sf = clamp(0.5 + (ds + sl.z) / uCoverageH, 0.0, 1.0);
+            if (first) {
+              id = int(sl.y);
+              w = wSlot * sf;
+              g = ds > -0.5 * sl.z ? G[s] : -G[s];
+              dd = max(ds, -sl.z - ds);
+            } else {
+              id = int(sl.x);
+              w = wSlot * (1.0 - sf);
+              g = G[s];
+              dd = ds + sl.z;
+            }
+          } else {
+            if (!first) continue;
+            id = int(sl.x);
+            w = wSlot;
+            g = G[s];
+            dd = ds;
+          }
+        } else {
+          if (!(rest > 0.0) || !zeroVisible) break;
+          int best = -1;
+          float bd = FIELD_SCALE;
+          for (int s = 0; s < n; ++s)
+            if (D[s] < bd) {
+              bd = D[s];
+              best = s;
+            }
+          id = 0;
+          w = rest;
+          g = best >= 0 ? G[best] : vec3(0.0);
+          dd = bd;
         }
-        if (!visible) continue;
-        vec3 wv = mix(1.0 - tt, tt, vec3(cc));
-        float w = wv.x * wv.y * wv.z;
-#ifdef USE_CT
-        ct4 = texelFetch(uCt, v, 0);
-#endif
-        if (lab != tvLab) {
-          tv = texValue(r, pMm);
-          tvLab = lab;
-        }
-        sum += w * styled(r, lab, g4, ct4, tv, depth, view, H);
+        addRow(id, w, g, dd, ct4, pMm, depth, view, H, sum);
       }
-#else
-      // The cell's lowest corner says whether the 2x2x2 cell carries one label: then that is
-      // the nearest label too, and one filtered fetch interpolates the inputs. Otherwise the
-      // nearest voxel's label, with distance and gradient interpolated over the corners that
-      // carry it only (the gradient points out of each segment: mixing would flip it).
-      vec3 fl = floor(p);
-      ivec3 i0 = ivec3(fl);
-      uvec2 cell = texelFetch(uLabels, clamp(i0, ivec3(0), dims - 1), 0).rg;
-      bool uniformCell = cell.g > 0u && all(greaterThanEqual(i0, ivec3(0)));
-      int lab = uniformCell ? int(cell.r)
-                            : int(texelFetch(uLabels, clamp(ivec3(floor(p + 0.5)), ivec3(0), dims - 1), 0).r);
-      if (lab != cur) {
-        cur = lab;
-        visible = STYLE_VISIBLE_AT(lab);
-        if (visible) r = loadRow(lab);
-      }
-      if (!visible) continue;
-      vec3 tc = (p + 0.5) / uBoxDims;
-#ifdef USE_CT
-      ct4 = texture(uCt, tc);
-#endif
-      vec3 tt = p - fl;
-      vec4 g4 = vec4(0.0);
-      float wsum = 0.0;
-      if (uniformCell) {
-        g4 = texture(uGrad, tc);
-        wsum = 1.0;
-      } else for (int c = 0; c < 8; ++c) {
-        ivec3 cc = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        ivec3 q = clamp(i0 + cc, ivec3(0), dims - 1);
-        if (int(texelFetch(uLabels, q, 0).r) != lab) continue;
-        vec3 wv = mix(1.0 - tt, tt, vec3(cc));
-        float w = wv.x * wv.y * wv.z;
-        g4 += w * texelFetch(uGrad, q, 0);
-        wsum += w;
-      }
-      g4 /= wsum;
-      vec4 sum = styled(r, lab, g4, ct4, texValue(r, pMm), depth, view, H);
-#endif
       if (sum.a > 0.0) {
         vec3 rgb = sum.rgb / sum.a;
         float aStep = 1.0 - pow(max(1.0 - sum.a, 0.0), uStep);

@@ -1,7 +1,7 @@
 // Illustration ray caster, part 1: uniforms and the per-sample style model styled() (its CPU
 // reference: styledSample() in illustration_renderer_common.cpp); then modules/render's
 // ray_common.glsl and illustration_main.frag.glsl. illustrationFragmentSource() prepends
-// #version, the variant's #defines (EIGHT/NEAREST, USE_CT, USE_TEXTURE, USE_TEXVOL), the
+// #version, the variant's #defines (EIGHT/NEAREST, NSLOTS, NGROUPS, USE_CT, USE_TEXTURE, USE_TEXVOL), the
 // constants, the style layout (STYLE_* accessors and enum constants, style_layout.hpp) and
 // solid_texture.glsl.
 layout(location = 0) out vec4 fragColor;
@@ -16,8 +16,11 @@ uniform float uStep, uJitter;
 uniform vec4 uBackground;
 uniform vec3 uLight, uCentre;
 uniform float uRadius, uCoverageH;
-uniform usampler3D uLabels;
-uniform sampler3D uGrad;       // grad d (physical), d
+uniform sampler3D uFields;     // per-segment distances, RGBA16_SNORM, groups of 4 stacked in z
+uniform vec4 uSlots[SLOT_CAP];  // (id, shell id, shell mm, 0) in paint order
+uniform int uNumSlots;         // = NSLOTS, as a uniform: loops over it are not unrolled
+uniform mat3 uGradToPhys;      // index-space gradient -> physical
+uniform vec4 uGradLo[NGROUPS], uGradHi[NGROUPS];  // where each slot's gradient matters
 uniform sampler2D uStyle;      // STYLE_ROW_TEXELS x 256: read with the STYLE_* macros
 uniform sampler3D uOccupancy;
 uniform ivec3 uBlocks;
@@ -95,8 +98,7 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   float dimW = STYLE_DEPTH_STRENGTH(r) * clamp((depth - start) / max(end - start, 1e-4), 0.0, 1.0);
   cc = cc + dimW * (STYLE_DEPTH_COLOUR(r) - cc);
   float lit = STYLE_AMBIENT(r) + STYLE_DIFFUSE(r) * max(ndl, 0.0);
-  float coverage = label > 0 ? clamp(0.5 - d / uCoverageH, 0.0, 1.0) : 1.0;
-  float aSeg = STYLE_OPACITY(r) * coverage;
+  float aSeg = STYLE_OPACITY(r);
 
   vec3 c1 = vec3(0.0);
   float a1 = 0.0;

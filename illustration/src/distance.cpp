@@ -192,7 +192,7 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
     }
     const auto components = connectedComponents(mesh);
     const double extra = m < extraBandMm.size() ? extraBandMm[m] : 0.0;
-    const double bandMm = std::max(options.bandMm > 0 ? options.bandMm : 3 * h, std::abs(extra) + 2 * h);
+    const double bandMm = std::max(options.bandMm > 0 ? options.bandMm : defaultExactBandMm(g), std::abs(extra) + 2 * h);
     const float bandVox = static_cast<float>(std::max(3.0, bandMm / h));
     const float farMm = static_cast<float>(bandVox * h);
     VolumeF32 dense(g, farMm, farMm);  // min over components of |d|

@@ -23,7 +23,7 @@ using render::detail::readRgbaRows;
 
 namespace {
 
-enum Unit : GLint { kUnitLabels = 0, kUnitGrad, kUnitStyle, kUnitOcc, kUnitCt, kUnitTf, kUnitTexVol };
+enum Unit : GLint { kUnitFields = 0, kUnitStyle, kUnitOcc, kUnitCt, kUnitTf, kUnitTexVol };
 
 void params(GLenum target, GLint filter, GLint wrap) {
   glTexParameteri(target, GL_TEXTURE_MIN_FILTER, filter);
@@ -63,14 +63,15 @@ void m3(GLuint p, const char* n, const Mat3& m) {
 
 struct IllustrationRenderer::Impl {
   render::GlContext& context;
-  GLuint labelTex = 0, gradTex = 0, styleTex = 0, occTex = 0, ctTex = 0, tfTex = 0, texVolTex = 0;
+  GLuint fieldTex = 0, styleTex = 0, occTex = 0, ctTex = 0, tfTex = 0, texVolTex = 0;
   GLuint vao = 0;
   render::detail::OffscreenTarget target;  ///< destroyed after the body of ~Impl, context still current
   bool hasScene = false;
   Geometry geometry;
   std::vector<Label> table;  // label table and largest id (style resolution)
   int maxId = 0;
-  BlockLabels blocks;
+  BlockFields blocks;
+  std::vector<PaintSlot> slots;
   std::optional<AnyVolume> ct;
   bool ctUploaded = false;
   std::string texVolPath;
@@ -95,7 +96,7 @@ struct IllustrationRenderer::Impl {
   ~Impl() {
     context.makeCurrent();
     for (auto& [k, p] : programs) glDeleteProgram(p);
-    for (GLuint* t : {&labelTex, &gradTex, &styleTex, &occTex, &ctTex, &tfTex, &texVolTex}) del(*t);
+    for (GLuint* t : {&fieldTex, &styleTex, &occTex, &ctTex, &tfTex, &texVolTex}) del(*t);
     glDeleteVertexArrays(1, &vao);
   }
 
@@ -104,7 +105,7 @@ struct IllustrationRenderer::Impl {
     if (it != programs.end()) return it->second;
     const GLuint p = buildProgram(render::detail::vertexShaderSource(), illustrationFragmentSource(v));
     glUseProgram(p);
-    const std::pair<const char*, GLint> units[] = {{"uLabels", kUnitLabels}, {"uGrad", kUnitGrad}, {"uStyle", kUnitStyle},
+    const std::pair<const char*, GLint> units[] = {{"uFields", kUnitFields}, {"uStyle", kUnitStyle},
                                                    {"uOccupancy", kUnitOcc}, {"uCt", kUnitCt}, {"uTf", kUnitTf},
                                                    {"uTexVol", kUnitTexVol}};
     for (const auto& [name, unit] : units) glUniform1i(glGetUniformLocation(p, name), unit);
@@ -149,32 +150,33 @@ void IllustrationRenderer::setScene(const ShapeScene& scene) {
   glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
   if (d.x > max3d || d.y > max3d || d.z > max3d)
     throw Error("illustrate: volume of " + d.str() + " exceeds the GL 3D texture limit of " + std::to_string(max3d));
-  const Volume4 grad = computeDistanceGradient(scene.distance, scene.segments.ids());
-  // RG8UI: the label, and whether the 2x2x2 cell whose lowest corner is this voxel carries
-  // one label only (nearest mode then interpolates with one filtered fetch).
-  const VolumeU16& lab = scene.segments.ids();
-  std::vector<uint8_t> ids(lab.size() * 2);
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i) {
-          const uint16_t l = lab(i, j, k);
-          bool uniform = true;
-          for (int c = 1; c < 8 && uniform; ++c)
-            uniform = lab(std::min(i + (c & 1), d.x - 1), std::min(j + ((c >> 1) & 1), d.y - 1),
-                          std::min(k + ((c >> 2) & 1), d.z - 1)) == l;
-          const size_t idx = lab.linearIndex(i, j, k);
-          ids[idx * 2] = uint8_t(l);
-          ids[idx * 2 + 1] = uniform ? 1 : 0;
-        }
-  });
-  del(m.labelTex);
-  del(m.gradTex);
+  // Per-segment distances: four a RGBA16_SNORM texel, groups stacked along z, uploaded in
+  // slabs (no whole-volume staging copy).
+  const FieldVolume fv = makeFieldVolume(scene, false);
+  const int groups = std::max(fv.groups, 1);
+  if (d.z * groups > max3d)
+    throw Error("illustrate: " + std::to_string(scene.fields.size()) + " segments of " + d.str() +
+                " exceed the GL 3D texture limit of " + std::to_string(max3d) + " slices (" +
+                std::to_string(groups) + " groups of 4 stacked)");
+  del(m.fieldTex);
   del(m.occTex);
   del(m.ctTex);
-  m.labelTex = make3d(GL_RG8UI, d, GL_RG_INTEGER, GL_UNSIGNED_BYTE, ids.data(), GL_NEAREST, GL_CLAMP_TO_EDGE);
-  m.gradTex = make3d(GL_RGBA16F, d, GL_RGBA, GL_HALF_FLOAT, grad.half.data(), GL_LINEAR, GL_CLAMP_TO_EDGE);
-  m.blocks = computeBlockLabels(scene.segments.ids(), scene.distance);
+  m.fieldTex = make3d(GL_RGBA16_SNORM, Dims{d.x, d.y, d.z * groups}, GL_RGBA, GL_SHORT, nullptr, GL_LINEAR,
+                      GL_CLAMP_TO_EDGE);
+  {
+    std::vector<int16_t> slab;
+    const int64_t slabZ = std::max<int64_t>(1, (int64_t(1) << 22) / std::max<int64_t>(d.x * d.y, 1));
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    for (int g = 0; g < groups; ++g)
+      for (int64_t z0 = 0; z0 < d.z; z0 += slabZ) {
+        const int64_t z1 = std::min(d.z, z0 + slabZ);
+        packFieldSlab(scene, g, z0, z1, slab);
+        glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, GLint(g * d.z + z0), GLsizei(d.x), GLsizei(d.y), GLsizei(z1 - z0),
+                        GL_RGBA, GL_SHORT, slab.data());
+      }
+  }
+  m.slots = fv.slots;
+  m.blocks = computeBlockFields(scene);
   m.occTex = make3d(GL_R8, m.blocks.blocks, GL_RED, GL_UNSIGNED_BYTE, nullptr, GL_NEAREST, GL_CLAMP_TO_EDGE);
   checkGlError("scene upload");
   m.geometry = scene.distance.geometry();
@@ -199,6 +201,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   v.texture = table.usesTexture;
   v.textureVolume = table.usesTextureVolume;
   v.ct = table.usesCt;
+  v.slots = int(m.slots.size());
   if (v.ct) {
     if (!m.ct) throw Error("illustrate: style '" + style.name + "' uses the CT (illum = ct or boundary_measure = ct) but no CT was given");
     m.uploadCt();
@@ -216,7 +219,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   glBindTexture(GL_TEXTURE_2D, m.styleTex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kRowTexels, kMaxLabels, GL_RGBA, GL_FLOAT, table.texels.data());
-  const std::vector<uint8_t> occ = blockOccupancy(m.blocks, table);
+  const std::vector<uint8_t> occ = blockOccupancy(m.blocks, table, m.slots, sf.coverageH);
   glBindTexture(GL_TEXTURE_3D, m.occTex);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(m.blocks.blocks.x), GLsizei(m.blocks.blocks.y),
                   GLsizei(m.blocks.blocks.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
@@ -224,7 +227,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfSize, GL_RGBA, GL_FLOAT, table.tf.data());
 
   const std::pair<GLint, std::pair<GLenum, GLuint>> binds[] = {
-      {kUnitLabels, {GL_TEXTURE_3D, m.labelTex}}, {kUnitGrad, {GL_TEXTURE_3D, m.gradTex}},
+      {kUnitFields, {GL_TEXTURE_3D, m.fieldTex}},
       {kUnitStyle, {GL_TEXTURE_2D, m.styleTex}},  {kUnitOcc, {GL_TEXTURE_3D, m.occTex}},
       {kUnitCt, {GL_TEXTURE_3D, m.ctTex}},        {kUnitTf, {GL_TEXTURE_1D, m.tfTex}},
       {kUnitTexVol, {GL_TEXTURE_3D, m.texVolTex}}};
@@ -254,6 +257,21 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   u1(p, "uRadius", sf.radius);
   u1(p, "uCoverageH", sf.coverageH);
   glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(m.blocks.blocks.x), GLint(m.blocks.blocks.y), GLint(m.blocks.blocks.z));
+  {
+    std::vector<float> slots(std::max<size_t>(m.slots.size(), 1) * 4, 0.f);
+    for (size_t i = 0; i < m.slots.size(); ++i) {
+      slots[i * 4] = float(m.slots[i].id);
+      slots[i * 4 + 1] = float(m.slots[i].shellId);
+      slots[i * 4 + 2] = m.slots[i].shellMm;
+    }
+    if (!m.slots.empty()) glUniform4fv(glGetUniformLocation(p, "uSlots"), GLsizei(m.slots.size()), slots.data());
+    glUniform1i(glGetUniformLocation(p, "uNumSlots"), GLint(m.slots.size()));
+    glUniformMatrix3fv(glGetUniformLocation(p, "uGradToPhys"), 1, GL_TRUE, sf.gradToPhys.data());
+    std::vector<float> lo, hi;
+    gradientWindows(table, m.slots, sf.coverageH, lo, hi);
+    glUniform4fv(glGetUniformLocation(p, "uGradLo"), GLsizei(lo.size() / 4), lo.data());
+    glUniform4fv(glGetUniformLocation(p, "uGradHi"), GLsizei(hi.size() / 4), hi.data());
+  }
   u1(p, "uTfLo", table.tfLo);
   u1(p, "uTfHi", table.tfHi);
   u3(p, "uTexDims", Vec3{double(m.texVolDims.x), double(m.texVolDims.y), double(m.texVolDims.z)});

@@ -97,69 +97,6 @@ Volume4 allocate(const Dims& d) {
 
 }  // namespace
 
-Volume4 computeDistanceGradient(const VolumeF32& dist, const VolumeU16& labels) {
-  const Dims d = dist.dims();
-  Volume4 out = allocate(d);
-  const Geometry& g = dist.geometry();
-  // Pass 1: label-aware differences (index space). Pass 2 averages them over the voxel's
-  // same-label 3x3x3 neighbourhood: the one-sided differences along staircased interfaces
-  // are noisy, and silhouette terms magnify normal noise into scratches.
-  std::vector<float> raw(size_t(d.voxelCount()) * 3);
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i) {
-          const uint16_t l = labels(i, j, k);
-          const float c = dist(i, j, k);
-          const int64_t p[3] = {i, j, k};
-          Vec3 grad;
-          for (int a = 0; a < 3; ++a) {
-            int64_t lo[3] = {i, j, k}, hi[3] = {i, j, k};
-            lo[a] = p[a] - 1;
-            hi[a] = p[a] + 1;
-            const bool okLo = lo[a] >= 0 && labels(lo[0], lo[1], lo[2]) == l;
-            const bool okHi = hi[a] < d[a] && labels(hi[0], hi[1], hi[2]) == l;
-            double v = 0;
-            if (okLo && okHi) v = 0.5 * (dist(hi[0], hi[1], hi[2]) - dist(lo[0], lo[1], lo[2]));
-            else if (okHi) v = dist(hi[0], hi[1], hi[2]) - c;
-            else if (okLo) v = c - dist(lo[0], lo[1], lo[2]);
-            else if (lo[a] >= 0 && hi[a] < d[a])  // thin: both neighbours differ
-              v = 0.5 * (dist(hi[0], hi[1], hi[2]) - dist(lo[0], lo[1], lo[2]));
-            (a == 0 ? grad.x : a == 1 ? grad.y : grad.z) = v;
-          }
-          const size_t idx = dist.linearIndex(i, j, k);
-          raw[idx * 3] = float(grad.x);
-          raw[idx * 3 + 1] = float(grad.y);
-          raw[idx * 3 + 2] = float(grad.z);
-        }
-  });
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i) {
-          const uint16_t l = labels(i, j, k);
-          Vec3 sum;
-          for (int64_t c = std::max<int64_t>(k - 1, 0); c <= std::min(k + 1, d.z - 1); ++c)
-            for (int64_t b = std::max<int64_t>(j - 1, 0); b <= std::min(j + 1, d.y - 1); ++b)
-              for (int64_t a = std::max<int64_t>(i - 1, 0); a <= std::min(i + 1, d.x - 1); ++a) {
-                if (labels(a, b, c) != l) continue;
-                const float* r = raw.data() + dist.linearIndex(a, b, c) * 3;
-                // Centre-weighted (2 at the voxel itself) so thin parts keep their own normal.
-                const double w = (a == i && b == j && c == k) ? 2.0 : 1.0;
-                sum = sum + Vec3{r[0], r[1], r[2]} * w;
-              }
-          const size_t idx = dist.linearIndex(i, j, k);
-          const double rawLen = std::sqrt(double(raw[idx * 3]) * raw[idx * 3] + double(raw[idx * 3 + 1]) * raw[idx * 3 + 1] +
-                                          double(raw[idx * 3 + 2]) * raw[idx * 3 + 2]);
-          const double len = norm(sum);
-          // Direction from the average, magnitude from the voxel (|grad d| ~ 1 for a distance).
-          const Vec3 grad = len > 1e-12 ? sum * (rawLen / len) : Vec3{};
-          storeVoxel(out, idx, toPhysical(g, grad), dist(i, j, k));
-        }
-  });
-  return out;
-}
-
 Volume4 computeCtGradient(const AnyVolume& ctAny) {
   const VolumeF32 ct = toFloat32(ctAny);
   const Dims d = ct.dims();
@@ -178,37 +115,161 @@ Volume4 computeCtGradient(const AnyVolume& ctAny) {
   return out;
 }
 
-BlockLabels computeBlockLabels(const VolumeU16& labels, const VolumeF32& distance) {
-  const Dims d = labels.dims();
-  BlockLabels b;
+FieldVolume makeFieldVolume(const ShapeScene& scene, bool decode) {
+  FieldVolume fv;
+  fv.dims = scene.distance.dims();
+  for (const auto& f : scene.fields) fv.slots.push_back({int(f.id), int(f.shellId), f.shellMm});
+  fv.groups = int((fv.slots.size() + 3) / 4);
+  if (!decode) return fv;
+  const Dims d = fv.dims;
+  const size_t n = size_t(d.voxelCount());
+  fv.value.assign(n * 4 * size_t(fv.groups), 0.f);
+  for (size_t s = 0; s < fv.slots.size(); ++s) {
+    const int16_t* src = scene.fields[s].distance.data();
+    float* dst = fv.value.data() + (s / 4) * n * 4 + s % 4;
+    parallelFor(int64_t(n), [&](int64_t b, int64_t e) {
+      for (int64_t v = b; v < e; ++v) dst[size_t(v) * 4] = decodeField(src[v]);
+    }, 1 << 16);
+  }
+  // Unused channels of the last group: far outside (as the GL upload's padding).
+  for (size_t s = fv.slots.size(); s < size_t(fv.groups) * 4; ++s) {
+    float* dst = fv.value.data() + (s / 4) * n * 4 + s % 4;
+    for (size_t v = 0; v < n; ++v) dst[v * 4] = kFieldScaleMm;
+  }
+  return fv;
+}
+
+void packFieldSlab(const ShapeScene& scene, int group, int64_t z0, int64_t z1, std::vector<int16_t>& out) {
+  const Dims d = scene.distance.dims();
+  const size_t slice = size_t(d.x * d.y);
+  out.resize(slice * size_t(z1 - z0) * 4);
+  for (int c = 0; c < 4; ++c) {
+    const size_t s = size_t(group) * 4 + size_t(c);
+    const int16_t* src = s < scene.fields.size() ? scene.fields[s].distance.data() + slice * size_t(z0) : nullptr;
+    parallelFor(int64_t(slice) * (z1 - z0), [&](int64_t b, int64_t e) {
+      for (int64_t v = b; v < e; ++v) out[size_t(v) * 4 + size_t(c)] = src ? src[v] : int16_t(32767);
+    }, 1 << 16);
+  }
+}
+
+void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH,
+                     std::vector<float>& lo, std::vector<float>& hi) {
+  const size_t n = (slots.size() + 3) / 4 * 4;
+  const float big = 1e30f;
+  lo.assign(std::max<size_t>(n, 4), big);
+  hi.assign(std::max<size_t>(n, 4), -big);
+  for (size_t s = 0; s < slots.size(); ++s) {
+    if (t.visible[0]) {
+      lo[s] = -big;
+      hi[s] = big;
+      continue;
+    }
+    const PaintSlot& sl = slots[s];
+    float reach = -1;  // 4 boundary widths of the slot's visible rows (deeper: sw = 0)
+    for (int id : {sl.id, sl.shellId})
+      if (id > 0 && id < kMaxLabels && t.visible[size_t(id)]) reach = std::max(reach, 4.f * t.row(id)[slot::BoundaryWidthMm]);
+    if (reach < 0) continue;
+    lo[s] = -(reach + (sl.shellId > 0 ? sl.shellMm + coverageH : 0.f));
+    hi[s] = 0.5f * coverageH;
+  }
+}
+
+void FieldVolume::sample(float x, float y, float z, bool central, const float* lo, const float* hi, float* d,
+                         Vec3f* g) const {
+  // As the shader: p clamped to the grid (clamp to edge), trilinear per group texel fetch.
+  const size_t n = size_t(dims.voxelCount());
+  auto fetch = [&](float px, float py, float pz, int grp) {
+    auto axis = [](float v, int64_t m, int64_t& i0, int64_t& i1, float& t) {
+      v = std::clamp(v, 0.f, float(m - 1));
+      const float f = std::floor(v);
+      i0 = std::min<int64_t>(int64_t(f), m - 1);
+      i1 = std::min<int64_t>(i0 + 1, m - 1);
+      t = v - f;
+    };
+    int64_t x0, x1, y0, y1, z0, z1;
+    float tx, ty, tz;
+    axis(px, dims.x, x0, x1, tx);
+    axis(py, dims.y, y0, y1, ty);
+    axis(pz, dims.z, z0, z1, tz);
+    const float* base = value.data() + size_t(grp) * n * 4;
+    std::array<float, 4> out{};
+    for (int c = 0; c < 8; ++c) {
+      const float w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
+      const float* v = base + size_t((((c & 4) ? z1 : z0) * dims.y + ((c & 2) ? y1 : y0)) * dims.x + ((c & 1) ? x1 : x0)) * 4;
+      for (int ch = 0; ch < 4; ++ch) out[size_t(ch)] += w * v[ch];
+    }
+    return out;
+  };
+  for (int grp = 0; grp < groups; ++grp) {
+    const auto c = fetch(x, y, z, grp);
+    std::array<float, 4> gx{}, gy{}, gz{};
+    bool need = false;
+    for (int ch = 0; ch < 4; ++ch) need = need || (c[size_t(ch)] > lo[grp * 4 + ch] && c[size_t(ch)] < hi[grp * 4 + ch]);
+    if (!need) {
+    } else if (central) {
+      const auto xp = fetch(x + 1, y, z, grp), xm = fetch(x - 1, y, z, grp);
+      const auto yp = fetch(x, y + 1, z, grp), ym = fetch(x, y - 1, z, grp);
+      const auto zp = fetch(x, y, z + 1, grp), zm = fetch(x, y, z - 1, grp);
+      for (int ch = 0; ch < 4; ++ch) {
+        gx[size_t(ch)] = 0.5f * (xp[size_t(ch)] - xm[size_t(ch)]);
+        gy[size_t(ch)] = 0.5f * (yp[size_t(ch)] - ym[size_t(ch)]);
+        gz[size_t(ch)] = 0.5f * (zp[size_t(ch)] - zm[size_t(ch)]);
+      }
+    } else {
+      const auto xp = fetch(x + 1, y, z, grp), yp = fetch(x, y + 1, z, grp), zp = fetch(x, y, z + 1, grp);
+      for (int ch = 0; ch < 4; ++ch) {
+        gx[size_t(ch)] = xp[size_t(ch)] - c[size_t(ch)];
+        gy[size_t(ch)] = yp[size_t(ch)] - c[size_t(ch)];
+        gz[size_t(ch)] = zp[size_t(ch)] - c[size_t(ch)];
+      }
+    }
+    for (int ch = 0; ch < 4; ++ch) {
+      const size_t s = size_t(grp) * 4 + size_t(ch);
+      if (s >= slots.size()) break;
+      d[s] = c[size_t(ch)];
+      g[s] = {gx[size_t(ch)], gy[size_t(ch)], gz[size_t(ch)]};
+    }
+  }
+}
+
+BlockFields computeBlockFields(const ShapeScene& scene) {
+  const Dims d = scene.distance.dims();
+  BlockFields b;
   b.blocks = {(d.x + kBlock - 1) / kBlock, (d.y + kBlock - 1) / kBlock, (d.z + kBlock - 1) / kBlock};
-  b.masks.assign(size_t(b.blocks.voxelCount()), {0, 0, 0, 0});
-  b.minAbsDistance.assign(size_t(b.blocks.voxelCount()), std::numeric_limits<float>::infinity());
+  b.slots = int(scene.fields.size());
+  const size_t nb = size_t(b.blocks.voxelCount()), ns = size_t(b.slots);
+  b.minD.assign(nb * ns, std::numeric_limits<float>::infinity());
+  b.maxD.assign(nb * ns, -std::numeric_limits<float>::infinity());
   parallelFor(b.blocks.z, [&](int64_t bz0, int64_t bz1) {
     for (int64_t bz = bz0; bz < bz1; ++bz)
       for (int64_t by = 0; by < b.blocks.y; ++by)
         for (int64_t bx = 0; bx < b.blocks.x; ++bx) {
           const size_t bi = size_t((bz * b.blocks.y + by) * b.blocks.x + bx);
-          auto& m = b.masks[bi];
-          float& minD = b.minAbsDistance[bi];
-          // The block dilated by one voxel: a sample in it can see those voxels.
-          for (int64_t k = std::max<int64_t>(bz * kBlock - 1, 0); k < std::min(bz * kBlock + kBlock + 1, d.z); ++k)
-            for (int64_t j = std::max<int64_t>(by * kBlock - 1, 0); j < std::min(by * kBlock + kBlock + 1, d.y); ++j)
-              for (int64_t i = std::max<int64_t>(bx * kBlock - 1, 0); i < std::min(bx * kBlock + kBlock + 1, d.x); ++i) {
-                const int l = std::min<int>(labels(i, j, k), kMaxLabels - 1);
-                m[size_t(l >> 6)] |= uint64_t(1) << (l & 63);
-                minD = std::min(minD, std::abs(distance(i, j, k)));
-              }
+          for (size_t s = 0; s < ns; ++s) {
+            const VolumeI16& f = scene.fields[s].distance;
+            int lo = 32767, hi = -32767;
+            // The block dilated by two voxels: trilinear samples and their +-1 voxel stencil.
+            for (int64_t k = std::max<int64_t>(bz * kBlock - 2, 0); k < std::min(bz * kBlock + kBlock + 2, d.z); ++k)
+              for (int64_t j = std::max<int64_t>(by * kBlock - 2, 0); j < std::min(by * kBlock + kBlock + 2, d.y); ++j)
+                for (int64_t i = std::max<int64_t>(bx * kBlock - 2, 0); i < std::min(bx * kBlock + kBlock + 2, d.x); ++i) {
+                  const int v = f(i, j, k);
+                  lo = std::min(lo, v);
+                  hi = std::max(hi, v);
+                }
+            b.minD[bi * ns + s] = decodeField(int16_t(lo));
+            b.maxD[bi * ns + s] = decodeField(int16_t(hi));
+          }
         }
   });
   return b;
 }
 
-void computeBlockCtRange(BlockLabels& b, const AnyVolume& ctAny) {
+void computeBlockCtRange(BlockFields& b, const AnyVolume& ctAny) {
   const VolumeF32 ct = toFloat32(ctAny);
   const Dims d = ct.dims();
-  b.ctMin.assign(b.masks.size(), std::numeric_limits<float>::infinity());
-  b.ctMax.assign(b.masks.size(), -std::numeric_limits<float>::infinity());
+  const size_t nb = size_t(b.blocks.voxelCount());
+  b.ctMin.assign(nb, std::numeric_limits<float>::infinity());
+  b.ctMax.assign(nb, -std::numeric_limits<float>::infinity());
   parallelFor(b.blocks.z, [&](int64_t bz0, int64_t bz1) {
     for (int64_t bz = bz0; bz < bz1; ++bz)
       for (int64_t by = 0; by < b.blocks.y; ++by)
@@ -227,42 +288,61 @@ void computeBlockCtRange(BlockLabels& b, const AnyVolume& ctAny) {
   });
 }
 
-std::vector<uint8_t> blockOccupancy(const BlockLabels& b, const StyleTable& t) {
-  std::array<uint64_t, 4> vis{0, 0, 0, 0}, band{0, 0, 0, 0}, ctOnly{0, 0, 0, 0};
-  std::array<float, kMaxLabels> bandWidth{};
+std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
+                                    float coverageH) {
   const bool haveCtRange = !b.ctMin.empty();
-  for (int l = 0; l < kMaxLabels; ++l) {
-    if (!t.visible[size_t(l)]) continue;
-    const StyleRow r = t.row(l);
-    const bool ctAlpha = r[slot::LambdaIllum] > 0.f && r[slot::Illum] == IllumMode::Ct;
-    // Boundary-only rows: k_c = 0 on the distance measure, and no CT-alpha term.
-    const bool bandOnly =
-        r[slot::BoundaryMeasure] == BoundaryMeasure::Distance && r[slot::BoundaryKc] <= 0.f && !ctAlpha;
-    const bool onlyCt = haveCtRange && ctAlpha && r[slot::LambdaColouring] <= 0.f && r[slot::LambdaTexture] <= 0.f;
-    auto& set = onlyCt ? ctOnly : bandOnly ? band : vis;
-    set[size_t(l >> 6)] |= uint64_t(1) << (l & 63);
-    bandWidth[size_t(l)] = r[slot::BoundaryWidthMm];
-  }
   // Prefix count of TF entries with opacity: "any opacity in [i0, i1]" in O(1).
   std::vector<int> opaque(kTfSize + 1, 0);
   for (int i = 0; i < kTfSize; ++i) opaque[size_t(i + 1)] = opaque[size_t(i)] + (t.tf[size_t(4 * i + 3)] > 0.f ? 1 : 0);
   auto tfIndex = [&](float v) {
     return std::clamp((v - t.tfLo) / (t.tfHi - t.tfLo), 0.f, 1.f) * float(kTfSize - 1);
   };
-  std::vector<uint8_t> occ(b.masks.size());
-  for (size_t i = 0; i < occ.size(); ++i) {
-    const auto& m = b.masks[i];
-    bool on = (m[0] & vis[0]) | (m[1] & vis[1]) | (m[2] & vis[2]) | (m[3] & vis[3]);
-    for (int w = 0; w < 4 && !on; ++w)
-      for (uint64_t bits = m[size_t(w)] & band[size_t(w)]; bits && !on; bits &= bits - 1)
-        on = b.minAbsDistance[i] < bandWidth[size_t(w * 64 + std::countr_zero(bits))];
-    if (!on && ((m[0] & ctOnly[0]) | (m[1] & ctOnly[1]) | (m[2] & ctOnly[2]) | (m[3] & ctOnly[3]))) {
-      // Samples interpolate between TF entries: cover the neighbours of the range's ends.
-      const int i0 = std::max(int(std::floor(tfIndex(b.ctMin[i]))) - 1, 0);
-      const int i1 = std::min(int(std::ceil(tfIndex(b.ctMax[i]))) + 1, kTfSize - 1);
-      on = opaque[size_t(i1 + 1)] - opaque[size_t(i0)] > 0;
+  auto tfOpaque = [&](size_t bi) {
+    // Samples interpolate between TF entries: cover the neighbours of the range's ends.
+    const int i0 = std::max(int(std::floor(tfIndex(b.ctMin[bi]))) - 1, 0);
+    const int i1 = std::min(int(std::ceil(tfIndex(b.ctMax[bi]))) + 1, kTfSize - 1);
+    return opaque[size_t(i1 + 1)] - opaque[size_t(i0)] > 0;
+  };
+  // Per row: may it have opacity over a distance range [lo, hi] of its own surface, and over
+  // this block's CT range?
+  auto rowMay = [&](int id, float lo, float hi, size_t bi) {
+    if (id <= 0 || id >= kMaxLabels || !t.visible[size_t(id)]) return false;
+    const StyleRow r = t.row(id);
+    const bool ctAlpha = r[slot::LambdaIllum] > 0.f && r[slot::Illum] == IllumMode::Ct;
+    const bool bandOnly = r[slot::BoundaryMeasure] == BoundaryMeasure::Distance && r[slot::BoundaryKc] <= 0.f && !ctAlpha;
+    if (bandOnly) {
+      const float w = r[slot::BoundaryWidthMm];
+      if (!(lo < w && hi > -w)) return false;
     }
-    occ[i] = on ? 255 : 0;
+    const bool onlyCt = haveCtRange && ctAlpha && r[slot::LambdaColouring] <= 0.f && r[slot::LambdaTexture] <= 0.f;
+    return !onlyCt || tfOpaque(bi);
+  };
+  const size_t ns = slots.size();
+  const float half = 0.5f * coverageH;
+  std::vector<uint8_t> occ(size_t(b.blocks.voxelCount()));
+  for (size_t bi = 0; bi < occ.size(); ++bi) {
+    bool on = false, covered = false;
+    for (size_t s = 0; s < ns && !on; ++s) {
+      const float lo = b.minD[bi * ns + s], hi = b.maxD[bi * ns + s];
+      if (hi < -half) covered = true;
+      if (!(lo < half)) continue;  // coverage 0 over the whole block
+      const PaintSlot& sl = slots[s];
+      if (sl.shellId > 0) {
+        // Shell (no band test: its own distance folds at -t/2); core: d + t.
+        const float t0 = sl.shellMm, big = std::numeric_limits<float>::max();
+        on = rowMay(sl.shellId, -big, big, bi) ||
+             (lo < -t0 + half && rowMay(sl.id, lo + t0, hi + t0, bi));
+      } else {
+        on = rowMay(sl.id, lo, hi, bi);
+      }
+    }
+    if (!on && !covered && t.visible[0]) {
+      const StyleRow r = t.row(0);
+      const bool onlyCt = haveCtRange && r[slot::LambdaIllum] > 0.f && r[slot::Illum] == IllumMode::Ct &&
+                          r[slot::LambdaColouring] <= 0.f && r[slot::LambdaTexture] <= 0.f;
+      on = !onlyCt || tfOpaque(bi);
+    }
+    occ[bi] = on ? 255 : 0;
   }
   return occ;
 }
@@ -439,8 +519,7 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
   const float ambient = r[slot::Ambient], diffuse = r[slot::Diffuse];
   const float specular = r[slot::Specular], shininess = r[slot::Shininess];
   const float lit = ambient + diffuse * std::max(ndl, 0.f);
-  const float coverage = label > 0 ? clamp01(0.5f - d / f.coverageH) : 1.f;
-  const float aSeg = r[slot::Opacity] * coverage;
+  const float aSeg = r[slot::Opacity];
 
   // I_illum
   float c1[3] = {0, 0, 0}, a1 = 0;
@@ -487,6 +566,49 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
   const float am = std::min(a * m, 1.f);
   const float scale = am / a;
   return {rgb[0] * scale, rgb[1] * scale, rgb[2] * scale, am};
+}
+
+std::array<float, 4> shadeSample(const StyleTable& t, const std::vector<PaintSlot>& slots, const float* d,
+                                 const Vec3f* gradPhys, const float* ct4, const TextureVolume* texVol, Vec3f pMm,
+                                 float depth, Vec3f view, const SampleFrame& f) {
+  std::array<float, 4> sum{0, 0, 0, 0};
+  auto add = [&](int id, float w, Vec3f g, float dd) {
+    if (!(w > 0.f) || !t.visible[size_t(id)]) return;
+    const float g4[4] = {g.x, g.y, g.z, dd};
+    const auto v = styledSample(t, id, g4, ct4, texVol, pMm, depth, view, f);
+    for (int ch = 0; ch < 4; ++ch) sum[size_t(ch)] += w * v[size_t(ch)];
+  };
+  float rest = 1.f;
+  for (int s = int(slots.size()) - 1; s >= 0; --s) {  // later slots paint over earlier ones
+    if (!(rest > 0.f)) break;
+    const float ds = d[s];
+    const float c = clamp01(0.5f - ds / f.coverageH);
+    if (!(c > 0.f)) continue;
+    const float w = c * rest;
+    rest *= 1.f - c;
+    const PaintSlot& sl = slots[size_t(s)];
+    const Vec3f g = gradPhys[s];
+    if (sl.shellId > 0) {
+      // The shell -t < d <= 0 and the core below it, split smoothly at d = -t; each with
+      // its own surface (the shell's inner one faces inwards).
+      const float sf = clamp01(0.5f + (ds + sl.shellMm) / f.coverageH);
+      add(sl.shellId, w * sf, ds > -0.5f * sl.shellMm ? g : g * -1.f, std::max(ds, -sl.shellMm - ds));
+      add(sl.id, w * (1.f - sf), g, ds + sl.shellMm);
+    } else {
+      add(sl.id, w, g, ds);
+    }
+  }
+  if (rest > 0.f && t.visible[0]) {  // unclassified: the nearest surface's distance
+    int best = -1;
+    float bd = kFieldScaleMm;
+    for (int s = 0; s < int(slots.size()); ++s)
+      if (d[s] < bd) {
+        bd = d[s];
+        best = s;
+      }
+    add(0, rest, best >= 0 ? gradPhys[best] : Vec3f{}, bd);
+  }
+  return sum;
 }
 
 }  // namespace vellum::illustration::detail

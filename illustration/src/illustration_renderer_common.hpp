@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <vector>
+#include <algorithm>
 
 #include "style_layout.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
@@ -57,28 +58,61 @@ struct Volume4 {
   /// Trilinear with clamp-to-edge at continuous index coordinates (GL_LINEAR + CLAMP_TO_EDGE).
   std::array<float, 4> sampleLinear(float x, float y, float z) const;
 };
-/// (grad d in physical mm, d): label-aware differences (a neighbour with another label is
-/// not used: one-sided there), so interfaces between segments keep each side's normal.
-Volume4 computeDistanceGradient(const VolumeF32& distance, const VolumeU16& labels);
 /// (grad CT in HU/mm physical, CT value).
 Volume4 computeCtGradient(const AnyVolume& ct);
 
-/// Per 8^3 block, the labels present in the block dilated by one voxel (256-bit masks).
-struct BlockLabels {
+/// One paint slot: a segment's field, its id and its shell (ShapeScene::fields, id order).
+struct PaintSlot {
+  int id = 0, shellId = 0;
+  float shellMm = 0;
+};
+/// Field value -> mm as GL decodes RGBA16_SNORM texels: max(v / 32767, -1) * kFieldScaleMm.
+constexpr float kFieldScaleMm = float(32767 * kFieldQuantumMm);
+inline float decodeField(int16_t v) { return std::max(float(v) / 32767.f, -1.f) * kFieldScaleMm; }
+
+/// The per-segment distances as the shader sees them: slot s is channel s % 4 of group s / 4;
+/// groups are stacked along z in one RGBA16_SNORM texture (dims.x, dims.y, dims.z * groups).
+struct FieldVolume {
+  Dims dims;
+  int groups = 0;
+  std::vector<PaintSlot> slots;
+  std::vector<float> value;  ///< CPU only: decoded mm, [group][z][y][x][4]
+  /// Trilinear (clamp to edge) at continuous index p for every slot: d (mm) and the index-
+  /// space gradient of the interpolated field, central (+-1 voxel) or forward differences.
+  /// A group none of whose slots s has lo[s] < d < hi[s] gets zero gradients (not fetched:
+  /// they would never be used; gradientWindows).
+  void sample(float x, float y, float z, bool central, const float* lo, const float* hi, float* d,
+              Vec3f* gradIndex) const;
+};
+/// Per slot (padded to whole groups), the open distance interval (lo, hi) where its gradient
+/// can change the picture: the slot covers the sample (d < h/2), one of its rows is visible,
+/// and the normal terms have not faded out (|d| < 4 boundary widths, see styledSample);
+/// everywhere when label 0 shows (it takes the nearest surface's gradient); empty otherwise.
+void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH,
+                     std::vector<float>& lo, std::vector<float>& hi);
+/// Slots from the scene; `decode` fills value (the CPU reference).
+FieldVolume makeFieldVolume(const ShapeScene& scene, bool decode);
+/// Interleaved RGBA int16 texels of group g, slices [z0, z1) (the GL upload, slab by slab).
+void packFieldSlab(const ShapeScene& scene, int group, int64_t z0, int64_t z1, std::vector<int16_t>& out);
+
+/// Per 8^3 block (dilated by two voxels: trilinear + the gradient stencil), each slot's
+/// distance range, for empty-space skipping.
+struct BlockFields {
   Dims blocks;
-  std::vector<std::array<uint64_t, 4>> masks;
-  std::vector<float> minAbsDistance;  ///< smallest |d| in the dilated block (mm)
+  int slots = 0;
+  std::vector<float> minD, maxD;       ///< blocks x slots (mm)
   std::vector<float> ctMin, ctMax;     ///< CT value range in the dilated block (when a CT is set)
 };
-/// Fills ctMin/ctMax from the CT (same grid as the labels).
-void computeBlockCtRange(BlockLabels& b, const AnyVolume& ct);
-BlockLabels computeBlockLabels(const VolumeU16& labels, const VolumeF32& distance);
-/// A block is occupied when a visible row's label is in it, and that row can have opacity
-/// there: rows whose boundary enhancement has k_c = 0 on the distance measure are zero
-/// wherever |d| >= boundary_width_mm, so blocks farther from every surface are skipped; rows
-/// that are only the CT's transfer function (l2 = l3 = 0, illum = ct) are zero where the TF
-/// has no opacity over the block's CT range (needs ctMin/ctMax).
-std::vector<uint8_t> blockOccupancy(const BlockLabels& b, const StyleTable& t);
+BlockFields computeBlockFields(const ShapeScene& scene);
+/// Fills ctMin/ctMax from the CT (same grid as the fields).
+void computeBlockCtRange(BlockFields& b, const AnyVolume& ct);
+/// A block is occupied when a visible row can have opacity there: its slot's coverage is
+/// non-zero (min d < h/2); rows whose boundary enhancement has k_c = 0 on the distance measure
+/// are zero wherever |d| >= boundary_width_mm; rows that are only the CT's transfer function
+/// are zero where the TF has no opacity over the block's CT range (needs ctMin/ctMax); label
+/// 0 shows wherever no slot covers the whole block.
+std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
+                                    float coverageH);
 
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].
 struct TextureVolume {
@@ -93,13 +127,24 @@ struct SampleFrame {
   Vec3f light, centre;
   Vec3f forward;
   float radius = 1, coverageH = 1, stepMm = 1;
+  std::array<float, 9> gradToPhys{};  ///< index-space gradient -> physical (D * diag(1/spacing)), row-major
 };
 
-/// Styled RGBA (premultiplied, alpha per mm before the step correction) of one voxel/sample.
-/// g4 = (grad d, d), ct4 = (grad CT, CT) or null, view = unit vector to the eye.
+/// Styled RGBA (premultiplied, alpha per mm before the step correction) of one row at a
+/// sample. g4 = (grad d, d) of the row's own surface, ct4 = (grad CT, CT) or null, view = unit
+/// vector to the eye. (Coverage is the caller's membership weight: shadeSample.)
 std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g4, const float* ct4,
                                   const TextureVolume* texVol, Vec3f pMm, float depth, Vec3f view,
                                   const SampleFrame& f);
+
+/// The sample's RGBA: a soft painter's order over the slots, last slot first. PaintSlot s covers
+/// c_s = clamp(0.5 - d_s / h, 0, 1) of the sample; its weight is c_s times what later slots
+/// left uncovered, and it is styled with its OWN distance and gradient (a bone inside an
+/// invisible skin looks as the bone alone). A shell splits its slot at d = -shellMm; label 0
+/// takes what is left, with the nearest surface's distance. d: mm; gradPhys: physical.
+std::array<float, 4> shadeSample(const StyleTable& t, const std::vector<PaintSlot>& slots, const float* d,
+                                 const Vec3f* gradPhys, const float* ct4, const TextureVolume* texVol, Vec3f pMm,
+                                 float depth, Vec3f view, const SampleFrame& f);
 
 }  // namespace vellum::illustration::detail
 

@@ -32,6 +32,16 @@ void validateScene(const ShapeScene& scene) {
                 " (the shape folder must be made from this CT)");
   if (scene.segments.maxId() >= kMaxLabels)
     throw Error("shape scene: segment ids must be <= 255 (found " + std::to_string(scene.segments.maxId()) + ")");
+  if (scene.fields.empty() && scene.segments.maxId() > 0)
+    throw Error("shape scene: no per-segment distances (make the shape folder again with `vellum shape`)");
+  for (size_t i = 0; i < scene.fields.size(); ++i) {
+    const SegmentField& f = scene.fields[i];
+    if (!f.distance.geometry().approxEqual(scene.distance.geometry()))
+      throw Error("shape scene: the distance of segment '" + f.name + "' has grid " + f.distance.dims().str() +
+                  ", not the scene's " + scene.distance.dims().str());
+    if (f.id == 0 || f.id >= kMaxLabels || f.shellId >= kMaxLabels || (i > 0 && f.id <= scene.fields[i - 1].id))
+      throw Error("shape scene: segment '" + f.name + "': ids must increase within 1..255");
+  }
 }
 
 ShapeScene loadShapeFolder(const std::filesystem::path& dir) {
@@ -52,6 +62,11 @@ ShapeScene loadShapeFolder(const std::filesystem::path& dir) {
                                s.distance.dims().str());
   if (s.segments.maxId() >= kMaxLabels)
     throw FileError(sPath, "segment ids must be <= 255 (found " + std::to_string(s.segments.maxId()) + ")");
+  s.fields = loadSegmentFields(dir);
+  for (const auto& f : s.fields)
+    if (!f.distance.geometry().approxEqual(s.distance.geometry()))
+      throw FileError(dir / ("distance-" + std::to_string(f.id) + ".nrrd"),
+                      "grid " + f.distance.dims().str() + " differs from distance.nrrd's " + s.distance.dims().str());
   return s;
 }
 
@@ -62,7 +77,8 @@ struct CpuContext {
   const IllustrationSettings& settings;
   render::detail::Frame frame;
   StyleTable table;
-  Volume4 grad, ct;
+  FieldVolume fields;
+  Volume4 ct;
   bool useCt = false;
   std::optional<TextureVolume> texVol;
   SampleFrame sf;
@@ -73,12 +89,15 @@ Vec3f f3(const Vec3& v) { return {float(v.x), float(v.y), float(v.z)}; }
 void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
   const auto& s = cx.settings.render;
   const auto& f = cx.frame;
-  const Geometry& g = cx.scene.distance.geometry();
-  const Dims dims = g.dims;
-  const VolumeU16& labels = cx.scene.segments.ids();
-  const bool eight = cx.settings.interpolation == Interpolation::Eight;
+  const bool central = cx.settings.interpolation == Interpolation::Eight;
   const TextureVolume* tv = cx.texVol ? &*cx.texVol : nullptr;
   const Vec3 c0{cx.sf.centre.x, cx.sf.centre.y, cx.sf.centre.z};
+  const size_t ns = cx.fields.slots.size();
+  std::vector<float> d(ns + 1);
+  std::vector<Vec3f> gi(ns + 1), gp(ns + 1);
+  const auto& m = cx.sf.gradToPhys;
+  std::vector<float> lo, hi;
+  gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
   for (int y = y0; y < y1; ++y)
     for (int x = 0; x < s.width; ++x) {
       const render::detail::Ray ray = render::detail::pixelRay(f, x, y);
@@ -90,68 +109,16 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
         const double t = (double(k) + clip.jitter) * f.stepMm;
         const Vec3f pMm = f3(ray.origin + ray.dir * t);
         const float depth = float((dot(ray.origin - c0, f.forward) + t * dot(ray.dir, f.forward)) / (2.0 * cx.sf.radius) + 0.5);
-        std::array<float, 4> sum{0, 0, 0, 0};
-        if (eight) {
-          const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
-          const int64_t i0 = int64_t(fx), j0 = int64_t(fy), k0 = int64_t(fz);
-          const float tx = float(p.x - fx), ty = float(p.y - fy), tz = float(p.z - fz);
-          int labs[8];
-          bool anyZero = false;
-          for (int c = 0; c < 8; ++c) {
-            const int64_t i = i0 + (c & 1), j = j0 + ((c >> 1) & 1), kk = k0 + ((c >> 2) & 1);
-            labs[c] = g.contains(i, j, kk) ? int(labels(i, j, kk)) : -1;
-            anyZero = anyZero || labs[c] == 0;
-          }
-          auto weight = [&](int c) {
-            return ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
-          };
-          int dom = -1;  // outer-surface extension (see the shader)
-          if (anyZero && !cx.table.visible[0]) {
-            float domW = 0;
-            for (int c = 0; c < 8; ++c)
-              if (labs[c] > 0 && cx.table.visible[size_t(labs[c])] && weight(c) > domW) {
-                domW = weight(c);
-                dom = labs[c];
-              }
-          }
-          for (int c = 0; c < 8; ++c) {
-            const int64_t i = i0 + (c & 1), j = j0 + ((c >> 1) & 1), kk = k0 + ((c >> 2) & 1);
-            int lab = labs[c];
-            if (lab < 0) continue;
-            if (lab == 0 && dom > 0 && cx.grad.at(i, j, kk)[3] > 0.f) lab = dom;
-            if (!cx.table.visible[size_t(lab)]) continue;
-            const float w = weight(c);
-            const auto v = styledSample(cx.table, lab, cx.grad.at(i, j, kk), cx.useCt ? cx.ct.at(i, j, kk) : nullptr,
-                                        tv, pMm, depth, view, cx.sf);
-            for (int ch = 0; ch < 4; ++ch) sum[size_t(ch)] += w * v[size_t(ch)];
-          }
-        } else {
-          const int64_t i = std::clamp<int64_t>(int64_t(std::floor(p.x + 0.5)), 0, dims.x - 1);
-          const int64_t j = std::clamp<int64_t>(int64_t(std::floor(p.y + 0.5)), 0, dims.y - 1);
-          const int64_t kk = std::clamp<int64_t>(int64_t(std::floor(p.z + 0.5)), 0, dims.z - 1);
-          const int lab = labels(i, j, kk);
-          if (!cx.table.visible[size_t(lab)]) continue;
-          // Same-label corners only (see the shader).
-          const double fx = std::floor(p.x), fy = std::floor(p.y), fz = std::floor(p.z);
-          const int64_t i0 = int64_t(fx), j0 = int64_t(fy), k0 = int64_t(fz);
-          const float tx = float(p.x - fx), ty = float(p.y - fy), tz = float(p.z - fz);
-          std::array<float, 4> g4{0, 0, 0, 0};
-          float wsum = 0;
-          for (int c = 0; c < 8; ++c) {
-            const int64_t qi = std::clamp<int64_t>(i0 + (c & 1), 0, dims.x - 1);
-            const int64_t qj = std::clamp<int64_t>(j0 + ((c >> 1) & 1), 0, dims.y - 1);
-            const int64_t qk = std::clamp<int64_t>(k0 + ((c >> 2) & 1), 0, dims.z - 1);
-            if (labels(qi, qj, qk) != lab) continue;
-            const float w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
-            const float* gv = cx.grad.at(qi, qj, qk);
-            for (int ch = 0; ch < 4; ++ch) g4[size_t(ch)] += w * gv[ch];
-            wsum += w;
-          }
-          for (auto& v : g4) v /= wsum;
-          std::array<float, 4> c4{};
-          if (cx.useCt) c4 = cx.ct.sampleLinear(float(p.x), float(p.y), float(p.z));
-          sum = styledSample(cx.table, lab, g4.data(), cx.useCt ? c4.data() : nullptr, tv, pMm, depth, view, cx.sf);
+        cx.fields.sample(float(p.x), float(p.y), float(p.z), central, lo.data(), hi.data(), d.data(), gi.data());
+        for (size_t i = 0; i < ns; ++i) {
+          const Vec3f g = gi[i];
+          gp[i] = {m[0] * g.x + m[1] * g.y + m[2] * g.z, m[3] * g.x + m[4] * g.y + m[5] * g.z,
+                   m[6] * g.x + m[7] * g.y + m[8] * g.z};
         }
+        std::array<float, 4> c4{};
+        if (cx.useCt) c4 = cx.ct.sampleLinear(float(p.x), float(p.y), float(p.z));
+        const std::array<float, 4> sum = shadeSample(cx.table, cx.fields.slots, d.data(), gp.data(),
+                                                     cx.useCt ? c4.data() : nullptr, tv, pMm, depth, view, cx.sf);
         if (sum[3] > 0.f) {
           const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm));
           for (int ch = 0; ch < 3; ++ch) acc[ch] += (1.f - acc[3]) * aStep * (sum[size_t(ch)] / sum[3]);
@@ -189,8 +156,13 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
   sf.forward = f3(f.forward);
   const Vec3 L = normalized(f.right * t.light.x + f.up * t.light.y - f.forward * t.light.z);
   sf.light = f3(L);
-  sf.coverageH = float(std::min({g.spacing.x, g.spacing.y, g.spacing.z}));
+  // The coverage ramp is one ray step wide: as sharp as the sampling resolves, and the same
+  // figure whatever the grid's spacing (one voxel at the default step).
+  sf.coverageH = float(f.stepMm);
   sf.stepMm = float(f.stepMm);
+  const Mat3 m = g.direction * Mat3::fromColumns({1 / g.spacing.x, 0, 0}, {0, 1 / g.spacing.y, 0}, {0, 0, 1 / g.spacing.z});
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) sf.gradToPhys[size_t(r * 3 + c)] = float(m(r, c));
   return sf;
 }
 
@@ -201,7 +173,7 @@ RgbaImage renderIllustrationCpu(const ShapeScene& scene, const Style& style, con
   CpuContext cx{scene, settings, render::detail::makeFrame(scene.distance.geometry(), nullptr, settings.render),
                 packStyle(style, scene.segments.table(), scene.segments.maxId(), scene.distance.geometry()), {}, {},
                 false, {}, {}};
-  cx.grad = computeDistanceGradient(scene.distance, scene.segments.ids());
+  cx.fields = makeFieldVolume(scene, true);
   if (cx.table.usesCt) {
     if (!scene.ct) throw Error("illustrate: style '" + style.name + "' uses the CT (illum = ct or boundary_measure = ct) but no CT was given");
     cx.ct = computeCtGradient(*scene.ct);

@@ -1,5 +1,7 @@
 #include "illustration_renderer_shader.hpp"
 
+#include <algorithm>
+#include <iomanip>
 #include <sstream>
 
 #include "illustration_renderer_common.hpp"
@@ -15,6 +17,9 @@ std::string illustrationFragmentSource(const ShaderVariant& v) {
   if (v.ct) s << "#define USE_CT\n";
   if (v.texture) s << "#define USE_TEXTURE\n";
   if (v.textureVolume) s << "#define USE_TEXVOL\n";
+  s << "#define NSLOTS " << v.slots << "\n#define SLOT_CAP " << std::max(v.slots, 1) << "\n";
+  s << "#define NGROUPS " << std::max((v.slots + 3) / 4, 1) << "\n";
+  s << "#define FIELD_SCALE " << std::setprecision(9) << kFieldScaleMm << "\n";
   s << "#define TF_SIZE " << kTfSize << "\n";
   s << "#define BLOCK_SIZE " << kBlock << "\n#define MAX_STEPS " << (1 << 16) << "\n";
   s << "#define EARLY_ALPHA " << kEarlyAlpha << "\n";

@@ -5,11 +5,12 @@
 namespace vellum::illustration::detail {
 
 struct ShaderVariant {
-  bool eight = true;        ///< EIGHT (8 voxel centres) else NEAREST
+  bool eight = true;        ///< EIGHT (central-difference gradients) else NEAREST (forward)
   bool ct = false;          ///< USE_CT: CT value + gradient texture, TF table
   bool texture = false;     ///< USE_TEXTURE: procedural solid textures
   bool textureVolume = false;  ///< USE_TEXVOL
-  int key() const { return int(eight) | int(ct) << 1 | int(texture) << 2 | int(textureVolume) << 3; }
+  int slots = 0;            ///< NSLOTS: per-segment distance fields (four a texel group)
+  int key() const { return int(eight) | int(ct) << 1 | int(texture) << 2 | int(textureVolume) << 3 | slots << 4; }
 };
 
 std::string illustrationFragmentSource(const ShaderVariant& v);

@@ -163,6 +163,7 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
       dist[i].setBackground(dist[i].background() - std::abs(offset[i]));
     }
   buildRepresentation(dist, segments, shells, r.distance, r.segmentation);
+  r.fields = makeSegmentFields(dist, segments, shells);
   r.times.segmentationMs = msSince(t0);
   progress.advance();
   progress.end();
@@ -184,7 +185,7 @@ const params::Table<ShapeOptions>& shapeOptionsTable() {
       params::real<S>("adaptivity", [](auto& o) -> auto& { return o.adaptivity; },
                       {"Meshing adaptivity", "OpenVDB volumeToMesh adaptivity; 0 = uniform", "", 0, 1}),
       params::real<S>("band", [](auto& o) -> auto& { return o.exactBandMm; },
-                      {"Exact band", "half-width of the band of exact distances; 0 = three voxels", "mm", 0, 1000}),
+                      {"Exact band", "half-width of the band of exact distances; 0 = 3 voxels of the smallest spacing, at least 2 of the largest", "mm", 0, 1000}),
   };
   return table;
 }

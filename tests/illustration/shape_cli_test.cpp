@@ -8,11 +8,13 @@
 
 #include "child_process.hpp"
 #include "test_data.hpp"
+#include "vellum/illustration/shape.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 
 using namespace vellum;
 namespace fs = std::filesystem;
+namespace ill = vellum::illustration;
 
 namespace {
 int run(const std::string& args, const fs::path& log) {
@@ -41,7 +43,8 @@ TEST(ShapeCli, EndToEndOnPhantom) {
             0)
       << slurp(dir / "log.txt");
   for (const char* f : {"distance.nrrd", "segments.nrrd", "shape.json", "meshes/body.stl",
-                        "meshes/femur.stl", "meshes/muscle.stl"})
+                        "meshes/femur.stl", "meshes/muscle.stl", "distances.json", "distance-1.nrrd",
+                        "distance-2.nrrd", "distance-3.nrrd"})
     EXPECT_TRUE(fs::exists(out / f)) << f;
   EXPECT_TRUE(fs::exists(dir / "r.json"));
   const auto j = nlohmann::json::parse(slurp(out / "shape.json"));
@@ -82,6 +85,16 @@ TEST(ShapeCli, EndToEndOnPhantom) {
   // Inside the union negative, outside positive.
   for (size_t n = 0; n < d.size(); n += 97)
     EXPECT_EQ(d.data()[n] < 0, seg.ids().data()[n] != 0) << n;
+  // Per-segment fields: femur (id 2) with its 2 mm shell (id 4); negative where its voxels are.
+  const auto fields = ill::loadSegmentFields(out);
+  ASSERT_EQ(fields.size(), 3u);
+  EXPECT_EQ(fields[1].name, "femur");
+  EXPECT_EQ(fields[1].shellId, 4);
+  EXPECT_FLOAT_EQ(fields[1].shellMm, 2.0f);
+  for (size_t n = 0; n < d.size(); n += 97) {
+    const auto id = seg.ids().data()[n];
+    if (id == 2 || id == 4) EXPECT_LT(fields[1].distance.data()[n], 0) << n;
+  }
 }
 
 TEST(ShapeCli, BadSegmentSpecsGiveOneLineErrors) {

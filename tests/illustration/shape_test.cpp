@@ -300,6 +300,69 @@ TEST(ShapeRepresentation, ShellThicknessAndGrow) {
   }
 }
 
+/// Issue 21: nested segments (skin = 1,2 then bone = 2, the later wins) each keep their own
+/// surface. The union distance is deep inside at the bone's boundary; the bone's own field
+/// crosses zero there, equals the bone-alone field, and survives the folder round trip.
+TEST(ShapeRepresentation, NestedSegmentsKeepTheirOwnSurfaces) {
+  const Geometry g = cube(40, 1.0);
+  const VolumeU8 outer = sphereMask(g, 15.0), inner = sphereMask(g, 7.0);
+  VolumeU16 ids(g, 0);
+  for (size_t v = 0; v < ids.size(); ++v) ids.data()[v] = inner.data()[v] ? 2 : outer.data()[v] ? 1 : 0;
+  const LabelVolume labels(std::move(ids), {{1, "soft", {}}, {2, "bone", {}}});
+  ill::ShapeOptions opt;
+  opt.targetFaces = 0;
+  const auto nested = ill::runShapePipeline(
+      labels, {ill::parseSegmentSpec("skin=1,2", labels), ill::parseSegmentSpec("bone=2", labels)}, {}, {}, opt);
+  const auto alone = ill::runShapePipeline(labels, {ill::parseSegmentSpec("bone=2", labels)}, {}, {}, opt);
+  ASSERT_EQ(nested.fields.size(), 2u);
+  ASSERT_EQ(alone.fields.size(), 1u);
+  EXPECT_EQ(nested.fields[1].id, 2);
+  EXPECT_EQ(nested.fields[1].name, "bone");
+  EXPECT_EQ(nested.fields[1].distance.voxels(), alone.fields[0].distance.voxels());
+  // Along +x from the centre: the bone field crosses zero at ~7 mm, the skin's at ~15 mm,
+  // while the union distance at 7 mm is ~ -8 mm (the skin's surface is the nearest).
+  const int64_t c = 20;
+  auto crossing = [&](const VolumeI16& f) {
+    for (int64_t i = c; i + 1 < 40; ++i)
+      if (f(i, c, c) < 0 && f(i + 1, c, c) >= 0) {
+        const double a = f(i, c, c), b = f(i + 1, c, c);
+        return g.indexToPhysical(Vec3{double(i), double(c), double(c)}).x + a / (a - b);
+      }
+    return -1.0;
+  };
+  const double y = g.indexToPhysical(Vec3{0.0, double(c), double(c)}).y;
+  EXPECT_NEAR(std::hypot(crossing(nested.fields[1].distance), y, y), 7.0, 0.6);
+  EXPECT_NEAR(std::hypot(crossing(nested.fields[0].distance), y, y), 15.0, 0.6);
+  const int64_t at7 = c + 7;
+  EXPECT_LT(nested.distance(at7, c, c), -5.0f);
+  EXPECT_NEAR(nested.fields[1].distance(at7, c, c) * ill::kFieldQuantumMm, 0.0, 1.0);
+  // Quantised to hundredths of a mm; clamped to the band beyond it, with the right sign.
+  const double band = ill::defaultExactBandMm(g);
+  EXPECT_NEAR(nested.fields[1].distance(0, 0, 0) * ill::kFieldQuantumMm, band, 1.01);
+  EXPECT_LT(nested.fields[1].distance(c, c, c), 0);
+  const auto dir = test::tempDir("fields");
+  ill::saveSegmentFields(nested.fields, dir);
+  const auto back = ill::loadSegmentFields(dir);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[1].distance.voxels(), nested.fields[1].distance.voxels());
+  EXPECT_EQ(back[0].name, "skin");
+  std::ofstream(dir / "distances.json") << R"({"version": 1, "quantum_mm": 0.01, "fields": [{"id": 1}]})";
+  EXPECT_THROW(ill::loadSegmentFields(dir), FileError);
+}
+
+/// Shells: the field's shell id and thickness follow buildRepresentation's ids.
+TEST(ShapeRepresentation, FieldsNameTheirShells) {
+  const Geometry g = cube(32, 1.0);
+  const LabelVolume labels = labelsOf(sphereMask(g, 10.0), 1, "ball");
+  ill::ShapeOptions opt;
+  opt.targetFaces = 0;
+  const auto r = ill::runShapePipeline(labels, {ill::parseSegmentSpec("ball=1", labels)}, {{"ball", 2.0}}, {}, opt);
+  ASSERT_EQ(r.fields.size(), 1u);
+  EXPECT_EQ(r.fields[0].shellId, 2);
+  EXPECT_FLOAT_EQ(r.fields[0].shellMm, 2.0f);
+  EXPECT_EQ(r.segmentation.table()[1].id, 2);
+}
+
 TEST(ShapeSegments, SpecErrors) {
   const LabelVolume labels = labelsOf(sphereMask(cube(16), 5), 3, "muscle");
   EXPECT_EQ(ill::parseSegmentSpec("3", labels).name, "muscle");

@@ -26,6 +26,7 @@ illustration::ShapeScene makeScene(int n, const std::vector<AnalyticSegment>& se
   illustration::ShapeScene s;
   s.distance = VolumeF32(g, 0.f, 1e3);
   VolumeU16 ids(g, 0);
+  std::vector<VolumeF32> own(segments.size(), VolumeF32(g, 0.f, 1e3));
   parallelFor(n, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < n; ++j)
@@ -35,6 +36,7 @@ illustration::ShapeScene makeScene(int n, const std::vector<AnalyticSegment>& se
           uint16_t label = 0;
           for (size_t si = 0; si < segments.size(); ++si) {
             const double v = segments[si].sdf(p);
+            own[si](i, j, k) = float(v);
             if (v < 0 && label == 0) label = uint16_t(si + 1);
             d = std::min(d, v);
           }
@@ -46,6 +48,13 @@ illustration::ShapeScene makeScene(int n, const std::vector<AnalyticSegment>& se
   for (size_t si = 0; si < segments.size(); ++si)
     table.push_back({uint16_t(si + 1), segments[si].name, defaultLabelColor(uint16_t(si + 1))});
   s.segments = LabelVolume(std::move(ids), table);
+  for (size_t si = 0; si < segments.size(); ++si) {
+    illustration::SegmentField f;
+    f.id = uint16_t(si + 1);
+    f.name = segments[si].name;
+    f.distance = illustration::quantiseField(own[si]);
+    s.fields.push_back(std::move(f));
+  }
   return s;
 }
 
@@ -67,6 +76,7 @@ void writeShapeFolder(const illustration::ShapeScene& scene, const std::filesyst
   std::filesystem::create_directories(dir);
   io::saveVolume(scene.distance, dir / "distance.nrrd");
   io::saveLabels(scene.segments, dir / "segments.nrrd");
+  illustration::saveSegmentFields(scene.fields, dir);
 }
 
 }  // namespace vellum::test

@@ -17,7 +17,8 @@ struct AnalyticSegment {
 };
 
 /// Scene on an n^3 grid of `spacing` mm centred at the origin: label = first segment whose
-/// sdf < 0 (exclusive), distance = min over segments (the union, as the shape pipeline).
+/// sdf < 0 (exclusive), distance = min over segments (the union, as the shape pipeline), and
+/// every segment its own field (its sdf, quantised as `vellum shape` writes it).
 illustration::ShapeScene makeScene(int n, const std::vector<AnalyticSegment>& segments, double spacing = 1.0);
 
 double sphereSdf(const Vec3& p, const Vec3& c, double r);
@@ -28,7 +29,7 @@ illustration::ShapeScene nestedScene(int n);
 /// "bone" sphere left (-x), "muscle" sphere right (+x), radius 0.22 n, separated.
 illustration::ShapeScene twoSpheres(int n);
 
-/// Writes DIR/distance.nrrd and DIR/segments.nrrd as `vellum shape` does.
+/// Writes DIR/distance.nrrd, DIR/segments.nrrd and the per-segment distances as `vellum shape` does.
 void writeShapeFolder(const illustration::ShapeScene& scene, const std::filesystem::path& dir);
 
 }  // namespace vellum::test

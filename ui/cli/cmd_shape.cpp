@@ -1,6 +1,7 @@
 // `vellum shape IN --labels L --segment NAME=ID[,ID..] --out DIR`: clean shapes (level-set
-// denoising, meshing, mesh repair) and the shape-aware representation (distance volume,
-// segmentation volume with shells and grown segments) for the illustration renderer.
+// denoising, meshing, mesh repair) and the shape-aware representation (per-segment distances,
+// union distance, segmentation volume with shells and grown segments) for the illustration
+// renderer.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -105,7 +106,7 @@ nlohmann::json shapeReport(const ShapeArgs& a, const Geometry& ctGeom, const ill
   j["dims"] = {ctGeom.dims.x, ctGeom.dims.y, ctGeom.dims.z};
   j["spacing_mm"] = toJson(ctGeom.spacing);
   j["options"] = params::toJson(ill::shapeOptionsTable(), opt);  // keys as in `vellum params`
-  j["options"]["exact_band_mm"] = opt.exactBandMm > 0 ? opt.exactBandMm : 3 * std::min({ctGeom.spacing.x, ctGeom.spacing.y, ctGeom.spacing.z});
+  j["options"]["exact_band_mm"] = opt.exactBandMm > 0 ? opt.exactBandMm : ill::defaultExactBandMm(ctGeom);
   j["options"]["mesh_format"] = a.meshFormat;
   j["segments"] = nlohmann::json::array();
   for (const auto& s : r.shapes) j["segments"].push_back(checksJson(s));
@@ -162,6 +163,7 @@ void runShape(const ShapeArgs& a) {
   }
   const double pipelineMs = 1000 * secondsSince(tp);
   r.distance.setGeometry(ctGeom);
+  for (auto& f : r.fields) f.distance.setGeometry(ctGeom);
 
   // The folder is written whole beside its target and then moved into place (a reader never
   // sees a mix of two runs' meshes), with the report first: nothing claims a finished result
@@ -175,6 +177,7 @@ void runShape(const ShapeArgs& a) {
     raw.gzip = false;  // 4 bytes a voxel of smooth floats: gzip would cost seconds for little
     io::saveVolume(r.distance, tmp / "distance.nrrd", raw);
     io::saveLabels(r.segmentation, tmp / "segments.nrrd");
+    ill::saveSegmentFields(r.fields, tmp);  // per-segment distances (docs/shape.md)
     for (const auto& s : r.shapes) ill::saveMesh(s.mesh, tmp / "meshes" / (s.segment.name + "." + a.meshFormat), a.meshFormat);
     const double writeMs = 1000 * secondsSince(tw);
     const auto& t = r.times;
@@ -209,7 +212,7 @@ void addShapeCommand(CLI::App& app) {
   cmd->add_option("input", a->input, "input CT volume (file or DICOM folder)")->required();
   cmd->add_option("--labels,-l", a->labels, "label map with the segments (NRRD keeps the label table)")->required();
   cmd->add_option("--segment,-s", a->segments, "NAME=ID[,ID..] (repeatable; ids form one segment; NAME defaults to the label name for one id)")->required();
-  cmd->add_option("--out,-o", a->out, "output folder: distance.nrrd, segments.nrrd, shape.json, meshes/")->required();
+  cmd->add_option("--out,-o", a->out, "output folder: distance-<id>.nrrd + distances.json (each segment's own distance), distance.nrrd, segments.nrrd, shape.json, meshes/")->required();
   cmd->add_option("--shell", a->shells, "NAME:MM adds a 'NAME boundary' segment MM thick inside NAME (repeatable)");
   cmd->add_option("--grow", a->grows, "NAME:MM grows (MM > 0) or shrinks (MM < 0) a segment (repeatable)");
   addFlags(*cmd, a->options, ill::shapeOptionsTable());

@@ -38,6 +38,8 @@ ShapeOutcome makeShapes(const ShapeRequest& request, Progress& progress) {
   scene->distance = r.distance;
   scene->distance.setGeometry(request.ct.geometry());
   scene->segments = r.segmentation;
+  scene->fields = r.fields;
+  for (auto& f : scene->fields) f.distance.setGeometry(request.ct.geometry());
   scene->ct = AnyVolume(request.ct);
   o.shapes = std::move(scene);
   o.meshes = std::make_shared<const SegmentMeshes>(segmentMeshesOf(r.shapes));

@@ -137,7 +137,7 @@ ill::TriMesh deformedProxy(const ill::CurveAnalogyResult& r) {
 /// Distance and segmentation volumes of the moved meshes. Shells widen the exact band; grow
 /// offsets shift a segment's distances (as runShapePipeline).
 void rebuildVolumes(const ShapeFolder& f, const std::vector<ill::TriMesh>& meshes, VolumeF32& unionDistance,
-                    LabelVolume& segmentation) {
+                    LabelVolume& segmentation, std::vector<ill::SegmentField>& fields) {
   const Geometry& grid = f.labels.geometry();
   ill::DistanceOptions dopt;
   dopt.bandMm = f.options().value("exact_band_mm", 0.0);
@@ -159,6 +159,7 @@ void rebuildVolumes(const ShapeFolder& f, const std::vector<ill::TriMesh>& meshe
     }
   ill::buildRepresentation(dist, f.segments, f.shells, unionDistance, segmentation);
   unionDistance.setGeometry(grid);
+  fields = ill::makeSegmentFields(dist, f.segments, f.shells);
 }
 
 /// `out`/meshes, `out`/curve_analogy (proxies, curves, the before/after plate) and the map.
@@ -264,7 +265,8 @@ CurveAnalogyResult runCurveAnalogy(const CurveAnalogyRequest& a, Progress& progr
   auto tt = Clock::now();
   VolumeF32 unionDistance;
   LabelVolume segmentation;
-  rebuildVolumes(folder, bent.meshes, unionDistance, segmentation);
+  std::vector<ill::SegmentField> fields;
+  rebuildVolumes(folder, bent.meshes, unionDistance, segmentation, fields);
   const double volumesMs = msSince(tt);
   progress.advance();
 
@@ -286,6 +288,7 @@ CurveAnalogyResult runCurveAnalogy(const CurveAnalogyRequest& a, Progress& progr
     raw.gzip = false;
     io::saveVolume(unionDistance, out / "distance.nrrd", raw);
     io::saveLabels(segmentation, out / "segments.nrrd");
+    ill::saveSegmentFields(fields, out);
     j = writeOutputs(a, out, folder, bent, width, height, map);
     if (!map.empty()) written.wrote(a.mapOut);
     const double writeMs = msSince(tt);

@@ -2,16 +2,15 @@
 // The illustration renderer ([SAVI 2.5] in docs/references.md): a GLSL ray caster over a shape-aware scene
 // (signed distance + segment labels, optionally the CT), and its CPU reference.
 //
-// Model (GL and CPU alike): the render module's camera, rays, box clip, step and per-pixel
-// jitter (render::RenderSettings; transfer function/preset/shading fields are ignored).
-// Per sample, a styled RGBA (alpha per mm) is computed from the segment's style row:
-//   eight:   at the 8 voxel centres around the sample (each with its own label, distance,
-//            distance gradient, CT value and CT gradient), premultiplied, interpolated
-//            trilinearly — label ids are never interpolated;
-//   nearest: once, with the nearest voxel's label and trilinearly sampled distance,
-//            gradient and CT (fast, for interaction).
-// Segment alpha is multiplied by a sub-voxel coverage clamp(0.5 - d / h, 0, 1) (h = smallest
-// spacing) so that outer surfaces follow the distance field's zero level, not voxel faces.
+// Model (GL and CPU alike; docs/illustration-renderer.md): the render module's camera, rays,
+// box clip, step and per-pixel jitter (render::RenderSettings; transfer function/preset/
+// shading fields are ignored). Every segment has its own signed distance (ShapeScene::fields).
+// Per sample, each segment's distance is interpolated trilinearly and its gradient taken from
+// the interpolated field (eight: central differences over +-1 voxel; nearest: forward
+// differences, cheaper); the segment covers clamp(0.5 - d / h, 0, 1) of the sample (h =
+// smallest spacing), later segments painting over earlier ones (a soft painter's order), and
+// each segment is styled with its OWN distance and gradient — so a bone inside an invisible
+// skin renders as the bone alone, and no label staircase reaches the shading.
 // The per-step alpha is 1 - (1 - a)^step_mm; front-to-back compositing with early
 // termination at 0.99; straight alpha; background from RenderSettings (alpha 0 = transparent).
 #include <memory>
@@ -21,6 +20,7 @@
 #include "vellum/core/image.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/volume.hpp"
+#include "vellum/illustration/shape.hpp"
 #include "vellum/illustration/style.hpp"
 #include "vellum/render/gl_context.hpp"
 #include "vellum/render/render_settings.hpp"
@@ -33,13 +33,15 @@ Interpolation parseInterpolation(const std::string& name);  ///< "eight" | "near
 
 /// What is rendered: the shape folder's volumes (same grid), and optionally the CT.
 struct ShapeScene {
-  VolumeF32 distance;            ///< mm, negative inside
+  VolumeF32 distance;            ///< union distance, mm, negative inside (the scene's grid)
   LabelVolume segments;          ///< ids 0..255, 0 = unclassified, with the label table
+  std::vector<SegmentField> fields;  ///< per-segment distances, paint order (what is rendered)
   std::optional<AnyVolume> ct;   ///< needed only by illum = ct / boundary_measure = ct rows
 };
 
-/// Loads DIR/distance.nrrd and DIR/segments.nrrd; FileError naming the file for a missing
-/// folder/file, mismatched grids or ids over 255.
+/// Loads DIR/distance.nrrd, DIR/segments.nrrd and the per-segment distances
+/// (DIR/distances.json); FileError naming the file for a missing folder/file (an older shape
+/// folder: "run `vellum shape` again"), mismatched grids or ids over 255.
 ShapeScene loadShapeFolder(const std::filesystem::path& dir);
 /// Throws vellum::Error when the volumes' grids differ or ids exceed 255.
 void validateScene(const ShapeScene& scene);
@@ -53,8 +55,8 @@ struct IllustrationSettings {
   IllustrationSettings() { render.stepVoxels = 1.0; }
 };
 
-/// GL renderer. The scene is uploaded once by setScene() (distance + precomputed label-aware
-/// distance gradient as RGBA16F, labels as R8UI, CT and its gradient when a style needs them);
+/// GL renderer. The scene is uploaded once by setScene() (per-segment distances as RGBA16_SNORM,
+/// four segments a texel, slab by slab; CT and its gradient when a style needs them);
 /// styles are a small lookup texture, updated per render. Shaders are specialised per
 /// interpolation mode and per the style's features with #defines.
 class IllustrationRenderer {
@@ -69,7 +71,7 @@ class IllustrationRenderer {
   /// Milliseconds of the last render's draw (glFinish-bounded), excluding uploads and the
   /// shader's first-use compilation.
   double lastRenderMs() const;
-  /// Milliseconds setScene() spent (gradient precompute + upload).
+  /// Milliseconds setScene() spent (packing + upload of the distances, block ranges).
   double lastUploadMs() const;
 
  private:

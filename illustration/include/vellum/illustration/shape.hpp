@@ -79,8 +79,8 @@ struct ShapeOptions {
   /// OpenVDB volumeToMesh adaptivity (0: uniform marching, one quad per boundary voxel face;
   /// small values merge flat regions and cut the decimation's work by 10x or more).
   double adaptivity = 0.05;
-  /// Half-width (mm) of the band around each surface where distances are exact (0: three
-  /// voxels of the smallest spacing); widened per segment for its shells and grow offsets.
+  /// Half-width (mm) of the band around each surface where distances are exact (0:
+  /// defaultExactBandMm); widened per segment for its shells and grow offsets.
   double exactBandMm = 0.0;
 };
 
@@ -104,6 +104,31 @@ struct SegmentShape {
   MeshChecks checks;
 };
 
+/// One segment's own signed distance, for the renderer (docs/shape.md, "Per-segment
+/// distances"): nested and touching segments each keep the distance to their own boundary,
+/// which the union distance loses. Quantised to int16 hundredths of a millimetre
+/// (kFieldQuantumMm), clamped to the exact band (+-band beyond it, with the right sign).
+struct SegmentField {
+  uint16_t id = 0;         ///< the segment's id in the segmentation (paint order = id order)
+  std::string name;
+  VolumeI16 distance;      ///< d / kFieldQuantumMm, negative inside
+  uint16_t shellId = 0;    ///< the id of its `--shell` layer (0: none): -shellMm < d <= 0
+  float shellMm = 0;
+};
+constexpr double kFieldQuantumMm = 0.01;
+/// d (mm) -> field value, rounded and clamped to +-32767.
+VolumeI16 quantiseField(const VolumeF32& distanceMm);
+/// Default exact band: three voxels of the smallest spacing, and at least two voxels of the
+/// largest (the renderer's gradient stencil reaches one voxel each way on every axis).
+double defaultExactBandMm(const Geometry& g);
+
+/// Writes DIR/distance-<id>.nrrd (raw int16) for every field and DIR/distances.json (ids,
+/// names, files, shells, quantum).
+void saveSegmentFields(const std::vector<SegmentField>& fields, const std::filesystem::path& dir);
+/// Reads what saveSegmentFields wrote; FileError naming the file (an older shape folder
+/// without distances.json gets a one-line "make it again" message).
+std::vector<SegmentField> loadSegmentFields(const std::filesystem::path& dir);
+
 struct StageTimes {
   double denoiseMs = 0, meshMs = 0, processMs = 0, distancesMs = 0, segmentationMs = 0;
 };
@@ -115,6 +140,8 @@ struct ShapeResult {
   /// Where segments overlap the later one wins (painter's order: list the enclosing
   /// structures first, e.g. skin, then muscle, then bone).
   LabelVolume segmentation;
+  /// Per-segment distances (after grow offsets) with their shells, in segment order.
+  std::vector<SegmentField> fields;
   StageTimes times;
 };
 
@@ -130,7 +157,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
 /// extraBandMm[i] + 2 voxels for mesh i; beyond, clamped to +-band (volume background =
 /// the band) with the correct sign. buildRepresentation extends the union's far field.
 struct DistanceOptions {
-  double bandMm = 0.0;  ///< 0: three voxels of the smallest spacing
+  double bandMm = 0.0;  ///< 0: defaultExactBandMm
 };
 std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const Geometry& grid,
                                        const DistanceOptions& options = {},
@@ -142,6 +169,12 @@ std::vector<VolumeF32> signedDistances(const std::vector<TriMesh>& meshes, const
 void buildRepresentation(std::vector<VolumeF32>& distances, const std::vector<Segment>& segments,
                          const std::vector<Shell>& shells, VolumeF32& unionDistance,
                          LabelVolume& segmentation);
+
+/// Fields of per-segment distances (after grow offsets) for buildRepresentation's ids and
+/// shells (the first shell of a segment is the one painted).
+std::vector<SegmentField> makeSegmentFields(const std::vector<VolumeF32>& distances,
+                                            const std::vector<Segment>& segments,
+                                            const std::vector<Shell>& shells);
 
 /// The whole pipeline.
 ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segment>& segments,

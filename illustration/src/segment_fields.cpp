@@ -1,0 +1,119 @@
+// Per-segment distances of the shape folder (docs/shape.md, "Per-segment distances"): each
+// segment keeps a signed distance to its own surface, so nested and touching segments each
+// keep a shaded surface in the renderer. int16 hundredths of a millimetre: half the size of
+// float32, far finer than a voxel, and uploaded to GL as-is (RGBA16_SNORM).
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+
+#include "vellum/core/error.hpp"
+#include "vellum/core/json_input.hpp"
+#include "vellum/core/parallel.hpp"
+#include "vellum/illustration/shape.hpp"
+#include "vellum/io/atomic_file.hpp"
+#include "vellum/io/volume_io.hpp"
+
+namespace vellum::illustration {
+
+namespace fs = std::filesystem;
+
+VolumeI16 quantiseField(const VolumeF32& d) {
+  VolumeI16 q(d.geometry(), 0);
+  const float* src = d.data();
+  int16_t* dst = q.data();
+  parallelFor(static_cast<int64_t>(d.size()), [&](int64_t b, int64_t e) {
+    for (int64_t v = b; v < e; ++v) {
+      const double x = std::nearbyint(double(src[v]) / kFieldQuantumMm);
+      dst[v] = static_cast<int16_t>(std::clamp(x, -32767.0, 32767.0));
+    }
+  }, 1 << 16);
+  return q;
+}
+
+double defaultExactBandMm(const Geometry& g) {
+  const Vec3 s = g.spacing;
+  return std::max(3 * std::min({s.x, s.y, s.z}), 2 * std::max({s.x, s.y, s.z}));
+}
+
+std::vector<SegmentField> makeSegmentFields(const std::vector<VolumeF32>& distances,
+                                            const std::vector<Segment>& segments,
+                                            const std::vector<Shell>& shells) {
+  std::vector<SegmentField> out(distances.size());
+  for (size_t i = 0; i < distances.size(); ++i) {
+    out[i].id = static_cast<uint16_t>(i + 1);
+    out[i].name = i < segments.size() ? segments[i].name : std::to_string(i + 1);
+    out[i].distance = quantiseField(distances[i]);
+  }
+  // As buildRepresentation: shell s has id n + 1 + s; a segment's first shell is painted.
+  for (size_t s = 0; s < shells.size(); ++s)
+    for (size_t i = 0; i < segments.size() && i < out.size(); ++i)
+      if (segments[i].name == shells[s].segment && out[i].shellId == 0) {
+        out[i].shellId = static_cast<uint16_t>(distances.size() + 1 + s);
+        out[i].shellMm = static_cast<float>(shells[s].thicknessMm);
+      }
+  return out;
+}
+
+void saveSegmentFields(const std::vector<SegmentField>& fields, const fs::path& dir) {
+  nlohmann::json j;
+  j["version"] = 1;
+  j["quantum_mm"] = kFieldQuantumMm;
+  j["fields"] = nlohmann::json::array();
+  io::SaveOptions raw;
+  raw.gzip = false;  // the renderer reads them at every start: no inflate
+  for (const auto& f : fields) {
+    const std::string file = "distance-" + std::to_string(f.id) + ".nrrd";
+    io::saveVolume(f.distance, dir / file, raw);
+    j["fields"].push_back({{"id", f.id}, {"name", f.name}, {"file", file}, {"shell_id", f.shellId},
+                           {"shell_mm", f.shellMm}});
+  }
+  const std::string text = j.dump(2) + "\n";
+  const fs::path target = dir / "distances.json";
+  io::writeAtomically(target, [&](const fs::path& tmp) {
+    std::ofstream out(tmp, std::ios::binary);
+    out << text;
+    out.close();
+    if (!out) throw FileError(target, "could not be written");
+  });
+}
+
+std::vector<SegmentField> loadSegmentFields(const fs::path& dir) {
+  const fs::path index = dir / "distances.json";
+  if (!fs::exists(index))
+    throw FileError(index, "missing: the shape folder was made by an older `vellum shape` without per-segment "
+                           "distances; run `vellum shape` again");
+  const nlohmann::json j = readJsonFile(index, 1u << 20, "distances index");
+  std::vector<SegmentField> out;
+  try {
+    if (j.at("version").get<int>() != 1) throw FileError(index, "unsupported version");
+    if (std::abs(j.at("quantum_mm").get<double>() - kFieldQuantumMm) > 1e-12)
+      throw FileError(index, "quantum_mm must be " + std::to_string(kFieldQuantumMm));
+    for (const auto& e : j.at("fields")) {
+      SegmentField f;
+      f.id = e.at("id").get<uint16_t>();
+      f.name = e.at("name").get<std::string>();
+      f.shellId = e.at("shell_id").get<uint16_t>();
+      f.shellMm = e.at("shell_mm").get<float>();
+      const std::string file = e.at("file").get<std::string>();
+      if (file.find('/') != std::string::npos || file.find("..") != std::string::npos)
+        throw FileError(index, "field file '" + file + "' is not a plain file name");
+      if (f.id == 0 || f.id > 255 || (f.shellId != 0 && !(f.shellMm > 0)))
+        throw FileError(index, "field '" + f.name + "': bad id or shell");
+      AnyVolume v = io::loadVolume(dir / file).volume;
+      if (!std::holds_alternative<VolumeI16>(v))
+        throw FileError(dir / file, std::string("expected int16 distances (hundredths of a mm), got ") +
+                                        voxelTypeName(voxelTypeOf(v)));
+      f.distance = std::move(std::get<VolumeI16>(v));
+      out.push_back(std::move(f));
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw FileError(index, std::string("malformed: ") + e.what());
+  }
+  for (size_t i = 1; i < out.size(); ++i)
+    if (out[i].id <= out[i - 1].id) throw FileError(index, "field ids must increase (paint order)");
+  return out;
+}
+
+}  // namespace vellum::illustration
