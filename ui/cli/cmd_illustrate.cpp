@@ -105,7 +105,7 @@ void addIllustrateCommand(CLI::App& app) {
   for (const auto& n : illustration::stylePresetNames()) presets += (presets.empty() ? "" : " | ") + n;
   auto* cmd = app.add_subcommand("illustrate", "Render a shape folder (from `vellum shape`) as an illustration in a style");
   cmd->add_option("input", a->input, "the CT the shape folder was made from")->required();
-  cmd->add_option("--shape", a->shape, "shape folder with distance.nrrd and segments.nrrd")->required();
+  cmd->add_option("--shape", a->shape, "shape folder of `vellum shape` (distances.json, distance-<id>.nrrd, segments.nrrd)")->required();
   auto* styleOpt = cmd->add_option("--style", a->style, "style file (JSON, see docs/styles.md)");
   cmd->add_option("--preset", a->preset, "built-in style: " + presets)->excludes(styleOpt);
   cmd->add_option("--out,-o", a->output, "figure path (.png, .tif, .jpg)")->required();
@@ -117,7 +117,7 @@ void addIllustrateCommand(CLI::App& app) {
                   "what --zoom 1 fits: drawn (the segments the style draws) | segments (every segment: the same "
                   "framing for every style) | volume (the volume's bounding sphere)")
       ->capture_default_str();
-  cmd->add_option("--interp", a->interp, "eight (styled colour at the 8 voxel centres, interpolated) | nearest (fast)")
+  cmd->add_option("--interp", a->interp, "eight (gradients by central differences of the interpolated distances) | nearest (forward differences: faster)")
       ->capture_default_str();
   cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1 (default: the style's)")->expected(3, 4);
   cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
