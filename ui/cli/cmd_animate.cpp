@@ -81,6 +81,7 @@ void addAnimateCommand(CLI::App& app) {
     if (a->table.enabled) request.removeTable = a->table.params;
     request.annotations = a->figure.resolved(a->figure.wantsLabels());
     request.labelIds = a->figure.labelIds;
+    request.commandLine = commandLine();
     app::AnimateResult result;
     {
       ProgressBar bar;

@@ -115,6 +115,7 @@ void addDeformCommand(CLI::App& app) {
   cmd->callback([a] {
     app::DeformRequest request = a->request;
     request.load = a->in.toLoadOptions(nullptr);
+    request.commandLine = commandLine();
     app::DeformResult result;
     {
       ProgressBar bar;

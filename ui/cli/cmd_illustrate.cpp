@@ -6,6 +6,7 @@
 #include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/illustration/figure.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
@@ -217,6 +218,13 @@ void addIllustrateCommand(CLI::App& app) {
       r["annotate_seconds"] = annotateS;  // labels: probe renders and anchors
       r["renderer"] = context->renderer();
       r["total_seconds"] = secondsSince(t0);
+      app::RunReport shared(commandLine(), t0);
+      shared.input(a->input, "volume");
+      shared.input(a->shape, "shape folder");
+      shared.input(a->style, "style");
+      shared.output(a->output);
+      if (!a->saveStyle.empty()) shared.output(a->saveStyle);
+      shared.stamp(r);
       writeJsonFile(r, a->report);
     }
     outputs.commit();

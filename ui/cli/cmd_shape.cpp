@@ -11,6 +11,7 @@
 #include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/core/params_json.hpp"
@@ -171,6 +172,7 @@ void runShape(const ShapeArgs& a) {
   const auto tw = Clock::now();
   const fs::path dir = a.out;
   ensureParentFolder(dir);
+  nlohmann::json report;
   io::writeFolderAtomically(dir, io::FolderKind::Shape, [&](const fs::path& tmp) {
     fs::create_directories(tmp / "meshes");
     io::SaveOptions raw;
@@ -188,8 +190,19 @@ void runShape(const ShapeArgs& a) {
                                           {"write", writeMs}, {"total", 1000 * secondsSince(t0)}});
     in.table.addToReport(j);
     writeJsonFile(j, tmp / "shape.json");
-    if (!a.report.empty()) writeJsonFile(j, a.report);
+    report = std::move(j);
   }, a.force);
+  if (!a.report.empty()) {
+    RunOutputs outputs;  // a report that cannot be written takes the folder with it
+    outputs.wrote(dir);
+    app::RunReport shared(commandLine(), t0);
+    shared.input(a.input, "volume");
+    shared.input(a.labels, "label map");
+    shared.output(dir);
+    shared.stamp(report);
+    writeJsonFile(report, a.report);
+    outputs.commit();
+  }
   printShapeSummary(r, dir, pipelineMs);
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/region.hpp"
 
 namespace vellum::render::detail {
 namespace {
@@ -88,30 +89,9 @@ LightSource makeLightSource(const AnyVolume& volume) {
   LightSource out;
   out.source = geometryOf(volume);
   const Dims d = out.source.dims;
-  const int64_t largest = std::max({d.x, d.y, d.z});
-  out.factor = largest > kCellsPerAxis ? 2 : 1;
-  const int f = out.factor;
-  Geometry g = out.source;
-  g.dims = {(d.x + f - 1) / f, (d.y + f - 1) / f, (d.z + f - 1) / f};
-  g.spacing = {g.spacing.x * f, g.spacing.y * f, g.spacing.z * f};
-  std::visit(
-      [&](const auto& v) {
-        out.values = VolumeF32(g, 0.f, v.background());
-        float* dst = out.values.data();
-        parallelFor(g.dims.z, [&](int64_t k0, int64_t k1) {
-          for (int64_t k = k0; k < k1; ++k)
-            for (int64_t j = 0; j < g.dims.y; ++j)
-              for (int64_t i = 0; i < g.dims.x; ++i) {
-                double sum = 0;
-                int count = 0;
-                for (int64_t c = k * f; c < std::min(d.z, (k + 1) * f); ++c)
-                  for (int64_t b = j * f; b < std::min(d.y, (j + 1) * f); ++b)
-                    for (int64_t a = i * f; a < std::min(d.x, (i + 1) * f); ++a, ++count) sum += double(v(a, b, c));
-                dst[(k * g.dims.y + j) * g.dims.x + i] = float(sum / count);
-              }
-        });
-      },
-      volume);
+  out.factor = std::max({d.x, d.y, d.z}) > kCellsPerAxis ? 2 : 1;
+  // Block means (core's), as float: only the values are used, by index.
+  out.values = convertVolume<float>(downsampleMean(volume, out.factor));
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "vellum/app/outputs.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/app/table_removal.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/point_files.hpp"
@@ -153,6 +154,13 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
       render(s);
     }, request.force);
   }
+  RunReport shared(request.commandLine, t0);  // the keys every report shares
+  if (!request.report.empty()) {
+    shared.input(request.input, "volume");
+    shared.loaded(request.input, lv);
+    shared.input(request.keyframes, "keyframes");
+    shared.input(request.engine.labels, "label map");
+  }
   result.warnings = std::move(lv.warnings);
   const double totalMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   result.report = reportJson(result.movie, request, bodies.has_value(), totalMs);
@@ -163,7 +171,13 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   RunOutputs written;  // a report that cannot be written takes the movie with it
   if (!spec.moviePath.empty()) written.wrote(spec.moviePath);
   if (!spec.framesDir.empty()) written.wrote(spec.framesDir);
-  if (!request.report.empty()) writeJsonFile(result.report, request.report);
+  if (!request.report.empty()) {
+    shared.outputVolume(spec.moviePath);
+    shared.outputVolume(spec.framesDir);
+    nlohmann::json stamped = result.report;
+    shared.stamp(stamped);
+    writeJsonFile(stamped, request.report);
+  }
   written.commit();
   return result;
 }

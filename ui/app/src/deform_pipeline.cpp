@@ -6,6 +6,7 @@
 #include <chrono>
 
 #include "vellum/app/outputs.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/core/process_time.hpp"
@@ -161,7 +162,19 @@ void finishReport(Run& run, Clock::time_point t0) {
   run.report["upsampling"] = upsamplingName(r.engine.upsampling);
   run.report["timings_ms"] = run.timings;
   run.report["cpu_ms"] = run.cpu.withTotal();  // total includes start-up
-  if (!r.report.empty()) writeJsonFile(run.report, r.report);
+  if (!r.report.empty()) {
+    RunReport shared(r.commandLine, t0);
+    shared.input(r.input, "volume");
+    shared.loaded(r.input, run.loaded);
+    shared.input(r.points, "control points");
+    shared.input(r.engine.labels, "label map");
+    shared.outputVolume(r.output);
+    shared.outputVolume(r.mapOut);
+    shared.outputVolume(r.attributesOut);
+    nlohmann::json stamped = run.report;
+    shared.stamp(stamped);
+    writeJsonFile(stamped, r.report);
+  }
 }
 
 }  // namespace

@@ -94,7 +94,7 @@ LabelEditResult runLabelEdit(const LabelEditRequest& r, Progress& progress) {
   outputs.wrote(r.output);
   run.mark("edit and write");
   if (!r.report.empty()) {
-    for (const auto& f : io::filesWrittenTo(r.output)) run.output(f);
+    run.outputVolume(r.output);
     nlohmann::json report = {{"before", entriesJson(result.before)}, {"after", entriesJson(result.after)}};
     run.stamp(report);
     writeJsonFile(report, r.report);

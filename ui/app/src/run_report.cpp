@@ -109,6 +109,20 @@ double peakResidentMb() {
 
 RunReport::RunReport(std::string commandLine) : command_(std::move(commandLine)) {}
 
+RunReport::RunReport(std::string commandLine, Clock::time_point start)
+    : command_(std::move(commandLine)), start_(start), last_(start) {}
+
+void RunReport::outputVolume(const std::filesystem::path& path) {
+  if (path.empty()) return;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    output(path);
+    return;
+  }
+  for (const auto& f : io::filesWrittenTo(path))
+    if (std::filesystem::exists(f, ec)) output(f);
+}
+
 void RunReport::input(const std::filesystem::path& path, const std::string& role) {
   if (path.empty()) return;
   for (const auto& file : io::filesReadFrom(path)) {
@@ -150,7 +164,7 @@ void RunReport::stamp(nlohmann::json& report) const {
   report["command"] = command_;
   report["inputs"] = inputs_;
   report["warnings"] = warnings_;
-  report["stage_ms"] = stages_;
+  if (!stages_.empty()) report["stage_ms"] = stages_;
   report["total_ms"] = std::chrono::duration<double, std::milli>(Clock::now() - start_).count();
   report["peak_memory_mb"] = peakResidentMb();
   report["outputs"] = outputs_;

@@ -158,7 +158,7 @@ SegmentResult runSegment(const SegmentRequest& r, Progress& progress) {
   run.mark("segment and write");
   report["seconds"] = secondsSince(t0);
   if (!r.report.empty()) {
-    for (const auto& f : io::filesWrittenTo(r.output)) run.output(f);
+    run.outputVolume(r.output);
     nlohmann::json stamped = report;
     run.stamp(stamped);
     writeJsonFile(stamped, r.report);

@@ -38,6 +38,7 @@ struct AnimateRequest {
   /// Figure annotations in every frame; labels need engine.labels (the structures' names).
   render::AnnotationOptions annotations;
   std::vector<uint16_t> labelIds;  ///< structures to name (empty: every id of the table)
+  std::string commandLine;         ///< for the report's shared keys (run_report.hpp)
 };
 
 /// fps, camera_orbit, loop (the size, the render settings and the engine have their own).

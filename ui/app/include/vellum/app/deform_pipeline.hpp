@@ -68,6 +68,7 @@ struct DeformRequest {
   bool force = false;  ///< a DICOM output may replace a Vellum folder of another kind
   DeformEngine engine;
   io::LoadOptions load;  ///< series, raw layout, region (the label map gets the same region)
+  std::string commandLine;  ///< for the report's shared keys (run_report.hpp)
 };
 
 /// psnr (the paths and the engine's settings have their own flags and tables).

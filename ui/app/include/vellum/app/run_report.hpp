@@ -32,6 +32,11 @@ class RunReport {
  public:
   /// `commandLine`: the command as typed (the CLI passes its argv joined); may be empty.
   explicit RunReport(std::string commandLine);
+  /// A report assembled after the work (the pipelines keep their own stage timings): total_ms
+  /// counts from `start`.
+  RunReport(std::string commandLine, std::chrono::steady_clock::time_point start);
+  /// An output file (a volume's header data file and a raw sidecar with it); missing ones skipped.
+  void outputVolume(const std::filesystem::path& path);
   /// An input as read (a volume's header data file and a raw sidecar are fingerprinted with it).
   void input(const std::filesystem::path& path, const std::string& role);
   /// A loaded volume: its DICOM series and slice count, and its load warnings.
