@@ -206,6 +206,14 @@ void View3D::setVolume(const VolumeI16& ct) {
   invalidate();
 }
 
+void View3D::setVolume(const AnyVolume& ct, const render::VolumeRenderer::Prepared& prepared) {
+  context_.makeCurrent();
+  renderer_->setVolume(ct, prepared);
+  labelsKey_.clear();
+  hasVolume_ = true;
+  invalidate();
+}
+
 void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
   context_.makeCurrent();
   renderer_->setBackwardMap(map);

@@ -66,6 +66,8 @@ class View3D {
 
   explicit View3D(render::GlContext& context);
   void setVolume(const VolumeI16& ct);
+  /// The same with the renderer's CPU part made on a worker (Loader): only the uploads run here.
+  void setVolume(const AnyVolume& ct, const render::VolumeRenderer::Prepared& prepared);
   /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
   /// a new one renders again (coarse while the user drags, then refined).
   void setBackwardMap(const render::BackwardMap* map, uint64_t revision);

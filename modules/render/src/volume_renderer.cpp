@@ -426,14 +426,29 @@ void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegi
 VolumeRenderer::VolumeRenderer(GlContext& context) : impl_(std::make_unique<Impl>(context)) {}
 VolumeRenderer::~VolumeRenderer() = default;
 
-void VolumeRenderer::setVolume(const AnyVolume& volume) {
+struct VolumeRenderer::Prepared {
+  Geometry geometry;
+  NormalVolume normals;
+  BlockRanges blocks;
+};
+
+std::shared_ptr<const VolumeRenderer::Prepared> VolumeRenderer::prepare(const AnyVolume& volume) {
+  geometryOf(volume).validate("render volume");
+  return std::make_shared<const Prepared>(Prepared{geometryOf(volume), computeNormalVolume(volume),
+                                                   computeBlockRanges(volume)});
+}
+
+void VolumeRenderer::setVolume(const AnyVolume& volume) { setVolume(volume, *prepare(volume)); }
+
+void VolumeRenderer::setVolume(const AnyVolume& volume, const Prepared& prepared) {
   const Geometry& g = geometryOf(volume);
   g.validate("render volume");
+  if (!(prepared.geometry.dims == g.dims)) throw Error("setVolume: prepared for another volume");
   impl_->context.makeCurrent();
   impl_->hasVolume = false;
   std::visit([&](const auto& v) { impl_->uploadVolume(v); }, volume);
-  impl_->uploadNormals(computeNormalVolume(volume));
-  impl_->blocks = computeBlockRanges(volume);
+  impl_->uploadNormals(prepared.normals);
+  impl_->blocks = prepared.blocks;
   makeSkipTextures(impl_->blockSkip, impl_->blocks.blocks, impl_->blocks.maxValue);
   impl_->source = g;
   impl_->hasVolume = true;

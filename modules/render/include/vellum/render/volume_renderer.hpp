@@ -36,6 +36,13 @@ class VolumeRenderer {
 
   /// Uploads the volume (any voxel type) and its gradient-normal volume.
   void setVolume(const AnyVolume& volume);
+  /// The CPU part of setVolume() (the gradient-normal volume, the empty-space block ranges):
+  /// no GL, so an interactive viewer makes it on a worker thread and uploads it with the
+  /// overload below on the context's thread.
+  struct Prepared;
+  static std::shared_ptr<const Prepared> prepare(const AnyVolume& volume);
+  /// setVolume() with its CPU part already made (by prepare() from this same volume).
+  void setVolume(const AnyVolume& volume, const Prepared& prepared);
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
   void setBackwardMap(const BackwardMap* map);
