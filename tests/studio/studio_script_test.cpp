@@ -519,3 +519,32 @@ TEST(StudioScript, EditsQueueBehindTheWorkerAndSliceViewsZoomPanAndFit) {
 
 }  // namespace
 }  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+
+// Adopting a load uploads the 3D view's textures a slab per frame (the CPU part prepared on
+// the loader's worker): the picture is exactly setVolume()'s, and nothing is drawn before the
+// last slab.
+TEST(StudioLoad, SteppedUploadOfAPreparedVolumeDrawsWhatSetVolumeDraws) {
+  phantom::PhantomOptions o;
+  o.dims = {40, 36, 30};
+  const AnyVolume ct(phantom::makePhantom(o).ct);
+  auto context = render::GlContext::createHeadless();
+  render::RenderSettings s;
+  s.width = 64;
+  s.height = 48;
+  s.preset = render::Preset::Bone;
+  render::VolumeRenderer whole(*context), stepped(*context);
+  whole.setVolume(ct);
+  const auto shared = std::make_shared<const AnyVolume>(ct);
+  const auto prepared = render::VolumeRenderer::prepare(*shared);
+  const size_t slice = 40 * 36 * (2 + 4);  // int16 voxels + RGBA8 normals
+  int steps = 0;
+  while (!stepped.uploadVolumeStep(shared, prepared, 4 * slice)) ASSERT_LT(++steps, 100);
+  EXPECT_EQ(steps + 1, 8) << "30 slices, 4 per step";
+  EXPECT_EQ(stepped.render(s).pixels, whole.render(s).pixels);
+}
+
+}  // namespace
+}  // namespace vellum::studio

@@ -154,7 +154,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
          !scene_.authoring.playing;
 }
 
@@ -211,13 +211,16 @@ void StudioApp::beginUiFrame() {
 // The deformation map, the slice textures and the 3D view brought up to date.
 StudioApp::FrameViews StudioApp::updateViews() {
   FrameViews v;
+  if (upload3d_ && view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
+    upload3d_.reset();
   const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
   v.mapUpdated = deform_->update(scene_, livePoints);
   if (deform_->exactSolveRunning() && !interacting3d()) {
-    // The exact map is on the worker (just started, or still running): wait for it, up to
-    // one drag frame's time (~100 ms at 256³), rather than draw a frame that takes cores
-    // from it and that the map would replace. At 256³, s = 4 it lands within the wait.
-    deform_->awaitSolve(std::chrono::milliseconds(100));
+    // The exact map is on the worker (just started, or still running): wait for it a little
+    // (40 ms) rather than draw a frame that takes cores from it and that the map would
+    // replace; short enough that the window still draws several frames a second during a
+    // solve of seconds on a real scan.
+    deform_->awaitSolve(std::chrono::milliseconds(40));
     v.mapUpdated = deform_->update(scene_, livePoints) || v.mapUpdated;
   }
   if (v.mapUpdated) view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
@@ -310,8 +313,10 @@ void StudioApp::adoptLoad(LoadResult r) {
   }
   undo_.clear();
   tools_.activeLabel = std::max<uint16_t>(1, scene_.labels.table().empty() ? 1 : scene_.labels.table().front().id);
-  if (r.prepared && r.renderVolume) view3d_->setVolume(*r.renderVolume, *r.prepared);  // uploads only
-  else view3d_->setVolume(scene_.ct);
+  // The 3D view's textures are uploaded a slab per frame from the next frame on (the slices
+  // show the new volume at once).
+  if (r.prepared && r.renderVolume) upload3d_ = Upload3d{r.renderVolume, r.prepared};
+  else upload3d_.reset(), view3d_->setVolume(scene_.ct);
   markSlicesDirty();
   afterLoad(r);
   const fs::path& opened = scene_.scenePath.empty() ? scene_.volumePath : scene_.scenePath;

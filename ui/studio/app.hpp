@@ -355,6 +355,7 @@ class StudioApp {
   std::unique_ptr<Autosaver> autosaver_;
   std::array<std::unique_ptr<GlTexture>, 3> sliceTextures_;
   std::array<RgbaImage, 3> sliceImages_;  ///< what the textures hold (screenshots of a slice)
+  std::array<int, 3> sliceScale_{1, 1, 1};  ///< pane pixels per texture pixel (2 during point drags)
   double lastSlicesMs_ = 0;
   bool slicesRendered_ = false;  ///< in this frame (--log-frames)
   Scene scene_;
@@ -367,6 +368,13 @@ class StudioApp {
   Loader loader_;
   /// A finished load waiting for the workers that read the current volume to stop.
   std::optional<LoadResult> pendingLoad_;
+  /// The adopted volume's 3D textures still being uploaded, a slab per frame.
+  struct Upload3d {
+    std::shared_ptr<const AnyVolume> volume;
+    std::shared_ptr<const render::VolumeRenderer::Prepared> prepared;
+  };
+  std::optional<Upload3d> upload3d_;
+  static constexpr size_t kUploadBytesPerFrame = size_t{32} << 20;  ///< ~50 ms on llvmpipe
   TaskQueue tasks_;
   std::shared_ptr<std::atomic<bool>> holding_ = std::make_shared<std::atomic<bool>>(false);
   std::string lastTaskError_, notice_;

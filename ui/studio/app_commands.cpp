@@ -289,12 +289,15 @@ void StudioApp::pollSnake() {
 
 void StudioApp::makeShapes(const fs::path& folder) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  if (labelsFrozen() && folder.empty()) {  // from the labels as the queued edits leave them
-    tasks_.push("shapes", [this, folder](Progress&) { return TaskQueue::Apply([this, folder] { makeShapes(folder); }); });
-    return;
-  }
-  if (!shapes_.start({scene_.ct, scene_.labels, folder, scene_.volumeGeneration}))
-    throw Error("shapes are already being made; cancel first");
+  if (shapes_.pending()) throw Error("shapes are already being made; cancel first");
+  // The job's copies of the CT and labels (hundreds of MB on a real scan) are made by the task
+  // queue's worker, from the labels as the queued edits leave them.
+  tasks_.push("copying the volume for shapes", [this, folder](Progress&) {
+    auto request = std::make_shared<ShapeRequest>(ShapeRequest{scene_.ct, scene_.labels, folder, scene_.volumeGeneration});
+    return TaskQueue::Apply([this, request] {
+      if (!shapes_.start(std::move(*request))) showError("shapes are already being made; cancel first");
+    });
+  });
 }
 
 void StudioApp::pollShapes() {

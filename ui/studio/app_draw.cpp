@@ -56,6 +56,10 @@ void StudioApp::updateSliceTextures() {
       << scene_.hiddenLabels.size();
   // Deformed slices follow the map (every move of a drag); undeformed ones ignore it.
   key << " map " << (map ? deform_->mapRevision() : 0);
+  // While a control point is dragged the deformed slices are resampled every frame through a
+  // new map: at half resolution (a quarter of the samples), full again when the drag ends.
+  const int reduce = map && pointDrag_ ? 2 : 1;
+  key << " reduce " << reduce;
   const auto [snakeLive, snakeRevision] = snake_.live();
   if (snakeLive) key << " snake " << snakeRevision;
   for (const Pane& p : panes_) key << ' ' << p.rect.w << 'x' << p.rect.h;
@@ -72,8 +76,14 @@ void StudioApp::updateSliceTextures() {
   style.map = map;
   for (const Pane& p : panes_) {
     if (p.is3d()) continue;
-    const SlicePlane plane = planeOf(p);
+    SlicePlane plane = planeOf(p);
+    if (reduce > 1) {  // the same field of view (within a pixel), drawn scaled up
+      plane.width = (plane.width + reduce - 1) / reduce;
+      plane.height = (plane.height + reduce - 1) / reduce;
+      plane.mmPerPixel *= reduce;
+    }
     const auto axis = static_cast<size_t>(*p.slice);
+    sliceScale_[axis] = reduce;
     sliceImages_[axis] = renderSlice(scene_.ct, plane, style);
     sliceTextures_[axis]->upload(sliceImages_[axis]);
   }
@@ -105,15 +115,20 @@ void StudioApp::drawPanes() {
                                     ? "3D  illustration: " + scene_.illustration.style.name
                                     : std::string("3D  ") + render::presetName(scene_.render.preset);
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(120, 120, 200, 255), title.c_str());
+      if (upload3d_) dl->AddText({a.x + 6, a.y + 22}, IM_COL32(150, 200, 255, 255), "uploading the volume ...");
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawControlPoints(p);
       drawCurveTrace(p);
       continue;
     }
     const GlTexture& t = *sliceTextures_[static_cast<size_t>(*p.slice)];
-    if (t.valid())
+    if (t.valid()) {
+      const float scale = float(sliceScale_[static_cast<size_t>(*p.slice)]);
+      dl->PushClipRect(a, b, true);
       dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id())), a,
-                   {a.x + float(t.width()), a.y + float(t.height())});
+                   {a.x + scale * float(t.width()), a.y + scale * float(t.height())});
+      dl->PopClipRect();
+    }
     const SlicePlane plane = planeOf(p);
     const auto [cx, cy] = plane.toPixel(scene_.crosshairMm);
     dl->PushClipRect(a, b, true);
@@ -244,6 +259,7 @@ std::vector<std::string> StudioApp::runningWork() const {
     r.push_back("exporting frame " + std::to_string(done) + " / " + std::to_string(count));
   }
   if (curve_.busy()) r.push_back("curve analogy");
+  if (upload3d_) r.push_back("uploading the volume to the 3D view");
   return r;
 }
 

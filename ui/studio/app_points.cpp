@@ -343,10 +343,18 @@ void StudioApp::setRigid(std::vector<uint16_t> labels, double falloffMm, const s
 void StudioApp::placeControls(bool fromLabels) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   if (fromLabels && scene_.labels.ids().empty()) throw Error("no label map is open");
-  ControlPoints pts = fromLabels ? deformation::labelControlPoints(scene_.labels)
-                                 : deformation::boxControlPoints(scene_.ct.geometry());
-  editTrack(fromLabels ? "points from labels" : "default points",
-            [&](Authoring& a) { placePoints(a, std::move(pts)); });
+  if (!fromLabels) {
+    ControlPoints pts = deformation::boxControlPoints(scene_.ct.geometry());
+    editTrack("default points", [&](Authoring& a) { placePoints(a, std::move(pts)); });
+    return;
+  }
+  // A pass over the whole label map: on the task queue's worker, after the queued label edits.
+  tasks_.push("points from labels", [this](Progress&) {
+    auto pts = std::make_shared<ControlPoints>(deformation::labelControlPoints(scene_.labels));
+    return TaskQueue::Apply([this, pts] {
+      editTrack("points from labels", [&](Authoring& a) { placePoints(a, std::move(*pts)); });
+    });
+  });
 }
 
 }  // namespace vellum::studio

@@ -125,7 +125,11 @@ void viewSection(StudioApp& app) {
   if (e.finished) app.endViewEdit("view settings");
   ImGui::TextUnformatted("Slice window:");
   for (const WindowPreset& p : windowPresets()) {
-    ImGui::SameLine();
+    // On the same line while it fits the panel, else on the next.
+    const float room = ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x;
+    if (ImGui::GetItemRectMax().x + ImGui::GetStyle().ItemSpacing.x + ImGui::CalcTextSize(p.name).x +
+            2 * ImGui::GetStyle().FramePadding.x < room)
+      ImGui::SameLine();
     if (ImGui::SmallButton(p.name)) guarded(app, [&] { app.setWindowPreset(p.name); });
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("centre %.0f HU, width %.0f HU", p.center, p.width);
   }

@@ -335,7 +335,8 @@ void expandShapes(Steps& s, const json& v) {
   // "labels": make shapes from the label map; otherwise a `vellum shape` folder. Waits.
   const std::string what = v.get<std::string>();
   s.once([what](StudioApp& a) { a.makeShapes(what == "labels" ? fs::path() : fs::path(what)); });
-  s.until([](StudioApp& a) { return !a.shapeJob().busy(); });
+  s.waitTasks();  // the copies for the job
+  s.until([](StudioApp& a) { return !a.shapeJob().pending(); });
   s.frames(2);
   s.once([](StudioApp& a) {
     if (!a.scene().shapes) throw Error("no shapes were made (see the message above)");
@@ -437,6 +438,7 @@ void expandControls(Steps& s, const json& v) {
   const std::string which = v.get<std::string>();
   if (which != "default" && which != "labels") throw Error("controls must be \"default\" or \"labels\"");
   s.once([which](StudioApp& a) { a.placeControls(which == "labels"); });
+  if (which == "labels") s.waitTasks();  // made on the task queue's worker
   s.frames(1);
 }
 
@@ -680,7 +682,7 @@ void expandCurveAnalogy(Steps& s, const json& v) {
   if (!apply) return;  // C0 and the structure are set; the panel's Apply (or another action) runs it
   s.until([](StudioApp& a) { return !a.curveTool().busy(); });
   s.frames(1);  // the frame that adopts the result starts loading the new folder
-  s.until([](StudioApp& a) { return !a.shapeJob().busy(); });
+  s.until([](StudioApp& a) { return !a.tasks().busy() && !a.shapeJob().pending(); });
   s.frames(2);
   s.once([](StudioApp& a) {
     if (!a.curveTool().lastError.empty()) throw Error("curve analogy failed: " + a.curveTool().lastError);
