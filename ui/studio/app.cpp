@@ -63,6 +63,7 @@ StudioApp::StudioApp(StudioOptions options)
     : deform_(std::make_unique<DeformSession>()), options_(std::move(options)) {}
 
 StudioApp::~StudioApp() {
+  deform_.reset();  // its workers read scene_.ct, which is destroyed before deform_ would be
   if (!window_) return;
   export_.reset();  // GL objects: before the context goes
   view3d_.reset();
