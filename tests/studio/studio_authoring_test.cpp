@@ -436,10 +436,17 @@ TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview)
   EXPECT_FALSE(session.preview());
   EXPECT_FALSE(session.solving());
   EXPECT_EQ(session.map()->grid.dims, controlGrid(scene.ct.geometry(), a.engine.controlScale).dims);
-  // A source moves: the preview on the coarser grid.
+  // A source moves: the preview on the coarser grid, solved on its worker (the call never
+  // waits for it: a rho field must be rebuilt); a later call adopts it.
   a.editablePoints()[5].source += Vec3{4, 0, 0};
   a.touch();
-  EXPECT_TRUE(session.update(scene, true));
+  bool landed = false;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!landed && std::chrono::steady_clock::now() < deadline) {
+    landed = session.update(scene, true);
+    if (!landed) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_TRUE(landed);
   EXPECT_TRUE(session.preview());
   EXPECT_EQ(session.map()->grid.dims, controlGrid(scene.ct.geometry(), 2 * a.engine.controlScale).dims);
 }

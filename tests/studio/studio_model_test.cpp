@@ -1,6 +1,7 @@
 // The studio's model without a window: undo deltas, label tools, scene files, MPR planes.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <thread>
@@ -12,6 +13,7 @@
 #include "mpr.hpp"
 #include "scene_file.hpp"
 #include "test_data.hpp"
+#include "task_queue.hpp"
 #include "undo.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -240,6 +242,152 @@ TEST(StudioMpr, PlanesMapPixelsToMmAndBack) {
   const RgbaImage img = renderSlice(ph.ct, ax, style);
   EXPECT_EQ(img.width, 300);
   EXPECT_EQ(img.height, 200);
+}
+
+// Slice views zoom about the pointer and pan with it (Ctrl+wheel, middle-drag); the letters
+// name the patient directions at each edge (radiological convention).
+TEST(StudioMpr, ZoomKeepsThePointUnderThePointerAndPanFollowsIt) {
+  const auto ph = smallPhantom();
+  const Geometry& g = ph.ct.geometry();
+  const SlicePlane fit = makePlane(SliceAxis::Coronal, g, g.center(), 400, 300);
+  SliceNavigation nav;
+  EXPECT_LT(norm(navigated(fit, nav).toMm(17, 33) - fit.toMm(17, 33)), 1e-12) << "no zoom, no pan: the fit";
+  const Vec3 under = fit.toMm(100, 50);
+  nav = zoomedAbout(fit, nav, 2.0, 100, 50);
+  const SlicePlane zoomed = navigated(fit, nav);
+  EXPECT_NEAR(zoomed.mmPerPixel, fit.mmPerPixel / 2, 1e-12);
+  EXPECT_LT(norm(zoomed.toMm(100, 50) - under), 1e-9) << "the position under the pointer stays";
+  EXPECT_GT(norm(zoomed.toMm(300, 250) - fit.toMm(300, 250)), 1.0) << "elsewhere the picture is magnified";
+  // A second zoom about another pixel composes.
+  const Vec3 under2 = zoomed.toMm(350, 280);
+  nav = zoomedAbout(fit, nav, 1.5, 350, 280);
+  EXPECT_LT(norm(navigated(fit, nav).toMm(350, 280) - under2), 1e-9);
+  // Panning: what was under the pointer follows it.
+  const Vec3 grabbed = navigated(fit, nav).toMm(200, 150);
+  nav = pannedBy(fit, nav, 30, -20);
+  EXPECT_LT(norm(navigated(fit, nav).toMm(230, 130) - grabbed), 1e-9);
+  // The plane stays the crosshair's: panning and zooming move within it.
+  EXPECT_NEAR(dot(navigated(fit, nav).center - fit.center, fit.normal), 0.0, 1e-9);
+  for (int i = 0; i < 20; ++i) nav = zoomedAbout(fit, nav, 2.0, 0, 0);
+  EXPECT_EQ(nav.zoom, 64.0) << "zoom is bounded";
+
+  using L = std::array<std::string, 4>;  // left, right, top, bottom
+  EXPECT_EQ(orientationLetters(makePlane(SliceAxis::Axial, g, g.center(), 100, 100)), (L{"R", "L", "A", "P"}));
+  EXPECT_EQ(orientationLetters(makePlane(SliceAxis::Coronal, g, g.center(), 100, 100)), (L{"R", "L", "S", "I"}));
+  EXPECT_EQ(orientationLetters(makePlane(SliceAxis::Sagittal, g, g.center(), 100, 100)), (L{"A", "P", "S", "I"}));
+  EXPECT_FALSE(windowPresets().empty());
+}
+
+// The task queue runs the studio's long edits one at a time on a worker, in the order they were
+// asked for; their results are applied by the thread that polls (the UI thread); an edit asked
+// for while one runs waits, a failure or a cancel is reported by name and the next still runs.
+TEST(StudioTaskQueue, RunsInOrderAppliesOnThePollingThreadReportsAndCancels) {
+  TaskQueue queue;
+  std::vector<std::string> applied, errors;
+  std::vector<std::thread::id> appliedOn;
+  const auto onError = [&](const std::string& e) { errors.push_back(e); };
+  const auto pollUntilIdle = [&] {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (queue.busy() && std::chrono::steady_clock::now() < deadline) {
+      queue.poll(onError);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  };
+  const auto record = [&](const std::string& name) {
+    return TaskQueue::Apply([&, name] {
+      applied.push_back(name);
+      appliedOn.push_back(std::this_thread::get_id());
+    });
+  };
+  std::atomic<bool> release{false};
+  std::atomic<std::thread::id> workerThread;
+  queue.push("a", [&](Progress&) {
+    workerThread = std::this_thread::get_id();
+    while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    return record("a");
+  });
+  queue.push("b", [&](Progress&) { return record("b"); });
+  EXPECT_TRUE(queue.busy());
+  queue.poll(onError);  // starts "a"
+  EXPECT_EQ(queue.running(), "a");
+  EXPECT_EQ(queue.waiting(), 1u);
+  queue.push("c", [&](Progress&) { return record("c"); });  // asked for while "a" runs: queued
+  for (int i = 0; i < 20; ++i) queue.poll(onError);
+  EXPECT_TRUE(applied.empty()) << "nothing is applied before it has finished";
+  EXPECT_EQ(queue.waiting(), 2u);
+  release = true;
+  pollUntilIdle();
+  EXPECT_EQ(applied, (std::vector<std::string>{"a", "b", "c"}));
+  for (const auto& id : appliedOn) EXPECT_EQ(id, std::this_thread::get_id()) << "applied on the polling thread";
+  EXPECT_NE(workerThread.load(), std::this_thread::get_id()) << "the work ran on a worker";
+  EXPECT_TRUE(errors.empty());
+
+  applied.clear();
+  queue.push("bad", [](Progress&) -> TaskQueue::Apply { throw Error("no room"); });
+  queue.push("slow", [&](Progress& p) {
+    p.begin("slow", 100000);
+    for (int i = 0; i < 100000; ++i) {
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+      p.advance();  // throws once cancelled
+    }
+    return record("slow");
+  });
+  queue.push("after", [&](Progress&) { return record("after"); });
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (queue.running() != "slow" && std::chrono::steady_clock::now() < deadline) {
+    queue.poll(onError);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_EQ(queue.running(), "slow");
+  queue.cancel();
+  pollUntilIdle();
+  EXPECT_EQ(errors, (std::vector<std::string>{"bad: no room", "slow cancelled"}));
+  EXPECT_EQ(applied, (std::vector<std::string>{"after"})) << "a cancelled task changes nothing; the next runs";
+}
+
+// A brush stroke's undo step from the voxels it changed equals the diff of whole copies.
+TEST(StudioLabelTools, StrokeDeltaEqualsTheDiffOfCopies) {
+  const auto ph = smallPhantom();
+  LabelVolume labels = ph.labels;
+  const LabelVolume before = labels;
+  std::vector<std::pair<uint64_t, uint16_t>> changed;
+  int64_t n = 0;
+  for (int s = 0; s < 6; ++s) n += paintSphere(labels, {-20.0 + 8 * s, 5, 3 * s}, 9.0, 7, {}, &changed);
+  ASSERT_GT(n, 0);
+  EXPECT_EQ(changed.size(), static_cast<size_t>(n)) << "each voxel reported once";
+  const LabelDelta stroke = strokeDelta(changed, before.table(), labels, "paint");
+  const LabelDelta diff = diffLabels(before, labels, "paint");
+  ASSERT_EQ(stroke.runs.size(), diff.runs.size());
+  for (size_t i = 0; i < diff.runs.size(); ++i) {
+    EXPECT_EQ(stroke.runs[i].start, diff.runs[i].start);
+    EXPECT_EQ(stroke.runs[i].length, diff.runs[i].length);
+    EXPECT_EQ(stroke.runs[i].before, diff.runs[i].before);
+    EXPECT_EQ(stroke.runs[i].after, diff.runs[i].after);
+  }
+  EXPECT_EQ(stroke.tableBefore, diff.tableBefore);
+  EXPECT_EQ(stroke.tableAfter, diff.tableAfter);
+  applyDelta(labels, stroke, false);
+  EXPECT_EQ(labels.ids().voxels(), before.ids().voxels());
+}
+
+// What the worker computes (diffEdit: the labels untouched) is the edit recordEdit makes.
+TEST(StudioLabelTools, DiffEditOnAWorkerEqualsTheEditInPlace) {
+  const auto ph = smallPhantom();
+  LabelVolume inPlace(ph.ct.geometry());
+  const auto threshold = [&](LabelVolume& l) {
+    thresholdInto(l, ph.ct, segmentation::presetInterval(segmentation::Preset::Bone), {1, "bone", {255, 255, 255}});
+    removeIslands(l, 1, 50);
+  };
+  const LabelVolume before = inPlace;
+  const LabelDelta d1 = recordEdit(inPlace, "threshold", threshold);
+  LabelVolume untouched(ph.ct.geometry());
+  const LabelDelta d2 = diffEdit(untouched, "threshold", threshold);
+  EXPECT_EQ(untouched.ids().voxels(), before.ids().voxels()) << "diffEdit leaves the labels alone";
+  ASSERT_FALSE(d2.empty());
+  applyDelta(untouched, d2, true);
+  EXPECT_EQ(untouched.ids().voxels(), inPlace.ids().voxels());
+  EXPECT_EQ(untouched.table(), inPlace.table());
+  EXPECT_EQ(d1.runs.size(), d2.runs.size());
 }
 
 }  // namespace

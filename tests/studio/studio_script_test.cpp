@@ -2,12 +2,14 @@
 // in; CI: xvfb-run -a ctest) through the same input handlers as a user.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -424,6 +426,124 @@ TEST(StudioScript, CurveAnalogyByTracingMatchesTheCliAndUndoes) {
     EXPECT_EQ(illustration::loadMesh(bent / "meshes" / (std::string(name) + ".ply")).vertices,
               illustration::loadMesh(dir / "cli" / "meshes" / (std::string(name) + ".ply")).vertices)
         << name;
+}
+
+}  // namespace
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+
+struct SliceView {
+  double zoom = 0, panU = 0, panV = 0, mmPerPixel = 0;
+};
+/// The `slice_view` lines a script printed, in order.
+std::vector<SliceView> sliceViews(const std::string& output) {
+  std::vector<SliceView> r;
+  std::istringstream in(output);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("slice_view ", 0) != 0) continue;
+    std::istringstream l(line);
+    std::string tag, axis, word;
+    SliceView v;
+    l >> tag >> axis >> word >> v.zoom >> word >> v.panU >> v.panV >> word >> v.mmPerPixel;
+    r.push_back(v);
+  }
+  return r;
+}
+
+// Label edits run on the task queue's worker: edits asked for while one runs queue behind it
+// and give what the same edits give one by one; a brush stroke meanwhile is refused with a
+// notice (not lost silently, not racing the worker); the label map is saved after the queued
+// edits. The slice views zoom about the pointer (Ctrl+wheel), pan (middle-drag) and fit (F or
+// the action); W/L presets are view edits the scene keeps; Ctrl+Q quits.
+TEST(StudioScript, EditsQueueBehindTheWorkerAndSliceViewsZoomPanAndFit) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-queue");
+  writePhantom(d);
+  // 1024x700 window, 2x2: the axial pane is x 330..676, y 0..348.
+  const std::string script = R"({"actions":[{"open":)" + q(d / "ct.nrrd") + R"(},{"layout":"2x2"},
+    {"hold_tasks":true},
+    {"threshold":{"preset":"bone","label":1,"wait":false}},
+    {"remove_islands":{"mm3":100,"wait":false}},
+    {"fill_holes":false},
+    {"tool":"paint"},{"active_label":2},{"brush_radius":6},
+    {"drag":{"from":[480,170],"to":[540,190],"button":"left"}},
+    {"hold_tasks":false},
+    {"save_labels":)" + q(d / "queued.nrrd") + R"(},
+    {"tool":"navigate"},
+    {"scroll":{"at":[470,140],"dy":2,"mods":["ctrl"]}},{"slice_view":"axial"},
+    {"drag":{"from":[500,175],"to":[540,205],"button":"middle"}},{"slice_view":"axial"},
+    {"slice_view":{"fit":"axial"}},{"slice_view":"axial"},
+    {"scroll":{"at":[470,140],"dy":1,"mods":["ctrl"]}},{"key":"f"},
+    {"slice_view":"axial"},
+    {"window_preset":"bone"},
+    {"save_scene":)" + q(d / "s.json") + R"(},
+    {"key":"ctrl+q"},{"frames":3},{"log":"still running after ctrl+q"}]})";
+  const StudioRun r = runStudio(d, "queue", script);
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  EXPECT_EQ(r.output.find("still running after ctrl+q"), std::string::npos) << "Ctrl+Q quits: " << r.output;
+  EXPECT_NE(r.output.find("painting refused"), std::string::npos) << r.output;
+
+  // The queued edits, one by one.
+  const VolumeI16 ct = toInt16(io::loadVolume(d / "ct.nrrd").volume);
+  LabelVolume expected(ct.geometry());
+  thresholdInto(expected, ct, segmentation::presetInterval(segmentation::Preset::Bone), {1, "bone", {255, 255, 255}});
+  removeIslands(expected, 1, 100);
+  fillHoles(expected, 1);
+  const LabelVolume queued = io::loadLabels(d / "queued.nrrd");
+  EXPECT_EQ(queued.ids().voxels(), expected.ids().voxels());
+  ASSERT_GE(queued.histogram().size(), 2u);
+  EXPECT_GT(queued.histogram()[1], 500u);
+  EXPECT_LE(queued.histogram().size(), 2u) << "the refused stroke painted nothing";
+
+  const std::vector<SliceView> v = sliceViews(r.output);
+  ASSERT_EQ(v.size(), 4u) << r.output;
+  EXPECT_NEAR(v[0].zoom, 1.21, 1e-9) << "two Ctrl+wheel notches";
+  EXPECT_NE(v[0].panU, 0.0) << "zoomed about the pointer, not the centre";
+  // The middle-drag moved the picture with the pointer: the centre moves against it.
+  EXPECT_NEAR(v[1].panU - v[0].panU, -40 * v[0].mmPerPixel, 1e-3);
+  EXPECT_NEAR(v[1].panV - v[0].panV, -30 * v[0].mmPerPixel, 1e-3);
+  EXPECT_EQ(v[2].zoom, 1.0);
+  EXPECT_EQ(v[2].panU, 0.0);
+  EXPECT_EQ(v[2].panV, 0.0);
+  EXPECT_NEAR(v[2].mmPerPixel, v[0].mmPerPixel * 1.21, 1e-5);  // printed with 6 decimals
+  EXPECT_EQ(v[3].zoom, 1.0) << "F over the axial view fits it again";
+  const SceneFile sf = readSceneFile(d / "s.json");
+  const auto bone = std::find_if(windowPresets().begin(), windowPresets().end(),
+                                 [](const WindowPreset& p) { return std::string(p.name) == "bone"; });
+  ASSERT_NE(bone, windowPresets().end());
+  EXPECT_EQ(sf.view.view.sliceWindow.center, bone->center);
+  EXPECT_EQ(sf.view.view.sliceWindow.width, bone->width);
+}
+
+}  // namespace
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+
+// Adopting a load uploads the 3D view's textures a slab per frame (the CPU part prepared on
+// the loader's worker): the picture is exactly setVolume()'s, and nothing is drawn before the
+// last slab.
+TEST(StudioLoad, SteppedUploadOfAPreparedVolumeDrawsWhatSetVolumeDraws) {
+  phantom::PhantomOptions o;
+  o.dims = {40, 36, 30};
+  const AnyVolume ct(phantom::makePhantom(o).ct);
+  auto context = render::GlContext::createHeadless();
+  render::RenderSettings s;
+  s.width = 64;
+  s.height = 48;
+  s.preset = render::Preset::Bone;
+  render::VolumeRenderer whole(*context), stepped(*context);
+  whole.setVolume(ct);
+  const auto shared = std::make_shared<const AnyVolume>(ct);
+  const auto prepared = render::VolumeRenderer::prepare(*shared);
+  const size_t slice = 40 * 36 * (2 + 4);  // int16 voxels + RGBA8 normals
+  int steps = 0;
+  while (!stepped.uploadVolumeStep(shared, prepared, 4 * slice)) ASSERT_LT(++steps, 100);
+  EXPECT_EQ(steps + 1, 8) << "30 slices, 4 per step";
+  EXPECT_EQ(stepped.render(s).pixels, whole.render(s).pixels);
 }
 
 }  // namespace

@@ -63,6 +63,7 @@ StudioApp::StudioApp(StudioOptions options)
     : deform_(std::make_unique<DeformSession>()), options_(std::move(options)) {}
 
 StudioApp::~StudioApp() {
+  deform_.reset();  // its workers read scene_.ct, which is destroyed before deform_ would be
   if (!window_) return;
   export_.reset();  // GL objects: before the context goes
   view3d_.reset();
@@ -143,6 +144,8 @@ int StudioApp::run() {
   loader_.cancel();
   snake_.cancel();
   shapes_.cancel();
+  tasks_.cancel();
+  tasks_.wait();  // it reads the scene, which goes with this object
   if (!unsavedChanges()) autosaver_->removeOwn();  // everything is saved: the autosave is stale
   autosaver_.reset();  // waits for a write in progress
   return exitCode_;
@@ -152,7 +155,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.busy() && !snake_.busy() && !shapes_.busy() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->solving() && !curve_.busy() &&
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
          !scene_.authoring.playing;
 }
 
@@ -165,6 +168,7 @@ void StudioApp::frame() {
   const FrameViews views = scene_.hasVolume() ? updateViews() : FrameViews{};
   drawPanes();
   if (hudVisible) drawHud();
+  drawStatus();
   ImGui::Render();
   presentFrame();
   lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -173,6 +177,7 @@ void StudioApp::frame() {
 }
 
 void StudioApp::pollWorkers() {
+  pollTasks();
   pollLoader();
   pollSnake();
   pollShapes();
@@ -207,13 +212,16 @@ void StudioApp::beginUiFrame() {
 // The deformation map, the slice textures and the 3D view brought up to date.
 StudioApp::FrameViews StudioApp::updateViews() {
   FrameViews v;
+  if (upload3d_ && view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
+    upload3d_.reset();
   const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
   v.mapUpdated = deform_->update(scene_, livePoints);
-  if (deform_->solving() && !interacting3d()) {
-    // The exact map is on the worker (just started, or still running): wait for it, up to
-    // one drag frame's time (~100 ms at 256³), rather than draw a frame that takes cores
-    // from it and that the map would replace. At 256³, s = 4 it lands within the wait.
-    deform_->awaitSolve(std::chrono::milliseconds(100));
+  if (deform_->exactSolveRunning() && !interacting3d()) {
+    // The exact map is on the worker (just started, or still running): wait for it a little
+    // (40 ms) rather than draw a frame that takes cores from it and that the map would
+    // replace; short enough that the window still draws several frames a second during a
+    // solve of seconds on a real scan.
+    deform_->awaitSolve(std::chrono::milliseconds(40));
     v.mapUpdated = deform_->update(scene_, livePoints) || v.mapUpdated;
   }
   if (v.mapUpdated) view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
@@ -224,7 +232,7 @@ StudioApp::FrameViews StudioApp::updateViews() {
   // While the exact map is being solved the 3D view keeps its last frame instead of refining
   // a picture the map is about to replace: the solve gets both cores, and no refinement is
   // thrown away.
-  const bool holdFor3d = deform_->solving() && !interacting3d();
+  const bool holdFor3d = deform_->exactSolveRunning() && !interacting3d();
   for (const Pane& p : panes_)
     if (p.is3d() && !holdFor3d)
       v.rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());
@@ -246,22 +254,35 @@ void StudioApp::presentFrame() {
 // --log-frames: one line per frame (docs/studio.md; ui/studio/bench/frame_stats.py reads it).
 void StudioApp::logFrame(const FrameViews& v) {
   const bool map = v.mapUpdated;
-  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d\n",
+  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d t_ms %.1f\n",
               frameNumber_, lastFrameMs_, v.rendered3d ? 1 : 0, v.rendered3d ? view3d_->lastRenderMs() : 0.0,
               view3d_->lastScale(), dragPane_ ? 1 : 0, map ? deform_->lastUpdateMs() : 0.0,
               map ? deform_->timings()->mapMs : 0.0, map ? deform_->timings()->rhoCacheMs : 0.0,
-              map ? deform_->lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0, sliceMap() ? 1 : 0);
+              map ? deform_->lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0, sliceMap() ? 1 : 0,
+              1000 * glfwGetTime());
   std::fflush(stdout);  // the log is read while the studio runs
 }
 
 // ---- loading ---------------------------------------------------------------------------
 
 void StudioApp::requestOpen(const fs::path& path, const fs::path& labels, const std::string& seriesUid) {
-  if (!loader_.start({path, labels, seriesUid})) showError("a file is still loading; cancel it first");
+  LoadRequest request{path, labels, seriesUid, true};
+  if (!loader_.start(request)) showError("a file is still loading; cancel it first");
 }
 
 void StudioApp::pollLoader() {
-  if (auto r = loader_.take()) adoptLoad(std::move(*r));
+  if (!pendingLoad_)
+    if (auto r = loader_.take()) pendingLoad_ = std::move(*r);
+  if (!pendingLoad_) return;
+  // The current volume and labels are read by workers: the queued tasks finish first (a save
+  // among them must not be lost), the deformation's solves are only caches and stop.
+  if (pendingLoad_->error.empty() && (tasks_.busy() || deform_->busy())) {
+    deform_->cancel();
+    return;
+  }
+  LoadResult r = std::move(*pendingLoad_);
+  pendingLoad_.reset();
+  adoptLoad(std::move(r));
 }
 
 void StudioApp::adoptLoad(LoadResult r) {
@@ -293,7 +314,10 @@ void StudioApp::adoptLoad(LoadResult r) {
   }
   undo_.clear();
   tools_.activeLabel = std::max<uint16_t>(1, scene_.labels.table().empty() ? 1 : scene_.labels.table().front().id);
-  view3d_->setVolume(scene_.ct);
+  // The 3D view's textures are uploaded a slab per frame from the next frame on (the slices
+  // show the new volume at once).
+  if (r.prepared && r.renderVolume) upload3d_ = Upload3d{r.renderVolume, r.prepared};
+  else upload3d_.reset(), view3d_->setVolume(scene_.ct);
   markSlicesDirty();
   afterLoad(r);
   const fs::path& opened = scene_.scenePath.empty() ? scene_.volumePath : scene_.scenePath;

@@ -3,6 +3,7 @@
 // actions enter through the same on*() handlers; panels and scripts change the scene through
 // the same commands.
 #include <array>
+#include <atomic>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -20,6 +21,7 @@
 #include "shape_job.hpp"
 #include "vellum/app/segment_pipeline.hpp"
 #include "snake_job.hpp"
+#include "task_queue.hpp"
 #include "scene.hpp"
 #include "undo.hpp"
 #include "vellum/segmentation/threshold.hpp"
@@ -147,6 +149,14 @@ class StudioApp {
   void goToBookmark(size_t index);
   void deleteBookmark(size_t index);
   void resetView();
+  /// A slice view's zoom and pan (Ctrl+wheel or Ctrl+right-drag zooms about the pointer,
+  /// middle-drag pans, F fits the view under the pointer again; R resets every view).
+  const SliceNavigation& sliceNavigation(SliceAxis axis) const { return sliceNav_[static_cast<size_t>(axis)]; }
+  void fitSliceView(SliceAxis axis);
+  /// The plane a slice pane shows: makePlane's fit, zoomed and panned.
+  SlicePlane planeOf(const Pane& pane) const;
+  /// Sets the slice window to a windowPresets() entry by name (one undo step).
+  void setWindowPreset(const std::string& name);
   bool undo();
   bool redo();
   void applyThreshold();
@@ -188,9 +198,10 @@ class StudioApp {
   const DeformSession& deformSession() const { return *deform_; }
   /// The `vellum render` command for the 3D view at its pane size (512² without a 3D pane).
   std::string cliCommand(const std::string& out) const;
-  /// Saves the scene (and the label map next to it when it has no file or was edited).
-  void saveScene(const std::filesystem::path& path);
-  void saveLabels(const std::filesystem::path& path);
+  /// Saves the scene (and the label map next to it when it has no file or was edited). The
+  /// label map is written by a task (after the queued edits); `then` runs once all is written.
+  void saveScene(const std::filesystem::path& path, std::function<void()> then = {});
+  void saveLabels(const std::filesystem::path& path, std::function<void()> then = {});
   /// Window screenshot after the next completed frame, or a 3D render (size 0 = pane size).
   void requestWindowScreenshot(const std::filesystem::path& path);
   void save3dScreenshot(const std::filesystem::path& path, int width = 0, int height = 0);
@@ -235,12 +246,29 @@ class StudioApp {
   ToolState& tools() { return tools_; }
   Loader& loader() { return loader_; }
   SnakeJob& snakeJob() { return snake_; }
+  /// The queued edits (label operations, label and scene files) and the task running.
+  TaskQueue& tasks() { return tasks_; }
+  /// True while tasks read the label map and CT on a worker: edits then queue behind them
+  /// (panel buttons, undo) or are refused with a notice (brush strokes, label table edits).
+  bool labelsFrozen() const { return tasks_.busy(); }
+  /// The last task's error or "<task> cancelled" ("" until one failed); scripts check it.
+  const std::string& lastTaskError() const { return lastTaskError_; }
+  void clearTaskError() { lastTaskError_.clear(); }
+  /// A one-line message shown for a few seconds over the views (and on stderr): what was
+  /// refused and why. Not modal.
+  void notify(const std::string& message);
+  const std::string& notice() const { return notice_; }
+  /// Scripts (tests): queues a task that holds the worker until released, a stand-in for an
+  /// edit that takes long on a real scan, so what happens meanwhile can be tested.
+  void holdTasks(bool on);
+  /// What runs on workers now, one line each ("remove islands 40%"), for the status line.
+  std::vector<std::string> runningWork() const;
   /// Starts the snake from a seed (mm) with the threshold range as its inside and the brush
   /// radius as its bubble (what the Snake tool's click does).
   void startSnake(const Vec3& seedMm);
   UndoStack& undoStack() { return undo_; }
   FileBrowser& fileBrowser() { return browser_; }
-  bool loading() const { return loader_.busy(); }
+  bool loading() const { return loader_.busy() || pendingLoad_.has_value(); }
   /// Nothing pending: no load or snake running, 3D view refined, no screenshot waiting.
   bool idle() const;
   /// The last load's error ("" after success); scripts check it.
@@ -276,8 +304,13 @@ class StudioApp {
   const Pane* paneAt(double x, double y) const;
   void markSlicesDirty() { slicesDirty_ = true; }
   void pushEdit(LabelDelta delta);
-  /// Runs a label edit (locked segments protected) and records it as one undo step.
-  void edit(const std::string& description, const std::function<void(LabelVolume&)>& fn);
+  /// A label edit (locked segments protected) on the task queue's worker, recorded as one
+  /// undo step when the window applies it (see editInWorker in app_commands.cpp).
+  void editInWorker(const std::string& description, std::function<void(LabelVolume&, Progress&)> fn);
+  /// True (and a notice) when the labels are frozen by running tasks: `what` waits.
+  bool refuseWhileFrozen(const std::string& what);
+  void pollTasks();
+  void drawStatus();
   void paintAt(const Pane& pane, double x, double y);
   void growAt(const Pane& pane, double x, double y);
   void growFromPoint(const Vec3& seedMm);
@@ -322,6 +355,7 @@ class StudioApp {
   std::unique_ptr<Autosaver> autosaver_;
   std::array<std::unique_ptr<GlTexture>, 3> sliceTextures_;
   std::array<RgbaImage, 3> sliceImages_;  ///< what the textures hold (screenshots of a slice)
+  std::array<int, 3> sliceScale_{1, 1, 1};  ///< pane pixels per texture pixel (2 during point drags)
   double lastSlicesMs_ = 0;
   bool slicesRendered_ = false;  ///< in this frame (--log-frames)
   Scene scene_;
@@ -332,6 +366,19 @@ class StudioApp {
   void pushViewEdit(const std::string& description, const ViewState& before);
   void viewChanged();  ///< layout, preset ... changed: redraw slices and the 3D view
   Loader loader_;
+  /// A finished load waiting for the workers that read the current volume to stop.
+  std::optional<LoadResult> pendingLoad_;
+  /// The adopted volume's 3D textures still being uploaded, a slab per frame.
+  struct Upload3d {
+    std::shared_ptr<const AnyVolume> volume;
+    std::shared_ptr<const render::VolumeRenderer::Prepared> prepared;
+  };
+  std::optional<Upload3d> upload3d_;
+  static constexpr size_t kUploadBytesPerFrame = size_t{32} << 20;  ///< ~50 ms on llvmpipe
+  TaskQueue tasks_;
+  std::shared_ptr<std::atomic<bool>> holding_ = std::make_shared<std::atomic<bool>>(false);
+  std::string lastTaskError_, notice_;
+  double noticeUntil_ = 0;
   SnakeJob snake_;
   ShapeJob shapes_;
   void pollShapes();
@@ -367,12 +414,21 @@ class StudioApp {
   /// scene is offered its newer autosave.
   void afterLoad(const LoadResult& r);
 
+  std::array<SliceNavigation, 3> sliceNav_;
+  bool ctrlDown_ = false;  ///< from key events (scroll events carry no modifiers)
+
   // Mouse state (window pixels).
   double mouseX_ = 0, mouseY_ = 0, pressX_ = 0, pressY_ = 0;
   int dragButton_ = -1, dragMods_ = 0;
   std::optional<Pane> dragPane_;  ///< a copy: panes_ is rebuilt every frame
   std::array<bool, 3> virtualDown_{false, false, false};
-  std::optional<LabelVolume> strokeBefore_;
+  /// A brush stroke in progress: the voxels it changed (index, previous id) and the label
+  /// table before it, made into one undo step on release (no copy of the whole map).
+  struct Stroke {
+    std::vector<std::pair<uint64_t, uint16_t>> changed;
+    std::vector<Label> tableBefore;
+  };
+  std::optional<Stroke> stroke_;
 
   std::filesystem::path pendingScreenshot_;
   std::optional<std::string> screenshotError_;

@@ -2,6 +2,8 @@
 #include <GLFW/glfw3.h>
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 #include <iostream>
 #include <sstream>
 
@@ -96,11 +98,84 @@ void StudioApp::deleteBookmark(size_t index) {
 
 void StudioApp::resetView() {
   scene_.resetView();
+  sliceNav_ = {};
   markSlicesDirty();
 }
 
-void StudioApp::edit(const std::string& description, const std::function<void(LabelVolume&)>& fn) {
-  pushEdit(recordEdit(scene_.labels, description, fn, scene_.lockedLabels));
+void StudioApp::fitSliceView(SliceAxis axis) {
+  sliceNav_[static_cast<size_t>(axis)] = {};
+  markSlicesDirty();
+}
+
+SlicePlane StudioApp::planeOf(const Pane& pane) const {
+  return navigated(makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h)),
+                   sliceNav_[static_cast<size_t>(*pane.slice)]);
+}
+
+void StudioApp::setWindowPreset(const std::string& name) {
+  for (const WindowPreset& p : windowPresets())
+    if (name == p.name) {
+      const ViewState before = scene_.viewState();
+      scene_.view.sliceWindow = {p.center, p.width};
+      pushViewEdit("window " + name, before);
+      return;
+    }
+  std::string names;
+  for (const WindowPreset& p : windowPresets()) names += std::string(names.empty() ? "" : ", ") + p.name;
+  throw Error("unknown window preset '" + name + "' (" + names + ")");
+}
+
+void StudioApp::editInWorker(const std::string& description, std::function<void(LabelVolume&, Progress&)> fn) {
+  if (!scene_.hasVolume()) throw Error("no volume is open");
+  // The worker diffs a copy of the labels as they will be when this task starts (the tasks
+  // before it applied, nothing else changing them meanwhile: labelsFrozen()); the UI thread
+  // applies the delta, one undo step.
+  tasks_.push(description, [this, description, fn = std::move(fn), locked = scene_.lockedLabels](Progress& p) {
+    p.begin(description, 1);
+    auto delta = std::make_shared<LabelDelta>(
+        diffEdit(scene_.labels, description, [&](LabelVolume& l) { fn(l, p); }, locked));
+    p.checkCancelled();  // a cancel during the work drops its result
+    return TaskQueue::Apply([this, delta] {
+      applyDelta(scene_.labels, *delta, true);
+      pushEdit(std::move(*delta));
+    });
+  });
+}
+
+bool StudioApp::refuseWhileFrozen(const std::string& what) {
+  if (!labelsFrozen()) return false;
+  notify(what + " refused: wait for " + tasks_.running() + " (or cancel it)");
+  return true;
+}
+
+void StudioApp::holdTasks(bool on) {
+  if (!on) {
+    *holding_ = false;
+    return;
+  }
+  *holding_ = true;
+  tasks_.push("held task", [holding = holding_](Progress& p) {
+    p.begin("held task", 1);
+    while (*holding) {
+      p.checkCancelled();
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    return TaskQueue::Apply();
+  });
+}
+
+void StudioApp::notify(const std::string& message) {
+  std::cerr << "vellum-studio: " << message << "\n";
+  notice_ = message;
+  noticeUntil_ = glfwGetTime() + 4;
+}
+
+void StudioApp::pollTasks() {
+  tasks_.poll([this](const std::string& error) {
+    lastTaskError_ = error;
+    if (error.size() >= 9 && error.compare(error.size() - 9, 9, "cancelled") == 0) notify(error);
+    else showError(error);
+  });
 }
 
 void StudioApp::pushEdit(LabelDelta delta) {
@@ -112,6 +187,10 @@ void StudioApp::pushEdit(LabelDelta delta) {
 
 bool StudioApp::undo() {
   if (pointDrag_) return false;  // not in the middle of a drag
+  if (labelsFrozen()) {  // after the running edits, in order
+    tasks_.push("undo", [this](Progress&) { return TaskQueue::Apply([this] { undo(); }); });
+    return true;
+  }
   ViewState view = scene_.viewState();
   if (!undo_.undo(scene_.labels, &scene_.authoring, &view)) return false;
   if (undo_.lastWasLabels()) scene_.touchLabels();
@@ -123,6 +202,10 @@ bool StudioApp::undo() {
 
 bool StudioApp::redo() {
   if (pointDrag_) return false;  // not in the middle of a drag
+  if (labelsFrozen()) {
+    tasks_.push("redo", [this](Progress&) { return TaskQueue::Apply([this] { redo(); }); });
+    return true;
+  }
   ViewState view = scene_.viewState();
   if (!undo_.redo(scene_.labels, &scene_.authoring, &view)) return false;
   if (undo_.lastWasLabels()) scene_.touchLabels();
@@ -138,29 +221,29 @@ void StudioApp::applyThreshold() {
   const auto& t = tools_.threshold;
   std::ostringstream name;
   name << "Threshold " << t.lower << ".." << t.upper;
-  const Label label = labelFor(scene_.labels, tools_.activeLabel, name.str());
-  edit("threshold", [&](LabelVolume& l) { thresholdInto(l, scene_.ct, t, label); });
+  // The label as the table has it when the task runs (an earlier queued edit may name it).
+  editInWorker("threshold", [this, t, id = tools_.activeLabel, name = name.str()](LabelVolume& l, Progress&) {
+    thresholdInto(l, scene_.ct, t, labelFor(l, id, name));
+  });
 }
 
 void StudioApp::keepLargestOfActive() {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  edit("keep largest", [&](LabelVolume& l) { keepLargest(l, tools_.activeLabel); });
+  editInWorker("keep largest", [id = tools_.activeLabel](LabelVolume& l, Progress&) { keepLargest(l, id); });
 }
 
 void StudioApp::fillHolesOfActive() {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  edit("fill holes", [&](LabelVolume& l) { fillHoles(l, tools_.activeLabel); });
+  editInWorker("fill holes", [id = tools_.activeLabel](LabelVolume& l, Progress&) { fillHoles(l, id); });
 }
 
 void StudioApp::removeIslandsOfActive() {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  edit("remove islands", [&](LabelVolume& l) { removeIslands(l, tools_.activeLabel, tools_.minIslandMm3); });
+  editInWorker("remove islands", [id = tools_.activeLabel, mm3 = tools_.minIslandMm3](LabelVolume& l, Progress&) {
+    removeIslands(l, id, mm3);
+  });
 }
 
 void StudioApp::morphologyOfActive(Morphology op) {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  edit(morphologyName(op), [&](LabelVolume& l) {
-    morphology(l, tools_.activeLabel, op, tools_.brushRadiusMm);
+  editInWorker(morphologyName(op), [id = tools_.activeLabel, op, r = tools_.brushRadiusMm](LabelVolume& l, Progress& p) {
+    morphology(l, id, op, r, p);
   });
 }
 
@@ -196,17 +279,25 @@ void StudioApp::pollSnake() {
     showError("the snake found nothing: is the seed inside the HU range?");
     return;
   }
-  const Label label = labelFor(scene_.labels, tools_.activeLabel, "Snake " + std::to_string(tools_.activeLabel));
-  edit("snake", [&](LabelVolume& l) {
-    segmentation::addSegment(l, out->mask, label, segmentation::OverlapRule::Overwrite);
-  });
   std::cout << "snake: " << out->iterations << " iterations" << (out->converged ? ", converged" : "") << std::endl;
+  auto mask = std::make_shared<const segmentation::Mask>(std::move(out->mask));
+  editInWorker("snake", [mask, id = tools_.activeLabel](LabelVolume& l, Progress&) {
+    segmentation::addSegment(l, *mask, labelFor(l, id, "Snake " + std::to_string(id)),
+                             segmentation::OverlapRule::Overwrite);
+  });
 }
 
 void StudioApp::makeShapes(const fs::path& folder) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
-  if (!shapes_.start({scene_.ct, scene_.labels, folder, scene_.volumeGeneration}))
-    throw Error("shapes are already being made; cancel first");
+  if (shapes_.pending()) throw Error("shapes are already being made; cancel first");
+  // The job's copies of the CT and labels (hundreds of MB on a real scan) are made by the task
+  // queue's worker, from the labels as the queued edits leave them.
+  tasks_.push("copying the volume for shapes", [this, folder](Progress&) {
+    auto request = std::make_shared<ShapeRequest>(ShapeRequest{scene_.ct, scene_.labels, folder, scene_.volumeGeneration});
+    return TaskQueue::Apply([this, request] {
+      if (!shapes_.start(std::move(*request))) showError("shapes are already being made; cancel first");
+    });
+  });
 }
 
 void StudioApp::pollShapes() {
@@ -252,24 +343,42 @@ void StudioApp::setStyleField(const std::string& segment, const std::string& key
   pushViewEdit("style " + key, before);
 }
 
-void StudioApp::saveLabels(const fs::path& path) {
+void StudioApp::saveLabels(const fs::path& path, std::function<void()> then) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   // The output policy: the labels never replace the CT, nor a folder or file of another kind.
   io::OutputPlan().input(scene_.volumePath, "the open volume").output(path, "the label map").check();
-  io::saveLabels(scene_.labels, path);
-  scene_.labelsPath = path;
-  scene_.labelsModified = false;
+  // Written by the worker after the queued edits, the labels unchanged meanwhile.
+  tasks_.push("saving labels", [this, path, then = std::move(then)](Progress&) {
+    io::saveLabels(scene_.labels, path);
+    return TaskQueue::Apply([this, path, then] {
+      scene_.labelsPath = path;
+      scene_.labelsModified = false;
+      if (then) then();
+    });
+  });
 }
 
-void StudioApp::saveScene(const fs::path& path) {
+void StudioApp::saveScene(const fs::path& path, std::function<void()> then) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
+  if (labelsFrozen()) {  // after the queued edits: the labels they make are the ones saved
+    tasks_.push("saving scene", [this, path, then](Progress&) {
+      return TaskQueue::Apply([this, path, then] { saveScene(path, then); });
+    });
+    return;
+  }
   const bool hasLabels = !scene_.labels.table().empty() || scene_.labelsModified;
   io::OutputPlan().input(scene_.volumePath, "the open volume").json(path, "the scene").check();
+  // The scene file is described when it is written (after the label map, on the UI thread).
+  auto writeScene = [this, path, then] {
+    writeSceneFile(describeScene(scene_), path);
+    scene_.scenePath = path;
+    savedChanges_ = undo_.changes();
+    if (then) then();
+  };
   if (hasLabels && (scene_.labelsPath.empty() || scene_.labelsModified))
-    saveLabels(path.parent_path() / (path.stem().string() + ".labels.nrrd"));
-  writeSceneFile(describeScene(scene_), path);
-  scene_.scenePath = path;
-  savedChanges_ = undo_.changes();
+    saveLabels(path.parent_path() / (path.stem().string() + ".labels.nrrd"), writeScene);
+  else
+    writeScene();
 }
 
 void StudioApp::quit(int code) {
@@ -278,24 +387,27 @@ void StudioApp::quit(int code) {
 }
 
 void StudioApp::paintAt(const Pane& pane, double x, double y) {
-  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const SlicePlane plane = planeOf(pane);
   const uint16_t id = tools_.tool == Tool::Paint ? tools_.activeLabel : 0;
   // Deformed slices: the ball goes around the source of the pixel under the pointer.
   const auto at = sliceSourceMm(plane.toMm(x - pane.rect.x, y - pane.rect.y));
-  if (at && paintSphere(scene_.labels, *at, tools_.brushRadiusMm, id, scene_.lockedLabels) > 0) markSlicesDirty();
+  if (at && stroke_ &&
+      paintSphere(scene_.labels, *at, tools_.brushRadiusMm, id, scene_.lockedLabels, &stroke_->changed) > 0)
+    markSlicesDirty();
 }
 
 void StudioApp::growAt(const Pane& pane, double x, double y) {
-  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const SlicePlane plane = planeOf(pane);
   if (const auto seed = sliceSourceMm(plane.toMm(x - pane.rect.x, y - pane.rect.y))) growFromPoint(*seed);
 }
 
 void StudioApp::growFromPoint(const Vec3& seed) {
-  const Label label = labelFor(scene_.labels, tools_.activeLabel, "Region " + std::to_string(tools_.activeLabel));
   try {
-    edit("grow", [&](LabelVolume& l) { growFromSeed(l, scene_.ct, seed, tools_.threshold, label); });
+    editInWorker("grow", [this, seed, id = tools_.activeLabel, t = tools_.threshold](LabelVolume& l, Progress&) {
+      growFromSeed(l, scene_.ct, seed, t, labelFor(l, id, "Region " + std::to_string(id)));
+    });
   } catch (const std::exception& e) {
-    showError(e.what());  // e.g. a seed outside the volume
+    showError(e.what());
   }
 }
 

@@ -126,10 +126,7 @@ bool StudioApp::unsavedChanges() const {
 void StudioApp::saveSceneOrAsk(std::function<void()> then) {
   if (!scene_.hasVolume()) return;
   auto save = [this, then](const fs::path& path) {
-    guarded(*this, [&] {
-      saveScene(path);
-      if (then) then();
-    });
+    guarded(*this, [&] { saveScene(path, then); });  // `then` once written (labels on a worker)
   };
   if (scene_.scenePath.empty()) browser_.open(FileBrowser::Mode::Save, "Save scene as", save);
   else save(scene_.scenePath);

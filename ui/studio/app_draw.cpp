@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <tuple>
 
@@ -55,9 +56,14 @@ void StudioApp::updateSliceTextures() {
       << scene_.hiddenLabels.size();
   // Deformed slices follow the map (every move of a drag); undeformed ones ignore it.
   key << " map " << (map ? deform_->mapRevision() : 0);
+  // While a control point is dragged the deformed slices are resampled every frame through a
+  // new map: at half resolution (a quarter of the samples), full again when the drag ends.
+  const int reduce = map && pointDrag_ ? 2 : 1;
+  key << " reduce " << reduce;
   const auto [snakeLive, snakeRevision] = snake_.live();
   if (snakeLive) key << " snake " << snakeRevision;
   for (const Pane& p : panes_) key << ' ' << p.rect.w << 'x' << p.rect.h;
+  for (const SliceNavigation& n : sliceNav_) key << ' ' << n.zoom << ' ' << n.panU << ' ' << n.panV;
   if (!slicesDirty_ && key.str() == lastSliceKey_) return;
   const auto t0 = std::chrono::steady_clock::now();
   SliceStyle style;
@@ -70,8 +76,14 @@ void StudioApp::updateSliceTextures() {
   style.map = map;
   for (const Pane& p : panes_) {
     if (p.is3d()) continue;
-    const SlicePlane plane = makePlane(*p.slice, scene_.ct.geometry(), scene_.crosshairMm, int(p.rect.w), int(p.rect.h));
+    SlicePlane plane = planeOf(p);
+    if (reduce > 1) {  // the same field of view (within a pixel), drawn scaled up
+      plane.width = (plane.width + reduce - 1) / reduce;
+      plane.height = (plane.height + reduce - 1) / reduce;
+      plane.mmPerPixel *= reduce;
+    }
     const auto axis = static_cast<size_t>(*p.slice);
+    sliceScale_[axis] = reduce;
     sliceImages_[axis] = renderSlice(scene_.ct, plane, style);
     sliceTextures_[axis]->upload(sliceImages_[axis]);
   }
@@ -103,16 +115,21 @@ void StudioApp::drawPanes() {
                                     ? "3D  illustration: " + scene_.illustration.style.name
                                     : std::string("3D  ") + render::presetName(scene_.render.preset);
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(120, 120, 200, 255), title.c_str());
+      if (upload3d_) dl->AddText({a.x + 6, a.y + 22}, IM_COL32(150, 200, 255, 255), "uploading the volume ...");
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawControlPoints(p);
       drawCurveTrace(p);
       continue;
     }
     const GlTexture& t = *sliceTextures_[static_cast<size_t>(*p.slice)];
-    if (t.valid())
+    if (t.valid()) {
+      const float scale = float(sliceScale_[static_cast<size_t>(*p.slice)]);
+      dl->PushClipRect(a, b, true);
       dl->AddImage(reinterpret_cast<ImTextureID>(static_cast<intptr_t>(t.id())), a,
-                   {a.x + float(t.width()), a.y + float(t.height())});
-    const SlicePlane plane = makePlane(*p.slice, scene_.ct.geometry(), scene_.crosshairMm, int(p.rect.w), int(p.rect.h));
+                   {a.x + scale * float(t.width()), a.y + scale * float(t.height())});
+      dl->PopClipRect();
+    }
+    const SlicePlane plane = planeOf(p);
     const auto [cx, cy] = plane.toPixel(scene_.crosshairMm);
     dl->PushClipRect(a, b, true);
     // Vertical line: the plane whose normal is u; horizontal: the plane whose normal is v.
@@ -124,7 +141,22 @@ void StudioApp::drawPanes() {
     dl->PopClipRect();
     drawControlPoints(p);
     dl->AddRect(a, b, planeColour(plane.normal));
-    dl->AddText({a.x + 6, a.y + 4}, planeColour(plane.normal), sliceAxisName(*p.slice));
+    std::string title = sliceAxisName(*p.slice);
+    if (const SliceNavigation& nav = sliceNav_[static_cast<size_t>(*p.slice)]; nav.zoom != 1 || nav.panU != 0 || nav.panV != 0) {
+      char z[32];
+      std::snprintf(z, sizeof z, "  x%.2f (F fits)", nav.zoom);
+      title += z;
+    }
+    dl->AddText({a.x + 6, a.y + 4}, planeColour(plane.normal), title.c_str());
+    // Orientation letters at the middle of each edge (radiological: the patient's left on the right).
+    const auto letters = orientationLetters(plane);
+    const ImU32 letterColour = IM_COL32(255, 200, 90, 255);
+    const float mx = a.x + p.rect.w * 0.5f, my = a.y + p.rect.h * 0.5f;
+    const auto size = [](const std::string& t) { return ImGui::CalcTextSize(t.c_str()); };
+    dl->AddText({a.x + 4, my - size(letters[0]).y * 0.5f}, letterColour, letters[0].c_str());
+    dl->AddText({b.x - 4 - size(letters[1]).x, my - size(letters[1]).y * 0.5f}, letterColour, letters[1].c_str());
+    dl->AddText({mx - size(letters[2]).x * 0.5f, a.y + 4}, letterColour, letters[2].c_str());
+    dl->AddText({mx - size(letters[3]).x * 0.5f, b.y - 4 - size(letters[3]).y}, letterColour, letters[3].c_str());
   }
 }
 
@@ -171,7 +203,7 @@ void StudioApp::drawHud() {
   if (scene_.hasVolume()) {
     const Pane* p = paneAt(mouseX_, mouseY_);
     if (p && !p->is3d()) {
-      const SlicePlane plane = makePlane(*p->slice, scene_.ct.geometry(), scene_.crosshairMm, int(p->rect.w), int(p->rect.h));
+      const SlicePlane plane = planeOf(*p);
       const Vec3 mm = plane.toMm(mouseX_ - p->rect.x, mouseY_ - p->rect.y);
       hud << "\n(" << mm.x << ", " << mm.y << ", " << mm.z << ") mm  ";
       // Deformed slices: the voxel shown is the source's (what painting and seeds act on).
@@ -196,6 +228,57 @@ void StudioApp::drawHud() {
   const float width = std::max(520.f, ImGui::CalcTextSize(hud.str().c_str()).x + 8);  // deformed slices add a position
   ImGui::GetForegroundDrawList()->AddRectFilled({x - 4, y - 2}, {x + width, y + 36}, IM_COL32(0, 0, 0, 150));
   ImGui::GetForegroundDrawList()->AddText({x, y}, IM_COL32(255, 255, 160, 255), hud.str().c_str());
+}
+
+std::vector<std::string> StudioApp::runningWork() const {
+  std::vector<std::string> r;
+  const auto with = [](const std::string& what, double f) { return what + "  " + std::to_string(int(100 * f)) + "%"; };
+  if (loader_.busy()) {
+    const auto [stage, f] = loader_.progress();
+    r.push_back(with(stage, f));
+  }
+  if (pendingLoad_) r.push_back("opening: waiting for the running work to finish");
+  if (!tasks_.running().empty()) {
+    const auto [stage, f] = tasks_.progress();
+    std::string line = with(tasks_.running(), f);
+    if (tasks_.waiting()) line += "  (" + std::to_string(tasks_.waiting()) + " queued)";
+    r.push_back(line);
+  }
+  if (snake_.busy()) {
+    const auto [stage, f] = snake_.progress();
+    r.push_back(with(stage, f));
+  }
+  if (shapes_.busy()) {
+    const auto [stage, f] = shapes_.progress();
+    r.push_back(with(stage, f));
+  }
+  for (const std::string& d : deform_->running())
+    if (!pointDrag_) r.push_back(d);  // a drag's own preview is what the drag shows
+  if (exporting()) {
+    const auto [done, count] = exportProgress();
+    r.push_back("exporting frame " + std::to_string(done) + " / " + std::to_string(count));
+  }
+  if (curve_.busy()) r.push_back("curve analogy");
+  if (upload3d_) r.push_back("uploading the volume to the 3D view");
+  return r;
+}
+
+// What runs on workers (and a refused edit's notice), top right of the viewport: text only,
+// it takes no input (the tool panel's Running section has the Cancel buttons).
+void StudioApp::drawStatus() {
+  const std::vector<std::string> work = runningWork();
+  const bool notice = !notice_.empty() && glfwGetTime() < noticeUntil_;
+  if ((work.empty() && !notice) || panes_.empty()) return;
+  float right = 0;
+  for (const Pane& p : panes_) right = std::max(right, p.rect.x + p.rect.w);
+  ImGui::SetNextWindowPos({right - 8, 8}, ImGuiCond_Always, {1, 0});
+  ImGui::SetNextWindowBgAlpha(0.7f);
+  ImGui::Begin("##running", nullptr,
+               ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs |
+                   ImGuiWindowFlags_NoSavedSettings | ImGuiWindowFlags_NoFocusOnAppearing | ImGuiWindowFlags_NoNav);
+  for (const std::string& line : work) ImGui::TextColored({0.6f, 0.85f, 1.f, 1.f}, "running: %s", line.c_str());
+  if (notice) ImGui::TextColored({1.f, 0.7f, 0.3f, 1.f}, "%s", notice_.c_str());
+  ImGui::End();
 }
 
 // ---- screenshots -------------------------------------------------------------------------

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "app.hpp"
+#include "label_tools.hpp"
 #include "deform_session.hpp"
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
@@ -47,12 +48,23 @@ void StudioApp::onCursorPos(double x, double y) {
       if (tools_.tool == Tool::Grow || tools_.tool == Tool::Snake) {
         // The seed click acts once (on press); dragging does nothing more.
       } else if (tools_.tool == Tool::Navigate) {
-        const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+        const SlicePlane plane = planeOf(pane);
         scene_.crosshairMm = plane.toMm(x - pane.rect.x, y - pane.rect.y);
         markSlicesDirty();
-      } else {
+      } else if (stroke_) {  // a stroke the press started (not refused)
         paintAt(pane, x, y);
       }
+    } else if (dragButton_ == GLFW_MOUSE_BUTTON_MIDDLE) {  // pan: the picture follows the pointer
+      SliceNavigation& nav = sliceNav_[static_cast<size_t>(*pane.slice)];
+      nav = pannedBy(makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h)),
+                     nav, dx, dy);
+      markSlicesDirty();
+    } else if (dragButton_ == GLFW_MOUSE_BUTTON_RIGHT && (dragMods_ & GLFW_MOD_CONTROL)) {
+      // Zoom about the press point: up magnifies, 1 % per pixel.
+      SliceNavigation& nav = sliceNav_[static_cast<size_t>(*pane.slice)];
+      nav = zoomedAbout(makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h)),
+                        nav, std::exp(-dy * 0.01), pressX_ - pane.rect.x, pressY_ - pane.rect.y);
+      markSlicesDirty();
     } else if (dragButton_ == GLFW_MOUSE_BUTTON_RIGHT) {  // window/level: right widens, down raises the level
       scene_.view.sliceWindow.width = std::max(1.0, scene_.view.sliceWindow.width + dx * 4);
       scene_.view.sliceWindow.center += dy * 2;
@@ -78,9 +90,10 @@ void StudioApp::onCursorPos(double x, double y) {
 
 void StudioApp::onMouseButton(int button, int action, int mods) {
   if (action == GLFW_RELEASE) {
-    if (strokeBefore_) {
-      pushEdit(diffLabels(*strokeBefore_, scene_.labels, tools_.tool == Tool::Paint ? "paint" : "erase"));
-      strokeBefore_.reset();
+    if (stroke_) {
+      pushEdit(strokeDelta(std::move(stroke_->changed), std::move(stroke_->tableBefore), scene_.labels,
+                           tools_.tool == Tool::Paint ? "paint" : "erase"));
+      stroke_.reset();
     }
     if (button == dragButton_) {
       if (pointDrag_) endPointDrag();
@@ -100,6 +113,8 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   dragPane_ = *pane;
   dragButton_ = button;
   dragMods_ = mods;
+  pressX_ = mouseX_;
+  pressY_ = mouseY_;
   if (curve_.tracing && pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {  // a new C0
     curve_.stroke = true;
     curve_.drawing.clear();
@@ -116,7 +131,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
       return;
     }
     if (tools_.tool == Tool::Snake) {
-      const SlicePlane plane = makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane->rect.w), int(pane->rect.h));
+      const SlicePlane plane = planeOf(*pane);
       try {
         if (const auto seed = sliceSourceMm(plane.toMm(mouseX_ - pane->rect.x, mouseY_ - pane->rect.y)))
           startSnake(*seed);
@@ -125,7 +140,12 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
       }
       return;
     }
-    if (tools_.tool != Tool::Navigate) strokeBefore_ = scene_.labels;  // diffed on release
+    if (tools_.tool != Tool::Navigate) {
+      // A worker reads the labels: the stroke would race it (and its delta would undo the
+      // stroke), so it is refused with a notice rather than lost silently.
+      if (refuseWhileFrozen(tools_.tool == Tool::Paint ? "painting" : "erasing")) return;
+      stroke_ = Stroke{{}, scene_.labels.table()};  // the undo step is made on release
+    }
     onCursorPos(mouseX_, mouseY_);  // a click acts where it lands
   }
 }
@@ -160,6 +180,11 @@ void StudioApp::onScroll(double, double dy) {
   if (pane->is3d()) {
     scene_.render.camera.zoom = std::clamp(scene_.render.camera.zoom * std::pow(1.1, dy), 0.1, 50.0);
     zoomInteractionUntil_ = glfwGetTime() + 0.3;
+  } else if (ctrlDown_) {  // Ctrl+wheel: zoom about the pointer
+    SliceNavigation& nav = sliceNav_[static_cast<size_t>(*pane->slice)];
+    nav = zoomedAbout(makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane->rect.w), int(pane->rect.h)),
+                      nav, std::pow(1.1, dy), mouseX_ - pane->rect.x, mouseY_ - pane->rect.y);
+    markSlicesDirty();
   } else {  // one voxel through the slices per notch
     const SlicePlane plane = makePlane(*pane->slice, scene_.ct.geometry(), scene_.crosshairMm, 1, 1);
     const Vec3& sp = scene_.ct.geometry().spacing;
@@ -169,6 +194,7 @@ void StudioApp::onScroll(double, double dy) {
 }
 
 void StudioApp::onKey(int key, int action, int mods) {
+  if (key == GLFW_KEY_LEFT_CONTROL || key == GLFW_KEY_RIGHT_CONTROL) ctrlDown_ = action != GLFW_RELEASE;
   if (action == GLFW_RELEASE || ImGui::GetIO().WantTextInput) return;
   const bool ctrl = mods & GLFW_MOD_CONTROL, shift = mods & GLFW_MOD_SHIFT;
   try {
@@ -184,11 +210,14 @@ void StudioApp::onKey(int key, int action, int mods) {
       requestClose();
     } else if (!ctrl && key == GLFW_KEY_R) {
       resetView();
+    } else if (!ctrl && key == GLFW_KEY_F) {  // fit the slice view under the pointer
+      if (const Pane* p = paneAt(mouseX_, mouseY_); p && p->slice) fitSliceView(*p->slice);
     } else if (!ctrl && key >= GLFW_KEY_1 && key <= GLFW_KEY_3) {
       setLayout(key == GLFW_KEY_1 ? Layout::ThreeD : key == GLFW_KEY_2 ? Layout::TwoByTwo : Layout::OneByThree);
     } else if (key == GLFW_KEY_ESCAPE) {
       // Escape cancels what runs (a snake, a load); with nothing running, back to Navigate.
       if (exporting()) cancelExport();
+      else if (tasks_.busy()) tasks_.cancel();
       else if (snake_.busy()) snake_.cancel();
       else if (loader_.busy()) loader_.cancel();
       else tools_.tool = Tool::Navigate;

@@ -57,7 +57,7 @@ std::optional<std::pair<double, double>> StudioApp::pointInPane(const Pane& pane
     // Projection puts pixel centres on integers; window coordinates put them at +0.5.
     return std::pair{pane.rect.x + px->x + 0.5, pane.rect.y + px->y + 0.5};
   }
-  const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  const SlicePlane plane = planeOf(pane);
   const auto [x, y] = plane.toPixel(mm);
   return std::pair{pane.rect.x + x, pane.rect.y + y};
 }
@@ -69,7 +69,7 @@ std::optional<PointHandle> StudioApp::pickPoint(const Pane& pane, double x, doub
   std::optional<render::Projection> proj;
   std::optional<SlicePlane> plane;
   if (pane.is3d()) proj.emplace(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
-  else plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+  else plane = planeOf(pane);
   auto depthOf = [&](const Vec3& mm) {
     if (plane) return std::abs(dot(mm - scene_.crosshairMm, plane->normal));
     const auto px = proj->toPixel(mm);
@@ -120,7 +120,7 @@ void StudioApp::drawControlPoints(const Pane& pane) {
   // In a slice, points away from the slice plane are dimmed (they are not in that section).
   std::optional<SlicePlane> plane;
   if (!pane.is3d())
-    plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+    plane = planeOf(pane);
   const Vec3& sp = scene_.ct.geometry().spacing;
   const double nearMm = 1.5 * std::max({sp.x, sp.y, sp.z});
   // In the 3D view, dots behind the volume's first visible surface are dimmed (depth test
@@ -240,7 +240,7 @@ void StudioApp::movePointDrag(double x, double y) {
     right = proj.screenRight();
     down = -proj.screenUp();
   } else {
-    const SlicePlane plane = makePlane(*pane.slice, scene_.ct.geometry(), scene_.crosshairMm, int(pane.rect.w), int(pane.rect.h));
+    const SlicePlane plane = planeOf(pane);
     pxPerMm = 1.0 / plane.mmPerPixel;
     right = plane.u;
     down = plane.v;
@@ -343,10 +343,18 @@ void StudioApp::setRigid(std::vector<uint16_t> labels, double falloffMm, const s
 void StudioApp::placeControls(bool fromLabels) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   if (fromLabels && scene_.labels.ids().empty()) throw Error("no label map is open");
-  ControlPoints pts = fromLabels ? deformation::labelControlPoints(scene_.labels)
-                                 : deformation::boxControlPoints(scene_.ct.geometry());
-  editTrack(fromLabels ? "points from labels" : "default points",
-            [&](Authoring& a) { placePoints(a, std::move(pts)); });
+  if (!fromLabels) {
+    ControlPoints pts = deformation::boxControlPoints(scene_.ct.geometry());
+    editTrack("default points", [&](Authoring& a) { placePoints(a, std::move(pts)); });
+    return;
+  }
+  // A pass over the whole label map: on the task queue's worker, after the queued label edits.
+  tasks_.push("points from labels", [this](Progress&) {
+    auto pts = std::make_shared<ControlPoints>(deformation::labelControlPoints(scene_.labels));
+    return TaskQueue::Apply([this, pts] {
+      editTrack("points from labels", [&](Authoring& a) { placePoints(a, std::move(*pts)); });
+    });
+  });
 }
 
 }  // namespace vellum::studio

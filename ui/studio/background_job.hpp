@@ -61,6 +61,20 @@ class BackgroundJob {
     std::lock_guard lock(mutex_);
     return running_;
   }
+  /// A finished result waits for take().
+  bool ready() const {
+    std::lock_guard lock(mutex_);
+    return !running_ && result_.has_value();
+  }
+  /// Blocks until the running job (if any) has finished; its result stays for take().
+  void wait() {
+    std::thread t;
+    {
+      std::lock_guard lock(mutex_);
+      t = std::move(thread_);
+    }
+    if (t.joinable()) t.join();
+  }
   /// Stage and fraction of the running job.
   std::pair<std::string, double> progress() const {
     std::lock_guard lock(mutex_);
@@ -69,6 +83,11 @@ class BackgroundJob {
   void cancel() {
     std::lock_guard lock(mutex_);
     if (running_ && progress_) progress_->cancel();
+  }
+  /// True when cancel() was asked of the running or last job.
+  bool cancelled() const {
+    std::lock_guard lock(mutex_);
+    return progress_ && progress_->cancelled();
   }
   /// The finished result, once; nullopt while running or idle.
   std::optional<Result> take() {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <iostream>
 #include <sstream>
 
 #include "vellum/animation/movie.hpp"
@@ -11,12 +12,30 @@ namespace vellum::studio {
 using namespace vellum::deformation;
 
 DeformSession::~DeformSession() {
+  cancel();
   waitForSolve();
-  if (previewBuild_.valid()) previewBuild_.wait();
+  waitForPreview();
+  if (bodiesBuild_.valid()) bodiesBuild_.wait();
 }
 
 void DeformSession::waitForSolve() {
   if (solve_.valid()) solve_.wait(), solve_ = {};
+}
+
+void DeformSession::waitForPreview() {
+  if (previewWork_.valid()) previewWork_.wait(), previewWork_ = {};
+}
+
+void DeformSession::cancel() {
+  if (solveProgress_) solveProgress_->cancel();
+}
+
+std::vector<std::string> DeformSession::running() const {
+  std::vector<std::string> r;
+  if (bodiesBuild_.valid()) r.push_back("rigid bodies from the labels");
+  if (solve_.valid()) r.push_back("exact deformation map");
+  if (previewWork_.valid()) r.push_back(previewForDrag_ ? "preview deformation map" : "preparing the drag preview");
+  return r;
 }
 
 namespace {
@@ -25,41 +44,48 @@ DeformParams previewParams(const DeformParams& exact) {
   p.controlScale = std::min(2 * p.controlScale, 16);  // the table's limit
   return p;
 }
+
+template <class T>
+bool ready(const std::future<T>& f) {
+  return f.valid() && f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+}
 }  // namespace
 
-void DeformSession::prebuildPreview(const Scene& scene, const std::string& key) {
-  if (previewDeformer_ || previewBuild_.valid()) return;
-  const Authoring& a = scene.authoring;
-  previewBuild_ = std::async(std::launch::async, [volume = AnyVolume(scene.ct), params = previewParams(a.engine),
-                                                  points = a.currentPoints(), bodies = bodies_, falloff = a.falloffMm,
-                                                  upsampling = scene.view.deformedUpsampling, key] {
-    auto deformer = std::make_unique<Deformer>(volume, params);
-    solve(*deformer, points, bodies.get(), falloff, upsampling, key);
-    return deformer;
-  });
-}
-
-DeformSession::Solved DeformSession::solve(Deformer& deformer, const ControlPoints& points, const RigidBodies* bodies,
-                                           double falloffMm, Upsampling upsampling, std::string key) {
+DeformSession::Solved DeformSession::solve(Deformer& deformer, const SolveInputs& in, Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   Solved s;
-  deformer.setPoints(points);
-  ControlVolume cv = deformer.update();
-  if (bodies) {  // the bodies' fields on this grid: built once per grid, timed apart
+  deformer.setPoints(in.points);
+  ControlVolume cv = deformer.update(progress);
+  if (in.bodies) {  // the bodies' fields on this grid: built once per grid, timed apart
     const auto tf = std::chrono::steady_clock::now();
-    bodies->gridFields(cv.grid);
+    in.bodies->gridFields(cv.grid);
     s.fieldsMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tf).count();
   }
   const auto t1 = std::chrono::steady_clock::now();
-  if (bodies) applyRigidity(cv, *bodies, {falloffMm});
+  if (in.bodies) applyRigidity(cv, *in.bodies, {in.falloffMm});
   s.rigidityMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
-  s.map = deformation::renderedMap(cv, deformer.outputGeometry(), upsampling);
-  s.sampler = std::make_shared<const MapSampler>(std::move(cv), deformer.outputGeometry(), upsampling);  // last use
+  s.map = deformation::renderedMap(cv, deformer.outputGeometry(), in.upsampling);
+  s.sampler = std::make_shared<const MapSampler>(std::move(cv), deformer.outputGeometry(), in.upsampling);  // last use
   s.timings = deformer.timings();
   s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  s.key = std::move(key);
-  for (const auto& p : points) s.sources.push_back(p.source);
+  s.key = in.key;
+  for (const auto& p : in.points) s.sources.push_back(p.source);
   return s;
+}
+
+std::future<DeformSession::Solved> DeformSession::solveOnWorker(std::unique_ptr<Deformer>* slot, const VolumeI16* ct,
+                                                                DeformParams params, SolveInputs in,
+                                                                std::shared_ptr<Progress> progress) {
+  // The CT is read, not copied, here: the studio adopts a new volume only once busy() is
+  // false, so it cannot change under the worker.
+  return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress)] {
+    if (!*slot) *slot = std::make_unique<Deformer>(AnyVolume(*ct), params);
+    return solve(**slot, in, *progress);
+  });
+}
+
+DeformSession::SolveInputs DeformSession::inputs(const Scene& scene, const std::string& key) const {
+  return {scene.authoring.currentPoints(), bodies_, scene.authoring.falloffMm, scene.view.deformedUpsampling, key};
 }
 
 bool DeformSession::liveExact(const ControlPoints& points) const {
@@ -88,7 +114,7 @@ void DeformSession::adopt(Solved s, bool preview) {
 bool DeformSession::update(const Scene& scene, bool interacting) {
   const Authoring& a = scene.authoring;
   if (!scene.hasVolume() || !a.active() || a.currentPoints().empty()) {
-    waitForSolve();
+    // Nothing to show; running workers finish on their own (their results are dropped).
     const bool had = map_.has_value();
     map_.reset();
     sampler_.reset();
@@ -99,10 +125,13 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   }
   const std::string engineKey = params::cliArguments(deformParamsTable(), a.engine);
   const bool newVolume = scene.volumeGeneration != volumeGeneration_ || engineKey != engineKey_;
-  if (newVolume || !deformer_) {
-    waitForSolve();  // the worker may be using the old deformer
-    if (previewBuild_.valid()) previewBuild_.wait(), previewBuild_ = {};  // built for the old one
-    deformer_ = std::make_unique<Deformer>(AnyVolume(scene.ct), a.engine);
+  if (newVolume) {
+    // The workers hold the old deformers: the exact solve stops early, a preview finishes (a
+    // new volume is adopted only when none runs; engine edits wait for at most a preview).
+    cancel();
+    waitForSolve();
+    waitForPreview();
+    deformer_.reset();  // made again on the exact solve's worker
     previewDeformer_.reset();
     exactUpdateMs_ = 1e300;  // unknown until the new deformer has solved once
     exactSources_.clear();
@@ -110,56 +139,93 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     engineKey_ = engineKey;
     labelsRevision_ = ~0ull;
   }
-  if (scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_) {
-    bodies_.reset();
-    if (!a.rigidLabels.empty() && !scene.labels.ids().empty() && scene.labels.geometry().dims == scene.ct.geometry().dims)
-      bodies_ = std::make_shared<const RigidBodies>(RigidBodies::fromLabels(scene.labels, a.rigidLabels));
-    labelsRevision_ = scene.labelsRevision;
-    rigidLabels_ = a.rigidLabels;
+  // Rigid bodies: built on a worker from a copy of the labels (painting goes on meanwhile);
+  // the map keeps the previous bodies until they land, then is solved again.
+  if (ready(bodiesBuild_)) {
+    try {
+      bodies_ = bodiesBuild_.get();
+    } catch (const std::exception& e) {
+      std::cerr << "vellum-studio: rigid bodies: " << e.what() << "\n";
+      bodies_.reset();
+    }
+    bodiesBuild_ = {};
+    labelsRevision_ = buildingRevision_;
+    rigidLabels_ = buildingLabels_;
   }
-  // Everything the map depends on.
+  if ((scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_) && !bodiesBuild_.valid()) {
+    if (a.rigidLabels.empty() || scene.labels.ids().empty() || !(scene.labels.geometry().dims == scene.ct.geometry().dims)) {
+      bodies_.reset();
+      labelsRevision_ = scene.labelsRevision;
+      rigidLabels_ = a.rigidLabels;
+    } else {
+      buildingRevision_ = scene.labelsRevision;
+      buildingLabels_ = a.rigidLabels;
+      bodiesBuild_ = std::async(std::launch::async, [labels = scene.labels, ids = a.rigidLabels] {
+        return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(labels, ids));
+      });
+    }
+  }
+  // Everything the map depends on (the labels only through rigid bodies).
   std::ostringstream k;
   k.precision(17);
   const Upsampling upsampling = scene.view.deformedUpsampling;
-  k << volumeGeneration_ << ' ' << engineKey_ << ' ' << labelsRevision_ << ' ' << a.revision << ' ' << a.falloffMm
-    << ' ' << upsamplingName(upsampling);
+  k << volumeGeneration_ << ' ' << engineKey_ << ' ' << (rigidLabels_.empty() ? 0 : labelsRevision_) << ' '
+    << a.revision << ' ' << a.falloffMm << ' ' << upsamplingName(upsampling);
   for (uint16_t id : rigidLabels_) k << ' ' << id;
   const std::string key = k.str();
 
   bool changed = false;
-  if (solve_.valid() && solve_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-    Solved s = solve_.get();
-    solve_ = {};
-    if (s.key == key) {
-      adopt(std::move(s), false);
-      changed = true;
+  if (ready(solve_)) {
+    try {
+      Solved s = solve_.get();
+      if (s.key == key) {
+        adopt(std::move(s), false);
+        changed = true;
+      }
+    } catch (const std::exception&) {  // cancelled (a new volume), or failed: solved again below
     }
+    solve_ = {};
+  }
+  if (ready(previewWork_)) {
+    try {
+      Solved s = previewWork_.get();
+      // During a drag the newest preview is shown; after it, only one of the final inputs
+      // that the exact map has not replaced yet. A preparation's map is not shown.
+      if (previewForDrag_ && mapKey_ != key && (interacting || s.key == key)) {
+        previewKey_ = s.key;
+        adopt(std::move(s), true);
+        changed = true;
+      }
+    } catch (const std::exception& e) {
+      std::cerr << "vellum-studio: preview map: " << e.what() << "\n";
+    }
+    previewWork_ = {};
   }
   if (interacting && liveExact(a.currentPoints())) {  // the exact map itself, at once
     if (mapKey_ == key) return changed;
-    waitForSolve();  // a solve of older inputs holds the deformer
-    adopt(solve(*deformer_, a.currentPoints(), bodies_.get(), a.falloffMm, upsampling, key), false);
+    if (solve_.valid()) cancel(), waitForSolve();  // a solve of older inputs holds the deformer
+    adopt(solve(*deformer_, inputs(scene, key), Progress::none()), false);
     return true;
   }
-  if (interacting) {  // the preview, at once
-    if (preview_ && previewKey_ == key) return changed;
-    if (!previewDeformer_)
-      previewDeformer_ = previewBuild_.valid() ? previewBuild_.get()
-                                               : std::make_unique<Deformer>(AnyVolume(scene.ct), previewParams(a.engine));
-    adopt(solve(*previewDeformer_, a.currentPoints(), bodies_.get(), a.falloffMm, upsampling, key), true);
-    previewKey_ = key;
-    return true;
-  }
-  if (mapKey_ == key) {  // up to date: get the preview ready for the next drag
-    prebuildPreview(scene, key);
+  if (interacting) {  // the preview, on its worker, the newest inputs whenever it is free
+    if ((preview_ && previewKey_ == key) || previewWork_.valid()) return changed;
+    previewForDrag_ = true;
+    previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key),
+                                 std::make_shared<Progress>());
     return changed;
   }
-  if (solve_.valid()) return changed;  // the worker is on it
+  if (mapKey_ == key) {  // up to date: get the preview's deformer ready for the next drag
+    if (!previewWork_.valid() && !previewDeformer_) {
+      previewForDrag_ = false;
+      previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key),
+                                   std::make_shared<Progress>());
+    }
+    return changed;
+  }
+  if (solve_.valid() || bodiesBuild_.valid()) return changed;  // the worker is on it; or bodies first
   // The exact map on the worker; the inputs are copies, the deformer is the worker's until done.
-  solve_ = std::async(std::launch::async, [deformer = deformer_.get(), points = a.currentPoints(), bodies = bodies_,
-                                           falloff = a.falloffMm, upsampling, key] {
-    return solve(*deformer, points, bodies.get(), falloff, upsampling, key);
-  });
+  solveProgress_ = std::make_shared<Progress>();
+  solve_ = solveOnWorker(&deformer_, &scene.ct, a.engine, inputs(scene, key), solveProgress_);
   preview_ = true;  // the map shown (if any) is out of date until the exact one lands
   return changed;
 }

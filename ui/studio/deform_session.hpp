@@ -8,6 +8,7 @@
 #include <string>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "authoring.hpp"
 #include "scene.hpp"
@@ -21,27 +22,39 @@ namespace vellum::studio {
 class DeformSession {
  public:
   DeformSession() = default;
-  ~DeformSession();  ///< waits for a running solve or preview build
+  ~DeformSession();  ///< waits for the workers
   DeformSession(const DeformSession&) = delete;
   DeformSession& operator=(const DeformSession&) = delete;
 
   /// Re-solves when the points, the volume, the engine parameters, the rigid labels or the
-  /// map upsampling (ViewSettings::deformedUpsampling) changed.
-  /// While `interacting` (a point drag, playback) the map is solved at once: the exact map
-  /// (s = 4, what the export renders) when its last solve took at most kLiveExactBudgetMs
-  /// without rebuilding rho fields and no source moved since (target drags: no rho field to
-  /// rebuild); otherwise a preview on a control grid twice as coarse (s = 8, its own Deformer
-  /// and rho cache), like the 3D view's reduced-resolution frames, and the exact map follows
-  /// on a worker thread when the interaction ends; it replaces the preview when it is done (a
-  /// solve whose inputs changed meanwhile is dropped and started again). Returns true when
-  /// the map changed (the 3D view must render again).
+  /// map upsampling (ViewSettings::deformedUpsampling) changed. Nothing heavy runs on the
+  /// caller's thread: the deformers are made, the rigid bodies built from the labels and the
+  /// maps solved on workers, and a finished result is adopted by a later call.
+  /// While `interacting` (a point drag, playback): the exact map (s = 4, what the export
+  /// renders) is solved at once when its last solve took at most kLiveExactBudgetMs without
+  /// rebuilding rho fields and no source moved since (target drags); otherwise a preview on a
+  /// control grid twice as coarse (s = 8, its own Deformer and rho cache) is solved on its
+  /// worker, the newest inputs each time it is free, like the 3D view's reduced-resolution
+  /// frames. The exact map follows on its worker when the interaction ends and replaces the
+  /// preview when done (a solve whose inputs changed meanwhile is dropped and started again).
+  /// While new rigid bodies are built the map shown keeps the previous ones. Returns true
+  /// when the map changed (the 3D view must render again).
   bool update(const Scene& scene, bool interacting = false);
   /// The exact map is solved live while its updates take at most this (the target).
   static constexpr double kLiveExactBudgetMs = 50;
   /// True when the map shown is the coarse preview (or an exact solve is still running).
   bool preview() const { return preview_; }
-  /// True while the exact map is being solved on the worker.
-  bool solving() const { return solve_.valid(); }
+  /// True while the exact map (or the rigid bodies it needs) is being made on a worker.
+  bool solving() const { return solve_.valid() || bodiesBuild_.valid(); }
+  /// True while the exact solve itself runs (the window's frames wait for it a little).
+  bool exactSolveRunning() const { return solve_.valid(); }
+  /// True while any worker runs (the exact solve, the preview, the rigid bodies): they read
+  /// the scene's CT, so a new volume is adopted only once this is false (see cancel()).
+  bool busy() const { return solve_.valid() || previewWork_.valid() || bodiesBuild_.valid(); }
+  /// Stops the exact solve early (its result is dropped); the others finish on their own.
+  void cancel();
+  /// What runs, for the status line: "rigid bodies", "exact map", "preview map" (empty: none).
+  std::vector<std::string> running() const;
   /// Blocks up to `timeout` for the worker's solve (no-op when none runs): the window's frame
   /// loop waits here instead of spinning, so the solve has the cores.
   void awaitSolve(std::chrono::milliseconds timeout) const {
@@ -73,31 +86,50 @@ class DeformSession {
     std::string key;  ///< the inputs it was solved for
     std::vector<Vec3> sources;  ///< the points' sources (their rho fields are now cached)
   };
+  /// The inputs of one solve, copied for its worker.
+  struct SolveInputs {
+    deformation::ControlPoints points;
+    std::shared_ptr<const deformation::RigidBodies> bodies;
+    double falloffMm = 10;
+    deformation::Upsampling upsampling = deformation::Upsampling::Trilinear;
+    std::string key;
+  };
   /// True when the exact map can be solved live for `points` (see update()).
   bool liveExact(const deformation::ControlPoints& points) const;
   /// Solves `points` on `deformer` with the rigid blend: the work of both paths.
-  static Solved solve(deformation::Deformer& deformer, const deformation::ControlPoints& points,
-                      const deformation::RigidBodies* bodies, double falloffMm, deformation::Upsampling upsampling,
-                      std::string key);
+  static Solved solve(deformation::Deformer& deformer, const SolveInputs& in, Progress& progress);
+  /// On a worker: makes *slot from `ct` (when empty) and solves with it. The UI thread leaves
+  /// *slot alone until the future is ready.
+  static std::future<Solved> solveOnWorker(std::unique_ptr<deformation::Deformer>* slot, const VolumeI16* ct,
+                                           deformation::DeformParams params, SolveInputs in,
+                                           std::shared_ptr<Progress> progress);
+  SolveInputs inputs(const Scene& scene, const std::string& key) const;
   void adopt(Solved s, bool preview);
   void waitForSolve();
-  /// Builds the preview's Deformer on a worker and solves once with it (rho fields, the rigid
-  /// bodies' fields on its grid), so that the first drag starts without that wait.
-  void prebuildPreview(const Scene& scene, const std::string& key);
+  void waitForPreview();
 
   std::unique_ptr<deformation::Deformer> deformer_, previewDeformer_;
   std::future<Solved> solve_;  ///< the exact solve on the worker (it alone uses deformer_ meanwhile)
-  std::future<std::unique_ptr<deformation::Deformer>> previewBuild_;  ///< see prebuildPreview()
+  std::shared_ptr<Progress> solveProgress_;  ///< cancels the exact solve
+  /// The preview's worker (it alone uses previewDeformer_ meanwhile): a solve during a drag,
+  /// or, when idle, one that makes the preview's Deformer, rho fields and body fields ready
+  /// for the next drag (its map is not shown).
+  std::future<Solved> previewWork_;
+  bool previewForDrag_ = false;  ///< previewWork_ was started by a drag (its map is shown)
   bool preview_ = false;
   std::shared_ptr<const deformation::RigidBodies> bodies_;
+  /// Rigid bodies being built from a copy of the labels, and what they are built for.
+  std::future<std::shared_ptr<const deformation::RigidBodies>> bodiesBuild_;
+  uint64_t buildingRevision_ = 0;
+  std::vector<uint16_t> buildingLabels_;
   std::optional<render::BackwardMap> map_;
   std::shared_ptr<const deformation::MapSampler> sampler_;
   std::string mapKey_;  ///< inputs of the exact map shown ("" = none or a preview)
   std::string previewKey_;  ///< inputs of the preview shown
   double exactUpdateMs_ = 1e300;  ///< the last exact solve, less its rho-field rebuilds
   std::vector<Vec3> exactSources_;  ///< the sources of the last exact solve
-  uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull;
-  std::vector<uint16_t> rigidLabels_;
+  uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull;  ///< labelsRevision_: of bodies_
+  std::vector<uint16_t> rigidLabels_;  ///< of bodies_
   std::string engineKey_;  ///< the engine parameters the deformers were made with
   uint64_t mapRevision_ = 0;
   double lastMs_ = 0, rigidityMs_ = 0;

@@ -11,17 +11,24 @@
 namespace vellum::studio {
 namespace seg = vellum::segmentation;
 
-LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
-                      const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked) {
-  const LabelVolume before = labels;
-  edit(labels);
+LabelDelta diffEdit(const LabelVolume& labels, const std::string& description,
+                    const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked) {
+  LabelVolume after = labels;
+  edit(after);
   if (!locked.empty()) {
-    const auto& b = before.ids().voxels();
-    auto& a = labels.ids().voxels();
+    const auto& b = labels.ids().voxels();
+    auto& a = after.ids().voxels();
     for (size_t n = 0; n < a.size(); ++n)
       if (a[n] != b[n] && (locked.count(a[n]) || locked.count(b[n]))) a[n] = b[n];
   }
-  return diffLabels(before, labels, description);
+  return diffLabels(labels, after, description);
+}
+
+LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
+                      const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked) {
+  LabelDelta delta = diffEdit(labels, description, edit, locked);
+  applyDelta(labels, delta, true);
+  return delta;
 }
 
 void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const seg::HuInterval& interval,
@@ -30,7 +37,7 @@ void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const seg::HuInterv
 }
 
 int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id,
-                    const std::set<uint16_t>& locked) {
+                    const std::set<uint16_t>& locked, std::vector<std::pair<uint64_t, uint16_t>>* changedOut) {
   if (locked.count(id)) return 0;
   const Geometry& g = labels.geometry();
   const Vec3 c = g.physicalToIndex(centerMm);
@@ -49,12 +56,34 @@ int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, 
         if (norm(p - centerMm) > radiusMm) continue;
         uint16_t& v = labels(i, j, k);
         if (v != id && !locked.count(v)) {
+          if (changedOut) changedOut->emplace_back(static_cast<uint64_t>(&v - labels.ids().data()), v);
           v = id;
           ++changed;
         }
       }
   if (id && !labels.label(id)) labels.setLabel({id, "Segment " + std::to_string(id), defaultLabelColor(id)});
   return changed;
+}
+
+LabelDelta strokeDelta(std::vector<std::pair<uint64_t, uint16_t>> changed, std::vector<Label> tableBefore,
+                       const LabelVolume& labels, std::string description) {
+  std::sort(changed.begin(), changed.end());
+  const auto& ids = labels.ids().voxels();
+  LabelDelta d;
+  d.description = std::move(description);
+  d.tableBefore = std::move(tableBefore);
+  d.tableAfter = labels.table();
+  for (const auto& [n, before] : changed) {
+    const uint16_t after = ids[n];
+    if (after == before) continue;
+    LabelDelta::Run* last = d.runs.empty() ? nullptr : &d.runs.back();
+    if (last && last->start + last->length == n && last->before == before && last->after == after &&
+        last->length < UINT32_MAX)
+      ++last->length;
+    else
+      d.runs.push_back({n, 1, before, after});
+  }
+  return d;
 }
 
 void keepLargest(LabelVolume& labels, uint16_t id) {
@@ -97,14 +126,14 @@ const char* morphologyName(Morphology m) {
   return "?";
 }
 
-void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm) {
+void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm, Progress& progress) {
   const seg::Mask m = seg::segmentMask(labels, id);
   seg::Mask r;
   switch (op) {
-    case Morphology::Dilate: r = seg::dilate(m, radiusMm); break;
-    case Morphology::Erode: r = seg::erode(m, radiusMm); break;
-    case Morphology::Open: r = seg::open(m, radiusMm); break;
-    case Morphology::Close: r = seg::close(m, radiusMm); break;
+    case Morphology::Dilate: r = seg::dilate(m, radiusMm, progress); break;
+    case Morphology::Erode: r = seg::erode(m, radiusMm, progress); break;
+    case Morphology::Open: r = seg::open(m, radiusMm, progress); break;
+    case Morphology::Close: r = seg::close(m, radiusMm, progress); break;
   }
   auto& ids = labels.ids().voxels();
   const auto& v = r.voxels();

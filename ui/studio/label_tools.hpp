@@ -4,8 +4,11 @@
 #include <functional>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "undo.hpp"
+#include "vellum/core/progress.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
@@ -15,6 +18,10 @@ namespace vellum::studio {
 /// are put back, so no edit adds to, removes from or paints over a locked segment.
 LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
                       const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked = {});
+/// The same without touching `labels`: the delta `edit` would make (what a worker computes
+/// while the UI keeps drawing `labels`; applyDelta(labels, delta, true) then makes it).
+LabelDelta diffEdit(const LabelVolume& labels, const std::string& description,
+                    const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked = {});
 
 /// Voxels of `ct` inside `interval` become `label` (overwriting other ids).
 void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const segmentation::HuInterval& interval,
@@ -22,8 +29,16 @@ void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const segmentation:
 /// Sets every voxel whose centre lies within radiusMm of centerMm to `id` (0 erases),
 /// except voxels of locked segments (and nothing when `id` itself is locked).
 /// Returns the number of voxels changed.
+/// `changed` (optional) receives each changed voxel's linear index and previous id: a brush
+/// stroke's undo step is made from them (strokeDelta) instead of a copy of the whole map.
 int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id,
-                    const std::set<uint16_t>& locked = {});
+                    const std::set<uint16_t>& locked = {},
+                    std::vector<std::pair<uint64_t, uint16_t>>* changed = nullptr);
+/// The undo step of a stroke already painted into `labels`: the voxels it changed (index,
+/// previous id; each voxel at most once, as paintSphere reports them for one id) and the
+/// label table before it. Equal to diffLabels(copy before, labels) without the copy.
+LabelDelta strokeDelta(std::vector<std::pair<uint64_t, uint16_t>> changed, std::vector<Label> tableBefore,
+                       const LabelVolume& labels, std::string description);
 /// Keeps only the largest 26-connected component of `id` (the others become background).
 void keepLargest(LabelVolume& labels, uint16_t id);
 /// Removes the 26-connected islands of `id` smaller than minVolumeMm3 (to background).
@@ -38,7 +53,8 @@ int64_t growFromSeed(LabelVolume& labels, const VolumeI16& ct, const Vec3& seedM
 enum class Morphology { Dilate, Erode, Open, Close };
 const char* morphologyName(Morphology m);
 /// Ball morphology of `id` with radiusMm. Growing fills background only; shrinking clears to 0.
-void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm);
+void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm,
+                Progress& progress = Progress::none());
 /// The upper of two multi-Otsu thresholds (three classes) over the CT's histogram above
 /// -900 HU: air is left out, so the classes are fat, soft tissue and bone, and the value
 /// separates bone from soft tissue.

@@ -45,6 +45,12 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   } else {
     r.labels = LabelVolume(r.ct.geometry());
   }
+  if (request.prepare3d) {
+    progress.begin("preparing the 3D view", 1);
+    r.renderVolume = std::make_shared<const AnyVolume>(r.ct);
+    r.prepared = render::VolumeRenderer::prepare(*r.renderVolume);
+    progress.advance();
+  }
   if (r.scene && !r.scene->shapes.empty()) {
     r.shapes = std::make_shared<const illustration::ShapeScene>(loadShapes(r.scene->shapes, r.ct));
     r.shapeMeshes = std::make_shared<const SegmentMeshes>(loadSegmentMeshes(r.scene->shapes, r.shapes->segments));

@@ -13,6 +13,7 @@
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/io/volume_io.hpp"
+#include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::studio {
 
@@ -20,6 +21,7 @@ struct LoadRequest {
   std::filesystem::path path;    ///< volume file, DICOM folder or scene (*.json)
   std::filesystem::path labels;  ///< optional label map for a volume
   std::string seriesUid;         ///< DICOM: the series to load (default: the largest CT series)
+  bool prepare3d = false;        ///< also make LoadResult::renderVolume and ::prepared
 };
 
 struct LoadResult {
@@ -35,6 +37,10 @@ struct LoadResult {
   std::shared_ptr<const illustration::ShapeScene> shapes;
   std::shared_ptr<const SegmentMeshes> shapeMeshes;  ///< the folder's meshes
   std::filesystem::path shapesPath;
+  /// The 3D view's volume and the renderer's CPU part (normals, empty-space blocks), made on
+  /// the worker so that adopting the load only uploads (null when not asked for).
+  std::shared_ptr<const AnyVolume> renderVolume;
+  std::shared_ptr<const render::VolumeRenderer::Prepared> prepared;
 };
 
 /// Loads on a worker thread (BackgroundJob); `take()` gives the finished load once.
@@ -43,6 +49,8 @@ class Loader {
   /// Starts loading; false if a load is already running.
   bool start(const LoadRequest& request);
   bool busy() const { return job_.busy(); }
+  /// Running, or finished with a result not taken yet.
+  bool pending() const { return job_.busy() || job_.ready(); }
   /// Stage and fraction of the running load.
   std::pair<std::string, double> progress() const { return job_.progress(); }
   void cancel() { job_.cancel(); }

@@ -54,6 +54,52 @@ SlicePlane makePlane(SliceAxis axis, const Geometry& g, const Vec3& crosshairMm,
   return p;
 }
 
+SlicePlane navigated(SlicePlane plane, const SliceNavigation& nav) {
+  plane.mmPerPixel /= nav.zoom;
+  plane.center += plane.u * nav.panU + plane.v * nav.panV;
+  return plane;
+}
+
+SliceNavigation zoomedAbout(const SlicePlane& fitted, SliceNavigation nav, double factor, double px, double py) {
+  const SlicePlane before = navigated(fitted, nav);
+  const Vec3 at = before.toMm(px, py);
+  nav.zoom = std::clamp(nav.zoom * factor, 0.25, 64.0);
+  // The new centre puts `at` back under (px, py) at the new scale.
+  const double m = fitted.mmPerPixel / nav.zoom;
+  const Vec3 center = at - fitted.u * ((px - fitted.width * 0.5) * m) - fitted.v * ((py - fitted.height * 0.5) * m);
+  nav.panU = dot(center - fitted.center, fitted.u);
+  nav.panV = dot(center - fitted.center, fitted.v);
+  return nav;
+}
+
+SliceNavigation pannedBy(const SlicePlane& fitted, SliceNavigation nav, double dx, double dy) {
+  const double m = fitted.mmPerPixel / nav.zoom;
+  nav.panU -= dx * m;  // the picture moves with the pointer: the centre moves against it
+  nav.panV -= dy * m;
+  return nav;
+}
+
+std::array<std::string, 4> orientationLetters(const SlicePlane& plane) {
+  const auto letters = [](const Vec3& d) {
+    // LPS: +x left, +y posterior, +z superior.
+    const char* pos[3] = {"L", "P", "S"};
+    const char* neg[3] = {"R", "A", "I"};
+    int order[3] = {0, 1, 2};
+    std::sort(order, order + 3, [&](int a, int b) { return std::abs(d[a]) > std::abs(d[b]); });
+    std::string r = d[order[0]] >= 0 ? pos[order[0]] : neg[order[0]];
+    if (std::abs(d[order[1]]) > 0.2) r += d[order[1]] >= 0 ? pos[order[1]] : neg[order[1]];
+    return r;
+  };
+  return {letters(plane.u * -1.0), letters(plane.u), letters(plane.v * -1.0), letters(plane.v)};
+}
+
+const std::vector<WindowPreset>& windowPresets() {
+  static const std::vector<WindowPreset> presets = {
+      {"soft tissue", 40, 400}, {"bone", 400, 1800}, {"lung", -600, 1500}, {"brain", 40, 80}, {"abdomen", 60, 350},
+  };
+  return presets;
+}
+
 namespace {
 /// Label fill at `opacity` with opaque 1-pixel outlines where the id changes.
 void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,

@@ -3,7 +3,10 @@
 // (LPS, mm) space, resampled into RGBA images with window/level and a label overlay.
 // Display convention (radiological, as in 3D Slicer): patient left on screen right; axial
 // seen from the feet, coronal from the front, sagittal with anterior on the left.
+#include <array>
 #include <optional>
+#include <string>
+#include <vector>
 #include <set>
 #include <utility>
 
@@ -33,6 +36,31 @@ struct SlicePlane {
 
 /// The plane of `axis` through `crosshairMm`, fitting the whole volume into width x height.
 SlicePlane makePlane(SliceAxis axis, const Geometry& g, const Vec3& crosshairMm, int width, int height);
+
+/// A slice view's zoom and pan (not part of the scene: navigating is not an edit, as in
+/// 3D Slicer). Zoom 1 and no pan is makePlane's fit of the whole volume.
+struct SliceNavigation {
+  double zoom = 1;        ///< > 1 magnifies
+  double panU = 0, panV = 0;  ///< mm along the plane's u (screen right) and v (screen down)
+  bool operator==(const SliceNavigation&) const = default;
+};
+/// The fitted plane zoomed and panned by `nav`.
+SlicePlane navigated(SlicePlane plane, const SliceNavigation& nav);
+/// `nav` zoomed by `factor` about pixel (px, py) of `fitted` (makePlane's plane): the position
+/// under that pixel stays where it is. Zoom is kept within [0.25, 64].
+SliceNavigation zoomedAbout(const SlicePlane& fitted, SliceNavigation nav, double factor, double px, double py);
+/// `nav` panned so that the picture follows a pointer move of (dx, dy) pixels.
+SliceNavigation pannedBy(const SlicePlane& fitted, SliceNavigation nav, double dx, double dy);
+/// The orientation letters at the left, right, top and bottom edges of a plane's picture
+/// (LPS: R/L, A/P, I/S; an oblique direction gets the letters of its two largest components).
+std::array<std::string, 4> orientationLetters(const SlicePlane& plane);
+
+/// Slice window presets (centre, width in HU), as in 3D Slicer's window/level menu.
+struct WindowPreset {
+  const char* name;
+  double center, width;
+};
+const std::vector<WindowPreset>& windowPresets();
 
 struct SliceStyle {
   WindowLevel window;

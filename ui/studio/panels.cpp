@@ -7,6 +7,7 @@
 #include <functional>
 
 #include "app.hpp"
+#include "mpr.hpp"
 #include "panel_deformation.hpp"
 #include "panel_illustration.hpp"
 #include "param_widgets.hpp"
@@ -76,6 +77,18 @@ void fileSection(StudioApp& app) {
   }
 }
 
+void helpSection() {
+  if (!ImGui::BeginTable("shortcuts", 2, ImGuiTableFlags_BordersInnerH | ImGuiTableFlags_SizingStretchProp)) return;
+  for (const Shortcut& s : shortcuts()) {
+    ImGui::TableNextRow();
+    ImGui::TableNextColumn();
+    ImGui::TextUnformatted(s.keys);
+    ImGui::TableNextColumn();
+    ImGui::TextWrapped("%s", s.what);
+  }
+  ImGui::EndTable();
+}
+
 void bookmarksSection(StudioApp& app) {
   Scene& s = app.scene();
   static char name[64] = "";
@@ -110,6 +123,16 @@ void viewSection(StudioApp& app) {
   ImGui::PopItemWidth();
   if (e.started) app.beginViewEdit(before);
   if (e.finished) app.endViewEdit("view settings");
+  ImGui::TextUnformatted("Slice window:");
+  for (const WindowPreset& p : windowPresets()) {
+    // On the same line while it fits the panel, else on the next.
+    const float room = ImGui::GetWindowPos().x + ImGui::GetWindowContentRegionMax().x;
+    if (ImGui::GetItemRectMax().x + ImGui::GetStyle().ItemSpacing.x + ImGui::CalcTextSize(p.name).x +
+            2 * ImGui::GetStyle().FramePadding.x < room)
+      ImGui::SameLine();
+    if (ImGui::SmallButton(p.name)) guarded(app, [&] { app.setWindowPreset(p.name); });
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("centre %.0f HU, width %.0f HU", p.center, p.width);
+  }
   bookmarksSection(app);
   if (ImGui::Button("Reset view (R)")) app.resetView();
   ImGui::SameLine();
@@ -198,6 +221,8 @@ void labelTable(StudioApp& app) {
   ImGui::TableSetupColumn("lock", ImGuiTableColumnFlags_WidthFixed, 28);
   ImGui::TableSetupColumn("colour", ImGuiTableColumnFlags_WidthFixed, 28);
   ImGui::TableSetupColumn("name");
+  // A worker reads the label map (and its table) while tasks run: names and colours wait.
+  const bool frozen = app.labelsFrozen();
   for (Label l : s.labels.table()) {  // by value: edits go back through setLabel
     ImGui::TableNextRow();
     ImGui::PushID(l.id);
@@ -214,6 +239,7 @@ void labelTable(StudioApp& app) {
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("locked: no edit changes this segment");
     ImGui::TableNextColumn();
     float rgb[3] = {l.rgb[0] / 255.f, l.rgb[1] / 255.f, l.rgb[2] / 255.f};
+    ImGui::BeginDisabled(frozen);
     bool changed = ImGui::ColorEdit3("##c", rgb, ImGuiColorEditFlags_NoInputs);
     ImGui::TableNextColumn();
     char name[128];
@@ -221,6 +247,7 @@ void labelTable(StudioApp& app) {
     name[sizeof name - 1] = '\0';
     ImGui::SetNextItemWidth(-1);
     changed |= ImGui::InputText("##n", name, sizeof name);
+    ImGui::EndDisabled();
     if (changed) {
       for (int c = 0; c < 3; ++c) l.rgb[static_cast<size_t>(c)] = static_cast<uint8_t>(std::lround(rgb[c] * 255));
       l.name = name;
@@ -232,7 +259,42 @@ void labelTable(StudioApp& app) {
   ImGui::EndTable();
 }
 
+// The queued edits: the running one with its progress and Cancel, how many wait.
+void runningSection(StudioApp& app) {
+  TaskQueue& tasks = app.tasks();
+  if (tasks.running().empty()) return;
+  const auto [stage, fraction] = tasks.progress();
+  ImGui::TextColored({0.6f, 0.85f, 1.f, 1.f}, "Running: %s%s", tasks.running().c_str(),
+                     tasks.waiting() ? (" (" + std::to_string(tasks.waiting()) + " queued)").c_str() : "");
+  ImGui::ProgressBar(static_cast<float>(fraction), {-70, 0});
+  ImGui::SameLine();
+  if (ImGui::Button("Cancel##task")) tasks.cancel();
+  ImGui::Separator();
+}
+
 }  // namespace
+
+const std::vector<Shortcut>& shortcuts() {
+  static const std::vector<Shortcut> list = {
+      {"Ctrl+O", "open a volume, DICOM folder or scene"},
+      {"Ctrl+S", "save the scene (asks for a file the first time)"},
+      {"Ctrl+Q", "quit (asks about unsaved changes)"},
+      {"Ctrl+Z / Ctrl+Shift+Z, Ctrl+Y", "undo / redo (queued behind running edits)"},
+      {"Escape", "cancel what runs (export, edit, snake, load); else the Navigate tool"},
+      {"1 / 2 / 3", "layout: 3D / 2x2 / 1x3"},
+      {"R", "reset the camera, the crosshair and every slice view"},
+      {"F", "fit the slice view under the pointer"},
+      {"wheel (slice)", "move through the slices"},
+      {"Ctrl+wheel, Ctrl+right-drag (slice)", "zoom about the pointer"},
+      {"middle-drag (slice)", "pan"},
+      {"right-drag (slice)", "window/level"},
+      {"left-drag (slice)", "move the crosshair (Navigate) or paint / erase"},
+      {"left-drag (3D)", "orbit; Shift+left or middle: pan; wheel: zoom"},
+      {"Ctrl+click (3D)", "crosshair, or a Grow / Snake seed, on the visible surface"},
+      {"drag a dot", "move a control point (Shift: along one axis)"},
+  };
+  return list;
+}
 
 void drawToolPanel(StudioApp& app, float width, float height) {
   ImGui::SetNextWindowPos({0, 0}, ImGuiCond_Always);
@@ -240,12 +302,14 @@ void drawToolPanel(StudioApp& app, float width, float height) {
   ImGui::Begin("Vellum Studio", nullptr,
                ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
   ImGui::PushItemWidth(-130);
+  runningSection(app);
   if (ImGui::CollapsingHeader("File", ImGuiTreeNodeFlags_DefaultOpen)) fileSection(app);
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) viewSection(app);
   if (ImGui::CollapsingHeader("Illustration")) illustrationSection(app);
   if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);
+  if (ImGui::CollapsingHeader("Help: shortcuts")) helpSection();
   ImGui::PopItemWidth();
   ImGui::End();
 }

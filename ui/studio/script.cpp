@@ -78,6 +78,14 @@ struct Steps {
     for (int i = 0; i < n; ++i) list.push_back([](StudioApp&) { return true; });
   }
   void waitIdle() { list.push_back([](StudioApp& a) { return a.idle(); }); }
+  /// Waits until the queued tasks (label edits, files) are done; their error fails the step.
+  void waitTasks() {
+    once([](StudioApp& a) { a.clearTaskError(); });
+    until([](StudioApp& a) { return !a.tasks().busy(); });
+    once([](StudioApp& a) {
+      if (!a.lastTaskError().empty()) throw Error(a.lastTaskError());
+    });
+  }
 };
 
 using Expander = void (*)(Steps&, const json& value);
@@ -140,8 +148,49 @@ void expandClickOrDrag(Steps& s, const json& v) {
 void expandScroll(Steps& s, const json& v) {
   const auto at = point(v.at("at"));
   const double dy = v.value("dy", 1.0);
+  // Modifiers are held as keys around the notch (scroll events carry none).
+  const bool ctrl = v.contains("mods") && (parseMods(v["mods"]) & GLFW_MOD_CONTROL);
   s.once([=](StudioApp& a) { a.injectCursorPos(at.first, at.second); });
+  if (ctrl) s.once([](StudioApp& a) { a.injectKey(GLFW_KEY_LEFT_CONTROL, GLFW_PRESS, GLFW_MOD_CONTROL); });
   s.once([=](StudioApp& a) { a.injectScroll(0, dy); });
+  if (ctrl) s.once([](StudioApp& a) { a.injectKey(GLFW_KEY_LEFT_CONTROL, GLFW_RELEASE, 0); });
+}
+
+SliceAxis parseAxis(const std::string& view) {
+  if (view == "axial") return SliceAxis::Axial;
+  if (view == "coronal") return SliceAxis::Coronal;
+  if (view == "sagittal") return SliceAxis::Sagittal;
+  throw Error("slice view must be \"axial\", \"coronal\" or \"sagittal\"");
+}
+
+void expandSliceView(Steps& s, const json& v) {
+  // "axial": prints "slice_view axial zoom Z pan U V mm_per_pixel M"; {"fit": "axial"}: fits it.
+  if (v.is_object() && v.contains("fit")) {
+    const SliceAxis axis = parseAxis(v["fit"].get<std::string>());
+    s.once([axis](StudioApp& a) { a.fitSliceView(axis); });
+    s.frames(1);
+    return;
+  }
+  const std::string name = v.get<std::string>();
+  const SliceAxis axis = parseAxis(name);
+  s.frames(1);  // panes laid out
+  s.once([axis, name](StudioApp& a) {
+    const SliceNavigation& n = a.sliceNavigation(axis);
+    for (const Pane& p : a.panes())
+      if (p.slice == axis) {
+        std::printf("slice_view %s zoom %.6f pan %.4f %.4f mm_per_pixel %.6f\n", name.c_str(), n.zoom, n.panU, n.panV,
+                    a.planeOf(p).mmPerPixel);
+        std::fflush(stdout);
+        return;
+      }
+    throw Error("the " + name + " slice is not shown");
+  });
+}
+
+void expandWindowPreset(Steps& s, const json& v) {
+  const std::string name = v.get<std::string>();
+  s.once([name](StudioApp& a) { a.setWindowPreset(name); });
+  s.frames(1);
 }
 
 void expandKey(Steps& s, const json& v) {
@@ -176,7 +225,7 @@ void expandScreenshot(Steps& s, const json& v) {
       return true;
     });
   } else if (view == "axial" || view == "coronal" || view == "sagittal") {  // the slice image alone
-    const SliceAxis axis = view == "axial" ? SliceAxis::Axial : view == "coronal" ? SliceAxis::Coronal : SliceAxis::Sagittal;
+    const SliceAxis axis = parseAxis(view);
     s.frames(1);  // the slices are re-rendered at the start of a frame
     s.once([=](StudioApp& a) { a.saveSliceScreenshot(path, axis); });
   } else {
@@ -187,11 +236,13 @@ void expandScreenshot(Steps& s, const json& v) {
 void expandSaveScene(Steps& s, const json& v) {
   const std::string path = v.get<std::string>();
   s.once([=](StudioApp& a) { a.saveScene(path); });
+  s.waitTasks();
 }
 
 void expandSaveLabels(Steps& s, const json& v) {
   const std::string path = v.get<std::string>();
   s.once([=](StudioApp& a) { a.saveLabels(path); });
+  s.waitTasks();
 }
 
 void expandThreshold(Steps& s, const json& v) {
@@ -205,6 +256,7 @@ void expandThreshold(Steps& s, const json& v) {
     t.thresholdPreview = spec.value("preview", false);
     if (spec.value("apply", true)) a.applyThreshold();
   });
+  if (v.value("wait", true)) s.waitTasks();  // "wait": false leaves it queued (the next edits queue behind it)
 }
 
 void expandTool(Steps& s, const json& v) {
@@ -230,10 +282,12 @@ void expandActiveLabel(Steps& s, const json& v) {
 
 void expandKeepLargest(Steps& s, const json&) {
   s.once([](StudioApp& a) { a.keepLargestOfActive(); });
+  s.waitTasks();
 }
 
-void expandFillHoles(Steps& s, const json&) {
+void expandFillHoles(Steps& s, const json& v) {
   s.once([](StudioApp& a) { a.fillHolesOfActive(); });
+  if (!(v.is_boolean() && !v.get<bool>())) s.waitTasks();  // false: queued, not waited for
 }
 
 void expandMorphology(Steps& s, const json& v) {
@@ -244,6 +298,7 @@ void expandMorphology(Steps& s, const json& v) {
                        : op == "close" ? Morphology::Close
                                        : throw Error("unknown morphology '" + op + "'");
   s.once([m](StudioApp& a) { a.morphologyOfActive(m); });
+  s.waitTasks();
 }
 
 void expandLockLabel(Steps& s, const json& v) {
@@ -280,7 +335,8 @@ void expandShapes(Steps& s, const json& v) {
   // "labels": make shapes from the label map; otherwise a `vellum shape` folder. Waits.
   const std::string what = v.get<std::string>();
   s.once([what](StudioApp& a) { a.makeShapes(what == "labels" ? fs::path() : fs::path(what)); });
-  s.until([](StudioApp& a) { return !a.shapeJob().busy(); });
+  s.waitTasks();  // the copies for the job
+  s.until([](StudioApp& a) { return !a.shapeJob().pending(); });
   s.frames(2);
   s.once([](StudioApp& a) {
     if (!a.scene().shapes) throw Error("no shapes were made (see the message above)");
@@ -339,11 +395,19 @@ void expandBookmark(Steps& s, const json& v) {
 }
 
 void expandRemoveIslands(Steps& s, const json& v) {
-  const double mm3 = v.get<double>();
+  // mm³, or {"mm3": mm³, "wait": false} (queued, not waited for).
+  const double mm3 = v.is_object() ? v.at("mm3").get<double>() : v.get<double>();
   s.once([mm3](StudioApp& a) {
     a.tools().minIslandMm3 = static_cast<float>(mm3);
     a.removeIslandsOfActive();
   });
+  if (!v.is_object() || v.value("wait", true)) s.waitTasks();
+}
+
+void expandHoldTasks(Steps& s, const json& v) {
+  const bool on = v.get<bool>();
+  s.once([on](StudioApp& a) { a.holdTasks(on); });
+  if (on) s.until([](StudioApp& a) { return a.tasks().running() == "held task"; });
 }
 
 void expandOtsu(Steps& s, const json&) {
@@ -374,6 +438,7 @@ void expandControls(Steps& s, const json& v) {
   const std::string which = v.get<std::string>();
   if (which != "default" && which != "labels") throw Error("controls must be \"default\" or \"labels\"");
   s.once([which](StudioApp& a) { a.placeControls(which == "labels"); });
+  if (which == "labels") s.waitTasks();  // made on the task queue's worker
   s.frames(1);
 }
 
@@ -570,6 +635,8 @@ void expandDialog(Steps& s, const json& v) {
   if (v.is_string()) s.once([answer = v.get<std::string>()](StudioApp& a) { a.answerDialog(answer); });
   else s.once([path = v["path"].get<std::string>()](StudioApp& a) { a.answerFileBrowser(path); });
   s.frames(2);  // ImGui closes the popup and the next dialog (if any) opens
+  // A Save writes the label map on a worker and quits when done: the script waits for it.
+  s.until([](StudioApp& a) { return !a.tasks().busy(); });
 }
 
 void expandClose(Steps& s, const json&) {
@@ -615,7 +682,7 @@ void expandCurveAnalogy(Steps& s, const json& v) {
   if (!apply) return;  // C0 and the structure are set; the panel's Apply (or another action) runs it
   s.until([](StudioApp& a) { return !a.curveTool().busy(); });
   s.frames(1);  // the frame that adopts the result starts loading the new folder
-  s.until([](StudioApp& a) { return !a.shapeJob().busy(); });
+  s.until([](StudioApp& a) { return !a.tasks().busy() && !a.shapeJob().pending(); });
   s.frames(2);
   s.once([](StudioApp& a) {
     if (!a.curveTool().lastError.empty()) throw Error("curve analogy failed: " + a.curveTool().lastError);
@@ -667,6 +734,9 @@ const std::map<std::string, Expander>& expanders() {
       {"play", expandPlay},
       {"export_movie", expandExportMovie},
       {"rigid_labels", expandRigidLabels},
+      {"slice_view", expandSliceView},
+      {"hold_tasks", expandHoldTasks},
+      {"window_preset", expandWindowPreset},
       {"dialog", expandDialog},
       {"close", expandClose},
       {"quit", expandQuit},
@@ -713,7 +783,8 @@ std::optional<int> ScriptRunner::step(StudioApp& app) {
   if (quitCode_) return quitCode_;
   try {
     while (steps_.empty()) {
-      if (next_ >= actions_.size()) return 0;  // the end of the list quits successfully
+      // The end of the list quits successfully, once the queued edits and files are done.
+      if (next_ >= actions_.size()) return app.tasks().busy() ? std::nullopt : std::optional<int>(0);
       const size_t n = next_++;
       const std::string name = actions_[n].begin().key();
       where_ = "script action #" + std::to_string(n) + " (" + name + ")";

@@ -41,6 +41,8 @@ class ShapeJob {
  public:
   bool start(ShapeRequest request);
   bool busy() const { return job_.busy(); }
+  /// Running, or finished with a result not taken yet.
+  bool pending() const { return job_.busy() || job_.ready(); }
   std::pair<std::string, double> progress() const { return job_.progress(); }
   void cancel() { job_.cancel(); }
   std::optional<ShapeOutcome> take() { return job_.take(); }

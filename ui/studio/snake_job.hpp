@@ -35,6 +35,8 @@ class SnakeJob {
   /// Starts the snake; false if one is already running.
   bool start(SnakeRequest request);
   bool busy() const { return job_.busy(); }
+  /// Running, or finished with a result not taken yet.
+  bool pending() const { return job_.busy() || job_.ready(); }
   std::pair<std::string, double> progress() const { return job_.progress(); }
   void cancel() { job_.cancel(); }
   /// While the snake runs: its inside so far (on the grid of the level being evolved) and a

@@ -206,6 +206,17 @@ void View3D::setVolume(const VolumeI16& ct) {
   invalidate();
 }
 
+bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
+                              std::shared_ptr<const render::VolumeRenderer::Prepared> prepared, size_t maxBytes) {
+  context_.makeCurrent();
+  hasVolume_ = false;  // the renderer has dropped the previous volume
+  if (!renderer_->uploadVolumeStep(std::move(ct), std::move(prepared), maxBytes)) return false;
+  labelsKey_.clear();
+  hasVolume_ = true;
+  invalidate();
+  return true;
+}
+
 void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
   context_.makeCurrent();
   renderer_->setBackwardMap(map);
@@ -343,7 +354,8 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
   refined_ = false;
   // Cost scales with pixels: halve the resolution when over budget; double it only when 4x
   // the pixels are predicted to fit (hysteresis: no oscillation between two factors).
-  if (lastMs_ > kInteractiveBudgetMs && scale_ < 8) scale_ *= 2;
+  // Up to 1/16: a deformed 512²×350 volume on llvmpipe is over budget even at 1/8.
+  if (lastMs_ > kInteractiveBudgetMs && scale_ < 16) scale_ *= 2;
   else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) scale_ /= 2;
 }
 
@@ -404,11 +416,12 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   // Idle: refine to full resolution a band of rows per frame, each band sized to the
   // interactive budget, so that no frame blocks for a whole full-resolution render.
   if (!refining_) startRefinement(scene, paneWidth, paneHeight);
-  // The band: as many rows as the predicted cost allows within the budget (at least 4).
+  // The band: as many rows as the predicted cost allows within the budget (at least one: a
+  // deformed real-size volume can cost over the budget in 4 rows on llvmpipe).
   int rows = 0;
   for (double cost = 0; refineRow_ + rows < paneHeight; ++rows) {
     cost += rowCost_[static_cast<size_t>(refineRow_ + rows)];
-    if (rows >= 4 && cost * msPerCost_ > kInteractiveBudgetMs) break;
+    if (rows >= 1 && cost * msPerCost_ > kInteractiveBudgetMs) break;
   }
   double bandCost = 0;
   for (int r = 0; r < rows; ++r) bandCost += rowCost_[static_cast<size_t>(refineRow_ + r)];

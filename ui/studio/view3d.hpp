@@ -66,6 +66,11 @@ class View3D {
 
   explicit View3D(render::GlContext& context);
   void setVolume(const VolumeI16& ct);
+  /// The same with the renderer's CPU part made on a worker (Loader), uploaded a slab of about
+  /// `maxBytes` per call so that no frame waits for the whole upload; true once complete
+  /// (until then the view draws nothing new).
+  bool uploadVolumeStep(std::shared_ptr<const AnyVolume> ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared,
+                        size_t maxBytes);
   /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
   /// a new one renders again (coarse while the user drags, then refined).
   void setBackwardMap(const render::BackwardMap* map, uint64_t revision);

@@ -126,7 +126,7 @@ struct VolumeRenderer::Impl {
   GpuTimer timer;  ///< renderInto: GPU time without a stall
   /// Cinematic lighting: the values the light volume is made from, and the light volume in
   /// lightTex for the transfer function's opacity, light direction and radius it was made for.
-  std::optional<LightSource> lightSource;
+  std::shared_ptr<const LightSource> lightSource;
   GLuint lightTex = 0;
   LightVolume light;
   std::vector<float> lightAlpha;
@@ -184,6 +184,12 @@ struct VolumeRenderer::Impl {
 
   template <class T>
   void uploadVolume(const Volume<T>& vol) {
+    allocVolume(vol);
+    uploadVolumeSlab(vol, 0, vol.dims().z);
+  }
+  /// The volume texture's storage and sampling, without its texels (uploadVolumeSlab).
+  template <class T>
+  void allocVolume(const Volume<T>& vol) {
     const Dims& d = vol.dims();
     checkTextureSize(d, "volume");
     const VoxelFormat fmt = voxelFormat<T>();
@@ -191,30 +197,53 @@ struct VolumeRenderer::Impl {
     glGenTextures(1, &volumeTex);
     glBindTexture(GL_TEXTURE_3D, volumeTex);
     glTexStorage3D(GL_TEXTURE_3D, 1, fmt.internal, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RED,
-                    fmt.type, vol.data());
     // Border = background, so that sampling outside matches Volume::sampleLinear.
     const float bg = static_cast<float>(vol.background() / fmt.scale);
     const float border[4] = {bg, bg, bg, bg};
     setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_BORDER, border);
     valueScale = fmt.scale;
+    checkGlError("volume allocation");
+  }
+  /// Slices [z0, z1) of the volume into its texture.
+  template <class T>
+  void uploadVolumeSlab(const Volume<T>& vol, int64_t z0, int64_t z1) {
+    const Dims& d = vol.dims();
+    glBindTexture(GL_TEXTURE_3D, volumeTex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, GLint(z0), GLsizei(d.x), GLsizei(d.y), GLsizei(z1 - z0), GL_RED,
+                    voxelFormat<T>().type, vol.data() + static_cast<size_t>(z0 * d.x * d.y));
     checkGlError("volume upload");
   }
 
   void uploadNormals(const NormalVolume& n) {
+    allocNormals(n.dims);
+    uploadNormalsSlab(n, 0, n.dims.z);
+  }
+  void allocNormals(const Dims& d) {
     deleteTexture(normalTex);
     glGenTextures(1, &normalTex);
     glBindTexture(GL_TEXTURE_3D, normalTex);
-    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA8_SNORM, GLsizei(n.dims.x), GLsizei(n.dims.y),
-                   GLsizei(n.dims.z));
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(n.dims.x), GLsizei(n.dims.y),
-                    GLsizei(n.dims.z), GL_RGBA, GL_BYTE, n.texels.data());
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA8_SNORM, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
     const float border[4] = {0, 0, 0, 0};
     setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_BORDER, border);
+    checkGlError("normal volume allocation");
+  }
+  void uploadNormalsSlab(const NormalVolume& n, int64_t z0, int64_t z1) {
+    glBindTexture(GL_TEXTURE_3D, normalTex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, GLint(z0), GLsizei(n.dims.x), GLsizei(n.dims.y), GLsizei(z1 - z0),
+                    GL_RGBA, GL_BYTE, n.texels.data() + static_cast<size_t>(z0 * n.dims.x * n.dims.y) * 4);
     checkGlError("normal volume upload");
   }
+
+  /// An upload in steps (VolumeRenderer::uploadVolumeStep): the volume, its prepared part and
+  /// the slices uploaded so far.
+  struct StepUpload {
+    std::shared_ptr<const AnyVolume> volume;
+    std::shared_ptr<const Prepared> prepared;
+    int64_t z = 0;
+  };
+  std::optional<StepUpload> stepUpload;
 
   void uploadMap() {
     if (!map || mapUploaded || !hasVolume) return;
@@ -363,7 +392,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.labels = hasLabels && s.labelBlend > 0 && !variant.mip;
   variant.opaqueDepth = opaqueDepth;
   variant.turnNormals = deform && s.shading && s.turnDeformedNormals && !variant.mip;
-  variant.lighting = s.lighting.on() && s.shading && !variant.mip && lightSource.has_value();
+  variant.lighting = s.lighting.on() && s.shading && !variant.mip && lightSource != nullptr;
   const GLuint p = program(variant);
   glUseProgram(p);
 
@@ -479,15 +508,37 @@ void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegi
 VolumeRenderer::VolumeRenderer(GlContext& context) : impl_(std::make_unique<Impl>(context)) {}
 VolumeRenderer::~VolumeRenderer() = default;
 
-void VolumeRenderer::setVolume(const AnyVolume& volume) {
+struct VolumeRenderer::Prepared {
+  Geometry geometry;
+  NormalVolume normals;
+  BlockRanges blocks;
+  std::shared_ptr<const LightSource> light;  ///< what the cinematic lighting is computed from
+};
+
+std::shared_ptr<const VolumeRenderer::Prepared> VolumeRenderer::prepare(const AnyVolume& volume) {
+  geometryOf(volume).validate("render volume");
+  return std::make_shared<const Prepared>(Prepared{geometryOf(volume), computeNormalVolume(volume),
+                                                   computeBlockRanges(volume),
+                                                   std::make_shared<const LightSource>(makeLightSource(volume))});
+}
+
+void VolumeRenderer::setVolume(const AnyVolume& volume) { setVolume(volume, *prepare(volume)); }
+
+void VolumeRenderer::setVolume(const AnyVolume& volume, const Prepared& prepared) {
   const Geometry& g = geometryOf(volume);
   g.validate("render volume");
+  if (!(prepared.geometry.dims == g.dims)) throw Error("setVolume: prepared for another volume");
   impl_->context.makeCurrent();
+  impl_->stepUpload.reset();
   impl_->hasVolume = false;
   std::visit([&](const auto& v) { impl_->uploadVolume(v); }, volume);
-  impl_->uploadNormals(computeNormalVolume(volume));
-  impl_->blocks = computeBlockRanges(volume);
-  impl_->lightSource = makeLightSource(volume);
+  impl_->uploadNormals(prepared.normals);
+  finishVolume(g, prepared);
+}
+
+void VolumeRenderer::finishVolume(const Geometry& g, const Prepared& prepared) {
+  impl_->blocks = prepared.blocks;
+  impl_->lightSource = prepared.light;
   deleteTexture(impl_->lightTex);  // made for the previous volume
   makeSkipTextures(impl_->blockSkip, impl_->blocks.blocks, impl_->blocks.maxValue);
   impl_->source = g;
@@ -495,6 +546,33 @@ void VolumeRenderer::setVolume(const AnyVolume& volume) {
   impl_->mapUploaded = false;  // source index coordinates depend on the source geometry
   impl_->uploadMap();
   setLabelTint(nullptr);  // the labels belonged to the previous volume
+}
+
+bool VolumeRenderer::uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, std::shared_ptr<const Prepared> prepared,
+                                      size_t maxBytes) {
+  Impl& m = *impl_;
+  m.context.makeCurrent();
+  const Geometry& g = geometryOf(*volume);
+  if (!m.stepUpload || m.stepUpload->volume != volume || m.stepUpload->prepared != prepared) {
+    g.validate("render volume");
+    if (!(prepared->geometry.dims == g.dims)) throw Error("uploadVolumeStep: prepared for another volume");
+    m.hasVolume = false;  // nothing is drawn until the new volume is complete
+    std::visit([&](const auto& v) { m.allocVolume(v); }, *volume);
+    m.allocNormals(g.dims);
+    m.stepUpload = Impl::StepUpload{volume, prepared, 0};
+  }
+  Impl::StepUpload& u = *m.stepUpload;
+  // Whole slices of both textures, at least one per step.
+  const size_t voxelBytes = std::visit([](const auto& v) { return sizeof(*v.data()); }, *volume);
+  const size_t sliceBytes = static_cast<size_t>(g.dims.x * g.dims.y) * (voxelBytes + 4);
+  const int64_t z1 = std::min<int64_t>(g.dims.z, u.z + std::max<int64_t>(1, int64_t(maxBytes / sliceBytes)));
+  std::visit([&](const auto& v) { m.uploadVolumeSlab(v, u.z, z1); }, *volume);
+  m.uploadNormalsSlab(prepared->normals, u.z, z1);
+  u.z = z1;
+  if (u.z < g.dims.z) return false;
+  m.stepUpload.reset();
+  finishVolume(g, *prepared);
+  return true;
 }
 
 void VolumeRenderer::setBackwardMap(const BackwardMap* map) {

@@ -36,6 +36,19 @@ class VolumeRenderer {
 
   /// Uploads the volume (any voxel type) and its gradient-normal volume.
   void setVolume(const AnyVolume& volume);
+  /// The CPU part of setVolume() (the gradient-normal volume, the empty-space block ranges):
+  /// no GL, so an interactive viewer makes it on a worker thread and uploads it with the
+  /// overload below on the context's thread.
+  struct Prepared;
+  static std::shared_ptr<const Prepared> prepare(const AnyVolume& volume);
+  /// setVolume() with its CPU part already made (by prepare() from this same volume).
+  void setVolume(const AnyVolume& volume, const Prepared& prepared);
+  /// The same spread over calls, for a viewer that must keep drawing: each call uploads whole
+  /// z slices of the volume and normal textures, about `maxBytes` (at least one slice), and
+  /// returns true once the volume is complete. Until then nothing is drawn (the previous
+  /// volume is gone). Calling with another volume or setVolume() starts over.
+  bool uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, std::shared_ptr<const Prepared> prepared,
+                        size_t maxBytes);
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
   void setBackwardMap(const BackwardMap* map);
@@ -72,6 +85,7 @@ class VolumeRenderer {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  void finishVolume(const Geometry& g, const Prepared& prepared);
 };
 
 /// Opaque geometry for the CPU reference, per pixel (row 0 = top, settings' size): the
