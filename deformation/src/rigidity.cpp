@@ -352,22 +352,48 @@ std::shared_ptr<const RigidSnap> makeRigidSnap(const RigidBodies& bodies, const 
 
 }  // namespace
 
-std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geometry& grid) const {
+double RigidBodies::GridFields::BodyField::at(int64_t i, int64_t j, int64_t k) const {
+  const int64_t a = i - lo[0], b = j - lo[1], c = k - lo[2];
+  if (a < 0 || b < 0 || c < 0 || a >= dims.x || b >= dims.y || c >= dims.z) return std::numeric_limits<double>::infinity();
+  return dist[static_cast<size_t>((c * dims.y + b) * dims.x + a)];
+}
+
+double RigidBodies::GridFields::BodyField::sample(const Vec3& gi, const Dims& grid) const {
+  if (dims.x == 0) return std::numeric_limits<double>::infinity();
+  // The whole grid: the clamped trilinear sample the nearest field uses.
+  if (dims == grid) return sampleClamped(dist, dims, gi);
+  // The stencil's nodes (as sampleClamped picks them on the whole grid) must lie in the box.
+  const int64_t gd[3] = {grid.x, grid.y, grid.z}, bd[3] = {dims.x, dims.y, dims.z};
+  Vec3 local;
+  for (int a = 0; a < 3; ++a) {
+    const double g = std::clamp(gi[a], 0.0, double(gd[a] - 1));
+    const int64_t i0 = std::min<int64_t>(static_cast<int64_t>(g), std::max<int64_t>(gd[a] - 2, 0));
+    if (i0 < lo[static_cast<size_t>(a)] || i0 + (gd[a] > 1 ? 1 : 0) >= lo[static_cast<size_t>(a)] + bd[a])
+      return std::numeric_limits<double>::infinity();
+    local[a] = g - double(lo[static_cast<size_t>(a)]);
+  }
+  return sampleClamped(dist, dims, local);
+}
+
+std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geometry& grid, double reachMm) const {
+  if (!(reachMm >= 0)) throw Error("rigid-body distance fields: the reach must be >= 0 mm");
   std::lock_guard lock(cache_->mutex);
   auto& entries = cache_->entries;
   for (size_t e = 0; e < entries.size(); ++e)
-    if (entries[e].first.dims == grid.dims && entries[e].first.approxEqual(grid, 1e-6)) {
+    if (entries[e].first.dims == grid.dims && entries[e].first.approxEqual(grid, 1e-6) &&
+        entries[e].second->reachMm >= reachMm) {
       std::rotate(entries.begin(), entries.begin() + static_cast<std::ptrdiff_t>(e), entries.begin() + static_cast<std::ptrdiff_t>(e) + 1);
       return entries.front().second;
     }
   const Dims d = grid.dims;
   const size_t nodes = static_cast<size_t>(d.voxelCount());
   const int nc = componentCount();
-  checkMemoryBudget(static_cast<uint64_t>(nodes) * (sizeof(double) + sizeof(uint16_t) + sizeof(float) * (nc + 1)),
+  checkMemoryBudget(static_cast<uint64_t>(nodes) * (sizeof(double) + sizeof(uint16_t) + sizeof(float) * 3),
                     "rigid-body distance fields");
   auto fields = std::make_shared<GridFields>();
   fields->perBody.resize(static_cast<size_t>(nc));
   fields->nearest.assign(nodes, std::numeric_limits<float>::infinity());
+  fields->reachMm = reachMm;
   // The class at every node once (a body may have many pieces; the classes are looked up once).
   std::vector<uint16_t> nodeClass(nodes);
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
@@ -377,6 +403,14 @@ std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geo
           nodeClass[static_cast<size_t>((k * d.y + j) * d.x + i)] =
               classAt(grid.indexToPhysical({double(i), double(j), double(k)}));
   });
+  // A box holds the body and every node within reach + 2 cell diagonals of it: a trilinear
+  // stencil with a node outside then lies wholly beyond the reach (distances are 1-Lipschitz).
+  const double diag = norm(grid.spacing);
+  const double minSpacing = std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+  const double growMm = reachMm + 2 * diag;
+  const int64_t grow = std::isfinite(growMm) && growMm / minSpacing < 1e9
+                           ? static_cast<int64_t>(std::ceil(growMm / minSpacing)) + 1
+                           : std::max({d.x, d.y, d.z});
   std::vector<uint8_t> inside(nodes);
   for (int c = 0; c < nc; ++c) {
     const uint16_t cls = static_cast<uint16_t>(c + 2);
@@ -402,9 +436,40 @@ std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geo
             }
       });
     }
+    // The body's node box.
+    int64_t lo[3] = {d.x, d.y, d.z}, hi[3] = {-1, -1, -1};
+    for (int64_t k = 0; k < d.z; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i)
+          if (inside[static_cast<size_t>((k * d.y + j) * d.x + i)]) {
+            const int64_t p[3] = {i, j, k};
+            for (int a = 0; a < 3; ++a) { lo[a] = std::min(lo[a], p[a]); hi[a] = std::max(hi[a], p[a]); }
+          }
     auto& field = fields->perBody[static_cast<size_t>(c)];
-    field = distanceField(grid, inside);
-    for (size_t t = 0; t < nodes; ++t) fields->nearest[t] = std::min(fields->nearest[t], field[t]);
+    if (hi[0] < 0) continue;  // covers no node: left to the map
+    const int64_t dd[3] = {d.x, d.y, d.z};
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max<int64_t>(lo[a] - grow, 0);
+      hi[a] = std::min<int64_t>(hi[a] + grow, dd[a] - 1);
+      field.lo[static_cast<size_t>(a)] = lo[a];
+    }
+    field.dims = {hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1};
+    Geometry box = grid;
+    box.dims = field.dims;
+    box.origin = grid.indexToPhysical({double(lo[0]), double(lo[1]), double(lo[2])});
+    std::vector<uint8_t> in(static_cast<size_t>(field.dims.voxelCount()));
+    for (int64_t k = 0; k < field.dims.z; ++k)
+      for (int64_t j = 0; j < field.dims.y; ++j)
+        for (int64_t i = 0; i < field.dims.x; ++i)
+          in[static_cast<size_t>((k * field.dims.y + j) * field.dims.x + i)] =
+              inside[static_cast<size_t>(((k + lo[2]) * d.y + j + lo[1]) * d.x + i + lo[0])];
+    field.dist = distanceField(box, in);
+    for (int64_t k = 0; k < field.dims.z; ++k)
+      for (int64_t j = 0; j < field.dims.y; ++j)
+        for (int64_t i = 0; i < field.dims.x; ++i) {
+          float& n = fields->nearest[static_cast<size_t>(((k + lo[2]) * d.y + j + lo[1]) * d.x + i + lo[0])];
+          n = std::min(n, field.dist[static_cast<size_t>((k * field.dims.y + j) * field.dims.x + i)]);
+        }
   }
   fields->bodyCells = bodyCellsOf(*classes_, grid);
   constexpr size_t kGridsKept = 3;
@@ -422,7 +487,10 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
   progress.begin("rigid bodies", static_cast<uint64_t>(nc) + 1);
   // Distance fields (mm, source space sampled on the control grid) per component: built once
   // per grid and kept in the bodies (an animation re-blends every frame on the same grid).
-  const auto dist = bodies.gridFields(cv.grid);
+  // The band the blend reads, set below; the fields are exact that far (see gridFields()).
+  const double bandMm = std::max({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z, norm(cv.grid.spacing)}) +
+                        std::max(params.falloffMm, 0.0);
+  const auto dist = bodies.gridFields(cv.grid, bandMm);
   const BodyClassLookup lookup{bodies, cv.grid, dist->bodyCells};
   const auto fits = fitComponents(MapView{cv.sourceMm.data(), cv.grid, 1}, bodies,
                                   [&](const Vec3& u) { return lookup.bodyClassAt(u); });
@@ -455,14 +523,14 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           const Vec3 u = cv.sourceAt(node);
           const Vec3 gi = gridIdx * (u - cv.grid.origin);
           // The fixed regions count at the node itself too (v: the output must not move there).
-          const bool nearFixed = fixedBody >= 0 && double(dist->perBody[static_cast<size_t>(fixedBody)][static_cast<size_t>(node)]) <= reach;
+          const bool nearFixed = fixedBody >= 0 && dist->perBody[static_cast<size_t>(fixedBody)].at(i, j, k) <= reach;
           if (!nearFixed && sampleClamped(dist->nearest, d, gi) > reach) continue;
           const Vec3 v = cv.grid.indexToPhysical({double(i), double(j), double(k)});
           float* o = cv.sourceMm.data() + 3 * node;
           double fixedW = 0;
           if (fixedBody >= 0) {
             const auto& f = dist->perBody[static_cast<size_t>(fixedBody)];
-            fixedW = weight(std::min(sampleClamped(f, d, gi), double(f[static_cast<size_t>(node)])), fixedMargin);
+            fixedW = weight(std::min(f.sample(gi, d), f.at(i, j, k)), fixedMargin);
             if (fixedW >= 1) {  // exactly where it was
               o[0] = static_cast<float>(v.x); o[1] = static_cast<float>(v.y); o[2] = static_cast<float>(v.z);
               continue;
@@ -472,7 +540,7 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           Vec3 acc = v * fixedW;
           for (int c = 0; c < nc; ++c) {
             if (c == fixedBody || !fits[static_cast<size_t>(c)].valid) continue;
-            const double a = weight(sampleClamped(dist->perBody[static_cast<size_t>(c)], d, gi), margin);
+            const double a = weight(dist->perBody[static_cast<size_t>(c)].sample(gi, d), margin);
             if (a <= 0) continue;
             sum += a;
             acc += fits[static_cast<size_t>(c)].apply(v) * a;

@@ -3,6 +3,7 @@
 // segmentation-aware constraint that blends the backward map towards each body's best rigid
 // fit, and the measures (bone RMS non-rigid residual, soft-tissue displacement, fold-over).
 #include <array>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -81,15 +82,32 @@ class RigidBodies {
   /// What the rigid blend needs on one grid: distances (mm) from its nodes to the components,
   /// and which of its cells can hold a body voxel.
   struct GridFields {
-    std::vector<std::vector<float>> perBody;  ///< one distance field per component
-    std::vector<float> nearest;               ///< the minimum over the components
+    /// A body's distance field (mm) on the nodes of a box of the grid: the body and every node
+    /// within the reach the fields were made for; beyond the box the distance is larger than
+    /// that reach (+infinity here). The whole grid when made for an unbounded reach.
+    struct BodyField {
+      std::array<int64_t, 3> lo{0, 0, 0};  ///< the box's first node
+      Dims dims{0, 0, 0};                  ///< empty: the body covers no node
+      std::vector<float> dist;
+      /// At node (i, j, k) of the grid.
+      double at(int64_t i, int64_t j, int64_t k) const;
+      /// Trilinear at continuous grid index `gi` (clamped to the grid like the nearest field),
+      /// +infinity where its stencil leaves the box.
+      double sample(const Vec3& gi, const Dims& grid) const;
+    };
+    std::vector<BodyField> perBody;  ///< one per component
+    std::vector<float> nearest;      ///< the minimum over the components (+infinity beyond every box)
+    double reachMm = 0;              ///< the distance up to which the fields are exact
     /// Per cell (indexed by its lowest node): 1 where some rigid voxel's nearest-voxel region
     /// reaches into the cell, so classAt() can be >= 2 only at positions in such cells.
     std::vector<uint8_t> bodyCells;
   };
-  /// The fields on `grid`, computed once per grid and cached for the last few grids (an
-  /// interactive session alternates a preview grid and the exact one; thread-safe).
-  std::shared_ptr<const GridFields> gridFields(const Geometry& grid) const;
+  /// The fields on `grid`, exact up to `reachMm` from each body (each field on the body's box
+  /// grown by the reach: a small bone does not pay for a whole-grid field), computed once per
+  /// grid and cached for the last few grids (an interactive session alternates a preview grid
+  /// and the exact one; a cached entry made for a larger reach serves; thread-safe).
+  std::shared_ptr<const GridFields> gridFields(const Geometry& grid,
+                                               double reachMm = std::numeric_limits<double>::infinity()) const;
 
  private:
   struct Cache {
