@@ -190,6 +190,10 @@ TEST(CompareCli, ExitCodesJsonAndHeatMap) {
   EXPECT_FALSE(j["pass"].get<bool>());
   EXPECT_DOUBLE_EQ(j["labels"][0]["dice"].get<double>(), 0.9);
   EXPECT_EQ(j["tolerances"]["min_dice"].get<double>(), 1.0);
+  // The envelope every command's report shares (run_report.hpp): both inputs, the heat map.
+  ASSERT_TRUE(j.contains("inputs") && j.contains("outputs") && j.contains("vellum")) << j.dump(1);
+  EXPECT_EQ(j["inputs"].size(), 2u);
+  EXPECT_EQ(j["outputs"].size(), 1u);
   const RgbaImage heat = io::loadImage(dir / "diff.png");
   EXPECT_EQ(heat.width, 24);
   EXPECT_EQ(heat.height, 20);

@@ -102,11 +102,15 @@ void baselinesThenRegression(const fs::path& dir, const std::vector<std::string>
     const nlohmann::json side = readJsonFile(dir / "store" / (std::string(f) + ".baseline.json"), 1 << 20, "sidecar");
     EXPECT_FALSE(side["vellum_version"].get<std::string>().empty());
     EXPECT_NE(side["commands"][0].get<std::string>().find("vellum phantom"), std::string::npos);
+    EXPECT_EQ(side["fingerprint"].get<std::string>().size(), 16u);
   }
 
   r = qa("qa.json", "run2", {});
   EXPECT_EQ(r.rc, 0) << r.log << test::readAll(dir / "run2" / "report.html").substr(0, 4000);
   EXPECT_EQ(parseJUnit(dir / "run2" / "junit.xml"), "3 0");
+  // Outputs byte-identical run to run: the same fingerprint as their baselines.
+  const nlohmann::json same = readJsonFile(dir / "run2" / "cases" / "bone" / "result.json", 1 << 20, "result");
+  EXPECT_EQ(same["checks"][0]["output_fingerprint"], same["checks"][0]["baseline_fingerprint"]) << same["checks"][0].dump(1);
 
   r = qa("qa-regressed.json", "run3", {});
   EXPECT_EQ(r.rc, 1) << r.log;

@@ -8,6 +8,7 @@
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/app/compare.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/image_io.hpp"
 
@@ -37,7 +38,11 @@ void run(const CompareArgs& a) {
   plan.input(a.a, "A").input(a.b, "B");
   if (!jsonToStdout) plan.json(a.json, "--json");
   plan.output(a.heatmap, "--heatmap").check();
+  app::RunReport run(commandLine());  // the envelope every command's report shares
+  run.input(a.a, "A");
+  run.input(a.b, "B");
   const app::CompareResult r = app::compareFiles(q);
+  run.mark("compare");
   RunOutputs outputs;
   if (!a.heatmap.empty() && r.heatmap.width == 0) {
     // Grids or image sizes differ: a result (exit 1), with nothing to draw.
@@ -47,12 +52,15 @@ void run(const CompareArgs& a) {
     ensureParentFolder(a.heatmap);
     io::saveImage(r.heatmap, a.heatmap);
     outputs.wrote(a.heatmap);
+    run.output(a.heatmap);
   }
+  nlohmann::json report = r.report;
+  run.stamp(report);
   if (jsonToStdout) {
-    std::cout << r.report.dump(2) << "\n";
+    std::cout << report.dump(2) << "\n";
   } else {
     if (!a.json.empty()) {
-      writeJsonFile(r.report, a.json);
+      writeJsonFile(report, a.json);
       outputs.wrote(a.json);
     }
     if (!a.quiet) std::cout << app::compareSummary(r);

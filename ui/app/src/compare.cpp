@@ -24,7 +24,6 @@
 #include "vellum/segmentation/mask.hpp"
 #include "vellum/segmentation/metrics.hpp"
 
-
 namespace vellum::app {
 namespace fs = std::filesystem;
 namespace seg = vellum::segmentation;
@@ -294,7 +293,6 @@ void compareGreyVolumes(const AnyVolume& a, const AnyVolume& b, const CompareReq
 }
 
 }  // namespace
-
 
 const char* compareKindName(CompareKind kind) {
   switch (kind) {

@@ -25,6 +25,7 @@
 #include <thread>
 
 #include "vellum/app/outputs.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/json_input.hpp"
 #include "vellum/core/params_json.hpp"
@@ -409,6 +410,9 @@ bool runQaCase(const QaManifest& m, const QaCase& c, const QaRunOptions& o) {
       const fs::path output = dir / k.output;
       const fs::path other = baseline ? store / k.output : relativeTo(m.path.parent_path(), substitute(k.reference, vars));
       r = {{"type", baseline ? "baseline" : "reference"}, {"output", k.output}, {"against", other.string()}};
+      // Content fingerprints (run_report.hpp): "byte-identical to the baseline" at a glance.
+      if (fs::exists(output)) r["output_fingerprint"] = contentFingerprint(output);
+      if (baseline && !o.updateBaselines && fs::is_regular_file(other)) r["baseline_fingerprint"] = contentFingerprint(other);
       if (!commandsOk) {
         failure = k.output + ": not checked (a command failed)";
       } else if (!fs::exists(output)) {
@@ -416,7 +420,8 @@ bool runQaCase(const QaManifest& m, const QaCase& c, const QaRunOptions& o) {
       } else if (baseline && o.updateBaselines) {
         storeBaseline(output, other,
                       {{"case", c.name}, {"manifest", m.path.string()}, {"commands", commandLines},
-                       {"vellum_version", vellumVersion()}, {"written_utc", utcNow()}});
+                       {"vellum_version", vellumVersion()}, {"git_commit", vellumGitCommit()},
+                       {"fingerprint", contentFingerprint(output)}, {"written_utc", utcNow()}});
         r["updated"] = true;
       } else if (!fs::exists(other)) {
         failure = k.output + ": " + (baseline ? "no baseline " + other.string() + " (run with --update-baselines)"
