@@ -174,9 +174,8 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   if (!request.report.empty()) {
     shared.outputVolume(spec.moviePath);
     shared.outputVolume(spec.framesDir);
-    nlohmann::json stamped = result.report;
-    shared.stamp(stamped);
-    writeJsonFile(stamped, request.report);
+    shared.stamp(result.report);  // the returned report is the file's
+    writeJsonFile(result.report, request.report);
   }
   written.commit();
   return result;

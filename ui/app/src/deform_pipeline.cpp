@@ -171,9 +171,8 @@ void finishReport(Run& run, Clock::time_point t0) {
     shared.outputVolume(r.output);
     shared.outputVolume(r.mapOut);
     shared.outputVolume(r.attributesOut);
-    nlohmann::json stamped = run.report;
-    shared.stamp(stamped);
-    writeJsonFile(stamped, r.report);
+    shared.stamp(run.report);  // the returned report is the file's
+    writeJsonFile(run.report, r.report);
   }
 }
 

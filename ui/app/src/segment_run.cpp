@@ -159,9 +159,8 @@ SegmentResult runSegment(const SegmentRequest& r, Progress& progress) {
   report["seconds"] = secondsSince(t0);
   if (!r.report.empty()) {
     run.outputVolume(r.output);
-    nlohmann::json stamped = report;
-    run.stamp(stamped);
-    writeJsonFile(stamped, r.report);
+    run.stamp(report);  // the returned report is the file's
+    writeJsonFile(report, r.report);
   }
   outputs.commit();
   return result;
