@@ -70,3 +70,41 @@ TEST(RunReport, RenderReportNamesInputsOutputsAndSettings) {
   EXPECT_TRUE(j["stage_ms"].contains("load"));
   EXPECT_GT(j["peak_memory_mb"].get<double>(), 1.0);
 }
+
+// VELLUM_THREADS (docs/reliability.md): the outputs of one thread and of several are the same
+// bytes — the splitting watershed, the light volume, the deformation and its rigid bones.
+TEST(RunReport, OutputsAreTheSameBytesForOneAndManyThreads) {
+  const auto dir = test::tempDir("threads");
+  phantom::PhantomOptions o;
+  o.dims = {48, 48, 48};
+  const phantom::Phantom ph = phantom::makePhantom(o);
+  io::saveVolume(ph.ct, dir / "ct.nrrd");
+  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const std::string ct = (dir / "ct.nrrd").string();
+  auto run = [&](const std::vector<std::string>& args, const char* threads) {
+    const int rc = test::Child(args, dir / "log.txt", [threads] { setenv("VELLUM_THREADS", threads, 1); }).wait();
+    EXPECT_EQ(rc, 0) << test::readAll(dir / "log.txt");
+  };
+  // Control points that bend: the upper half of the default points moves 6 mm along x.
+  run({"controls", ct, "--out", (dir / "cp0.json").string()}, "1");
+  nlohmann::json cp = nlohmann::json::parse(std::ifstream(dir / "cp0.json"));
+  for (auto& p : cp["points"])
+    if (p["source"][2].get<double>() > 0) p["target"][0] = p["source"][0].get<double>() + 6.0;
+  std::ofstream(dir / "cp.json") << cp.dump();
+  for (const char* threads : {"1", "2", "4"}) {
+    const std::string t = threads;
+    run({"segment", ct, "--preset", "whole-bone", "--fill-holes-slices", "--split", "--out",
+         (dir / ("bones-" + t + ".nrrd")).string()}, threads);
+    run({"render", ct, "--preset", "bone", "--size", "96x96", "--shadows", "1", "--occlusion", "1", "--out",
+         (dir / ("lit-" + t + ".png")).string()}, threads);
+    run({"deform", ct, "--points", (dir / "cp.json").string(), "--labels", (dir / "labels.nrrd").string(),
+         "--rigid-labels", "4+5,6+7,8+11,9+11", "--out", (dir / ("bent-" + t + ".nrrd")).string()}, threads);
+  }
+  for (const char* name : {"bones", "lit", "bent"}) {
+    const std::string ext = std::string(name) == "lit" ? ".png" : ".nrrd";
+    const std::string one = test::readAll(dir / (std::string(name) + "-1" + ext));
+    ASSERT_FALSE(one.empty()) << name;
+    EXPECT_EQ(test::readAll(dir / (std::string(name) + "-2" + ext)), one) << name << " with 2 threads";
+    EXPECT_EQ(test::readAll(dir / (std::string(name) + "-4" + ext)), one) << name << " with 4 threads";
+  }
+}

@@ -29,6 +29,7 @@ void addConvertCommand(CLI::App& app) {
   cmd->add_option("--type", a->type, "convert voxels to int16 | uint8 | uint16 | float32 (rounding, saturating)");
   cmd->add_flag("--labels", r.labels, "treat the input as a label map (keeps the label table)");
   cmd->add_flag("--no-gzip", a->rawEncoding, "NRRD: raw encoding instead of gzip");
+  cmd->add_option("--report", r.report, "write a JSON report: version, command, input and output with fingerprints, memory");
   a->in.addTo(*cmd);
   addForceFlag(*cmd, r.force);
   cmd->footer("Example: vellum convert ../shared/data/ct-head-phantom head.nrrd");
@@ -37,6 +38,7 @@ void addConvertCommand(CLI::App& app) {
     r.gzip = !a->rawEncoding;
     if (!a->type.empty()) r.type = parseVoxelType(a->type);
     r.load = a->in.toLoadOptions(nullptr);
+    r.commandLine = commandLine();
     ProgressBar bar;
     const app::ConvertResult result = app::runConvert(r, bar.progress());
     bar.finish();

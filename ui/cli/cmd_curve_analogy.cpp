@@ -73,6 +73,7 @@ void runCurveAnalogy(const CurveArgs& a) {
     r.curveSource = a.curve;
   }
   r.view = viewSettings(a, width, height);
+  r.commandLine = commandLine();
   const app::CurveAnalogyResult o = app::runCurveAnalogy(r);
   const nlohmann::json& ca = o.report;
   std::printf("curve analogy of %s -> %s: Hausdorff %.2f -> %.2f px (%.2f -> %.2f mm); proxy %zu faces; %.2f s\n",

@@ -12,6 +12,7 @@
 #include "commands.hpp"
 #include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
 #include "vellum/core/progress.hpp"
 
 namespace {
@@ -32,6 +33,9 @@ int main(int argc, char** argv) {
   // Past RLIMIT_FSIZE a write fails with EFBIG instead of killing us: it is then reported as
   // a full disk is (a one-line error naming the target, nothing half-written left behind).
   std::signal(SIGXFSZ, SIG_IGN);
+  // VELLUM_THREADS applies to every parallel loop from the start (also those that call TBB
+  // directly before the first parallelFor).
+  vellum::workerCount();
   CLI::App app{"Vellum: CT volume loading, segmentation, deformation and rendering", "vellum"};
   app.require_subcommand(1);
   const std::string commit = vellum::app::vellumGitCommit();

@@ -2,6 +2,7 @@
 #include "vellum/app/convert_pipeline.hpp"
 
 #include "vellum/app/outputs.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 
 namespace vellum::app {
@@ -17,10 +18,24 @@ AnyVolume convertTo(const AnyVolume& v, VoxelType t) {
   throw Error("unknown voxel type");
 }
 
+/// The report: what was converted, with the shared keys; a report that cannot be written takes
+/// the output with it.
+void writeReport(RunReport& run, const ConvertRequest& r, nlohmann::json report) {
+  if (r.report.empty()) return;
+  RunOutputs written;
+  written.wrote(r.output);
+  run.outputVolume(r.output);
+  run.stamp(report);
+  writeJsonFile(report, r.report);
+  written.commit();
+}
+
 }  // namespace
 
 ConvertResult runConvert(const ConvertRequest& r, Progress& progress) {
-  io::OutputPlan().input(r.input).output(r.output, "the output", r.gzip).force(r.force).check();
+  io::OutputPlan().input(r.input).output(r.output, "the output", r.gzip).json(r.report, "--report").force(r.force).check();
+  RunReport run(r.commandLine);
+  if (!r.report.empty()) run.input(r.input, r.labels ? "label map" : "volume");
   ensureParentFolder(r.output);
   io::SaveOptions so;
   so.gzip = r.gzip;
@@ -35,6 +50,7 @@ ConvertResult runConvert(const ConvertRequest& r, Progress& progress) {
     result.dims = labels.geometry().dims;
     result.type = VoxelType::UInt16;
     result.labelCount = labels.table().size();
+    writeReport(run, r, nlohmann::json{{"labels", result.labelCount}});
     return result;
   }
   io::LoadedVolume lv = io::loadVolume(r.input, load);
@@ -43,7 +59,9 @@ ConvertResult runConvert(const ConvertRequest& r, Progress& progress) {
   io::saveVolume(lv.volume, r.output, so);
   result.dims = geometryOf(lv.volume).dims;
   result.type = voxelTypeOf(lv.volume);
+  if (!r.report.empty()) run.loaded(r.input, lv);
   result.warnings = std::move(lv.warnings);
+  writeReport(run, r, nlohmann::json{{"type", voxelTypeName(result.type)}});
   return result;
 }
 

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "vellum/app/outputs.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/json_input.hpp"
 #include "vellum/core/parallel.hpp"
@@ -298,8 +299,16 @@ CurveAnalogyResult runCurveAnalogy(const CurveAnalogyRequest& a, Progress& progr
                         {"write", writeMs}, {"total", msSince(t0)}};
     j["curve_analogy"] = ca;
     writeJsonFile(j, out / "shape.json");
-    if (!a.report.empty()) writeJsonFile(ca, a.report);
   }, a.force);
+  if (!a.report.empty()) {
+    written.wrote(a.out);  // a report that cannot be written takes the folder with it
+    RunReport shared(a.commandLine, t0);
+    shared.input(a.dir, "shape folder");
+    shared.output(a.out);
+    shared.outputVolume(a.mapOut);
+    shared.stamp(ca);
+    writeJsonFile(ca, a.report);
+  }
   written.commit();
   progress.advance();
   progress.end();

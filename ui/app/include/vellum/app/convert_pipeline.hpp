@@ -20,6 +20,8 @@ struct ConvertRequest {
   bool gzip = true;               ///< NRRD: gzip encoding, raw otherwise
   bool force = false;             ///< a DICOM output may replace a Vellum folder of another kind
   io::LoadOptions load;           ///< series, raw layout, region, rescale
+  std::filesystem::path report;   ///< JSON with the shared report keys (run_report.hpp); empty: none
+  std::string commandLine;        ///< for the report
 };
 
 struct ConvertResult {

@@ -20,6 +20,7 @@ struct CurveAnalogyRequest {
   std::filesystem::path out;  ///< output shape folder (+ curve_analogy/); never the input
   std::filesystem::path mapOut;  ///< CT backward map NRRD; empty: none
   std::filesystem::path report;  ///< also the report JSON here; empty: none
+  std::string commandLine;       ///< for the report's shared keys (run_report.hpp)
   std::string segment;           ///< the segment whose outline follows C0
   std::vector<std::string> transfer;  ///< segments carried by the cage (comma lists allowed)
   illustration::Polyline2 curve;      ///< C0 in pixels of `view` (x right, y down)
