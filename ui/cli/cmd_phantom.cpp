@@ -4,6 +4,7 @@
 
 #include "cli_util.hpp"
 #include "commands.hpp"
+#include "vellum/app/run_report.hpp"
 #include "vellum/phantom/phantom.hpp"
 
 namespace vellum::cli {
@@ -19,6 +20,7 @@ struct PhantomArgs {
   double flexion = 0.0;
   bool noPartialVolume = false;
   bool force = false;
+  std::string report;
 };
 
 }  // namespace
@@ -36,6 +38,7 @@ void addPhantomCommand(CLI::App& app) {
   cmd->add_option("--noise", a->noise, "noise standard deviation in HU")->capture_default_str();
   cmd->add_option("--flexion", a->flexion, "knee flexion in degrees")->capture_default_str();
   cmd->add_flag("--no-partial-volume", a->noPartialVolume, "hard tissue edges (no supersampling)");
+  cmd->add_option("--report", a->report, "write a JSON report: version, command, options, outputs with fingerprints, time, memory");
   addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum phantom --size 256 --out knee.nrrd --labels knee-labels.nrrd");
   cmd->callback([a] {
@@ -46,8 +49,9 @@ void addPhantomCommand(CLI::App& app) {
     o.noiseSigmaHu = a->noise;
     o.kneeFlexionDeg = a->flexion;
     o.partialVolume = !a->noPartialVolume;
-    OutputPlan().output(a->out, "--out").output(a->labels, "--labels").force(a->force).check();
+    OutputPlan().output(a->out, "--out").output(a->labels, "--labels").json(a->report, "--report").force(a->force).check();
     const auto t0 = std::chrono::steady_clock::now();
+    app::RunReport run(commandLine(), t0);
     ProgressBar bar;
     phantom::Phantom p = phantom::makePhantom(o, bar.progress());
     bar.finish();
@@ -61,6 +65,17 @@ void addPhantomCommand(CLI::App& app) {
     if (!a->labels.empty()) {
       ensureParentFolder(a->labels);
       io::saveLabels(p.labels, a->labels, so);
+      outputs.wrote(a->labels);
+    }
+    if (!a->report.empty()) {
+      run.mark("generate and write");
+      run.outputVolume(a->out);
+      run.outputVolume(a->labels);
+      nlohmann::json report = {{"dims", {o.dims.x, o.dims.y, o.dims.z}}, {"seed", o.seed}, {"noise_hu", o.noiseSigmaHu},
+                               {"flexion_deg", o.kneeFlexionDeg}, {"partial_volume", o.partialVolume},
+                               {"generate_seconds", genSeconds}};
+      run.stamp(report);
+      writeJsonFile(report, a->report);
     }
     outputs.commit();
     std::cout << "phantom " << o.dims.str() << " generated in " << genSeconds << " s -> " << a->out
