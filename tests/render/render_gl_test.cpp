@@ -491,6 +491,7 @@ TEST(RenderGl, LightingMatchesCpuAndShadowsTheFarSide) {
     s.camera.azimuthDeg = 60;
     s.lighting.shadows = 1;
     s.lighting.occlusion = 1;
+    s.lighting.exposure = p == Preset::Bone ? 0.4 : 0.0;
     const RgbaImage lit = r.render(s);
     expectClose(lit, renderReferenceCpu(v, s), std::string("lit ") + presetName(p));
     s.lighting = {};
@@ -518,6 +519,12 @@ TEST(RenderGl, LightingMatchesCpuAndShadowsTheFarSide) {
   const auto [litLeft, litRight] = halves(side);
   EXPECT_GT(litLeft / litRight, 1.25) << "the far side is in the ball's own shadow";
   expectClose(side, renderReferenceCpu(ball, s), "side-lit ball");
+  s.lighting.exposure = 0.5;  // a half stop brightens the unclamped lit half by sqrt(2)
+  const RgbaImage brighter = r.render(s);
+  const auto [brightLeft, brightRight] = halves(brighter);
+  EXPECT_GT(brightLeft / litLeft, 1.2);
+  EXPECT_LT(brightLeft / litLeft, 1.45);
+  expectClose(brighter, renderReferenceCpu(ball, s), "side-lit ball, +0.5 stop");
 }
 
 }  // namespace

@@ -31,6 +31,7 @@ uniform vec3 uLightScale;      // source index + 0.5 -> texture coordinate
 uniform vec3 uLightOffset;     // one cell towards the light, in source voxels
 uniform vec3 uLightDir;        // physical, towards the key light
 uniform float uShadowAmount, uOcclusionAmount;
+uniform float uExposure;       // 2^stops
 #endif
 #ifdef DEFORMED
 uniform sampler3D uMap;      // source index coordinates per map node (Gaussian kernel: padded)
@@ -198,9 +199,9 @@ vec3 shadeLit(vec3 c, vec4 n, vec3 v, vec3 u) {
   float key = max(dot(nn, uLightDir), 0.0), head = max(dot(nn, v), 0.0);
   vec3 h = normalize(uLightDir + v);
   float spec = SPECULAR * pow(max(dot(nn, h), 0.0), SHININESS) * T;
-  vec3 lit = c * (AMBIENT * A + DIFFUSE * (KEY_SHARE * key * T + (1.0 - KEY_SHARE) * head)) + spec;
-  vec3 plain = c * (AMBIENT * A + DIFFUSE * (KEY_SHARE * T + (1.0 - KEY_SHARE)));
-  return mix(plain, min(lit, vec3(1.0)), w);
+  vec3 lit = (c * (AMBIENT * A + DIFFUSE * (KEY_SHARE * key * T + (1.0 - KEY_SHARE) * head)) + spec) * uExposure;
+  vec3 plain = c * (AMBIENT * A + DIFFUSE * (KEY_SHARE * T + (1.0 - KEY_SHARE))) * uExposure;
+  return mix(min(plain, vec3(1.0)), min(lit, vec3(1.0)), w);
 }
 #endif
 

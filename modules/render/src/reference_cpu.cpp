@@ -81,10 +81,11 @@ std::array<float, 3> shadeLit(const std::array<float, 3>& c, const std::array<fl
   const float spec = kSpecular * std::pow(float(std::max(dot(nn, h), 0.0)), kShininess) * T;
   const float diffuse = kDiffuse * (kKeyLightShare * key * T + (1 - kKeyLightShare) * head);
   const float plain = kAmbient * A + kDiffuse * (kKeyLightShare * T + (1 - kKeyLightShare));
+  const float exposure = float(std::exp2(l.exposure));
   std::array<float, 3> out{};
   for (int k = 0; k < 3; ++k) {
-    const float lit = std::min(c[k] * (kAmbient * A + diffuse) + spec, 1.f);
-    const float flat = c[k] * plain;
+    const float lit = std::min((c[k] * (kAmbient * A + diffuse) + spec) * exposure, 1.f);
+    const float flat = std::min(c[k] * plain * exposure, 1.f);
     out[k] = flat + w * (lit - flat);
   }
   return out;

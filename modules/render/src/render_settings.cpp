@@ -65,6 +65,8 @@ const params::Table<RenderSettings>& renderSettingsTable() {
                       {"Light azimuth", "key light turned about the view's up axis; 0 = from the eye, negative = from the left", "degrees", -180, 180}),
       params::real<R>("light_elevation", [](auto& s) -> auto& { return s.lighting.elevationDeg; },
                       {"Light elevation", "key light raised towards the top of the view", "degrees", -90, 90}),
+      params::real<R>("exposure", [](auto& s) -> auto& { return s.lighting.exposure; },
+                      {"Exposure", "with shadows or occlusion: brightens the lit colour by this many stops", "stops", -4, 4}),
   };
   return table;
 }

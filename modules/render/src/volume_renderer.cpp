@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <map>
 #include <optional>
@@ -327,6 +328,7 @@ struct VolumeRenderer::Impl {
     uniform3(p, "uLightDir", dir);
     uniform1(p, "uShadowAmount", s.lighting.shadows);
     uniform1(p, "uOcclusionAmount", s.lighting.occlusion);
+    uniform1(p, "uExposure", std::exp2(s.lighting.exposure));
   }
 
   void uploadClasses(const RigidSnap& rs) {

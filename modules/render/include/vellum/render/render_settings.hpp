@@ -52,6 +52,9 @@ struct Lighting {
   double occlusionRadiusMm = 8;  ///< neighbourhood that occludes
   double azimuthDeg = -45;       ///< key light turned about the view's up axis; 0 = from the eye, < 0 from the left
   double elevationDeg = 40;      ///< key light raised towards the view's up axis
+  /// Brightens the lit colour by 2^exposure stops before it is clamped (the shadowed picture
+  /// is darker than the headlit one; about +0.3 restores its mid-tones).
+  double exposure = 0;
   bool on() const { return shadows > 0 || occlusion > 0; }
 };
 
