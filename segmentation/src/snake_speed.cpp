@@ -1,4 +1,4 @@
-// Speed images for the level-set snake, and the Gaussian blur the edge speed needs.
+// Speed images for the level-set snake.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "vellum/core/gaussian_blur.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/segmentation/snake.hpp"
 
@@ -17,65 +18,13 @@ SpeedType parseSpeedType(const std::string& name) {
   throw Error("unknown speed type '" + name + "' (threshold, edge)");
 }
 
-namespace {
-
-std::vector<float> gaussianKernel(double sigmaVoxels) {
-  const int r = std::max(1, static_cast<int>(std::ceil(3.0 * sigmaVoxels)));
-  std::vector<float> k(2 * r + 1);
-  double sum = 0;
-  for (int i = -r; i <= r; ++i) sum += k[i + r] = static_cast<float>(std::exp(-0.5 * i * i / (sigmaVoxels * sigmaVoxels)));
-  for (auto& v : k) v = static_cast<float>(v / sum);
-  return k;
-}
-
-/// One separable pass along `axis`, src -> dst, samples outside the grid = `bg`.
-void blurAxis(const float* src, float* dst, const Dims& d, int axis, const std::vector<float>& k, float bg) {
-  const int r = static_cast<int>(k.size() / 2);
-  const int64_t n = d[axis];
-  const int64_t stride = axis == 0 ? 1 : (axis == 1 ? d.x : d.x * d.y);
-  // Lines along `axis`, enumerated by the other two coordinates; parallel over z (or y for z).
-  const int64_t outer = axis == 2 ? d.y : d.z;
-  parallelFor(outer, [&](int64_t o0, int64_t o1) {
-    std::vector<float> line(static_cast<size_t>(n + 2 * r));
-    for (int64_t o = o0; o < o1; ++o) {
-      const int64_t inner = axis == 0 ? d.y : d.x;
-      for (int64_t t = 0; t < inner; ++t) {
-        int64_t base;
-        if (axis == 0) base = o * d.x * d.y + t * d.x;
-        else if (axis == 1) base = o * d.x * d.y + t;
-        else base = o * d.x + t;
-        for (int i = 0; i < r; ++i) line[i] = line[n + r + i] = bg;
-        for (int64_t s = 0; s < n; ++s) line[s + r] = src[base + s * stride];
-        for (int64_t s = 0; s < n; ++s) {
-          float acc = 0;
-          const float* l = line.data() + s;
-          for (size_t q = 0; q < k.size(); ++q) acc += k[q] * l[q];
-          dst[base + s * stride] = acc;
-        }
-      }
-    }
-  });
-}
-
-}  // namespace
-
 VolumeF32 gaussianBlur(const VolumeI16& ct, double sigmaMm, Progress& progress) {
   VolumeF32 a(ct.geometry(), 0.0f, ct.background());
   const int16_t* s = ct.data();
   float* pa = a.data();
   for (size_t i = 0; i < ct.size(); ++i) pa[i] = s[i];
-  if (!(sigmaMm > 0)) return a;
-  VolumeF32 b(ct.geometry(), 0.0f, ct.background());
-  const float bg = static_cast<float>(ct.background());
-  progress.begin("gaussian blur", 3);
-  const Vec3 sp = ct.geometry().spacing;
-  blurAxis(a.data(), b.data(), ct.dims(), 0, gaussianKernel(sigmaMm / sp.x), bg);
-  progress.advance();
-  blurAxis(b.data(), a.data(), ct.dims(), 1, gaussianKernel(sigmaMm / sp.y), bg);
-  progress.advance();
-  blurAxis(a.data(), b.data(), ct.dims(), 2, gaussianKernel(sigmaMm / sp.z), bg);
-  progress.end();
-  return b;
+  gaussianBlurMm(a, sigmaMm, static_cast<float>(ct.background()), progress);  // core's blur
+  return a;
 }
 
 SpeedImage thresholdSpeed(const VolumeI16& ct, const ThresholdSpeedParams& p, Progress& progress) {

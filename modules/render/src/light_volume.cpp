@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "vellum/core/gaussian_blur.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/core/region.hpp"
 
@@ -16,36 +17,6 @@ uint8_t toByte(double v) { return static_cast<uint8_t>(std::lround(std::clamp(v,
 
 /// Index-space step per mm along a physical direction.
 Vec3 indexPerMm(const Geometry& g, const Vec3& dir) { return g.physicalToIndex(g.origin + dir) - g.physicalToIndex(g.origin); }
-
-/// One axis of a separable Gaussian over a cell grid, outside = 0 (air).
-void blurAxis(std::vector<float>& v, const Dims& d, int axis, double sigmaCells) {
-  if (sigmaCells < 0.3) return;
-  const int r = static_cast<int>(std::ceil(3 * sigmaCells));
-  std::vector<float> w(2 * r + 1);
-  double sum = 0;
-  for (int t = -r; t <= r; ++t) sum += w[t + r] = float(std::exp(-0.5 * t * t / (sigmaCells * sigmaCells)));
-  for (float& x : w) x = float(x / sum);
-  const int64_t n[3] = {d.x, d.y, d.z};
-  const int a = axis, b = (axis + 1) % 3, c = (axis + 2) % 3;
-  const int64_t stride[3] = {1, d.x, d.x * d.y};
-  const std::vector<float> in = v;
-  parallelFor(n[c], [&](int64_t c0, int64_t c1) {
-    std::vector<float> line(n[a]);
-    for (int64_t k = c0; k < c1; ++k)
-      for (int64_t j = 0; j < n[b]; ++j) {
-        const int64_t base = k * stride[c] + j * stride[b];
-        for (int64_t i = 0; i < n[a]; ++i) {
-          double acc = 0;
-          for (int t = -r; t <= r; ++t) {
-            const int64_t q = i + t;
-            if (q >= 0 && q < n[a]) acc += w[t + r] * in[base + q * stride[a]];
-          }
-          line[i] = float(acc);
-        }
-        for (int64_t i = 0; i < n[a]; ++i) v[base + i * stride[a]] = line[i];
-      }
-  });
-}
 
 }  // namespace
 
@@ -62,27 +33,7 @@ Vec3 LightVolume::cellOf(const Vec3& u) const {
 }
 
 std::array<float, 2> LightVolume::sample(const Vec3& u) const {
-  const Vec3 c = cellOf(u);
-  auto axis = [](double v, int64_t n, int64_t& i0, int64_t& i1, double& t) {
-    v = std::clamp(v, 0.0, double(n - 1));
-    i0 = std::min<int64_t>(int64_t(v), n - 1);
-    i1 = std::min<int64_t>(i0 + 1, n - 1);
-    t = v - double(i0);
-  };
-  int64_t i0, i1, j0, j1, k0, k1;
-  double tx, ty, tz;
-  axis(c.x, dims.x, i0, i1, tx);
-  axis(c.y, dims.y, j0, j1, ty);
-  axis(c.z, dims.z, k0, k1, tz);
-  std::array<float, 2> out{0, 0};
-  for (int n = 0; n < 8; ++n) {
-    const int64_t i = (n & 1) ? i1 : i0, j = (n & 2) ? j1 : j0, k = (n & 4) ? k1 : k0;
-    const double w = ((n & 1) ? tx : 1 - tx) * ((n & 2) ? ty : 1 - ty) * ((n & 4) ? tz : 1 - tz);
-    const uint8_t* t = rg.data() + 2 * static_cast<size_t>((k * dims.y + j) * dims.x + i);
-    out[0] += float(w * t[0] / 255.0);
-    out[1] += float(w * t[1] / 255.0);
-  }
-  return out;
+  return sampleClamped<2>(rg, dims, cellOf(u), 1.0 / 255.0);
 }
 
 LightSource makeLightSource(const AnyVolume& volume) {
@@ -177,19 +128,16 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
     });
   }
 
-  // Openness: the local mean of each cell's opacity over its own length, air outside.
-  std::vector<float> occ(cells);
+  // Openness: the local mean of each cell's opacity over its own length (core's blur), air outside.
+  VolumeF32 occ(cellGrid, 0.f, 0.0);
   const double cellLen = std::cbrt(cellMm.x * cellMm.y * cellMm.z);
-  for (size_t i = 0; i < cells; ++i) occ[i] = float(1.0 - std::exp(-double(sigma[i]) * cellLen));
-  const double sigmaMm = 0.5 * lighting.occlusionRadiusMm;
-  blurAxis(occ, d, 0, sigmaMm / cellMm.x);
-  blurAxis(occ, d, 1, sigmaMm / cellMm.y);
-  blurAxis(occ, d, 2, sigmaMm / cellMm.z);
+  for (size_t i = 0; i < cells; ++i) occ.data()[i] = float(1.0 - std::exp(-double(sigma[i]) * cellLen));
+  gaussianBlurMm(occ, 0.5 * lighting.occlusionRadiusMm, 0.f);
 
   lv.rg.resize(2 * cells);
   for (size_t i = 0; i < cells; ++i) {
     lv.rg[2 * i] = toByte(trans[i]);
-    lv.rg[2 * i + 1] = toByte(2.0 * (1.0 - occ[i]));
+    lv.rg[2 * i + 1] = toByte(2.0 * (1.0 - occ.data()[i]));
   }
   // One cell towards the light, in source voxels.
   const Vec3 srcPerMm = indexPerMm(src.source, lightDir);
