@@ -4,6 +4,7 @@
 
 #include <cstdio>
 #include <iostream>
+#include <sstream>
 
 #include "cli_params.hpp"
 #include "vellum/app/table_removal.hpp"
@@ -249,6 +250,33 @@ void addForceFlag(CLI::App& cmd, bool& force) {
   cmd.add_flag("--force", force,
                "let an output folder replace a folder Vellum wrote as another kind of output (never a folder "
                "Vellum did not write)");
+}
+
+std::vector<double> parseNumberList(const std::string& text, size_t n, const char* what) {
+  std::vector<double> v;
+  std::stringstream ss(text);
+  std::string part;
+  while (std::getline(ss, part, ',')) {
+    try {
+      size_t used = 0;
+      v.push_back(std::stod(part, &used));
+      if (used != part.size()) throw std::invalid_argument(part);
+    } catch (const std::exception&) {
+      throw Error(std::string(what) + ": '" + text + "' is not " + std::to_string(n) + " comma-separated numbers");
+    }
+  }
+  if (v.size() != n) throw Error(std::string(what) + ": '" + text + "' needs " + std::to_string(n) + " numbers");
+  return v;
+}
+
+std::array<uint8_t, 3> parseRgb255(const std::string& text, const char* what) {
+  const std::vector<double> c = parseNumberList(text, 3, what);
+  std::array<uint8_t, 3> rgb{};
+  for (int i = 0; i < 3; ++i) {
+    if (!(c[i] >= 0 && c[i] <= 255)) throw Error(std::string(what) + ": components must be in 0..255");
+    rgb[i] = static_cast<uint8_t>(c[i]);
+  }
+  return rgb;
 }
 
 }  // namespace vellum::cli

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <chrono>
 #include <filesystem>
 #include <optional>
@@ -139,5 +140,10 @@ double secondsSince(std::chrono::steady_clock::time_point t0);
 
 /// Parses "WxH" (e.g. "1920x1080") into width and height; throws vellum::Error.
 std::pair<int, int> parseSize(const std::string& text);
+
+/// Exactly `n` comma-separated numbers ("x,y,z"); throws vellum::Error naming the flag `what`.
+std::vector<double> parseNumberList(const std::string& text, size_t n, const char* what);
+/// "R,G,B" with each component in 0..255; throws vellum::Error naming the flag `what`.
+std::array<uint8_t, 3> parseRgb255(const std::string& text, const char* what);
 
 }  // namespace vellum::cli

@@ -97,10 +97,7 @@ void addLabelsCommand(CLI::App& app) {
     }
     for (const auto& s : a->colours) {
       const auto [id, rgb] = keyValue(s, "--color", "ID=R,G,B");
-      const std::vector<uint16_t> c = parseIds(rgb, "--color");
-      if (c.size() != 3 || c[0] > 255 || c[1] > 255 || c[2] > 255)
-        throw Error("--color: '" + s + "' needs three components in 0..255");
-      r.colours[parseId(id, "--color")] = {uint8_t(c[0]), uint8_t(c[1]), uint8_t(c[2])};
+      r.colours[parseId(id, "--color")] = parseRgb255(rgb, "--color");
     }
     r.commandLine = commandLine();
     ProgressBar bar;

@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
-#include <sstream>
 
 #include "cli_params.hpp"
 #include "cli_util.hpp"
@@ -36,23 +35,6 @@ struct SegmentArgs {
   std::string colour;              ///< "R,G,B" (0..255)
   InputOptions in;
 };
-
-std::vector<double> parseNumbers(const std::string& text, size_t n, const char* what) {
-  std::vector<double> v;
-  std::stringstream ss(text);
-  std::string part;
-  while (std::getline(ss, part, ',')) {
-    try {
-      size_t used = 0;
-      v.push_back(std::stod(part, &used));
-      if (used != part.size()) throw std::invalid_argument(part);
-    } catch (const std::exception&) {
-      throw Error(std::string(what) + ": '" + text + "' is not " + std::to_string(n) + " comma-separated numbers");
-    }
-  }
-  if (v.size() != n) throw Error(std::string(what) + ": '" + text + "' needs " + std::to_string(n) + " numbers");
-  return v;
-}
 
 /// The result on stdout: the segment, then each truth comparison.
 void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& result) {
@@ -87,23 +69,15 @@ void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& 
 void runSegment(SegmentArgs& a) {
   app::SegmentRequest& r = a.request;
   for (const auto& s : a.seeds) {
-    const auto v = parseNumbers(s, 3, "--seed");
+    const auto v = parseNumberList(s, 3, "--seed");
     r.settings.seedsMm.push_back({v[0], v[1], v[2]});
   }
   for (const auto& s : a.splitSeeds) {
-    const auto v = parseNumbers(s, 3, "--split-seed");
+    const auto v = parseNumberList(s, 3, "--split-seed");
     r.settings.post.splitParams.seedsMm.push_back({v[0], v[1], v[2]});
   }
   if (!a.splitSeeds.empty() && !r.settings.post.split) throw Error("--split-seed needs --split");
-  if (!a.colour.empty()) {
-    const auto c = parseNumbers(a.colour, 3, "--color");
-    std::array<uint8_t, 3> rgb{};
-    for (int i = 0; i < 3; ++i) {
-      if (c[i] < 0 || c[i] > 255) throw Error("--color: components must be in 0..255");
-      rgb[i] = static_cast<uint8_t>(c[i]);
-    }
-    r.colour = rgb;
-  }
+  if (!a.colour.empty()) r.colour = parseRgb255(a.colour, "--color");
   ProgressBar bar;
   r.load = a.in.toLoadOptions(nullptr);
   r.commandLine = commandLine();
