@@ -126,17 +126,16 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
 
   // Mask pieces no marker reached (thinner than the neck everywhere): objects of their own,
   // unless seeds chose the objects.
-  std::vector<double> volume(markers + 1, 0.0);
   const double voxelMm3 = voxelVolumeMm3(g);
   int count = markers;
+  int64_t unreachedVoxels = 0;
   {
     Mask unreached = makeMask(g);
-    bool any = false;
     for (size_t n = 0; n < ids.size(); ++n) {
       unreached.data()[n] = mask.data()[n] && !ids[n];
-      any = any || unreached.data()[n];
+      unreachedVoxels += unreached.data()[n];
     }
-    if (any && p.seedsMm.empty()) {
+    if (unreachedVoxels > 0 && p.seedsMm.empty()) {
       const Components c = connectedComponents(unreached, Connectivity::Vertex26);
       if (count + c.count() > 65535) throw Error("split: more than 65535 objects; raise the neck");
       for (size_t n = 0; n < ids.size(); ++n)
@@ -144,7 +143,7 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
       count += static_cast<int>(c.count());
     }
   }
-  volume.assign(count + 1, 0.0);
+  std::vector<double> volume(count + 1, 0.0);
   for (uint16_t id : ids) volume[id] += voxelMm3;
 
   // Contacts between objects (26 neighbours, each pair counted from both sides alike).
@@ -191,11 +190,7 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
     }
     volume[a] = 0;
   }
-  if (!p.seedsMm.empty()) {  // unseeded pieces
-    int64_t left = 0;
-    for (size_t n = 0; n < ids.size(); ++n) left += mask.data()[n] && !ids[n];
-    dropped += left * voxelMm3;
-  }
+  if (!p.seedsMm.empty()) dropped += double(unreachedVoxels) * voxelMm3;  // unseeded pieces
   // Renumber the surviving roots by volume, largest first (ties: lower old id first).
   std::vector<uint16_t> roots;
   for (uint16_t a = 1; a <= count; ++a)

@@ -17,26 +17,6 @@ using namespace detail;
 
 namespace {
 
-/// Trilinear interpolation of an N-channel float grid with clamp-to-edge (the attribute texture).
-template <int N>
-std::array<float, N> sampleClamped(const std::vector<float>& grid, const Dims& d, const Vec3& p) {
-  auto clampAxis = [](double v, int64_t n) { return std::clamp(v, 0.0, double(n - 1)); };
-  const double x = clampAxis(p.x, d.x), y = clampAxis(p.y, d.y), z = clampAxis(p.z, d.z);
-  const auto i0 = std::min<int64_t>(int64_t(x), d.x - 1), j0 = std::min<int64_t>(int64_t(y), d.y - 1),
-             k0 = std::min<int64_t>(int64_t(z), d.z - 1);
-  const int64_t i1 = std::min(i0 + 1, d.x - 1), j1 = std::min(j0 + 1, d.y - 1),
-                k1 = std::min(k0 + 1, d.z - 1);
-  const double tx = x - i0, ty = y - j0, tz = z - k0;
-  std::array<float, N> out{};
-  for (int c = 0; c < 8; ++c) {
-    const int64_t i = (c & 1) ? i1 : i0, j = (c & 2) ? j1 : j0, k = (c & 4) ? k1 : k0;
-    const double w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
-    const float* v = grid.data() + static_cast<size_t>((k * d.y + j) * d.x + i) * N;
-    for (int ch = 0; ch < N; ++ch) out[ch] += static_cast<float>(w * v[ch]);
-  }
-  return out;
-}
-
 struct Context {
   const RenderSettings& s;
   Frame frame;

@@ -2,6 +2,7 @@
 // What the GL ray caster and the CPU reference share, so that they cannot drift apart:
 // camera rays, the ray-box clip, the step, the transfer-function table, shading constants,
 // the backward map in index coordinates. Internal to modules/render.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -93,5 +94,26 @@ void validateMap(const BackwardMap& map);
 
 /// sRGB colour shifted by (dL, da, db) in CIE L*a*b* (D65), clamped to [0,1].
 std::array<float, 3> labShift(const std::array<float, 3>& rgb, float dL, float da, float db);
+
+/// Trilinear interpolation of an N-channel grid (x fastest) with clamp-to-edge, as GL filters
+/// a texture at index coordinates p; each channel times `scale` (1/255 for 8-bit texels). The CPU
+/// reference's reading of the attribute texture and of the light volume.
+template <int N, class T>
+std::array<float, N> sampleClamped(const std::vector<T>& grid, const Dims& d, const Vec3& p, double scale = 1.0) {
+  auto clampAxis = [](double v, int64_t n) { return std::clamp(v, 0.0, double(n - 1)); };
+  const double x = clampAxis(p.x, d.x), y = clampAxis(p.y, d.y), z = clampAxis(p.z, d.z);
+  const auto i0 = std::min<int64_t>(int64_t(x), d.x - 1), j0 = std::min<int64_t>(int64_t(y), d.y - 1),
+             k0 = std::min<int64_t>(int64_t(z), d.z - 1);
+  const int64_t i1 = std::min(i0 + 1, d.x - 1), j1 = std::min(j0 + 1, d.y - 1), k1 = std::min(k0 + 1, d.z - 1);
+  const double tx = x - i0, ty = y - j0, tz = z - k0;
+  std::array<float, N> out{};
+  for (int c = 0; c < 8; ++c) {
+    const int64_t i = (c & 1) ? i1 : i0, j = (c & 2) ? j1 : j0, k = (c & 4) ? k1 : k0;
+    const double w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz) * scale;
+    const T* v = grid.data() + static_cast<size_t>((k * d.y + j) * d.x + i) * N;
+    for (int ch = 0; ch < N; ++ch) out[ch] += static_cast<float>(w * double(v[ch]));
+  }
+  return out;
+}
 
 }  // namespace vellum::render::detail
