@@ -7,6 +7,7 @@
 #include <system_error>
 
 #include "vellum/core/error.hpp"
+#include "vellum/io/replaced_files.hpp"
 
 namespace vellum::io {
 
@@ -90,6 +91,7 @@ void writeAtomically(const fs::path& target,
     removeQuietly(tmp);
     throw FileError(target, "is a folder; refusing to replace it with a file");
   }
+  ReplacedFiles::keepBeforeReplacing(target);  // a run that fails later puts it back
   fs::rename(tmp, target, ec);  // atomic replacement on POSIX
   if (ec) {
     removeQuietly(tmp);

@@ -9,6 +9,7 @@
 
 #include "io_detail.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/io/replaced_files.hpp"
 
 namespace vellum::io {
 
@@ -173,7 +174,7 @@ void writeFolderAtomically(const fs::path& target, FolderKind kind, const std::f
     detail::removeTemporary(tmp);
     throw FileError(target, "cannot move the new folder into place: " + why);
   }
-  if (!old.empty()) detail::removeTemporary(old);
+  if (!old.empty() && !ReplacedFiles::adoptOldFolder(target, old)) detail::removeTemporary(old);
 }
 
 void prepareFolderInPlace(const fs::path& folder, FolderKind kind, bool force) {

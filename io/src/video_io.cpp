@@ -16,6 +16,7 @@
 #include <string>
 
 #include "vellum/core/error.hpp"
+#include "vellum/io/replaced_files.hpp"
 
 extern char** environ;
 
@@ -164,6 +165,7 @@ void VideoWriter::finish() {
     throw FileError(m.target, why);
   }
   fs::remove(m.log, ec);
+  ReplacedFiles::keepBeforeReplacing(m.target);  // a run that fails later puts it back
   fs::rename(m.tmp, m.target, ec);
   m.finished = true;
   if (ec) {

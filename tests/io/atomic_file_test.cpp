@@ -6,6 +6,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/io/atomic_file.hpp"
 #include "vellum/io/output_policy.hpp"
+#include "vellum/io/replaced_files.hpp"
 
 using namespace vellum;
 using namespace vellum::test;
@@ -113,4 +114,50 @@ TEST(AtomicFile, MissingFolderAndSilentWriterAreFileErrors) {
   }
   EXPECT_THROW(io::writeAtomically(dir / "b.png", [](const fs::path&) {}), FileError);
   EXPECT_FALSE(fs::exists(dir / "b.png"));
+}
+
+// A run that fails after writing puts back what it replaced (ReplacedFiles journal).
+TEST(ReplacedFiles, RollBackRestoresReplacedFileAndFolder) {
+  const fs::path dir = tempDir("replaced-rollback");
+  writeFile(dir / "a.nrrd", "old a");
+  io::writeFolderAtomically(dir / "series", io::FolderKind::DicomSeries,
+                            [](const fs::path& tmp) { writeFile(tmp / "old.dcm", "o"); });
+  {
+    io::ReplacedFiles journal;
+    io::writeAtomically(dir / "a.nrrd", [](const fs::path& tmp) { writeFile(tmp, "new a"); });
+    io::writeAtomically(dir / "a.nrrd", [](const fs::path& tmp) { writeFile(tmp, "newer a"); });
+    io::writeAtomically(dir / "b.nrrd", [](const fs::path& tmp) { writeFile(tmp, "new b"); });
+    io::writeFolderAtomically(dir / "series", io::FolderKind::DicomSeries,
+                              [](const fs::path& tmp) { writeFile(tmp / "new.dcm", "n"); });
+    EXPECT_EQ(readFile(dir / "a.nrrd"), "newer a");
+    EXPECT_TRUE(fs::exists(dir / "series" / "new.dcm"));
+    EXPECT_EQ(journal.size(), 2u);  // a.nrrd once (its first old version) and the folder; b.nrrd was new
+  }  // not committed: rolled back
+  EXPECT_EQ(readFile(dir / "a.nrrd"), "old a");
+  EXPECT_TRUE(fs::exists(dir / "series" / "old.dcm"));
+  EXPECT_FALSE(fs::exists(dir / "series" / "new.dcm"));
+  EXPECT_EQ(readFile(dir / "b.nrrd"), "new b");  // not the journal's to remove (RunOutputs does)
+  EXPECT_EQ(leftoverTemps(dir), 0);
+  fs::remove_all(dir);
+}
+
+TEST(ReplacedFiles, CommitKeepsNewVersionsAndLeavesNoHiddenCopies) {
+  const fs::path dir = tempDir("replaced-commit");
+  writeFile(dir / "a.nrrd", "old a");
+  {
+    io::ReplacedFiles outer;
+    {
+      io::ReplacedFiles inner;
+      io::writeAtomically(dir / "a.nrrd", [](const fs::path& tmp) { writeFile(tmp, "new a"); });
+      inner.commit();  // handed to the outer run
+    }
+    EXPECT_EQ(outer.size(), 1u);
+    outer.commit();
+  }
+  EXPECT_EQ(readFile(dir / "a.nrrd"), "new a");
+  EXPECT_EQ(leftoverTemps(dir), 0);
+  // No journal open: nothing is kept.
+  io::writeAtomically(dir / "a.nrrd", [](const fs::path& tmp) { writeFile(tmp, "plain"); });
+  EXPECT_EQ(leftoverTemps(dir), 0);
+  fs::remove_all(dir);
 }

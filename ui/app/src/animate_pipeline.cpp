@@ -101,6 +101,7 @@ std::string animateArguments(const AnimateRequest& r) {
 
 AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
+  RunOutputs written;  // opened before the movie replaces an older one: a failed run puts it back
   params::validate(animateRequestTable(), request);
   params::validate(deformEngineTable(), request.engine);
   const animation::MovieSpec spec = movieSpec(request);
@@ -168,7 +169,7 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
     result.report["table_removal"] = tableRemovalJson(*tableRemoval);
     result.tableRemoval = tableRemovalSummary(*tableRemoval);
   }
-  RunOutputs written;  // a report that cannot be written takes the movie with it
+  // A report that cannot be written takes the movie with it.
   if (!spec.moviePath.empty()) written.wrote(spec.moviePath);
   if (!spec.framesDir.empty()) written.wrote(spec.framesDir);
   if (!request.report.empty()) {

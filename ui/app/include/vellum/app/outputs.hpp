@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "vellum/io/output_policy.hpp"
+#include "vellum/io/replaced_files.hpp"
 
 namespace vellum::app {
 
@@ -19,8 +20,9 @@ void ensureParentFolder(const std::filesystem::path& path);
 void writeJsonFile(const nlohmann::json& j, const std::filesystem::path& path);
 
 /// What one run has written so far. Unless commit() is called (the run finished), the
-/// destructor removes it: a run that fails after its main output (a report or a truth
-/// comparison that fails) exits with an error and leaves no result that looks finished.
+/// destructor removes it and puts back any file or folder the run replaced: a run that fails
+/// after its main output (a report or a truth comparison that fails) exits with an error,
+/// leaves no result that looks finished and loses nothing that was there before.
 class RunOutputs {
  public:
   RunOutputs() = default;
@@ -29,10 +31,14 @@ class RunOutputs {
   ~RunOutputs();
   /// Records a file or folder this run has just written (with a volume's data file and sidecar).
   void wrote(const std::filesystem::path& path);
-  void commit() { written_.clear(); }
+  void commit() {
+    written_.clear();
+    replaced_.commit();
+  }
 
  private:
   std::vector<std::filesystem::path> written_;
+  io::ReplacedFiles replaced_;  // opened first, closed last: the old versions come back after the removal
 };
 
 }  // namespace vellum::app

@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# Remakes the figure gallery (docs/gallery.md and docs/images/gallery/*.png) from the built-in
+# phantom and a real CT series, recording each figure's exact command next to it.
+#
+#   scripts/gallery.sh [CT_SERIES_DIR] [VELLUM_BINARY]
+#
+# CT_SERIES_DIR defaults to ../shared/data/ct-feet-vhf (the Visible Human Female feet, NLM);
+# without it only the phantom figures are made. Scratch files go to a temporary folder that
+# is removed at the end. Takes a few minutes on 2 cores.
+set -euo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+feet=${1:-$here/../shared/data/ct-feet-vhf}
+vellum=${2:-$here/build/ui/vellum}
+out=$here/docs/images/gallery
+md=$here/docs/gallery.md
+work=$(mktemp -d /tmp/vellum-gallery.XXXXXX)
+trap 'rm -rf "$work"' EXIT
+mkdir -p "$out"
+[ -x "$vellum" ] || { echo "gallery.sh: $vellum: not built (cmake --build build)" >&2; exit 2; }
+
+body=$work/body.md
+: >"$body"
+# run TITLE FIGURE CMD... : runs the command (vellum is "vellum" in the text), records it.
+figure() {
+  local title=$1 png=$2
+  shift 2
+  local shown="${*//$vellum/vellum}"
+  shown="${shown//$work\//}"
+  shown="${shown//$feet/ct-feet-vhf}"
+  shown="${shown//$out\//}"
+  echo "gallery: $title" >&2
+  local t0=$SECONDS
+  "$@" >/dev/null
+  printf '### %s\n\n![%s](images/gallery/%s)\n\n```sh\n%s\n```\n(%d s on the machine that made it)\n\n' \
+    "$title" "$title" "$png" "$shown" $((SECONDS - t0)) >>"$body"
+}
+step() {  # a preparation command, recorded without a figure
+  local shown="${*//$vellum/vellum}"
+  shown="${shown//$work\//}"
+  shown="${shown//$feet/ct-feet-vhf}"
+  "$@" >/dev/null
+  printf '```sh\n%s\n```\n\n' "$shown" >>"$body"
+}
+
+echo "## The phantom (built in)" >>"$body"; echo >>"$body"
+step "$vellum" phantom --size 128 --out "$work/knee.nrrd" --labels "$work/knee-labels.nrrd"
+figure "Phantom: bone, lit (shadows and occlusion)" phantom-bone-lit.png \
+  "$vellum" render "$work/knee.nrrd" --preset bone --shadows 1 --occlusion 1 --size 640x640 --out "$out/phantom-bone-lit.png"
+step "$vellum" shape "$work/knee.nrrd" --labels "$work/knee-labels.nrrd" --segment skin=1,2,3,4,5,6,7,8,9,10,11 \
+  --segment muscle=2,3 --segment bone=4,5,6,7,8,9,10,11 --out "$work/knee-shape"
+for preset in textbook pen x-ray; do
+  figure "Phantom: $preset illustration" "phantom-$preset.png" \
+    "$vellum" illustrate "$work/knee.nrrd" --shape "$work/knee-shape" --preset "$preset" --size 640x640 --fov 0 \
+    --out "$out/phantom-$preset.png"
+done
+
+if [ -d "$feet" ]; then
+  echo "## Real CT: Visible Human Female feet (NLM), 512×512×150, 1 mm" >>"$body"; echo >>"$body"
+  view=(--zoom 3.2 --elevation 50 --azimuth 20)
+  figure "Feet: bone, plain" feet-bone.png \
+    "$vellum" render "$feet" --preset bone "${view[@]}" --size 768x768 --out "$out/feet-bone.png"
+  figure "Feet: bone, lit (shadows and occlusion)" feet-bone-lit.png \
+    "$vellum" render "$feet" --preset bone --shadows 1 --occlusion 1 "${view[@]}" --size 768x768 --out "$out/feet-bone-lit.png"
+  figure "Feet: skin, lit" feet-skin-lit.png \
+    "$vellum" render "$feet" --preset skin --shadows 1 --occlusion 1 "${view[@]}" --size 768x768 --out "$out/feet-skin-lit.png"
+  step "$vellum" segment "$feet" --preset skin-air --fill-holes-slices --label-id 1 --label-name skin --out "$work/skin.nrrd"
+  step "$vellum" segment "$feet" --lower 200 --upper 3071 --fill-holes-slices --min-island 100 \
+    --into "$work/skin.nrrd" --label-id 2 --label-name bone --out "$work/labels.nrrd"
+  step "$vellum" shape "$feet" --labels "$work/labels.nrrd" --segment skin=1,2 --segment bone=2 --remove-table --out "$work/feet-shape"
+  for preset in textbook pen x-ray; do
+    figure "Feet: $preset illustration" "feet-$preset.png" \
+      "$vellum" illustrate "$feet" --shape "$work/feet-shape" --preset "$preset" --remove-table --size 768x768 --fov 0 \
+      --labels --annotate --label-name "bone=Foot bones" --label-name "skin=Skin" --out "$out/feet-$preset.png"
+  done
+  step "$vellum" segment "$feet" --lower 250 --fill-holes-slices --split --out "$work/bones.nrrd"
+  figure "Feet: bones split into objects (segment --split), one colour each" feet-split.png \
+    "$vellum" render "$feet" --label-colours "$work/bones.nrrd" --label-blend 0.9 --preset bone "${view[@]}" --size 768x768 --out "$out/feet-split.png"
+fi
+
+{
+  echo "# Gallery"
+  echo
+  echo "Made by \`scripts/gallery.sh\` (on $(date -u +%Y-%m-%d), $(git -C "$here" rev-parse --short HEAD)); every figure"
+  echo "below is followed by the command that made it. Real CT: the Visible Human Project's female"
+  echo "feet (US National Library of Medicine). Judged as figures in docs/styles.md and docs/lighting.md."
+  echo
+  cat "$body"
+} >"$md.tmp"
+mv "$md.tmp" "$md"
+echo "gallery: wrote $md and $(ls "$out" | wc -l) figures in $out" >&2
