@@ -165,6 +165,27 @@ TEST(OutputPolicyCli, AReportThatCannotBeWrittenLeavesNoResult) {
   EXPECT_FALSE(fs::exists(dir / "seg.nrrd"));
 }
 
+// The same failure when the output replaced an earlier result: the earlier result comes back
+// byte for byte (the run's journal of replaced files), for a volume and for a label map.
+TEST(OutputPolicyCli, AFailedRunPutsBackTheResultItReplaced) {
+  const auto dir = test::tempDir("policy-restore");
+  writeCt(dir / "ct.nrrd");
+  std::ofstream(dir / "afile") << "x";
+  const std::string bad = (dir / "afile" / "r.json").string();
+  for (const std::vector<std::string>& cmd :
+       {std::vector<std::string>{"convert", (dir / "ct.nrrd").string(), (dir / "out.nrrd").string(), "--downsample", "2"},
+        std::vector<std::string>{"segment", (dir / "ct.nrrd").string(), "--preset", "bone", "--out", (dir / "seg.nrrd").string()}}) {
+    ASSERT_EQ(runVellum(dir, cmd).rc, 0);
+    const auto before = snapshot(dir);
+    std::vector<std::string> again = cmd;
+    if (again.front() == "convert") again.pop_back(), again.pop_back();  // a different result: full size
+    again.insert(again.end(), {"--report", bad});
+    const Result r = runVellum(dir, again);
+    EXPECT_EQ(r.rc, 1) << r.err;
+    EXPECT_EQ(snapshot(dir), before) << again.front() << ": " << r.err;  // old result back, no hidden copies
+  }
+}
+
 TEST(OutputPolicyCli, DiskFullWhileWritingADicomSeriesIsAOneLineError) {
   const auto dir = test::tempDir("policy-dicom-full");
   writeCt(dir / "ct.nrrd", 48);

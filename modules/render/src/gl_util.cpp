@@ -10,6 +10,16 @@
 namespace vellum::render::detail {
 namespace {
 
+// The info log of a shader or program (glGetShaderiv/glGetShaderInfoLog or the Program pair).
+template <class GetIv, class GetLog>
+std::string infoLog(GLuint object, GetIv getIv, GetLog getLog) {
+  GLint length = 0;
+  getIv(object, GL_INFO_LOG_LENGTH, &length);
+  std::vector<char> log(static_cast<size_t>(std::max(length, 1)), '\0');
+  getLog(object, length, nullptr, log.data());
+  return log.data();
+}
+
 GLuint compile(GLenum type, const std::string& source) {
   const GLuint shader = glCreateShader(type);
   const char* text = source.c_str();
@@ -18,13 +28,10 @@ GLuint compile(GLenum type, const std::string& source) {
   GLint ok = GL_FALSE;
   glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
   if (ok != GL_TRUE) {
-    GLint length = 0;
-    glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
-    std::vector<char> log(static_cast<size_t>(std::max(length, 1)), '\0');
-    glGetShaderInfoLog(shader, length, nullptr, log.data());
+    const std::string log = infoLog(shader, glGetShaderiv, glGetShaderInfoLog);
     glDeleteShader(shader);
     throw Error(std::string("GLSL ") + (type == GL_VERTEX_SHADER ? "vertex" : "fragment") +
-                " shader failed to compile: " + log.data());
+                " shader failed to compile: " + log);
   }
   return shader;
 }
@@ -49,12 +56,9 @@ GLuint buildProgram(const std::string& vertexSource, const std::string& fragment
   GLint ok = GL_FALSE;
   glGetProgramiv(program, GL_LINK_STATUS, &ok);
   if (ok != GL_TRUE) {
-    GLint length = 0;
-    glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
-    std::vector<char> log(static_cast<size_t>(std::max(length, 1)), '\0');
-    glGetProgramInfoLog(program, length, nullptr, log.data());
+    const std::string log = infoLog(program, glGetProgramiv, glGetProgramInfoLog);
     glDeleteProgram(program);
-    throw Error(std::string("GLSL program failed to link: ") + log.data());
+    throw Error("GLSL program failed to link: " + log);
   }
   return program;
 }

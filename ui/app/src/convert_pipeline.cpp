@@ -20,13 +20,13 @@ AnyVolume convertTo(const AnyVolume& v, VoxelType t) {
 
 /// The report: what was converted, with the shared keys; a report that cannot be written takes
 /// the output with it.
-void writeReport(RunReport& run, const ConvertRequest& r, nlohmann::json report) {
-  if (r.report.empty()) return;
-  RunOutputs written;
+void writeReport(RunReport& run, const ConvertRequest& r, nlohmann::json report, RunOutputs& written) {
   written.wrote(r.output);
-  run.outputVolume(r.output);
-  run.stamp(report);
-  writeJsonFile(report, r.report);
+  if (!r.report.empty()) {
+    run.outputVolume(r.output);
+    run.stamp(report);
+    writeJsonFile(report, r.report);
+  }
   written.commit();
 }
 
@@ -44,13 +44,14 @@ ConvertResult runConvert(const ConvertRequest& r, Progress& progress) {
   io::LoadOptions load = r.load;
   load.progress = &progress;
   ConvertResult result;
+  RunOutputs written;  // opened before the output replaces an older one: a failed run puts it back
   if (r.labels) {
     const LabelVolume labels = io::loadLabels(r.input, load);
     io::saveLabels(labels, r.output, so);
     result.dims = labels.geometry().dims;
     result.type = VoxelType::UInt16;
     result.labelCount = labels.table().size();
-    writeReport(run, r, nlohmann::json{{"labels", result.labelCount}});
+    writeReport(run, r, nlohmann::json{{"labels", result.labelCount}}, written);
     return result;
   }
   io::LoadedVolume lv = io::loadVolume(r.input, load);
@@ -61,7 +62,7 @@ ConvertResult runConvert(const ConvertRequest& r, Progress& progress) {
   result.type = voxelTypeOf(lv.volume);
   if (!r.report.empty()) run.loaded(r.input, lv);
   result.warnings = std::move(lv.warnings);
-  writeReport(run, r, nlohmann::json{{"type", voxelTypeName(result.type)}});
+  writeReport(run, r, nlohmann::json{{"type", voxelTypeName(result.type)}}, written);
   return result;
 }
 
