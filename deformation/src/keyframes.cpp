@@ -73,6 +73,14 @@ void holdFieldOfView(std::vector<KeyframeCamera>& cams) {
 
 }  // namespace
 
+std::string KeyframeTrack::captionAt(double timeS) const {
+  if (keyframes.empty()) return {};
+  const int from = segmentAt(timeS).a;
+  for (int k = from; k >= 0; --k)
+    if (!keyframes[static_cast<size_t>(k)].caption.empty()) return keyframes[static_cast<size_t>(k)].caption;
+  return {};
+}
+
 KeyframeTrack::Segment KeyframeTrack::segmentAt(double timeS) const {
   const int n = static_cast<int>(keyframes.size());
   Segment g;

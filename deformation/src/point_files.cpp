@@ -176,6 +176,12 @@ KeyframeTrack loadKeyframes(const fs::path& path) {
     if (!k.contains("points")) throw FileError(path, where + "missing \"points\"");
     kf.points = readPoints(k.at("points"), path, where);
     if (k.contains("camera")) kf.camera = readCamera(k.at("camera"), path, where);
+    if (k.contains("caption")) {
+      if (!k.at("caption").is_string() || k.at("caption").get<std::string>().size() > kMaxCaptionLength)
+        throw FileError(path, where + "\"caption\" must be a string of at most " + std::to_string(kMaxCaptionLength) +
+                                  " bytes");
+      kf.caption = k.at("caption").get<std::string>();
+    }
     t.keyframes.push_back(std::move(kf));
   }
   try {
@@ -195,6 +201,7 @@ void saveKeyframes(const KeyframeTrack& track, const fs::path& path) {
                      {"zoom", kf.camera->zoom}, {"pan", {kf.camera->panMm.x, kf.camera->panMm.y, kf.camera->panMm.z}}};
       if (kf.camera->fieldOfViewDeg) k["camera"]["fov"] = *kf.camera->fieldOfViewDeg;
     }
+    if (!kf.caption.empty()) k["caption"] = kf.caption;
     arr.push_back(std::move(k));
   }
   writeJson({{"units", "mm"}, {"interpolation", interpolationName(track.interpolation)},

@@ -68,7 +68,55 @@ std::string formatMm(double mm) {
   return buf;
 }
 
+// The Hershey scale at which `s` is at most `maxWidth` pixels wide (and at most `scale`).
+double fittedScale(const std::string& s, double scale, int maxWidth) {
+  int baseline = 0;
+  const int w = cv::getTextSize(s, kFont, scale, strokeWidth(scale), &baseline).width;
+  return w > maxWidth && w > 0 ? scale * maxWidth / w : scale;
+}
+
+// `s` centred horizontally with its baseline at `baselineY`.
+void centredText(cv::Mat& m, const std::string& s, int baselineY, double scale, const Ink& ink) {
+  int baseline = 0;
+  const int w = cv::getTextSize(s, kFont, scale, strokeWidth(scale), &baseline).width;
+  text(m, s, {(m.cols - w) / 2, baselineY}, scale, ink);
+}
+
 }  // namespace
+
+void drawCaption(RgbaImage& image, const std::string& caption, double textHeightPx) {
+  if (caption.empty() || image.width <= 0 || image.height <= 0) return;
+  const Ink ink = inkFor(image);
+  cv::Mat m(image.height, image.width, CV_8UC4, image.pixels.data());
+  const double base = textHeightPx > 0 ? fontScaleForHeight(textHeightPx) : 1.3 * fontScale(image.width, image.height);
+  const int margin = marginPx(image.height);
+  const double scale = fittedScale(caption, base, image.width - 2 * margin);
+  // Above the bottom margin row, where the scale bar and its caption sit.
+  int baseline = 0;
+  const int h = cv::getTextSize("H", kFont, scale, 1, &baseline).height;
+  centredText(m, caption, image.height - 3 * margin - 2 * h, scale, ink);
+}
+
+void drawTitleCard(RgbaImage& image, const std::string& title, const std::string& subtitle,
+                   std::array<uint8_t, 3> background) {
+  for (size_t i = 0; i + 3 < image.pixels.size(); i += 4) {
+    image.pixels[i] = background[0], image.pixels[i + 1] = background[1], image.pixels[i + 2] = background[2];
+    image.pixels[i + 3] = 255;
+  }
+  if (image.width <= 0 || image.height <= 0) return;
+  const Ink ink = inkFor(image);
+  cv::Mat m(image.height, image.width, CV_8UC4, image.pixels.data());
+  const int margin = 2 * marginPx(image.height);
+  const double scale = fittedScale(title, 2.2 * fontScale(image.width, image.height), image.width - 2 * margin);
+  int baseline = 0;
+  const int h = cv::getTextSize("H", kFont, scale, 1, &baseline).height;
+  const int y = subtitle.empty() ? (image.height + h) / 2 : image.height / 2;
+  centredText(m, title, y, scale, ink);
+  if (!subtitle.empty()) {
+    const double sub = fittedScale(subtitle, scale * 2 / 3, image.width - 2 * margin);
+    centredText(m, subtitle, y + 2 * h, sub, ink);
+  }
+}
 
 std::string displayName(const AnnotationOptions& options, uint16_t id, const std::string& name) {
   const std::string key = lower(name);

@@ -30,7 +30,8 @@ struct MovieRenderer::Impl {
   Geometry geometry;
   std::unique_ptr<io::VideoWriter> video;
   std::optional<std::vector<render::StructureCentre>> centres;  ///< of spec.labels, source mm
-  int frames = 0, next = 0;
+  int frames = 0, next = 0;  // frames: the track's; next counts the title card's too
+  int titleFrames = 0;
   MovieResult result;
 
   Impl(render::GlContext& c, const AnyVolume& volume, KeyframeTrack t, const DeformParams& params, MovieRigidity r,
@@ -39,6 +40,7 @@ struct MovieRenderer::Impl {
         geometry(geometryOf(volume)) {
     track.validate();
     frames = track.frameCount(spec.fps);
+    if (!spec.title.empty()) titleFrames = std::max(1, static_cast<int>(std::lround(spec.titleSeconds * spec.fps)));
     renderer.setVolume(volume);
     if (!spec.moviePath.empty())
       video = std::make_unique<io::VideoWriter>(spec.moviePath, spec.settings.width, spec.settings.height, spec.fps);
@@ -105,8 +107,32 @@ struct MovieRenderer::Impl {
     render::annotate(img, projection, o, anchors);
   }
 
+  void write(const RgbaImage& img) {
+    if (video) video->addFrame(img);
+    if (!spec.framesDir.empty()) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame-%05d.png", next);
+      io::saveImage(img, spec.framesDir / name);
+    }
+  }
+
+  // The settings' background colour as the card's (an opaque movie frame).
+  RgbaImage titleCard() const {
+    RgbaImage img(spec.settings.width, spec.settings.height);
+    const auto& b = spec.settings.background;
+    auto byte = [](double v) { return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255)); };
+    render::drawTitleCard(img, spec.title, spec.subtitle, {byte(b[0]), byte(b[1]), byte(b[2])});
+    return img;
+  }
+
   RgbaImage renderNext() {
-    const int f = next;
+    if (next < titleFrames) {
+      RgbaImage card = titleCard();
+      write(card);
+      ++next;
+      return card;
+    }
+    const int f = next - titleFrames;
     const auto t0 = std::chrono::steady_clock::now();
     deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
     ControlVolume cv = deformer.update();
@@ -129,12 +155,9 @@ struct MovieRenderer::Impl {
     RgbaImage img = renderer.render(s);
     result.renderMs += msSince(t1);
     annotate(img, s, cv, map);
-    if (video) video->addFrame(img);
-    if (!spec.framesDir.empty()) {
-      char name[32];
-      std::snprintf(name, sizeof name, "frame-%05d.png", f);
-      io::saveImage(img, spec.framesDir / name);
-    }
+    const std::string caption = track.captionAt(track.frameTimeS(f, spec.fps));
+    render::drawCaption(img, caption.empty() ? spec.caption : caption, spec.annotations.textHeightPx);
+    write(img);
     if (rigidity.bodies && rigidity.measureStride > 0) measure(cv);
     ++next;
     return img;
@@ -145,7 +168,7 @@ MovieRenderer::MovieRenderer(render::GlContext& context, const AnyVolume& volume
                              const DeformParams& params, MovieRigidity rigidity, MovieSpec spec)
     : impl_(std::make_unique<Impl>(context, volume, std::move(track), params, rigidity, std::move(spec))) {}
 MovieRenderer::~MovieRenderer() = default;
-int MovieRenderer::frameCount() const { return impl_->frames; }
+int MovieRenderer::frameCount() const { return impl_->titleFrames + impl_->frames; }
 int MovieRenderer::framesDone() const { return impl_->next; }
 RgbaImage MovieRenderer::renderNext() { return impl_->renderNext(); }
 const MovieResult& MovieRenderer::result() const { return impl_->result; }

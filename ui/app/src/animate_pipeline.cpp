@@ -56,6 +56,14 @@ const params::Table<AnimateRequest>& animateRequestTable() {
                       {"Camera orbit", "turn the camera by this many degrees over the animation", "deg", -3600, 3600}),
       params::flag<R>("loop", [](auto& r) -> auto& { return r.loop; },
                       {"Loop", "seamless loop: back to the first keyframe, no repeated frame", ""}),
+      params::text<R>("title", [](auto& r) -> auto& { return r.title; },
+                      {"Title", "a title card shown before the first frame (empty: none)", ""}),
+      params::text<R>("subtitle", [](auto& r) -> auto& { return r.subtitle; },
+                      {"Subtitle", "a second, smaller line on the title card", ""}),
+      params::real<R>("title_seconds", [](auto& r) -> auto& { return r.titleSeconds; },
+                      {"Title seconds", "how long the title card shows", "s", 0.1, 30}),
+      params::text<R>("caption", [](auto& r) -> auto& { return r.caption; },
+                      {"Caption", "text at the bottom of every frame; a keyframe's \"caption\" replaces it while it plays", ""}),
   };
   return t;
 }
@@ -73,6 +81,10 @@ animation::MovieSpec movieSpec(const AnimateRequest& request) {
   spec.settings = request.settings;
   spec.annotations = request.annotations;
   spec.labelIds = request.labelIds;
+  spec.title = request.title;
+  spec.subtitle = request.subtitle;
+  spec.titleSeconds = request.titleSeconds;
+  spec.caption = request.caption;
   return spec;
 }
 
@@ -82,8 +94,10 @@ std::string animateArguments(const AnimateRequest& r) {
   c << singleQuoted(r.input) << " --keyframes " << singleQuoted(r.keyframes) << " --out " << singleQuoted(r.output);
   if (!r.frames.empty()) c << " --frames " << singleQuoted(r.frames);
   c << " --size " << r.settings.width << "x" << r.settings.height
-    << params::cliArguments(animateRequestTable(), r)
+    << params::cliArguments(animateRequestTable(), r, {"title", "subtitle", "caption"})
     << params::cliArguments(render::renderSettingsTable(), r.settings, {"width", "height"});
+  for (const auto& [flag, text] : {std::pair{"--title", &r.title}, {"--subtitle", &r.subtitle}, {"--caption", &r.caption}})
+    if (!text->empty()) c << ' ' << flag << ' ' << singleQuoted(*text);
   if (const Vec3& pan = r.settings.camera.panMm; pan.x != 0 || pan.y != 0 || pan.z != 0)
     c << " --pan " << pan.x << ' ' << pan.y << ' ' << pan.z;
   c << params::cliArguments(deformParamsTable(), r.engine.params)

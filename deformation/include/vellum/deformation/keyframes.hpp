@@ -44,7 +44,11 @@ struct Keyframe {
   ControlPoints points;
   /// The camera at this keyframe; none: the previous keyframe's (the first: the next one's).
   std::optional<KeyframeCamera> camera;
+  /// Text a movie shows from this keyframe until the next one ("Flexion 20°"); empty: the
+  /// previous keyframe's caption (the first: none). At most kMaxCaptionLength bytes.
+  std::string caption;
 };
+inline constexpr size_t kMaxCaptionLength = 200;
 
 struct KeyframeTrack {
   Interpolation interpolation = Interpolation::Linear;
@@ -62,6 +66,9 @@ struct KeyframeTrack {
   /// The camera at time t, interpolated like the points; nullopt when no keyframe has one.
   /// Its field of view is set when some keyframe's camera has one.
   std::optional<KeyframeCamera> cameraAt(double timeS) const;
+  /// The caption shown at time t: that of the keyframe the segment starts from, held
+  /// forward over keyframes without one; empty when none has one so far.
+  std::string captionAt(double timeS) const;
   /// Frames at `fps`: loop -> round(total*fps) frames at f/fps; otherwise one more (the end).
   /// Throws vellum::Error over kMaxFrames.
   int frameCount(double fps) const;

@@ -107,6 +107,16 @@ ImageInsets annotationInsets(const AnnotationOptions& options, int width, int he
 AnnotationLayout annotate(RgbaImage& image, const Projection& projection, const AnnotationOptions& options,
                           const std::vector<StructureAnchor>& anchors = {});
 
+/// A caption: `text` centred near the bottom edge of `image` (above the scale bar's row), in
+/// the annotations' ink with its halo; shrunk to fit the width. `textHeightPx` as
+/// AnnotationOptions::textHeightPx (0: scaled with the image). Nothing for empty text.
+void drawCaption(RgbaImage& image, const std::string& text, double textHeightPx = 0);
+
+/// A title card: `image` filled with `background` (RGB 0..255, opaque), `title` centred and,
+/// when not empty, `subtitle` beneath it at two thirds of its size; each shrunk to fit.
+void drawTitleCard(RgbaImage& image, const std::string& title, const std::string& subtitle,
+                   std::array<uint8_t, 3> background = {0, 0, 0});
+
 /// The anatomical letters of a physical (LPS) direction: "L", "P", "S" ... or two letters for
 /// oblique directions ("LA"), strongest first.
 std::string anatomicalLetters(const Vec3& direction);

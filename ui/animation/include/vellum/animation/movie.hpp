@@ -35,6 +35,13 @@ struct MovieSpec {
   /// draws it (render::deformedPositions), framed as the renderer frames the map's grid.
   const LabelVolume* labels = nullptr;
   std::vector<uint16_t> labelIds;  ///< structures to name (empty: every id of the table)
+  /// A title card before the first frame (title centred, subtitle beneath it, on the
+  /// settings' background), shown for titleSeconds; none when the title is empty.
+  std::string title, subtitle;
+  double titleSeconds = 2.0;
+  /// Text at the bottom of every frame; a keyframe's own caption (KeyframeTrack::captionAt)
+  /// replaces it while that keyframe's segment plays.
+  std::string caption;
 };
 
 /// Rigid bones: the bodies and the blend band; measureStride 0 skips the per-frame measures.
@@ -66,6 +73,7 @@ class MovieRenderer {
   MovieRenderer(render::GlContext& context, const AnyVolume& volume, deformation::KeyframeTrack track,
                 const deformation::DeformParams& params, MovieRigidity rigidity, MovieSpec spec);
   ~MovieRenderer();
+  /// Title-card frames plus the track's frames.
   int frameCount() const;
   int framesDone() const;
   bool done() const { return framesDone() >= frameCount(); }

@@ -38,10 +38,13 @@ struct AnimateRequest {
   /// Figure annotations in every frame; labels need engine.labels (the structures' names).
   render::AnnotationOptions annotations;
   std::vector<uint16_t> labelIds;  ///< structures to name (empty: every id of the table)
+  /// Title card and caption (animation::MovieSpec): --title, --subtitle, --title-seconds, --caption.
+  std::string title, subtitle, caption;
+  double titleSeconds = 2.0;
   std::string commandLine;         ///< for the report's shared keys (run_report.hpp)
 };
 
-/// fps, camera_orbit, loop (the size, the render settings and the engine have their own).
+/// fps, camera_orbit, loop, title, subtitle, title_seconds, caption (the size, the render settings and the engine have their own).
 const params::Table<AnimateRequest>& animateRequestTable();
 
 /// The movie outputs, frame rate, camera and upsampling of `request`: what MovieRenderer
