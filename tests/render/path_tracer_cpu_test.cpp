@@ -28,7 +28,7 @@ TransferFunction greyOpaque() {
 
 RenderSettings ballSettings() {
   RenderSettings s;
-  s.width = s.height = 40;
+  s.width = s.height = 32;
   s.preset = Preset::Bone;
   s.transferFunction = greyOpaque();
   s.windowWidth = 0;  // the table as given
@@ -37,7 +37,7 @@ RenderSettings ballSettings() {
   s.camera.fieldOfViewDeg = 0;  // orthographic: the analytic hit point is simple
   s.camera.zoom = 1.6;
   s.quality = Quality::Cinematic;
-  s.cinematic.samples = 48;
+  s.cinematic.samples = 32;
   s.cinematic.lightSizeDeg = 0;
   s.cinematic.fill = 0;
   s.cinematic.sky = 0.5;

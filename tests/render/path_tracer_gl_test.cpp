@@ -53,7 +53,7 @@ void expectSameMean(const RgbaImage& gl1, const RgbaImage& gl2, const RgbaImage&
   const double se = std::sqrt(var / (double(a.size()) / 3.0));
   const double glMean = 0.5 * (mean(a) + mean(b)), diff = mean(c) - glMean;
   std::cout << "[ mc ] " << what << ": GL mean " << glMean << ", CPU " << mean(c) << ", standard error " << se << "\n";
-  EXPECT_GT(mean(a), 5.0) << what << ": not an empty picture";
+  EXPECT_GT(mean(a), 4.0) << what << ": not an empty picture";
   EXPECT_LT(std::abs(diff), 4.0 * se * std::sqrt(1.5) + 0.05) << what;
 }
 
@@ -82,6 +82,7 @@ TEST(PathTracerGl, DeformedMatchesTheCpuReferenceStatistically) {
   r.setVolume(v);
   r.setBackwardMap(&map);
   RenderSettings s = cinematic(Preset::SoftTissueBone, 16, 1);
+  s.camera.zoom = 2;  // the map's grid box is the cube around the volume's bounding sphere
   const RgbaImage gl1 = r.render(s);
   s.cinematic.seed = 2;
   const RgbaImage gl2 = r.render(s);

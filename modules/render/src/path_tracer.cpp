@@ -14,6 +14,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/render/path_tracer.hpp"
+#include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::render::detail {
 
@@ -24,6 +25,14 @@ float sigmaOfAlpha(float alpha, double stepMm) {
   return float(-std::log1p(-std::min(alpha, kMaxPathAlpha)) / stepMm);
 }
 }  // namespace
+
+RenderSettings denoiseGuideSettings(const RenderSettings& s) {
+  RenderSettings g = s;
+  g.quality = Quality::Standard;
+  g.lighting.shadows = g.lighting.occlusion = 0;  // the plain shaded picture: edges, not light
+  g.labelBlend = 0;
+  return g;
+}
 
 PathLights makePathLights(const Frame& f, const RenderSettings& s) {
   const Cinematic& c = s.cinematic;
@@ -87,7 +96,42 @@ float aces(float x) {
 float toSrgb(float c) { return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.f / 2.4f) - 0.055f; }
 }  // namespace
 
-RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s) {
+namespace {
+/// The guided filter (He, Sun & Tang 2010) of each channel of `noisy` under the grey level of
+/// `guide`: per window, the path-traced colour as a linear function of the ray-cast picture's
+/// brightness. Edges and surface detail come from the guide (noise-free), light and shadow from
+/// the path tracer. Box filters only (OpenCV imgproc).
+cv::Mat guidedDenoise(const cv::Mat& noisy, const RgbaImage& guide, double strength) {
+  cv::Mat I(noisy.rows, noisy.cols, CV_32F);
+  for (int y = 0; y < I.rows; ++y)
+    for (int x = 0; x < I.cols; ++x) {
+      const uint8_t* g = guide.at(x, y);
+      const float a = g[3] / 255.f;  // straight colour over black: what the eye sees of it
+      I.at<float>(y, x) = a * (0.2126f * g[0] + 0.7152f * g[1] + 0.0722f * g[2]) / 255.f;
+    }
+  const int r = 1 + int(std::lround(5 * strength));
+  const cv::Size win(2 * r + 1, 2 * r + 1);
+  const double eps = 1e-4 + 2e-3 * strength;
+  auto box = [&](const cv::Mat& m) {
+    cv::Mat out;
+    cv::boxFilter(m, out, CV_32F, win, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+    return out;
+  };
+  const cv::Mat meanI = box(I), varI = box(I.mul(I)) - meanI.mul(meanI);
+  std::vector<cv::Mat> ch;
+  cv::split(noisy, ch);
+  for (cv::Mat& p : ch) {
+    const cv::Mat meanP = box(p), cov = box(I.mul(p)) - meanI.mul(meanP);
+    const cv::Mat a = cov / (varI + eps), b = meanP - a.mul(meanI);
+    p = box(a).mul(I) + box(b);
+  }
+  cv::Mat out;
+  cv::merge(ch, out);
+  return out;
+}
+}  // namespace
+
+RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s, const RgbaImage* guide) {
   const int w = sums.width, h = sums.height;
   const float inv = 1.f / float(std::max(sums.samples, 1));
   const float exposure = float(std::exp2(s.lighting.exposure));
@@ -112,15 +156,7 @@ RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s) {
         alpha[i] = outA;
       }
   });
-  if (s.cinematic.denoise > 0) {
-    // Edge-aware: the colour sigma follows the Monte Carlo noise, which falls as 1/sqrt(samples);
-    // edges with more contrast than that stay sharp.
-    const double d = s.cinematic.denoise;
-    const double sigmaColour = d * (0.02 + 0.5 / std::sqrt(double(std::max(sums.samples, 1))));
-    cv::Mat filtered;
-    cv::bilateralFilter(colour, filtered, 5, sigmaColour, 0.75 + 1.5 * d);
-    colour = filtered;
-  }
+  if (s.cinematic.denoise > 0 && guide) colour = guidedDenoise(colour, *guide, s.cinematic.denoise);
   RgbaImage image(w, h);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
@@ -446,7 +482,9 @@ PathSums detail::pathTraceCpu(const AnyVolume& volume, const RenderSettings& set
 }
 
 RgbaImage renderPathTracedCpu(const AnyVolume& volume, const RenderSettings& settings, const BackwardMap* map) {
-  return finishPathTraced(pathTraceCpu(volume, settings, map), settings);
+  RgbaImage guide;
+  if (settings.cinematic.denoise > 0) guide = renderReferenceCpu(volume, denoiseGuideSettings(settings), map);
+  return finishPathTraced(pathTraceCpu(volume, settings, map), settings, &guide);
 }
 
 }  // namespace vellum::render

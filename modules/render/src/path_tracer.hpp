@@ -80,9 +80,13 @@ struct PathSums {
   std::vector<float> rgba;
 };
 /// The picture: mean radiance times the exposure, ACES filmic tone map (Narkowicz's fit), sRGB,
-/// over the background by the mean coverage, then the edge-aware denoise (OpenCV's bilateral
-/// filter, its colour sigma shrinking as 1/sqrt(samples)). GL and CPU both end here.
-RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s);
+/// over the background by the mean coverage, then (cinematic.denoise > 0 and a guide) the
+/// edge-aware denoise: a guided filter of each channel under the ray caster's noise-free picture
+/// of the same view (`guide`, made with denoiseGuideSettings()), window radius 1 + 5 x denoise
+/// pixels. GL and CPU both end here.
+RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s, const RgbaImage* guide);
+/// The settings of the denoise guide: the same view ray cast with plain shading.
+RenderSettings denoiseGuideSettings(const RenderSettings& s);
 
 /// The CPU reference's sums (renderPathTracedCpu() before finishPathTraced()): for tests that
 /// check radiance before the tone map.

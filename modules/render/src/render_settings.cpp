@@ -79,7 +79,7 @@ const params::Table<RenderSettings>& renderSettingsTable() {
       params::integer<R>("bounces", [](auto& s) -> auto& { return s.cinematic.bounces; },
                          {"Bounces", "cinematic: scattering events per path (1 = single scattering)", "", 1, 8}),
       params::real<R>("denoise", [](auto& s) -> auto& { return s.cinematic.denoise; },
-                      {"Denoise", "cinematic: edge-aware filter strength at the end (0 = off)", "", 0, 1}),
+                      {"Denoise", "cinematic: edge-aware filter at the end, guided by the ray-cast picture (0 = off)", "", 0, 1}),
       params::real<R>("light_size", [](auto& s) -> auto& { return s.cinematic.lightSizeDeg; },
                       {"Light size", "cinematic: angular radius of the key light (soft shadow edges; 0 = sharp)", "degrees", 0, 45}),
       params::real<R>("fill_light", [](auto& s) -> auto& { return s.cinematic.fill; },

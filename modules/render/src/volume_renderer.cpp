@@ -501,6 +501,13 @@ RgbaImage VolumeRenderer::Impl::renderCinematic(const RenderSettings& s) {
   const BackwardMap* deform = map ? &*map : nullptr;
   const Frame f = makeFrame(source, deform ? &deform->grid : nullptr, s);
   const auto t0 = std::chrono::steady_clock::now();
+  RgbaImage guide;  // the denoise's edges: the same view ray cast (path_tracer.hpp)
+  if (s.cinematic.denoise > 0) {
+    guide = RgbaImage(s.width, s.height);
+    target.bind(s.width, s.height, "render");
+    draw(denoiseGuideSettings(s), target.framebuffer(), 0, s.height, 0);
+    readRgbaRows(target.framebuffer(), 0, s.height, guide, "denoise guide");
+  }
   const GLuint p = useProgram(s, f, deform, false, true);
   setFrameUniforms(p, s, f);
   setPathTraceUniforms(p, makePathLights(f, s), s.cinematic.seed);
@@ -520,7 +527,7 @@ RgbaImage VolumeRenderer::Impl::renderCinematic(const RenderSettings& s) {
   glDisable(GL_BLEND);
   checkGlError("path tracing");
   const PathSums sums = accumulation.read(samples);
-  RgbaImage image = finishPathTraced(sums, s);
+  RgbaImage image = finishPathTraced(sums, s, &guide);
   lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   lastSamples = samples;
   return image;
