@@ -72,7 +72,7 @@ struct Cinematic {
   double timeLimitS = 0;   ///< stop after the sample pass that crosses this (0 = none; at least one pass)
   int seed = 1;            ///< the same seed gives the same picture (hash-based random numbers)
   int bounces = 1;         ///< scattering events per path: 1 = single scattering (+ sky light)
-  double denoise = 0.5;    ///< edge-aware (bilateral) filter strength at the end, 0 = off
+  double denoise = 0.5;    ///< edge-aware filter at the end (guided by the ray-cast picture), 0 = off
   double lightSizeDeg = 6; ///< the key light's angular radius: soft shadow edges (0 = sharp)
   double fill = 0.3;       ///< a second (fill) light, mirrored from the key, relative to the key
   double sky = 0.6;        ///< radiance of the surrounding sky light (ambient, occluded by the volume)
