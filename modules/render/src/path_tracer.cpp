@@ -19,7 +19,6 @@
 namespace vellum::render::detail {
 
 namespace {
-constexpr float kPi = std::numbers::pi_v<float>;
 
 float sigmaOfAlpha(float alpha, double stepMm) {
   return float(-std::log1p(-std::min(alpha, kMaxPathAlpha)) / stepMm);
