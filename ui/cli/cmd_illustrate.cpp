@@ -113,7 +113,8 @@ void addIllustrateCommand(CLI::App& app) {
   cmd->add_option("--size", a->size, "image size WxH, up to 4096x4096")->capture_default_str();
   addFlags(*cmd, a->camera, render::renderSettingsTable(),
            {"width", "height", "preset", "window_center", "window_width", "shading", "jitter", "label_blend", "shadows",
-            "occlusion", "occlusion_radius", "light_azimuth", "light_elevation", "exposure"});
+            "occlusion", "occlusion_radius", "light_azimuth", "light_elevation", "exposure", "quality", "samples",
+            "time_limit", "seed", "bounces", "denoise", "light_size", "fill_light", "sky_light"});
   cmd->add_option("--frame", a->frame,
                   "what --zoom 1 fits: drawn (the segments the style draws) | segments (every segment: the same "
                   "framing for every style) | volume (the volume's bounding sphere)")

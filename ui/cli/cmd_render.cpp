@@ -149,8 +149,11 @@ void addRenderCommand(CLI::App& app) {
       run.mark(std::string("render ") + render::presetName(p));
       run.output(path);
       figures.push_back({{"path", path.string()}, {"preset", render::presetName(p)}, {"draw_ms", renderer.lastRenderMs()}});
+      const bool cinematic = s.quality == render::Quality::Cinematic && p != render::Preset::Mip;
+      if (cinematic) figures.back()["samples"] = renderer.lastSamples();
       std::cout << path.string() << "  " << render::presetName(p) << "  " << s.width << "x" << s.height
-                << "  " << renderer.lastRenderMs() << " ms\n";
+                << "  " << renderer.lastRenderMs() << " ms"
+                << (cinematic ? "  " + std::to_string(renderer.lastSamples()) + " samples" : std::string()) << "\n";
     }
     if (!a->report.empty()) {
       nlohmann::json report = {{"figures", figures}, {"settings", params::toJson(render::renderSettingsTable(), s)}};

@@ -10,6 +10,7 @@ namespace vellum::render {
 namespace {
 // In Preset's enum order: the names users type, and the table's choices.
 const std::vector<std::string> kPresetNames{"bone", "soft-tissue", "skin", "mip"};
+const std::vector<std::string> kQualityNames{"standard", "cinematic"};
 }  // namespace
 
 const char* presetName(Preset p) {
@@ -66,7 +67,25 @@ const params::Table<RenderSettings>& renderSettingsTable() {
       params::real<R>("light_elevation", [](auto& s) -> auto& { return s.lighting.elevationDeg; },
                       {"Light elevation", "key light raised towards the top of the view", "degrees", -90, 90}),
       params::real<R>("exposure", [](auto& s) -> auto& { return s.lighting.exposure; },
-                      {"Exposure", "with shadows or occlusion: brightens the lit colour by this many stops", "stops", -4, 4}),
+                      {"Exposure", "with shadows or occlusion, or cinematic: brightens the lit colour by this many stops", "stops", -4, 4}),
+      params::choice<R>("quality", [](auto& s) -> auto& { return s.quality; }, kQualityNames,
+                        {"Quality", "standard ray casting, or cinematic: progressive path tracing (DVR presets; docs/lighting.md)", ""}),
+      params::integer<R>("samples", [](auto& s) -> auto& { return s.cinematic.samples; },
+                         {"Samples", "cinematic: paths per pixel (a movie frame takes as many)", "", 1, 65536}),
+      params::real<R>("time_limit", [](auto& s) -> auto& { return s.cinematic.timeLimitS; },
+                      {"Time limit", "cinematic: stop after the sample pass that crosses it (0 = none)", "s", 0, 86400}),
+      params::integer<R>("seed", [](auto& s) -> auto& { return s.cinematic.seed; },
+                         {"Seed", "cinematic: random seed; the same seed gives the same picture", "", 0, 2147483647}),
+      params::integer<R>("bounces", [](auto& s) -> auto& { return s.cinematic.bounces; },
+                         {"Bounces", "cinematic: scattering events per path (1 = single scattering)", "", 1, 8}),
+      params::real<R>("denoise", [](auto& s) -> auto& { return s.cinematic.denoise; },
+                      {"Denoise", "cinematic: edge-aware filter at the end, guided by the ray-cast picture (0 = off)", "", 0, 1}),
+      params::real<R>("light_size", [](auto& s) -> auto& { return s.cinematic.lightSizeDeg; },
+                      {"Light size", "cinematic: angular radius of the key light (soft shadow edges; 0 = sharp)", "degrees", 0, 45}),
+      params::real<R>("fill_light", [](auto& s) -> auto& { return s.cinematic.fill; },
+                      {"Fill light", "cinematic: a second light mirrored from the key, relative to it (0 = off)", "", 0, 2}),
+      params::real<R>("sky_light", [](auto& s) -> auto& { return s.cinematic.sky; },
+                      {"Sky light", "cinematic: radiance of the surrounding sky (ambient light the volume occludes)", "", 0, 4}),
   };
   return table;
 }

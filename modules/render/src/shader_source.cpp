@@ -5,6 +5,7 @@
 #include "empty_space.hpp"
 #include "map_layout.hpp"
 #include "map_sampling.hpp"
+#include "path_tracer.hpp"
 #include "render_common.hpp"
 #include "vellum/render/label_tint.hpp"
 #include "vellum/render/render_target.hpp"
@@ -44,7 +45,12 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define NORMAL_STEP " << PreparedMap::kNormalStepNodes << "\n";
   s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
   s << mapLayoutGlsl(v.gaussian && v.deformed ? Upsampling::Gaussian : Upsampling::Trilinear, v.snap && v.deformed);
-  s << glsl::kRaycastFrag << glsl::kRayCommon << glsl::kRaycastMainFrag;
+  if (v.pathTrace) {
+    s << "#define MAX_PATH_ALPHA " << kMaxPathAlpha << "\n#define PHASE_G " << kPhaseG << "\n";
+    s << "#define MIN_TRANSMITTANCE " << kMinTransmittance << "\n#define BLOCK_NUDGE " << kBlockNudgeMm << "\n";
+    s << "#define MAX_TRACKING " << kMaxTrackingSteps << "\n";
+  }
+  s << glsl::kRaycastFrag << glsl::kRayCommon << (v.pathTrace ? glsl::kPathTraceMainFrag : glsl::kRaycastMainFrag);
   return s.str();
 }
 

@@ -14,6 +14,7 @@
 #include "map_layout.hpp"
 #include "map_sampling.hpp"
 #include "normal_volume.hpp"
+#include "path_tracer_gl.hpp"
 #include "render_common.hpp"
 #include "shader_source.hpp"
 #include "vellum/core/error.hpp"
@@ -26,7 +27,7 @@ namespace {
 
 enum TextureUnit : GLint {
   kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses,
-  kUnitLabels, kUnitLabelColours, kUnitOpaqueDepth, kUnitLight
+  kUnitLabels, kUnitLabelColours, kUnitOpaqueDepth, kUnitLight, kUnitMajorant
 };
 
 struct VoxelFormat {
@@ -124,6 +125,7 @@ struct VolumeRenderer::Impl {
   bool mapUploaded = false;
   std::map<int, GLuint> programs;
   double lastMs = 0;
+  int lastSamples = 0;  ///< cinematic: samples per pixel of the last render()
   GpuTimer timer;  ///< renderInto: GPU time without a stall
   /// Cinematic lighting: the values the light volume is made from, and the light volume in
   /// lightTex for the transfer function's opacity, light direction and radius it was made for.
@@ -133,6 +135,11 @@ struct VolumeRenderer::Impl {
   std::vector<float> lightAlpha;
   Vec3 lightDir;
   double lightRadius = -1;
+  /// Cinematic quality (path_tracer_gl.hpp): extinction majorants per skip block, the float
+  /// accumulation target.
+  GLuint majorantTex = 0;
+  Dims majorantDims;
+  AccumulationTarget accumulation;
 
   explicit Impl(GlContext& c) : context(c) {
     context.makeCurrent();
@@ -148,7 +155,7 @@ struct VolumeRenderer::Impl {
   ~Impl() {
     context.makeCurrent();
     for (auto& [key, p] : programs) glDeleteProgram(p);
-    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &lightTex, &blockSkip.occupancyTex,
+    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &lightTex, &majorantTex, &blockSkip.occupancyTex,
                       &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex})
       deleteTexture(*t);
     glDeleteVertexArrays(1, &vao);
@@ -171,6 +178,7 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uLabelColours"), kUnitLabelColours);
     glUniform1i(glGetUniformLocation(p, "uOpaqueDepth"), kUnitOpaqueDepth);
     glUniform1i(glGetUniformLocation(p, "uLight"), kUnitLight);
+    glUniform1i(glGetUniformLocation(p, "uMajorant"), kUnitMajorant);
     programs[v.key()] = p;
     return p;
   }
@@ -354,7 +362,12 @@ struct VolumeRenderer::Impl {
   void draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth);
   /// The program of this frame's variant, in use, with its textures bound and the transfer
   /// function (or MIP window) and skip grid set.
-  GLuint useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform, bool opaqueDepth);
+  GLuint useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform, bool opaqueDepth,
+                    bool pathTrace = false);
+  /// Quality::Cinematic: progressive path tracing into the float target, tone mapped and denoised.
+  RgbaImage renderCinematic(const RenderSettings& s);
+  /// The path tracer's majorant texture for this frame's table (per source block, or map cell).
+  void useMajorants(const TfTable& tf, const Frame& f, const BackwardMap* deform, const Dims& dims);
   /// Camera, box, step, background and value-scale uniforms.
   void setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const;
 
@@ -382,7 +395,7 @@ struct VolumeRenderer::Impl {
 };
 
 GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform,
-                                        bool opaqueDepth) {
+                                        bool opaqueDepth, bool pathTrace) {
   ShaderVariant variant;
   variant.mip = s.preset == Preset::Mip;
   variant.shading = s.shading;
@@ -395,6 +408,12 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.opaqueDepth = opaqueDepth;
   variant.turnNormals = deform && s.shading && s.turnDeformedNormals && !variant.mip;
   variant.lighting = s.lighting.on() && s.shading && !variant.mip && lightSource != nullptr;
+  if (pathTrace) {  // the path tracer reads normals (its BRDF), and lights by itself
+    variant.pathTrace = true;
+    variant.shading = true;
+    variant.turnNormals = deform && s.turnDeformedNormals;
+    variant.lighting = variant.labels = variant.opaqueDepth = false;
+  }
   const GLuint p = program(variant);
   glUseProgram(p);
 
@@ -449,8 +468,69 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
     if (variant.lighting) useLight(p, s, tf, f);
+    if (pathTrace) useMajorants(tf, f, deform, skip.dims);
   }
   return p;
+}
+
+void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const BackwardMap* deform, const Dims& dims) {
+  std::vector<float> maj = blockMajorants(blocks, tf, f.stepMm);
+  if (deform) {
+    float scale = 1;  // the attribute field's density scale multiplies the extinction
+    for (size_t i = 3; i < deform->attributes.size(); i += 4) scale = std::max(scale, deform->attributes[i]);
+    maj = cellMajorants(mapCells, maj, blocks.blocks, scale);
+  }
+  if (!majorantTex || !(majorantDims == dims)) {
+    deleteTexture(majorantTex);
+    glGenTextures(1, &majorantTex);
+    glBindTexture(GL_TEXTURE_3D, majorantTex);
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_R32F, GLsizei(dims.x), GLsizei(dims.y), GLsizei(dims.z));
+    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
+    majorantDims = dims;
+  }
+  glActiveTexture(GL_TEXTURE0 + kUnitMajorant);
+  glBindTexture(GL_TEXTURE_3D, majorantTex);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(dims.x), GLsizei(dims.y), GLsizei(dims.z), GL_RED, GL_FLOAT,
+                  maj.data());
+  checkGlError("cinematic majorants");
+}
+
+RgbaImage VolumeRenderer::Impl::renderCinematic(const RenderSettings& s) {
+  uploadMap();
+  const BackwardMap* deform = map ? &*map : nullptr;
+  const Frame f = makeFrame(source, deform ? &deform->grid : nullptr, s);
+  const auto t0 = std::chrono::steady_clock::now();
+  RgbaImage guide;  // the denoise's edges: the same view ray cast (path_tracer.hpp)
+  if (s.cinematic.denoise > 0) {
+    guide = RgbaImage(s.width, s.height);
+    target.bind(s.width, s.height, "render");
+    draw(denoiseGuideSettings(s), target.framebuffer(), 0, s.height, 0);
+    readRgbaRows(target.framebuffer(), 0, s.height, guide, "denoise guide");
+  }
+  const GLuint p = useProgram(s, f, deform, false, true);
+  setFrameUniforms(p, s, f);
+  setPathTraceUniforms(p, makePathLights(f, s), s.cinematic.seed);
+  accumulation.bindCleared(s.width, s.height);
+  glViewport(0, 0, s.width, s.height);
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_SCISSOR_TEST);
+  glEnable(GL_BLEND);  // each pass adds its samples' sums
+  glBlendEquation(GL_FUNC_ADD);
+  glBlendFunc(GL_ONE, GL_ONE);
+  glBindVertexArray(vao);
+  const int samples = runSamplePasses(s.cinematic, [&](int first, int count) {
+    glUniform1i(glGetUniformLocation(p, "uSampleBase"), first);
+    glUniform1i(glGetUniformLocation(p, "uSamplesPerPass"), count);
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+  });
+  glDisable(GL_BLEND);
+  checkGlError("path tracing");
+  const PathSums sums = accumulation.read(samples);
+  RgbaImage image = finishPathTraced(sums, s, &guide);
+  lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  lastSamples = samples;
+  return image;
 }
 
 void VolumeRenderer::Impl::setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const {
@@ -626,6 +706,11 @@ void VolumeRenderer::setLabelTint(const LabelTint* tint) {
 
 RgbaImage VolumeRenderer::render(const RenderSettings& s) {
   checkImageSize(s.width, s.height);
+  if (s.quality == Quality::Cinematic && s.preset != Preset::Mip) {
+    if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
+    impl_->context.makeCurrent();
+    return impl_->renderCinematic(s);
+  }
   RgbaImage image(s.width, s.height);
   renderRows(s, 0, s.height, image);
   return image;
@@ -676,5 +761,7 @@ void VolumeRenderer::renderIntoRows(const RenderSettings& s, const RenderTarget&
 double VolumeRenderer::lastRenderMs() const { return impl_->lastMs; }
 
 double VolumeRenderer::lastGpuMs() const { return impl_->timer.lastMs(); }
+
+int VolumeRenderer::lastSamples() const { return impl_->lastSamples; }
 
 }  // namespace vellum::render

@@ -58,6 +58,26 @@ struct Lighting {
   bool on() const { return shadows > 0 || occlusion > 0; }
 };
 
+/// How the picture is made: the ray caster (one pass, local shading and the lighting terms
+/// above), or a progressive Monte Carlo path tracer (docs/lighting.md, "Cinematic").
+enum class Quality {
+  Standard,   ///< "standard": the ray caster
+  Cinematic,  ///< "cinematic": path traced (single or multiple scattering), tone mapped, denoised
+};
+
+/// The path tracer's settings (Quality::Cinematic). The key light's direction and the exposure
+/// are Lighting's.
+struct Cinematic {
+  int samples = 64;        ///< paths per pixel
+  double timeLimitS = 0;   ///< stop after the sample pass that crosses this (0 = none; at least one pass)
+  int seed = 1;            ///< the same seed gives the same picture (hash-based random numbers)
+  int bounces = 1;         ///< scattering events per path: 1 = single scattering (+ sky light)
+  double denoise = 0.5;    ///< edge-aware filter at the end (guided by the ray-cast picture), 0 = off
+  double lightSizeDeg = 6; ///< the key light's angular radius: soft shadow edges (0 = sharp)
+  double fill = 0.3;       ///< a second (fill) light, mirrored from the key, relative to the key
+  double sky = 0.6;        ///< radiance of the surrounding sky light (ambient, occluded by the volume)
+};
+
 struct RenderSettings {
   int width = 512;   ///< 1..4096
   int height = 512;  ///< 1..4096
@@ -83,6 +103,8 @@ struct RenderSettings {
   /// function's colour (0 = off; needs a LabelTint, see label_tint.hpp). DVR only.
   double labelBlend = 0.0;
   Lighting lighting;  ///< DVR with shading only
+  Quality quality = Quality::Standard;  ///< cinematic: VolumeRenderer::render() path traces (DVR presets)
+  Cinematic cinematic;
 };
 
 /// Parameter table of RenderSettings (size, preset, camera, window, shading, step, jitter):

@@ -56,6 +56,9 @@ class VolumeRenderer {
   /// once; call again when they change). nullptr removes them. Call after setVolume.
   void setLabelTint(const LabelTint* tint);
   /// Renders to an RGBA image (row 0 = top). Throws vellum::Error for sizes over 4096.
+  /// settings.quality == Cinematic (DVR presets): progressive path tracing, tone mapped and
+  /// denoised (docs/lighting.md; CPU reference: path_tracer.hpp); lastSamples() says how many
+  /// samples the time limit allowed. The row and target variants below always ray cast.
   RgbaImage render(const RenderSettings& settings);
   /// Renders only rows [rowBegin, rowEnd) (row 0 = top) of the image `settings` describes
   /// into `image`, which must already be settings.width x settings.height; other rows are
@@ -81,6 +84,8 @@ class VolumeRenderer {
   /// llvmpipe this misses rasterisation deferred past the query (docs/benchmarks-render.md):
   /// time with glFinish there.
   double lastGpuMs() const;
+  /// Samples per pixel of the last cinematic render() (0 before any).
+  int lastSamples() const;
 
  private:
   struct Impl;
