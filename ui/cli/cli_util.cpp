@@ -136,17 +136,6 @@ void FigureOptions::addTo(CLI::App& cmd, LabelSource source) {
   cmd.add_flag("--annotate", annotateAll, "scale bar and orientation letters (and labels with --label-map / --labels)");
 }
 
-void FigureOptions::apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
-                          const LabelVolume* labels, render::AnchorOcclusion occlusion) const {
-  if (!any()) return;
-  if (labels && wantsLabels()) checkLabelNames(*labels);
-  const render::AnnotationOptions o = resolved(labels != nullptr);
-  const render::Projection projection(volume, settings);
-  const auto anchors = o.labels ? render::structureAnchors(*labels, labelIds, projection, image, 30, nullptr, occlusion)
-                                : std::vector<render::StructureAnchor>{};
-  render::annotate(image, projection, o, anchors);
-}
-
 render::AnnotationOptions FigureOptions::resolved(bool haveLabels) const {
   render::AnnotationOptions o = annotations;
   if (annotateAll) o.scaleBar = o.orientation = true;
@@ -158,20 +147,6 @@ render::AnnotationOptions FigureOptions::resolved(bool haveLabels) const {
     o.displayNames.emplace_back(n.substr(0, eq), n.substr(eq + 1));
   }
   return o;
-}
-
-void FigureOptions::checkLabelNames(const LabelVolume& labels) const {
-  std::string known;
-  for (const Label& l : labels.table()) known += (known.empty() ? "" : ", ") + l.name;
-  for (const auto& entry : resolved(true).displayNames) {
-    const std::string& key = entry.first;
-    // The key as annotate() matches it (render::displayName): the name without case, or the id.
-    render::AnnotationOptions one;
-    one.displayNames = {{key, "\x01"}};
-    bool found = false;
-    for (const Label& l : labels.table()) found = found || render::displayName(one, l.id, l.name) == "\x01";
-    if (!found) throw Error("--label-name " + key + ": no structure of that name or id (structures: " + known + ")");
-  }
 }
 
 render::AnnotationLayout FigureOptions::apply(RgbaImage& image, const Geometry& volume,

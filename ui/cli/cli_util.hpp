@@ -64,7 +64,8 @@ struct TableRemovalOptions {
 };
 
 /// --scale-bar, --scale-bar-mm, --orientation, --label-ids, --annotate (and, where a command
-/// takes one, --label-map): figure annotations for `render` and `illustrate`.
+/// takes one, --label-map): figure annotations for `render`, `illustrate` and `animate`, bound
+/// here and handed to the app requests as render::AnnotationOptions (resolved()).
 struct FigureOptions {
   render::AnnotationOptions annotations;
   std::vector<uint16_t> labelIds;
@@ -82,15 +83,10 @@ struct FigureOptions {
   render::AnnotationOptions resolved(bool haveLabels) const;
   bool wantsLabels() const { return labelFlag || !labelMap.empty(); }
   bool any() const { return annotateAll || annotations.scaleBar || annotations.orientation || wantsLabels(); }
-  /// Draws what was asked for into `image` rendered with `settings` around `volume`.
-  void apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
-             const LabelVolume* labels,
-             render::AnchorOcclusion occlusion = render::AnchorOcclusion::FrontMost) const;
-  /// The same with the labels' anchors found by the caller (illustrate: only drawn segments).
+  /// Draws what was asked for into `image` rendered with `settings` around `volume`, with the
+  /// labels' anchors found by the caller (illustrate: only drawn segments).
   render::AnnotationLayout apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
                                  const std::vector<render::StructureAnchor>& anchors) const;
-  /// Throws vellum::Error for a --label-name whose key names no structure of `labels`.
-  void checkLabelNames(const LabelVolume& labels) const;
 };
 
 /// A progress bar on stderr. It stays silent for the first second (fast work prints

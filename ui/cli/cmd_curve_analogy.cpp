@@ -74,7 +74,9 @@ void runCurveAnalogy(const CurveArgs& a) {
   }
   r.view = viewSettings(a, width, height);
   r.commandLine = commandLine();
-  const app::CurveAnalogyResult o = app::runCurveAnalogy(r);
+  ProgressBar bar;
+  const app::CurveAnalogyResult o = app::runCurveAnalogy(r, bar.progress());
+  bar.finish();
   const nlohmann::json& ca = o.report;
   std::printf("curve analogy of %s -> %s: Hausdorff %.2f -> %.2f px (%.2f -> %.2f mm); proxy %zu faces; %.2f s\n",
               r.segment.c_str(), r.out.string().c_str(), ca["hausdorff_before_px"].get<double>(),

@@ -23,8 +23,8 @@ std::vector<illustration::Segment> segmentsFromLabels(const LabelVolume& labels)
   return segments;
 }
 
-ShapeOutcome makeShapes(const ShapeRequest& request, Progress& progress) {
-  ShapeOutcome o;
+ShapeJobResult makeShapes(const ShapeRequest& request, Progress& progress) {
+  ShapeJobResult o;
   o.volumeGeneration = request.volumeGeneration;
   o.folder = request.folder;
   if (!request.folder.empty()) {

@@ -22,7 +22,7 @@ struct ShapeRequest {
   uint64_t volumeGeneration = 0;
 };
 
-struct ShapeOutcome {
+struct ShapeJobResult {
   std::string error;
   std::shared_ptr<const illustration::ShapeScene> shapes;
   std::shared_ptr<const SegmentMeshes> meshes;
@@ -35,7 +35,7 @@ struct ShapeOutcome {
 std::vector<illustration::Segment> segmentsFromLabels(const LabelVolume& labels);
 
 /// Makes or reads the shapes now (the worker's body; tests call it directly).
-ShapeOutcome makeShapes(const ShapeRequest& request, Progress& progress);
+ShapeJobResult makeShapes(const ShapeRequest& request, Progress& progress);
 
 class ShapeJob {
  public:
@@ -45,11 +45,11 @@ class ShapeJob {
   bool pending() const { return job_.busy() || job_.ready(); }
   std::pair<std::string, double> progress() const { return job_.progress(); }
   void cancel() { job_.cancel(); }
-  std::optional<ShapeOutcome> take() { return job_.take(); }
+  std::optional<ShapeJobResult> take() { return job_.take(); }
 
  private:
-  BackgroundJob<ShapeOutcome> job_{"shapes", [](const std::string& error) {
-                                      ShapeOutcome o;
+  BackgroundJob<ShapeJobResult> job_{"shapes", [](const std::string& error) {
+                                      ShapeJobResult o;
                                       o.error = error;
                                       return o;
                                     }};

@@ -28,7 +28,7 @@ bool SnakeJob::start(SnakeRequest request) {
           ++liveRevision_;
         };
         app::SegmentationResult r = app::runSegmentation(request.ct, request.segment, progress, publish);
-        SnakeOutcome out;
+        SnakeJobResult out;
         out.mask = std::move(r.mask);
         out.iterations = r.info["snake"]["iterations"].get<int>();
         out.converged = r.info["snake"]["converged"].get<bool>();

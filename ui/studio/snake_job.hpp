@@ -21,7 +21,7 @@ struct SnakeRequest {
   uint64_t volumeGeneration = 0;  ///< Scene::volumeGeneration when started
 };
 
-struct SnakeOutcome {
+struct SnakeJobResult {
   std::string error;  ///< "snake cancelled" or the segmentation module's message
   segmentation::Mask mask;
   int iterations = 0;
@@ -43,7 +43,7 @@ class SnakeJob {
   /// counter that changes with each new contour; null when no snake runs.
   std::pair<std::shared_ptr<const segmentation::Mask>, uint64_t> live() const;
   /// The finished snake (or its error), once, stamped with the volume it ran on.
-  std::optional<SnakeOutcome> take() {
+  std::optional<SnakeJobResult> take() {
     auto outcome = job_.take();
     if (outcome) outcome->volumeGeneration = generation_;
     return outcome;
@@ -54,8 +54,8 @@ class SnakeJob {
   mutable std::mutex liveMutex_;
   std::shared_ptr<const segmentation::Mask> live_;
   uint64_t liveRevision_ = 0;
-  BackgroundJob<SnakeOutcome> job_{"snake", [](const std::string& error) {
-                                     SnakeOutcome o;
+  BackgroundJob<SnakeJobResult> job_{"snake", [](const std::string& error) {
+                                     SnakeJobResult o;
                                      o.error = error;
                                      return o;
                                    }};

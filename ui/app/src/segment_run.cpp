@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "vellum/app/figures.hpp"
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
 #include "vellum/app/segment_pipeline.hpp"
@@ -29,9 +30,7 @@ nlohmann::json metricsJson(const seg::SegmentMetrics& m) {
 
 /// A label map on the input's grid: the same region (crop, downsample) as the CT.
 LabelVolume loadLabelsLikeInput(const std::filesystem::path& path, const SegmentRequest& r) {
-  io::LoadOptions o;
-  o.region = r.load.region;
-  return io::loadLabels(path, o);
+  return loadLabelsLike(path, r.load);
 }
 
 /// Adds the segmentation to `labels` as label `id` (or, for k-means classes, ids id..id+k-1);
