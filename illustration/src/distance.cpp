@@ -78,7 +78,9 @@ void extendFarField(VolumeF32& u, float far) {
   const float h = static_cast<float>(std::min({g.spacing.x, g.spacing.y, g.spacing.z}));
   const float seed = far - h;
   std::vector<float> sq(u.size());
-  for (size_t n = 0; n < sq.size(); ++n) sq[n] = std::abs(u.data()[n]) < seed ? 0.0f : inf;
+  parallelFor(static_cast<int64_t>(sq.size()), [&](int64_t b, int64_t e) {
+    for (int64_t n = b; n < e; ++n) sq[size_t(n)] = std::abs(u.data()[n]) < seed ? 0.0f : inf;
+  }, 1 << 16);
   const int64_t nx = d.x, ny = d.y, nz = d.z;
   // x lines, then y lines (within slices), then z lines.
   parallelFor(nz, [&](int64_t k0, int64_t k1) {
@@ -122,12 +124,14 @@ void extendFarField(VolumeF32& u, float far) {
         std::copy_n(slab.data() + k * nx, nx, sq.data() + (k * ny + j) * nx);
     }
   });
-  for (size_t n = 0; n < sq.size(); ++n) {
-    float& x = u.data()[n];
-    if (std::abs(x) < seed || !std::isfinite(sq[n])) continue;
-    const float mag = std::sqrt(sq[n]) + seed - 0.5f * h;
-    x = x < 0 ? -mag : mag;
-  }
+  parallelFor(static_cast<int64_t>(sq.size()), [&](int64_t b, int64_t e) {
+    for (int64_t n = b; n < e; ++n) {
+      float& x = u.data()[n];
+      if (std::abs(x) < seed || !std::isfinite(sq[size_t(n)])) continue;
+      const float mag = std::sqrt(sq[size_t(n)]) + seed - 0.5f * h;
+      x = x < 0 ? -mag : mag;
+    }
+  }, 1 << 16);
 }
 
 /// The mesh in the grid's index space (floats, one copy a vertex: every triangle sees the same

@@ -14,6 +14,7 @@
 
 #include "shape_internal.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
 
 namespace vellum::illustration {
 
@@ -176,7 +177,10 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
     t0 = Clock::now();
     if (offset[i] != 0) {
       const float o = static_cast<float>(offset[i]);
-      for (float& v : dist.voxels()) v -= o;
+      float* v = dist.data();
+      parallelFor(static_cast<int64_t>(dist.size()), [&](int64_t b, int64_t e) {
+        for (int64_t x = b; x < e; ++x) v[x] -= o;
+      }, 1 << 16);
       // Values beyond the exact band were clamped at +-background: the exact band shrinks.
       dist.setBackground(dist.background() - std::abs(offset[i]));
     }
