@@ -3,6 +3,7 @@
 // Progress and cancellation are checked between stages on the calling thread only: an
 // exception thrown inside a TBB task cancels the nested OpenVDB algorithms of the other
 // segments half-way (TBB returns from them early), and OpenVDB then works on torn grids.
+#include <sys/resource.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -13,6 +14,7 @@
 
 #include "shape_internal.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
 
 namespace vellum::illustration {
 
@@ -20,6 +22,18 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double msSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+/// VELLUM_SHAPE_PROFILE: the process's CPU seconds (all threads) since the previous call, by
+/// stage: on a loaded machine the wall-clock stage times mostly measure the other processes.
+void cpuLap(const char* stage) {
+  static const bool profile = std::getenv("VELLUM_SHAPE_PROFILE") != nullptr;
+  if (!profile) return;
+  static double last = 0;
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  const double now = double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  std::fprintf(stderr, "  cpu %-12s %7.2f s\n", stage, now - last);
+  last = now;
 }
 template <class F>
 void forEachSegment(size_t n, F f) {
@@ -46,6 +60,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
   for (size_t i = 0; i < n; ++i) shapes[i].segment = segments[i];
 
   progress.begin("denoise", n);
+  cpuLap("before");
   auto t0 = Clock::now();
   forEachSegment(n, [&](size_t i) {
     masks[i] = detail::extractMask(labels.ids(), segments[i].ids, 4);
@@ -53,6 +68,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
     sets[i] = detail::denoiseLevelSet(masks[i], options.denoise.iterations, options.denoise.marginVoxels);
   });
   times.denoiseMs = msSince(t0);
+  cpuLap("denoise");
   progress.advance(n);  // throws Cancelled here, on this thread, never inside a TBB task
   for (size_t i = 0; i < n; ++i)
     if (masks[i].count == 0) throw Error("--segment " + segments[i].name + ": no voxel has its label ids");
@@ -66,6 +82,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
     sets[i].reset();
   });
   times.meshMs = msSince(t0);
+  cpuLap("mesh");
   progress.advance(n);
   progress.end();
 
@@ -106,6 +123,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
     shapes[i].checks = c;
   });
   times.processMs = msSince(t0);
+  cpuLap("process");
   progress.advance(n);
   progress.end();
   return shapes;
@@ -142,29 +160,42 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
   ShapeResult r;
   r.shapes = buildShapes(labels, segments, options, r.times, progress);
 
-  progress.begin("distances", 1);
-  auto t0 = Clock::now();
-  std::vector<TriMesh> meshes;
-  for (const auto& s : r.shapes) meshes.push_back(s.mesh);
+  // Distances, one segment at a time (each is parallel inside): its float distance is folded
+  // into the union, the labels and its int16 field, then dropped, so that only one float
+  // volume per segment is ever alive (memory at 512x512x350: ~370 MB a float volume).
+  const size_t n = segments.size();
+  progress.begin("distances", n);
   DistanceOptions dopt;
   dopt.bandMm = options.exactBandMm;
-  auto dist = signedDistances(meshes, labels.geometry(), dopt, extra);
-  r.times.distancesMs = msSince(t0);
-  progress.advance();
-  progress.end();
-
-  progress.begin("segmentation", 1);
-  t0 = Clock::now();
-  for (size_t i = 0; i < segments.size(); ++i)
+  detail::RepresentationBuilder builder(labels.geometry(), segments, shells);
+  r.fields.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    auto t0 = Clock::now();
+    VolumeF32 dist = detail::signedDistance(r.shapes[i].mesh, labels.geometry(), dopt, extra[i]);
+    r.times.distancesMs += msSince(t0);
+    cpuLap("distance");
+    t0 = Clock::now();
     if (offset[i] != 0) {
       const float o = static_cast<float>(offset[i]);
-      for (float& v : dist[i].voxels()) v -= o;
+      float* v = dist.data();
+      parallelFor(static_cast<int64_t>(dist.size()), [&](int64_t b, int64_t e) {
+        for (int64_t x = b; x < e; ++x) v[x] -= o;
+      }, 1 << 16);
       // Values beyond the exact band were clamped at +-background: the exact band shrinks.
-      dist[i].setBackground(dist[i].background() - std::abs(offset[i]));
+      dist.setBackground(dist.background() - std::abs(offset[i]));
     }
-  buildRepresentation(dist, segments, shells, r.distance, r.segmentation);
-  r.fields = makeSegmentFields(dist, segments, shells);
-  r.times.segmentationMs = msSince(t0);
+    builder.add(i, dist);
+    r.fields[i] = detail::segmentField(i, dist, segments, shells, n);
+    r.times.segmentationMs += msSince(t0);
+    cpuLap("fold+field");
+    progress.advance();
+  }
+  progress.end();
+  progress.begin("segmentation", 1);
+  auto t0 = Clock::now();
+  builder.finish(r.distance, r.segmentation);
+  r.times.segmentationMs += msSince(t0);
+  cpuLap("far field");
   progress.advance();
   progress.end();
   return r;

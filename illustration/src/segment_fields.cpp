@@ -11,6 +11,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/core/json_input.hpp"
 #include "vellum/core/parallel.hpp"
+#include "shape_internal.hpp"
 #include "vellum/illustration/shape.hpp"
 #include "vellum/io/atomic_file.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -37,22 +38,28 @@ double defaultExactBandMm(const Geometry& g) {
   return std::max(3 * std::min({s.x, s.y, s.z}), 2 * std::max({s.x, s.y, s.z}));
 }
 
+SegmentField detail::segmentField(size_t i, const VolumeF32& distance, const std::vector<Segment>& segments,
+                                  const std::vector<Shell>& shells, size_t count) {
+  SegmentField f;
+  f.id = static_cast<uint16_t>(i + 1);
+  f.name = i < segments.size() ? segments[i].name : std::to_string(i + 1);
+  f.distance = quantiseField(distance);
+  // As buildRepresentation: shell s has id count + 1 + s; a segment's first shell is painted.
+  for (size_t s = 0; s < shells.size() && i < segments.size(); ++s)
+    if (segments[i].name == shells[s].segment && f.shellId == 0) {
+      f.shellId = static_cast<uint16_t>(count + 1 + s);
+      f.shellMm = static_cast<float>(shells[s].thicknessMm);
+    }
+  return f;
+}
+
 std::vector<SegmentField> makeSegmentFields(const std::vector<VolumeF32>& distances,
                                             const std::vector<Segment>& segments,
                                             const std::vector<Shell>& shells) {
-  std::vector<SegmentField> out(distances.size());
-  for (size_t i = 0; i < distances.size(); ++i) {
-    out[i].id = static_cast<uint16_t>(i + 1);
-    out[i].name = i < segments.size() ? segments[i].name : std::to_string(i + 1);
-    out[i].distance = quantiseField(distances[i]);
-  }
-  // As buildRepresentation: shell s has id n + 1 + s; a segment's first shell is painted.
-  for (size_t s = 0; s < shells.size(); ++s)
-    for (size_t i = 0; i < segments.size() && i < out.size(); ++i)
-      if (segments[i].name == shells[s].segment && out[i].shellId == 0) {
-        out[i].shellId = static_cast<uint16_t>(distances.size() + 1 + s);
-        out[i].shellMm = static_cast<float>(shells[s].thicknessMm);
-      }
+  std::vector<SegmentField> out;
+  out.reserve(distances.size());
+  for (size_t i = 0; i < distances.size(); ++i)
+    out.push_back(detail::segmentField(i, distances[i], segments, shells, distances.size()));
   return out;
 }
 

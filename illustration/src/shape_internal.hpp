@@ -39,9 +39,9 @@ VolumeF32 levelSetToDense(const LevelSet& ls, const Geometry& g);
 /// Triangles of the zero level set, vertices in index coordinates of the full grid.
 TriMesh extractIndexMesh(const LevelSet& ls, double adaptivity = 0.0);
 
-/// OpenMesh: tangential smoothing then quadric decimation to `targetFaces` (0: none).
-/// `maxNormalDeviationDeg` guards features (0: no guard, so the face budget is reached: the
-/// curve analogy's coarse proxy).
+/// OpenMesh: quadric decimation to `targetFaces` (0: none), then tangential smoothing. The
+/// budget is honoured: when the guarded pass (error <= maxErrorMm, normals within
+/// `maxNormalDeviationDeg`; 0 = no normal guard) stops above it, looser passes follow.
 TriMesh smoothAndDecimate(const TriMesh& mesh, int smoothingIterations, int64_t targetFaces,
                           double maxErrorMm, double maxNormalDeviationDeg = 25.0);
 
@@ -52,6 +52,35 @@ TriMesh repairMesh(const TriMesh& mesh, MeshChecks& stats);
 /// boundary (searched within `radius` voxels; farther vertices report the search radius).
 double maxDistanceToBinaryBoundary(const TriMesh& mesh, const MaskBox& mask, const Geometry& g,
                                    int radius = 3);
+
+/// One mesh's signed distance on the grid (signedDistances for one mesh; distance.cpp).
+VolumeF32 signedDistance(const TriMesh& mesh, const Geometry& g, const DistanceOptions& options,
+                         double extraBandMm);
+
+/// Field i (id i + 1) of `count` segments: quantised distance and the segment's first shell
+/// (makeSegmentFields for one segment).
+SegmentField segmentField(size_t i, const VolumeF32& distance, const std::vector<Segment>& segments,
+                          const std::vector<Shell>& shells, size_t count);
+
+/// buildRepresentation one segment at a time (in paint order), so that only one segment's
+/// float distance needs to be alive: the union distance (min), the labels (later segments
+/// paint over earlier ones, shells where -t < d <= 0), then the union's far field.
+class RepresentationBuilder {
+ public:
+  RepresentationBuilder(const Geometry& g, const std::vector<Segment>& segments, const std::vector<Shell>& shells);
+  void add(size_t i, const VolumeF32& distance);
+  void finish(VolumeF32& unionDistance, LabelVolume& segmentation);
+
+ private:
+  std::vector<Segment> segments_;
+  std::vector<double> shellT_;
+  std::vector<uint16_t> shellId_;
+  std::vector<Label> table_;
+  VolumeF32 union_;
+  VolumeU16 ids_;
+  double far_;
+  bool first_ = true;
+};
 
 /// Maps index-space vertices to physical mm, flipping the winding if the map is mirrored.
 void indexToPhysical(TriMesh& mesh, const Geometry& g);

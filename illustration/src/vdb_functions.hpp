@@ -12,14 +12,7 @@
 namespace vellum::illustration::detail {
 
 /// Bumped whenever VdbFunctions changes: a stale module file is refused, not called.
-inline constexpr int kVdbFunctionsVersion = 1;
-
-/// Part of an isotropic grid (voxel size h, voxel (0,0,0) at the origin): `values` are x
-/// fastest over the box [lo, lo + dim).
-struct DenseBox {
-  std::array<int, 3> lo{0, 0, 0}, dim{0, 0, 0};
-  std::vector<float> values;
-};
+inline constexpr int kVdbFunctionsVersion = 2;
 
 struct VdbFunctions {
   int version = kVdbFunctionsVersion;
@@ -30,12 +23,6 @@ struct VdbFunctions {
   /// phi (voxel units) on the full grid of `dims` voxels (x fastest) into `out`.
   void (*toDense)(const LevelSet& levelSet, std::array<int64_t, 3> dims, float* out) = nullptr;
   TriMesh (*indexMesh)(const LevelSet& levelSet, double adaptivity) = nullptr;
-  /// Signed distance (mm, negative inside) of one closed triangle surface (vertices in mm on
-  /// the isotropic grid's axes) within `bandVoxels` of it, over the surface's band box clipped
-  /// to [0, limit]; flood-filled tiles keep their sign; `farMm` where the grid has no value.
-  DenseBox (*surfaceDistance)(const std::vector<std::array<float, 3>>& pointsMm,
-                              const std::vector<std::array<uint32_t, 3>>& triangles, double voxelMm,
-                              float bandVoxels, std::array<int, 3> limit, float farMm) = nullptr;
 };
 
 /// The module's functions, opened on first use (vdb_client.cpp; VELLUM_VDB_MODULE overrides
