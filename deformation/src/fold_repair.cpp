@@ -149,6 +149,15 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
   std::vector<uint8_t> count(static_cast<size_t>(nodes), 0), written(static_cast<size_t>(nodes), 0), seen(static_cast<size_t>(nodes), 0);
   std::vector<int64_t> touched, cellMark;
   const double target = params.minJacobian + 0.1;
+  auto intoBody = [&](int64_t n, const Vec3& next) {
+    if (forbidden(next)) return true;
+    const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+    for (int64_t c = std::max<int64_t>(k - 1, 0); c <= std::min(k + 1, g.d.z - 1); ++c)
+      for (int64_t b = std::max<int64_t>(j - 1, 0); b <= std::min(j + 1, g.d.y - 1); ++b)
+        for (int64_t a = std::max<int64_t>(i - 1, 0); a <= std::min(i + 1, g.d.x - 1); ++a)
+          if (g.node(a, b, c) != n && forbidden((next + at(u, g.node(a, b, c))) * 0.5)) return true;
+    return false;
+  };
   const double maxStep = 0.2 * std::min({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
   // Passes without fewer folding cells after which the repair gives up.
   constexpr int kStallRounds = 200;
@@ -226,8 +235,9 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
       const Vec3 next = at(u, n) + step;
       p[0] = p[1] = p[2] = 0;
       count[static_cast<size_t>(n)] = 0;
-      // A node may not move into a rigid body: its voxels would show bone moved non-rigidly.
-      if (forbidden && forbidden(next)) continue;
+      // A node may not move into a rigid body, nor bring the voxels between it and a neighbour
+      // there (the midpoints stand for them): they would show bone moved non-rigidly.
+      if (forbidden && intoBody(n, next)) continue;
       for (int a = 0; a < 3; ++a) u[static_cast<size_t>(3 * n + a)] = static_cast<float>(next[a]);
       if (!written[static_cast<size_t>(n)]) { written[static_cast<size_t>(n)] = 1; ++st.nodesRelaxed; }
       // The 8 cells around the node changed.
