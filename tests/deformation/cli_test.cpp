@@ -251,4 +251,16 @@ TEST(DeformCli, PaddingKeepsEveryMovedVoxelAndTheMapIsOneGzipStream) {
   EXPECT_NE(rawFile.find("encoding: raw"), std::string::npos);
   EXPECT_EQ(deformation::loadBackwardMapNrrd(dir / "map-raw.nrrd"), map);
   EXPECT_EQ(std::get<VolumeI16>(io::loadVolume(dir / "raw.nrrd").volume).voxels(), pad.voxels());
+  // A label map on the input's grid is padded with the volume: the block as a rigid bone.
+  LabelVolume labels(g);
+  for (int64_t t = 0; t < g.dims.voxelCount(); ++t) labels.ids().data()[t] = ct.data()[t] > -500 ? 2 : 0;
+  io::saveLabels(labels, dir / "labels.nrrd");
+  run({"deform", (dir / "in.nrrd").string(), "--points", (dir / "cp.json").string(), "--out", (dir / "bone.nrrd").string(),
+       "--pad-mm", "10", "--labels", (dir / "labels.nrrd").string(), "--rigid-labels", "2", "--report",
+       (dir / "bone.json").string()});
+  const nlohmann::json b = nlohmann::json::parse(std::ifstream(dir / "bone.json"));
+  EXPECT_EQ(b["pad_voxels"], nlohmann::json({10, 10, 10}));
+  EXPECT_EQ(b["rigidity"]["after"]["bodies"][0]["samples"].get<int64_t>(), tissue);
+  EXPECT_LT(b["rigidity"]["after"]["bone_rms_residual_mm"].get<double>(), 1e-3);
+  EXPECT_EQ(countTissue(std::get<VolumeI16>(io::loadVolume(dir / "bone.nrrd").volume)), tissue);
 }
