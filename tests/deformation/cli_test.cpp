@@ -99,8 +99,10 @@ TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
   // One body per bone: cortex + marrow, and the shared cancellous id 11 split between the
   // fibula and the patella (at 48 voxels the cortex is in fragments: the flat list of ids
   // would make each id its own body).
+  deformation::RigidityParams rp(10.0);
+  rp.repairFolds = true;  // as deform runs it
   deformation::applyRigidity(cv, deformation::RigidBodies::fromLabelGroups(ph.labels, {{4, 5}, {6, 7}, {8, 11}, {9, 11}}),
-                             {10.0});
+                             rp);
   const std::vector<float> expect = deformation::upsampleMap(cv, ph.ct.geometry());
   ASSERT_EQ(map.size(), expect.size());
   double maxDiff = 0;

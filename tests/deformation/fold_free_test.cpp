@@ -118,10 +118,11 @@ TEST(FoldRepair, RigidBlendLeavesNoFoldInTissueAndKeepsBonesAndFixedRegions) {
   for (int64_t k = 4; k < 12; ++k)
     for (int64_t j = 4; j < 16; ++j) std::swap(base.sourceMm[3 * ((k * nd.y + j) * nd.x + 3)], base.sourceMm[3 * ((k * nd.y + j) * nd.x + 4)]);
   ControlVolume plain = base, repaired = base;
-  RigidityParams off(6.0);
-  off.repairFolds = false;
+  RigidityParams off(6.0), on(6.0);
+  EXPECT_FALSE(off.repairFolds);  // the library's default: deform turns it on
+  on.repairFolds = true;
   applyRigidity(plain, bodies, off);
-  const FoldRepairStats st = applyRigidity(repaired, bodies, {6.0});
+  const FoldRepairStats st = applyRigidity(repaired, bodies, on);
   const RigidityReport a = measureRigidityVoxels(plain, g, bodies), b = measureRigidityVoxels(repaired, g, bodies);
   ASSERT_GT(a.foldFraction, 0.0) << "the map must fold in tissue before the repair";
   EXPECT_GT(st.cellsBefore, 0);

@@ -137,9 +137,12 @@ struct RigidityParams {
   /// fit back to the MLS map (smoothstep weight). Inside the body, and within one control-grid
   /// spacing of it, the map is the rigid fit.
   double falloffMm = 10.0;
-  /// Repair the folds the blend makes in tissue (repairFolds(): the free nodes around each
-  /// folding cell relaxed; the rigid cores and the fixed regions locked, so they stay exact).
-  bool repairFolds = true;
+  /// Repair the folds the blend makes in tissue (repairFolds(): the free nodes of each folding
+  /// cell moved; the rigid cores and the fixed regions locked, so they stay exact). Off by
+  /// default here: it can cost seconds on a large grid, too much for the studio's live drags
+  /// and an animation's every frame until measured there; `vellum deform` turns it on
+  /// (app::DeformEngine::foldRepair).
+  bool repairFolds = false;
   FoldRepairParams folds;
 };
 

@@ -42,8 +42,9 @@ struct DeformEngine {
   std::vector<double> fixedBoxMm;  ///< empty, or x0,y0,z0,x1,y1,z1 (mm, physical LPS): a box that does not move
   double rigidFalloffMm = 10;      ///< blend band outside each bone
   int rigidityStride = 1;          ///< voxel-level rigidity measures: every N-th voxel per axis
-  /// Repair the blend's folds in tissue (deformation::repairFolds). `deform --fold-repair`
-  /// (deformRequestTable); `animate` and the studio always repair (RigidityParams' default).
+  /// Repair the blend's folds in tissue (deformation::repairFolds): `deform --fold-repair`
+  /// (deformRequestTable); rigidity() carries it. `animate` and the studio call applyRigidity
+  /// with RigidityParams' default (no repair) for now.
   bool foldRepair = true;
   /// The rigid blend's parameters: rigidFalloffMm and foldRepair.
   deformation::RigidityParams rigidity() const;
