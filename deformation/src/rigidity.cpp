@@ -478,11 +478,11 @@ std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geo
   return fields;
 }
 
-void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params,
-                   Progress& progress) {
+FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params,
+                              Progress& progress) {
   if (!(params.falloffMm >= 0)) throw Error("rigid falloff must be >= 0 mm");
   const int nc = bodies.componentCount();
-  if (nc == 0) return;
+  if (nc == 0) return {};
   const Dims d = cv.grid.dims;
   progress.begin("rigid bodies", static_cast<uint64_t>(nc) + 1);
   // Distance fields (mm, source space sampled on the control grid) per component: built once
@@ -515,6 +515,13 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
   // Trilinear weights are positive, so a field interpolated at gi is never below the nearest-
   // body field interpolated there: beyond the band in that one field, every weight is 0.
   const double reach = (fixedBody >= 0 ? fixedMargin : margin) + std::max(falloff, 0.0);
+  // Nodes that land in a body (set to its fit) or in the fixed regions' core (the identity):
+  // the fold repair never moves them. The band around a body stays free: the voxel snap keeps
+  // the voxels that land in the body on its fit within a cell diagonal.
+  std::vector<uint8_t> locked(params.repairFolds ? static_cast<size_t>(d.voxelCount()) : 0, 0);
+  auto lock = [&](int64_t node) {
+    if (!locked.empty()) locked[static_cast<size_t>(node)] = 1;
+  };
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < d.y; ++j)
@@ -533,15 +540,18 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
             fixedW = weight(std::min(f.sample(gi, d), f.at(i, j, k)), fixedMargin);
             if (fixedW >= 1) {  // exactly where it was
               o[0] = static_cast<float>(v.x); o[1] = static_cast<float>(v.y); o[2] = static_cast<float>(v.z);
+              lock(node);
               continue;
             }
           }
           double sum = fixedW;
+          bool core = false;  // lands in a body: locked
           Vec3 acc = v * fixedW;
           for (int c = 0; c < nc; ++c) {
             if (c == fixedBody || !fits[static_cast<size_t>(c)].valid) continue;
             const double a = weight(dist->perBody[static_cast<size_t>(c)].sample(gi, d), margin);
             if (a <= 0) continue;
+            core = core || a >= 1;
             sum += a;
             acc += fits[static_cast<size_t>(c)].apply(v) * a;
           }
@@ -550,12 +560,25 @@ void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityP
           // A node that now lands inside a body follows that body exactly (only happens in
           // the inner band where the weight is already ~1, so the snap is invisible).
           const uint16_t c2 = lookup.bodyClassAt(out);
-          if (c2 >= 2 && fits[c2 - 2u].valid) out = fits[c2 - 2u].apply(v);
+          if (c2 >= 2 && fits[c2 - 2u].valid) {
+            out = fits[c2 - 2u].apply(v);
+            core = true;
+          }
+          if (core) lock(node);
           o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);
         }
   });
   cv.rigidSnap = makeRigidSnap(bodies, fits, cv.grid);
+  FoldRepairStats folds;
+  if (params.repairFolds)
+    folds = repairFolds(
+        cv, locked, [&](const Vec3& u) { return bodies.tissueAt(u); }, params.folds,
+        [&](const Vec3& u) {
+          const uint16_t c = lookup.bodyClassAt(u);
+          return c >= 2 && int(c) - 2 != fixedBody && fits[c - 2u].valid;
+        });
   progress.end();
+  return folds;
 }
 
 RigidityReport worstOf(const std::vector<RigidityReport>& reports) {

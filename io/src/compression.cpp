@@ -1,4 +1,4 @@
-// gzip compression (ISA-L, parallel members) and exact-size decompression (libdeflate fast
+// gzip compression (ISA-L, one stream of blocks compressed in parallel) and exact-size decompression (libdeflate fast
 // path; zlib streaming path to name the problem when the fast path fails).
 #include "vellum/io/compression.hpp"
 
@@ -29,16 +29,19 @@ constexpr size_t kIsalLevelBuffer = ISAL_DEF_LVL3_DEFAULT;
 // header and trailer and slack.
 size_t memberBound(size_t len) { return len + 5 * (len / 65535 + 2) + 64; }
 
-// One gzip member into [out, out + capacity): its size.
-size_t compressMember(const uint8_t* src, size_t len, uint8_t* out, size_t capacity, std::vector<uint8_t>& levelBuffer) {
+// One block of the deflate stream into [out, out + capacity): its size. A block that is not the
+// last ends byte-aligned (FULL_FLUSH: an empty stored block, no back-references into it), so the
+// blocks compressed apart concatenate into one valid deflate stream.
+size_t compressBlock(const uint8_t* src, size_t len, bool last, uint8_t* out, size_t capacity,
+                     std::vector<uint8_t>& levelBuffer) {
   isal_zstream stream;
   isal_deflate_stateless_init(&stream);
   stream.level = kIsalLevel;
   stream.level_buf = levelBuffer.data();
   stream.level_buf_size = static_cast<uint32_t>(levelBuffer.size());
-  stream.gzip_flag = IGZIP_GZIP;
-  stream.end_of_stream = 1;
-  stream.flush = NO_FLUSH;
+  stream.gzip_flag = IGZIP_DEFLATE;
+  stream.end_of_stream = last ? 1 : 0;
+  stream.flush = last ? NO_FLUSH : FULL_FLUSH;
   stream.next_in = const_cast<uint8_t*>(src);  // ISA-L's API is not const-correct; it only reads
   stream.avail_in = static_cast<uint32_t>(len);
   stream.next_out = out;
@@ -131,25 +134,39 @@ void inflateChecked(const std::filesystem::path& path, const uint8_t* src, size_
 
 GzipBytes gzipCompress(const void* data, size_t n) {
   const auto* src = static_cast<const uint8_t*>(data);
-  const size_t members = std::max<size_t>(1, (n + kGzipMemberBytes - 1) / kGzipMemberBytes);
-  // Each member compresses into its own slot of the worst-case size, then slots are packed.
-  std::vector<size_t> slot(members + 1, 0), packed(members, 0);
-  for (size_t m = 0; m < members; ++m)
-    slot[m + 1] = slot[m] + memberBound(std::min(kGzipMemberBytes, n - std::min(n, m * kGzipMemberBytes)));
-  checkMemoryBudget(slot[members], "compressed data");
-  GzipBytes out{std::unique_ptr<uint8_t[]>(new uint8_t[slot[members]]), 0};
-  adviseHugePages(out.data.get(), slot[members]);
-  parallelFor(static_cast<int64_t>(members), [&](int64_t b, int64_t e) {
+  const size_t blocks = std::max<size_t>(1, (n + kGzipBlockBytes - 1) / kGzipBlockBytes);
+  // gzip header (10 bytes: deflate, no name, no time, OS unix), the blocks, then CRC-32 and size.
+  constexpr uint8_t kHeader[10] = {0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 3};
+  // Each block compresses into its own slot of the worst-case size, then slots are packed.
+  std::vector<size_t> slot(blocks + 1, sizeof kHeader), packed(blocks, 0);
+  std::vector<uLong> crc(blocks, 0);
+  for (size_t m = 0; m < blocks; ++m)
+    slot[m + 1] = slot[m] + memberBound(std::min(kGzipBlockBytes, n - std::min(n, m * kGzipBlockBytes)));
+  const size_t capacity = slot[blocks] + 8;
+  checkMemoryBudget(capacity, "compressed data");
+  GzipBytes out{std::unique_ptr<uint8_t[]>(new uint8_t[capacity]), 0};
+  adviseHugePages(out.data.get(), capacity);
+  parallelFor(static_cast<int64_t>(blocks), [&](int64_t b, int64_t e) {
     std::vector<uint8_t> levelBuffer(kIsalLevelBuffer);
     for (auto m = static_cast<size_t>(b); m < static_cast<size_t>(e); ++m) {
-      const size_t offset = m * kGzipMemberBytes, len = std::min(kGzipMemberBytes, n - std::min(n, offset));
-      packed[m] = compressMember(src + offset, len, out.data.get() + slot[m], slot[m + 1] - slot[m], levelBuffer);
+      const size_t offset = m * kGzipBlockBytes, len = std::min(kGzipBlockBytes, n - std::min(n, offset));
+      packed[m] = compressBlock(src + offset, len, m + 1 == blocks, out.data.get() + slot[m], slot[m + 1] - slot[m],
+                                levelBuffer);
+      crc[m] = crc32(0L, len ? src + offset : nullptr, static_cast<uInt>(len));
     }
   });
-  for (size_t m = 0; m < members; ++m) {
+  std::memcpy(out.data.get(), kHeader, sizeof kHeader);
+  out.size = sizeof kHeader;
+  uLong total = crc32(0L, nullptr, 0);
+  for (size_t m = 0; m < blocks; ++m) {
     std::memmove(out.data.get() + out.size, out.data.get() + slot[m], packed[m]);
     out.size += packed[m];
+    const size_t len = std::min(kGzipBlockBytes, n - std::min(n, m * kGzipBlockBytes));
+    total = crc32_combine(total, crc[m], static_cast<z_off_t>(len));
   }
+  const uint32_t trailer[2] = {static_cast<uint32_t>(total), static_cast<uint32_t>(n & 0xffffffffu)};
+  for (int w = 0; w < 2; ++w)
+    for (int byte = 0; byte < 4; ++byte) out.data[out.size++] = static_cast<uint8_t>(trailer[w] >> (8 * byte));  // little endian
   return out;
 }
 

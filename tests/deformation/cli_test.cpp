@@ -2,6 +2,10 @@
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
+#include <zlib.h>
+
+#include <cstring>
+#include <iterator>
 
 #include <fstream>
 
@@ -95,8 +99,10 @@ TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
   // One body per bone: cortex + marrow, and the shared cancellous id 11 split between the
   // fibula and the patella (at 48 voxels the cortex is in fragments: the flat list of ids
   // would make each id its own body).
+  deformation::RigidityParams rp(10.0);
+  rp.repairFolds = true;  // as deform runs it
   deformation::applyRigidity(cv, deformation::RigidBodies::fromLabelGroups(ph.labels, {{4, 5}, {6, 7}, {8, 11}, {9, 11}}),
-                             {10.0});
+                             rp);
   const std::vector<float> expect = deformation::upsampleMap(cv, ph.ct.geometry());
   ASSERT_EQ(map.size(), expect.size());
   double maxDiff = 0;
@@ -163,4 +169,100 @@ TEST(DeformCli, DownsampleAndCropApplyToTheVolumeAndItsLabels) {
       EXPECT_LT(norm(g.origin - ph.ct.geometry().indexToPhysical({4, 0, 8})), 1e-6);
     }
   }
+}
+
+// Issue 23 §4 (no cuts) and §6 (one gzip stream): a block of tissue near the +x face moves 8 mm
+// out of the box. Without padding the box cuts it; with --pad-mm -1 (automatic) every tissue
+// voxel is in the output, at its world position + 8 mm (the origin moved out). The map file is
+// one gzip member (zlib inflates it in one go to its end) or raw with --no-gzip; both load.
+TEST(DeformCli, PaddingKeepsEveryMovedVoxelAndTheMapIsOneGzipStream) {
+  const auto dir = vellum::test::tempDir("deform-pad");
+  Geometry g;
+  g.dims = {32, 32, 32};
+  g.spacing = {1, 1, 1};
+  g.origin = {-10, 5, 20};
+  VolumeI16 ct(g, -1000, -1000);
+  int64_t tissue = 0;
+  for (int64_t k = 8; k < 24; ++k)
+    for (int64_t j = 8; j < 24; ++j)
+      for (int64_t i = 4; i < 28; ++i) {
+        ct(i, j, k) = static_cast<int16_t>(40 + i);  // values tell the voxels apart
+        ++tissue;
+      }
+  io::saveVolume(ct, dir / "in.nrrd");
+  const Vec3 shift{8, 0, 0};
+  deformation::PointFile pf;
+  for (int q = 0; q < 9; ++q) {
+    const Vec3 idx = q == 8 ? Vec3{15.5, 15.5, 15.5} : Vec3{(q & 1) ? 31.0 : 0.0, (q & 2) ? 31.0 : 0.0, (q & 4) ? 31.0 : 0.0};
+    const Vec3 s = g.indexToPhysical(idx);
+    pf.points.push_back({s, s + shift, {}});
+  }
+  deformation::saveControlPoints(pf, dir / "cp.json");
+  auto countTissue = [](const VolumeI16& v) {
+    int64_t n = 0;
+    for (int16_t x : v.voxels()) n += x > -500;
+    return n;
+  };
+  run({"deform", (dir / "in.nrrd").string(), "--points", (dir / "cp.json").string(), "--out", (dir / "cut.nrrd").string()});
+  const auto cut = std::get<VolumeI16>(io::loadVolume(dir / "cut.nrrd").volume);
+  EXPECT_LT(countTissue(cut), tissue) << "the box should cut the moved block (else the test proves nothing)";
+
+  run({"deform", (dir / "in.nrrd").string(), "--points", (dir / "cp.json").string(), "--out",
+       (dir / "pad.nrrd").string(), "--pad-mm", "-1", "--map-out", (dir / "map.nrrd").string(), "--report",
+       (dir / "pad.json").string()});
+  const auto pad = std::get<VolumeI16>(io::loadVolume(dir / "pad.nrrd").volume);
+  const Geometry& pg = pad.geometry();
+  // Automatic: 8 mm + a control cell diagonal (2 x 1.73 mm) -> 12 voxels per side.
+  EXPECT_EQ(pg.dims, (Dims{56, 56, 56}));
+  EXPECT_LT(norm(pg.origin - (g.origin - Vec3{12, 12, 12})), 1e-9);
+  EXPECT_EQ(countTissue(pad), tissue);
+  for (int64_t k = 8; k < 24; ++k)
+    for (int64_t j = 8; j < 24; ++j)
+      for (int64_t i = 4; i < 28; ++i) {
+        const Vec3 o = pg.physicalToIndex(g.indexToPhysical({double(i), double(j), double(k)}) + shift);
+        ASSERT_EQ(pad(std::llround(o.x), std::llround(o.y), std::llround(o.z)), ct(i, j, k)) << i << "," << j << "," << k;
+      }
+  const nlohmann::json r = nlohmann::json::parse(std::ifstream(dir / "pad.json"));
+  EXPECT_EQ(r["pad_voxels"], nlohmann::json({12, 12, 12}));
+
+  // The map: one gzip member after the header, which zlib inflates to exactly the map's bytes.
+  std::ifstream m(dir / "map.nrrd", std::ios::binary);
+  const std::string file((std::istreambuf_iterator<char>(m)), std::istreambuf_iterator<char>());
+  const size_t body = file.find("\n\n") + 2;
+  ASSERT_NE(file.find("encoding: gzip"), std::string::npos);
+  std::vector<uint8_t> bytes(size_t{56} * 56 * 56 * 3 * 4 + 16);
+  z_stream zs{};
+  inflateInit2(&zs, 15 + 16);
+  zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(file.data() + body));
+  zs.avail_in = static_cast<uInt>(file.size() - body);
+  zs.next_out = bytes.data();
+  zs.avail_out = static_cast<uInt>(bytes.size());
+  EXPECT_EQ(inflate(&zs, Z_FINISH), Z_STREAM_END);
+  EXPECT_EQ(zs.total_in, file.size() - body) << "more than one gzip member";
+  EXPECT_EQ(zs.total_out, size_t{56} * 56 * 56 * 3 * 4);
+  inflateEnd(&zs);
+  Geometry mg;
+  const std::vector<float> map = deformation::loadBackwardMapNrrd(dir / "map.nrrd", &mg);
+  EXPECT_TRUE(mg.approxEqual(pg, 1e-9));
+  EXPECT_EQ(std::memcmp(map.data(), bytes.data(), map.size() * sizeof(float)), 0);
+  // --no-gzip: raw, the same values.
+  run({"deform", (dir / "in.nrrd").string(), "--points", (dir / "cp.json").string(), "--out",
+       (dir / "raw.nrrd").string(), "--pad-mm", "-1", "--map-out", (dir / "map-raw.nrrd").string(), "--no-gzip"});
+  std::ifstream mr(dir / "map-raw.nrrd", std::ios::binary);
+  const std::string rawFile((std::istreambuf_iterator<char>(mr)), std::istreambuf_iterator<char>());
+  EXPECT_NE(rawFile.find("encoding: raw"), std::string::npos);
+  EXPECT_EQ(deformation::loadBackwardMapNrrd(dir / "map-raw.nrrd"), map);
+  EXPECT_EQ(std::get<VolumeI16>(io::loadVolume(dir / "raw.nrrd").volume).voxels(), pad.voxels());
+  // A label map on the input's grid is padded with the volume: the block as a rigid bone.
+  LabelVolume labels(g);
+  for (int64_t t = 0; t < g.dims.voxelCount(); ++t) labels.ids().data()[t] = ct.data()[t] > -500 ? 2 : 0;
+  io::saveLabels(labels, dir / "labels.nrrd");
+  run({"deform", (dir / "in.nrrd").string(), "--points", (dir / "cp.json").string(), "--out", (dir / "bone.nrrd").string(),
+       "--pad-mm", "10", "--labels", (dir / "labels.nrrd").string(), "--rigid-labels", "2", "--report",
+       (dir / "bone.json").string()});
+  const nlohmann::json b = nlohmann::json::parse(std::ifstream(dir / "bone.json"));
+  EXPECT_EQ(b["pad_voxels"], nlohmann::json({10, 10, 10}));
+  EXPECT_EQ(b["rigidity"]["after"]["bodies"][0]["samples"].get<int64_t>(), tissue);
+  EXPECT_LT(b["rigidity"]["after"]["bone_rms_residual_mm"].get<double>(), 1e-3);
+  EXPECT_EQ(countTissue(std::get<VolumeI16>(io::loadVolume(dir / "bone.nrrd").volume)), tissue);
 }

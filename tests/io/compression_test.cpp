@@ -1,6 +1,7 @@
-// io::gzipCompress writes several gzip members (compressed in parallel); every reader must
-// see one stream: zlib's gzread (what teem/NrrdIO in 3D Slicer and ITK use), the gzip tool, and
-// our own inflateExactInto, which must also keep naming truncation, corruption and excess.
+// io::gzipCompress writes one gzip member (blocks compressed in parallel, one stream); files
+// from before hold several concatenated members. Every reader must see one stream: zlib's gzread
+// (what teem/NrrdIO in 3D Slicer and ITK use), the gzip tool, and our own inflateExactInto,
+// which must also keep naming truncation, corruption and excess.
 #include <gtest/gtest.h>
 #include <zlib.h>
 
@@ -36,6 +37,18 @@ std::vector<uint8_t> ctLikeBytes(size_t samples) {
 std::vector<uint8_t> compressed(const std::vector<uint8_t>& raw) {
   const io::GzipBytes gz = io::gzipCompress(raw.data(), raw.size());
   return {gz.data.get(), gz.data.get() + gz.size};
+}
+
+// What Vellum wrote before: one gzip member per MiB of input, concatenated.
+std::vector<uint8_t> oldMembers(const std::vector<uint8_t>& raw) {
+  std::vector<uint8_t> out;
+  constexpr size_t kMember = size_t{1} << 20;
+  for (size_t at = 0; at < raw.size(); at += kMember) {
+    const auto part = compressed({raw.begin() + static_cast<std::ptrdiff_t>(at),
+                                  raw.begin() + static_cast<std::ptrdiff_t>(std::min(raw.size(), at + kMember))});
+    out.insert(out.end(), part.begin(), part.end());
+  }
+  return out;
 }
 
 // Member start offsets, found by decoding member after member with zlib.
@@ -76,33 +89,54 @@ std::string inflateError(const std::vector<uint8_t>& gz, uint64_t expected) {
 
 }  // namespace
 
-TEST(Gzip, MembersOfOneMebibyteDecodeToTheExactBytes) {
-  const auto raw = ctLikeBytes(2'300'000);  // 4.6 MB: 5 members, the last one partial
+TEST(Gzip, BlocksCompressedApartMakeOneMemberThatDecodesToTheExactBytes) {
+  const auto raw = ctLikeBytes(2'300'000);  // 4.6 MB: 5 blocks, the last one partial
   const auto gz = compressed(raw);
   EXPECT_LT(gz.size(), raw.size() * 3 / 4) << "level 1 should still compress CT-like data";
-  const auto starts = memberOffsets(gz);
-  EXPECT_EQ(starts.size(), (raw.size() + io::kGzipMemberBytes - 1) / io::kGzipMemberBytes);
+  EXPECT_EQ(memberOffsets(gz).size(), 1u) << "one gzip stream";
+  std::vector<uint8_t> back(raw.size());
+  io::inflateExactInto("x.gz", gz.data(), gz.size(), back.data(), back.size());
+  EXPECT_EQ(back, raw);
+  // zlib's one-shot inflate of a single member checks the CRC-32 and size of the whole stream.
+  std::vector<uint8_t> z(raw.size());
+  z_stream zs{};
+  inflateInit2(&zs, 15 + 16);
+  zs.next_in = const_cast<Bytef*>(gz.data());
+  zs.avail_in = static_cast<uInt>(gz.size());
+  zs.next_out = z.data();
+  zs.avail_out = static_cast<uInt>(z.size());
+  EXPECT_EQ(inflate(&zs, Z_FINISH), Z_STREAM_END);
+  EXPECT_EQ(zs.total_in, gz.size());
+  inflateEnd(&zs);
+  EXPECT_EQ(z, raw);
+}
+
+TEST(Gzip, OldFilesOfSeveralMembersStillRead) {
+  const auto raw = ctLikeBytes(1'300'000);  // 2.6 MB: 3 members
+  const auto gz = oldMembers(raw);
+  EXPECT_EQ(memberOffsets(gz).size(), 3u);
   std::vector<uint8_t> back(raw.size());
   io::inflateExactInto("x.gz", gz.data(), gz.size(), back.data(), back.size());
   EXPECT_EQ(back, raw);
 }
 
-TEST(Gzip, ZlibGzreadReadsTheConcatenatedMembersAsOneStream) {
+TEST(Gzip, ZlibGzreadReadsTheStreamAndOldMembers) {
   const fs::path dir = tempDir("gzip-gzread");
   const auto raw = ctLikeBytes(1'500'000);
-  const auto gz = compressed(raw);
-  writeFile(dir / "a.gz", std::string(gz.begin(), gz.end()));
-  gzFile f = gzopen((dir / "a.gz").c_str(), "rb");
-  ASSERT_NE(f, nullptr);
-  std::vector<uint8_t> back(raw.size() + 16);
-  const int got = gzread(f, back.data(), static_cast<unsigned>(back.size()));
-  gzclose(f);
-  ASSERT_EQ(got, static_cast<int>(raw.size()));
-  back.resize(raw.size());
-  EXPECT_EQ(back, raw);
+  for (const auto& gz : {compressed(raw), oldMembers(raw)}) {
+    writeFile(dir / "a.gz", std::string(gz.begin(), gz.end()));
+    gzFile f = gzopen((dir / "a.gz").c_str(), "rb");
+    ASSERT_NE(f, nullptr);
+    std::vector<uint8_t> back(raw.size() + 16);
+    const int got = gzread(f, back.data(), static_cast<unsigned>(back.size()));
+    gzclose(f);
+    ASSERT_EQ(got, static_cast<int>(raw.size()));
+    back.resize(raw.size());
+    EXPECT_EQ(back, raw);
+  }
 }
 
-TEST(Gzip, TheGzipToolDecodesTheConcatenatedMembers) {
+TEST(Gzip, TheGzipToolDecodesTheStream) {
   if (std::system("gzip --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no gzip tool";
   const fs::path dir = tempDir("gzip-tool");
   const auto raw = ctLikeBytes(1'200'000);
@@ -122,10 +156,10 @@ TEST(Gzip, EmptyInputIsOneEmptyMember) {
   EXPECT_EQ(inflateError(bytes, 0), "");
 }
 
-TEST(Gzip, IncompressibleBytesFitTheirMembersAndRoundTrip) {
-  // Random bytes do not compress: each member must still fit its worst-case slot (stored
+TEST(Gzip, IncompressibleBytesFitTheirBlocksAndRoundTrip) {
+  // Random bytes do not compress: each block must still fit its worst-case slot (stored
   // blocks), and the stream must decode exactly.
-  std::vector<uint8_t> raw(2 * io::kGzipMemberBytes + 12345);
+  std::vector<uint8_t> raw(2 * io::kGzipBlockBytes + 12345);
   uint64_t state = 0x9E3779B97F4A7C15ull;
   for (auto& b : raw) {
     state ^= state << 13, state ^= state >> 7, state ^= state << 17;
@@ -134,7 +168,7 @@ TEST(Gzip, IncompressibleBytesFitTheirMembersAndRoundTrip) {
   const auto gz = compressed(raw);
   EXPECT_GE(gz.size(), raw.size());
   EXPECT_LT(gz.size(), raw.size() + raw.size() / 1000 + 256) << "stored blocks cost 5 bytes per 64 KiB";
-  EXPECT_EQ(memberOffsets(gz).size(), 3u);
+  EXPECT_EQ(memberOffsets(gz).size(), 1u);
   std::vector<uint8_t> back(raw.size());
   io::inflateExactInto("x.gz", gz.data(), gz.size(), back.data(), back.size());
   EXPECT_EQ(back, raw);
@@ -142,7 +176,7 @@ TEST(Gzip, IncompressibleBytesFitTheirMembersAndRoundTrip) {
 
 TEST(Gzip, DamageInALaterMemberIsNamed) {
   const auto raw = ctLikeBytes(1'600'000);
-  const auto gz = compressed(raw);
+  const auto gz = oldMembers(raw);
   const auto starts = memberOffsets(gz);
   ASSERT_GE(starts.size(), 3u);
   // Cut inside the second member, and exactly at the start of the third: both are truncation.

@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <cmath>
 
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/core/process_time.hpp"
 #include "vellum/deformation/deformer.hpp"
@@ -57,6 +59,38 @@ struct Run {
   CpuLaps cpu;
 };
 
+/// `v` inside a box grown by pad[a] voxels on both sides of axis a, background around; the
+/// origin moves out along the axes, so every voxel keeps its world position.
+template <class T>
+Volume<T> padded(const Volume<T>& v, const std::array<int64_t, 3>& pad, T fill) {
+  Geometry g = v.geometry();
+  const Dims d = g.dims;
+  g.origin = g.indexToPhysical({-double(pad[0]), -double(pad[1]), -double(pad[2])});
+  g.dims = {d.x + 2 * pad[0], d.y + 2 * pad[1], d.z + 2 * pad[2]};
+  Volume<T> out(g, fill, v.background());
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        std::copy_n(v.data() + (k * d.y + j) * d.x, d.x,
+                    out.data() + ((k + pad[2]) * g.dims.y + j + pad[1]) * g.dims.x + pad[0]);
+  });
+  return out;
+}
+
+/// The padding (voxels per axis) of --pad-mm: -1 = the largest point displacement + a control cell.
+std::array<int64_t, 3> padVoxels(const Run& run) {
+  const Geometry& g = geometryOf(run.loaded.volume);
+  double mm = run.request.padMm;
+  if (mm < 0) {
+    mm = 0;
+    for (const auto& p : run.points.points) mm = std::max(mm, norm(p.target - p.source));
+    if (mm > 0) mm += norm(g.spacing) * run.params.controlScale;
+  }
+  std::array<int64_t, 3> pad{0, 0, 0};
+  for (int a = 0; a < 3; ++a) pad[static_cast<size_t>(a)] = static_cast<int64_t>(std::ceil(mm / g.spacing[a] - 1e-9));
+  return pad;
+}
+
 void loadInputs(Run& run) {
   const DeformRequest& r = run.request;
   run.points = loadControlPoints(r.points);
@@ -67,6 +101,18 @@ void loadInputs(Run& run) {
   load.progress = &run.progress;
   run.loaded = io::loadVolume(r.input, load);
   run.timings["load"] = msSince(t);
+  if (r.padMm != 0) {
+    const std::array<int64_t, 3> pad = padVoxels(run);
+    run.loaded.volume = std::visit(
+        [&](const auto& v) -> AnyVolume {
+          using T = typename std::decay_t<decltype(v)>::value_type;
+          return padded(v, pad, static_cast<T>(v.background()));
+        },
+        run.loaded.volume);
+    const Geometry& g = geometryOf(run.loaded.volume);
+    run.report["pad_voxels"] = pad;
+    run.report["output_origin_mm"] = {g.origin.x, g.origin.y, g.origin.z};
+  }
   run.cpu.lap("load");
   if (!r.engine.labels.empty() || !r.engine.fixedIds.empty() || !r.engine.fixedBoxMm.empty()) {
     t = Clock::now();
@@ -100,8 +146,9 @@ void keepBonesRigid(Run& run) {
   rigidity["before"] = toJson(measureRigidityVoxels(run.cv, g, *run.bodies, e.upsampling, e.rigidityStride));
   rigidity["before_nodes"] = toJson(measureRigidity(run.cv, *run.bodies));
   auto t = Clock::now();
-  applyRigidity(run.cv, *run.bodies, {e.rigidFalloffMm}, run.progress);
+  const FoldRepairStats folds = applyRigidity(run.cv, *run.bodies, e.rigidity(), run.progress);
   run.timings["rigidity"] = msSince(t);
+  rigidity["fold_repair"] = toJson(folds, e.foldRepair);
   t = Clock::now();
   run.fullMap = upsampleMap(run.cv, g, e.upsampling);
   rigidity["after"] = toJson(measureRigidityMap(run.fullMap, g, *run.bodies, e.rigidityStride));
@@ -116,7 +163,7 @@ void psnrAgainstFullResolution(Run& run, const AnyVolume& out) {
   ref.controlScale = 1;
   ref.rhoScale = run.params.controlScale;  // same rho fields; only the map resolution differs
   ControlVolume full = computeControlVolume(run.loaded.volume, run.points.points, ref, run.progress);
-  if (run.bodies) applyRigidity(full, *run.bodies, {run.request.engine.rigidFalloffMm});
+  if (run.bodies) applyRigidity(full, *run.bodies, run.request.engine.rigidity());
   run.report["psnr_db_vs_s1"] = psnr(synthesize(run.loaded.volume, full, run.request.engine.upsampling), out);
   run.cpu.lap("psnr");
 }
@@ -127,6 +174,7 @@ void writeOutputs(Run& run, const AnyVolume& out, RunOutputs& written) {
   ensureParentFolder(r.output);
   io::SaveOptions so;
   so.force = r.force;
+  so.gzip = !r.noGzip;
   io::saveVolume(out, r.output, so);
   written.wrote(r.output);
   run.timings["save"] = msSince(t);
@@ -135,7 +183,7 @@ void writeOutputs(Run& run, const AnyVolume& out, RunOutputs& written) {
     t = Clock::now();
     ensureParentFolder(r.mapOut);
     if (run.fullMap.empty()) run.fullMap = upsampleMap(run.cv, geometryOf(out), r.engine.upsampling);
-    saveBackwardMapNrrd(run.fullMap, geometryOf(out), r.mapOut);
+    saveBackwardMapNrrd(run.fullMap, geometryOf(out), r.mapOut, !r.noGzip);
     written.wrote(r.mapOut);
     run.timings["map_out"] = msSince(t);
   }
@@ -145,7 +193,7 @@ void writeOutputs(Run& run, const AnyVolume& out, RunOutputs& written) {
     if (field.empty())
       for (int64_t n = 0; n < run.cv.grid.dims.voxelCount(); ++n) field.insert(field.end(), {0.f, 0.f, 0.f, 1.f});
     ensureParentFolder(r.attributesOut);
-    saveAttributeFieldNrrd(field, run.cv.grid, r.attributesOut);
+    saveAttributeFieldNrrd(field, run.cv.grid, r.attributesOut, !r.noGzip);
     written.wrote(r.attributesOut);
   }
 }
@@ -203,11 +251,34 @@ std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const
   io::LoadOptions o;
   o.region = load.region;
   o.allowOutsideData = load.allowOutsideData;
-  const LabelVolume lv = io::loadLabels(labels, o);
-  if (!(lv.geometry().dims == grid.dims) || !lv.geometry().approxEqual(grid, 1e-3))
-    throw FileError(labels, "label map grid " + lv.geometry().dims.str() + " differs from the volume's " +
-                                grid.dims.str());
+  LabelVolume lv = io::loadLabels(labels, o);
+  const Geometry& lg = lv.geometry();
+  if (!(lg.dims == grid.dims) || !lg.approxEqual(grid, 1e-3)) {
+    // The volume padded by --pad-mm: the label grid sits at whole voxels inside it.
+    const Vec3 at = grid.physicalToIndex(lg.origin);
+    std::array<int64_t, 3> pad{};
+    bool inside = true;
+    for (int a = 0; a < 3; ++a) {
+      pad[static_cast<size_t>(a)] = std::llround(at[a]);
+      inside = inside && std::abs(at[a] - double(pad[static_cast<size_t>(a)])) < 1e-3 && pad[static_cast<size_t>(a)] >= 0;
+    }
+    inside = inside && pad[0] * 2 + lg.dims.x == grid.dims.x && pad[1] * 2 + lg.dims.y == grid.dims.y &&
+             pad[2] * 2 + lg.dims.z == grid.dims.z;
+    Geometry shifted = grid;
+    shifted.dims = lg.dims;
+    shifted.origin = lg.origin;
+    if (!inside || !lg.approxEqual(shifted, 1e-3))
+      throw FileError(labels, "label map grid " + lg.dims.str() + " differs from the volume's " + grid.dims.str());
+    lv = LabelVolume(padded(lv.ids(), pad, uint16_t{0}), lv.table());
+  }
   return RigidBodies::fromLabelGroups(lv, bodyGroups(), 20, fixed);
+}
+
+RigidityParams DeformEngine::rigidity() const {
+  RigidityParams p;
+  p.falloffMm = rigidFalloffMm;
+  p.repairFolds = foldRepair;
+  return p;
 }
 
 std::vector<std::vector<uint16_t>> DeformEngine::bodyGroups() const {
@@ -274,6 +345,13 @@ const params::Table<DeformRequest>& deformRequestTable() {
   static const params::Table<R> t{
       params::flag<R>("psnr", [](auto& r) -> auto& { return r.psnr; },
                       {"PSNR", "also synthesise at s = 1 and report the PSNR of the result against it", ""}),
+      params::real<R>("pad_mm", [](auto& r) -> auto& { return r.padMm; },
+                      {"Output padding", "grow the output box by this on every side so what moves out is not cut "
+                       "(origin moves out, world positions kept); -1 = the largest point displacement + a cell", "mm", -1, 500}),
+      params::flag<R>("fold_repair", [](auto& r) -> auto& { return r.engine.foldRepair; },
+                      {"Fold repair", "relax the map around cells that fold in tissue (det J < 0.2); bones and fixed regions stay exact", ""}),
+      params::flag<R>("no_gzip", [](auto& r) -> auto& { return r.noGzip; },
+                      {"No gzip", "write the NRRD outputs (volume, map, attributes) raw instead of gzip", ""}),
   };
   return t;
 }
@@ -322,6 +400,14 @@ nlohmann::json measured(bool has, double value, nlohmann::json& notMeasured, con
   return nullptr;
 }
 }  // namespace
+
+nlohmann::json toJson(const FoldRepairStats& s, bool ran) {
+  if (!ran) return nullptr;
+  auto det = [](double d) { return std::isfinite(d) ? nlohmann::json(d) : nlohmann::json(); };
+  return {{"cells_before", s.cellsBefore}, {"cells_after", s.cellsAfter}, {"locked_cells_after", s.lockedCells},
+          {"nodes_relaxed", s.nodesRelaxed}, {"rounds", s.rounds},
+          {"min_cell_jacobian_before", det(s.minJacobianBefore)}, {"min_cell_jacobian_after", det(s.minJacobianAfter)}};
+}
 
 nlohmann::json toJson(const RigidityReport& r) {
   nlohmann::json notMeasured = nlohmann::json::object();

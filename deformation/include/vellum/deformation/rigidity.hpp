@@ -12,6 +12,7 @@
 #include "vellum/core/progress.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/deformation/control_volume.hpp"
+#include "vellum/deformation/fold_repair.hpp"
 
 namespace vellum::deformation {
 
@@ -129,10 +130,20 @@ class RigidBodies {
 };
 
 struct RigidityParams {
+  RigidityParams() = default;
+  /// `{falloff}`: the band width, everything else as default.
+  RigidityParams(double falloff) : falloffMm(falloff) {}  // NOLINT(google-explicit-constructor)
   /// Width of the band (mm) outside each body over which the map blends from the body's rigid
   /// fit back to the MLS map (smoothstep weight). Inside the body, and within one control-grid
   /// spacing of it, the map is the rigid fit.
   double falloffMm = 10.0;
+  /// Repair the folds the blend makes in tissue (repairFolds(): the free nodes of each folding
+  /// cell moved; the rigid cores and the fixed regions locked, so they stay exact). Off by
+  /// default here: it can cost seconds on a large grid, too much for the studio's live drags
+  /// and an animation's every frame until measured there; `vellum deform` turns it on
+  /// (app::DeformEngine::foldRepair).
+  bool repairFolds = false;
+  FoldRepairParams folds;
 };
 
 /// Blends `cv` towards each body's best rigid transform (Kabsch fit of v -> u over the
@@ -140,8 +151,10 @@ struct RigidityParams {
 /// normalised. The fixed body (if any) is the identity and wins: a node within a control-cell
 /// diagonal of it (at v or at u) is exactly v, and its band blends like a rigid body's. Also sets
 /// cv.rigidSnap, so that synthesize() / upsampleMap() give every voxel whose source lands in a
-/// body exactly that body's transform (see RigidSnap).
-void applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params = {},
+/// body exactly that body's transform (see RigidSnap). Then (params.repairFolds) the folds in
+/// tissue are repaired with the nodes set to a fit or to the identity locked; returns what the
+/// repair did (all zero when it did not run).
+FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params = {},
                    Progress& progress = Progress::none());
 
 struct RigidityReport {

@@ -9,8 +9,8 @@
 
 namespace vellum::io {
 
-/// Input bytes per gzip member written by gzipCompress (each member is one parallel task).
-inline constexpr size_t kGzipMemberBytes = size_t{1} << 20;
+/// Input bytes per deflate block written by gzipCompress (each block is one parallel task).
+inline constexpr size_t kGzipBlockBytes = size_t{1} << 20;
 
 /// A compressed stream. The buffer is not zero-filled first (its pages are touched by the
 /// compressing threads); `size` bytes are valid.
@@ -19,9 +19,11 @@ struct GzipBytes {
   size_t size = 0;
 };
 
-/// `n` bytes as gzip: members of kGzipMemberBytes input bytes each, compressed in parallel at a
-/// fast level (libdeflate level 1) and concatenated. RFC 1952 allows several members in one
-/// stream; gzip/zcat, zlib's gzread and teem/NrrdIO (3D Slicer, ITK) read them as one.
+/// `n` bytes as ONE gzip member (one stream, as every reader expects: some read only the first
+/// member of several, and many are slow on them): blocks of kGzipBlockBytes input bytes are
+/// compressed in parallel at a fast level (ISA-L level 3), each but the last ending byte-aligned
+/// (full flush), and joined into one deflate stream under one header, CRC-32 and size (the
+/// pigz scheme). Files from before (several concatenated members) still read: see below.
 GzipBytes gzipCompress(const void* data, size_t n);
 
 /// Refuses, before anything is allocated, a compressed stream of `n` bytes that claims to hold

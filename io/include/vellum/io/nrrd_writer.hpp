@@ -25,8 +25,9 @@ struct NrrdLayout {
 };
 
 /// Writes `bytes` (host byte order) as a NRRD file, atomically. A `.nhdr` path writes a
-/// detached header plus `<stem>.raw[.gz]` beside it. gzip is io::gzipCompress (parallel
-/// members at a fast level: CT and float fields gain little from more effort). Throws
+/// detached header plus `<stem>.raw[.gz]` beside it. gzip is io::gzipCompress (one gzip
+/// stream of blocks deflated in parallel at a fast level: CT and float fields gain little from
+/// more effort). Throws
 /// vellum::FileError naming `path`; vellum::Cancelled when `progress` is cancelled (nothing is
 /// left behind either way).
 void writeNrrd(const std::filesystem::path& path, const NrrdLayout& layout, const void* bytes,

@@ -42,6 +42,12 @@ struct DeformEngine {
   std::vector<double> fixedBoxMm;  ///< empty, or x0,y0,z0,x1,y1,z1 (mm, physical LPS): a box that does not move
   double rigidFalloffMm = 10;      ///< blend band outside each bone
   int rigidityStride = 1;          ///< voxel-level rigidity measures: every N-th voxel per axis
+  /// Repair the blend's folds in tissue (deformation::repairFolds): `deform --fold-repair`
+  /// (deformRequestTable); rigidity() carries it. `animate` and the studio call applyRigidity
+  /// with RigidityParams' default (no repair) for now.
+  bool foldRepair = true;
+  /// The rigid blend's parameters: rigidFalloffMm and foldRepair.
+  deformation::RigidityParams rigidity() const;
 
   /// The parameters to run with: `params`, except that a point file's power stands when the
   /// power was not given. Validated (vellum::Error naming the parameter).
@@ -49,7 +55,8 @@ struct DeformEngine {
   /// The rigid bodies of `labels` (read through `load`'s region, so that a cropped or
   /// downsampled volume gets the same region); nullopt without labels. FileError when the
   /// label map's grid differs from `grid`; Error when labels are given without rigid or fixed
-  /// ids (or a fixed region without labels).
+  /// ids (or a fixed region without labels). `grid` may be the label map's grid grown by whole
+  /// voxels (an output padded by --pad-mm): the labels are then placed in it, 0 around.
   std::optional<deformation::RigidBodies> rigidBodies(const Geometry& grid, const io::LoadOptions& load) const;
 };
 
@@ -65,13 +72,18 @@ struct DeformRequest {
   std::filesystem::path attributesOut;  ///< attribute field NRRD; empty: not written
   std::filesystem::path report;         ///< report JSON; empty: not written (still returned)
   bool psnr = false;  ///< also synthesise at s = 1 and report the PSNR against it
+  /// Grow the output box by this much on every side (mm; background there) so that what moves
+  /// out of the input's box is not cut; -1: by the largest control-point displacement (plus a
+  /// control cell). The output's origin moves out with it: world positions stay where they were.
+  double padMm = 0;
+  bool noGzip = false;  ///< NRRD outputs (volume, --map-out, --attributes-out) raw, not gzip
   bool force = false;  ///< a DICOM output may replace a Vellum folder of another kind
   DeformEngine engine;
   io::LoadOptions load;  ///< series, raw layout, region (the label map gets the same region)
   std::string commandLine;  ///< for the report's shared keys (run_report.hpp)
 };
 
-/// psnr (the paths and the engine's settings have their own flags and tables).
+/// psnr, pad_mm, fold_repair (engine.foldRepair), no_gzip (the paths and the engine's settings have their own flags and tables).
 const params::Table<DeformRequest>& deformRequestTable();
 
 struct DeformResult {
@@ -90,5 +102,8 @@ DeformResult runDeform(const DeformRequest& request, Progress& progress = Progre
 
 /// A rigidity report as `vellum deform` and `vellum animate` write it.
 nlohmann::json toJson(const deformation::RigidityReport& r);
+/// What the fold repair did (control-grid cells below its threshold before and after, ...);
+/// null when it did not run.
+nlohmann::json toJson(const deformation::FoldRepairStats& s, bool ran);
 
 }  // namespace vellum::app

@@ -1,0 +1,274 @@
+// Fold repair: relax the free nodes around folding cells until they unfold (fold_repair.hpp).
+#include "vellum/deformation/fold_repair.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <mutex>
+
+#include "vellum/core/error.hpp"
+#include "vellum/core/index_frame.hpp"
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::deformation {
+namespace {
+
+struct Grid {
+  Dims d;
+  Vec3 origin, ax, ay, az;  // node (i, j, k) sits at origin + i ax + j ay + k az (mm)
+  double detIdx = 1;        // det of the index -> mm matrix
+  explicit Grid(const Geometry& g) : d(g.dims), origin(g.origin) {
+    const Mat3 m = indexToMm(g);
+    ax = {m(0, 0), m(1, 0), m(2, 0)};
+    ay = {m(0, 1), m(1, 1), m(2, 1)};
+    az = {m(0, 2), m(1, 2), m(2, 2)};
+    detIdx = m.determinant();
+  }
+  int64_t node(int64_t i, int64_t j, int64_t k) const { return (k * d.y + j) * d.x + i; }
+  Vec3 v(int64_t i, int64_t j, int64_t k) const { return origin + ax * double(i) + ay * double(j) + az * double(k); }
+  int64_t cells() const { return d.x > 1 && d.y > 1 && d.z > 1 ? d.voxelCount() : 0; }
+  bool isCell(int64_t i, int64_t j, int64_t k) const {
+    return i >= 0 && j >= 0 && k >= 0 && i + 1 < d.x && j + 1 < d.y && k + 1 < d.z;
+  }
+};
+
+Vec3 at(const std::vector<float>& u, int64_t n) { return {u[3 * n], u[3 * n + 1], u[3 * n + 2]}; }
+
+double cellMin(const std::vector<float>& u, const Grid& g, int64_t i, int64_t j, int64_t k) {
+  Vec3 p[8];
+  for (int q = 0; q < 8; ++q) p[q] = at(u, g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1)));
+  double worst = std::numeric_limits<double>::infinity();
+  // The trilinear Jacobian at each corner: the three edges leaving it (in +i, +j, +k order).
+  for (int q = 0; q < 8; ++q) {
+    const int a = q & 1, b = (q >> 1) & 1, c = (q >> 2) & 1;
+    const Vec3 ex = p[1 + 2 * b + 4 * c] - p[0 + 2 * b + 4 * c];
+    const Vec3 ey = p[a + 2 + 4 * c] - p[a + 0 + 4 * c];
+    const Vec3 ez = p[a + 2 * b + 4] - p[a + 2 * b + 0];
+    worst = std::min(worst, dot(ex, cross(ey, ez)));
+  }
+  // ... and at the centre (the mean edges).
+  Vec3 ex{0, 0, 0}, ey{0, 0, 0}, ez{0, 0, 0};
+  for (int q = 0; q < 4; ++q) {
+    const int b = q & 1, c = q >> 1;
+    ex += p[1 + 2 * b + 4 * c] - p[2 * b + 4 * c];
+    ey += p[b + 2 + 4 * c] - p[b + 4 * c];
+    ez += p[b + 2 * c + 4] - p[b + 2 * c];
+  }
+  worst = std::min(worst, dot(ex, cross(ey, ez)) / 64.0);
+  return worst / g.detIdx;
+}
+
+// Cells below the threshold that the caller cares about, from a list of candidate cells (node
+// index of their lowest corner), or from every cell when `candidates` is null.
+struct Scan {
+  std::vector<int64_t> bad;
+  double minDet = std::numeric_limits<double>::infinity();
+};
+Scan scanCells(const std::vector<float>& u, const Grid& g, const std::vector<int64_t>* candidates, double threshold,
+               const std::function<bool(const Vec3&)>& cares) {
+  Scan s;
+  std::mutex mutex;
+  const int64_t n = candidates ? static_cast<int64_t>(candidates->size()) : g.d.z;
+  parallelFor(n, [&](int64_t t0, int64_t t1) {
+    Scan local;
+    auto visit = [&](int64_t i, int64_t j, int64_t k) {
+      const double det = cellMin(u, g, i, j, k);
+      if (det >= threshold) {
+        local.minDet = std::min(local.minDet, det);
+        return;
+      }
+      bool care = !cares;
+      for (int q = 0; q < 8 && !care; ++q)
+        care = cares(at(u, g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1))));
+      if (!care) return;
+      local.minDet = std::min(local.minDet, det);
+      local.bad.push_back(g.node(i, j, k));
+    };
+    if (candidates) {
+      for (int64_t t = t0; t < t1; ++t) {
+        const int64_t c = (*candidates)[static_cast<size_t>(t)];
+        visit(c % g.d.x, (c / g.d.x) % g.d.y, c / (g.d.x * g.d.y));
+      }
+    } else {
+      for (int64_t k = t0; k < std::min(t1, g.d.z - 1); ++k)
+        for (int64_t j = 0; j + 1 < g.d.y; ++j)
+          for (int64_t i = 0; i + 1 < g.d.x; ++i) visit(i, j, k);
+    }
+    std::lock_guard lock(mutex);
+    s.bad.insert(s.bad.end(), local.bad.begin(), local.bad.end());
+    s.minDet = std::min(s.minDet, local.minDet);
+  });
+  std::sort(s.bad.begin(), s.bad.end());
+  return s;
+}
+
+}  // namespace
+
+double cellMinJacobian(const ControlVolume& cv, int64_t i, int64_t j, int64_t k) {
+  const Grid g(cv.grid);
+  if (!g.isCell(i, j, k)) throw Error("cellMinJacobian: no such cell");
+  return cellMin(cv.sourceMm, g, i, j, k);
+}
+
+FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locked,
+                            const std::function<bool(const Vec3&)>& cares, const FoldRepairParams& params,
+                            const std::function<bool(const Vec3&)>& forbidden) {
+  FoldRepairStats st;
+  const Grid g(cv.grid);
+  const int64_t nodes = g.d.voxelCount();
+  if (cv.sourceMm.size() != 3 * static_cast<size_t>(nodes)) throw Error("fold repair: control volume size does not match its grid");
+  if (!locked.empty() && locked.size() != static_cast<size_t>(nodes)) throw Error("fold repair: lock mask size does not match the grid");
+  if (g.cells() == 0) return st;
+  std::vector<float>& u = cv.sourceMm;
+  Scan scan = scanCells(u, g, nullptr, params.minJacobian, cares);
+  st.cellsBefore = static_cast<int64_t>(scan.bad.size());
+  st.minJacobianBefore = scan.minDet;
+  st.minJacobianAfter = scan.minDet;
+  if (scan.bad.empty()) return st;
+  auto isLocked = [&](int64_t n) { return !locked.empty() && locked[static_cast<size_t>(n)] != 0; };
+  auto allLocked = [&](int64_t c) {
+    const int64_t i = c % g.d.x, j = (c / g.d.x) % g.d.y, k = c / (g.d.x * g.d.y);
+    for (int q = 0; q < 8; ++q)
+      if (!isLocked(g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1)))) return false;
+    return true;
+  };
+  // A cell whose 8 corners are locked cannot be repaired here (two rigid fits, or a fit and a
+  // fixed region, meet in it): growing a region around it would only smooth tissue for nothing.
+  auto dropLocked = [&](std::vector<int64_t>& cells) {
+    cells.erase(std::remove_if(cells.begin(), cells.end(), allLocked), cells.end());
+  };
+  dropLocked(scan.bad);
+  // Each pass moves the free corners of every folding cell so that its Jacobians rise: for
+  // every Jacobian of the cell below the threshold (at a corner or the centre: a cubic in the
+  // corner positions) the smallest move of the free corners that lifts its linearisation to the
+  // threshold (a projection, Kaczmarz); a node in several such terms takes the mean of their
+  // moves (Cimmino), at most a fifth of a node spacing per pass. The cells around a moved node
+  // are checked next pass, so a fold spreads into a transition just wide enough to stay above
+  // the threshold; nodes away from folds are never written.
+  std::vector<float> pull(3 * static_cast<size_t>(nodes), 0.f);
+  std::vector<uint8_t> count(static_cast<size_t>(nodes), 0), written(static_cast<size_t>(nodes), 0), seen(static_cast<size_t>(nodes), 0);
+  std::vector<int64_t> touched, cellMark;
+  const double target = params.minJacobian + 0.1;
+  auto intoBody = [&](int64_t n, const Vec3& next) {
+    if (forbidden(next)) return true;
+    const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+    for (int64_t c = std::max<int64_t>(k - 1, 0); c <= std::min(k + 1, g.d.z - 1); ++c)
+      for (int64_t b = std::max<int64_t>(j - 1, 0); b <= std::min(j + 1, g.d.y - 1); ++b)
+        for (int64_t a = std::max<int64_t>(i - 1, 0); a <= std::min(i + 1, g.d.x - 1); ++a)
+          if (g.node(a, b, c) != n && forbidden((next + at(u, g.node(a, b, c))) * 0.5)) return true;
+    return false;
+  };
+  const double maxStep = 0.2 * std::min({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
+  // Passes without fewer folding cells after which the repair gives up.
+  constexpr int kStallRounds = 200;
+  size_t fewest = scan.bad.size();
+  int lastGain = 0;
+  for (; st.rounds < params.maxRounds && !scan.bad.empty(); ++st.rounds) {
+    touched.clear();
+    for (int64_t c : scan.bad) {
+      const int64_t i = c % g.d.x, j = (c / g.d.x) % g.d.y, k = c / (g.d.x * g.d.y);
+      int64_t corner[8];
+      Vec3 p[8];
+      bool free[8];
+      for (int q = 0; q < 8; ++q) {
+        corner[q] = g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1));
+        p[q] = at(u, corner[q]);
+        free[q] = !isLocked(corner[q]);
+      }
+      // Corner terms: at corner (a, b, c) the edges leaving it.
+      auto addTerm = [&](const Vec3 (&dEdge)[3], const int (&hiq)[3][4], const int (&loq)[3][4], int n, double det) {
+        Vec3 grad[8];
+        for (auto& v : grad) v = {0, 0, 0};
+        for (int e = 0; e < 3; ++e)
+          for (int t = 0; t < n; ++t) {
+            grad[hiq[e][t]] += dEdge[e] / double(n);
+            grad[loq[e][t]] -= dEdge[e] / double(n);
+          }
+        double norm2 = 0;
+        for (int q = 0; q < 8; ++q)
+          if (free[q]) norm2 += dot(grad[q], grad[q]);
+        if (norm2 <= 1e-30) return;
+        const double scale = (target - det) / norm2;
+        for (int q = 0; q < 8; ++q) {
+          if (!free[q]) continue;
+          const Vec3 d = grad[q] * scale;
+          float* o = pull.data() + 3 * corner[q];
+          o[0] += static_cast<float>(d.x); o[1] += static_cast<float>(d.y); o[2] += static_cast<float>(d.z);
+          if (count[static_cast<size_t>(corner[q])]++ == 0) touched.push_back(corner[q]);
+        }
+      };
+      for (int q = 0; q < 8; ++q) {
+        const int a = q & 1, b = (q >> 1) & 1, e = (q >> 2) & 1;
+        const int hiq[3][4] = {{1 + 2 * b + 4 * e}, {a + 2 + 4 * e}, {a + 2 * b + 4}};
+        const int loq[3][4] = {{2 * b + 4 * e}, {a + 4 * e}, {a + 2 * b}};
+        const Vec3 ex = p[hiq[0][0]] - p[loq[0][0]], ey = p[hiq[1][0]] - p[loq[1][0]], ez = p[hiq[2][0]] - p[loq[2][0]];
+        const double det = dot(ex, cross(ey, ez)) / g.detIdx;
+        if (det >= target) continue;
+        const Vec3 dEdge[3] = {cross(ey, ez) / g.detIdx, cross(ez, ex) / g.detIdx, cross(ex, ey) / g.detIdx};
+        addTerm(dEdge, hiq, loq, 1, det);
+      }
+      {  // the centre: mean edges
+        int hiq[3][4], loq[3][4];
+        Vec3 ex{0, 0, 0}, ey{0, 0, 0}, ez{0, 0, 0};
+        for (int t = 0; t < 4; ++t) {
+          const int b = t & 1, e = t >> 1;
+          hiq[0][t] = 1 + 2 * b + 4 * e; loq[0][t] = 2 * b + 4 * e;
+          hiq[1][t] = b + 2 + 4 * e;     loq[1][t] = b + 4 * e;
+          hiq[2][t] = b + 2 * e + 4;     loq[2][t] = b + 2 * e;
+          ex += (p[hiq[0][t]] - p[loq[0][t]]) / 4.0;
+          ey += (p[hiq[1][t]] - p[loq[1][t]]) / 4.0;
+          ez += (p[hiq[2][t]] - p[loq[2][t]]) / 4.0;
+        }
+        const double det = dot(ex, cross(ey, ez)) / g.detIdx;
+        if (det < target) {
+          const Vec3 dEdge[3] = {cross(ey, ez) / g.detIdx, cross(ez, ex) / g.detIdx, cross(ex, ey) / g.detIdx};
+          addTerm(dEdge, hiq, loq, 4, det);
+        }
+      }
+    }
+    if (touched.empty()) break;
+    cellMark.clear();
+    for (int64_t n : touched) {
+      float* p = pull.data() + 3 * n;
+      Vec3 step = Vec3{p[0], p[1], p[2]} / double(count[static_cast<size_t>(n)]);
+      if (const double len = norm(step); len > maxStep) step = step * (maxStep / len);
+      const Vec3 next = at(u, n) + step;
+      p[0] = p[1] = p[2] = 0;
+      count[static_cast<size_t>(n)] = 0;
+      // A node may not move into a rigid body, nor bring the voxels between it and a neighbour
+      // there (the midpoints stand for them): they would show bone moved non-rigidly.
+      if (forbidden && intoBody(n, next)) continue;
+      for (int a = 0; a < 3; ++a) u[static_cast<size_t>(3 * n + a)] = static_cast<float>(next[a]);
+      if (!written[static_cast<size_t>(n)]) { written[static_cast<size_t>(n)] = 1; ++st.nodesRelaxed; }
+      // The 8 cells around the node changed.
+      const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+      for (int q = 0; q < 8; ++q) {
+        const int64_t a = i - (q & 1), b = j - ((q >> 1) & 1), c = k - ((q >> 2) & 1);
+        if (!g.isCell(a, b, c)) continue;
+        const int64_t cell = g.node(a, b, c);
+        if (!seen[static_cast<size_t>(cell)]) { seen[static_cast<size_t>(cell)] = 1; cellMark.push_back(cell); }
+      }
+    }
+    for (int64_t c : cellMark) seen[static_cast<size_t>(c)] = 0;
+    // Once a fold is being repaired its neighbours are checked whether they map to tissue or
+    // not: the compression must be free to spread into the air next to the skin.
+    scan = scanCells(u, g, &cellMark, params.minJacobian, {});
+    dropLocked(scan.bad);
+    // Stalled (what is left is held by locked nodes): stop rather than spin.
+    if (scan.bad.size() < fewest) {
+      fewest = scan.bad.size();
+      lastGain = st.rounds;
+    } else if (st.rounds - lastGain > kStallRounds) {
+      ++st.rounds;
+      break;
+    }
+  }
+  // The final count over every cell (a relaxed node may have bent a cell it was not checked in).
+  const Scan after = scanCells(u, g, nullptr, params.minJacobian, cares);
+  st.cellsAfter = static_cast<int64_t>(after.bad.size());
+  st.minJacobianAfter = after.minDet;
+  st.lockedCells = std::count_if(after.bad.begin(), after.bad.end(), allLocked);
+  return st;
+}
+
+}  // namespace vellum::deformation
