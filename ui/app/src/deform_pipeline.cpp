@@ -59,7 +59,7 @@ struct Run {
 
 void loadInputs(Run& run) {
   const DeformRequest& r = run.request;
-  run.points = loadControlPoints(r.points);
+  run.points = r.pointSet ? *r.pointSet : loadControlPoints(r.points);
   run.params = r.engine.resolved(run.points.power);
   run.cpu.lap("points");
   auto t = Clock::now();
@@ -310,6 +310,8 @@ DeformResult runDeform(const DeformRequest& request, Progress& progress) {
   result.points = run.points.points.size();
   result.warnings = std::move(run.loaded.warnings);
   result.report = std::move(run.report);
+  if (request.keepMap) result.map = run.fullMap.empty() ? upsampleMap(run.cv, geometryOf(result.output), request.engine.upsampling)
+                                                        : std::move(run.fullMap);
   return result;
 }
 
