@@ -137,6 +137,10 @@ const params::Table<PoseOptions>& poseOptionsTable() {
       params::real<O>("sample_spread", [](auto& o) -> auto& { return o.sampleSpread; },
                       {"Bone sample spread", "points on each bone at its centroid +- this many standard deviations "
                        "along its principal axes (snapped to the bone's nearest voxel)", "", 0.1, 3}),
+      params::real<O>("sample_step", [](auto& o) -> auto& { return o.sampleStepMm; },
+                      {"Bone sample step", "also one point per cell of this size on every bone of a joint, so "
+                       "that each bone's own points dominate the map inside it (0 = principal samples only)",
+                       "mm", 0, 200}),
       params::integer<O>("anchors", [](auto& o) -> auto& { return o.anchors; },
                          {"Still anchors", "points on the volume's inset box that stay put (0 = none)", "", 0, 64}),
       params::real<O>("anchor_inset", [](auto& o) -> auto& { return o.anchorInset; },
@@ -498,6 +502,33 @@ PoseSamples poseSamples(const Pose& pose, const LabelVolume& labels, const PoseO
       const Best& b = best[s][q];
       if (add(g.indexToPhysical({double(b.i), double(b.j), double(b.k)}), joint)) ++(fixed ? out.fixedPoints : out.bonePoints);
     }
+  }
+  // Lattice samples on the bones of the joints: per cell of sampleStepMm (index-space cells),
+  // the id's voxel nearest the cell's centre. Serial: one pass over the labels, few hits.
+  if (o.sampleStepMm > 0) {
+    const int64_t c[3] = {std::max<int64_t>(1, std::llround(o.sampleStepMm / sp.x)),
+                          std::max<int64_t>(1, std::llround(o.sampleStepMm / sp.y)),
+                          std::max<int64_t>(1, std::llround(o.sampleStepMm / sp.z))};
+    const int64_t cx = (d.x + c[0] - 1) / c[0], cy = (d.y + c[1] - 1) / c[1];
+    std::vector<uint8_t> bone(65536, 0);
+    for (uint16_t id : pose.boneIds())
+      if (std::find(pose.fixed.ids.begin(), pose.fixed.ids.end(), id) == pose.fixed.ids.end()) bone[id] = 1;
+    std::map<std::pair<uint16_t, int64_t>, Best> cells;  // ordered: deterministic point order
+    for (int64_t k = 0; k < d.z; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const uint16_t id = labels(i, j, k);
+          if (!bone[id]) continue;
+          const int64_t a = i / c[0], b = j / c[1], e = k / c[2];
+          const double dx = (double(i) - (double(a * c[0]) + 0.5 * double(c[0] - 1))) * sp.x;
+          const double dy = (double(j) - (double(b * c[1]) + 0.5 * double(c[1] - 1))) * sp.y;
+          const double dz = (double(k) - (double(e * c[2]) + 0.5 * double(c[2] - 1))) * sp.z;
+          const double d2 = dx * dx + dy * dy + dz * dz;
+          Best& best = cells[{id, (e * cy + b) * cx + a}];
+          if (d2 < best.d2) best = {d2, i, j, k};
+        }
+    for (const auto& [key, b] : cells)
+      if (add(g.indexToPhysical({double(b.i), double(b.j), double(b.k)}), pose.jointMoving(key.first))) ++out.bonePoints;
   }
   // Fixed boxes: their corners and centre, clipped to the volume's box.
   const Vec3 lo = g.indexToPhysical({0, 0, 0}), hi = g.indexToPhysical({double(d.x - 1), double(d.y - 1), double(d.z - 1)});

@@ -143,7 +143,9 @@ TEST(Pose, ChildBoneMapsByTheRequestedRotationParentAndFixedStay) {
   for (int k = 0; k < kN; ++k)
     for (int j = 0; j < kN; ++j)
       for (int i = 0; i < kN; ++i)
-        if (limb.labels(i, j, k) == kFixed) ASSERT_EQ(out(i, j, k), limb.ct(i, j, k));
+        if (limb.labels(i, j, k) == kFixed) {
+          ASSERT_EQ(out(i, j, k), limb.ct(i, j, k));
+        }
   // The report: the joint, the per-bone rigidity and the fixed region (exactly still).
   const nlohmann::json rep = nlohmann::json::parse(std::ifstream(f.report));
   EXPECT_EQ(rep["joints"][0]["name"], "knee");

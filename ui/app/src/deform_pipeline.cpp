@@ -100,7 +100,15 @@ void keepBonesRigid(Run& run) {
   rigidity["before"] = toJson(measureRigidityVoxels(run.cv, g, *run.bodies, e.upsampling, e.rigidityStride));
   rigidity["before_nodes"] = toJson(measureRigidity(run.cv, *run.bodies));
   auto t = Clock::now();
-  applyRigidity(run.cv, *run.bodies, {e.rigidFalloffMm}, run.progress);
+  std::vector<std::optional<RigidTransform>> known;
+  for (const auto& b : run.bodies->bodies()) {  // known transforms (vellum pose), inverted: the map is backward
+    std::optional<RigidTransform> backward;
+    for (const auto& [id, forward] : run.request.boneTransforms)
+      if (!b.fixed && !b.ids.empty() && b.ids.front() == id)
+        backward = RigidTransform{forward.rotation.transposed(), forward.rotation.transposed() * (-forward.translation)};
+    known.push_back(backward);
+  }
+  applyRigidity(run.cv, *run.bodies, {e.rigidFalloffMm}, known, run.progress);
   run.timings["rigidity"] = msSince(t);
   t = Clock::now();
   run.fullMap = upsampleMap(run.cv, g, e.upsampling);

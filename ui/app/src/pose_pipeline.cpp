@@ -57,6 +57,9 @@ const params::Table<PoseRequest>& poseRequestTable() {
       params::real<R>("frame_time", [](auto& r) -> auto& { return r.frameTimeS; },
                       {"Pose time", "the time (s) in the pose file's keyframes whose angles --out gets; "
                        "negative: the last keyframe", "s", -1, 1e6}),
+      params::flag<R>("exact_bones", [](auto& r) -> auto& { return r.exactBones; },
+                      {"Exact bones", "each bone takes its joints' transform (still bones the identity) instead of "
+                       "the best rigid fit of the MLS map over it (--out; movies fit)", ""}),
   };
   return t;
 }
@@ -143,6 +146,7 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
                       {"fixed", samples.fixedPoints},
                       {"anchors", samples.anchorPoints}};
   report["params"] = params::toJson(poseOptionsTable(), request.options);
+  report["exact_bones"] = request.exactBones;
   report["rigid_labels"] = engine.rigidIds;
   report["fixed_labels"] = engine.fixedIds;
 
@@ -161,6 +165,13 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     d.pointSet = points;
     d.output = request.output;
     d.keepMap = true;
+    if (request.exactBones) {
+      const std::vector<RigidTransform> jt = jointTransforms(pose, result.anglesDeg);
+      for (uint16_t id : engine.rigidIds) {
+        const int j = pose.jointMoving(id);
+        d.boneTransforms.push_back({id, j < 0 ? RigidTransform{} : jt[static_cast<size_t>(j)]});
+      }
+    }
     d.force = request.force;
     d.engine = engine;
     d.load = request.load;

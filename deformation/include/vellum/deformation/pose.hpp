@@ -55,6 +55,10 @@ Pose loadPose(const std::filesystem::path& path);
 /// Settings of the point generation and the measures: `vellum pose` flags (poseOptionsTable()).
 struct PoseOptions {
   double sampleSpread = 1.0;   ///< bone samples at centroid +- spread * sigma along each principal axis
+  /// Also one sample per cell of this size (mm) on every moving or parent bone (0 = none): a
+  /// bone's own points then lie nearer to its voxels than its neighbours' do, so the MLS map
+  /// inside it follows its transform, not a blend with the bone next to it.
+  double sampleStepMm = 8.0;
   int anchors = 8;             ///< still anchors on the volume's inset box (boxControlPoints); 0 = none
   double anchorInset = 0.1;    ///< their inset, fraction of the box
   double contactMm = 3.0;      ///< "axis": "estimate": parent/child voxels this close form the contact zone
@@ -87,7 +91,8 @@ struct PoseSamples {
   int bonePoints = 0, fixedPoints = 0, anchorPoints = 0;
 };
 /// Samples on every bone of the pose (the voxel of the id nearest to its centroid and to
-/// centroid +- spread * sigma along its three principal axes), on every fixed id (the same),
+/// centroid +- spread * sigma along its three principal axes, and per cell of sampleStepMm the
+/// voxel nearest the cell's centre), on every fixed id (the principal samples),
 /// the corners and centre of every fixed box (clipped to the volume), and `anchors` box points.
 /// Points within half a voxel of an earlier one are skipped. Error for a bone id with no voxel.
 PoseSamples poseSamples(const Pose& pose, const LabelVolume& labels, const PoseOptions& options);

@@ -63,6 +63,9 @@ struct DeformRequest {
   std::filesystem::path points;  ///< control points JSON (mm)
   /// Control points made in memory (`vellum pose` generates them): used instead of `points`.
   std::optional<deformation::PointFile> pointSet;
+  /// Known forward transforms (source -> output) of rigid bodies by their first label id
+  /// (`vellum pose`: the joints'): they replace those bodies' fits in the rigid blend.
+  std::vector<std::pair<uint16_t, RigidTransform>> boneTransforms;
   bool keepMap = false;  ///< DeformResult::map gets the full-resolution map (`vellum pose`'s measures)
   std::filesystem::path output;  ///< the deformed volume (same geometry and type)
   std::filesystem::path mapOut;         ///< backward map NRRD; empty: not written

@@ -28,6 +28,9 @@ struct PoseRequest {
   std::filesystem::path keyframesOut;  ///< the generated keyframe track (`vellum animate --keyframes`); empty: not written
   double frameTimeS = -1;  ///< the pose's time (s); < 0: the last keyframe
   bool force = false;
+  /// Each bone's rigid transform is its joints' (the still bones' the identity) instead of the
+  /// best fit of the MLS map over it (the map between bones is still MLS, blended to them).
+  bool exactBones = true;
   deformation::PoseOptions options;
   /// Engine settings (method, control scale, upsampling, falloff, stride); its labels, rigid
   /// and fixed ids are filled from the pose.
