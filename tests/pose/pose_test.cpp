@@ -35,13 +35,13 @@ Geometry limbGeometry() {
   return g;
 }
 
-/// Bones i + 1 = cylinders of radius 5 mm along z over `bonesZ` (mm), soft tissue (radius
+/// Bones i + 1 = cylinders of radius 5 mm along z (x half-width boneHalfWidthX) over `bonesZ` (mm), soft tissue (radius
 /// 16 mm, z 4..76 mm) around them, and a fixed block (x, y 2..10 mm, z 2..30 mm) aside.
 struct Limb {
   VolumeI16 ct;
   LabelVolume labels;
 };
-Limb makeLimb(const std::vector<std::pair<double, double>>& bonesZ) {
+Limb makeLimb(const std::vector<std::pair<double, double>>& bonesZ, double boneHalfWidthX = 5) {
   const Geometry g = limbGeometry();
   Limb l{VolumeI16(g, -1000), LabelVolume(g)};
   for (int k = 0; k < kN; ++k)
@@ -53,7 +53,7 @@ Limb makeLimb(const std::vector<std::pair<double, double>>& bonesZ) {
         int16_t hu = -1000;
         if (r <= 16 && p.z >= 4 && p.z <= 76) id = kSoft, hu = 40;
         for (size_t b = 0; b < bonesZ.size(); ++b)
-          if (r <= 5 && p.z >= bonesZ[b].first && p.z <= bonesZ[b].second) id = uint16_t(b + 1), hu = 1000;
+          if (std::hypot((p.x - kCentre) / boneHalfWidthX, (p.y - kCentre) / 5) <= 1 && p.z >= bonesZ[b].first && p.z <= bonesZ[b].second) id = uint16_t(b + 1), hu = 1000;
         if (p.x >= 2 && p.x <= 10 && p.y >= 2 && p.y <= 10 && p.z >= 2 && p.z <= 30) id = kFixed, hu = 600;
         l.ct(i, j, k) = hu;
         l.labels(i, j, k) = id;
@@ -257,4 +257,22 @@ TEST(Pose, MalformedPoseFileIsOneLineAndExit2) {
     EXPECT_NE(log.find("pose.json"), std::string::npos) << log;
     EXPECT_FALSE(fs::exists(f.out));
   }
+}
+
+TEST(Pose, EstimatedAxisIsTheContactZonesWidestDirection) {
+  // Bones 10 mm wide in x, 5 in y, 4 mm apart at z = 40: the contact zone is an ellipse whose
+  // widest direction is x, through (40, 40, 40).
+  const Limb limb = makeLimb({{42, 74}, {12, 38}}, 10);
+  Pose pose = loadPose(writeLimb(limb, "pose-estimate",
+                                 R"({"joints": [{"name": "knee", "parent": 1, "child": 2, "axis": "estimate"}],
+                                     "keyframes": [{"angles": {"knee": 10}}]})")
+                           .pose);
+  estimateAxes(pose, limb.labels, 5.0);
+  const Joint& j = pose.joints[0];
+  const Vec3 dir = normalized(j.axisB - j.axisA), mid = (j.axisA + j.axisB) * 0.5;
+  EXPECT_GT(dir.x, 0.99);  // sign: the largest component positive
+  EXPECT_LT(norm(mid - Vec3{40, 40, 40}), 1.0);
+  Pose far = pose;
+  far.joints[0].estimateAxis = true;
+  EXPECT_THROW(estimateAxes(far, limb.labels, 1.0), Error);  // 4 mm apart: no contact within 1 mm
 }
