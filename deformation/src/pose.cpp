@@ -561,6 +561,23 @@ ControlPoints posedPoints(const PoseSamples& samples, const Pose& pose, const st
   return pts;
 }
 
+std::vector<std::optional<RigidTransform>> knownBodyTransforms(const Pose& pose, const RigidBodies& bodies,
+                                                               const std::vector<double>& anglesDeg) {
+  const std::vector<RigidTransform> t = jointTransforms(pose, anglesDeg);
+  const std::vector<uint16_t> ids = pose.boneIds();
+  std::vector<std::optional<RigidTransform>> out;
+  for (const RigidBodies::Body& b : bodies.bodies()) {
+    std::optional<RigidTransform> known;
+    if (!b.fixed && !b.ids.empty() && contains(ids, b.ids.front())) {
+      const int j = pose.jointMoving(b.ids.front());
+      const RigidTransform f = j < 0 ? RigidTransform{} : t[static_cast<size_t>(j)];
+      known = RigidTransform{f.rotation.transposed(), f.rotation.transposed() * (-f.translation)};
+    }
+    out.push_back(known);
+  }
+  return out;
+}
+
 KeyframeTrack poseTrack(const PoseSamples& samples, const Pose& pose, double maxStepDeg) {
   if (!(maxStepDeg > 0)) throw Error("pose: the movie's angle step must be > 0");
   const KeyframeTrack& a = pose.angles;

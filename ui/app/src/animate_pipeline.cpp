@@ -73,6 +73,7 @@ animation::MovieSpec movieSpec(const AnimateRequest& request) {
   spec.settings = request.settings;
   spec.annotations = request.annotations;
   spec.labelIds = request.labelIds;
+  spec.knownBodyTransforms = request.knownBodyTransforms;
   return spec;
 }
 

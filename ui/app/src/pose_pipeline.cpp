@@ -59,7 +59,7 @@ const params::Table<PoseRequest>& poseRequestTable() {
                        "negative: the last keyframe", "s", -1, 1e6}),
       params::flag<R>("exact_bones", [](auto& r) -> auto& { return r.exactBones; },
                       {"Exact bones", "each bone takes its joints' transform (still bones the identity) instead of "
-                       "the best rigid fit of the MLS map over it (--out; movies fit)", ""}),
+                       "the best rigid fit of the MLS map over it", ""}),
   };
   return t;
 }
@@ -211,6 +211,10 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     a.engine = engine;
     a.load = request.load;
     a.commandLine = request.commandLine;
+    if (request.exactBones)  // each frame's bones at the pose's angles at that time
+      a.knownBodyTransforms = [pose](double timeS, const RigidBodies& bodies) {
+        return knownBodyTransforms(pose, bodies, pose.anglesAt(timeS));
+      };
     AnimateResult ar = runAnimate(a, progress);
     written.wrote(request.movie);
     report["movie"] = std::move(ar.report);

@@ -100,6 +100,13 @@ PoseSamples poseSamples(const Pose& pose, const LabelVolume& labels, const PoseO
 /// The control points at `anglesDeg`: sources as sampled, targets moved by their joint.
 ControlPoints posedPoints(const PoseSamples& samples, const Pose& pose, const std::vector<double>& anglesDeg);
 
+/// Per rigid body (bodies() order) its known transform at `anglesDeg`, BACKWARD (output ->
+/// source, as applyRigidity's `prescribed` takes it): the inverse of its joint's composed
+/// transform for a moving bone, the identity for a still bone of the pose; unset for the fixed
+/// body and bodies the pose does not name.
+std::vector<std::optional<RigidTransform>> knownBodyTransforms(const Pose& pose, const RigidBodies& bodies,
+                                                               const std::vector<double>& anglesDeg);
+
 /// A control-point keyframe track over the pose's keyframes, for `vellum animate`'s renderer:
 /// linear between generated keyframes at most `maxStepDeg` apart in every joint (points on a
 /// turning bone then travel close to their arc, not its chord), same total duration and loop.
