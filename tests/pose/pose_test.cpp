@@ -218,6 +218,18 @@ TEST(Pose, MovieTrackStepsAndPoseFileErrors) {
   const ControlPoints mid = posedPoints(s, pose, {10.0});
   for (size_t i = 0; i < mid.size(); ++i) EXPECT_LT(norm(t.keyframes[5].points[i].target - mid[i].target), 1e-9);
 
+  // Each frame's known bone transforms (movies): backward, the child's the inverse rotation,
+  // the parent's the identity, nothing for a body the pose does not name.
+  const RigidBodies bodies = RigidBodies::fromLabels(limb.labels, {1, 2, kFixed});
+  const auto known = knownBodyTransforms(pose, bodies, {20.0});
+  ASSERT_EQ(known.size(), 3u);
+  ASSERT_TRUE(known[0] && known[1]);
+  EXPECT_FALSE(known[2]);
+  const Vec3 p{40, 40, 20};
+  const RigidTransform turn = rotationAbout({30, 40, 41}, {50, 40, 41}, 20);
+  EXPECT_LT(norm(known[1]->apply(turn.apply(p)) - p), 1e-9);
+  EXPECT_LT(norm(known[0]->apply(p) - p), 1e-12);
+
   // Semantic errors in a pose file name the file and the joint.
   const fs::path dir = test::tempDir("pose-errors");
   const auto refused = [&](const std::string& text, const std::string& expected) {
