@@ -480,6 +480,11 @@ std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geo
 
 FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params,
                               Progress& progress) {
+  return applyRigidity(cv, bodies, params, {}, progress);
+}
+
+FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params,
+                              const std::vector<std::optional<RigidTransform>>& prescribed, Progress& progress) {
   if (!(params.falloffMm >= 0)) throw Error("rigid falloff must be >= 0 mm");
   const int nc = bodies.componentCount();
   if (nc == 0) return {};
@@ -492,8 +497,10 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
                         std::max(params.falloffMm, 0.0);
   const auto dist = bodies.gridFields(cv.grid, bandMm);
   const BodyClassLookup lookup{bodies, cv.grid, dist->bodyCells};
-  const auto fits = fitComponents(MapView{cv.sourceMm.data(), cv.grid, 1}, bodies,
-                                  [&](const Vec3& u) { return lookup.bodyClassAt(u); });
+  auto fits = fitComponents(MapView{cv.sourceMm.data(), cv.grid, 1}, bodies,
+                            [&](const Vec3& u) { return lookup.bodyClassAt(u); });
+  for (size_t c = 0; c < prescribed.size() && c < fits.size(); ++c)
+    if (prescribed[c] && static_cast<int>(c) != bodies.fixedBody()) fits[c] = {*prescribed[c], true};
   progress.advance(static_cast<uint64_t>(nc));
   const Mat3 gridIdx = mmToIndexOf(cv.grid);
   // Weight 1 within one control spacing of the body. A wider core (a whole cell diagonal) makes

@@ -5,6 +5,7 @@
 #include "vellum/app/animate_pipeline.hpp"
 #include "vellum/app/compare.hpp"
 #include "vellum/app/deform_pipeline.hpp"
+#include "vellum/app/pose_pipeline.hpp"
 #include "vellum/app/segment_pipeline.hpp"
 #include "vellum/deformation/deform_params.hpp"
 #include "vellum/illustration/shape.hpp"
@@ -41,6 +42,9 @@ std::string parametersMarkdown() {
   out += "\n## Comparison tolerances — `app::CompareTolerances` (`vellum compare`; a `vellum qa` check's \"tolerances\")\n\n" +
          params::markdown(app::compareTolerancesTable());
   out += "\n## Shape pipeline — `ShapeOptions` (`vellum shape`)\n\n" + params::markdown(illustration::shapeOptionsTable());
+  out += "\n## Pose request — `app::PoseRequest` (`vellum pose`)\n\n" + params::markdown(app::poseRequestTable());
+  out += "\n## Pose points and measures — `PoseOptions` (`vellum pose`)\n\n" +
+         params::markdown(deformation::poseOptionsTable());
   return out;
 }
 

@@ -25,6 +25,7 @@ void addLabelsCommand(CLI::App& app);       // issue 23: ids of bones
 void addParamsCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);  // issue 25
 void addQaCommand(CLI::App& app);       // issue 25
+void addPoseCommand(CLI::App& app);     // issue 23: joints and poses
 
 /// docs/parameters.md: every parameter table as Markdown (cmd_params.cpp).
 std::string parametersMarkdown();

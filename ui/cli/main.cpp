@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
   addDeformCommand(app);
   addControlsCommand(app);
   addAnimateCommand(app);
+  addPoseCommand(app);
   addShapeCommand(app);
   addIllustrateCommand(app);
   addCurveAnalogyCommand(app);

@@ -136,7 +136,13 @@ struct MovieRenderer::Impl {
     const auto t0 = std::chrono::steady_clock::now();
     deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
     ControlVolume cv = deformer.update();
-    if (rigidity.bodies) applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm});
+    if (rigidity.bodies) {
+      if (spec.knownBodyTransforms)
+        applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm},
+                      spec.knownBodyTransforms(track.frameTimeS(f, spec.fps), *rigidity.bodies));
+      else
+        applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm});
+    }
     const render::BackwardMap map = renderedMap(cv, geometry, spec.upsampling);
     renderer.setBackwardMap(&map);
     result.deformMs += msSince(t0);

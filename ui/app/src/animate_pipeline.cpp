@@ -85,6 +85,7 @@ animation::MovieSpec movieSpec(const AnimateRequest& request) {
   spec.subtitle = request.subtitle;
   spec.titleSeconds = request.titleSeconds;
   spec.caption = request.caption;
+  spec.knownBodyTransforms = request.knownBodyTransforms;
   return spec;
 }
 
@@ -130,7 +131,7 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
       .check();
   if (request.annotations.labels && request.engine.labels.empty())
     throw Error("--name-structures needs the label map of --labels");
-  KeyframeTrack track = loadKeyframes(request.keyframes);
+  KeyframeTrack track = request.track ? *request.track : loadKeyframes(request.keyframes);
   if (request.loop) track.loop = true;
   const DeformParams params = request.engine.resolved(std::nullopt);
   io::LoadOptions load = request.load;

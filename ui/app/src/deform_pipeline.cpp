@@ -93,7 +93,7 @@ std::array<int64_t, 3> padVoxels(const Run& run) {
 
 void loadInputs(Run& run) {
   const DeformRequest& r = run.request;
-  run.points = loadControlPoints(r.points);
+  run.points = r.pointSet ? *r.pointSet : loadControlPoints(r.points);
   run.params = r.engine.resolved(run.points.power);
   run.cpu.lap("points");
   auto t = Clock::now();
@@ -146,7 +146,15 @@ void keepBonesRigid(Run& run) {
   rigidity["before"] = toJson(measureRigidityVoxels(run.cv, g, *run.bodies, e.upsampling, e.rigidityStride));
   rigidity["before_nodes"] = toJson(measureRigidity(run.cv, *run.bodies));
   auto t = Clock::now();
-  const FoldRepairStats folds = applyRigidity(run.cv, *run.bodies, e.rigidity(), run.progress);
+  std::vector<std::optional<RigidTransform>> known;
+  for (const auto& b : run.bodies->bodies()) {  // known transforms (vellum pose), inverted: the map is backward
+    std::optional<RigidTransform> backward;
+    for (const auto& [id, forward] : run.request.boneTransforms)
+      if (!b.fixed && !b.ids.empty() && b.ids.front() == id)
+        backward = RigidTransform{forward.rotation.transposed(), forward.rotation.transposed() * (-forward.translation)};
+    known.push_back(backward);
+  }
+  const FoldRepairStats folds = applyRigidity(run.cv, *run.bodies, e.rigidity(), known, run.progress);
   run.timings["rigidity"] = msSince(t);
   rigidity["fold_repair"] = toJson(folds, e.foldRepair);
   t = Clock::now();
@@ -388,6 +396,8 @@ DeformResult runDeform(const DeformRequest& request, Progress& progress) {
   result.points = run.points.points.size();
   result.warnings = std::move(run.loaded.warnings);
   result.report = std::move(run.report);
+  if (request.keepMap) result.map = run.fullMap.empty() ? upsampleMap(run.cv, geometryOf(result.output), request.engine.upsampling)
+                                                        : std::move(run.fullMap);
   return result;
 }
 

@@ -6,10 +6,12 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/progress.hpp"
+#include "vellum/core/rigid_fit.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/deformation/control_volume.hpp"
 #include "vellum/deformation/fold_repair.hpp"
@@ -155,7 +157,14 @@ struct RigidityParams {
 /// tissue are repaired with the nodes set to a fit or to the identity locked; returns what the
 /// repair did (all zero when it did not run).
 FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params = {},
-                   Progress& progress = Progress::none());
+                              Progress& progress = Progress::none());
+/// The same with known transforms per body (RigidBodies::bodies() order), backward (output v
+/// -> source u): a set entry replaces that body's fit (`vellum pose`: a bone's transform is
+/// its joints' rotation, not the MLS map's compromise with its neighbours); the fixed body
+/// stays the identity.
+FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, const RigidityParams& params,
+                              const std::vector<std::optional<RigidTransform>>& prescribed,
+                              Progress& progress = Progress::none());
 
 struct RigidityReport {
   /// True: measured on the full-resolution map that resampling uses (upsampled from the

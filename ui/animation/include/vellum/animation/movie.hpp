@@ -2,6 +2,7 @@
 // Keyframed deformation movies through the GL renderer. `vellum animate`, the demo and the
 // studio's export all render through MovieRenderer, so their frames are the same pixels.
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -42,6 +43,11 @@ struct MovieSpec {
   /// Text at the bottom of every frame; a keyframe's own caption (KeyframeTrack::captionAt)
   /// replaces it while that keyframe's segment plays.
   std::string caption;
+  /// Known transforms of the rigid bodies at a frame's time (backward, bodies() order: what
+  /// applyRigidity takes as `prescribed`): `vellum pose` gives each bone its joints' exact
+  /// transform. Empty: every body is fitted.
+  std::function<std::vector<std::optional<RigidTransform>>(double timeS, const deformation::RigidBodies&)>
+      knownBodyTransforms;
 };
 
 /// Rigid bones: the bodies and the blend band; measureStride 0 skips the per-frame measures.

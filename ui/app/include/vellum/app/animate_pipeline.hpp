@@ -23,6 +23,9 @@ namespace vellum::app {
 struct AnimateRequest {
   std::filesystem::path input;      ///< volume file or DICOM folder
   std::filesystem::path keyframes;  ///< keyframe JSON (mm)
+  std::optional<deformation::KeyframeTrack> track;
+  /// Known rigid-body transforms per frame (animation::MovieSpec::knownBodyTransforms; `vellum pose`).
+  decltype(animation::MovieSpec::knownBodyTransforms) knownBodyTransforms;  ///< a track made in memory (`vellum pose`): used instead of `keyframes`
   /// movie.mp4, or a folder (a path ending in '/' or without an extension) for PNG frames.
   std::filesystem::path output;
   std::filesystem::path frames;  ///< also PNG frames into this folder; empty: no

@@ -15,6 +15,7 @@
 #include "vellum/core/progress.hpp"
 #include "vellum/core/volume.hpp"
 #include "vellum/deformation/deform_params.hpp"
+#include "vellum/deformation/point_files.hpp"
 #include "vellum/deformation/rigidity.hpp"
 #include "vellum/io/volume_io.hpp"
 
@@ -67,6 +68,12 @@ const params::Table<DeformEngine>& deformEngineTable();
 struct DeformRequest {
   std::filesystem::path input;   ///< volume file or DICOM folder
   std::filesystem::path points;  ///< control points JSON (mm)
+  /// Control points made in memory (`vellum pose` generates them): used instead of `points`.
+  std::optional<deformation::PointFile> pointSet;
+  /// Known forward transforms (source -> output) of rigid bodies by their first label id
+  /// (`vellum pose`: the joints'): they replace those bodies' fits in the rigid blend.
+  std::vector<std::pair<uint16_t, RigidTransform>> boneTransforms;
+  bool keepMap = false;  ///< DeformResult::map gets the full-resolution map (`vellum pose`'s measures)
   std::filesystem::path output;  ///< the deformed volume (same geometry and type)
   std::filesystem::path mapOut;         ///< backward map NRRD; empty: not written
   std::filesystem::path attributesOut;  ///< attribute field NRRD; empty: not written
@@ -94,6 +101,7 @@ struct DeformResult {
   /// timings_ms and cpu_ms per stage, rigidity before/after (voxels and nodes), psnr_db_vs_s1,
   /// input, output, points, dims, params, upsampling: what request.report holds.
   nlohmann::json report;
+  std::vector<float> map;  ///< with request.keepMap: the upsampled map, 3 floats (source mm) per output voxel
 };
 
 /// Runs the request: every output written atomically, the input never overwritten.

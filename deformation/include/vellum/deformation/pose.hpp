@@ -1,0 +1,135 @@
+#pragma once
+// Joints and poses (issue 23 §3): a pose file names joints (a parent bone, a child bone — label
+// ids — and a hinge axis), keyframed joint angles, and the regions that stay put. The control
+// points are generated from the label map, not typed: well-spread samples rigidly attached to
+// every bone and fixed region, plus sparse box anchors; their targets come from composing the
+// joint rotations along the chain (everything distal follows the child). The deformation
+// itself is the ordinary MLS + rigid-bone engine (deformer.hpp, rigidity.hpp). Positions in mm
+// (physical LPS), angles in degrees. Format: docs/deformation.md, "Pose file".
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "vellum/core/label_volume.hpp"
+#include "vellum/core/params.hpp"
+#include "vellum/core/rigid_fit.hpp"
+#include "vellum/deformation/control_point.hpp"
+#include "vellum/deformation/keyframes.hpp"
+#include "vellum/deformation/rigidity.hpp"
+
+namespace vellum::deformation {
+
+struct Joint {
+  std::string name;
+  std::vector<uint16_t> parent;  ///< the parent bone's label ids (it holds the axis)
+  std::vector<uint16_t> child;   ///< the child bone's label ids (each id stays one rigid body)
+  /// Two points on the hinge axis (mm); a positive angle turns the child right-handed about
+  /// axisA -> axisB. Filled by estimateAxes() when `estimateAxis`.
+  Vec3 axisA{0, 0, 0}, axisB{0, 0, 0};
+  bool estimateAxis = false;  ///< "axis": "estimate": from the parent/child contact zone
+  int proximal = -1;  ///< the joint whose child holds this joint's parent (chains), -1: a root joint
+};
+
+struct Pose {
+  std::vector<Joint> joints;
+  FixedRegions fixed;  ///< "fixed_labels", "fixed_boxes": they do not move at all
+  /// The angles (deg) over time: a keyframe track whose point i carries joint i's angle in
+  /// its source.x, so that the angles are timed and interpolated exactly like control points
+  /// (durations, linear / smooth / eased, loop: keyframes.hpp).
+  KeyframeTrack angles;
+
+  /// Angles (deg) per joint at time t (s).
+  std::vector<double> anglesAt(double timeS) const;
+  /// The time of the last keyframe (the pose `vellum pose` makes by default).
+  double lastKeyframeTimeS() const;
+  /// Every bone id of every joint (parents and children), sorted, unique.
+  std::vector<uint16_t> boneIds() const;
+  /// The joint whose child holds `id`, or -1 (a bone that no joint moves stays still).
+  int jointMoving(uint16_t id) const;
+};
+
+/// Reads a pose file. vellum::FileError naming the file and the field, one line (through
+/// core/json_input.hpp: size, depth and syntax checked before anything is used).
+Pose loadPose(const std::filesystem::path& path);
+
+/// Settings of the point generation and the measures: `vellum pose` flags (poseOptionsTable()).
+struct PoseOptions {
+  double sampleSpread = 1.0;   ///< bone samples at centroid +- spread * sigma along each principal axis
+  /// Also one sample per cell of this size (mm) on every moving or parent bone (0 = none): a
+  /// bone's own points then lie nearer to its voxels than its neighbours' do, so the MLS map
+  /// inside it follows its transform, not a blend with the bone next to it.
+  double sampleStepMm = 8.0;
+  int anchors = 8;             ///< still anchors on the volume's inset box (boxControlPoints); 0 = none
+  double anchorInset = 0.1;    ///< their inset, fraction of the box
+  double contactMm = 3.0;      ///< "axis": "estimate": parent/child voxels this close form the contact zone
+  double maxStepDeg = 2.0;     ///< movies: generated keyframes at most this many degrees apart
+  int measureStride = 1;       ///< joint measures visit every N-th voxel per axis
+};
+const params::Table<PoseOptions>& poseOptionsTable();
+
+/// Rotation by `angleDeg` about the axis through a -> b (right-handed), as a rigid transform.
+RigidTransform rotationAbout(const Vec3& a, const Vec3& b, double angleDeg);
+
+/// Per joint, the transform of its child bone at `anglesDeg` (rest -> posed): its own rotation
+/// about its rest axis, then its proximal joints' (the chain: distal first).
+std::vector<RigidTransform> jointTransforms(const Pose& pose, const std::vector<double>& anglesDeg);
+
+/// Links the chain (Joint::proximal) and checks the joints against each other: Error for a
+/// bone that two joints move, a joint whose parent is the child of two joints, a cycle, a bone
+/// both moved and fixed, a degenerate axis. loadPose() calls it.
+void linkJoints(Pose& pose);
+
+/// Fills the axes of the joints with "axis": "estimate" from the label map: the contact zone =
+/// parent and child voxels within `contactMm` of the other bone; the axis passes through its
+/// centroid along its principal (widest) direction. Error when a zone is empty.
+void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm);
+
+/// The generated control points' sources and what moves them.
+struct PoseSamples {
+  std::vector<Vec3> sources;  ///< mm
+  std::vector<int> joint;     ///< per source: the joint whose transform moves it, -1 still
+  int bonePoints = 0, fixedPoints = 0, anchorPoints = 0;
+};
+/// Samples on every bone of the pose (the voxel of the id nearest to its centroid and to
+/// centroid +- spread * sigma along its three principal axes, and per cell of sampleStepMm the
+/// voxel nearest the cell's centre), on every fixed id (the principal samples),
+/// the corners and centre of every fixed box (clipped to the volume), and `anchors` box points.
+/// Points within half a voxel of an earlier one are skipped. Error for a bone id with no voxel.
+PoseSamples poseSamples(const Pose& pose, const LabelVolume& labels, const PoseOptions& options);
+
+/// The control points at `anglesDeg`: sources as sampled, targets moved by their joint.
+ControlPoints posedPoints(const PoseSamples& samples, const Pose& pose, const std::vector<double>& anglesDeg);
+
+/// Per rigid body (bodies() order) its known transform at `anglesDeg`, BACKWARD (output ->
+/// source, as applyRigidity's `prescribed` takes it): the inverse of its joint's composed
+/// transform for a moving bone, the identity for a still bone of the pose; unset for the fixed
+/// body and bodies the pose does not name.
+std::vector<std::optional<RigidTransform>> knownBodyTransforms(const Pose& pose, const RigidBodies& bodies,
+                                                               const std::vector<double>& anglesDeg);
+
+/// A control-point keyframe track over the pose's keyframes, for `vellum animate`'s renderer:
+/// linear between generated keyframes at most `maxStepDeg` apart in every joint (points on a
+/// turning bone then travel close to their arc, not its chord), same total duration and loop.
+KeyframeTrack poseTrack(const PoseSamples& samples, const Pose& pose, double maxStepDeg);
+
+/// How well a deformed volume holds a pose, from its backward map (3 floats per output voxel,
+/// source mm, x fastest: upsampleMap()) and the label map on the source grid.
+struct JointMeasure {
+  std::string name;
+  double requestedDeg = 0;  ///< the joint's angle
+  /// The child's best rigid fit relative to the parent's, turned about the joint axis
+  /// (twist angle; NaN when either bone has no sample).
+  double achievedDeg = 0;
+  /// The child's fit against its requested (composed) transform: the angle between the two
+  /// rotations and the distance between where they put the child's centroid.
+  double childRotationErrorDeg = 0, childPositionErrorMm = 0;
+  double parentRotationDeg = 0;  ///< the parent's fitted rotation angle (0 for a still parent)
+  int64_t childSamples = 0, parentSamples = 0;
+};
+/// Fits (Kabsch, source -> output) each joint's whole parent and child bone (all their ids)
+/// over the output voxels whose source lies in them (nearest voxel), every `stride`-th voxel.
+std::vector<JointMeasure> measureJoints(const std::vector<float>& mapMm, const Geometry& output,
+                                        const LabelVolume& labels, const Pose& pose,
+                                        const std::vector<double>& anglesDeg, int stride = 1);
+
+}  // namespace vellum::deformation

@@ -1,0 +1,290 @@
+// `vellum pose` (issue 23 §3) on a small synthetic limb (40³ voxels of 2 mm): bones are
+// cylinders along z with label ids, soft tissue around them, a fixed block aside. A joint's
+// child bone must map by the requested rotation about the joint axis (analytic), the parent and
+// the fixed block must not move, a chain composes (the grand-child follows), angle 0 is the
+// identity, and a malformed pose file is one line and exit 2 through the binary.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+
+#include "child_process.hpp"
+#include "test_data.hpp"
+#include "vellum/app/pose_pipeline.hpp"
+#include "vellum/deformation/point_files.hpp"
+#include "vellum/deformation/pose.hpp"
+#include "vellum/io/volume_io.hpp"
+
+using namespace vellum;
+using namespace vellum::deformation;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr int kN = 40;           // voxels per axis
+constexpr double kSpacing = 2;   // mm
+constexpr double kCentre = 40;   // the limb's axis: x = y = 40 mm
+constexpr uint16_t kSoft = 100, kFixed = 50;
+
+Geometry limbGeometry() {
+  Geometry g;
+  g.dims = {kN, kN, kN};
+  g.spacing = {kSpacing, kSpacing, kSpacing};
+  return g;
+}
+
+/// Bones i + 1 = cylinders of radius 5 mm along z (x half-width boneHalfWidthX) over `bonesZ` (mm), soft tissue (radius
+/// 16 mm, z 4..76 mm) around them, and a fixed block (x, y 2..10 mm, z 2..30 mm) aside.
+struct Limb {
+  VolumeI16 ct;
+  LabelVolume labels;
+};
+Limb makeLimb(const std::vector<std::pair<double, double>>& bonesZ, double boneHalfWidthX = 5) {
+  const Geometry g = limbGeometry();
+  Limb l{VolumeI16(g, -1000), LabelVolume(g)};
+  for (int k = 0; k < kN; ++k)
+    for (int j = 0; j < kN; ++j)
+      for (int i = 0; i < kN; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        const double r = std::hypot(p.x - kCentre, p.y - kCentre);
+        uint16_t id = 0;
+        int16_t hu = -1000;
+        if (r <= 16 && p.z >= 4 && p.z <= 76) id = kSoft, hu = 40;
+        for (size_t b = 0; b < bonesZ.size(); ++b)
+          if (std::hypot((p.x - kCentre) / boneHalfWidthX, (p.y - kCentre) / 5) <= 1 && p.z >= bonesZ[b].first && p.z <= bonesZ[b].second) id = uint16_t(b + 1), hu = 1000;
+        if (p.x >= 2 && p.x <= 10 && p.y >= 2 && p.y <= 10 && p.z >= 2 && p.z <= 30) id = kFixed, hu = 600;
+        l.ct(i, j, k) = hu;
+        l.labels(i, j, k) = id;
+      }
+  return l;
+}
+
+std::string xAxisAt(double z) {
+  return "[[30, 40, " + std::to_string(z) + "], [50, 40, " + std::to_string(z) + "]]";
+}
+
+struct Files {
+  fs::path dir, ct, labels, pose, out, report;
+};
+Files writeLimb(const Limb& l, const std::string& name, const std::string& poseJson) {
+  Files f;
+  f.dir = test::tempDir(name);
+  f.ct = f.dir / "ct.nrrd";
+  f.labels = f.dir / "labels.nrrd";
+  f.pose = f.dir / "pose.json";
+  f.out = f.dir / "posed.nrrd";
+  f.report = f.dir / "report.json";
+  io::saveVolume(l.ct, f.ct);
+  io::saveLabels(l.labels, f.labels);
+  std::ofstream(f.pose) << poseJson;
+  return f;
+}
+
+app::PoseResult runPose(const Files& f) {
+  app::PoseRequest r;
+  r.input = f.ct;
+  r.labels = f.labels;
+  r.pose = f.pose;
+  r.output = f.out;
+  r.report = f.report;
+  r.pointsOut = f.dir / "points.json";
+  return app::runPose(r);
+}
+
+/// Fraction of `id`'s interior source voxels p (all 6 neighbours `id` too) whose image T(p)
+/// shows bone (>= 900 HU) in the output: 1 when the bone moved by T as a whole.
+double fractionMovedBy(const Limb& l, const VolumeI16& out, uint16_t id, const RigidTransform& t) {
+  const Geometry& g = l.ct.geometry();
+  int64_t n = 0, ok = 0;
+  for (int k = 1; k + 1 < kN; ++k)
+    for (int j = 1; j + 1 < kN; ++j)
+      for (int i = 1; i + 1 < kN; ++i) {
+        if (l.labels(i, j, k) != id || l.labels(i - 1, j, k) != id || l.labels(i + 1, j, k) != id ||
+            l.labels(i, j - 1, k) != id || l.labels(i, j + 1, k) != id || l.labels(i, j, k - 1) != id ||
+            l.labels(i, j, k + 1) != id)
+          continue;
+        const Vec3 q = g.physicalToIndex(t.apply(g.indexToPhysical({double(i), double(j), double(k)})));
+        const int64_t a = std::llround(q.x), b = std::llround(q.y), c = std::llround(q.z);
+        ++n;
+        if (g.contains(a, b, c) && out(a, b, c) >= 900) ++ok;
+      }
+  EXPECT_GT(n, 20) << "bone " << id << " has too few interior voxels for the check";
+  return n ? double(ok) / double(n) : 0;
+}
+
+VolumeI16 loadI16(const fs::path& p) { return std::get<VolumeI16>(io::loadVolume(p).volume); }
+
+}  // namespace
+
+TEST(Pose, ChildBoneMapsByTheRequestedRotationParentAndFixedStay) {
+  const Limb limb = makeLimb({{46, 74}, {12, 36}});  // parent 1 above, child 2 below, axis at z = 41
+  const std::string pose = R"({"units": "mm", "joints": [{"name": "knee", "parent": 1, "child": [2], "axis": )" +
+                           xAxisAt(41) + R"(}], "fixed_labels": [50],
+      "keyframes": [{"duration": 1, "angles": {"knee": 0}}, {"duration": 1, "angles": {"knee": 20}}]})";
+  const Files f = writeLimb(limb, "pose-joint", pose);
+  const app::PoseResult r = runPose(f);
+  ASSERT_EQ(r.anglesDeg.size(), 1u);
+  EXPECT_DOUBLE_EQ(r.anglesDeg[0], 20);  // default: the last keyframe
+  ASSERT_EQ(r.joints.size(), 1u);
+  const JointMeasure& m = r.joints[0];
+  EXPECT_NEAR(m.achievedDeg, 20, 0.5);
+  EXPECT_LT(m.childRotationErrorDeg, 0.5);
+  EXPECT_LT(m.childPositionErrorMm, 0.5);
+  EXPECT_LT(m.parentRotationDeg, 0.5);
+  // Voxel level, against the analytic rotation: the child's voxels land where the requested
+  // rotation puts them; the parent's stay; the fixed block's voxels are the input's, bit for bit.
+  const VolumeI16 out = loadI16(f.out);
+  const RigidTransform want = rotationAbout({30, 40, 41}, {50, 40, 41}, 20);
+  EXPECT_GE(fractionMovedBy(limb, out, 2, want), 0.98);
+  EXPECT_LT(fractionMovedBy(limb, out, 2, RigidTransform{}), 0.5) << "the child did move";
+  EXPECT_GE(fractionMovedBy(limb, out, 1, RigidTransform{}), 0.98);
+  for (int k = 0; k < kN; ++k)
+    for (int j = 0; j < kN; ++j)
+      for (int i = 0; i < kN; ++i)
+        if (limb.labels(i, j, k) == kFixed) {
+          ASSERT_EQ(out(i, j, k), limb.ct(i, j, k));
+        }
+  // The report: the joint, the per-bone rigidity and the fixed region (exactly still).
+  const nlohmann::json rep = nlohmann::json::parse(std::ifstream(f.report));
+  EXPECT_EQ(rep["joints"][0]["name"], "knee");
+  EXPECT_NEAR(rep["joints"][0]["achieved_deg"].get<double>(), 20, 0.5);
+  const nlohmann::json& after = rep["deform"]["rigidity"]["after"];
+  EXPECT_LE(after["fixed"]["max_displacement_mm"].get<double>(), 1e-4);
+  EXPECT_EQ(after["bodies"].size(), 2u);  // one rigid body per bone id
+  EXPECT_LT(after["bone_rms_residual_mm"].get<double>(), 0.05);
+  EXPECT_FALSE(after["fold_fraction"].is_null());
+}
+
+TEST(Pose, ChainGrandChildFollowsBothJoints) {
+  // parent 1 (top), child 2, grand-child 3: knee at z = 51 (1 -> 2), ankle at z = 29 (2 -> 3).
+  const Limb limb = makeLimb({{54, 76}, {32, 48}, {8, 26}});
+  const std::string pose = R"({"joints": [
+      {"name": "ankle", "parent": [2], "child": [3], "axis": )" + xAxisAt(29) + R"(},
+      {"name": "knee", "parent": [1], "child": [2], "axis": )" + xAxisAt(51) + R"(}],
+      "keyframes": [{"angles": {"knee": 15, "ankle": -10}}]})";
+  const Files f = writeLimb(limb, "pose-chain", pose);
+  const app::PoseResult r = runPose(f);
+  ASSERT_EQ(r.pose.joints[0].proximal, 1);  // the ankle hangs below the knee
+  ASSERT_EQ(r.pose.joints[1].proximal, -1);
+  ASSERT_EQ(r.joints.size(), 2u);
+  EXPECT_NEAR(r.joints[0].achievedDeg, -10, 1.0);  // relative to its parent (the shank)
+  EXPECT_NEAR(r.joints[1].achievedDeg, 15, 1.0);
+  EXPECT_LT(r.joints[0].childRotationErrorDeg, 1.0);
+  EXPECT_LT(r.joints[0].childPositionErrorMm, 1.0);
+  // The grand-child's voxels: knee's turn composed with the ankle's (about the ankle's rest axis).
+  const std::vector<RigidTransform> t = jointTransforms(r.pose, r.anglesDeg);
+  const RigidTransform knee = rotationAbout({30, 40, 51}, {50, 40, 51}, 15);
+  const RigidTransform ankle = rotationAbout({30, 40, 29}, {50, 40, 29}, -10);
+  const Vec3 p{40, 40, 10};
+  EXPECT_LT(norm(t[0].apply(p) - knee.apply(ankle.apply(p))), 1e-9);
+  const VolumeI16 out = loadI16(f.out);
+  EXPECT_GE(fractionMovedBy(limb, out, 3, t[0]), 0.95);
+  EXPECT_GE(fractionMovedBy(limb, out, 2, t[1]), 0.95);
+  EXPECT_GE(fractionMovedBy(limb, out, 1, RigidTransform{}), 0.95);
+}
+
+TEST(Pose, AngleZeroIsTheIdentity) {
+  const Limb limb = makeLimb({{46, 74}, {12, 36}});
+  const Files f = writeLimb(limb, "pose-zero",
+                            R"({"joints": [{"name": "knee", "parent": 1, "child": 2, "axis": )" + xAxisAt(41) +
+                                R"(}], "keyframes": [{"angles": {"knee": 0}}]})");
+  const app::PoseResult r = runPose(f);
+  for (const ControlPoint& p : loadControlPoints(f.dir / "points.json").points) EXPECT_EQ(p.source, p.target);
+  const VolumeI16 out = loadI16(f.out);
+  int maxDiff = 0;
+  for (int k = 0; k < kN; ++k)
+    for (int j = 0; j < kN; ++j)
+      for (int i = 0; i < kN; ++i) maxDiff = std::max(maxDiff, std::abs(out(i, j, k) - limb.ct(i, j, k)));
+  EXPECT_LE(maxDiff, 1);
+  EXPECT_NEAR(r.joints[0].achievedDeg, 0, 0.05);
+}
+
+TEST(Pose, MovieTrackStepsAndPoseFileErrors) {
+  Pose pose;
+  pose.joints.push_back({"knee", {1}, {2}, {30, 40, 41}, {50, 40, 41}});
+  pose.angles.keyframes = {{1.0, {{{0, 0, 0}, {0, 0, 0}, {}}}, {}}, {1.0, {{{20, 0, 0}, {20, 0, 0}, {}}}, {}}};
+  linkJoints(pose);
+  const Limb limb = makeLimb({{46, 74}, {12, 36}});
+  PoseOptions o;
+  const PoseSamples s = poseSamples(pose, limb.labels, o);
+  EXPECT_GE(s.bonePoints, 8);  // well-spread samples on both bones
+  EXPECT_EQ(s.anchorPoints, 8);
+  // 20 degrees in steps of at most 2: 10 generated keyframes, then the final hold.
+  const KeyframeTrack t = poseTrack(s, pose, 2.0);
+  ASSERT_EQ(t.keyframes.size(), 11u);
+  EXPECT_DOUBLE_EQ(t.totalDurationS(), 2.0);
+  const ControlPoints mid = posedPoints(s, pose, {10.0});
+  for (size_t i = 0; i < mid.size(); ++i) EXPECT_LT(norm(t.keyframes[5].points[i].target - mid[i].target), 1e-9);
+
+  // Each frame's known bone transforms (movies): backward, the child's the inverse rotation,
+  // the parent's the identity, nothing for a body the pose does not name.
+  const RigidBodies bodies = RigidBodies::fromLabels(limb.labels, {1, 2, kFixed});
+  const auto known = knownBodyTransforms(pose, bodies, {20.0});
+  ASSERT_EQ(known.size(), 3u);
+  ASSERT_TRUE(known[0] && known[1]);
+  EXPECT_FALSE(known[2]);
+  const Vec3 p{40, 40, 20};
+  const RigidTransform turn = rotationAbout({30, 40, 41}, {50, 40, 41}, 20);
+  EXPECT_LT(norm(known[1]->apply(turn.apply(p)) - p), 1e-9);
+  EXPECT_LT(norm(known[0]->apply(p) - p), 1e-12);
+
+  // Semantic errors in a pose file name the file and the joint.
+  const fs::path dir = test::tempDir("pose-errors");
+  const auto refused = [&](const std::string& text, const std::string& expected) {
+    std::ofstream(dir / "p.json") << text;
+    try {
+      loadPose(dir / "p.json");
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const FileError& e) {
+      EXPECT_NE(std::string(e.what()).find("p.json"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  };
+  const std::string j1 = R"({"name": "a", "parent": 1, "child": 2, "axis": [[0, 0, 0], [1, 0, 0]]})";
+  refused(R"({"joints": [)" + j1 + R"(], "keyframes": [{"angles": {"b": 3}}]})", "names no joint \"b\"");
+  refused(R"({"joints": [)" + j1 + "," + R"({"name": "b", "parent": 3, "child": 2, "axis": [[0, 0, 0], [1, 0, 0]]})" +
+              R"(], "keyframes": [{"angles": {}}]})",
+          "also the child of joint \"a\"");
+  refused(R"({"joints": [{"name": "a", "parent": 1, "child": 2, "axis": [[0, 0, 0], [0, 0, 0]]}], "keyframes": [{"angles": {}}]})",
+          "coincide");
+  refused(R"({"joints": [)" + j1 + R"(], "keyframes": [{"angles": {"a": "x"}}]})", "\"angles\".\"a\"");
+  refused(R"({"joints": [)" + j1 + R"(], "fixed_labels": [2], "keyframes": [{"angles": {}}]})", "fixed_labels");
+}
+
+TEST(Pose, MalformedPoseFileIsOneLineAndExit2) {
+  const Limb limb = makeLimb({{46, 74}, {12, 36}});
+  const Files f = writeLimb(limb, "pose-cli", R"({"joints": [{"name": "knee", "parent": 1, "child": 2, "axis": [[30, 40)");
+  for (const std::string& text :
+       {std::string(R"({"joints": [{"name": "knee", "parent": 1, "child": 2, "axis": [[30, 40)"),
+        std::string(R"({"joints": [{"name": "knee", "parent": 1, "child": 2, "axis": "estimate"}], "keyframes": [{"angles": {"knee": 5}}]})")}) {
+    std::ofstream(f.pose) << text;
+    test::Child child({"pose", f.ct.string(), "--labels", f.labels.string(), "--pose", f.pose.string(), "--out",
+                       f.out.string()},
+                      f.dir / "log.txt");
+    EXPECT_EQ(child.wait(), 2);
+    const std::string log = child.errors();
+    EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1) << log;
+    EXPECT_NE(log.find("pose.json"), std::string::npos) << log;
+    EXPECT_FALSE(fs::exists(f.out));
+  }
+}
+
+TEST(Pose, EstimatedAxisIsTheContactZonesWidestDirection) {
+  // Bones 10 mm wide in x, 5 in y, 4 mm apart at z = 40: the contact zone is an ellipse whose
+  // widest direction is x, through (40, 40, 40).
+  const Limb limb = makeLimb({{42, 74}, {12, 38}}, 10);
+  Pose pose = loadPose(writeLimb(limb, "pose-estimate",
+                                 R"({"joints": [{"name": "knee", "parent": 1, "child": 2, "axis": "estimate"}],
+                                     "keyframes": [{"angles": {"knee": 10}}]})")
+                           .pose);
+  estimateAxes(pose, limb.labels, 5.0);
+  const Joint& j = pose.joints[0];
+  const Vec3 dir = normalized(j.axisB - j.axisA), mid = (j.axisA + j.axisB) * 0.5;
+  EXPECT_GT(dir.x, 0.99);  // sign: the largest component positive
+  EXPECT_LT(norm(mid - Vec3{40, 40, 40}), 1.0);
+  Pose far = pose;
+  far.joints[0].estimateAxis = true;
+  EXPECT_THROW(estimateAxes(far, limb.labels, 1.0), Error);  // 4 mm apart: no contact within 1 mm
+}

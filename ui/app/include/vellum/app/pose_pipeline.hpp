@@ -1,0 +1,61 @@
+#pragma once
+// A pose as a request: what `vellum pose` does beyond parsing its flags. It reads a pose file
+// (joints, angles over keyframes, fixed regions: deformation/pose.hpp), generates the control
+// points from the label map, and hands them to the deformation run (runDeform: rigid bones
+// per label id, fixed regions, synthesis, the rigidity report) for one pose, and/or to the
+// movie run (runAnimate) over all keyframes; then measures each joint's achieved angle.
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "vellum/app/animate_pipeline.hpp"
+#include "vellum/app/deform_pipeline.hpp"
+#include "vellum/core/params.hpp"
+#include "vellum/deformation/pose.hpp"
+
+namespace vellum::app {
+
+struct PoseRequest {
+  std::filesystem::path input;   ///< volume file or DICOM folder
+  std::filesystem::path labels;  ///< label map on the volume's grid: the bones' ids
+  std::filesystem::path pose;    ///< pose file (JSON)
+  std::filesystem::path output;  ///< the deformed volume at the pose; empty: none (a movie only)
+  std::filesystem::path movie;   ///< movie.mp4 or frames folder over all keyframes; empty: none
+  std::filesystem::path report;  ///< report JSON; empty: not written (still returned)
+  std::filesystem::path pointsOut;     ///< the generated control points at the pose; empty: not written
+  std::filesystem::path keyframesOut;  ///< the generated keyframe track (`vellum animate --keyframes`); empty: not written
+  double frameTimeS = -1;  ///< the pose's time (s); < 0: the last keyframe
+  bool force = false;
+  /// Each bone's rigid transform is its joints' (the still bones' the identity) instead of the
+  /// best fit of the MLS map over it (the map between bones is still MLS, blended to them).
+  bool exactBones = true;
+  deformation::PoseOptions options;
+  /// Engine settings (method, control scale, upsampling, falloff, stride); its labels, rigid
+  /// and fixed ids are filled from the pose.
+  DeformEngine engine;
+  /// The movie: frame size, preset, camera (settings), fps and orbit (animate's own table).
+  AnimateRequest movieSettings;
+  io::LoadOptions load;
+  std::string commandLine;
+};
+
+/// frame_time (the options, the engine and the movie settings have their own tables).
+const params::Table<PoseRequest>& poseRequestTable();
+
+struct PoseResult {
+  deformation::Pose pose;  ///< as run (estimated axes filled)
+  std::vector<double> anglesDeg;
+  std::vector<deformation::JointMeasure> joints;  ///< measured on the output volume's map (with `output`)
+  std::vector<std::string> warnings;
+  /// pose, time_s, angles_deg, joints, points, params, deform (runDeform's report), movie
+  /// (runAnimate's), timings_ms: what request.report holds.
+  nlohmann::json report;
+};
+
+/// Runs the request; outputs through the output policy, atomically. FileError naming a bad
+/// file (the pose file's problems: one line), Error for a bad request, Cancelled.
+PoseResult runPose(const PoseRequest& request, Progress& progress = Progress::none());
+
+}  // namespace vellum::app

@@ -1,0 +1,240 @@
+// The pose request: `vellum pose`'s run (see pose_pipeline.hpp).
+#include "vellum/app/pose_pipeline.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "vellum/app/outputs.hpp"
+#include "vellum/app/run_report.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/core/params_json.hpp"
+#include "vellum/deformation/point_files.hpp"
+#include "vellum/io/volume_io.hpp"
+
+namespace vellum::app {
+using namespace vellum::deformation;
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+nlohmann::json vec(const Vec3& v) { return {v.x, v.y, v.z}; }
+// NaN (not measured) as null.
+nlohmann::json num(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+nlohmann::json jointsJson(const Pose& pose, const std::vector<double>& angles, const std::vector<JointMeasure>& m) {
+  nlohmann::json out = nlohmann::json::array();
+  for (size_t j = 0; j < pose.joints.size(); ++j) {
+    const Joint& joint = pose.joints[j];
+    nlohmann::json o = {{"name", joint.name},
+                        {"parent", joint.parent},
+                        {"child", joint.child},
+                        {"axis_mm", {vec(joint.axisA), vec(joint.axisB)}},
+                        {"axis_estimated", joint.estimateAxis},
+                        {"proximal", joint.proximal < 0 ? nlohmann::json() : nlohmann::json(pose.joints[joint.proximal].name)},
+                        {"requested_deg", angles[j]}};
+    if (j < m.size()) {
+      o["achieved_deg"] = num(m[j].achievedDeg);
+      o["error_deg"] = num(m[j].achievedDeg - angles[j]);
+      o["child_rotation_error_deg"] = num(m[j].childRotationErrorDeg);
+      o["child_position_error_mm"] = num(m[j].childPositionErrorMm);
+      o["parent_rotation_deg"] = num(m[j].parentRotationDeg);
+      o["child_samples"] = m[j].childSamples;
+      o["parent_samples"] = m[j].parentSamples;
+      if (!std::isfinite(m[j].achievedDeg))
+        o["not_measured"] = "fewer than 4 voxels of the parent or child bone in the output";
+    }
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
+}  // namespace
+
+const params::Table<PoseRequest>& poseRequestTable() {
+  using R = PoseRequest;
+  static const params::Table<R> t{
+      params::real<R>("frame_time", [](auto& r) -> auto& { return r.frameTimeS; },
+                      {"Pose time", "the time (s) in the pose file's keyframes whose angles --out gets; "
+                       "negative: the last keyframe", "s", -1, 1e6}),
+      params::flag<R>("exact_bones", [](auto& r) -> auto& { return r.exactBones; },
+                      {"Exact bones", "each bone takes its joints' transform (still bones the identity) instead of "
+                       "the best rigid fit of the MLS map over it", ""}),
+  };
+  return t;
+}
+
+PoseResult runPose(const PoseRequest& request, Progress& progress) {
+  const auto t0 = Clock::now();
+  if (request.output.empty() && request.movie.empty())
+    throw Error("vellum pose needs --out (the volume at a pose) or --movie (all keyframes), or both");
+  const AnimateRequest& ms = request.movieSettings;
+  animation::MovieSpec movieSpecOut;
+  if (!request.movie.empty()) {
+    AnimateRequest probe = ms;
+    probe.output = request.movie;
+    movieSpecOut = movieSpec(probe);
+  }
+  io::OutputPlan()
+      .input(request.input)
+      .input(request.labels, "the --labels map")
+      .input(request.pose, "the --pose file")
+      .output(request.output, "--out")
+      .output(movieSpecOut.moviePath, "--movie")
+      .folder(movieSpecOut.framesDir, io::FolderKind::Frames, "--movie")
+      .json(request.report, "--report")
+      .json(request.pointsOut, "--points-out")
+      .json(request.keyframesOut, "--keyframes-out")
+      .force(request.force)
+      .check();
+  params::validate(poseRequestTable(), request);
+  params::validate(poseOptionsTable(), request.options);
+  params::validate(deformEngineTable(), request.engine);
+  nlohmann::json timings;
+
+  // The pose and the points it generates.
+  PoseResult result;
+  result.pose = loadPose(request.pose);
+  Pose& pose = result.pose;
+  if (pose.fixed.boxesMm.size() > 1)
+    throw FileError(request.pose, "\"fixed_boxes\": at most one box for now (deform's --fixed-box)");
+  auto t = Clock::now();
+  io::LoadOptions lo;
+  lo.region = request.load.region;
+  lo.allowOutsideData = request.load.allowOutsideData;
+  const LabelVolume labels = io::loadLabels(request.labels, lo);
+  timings["labels"] = msSince(t);
+  t = Clock::now();
+  try {
+    estimateAxes(pose, labels, request.options.contactMm);
+  } catch (const FileError&) {
+    throw;
+  } catch (const Error& e) {
+    throw FileError(request.pose, e.what());
+  }
+  PoseSamples samples;
+  try {
+    samples = poseSamples(pose, labels, request.options);
+  } catch (const Error& e) {  // a bone id the label map lacks
+    throw FileError(request.pose, std::string(e.what()) + " (" + request.labels.string() + ")");
+  }
+  timings["points"] = msSince(t);
+  const double time = request.frameTimeS < 0 ? pose.lastKeyframeTimeS() : request.frameTimeS;
+  result.anglesDeg = pose.anglesAt(time);
+
+  // The engine: every bone of the pose is one rigid body per id, the fixed regions stay.
+  DeformEngine engine = request.engine;
+  engine.labels = request.labels.string();
+  engine.rigidIds.clear();
+  engine.rigidGroups.clear();
+  for (uint16_t id : pose.boneIds())
+    if (std::find(pose.fixed.ids.begin(), pose.fixed.ids.end(), id) == pose.fixed.ids.end())
+      engine.rigidIds.push_back(id);
+  engine.fixedIds = pose.fixed.ids;
+  engine.fixedBoxMm.clear();
+  for (const auto& b : pose.fixed.boxesMm) engine.fixedBoxMm.assign(b.begin(), b.end());
+  engine.powerGiven = true;  // no point file: the engine's power stands
+
+  nlohmann::json& report = result.report;
+  report["pose"] = request.pose.string();
+  report["time_s"] = time;
+  nlohmann::json angles = nlohmann::json::object();
+  for (size_t j = 0; j < pose.joints.size(); ++j) angles[pose.joints[j].name] = result.anglesDeg[j];
+  report["angles_deg"] = angles;
+  report["points"] = {{"total", samples.sources.size()},
+                      {"bones", samples.bonePoints},
+                      {"fixed", samples.fixedPoints},
+                      {"anchors", samples.anchorPoints}};
+  report["params"] = params::toJson(poseOptionsTable(), request.options);
+  report["exact_bones"] = request.exactBones;
+  report["rigid_labels"] = engine.rigidIds;
+  report["fixed_labels"] = engine.fixedIds;
+
+  RunOutputs written;  // a failure later takes the earlier outputs with it
+  PointFile points;
+  points.points = posedPoints(samples, pose, result.anglesDeg);
+  points.power = engine.params.mls.power;
+  if (!request.pointsOut.empty()) {
+    ensureParentFolder(request.pointsOut);
+    saveControlPoints(points, request.pointsOut);
+    written.wrote(request.pointsOut);
+  }
+  if (!request.output.empty()) {
+    DeformRequest d;
+    d.input = request.input;
+    d.pointSet = points;
+    d.output = request.output;
+    d.keepMap = true;
+    if (request.exactBones) {
+      const std::vector<RigidTransform> jt = jointTransforms(pose, result.anglesDeg);
+      for (uint16_t id : engine.rigidIds) {
+        const int j = pose.jointMoving(id);
+        d.boneTransforms.push_back({id, j < 0 ? RigidTransform{} : jt[static_cast<size_t>(j)]});
+      }
+    }
+    d.force = request.force;
+    d.engine = engine;
+    d.load = request.load;
+    d.commandLine = request.commandLine;
+    DeformResult dr = runDeform(d, progress);
+    written.wrote(request.output);
+    t = Clock::now();
+    result.joints = measureJoints(dr.map, geometryOf(dr.output), labels, pose, result.anglesDeg,
+                                  request.options.measureStride);
+    timings["joint_measures"] = msSince(t);
+    report["deform"] = std::move(dr.report);
+    result.warnings = std::move(dr.warnings);
+  }
+  report["joints"] = jointsJson(pose, result.anglesDeg, result.joints);
+
+  KeyframeTrack track;
+  if (!request.movie.empty() || !request.keyframesOut.empty()) {
+    t = Clock::now();
+    track = poseTrack(samples, pose, request.options.maxStepDeg);
+    timings["track"] = msSince(t);
+    report["movie_keyframes"] = track.keyframes.size();
+  }
+  if (!request.keyframesOut.empty()) {
+    ensureParentFolder(request.keyframesOut);
+    saveKeyframes(track, request.keyframesOut);
+    written.wrote(request.keyframesOut);
+  }
+  if (!request.movie.empty()) {
+    AnimateRequest a = ms;
+    a.input = request.input;
+    a.output = request.movie;
+    a.track = std::move(track);
+    a.loop = pose.angles.loop;
+    a.report.clear();
+    a.frames.clear();
+    a.force = request.force;
+    a.engine = engine;
+    a.load = request.load;
+    a.commandLine = request.commandLine;
+    if (request.exactBones)  // each frame's bones at the pose's angles at that time
+      a.knownBodyTransforms = [pose](double timeS, const RigidBodies& bodies) {
+        return knownBodyTransforms(pose, bodies, pose.anglesAt(timeS));
+      };
+    AnimateResult ar = runAnimate(a, progress);
+    written.wrote(request.movie);
+    report["movie"] = std::move(ar.report);
+    report["movie"]["path"] = request.movie.string();
+    if (result.warnings.empty()) result.warnings = std::move(ar.warnings);
+  }
+  timings["total"] = msSince(t0);
+  report["timings_ms"] = timings;
+  if (!request.report.empty()) {
+    RunReport shared(request.commandLine, t0);
+    shared.input(request.input, "volume");
+    shared.input(request.labels, "label map");
+    shared.input(request.pose, "pose");
+    shared.outputVolume(request.output);
+    shared.outputVolume(request.movie);
+    shared.stamp(report);
+    writeJsonFile(report, request.report);
+  }
+  written.commit();
+  return result;
+}
+
+}  // namespace vellum::app

@@ -1,0 +1,110 @@
+// `vellum pose`: joints and poses (issue 23 §3). A pose file names joints and their angles over
+// keyframes; the control points are generated from the label map; the run is app::runPose.
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include "cli_params.hpp"
+#include "cli_util.hpp"
+#include "commands.hpp"
+#include "deform_cli.hpp"
+#include "vellum/app/pose_pipeline.hpp"
+#include "vellum/core/error.hpp"
+
+namespace vellum::cli {
+
+namespace {
+
+struct PoseArgs {
+  app::PoseRequest request;  ///< the flags write here
+  std::string size = "512x512";
+  InputOptions in;
+};
+
+std::string mm(const nlohmann::json& v, const char* unit = " mm") {
+  if (v.is_null()) return "not measured";
+  std::ostringstream o;
+  o.precision(3);
+  o << v.get<double>() << unit;
+  return o.str();
+}
+
+void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
+  for (const auto& w : r.warnings) std::cerr << "warning: " << request.input.string() << ": " << w << "\n";
+  const nlohmann::json& rep = r.report;
+  std::cout << "pose at " << rep["time_s"].get<double>() << " s: " << rep["points"]["total"].get<int>()
+            << " generated points (" << rep["points"]["bones"].get<int>() << " on bones, "
+            << rep["points"]["fixed"].get<int>() << " fixed, " << rep["points"]["anchors"].get<int>() << " anchors)\n";
+  for (const auto& j : rep["joints"]) {
+    std::cout << "  joint " << j["name"].get<std::string>() << ": requested " << j["requested_deg"].get<double>()
+              << " deg";
+    if (j.contains("achieved_deg"))
+      std::cout << ", achieved " << mm(j["achieved_deg"], " deg") << "; child bone off its requested pose by "
+                << mm(j["child_rotation_error_deg"], " deg") << ", " << mm(j["child_position_error_mm"]);
+    std::cout << "\n";
+  }
+  if (rep.contains("deform")) {
+    const nlohmann::json& after = rep["deform"]["rigidity"]["after"];
+    std::cout << request.output.string() << ": bone RMS residual " << mm(after["bone_rms_residual_mm"])
+              << " (max " << mm(after["bone_max_residual_mm"]) << ")";
+    if (!after["fixed"].is_null())
+      std::cout << ", fixed regions moved max " << mm(after["fixed"]["max_displacement_mm"]);
+    if (!after["fold_fraction"].is_null())
+      std::cout << ", folds in tissue " << 100.0 * after["fold_fraction"].get<double>() << " %";
+    std::cout << "\n";
+  }
+  if (rep.contains("movie"))
+    std::cout << request.movie.string() << ": " << rep["movie"]["frames"].get<int>() << " frames from "
+              << rep["movie_keyframes"].get<size_t>() << " generated keyframes\n";
+  std::cout << "total " << rep["timings_ms"]["total"].get<double>() / 1000.0 << " s\n";
+}
+
+}  // namespace
+
+void addPoseCommand(CLI::App& app) {
+  auto a = std::make_shared<PoseArgs>();
+  app::PoseRequest& r = a->request;
+  auto* cmd = app.add_subcommand(
+      "pose", "Pose bones at joints (pose file: joints, angles over keyframes, fixed regions; points generated)");
+  cmd->add_option("input", r.input, "volume file or DICOM folder")->required();
+  cmd->add_option("--labels", r.labels, "label map on the volume's grid: the bones' ids (one id = one rigid body)")
+      ->required();
+  cmd->add_option("--pose", r.pose, "pose file (JSON; see docs/deformation.md, \"Pose file\")")->required();
+  cmd->add_option("--out,-o", r.output, "the deformed volume at the pose (--frame-time; default the last keyframe)");
+  cmd->add_option("--movie", r.movie, "a movie over all keyframes: movie.mp4, or a folder (ending in /) for PNG frames");
+  cmd->add_option("--report", r.report, "JSON report: per joint the achieved angle, per bone RMS/max, fixed regions, folds");
+  cmd->add_option("--points-out", r.pointsOut, "write the generated control points at the pose (vellum deform --points)");
+  cmd->add_option("--keyframes-out", r.keyframesOut,
+                  "write the generated keyframe track (vellum animate --keyframes)");
+  addFlags(*cmd, r, app::poseRequestTable());
+  addFlags(*cmd, r.options, deformation::poseOptionsTable());
+  addFlags(*cmd, r.engine.params, deformation::deformParamsTable());
+  addFlags(*cmd, r.engine, app::deformEngineTable(), {"labels"});
+  cmd->add_option("--size", a->size, "movie frame size WxH")->capture_default_str();
+  addFlags(*cmd, r.movieSettings.settings, render::renderSettingsTable(), {"width", "height"});
+  addFlags(*cmd, r.movieSettings, app::animateRequestTable(), {"loop"});  // --fps, --camera-orbit
+  addForceFlag(*cmd, r.force);
+  a->in.addTo(*cmd);
+  cmd->footer("Example: vellum pose feet.nrrd --labels bones.nrrd --pose flex.json --out flexed.nrrd "
+              "--report flexed.json --movie flex.mp4 --preset bone");
+  cmd->callback([a] {
+    app::PoseRequest request = a->request;
+    std::tie(request.movieSettings.settings.width, request.movieSettings.settings.height) = parseSize(a->size);
+    request.load = a->in.toLoadOptions(nullptr);
+    request.commandLine = commandLine();
+    app::PoseResult result;
+    try {
+      ProgressBar bar;
+      result = app::runPose(request, bar.progress());
+    } catch (const Cancelled&) {
+      throw;
+    } catch (const Error& e) {  // a bad pose file, label map or request: one line, exit 2
+      std::cerr << "vellum: error: " << e.what() << "\n";
+      throw CLI::RuntimeError(2);
+    }
+    printSummary(request, result);
+  });
+}
+
+}  // namespace vellum::cli
