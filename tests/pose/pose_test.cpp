@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 
 #include "child_process.hpp"
@@ -287,4 +288,59 @@ TEST(Pose, EstimatedAxisIsTheContactZonesWidestDirection) {
   Pose far = pose;
   far.joints[0].estimateAxis = true;
   EXPECT_THROW(estimateAxes(far, limb.labels, 1.0), Error);  // 4 mm apart: no contact within 1 mm
+}
+
+// `--gltf`: the child bone's node turns by exactly the joint's rotation at each key (read back
+// from the binary glTF), the parent's node stands still, and the skin's last morph target moves
+// the skin below the knee while the skin above it stays.
+TEST(Pose, GltfNodesCarryTheJointRotation) {
+  const Limb limb = makeLimb({{46, 74}, {12, 36}});
+  const std::string pose = R"({"units": "mm", "joints": [{"name": "knee", "parent": 1, "child": [2], "axis": )" +
+                           xAxisAt(41) + R"(}], "fixed_labels": [50],
+      "keyframes": [{"duration": 1, "angles": {"knee": 0}}, {"duration": 1, "angles": {"knee": 30}}]})";
+  Files f = writeLimb(limb, "pose-gltf", pose);
+  app::PoseRequest r;
+  r.input = f.ct;
+  r.labels = f.labels;
+  r.pose = f.pose;
+  r.gltf = f.dir / "knee.glb";
+  r.gltfOptions.keysPerSecond = 2;  // keys at 0, 0.5 and 1 s
+  r.report = f.report;
+  app::runPose(r);
+  EXPECT_FALSE(fs::exists(f.out)) << "--gltf alone writes no volume";
+
+  std::ifstream is(r.gltf, std::ios::binary);
+  std::vector<char> bytes((std::istreambuf_iterator<char>(is)), std::istreambuf_iterator<char>());
+  ASSERT_GT(bytes.size(), 20u);
+  ASSERT_EQ(std::string(bytes.data(), 4), "glTF");
+  uint32_t jsonLength = 0;
+  std::memcpy(&jsonLength, bytes.data() + 12, 4);
+  const nlohmann::json doc = nlohmann::json::parse(std::string(bytes.data() + 20, jsonLength));
+  const char* bin = bytes.data() + 20 + jsonLength + 8;
+  auto floats = [&](int accessor) {
+    const auto& view = doc["bufferViews"][doc["accessors"][accessor]["bufferView"].get<int>()];
+    std::vector<float> v(view["byteLength"].get<size_t>() / 4);
+    std::memcpy(v.data(), bin + view["byteOffset"].get<size_t>(), v.size() * 4);
+    return v;
+  };
+  ASSERT_EQ(doc["nodes"].size(), 3u);  // parent, child, skin
+  EXPECT_EQ(doc["nodes"][0]["name"], "knee parent");
+  EXPECT_EQ(doc["nodes"][1]["name"], "knee child");
+  const auto& anim = doc["animations"][0];
+  // Channels: parent rotation, parent translation, child rotation, child translation, skin weights.
+  ASSERT_EQ(anim["channels"].size(), 5u);
+  const auto times = floats(anim["samplers"][0]["input"]);
+  ASSERT_EQ(times.size(), 3u);
+  const auto parentQ = floats(anim["samplers"][0]["output"]);
+  const auto childQ = floats(anim["samplers"][2]["output"]);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(parentQ[4 * k + 3], 1, 1e-6);  // identity throughout
+  // About the x (L) axis, glTF +X: q = (sin(a/2), 0, 0, cos(a/2)); the angle at key k is 15 k degrees.
+  for (int k = 0; k < 3; ++k) {
+    const double a = 15.0 * k * M_PI / 180;
+    EXPECT_NEAR(std::abs(childQ[4 * k]), std::sin(a / 2), 1e-5) << "key " << k;
+    EXPECT_NEAR(std::abs(childQ[4 * k + 3]), std::cos(a / 2), 1e-5) << "key " << k;
+  }
+  const nlohmann::json rep = nlohmann::json::parse(std::ifstream(f.report));
+  EXPECT_EQ(rep["gltf"]["bones"], 2);
+  EXPECT_GT(rep["gltf"]["skin_max_move_mm"].get<double>(), 5);  // the skin below the knee swings
 }

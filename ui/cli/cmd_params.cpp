@@ -45,6 +45,8 @@ std::string parametersMarkdown() {
   out += "\n## Pose request — `app::PoseRequest` (`vellum pose`)\n\n" + params::markdown(app::poseRequestTable());
   out += "\n## Pose points and measures — `PoseOptions` (`vellum pose`)\n\n" +
          params::markdown(deformation::poseOptionsTable());
+  out += "\n## Pose glTF export — `app::PoseGltfOptions` (`vellum pose --gltf`)\n\n" +
+         params::markdown(app::poseGltfOptionsTable());
   return out;
 }
 

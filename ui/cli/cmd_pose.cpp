@@ -79,6 +79,10 @@ void addPoseCommand(CLI::App& app) {
                   "write the generated keyframe track (vellum animate --keyframes)");
   addFlags(*cmd, r, app::poseRequestTable());
   addFlags(*cmd, r.options, deformation::poseOptionsTable());
+  cmd->add_option("--gltf", r.gltf,
+                  "the posed bones (rigid nodes) and skin (morph targets) as an animated glTF 2.0 file (.glb) over the "
+                  "keyframes, for slides, web and AR viewers");
+  addFlags(*cmd, r.gltfOptions, app::poseGltfOptionsTable());
   addFlags(*cmd, r.engine.params, deformation::deformParamsTable());
   addFlags(*cmd, r.engine, app::deformEngineTable(), {"labels"});
   cmd->add_option("--size", a->size, "movie frame size WxH")->capture_default_str();

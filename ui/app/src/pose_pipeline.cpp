@@ -66,8 +66,8 @@ const params::Table<PoseRequest>& poseRequestTable() {
 
 PoseResult runPose(const PoseRequest& request, Progress& progress) {
   const auto t0 = Clock::now();
-  if (request.output.empty() && request.movie.empty())
-    throw Error("vellum pose needs --out (the volume at a pose) or --movie (all keyframes), or both");
+  if (request.output.empty() && request.movie.empty() && request.gltf.empty())
+    throw Error("vellum pose needs --out (the volume at a pose), --movie (all keyframes) or --gltf (posed meshes)");
   const AnimateRequest& ms = request.movieSettings;
   animation::MovieSpec movieSpecOut;
   if (!request.movie.empty()) {
@@ -85,10 +85,12 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
       .json(request.report, "--report")
       .json(request.pointsOut, "--points-out")
       .json(request.keyframesOut, "--keyframes-out")
+      .output(request.gltf, "--gltf")
       .force(request.force)
       .check();
   params::validate(poseRequestTable(), request);
   params::validate(poseOptionsTable(), request.options);
+  params::validate(poseGltfOptionsTable(), request.gltfOptions);
   params::validate(deformEngineTable(), request.engine);
   nlohmann::json timings;
 
@@ -221,6 +223,16 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     report["movie"]["path"] = request.movie.string();
     if (result.warnings.empty()) result.warnings = std::move(ar.warnings);
   }
+  if (!request.gltf.empty()) {
+    t = Clock::now();
+    ensureParentFolder(request.gltf);
+    const PoseGltfSummary g = writePoseGltf(pose, samples, labels, engine.params.mls, request.gltfOptions,
+                                            request.gltf, progress);
+    written.wrote(request.gltf);
+    timings["gltf"] = msSince(t);
+    report["gltf"] = {{"path", request.gltf.string()}, {"bones", g.bones}, {"keys", g.keys}, {"faces", g.faces},
+                      {"skin_max_move_mm", g.skinMaxMoveMm}};
+  }
   timings["total"] = msSince(t0);
   report["timings_ms"] = timings;
   if (!request.report.empty()) {
@@ -230,6 +242,7 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     shared.input(request.pose, "pose");
     shared.outputVolume(request.output);
     shared.outputVolume(request.movie);
+    if (!request.gltf.empty()) shared.output(request.gltf);
     shared.stamp(report);
     writeJsonFile(report, request.report);
   }

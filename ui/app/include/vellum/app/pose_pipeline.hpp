@@ -11,6 +11,7 @@
 #include <string>
 
 #include "vellum/app/animate_pipeline.hpp"
+#include "vellum/app/pose_gltf.hpp"
 #include "vellum/app/deform_pipeline.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/deformation/pose.hpp"
@@ -25,6 +26,8 @@ struct PoseRequest {
   std::filesystem::path movie;   ///< movie.mp4 or frames folder over all keyframes; empty: none
   std::filesystem::path report;  ///< report JSON; empty: not written (still returned)
   std::filesystem::path pointsOut;     ///< the generated control points at the pose; empty: not written
+  std::filesystem::path gltf;  ///< the posed bones and skin as animated glTF (.glb); empty: none
+  PoseGltfOptions gltfOptions;
   std::filesystem::path keyframesOut;  ///< the generated keyframe track (`vellum animate --keyframes`); empty: not written
   double frameTimeS = -1;  ///< the pose's time (s); < 0: the last keyframe
   bool force = false;
