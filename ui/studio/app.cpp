@@ -155,7 +155,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
          !scene_.authoring.playing;
 }
 
@@ -224,7 +224,8 @@ StudioApp::FrameViews StudioApp::updateViews() {
     deform_->awaitSolve(std::chrono::milliseconds(40));
     v.mapUpdated = deform_->update(scene_, livePoints) || v.mapUpdated;
   }
-  if (v.mapUpdated) view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
+  if (v.mapUpdated) view3d_->setBackwardMap(deform_->sharedMap(), deform_->mapRevision());
+  view3d_->stepMap(kUploadBytesPerFrame);  // the map's CPU part is made on a worker
   updateSliceTextures();  // after the map: deformed slices show this frame's map
   view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
   view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);

@@ -96,7 +96,7 @@ bool DeformSession::liveExact(const ControlPoints& points) const {
 }
 
 void DeformSession::adopt(Solved s, bool preview) {
-  map_ = std::move(s.map);
+  map_ = std::make_shared<const render::BackwardMap>(std::move(s.map));
   sampler_ = std::move(s.sampler);
   mapKey_ = preview ? "" : s.key;
   preview_ = preview;
@@ -115,7 +115,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   const Authoring& a = scene.authoring;
   if (!scene.hasVolume() || !a.active() || a.currentPoints().empty()) {
     // Nothing to show; running workers finish on their own (their results are dropped).
-    const bool had = map_.has_value();
+    const bool had = map_ != nullptr;
     map_.reset();
     sampler_.reset();
     mapKey_.clear();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <chrono>
+#include <future>
 #include <sstream>
 
 namespace vellum::studio {
@@ -200,6 +201,8 @@ View3D::View3D(render::GlContext& context)
 
 void View3D::setVolume(const VolumeI16& ct) {
   context_.makeCurrent();
+  dropPendingMaps();
+  volumePrepared_.reset();
   renderer_->setVolume(AnyVolume(ct));  // drops the label tint
   labelsKey_.clear();
   hasVolume_ = true;
@@ -210,6 +213,8 @@ bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
                               std::shared_ptr<const render::VolumeRenderer::Prepared> prepared, size_t maxBytes) {
   context_.makeCurrent();
   hasVolume_ = false;  // the renderer has dropped the previous volume
+  if (volumePrepared_ != prepared) dropPendingMaps();  // made for the previous volume
+  volumePrepared_ = prepared;
   if (!renderer_->uploadVolumeStep(std::move(ct), std::move(prepared), maxBytes)) return false;
   labelsKey_.clear();
   hasVolume_ = true;
@@ -217,11 +222,49 @@ bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
   return true;
 }
 
-void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
+void View3D::setBackwardMap(std::shared_ptr<const render::BackwardMap> map, uint64_t revision) {
+  if (map && volumePrepared_) {
+    nextMap_ = MapRequest{std::move(map), revision};  // replaces one the worker has not started
+    stepMap(0);                                        // starts the worker when it is free
+    return;
+  }
+  dropPendingMaps();
   context_.makeCurrent();
-  renderer_->setBackwardMap(map);
+  renderer_->setBackwardMap(map.get());
   hasMap_ = map != nullptr;
   mapRevision_ = revision;
+}
+
+void View3D::dropPendingMaps() {
+  nextMap_.reset();
+  preparingStale_ = preparing_.valid();  // its result is dropped when it lands (no wait here)
+  uploading_.reset();
+}
+
+bool View3D::stepMap(size_t maxBytes) {
+  using Future = decltype(preparing_);
+  if (preparing_.valid() && preparing_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    auto prepared = preparing_.get();
+    if (!preparingStale_) {
+      uploading_ = std::move(prepared);  // a newer map replaces one still uploading
+      uploadingRevision_ = preparingRevision_;
+    }
+    preparingStale_ = false;
+  }
+  if (!preparing_.valid() && nextMap_) {
+    preparingRevision_ = nextMap_->revision;
+    preparing_ = Future(std::async(std::launch::async, [map = std::move(nextMap_->map), volume = volumePrepared_] {
+      return render::VolumeRenderer::prepareBackwardMap(map, *volume);
+    }));
+    nextMap_.reset();
+  }
+  if (!uploading_ || maxBytes == 0 || !hasVolume_) return false;  // after the volume's own upload
+  context_.makeCurrent();
+  if (!renderer_->uploadBackwardMapStep(uploading_, maxBytes)) return false;
+  uploading_.reset();
+  hasMap_ = true;
+  mapRevision_ = uploadingRevision_;
+  return true;
 }
 
 void View3D::setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted) {

@@ -52,6 +52,20 @@ class VolumeRenderer {
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
   void setBackwardMap(const BackwardMap* map);
+  /// The CPU part of setBackwardMap() (validation, the source-index texels, the map cells'
+  /// empty-space ranges, the snap's frames): no GL, so an interactive viewer makes it on a
+  /// worker thread, for the volume `volume` was prepared from, and uploads it with
+  /// uploadBackwardMapStep() on the context's thread. Throws vellum::Error for malformed maps.
+  struct PreparedBackwardMap;
+  static std::shared_ptr<const PreparedBackwardMap> prepareBackwardMap(std::shared_ptr<const BackwardMap> map,
+                                                                       const Prepared& volume);
+  /// setBackwardMap() spread over calls: each call uploads whole z slabs of the map's textures
+  /// (and of the rigid snap's class volume when the map brings a new one), about `maxBytes`
+  /// (at least one slab), and returns true once the map is the one drawn. Until then the
+  /// previous map (or none) is still drawn, unchanged. Calling with another prepared map,
+  /// setBackwardMap() or a new volume starts over. A map prepared for another volume than the
+  /// current one is prepared again here, at once.
+  bool uploadBackwardMapStep(std::shared_ptr<const PreparedBackwardMap> map, size_t maxBytes);
   /// Label colours for RenderSettings::labelBlend > 0 (ids on the volume's grid; uploaded
   /// once; call again when they change). nullptr removes them. Call after setVolume.
   void setLabelTint(const LabelTint* tint);
