@@ -255,12 +255,12 @@ void StudioApp::presentFrame() {
 // --log-frames: one line per frame (docs/studio.md; ui/studio/bench/frame_stats.py reads it).
 void StudioApp::logFrame(const FrameViews& v) {
   const bool map = v.mapUpdated;
-  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d t_ms %.1f\n",
+  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d step %d map_pending %d t_ms %.1f\n",
               frameNumber_, lastFrameMs_, v.rendered3d ? 1 : 0, v.rendered3d ? view3d_->lastRenderMs() : 0.0,
               view3d_->lastScale(), dragPane_ ? 1 : 0, map ? deform_->lastUpdateMs() : 0.0,
               map ? deform_->timings()->mapMs : 0.0, map ? deform_->timings()->rhoCacheMs : 0.0,
               map ? deform_->lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0, sliceMap() ? 1 : 0,
-              1000 * glfwGetTime());
+              view3d_->lastStepFactor(), view3d_->mapPending() ? 1 : 0, 1000 * glfwGetTime());
   std::fflush(stdout);  // the log is read while the studio runs
 }
 

@@ -391,7 +391,9 @@ class StudioApp {
   std::vector<Pane> panes_;
   RecentFiles recent_;
   bool slicesDirty_ = true;
-  std::string lastSliceKey_;
+  std::array<std::string, 3> paneSliceKeys_;  ///< per slice axis: what its texture shows
+  int sliceDragReduce_ = 2;                   ///< deformed slices' reduction during point drags
+  static constexpr double kSliceDragBudgetMs = 60;
   std::string lastLoadError_;
   std::string errorMessage_;
   bool errorOpen_ = false;

@@ -1,4 +1,5 @@
 #include "deform_session.hpp"
+#include "thread_priority.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -75,10 +76,11 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const SolveInputs
 
 std::future<DeformSession::Solved> DeformSession::solveOnWorker(std::unique_ptr<Deformer>* slot, const VolumeI16* ct,
                                                                 DeformParams params, SolveInputs in,
-                                                                std::shared_ptr<Progress> progress) {
+                                                                std::shared_ptr<Progress> progress, bool background) {
   // The CT is read, not copied, here: the studio adopts a new volume only once busy() is
   // false, so it cannot change under the worker.
-  return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress)] {
+  return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress), background] {
+    if (background) lowerThreadPriority();
     if (!*slot) *slot = std::make_unique<Deformer>(AnyVolume(*ct), params);
     return solve(**slot, in, *progress);
   });
@@ -161,6 +163,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
       buildingRevision_ = scene.labelsRevision;
       buildingLabels_ = a.rigidLabels;
       bodiesBuild_ = std::async(std::launch::async, [labels = scene.labels, ids = a.rigidLabels] {
+        lowerThreadPriority();
         return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(labels, ids));
       });
     }
@@ -218,7 +221,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     if (!previewWork_.valid() && !previewDeformer_) {
       previewForDrag_ = false;
       previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key),
-                                   std::make_shared<Progress>());
+                                   std::make_shared<Progress>(), /*background=*/true);
     }
     return changed;
   }

@@ -1,4 +1,5 @@
 #include "view3d.hpp"
+#include "thread_priority.hpp"
 
 #include <GL/glcorearb.h>
 
@@ -254,6 +255,7 @@ bool View3D::stepMap(size_t maxBytes) {
   if (!preparing_.valid() && nextMap_) {
     preparingRevision_ = nextMap_->revision;
     preparing_ = Future(std::async(std::launch::async, [map = std::move(nextMap_->map), volume = volumePrepared_] {
+      lowerThreadPriority();
       return render::VolumeRenderer::prepareBackwardMap(map, *volume);
     }));
     nextMap_.reset();
@@ -325,8 +327,9 @@ bool View3D::drawingMeshes(const Scene& scene) const {
          std::find(meshVisible_.begin(), meshVisible_.end(), true) != meshVisible_.end();
 }
 
-void View3D::drawFrame(const Scene& scene, render::FramebufferTarget& target) {
-  const render::RenderSettings s = renderSettingsFor(scene, target.width(), target.height());
+void View3D::drawFrame(const Scene& scene, render::FramebufferTarget& target, int stepFactor) {
+  render::RenderSettings s = renderSettingsFor(scene, target.width(), target.height());
+  s.stepVoxels *= stepFactor;
   const bool meshes = drawingMeshes(scene);
   if (meshes) {
     target.clear({0, 0, 0, 0});
@@ -384,7 +387,7 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
   } else {  // drawn in place: nothing read back or uploaded
     context_.makeCurrent();
     coarse_.resize(w, h);
-    drawFrame(scene, coarse_);
+    drawFrame(scene, coarse_, stepFactor_);
     // Pacing needs the frame's real cost: llvmpipe's timer queries miss deferred rasterisation
     // (docs/benchmarks-render.md), so wait for the draw (the swap would wait for it anyway).
     glFinish();
@@ -393,13 +396,23 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
     lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   lastScale_ = scale_;
+  lastStepFactor_ = stepFactor_;
   lastKey_ = key;
   refined_ = false;
   // Cost scales with pixels: halve the resolution when over budget; double it only when 4x
   // the pixels are predicted to fit (hysteresis: no oscillation between two factors).
-  // Up to 1/16: a deformed 512²×350 volume on llvmpipe is over budget even at 1/8.
-  if (lastMs_ > kInteractiveBudgetMs && scale_ < 16) scale_ *= 2;
-  else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) scale_ /= 2;
+  // Up to 1/16: a deformed 512²×350 volume on llvmpipe is over budget even at 1/8. Beyond
+  // that the ray step grows (2x, 4x: the deformed rays' cost is per sample, and 1/32 of the
+  // pane would be a few hundred pixels); the step comes back first. The refined picture
+  // always has the scene's step.
+  if (lastMs_ > kInteractiveBudgetMs) {
+    if (scale_ < 16) scale_ *= 2;
+    else if (stepFactor_ < 4) stepFactor_ *= 2;
+  } else if (stepFactor_ > 1) {
+    if (lastMs_ * 2 < kInteractiveBudgetMs * 0.9) stepFactor_ /= 2;
+  } else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) {
+    scale_ /= 2;
+  }
 }
 
 void View3D::startRefinement(const Scene& scene, int paneWidth, int paneHeight) {

@@ -111,6 +111,8 @@ class View3D {
   /// Wall milliseconds of the last 3D render (meshes + volume, or a band), waited for.
   double lastRenderMs() const { return lastMs_; }
   int lastScale() const { return lastScale_; }
+  /// The ray step of the last reduced-resolution frame, in multiples of the scene's.
+  int lastStepFactor() const { return lastStepFactor_; }
   /// While refining: the fraction of rows done (0..1); 1 when refined or not refining.
   double refineProgress() const {
     return refining_ && refineHeight_ > 0 ? double(refineRow_) / refineHeight_ : 1.0;
@@ -155,11 +157,12 @@ class View3D {
   bool refined_ = false;
   std::string lastKey_;
   uint64_t mapRevision_ = 0;
-  int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
+  int scale_ = 4, lastScale_ = 1;
+  int stepFactor_ = 1, lastStepFactor_ = 1;  ///< coarse frames' ray step (x the scene's) beyond 1/16  // first drag starts at 1/4: 1/2 is over budget at 256³
   double lastMs_ = 0;
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
   /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
-  void drawFrame(const Scene& scene, render::FramebufferTarget& target);
+  void drawFrame(const Scene& scene, render::FramebufferTarget& target, int stepFactor = 1);
   void startRefinement(const Scene& scene, int paneWidth, int paneHeight);
   // Banded refinement state.
   bool refining_ = false;
