@@ -212,7 +212,9 @@ void StudioApp::beginUiFrame() {
 // The deformation map, the slice textures and the 3D view brought up to date.
 StudioApp::FrameViews StudioApp::updateViews() {
   FrameViews v;
-  if (upload3d_ && view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
+  // Not in the frame that adopted the load (it draws the new slices): from the next one on.
+  if (upload3d_ && upload3d_->adopted++ > 0 &&
+      view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
     upload3d_.reset();
   const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
   v.mapUpdated = deform_->update(scene_, livePoints);

@@ -372,6 +372,7 @@ class StudioApp {
   struct Upload3d {
     std::shared_ptr<const AnyVolume> volume;
     std::shared_ptr<const render::VolumeRenderer::Prepared> prepared;
+    int adopted = 0;  ///< frames since the load was adopted
   };
   std::optional<Upload3d> upload3d_;
   static constexpr size_t kUploadBytesPerFrame = size_t{32} << 20;  ///< ~50 ms on llvmpipe

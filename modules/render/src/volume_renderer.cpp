@@ -590,6 +590,7 @@ bool VolumeRenderer::uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, s
     std::visit([&](const auto& v) { m.allocVolume(v); }, *volume);
     m.allocNormals(g.dims);
     m.stepUpload = Impl::StepUpload{volume, prepared, 0};
+    return false;  // the allocations alone: their own frame (hundreds of ms on llvmpipe at 512^3)
   }
   Impl::StepUpload& u = *m.stepUpload;
   // Whole slices of both textures, at least one per step.
