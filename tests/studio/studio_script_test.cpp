@@ -543,7 +543,7 @@ TEST(StudioLoad, SteppedUploadOfAPreparedVolumeDrawsWhatSetVolumeDraws) {
   const size_t slice = 40 * 36 * (2 + 4);  // int16 voxels + RGBA8 normals
   int steps = 0;
   while (!stepped.uploadVolumeStep(shared, prepared, 4 * slice)) ASSERT_LT(++steps, 100);
-  EXPECT_EQ(steps + 1, 9) << "the allocation, then 30 slices, 4 per step";
+  EXPECT_EQ(steps + 1, 10) << "two allocations, then 30 slices, 4 per step";
   EXPECT_EQ(stepped.render(s).pixels, whole.render(s).pixels);
 }
 

@@ -281,6 +281,7 @@ struct VolumeRenderer::Impl {
     std::shared_ptr<const AnyVolume> volume;
     std::shared_ptr<const Prepared> prepared;
     int64_t z = 0;
+    bool normalsAllocated = false;
   };
   std::optional<StepUpload> stepUpload;
 
@@ -588,11 +589,17 @@ bool VolumeRenderer::uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, s
     if (!(prepared->geometry.dims == g.dims)) throw Error("uploadVolumeStep: prepared for another volume");
     m.hasVolume = false;  // nothing is drawn until the new volume is complete
     std::visit([&](const auto& v) { m.allocVolume(v); }, *volume);
-    m.allocNormals(g.dims);
     m.stepUpload = Impl::StepUpload{volume, prepared, 0};
-    return false;  // the allocations alone: their own frame (hundreds of ms on llvmpipe at 512^3)
+    // Each allocation alone in its call (its own frame): llvmpipe clears the storage, hundreds
+    // of ms for the normals at 512^3.
+    return false;
   }
   Impl::StepUpload& u = *m.stepUpload;
+  if (!u.normalsAllocated) {
+    m.allocNormals(g.dims);
+    u.normalsAllocated = true;
+    return false;
+  }
   // Whole slices of both textures, at least one per step.
   const size_t voxelBytes = std::visit([](const auto& v) { return sizeof(*v.data()); }, *volume);
   const size_t sliceBytes = static_cast<size_t>(g.dims.x * g.dims.y) * (voxelBytes + 4);

@@ -43,8 +43,8 @@ class VolumeRenderer {
   static std::shared_ptr<const Prepared> prepare(const AnyVolume& volume);
   /// setVolume() with its CPU part already made (by prepare() from this same volume).
   void setVolume(const AnyVolume& volume, const Prepared& prepared);
-  /// The same spread over calls, for a viewer that must keep drawing: the first call allocates
-  /// the textures, each later one uploads whole z slices of the volume and normal textures,
+  /// The same spread over calls, for a viewer that must keep drawing: the first two calls
+  /// allocate the volume and the normal texture, each later one uploads whole z slices of both,
   /// about `maxBytes` (at least one slice), and returns true once the volume is complete. Until then nothing is drawn (the previous
   /// volume is gone). Calling with another volume or setVolume() starts over.
   bool uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, std::shared_ptr<const Prepared> prepared,
