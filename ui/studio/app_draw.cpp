@@ -4,6 +4,7 @@
 #include <imgui.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -45,6 +46,34 @@ std::optional<Vec3> StudioApp::sliceSourceMm(const Vec3& mm) const {
   const deformation::MapSampler* map = sliceMap();
   return map ? map->sourceMm(mm) : std::optional<Vec3>(mm);
 }
+
+namespace {
+// The 3D view's orientation marker (Slicer's habit): the patient's R, A and S axes as seen by
+// the camera, from `centre` (pane pixels), the farther axes drawn first and dimmer.
+void drawOrientationMarker(ImDrawList* dl, ImVec2 centre, float length, const render::Camera& camera) {
+  const CameraBasis basis = cameraBasis(camera);
+  struct Axis {
+    Vec3 lps;
+    const char* letter;
+    ImU32 colour;
+  };
+  // LPS: right is -x, anterior -y, superior +z.
+  std::array<Axis, 3> axes{{{{-1, 0, 0}, "R", IM_COL32(230, 80, 80, 255)},
+                            {{0, -1, 0}, "A", IM_COL32(90, 210, 90, 255)},
+                            {{0, 0, 1}, "S", IM_COL32(100, 140, 255, 255)}}};
+  std::sort(axes.begin(), axes.end(), [&](const Axis& u, const Axis& v) {
+    return dot(u.lps, basis.forward) > dot(v.lps, basis.forward);  // away from the viewer first
+  });
+  for (const Axis& ax : axes) {
+    const ImVec2 tip{centre.x + length * float(dot(ax.lps, basis.right)),
+                     centre.y - length * float(dot(ax.lps, basis.up))};
+    const bool away = dot(ax.lps, basis.forward) > 0.2;
+    const ImU32 c = away ? (ax.colour & 0x00ffffffu) | 0x90000000u : ax.colour;
+    dl->AddLine(centre, tip, c, 2.5f);
+    dl->AddText({tip.x - 3, tip.y - 7}, c, ax.letter);
+  }
+}
+}  // namespace
 
 void StudioApp::updateSliceTextures() {
   const deformation::MapSampler* map = sliceMap();
@@ -131,6 +160,7 @@ void StudioApp::drawPanes() {
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(120, 120, 200, 255), title.c_str());
       if (upload3d_) dl->AddText({a.x + 6, a.y + 22}, IM_COL32(150, 200, 255, 255), "uploading the volume ...");
       if (panes_.size() > 1) drawPlanesIn3d(p);
+      drawOrientationMarker(dl, {b.x - 44, b.y - 44}, 30, scene_.render.camera);
       drawControlPoints(p);
       drawCurveTrace(p);
       continue;
