@@ -543,8 +543,75 @@ TEST(StudioLoad, SteppedUploadOfAPreparedVolumeDrawsWhatSetVolumeDraws) {
   const size_t slice = 40 * 36 * (2 + 4);  // int16 voxels + RGBA8 normals
   int steps = 0;
   while (!stepped.uploadVolumeStep(shared, prepared, 4 * slice)) ASSERT_LT(++steps, 100);
-  EXPECT_EQ(steps + 1, 8) << "30 slices, 4 per step";
+  EXPECT_EQ(steps + 1, 10) << "two allocations, then 30 slices, 4 per step";
   EXPECT_EQ(stepped.render(s).pixels, whole.render(s).pixels);
+}
+
+}  // namespace
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+
+// A deformation with a rigid snap (every voxel of body 0, which moves `shiftMm` along x) on
+// the volume's own grid, its nodes moved `nodeShiftMm` along x.
+render::BackwardMap shiftedMap(const Geometry& g, double nodeShiftMm, double shiftMm,
+                               std::shared_ptr<const std::vector<uint16_t>> classes) {
+  render::BackwardMap map = render::identityBackwardMap(g);
+  for (size_t i = 0; i < map.sourceMm.size(); i += 3) map.sourceMm[i] += float(nodeShiftMm);
+  auto snap = std::make_shared<RigidSnap>();
+  snap->classGrid = g;
+  snap->classes = std::move(classes);
+  snap->fits = {{1, 0, 0, 0, 1, 0, 0, 0, 1, shiftMm, 0, 0}};
+  snap->valid = {1};
+  snap->maxSnapMm = 1000;
+  map.rigidSnap = snap;
+  return map;
+}
+
+// The map's CPU part made off the context's thread and uploaded in slabs (the studio's 3D view):
+// until the last slab the previous map is drawn unchanged, then exactly setBackwardMap()'s
+// picture; a map replacing one mid-upload continues its class volume instead of starting over.
+TEST(StudioLoad, SteppedUploadOfAPreparedMapDrawsWhatSetBackwardMapDraws) {
+  phantom::PhantomOptions o;
+  o.dims = {40, 36, 30};
+  const AnyVolume ct(phantom::makePhantom(o).ct);
+  const Geometry g = geometryOf(ct);
+  auto context = render::GlContext::createHeadless();
+  render::RenderSettings s;
+  s.width = 64;
+  s.height = 48;
+  s.preset = render::Preset::Bone;
+  render::VolumeRenderer whole(*context), stepped(*context);
+  whole.setVolume(ct);
+  stepped.setVolume(ct);
+  const auto prepared = render::VolumeRenderer::prepare(ct);
+  const RgbaImage plain = whole.render(s);
+  auto classes = std::make_shared<const std::vector<uint16_t>>(size_t(g.dims.voxelCount()), uint16_t{2});
+  const auto a = std::make_shared<const render::BackwardMap>(shiftedMap(g, 2.0, 6.0, classes));
+  const auto b = std::make_shared<const render::BackwardMap>(shiftedMap(g, 3.0, -5.0, classes));
+  const auto pa = render::VolumeRenderer::prepareBackwardMap(a, *prepared);
+  const auto pb = render::VolumeRenderer::prepareBackwardMap(b, *prepared);
+  const size_t mapSlice = 40 * 36 * 16, classSlice = 40 * 36 * 2;
+  // Map a: its 30 map slices, 10 per step, then 8 of the 30 class slices.
+  for (int step = 0; step < 4; ++step) {
+    ASSERT_FALSE(stepped.uploadBackwardMapStep(pa, step < 3 ? 10 * mapSlice : 8 * classSlice));
+    EXPECT_EQ(stepped.render(s).pixels, plain.pixels) << "nothing deformed before the last slab, step " << step;
+  }
+  // Map b replaces it: its map slices again, then only the class slices a left.
+  int steps = 1;
+  while (!stepped.uploadBackwardMapStep(pb, 10 * mapSlice)) ASSERT_LT(++steps, 100);
+  EXPECT_EQ(steps, 4) << "30 map slices, 10 per step, then the 22 class slices left (2.75 map slices' worth)";
+  whole.setBackwardMap(b.get());
+  const RgbaImage deformed = whole.render(s);
+  EXPECT_NE(deformed.pixels, plain.pixels);
+  EXPECT_EQ(stepped.render(s).pixels, deformed.pixels);
+  // The old entry point still works after stepped uploads, and removing the map restores the plain view.
+  stepped.setBackwardMap(a.get());
+  whole.setBackwardMap(a.get());
+  EXPECT_EQ(stepped.render(s).pixels, whole.render(s).pixels);
+  stepped.setBackwardMap(nullptr);
+  EXPECT_EQ(stepped.render(s).pixels, plain.pixels);
 }
 
 }  // namespace

@@ -155,7 +155,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
          !scene_.authoring.playing;
 }
 
@@ -212,7 +212,9 @@ void StudioApp::beginUiFrame() {
 // The deformation map, the slice textures and the 3D view brought up to date.
 StudioApp::FrameViews StudioApp::updateViews() {
   FrameViews v;
-  if (upload3d_ && view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
+  // Not in the frame that adopted the load (it draws the new slices): from the next one on.
+  if (upload3d_ && upload3d_->adopted++ > 0 &&
+      view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
     upload3d_.reset();
   const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
   v.mapUpdated = deform_->update(scene_, livePoints);
@@ -224,7 +226,8 @@ StudioApp::FrameViews StudioApp::updateViews() {
     deform_->awaitSolve(std::chrono::milliseconds(40));
     v.mapUpdated = deform_->update(scene_, livePoints) || v.mapUpdated;
   }
-  if (v.mapUpdated) view3d_->setBackwardMap(deform_->map(), deform_->mapRevision());
+  if (v.mapUpdated) view3d_->setBackwardMap(deform_->sharedMap(), deform_->mapRevision());
+  view3d_->stepMap(kUploadBytesPerFrame);  // the map's CPU part is made on a worker
   updateSliceTextures();  // after the map: deformed slices show this frame's map
   view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
   view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
@@ -254,12 +257,12 @@ void StudioApp::presentFrame() {
 // --log-frames: one line per frame (docs/studio.md; ui/studio/bench/frame_stats.py reads it).
 void StudioApp::logFrame(const FrameViews& v) {
   const bool map = v.mapUpdated;
-  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d t_ms %.1f\n",
+  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d step %d map_pending %d t_ms %.1f\n",
               frameNumber_, lastFrameMs_, v.rendered3d ? 1 : 0, v.rendered3d ? view3d_->lastRenderMs() : 0.0,
               view3d_->lastScale(), dragPane_ ? 1 : 0, map ? deform_->lastUpdateMs() : 0.0,
               map ? deform_->timings()->mapMs : 0.0, map ? deform_->timings()->rhoCacheMs : 0.0,
               map ? deform_->lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0, sliceMap() ? 1 : 0,
-              1000 * glfwGetTime());
+              view3d_->lastStepFactor(), view3d_->mapPending() ? 1 : 0, 1000 * glfwGetTime());
   std::fflush(stdout);  // the log is read while the studio runs
 }
 

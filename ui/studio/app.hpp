@@ -372,6 +372,7 @@ class StudioApp {
   struct Upload3d {
     std::shared_ptr<const AnyVolume> volume;
     std::shared_ptr<const render::VolumeRenderer::Prepared> prepared;
+    int adopted = 0;  ///< frames since the load was adopted
   };
   std::optional<Upload3d> upload3d_;
   static constexpr size_t kUploadBytesPerFrame = size_t{32} << 20;  ///< ~50 ms on llvmpipe
@@ -391,7 +392,9 @@ class StudioApp {
   std::vector<Pane> panes_;
   RecentFiles recent_;
   bool slicesDirty_ = true;
-  std::string lastSliceKey_;
+  std::array<std::string, 3> paneSliceKeys_;  ///< per slice axis: what its texture shows
+  int sliceDragReduce_ = 2;                   ///< deformed slices' reduction during point drags
+  static constexpr double kSliceDragBudgetMs = 60;
   std::string lastLoadError_;
   std::string errorMessage_;
   bool errorOpen_ = false;

@@ -4,6 +4,7 @@
 #include <imgui.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -46,6 +47,34 @@ std::optional<Vec3> StudioApp::sliceSourceMm(const Vec3& mm) const {
   return map ? map->sourceMm(mm) : std::optional<Vec3>(mm);
 }
 
+namespace {
+// The 3D view's orientation marker (Slicer's habit): the patient's R, A and S axes as seen by
+// the camera, from `centre` (pane pixels), the farther axes drawn first and dimmer.
+void drawOrientationMarker(ImDrawList* dl, ImVec2 centre, float length, const render::Camera& camera) {
+  const CameraBasis basis = cameraBasis(camera);
+  struct Axis {
+    Vec3 lps;
+    const char* letter;
+    ImU32 colour;
+  };
+  // LPS: right is -x, anterior -y, superior +z.
+  std::array<Axis, 3> axes{{{{-1, 0, 0}, "R", IM_COL32(230, 80, 80, 255)},
+                            {{0, -1, 0}, "A", IM_COL32(90, 210, 90, 255)},
+                            {{0, 0, 1}, "S", IM_COL32(100, 140, 255, 255)}}};
+  std::sort(axes.begin(), axes.end(), [&](const Axis& u, const Axis& v) {
+    return dot(u.lps, basis.forward) > dot(v.lps, basis.forward);  // away from the viewer first
+  });
+  for (const Axis& ax : axes) {
+    const ImVec2 tip{centre.x + length * float(dot(ax.lps, basis.right)),
+                     centre.y - length * float(dot(ax.lps, basis.up))};
+    const bool away = dot(ax.lps, basis.forward) > 0.2;
+    const ImU32 c = away ? (ax.colour & 0x00ffffffu) | 0x90000000u : ax.colour;
+    dl->AddLine(centre, tip, c, 2.5f);
+    dl->AddText({tip.x - 3, tip.y - 7}, c, ax.letter);
+  }
+}
+}  // namespace
+
 void StudioApp::updateSliceTextures() {
   const deformation::MapSampler* map = sliceMap();
   std::ostringstream key;
@@ -57,14 +86,13 @@ void StudioApp::updateSliceTextures() {
   // Deformed slices follow the map (every move of a drag); undeformed ones ignore it.
   key << " map " << (map ? deform_->mapRevision() : 0);
   // While a control point is dragged the deformed slices are resampled every frame through a
-  // new map: at half resolution (a quarter of the samples), full again when the drag ends.
-  const int reduce = map && pointDrag_ ? 2 : 1;
+  // new map: at reduced resolution (1/2, or 1/4 when 1/2 took over kSliceDragBudgetMs), full
+  // again when the drag ends.
+  const int reduce = map && pointDrag_ ? sliceDragReduce_ : 1;
   key << " reduce " << reduce;
   const auto [snakeLive, snakeRevision] = snake_.live();
   if (snakeLive) key << " snake " << snakeRevision;
-  for (const Pane& p : panes_) key << ' ' << p.rect.w << 'x' << p.rect.h;
-  for (const SliceNavigation& n : sliceNav_) key << ' ' << n.zoom << ' ' << n.panU << ' ' << n.panV;
-  if (!slicesDirty_ && key.str() == lastSliceKey_) return;
+  if (slicesDirty_) paneSliceKeys_ = {};
   const auto t0 = std::chrono::steady_clock::now();
   SliceStyle style;
   style.window = scene_.view.sliceWindow;
@@ -74,23 +102,38 @@ void StudioApp::updateSliceTextures() {
   if (tools_.thresholdPreview) style.thresholdPreview = tools_.threshold;
   style.snakePreview = snakeLive.get();
   style.map = map;
+  int rendered = 0;
   for (const Pane& p : panes_) {
     if (p.is3d()) continue;
+    const auto axis = static_cast<size_t>(*p.slice);
+    std::ostringstream paneKey;
+    paneKey << key.str() << ' ' << p.rect.w << 'x' << p.rect.h << ' ' << sliceNav_[axis].zoom << ' '
+            << sliceNav_[axis].panU << ' ' << sliceNav_[axis].panV;
+    if (paneKey.str() == paneSliceKeys_[axis]) continue;
+    // Full-resolution deformed slices once nothing is dragged (after a point drag: ~0.1 s each
+    // at 512^2 on a loaded machine) come one pane per frame, so that no frame waits for all
+    // three; a crosshair drag keeps the three in step.
+    if (map && reduce == 1 && !dragPane_ && rendered > 0) break;
     SlicePlane plane = planeOf(p);
     if (reduce > 1) {  // the same field of view (within a pixel), drawn scaled up
       plane.width = (plane.width + reduce - 1) / reduce;
       plane.height = (plane.height + reduce - 1) / reduce;
       plane.mmPerPixel *= reduce;
     }
-    const auto axis = static_cast<size_t>(*p.slice);
     sliceScale_[axis] = reduce;
     sliceImages_[axis] = renderSlice(scene_.ct, plane, style);
     sliceTextures_[axis]->upload(sliceImages_[axis]);
+    paneSliceKeys_[axis] = paneKey.str();
+    ++rendered;
   }
   slicesDirty_ = false;
-  lastSliceKey_ = key.str();
+  if (rendered == 0) return;
   slicesRendered_ = true;
   lastSlicesMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  if (reduce > 1) {  // adapt the drag's reduction (hysteresis: 1/2 again only when 4x fits)
+    if (lastSlicesMs_ > kSliceDragBudgetMs) sliceDragReduce_ = 4;
+    else if (lastSlicesMs_ * 4 < 0.9 * kSliceDragBudgetMs) sliceDragReduce_ = 2;
+  }
 }
 
 void StudioApp::saveSliceScreenshot(const fs::path& path, SliceAxis axis) const {
@@ -117,6 +160,7 @@ void StudioApp::drawPanes() {
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(120, 120, 200, 255), title.c_str());
       if (upload3d_) dl->AddText({a.x + 6, a.y + 22}, IM_COL32(150, 200, 255, 255), "uploading the volume ...");
       if (panes_.size() > 1) drawPlanesIn3d(p);
+      drawOrientationMarker(dl, {b.x - 44, b.y - 44}, 30, scene_.render.camera);
       drawControlPoints(p);
       drawCurveTrace(p);
       continue;

@@ -11,6 +11,7 @@
 #include <utility>
 
 #include "vellum/core/error.hpp"
+#include "thread_priority.hpp"
 #include "vellum/core/progress.hpp"
 
 namespace vellum::studio {
@@ -43,6 +44,7 @@ class BackgroundJob {
       fraction_ = f;
     });
     thread_ = std::thread([this, work = std::move(work)] {
+      lowerThreadPriority();  // the window's frames come first
       Result r;
       try {
         r = work(*progress_);

@@ -1,4 +1,5 @@
 #include "deform_session.hpp"
+#include "thread_priority.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -75,10 +76,11 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const SolveInputs
 
 std::future<DeformSession::Solved> DeformSession::solveOnWorker(std::unique_ptr<Deformer>* slot, const VolumeI16* ct,
                                                                 DeformParams params, SolveInputs in,
-                                                                std::shared_ptr<Progress> progress) {
+                                                                std::shared_ptr<Progress> progress, bool background) {
   // The CT is read, not copied, here: the studio adopts a new volume only once busy() is
   // false, so it cannot change under the worker.
-  return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress)] {
+  return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress), background] {
+    if (background) lowerThreadPriority();
     if (!*slot) *slot = std::make_unique<Deformer>(AnyVolume(*ct), params);
     return solve(**slot, in, *progress);
   });
@@ -96,7 +98,7 @@ bool DeformSession::liveExact(const ControlPoints& points) const {
 }
 
 void DeformSession::adopt(Solved s, bool preview) {
-  map_ = std::move(s.map);
+  map_ = std::make_shared<const render::BackwardMap>(std::move(s.map));
   sampler_ = std::move(s.sampler);
   mapKey_ = preview ? "" : s.key;
   preview_ = preview;
@@ -115,7 +117,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   const Authoring& a = scene.authoring;
   if (!scene.hasVolume() || !a.active() || a.currentPoints().empty()) {
     // Nothing to show; running workers finish on their own (their results are dropped).
-    const bool had = map_.has_value();
+    const bool had = map_ != nullptr;
     map_.reset();
     sampler_.reset();
     mapKey_.clear();
@@ -161,6 +163,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
       buildingRevision_ = scene.labelsRevision;
       buildingLabels_ = a.rigidLabels;
       bodiesBuild_ = std::async(std::launch::async, [labels = scene.labels, ids = a.rigidLabels] {
+        lowerThreadPriority();
         return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(labels, ids));
       });
     }
@@ -218,7 +221,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     if (!previewWork_.valid() && !previewDeformer_) {
       previewForDrag_ = false;
       previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key),
-                                   std::make_shared<Progress>());
+                                   std::make_shared<Progress>(), /*background=*/true);
     }
     return changed;
   }

@@ -61,7 +61,9 @@ class DeformSession {
     if (solve_.valid()) solve_.wait_for(timeout);
   }
   /// The map to draw, or nullptr (no points / identity).
-  const render::BackwardMap* map() const { return map_ ? &*map_ : nullptr; }
+  const render::BackwardMap* map() const { return map_.get(); }
+  /// The same, shared: the 3D view prepares it for the GPU on a worker (immutable once made).
+  const std::shared_ptr<const render::BackwardMap>& sharedMap() const { return map_; }
   /// The same map for CPU sampling at any output position (the deformed slice views), or
   /// nullptr exactly when map() is: the control volume with its rigid snap, upsampled as
   /// CPU synthesis does it.
@@ -98,11 +100,12 @@ class DeformSession {
   bool liveExact(const deformation::ControlPoints& points) const;
   /// Solves `points` on `deformer` with the rigid blend: the work of both paths.
   static Solved solve(deformation::Deformer& deformer, const SolveInputs& in, Progress& progress);
-  /// On a worker: makes *slot from `ct` (when empty) and solves with it. The UI thread leaves
+  /// On a worker: makes *slot from `ct` (when empty) and solves with it (`background`: at the
+  /// lowered priority of work nobody waits for, lowerThreadPriority). The UI thread leaves
   /// *slot alone until the future is ready.
   static std::future<Solved> solveOnWorker(std::unique_ptr<deformation::Deformer>* slot, const VolumeI16* ct,
                                            deformation::DeformParams params, SolveInputs in,
-                                           std::shared_ptr<Progress> progress);
+                                           std::shared_ptr<Progress> progress, bool background = false);
   SolveInputs inputs(const Scene& scene, const std::string& key) const;
   void adopt(Solved s, bool preview);
   void waitForSolve();
@@ -122,7 +125,7 @@ class DeformSession {
   std::future<std::shared_ptr<const deformation::RigidBodies>> bodiesBuild_;
   uint64_t buildingRevision_ = 0;
   std::vector<uint16_t> buildingLabels_;
-  std::optional<render::BackwardMap> map_;
+  std::shared_ptr<const render::BackwardMap> map_;
   std::shared_ptr<const deformation::MapSampler> sampler_;
   std::string mapKey_;  ///< inputs of the exact map shown ("" = none or a preview)
   std::string previewKey_;  ///< inputs of the preview shown

@@ -1,10 +1,12 @@
 #include "view3d.hpp"
+#include "thread_priority.hpp"
 
 #include <GL/glcorearb.h>
 
 #include <algorithm>
 #include <cmath>
 #include <chrono>
+#include <future>
 #include <sstream>
 
 namespace vellum::studio {
@@ -200,6 +202,8 @@ View3D::View3D(render::GlContext& context)
 
 void View3D::setVolume(const VolumeI16& ct) {
   context_.makeCurrent();
+  dropPendingMaps();
+  volumePrepared_.reset();
   renderer_->setVolume(AnyVolume(ct));  // drops the label tint
   labelsKey_.clear();
   hasVolume_ = true;
@@ -210,6 +214,8 @@ bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
                               std::shared_ptr<const render::VolumeRenderer::Prepared> prepared, size_t maxBytes) {
   context_.makeCurrent();
   hasVolume_ = false;  // the renderer has dropped the previous volume
+  if (volumePrepared_ != prepared) dropPendingMaps();  // made for the previous volume
+  volumePrepared_ = prepared;
   if (!renderer_->uploadVolumeStep(std::move(ct), std::move(prepared), maxBytes)) return false;
   labelsKey_.clear();
   hasVolume_ = true;
@@ -217,11 +223,50 @@ bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
   return true;
 }
 
-void View3D::setBackwardMap(const render::BackwardMap* map, uint64_t revision) {
+void View3D::setBackwardMap(std::shared_ptr<const render::BackwardMap> map, uint64_t revision) {
+  if (map && volumePrepared_) {
+    nextMap_ = MapRequest{std::move(map), revision};  // replaces one the worker has not started
+    stepMap(0);                                        // starts the worker when it is free
+    return;
+  }
+  dropPendingMaps();
   context_.makeCurrent();
-  renderer_->setBackwardMap(map);
+  renderer_->setBackwardMap(map.get());
   hasMap_ = map != nullptr;
   mapRevision_ = revision;
+}
+
+void View3D::dropPendingMaps() {
+  nextMap_.reset();
+  preparingStale_ = preparing_.valid();  // its result is dropped when it lands (no wait here)
+  uploading_.reset();
+}
+
+bool View3D::stepMap(size_t maxBytes) {
+  using Future = decltype(preparing_);
+  if (preparing_.valid() && preparing_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+    auto prepared = preparing_.get();
+    if (!preparingStale_) {
+      uploading_ = std::move(prepared);  // a newer map replaces one still uploading
+      uploadingRevision_ = preparingRevision_;
+    }
+    preparingStale_ = false;
+  }
+  if (!preparing_.valid() && nextMap_) {
+    preparingRevision_ = nextMap_->revision;
+    preparing_ = Future(std::async(std::launch::async, [map = std::move(nextMap_->map), volume = volumePrepared_] {
+      lowerThreadPriority();
+      return render::VolumeRenderer::prepareBackwardMap(map, *volume);
+    }));
+    nextMap_.reset();
+  }
+  if (!uploading_ || maxBytes == 0 || !hasVolume_) return false;  // after the volume's own upload
+  context_.makeCurrent();
+  if (!renderer_->uploadBackwardMapStep(uploading_, maxBytes)) return false;
+  uploading_.reset();
+  hasMap_ = true;
+  mapRevision_ = uploadingRevision_;
+  return true;
 }
 
 void View3D::setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted) {
@@ -282,8 +327,9 @@ bool View3D::drawingMeshes(const Scene& scene) const {
          std::find(meshVisible_.begin(), meshVisible_.end(), true) != meshVisible_.end();
 }
 
-void View3D::drawFrame(const Scene& scene, render::FramebufferTarget& target) {
-  const render::RenderSettings s = renderSettingsFor(scene, target.width(), target.height());
+void View3D::drawFrame(const Scene& scene, render::FramebufferTarget& target, int stepFactor) {
+  render::RenderSettings s = renderSettingsFor(scene, target.width(), target.height());
+  s.stepVoxels *= stepFactor;
   const bool meshes = drawingMeshes(scene);
   if (meshes) {
     target.clear({0, 0, 0, 0});
@@ -341,7 +387,7 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
   } else {  // drawn in place: nothing read back or uploaded
     context_.makeCurrent();
     coarse_.resize(w, h);
-    drawFrame(scene, coarse_);
+    drawFrame(scene, coarse_, stepFactor_);
     // Pacing needs the frame's real cost: llvmpipe's timer queries miss deferred rasterisation
     // (docs/benchmarks-render.md), so wait for the draw (the swap would wait for it anyway).
     glFinish();
@@ -350,13 +396,23 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
     lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   lastScale_ = scale_;
+  lastStepFactor_ = stepFactor_;
   lastKey_ = key;
   refined_ = false;
   // Cost scales with pixels: halve the resolution when over budget; double it only when 4x
   // the pixels are predicted to fit (hysteresis: no oscillation between two factors).
-  // Up to 1/16: a deformed 512²×350 volume on llvmpipe is over budget even at 1/8.
-  if (lastMs_ > kInteractiveBudgetMs && scale_ < 16) scale_ *= 2;
-  else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) scale_ /= 2;
+  // Up to 1/16: a deformed 512²×350 volume on llvmpipe is over budget even at 1/8. Beyond
+  // that the ray step grows (2x, 4x: the deformed rays' cost is per sample, and 1/32 of the
+  // pane would be a few hundred pixels); the step comes back first. The refined picture
+  // always has the scene's step.
+  if (lastMs_ > kInteractiveBudgetMs) {
+    if (scale_ < 16) scale_ *= 2;
+    else if (stepFactor_ < 4) stepFactor_ *= 2;
+  } else if (stepFactor_ > 1) {
+    if (lastMs_ * 2 < kInteractiveBudgetMs * 0.9) stepFactor_ /= 2;
+  } else if (lastMs_ * 4 < kInteractiveBudgetMs * 0.9 && scale_ > 2) {
+    scale_ /= 2;
+  }
 }
 
 void View3D::startRefinement(const Scene& scene, int paneWidth, int paneHeight) {

@@ -6,6 +6,7 @@
 // resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when the view rests, the full-resolution picture is rendered a band of rows
 // per frame (VolumeRenderer::renderIntoRows, each band sized to the same budget) over the
 // scaled-up coarse picture, so the window stays responsive throughout.
+#include <future>
 #include <memory>
 #include <optional>
 #include <string>
@@ -72,8 +73,16 @@ class View3D {
   bool uploadVolumeStep(std::shared_ptr<const AnyVolume> ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared,
                         size_t maxBytes);
   /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
-  /// a new one renders again (coarse while the user drags, then refined).
-  void setBackwardMap(const render::BackwardMap* map, uint64_t revision);
+  /// a new one renders again (coarse while the user drags, then refined). After
+  /// uploadVolumeStep() the map's CPU part (VolumeRenderer::prepareBackwardMap: seconds at
+  /// 512^3 with a rigid snap) is made on a worker and uploaded by stepMap() in slabs; until it
+  /// is drawn the view keeps drawing the previous map. Otherwise (setVolume) at once.
+  void setBackwardMap(std::shared_ptr<const render::BackwardMap> map, uint64_t revision);
+  /// Once per frame: adopts a map prepared on the worker, uploading about `maxBytes` of it;
+  /// true when a new map is drawn from now on.
+  bool stepMap(size_t maxBytes);
+  /// True while a map set by setBackwardMap() is not drawn yet (preparing or uploading).
+  bool mapPending() const { return nextMap_ || preparing_.valid() || uploading_ != nullptr; }
   /// Label colours for the 3D view (RenderSettings::labelBlend): re-uploaded when `revision`
   /// or the hidden set changes and the blend is on; cheap to call every frame.
   void setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted);
@@ -102,6 +111,8 @@ class View3D {
   /// Wall milliseconds of the last 3D render (meshes + volume, or a band), waited for.
   double lastRenderMs() const { return lastMs_; }
   int lastScale() const { return lastScale_; }
+  /// The ray step of the last reduced-resolution frame, in multiples of the scene's.
+  int lastStepFactor() const { return lastStepFactor_; }
   /// While refining: the fraction of rows done (0..1); 1 when refined or not refining.
   double refineProgress() const {
     return refining_ && refineHeight_ > 0 ? double(refineRow_) / refineHeight_ : 1.0;
@@ -130,14 +141,28 @@ class View3D {
   unsigned shown_ = 0;
   bool shownBottomUp_ = false;
   bool hasVolume_ = false, hasMap_ = false;
+  /// The volume's CPU part (from uploadVolumeStep), which map preparation needs; null after
+  /// setVolume().
+  std::shared_ptr<const render::VolumeRenderer::Prepared> volumePrepared_;
+  struct MapRequest {
+    std::shared_ptr<const render::BackwardMap> map;
+    uint64_t revision = 0;
+  };
+  std::optional<MapRequest> nextMap_;  ///< the newest map, waiting for the worker
+  std::future<std::shared_ptr<const render::VolumeRenderer::PreparedBackwardMap>> preparing_;
+  uint64_t preparingRevision_ = 0, uploadingRevision_ = 0;
+  bool preparingStale_ = false;  ///< preparing_ was made for a volume or map since dropped
+  std::shared_ptr<const render::VolumeRenderer::PreparedBackwardMap> uploading_;
+  void dropPendingMaps();
   bool refined_ = false;
   std::string lastKey_;
   uint64_t mapRevision_ = 0;
-  int scale_ = 4, lastScale_ = 1;  // first drag starts at 1/4: 1/2 is over budget at 256³
+  int scale_ = 4, lastScale_ = 1;
+  int stepFactor_ = 1, lastStepFactor_ = 1;  ///< coarse frames' ray step (x the scene's) beyond 1/16  // first drag starts at 1/4: 1/2 is over budget at 256³
   double lastMs_ = 0;
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
   /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
-  void drawFrame(const Scene& scene, render::FramebufferTarget& target);
+  void drawFrame(const Scene& scene, render::FramebufferTarget& target, int stepFactor = 1);
   void startRefinement(const Scene& scene, int paneWidth, int paneHeight);
   // Banded refinement state.
   bool refining_ = false;

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <optional>
 
@@ -74,6 +75,10 @@ void uniformMat3(GLuint p, const char* name, const Mat3& m) {
 struct SkipGrid {
   GLuint occupancyTex = 0, maxTex = 0;
   Dims dims;
+  /// The source blocks' occupancy the occupancy texture was made from: a draw with the same
+  /// transfer function re-uploads nothing (the map cells' occupancy costs tens of ms at 512^3).
+  std::vector<uint8_t> madeFrom;
+  bool occupancySet = false;
 };
 
 void makeSkipTextures(SkipGrid& g, const Dims& dims, const std::vector<float>& maxValues) {
@@ -89,6 +94,7 @@ void makeSkipTextures(SkipGrid& g, const Dims& dims, const std::vector<float>& m
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(dims.x), GLsizei(dims.y), GLsizei(dims.z),
                   GL_RED, GL_FLOAT, maxValues.data());
   g.dims = dims;
+  g.occupancySet = false;
   checkGlError("skip textures");
 }
 
@@ -101,6 +107,19 @@ void uploadOccupancy(const SkipGrid& g, const std::vector<uint8_t>& occ) {
 
 }  // namespace
 
+// What setBackwardMap() does before GL, kept for the upload: the texels as uploaded (RGBA: w
+// unused; llvmpipe filters 16-byte texels faster than 12-byte ones) and what the draws need.
+struct VolumeRenderer::PreparedBackwardMap {
+  std::shared_ptr<const BackwardMap> map;
+  Geometry source;
+  Dims texDims;
+  std::vector<float> rgba;
+  MapCells cells;
+  std::optional<SnapFrame> snap;
+  std::optional<PreparedMap::OutputAxes> output;
+  Mat3 normalToSourceIndex, nodeIndexToNormal;
+};
+
 struct VolumeRenderer::Impl {
   GlContext& context;
   GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0, classTex = 0;
@@ -112,7 +131,6 @@ struct VolumeRenderer::Impl {
   std::optional<PreparedMap::OutputAxes> output;
   Mat3 normalToSourceIndex, nodeIndexToNormal;  ///< PreparedMap's, for TURN_NORMALS
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
-  MapCells mapCells;       ///< the same per map cell, when a map is set
   SkipGrid blockSkip, cellSkip;
   GLuint vao = 0;
   OffscreenTarget target;  ///< destroyed after the body of ~Impl, context still current
@@ -121,8 +139,27 @@ struct VolumeRenderer::Impl {
   GLuint labelTex = 0, labelColourTex = 0;  ///< LabelTint: ids (R16UI) and colours by id (RGBA8)
   Geometry source;
   double valueScale = 1;
-  std::optional<BackwardMap> map;
+  std::shared_ptr<const BackwardMap> map;
   bool mapUploaded = false;
+  /// The prepared map being drawn (its cells), and one being uploaded in steps into textures
+  /// not drawn yet (VolumeRenderer::uploadBackwardMapStep).
+  std::shared_ptr<const PreparedBackwardMap> drawnMap;
+  struct MapStep {
+    std::shared_ptr<const PreparedBackwardMap> prepared;
+    GLuint mapTex = 0, attrTex = 0, classTex = 0;
+    int64_t mapZ = 0, attrZ = 0, classZ = 0;
+    bool newClasses = false;
+  };
+  std::optional<MapStep> mapStep;
+  /// The map and attribute textures the previous map used, kept for the next map of the same
+  /// node grid: a drag alternates between two grids, and llvmpipe's allocation of a 3D texture
+  /// is not free.
+  struct SpareTexture {
+    GLuint tex = 0;
+    Dims dims;
+  };
+  SpareTexture spareMap, spareAttr;
+  Dims mapTexDims, attrTexDims;
   std::map<int, GLuint> programs;
   double lastMs = 0;
   int lastSamples = 0;  ///< cinematic: samples per pixel of the last render()
@@ -155,8 +192,9 @@ struct VolumeRenderer::Impl {
   ~Impl() {
     context.makeCurrent();
     for (auto& [key, p] : programs) glDeleteProgram(p);
+    dropMapStep();
     for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &lightTex, &majorantTex, &blockSkip.occupancyTex,
-                      &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex})
+                      &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex, &spareMap.tex, &spareAttr.tex})
       deleteTexture(*t);
     glDeleteVertexArrays(1, &vao);
   }
@@ -251,51 +289,55 @@ struct VolumeRenderer::Impl {
     std::shared_ptr<const AnyVolume> volume;
     std::shared_ptr<const Prepared> prepared;
     int64_t z = 0;
+    bool normalsAllocated = false;
   };
   std::optional<StepUpload> stepUpload;
 
+  /// The map (set by setBackwardMap, or kept across a new volume) prepared for the current
+  /// volume and uploaded at once.
   void uploadMap() {
     if (!map || mapUploaded || !hasVolume) return;
-    const Dims& d = map->grid.dims;
-    checkTextureSize(d, "backward map grid");
-    PreparedMap pm = prepareMap(*map, source);
-    const Dims& td = pm.texDims;
-    checkTextureSize(td, "backward map texture");
-    deleteTexture(mapTex);
-    glGenTextures(1, &mapTex);
-    glBindTexture(GL_TEXTURE_3D, mapTex);
-    // RGBA (w unused): llvmpipe filters 16-byte texels faster than 12-byte ones.
-    const std::vector<float>& texels = pm.texture();
-    std::vector<float> rgba(texels.size() / 3 * 4, 0.f);
-    for (size_t t = 0, n = texels.size() / 3; t < n; ++t)
-      std::copy_n(texels.data() + 3 * t, 3, rgba.data() + 4 * t);
-    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA32F, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z));
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(td.x), GLsizei(td.y), GLsizei(td.z), GL_RGBA,
-                    GL_FLOAT, rgba.data());
+    startMapStep(prepareFor(map, source, blocks));
+    continueMapStep(std::numeric_limits<size_t>::max());
+  }
+
+  static std::shared_ptr<const PreparedBackwardMap> prepareFor(std::shared_ptr<const BackwardMap> map,
+                                                               const Geometry& source, const BlockRanges& blocks);
+
+  void dropMapStep() {
+    if (!mapStep) return;
+    for (GLuint* t : {&mapStep->mapTex, &mapStep->attrTex, &mapStep->classTex}) deleteTexture(*t);
+    mapStep.reset();
+  }
+
+  /// A 3D RGBA32F texture of `d` with linear clamped sampling: the spare one when it fits.
+  static GLuint mapTexture(SpareTexture& spare, const Dims& d) {
+    GLuint t = 0;
+    if (spare.tex && spare.dims == d) {
+      std::swap(t, spare.tex);
+    } else {
+      deleteTexture(spare.tex);
+      glGenTextures(1, &t);
+      glBindTexture(GL_TEXTURE_3D, t);
+      glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA32F, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+    }
+    glBindTexture(GL_TEXTURE_3D, t);
     // The map extends its outermost nodes (rays only sample inside its grid box).
     setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
-    deleteTexture(attrTex);
-    if (!map->attributes.empty()) {
-      glGenTextures(1, &attrTex);
-      glBindTexture(GL_TEXTURE_3D, attrTex);
-      glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA32F, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
-      glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z),
-                      GL_RGBA, GL_FLOAT, map->attributes.data());
-      setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
-    }
-    if (pm.snap) uploadClasses(*map->rigidSnap);
-    MapCellSupport support{td, 0, pm.upsampling == Upsampling::Gaussian ? 4 : 1,
-                           pm.snapMarginVoxels};
-    mapCells = computeMapCells(d, pm.texture(), blocks, &support);
-    makeSkipTextures(cellSkip, mapCells.cells, mapCells.maxValue);
-    snap = std::move(pm.snap);
-    output = pm.output;
-    normalToSourceIndex = pm.normalToSourceIndex;
-    nodeIndexToNormal = pm.nodeIndexToNormal;
-    mapUploaded = true;
-    checkGlError("backward map upload");
+    return t;
   }
+  static void retire(SpareTexture& spare, GLuint& tex, const Dims& d) {
+    if (!tex) return;
+    deleteTexture(spare.tex);
+    spare = {tex, d};
+    tex = 0;
+  }
+
+  /// Textures for `p`, allocated but not filled (continueMapStep fills them).
+  void startMapStep(std::shared_ptr<const PreparedBackwardMap> p);
+  /// Fills whole z slabs of the pending textures, about `maxBytes` (at least one slab); once
+  /// all are full they replace the drawn map's. True when done.
+  bool continueMapStep(size_t maxBytes);
 
   /// The light volume for this transfer function, light and radius (recomputed only when one
   /// of them changed), bound with its uniforms.
@@ -337,23 +379,6 @@ struct VolumeRenderer::Impl {
     uniform1(p, "uShadowAmount", s.lighting.shadows);
     uniform1(p, "uOcclusionAmount", s.lighting.occlusion);
     uniform1(p, "uExposure", std::exp2(s.lighting.exposure));
-  }
-
-  void uploadClasses(const RigidSnap& rs) {
-    if (classTex && uploadedClasses == rs.classes.get()) return;
-    const Dims& d = rs.classGrid.dims;
-    checkTextureSize(d, "rigid snap class volume");
-    deleteTexture(classTex);
-    glGenTextures(1, &classTex);
-    glBindTexture(GL_TEXTURE_3D, classTex);
-    glTexStorage3D(GL_TEXTURE_3D, 1, GL_R16UI, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RED_INTEGER,
-                    GL_UNSIGNED_SHORT, rs.classes->data());
-    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
-    uploadedClasses = rs.classes.get();
-    heldClasses = rs.classes;
-    checkGlError("rigid snap class upload");
   }
 
   /// Ray casts rows [rowBegin, rowEnd) (row 0 = top) of the image `s` describes into the bound
@@ -446,7 +471,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
       uniform3(p, "uOutDims", output->dims);
     }
   }
-  const SkipGrid& skip = variant.deformed ? cellSkip : blockSkip;
+  SkipGrid& skip = variant.deformed ? cellSkip : blockSkip;
   glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(skip.dims.x), GLint(skip.dims.y),
               GLint(skip.dims.z));
   if (variant.mip) {
@@ -462,8 +487,11 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfTableSize, GL_RGBA, GL_FLOAT, tf.rgba.data());
     uniform1(p, "uTfLo", tf.lo);
     std::vector<uint8_t> occ = blockOccupancy(blocks, tf);
-    if (variant.deformed) occ = cellOccupancy(mapCells, occ, blocks.blocks);
-    uploadOccupancy(skip, occ);
+    if (!skip.occupancySet || occ != skip.madeFrom) {
+      uploadOccupancy(skip, variant.deformed ? cellOccupancy(drawnMap->cells, occ, blocks.blocks) : occ);
+      skip.madeFrom = std::move(occ);
+      skip.occupancySet = true;
+    }
     glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
     glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
@@ -625,6 +653,7 @@ void VolumeRenderer::finishVolume(const Geometry& g, const Prepared& prepared) {
   makeSkipTextures(impl_->blockSkip, impl_->blocks.blocks, impl_->blocks.maxValue);
   impl_->source = g;
   impl_->hasVolume = true;
+  impl_->dropMapStep();
   impl_->mapUploaded = false;  // source index coordinates depend on the source geometry
   impl_->uploadMap();
   setLabelTint(nullptr);  // the labels belonged to the previous volume
@@ -640,10 +669,17 @@ bool VolumeRenderer::uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, s
     if (!(prepared->geometry.dims == g.dims)) throw Error("uploadVolumeStep: prepared for another volume");
     m.hasVolume = false;  // nothing is drawn until the new volume is complete
     std::visit([&](const auto& v) { m.allocVolume(v); }, *volume);
-    m.allocNormals(g.dims);
     m.stepUpload = Impl::StepUpload{volume, prepared, 0};
+    // Each allocation alone in its call (its own frame): llvmpipe clears the storage, hundreds
+    // of ms for the normals at 512^3.
+    return false;
   }
   Impl::StepUpload& u = *m.stepUpload;
+  if (!u.normalsAllocated) {
+    m.allocNormals(g.dims);
+    u.normalsAllocated = true;
+    return false;
+  }
   // Whole slices of both textures, at least one per step.
   const size_t voxelBytes = std::visit([](const auto& v) { return sizeof(*v.data()); }, *volume);
   const size_t sliceBytes = static_cast<size_t>(g.dims.x * g.dims.y) * (voxelBytes + 4);
@@ -659,8 +695,10 @@ bool VolumeRenderer::uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, s
 
 void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
   impl_->context.makeCurrent();
+  impl_->dropMapStep();
   if (!map) {
     impl_->map.reset();
+    impl_->drawnMap.reset();
     impl_->snap.reset();
     impl_->output.reset();
     deleteTexture(impl_->mapTex);
@@ -668,9 +706,150 @@ void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
     return;
   }
   validateMap(*map);
-  impl_->map = *map;
+  impl_->map = std::make_shared<const BackwardMap>(*map);
   impl_->mapUploaded = false;
   impl_->uploadMap();
+}
+
+std::shared_ptr<const VolumeRenderer::PreparedBackwardMap> VolumeRenderer::Impl::prepareFor(
+    std::shared_ptr<const BackwardMap> map, const Geometry& source, const BlockRanges& blocks) {
+  validateMap(*map);
+  PreparedMap pm = prepareMap(*map, source);
+  auto out = std::make_shared<PreparedBackwardMap>();
+  out->texDims = pm.texDims;
+  const std::vector<float>& texels = pm.texture();
+  out->rgba.assign(texels.size() / 3 * 4, 0.f);
+  for (size_t t = 0, n = texels.size() / 3; t < n; ++t) std::copy_n(texels.data() + 3 * t, 3, out->rgba.data() + 4 * t);
+  MapCellSupport support{pm.texDims, 0, pm.upsampling == Upsampling::Gaussian ? 4 : 1, pm.snapMarginVoxels};
+  out->cells = computeMapCells(map->grid.dims, texels, blocks, &support);
+  out->snap = std::move(pm.snap);
+  out->output = pm.output;
+  out->normalToSourceIndex = pm.normalToSourceIndex;
+  out->nodeIndexToNormal = pm.nodeIndexToNormal;
+  out->source = source;
+  out->map = std::move(map);
+  return out;
+}
+
+std::shared_ptr<const VolumeRenderer::PreparedBackwardMap> VolumeRenderer::prepareBackwardMap(
+    std::shared_ptr<const BackwardMap> map, const Prepared& volume) {
+  if (!map) throw Error("prepareBackwardMap: no map");
+  return Impl::prepareFor(std::move(map), volume.geometry, volume.blocks);
+}
+
+void VolumeRenderer::Impl::startMapStep(std::shared_ptr<const PreparedBackwardMap> p) {
+  const BackwardMap& m = *p->map;
+  checkTextureSize(m.grid.dims, "backward map grid");
+  checkTextureSize(p->texDims, "backward map texture");
+  MapStep st;
+  // The class volume (the size of the CT) only when the snap brings another one. A class
+  // volume half uploaded for the map this one replaces is continued, not started over: during a
+  // drag a new map comes every frame, all with the same classes.
+  const RigidSnap* rs = p->snap ? m.rigidSnap.get() : nullptr;
+  st.newClasses = rs && !(classTex && uploadedClasses == rs->classes.get());
+  if (st.newClasses && mapStep && mapStep->newClasses &&
+      mapStep->prepared->map->rigidSnap->classes == rs->classes) {
+    std::swap(st.classTex, mapStep->classTex);
+    st.classZ = mapStep->classZ;
+  }
+  dropMapStep();
+  st.mapTex = mapTexture(spareMap, p->texDims);
+  if (!m.attributes.empty()) st.attrTex = mapTexture(spareAttr, m.grid.dims);
+  if (st.newClasses && !st.classTex) {
+    const Dims& d = rs->classGrid.dims;
+    checkTextureSize(d, "rigid snap class volume");
+    glGenTextures(1, &st.classTex);
+    glBindTexture(GL_TEXTURE_3D, st.classTex);
+    glTexStorage3D(GL_TEXTURE_3D, 1, GL_R16UI, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
+  }
+  st.prepared = std::move(p);
+  mapStep = std::move(st);
+  checkGlError("backward map allocation");
+}
+
+bool VolumeRenderer::Impl::continueMapStep(size_t maxBytes) {
+  MapStep& st = *mapStep;
+  const PreparedBackwardMap& p = *st.prepared;
+  const BackwardMap& m = *p.map;
+  size_t budget = maxBytes;
+  bool any = false;
+  // Slices [z, z + n) of one texture, as many as the budget allows (one at least per call).
+  auto slabs = [&](GLuint tex, const Dims& d, int64_t& z, size_t texelBytes, GLenum format, GLenum type,
+                   const void* data) {
+    const size_t slice = static_cast<size_t>(d.x * d.y) * texelBytes;
+    while (z < d.z) {
+      int64_t n = std::min<int64_t>(d.z - z, int64_t(std::min<size_t>(budget / slice, size_t(d.z))));
+      if (n == 0) {
+        if (any) return false;
+        n = 1;
+      }
+      glBindTexture(GL_TEXTURE_3D, tex);
+      glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+      glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, GLint(z), GLsizei(d.x), GLsizei(d.y), GLsizei(n), format, type,
+                      static_cast<const char*>(data) + static_cast<size_t>(z) * slice);
+      z += n;
+      budget -= std::min(budget, static_cast<size_t>(n) * slice);
+      any = true;
+    }
+    return true;
+  };
+  if (!slabs(st.mapTex, p.texDims, st.mapZ, 16, GL_RGBA, GL_FLOAT, p.rgba.data())) return false;
+  if (st.attrTex && !slabs(st.attrTex, m.grid.dims, st.attrZ, 16, GL_RGBA, GL_FLOAT, m.attributes.data())) return false;
+  if (st.newClasses && !slabs(st.classTex, m.rigidSnap->classGrid.dims, st.classZ, 2, GL_RED_INTEGER,
+                              GL_UNSIGNED_SHORT, m.rigidSnap->classes->data()))
+    return false;
+  checkGlError("backward map upload");
+  // Complete: the pending textures replace the drawn ones (kept as spares for the next map).
+  retire(spareMap, mapTex, mapTexDims);
+  std::swap(mapTex, st.mapTex);
+  mapTexDims = p.texDims;
+  retire(spareAttr, attrTex, attrTexDims);
+  std::swap(attrTex, st.attrTex);
+  attrTexDims = m.grid.dims;
+  if (st.newClasses) {
+    deleteTexture(classTex);
+    std::swap(classTex, st.classTex);
+    uploadedClasses = m.rigidSnap->classes.get();
+    heldClasses = m.rigidSnap->classes;
+  }
+  makeSkipTextures(cellSkip, p.cells.cells, p.cells.maxValue);
+  snap = p.snap;
+  output = p.output;
+  normalToSourceIndex = p.normalToSourceIndex;
+  nodeIndexToNormal = p.nodeIndexToNormal;
+  map = p.map;
+  drawnMap = st.prepared;
+  mapUploaded = true;
+  mapStep.reset();
+  checkGlError("backward map upload");
+  return true;
+}
+
+namespace {
+bool sameGeometry(const Geometry& a, const Geometry& b) {
+  if (!(a.dims == b.dims)) return false;
+  for (const Vec3& p : {Vec3{0, 0, 0}, Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{0, 0, 1}})
+    if (norm(a.indexToPhysical(p) - b.indexToPhysical(p)) > 1e-9) return false;
+  return true;
+}
+}  // namespace
+
+bool VolumeRenderer::uploadBackwardMapStep(std::shared_ptr<const PreparedBackwardMap> prepared, size_t maxBytes) {
+  Impl& m = *impl_;
+  m.context.makeCurrent();
+  if (!prepared) throw Error("uploadBackwardMapStep: no map");
+  if (m.drawnMap == prepared && m.mapUploaded) return true;
+  if (!m.hasVolume || !sameGeometry(prepared->source, m.source)) {
+    // Prepared for another volume: the map is kept and prepared for this one when drawn.
+    m.dropMapStep();
+    m.map = prepared->map;
+    m.mapUploaded = false;
+    m.uploadMap();
+    return true;
+  }
+  if (!m.mapStep || m.mapStep->prepared != prepared) m.startMapStep(std::move(prepared));
+  return m.continueMapStep(maxBytes);
 }
 
 void VolumeRenderer::setLabelTint(const LabelTint* tint) {

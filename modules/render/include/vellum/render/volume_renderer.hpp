@@ -43,15 +43,29 @@ class VolumeRenderer {
   static std::shared_ptr<const Prepared> prepare(const AnyVolume& volume);
   /// setVolume() with its CPU part already made (by prepare() from this same volume).
   void setVolume(const AnyVolume& volume, const Prepared& prepared);
-  /// The same spread over calls, for a viewer that must keep drawing: each call uploads whole
-  /// z slices of the volume and normal textures, about `maxBytes` (at least one slice), and
-  /// returns true once the volume is complete. Until then nothing is drawn (the previous
+  /// The same spread over calls, for a viewer that must keep drawing: the first two calls
+  /// allocate the volume and the normal texture, each later one uploads whole z slices of both,
+  /// about `maxBytes` (at least one slice), and returns true once the volume is complete. Until then nothing is drawn (the previous
   /// volume is gone). Calling with another volume or setVolume() starts over.
   bool uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, std::shared_ptr<const Prepared> prepared,
                         size_t maxBytes);
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
   void setBackwardMap(const BackwardMap* map);
+  /// The CPU part of setBackwardMap() (validation, the source-index texels, the map cells'
+  /// empty-space ranges, the snap's frames): no GL, so an interactive viewer makes it on a
+  /// worker thread, for the volume `volume` was prepared from, and uploads it with
+  /// uploadBackwardMapStep() on the context's thread. Throws vellum::Error for malformed maps.
+  struct PreparedBackwardMap;
+  static std::shared_ptr<const PreparedBackwardMap> prepareBackwardMap(std::shared_ptr<const BackwardMap> map,
+                                                                       const Prepared& volume);
+  /// setBackwardMap() spread over calls: each call uploads whole z slabs of the map's textures
+  /// (and of the rigid snap's class volume when the map brings a new one), about `maxBytes`
+  /// (at least one slab), and returns true once the map is the one drawn. Until then the
+  /// previous map (or none) is still drawn, unchanged. Calling with another prepared map,
+  /// setBackwardMap() or a new volume starts over. A map prepared for another volume than the
+  /// current one is prepared again here, at once.
+  bool uploadBackwardMapStep(std::shared_ptr<const PreparedBackwardMap> map, size_t maxBytes);
   /// Label colours for RenderSettings::labelBlend > 0 (ids on the volume's grid; uploaded
   /// once; call again when they change). nullptr removes them. Call after setVolume.
   void setLabelTint(const LabelTint* tint);
