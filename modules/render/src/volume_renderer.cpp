@@ -506,7 +506,7 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
   if (deform) {
     float scale = 1;  // the attribute field's density scale multiplies the extinction
     for (size_t i = 3; i < deform->attributes.size(); i += 4) scale = std::max(scale, deform->attributes[i]);
-    maj = cellMajorants(mapCells, maj, blocks.blocks, scale);
+    maj = cellMajorants(drawnMap->cells, maj, blocks.blocks, scale);
   }
   if (!majorantTex || !(majorantDims == dims)) {
     deleteTexture(majorantTex);
