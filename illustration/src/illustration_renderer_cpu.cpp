@@ -95,6 +95,9 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
   const size_t ns = cx.fields.slots.size();
   std::vector<float> d(ns + 1);
   std::vector<Vec3f> gi(ns + 1), gp(ns + 1);
+  std::vector<float> histA(ns + 1), histB(ns + 1);  // each slot's distance two and one samples ago
+  constexpr float kInkNone = 1e30f;
+  std::vector<float> inked(ns + 1);  // line ink already laid on this ray near each slot's surface
   const auto& m = cx.sf.gradToPhys;
   std::vector<float> lo, hi;
   gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
@@ -104,6 +107,17 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
       const auto clip = render::detail::clipRay(f, ray, s.jitter ? render::detail::pixelJitter(x, y) : 0.0);
       const Vec3f view = f3(-ray.dir);
       float acc[4] = {0, 0, 0, 0};
+      // As the shader: each sample composited one step late (ink found at a minimum of a
+      // distance, known at the next sample, goes in front of it).
+      float pend[4] = {0, 0, 0, 0};
+      auto over = [&](const float* c) {
+        for (int ch = 0; ch < 4; ++ch) acc[ch] += (1.f - acc[3]) * c[ch];
+      };
+      std::fill(histA.begin(), histA.end(), kInkNone);
+      std::fill(histB.begin(), histB.end(), kInkNone);
+      std::fill(inked.begin(), inked.end(), 0.f);
+      const float pxc = float(x) + 0.5f, pyc = float(y) + 0.5f;
+      bool early = false;
       for (int64_t k = clip.k0; k <= clip.k1; ++k) {
         const Vec3 p = clip.o + clip.d * ((double(k) + clip.jitter) * f.stepMm);
         const double t = (double(k) + clip.jitter) * f.stepMm;
@@ -119,13 +133,56 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
         if (cx.useCt) c4 = cx.ct.sampleLinear(float(p.x), float(p.y), float(p.z));
         const std::array<float, 4> sum = shadeSample(cx.table, cx.fields.slots, d.data(), gp.data(),
                                                      cx.useCt ? c4.data() : nullptr, tv, pMm, depth, view, cx.sf);
+        float cur[4] = {0, 0, 0, 0};
         if (sum[3] > 0.f) {
           const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm));
-          for (int ch = 0; ch < 3; ++ch) acc[ch] += (1.f - acc[3]) * aStep * (sum[size_t(ch)] / sum[3]);
-          acc[3] += (1.f - acc[3]) * aStep;
-          if (acc[3] >= kEarlyAlpha) break;
+          for (int ch = 0; ch < 3; ++ch) cur[ch] = aStep * (sum[size_t(ch)] / sum[3]);
+          cur[3] = aStep;
         }
+        float inkB[4] = {0, 0, 0, 0}, inkC[4] = {0, 0, 0, 0};
+        if (cx.table.usesInk) {
+          const float pixB = cx.sf.pixMm0 + cx.sf.pixMm1 * float(t - f.stepMm);
+          auto add = [](float* ink, const float* lc, float ia) {
+            for (int ch = 0; ch < 3; ++ch) ink[ch] += (1.f - ink[3]) * ia * lc[ch];
+            ink[3] += (1.f - ink[3]) * ia;
+          };
+          for (size_t i = 0; i < ns; ++i) {
+            const PaintSlot& sl = cx.fields.slots[i];
+            const int iid = sl.shellId > 0 ? sl.shellId : sl.id;
+            const float a = histA[i], b = histB[i], c = d[i];
+            histA[i] = b;
+            histB[i] = c;
+            const StyleRow r = cx.table.row(iid);
+            if (!r[slot::Visible] || !r[slot::Ink] || !(a < kInkNone)) continue;
+            const float op = r[slot::LineOpacity], lw = r[slot::LineWidthPx], hs = r[slot::HatchSpacingPx];
+            // As the shader: every sampled minimum, the strongest of a pass counts.
+            if (lw > 0.f && b <= a && b <= c) {
+              const float ia = op * inkLine(a, b, c, lw, pixB);
+              if (ia > inked[i]) {
+                const float more = (ia - inked[i]) / (1.f - inked[i]);
+                inked[i] = ia;
+                add(inkB, r[slot::LineColour], more);
+              }
+            }
+            if (std::abs(c) > (0.5f * lw + 1.f) * pixB) inked[i] = 0.f;
+            const Vec3f g = gp[i];
+            const float gl = std::sqrt(dot(g, g));
+            if (hs > 0.f && b > 0.f && c <= 0.f && gl > 1e-6f) {
+              const float ndl = dot(g * (1.f / gl), cx.sf.light);
+              add(inkC, r[slot::LineColour], op * inkHatch(ndl, pxc, pyc, hs, r[slot::HatchWidthPx]));
+            }
+          }
+        }
+        over(inkB);
+        over(pend);
+        if (acc[3] >= kEarlyAlpha) {
+          early = true;
+          break;
+        }
+        over(inkC);
+        std::copy(cur, cur + 4, pend);
       }
+      if (!early) over(pend);
       const float bgA = s.background[3];
       float out[4];
       for (int ch = 0; ch < 3; ++ch) out[ch] = acc[ch] + (1 - acc[3]) * s.background[size_t(ch)] * bgA;
@@ -160,6 +217,14 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
   // figure whatever the grid's spacing (one voxel at the default step).
   sf.coverageH = float(f.stepMm);
   sf.stepMm = float(f.stepMm);
+  const double pix = 2.0 * f.halfH / std::max(f.height, 1);
+  sf.pixMm0 = f.perspective ? 0.f : float(pix);
+  sf.pixMm1 = f.perspective ? float(pix) : 0.f;
+  if (t.usesInk) {
+    // A line's three samples lie within half its width (at the farthest depth) plus two steps.
+    const double far = f.perspective ? norm(centre - f.eye) + radius : 0.0;
+    sf.inkReachMm = float(0.5 * t.maxLineWidthPx * (sf.pixMm0 + sf.pixMm1 * far) + 2.0 * f.stepMm + 0.5);
+  }
   const Mat3 m = g.direction * Mat3::fromColumns({1 / g.spacing.x, 0, 0}, {0, 1 / g.spacing.y, 0}, {0, 0, 1 / g.spacing.z});
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) sf.gradToPhys[size_t(r * 3 + c)] = float(m(r, c));

@@ -106,6 +106,18 @@ const params::Table<SegmentStyle>& segmentTable() {
       real<S>("diffuse", [](auto& s) -> auto& { return s.diffuse; }, {"Diffuse", "diffuse term", "", 0, 1}),
       real<S>("specular", [](auto& s) -> auto& { return s.specular; }, {"Specular", "specular term", "", 0, 1}),
       real<S>("shininess", [](auto& s) -> auto& { return s.shininess; }, {"Shininess", "specular exponent", "", 1, 256}),
+      real<S>("tone_key", [](auto& s) -> auto& { return s.toneKey; },
+              {"Tone key", "n.l of the lit mid-tone that shows `colour` exactly: the Gooch tone (per channel) and the Phong/texture light are divided by their value there, so shading lightens highlights and darkens shadows around the style colour instead of multiplying it down (0 = off: plain Gooch and Phong)", "", 0, 1}),
+      real<S>("line_width_px", [](auto& s) -> auto& { return s.lineWidthPx; },
+              {"Line width", "ink line along silhouettes and contours, in pixels whatever the zoom: drawn where a ray passes within half of it of this segment's surface (the distance field's minimum along the ray; 0 = no lines)", "px", 0, 32}),
+      real<S>("line_opacity", [](auto& s) -> auto& { return s.lineOpacity; },
+              {"Line opacity", "opacity of ink lines and hatching", "", 0, 1}),
+      vector<S>("line_colour", [](auto& s) -> auto& { return s.lineColour; },
+                {"Line colour", "ink colour of lines and hatching", "", 0, 1}),
+      real<S>("hatch_spacing_px", [](auto& s) -> auto& { return s.hatchSpacingPx; },
+              {"Hatch spacing", "screen-space hatching on the segment's front surface, strokes this far apart: one diagonal layer where n.l < 0.6, a crossing layer where n.l < 0.25, a third where n.l < -0.2, each stroke widening from 0 as the tone darkens (0 = none)", "px", 0, 256}),
+      real<S>("hatch_width_px", [](auto& s) -> auto& { return s.hatchWidthPx; },
+              {"Hatch width", "width of a hatching stroke at full darkness", "px", 0.1, 32}),
   };
   return t;
 }
@@ -333,7 +345,7 @@ void dim(SegmentStyle& r, float strength, Rgb colour) {
 Style textbook() {
   Style s;
   s.name = "textbook";
-  s.description = "anatomy-textbook plate: ivory tone-shaded bone, red muscle with silhouettes, a faint skin outline";
+  s.description = "anatomy-textbook plate: ivory tone-shaded bone (lit mid-tones keep the style colour: tone_key), red muscle with silhouettes, a thin continuous skin outline in ink";
   const Rgb paper{0.97f, 0.95f, 0.90f};
   s.background = paper;
   auto bone = row("bone", {0.93f, 0.89f, 0.78f}, 1.0f);
@@ -353,9 +365,13 @@ Style textbook() {
   tone(muscle, {0.30f, 0.10f, 0.0f}, {0.05f, 0.0f, 0.15f}, 0.5f, 0.7f);
   silhouette(muscle, 0.3f, 4.f, 4.f);
   dim(muscle, 0.3f, paper);
-  auto skin = row("skin", {0.80f, 0.62f, 0.52f}, 0.03f);
+  // Skin: an outline only, in ink of constant pixel width (a thin opacity-modulated rim came
+  // out dashed where the ray step missed it).
+  auto skin = row("skin", {0.80f, 0.62f, 0.52f}, 0.0f);
   tone(skin, {0.2f, 0.1f, 0.0f}, {0.0f, 0.0f, 0.1f}, 0.6f, 0.7f);
-  silhouette(skin, 0.0f, 3.f, 8.f);
+  skin.lineWidthPx = 1.6f;
+  skin.lineColour = {0.50f, 0.33f, 0.27f};
+  skin.lineOpacity = 0.9f;
   auto fat = row("fat", {0.95f, 0.85f, 0.45f}, 0.02f);
   silhouette(fat, 0.0f, 2.f, 6.f);
   auto vessel = row("vessel", {0.75f, 0.08f, 0.10f}, 0.8f);
@@ -364,34 +380,29 @@ Style textbook() {
   s.fallback = row("", {0.80f, 0.74f, 0.62f}, 0.3f);
   silhouette(s.fallback, 0.5f, 3.f, 3.f);
   s.segments = {bone, marrow, cartilage, muscle, skin, fat, vessel, vein};
+  // Lit mid-tones (n.l = 0.7, 45 degrees from the light) show each row's colour exactly.
+  for (auto& r : s.segments) r.toneKey = 0.7f;
+  s.fallback.toneKey = 0.7f;
   return s;
 }
 
 Style pen() {
   Style s;
   s.name = "pen";
-  s.description = "monochrome pen drawing: dark silhouette and boundary lines over white, stippled shading";
+  s.description = "pen-and-ink drawing: black lines of constant pixel width along silhouettes and contours, hatching by tone, on white; the skin as an outline only";
   s.background = {1.f, 1.f, 1.f};
-  // Ink: a grey that tone shading darkens to near black away from the light; opacity only
-  // near surfaces (boundary k_c = 0) and mostly at silhouettes.
-  SegmentStyle r = row("", {0.35f, 0.35f, 0.35f}, 0.6f);
-  tone(r, {0.55f, 0.55f, 0.55f}, {0.f, 0.f, 0.f}, 0.1f, 0.6f);
-  r.lambdaColouring = 0.7f;
-  r.lambdaTexture = 0.3f;
-  r.texture = SolidTexture::Stipple;
-  r.textureScaleMm = 1.2f;
-  r.textureColour1 = {1.f, 1.f, 1.f};
-  r.textureColour2 = {0.05f, 0.05f, 0.05f};
-  r.boundaryWidthMm = 1.0f;
-  boundary(r, 0.0f, 1.f, 1.f);
-  silhouette(r, 0.04f, 10.f, 4.f);
+  // Structures: opaque paper-white fill (hides the lines behind them), ink on top.
+  SegmentStyle r = row("", {1.f, 1.f, 1.f}, 1.0f);
+  r.toneAmount = 0;
+  r.lineWidthPx = 2.0f;
+  r.hatchSpacingPx = 5.0f;
+  r.hatchWidthPx = 1.4f;
   s.fallback = r;
   auto skin = r;
   skin.match = "skin";
-  skin.lambdaTexture = 0;
-  skin.lambdaColouring = 1;
-  skin.colour = {0.2f, 0.2f, 0.2f};
-  silhouette(skin, 0.0f, 10.f, 8.f);
+  skin.opacity = 0;  // outline only: the bones show through
+  skin.hatchSpacingPx = 0;
+  skin.lineWidthPx = 1.5f;
   s.segments = {skin};
   return s;
 }
