@@ -173,3 +173,9 @@ float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx) {
   }
   return ink;
 }
+// Premultiplied ink put in front of what was composited after `at` (acc = at over X).
+vec4 inkUnder(vec4 acc, vec4 at, vec4 ink) {
+  float r = 1.0 - at.a;
+  vec4 x = r > 1e-6 ? (acc - at) / r : vec4(0.0);
+  return at + r * (ink + (1.0 - ink.a) * x);
+}

@@ -97,7 +97,9 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
   std::vector<Vec3f> gi(ns + 1), gp(ns + 1);
   std::vector<float> histA(ns + 1), histB(ns + 1);  // each slot's distance two and one samples ago
   constexpr float kInkNone = 1e30f;
-  std::vector<float> inked(ns + 1);  // line ink already laid on this ray near each slot's surface
+  std::vector<float> inked(ns + 1);  // line ink laid in the ray's current pass near each slot's surface
+  std::vector<uint8_t> inPass(ns + 1);         // the ray is near the slot's surface
+  std::vector<float> passAcc((ns + 1) * 4);    // what was composited when that pass began
   const auto& m = cx.sf.gradToPhys;
   std::vector<float> lo, hi;
   gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
@@ -107,17 +109,12 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
       const auto clip = render::detail::clipRay(f, ray, s.jitter ? render::detail::pixelJitter(x, y) : 0.0);
       const Vec3f view = f3(-ray.dir);
       float acc[4] = {0, 0, 0, 0};
-      // As the shader: each sample composited one step late (ink found at a minimum of a
-      // distance, known at the next sample, goes in front of it).
-      float pend[4] = {0, 0, 0, 0};
-      auto over = [&](const float* c) {
-        for (int ch = 0; ch < 4; ++ch) acc[ch] += (1.f - acc[3]) * c[ch];
-      };
       std::fill(histA.begin(), histA.end(), kInkNone);
       std::fill(histB.begin(), histB.end(), kInkNone);
       std::fill(inked.begin(), inked.end(), 0.f);
+      std::fill(inPass.begin(), inPass.end(), uint8_t(0));
       const float pxc = float(x) + 0.5f, pyc = float(y) + 0.5f;
-      bool early = false;
+      bool holdInk = false;
       for (int64_t k = clip.k0; k <= clip.k1; ++k) {
         const Vec3 p = clip.o + clip.d * ((double(k) + clip.jitter) * f.stepMm);
         const double t = (double(k) + clip.jitter) * f.stepMm;
@@ -133,18 +130,19 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
         if (cx.useCt) c4 = cx.ct.sampleLinear(float(p.x), float(p.y), float(p.z));
         const std::array<float, 4> sum = shadeSample(cx.table, cx.fields.slots, d.data(), gp.data(),
                                                      cx.useCt ? c4.data() : nullptr, tv, pMm, depth, view, cx.sf);
-        float cur[4] = {0, 0, 0, 0};
-        if (sum[3] > 0.f) {
-          const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm));
-          for (int ch = 0; ch < 3; ++ch) cur[ch] = aStep * (sum[size_t(ch)] / sum[3]);
-          cur[3] = aStep;
-        }
-        float inkB[4] = {0, 0, 0, 0}, inkC[4] = {0, 0, 0, 0};
         if (cx.table.usesInk) {
+          // As the shader: ink goes in front of what was composited since the ray came near
+          // the slot's surface (passAcc).
           const float pixB = cx.sf.pixMm0 + cx.sf.pixMm1 * float(t - f.stepMm);
-          auto add = [](float* ink, const float* lc, float ia) {
-            for (int ch = 0; ch < 3; ++ch) ink[ch] += (1.f - ink[3]) * ia * lc[ch];
-            ink[3] += (1.f - ink[3]) * ia;
+          const float pixC = cx.sf.pixMm0 + cx.sf.pixMm1 * float(t);
+          holdInk = false;
+          auto under = [&](const float* at, const float* lc, float ia) {
+            const float r = 1.f - at[3];
+            for (int ch = 0; ch < 4; ++ch) {
+              const float x = r > 1e-6f ? (acc[ch] - at[ch]) / r : 0.f;
+              const float ink = ch == 3 ? ia : ia * lc[ch];
+              acc[ch] = at[ch] + r * (ink + (1.f - ia) * x);
+            }
           };
           for (size_t i = 0; i < ns; ++i) {
             const PaintSlot& sl = cx.fields.slots[i];
@@ -153,36 +151,40 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
             histA[i] = b;
             histB[i] = c;
             const StyleRow r = cx.table.row(iid);
-            if (!r[slot::Visible] || !r[slot::Ink] || !(a < kInkNone)) continue;
+            if (!r[slot::Ink]) continue;
             const float op = r[slot::LineOpacity], lw = r[slot::LineWidthPx], hs = r[slot::HatchSpacingPx];
-            // As the shader: every sampled minimum, the strongest of a pass counts.
-            if (lw > 0.f && b <= a && b <= c) {
+            // Every sampled minimum (ties too); the strongest of a pass counts.
+            if (lw > 0.f && a < kInkNone && b <= a && b <= c && inPass[i]) {
               const float ia = op * inkLine(a, b, c, lw, pixB);
               if (ia > inked[i]) {
                 const float more = (ia - inked[i]) / (1.f - inked[i]);
                 inked[i] = ia;
-                add(inkB, r[slot::LineColour], more);
+                under(&passAcc[i * 4], r[slot::LineColour], more);
               }
             }
-            if (std::abs(c) > (0.5f * lw + 1.f) * pixB) inked[i] = 0.f;
+            if (!(std::abs(c) < std::max((0.5f * lw + 1.f) * pixC, 1.5f * cx.sf.coverageH))) {
+              inPass[i] = 0;
+              inked[i] = 0.f;
+            } else if (!inPass[i]) {
+              inPass[i] = 1;
+              std::copy(acc, acc + 4, &passAcc[i * 4]);
+            }
+            holdInk = holdInk || (inPass[i] && lw > 0.f);  // a line may still come: no early exit
             const Vec3f g = gp[i];
             const float gl = std::sqrt(dot(g, g));
-            if (hs > 0.f && b > 0.f && c <= 0.f && gl > 1e-6f) {
+            if (hs > 0.f && b < kInkNone && b > 0.f && c <= 0.f && gl > 1e-6f && inPass[i]) {
               const float ndl = dot(g * (1.f / gl), cx.sf.light);
-              add(inkC, r[slot::LineColour], op * inkHatch(ndl, pxc, pyc, hs, r[slot::HatchWidthPx]));
+              under(&passAcc[i * 4], r[slot::LineColour], op * inkHatch(ndl, pxc, pyc, hs, r[slot::HatchWidthPx]));
             }
           }
         }
-        over(inkB);
-        over(pend);
-        if (acc[3] >= kEarlyAlpha) {
-          early = true;
-          break;
+        if (sum[3] > 0.f) {
+          const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm));
+          for (int ch = 0; ch < 3; ++ch) acc[ch] += (1.f - acc[3]) * aStep * (sum[size_t(ch)] / sum[3]);
+          acc[3] += (1.f - acc[3]) * aStep;
+          if (acc[3] >= kEarlyAlpha && !holdInk) break;
         }
-        over(inkC);
-        std::copy(cur, cur + 4, pend);
       }
-      if (!early) over(pend);
       const float bgA = s.background[3];
       float out[4];
       for (int ch = 0; ch < 3; ++ch) out[ch] = acc[ch] + (1 - acc[3]) * s.background[size_t(ch)] * bgA;

@@ -674,35 +674,3 @@ TEST(IllustrationCli, RendersAFixtureAndNamesBadInputs) {
 }  // namespace
 }  // namespace vellum::illustration
 
-namespace vellum::illustration {
-namespace {
-TEST(IllustrationExplore, XrayFeet) {
-  const char* dir = std::getenv("VELLUM_EXPLORE_SHAPE");
-  if (!dir) GTEST_SKIP();
-  const ShapeScene scene = loadShapeFolder(dir);
-  for (double zoom : {1.8}) {
-    IllustrationSettings s;
-    s.render.width = s.render.height = 300;
-    s.render.camera.azimuthDeg = 20;
-    s.render.camera.elevationDeg = 50;
-    s.render.camera.zoom = zoom;
-    s.render.background = {1.f, 1.f, 1.f, 1.f};
-    const Style st = stylePreset(std::getenv("VELLUM_EXPLORE_PRESET") ? std::getenv("VELLUM_EXPLORE_PRESET") : "x-ray");
-    IllustrationRenderer r(gl());
-    r.setScene(scene);
-    const RgbaImage a = r.render(st, s);
-    const RgbaImage b = renderIllustrationCpu(scene, st, s);
-    test::writePng(a, "/tmp/styles/xg" + std::to_string(int(zoom * 10)) + ".png");
-    test::writePng(b, "/tmp/styles/xc" + std::to_string(int(zoom * 10)) + ".png");
-    RgbaImage diff(300, 300);
-    for (int y = 0; y < 300; ++y)
-      for (int x = 0; x < 300; ++x) {
-        for (int c = 0; c < 3; ++c) diff.at(x, y)[c] = uint8_t(std::min(255, 8 * std::abs(int(a.at(x, y)[c]) - int(b.at(x, y)[c]))));
-        diff.at(x, y)[3] = 255;
-      }
-    test::writePng(diff, "/tmp/styles/xd" + std::to_string(int(zoom * 10)) + ".png");
-    expectClose(a, b, "feet");
-  }
-}
-}  // namespace
-}  // namespace vellum::illustration
