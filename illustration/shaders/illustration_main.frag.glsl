@@ -187,8 +187,16 @@ void main() {
         // At every sampled minimum (ties too: along a grazing ray past a flat surface d varies
         // less than its quantum) the line's ink, laid once per pass: the strongest minimum of
         // the pass counts, so no pass is missed nor inked twice.
-        if (lw > 0.0 && a < INK_NONE && b <= a && b <= c && inPass[s]) {
-          float ia = op * inkLine(a, b, c, lw, pixB);
+        float hw = (0.5 * lw + 1.0) * pixB;
+        if (lw > 0.0 && a < INK_NONE && b <= a && b <= c && inPass[s] && b - 0.25 * abs(c - a) < hw && b > -hw) {
+          // Refined at a quarter step around the three samples' vertex: the closest approach
+          // then no longer depends on where the (jittered) samples fell, so lines do not break.
+          float x = inkVertex(a, b, c);
+          float kb = float(k - 1) + jitter;
+          float m0 = fieldAt(o + ((kb + x - 0.25) * uStep) * d, s / 4)[s % 4];
+          float m1 = fieldAt(o + ((kb + x) * uStep) * d, s / 4)[s % 4];
+          float m2 = fieldAt(o + ((kb + x + 0.25) * uStep) * d, s / 4)[s % 4];
+          float ia = op * inkLine(m0, m1, m2, lw, pixB);
           if (ia > inked[s]) {
             float add = (ia - inked[s]) / (1.0 - inked[s]);
             inked[s] = ia;

@@ -149,14 +149,13 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   return vec4(rgb * (am / a), am);
 }
 
-// Ink (CPU reference: inkLine() and inkHatch() in illustration_renderer_common.cpp).
-float inkLine(float a, float b, float c, float widthPx, float pixMm) {
+// Ink (CPU reference: inkVertex(), inkLine() and inkHatch() in illustration_renderer_common.cpp).
+float inkVertex(float a, float b, float c) {
   float curv = a - 2.0 * b + c;
-  float m = b;
-  if (curv > 1e-7) {
-    float x = clamp(0.5 * (a - c) / curv, -1.0, 1.0);
-    m = b + 0.25 * (c - a) * x;
-  }
+  return curv > 1e-7 ? clamp(0.5 * (a - c) / curv, -1.0, 1.0) : 0.0;
+}
+float inkLine(float a, float b, float c, float widthPx, float pixMm) {
+  float m = b + 0.25 * (c - a) * inkVertex(a, b, c);
   return clamp((0.5 * widthPx * pixMm - abs(m)) / pixMm + 0.5, 0.0, 1.0);
 }
 float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx) {

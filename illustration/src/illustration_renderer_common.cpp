@@ -484,15 +484,38 @@ StyleTable packStyle(const Style& style, const std::vector<Label>& table, int ma
   return t;
 }
 
-float inkLine(float a, float b, float c, float widthPx, float pixMm) {
+float inkVertex(float a, float b, float c) {
   // Vertex of the parabola through (-1, a), (0, b), (1, c); b is the sampled minimum.
   const float curv = a - 2.f * b + c;
-  float m = b;
-  if (curv > 1e-7f) {
-    const float x = std::clamp(0.5f * (a - c) / curv, -1.f, 1.f);
-    m = b + 0.25f * (c - a) * x;
-  }
+  return curv > 1e-7f ? std::clamp(0.5f * (a - c) / curv, -1.f, 1.f) : 0.f;
+}
+
+float inkLine(float a, float b, float c, float widthPx, float pixMm) {
+  const float m = b + 0.25f * (c - a) * inkVertex(a, b, c);
   return std::clamp((0.5f * widthPx * pixMm - std::abs(m)) / pixMm + 0.5f, 0.f, 1.f);
+}
+
+float FieldVolume::at(float x, float y, float z, int slot) const {
+  // As the shader's fieldAt(): clamp to the grid, trilinear, one channel.
+  auto axis = [](float v, int64_t m, int64_t& i0, int64_t& i1, float& t) {
+    v = std::clamp(v, 0.f, float(m - 1));
+    const float f = std::floor(v);
+    i0 = std::min<int64_t>(int64_t(f), m - 1);
+    i1 = std::min<int64_t>(i0 + 1, m - 1);
+    t = v - f;
+  };
+  int64_t x0, x1, y0, y1, z0, z1;
+  float tx, ty, tz;
+  axis(x, dims.x, x0, x1, tx);
+  axis(y, dims.y, y0, y1, ty);
+  axis(z, dims.z, z0, z1, tz);
+  const float* base = value.data() + size_t(slot / 4) * size_t(dims.voxelCount()) * 4 + size_t(slot % 4);
+  float out = 0;
+  for (int c = 0; c < 8; ++c) {
+    const float w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
+    out += w * base[size_t((((c & 4) ? z1 : z0) * dims.y + ((c & 2) ? y1 : y0)) * dims.x + ((c & 1) ? x1 : x0)) * 4];
+  }
+  return out;
 }
 
 float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx) {

@@ -86,6 +86,8 @@ struct FieldVolume {
   /// they would never be used; gradientWindows).
   void sample(float x, float y, float z, bool central, const float* lo, const float* hi, float* d,
               Vec3f* gradIndex) const;
+  /// One slot's distance (mm) at continuous index p (trilinear, clamp to edge).
+  float at(float x, float y, float z, int slot) const;
 };
 /// Per slot (padded to whole groups), the open distance interval (lo, hi) where its gradient
 /// can change the picture: the slot covers the sample (d < h/2), one of its rows is visible,
@@ -125,6 +127,8 @@ std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, c
 /// surface, the image-plane distance to its silhouette). Coverage of the pixel by a line
 /// widthPx wide centred on m = 0, pixMm the pixel size at that depth.
 float inkLine(float a, float b, float c, float widthPx, float pixMm);
+/// The vertex (in steps from b, clamped to [-1, 1]) of the parabola through (-1, a), (0, b), (1, c).
+float inkVertex(float a, float b, float c);
 /// Hatching coverage at pixel centre (px, py) (row 0 at the top) for light n.l: diagonal
 /// strokes spacingPx apart where n.l < 0.6, crossing ones where n.l < 0.25, vertical ones
 /// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25.

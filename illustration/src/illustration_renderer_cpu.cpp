@@ -154,8 +154,19 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
             if (!r[slot::Ink]) continue;
             const float op = r[slot::LineOpacity], lw = r[slot::LineWidthPx], hs = r[slot::HatchSpacingPx];
             // Every sampled minimum (ties too); the strongest of a pass counts.
-            if (lw > 0.f && a < kInkNone && b <= a && b <= c && inPass[i]) {
-              const float ia = op * inkLine(a, b, c, lw, pixB);
+            const float hw = (0.5f * lw + 1.f) * pixB;
+            if (lw > 0.f && a < kInkNone && b <= a && b <= c && inPass[i] && b - 0.25f * std::abs(c - a) < hw &&
+                b > -hw) {
+              // Refined at a quarter step around the samples' vertex (as the shader).
+              const float xv = inkVertex(a, b, c);
+              const float kb = float(k - 1) + float(clip.jitter);
+              float mm[3];
+              for (int q = 0; q < 3; ++q) {
+                const float ts = (kb + xv + 0.25f * float(q - 1)) * float(f.stepMm);
+                mm[q] = cx.fields.at(float(clip.o.x) + ts * float(clip.d.x), float(clip.o.y) + ts * float(clip.d.y),
+                                     float(clip.o.z) + ts * float(clip.d.z), int(i));
+              }
+              const float ia = op * inkLine(mm[0], mm[1], mm[2], lw, pixB);
               if (ia > inked[i]) {
                 const float more = (ia - inked[i]) / (1.f - inked[i]);
                 inked[i] = ia;
