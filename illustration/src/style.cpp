@@ -569,7 +569,7 @@ n.l > 0.7, 0.22 at n.l 0.3 to 0.5, 0.45 below 0.1).
 
 **Skin outlines.** The textbook skin was a faint translucent rim from silhouette enhancement
 ((1 - |n.v|)^8): a ray step either caught the thin rim or missed it, so on real skin it came
-out dashed (on a ball: 0.7 px of ink across the rim, under half darkness nearly all round).
+out dashed (on a ball: 0.6 px of ink across the rim, under half darkness nearly all round).
 It is now a 1.6 px ink line: no gap around a skin ball on 1 mm and 1 x 1 x 3 mm grids
 (`SkinOutlineIsContinuous`).
 

@@ -119,6 +119,32 @@ ToneError litMidToneError(const RgbaImage& img, const Style& st, const Rgb& colo
   return e;
 }
 
+/// A scene on grid g from analytic segments (each its own field, quantised as `vellum shape`
+/// writes it; labels: the later segment wins; the union distance as the pipeline's).
+ShapeScene analyticScene(const Geometry& g, const std::vector<test::AnalyticSegment>& segments) {
+  ShapeScene scene = test::makeScene(8, segments);  // the label table and field list
+  VolumeF32 dist(g, 0.f, 1e3);
+  VolumeU16 ids(g, 0);
+  std::vector<VolumeI16> own(segments.size(), VolumeI16(g, 0));
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        double u = 1e3;
+        for (size_t s = 0; s < segments.size(); ++s) {
+          const double v = segments[s].sdf(p);
+          u = std::min(u, v);
+          if (v < 0) ids(i, j, k) = uint16_t(s + 1);
+          own[s](i, j, k) = int16_t(std::lround(std::clamp(v, -300.0, 300.0) / kFieldQuantumMm));
+        }
+        dist(i, j, k) = float(u);
+      }
+  scene.distance = dist;
+  scene.segments = LabelVolume(std::move(ids), scene.segments.table());
+  for (size_t s = 0; s < segments.size(); ++s) scene.fields[s].distance = own[s];
+  return scene;
+}
+
 /// Textbook bone stays ivory: the lit mid-tones of a ball match the style colour within a
 /// stated Delta E (the shading lightens highlights and darkens shadows around it).
 TEST(IllustrationStyles, TextbookBoneLitMidTonesKeepTheStyleColour) {
@@ -216,8 +242,10 @@ TEST(IllustrationStyles, PenOutlineIsClosedAndOfConstantPixelWidth) {
                 << gaps << "\n";
       EXPECT_EQ(gaps, 0) << size;
       EXPECT_NEAR(w[i], widthPx, 0.35 * widthPx) << size;
-      const test::ImageDiff d = test::compareImages(g, renderIllustrationCpu(ball(), st, front(size)));
-      EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+      if (size == 128) {
+        const test::ImageDiff d = test::compareImages(g, renderIllustrationCpu(ball(), st, front(size)));
+        EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+      }
       ++i;
     }
     EXPECT_NEAR(w[0], w[1], 0.15 * widthPx) << "constant pixel width whatever the mm per pixel";
@@ -229,32 +257,15 @@ TEST(IllustrationStyles, PenOutlineIsClosedAndOfConstantPixelWidth) {
 /// 1 x 1 x 3 mm grid too.
 TEST(IllustrationStyles, SkinOutlineIsContinuous) {
   for (double dz : {1.0, 3.0}) {
-    // makeScene's grid is isotropic: an anisotropic one by resampling the analytic field.
-    ShapeScene scene = test::makeScene(48, {{"skin", [](const Vec3& p) { return test::sphereSdf(p, {0, 0, 0}, 16); }}});
-    if (dz > 1) {
-      const int nz = 16;
-      Geometry g = scene.distance.geometry();
-      g.dims = {48, 48, nz};
-      g.spacing = {1, 1, dz};
-      g.origin = {-23.5, -23.5, -(nz - 1) * 0.5 * dz};
-      // Rebuild on the anisotropic grid: one segment, its field quantised as `vellum shape` does.
-      VolumeF32 dist(g, 0.f, 1e3);
-      VolumeU16 ids(g, 0);
-      VolumeI16 own(g, 0);
-      for (int64_t k = 0; k < g.dims.z; ++k)
-        for (int64_t j = 0; j < g.dims.y; ++j)
-          for (int64_t i = 0; i < g.dims.x; ++i) {
-            const double v = test::sphereSdf(g.indexToPhysical({double(i), double(j), double(k)}), {0, 0, 0}, 16);
-            dist(i, j, k) = float(v);
-            ids(i, j, k) = v < 0 ? 1 : 0;
-            own(i, j, k) = int16_t(std::lround(std::clamp(v, -300.0, 300.0) / kFieldQuantumMm));
-          }
-      scene.distance = dist;
-      scene.segments = LabelVolume(std::move(ids), scene.segments.table());
-      scene.fields[0].distance = own;
-    }
+    Geometry grid;  // both grids span the same 48 mm box
+    const int nz = int(48 / dz);
+    grid.dims = {48, 48, nz};
+    grid.spacing = {1, 1, dz};
+    grid.origin = {-23.5, -23.5, -(nz - 1) * 0.5 * dz};
+    const ShapeScene scene =
+        analyticScene(grid, {{"skin", [](const Vec3& p) { return test::sphereSdf(p, {0, 0, 0}, 16); }}});
     const Style st = stylePreset("textbook");
-    IllustrationSettings s = front(192);
+    IllustrationSettings s = front(128);
     // On paper, the outline is the skin line colour: its darkness against the paper, doubled.
     auto gapsOf = [&](const RgbaImage& g, double* width) {
       RgbaImage grey = g;
@@ -263,7 +274,7 @@ TEST(IllustrationStyles, SkinOutlineIsContinuous) {
           const int v = std::clamp(255 - 2 * (int(st.background[1] * 255) - int(g.at(x, y)[1])), 0, 255);
           for (int c = 0; c < 3; ++c) grey.at(x, y)[c] = uint8_t(v);
         }
-      return outlineGaps(grey, kBallMm * pxPerMm(192), width);  // both grids span the same 48 mm box
+      return outlineGaps(grey, kBallMm * pxPerMm(128), width);
     };
     const RgbaImage g = gpu(scene, st, s);
     maybeSave(g, "skin-outline-dz" + std::to_string(int(dz)));
@@ -285,8 +296,10 @@ TEST(IllustrationStyles, SkinOutlineIsContinuous) {
     std::cout << "[ skin ] dz " << dz << ": outline gaps " << gaps << ", mean ink across " << width
               << " px | silhouette-enhanced rim before: gaps " << oldGaps << ", ink across " << oldWidth << " px\n";
     EXPECT_EQ(gaps, 0) << "dz " << dz;
-    const test::ImageDiff d = test::compareImages(g, renderIllustrationCpu(scene, st, s));
-    EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+    if (dz > 1) {
+      const test::ImageDiff d = test::compareImages(g, renderIllustrationCpu(scene, st, s));
+      EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+    }
   }
 }
 
@@ -331,27 +344,15 @@ TEST(IllustrationStyles, XrayGlEqualsCpuAcrossBlockBoundaries) {
   g.spacing = {0.8, 0.8, 2.0};
   g.origin = {0, 0, 0};
   const Vec3 centre = g.indexToPhysical({23.5, 23.5, 11.5});
-  // Faces at voxel indices 8 and 40 (x, y) and 8 and 16 (z): block boundaries.
-  const Vec3 lo = g.indexToPhysical({8, 8, 8}), hi = g.indexToPhysical({39.99, 39.99, 15.99});
-  VolumeU16 ids(g, 0);
-  for (int64_t k = 0; k < g.dims.z; ++k)
-    for (int64_t j = 0; j < g.dims.y; ++j)
-      for (int64_t i = 0; i < g.dims.x; ++i) {
-        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
-        if (p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z) ids(i, j, k) = 2;
-        else if (norm(p - centre) < 18.5) ids(i, j, k) = 1;
-      }
-  const LabelVolume labels(std::move(ids), {{1, "skin", {200, 150, 120}}, {2, "bone", {240, 230, 200}}});
-  ShapeOptions opt;
-  const ShapeResult r = runShapePipeline(labels, {parseSegmentSpec("skin=1,2", labels), parseSegmentSpec("bone=2", labels)},
-                                         {}, {}, opt);
-  ShapeScene scene;
-  scene.distance = r.distance;
-  scene.segments = r.segmentation;
-  scene.fields = r.fields;
+  // Bone box faces at voxel indices 8 and 40 (x, y) and 8 and 16 (z): block boundaries.
+  const Vec3 lo = g.indexToPhysical({8, 8, 8}), hi = g.indexToPhysical({40, 40, 16});
+  const Vec3 boxC = (lo + hi) * 0.5, boxH = (hi - lo) * 0.5;
+  const ShapeScene scene = analyticScene(
+      g, {{"skin", [=](const Vec3& p) { return test::sphereSdf(p, centre, 18.5); }},
+          {"bone", [=](const Vec3& p) { return test::boxSdf(p, boxC, boxH); }}});
   const Style st = stylePreset("x-ray");
   for (double az : {20.0, 90.0}) {
-    IllustrationSettings s = front(128, {0.02f, 0.03f, 0.05f, 1});
+    IllustrationSettings s = front(96, {0.02f, 0.03f, 0.05f, 1});
     s.render.camera.azimuthDeg = az;
     s.render.camera.elevationDeg = 50;
     s.render.camera.zoom = 1.8;
