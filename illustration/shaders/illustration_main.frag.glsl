@@ -35,6 +35,22 @@ void main() {
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
     ivec3 lastBlock = ivec3(-1);
     bool blockOccupied = false;
+#ifndef USE_INK
+    const bool holdInk = false;
+#else
+    vec2 hist[SLOT_CAP];     // each slot's distance two samples and one sample ago
+    bool holdInk = false;    // some slot's pass near its surface may still get a line
+    float inked[SLOT_CAP];   // line ink laid in the ray's current pass near each slot's surface
+    bool inPass[SLOT_CAP];   // the ray is near the slot's surface
+    vec4 passAcc[SLOT_CAP];  // what was composited when that pass began
+    for (int s = 0; s < NSLOTS; ++s) {
+      hist[s] = vec2(INK_NONE);
+      inked[s] = 0.0;
+      inPass[s] = false;
+      passAcc[s] = vec4(0.0);
+    }
+    float px = gl_FragCoord.x, py = uViewport.y - gl_FragCoord.y;
+#endif
     for (int k = k0; k <= k1; ++k) {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
       ivec3 b = clamp(ivec3(floor(p / float(BLOCK_SIZE))), ivec3(0), uBlocks - 1);
@@ -51,6 +67,13 @@ void main() {
         float tExit = min(min(tb.x, tb.y), tb.z);
         float kExit = clamp(ceil(tExit / uStep - jitter), float(k), float(k1) + 1.0);
         k = max(k, int(kExit) - 1);
+#ifdef USE_INK
+        for (int s = 0; s < NSLOTS; ++s) {  // samples no longer consecutive
+          hist[s] = vec2(INK_NONE);
+          inPass[s] = false;
+          inked[s] = 0.0;
+        }
+#endif
         continue;
       }
       float t = (float(k) + jitter) * uStep;
@@ -147,12 +170,64 @@ void main() {
         }
         addRow(id, w, g, dd, ct4, pMm, depth, view, H, sum);
       }
+#ifdef USE_INK
+      // Ink goes in front of everything composited since the ray came near the slot's surface
+      // (passAcc): lines at a minimum of the slot's distance at the previous sample b, hatching
+      // where the ray enters the surface (this sample c). Row: the slot's outermost (shell).
+      float pixB = uPixMm.x + uPixMm.y * (t - uStep), pixC = uPixMm.x + uPixMm.y * t;
+      holdInk = false;
+      for (int s = 0; s < n; ++s) {
+        vec4 sl = uSlots[s];
+        int iid = sl.y > 0.0 ? int(sl.y) : int(sl.x);
+        float a = hist[s].x, b = hist[s].y, c = D[s];
+        hist[s] = vec2(b, c);
+        if (!STYLE_INK_AT(iid)) continue;
+        vec3 lc = STYLE_LINE_COLOUR_AT(iid);
+        float op = STYLE_LINE_OPACITY_AT(iid), lw = STYLE_LINE_WIDTH_PX_AT(iid), hs = STYLE_HATCH_SPACING_PX_AT(iid);
+        // At every sampled minimum (ties too: along a grazing ray past a flat surface d varies
+        // less than its quantum) the line's ink, laid once per pass: the strongest minimum of
+        // the pass counts, so no pass is missed nor inked twice.
+        float hw = (0.5 * lw + 1.0) * pixB;
+        if (lw > 0.0 && a < INK_NONE && b <= a && b <= c && inPass[s] && b - 0.25 * abs(c - a) < hw && b > -hw) {
+          // Refined at a quarter step around the three samples' vertex: the closest approach
+          // then no longer depends on where the (jittered) samples fell, so lines do not break.
+          float x = inkVertex(a, b, c);
+          float kb = float(k - 1) + jitter;
+          float m0 = fieldAt(o + ((kb + x - 0.25) * uStep) * d, s / 4)[s % 4];
+          float m1 = fieldAt(o + ((kb + x) * uStep) * d, s / 4)[s % 4];
+          float m2 = fieldAt(o + ((kb + x + 0.25) * uStep) * d, s / 4)[s % 4];
+          float ia = op * inkLine(m0, m1, m2, lw, pixB);
+          if (ia > inked[s]) {
+            float add = (ia - inked[s]) / (1.0 - inked[s]);
+            inked[s] = ia;
+            acc = inkUnder(acc, passAcc[s], vec4(add * lc, add));
+          }
+        }
+        // The pass near the surface: it starts before any sample of it is composited.
+        if (!(abs(c) < max((0.5 * lw + 1.0) * pixC, 1.5 * uCoverageH))) {
+          inPass[s] = false;
+          inked[s] = 0.0;
+        } else if (!inPass[s]) {
+          inPass[s] = true;
+          passAcc[s] = acc;
+        }
+        // A line may still come in this pass: no early termination until it is over (hatching
+        // and an opaque fill would otherwise end the ray before the silhouette's minimum).
+        holdInk = holdInk || (inPass[s] && lw > 0.0);
+        float gl;
+        vec3 nn = normOrZero(G[s], gl);
+        if (hs > 0.0 && b < INK_NONE && b > 0.0 && c <= 0.0 && gl > 1e-6 && inPass[s]) {
+          float ia = op * inkHatch(dot(nn, uLight), px, py, hs, STYLE_HATCH_WIDTH_PX_AT(iid));
+          acc = inkUnder(acc, passAcc[s], vec4(ia * lc, ia));
+        }
+      }
+#endif
       if (sum.a > 0.0) {
         vec3 rgb = sum.rgb / sum.a;
         float aStep = 1.0 - pow(max(1.0 - sum.a, 0.0), uStep);
         acc.rgb += (1.0 - acc.a) * aStep * rgb;
         acc.a += (1.0 - acc.a) * aStep;
-        if (acc.a >= EARLY_ALPHA) break;
+        if (acc.a >= EARLY_ALPHA && !holdInk) break;
       }
     }
   }

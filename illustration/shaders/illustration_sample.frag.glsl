@@ -16,6 +16,7 @@ uniform float uStep, uJitter;
 uniform vec4 uBackground;
 uniform vec3 uLight, uCentre;
 uniform float uRadius, uCoverageH;
+uniform vec2 uPixMm;           // pixel size in mm at ray parameter t: x + y * t
 uniform sampler3D uFields;     // per-segment distances, RGBA16_SNORM, groups of 4 stacked in z
 uniform vec4 uSlots[SLOT_CAP];  // (id, shell id, shell mm, 0) in paint order
 uniform int uNumSlots;         // = NSLOTS, as a uniform: loops over it are not unrolled
@@ -93,11 +94,20 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   float k = (1.0 + ndl) * 0.5;
   vec3 tone = clamp(k * (STYLE_TONE_WARM(r) + STYLE_TONE_BETA(r) * col) +
                         (1.0 - k) * (STYLE_TONE_COOL(r) + STYLE_TONE_ALPHA(r) * col), 0.0, 1.0);
+  // Tone key: divide by the value at the key's n.l, so that lit mid-tones show the colour.
+  float key = STYLE_TONE_KEY(r);
+  if (key > 0.0) {
+    float kk = (1.0 + key) * 0.5;
+    vec3 at = clamp(kk * (STYLE_TONE_WARM(r) + STYLE_TONE_BETA(r) * col) +
+                        (1.0 - kk) * (STYLE_TONE_COOL(r) + STYLE_TONE_ALPHA(r) * col), 0.0, 1.0);
+    tone = clamp(tone * col / max(at, vec3(1e-3)), 0.0, 1.0);
+  }
   vec3 cc = col + STYLE_TONE_AMOUNT(r) * (tone - col);
   float start = STYLE_DEPTH_START(r), end = STYLE_DEPTH_END(r);
   float dimW = STYLE_DEPTH_STRENGTH(r) * clamp((depth - start) / max(end - start, 1e-4), 0.0, 1.0);
   cc = cc + dimW * (STYLE_DEPTH_COLOUR(r) - cc);
-  float lit = STYLE_AMBIENT(r) + STYLE_DIFFUSE(r) * max(ndl, 0.0);
+  float lit = (STYLE_AMBIENT(r) + STYLE_DIFFUSE(r) * max(ndl, 0.0)) /
+              (key > 0.0 ? max(STYLE_AMBIENT(r) + STYLE_DIFFUSE(r) * key, 1e-3) : 1.0);
   float aSeg = STYLE_OPACITY(r);
 
   vec3 c1 = vec3(0.0);
@@ -139,3 +149,32 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   return vec4(rgb * (am / a), am);
 }
 
+// Ink (CPU reference: inkVertex(), inkLine() and inkHatch() in illustration_renderer_common.cpp).
+float inkVertex(float a, float b, float c) {
+  float curv = a - 2.0 * b + c;
+  return curv > 1e-7 ? clamp(0.5 * (a - c) / curv, -1.0, 1.0) : 0.0;
+}
+float inkLine(float a, float b, float c, float widthPx, float pixMm) {
+  float m = b + 0.25 * (c - a) * inkVertex(a, b, c);
+  return clamp((0.5 * widthPx * pixMm - abs(m)) / pixMm + 0.5, 0.0, 1.0);
+}
+float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx) {
+  float ink = 0.0;
+  for (int layer = 0; layer < 3; ++layer) {
+    float th = layer == 0 ? 0.6 : layer == 1 ? 0.25 : -0.2;
+    float w = widthPx * clamp((th - ndl) / 0.25, 0.0, 1.0);
+    if (!(w > 0.0)) break;
+    float u = layer == 0 ? (px + py) * 0.70710678 : layer == 1 ? (px - py) * 0.70710678 : px;
+    float f = u / spacingPx - floor(u / spacingPx);
+    float dist = abs(f - 0.5) * spacingPx;
+    float cov = clamp(0.5 * w - dist + 0.5, 0.0, 1.0) * min(w, 1.0);
+    ink = ink + cov - ink * cov;
+  }
+  return ink;
+}
+// Premultiplied ink put in front of what was composited after `at` (acc = at over X).
+vec4 inkUnder(vec4 acc, vec4 at, vec4 ink) {
+  float r = 1.0 - at.a;
+  vec4 x = r > 1e-6 ? (acc - at) / r : vec4(0.0);
+  return at + r * (ink + (1.0 - ink.a) * x);
+}

@@ -202,6 +202,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   v.textureVolume = table.usesTextureVolume;
   v.ct = table.usesCt;
   v.slots = int(m.slots.size());
+  v.ink = table.usesInk;
   if (v.ct) {
     if (!m.ct) throw Error("illustrate: style '" + style.name + "' uses the CT (illum = ct or boundary_measure = ct) but no CT was given");
     m.uploadCt();
@@ -219,7 +220,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   glBindTexture(GL_TEXTURE_2D, m.styleTex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kRowTexels, kMaxLabels, GL_RGBA, GL_FLOAT, table.texels.data());
-  const std::vector<uint8_t> occ = blockOccupancy(m.blocks, table, m.slots, sf.coverageH);
+  const std::vector<uint8_t> occ = blockOccupancy(m.blocks, table, m.slots, sf.coverageH, sf.inkReachMm);
   glBindTexture(GL_TEXTURE_3D, m.occTex);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(m.blocks.blocks.x), GLsizei(m.blocks.blocks.y),
                   GLsizei(m.blocks.blocks.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
@@ -256,6 +257,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   u3(p, "uCentre", sf.centre);
   u1(p, "uRadius", sf.radius);
   u1(p, "uCoverageH", sf.coverageH);
+  glUniform2f(glGetUniformLocation(p, "uPixMm"), sf.pixMm0, sf.pixMm1);
   glUniform3i(glGetUniformLocation(p, "uBlocks"), GLint(m.blocks.blocks.x), GLint(m.blocks.blocks.y), GLint(m.blocks.blocks.z));
   {
     std::vector<float> slots(std::max<size_t>(m.slots.size(), 1) * 4, 0.f);

@@ -167,7 +167,8 @@ void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, f
     const PaintSlot& sl = slots[s];
     float reach = -1;  // 4 boundary widths of the slot's visible rows (deeper: sw = 0)
     for (int id : {sl.id, sl.shellId})
-      if (id > 0 && id < kMaxLabels && t.visible[size_t(id)]) reach = std::max(reach, 4.f * t.row(id)[slot::BoundaryWidthMm]);
+      if (id > 0 && id < kMaxLabels && t.visible[size_t(id)])
+        reach = std::max(reach, t.shows[size_t(id)] ? 4.f * t.row(id)[slot::BoundaryWidthMm] : coverageH);
     if (reach < 0) continue;
     lo[s] = -(reach + (sl.shellId > 0 ? sl.shellMm + coverageH : 0.f));
     hi[s] = 0.5f * coverageH;
@@ -289,7 +290,7 @@ void computeBlockCtRange(BlockFields& b, const AnyVolume& ctAny) {
 }
 
 std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
-                                    float coverageH) {
+                                    float coverageH, float inkReachMm) {
   const bool haveCtRange = !b.ctMin.empty();
   // Prefix count of TF entries with opacity: "any opacity in [i0, i1]" in O(1).
   std::vector<int> opaque(kTfSize + 1, 0);
@@ -306,7 +307,7 @@ std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, c
   // Per row: may it have opacity over a distance range [lo, hi] of its own surface, and over
   // this block's CT range?
   auto rowMay = [&](int id, float lo, float hi, size_t bi) {
-    if (id <= 0 || id >= kMaxLabels || !t.visible[size_t(id)]) return false;
+    if (id <= 0 || id >= kMaxLabels || !t.shows[size_t(id)]) return false;
     const StyleRow r = t.row(id);
     const bool ctAlpha = r[slot::LambdaIllum] > 0.f && r[slot::Illum] == IllumMode::Ct;
     const bool bandOnly = r[slot::BoundaryMeasure] == BoundaryMeasure::Distance && r[slot::BoundaryKc] <= 0.f && !ctAlpha;
@@ -325,8 +326,16 @@ std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, c
     for (size_t s = 0; s < ns && !on; ++s) {
       const float lo = b.minD[bi * ns + s], hi = b.maxD[bi * ns + s];
       if (hi < -half) covered = true;
-      if (!(lo < half)) continue;  // coverage 0 over the whole block
       const PaintSlot& sl = slots[s];
+      // Ink: lines and hatching live within inkReachMm of the slot's outer surface (also
+      // outside it, where a ray passes close by), whatever the coverage.
+      const int inkId = sl.shellId > 0 ? sl.shellId : sl.id;
+      if (inkId < kMaxLabels && t.visible[size_t(inkId)] && t.row(inkId)[slot::Ink] && lo < inkReachMm &&
+          hi > -inkReachMm) {
+        on = true;
+        break;
+      }
+      if (!(lo < half)) continue;  // coverage 0 over the whole block
       if (sl.shellId > 0) {
         // Shell (no band test: its own distance folds at -t/2); core: d + t.
         const float t0 = sl.shellMm, big = std::numeric_limits<float>::max();
@@ -411,6 +420,13 @@ void packRow(const SegmentStyle& r, bool visible, double diameter, float* p) {
   put(p, slot::Specular, r.specular);
   put(p, slot::Shininess, r.shininess);
   put(p, slot::Illum, r.illum);
+  put(p, slot::ToneKey, r.toneKey);
+  put(p, slot::LineWidthPx, r.lineWidthPx);
+  put(p, slot::LineOpacity, r.lineOpacity);
+  put(p, slot::LineColour, r.lineColour);
+  put(p, slot::HatchSpacingPx, r.hatchSpacingPx);
+  put(p, slot::HatchWidthPx, r.hatchWidthPx);
+  put(p, slot::Ink, r.visible && r.lineOpacity > 0 && (r.lineWidthPx > 0 || r.hatchSpacingPx > 0));
 }
 
 }  // namespace
@@ -433,11 +449,18 @@ StyleTable packStyle(const Style& style, const std::vector<Label>& table, int ma
   t.texels.assign(size_t(t.rows) * kRowTexels * 4, 0.f);
   for (int l = 0; l < t.rows; ++l) {
     const SegmentStyle& r = rows[size_t(l)];
-    const bool vis = r.visible && (r.lambdaIllum + r.lambdaColouring + r.lambdaTexture) > 0 &&
-                     (r.opacity > 0 || (r.illum == IllumMode::Ct && r.lambdaIllum > 0));
+    const bool shows = r.visible && (r.lambdaIllum + r.lambdaColouring + r.lambdaTexture) > 0 &&
+                       (r.opacity > 0 || (r.illum == IllumMode::Ct && r.lambdaIllum > 0));
+    const bool ink = r.visible && r.lineOpacity > 0 && (r.lineWidthPx > 0 || r.hatchSpacingPx > 0);
+    const bool vis = shows || ink;
     packRow(r, vis, diameter, t.texels.data() + size_t(l) * kRowTexels * 4);
     t.visible[size_t(l)] = vis;
+    t.shows[size_t(l)] = shows;
     if (!vis || l > maxId) continue;  // features of rows no voxel uses do not matter
+    if (ink) {
+      t.usesInk = true;
+      t.maxLineWidthPx = std::max(t.maxLineWidthPx, r.lineWidthPx);
+    }
     if ((r.illum == IllumMode::Ct && r.lambdaIllum > 0) || r.boundaryMeasure == BoundaryMeasure::Ct)
       t.usesCt = true;
     if (r.lambdaTexture > 0 && r.texture != SolidTexture::None) {
@@ -459,6 +482,56 @@ StyleTable packStyle(const Style& style, const std::vector<Label>& table, int ma
     for (int k = 0; k < 4; ++k) t.tf[size_t(4 * i + k)] = std::clamp(c[size_t(k)], 0.f, 1.f);
   }
   return t;
+}
+
+float inkVertex(float a, float b, float c) {
+  // Vertex of the parabola through (-1, a), (0, b), (1, c); b is the sampled minimum.
+  const float curv = a - 2.f * b + c;
+  return curv > 1e-7f ? std::clamp(0.5f * (a - c) / curv, -1.f, 1.f) : 0.f;
+}
+
+float inkLine(float a, float b, float c, float widthPx, float pixMm) {
+  const float m = b + 0.25f * (c - a) * inkVertex(a, b, c);
+  return std::clamp((0.5f * widthPx * pixMm - std::abs(m)) / pixMm + 0.5f, 0.f, 1.f);
+}
+
+float FieldVolume::at(float x, float y, float z, int slot) const {
+  // As the shader's fieldAt(): clamp to the grid, trilinear, one channel.
+  auto axis = [](float v, int64_t m, int64_t& i0, int64_t& i1, float& t) {
+    v = std::clamp(v, 0.f, float(m - 1));
+    const float f = std::floor(v);
+    i0 = std::min<int64_t>(int64_t(f), m - 1);
+    i1 = std::min<int64_t>(i0 + 1, m - 1);
+    t = v - f;
+  };
+  int64_t x0, x1, y0, y1, z0, z1;
+  float tx, ty, tz;
+  axis(x, dims.x, x0, x1, tx);
+  axis(y, dims.y, y0, y1, ty);
+  axis(z, dims.z, z0, z1, tz);
+  const float* base = value.data() + size_t(slot / 4) * size_t(dims.voxelCount()) * 4 + size_t(slot % 4);
+  float out = 0;
+  for (int c = 0; c < 8; ++c) {
+    const float w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
+    out += w * base[size_t((((c & 4) ? z1 : z0) * dims.y + ((c & 2) ? y1 : y0)) * dims.x + ((c & 1) ? x1 : x0)) * 4];
+  }
+  return out;
+}
+
+float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx) {
+  float ink = 0.f;
+  const float thresholds[3] = {0.6f, 0.25f, -0.2f};
+  for (int layer = 0; layer < 3; ++layer) {
+    const float w = widthPx * std::clamp((thresholds[layer] - ndl) / 0.25f, 0.f, 1.f);
+    if (!(w > 0.f)) break;
+    // Distance (px) from the pixel centre to the nearest stroke's centre line.
+    const float u = layer == 0 ? (px + py) * 0.70710678f : layer == 1 ? (px - py) * 0.70710678f : px;
+    const float f = u / spacingPx - std::floor(u / spacingPx);
+    const float dist = std::abs(f - 0.5f) * spacingPx;
+    const float cov = std::clamp(0.5f * w - dist + 0.5f, 0.f, 1.f) * std::min(w, 1.f);
+    ink = ink + cov - ink * cov;
+  }
+  return ink;
 }
 
 namespace {
@@ -506,9 +579,15 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
   // I_coloring: Gooch tone, then depth dimming.
   const float k = (1.f + ndl) * 0.5f;
   const float *warm = r[slot::ToneWarm], *cool = r[slot::ToneCool];
+  // Tone key: divide by the value at the key's n.l, so that lit mid-tones show the colour.
+  const float key = r[slot::ToneKey], kk = (1.f + key) * 0.5f;
   float cc[3];
   for (int c = 0; c < 3; ++c) {
-    const float tone = clamp01(k * (warm[c] + r[slot::ToneBeta] * col[c]) + (1.f - k) * (cool[c] + r[slot::ToneAlpha] * col[c]));
+    float tone = clamp01(k * (warm[c] + r[slot::ToneBeta] * col[c]) + (1.f - k) * (cool[c] + r[slot::ToneAlpha] * col[c]));
+    if (key > 0.f) {
+      const float at = clamp01(kk * (warm[c] + r[slot::ToneBeta] * col[c]) + (1.f - kk) * (cool[c] + r[slot::ToneAlpha] * col[c]));
+      tone = clamp01(tone * col[c] / std::max(at, 1e-3f));
+    }
     cc[c] = col[c] + r[slot::ToneAmount] * (tone - col[c]);
   }
   const float start = r[slot::DepthStart], end = r[slot::DepthEnd];
@@ -518,7 +597,7 @@ std::array<float, 4> styledSample(const StyleTable& t, int label, const float* g
 
   const float ambient = r[slot::Ambient], diffuse = r[slot::Diffuse];
   const float specular = r[slot::Specular], shininess = r[slot::Shininess];
-  const float lit = ambient + diffuse * std::max(ndl, 0.f);
+  const float lit = (ambient + diffuse * std::max(ndl, 0.f)) / (key > 0.f ? std::max(ambient + diffuse * key, 1e-3f) : 1.f);
   const float aSeg = r[slot::Opacity];
 
   // I_illum

@@ -31,7 +31,10 @@ inline float dot(Vec3f a, Vec3f b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 struct StyleTable {
   int rows = 0;
   std::vector<float> texels;                 ///< rows * kRowTexels * 4
-  std::array<bool, kMaxLabels> visible{};    ///< per label
+  std::array<bool, kMaxLabels> visible{};    ///< per label: shows colour or ink
+  std::array<bool, kMaxLabels> shows{};      ///< per label: has colour/opacity (not ink only)
+  bool usesInk = false;                      ///< some visible row draws lines or hatching
+  float maxLineWidthPx = 0;                  ///< widest ink line of a visible row
   bool usesCt = false;                       ///< some visible row needs the CT
   bool usesTexture = false;                  ///< some visible row has a procedural texture
   bool usesTextureVolume = false;
@@ -83,6 +86,8 @@ struct FieldVolume {
   /// they would never be used; gradientWindows).
   void sample(float x, float y, float z, bool central, const float* lo, const float* hi, float* d,
               Vec3f* gradIndex) const;
+  /// One slot's distance (mm) at continuous index p (trilinear, clamp to edge).
+  float at(float x, float y, float z, int slot) const;
 };
 /// Per slot (padded to whole groups), the open distance interval (lo, hi) where its gradient
 /// can change the picture: the slot covers the sample (d < h/2), one of its rows is visible,
@@ -110,9 +115,24 @@ void computeBlockCtRange(BlockFields& b, const AnyVolume& ct);
 /// non-zero (min d < h/2); rows whose boundary enhancement has k_c = 0 on the distance measure
 /// are zero wherever |d| >= boundary_width_mm; rows that are only the CT's transfer function
 /// are zero where the TF has no opacity over the block's CT range (needs ctMin/ctMax); label
-/// 0 shows wherever no slot covers the whole block.
+/// 0 shows wherever no slot covers the whole block. Rows with ink (lines, hatching) also
+/// need every block their surface passes within inkReachMm of (SampleFrame::inkReachMm):
+/// a line is found at a minimum of d along the ray, from three consecutive samples.
 std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
-                                    float coverageH);
+                                    float coverageH, float inkReachMm = 0);
+
+/// Ink of a silhouette/contour line (CPU reference of inkLine() in the shader): a, b, c are a
+/// segment's distances at three consecutive samples with b a local minimum; the parabola
+/// through them gives the ray's closest approach m to the surface (for a ray that grazes a
+/// surface, the image-plane distance to its silhouette). Coverage of the pixel by a line
+/// widthPx wide centred on m = 0, pixMm the pixel size at that depth.
+float inkLine(float a, float b, float c, float widthPx, float pixMm);
+/// The vertex (in steps from b, clamped to [-1, 1]) of the parabola through (-1, a), (0, b), (1, c).
+float inkVertex(float a, float b, float c);
+/// Hatching coverage at pixel centre (px, py) (row 0 at the top) for light n.l: diagonal
+/// strokes spacingPx apart where n.l < 0.6, crossing ones where n.l < 0.25, vertical ones
+/// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25.
+float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx);
 
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].
 struct TextureVolume {
@@ -127,6 +147,10 @@ struct SampleFrame {
   Vec3f light, centre;
   Vec3f forward;
   float radius = 1, coverageH = 1, stepMm = 1;
+  /// Size of a pixel in mm at ray parameter t: pixMm0 + pixMm1 * t (orthographic: constant;
+  /// perspective: growing with the distance from the eye). Ink widths are in pixels.
+  float pixMm0 = 1, pixMm1 = 0;
+  float inkReachMm = 0;  ///< distance from a surface within which ink samples matter (occupancy)
   std::array<float, 9> gradToPhys{};  ///< index-space gradient -> physical (D * diag(1/spacing)), row-major
 };
 

@@ -95,6 +95,11 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
   const size_t ns = cx.fields.slots.size();
   std::vector<float> d(ns + 1);
   std::vector<Vec3f> gi(ns + 1), gp(ns + 1);
+  std::vector<float> histA(ns + 1), histB(ns + 1);  // each slot's distance two and one samples ago
+  constexpr float kInkNone = 1e30f;
+  std::vector<float> inked(ns + 1);  // line ink laid in the ray's current pass near each slot's surface
+  std::vector<uint8_t> inPass(ns + 1);         // the ray is near the slot's surface
+  std::vector<float> passAcc((ns + 1) * 4);    // what was composited when that pass began
   const auto& m = cx.sf.gradToPhys;
   std::vector<float> lo, hi;
   gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
@@ -104,6 +109,12 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
       const auto clip = render::detail::clipRay(f, ray, s.jitter ? render::detail::pixelJitter(x, y) : 0.0);
       const Vec3f view = f3(-ray.dir);
       float acc[4] = {0, 0, 0, 0};
+      std::fill(histA.begin(), histA.end(), kInkNone);
+      std::fill(histB.begin(), histB.end(), kInkNone);
+      std::fill(inked.begin(), inked.end(), 0.f);
+      std::fill(inPass.begin(), inPass.end(), uint8_t(0));
+      const float pxc = float(x) + 0.5f, pyc = float(y) + 0.5f;
+      bool holdInk = false;
       for (int64_t k = clip.k0; k <= clip.k1; ++k) {
         const Vec3 p = clip.o + clip.d * ((double(k) + clip.jitter) * f.stepMm);
         const double t = (double(k) + clip.jitter) * f.stepMm;
@@ -119,11 +130,70 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
         if (cx.useCt) c4 = cx.ct.sampleLinear(float(p.x), float(p.y), float(p.z));
         const std::array<float, 4> sum = shadeSample(cx.table, cx.fields.slots, d.data(), gp.data(),
                                                      cx.useCt ? c4.data() : nullptr, tv, pMm, depth, view, cx.sf);
+        if (cx.table.usesInk) {
+          // As the shader: ink goes in front of what was composited since the ray came near
+          // the slot's surface (passAcc).
+          const float pixB = cx.sf.pixMm0 + cx.sf.pixMm1 * float(t - f.stepMm);
+          const float pixC = cx.sf.pixMm0 + cx.sf.pixMm1 * float(t);
+          holdInk = false;
+          auto under = [&](const float* at, const float* lc, float ia) {
+            const float r = 1.f - at[3];
+            for (int ch = 0; ch < 4; ++ch) {
+              const float x = r > 1e-6f ? (acc[ch] - at[ch]) / r : 0.f;
+              const float ink = ch == 3 ? ia : ia * lc[ch];
+              acc[ch] = at[ch] + r * (ink + (1.f - ia) * x);
+            }
+          };
+          for (size_t i = 0; i < ns; ++i) {
+            const PaintSlot& sl = cx.fields.slots[i];
+            const int iid = sl.shellId > 0 ? sl.shellId : sl.id;
+            const float a = histA[i], b = histB[i], c = d[i];
+            histA[i] = b;
+            histB[i] = c;
+            const StyleRow r = cx.table.row(iid);
+            if (!r[slot::Ink]) continue;
+            const float op = r[slot::LineOpacity], lw = r[slot::LineWidthPx], hs = r[slot::HatchSpacingPx];
+            // Every sampled minimum (ties too); the strongest of a pass counts.
+            const float hw = (0.5f * lw + 1.f) * pixB;
+            if (lw > 0.f && a < kInkNone && b <= a && b <= c && inPass[i] && b - 0.25f * std::abs(c - a) < hw &&
+                b > -hw) {
+              // Refined at a quarter step around the samples' vertex (as the shader).
+              const float xv = inkVertex(a, b, c);
+              const float kb = float(k - 1) + float(clip.jitter);
+              float mm[3];
+              for (int q = 0; q < 3; ++q) {
+                const float ts = (kb + xv + 0.25f * float(q - 1)) * float(f.stepMm);
+                mm[q] = cx.fields.at(float(clip.o.x) + ts * float(clip.d.x), float(clip.o.y) + ts * float(clip.d.y),
+                                     float(clip.o.z) + ts * float(clip.d.z), int(i));
+              }
+              const float ia = op * inkLine(mm[0], mm[1], mm[2], lw, pixB);
+              if (ia > inked[i]) {
+                const float more = (ia - inked[i]) / (1.f - inked[i]);
+                inked[i] = ia;
+                under(&passAcc[i * 4], r[slot::LineColour], more);
+              }
+            }
+            if (!(std::abs(c) < std::max((0.5f * lw + 1.f) * pixC, 1.5f * cx.sf.coverageH))) {
+              inPass[i] = 0;
+              inked[i] = 0.f;
+            } else if (!inPass[i]) {
+              inPass[i] = 1;
+              std::copy(acc, acc + 4, &passAcc[i * 4]);
+            }
+            holdInk = holdInk || (inPass[i] && lw > 0.f);  // a line may still come: no early exit
+            const Vec3f g = gp[i];
+            const float gl = std::sqrt(dot(g, g));
+            if (hs > 0.f && b < kInkNone && b > 0.f && c <= 0.f && gl > 1e-6f && inPass[i]) {
+              const float ndl = dot(g * (1.f / gl), cx.sf.light);
+              under(&passAcc[i * 4], r[slot::LineColour], op * inkHatch(ndl, pxc, pyc, hs, r[slot::HatchWidthPx]));
+            }
+          }
+        }
         if (sum[3] > 0.f) {
           const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm));
           for (int ch = 0; ch < 3; ++ch) acc[ch] += (1.f - acc[3]) * aStep * (sum[size_t(ch)] / sum[3]);
           acc[3] += (1.f - acc[3]) * aStep;
-          if (acc[3] >= kEarlyAlpha) break;
+          if (acc[3] >= kEarlyAlpha && !holdInk) break;
         }
       }
       const float bgA = s.background[3];
@@ -160,6 +230,14 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
   // figure whatever the grid's spacing (one voxel at the default step).
   sf.coverageH = float(f.stepMm);
   sf.stepMm = float(f.stepMm);
+  const double pix = 2.0 * f.halfH / std::max(f.height, 1);
+  sf.pixMm0 = f.perspective ? 0.f : float(pix);
+  sf.pixMm1 = f.perspective ? float(pix) : 0.f;
+  if (t.usesInk) {
+    // A line's three samples lie within half its width (at the farthest depth) plus two steps.
+    const double far = f.perspective ? norm(centre - f.eye) + radius : 0.0;
+    sf.inkReachMm = float(0.5 * t.maxLineWidthPx * (sf.pixMm0 + sf.pixMm1 * far) + 2.0 * f.stepMm + 0.5);
+  }
   const Mat3 m = g.direction * Mat3::fromColumns({1 / g.spacing.x, 0, 0}, {0, 1 / g.spacing.y, 0}, {0, 0, 1 / g.spacing.z});
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) sf.gradToPhys[size_t(r * 3 + c)] = float(m(r, c));

@@ -17,6 +17,7 @@ std::string illustrationFragmentSource(const ShaderVariant& v) {
   if (v.ct) s << "#define USE_CT\n";
   if (v.texture) s << "#define USE_TEXTURE\n";
   if (v.textureVolume) s << "#define USE_TEXVOL\n";
+  if (v.ink) s << "#define USE_INK\n#define INK_NONE 1e30\n";
   s << "#define NSLOTS " << v.slots << "\n#define SLOT_CAP " << std::max(v.slots, 1) << "\n";
   s << "#define NGROUPS " << std::max((v.slots + 3) / 4, 1) << "\n";
   s << "#define FIELD_SCALE " << std::setprecision(9) << kFieldScaleMm << "\n";

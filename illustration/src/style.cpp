@@ -106,6 +106,18 @@ const params::Table<SegmentStyle>& segmentTable() {
       real<S>("diffuse", [](auto& s) -> auto& { return s.diffuse; }, {"Diffuse", "diffuse term", "", 0, 1}),
       real<S>("specular", [](auto& s) -> auto& { return s.specular; }, {"Specular", "specular term", "", 0, 1}),
       real<S>("shininess", [](auto& s) -> auto& { return s.shininess; }, {"Shininess", "specular exponent", "", 1, 256}),
+      real<S>("tone_key", [](auto& s) -> auto& { return s.toneKey; },
+              {"Tone key", "n.l of the lit mid-tone that shows `colour` exactly: the Gooch tone (per channel) and the Phong/texture light are divided by their value there, so shading lightens highlights and darkens shadows around the style colour instead of multiplying it down (0 = off: plain Gooch and Phong)", "", 0, 1}),
+      real<S>("line_width_px", [](auto& s) -> auto& { return s.lineWidthPx; },
+              {"Line width", "ink line along silhouettes and contours, in pixels whatever the zoom: drawn where a ray passes within half of it of this segment's surface (the distance field's minimum along the ray; 0 = no lines)", "px", 0, 32}),
+      real<S>("line_opacity", [](auto& s) -> auto& { return s.lineOpacity; },
+              {"Line opacity", "opacity of ink lines and hatching", "", 0, 1}),
+      vector<S>("line_colour", [](auto& s) -> auto& { return s.lineColour; },
+                {"Line colour", "ink colour of lines and hatching", "", 0, 1}),
+      real<S>("hatch_spacing_px", [](auto& s) -> auto& { return s.hatchSpacingPx; },
+              {"Hatch spacing", "screen-space hatching on the segment's front surface, strokes this far apart: one diagonal layer where n.l < 0.6, a crossing layer where n.l < 0.25, a third where n.l < -0.2, each stroke widening from 0 as the tone darkens (0 = none)", "px", 0, 256}),
+      real<S>("hatch_width_px", [](auto& s) -> auto& { return s.hatchWidthPx; },
+              {"Hatch width", "width of a hatching stroke at full darkness", "px", 0.1, 32}),
   };
   return t;
 }
@@ -333,11 +345,13 @@ void dim(SegmentStyle& r, float strength, Rgb colour) {
 Style textbook() {
   Style s;
   s.name = "textbook";
-  s.description = "anatomy-textbook plate: ivory tone-shaded bone, red muscle with silhouettes, a faint skin outline";
+  s.description = "anatomy-textbook plate: ivory tone-shaded bone (lit mid-tones keep the style colour: tone_key), red muscle with silhouettes, a thin continuous skin outline in ink";
   const Rgb paper{0.97f, 0.95f, 0.90f};
   s.background = paper;
   auto bone = row("bone", {0.93f, 0.89f, 0.78f}, 1.0f);
-  tone(bone, {0.30f, 0.25f, 0.05f}, {0.06f, 0.07f, 0.22f}, 0.55f, 0.75f);
+  // A near-neutral warm/cool pair: with the tone key the shadows fall to a warm grey, not
+  // lavender (the key divides each channel by its own value at the key).
+  tone(bone, {0.25f, 0.22f, 0.12f}, {0.10f, 0.09f, 0.08f}, 0.40f, 0.75f);
   bone.lambdaColouring = 0.85f;
   bone.lambdaIllum = 0.15f;
   bone.colour = {0.93f, 0.89f, 0.78f};
@@ -353,9 +367,13 @@ Style textbook() {
   tone(muscle, {0.30f, 0.10f, 0.0f}, {0.05f, 0.0f, 0.15f}, 0.5f, 0.7f);
   silhouette(muscle, 0.3f, 4.f, 4.f);
   dim(muscle, 0.3f, paper);
-  auto skin = row("skin", {0.80f, 0.62f, 0.52f}, 0.03f);
+  // Skin: an outline only, in ink of constant pixel width (a thin opacity-modulated rim came
+  // out dashed where the ray step missed it).
+  auto skin = row("skin", {0.80f, 0.62f, 0.52f}, 0.0f);
   tone(skin, {0.2f, 0.1f, 0.0f}, {0.0f, 0.0f, 0.1f}, 0.6f, 0.7f);
-  silhouette(skin, 0.0f, 3.f, 8.f);
+  skin.lineWidthPx = 1.6f;
+  skin.lineColour = {0.50f, 0.33f, 0.27f};
+  skin.lineOpacity = 0.9f;
   auto fat = row("fat", {0.95f, 0.85f, 0.45f}, 0.02f);
   silhouette(fat, 0.0f, 2.f, 6.f);
   auto vessel = row("vessel", {0.75f, 0.08f, 0.10f}, 0.8f);
@@ -364,34 +382,29 @@ Style textbook() {
   s.fallback = row("", {0.80f, 0.74f, 0.62f}, 0.3f);
   silhouette(s.fallback, 0.5f, 3.f, 3.f);
   s.segments = {bone, marrow, cartilage, muscle, skin, fat, vessel, vein};
+  // Lit mid-tones (n.l = 0.7, 45 degrees from the light) show each row's colour exactly.
+  for (auto& r : s.segments) r.toneKey = 0.7f;
+  s.fallback.toneKey = 0.7f;
   return s;
 }
 
 Style pen() {
   Style s;
   s.name = "pen";
-  s.description = "monochrome pen drawing: dark silhouette and boundary lines over white, stippled shading";
+  s.description = "pen-and-ink drawing: black lines of constant pixel width along silhouettes and contours, hatching by tone, on white; the skin as an outline only";
   s.background = {1.f, 1.f, 1.f};
-  // Ink: a grey that tone shading darkens to near black away from the light; opacity only
-  // near surfaces (boundary k_c = 0) and mostly at silhouettes.
-  SegmentStyle r = row("", {0.35f, 0.35f, 0.35f}, 0.6f);
-  tone(r, {0.55f, 0.55f, 0.55f}, {0.f, 0.f, 0.f}, 0.1f, 0.6f);
-  r.lambdaColouring = 0.7f;
-  r.lambdaTexture = 0.3f;
-  r.texture = SolidTexture::Stipple;
-  r.textureScaleMm = 1.2f;
-  r.textureColour1 = {1.f, 1.f, 1.f};
-  r.textureColour2 = {0.05f, 0.05f, 0.05f};
-  r.boundaryWidthMm = 1.0f;
-  boundary(r, 0.0f, 1.f, 1.f);
-  silhouette(r, 0.04f, 10.f, 4.f);
+  // Structures: opaque paper-white fill (hides the lines behind them), ink on top.
+  SegmentStyle r = row("", {1.f, 1.f, 1.f}, 1.0f);
+  r.toneAmount = 0;
+  r.lineWidthPx = 2.0f;
+  r.hatchSpacingPx = 5.0f;
+  r.hatchWidthPx = 1.4f;
   s.fallback = r;
   auto skin = r;
   skin.match = "skin";
-  skin.lambdaTexture = 0;
-  skin.lambdaColouring = 1;
-  skin.colour = {0.2f, 0.2f, 0.2f};
-  silhouette(skin, 0.0f, 10.f, 8.f);
+  skin.opacity = 0;  // outline only: the bones show through
+  skin.hatchSpacingPx = 0;
+  skin.lineWidthPx = 1.5f;
   s.segments = {skin};
   return s;
 }
@@ -516,6 +529,87 @@ std::string styleDocsMarkdown() {
     o << "\n";
   }
   o << "\n`vellum illustrate ... --preset NAME --save-style S.json` writes a preset as a starting point.\n";
+  o << R"(
+## Tone key, ink lines and hatching (issue 21)
+
+**Tone key (ivory stays ivory).** Gooch tone and Blinn-Phong multiply a colour down: the textbook
+bone (colour 0.93/0.89/0.78) came out yellow, its lit mid-tones 0.90/0.84/0.64 (mean Delta E
+13.6, the preset before this change; its shadows grey-khaki). With `tone_key` k > 0 both are divided by their value at n.l = k, per channel
+for the tone (so the warm/cool shift stays) and for the light: a surface at that angle to the
+light shows `colour` exactly, highlights are lighter and shadows darker and cooler around it.
+The textbook rows use k = 0.7 (45 degrees); the bone's warm/cool pair is near neutral, so its
+shadows fall to a warm grey. Measured on a 16 mm ball at 192 px
+(`IllustrationStyles.TextbookBoneLitMidTonesKeepTheStyleColour`): the lit mid-tones (normal 37
+to 53 degrees from the light, n.l in [0.6, 0.8], 920 px) average 0.930/0.890/0.781 against the
+style colour 0.93/0.89/0.78; per pixel **mean Delta E (CIE76) 1.6, mean RGB error 4.1 levels**
+(the pixels span 37 to 53 degrees, lighter and darker than the key; bound in the test:
+Delta E <= 3; the same tones without the key: 9.7).
+
+**Ink lines of constant pixel width.** A row with `line_width_px` > 0 draws a line wherever a ray
+passes within half that width of the segment's own surface: along each ray the renderer
+watches the segment's distance d, and at every sampled minimum the parabola through the three
+samples gives the ray's closest approach m (for a grazing ray: the image-plane distance to
+the silhouette, outside or inside). The line's coverage of the pixel is
+`clamp((width/2 - |m|) / pixel + 0.5, 0, 1)` with `pixel` the pixel size in mm at that depth,
+so the width is in pixels whatever the zoom and the grid, antialiased, and every occluding
+contour (outer silhouettes and contours in front of other parts of the same segment) is
+found, per segment, through translucent segments too. Each pass of a ray near the surface
+is inked once (its strongest minimum), and the ink goes in front of everything composited
+since the ray came near that surface, so an opaque fill never greys it. Measured on the ball
+(`PenOutlineIsClosedAndOfConstantPixelWidth`): 1.5 px lines 1.52 and 1.51 px wide at 128 and
+256 px (two sizes in mm per pixel), 3 px lines 3.02 and 3.00 px, no gap in 360 degrees of
+outline; GL = CPU.
+
+**Hatching by tone.** `hatch_spacing_px` > 0 lays screen-space strokes on the segment's front
+surface (where the ray enters it): a diagonal layer where n.l < 0.6, a crossing layer where
+n.l < 0.25, a vertical one where n.l < -0.2, each stroke widening from 0 to `hatch_width_px` as
+the tone darkens. The strokes are straight in the image, so no rings or moire follow the
+voxel layers; lit parts stay clean paper (`PenHatchingFollowsTheTone`: mean ink 0.00 where
+n.l > 0.7, 0.22 at n.l 0.3 to 0.5, 0.45 below 0.1).
+
+**Skin outlines.** The textbook skin was a faint translucent rim from silhouette enhancement
+((1 - |n.v|)^8): a ray step either caught the thin rim or missed it, so on real skin it came
+out dashed (on a ball: 0.6 px of ink across the rim, under half darkness nearly all round).
+It is now a 1.6 px ink line: no gap around a skin ball on 1 mm and 1 x 1 x 3 mm grids
+(`SkinOutlineIsContinuous`).
+
+**x-ray and empty-space skipping.** The GL ray caster skips 8^3 blocks where no visible row can
+have opacity; the CPU reference samples every step. Blocks are judged on each segment's
+distance range over the block dilated by two voxels (trilinear sample plus the gradient
+stencil), rows with ink also within the line's reach of their surface. GL equals the CPU
+reference on a bone box whose faces lie on block boundaries inside a skin ball on a
+0.8 x 0.8 x 2 mm grid at zoom 1.8 (max 1 level; `XrayGlEqualsCpuAcrossBlockBoundaries`), on a
+64 x 64 x 40 crop of the feet CT (max 1 level, 85 dB; `XrayGlEqualsCpuOnARealCrop`, labels
+data and long) and on the whole feet CT at zoom 1.8 (max 1 level, 87 dB).
+
+## Figures
+
+Both feet of the Visible Human Female CT (US National Library of Medicine), 1024 x 1024, the
+shape folder of the user guide (`skin=1,2`, `bone=2`):
+
+    vellum illustrate ct-feet-vhf --shape feet-shape --preset pen --remove-table         --size 1024x1024 --elevation 50 --azimuth 20 --out styles-pen.png
+
+![pen](images/styles-pen.png)
+
+Before (left: soft grey pencil, stipple, silhouettes by opacity) and after (right), 512 px each:
+
+![pen before and after](images/styles-pen-before-after.png)
+
+`--preset textbook`, same view, before (left: yellow-grey bone, faint dashed skin rim) and
+after (right: ivory bone, continuous skin outline):
+
+![textbook before and after](images/styles-textbook-before-after.png)
+
+`--preset x-ray`, same view (640 px here): no block artefacts.
+
+![x-ray](images/styles-x-ray.png)
+
+What still falls short: lines come from silhouettes and contours only (no creases or
+suggestive contours inside a bone's outline, no line-weight variation by depth or
+curvature); hatching is in screen space (it does not follow the surface's direction, and it
+would swim in an animation); a transparent skin shows its far-side contours too (double
+lines along the foot's edge); where two bones touch within a line width their outlines merge.
+)";
   return o.str();
 }
 

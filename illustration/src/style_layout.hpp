@@ -47,7 +47,14 @@ namespace vellum::illustration::detail {
   X(Diffuse, 10, 1, float, "diffuse", "Blinn-Phong diffuse")                                           \
   X(Specular, 10, 2, float, "specular", "Blinn-Phong specular")                                        \
   X(Shininess, 10, 3, float, "shininess", "Blinn-Phong exponent")                                      \
-  X(Illum, 11, 0, IllumMode, "illum", "what I_illum shades")
+  X(Illum, 11, 0, IllumMode, "illum", "what I_illum shades")                                          \
+  X(ToneKey, 11, 1, float, "tone_key", "n.l of the lit mid-tone that shows the colour (0 off)")       \
+  X(LineWidthPx, 11, 2, float, "line_width_px", "ink line width in pixels (0 none)")                   \
+  X(LineOpacity, 11, 3, float, "line_opacity", "ink opacity")                                          \
+  X(LineColour, 12, 0, Rgb, "line_colour", "ink colour")                                               \
+  X(HatchSpacingPx, 12, 3, float, "hatch_spacing_px", "hatching stroke spacing in pixels (0 none)")    \
+  X(HatchWidthPx, 13, 0, float, "hatch_width_px", "hatching stroke width at full darkness")            \
+  X(Ink, 13, 1, bool, "", "the row draws ink: lines or hatching")
 
 /// One slot: where a value of type T sits in a row (floats from the row's start).
 template <class T>

@@ -673,3 +673,4 @@ TEST(IllustrationCli, RendersAFixtureAndNamesBadInputs) {
 
 }  // namespace
 }  // namespace vellum::illustration
+

@@ -36,10 +36,13 @@ TEST(IllustrationStyleLayout, EverySlotCarriesItsStyleField) {
   g.dims = {4, 4, 4};
   const StyleTable t = packStyle(style, {}, 1, g);
   const float* row = t.texels.data() + size_t(kRowTexels) * 4;  // label 1: the fallback row
-  int checked = 0;
+  int checked = 0, derived = 0;
   for (const SlotInfo& slot : kStyleSlots) {
     const auto* f = params::findField(segmentStyleTable(), slot.key);
-    if (!*slot.key) continue;  // derived
+    if (!*slot.key) {  // derived
+      ++derived;
+      continue;
+    }
     ASSERT_NE(f, nullptr) << slot.name << ": no style field " << slot.key;
     const float* p = row + slot.texel * 4 + slot.component;
     if (slot.isRgb) {
@@ -50,8 +53,10 @@ TEST(IllustrationStyleLayout, EverySlotCarriesItsStyleField) {
     }
     ++checked;
   }
-  EXPECT_EQ(checked, int(std::size(kStyleSlots)) - 1);  // all but Visible
+  EXPECT_EQ(derived, 2);  // Visible, Ink
+  EXPECT_EQ(checked, int(std::size(kStyleSlots)) - derived);
   EXPECT_TRUE(t.row(1)[slot::Visible]);
+  EXPECT_TRUE(t.row(1)[slot::Ink]);
   EXPECT_EQ(t.row(1)[slot::Texture], SolidTexture::Volume);
   EXPECT_EQ(t.row(1)[slot::Illum], IllumMode::Ct);
 }

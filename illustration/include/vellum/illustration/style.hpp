@@ -52,6 +52,13 @@ struct SegmentStyle {
   // I_illum
   IllumMode illum = IllumMode::Phong;
   float ambient = 0.3f, diffuse = 0.7f, specular = 0.2f, shininess = 24.f;
+  // Lit mid-tone anchor: n.l at which I_coloring and the Phong/texture light give `colour`
+  // exactly (0 = off: plain Gooch / Phong values).
+  float toneKey = 0.f;
+  // Ink (screen space): silhouette/contour lines of constant pixel width and hatching by tone.
+  float lineWidthPx = 0.f, lineOpacity = 1.f;
+  Rgb lineColour{0.f, 0.f, 0.f};
+  float hatchSpacingPx = 0.f, hatchWidthPx = 1.f;
 
   bool operator==(const SegmentStyle&) const = default;
 };

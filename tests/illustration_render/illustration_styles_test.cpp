@@ -1,0 +1,368 @@
+// Issue 21, section 3: styles an illustrator would publish. Ivory stays ivory (colour error
+// of lit mid-tones), pen draws ink lines of constant pixel width that close around a shape
+// and hatching that follows the tone, skin outlines have no gaps, x-ray's empty-space
+// skipping never changes the picture (GL = CPU reference across block boundaries; on a real
+// CT crop: illustration_real_styles_test.cpp). Small analytic scenes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <numbers>
+
+#include "image_compare.hpp"
+#include "shape_fixtures.hpp"
+#include "vellum/illustration/illustration_renderer.hpp"
+#include "vellum/illustration/shape.hpp"
+#include "vellum/illustration/style.hpp"
+
+namespace vellum::illustration {
+namespace {
+
+render::GlContext& gl() {
+  static std::unique_ptr<render::GlContext> context = render::GlContext::createHeadless();
+  return *context;
+}
+
+RgbaImage gpu(const ShapeScene& scene, const Style& st, const IllustrationSettings& s) {
+  IllustrationRenderer r(gl());
+  r.setScene(scene);
+  return r.render(st, s);
+}
+
+/// Front view, orthographic: 96 px span the bounding sphere of the 48 mm box at size 96.
+IllustrationSettings front(int size, std::array<float, 4> background = {1, 1, 1, 1}) {
+  IllustrationSettings s;
+  s.render.width = s.render.height = size;
+  s.render.camera.azimuthDeg = 0;
+  s.render.camera.elevationDeg = 0;
+  s.render.camera.fieldOfViewDeg = 0;
+  s.render.background = background;
+  return s;
+}
+
+void maybeSave(const RgbaImage& img, const std::string& name) {
+  if (const char* dir = std::getenv("VELLUM_ILLUSTRATION_PNG_DIR"); dir && *dir) {
+    std::filesystem::create_directories(dir);
+    test::writePng(img, std::filesystem::path(dir) / (name + ".png"));
+  }
+}
+
+const ShapeScene& ball() {  // r = 16 mm sphere "bone" in a 48 mm box, 1 mm voxels
+  static const ShapeScene s =
+      test::makeScene(48, {{"bone", [](const Vec3& p) { return test::sphereSdf(p, {0, 0, 0}, 16); }}});
+  return s;
+}
+constexpr double kBallMm = 16;
+double pxPerMm(int size) { return size / (2 * std::sqrt(3.0) * 24.0); }
+
+/// Camera-space unit normal of the ball under pixel (x, y) (right, up, toward the viewer), or
+/// false outside the ball's disc shrunk by `marginPx`.
+bool ballNormal(int size, int x, int y, double marginPx, std::array<double, 3>& n) {
+  const double r = kBallMm * pxPerMm(size);
+  const double u = (x + 0.5 - size * 0.5) / r, v = -(y + 0.5 - size * 0.5) / r;
+  const double q = u * u + v * v;
+  if (std::sqrt(q) > 1 - marginPx / r) return false;
+  n = {u, v, std::sqrt(1 - q)};
+  return true;
+}
+double dotLight(const Style& st, const std::array<double, 3>& n) {
+  const double l = std::sqrt(double(st.light[0]) * st.light[0] + double(st.light[1]) * st.light[1] +
+                             double(st.light[2]) * st.light[2]);
+  return (n[0] * st.light[0] + n[1] * st.light[1] + n[2] * st.light[2]) / l;
+}
+
+/// CIE L*a*b* (D65) of an sRGB colour in [0, 1].
+std::array<double, 3> lab(const std::array<double, 3>& rgb) {
+  auto lin = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+  const double r = lin(rgb[0]), g = lin(rgb[1]), b = lin(rgb[2]);
+  const double X = (0.4124 * r + 0.3576 * g + 0.1805 * b) / 0.95047, Y = 0.2126 * r + 0.7152 * g + 0.0722 * b,
+               Z = (0.0193 * r + 0.1192 * g + 0.9505 * b) / 1.08883;
+  auto f = [](double t) { return t > 216.0 / 24389 ? std::cbrt(t) : (24389.0 / 27 * t + 16) / 116; };
+  return {116 * f(Y) - 16, 500 * (f(X) - f(Y)), 200 * (f(Y) - f(Z))};
+}
+double deltaE(const std::array<double, 3>& a, const std::array<double, 3>& b) {
+  const auto p = lab(a), q = lab(b);
+  return std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+}
+
+struct ToneError {
+  double meanDeltaE = 0, meanRgb = 0;  ///< CIE76 Delta E; mean |RGB difference| in 8-bit levels
+  std::array<double, 3> mean{};        ///< mean colour of the pixels (0..1)
+  int pixels = 0;
+};
+/// Lit mid-tones of the ball: pixels whose normal is 37 to 53 degrees from the light
+/// (n.l in [0.6, 0.8], around the textbook's tone key 0.7), against `colour`.
+ToneError litMidToneError(const RgbaImage& img, const Style& st, const Rgb& colour) {
+  ToneError e;
+  const std::array<double, 3> want{colour[0], colour[1], colour[2]};
+  for (int y = 0; y < img.height; ++y)
+    for (int x = 0; x < img.width; ++x) {
+      std::array<double, 3> n;
+      if (!ballNormal(img.width, x, y, 2.0, n)) continue;
+      const double ndl = dotLight(st, n);
+      if (ndl < 0.6 || ndl > 0.8) continue;
+      const uint8_t* p = img.at(x, y);
+      const std::array<double, 3> got{p[0] / 255.0, p[1] / 255.0, p[2] / 255.0};
+      e.meanDeltaE += deltaE(got, want);
+      for (int c = 0; c < 3; ++c) {
+        e.meanRgb += std::abs(got[size_t(c)] - want[size_t(c)]) * 255 / 3;
+        e.mean[size_t(c)] += got[size_t(c)];
+      }
+      ++e.pixels;
+    }
+  if (e.pixels) {
+    e.meanDeltaE /= e.pixels;
+    e.meanRgb /= e.pixels;
+    for (auto& m : e.mean) m /= e.pixels;
+  }
+  return e;
+}
+
+/// A scene on grid g from analytic segments (each its own field, quantised as `vellum shape`
+/// writes it; labels: the later segment wins; the union distance as the pipeline's).
+ShapeScene analyticScene(const Geometry& g, const std::vector<test::AnalyticSegment>& segments) {
+  ShapeScene scene = test::makeScene(8, segments);  // the label table and field list
+  VolumeF32 dist(g, 0.f, 1e3);
+  VolumeU16 ids(g, 0);
+  std::vector<VolumeI16> own(segments.size(), VolumeI16(g, 0));
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        double u = 1e3;
+        for (size_t s = 0; s < segments.size(); ++s) {
+          const double v = segments[s].sdf(p);
+          u = std::min(u, v);
+          if (v < 0) ids(i, j, k) = uint16_t(s + 1);
+          own[s](i, j, k) = int16_t(std::lround(std::clamp(v, -300.0, 300.0) / kFieldQuantumMm));
+        }
+        dist(i, j, k) = float(u);
+      }
+  scene.distance = dist;
+  scene.segments = LabelVolume(std::move(ids), scene.segments.table());
+  for (size_t s = 0; s < segments.size(); ++s) scene.fields[s].distance = own[s];
+  return scene;
+}
+
+/// Textbook bone stays ivory: the lit mid-tones of a ball match the style colour within a
+/// stated Delta E (the shading lightens highlights and darkens shadows around it).
+TEST(IllustrationStyles, TextbookBoneLitMidTonesKeepTheStyleColour) {
+  const Style st = stylePreset("textbook");
+  const SegmentStyle& bone = st.segments[0];
+  ASSERT_EQ(bone.match, "bone");
+  const RgbaImage img = gpu(ball(), st, front(192));
+  maybeSave(img, "ivory-ball");
+  const ToneError now = litMidToneError(img, st, bone.colour);
+  Style plain = st;  // the model before tone_key: Gooch and Phong multiply the colour down
+  plain.segments[0].toneKey = 0;
+  const ToneError before = litMidToneError(gpu(ball(), plain, front(192)), st, bone.colour);
+  std::cout << "[ ivory ] lit mid-tones (" << now.pixels << " px): mean " << now.mean[0] << " " << now.mean[1]
+            << " " << now.mean[2] << " vs style " << bone.colour[0] << " " << bone.colour[1] << " "
+            << bone.colour[2] << ": Delta E " << now.meanDeltaE << ", RGB " << now.meanRgb
+            << " levels | without tone_key: " << before.mean[0] << " " << before.mean[1] << " " << before.mean[2]
+            << ", Delta E " << before.meanDeltaE << "\n";
+  ASSERT_GT(now.pixels, 500);
+  // Stated bound (docs/styles.md): mean Delta E <= 3 (a just noticeable difference is ~2.3).
+  EXPECT_LE(now.meanDeltaE, 3.0);
+  EXPECT_LE(now.meanRgb, 8.0);
+  EXPECT_GT(before.meanDeltaE, 2 * now.meanDeltaE);
+  // Still shaded: the side away from the light is clearly darker than the lit mid-tones.
+  const uint8_t* shadow = img.at(192 / 2 + int(0.85 * kBallMm * pxPerMm(192)), 192 / 2 + 10);
+  EXPECT_LT(int(shadow[1]), int(now.mean[1] * 255) - 40);
+}
+
+/// Pen line style on the ball: ink only (no fill), lines of `widthPx`.
+Style inkOnly(float widthPx) {
+  Style st = stylePreset("pen");
+  st.fallback.opacity = 0;
+  st.fallback.hatchSpacingPx = 0;
+  st.fallback.lineWidthPx = widthPx;
+  return st;
+}
+
+/// Darkness (0 white .. 1 black) of a pixel on white paper.
+double ink(const RgbaImage& img, int x, int y) { return 1.0 - img.at(x, y)[1] / 255.0; }
+
+/// Darkest ink along the ray from the image centre at angle a, between radii r0 and r1 px
+/// (bilinear samples every 0.25 px).
+double darkestAlong(const RgbaImage& img, double a, double r0, double r1) {
+  double best = 0;
+  for (double r = r0; r <= r1; r += 0.25) {
+    const double fx = img.width * 0.5 + r * std::cos(a) - 0.5, fy = img.height * 0.5 - r * std::sin(a) - 0.5;
+    const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
+    const double tx = fx - x0, ty = fy - y0;
+    if (x0 < 0 || y0 < 0 || x0 + 1 >= img.width || y0 + 1 >= img.height) continue;
+    const double v = (1 - tx) * (1 - ty) * ink(img, x0, y0) + tx * (1 - ty) * ink(img, x0 + 1, y0) +
+                     (1 - tx) * ty * ink(img, x0, y0 + 1) + tx * ty * ink(img, x0 + 1, y0 + 1);
+    best = std::max(best, v);
+  }
+  return best;
+}
+/// Total ink across the outline along that ray (its width in px for opaque ink).
+double inkAcross(const RgbaImage& img, double a, double r0, double r1) {
+  double sum = 0;
+  for (double r = r0; r <= r1; r += 0.25) {
+    const int x = int(std::lround(img.width * 0.5 + r * std::cos(a) - 0.5));
+    const int y = int(std::lround(img.height * 0.5 - r * std::sin(a) - 0.5));
+    sum += 0.25 * ink(img, x, y);
+  }
+  return sum;
+}
+
+/// Gaps in the outline: runs of angles (1 degree apart) where the outline's ink stays under
+/// half, counted once per run.
+int outlineGaps(const RgbaImage& img, double radiusPx, double* meanWidth = nullptr) {
+  int gaps = 0;
+  bool inGap = false;
+  double widths = 0;
+  for (int deg = 0; deg < 360; ++deg) {
+    const double a = deg * std::numbers::pi / 180;
+    const bool gap = darkestAlong(img, a, radiusPx - 6, radiusPx + 6) < 0.5;
+    if (gap && !inGap) ++gaps;
+    inGap = gap;
+    widths += inkAcross(img, a, radiusPx - 6, radiusPx + 6);
+  }
+  if (meanWidth) *meanWidth = widths / 360;
+  return gaps;
+}
+
+/// Ink lines of constant pixel width: the same width (px) at two image sizes (two zooms in
+/// mm per pixel), and a closed outline around the ball. GL = CPU.
+TEST(IllustrationStyles, PenOutlineIsClosedAndOfConstantPixelWidth) {
+  for (float widthPx : {1.5f, 3.f}) {
+    double w[2];
+    int i = 0;
+    for (int size : {128, 256}) {
+      const Style st = inkOnly(widthPx);
+      const RgbaImage g = gpu(ball(), st, front(size));
+      maybeSave(g, "pen-outline-" + std::to_string(size) + "-" + std::to_string(int(widthPx * 10)));
+      const int gaps = outlineGaps(g, kBallMm * pxPerMm(size), &w[i]);
+      std::cout << "[ ink ] " << size << " px, line " << widthPx << " px: mean width " << w[i] << " px, gaps "
+                << gaps << "\n";
+      EXPECT_EQ(gaps, 0) << size;
+      EXPECT_NEAR(w[i], widthPx, 0.35 * widthPx) << size;
+      if (size == 128) {
+        const test::ImageDiff d = test::compareImages(g, renderIllustrationCpu(ball(), st, front(size)));
+        EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+      }
+      ++i;
+    }
+    EXPECT_NEAR(w[0], w[1], 0.15 * widthPx) << "constant pixel width whatever the mm per pixel";
+  }
+}
+
+/// The textbook's skin outline is continuous (it was a thin opacity-modulated rim that came
+/// out dashed where the ray step missed it): the outline of a skin ball has no gaps, on a
+/// 1 x 1 x 3 mm grid too.
+TEST(IllustrationStyles, SkinOutlineIsContinuous) {
+  for (double dz : {1.0, 3.0}) {
+    Geometry grid;  // both grids span the same 48 mm box
+    const int nz = int(48 / dz);
+    grid.dims = {48, 48, nz};
+    grid.spacing = {1, 1, dz};
+    grid.origin = {-23.5, -23.5, -(nz - 1) * 0.5 * dz};
+    const ShapeScene scene =
+        analyticScene(grid, {{"skin", [](const Vec3& p) { return test::sphereSdf(p, {0, 0, 0}, 16); }}});
+    const Style st = stylePreset("textbook");
+    IllustrationSettings s = front(128);
+    // On paper, the outline is the skin line colour: its darkness against the paper, doubled.
+    auto gapsOf = [&](const RgbaImage& g, double* width) {
+      RgbaImage grey = g;
+      for (int y = 0; y < g.height; ++y)
+        for (int x = 0; x < g.width; ++x) {
+          const int v = std::clamp(255 - 2 * (int(st.background[1] * 255) - int(g.at(x, y)[1])), 0, 255);
+          for (int c = 0; c < 3; ++c) grey.at(x, y)[c] = uint8_t(v);
+        }
+      return outlineGaps(grey, kBallMm * pxPerMm(128), width);
+    };
+    const RgbaImage g = gpu(scene, st, s);
+    maybeSave(g, "skin-outline-dz" + std::to_string(int(dz)));
+    double width = 0, oldWidth = 0;
+    const int gaps = gapsOf(g, &width);
+    // The row before: a faint translucent skin whose rim came from silhouette enhancement.
+    Style old = st;
+    for (auto& r : old.segments)
+      if (r.match == "skin") {
+        r.opacity = 0.03f;
+        r.lineWidthPx = 0;
+        r.silhouetteKc = 0;
+        r.silhouetteKs = 3;
+        r.silhouetteKe = 8;
+      }
+    const RgbaImage o = gpu(scene, old, s);
+    maybeSave(o, "skin-outline-old-dz" + std::to_string(int(dz)));
+    const int oldGaps = gapsOf(o, &oldWidth);
+    std::cout << "[ skin ] dz " << dz << ": outline gaps " << gaps << ", mean ink across " << width
+              << " px | silhouette-enhanced rim before: gaps " << oldGaps << ", ink across " << oldWidth << " px\n";
+    EXPECT_EQ(gaps, 0) << "dz " << dz;
+    if (dz > 1) {
+      const test::ImageDiff d = test::compareImages(g, renderIllustrationCpu(scene, st, s));
+      EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+    }
+  }
+}
+
+/// Hatching follows the tone: no ink where the ball faces the light (clean paper, no rings),
+/// dense ink where it faces away.
+TEST(IllustrationStyles, PenHatchingFollowsTheTone) {
+  const Style st = stylePreset("pen");
+  const RgbaImage img = gpu(ball(), st, front(192));
+  maybeSave(img, "pen-hatching");
+  double lit = 0, dark = 0, mid = 0;
+  int nLit = 0, nDark = 0, nMid = 0;
+  for (int y = 0; y < 192; ++y)
+    for (int x = 0; x < 192; ++x) {
+      std::array<double, 3> n;
+      if (!ballNormal(192, x, y, 4.0, n)) continue;
+      const double ndl = dotLight(st, n), v = ink(img, x, y);
+      if (ndl > 0.7) lit += v, ++nLit;
+      else if (ndl > 0.3 && ndl < 0.5) mid += v, ++nMid;
+      else if (ndl < 0.1) dark += v, ++nDark;
+    }
+  lit /= std::max(nLit, 1);
+  mid /= std::max(nMid, 1);
+  dark /= std::max(nDark, 1);
+  std::cout << "[ hatch ] mean ink: lit " << lit << " (" << nLit << " px), mid " << mid << " (" << nMid
+            << "), dark (n.l < 0.1) " << dark << " (" << nDark << ")\n";
+  ASSERT_GT(nLit, 200);
+  ASSERT_GT(nDark, 100);
+  EXPECT_LT(lit, 0.02);
+  EXPECT_GT(mid, lit + 0.05);
+  EXPECT_GT(dark, mid + 0.1);
+  const test::ImageDiff d = test::compareImages(img, renderIllustrationCpu(ball(), st, front(192)));
+  EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+}
+
+/// x-ray: empty-space skipping must not change the picture (a skipped block that holds
+/// visible samples shows as a darker square): a bone box whose faces lie on the 8-voxel block
+/// boundaries inside a skin ball, on an anisotropic grid, oblique view, zoom 1.8. GL (skips
+/// blocks) equals the CPU reference (samples everything).
+TEST(IllustrationStyles, XrayGlEqualsCpuAcrossBlockBoundaries) {
+  Geometry g;
+  g.dims = {48, 48, 24};
+  g.spacing = {0.8, 0.8, 2.0};
+  g.origin = {0, 0, 0};
+  const Vec3 centre = g.indexToPhysical({23.5, 23.5, 11.5});
+  // Bone box faces at voxel indices 8 and 40 (x, y) and 8 and 16 (z): block boundaries.
+  const Vec3 lo = g.indexToPhysical({8, 8, 8}), hi = g.indexToPhysical({40, 40, 16});
+  const Vec3 boxC = (lo + hi) * 0.5, boxH = (hi - lo) * 0.5;
+  const ShapeScene scene = analyticScene(
+      g, {{"skin", [=](const Vec3& p) { return test::sphereSdf(p, centre, 18.5); }},
+          {"bone", [=](const Vec3& p) { return test::boxSdf(p, boxC, boxH); }}});
+  const Style st = stylePreset("x-ray");
+  for (double az : {20.0, 90.0}) {
+    IllustrationSettings s = front(96, {0.02f, 0.03f, 0.05f, 1});
+    s.render.camera.azimuthDeg = az;
+    s.render.camera.elevationDeg = 50;
+    s.render.camera.zoom = 1.8;
+    const RgbaImage a = gpu(scene, st, s), b = renderIllustrationCpu(scene, st, s);
+    maybeSave(a, "xray-blocks-" + std::to_string(int(az)));
+    const test::ImageDiff d = test::compareImages(a, b);
+    std::cout << "[ x-ray ] blocks az " << az << ": max " << d.maxAbs << " psnr " << d.psnr << " dB\n";
+    EXPECT_LE(d.maxAbs, 2.0);
+  }
+}
+
+}  // namespace
+}  // namespace vellum::illustration
