@@ -129,9 +129,10 @@ TEST(Faults, SigkillMidWriteLeavesTheOldOutputIntact) {
   ASSERT_TRUE(killJustBeforeRename({"convert", (dir / "knee.nrrd").string(), (dir / "out.nrrd").string()},
                                    dir / "err.txt"))
       << "the child never reached the rename: " << readAll(dir / "err.txt");
-  // The killed child's complete temporary is orphaned (nothing runs after SIGKILL), but the
-  // target still holds the old result.
-  EXPECT_EQ(leftoverTemps(dir), 1);
+  // The killed child's complete temporary is orphaned (nothing runs after SIGKILL), and so is
+  // the hard link its run kept of the old result to put back on failure; the target still
+  // holds the old result.
+  EXPECT_EQ(leftoverTemps(dir), 2);
   EXPECT_EQ(readAll(dir / "out.nrrd"), old);
 }
 
