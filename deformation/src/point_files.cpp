@@ -143,11 +143,7 @@ static KeyframeCamera readCamera(const json& c, const fs::path& path, const std:
   return cam;
 }
 
-KeyframeTrack loadKeyframes(const fs::path& path) {
-  const json j = readJsonFile(path, kMaxKeyframeFileBytes, "keyframe file");
-  if (!j.is_object()) throw FileError(path, "expected a JSON object with \"keyframes\"");
-  checkUnits(j, path);
-  KeyframeTrack t;
+void readTrackSettings(const json& j, const fs::path& path, KeyframeTrack& t) {
   if (j.contains("interpolation")) {
     if (!j.at("interpolation").is_string()) throw FileError(path, "\"interpolation\" must be linear, smooth or eased");
     try {
@@ -165,6 +161,14 @@ KeyframeTrack loadKeyframes(const fs::path& path) {
   if (j.at("keyframes").size() > kMaxKeyframes)
     throw FileError(path, "\"keyframes\" has " + std::to_string(j.at("keyframes").size()) + " entries; at most " +
                               std::to_string(kMaxKeyframes) + " are supported");
+}
+
+KeyframeTrack loadKeyframes(const fs::path& path) {
+  const json j = readJsonFile(path, kMaxKeyframeFileBytes, "keyframe file");
+  if (!j.is_object()) throw FileError(path, "expected a JSON object with \"keyframes\"");
+  checkUnits(j, path);
+  KeyframeTrack t;
+  readTrackSettings(j, path, t);
   for (const json& k : j.at("keyframes")) {
     const std::string where = "keyframe " + std::to_string(t.keyframes.size()) + ": ";
     if (!k.is_object()) throw FileError(path, where + "not an object");

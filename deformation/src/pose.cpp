@@ -13,6 +13,7 @@
 #include <set>
 
 #include "vellum/core/error.hpp"
+#include "vellum/deformation/point_files.hpp"
 #include "vellum/core/json_input.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/deformation/placement.hpp"
@@ -313,22 +314,7 @@ Pose loadPose(const fs::path& path) {
   // The angles: one point per joint whose source.x is its angle (timing and interpolation
   // are then the keyframe track's).
   KeyframeTrack& t = pose.angles;
-  if (j.contains("interpolation")) {
-    if (!j.at("interpolation").is_string()) throw FileError(path, "\"interpolation\" must be linear, smooth or eased");
-    try {
-      t.interpolation = parseInterpolation(j.at("interpolation").get<std::string>());
-    } catch (const Error& e) {
-      throw FileError(path, std::string("\"interpolation\": ") + e.what());
-    }
-  }
-  if (j.contains("loop")) {
-    if (!j.at("loop").is_boolean()) throw FileError(path, "\"loop\" must be true or false");
-    t.loop = j.at("loop").get<bool>();
-  }
-  if (!j.contains("keyframes") || !j.at("keyframes").is_array() || j.at("keyframes").empty())
-    throw FileError(path, "\"keyframes\" must be a non-empty array");
-  if (j.at("keyframes").size() > kMaxKeyframes)
-    throw FileError(path, "\"keyframes\" has more than " + std::to_string(kMaxKeyframes) + " entries");
+  readTrackSettings(j, path, t);
   for (const json& k : j.at("keyframes")) {
     const std::string where = "keyframe " + std::to_string(t.keyframes.size()) + ": ";
     if (!k.is_object()) throw FileError(path, where + "not an object");

@@ -4,6 +4,8 @@
 //     "attributes":{"lightness":0,"a":0,"b":0,"density":1}}, ...]}
 //   {"interpolation":"linear|smooth|eased","loop":false,
 //    "keyframes":[{"duration":1.0,"points":[...]}, ...]}
+#include <nlohmann/json_fwd.hpp>
+
 #include <filesystem>
 #include <optional>
 
@@ -26,6 +28,10 @@ PointFile loadControlPoints(const std::filesystem::path& path);
 void saveControlPoints(const PointFile& file, const std::filesystem::path& path);
 
 KeyframeTrack loadKeyframes(const std::filesystem::path& path);
+/// The track-level keys of a keyframe file's JSON (or a pose file's, which times its angles
+/// the same way): "interpolation", "loop", and checks that "keyframes" is a non-empty array
+/// of at most kMaxKeyframes entries. FileError naming `path` and the key.
+void readTrackSettings(const nlohmann::json& j, const std::filesystem::path& path, KeyframeTrack& track);
 void saveKeyframes(const KeyframeTrack& track, const std::filesystem::path& path);
 
 }  // namespace vellum::deformation
