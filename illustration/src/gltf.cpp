@@ -91,9 +91,10 @@ struct Builder {
     }
     return a;
   }
-  int floats(const std::vector<float>& v, const char* type, bool withBounds) {
-    const int a = accessor(view(v.data(), v.size() * sizeof(float), 0), kFloat,
-                           v.size() / (std::strcmp(type, "VEC4") == 0 ? 4 : std::strcmp(type, "VEC3") == 0 ? 3 : 1), type);
+  // `components` floats an element: 1 SCALAR, 3 VEC3, 4 VEC4.
+  int floats(const std::vector<float>& v, int components, bool withBounds) {
+    const char* type = components == 4 ? "VEC4" : components == 3 ? "VEC3" : "SCALAR";
+    const int a = accessor(view(v.data(), v.size() * sizeof(float), 0), kFloat, v.size() / components, type);
     if (withBounds && !v.empty()) {  // animation input (times) needs min and max
       doc["accessors"][a]["min"] = {*std::min_element(v.begin(), v.end())};
       doc["accessors"][a]["max"] = {*std::max_element(v.begin(), v.end())};
@@ -147,10 +148,10 @@ void saveAnimatedGltf(const AnimatedScene& scene, const std::filesystem::path& p
   b.doc["scene"] = 0;
   b.doc["scenes"] = json::array({{{"name", scene.name}, {"nodes", json::array()}}});
   std::vector<float> times(scene.keyTimesS.begin(), scene.keyTimesS.end());
-  const int timeAccessor = times.empty() ? -1 : b.floats(times, "SCALAR", true);
+  const int timeAccessor = times.empty() ? -1 : b.floats(times, 1, true);
   json channels = json::array(), samplers = json::array();
-  auto animate = [&](int node, const char* pathName, const std::vector<float>& values, const char* type) {
-    samplers.push_back({{"input", timeAccessor}, {"output", b.floats(values, type, false)}, {"interpolation", "LINEAR"}});
+  auto animate = [&](int node, const char* pathName, const std::vector<float>& values, int components) {
+    samplers.push_back({{"input", timeAccessor}, {"output", b.floats(values, components, false)}, {"interpolation", "LINEAR"}});
     channels.push_back({{"sampler", samplers.size() - 1}, {"target", {{"node", node}, {"path", pathName}}}});
   };
 
@@ -214,13 +215,13 @@ void saveAnimatedGltf(const AnimatedScene& scene, const std::filesystem::path& p
         const V3 g = toGltf(c);
         translations.insert(translations.end(), g.begin(), g.end());
       }
-      animate(nodeIndex, "rotation", rotations, "VEC4");
-      animate(nodeIndex, "translation", translations, "VEC3");
+      animate(nodeIndex, "rotation", rotations, 4);
+      animate(nodeIndex, "translation", translations, 3);
     } else if (!m.posedVertices.empty()) {
       const size_t n = m.posedVertices.size();
       std::vector<float> weights(n * n, 0.0f);
       for (size_t k = 0; k < n; ++k) weights[k * n + k] = 1.0f;
-      animate(nodeIndex, "weights", weights, "SCALAR");
+      animate(nodeIndex, "weights", weights, 1);
     }
   }
   if (!channels.empty()) b.doc["animations"] = json::array({{{"name", scene.name}, {"channels", channels}, {"samplers", samplers}}});

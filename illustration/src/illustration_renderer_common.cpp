@@ -44,23 +44,37 @@ float halfToFloat(uint16_t h) {
   return std::bit_cast<float>(sign | ((exp - 15 + 127) << 23) | (mant << 13));
 }
 
-std::array<float, 4> Volume4::sampleLinear(float x, float y, float z) const {
-  auto axis = [](float v, int64_t n, int64_t& i0, int64_t& i1, float& t) {
+namespace {
+/// The 8 corners and weights of a trilinear lookup at index coordinates (x, y, z), clamped
+/// to the grid as GL_CLAMP_TO_EDGE does; float arithmetic, as the shaders'.
+struct Trilinear {
+  int64_t x0, x1, y0, y1, z0, z1;
+  float tx, ty, tz;
+  Trilinear(float x, float y, float z, const Dims& d) {
+    axis(x, d.x, x0, x1, tx);
+    axis(y, d.y, y0, y1, ty);
+    axis(z, d.z, z0, z1, tz);
+  }
+  static void axis(float v, int64_t n, int64_t& i0, int64_t& i1, float& t) {
     v = std::clamp(v, 0.f, float(n - 1));
     const float f = std::floor(v);
     i0 = std::min<int64_t>(int64_t(f), n - 1);
     i1 = std::min<int64_t>(i0 + 1, n - 1);
     t = v - f;
-  };
-  int64_t x0, x1, y0, y1, z0, z1;
-  float tx, ty, tz;
-  axis(x, dims.x, x0, x1, tx);
-  axis(y, dims.y, y0, y1, ty);
-  axis(z, dims.z, z0, z1, tz);
+  }
+  float weight(int c) const { return ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz); }
+  int64_t i(int c) const { return (c & 1) ? x1 : x0; }
+  int64_t j(int c) const { return (c & 2) ? y1 : y0; }
+  int64_t k(int c) const { return (c & 4) ? z1 : z0; }
+};
+}  // namespace
+
+std::array<float, 4> Volume4::sampleLinear(float x, float y, float z) const {
+  const Trilinear t(x, y, z, dims);
   std::array<float, 4> out{};
   for (int c = 0; c < 8; ++c) {
-    const float w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
-    const float* v = at((c & 1) ? x1 : x0, (c & 2) ? y1 : y0, (c & 4) ? z1 : z0);
+    const float w = t.weight(c);
+    const float* v = at(t.i(c), t.j(c), t.k(c));
     for (int ch = 0; ch < 4; ++ch) out[ch] += w * v[ch];
   }
   return out;
@@ -497,24 +511,10 @@ float inkLine(float a, float b, float c, float widthPx, float pixMm) {
 
 float FieldVolume::at(float x, float y, float z, int slot) const {
   // As the shader's fieldAt(): clamp to the grid, trilinear, one channel.
-  auto axis = [](float v, int64_t m, int64_t& i0, int64_t& i1, float& t) {
-    v = std::clamp(v, 0.f, float(m - 1));
-    const float f = std::floor(v);
-    i0 = std::min<int64_t>(int64_t(f), m - 1);
-    i1 = std::min<int64_t>(i0 + 1, m - 1);
-    t = v - f;
-  };
-  int64_t x0, x1, y0, y1, z0, z1;
-  float tx, ty, tz;
-  axis(x, dims.x, x0, x1, tx);
-  axis(y, dims.y, y0, y1, ty);
-  axis(z, dims.z, z0, z1, tz);
+  const Trilinear t(x, y, z, dims);
   const float* base = value.data() + size_t(slot / 4) * size_t(dims.voxelCount()) * 4 + size_t(slot % 4);
   float out = 0;
-  for (int c = 0; c < 8; ++c) {
-    const float w = ((c & 1) ? tx : 1 - tx) * ((c & 2) ? ty : 1 - ty) * ((c & 4) ? tz : 1 - tz);
-    out += w * base[size_t((((c & 4) ? z1 : z0) * dims.y + ((c & 2) ? y1 : y0)) * dims.x + ((c & 1) ? x1 : x0)) * 4];
-  }
+  for (int c = 0; c < 8; ++c) out += t.weight(c) * base[size_t((t.k(c) * dims.y + t.j(c)) * dims.x + t.i(c)) * 4];
   return out;
 }
 

@@ -281,9 +281,11 @@ struct CpuTracer {
     return std::max(t, 0.0);
   }
 
-  /// Delta (Woodcock) tracking against the block majorants: the first real collision in
-  /// (t0, t1), or false.
-  bool deltaTrack(const Vec3& o, const Vec3& d, double t, double t1, PathRng& rng, double& tHit) const {
+  /// The majorant walk delta and ratio tracking share: tentative collisions in (t, t1) at the
+  /// block majorants' rate; `collide(t, m)` is called at each and returns true to stop there.
+  /// Returns whether it stopped (false: the walk reached t1 or its step limit).
+  template <class Collide>
+  bool trackMajorants(const Vec3& o, const Vec3& d, double t, double t1, PathRng& rng, Collide&& collide) const {
     for (int it = 0; it < kMaxTrackingSteps && t < t1; ++it) {
       double tExit;
       const float m = blockAt(o, d, t, tExit);
@@ -297,36 +299,29 @@ struct CpuTracer {
         t = tEnd + kBlockNudgeMm;
         continue;
       }
-      if (rng.next() * m < sigma(o + d * t)) {
-        tHit = t;
-        return true;
-      }
+      if (collide(t, m)) return true;
     }
     return false;
   }
 
+  /// Delta (Woodcock) tracking against the block majorants: the first real collision in
+  /// (t0, t1), or false.
+  bool deltaTrack(const Vec3& o, const Vec3& d, double t, double t1, PathRng& rng, double& tHit) const {
+    return trackMajorants(o, d, t, t1, rng, [&](double tc, float m) {
+      if (!(rng.next() * m < sigma(o + d * tc))) return false;
+      tHit = tc;
+      return true;
+    });
+  }
+
   /// Ratio tracking: the transmittance from o along d to the box (0 below kMinTransmittance).
   float ratioTrack(const Vec3& o, const Vec3& d, PathRng& rng) const {
-    const double t1 = boxExit(o, d);
-    double t = 0;
     float T = 1;
-    for (int it = 0; it < kMaxTrackingSteps && t < t1; ++it) {
-      double tExit;
-      const float m = blockAt(o, d, t, tExit);
-      const double tEnd = std::min(tExit, t1);
-      if (!(m > 0)) {
-        t = std::max(tEnd, t) + kBlockNudgeMm;
-        continue;
-      }
-      t += -std::log(1.0 - rng.next()) / m;
-      if (t >= tEnd) {
-        t = tEnd + kBlockNudgeMm;
-        continue;
-      }
-      T *= std::max(0.f, 1.f - sigma(o + d * t) / m);
-      if (T < kMinTransmittance) return 0.f;
-    }
-    return T;
+    const bool cut = trackMajorants(o, d, 0, boxExit(o, d), rng, [&](double tc, float m) {
+      T *= std::max(0.f, 1.f - sigma(o + d * tc) / m);
+      return T < kMinTransmittance;
+    });
+    return cut ? 0.f : T;
   }
 
   float skyRadiance(const Vec3& w) const { return lights.sky * float(0.75 + 0.25 * dot(w, lights.up)); }

@@ -32,6 +32,7 @@ struct MovieRenderer::Impl {
   std::optional<std::vector<render::StructureCentre>> centres;  ///< of spec.labels, source mm
   int frames = 0, next = 0;  // frames: the track's; next counts the title card's too
   int titleFrames = 0;
+  RgbaImage card;  ///< the title card (titleCard())
   MovieResult result;
 
   Impl(render::GlContext& c, const AnyVolume& volume, KeyframeTrack t, const DeformParams& params, MovieRigidity r,
@@ -116,18 +117,21 @@ struct MovieRenderer::Impl {
     }
   }
 
-  // The settings' background colour as the card's (an opaque movie frame).
-  RgbaImage titleCard() const {
-    RgbaImage img(spec.settings.width, spec.settings.height);
-    const auto& b = spec.settings.background;
-    auto byte = [](double v) { return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255)); };
-    render::drawTitleCard(img, spec.title, spec.subtitle, {byte(b[0]), byte(b[1]), byte(b[2])});
-    return img;
+  // The title card, drawn once for all its frames, on the settings' background colour (an
+  // opaque movie frame).
+  const RgbaImage& titleCard() {
+    if (card.pixels.empty()) {
+      card = RgbaImage(spec.settings.width, spec.settings.height);
+      const auto& b = spec.settings.background;
+      auto byte = [](double v) { return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0, 1.0) * 255)); };
+      render::drawTitleCard(card, spec.title, spec.subtitle, {byte(b[0]), byte(b[1]), byte(b[2])});
+    }
+    return card;
   }
 
   RgbaImage renderNext() {
     if (next < titleFrames) {
-      RgbaImage card = titleCard();
+      const RgbaImage& card = titleCard();
       write(card);
       ++next;
       return card;
