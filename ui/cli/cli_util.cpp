@@ -187,13 +187,20 @@ void ProgressBar::finish() {
   shown_ = false;
 }
 
+void printLoadWarnings(const std::filesystem::path& input, const std::vector<std::string>& warnings) {
+  for (const auto& w : warnings) std::cerr << "warning: " << input.string() << ": " << w << "\n";
+}
+
+std::array<float, 4> backgroundColour(const std::vector<double>& c) {
+  return {float(c[0]), float(c[1]), float(c[2]), c.size() > 3 ? float(c[3]) : 1.f};
+}
+
 io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
                                   bool quiet) {
   ProgressBar bar;
   io::LoadedVolume v = io::loadVolume(path, in.toLoadOptions(&bar.progress()));
   bar.finish();
-  if (!quiet)
-    for (const auto& w : v.warnings) std::cerr << "warning: " << path.string() << ": " << w << "\n";
+  if (!quiet) printLoadWarnings(path, v.warnings);
   return v;
 }
 

@@ -109,6 +109,12 @@ class ProgressBar {
   std::string lastStage_;
 };
 
+/// Prints a loader's warnings about `input` to stderr, one "warning: INPUT: ..." line each.
+void printLoadWarnings(const std::filesystem::path& input, const std::vector<std::string>& warnings);
+
+/// --background R G B [A] in 0..1 (alpha 1 when three numbers are given).
+std::array<float, 4> backgroundColour(const std::vector<double>& rgba);
+
 /// Loads a volume with a progress bar; prints warnings to stderr unless `quiet`.
 io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
                                   bool quiet = false);

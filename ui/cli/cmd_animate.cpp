@@ -40,7 +40,7 @@ struct AnimateArgs {
 };
 
 void printSummary(const app::AnimateRequest& request, const app::AnimateResult& result) {
-  for (const auto& w : result.warnings) std::cerr << "warning: " << request.input.string() << ": " << w << "\n";
+  printLoadWarnings(request.input, result.warnings);
   if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
   const MovieResult& r = result.movie;
   const int frames = std::max(r.frames, 1);

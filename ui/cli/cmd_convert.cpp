@@ -42,7 +42,7 @@ void addConvertCommand(CLI::App& app) {
     ProgressBar bar;
     const app::ConvertResult result = app::runConvert(r, bar.progress());
     bar.finish();
-    for (const auto& w : result.warnings) std::cerr << "warning: " << r.input.string() << ": " << w << "\n";
+    printLoadWarnings(r.input, result.warnings);
     std::cout << r.input.string() << " -> " << r.output.string();
     if (r.labels) std::cout << " (label map, " << result.labelCount << " labels)\n";
     else std::cout << " (" << result.dims.str() << " " << voxelTypeName(result.type) << ")\n";

@@ -58,7 +58,7 @@ struct ControlsArgs {
 };
 
 void printSummary(const app::DeformRequest& request, const app::DeformResult& r) {
-  for (const auto& w : r.warnings) std::cerr << "warning: " << request.input.string() << ": " << w << "\n";
+  printLoadWarnings(request.input, r.warnings);
   const Geometry& g = geometryOf(r.output);
   std::cout << request.output.string() << "  " << g.dims.str() << "  " << r.points << " points  s="
             << r.params.controlScale << "  " << r.report["timings_ms"]["total"].get<double>() / 1000.0 << " s\n";

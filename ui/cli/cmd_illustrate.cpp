@@ -44,8 +44,7 @@ void runIllustrate(const IllustrateArgs& a) {
   std::tie(s.render.width, s.render.height) = parseSize(a.size);
   s.interpolation = illustration::parseInterpolation(a.interp);
   if (!a.background.empty())
-    r.background = {float(a.background[0]), float(a.background[1]), float(a.background[2]),
-                    a.background.size() > 3 ? float(a.background[3]) : 1.f};
+    r.background = backgroundColour(a.background);
   r.framing = illustration::parseFraming(a.frame);
   r.annotations = a.figure.resolved(a.figure.wantsLabels());
   r.labelIds = a.figure.labelIds;
@@ -55,7 +54,7 @@ void runIllustrate(const IllustrateArgs& a) {
   ProgressBar bar;
   const app::IllustrateResult result = app::runIllustrate(r, bar.progress());
   bar.finish();
-  for (const auto& w : result.warnings) std::cerr << "warning: " << r.input.string() << ": " << w << "\n";
+  printLoadWarnings(r.input, result.warnings);
   if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
   for (const auto& f : result.figures)
     std::cout << f.path.string() << "  " << f.style << (f.view.empty() ? "" : "  ") << f.view << "  "

@@ -31,7 +31,7 @@ std::string mm(const nlohmann::json& v, const char* unit = " mm") {
 }
 
 void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
-  for (const auto& w : r.warnings) std::cerr << "warning: " << request.input.string() << ": " << w << "\n";
+  printLoadWarnings(request.input, r.warnings);
   const nlohmann::json& rep = r.report;
   std::cout << "pose at " << rep["time_s"].get<double>() << " s: " << rep["points"]["total"].get<int>()
             << " generated points (" << rep["points"]["bones"].get<int>() << " on bones, "

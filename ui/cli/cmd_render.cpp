@@ -37,8 +37,7 @@ void runRender(const RenderArgs& a) {
   std::tie(s.width, s.height) = parseSize(a.size);
   if (!a.pan.empty()) s.camera.panMm = {a.pan[0], a.pan[1], a.pan[2]};
   if (!a.background.empty())
-    s.background = {float(a.background[0]), float(a.background[1]), float(a.background[2]),
-                    a.background.size() > 3 ? float(a.background[3]) : 1.f};
+    s.background = backgroundColour(a.background);
   if (a.transparent) s.background[3] = 0.f;
   r.labelMap = a.figure.labelMap;
   r.annotations = a.figure.resolved(a.figure.wantsLabels());
@@ -49,7 +48,7 @@ void runRender(const RenderArgs& a) {
   ProgressBar bar;
   const app::RenderResult result = app::runRender(r, bar.progress());
   bar.finish();
-  for (const auto& w : result.warnings) std::cerr << "warning: " << r.input.string() << ": " << w << "\n";
+  printLoadWarnings(r.input, result.warnings);
   if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
   for (const auto& f : result.figures)
     std::cout << f.path.string() << "  " << render::presetName(f.preset) << (f.view.empty() ? "" : "  ") << f.view

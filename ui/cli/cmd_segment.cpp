@@ -83,7 +83,7 @@ void runSegment(SegmentArgs& a) {
   r.commandLine = commandLine();
   const app::SegmentResult result = app::runSegment(r, bar.progress());
   bar.finish();
-  for (const auto& w : result.warnings) std::cerr << "warning: " << r.input.string() << ": " << w << "\n";
+  printLoadWarnings(r.input, result.warnings);
   printSegmentResult(r, result);
 }
 

@@ -74,7 +74,7 @@ void runShape(const ShapeArgs& a) {
   ProgressBar bar;
   const app::ShapeResult result = app::runShape(r, bar.progress());
   bar.finish();
-  for (const auto& w : result.warnings) std::cerr << "warning: " << r.input.string() << ": " << w << "\n";
+  printLoadWarnings(r.input, result.warnings);
   if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
   printShapeSummary(result, r.out);
 }
