@@ -268,7 +268,7 @@ class StudioApp {
   void startSnake(const Vec3& seedMm);
   UndoStack& undoStack() { return undo_; }
   FileBrowser& fileBrowser() { return browser_; }
-  bool loading() const { return loader_.busy() || pendingLoad_.has_value(); }
+  bool loading() const { return loader_.pending() || pendingLoad_.has_value(); }
   /// Nothing pending: no load or snake running, 3D view refined, no screenshot waiting.
   bool idle() const;
   /// The last load's error ("" after success); scripts check it.

@@ -635,8 +635,10 @@ void expandDialog(Steps& s, const json& v) {
   if (v.is_string()) s.once([answer = v.get<std::string>()](StudioApp& a) { a.answerDialog(answer); });
   else s.once([path = v["path"].get<std::string>()](StudioApp& a) { a.answerFileBrowser(path); });
   s.frames(2);  // ImGui closes the popup and the next dialog (if any) opens
-  // A Save writes the label map on a worker and quits when done: the script waits for it.
-  s.until([](StudioApp& a) { return !a.tasks().busy(); });
+  // A Save writes the label map on a worker and quits when done; a Recover opens the autosave
+  // on the loader: the script waits for both, so the next action sees their result.
+  s.until([](StudioApp& a) { return !a.tasks().busy() && !a.loading(); });
+  s.frames(1);  // the frame after the loader finished adopts the recovered scene
 }
 
 void expandClose(Steps& s, const json&) {
