@@ -17,6 +17,7 @@
 #include "vellum/core/json_input.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/deformation/placement.hpp"
+#include "vellum/io/nrrd_writer.hpp"
 
 namespace vellum::deformation {
 namespace {
@@ -351,6 +352,31 @@ Pose loadPose(const fs::path& path) {
     throw FileError(path, e.what());
   }
   return pose;
+}
+
+void savePose(const Pose& pose, const fs::path& path) {
+  json joints = json::array();
+  for (const Joint& jt : pose.joints) {
+    json o = {{"name", jt.name}, {"parent", jt.parent}, {"child", jt.child}};
+    if (jt.estimateAxis) o["axis"] = "estimate";
+    else o["axis"] = {{jt.axisA.x, jt.axisA.y, jt.axisA.z}, {jt.axisB.x, jt.axisB.y, jt.axisB.z}};
+    joints.push_back(std::move(o));
+  }
+  json keyframes = json::array();
+  for (const Keyframe& kf : pose.angles.keyframes) {
+    json angles = json::object();
+    for (size_t j = 0; j < pose.joints.size() && j < kf.points.size(); ++j) angles[pose.joints[j].name] = kf.points[j].source.x;
+    keyframes.push_back({{"duration", kf.durationS}, {"angles", std::move(angles)}});
+  }
+  json boxes = json::array();
+  for (const auto& b : pose.fixed.boxesMm) boxes.push_back(b);
+  json j = {{"units", "mm"}, {"joints", std::move(joints)}};
+  if (!pose.fixed.ids.empty()) j["fixed_labels"] = pose.fixed.ids;
+  if (!boxes.empty()) j["fixed_boxes"] = std::move(boxes);
+  j["interpolation"] = interpolationName(pose.angles.interpolation);
+  j["loop"] = pose.angles.loop;
+  j["keyframes"] = std::move(keyframes);
+  io::writeTextFile(path, j.dump(2) + "\n");
 }
 
 void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {

@@ -344,3 +344,54 @@ TEST(Pose, GltfNodesCarryTheJointRotation) {
   EXPECT_EQ(rep["gltf"]["bones"], 2);
   EXPECT_GT(rep["gltf"]["skin_max_move_mm"].get<double>(), 5);  // the skin below the knee swings
 }
+
+// savePose (the studio's joint tool writes it) reads back as the same pose; a pose file with
+// two fixed boxes keeps both exactly still (`"fixed_boxes"`: a list; `deform --fixed-box`
+// repeated gives the same engine).
+TEST(Pose, SavedPoseReadsBackAndTwoFixedBoxesStayPut) {
+  const Limb limb = makeLimb({{46, 74}, {12, 36}});
+  const Files f = writeLimb(limb, "pose-save", R"({"units": "mm", "joints": [{"name": "knee", "parent": 1,
+      "child": [2], "axis": )" + xAxisAt(41) + R"(}, {"name": "other", "parent": 2, "child": 50, "axis": "estimate"}],
+      "fixed_boxes": [[44, 44, 4, 60, 60, 20], [44, 20, 60, 60, 36, 76]], "interpolation": "smooth", "loop": true,
+      "keyframes": [{"duration": 0.5, "angles": {"knee": 0}}, {"duration": 1.25, "angles": {"knee": 20, "other": -5}}]})");
+  const Pose a = loadPose(f.pose);
+  const fs::path saved = f.dir / "saved.json";
+  savePose(a, saved);
+  const Pose b = loadPose(saved);
+  ASSERT_EQ(b.joints.size(), 2u);
+  EXPECT_EQ(b.joints[0].axisA, a.joints[0].axisA);
+  EXPECT_EQ(b.joints[0].axisB, a.joints[0].axisB);
+  EXPECT_TRUE(b.joints[1].estimateAxis);
+  EXPECT_EQ(b.joints[1].child, std::vector<uint16_t>{50});
+  EXPECT_EQ(b.joints[1].proximal, 0);
+  EXPECT_EQ(b.fixed.boxesMm, a.fixed.boxesMm);
+  EXPECT_EQ(b.angles.interpolation, Interpolation::Smooth);
+  EXPECT_TRUE(b.angles.loop);
+  ASSERT_EQ(b.angles.keyframes.size(), 2u);
+  EXPECT_EQ(b.angles.keyframes[1].durationS, 1.25);
+  EXPECT_EQ(b.anglesAt(0.5), (std::vector<double>{20, -5}));
+
+  // Two boxes through the binary's engine: one joint, both boxes' voxels the input's.
+  std::ofstream(f.pose) << R"({"units": "mm", "joints": [{"name": "knee", "parent": 1, "child": [2], "axis": )" +
+                               xAxisAt(41) + R"(}], "fixed_boxes": [[44, 44, 4, 60, 60, 20], [44, 20, 60, 60, 36, 76]],
+      "keyframes": [{"angles": {"knee": 25}}]})";
+  runPose(f);
+  const VolumeI16 out = loadI16(f.out);
+  const Geometry& g = limb.ct.geometry();
+  int64_t inBoxes[2] = {0, 0};
+  for (int k = 0; k < kN; ++k)
+    for (int j = 0; j < kN; ++j)
+      for (int i = 0; i < kN; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        const bool box0 = p.x >= 44 && p.x <= 60 && p.y >= 44 && p.y <= 60 && p.z >= 4 && p.z <= 20;
+        const bool box1 = p.x >= 44 && p.x <= 60 && p.y >= 20 && p.y <= 36 && p.z >= 60 && p.z <= 76;
+        if (!box0 && !box1) continue;
+        ++inBoxes[box0 ? 0 : 1];
+        ASSERT_EQ(out(i, j, k), limb.ct(i, j, k)) << "voxel " << i << " " << j << " " << k;
+      }
+  EXPECT_GT(inBoxes[0], 100);
+  EXPECT_GT(inBoxes[1], 100);
+  const nlohmann::json rep = nlohmann::json::parse(std::ifstream(f.report));
+  EXPECT_LE(rep["deform"]["rigidity"]["after"]["fixed"]["max_displacement_mm"].get<double>(), 1e-4);
+  fs::remove_all(f.dir);
+}

@@ -33,12 +33,14 @@ void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
                  "label ids that do not move at all (displacement 0; blended outside over --rigid-falloff)")
       ->delimiter(',');
   cmd.add_option("--fixed-box", engine.fixedBoxMm,
-                 "x0,y0,z0,x1,y1,z1: a box (mm, physical LPS) whose voxels do not move at all (needs --labels)")
-      ->delimiter(',')
-      ->expected(6);
+                 "x0,y0,z0,x1,y1,z1: a box (mm, physical LPS) whose voxels do not move at all (needs --labels); "
+                 "repeat it for more boxes")
+      ->delimiter(',');
   CLI::Option* power = engineFlags.at("power");
   cmd.parse_complete_callback([&engine, power, rigidTokens] {
     engine.powerGiven = power->count() > 0;
+    if (engine.fixedBoxMm.size() % 6 != 0)
+      throw CLI::ValidationError("--fixed-box", "needs 6 numbers per box: x0,y0,z0,x1,y1,z1 (mm)");
     if (!rigidTokens->empty()) engine.setRigidLabels(*rigidTokens);
   });
 }

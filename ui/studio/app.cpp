@@ -1,5 +1,6 @@
 // StudioApp: the window, ImGui set-up, the frame loop and adopting finished loads.
 #include "app.hpp"
+#include "joint_tool.hpp"
 
 #include <GL/glcorearb.h>
 #include <GLFW/glfw3.h>
@@ -156,7 +157,7 @@ bool StudioApp::idle() const {
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
   return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
-         !scene_.authoring.playing;
+         !scene_.authoring.playing && !(joints_ && joints_->busy());
 }
 
 void StudioApp::frame() {
@@ -182,6 +183,7 @@ void StudioApp::pollWorkers() {
   pollSnake();
   pollShapes();
   pollCurveAnalogy();
+  pollJoints();
   const double now = glfwGetTime();
   tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
   followKeyframeCamera();
@@ -216,7 +218,7 @@ StudioApp::FrameViews StudioApp::updateViews() {
   if (upload3d_ && upload3d_->adopted++ > 0 &&
       view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
     upload3d_.reset();
-  const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing;
+  const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing || (joints_ && joints_->dragging);
   v.mapUpdated = deform_->update(scene_, livePoints);
   if (deform_->exactSolveRunning() && !interacting3d()) {
     // The exact map is on the worker (just started, or still running): wait for it a little

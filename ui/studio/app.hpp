@@ -37,6 +37,7 @@ class Autosaver;
 class GlTexture;
 class DeformSession;
 class ExportJob;
+class JointTool;
 
 /// Where a control point's end is drawn in a pane (window pixels) and which it is.
 struct PointHandle {
@@ -196,6 +197,8 @@ class StudioApp {
   /// The `vellum animate` command that writes the same frames as the last export.
   const std::string& lastAnimateCommand() const { return animateCommand_; }
   const DeformSession& deformSession() const { return *deform_; }
+  /// The joint tool (joint_tool.hpp; made on first use).
+  JointTool& joints();
   /// The `vellum render` command for the 3D view at its pane size (512² without a 3D pane).
   std::string cliCommand(const std::string& out) const;
   /// Saves the scene (and the label map next to it when it has no file or was edited). The
@@ -283,6 +286,12 @@ class StudioApp {
   const std::vector<std::filesystem::path>& recentFiles() const { return recent_.paths(); }
 
  private:
+  // The joint tool (joint_tool.cpp): adopts its worker's results, a left click while it waits
+  // for a pick (true: the click was its), its axes drawn over a pane.
+  std::shared_ptr<JointTool> joints_;
+  void pollJoints();
+  bool jointClick(const Pane& pane, double x, double y);
+  void drawJoints(const Pane& pane);
   void createWindow();
   void frame();
   /// What a frame did, for the frame log.

@@ -162,6 +162,7 @@ void StudioApp::drawPanes() {
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawOrientationMarker(dl, {b.x - 44, b.y - 44}, 30, scene_.render.camera);
       drawControlPoints(p);
+      drawJoints(p);
       drawCurveTrace(p);
       continue;
     }
@@ -184,6 +185,7 @@ void StudioApp::drawPanes() {
                     tools_.tool == Tool::Paint ? IM_COL32(255, 255, 255, 220) : IM_COL32(255, 120, 120, 220), 32);
     dl->PopClipRect();
     drawControlPoints(p);
+    drawJoints(p);
     dl->AddRect(a, b, planeColour(plane.normal));
     std::string title = sliceAxisName(*p.slice);
     if (const SliceNavigation& nav = sliceNav_[static_cast<size_t>(*p.slice)]; nav.zoom != 1 || nav.panU != 0 || nav.panV != 0) {

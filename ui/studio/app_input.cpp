@@ -106,6 +106,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   if (ImGui::GetIO().WantCaptureMouse || !scene_.hasVolume()) return;
   const Pane* pane = paneAt(mouseX_, mouseY_);
   if (!pane) return;
+  if (button == GLFW_MOUSE_BUTTON_LEFT && jointClick(*pane, mouseX_, mouseY_)) return;  // the joint tool's pick
   if (pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT && (mods & GLFW_MOD_CONTROL)) {
     clickIn3d(*pane, mouseX_, mouseY_);  // Ctrl+click picks the visible surface
     return;

@@ -3,6 +3,7 @@
 // edited, the selected point and playback time. Plain data (no GL), saved with the scene as a
 // `vellum animate` keyframe file beside it; every edit of the track is one undo step.
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include "vellum/core/label_volume.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/keyframes.hpp"
+#include "vellum/deformation/pose.hpp"
 #include "vellum/render/render_settings.hpp"
 
 namespace vellum::studio {
@@ -29,6 +31,12 @@ struct Authoring {
   bool playing = false;
   std::vector<uint16_t> rigidLabels;  ///< label ids that stay rigid (bones); empty = none
   double falloffMm = 10;              ///< `vellum animate --rigid-falloff`
+  /// Regions that do not move at all (the joint tool's pose: its fixed labels and boxes).
+  deformation::FixedRegions fixed;
+  /// Set by the joint tool (joint_tool.hpp): the pose whose keyframes this track's keyframes
+  /// are; its bones then take their joints' transforms at the angles of the time shown
+  /// (`vellum pose`'s exact bones) instead of the best rigid fit of the map.
+  std::shared_ptr<const deformation::Pose> pose;
   /// The engine (Deformation panel, generated from deformParamsTable(); saved in the scene).
   deformation::DeformParams engine = studioDeformParams();
   uint64_t revision = 0;              ///< bumped by every change of what is drawn

@@ -63,7 +63,8 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const SolveInputs
     s.fieldsMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tf).count();
   }
   const auto t1 = std::chrono::steady_clock::now();
-  if (in.bodies) applyRigidity(cv, *in.bodies, {in.falloffMm});
+  if (in.bodies && !in.prescribed.empty()) applyRigidity(cv, *in.bodies, {in.falloffMm}, in.prescribed);
+  else if (in.bodies) applyRigidity(cv, *in.bodies, {in.falloffMm});
   s.rigidityMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
   s.map = deformation::renderedMap(cv, deformer.outputGeometry(), in.upsampling);
   s.sampler = std::make_shared<const MapSampler>(std::move(cv), deformer.outputGeometry(), in.upsampling);  // last use
@@ -87,8 +88,26 @@ std::future<DeformSession::Solved> DeformSession::solveOnWorker(std::unique_ptr<
 }
 
 DeformSession::SolveInputs DeformSession::inputs(const Scene& scene, const std::string& key) const {
-  return {scene.authoring.currentPoints(), bodies_, scene.authoring.falloffMm, scene.view.deformedUpsampling, key};
+  const Authoring& a = scene.authoring;
+  SolveInputs in{a.currentPoints(), bodies_, a.falloffMm, scene.view.deformedUpsampling, key, {}};
+  if (a.pose && bodies_) {  // the joint tool's exact bones at the angles of the time shown
+    const double t = a.timeS.value_or(keyframeStartS(a.track, a.keyframe));
+    in.prescribed = knownBodyTransforms(*a.pose, *bodies_, a.pose->anglesAt(t));
+  }
+  return in;
 }
+
+namespace {
+/// The fixed regions as text: what the rigid bodies depend on beside the labels and rigid ids.
+std::string fixedKey(const FixedRegions& f) {
+  std::ostringstream k;
+  k.precision(17);
+  for (uint16_t id : f.ids) k << id << ',';
+  for (const auto& b : f.boxesMm)
+    for (double v : b) k << ' ' << v;
+  return k.str();
+}
+}  // namespace
 
 bool DeformSession::liveExact(const ControlPoints& points) const {
   if (!(exactUpdateMs_ <= kLiveExactBudgetMs) || points.size() != exactSources_.size()) return false;
@@ -153,18 +172,23 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     bodiesBuild_ = {};
     labelsRevision_ = buildingRevision_;
     rigidLabels_ = buildingLabels_;
+    fixedKey_ = buildingFixedKey_;
   }
-  if ((scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_) && !bodiesBuild_.valid()) {
+  const std::string fixed = fixedKey(a.fixed);
+  if ((scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_ || fixed != fixedKey_) &&
+      !bodiesBuild_.valid()) {
     if (a.rigidLabels.empty() || scene.labels.ids().empty() || !(scene.labels.geometry().dims == scene.ct.geometry().dims)) {
       bodies_.reset();
       labelsRevision_ = scene.labelsRevision;
       rigidLabels_ = a.rigidLabels;
+      fixedKey_ = fixed;
     } else {
       buildingRevision_ = scene.labelsRevision;
       buildingLabels_ = a.rigidLabels;
-      bodiesBuild_ = std::async(std::launch::async, [labels = scene.labels, ids = a.rigidLabels] {
+      buildingFixedKey_ = fixed;
+      bodiesBuild_ = std::async(std::launch::async, [labels = scene.labels, ids = a.rigidLabels, f = a.fixed] {
         lowerThreadPriority();
-        return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(labels, ids));
+        return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(labels, ids, 20, f));
       });
     }
   }
@@ -175,6 +199,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   k << volumeGeneration_ << ' ' << engineKey_ << ' ' << (rigidLabels_.empty() ? 0 : labelsRevision_) << ' '
     << a.revision << ' ' << a.falloffMm << ' ' << upsamplingName(upsampling);
   for (uint16_t id : rigidLabels_) k << ' ' << id;
+  k << " fixed " << fixedKey_;
   const std::string key = k.str();
 
   bool changed = false;

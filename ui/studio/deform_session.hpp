@@ -95,6 +95,8 @@ class DeformSession {
     double falloffMm = 10;
     deformation::Upsampling upsampling = deformation::Upsampling::Trilinear;
     std::string key;
+    /// Known bone transforms (a joint tool pose: RigidBodies order, backward); empty: fitted.
+    std::vector<std::optional<RigidTransform>> prescribed;
   };
   /// True when the exact map can be solved live for `points` (see update()).
   bool liveExact(const deformation::ControlPoints& points) const;
@@ -133,6 +135,7 @@ class DeformSession {
   std::vector<Vec3> exactSources_;  ///< the sources of the last exact solve
   uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull;  ///< labelsRevision_: of bodies_
   std::vector<uint16_t> rigidLabels_;  ///< of bodies_
+  std::string fixedKey_, buildingFixedKey_;  ///< the fixed regions of bodies_ / of the build
   std::string engineKey_;  ///< the engine parameters the deformers were made with
   uint64_t mapRevision_ = 0;
   double lastMs_ = 0, rigidityMs_ = 0;

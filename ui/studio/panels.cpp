@@ -9,6 +9,7 @@
 #include "app.hpp"
 #include "mpr.hpp"
 #include "panel_deformation.hpp"
+#include "joint_tool.hpp"
 #include "panel_illustration.hpp"
 #include "param_widgets.hpp"
 #include "vellum/segmentation/threshold.hpp"
@@ -307,6 +308,8 @@ void drawToolPanel(StudioApp& app, float width, float height) {
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) viewSection(app);
   if (ImGui::CollapsingHeader("Illustration")) illustrationSection(app);
   if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
+  if (ImGui::CollapsingHeader("Joints", app.joints().pose.joints.empty() ? 0 : ImGuiTreeNodeFlags_DefaultOpen))
+    jointsSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);
   if (ImGui::CollapsingHeader("Help: shortcuts")) helpSection();

@@ -9,6 +9,7 @@
 #include <map>
 
 #include "app.hpp"
+#include "joint_tool.hpp"
 #include "vellum/deformation/keyframes.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/json_input.hpp"
@@ -621,6 +622,23 @@ void expandRigidLabels(Steps& s, const json& v) {
   s.once([ids](StudioApp& a) { a.setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
 }
 
+void expandJoint(Steps& s, const json& v) {
+  // The joint tool (joint_tool.hpp: jointScriptAction's keys), then waits for its worker;
+  // {"save_volume": PATH} waits for the exact map and writes the volume the studio shows.
+  if (v.is_object() && v.contains("save_volume")) {
+    const std::string path = v["save_volume"].get<std::string>();
+    s.frames(2);  // the session has seen the last change
+    s.waitIdle();
+    s.once([path](StudioApp& a) { saveShownVolume(a, path); });
+    return;
+  }
+  s.once([v](StudioApp& a) { jointScriptAction(a, v); });
+  s.until([](StudioApp& a) { return !a.joints().busy(); });
+  s.once([](StudioApp& a) {
+    if (!a.joints().error().empty()) throw Error("joint tool: " + a.joints().error());
+  });
+}
+
 void expandDialog(Steps& s, const json& v) {
   // "recover" | "discard" | "later" | "save" | "cancel" | "ok": the open dialog's button;
   // {"path": P}: the file browser's answer. Waits a few frames for the dialog to open.
@@ -736,6 +754,7 @@ const std::map<std::string, Expander>& expanders() {
       {"play", expandPlay},
       {"export_movie", expandExportMovie},
       {"rigid_labels", expandRigidLabels},
+      {"joint", expandJoint},
       {"slice_view", expandSliceView},
       {"hold_tasks", expandHoldTasks},
       {"window_preset", expandWindowPreset},

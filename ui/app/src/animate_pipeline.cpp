@@ -39,14 +39,14 @@ nlohmann::json reportJson(const animation::MovieResult& r, const AnimateRequest&
           {"rigidity_per_frame", perFrameJson(r.perFrame)}};
 }
 
+}  // namespace
+
 std::string singleQuoted(const std::filesystem::path& p) {
   std::string q(1, '\'');  // built up in steps: GCC 12 warns (-Wrestrict) on "'" + s + "'"
   q += p.string();
   q += '\'';
   return q;
 }
-
-}  // namespace
 
 const params::Table<AnimateRequest>& animateRequestTable() {
   using R = AnimateRequest;
@@ -108,8 +108,8 @@ std::string animateArguments(const AnimateRequest& r) {
     if (const std::string rigid = r.engine.rigidLabelsArgument(); !rigid.empty()) c << " --rigid-labels " << rigid;
     if (!r.engine.fixedIds.empty()) c << " --fixed-labels ";
     for (size_t i = 0; i < r.engine.fixedIds.size(); ++i) c << (i ? "," : "") << r.engine.fixedIds[i];
-    if (!r.engine.fixedBoxMm.empty()) c << " --fixed-box ";
-    for (size_t i = 0; i < r.engine.fixedBoxMm.size(); ++i) c << (i ? "," : "") << r.engine.fixedBoxMm[i];
+    for (size_t i = 0; i < r.engine.fixedBoxMm.size(); ++i)  // one --fixed-box per 6 numbers
+      c << (i % 6 == 0 ? " --fixed-box " : ",") << r.engine.fixedBoxMm[i];
   }
   return c.str();
 }

@@ -244,10 +244,11 @@ DeformParams DeformEngine::resolved(std::optional<double> filePower) const {
 std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const io::LoadOptions& load) const {
   FixedRegions fixed;
   fixed.ids = fixedIds;
-  if (!fixedBoxMm.empty()) {
-    if (fixedBoxMm.size() != 6) throw Error("--fixed-box needs 6 numbers: x0,y0,z0,x1,y1,z1 (mm)");
+  // Each 6 numbers are one box (`--fixed-box` repeated, or a pose file's "fixed_boxes").
+  if (fixedBoxMm.size() % 6 != 0) throw Error("--fixed-box needs 6 numbers per box: x0,y0,z0,x1,y1,z1 (mm)");
+  for (size_t i = 0; i < fixedBoxMm.size(); i += 6) {
     std::array<double, 6> b{};
-    std::copy(fixedBoxMm.begin(), fixedBoxMm.end(), b.begin());
+    std::copy(fixedBoxMm.begin() + std::ptrdiff_t(i), fixedBoxMm.begin() + std::ptrdiff_t(i + 6), b.begin());
     fixed.boxesMm.push_back(b);
   }
   if (labels.empty()) {

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <sstream>
 
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
@@ -64,6 +65,17 @@ const params::Table<PoseRequest>& poseRequestTable() {
   return t;
 }
 
+std::string poseArguments(const PoseRequest& r) {
+  std::ostringstream c;
+  c.precision(10);
+  c << singleQuoted(r.input) << " --labels " << singleQuoted(r.labels) << " --pose " << singleQuoted(r.pose);
+  if (!r.output.empty()) c << " --out " << singleQuoted(r.output);
+  c << params::cliArguments(poseRequestTable(), r) << params::cliArguments(poseOptionsTable(), r.options)
+    << params::cliArguments(deformParamsTable(), r.engine.params)
+    << params::cliArguments(deformEngineTable(), r.engine, {"labels"});
+  return c.str();
+}
+
 PoseResult runPose(const PoseRequest& request, Progress& progress) {
   const auto t0 = Clock::now();
   if (request.output.empty() && request.movie.empty() && request.gltf.empty())
@@ -98,8 +110,6 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   PoseResult result;
   result.pose = loadPose(request.pose);
   Pose& pose = result.pose;
-  if (pose.fixed.boxesMm.size() > 1)
-    throw FileError(request.pose, "\"fixed_boxes\": at most one box for now (deform's --fixed-box)");
   auto t = Clock::now();
   io::LoadOptions lo;
   lo.region = request.load.region;
@@ -134,7 +144,7 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
       engine.rigidIds.push_back(id);
   engine.fixedIds = pose.fixed.ids;
   engine.fixedBoxMm.clear();
-  for (const auto& b : pose.fixed.boxesMm) engine.fixedBoxMm.assign(b.begin(), b.end());
+  for (const auto& b : pose.fixed.boxesMm) engine.fixedBoxMm.insert(engine.fixedBoxMm.end(), b.begin(), b.end());
   engine.powerGiven = true;  // no point file: the engine's power stands
 
   nlohmann::json& report = result.report;

@@ -51,6 +51,11 @@ struct Pose {
 /// Reads a pose file. vellum::FileError naming the file and the field, one line (through
 /// core/json_input.hpp: size, depth and syntax checked before anything is used).
 Pose loadPose(const std::filesystem::path& path);
+/// Writes `pose` as a pose file loadPose() reads back (atomically): joints with "axis":
+/// "estimate" stay so (the reader estimates them again from the same labels), the others
+/// carry their two axis points; keyframes name every joint's angle. What the studio's joint
+/// tool saves for `vellum pose`.
+void savePose(const Pose& pose, const std::filesystem::path& path);
 
 /// Settings of the point generation and the measures: `vellum pose` flags (poseOptionsTable()).
 struct PoseOptions {

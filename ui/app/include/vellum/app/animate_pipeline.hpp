@@ -57,6 +57,8 @@ animation::MovieSpec movieSpec(const AnimateRequest& request);
 /// The `vellum animate` arguments that reproduce `request`'s frames (after "vellum animate"):
 /// paths single-quoted, every setting that differs from its default.
 std::string animateArguments(const AnimateRequest& request);
+/// A path in single quotes, as the written command lines quote them.
+std::string singleQuoted(const std::filesystem::path& p);
 
 struct AnimateResult {
   animation::MovieResult movie;

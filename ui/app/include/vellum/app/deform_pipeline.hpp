@@ -40,7 +40,7 @@ struct DeformEngine {
   /// The `--rigid-labels` value: groups joined by '+', then the single ids, comma-separated.
   std::string rigidLabelsArgument() const;
   std::vector<uint16_t> fixedIds;  ///< label ids that do not move at all
-  std::vector<double> fixedBoxMm;  ///< empty, or x0,y0,z0,x1,y1,z1 (mm, physical LPS): a box that does not move
+  std::vector<double> fixedBoxMm;  ///< boxes that do not move: x0,y0,z0,x1,y1,z1 (mm, physical LPS) each, 6 numbers per box
   double rigidFalloffMm = 10;      ///< blend band outside each bone
   int rigidityStride = 1;          ///< voxel-level rigidity measures: every N-th voxel per axis
   /// Repair the blend's folds in tissue (deformation::repairFolds): `deform --fold-repair`

@@ -57,6 +57,11 @@ struct PoseResult {
   nlohmann::json report;
 };
 
+/// The `vellum pose` arguments (after "vellum pose") that run `request`: volume, --labels,
+/// --pose, --out, --frame-time, and the point generation and engine flags that differ from
+/// their defaults (what the studio's joint tool writes beside a saved pose file).
+std::string poseArguments(const PoseRequest& request);
+
 /// Runs the request; outputs through the output policy, atomically. FileError naming a bad
 /// file (the pose file's problems: one line), Error for a bad request, Cancelled.
 PoseResult runPose(const PoseRequest& request, Progress& progress = Progress::none());

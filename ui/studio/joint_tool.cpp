@@ -1,0 +1,436 @@
+// The joint tool (see joint_tool.hpp): the pose, its preparation on a worker, the authoring
+// state it makes, picking bones and axis points in the views, drawing the axes.
+#include "joint_tool.hpp"
+
+#include <imgui.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include "app.hpp"
+#include "deform_session.hpp"
+#include "view3d.hpp"
+#include "vellum/app/pose_pipeline.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
+#include "vellum/io/output_policy.hpp"
+#include "vellum/io/volume_io.hpp"
+
+namespace vellum::studio {
+using namespace vellum::deformation;
+
+namespace {
+template <class T>
+bool ready(const std::future<T>& f) {
+  return f.valid() && f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+}
+
+int clampKeyframe(const Pose& pose, int k) {
+  return std::clamp(k, 0, std::max(0, int(pose.angles.keyframes.size()) - 1));
+}
+}  // namespace
+
+JointTool::~JointTool() {
+  cancel();
+  if (work_.valid()) work_.wait();
+}
+
+void JointTool::cancel() {
+  if (progress_) progress_->cancel();
+}
+
+double JointTool::keyframeTime(const StudioApp& app) const {
+  return keyframeStartS(pose.angles, clampKeyframe(pose, const_cast<StudioApp&>(app).scene().authoring.keyframe));
+}
+
+void JointTool::prepare(StudioApp& app) {
+  cancel();
+  if (work_.valid()) work_.wait(), work_ = {};
+  error_.clear();
+  samples_.reset();
+  Scene& scene = app.scene();
+  if (pose.joints.empty()) {  // nothing posed: the authoring state is the user's again
+    scene.authoring.pose.reset();
+    scene.authoring.fixed = {};
+    scene.authoring.touch();
+    return;
+  }
+  if (!scene.hasVolume() || scene.labels.ids().empty() || !(scene.labels.geometry().dims == scene.ct.geometry().dims))
+    throw Error("the joint tool needs a label map on the volume's grid (the bones' ids)");
+  progress_ = std::make_shared<Progress>();
+  // A copy of the labels: painting may go on while the axes and points are made. The pose
+  // code's own functions (`vellum pose` runs the same), one stage each; cancel between them.
+  work_ = std::async(std::launch::async, [p = pose, labels = scene.labels, o = options, progress = progress_] {
+    Prepared r{p, nullptr};
+    progress->begin("joint axes", 2);
+    estimateAxes(r.pose, labels, o.contactMm);
+    progress->advance();
+    progress->checkCancelled();
+    r.samples = std::make_shared<const PoseSamples>(poseSamples(r.pose, labels, o));
+    progress->advance();
+    progress->end();
+    return r;
+  });
+}
+
+void JointTool::poll(StudioApp& app) {
+  if (!ready(work_)) return;
+  try {
+    Prepared r = work_.get();
+    // The angles may have changed meanwhile: only the axes and the samples are taken.
+    for (size_t j = 0; j < pose.joints.size() && j < r.pose.joints.size(); ++j) {
+      pose.joints[j].axisA = r.pose.joints[j].axisA;
+      pose.joints[j].axisB = r.pose.joints[j].axisB;
+    }
+    samples_ = std::move(r.samples);
+    apply(app);
+  } catch (const Cancelled&) {
+    error_ = "cancelled";
+  } catch (const std::exception& e) {
+    error_ = e.what();
+    app.notify(std::string("joint tool: ") + e.what());
+  }
+  work_ = {};
+}
+
+void JointTool::apply(StudioApp& app) const {
+  if (!samples_) return;
+  Authoring& a = app.scene().authoring;
+  KeyframeTrack t;
+  t.interpolation = pose.angles.interpolation;
+  t.loop = pose.angles.loop;
+  for (const Keyframe& k : pose.angles.keyframes) {
+    std::vector<double> angles;
+    for (const ControlPoint& p : k.points) angles.push_back(p.source.x);
+    Keyframe kf;
+    kf.durationS = k.durationS;
+    kf.points = posedPoints(*samples_, pose, angles);
+    t.keyframes.push_back(std::move(kf));
+  }
+  a.track = std::move(t);
+  a.keyframe = clampKeyframe(pose, a.keyframe);
+  a.selected = -1;
+  // Every bone of the pose is one rigid body per id (`vellum pose`'s engine), the fixed
+  // regions stay, and the bones take their joints' transforms (exact bones).
+  a.rigidLabels.clear();
+  for (uint16_t id : pose.boneIds())
+    if (!std::binary_search(pose.fixed.ids.begin(), pose.fixed.ids.end(), id)) a.rigidLabels.push_back(id);
+  a.fixed = pose.fixed;
+  a.pose = std::make_shared<const Pose>(pose);
+  a.touch();
+}
+
+void JointTool::addDraftJoint(StudioApp& app) {
+  if (draftParent.empty() || draftChild.empty()) throw Error("pick the parent and the child bone first");
+  for (const Joint& j : pose.joints)
+    if (j.name == draftName) throw Error("a joint is already named \"" + draftName + "\"");
+  Pose next = pose;
+  Joint joint;
+  joint.name = draftName;
+  joint.parent = draftParent;
+  joint.child = draftChild;
+  std::sort(joint.parent.begin(), joint.parent.end());
+  std::sort(joint.child.begin(), joint.child.end());
+  if (draftAxisA && draftAxisB) {
+    joint.axisA = *draftAxisA;
+    joint.axisB = *draftAxisB;
+  } else {
+    joint.estimateAxis = true;  // estimateAxes() fills it on the worker
+    joint.axisA = {0, 0, 0};
+    joint.axisB = {1, 0, 0};  // linkJoints() checks axes: a placeholder until estimated
+  }
+  next.joints.push_back(joint);
+  if (next.angles.keyframes.empty()) next.angles.keyframes.push_back(Keyframe{});
+  for (Keyframe& k : next.angles.keyframes) k.points.push_back({{0, 0, 0}, {0, 0, 0}, {}});
+  linkJoints(next);  // Error: a bone moved twice, a cycle, a child fixed, a degenerate axis
+  pose = std::move(next);
+  selected = int(pose.joints.size()) - 1;
+  draftParent.clear();
+  draftChild.clear();
+  draftAxisA.reset();
+  draftAxisB.reset();
+  draftName = "joint" + std::to_string(pose.joints.size() + 1);
+  prepare(app);
+}
+
+void JointTool::removeJoint(StudioApp& app, int index) {
+  if (index < 0 || index >= int(pose.joints.size())) throw Error("no joint " + std::to_string(index));
+  pose.joints.erase(pose.joints.begin() + index);
+  for (Keyframe& k : pose.angles.keyframes)
+    if (index < int(k.points.size())) k.points.erase(k.points.begin() + index);
+  if (pose.joints.empty()) pose.angles.keyframes.clear();
+  for (Joint& j : pose.joints) j.proximal = -1;
+  linkJoints(pose);
+  selected = std::clamp(selected, 0, std::max(0, int(pose.joints.size()) - 1));
+  prepare(app);
+}
+
+void JointTool::setFixed(StudioApp& app, FixedRegions fixed) {
+  std::sort(fixed.ids.begin(), fixed.ids.end());
+  fixed.ids.erase(std::unique(fixed.ids.begin(), fixed.ids.end()), fixed.ids.end());
+  Pose next = pose;
+  next.fixed = std::move(fixed);
+  for (Joint& j : next.joints) j.proximal = -1;
+  linkJoints(next);  // a child bone fixed is refused
+  pose = std::move(next);
+  prepare(app);
+}
+
+double JointTool::angle(const StudioApp& app, int index) const {
+  if (index < 0 || index >= int(pose.joints.size()) || pose.angles.keyframes.empty()) return 0;
+  const int k = clampKeyframe(pose, const_cast<StudioApp&>(app).scene().authoring.keyframe);
+  return pose.angles.keyframes[size_t(k)].points[size_t(index)].source.x;
+}
+
+void JointTool::setAngle(StudioApp& app, int index, double deg) {
+  if (index < 0 || index >= int(pose.joints.size())) throw Error("no joint " + std::to_string(index));
+  if (!(std::abs(deg) <= 360)) throw Error("a joint angle must be in -360..360 degrees");
+  Authoring& a = app.scene().authoring;
+  const int k = clampKeyframe(pose, a.keyframe);
+  ControlPoint& p = pose.angles.keyframes[size_t(k)].points[size_t(index)];
+  p.source.x = p.target.x = deg;
+  a.timeS.reset();  // the edited keyframe is shown
+  a.playing = false;
+  apply(app);
+}
+
+void JointTool::addKeyframe(StudioApp& app) {
+  if (pose.angles.keyframes.empty()) throw Error("add a joint first");
+  Authoring& a = app.scene().authoring;
+  const int k = clampKeyframe(pose, a.keyframe);
+  pose.angles.keyframes.insert(pose.angles.keyframes.begin() + k + 1, pose.angles.keyframes[size_t(k)]);
+  a.keyframe = k + 1;
+  a.timeS.reset();
+  apply(app);
+}
+
+void JointTool::selectKeyframe(StudioApp& app, int k) {
+  if (k < 0 || k >= int(pose.angles.keyframes.size())) throw Error("no keyframe " + std::to_string(k));
+  Authoring& a = app.scene().authoring;
+  a.keyframe = k;
+  a.timeS.reset();
+  a.playing = false;
+  a.touch();
+}
+
+void JointTool::setDuration(StudioApp& app, double seconds) {
+  if (pose.angles.keyframes.empty()) throw Error("add a joint first");
+  if (!(seconds > 0 && seconds <= kMaxKeyframeDurationS)) throw Error("a keyframe's duration must be in (0, 3600] s");
+  pose.angles.keyframes[size_t(clampKeyframe(pose, app.scene().authoring.keyframe))].durationS = seconds;
+  apply(app);
+}
+
+void JointTool::load(StudioApp& app, const std::filesystem::path& path) {
+  pose = loadPose(path);  // FileError naming the file and the field
+  selected = 0;
+  app.scene().authoring.keyframe = int(pose.angles.keyframes.size()) - 1;  // `vellum pose`'s default pose
+  app.scene().authoring.timeS.reset();
+  prepare(app);
+}
+
+std::string JointTool::poseArguments(const StudioApp& capp, const std::filesystem::path& poseFile,
+                                     const std::filesystem::path& out) const {
+  StudioApp& app = const_cast<StudioApp&>(capp);
+  const Scene& scene = app.scene();
+  app::PoseRequest r;
+  r.input = scene.volumePath;
+  r.labels = scene.labelsPath;
+  r.pose = poseFile;
+  r.output = out;
+  r.frameTimeS = keyframeTime(app);
+  r.options = options;
+  r.engine.params = scene.authoring.engine;  // the live view's engine and map kernel
+  r.engine.upsampling = scene.view.deformedUpsampling;
+  r.engine.rigidFalloffMm = scene.authoring.falloffMm;
+  return app::poseArguments(r);
+}
+
+void JointTool::save(const StudioApp& app, const std::filesystem::path& path, const std::filesystem::path& command,
+                     const std::filesystem::path& out) const {
+  if (pose.joints.empty()) throw Error("no joints to save");
+  io::OutputPlan()
+      .input(const_cast<StudioApp&>(app).scene().volumePath)
+      .input(const_cast<StudioApp&>(app).scene().labelsPath, "the label map")
+      .json(path, "the pose file")
+      .check();
+  savePose(pose, path);
+  if (!command.empty()) {
+    std::ofstream f(command);
+    f << "vellum pose " << poseArguments(app, path, out) << "\n";
+    if (!f) throw FileError(command, "cannot write the command");
+  }
+}
+
+// --- StudioApp: the tool's member, clicks and drawing -------------------------------------
+
+JointTool& StudioApp::joints() {
+  if (!joints_) joints_ = std::make_shared<JointTool>();
+  return *joints_;
+}
+
+void StudioApp::pollJoints() {
+  if (joints_) joints_->poll(*this);
+}
+
+bool StudioApp::jointClick(const Pane& pane, double x, double y) {
+  if (!joints_ || joints_->pick == JointPick::None) return false;
+  JointTool& jt = *joints_;
+  std::optional<Vec3> source;
+  if (pane.is3d()) {  // the visible surface, back to the undeformed volume the labels live in
+    const deformation::MapSampler* map = deform_->sampler();
+    const auto p = pickSurface(scene_, int(pane.rect.w), int(pane.rect.h), x - pane.rect.x, y - pane.rect.y, map);
+    if (p) source = map ? map->sourceMm(*p) : p;
+  } else {
+    source = sliceSourceMm(planeOf(pane).toMm(x - pane.rect.x, y - pane.rect.y));
+  }
+  if (!source) {
+    notify("nothing under the pointer");
+    return true;
+  }
+  const JointPick what = jt.pick;
+  jt.pick = JointPick::None;
+  if (what == JointPick::AxisA || what == JointPick::AxisB) {
+    (what == JointPick::AxisA ? jt.draftAxisA : jt.draftAxisB) = *source;
+    return true;
+  }
+  const Geometry& g = scene_.labels.geometry();
+  const Vec3 ijk = g.physicalToIndex(*source);
+  const int64_t i = std::llround(ijk.x), j = std::llround(ijk.y), k = std::llround(ijk.z);
+  const uint16_t id = g.contains(i, j, k) ? scene_.labels(i, j, k) : 0;
+  if (id == 0) {
+    notify("no label under the pointer: click on a bone");
+    return true;
+  }
+  std::vector<uint16_t>& ids = what == JointPick::Parent ? jt.draftParent : jt.draftChild;
+  if (std::find(ids.begin(), ids.end(), id) == ids.end()) ids.push_back(id);
+  return true;
+}
+
+void StudioApp::drawJoints(const Pane& pane) {
+  if (!joints_) return;
+  const JointTool& jt = *joints_;
+  ImDrawList* dl = ImGui::GetBackgroundDrawList();
+  dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
+  const auto at = [&](const Vec3& mm) -> std::optional<ImVec2> {
+    const auto p = pointInPane(pane, mm);
+    if (!p) return std::nullopt;
+    return ImVec2{float(p->first), float(p->second)};
+  };
+  // Axes as shown: a joint's axis moves with its proximal joint (chains), at the angles of the
+  // time shown; drawn 30 mm each side of its centre.
+  const Pose& pose = jt.pose;
+  if (jt.ready() && !pose.angles.keyframes.empty()) {
+    const Authoring& a = scene_.authoring;
+    const double t = a.timeS.value_or(keyframeStartS(pose.angles, std::clamp(a.keyframe, 0, int(pose.angles.keyframes.size()) - 1)));
+    const std::vector<RigidTransform> moved = jointTransforms(pose, pose.anglesAt(t));
+    const std::vector<double> angles = pose.anglesAt(t);
+    for (size_t j = 0; j < pose.joints.size(); ++j) {
+      const Joint& joint = pose.joints[j];
+      const RigidTransform m = joint.proximal < 0 ? RigidTransform{} : moved[size_t(joint.proximal)];
+      const Vec3 c = m.apply((joint.axisA + joint.axisB) * 0.5);
+      const Vec3 d = normalized(m.rotation * (joint.axisB - joint.axisA));
+      const auto p0 = at(c - d * 30.0), p1 = at(c + d * 30.0), pc = at(c);
+      if (!p0 || !p1 || !pc) continue;
+      const bool sel = int(j) == jt.selected;
+      const ImU32 col = sel ? IM_COL32(255, 220, 40, 255) : IM_COL32(255, 150, 40, 220);
+      dl->AddLine(*p0, *p1, IM_COL32(0, 0, 0, 200), sel ? 5.f : 4.f);
+      dl->AddLine(*p0, *p1, col, sel ? 3.f : 2.f);
+      dl->AddCircleFilled(*pc, sel ? 5.f : 4.f, col);
+      char text[96];
+      std::snprintf(text, sizeof text, "%s %.1f deg", joint.name.c_str(), angles[j]);
+      dl->AddText({pc->x + 8, pc->y - 18}, IM_COL32(0, 0, 0, 255), text);
+      dl->AddText({pc->x + 7, pc->y - 19}, col, text);
+    }
+  }
+  for (const auto& p : {jt.draftAxisA, jt.draftAxisB})
+    if (p)
+      if (const auto q = at(*p)) dl->AddCircle(*q, 6.f, IM_COL32(120, 220, 255, 255), 12, 2.f);
+  if (jt.draftAxisA && jt.draftAxisB)
+    if (const auto q0 = at(*jt.draftAxisA), q1 = at(*jt.draftAxisB); q0 && q1)
+      dl->AddLine(*q0, *q1, IM_COL32(120, 220, 255, 255), 2.f);
+  dl->PopClipRect();
+}
+
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+namespace {
+std::vector<uint16_t> idsOf(const nlohmann::json& v) {
+  if (v.is_number_integer()) return {v.get<uint16_t>()};
+  return v.get<std::vector<uint16_t>>();
+}
+Vec3 pointOf(const nlohmann::json& v) { return {v.at(0).get<double>(), v.at(1).get<double>(), v.at(2).get<double>()}; }
+}  // namespace
+
+void jointScriptAction(StudioApp& app, const nlohmann::json& v) {
+  JointTool& jt = app.joints();
+  if (!v.is_object() || v.size() != 1) throw Error("\"joint\" takes an object with one key");
+  const std::string op = v.begin().key();
+  const nlohmann::json& x = v.begin().value();
+  if (op == "add") {
+    jt.draftName = x.at("name").get<std::string>();
+    jt.draftParent = idsOf(x.at("parent"));
+    jt.draftChild = idsOf(x.at("child"));
+    jt.draftAxisA.reset();
+    jt.draftAxisB.reset();
+    if (x.contains("axis") && x["axis"].is_array()) jt.draftAxisA = pointOf(x["axis"].at(0)), jt.draftAxisB = pointOf(x["axis"].at(1));
+    jt.addDraftJoint(app);
+  } else if (op == "pick") {
+    const std::string w = x.get<std::string>();
+    jt.pick = w == "parent" ? JointPick::Parent : w == "child" ? JointPick::Child : w == "axis1" ? JointPick::AxisA
+            : w == "axis2" ? JointPick::AxisB : throw Error("pick: \"parent\", \"child\", \"axis1\" or \"axis2\"");
+  } else if (op == "add_picked") {
+    jt.draftName = x.get<std::string>();
+    jt.addDraftJoint(app);
+  } else if (op == "angle") {
+    int index = -1;
+    if (x.at("joint").is_number_integer()) index = x["joint"].get<int>();
+    for (size_t j = 0; j < jt.pose.joints.size() && index < 0; ++j)
+      if (x["joint"].is_string() && jt.pose.joints[j].name == x["joint"].get<std::string>()) index = int(j);
+    if (!jt.ready()) throw Error("the joint tool is not ready (add a joint and wait for it)");
+    jt.setAngle(app, index, x.at("deg").get<double>());
+  } else if (op == "keyframe") {
+    if (x.is_string() && x.get<std::string>() == "add") {
+      jt.addKeyframe(app);
+    } else {
+      if (x.contains("select")) jt.selectKeyframe(app, x["select"].get<int>());
+      if (x.contains("duration")) jt.setDuration(app, x["duration"].get<double>());
+    }
+  } else if (op == "fixed") {
+    deformation::FixedRegions f;
+    if (x.contains("labels")) f.ids = idsOf(x["labels"]);
+    if (x.contains("boxes"))
+      for (const auto& b : x["boxes"]) f.boxesMm.push_back(b.get<std::array<double, 6>>());
+    jt.setFixed(app, std::move(f));
+  } else if (op == "save") {
+    jt.save(app, x.at("path").get<std::string>(), x.value("command", ""), x.value("out", ""));
+  } else if (op == "load") {
+    jt.load(app, x.get<std::string>());
+  } else if (op == "remove") {
+    jt.removeJoint(app, x.get<int>());
+  } else {
+    throw Error("unknown joint action \"" + op + "\" (add, pick, add_picked, angle, keyframe, fixed, save, load, remove)");
+  }
+}
+
+void saveShownVolume(StudioApp& app, const std::filesystem::path& path) {
+  const Scene& scene = app.scene();
+  const deformation::MapSampler* map = app.deformSession().sampler();
+  if (!map) throw Error("no deformation is shown");
+  io::OutputPlan().input(scene.volumePath).output(path, "the shown volume").check();
+  const VolumeI16& ct = scene.ct;
+  VolumeI16 out(ct.geometry(), int16_t(std::lround(ct.background())), ct.background());
+  const Geometry& g = ct.geometry();
+  parallelFor(g.dims.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < g.dims.y; ++j)
+        for (int64_t i = 0; i < g.dims.x; ++i)
+          if (const auto u = map->sourceMm(g.indexToPhysical({double(i), double(j), double(k)})))
+            out(i, j, k) = int16_t(std::lround(std::clamp(ct.sampleLinearMm(*u), -32768.0, 32767.0)));
+  });
+  io::saveVolume(AnyVolume(std::move(out)), path);
+}
+
+}  // namespace vellum::studio
