@@ -103,20 +103,24 @@ TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReprodu
   estimateAxes(pose, labels, PoseOptions{}.contactMm);
   const RigidTransform r = rotationAbout(pose.joints[0].axisA, pose.joints[0].axisB, 20);
   const VolumeI16 studio = std::get<VolumeI16>(io::loadVolume(d / "studio.nrrd").volume);
-  int64_t child = 0, landed = 0, fixedSame = 0, fixedAll = 0;
-  for (int k = 0; k < kN; ++k)
-    for (int j = 0; j < kN; ++j)
-      for (int i = 0; i < kN; ++i) {
+  int64_t child = 0, landed = 0, unmoved = 0, fixedSame = 0, fixedAll = 0;
+  for (int k = 1; k + 1 < kN; ++k)
+    for (int j = 1; j + 1 < kN; ++j)
+      for (int i = 1; i + 1 < kN; ++i) {
         if (labels(i, j, k) == kFixed) ++fixedAll, fixedSame += studio(i, j, k) == ct(i, j, k);
-        if (labels(i, j, k) != 2) continue;
+        // The child's interior voxels (all 6 neighbours child too): bone where r puts them.
+        if (labels(i, j, k) != 2 || labels(i - 1, j, k) != 2 || labels(i + 1, j, k) != 2 || labels(i, j - 1, k) != 2 ||
+            labels(i, j + 1, k) != 2 || labels(i, j, k - 1) != 2 || labels(i, j, k + 1) != 2)
+          continue;
         const Vec3 v = g.physicalToIndex(r.apply(g.indexToPhysical({double(i), double(j), double(k)})));
         const int64_t a = std::llround(v.x), b = std::llround(v.y), c = std::llround(v.z);
-        if (!g.contains(a, b, c)) continue;
         ++child;
-        landed += studio(a, b, c) >= 500;
+        landed += g.contains(a, b, c) && studio(a, b, c) >= 900;
+        unmoved += studio(i, j, k) >= 900;
       }
-  ASSERT_GT(child, 500);
-  EXPECT_GE(double(landed) / double(child), 0.95);
+  ASSERT_GT(child, 200);
+  EXPECT_GE(double(landed) / double(child), 0.98);
+  EXPECT_LT(double(unmoved) / double(child), 0.7) << "the child did move";
   EXPECT_EQ(fixedSame, fixedAll);
 
   // `vellum pose` on the saved file, with the line the studio wrote: the same volume.
@@ -138,8 +142,8 @@ TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReprodu
   const double voxels = double(count);
   std::cout << "studio vs vellum pose: mean |diff| " << sum / voxels << " HU, " << 100.0 * off / voxels
             << " % of voxels differ by more than 100 HU" << std::endl;
-  EXPECT_LT(sum / voxels, 5.0);
-  EXPECT_LT(off / voxels, 0.005);
+  EXPECT_LT(sum / voxels, 1.0);  // measured 0.04 HU: vellum pose repairs folds, the live view does not
+  EXPECT_LT(off / voxels, 0.001);  // measured 5 of 64000 voxels
   fs::remove_all(d);
 }
 

@@ -23,7 +23,7 @@ using namespace vellum::deformation;
 
 namespace {
 template <class T>
-bool ready(const std::future<T>& f) {
+bool finished(const std::future<T>& f) {
   return f.valid() && f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
 }
 
@@ -76,7 +76,7 @@ void JointTool::prepare(StudioApp& app) {
 }
 
 void JointTool::poll(StudioApp& app) {
-  if (!ready(work_)) return;
+  if (!finished(work_)) return;
   try {
     Prepared r = work_.get();
     // The angles may have changed meanwhile: only the axes and the samples are taken.
