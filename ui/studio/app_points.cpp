@@ -63,6 +63,7 @@ std::optional<std::pair<double, double>> StudioApp::pointInPane(const Pane& pane
 }
 
 std::optional<PointHandle> StudioApp::pickPoint(const Pane& pane, double x, double y) const {
+  if (scene_.authoring.pose) return std::nullopt;  // not drawn (drawControlPoints)
   const ControlPoints pts = scene_.authoring.currentPoints();
   // Dots that coincide on screen (points stacked along the view axis) are told apart by depth:
   // in 3D the one nearest the eye, in a slice the one nearest the slice plane.
@@ -107,6 +108,7 @@ std::optional<std::pair<double, double>> StudioApp::pointOnScreen(int index, Poi
 }
 
 void StudioApp::drawControlPoints(const Pane& pane) {
+  if (scene_.authoring.pose) return;  // the joint tool's generated points: its axes are the handles
   const ControlPoints pts = scene_.authoring.currentPoints();
   if (pts.empty()) return;
   ImDrawList* dl = ImGui::GetBackgroundDrawList();

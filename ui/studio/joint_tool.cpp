@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iostream>
 
 #include "app.hpp"
 #include "deform_session.hpp"
@@ -60,6 +61,7 @@ void JointTool::prepare(StudioApp& app) {
   if (!scene.hasVolume() || scene.labels.ids().empty() || !(scene.labels.geometry().dims == scene.ct.geometry().dims))
     throw Error("the joint tool needs a label map on the volume's grid (the bones' ids)");
   progress_ = std::make_shared<Progress>();
+  started_ = std::chrono::steady_clock::now();
   // A copy of the labels: painting may go on while the axes and points are made. The pose
   // code's own functions (`vellum pose` runs the same), one stage each; cancel between them.
   work_ = std::async(std::launch::async, [p = pose, labels = scene.labels, o = options, progress = progress_] {
@@ -86,6 +88,9 @@ void JointTool::poll(StudioApp& app) {
     }
     samples_ = std::move(r.samples);
     apply(app);
+    std::cout << "joint tool: " << pose.joints.size() << " joints, " << samples_->sources.size() << " points in "
+              << std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started_).count()
+              << " ms (axes and points, on a worker)" << std::endl;
   } catch (const Cancelled&) {
     error_ = "cancelled";
   } catch (const std::exception& e) {
@@ -118,6 +123,11 @@ void JointTool::apply(StudioApp& app) const {
   for (uint16_t id : pose.boneIds())
     if (!std::binary_search(pose.fixed.ids.begin(), pose.fixed.ids.end(), id)) a.rigidLabels.push_back(id);
   a.fixed = pose.fixed;
+  // The pose's generated points are hundreds (a lattice on every bone): with density-aware
+  // weights each casts rays for its own rho field (minutes on a real scan, measured: 979
+  // points on the cropped feet). `vellum pose`'s engine has them off; so does the tool when
+  // it takes over the track (the written `vellum pose` line names the engine either way).
+  if (!a.pose) a.engine.density.enabled = false;
   a.pose = std::make_shared<const Pose>(pose);
   a.touch();
 }

@@ -7,6 +7,7 @@
 // posedPoints): one authoring keyframe per pose keyframe, the bones rigid per id, the fixed
 // regions still, the bones' exact joint transforms given to the live map. Saved as a pose
 // file, `vellum pose` reproduces the view (the studio writes its command line beside it).
+#include <chrono>
 #include <filesystem>
 #include <future>
 #include <memory>
@@ -100,6 +101,7 @@ class JointTool {
   void apply(StudioApp& app) const;
 
   std::future<Prepared> work_;
+  std::chrono::steady_clock::time_point started_;  ///< of the running preparation
   std::shared_ptr<Progress> progress_;
   std::shared_ptr<const deformation::PoseSamples> samples_;
   std::string error_;
