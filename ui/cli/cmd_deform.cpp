@@ -39,8 +39,10 @@ void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
   CLI::Option* power = engineFlags.at("power");
   cmd.parse_complete_callback([&engine, power, rigidTokens] {
     engine.powerGiven = power->count() > 0;
-    if (engine.fixedBoxMm.size() % 6 != 0)
-      throw CLI::ValidationError("--fixed-box", "needs 6 numbers per box: x0,y0,z0,x1,y1,z1 (mm)");
+    if (engine.fixedBoxMm.size() % 6 != 0) {  // a usage error: one line, exit 2
+      std::cerr << "vellum: error: --fixed-box needs 6 numbers per box: x0,y0,z0,x1,y1,z1 (mm)\n";
+      throw CLI::RuntimeError(2);
+    }
     if (!rigidTokens->empty()) engine.setRigidLabels(*rigidTokens);
   });
 }

@@ -98,6 +98,8 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
     request.engine.labels = scene_.labelsPath.string();
     request.engine.rigidIds = a.rigidLabels;
     request.engine.rigidFalloffMm = a.falloffMm;
+    request.engine.fixedIds = a.fixed.ids;  // the joint tool's fixed regions (the bodies hold them)
+    for (const auto& b : a.fixed.boxesMm) request.engine.fixedBoxMm.insert(request.engine.fixedBoxMm.end(), b.begin(), b.end());
   }
   const animation::MovieSpec spec = app::movieSpec(request);
   // The keyframes beside the output.

@@ -62,6 +62,7 @@ void JointTool::prepare(StudioApp& app) {
     throw Error("the joint tool needs a label map on the volume's grid (the bones' ids)");
   progress_ = std::make_shared<Progress>();
   started_ = std::chrono::steady_clock::now();
+  generation_ = scene.volumeGeneration;
   // A copy of the labels: painting may go on while the axes and points are made. The pose
   // code's own functions (`vellum pose` runs the same), one stage each; cancel between them.
   work_ = std::async(std::launch::async, [p = pose, labels = scene.labels, o = options, progress = progress_] {
@@ -78,6 +79,17 @@ void JointTool::prepare(StudioApp& app) {
 }
 
 void JointTool::poll(StudioApp& app) {
+  if (samples_ && app.scene().volumeGeneration != generation_ && !busy()) {
+    // Another volume was opened: the samples belong to the old label map; the pose (ids,
+    // axes, angles) stays and is prepared again on the new one.
+    samples_.reset();
+    try {
+      prepare(app);
+    } catch (const std::exception& e) {
+      error_ = e.what();
+      generation_ = app.scene().volumeGeneration;  // asked once per volume
+    }
+  }
   if (!finished(work_)) return;
   try {
     Prepared r = work_.get();

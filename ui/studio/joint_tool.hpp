@@ -102,6 +102,7 @@ class JointTool {
 
   std::future<Prepared> work_;
   std::chrono::steady_clock::time_point started_;  ///< of the running preparation
+  uint64_t generation_ = 0;  ///< Scene::volumeGeneration the samples were made for
   std::shared_ptr<Progress> progress_;
   std::shared_ptr<const deformation::PoseSamples> samples_;
   std::string error_;
