@@ -1,5 +1,6 @@
 // StudioApp: the window, ImGui set-up, the frame loop and adopting finished loads.
 #include "app.hpp"
+#include "studio_tools.hpp"
 
 #include <GL/glcorearb.h>
 #include <GLFW/glfw3.h>
@@ -60,7 +61,8 @@ volatile std::sig_atomic_t gInterrupted = 0;
 
 
 StudioApp::StudioApp(StudioOptions options)
-    : deform_(std::make_unique<DeformSession>()), options_(std::move(options)) {}
+    : deform_(std::make_unique<DeformSession>()), studioTools_(std::make_unique<StudioTools>()),
+      options_(std::move(options)) {}
 
 StudioApp::~StudioApp() {
   deform_.reset();  // its workers read scene_.ct, which is destroyed before deform_ would be
@@ -205,6 +207,8 @@ void StudioApp::beginUiFrame() {
   panes_ = layoutPanes(scene_.view.layout, {kPanelWidth, 0, std::max(1.f, w - kPanelWidth), float(h)});
   keyframeBlocks_.clear();  // the timeline records them again if it is drawn
   drawToolPanel(*this, kPanelWidth, float(h));
+  pollStudioTools(*this);
+  drawFigureDialog(*this);
   browser_.draw();
   drawDialogs();
 }

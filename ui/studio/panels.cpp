@@ -11,6 +11,7 @@
 #include "panel_deformation.hpp"
 #include "panel_illustration.hpp"
 #include "param_widgets.hpp"
+#include "studio_tools.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
@@ -309,6 +310,7 @@ void drawToolPanel(StudioApp& app, float width, float height) {
   if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);
+  if (ImGui::CollapsingHeader("Measure and figures", ImGuiTreeNodeFlags_DefaultOpen)) studioToolsSection(app);
   if (ImGui::CollapsingHeader("Help: shortcuts")) helpSection();
   ImGui::PopItemWidth();
   ImGui::End();
