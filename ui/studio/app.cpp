@@ -235,7 +235,8 @@ StudioApp::FrameViews StudioApp::updateViews() {
   updateSliceTextures();  // after the map: deformed slices show this frame's map
   view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
   view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
-  view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision, scene_.render.labelBlend > 0);
+  view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision,
+                     scene_.render.labelBlend > 0 || scene_.render.onlyLabel > 0);
   // While the exact map is being solved the 3D view keeps its last frame instead of refining
   // a picture the map is about to replace: the solve gets both cores, and no refinement is
   // thrown away.

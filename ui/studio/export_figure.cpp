@@ -23,7 +23,7 @@ std::string shellQuoted(const std::string& t) {
 
 std::string numbers(std::initializer_list<double> values) {
   std::ostringstream s;
-  s.precision(10);
+  s.precision(17);  // reads back as the same double: the command draws the same picture
   for (double v : values) s << ' ' << v;
   return s.str();
 }
@@ -47,9 +47,15 @@ void planRender(const Scene& scene, const fs::path& out, const FigureOptions& o,
   // cliRenderCommand() names the label file for the tint only when it has one.
   const bool haveLabelFile = !scene.labelsPath.empty();
   const fs::path labelFile = haveLabelFile ? fs::absolute(scene.labelsPath) : fs::path();
-  if (r.settings.labelBlend > 0 && haveLabelFile) r.labelColours = labelFile;
-  else r.settings.labelBlend = render::RenderSettings{}.labelBlend;
-  if (scene.render.labelBlend > 0 && !haveLabelFile) plan.leftOut.push_back("the label colours (save the labels first)");
+  // The tint and "this segment only" read the label file (unsaved labels cannot be named).
+  const bool tint = r.settings.labelBlend > 0 || r.settings.onlyLabel > 0;
+  if (tint && haveLabelFile) {
+    r.labelColours = labelFile;
+  } else {
+    if (tint) plan.leftOut.push_back("the label colours and segment filter (save the labels first)");
+    r.settings.labelBlend = render::RenderSettings{}.labelBlend;
+    r.settings.onlyLabel = 0;
+  }
   const bool labels = o.labels && haveLabelFile;
   if (o.labels && !haveLabelFile) plan.leftOut.push_back("the structure labels (save the labels first)");
   if (labels) r.labelMap = labelFile;
@@ -60,9 +66,8 @@ void planRender(const Scene& scene, const fs::path& out, const FigureOptions& o,
   // As cmd_render binds its flags: every render-table setting (cliRenderCommand's way), the
   // pan, the tint's label file; paths absolute so the line runs from any folder.
   std::ostringstream cmd;
-  cmd.precision(10);
   std::vector<std::string> skip{"width", "height"};
-  if (r.labelColours.empty()) skip.push_back("label_blend");
+  if (r.labelColours.empty()) skip.insert(skip.end(), {"label_blend", "only_label"});
   const Vec3& pan = r.settings.camera.panMm;
   cmd << "vellum render " << shellQuoted(r.input.string()) << " --out " << shellQuoted(r.output.string()) << " --size "
       << r.settings.width << 'x' << r.settings.height << params::cliArguments(render::renderSettingsTable(), r.settings, skip)
@@ -114,6 +119,9 @@ void planIllustration(const Scene& scene, const fs::path& out, const FigureOptio
   s.render.width = std::clamp(o.width, 1, 4096);
   s.render.height = std::clamp(o.height, 1, 4096);
   r.framing = illustration::Framing::Volume;
+  const render::RenderSettings defaults;
+  if (scene.render.clipMin != defaults.clipMin || scene.render.clipMax != defaults.clipMax || scene.render.onlyLabel)
+    plan.leftOut.push_back("the clip box and segment filter (the illustration draws every shape whole)");
   r.annotations.scaleBar = o.scaleBar;
   r.annotations.orientation = o.orientation;
   r.annotations.labels = o.labels;

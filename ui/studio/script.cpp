@@ -10,6 +10,7 @@
 
 #include "app.hpp"
 #include "studio_tools.hpp"
+#include "raw_dialog.hpp"
 #include "vellum/deformation/keyframes.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/json_input.hpp"
@@ -509,6 +510,28 @@ void expandMeasure(Steps& s, const json& v) {
   });
 }
 
+void expandOpenRaw(Steps& s, const json& v) {
+  // {"path": RAW, "dims": [x, y, z], "type": "int16", "spacing": [sx, sy, sz], "endian":
+  // "little" | "big", "header": bytes}: the Open RAW dialog's answers; waits for the load.
+  RawDialogState d;
+  d.data = v.at("path").get<std::string>();
+  for (int a = 0; a < 3; ++a) d.dims[a] = v.at("dims").at(a).get<int>();
+  d.type = static_cast<int>(parseVoxelType(v.value("type", "int16")));
+  if (v.contains("spacing"))
+    for (int a = 0; a < 3; ++a) d.spacing[a] = v["spacing"].at(a).get<float>();
+  d.bigEndian = v.value("endian", "little") == "big";
+  d.headerBytes = v.value("header", 0);
+  s.once([d](StudioApp& a) { openRawAs(a, d); });
+  s.once([](StudioApp& a) {
+    if (a.errorBoxOpen()) throw Error("open raw failed (see the message above)");
+  });
+  s.until([](StudioApp& a) { return !a.loading(); });
+  s.frames(1);
+  s.once([](StudioApp& a) {
+    if (!a.lastLoadError().empty()) throw Error("open failed: " + a.lastLoadError());
+  });
+}
+
 void expandHud(Steps& s, const json& v) {
   const bool on = v.get<bool>();
   s.once([on](StudioApp& a) { a.hudVisible = on; });
@@ -813,6 +836,7 @@ const std::map<std::string, Expander>& expanders() {
       {"export_figure", expandExportFigure},
       {"copy_command", expandCopyCommand},
       {"measure", expandMeasure},
+      {"open_raw", expandOpenRaw},
       {"hud", expandHud},
       {"log", expandLog},
       {"controls", expandControls},

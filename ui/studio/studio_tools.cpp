@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "app.hpp"
+#include "raw_dialog.hpp"
 #include "vellum/core/error.hpp"
 
 namespace vellum::studio {
@@ -48,13 +49,71 @@ void pollStudioTools(StudioApp& app) {
   }
 }
 
+namespace {
+
+/// The 3D view's clipping box in mm along the volume's axes (RenderSettings::clipMin/Max, the
+/// `--clip-min/--clip-max` fractions) and "this segment only" (`--only-label`); one undo step
+/// per finished edit, like the View panel's widgets.
+void clipSection(StudioApp& app) {
+  Scene& s = app.scene();
+  if (!s.hasVolume()) return;
+  const ViewState before = s.viewState();
+  const Geometry& g = s.ct.geometry();
+  render::RenderSettings& r = s.render;
+  bool started = false, finished = false;
+  static const char* const kAxes[3] = {"Clip i (x)", "Clip j (y)", "Clip k (z)"};
+  for (int a = 0; a < 3; ++a) {
+    const size_t i = size_t(a);
+    const float length = float(double(g.dims[a]) * g.spacing[a]);
+    float lo = float(r.clipMin[i]) * length, hi = float(r.clipMax[i]) * length;
+    if (ImGui::DragFloatRange2(kAxes[a], &lo, &hi, 0.5f, 0.f, length, "%.1f mm", "%.1f mm",
+                               ImGuiSliderFlags_AlwaysClamp)) {
+      const double voxel = 1.0 / double(g.dims[a]);  // the box keeps at least a voxel
+      r.clipMin[i] = std::clamp(double(lo) / length, 0.0, 1.0 - voxel);
+      r.clipMax[i] = std::clamp(double(hi) / length, r.clipMin[i] + voxel, 1.0);
+    }
+    started |= ImGui::IsItemActivated();
+    finished |= ImGui::IsItemDeactivatedAfterEdit();
+  }
+  if (ImGui::SmallButton("Whole volume")) {
+    app.beginViewEdit(before);
+    r.clipMin = {0, 0, 0};
+    r.clipMax = {1, 1, 1};
+    app.endViewEdit("clip box");
+  }
+  // "Render this segment only": needs the label map (the label colours' texture).
+  std::string current = r.onlyLabel == 0 ? "all" : std::to_string(r.onlyLabel);
+  for (const Label& l : s.labels.table())
+    if (l.id == r.onlyLabel) current = l.name;
+  if (ImGui::BeginCombo("3D: only segment", current.c_str())) {
+    int pick = -1;
+    if (ImGui::Selectable("all", r.onlyLabel == 0)) pick = 0;
+    for (const Label& l : s.labels.table())
+      if (l.id != 0 && ImGui::Selectable((l.name + "##only" + std::to_string(l.id)).c_str(), l.id == r.onlyLabel)) pick = l.id;
+    ImGui::EndCombo();
+    if (pick >= 0 && pick != r.onlyLabel) {
+      app.beginViewEdit(before);
+      r.onlyLabel = pick;
+      app.endViewEdit("only segment");
+    }
+  }
+  if (started) app.beginViewEdit(before);
+  if (finished) app.endViewEdit("clip box");
+}
+
+}  // namespace
+
 void studioToolsSection(StudioApp& app) {
+  clipSection(app);
   ImGui::TextUnformatted("Measure in the slices:");
   app.studioTools().measure.drawPanel();
   if (ImGui::Button("Export figure...") && app.scene().hasVolume()) app.studioTools().figure.dialogOpen = true;
+  ImGui::SameLine();
+  rawOpenButton(app);
 }
 
 void drawFigureDialog(StudioApp& app) {
+  drawRawDialog(app);
   FigureExportState& f = app.studioTools().figure;
   if (!f.dialogOpen) return;
   ImGui::SetNextWindowSize({520, 0}, ImGuiCond_Appearing);
