@@ -123,7 +123,9 @@ TEST(StudioTools, OpenRawWritesItsHeaderInTheStateFolderNotBesideTheData) {
   int files = 0;
   for (const auto& e : fs::directory_iterator(d / "data")) files += e.is_regular_file();
   EXPECT_EQ(files, 1) << "only the data itself beside the data";
-  const io::LoadedVolume lv = io::loadVolume(header);
+  io::LoadOptions outside;
+  outside.allowOutsideData = true;  // it names the data by absolute path
+  const io::LoadedVolume lv = io::loadVolume(header, outside);
   const VolumeI16& v = std::get<VolumeI16>(lv.volume);
   EXPECT_TRUE(v.geometry().approxEqual(g));
   EXPECT_EQ(v.voxels(), truth.voxels());
@@ -182,8 +184,8 @@ TEST(StudioTools, ClipBoxAndSegmentFilterRemoveWhatIsOutside) {
         }
     return true;
   };
-  ASSERT_GT(drawn(full, false), 500);
-  ASSERT_GT(drawn(full, true), 500);
+  ASSERT_GT(drawn(full, false), 100);  // each cube about 12 x 16 pixels
+  ASSERT_GT(drawn(full, true), 100);
   // Seen from anterior the patient's left (+x, the second cube) is on the picture's right.
   render::RenderSettings clipped = s;
   clipped.clipMax = {0.5, 1, 1};  // x < 15.5 mm: the first cube only

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <sstream>
 
+#include "raw_dialog.hpp"
 #include "view3d.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/core/error.hpp"
@@ -31,6 +32,7 @@ std::string numbers(std::initializer_list<double> values) {
 /// The flags both commands share: the series, the annotations.
 std::string sharedFlags(const Scene& scene, const FigureOptions& o, bool labels, const std::string& labelFlag) {
   std::string c;
+  if (isOpenRawHeader(scene.volumePath)) c += " --allow-outside-data";  // names the RAW by absolute path
   if (!scene.seriesUid.empty()) c += " --series " + shellQuoted(scene.seriesUid);
   if (o.scaleBar) c += " --scale-bar";
   if (o.orientation) c += " --orientation";
@@ -63,6 +65,7 @@ void planRender(const Scene& scene, const fs::path& out, const FigureOptions& o,
   r.annotations.orientation = o.orientation;
   r.annotations.labels = labels;
   r.load.seriesUid = scene.seriesUid;
+  r.load.allowOutsideData = isOpenRawHeader(scene.volumePath);
   // As cmd_render binds its flags: every render-table setting (cliRenderCommand's way), the
   // pan, the tint's label file; paths absolute so the line runs from any folder.
   std::ostringstream cmd;
@@ -126,6 +129,7 @@ void planIllustration(const Scene& scene, const fs::path& out, const FigureOptio
   r.annotations.orientation = o.orientation;
   r.annotations.labels = o.labels;
   r.load.seriesUid = scene.seriesUid;
+  r.load.allowOutsideData = isOpenRawHeader(scene.volumePath);
   std::vector<std::string> skip;
   for (const auto& field : render::renderSettingsTable())
     if (field.key != "azimuth" && field.key != "elevation" && field.key != "zoom" && field.key != "fov")

@@ -31,14 +31,14 @@ fs::path writeRawHeader(const fs::path& raw, const io::RawLayout& l, const fs::p
   if (!fs::is_regular_file(raw, ec)) throw FileError(raw, "not a file");
   if (l.dims.x < 1 || l.dims.y < 1 || l.dims.z < 1) throw FileError(raw, "dims must be at least 1 x 1 x 1");
   if (!(l.spacing.x > 0 && l.spacing.y > 0 && l.spacing.z > 0)) throw FileError(raw, "spacing must be > 0 mm");
-  if (folder.empty()) throw FileError(raw, "no folder for its header: save the scene first (or set XDG_STATE_HOME)");
+  if (folder.empty()) throw FileError(raw, "no folder for its header: set XDG_STATE_HOME or HOME");
   const uint64_t size = fs::file_size(raw), need = l.headerBytes + uint64_t(l.dims.voxelCount()) * voxelTypeSize(l.type);
   if (size != need)
     throw FileError(raw, std::to_string(size) + " bytes, but " + l.dims.str() + " " + voxelTypeName(l.type) + " after " +
                              std::to_string(l.headerBytes) + " header bytes needs " + std::to_string(need));
   const fs::path header = fs::absolute(folder / (raw.stem().string() + ".nhdr"));
   if (fs::equivalent(header.parent_path(), fs::absolute(raw).parent_path(), ec))
-    throw FileError(header, "would be written beside the data: save the scene in another folder first");
+    throw FileError(header, "would be written beside the data");
   io::OutputPlan plan;
   plan.input(raw, "the RAW file").output(header, "the RAW header").check();
   fs::create_directories(folder);
@@ -59,10 +59,16 @@ fs::path writeRawHeader(const fs::path& raw, const io::RawLayout& l, const fs::p
   return header;
 }
 
-fs::path rawHeaderFolder(StudioApp& app) {
-  if (!app.scene().scenePath.empty()) return fs::absolute(app.scene().scenePath).parent_path();
+fs::path rawHeaderFolder() {
   const fs::path state = userFolder("XDG_STATE_HOME", ".local/state");
   return state.empty() ? fs::path() : state / "raw-headers";
+}
+
+bool isOpenRawHeader(const fs::path& path) {
+  const fs::path folder = rawHeaderFolder();
+  std::error_code ec;
+  return !folder.empty() && path.extension() == ".nhdr" &&
+         fs::equivalent(fs::absolute(path).parent_path(), folder, ec);
 }
 
 io::RawLayout RawDialogState::layout() const {
@@ -81,7 +87,7 @@ RawDialogState& rawDialog() {
 }
 
 void openRawAs(StudioApp& app, const RawDialogState& answers) {
-  guarded(app, [&] { app.requestOpen(writeRawHeader(answers.data, answers.layout(), rawHeaderFolder(app))); });
+  guarded(app, [&] { app.requestOpen(writeRawHeader(answers.data, answers.layout(), rawHeaderFolder())); });
 }
 
 void rawOpenButton(StudioApp& app) {
@@ -114,7 +120,7 @@ void drawRawDialog(StudioApp& app) {
     const uint64_t need = l.headerBytes + uint64_t(std::max<int64_t>(0, l.dims.voxelCount())) * voxelTypeSize(l.type);
     ImGui::Text("file: %llu bytes; this layout: %llu", (unsigned long long)size, (unsigned long long)need);
   }
-  ImGui::TextDisabled("the header goes to %s", rawHeaderFolder(app).string().c_str());
+  ImGui::TextDisabled("the header goes to %s", rawHeaderFolder().string().c_str());
   if (ImGui::Button("Open")) {
     openRawAs(app, d);
     d.open = false;

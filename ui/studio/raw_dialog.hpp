@@ -1,10 +1,12 @@
 #pragma once
 // Open RAW: a bare .raw (no header, no sidecar) opened through a dialog that asks its layout
 // (dims, voxel type, spacing, byte order, header bytes). The answer is written as a detached
-// NRRD header (.nhdr) naming the data file by its absolute path, beside the user's scene, or
-// in the studio's state folder when there is none, never beside the data (which may be
-// read-only or someone else's). The studio then opens that header like any volume, and the
-// CLI commands it gives (Copy CLI command) read it too.
+// NRRD header (.nhdr) naming the data file by its absolute path, in the studio's state folder
+// (the user's own), never beside the data (which may be read-only or someone else's). The
+// studio then opens that header like any volume; since io refuses a header that reads data
+// outside its folder unless told (a downloaded header must not read any file), the studio
+// allows it for the headers of that folder only, and the CLI commands it gives say
+// --allow-outside-data.
 #include <filesystem>
 #include <string>
 
@@ -20,8 +22,11 @@ class StudioApp;
 std::filesystem::path writeRawHeader(const std::filesystem::path& raw, const io::RawLayout& layout,
                                      const std::filesystem::path& folder);
 
-/// Where the studio writes it: the scene's folder, else "<state folder>/raw-headers".
-std::filesystem::path rawHeaderFolder(StudioApp& app);
+/// Where the studio writes it: "<state folder>/raw-headers" (empty when there is no state
+/// folder: no $XDG_STATE_HOME nor $HOME).
+std::filesystem::path rawHeaderFolder();
+/// True for a header in that folder: one the user wrote through Open RAW.
+bool isOpenRawHeader(const std::filesystem::path& path);
 
 /// The dialog's answers.
 struct RawDialogState {
