@@ -1,6 +1,7 @@
 // Issue 10 §4: the View panel's widgets and the scene file's view keys come from the parameter
 // tables the CLI uses. Every table field round-trips through a scene file, every scene key is
 // a `vellum render` flag, and view edits are undo steps.
+#include <array>
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -27,6 +28,12 @@ namespace {
 /// A value of `f` different from its current one and inside its range.
 template <class S>
 void setOtherValue(const params::Field<S>& f, S& s) {
+  if (f.kind == params::Kind::Vector) {  // three numbers: each moved inside its range
+    std::array<double, 3> x = f.getVector(s);
+    for (double& c : x) c = std::isfinite(f.info.min) && std::isfinite(f.info.max) ? f.info.min + 0.37 * (f.info.max - f.info.min) : c + 1.5;
+    f.setVector(s, x);
+    return;
+  }
   const double v = f.get(s).value_or(0);
   switch (f.kind) {
     case params::Kind::Flag: f.set(s, v != 0 ? 0.0 : 1.0); return;

@@ -27,7 +27,7 @@ struct IllustrateArgs {
     s.stepVoxels = 1.0;  // distance fields are smooth: a voxel step suffices
     return s;
   }();
-  std::vector<double> background;
+  std::vector<double> background, pan;
   InputOptions in;
   TableRemovalOptions table;
   FigureOptions figure;
@@ -40,6 +40,7 @@ void runIllustrate(const IllustrateArgs& a) {
     for (const auto& v : app::splitList(a.views, "--view")) r.views.push_back(app::parseView(v, a.camera.camera.elevationDeg));
   illustration::IllustrationSettings& s = r.settings;
   s.render.camera = a.camera.camera;
+  if (!a.pan.empty()) s.render.camera.panMm = {a.pan[0], a.pan[1], a.pan[2]};
   s.render.stepVoxels = a.camera.stepVoxels;
   std::tie(s.render.width, s.render.height) = parseSize(a.size);
   s.interpolation = illustration::parseInterpolation(a.interp);
@@ -140,6 +141,7 @@ void addIllustrateCommand(CLI::App& app) {
   for (const auto& field : render::renderSettingsTable())
     if (!std::set<std::string>{"azimuth", "elevation", "zoom", "fov", "step"}.count(field.key)) notHere.insert(field.key);
   addFlags(*cmd, a->camera, render::renderSettingsTable(), notHere);
+  cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z), after the framing")->expected(3);
   cmd->add_option("--frame", a->frame,
                   "what --zoom 1 fits: drawn (the segments the style draws) | segments (every segment: the same "
                   "framing for every style) | volume (the volume's bounding sphere)")

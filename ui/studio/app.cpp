@@ -1,6 +1,7 @@
 // StudioApp: the window, ImGui set-up, the frame loop and adopting finished loads.
 #include "app.hpp"
 #include "joint_tool.hpp"
+#include "studio_tools.hpp"
 
 #include <GL/glcorearb.h>
 #include <GLFW/glfw3.h>
@@ -61,7 +62,8 @@ volatile std::sig_atomic_t gInterrupted = 0;
 
 
 StudioApp::StudioApp(StudioOptions options)
-    : deform_(std::make_unique<DeformSession>()), options_(std::move(options)) {}
+    : deform_(std::make_unique<DeformSession>()), studioTools_(std::make_unique<StudioTools>()),
+      options_(std::move(options)) {}
 
 StudioApp::~StudioApp() {
   deform_.reset();  // its workers read scene_.ct, which is destroyed before deform_ would be
@@ -207,6 +209,8 @@ void StudioApp::beginUiFrame() {
   panes_ = layoutPanes(scene_.view.layout, {kPanelWidth, 0, std::max(1.f, w - kPanelWidth), float(h)});
   keyframeBlocks_.clear();  // the timeline records them again if it is drawn
   drawToolPanel(*this, kPanelWidth, float(h));
+  pollStudioTools(*this);
+  drawFigureDialog(*this);
   browser_.draw();
   drawDialogs();
 }
@@ -233,7 +237,8 @@ StudioApp::FrameViews StudioApp::updateViews() {
   updateSliceTextures();  // after the map: deformed slices show this frame's map
   view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
   view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
-  view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision, scene_.render.labelBlend > 0);
+  view3d_->setLabels(scene_.labels, scene_.hiddenLabels, scene_.labelsRevision,
+                     scene_.render.labelBlend > 0 || scene_.render.onlyLabel > 0);
   // While the exact map is being solved the 3D view keeps its last frame instead of refining
   // a picture the map is about to replace: the solve gets both cores, and no refinement is
   // thrown away.

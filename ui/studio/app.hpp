@@ -38,6 +38,7 @@ class GlTexture;
 class DeformSession;
 class ExportJob;
 class JointTool;
+struct StudioTools;
 
 /// Where a control point's end is drawn in a pane (window pixels) and which it is.
 struct PointHandle {
@@ -284,6 +285,8 @@ class StudioApp {
   const View3D* view3d() const { return view3d_.get(); }
   /// Files opened successfully, most recent first (at most 8; kept across interactive sessions).
   const std::vector<std::filesystem::path>& recentFiles() const { return recent_.paths(); }
+  /// Ruler and angle, Export figure (studio_tools.hpp).
+  StudioTools& studioTools() { return *studioTools_; }
 
  private:
   // The joint tool (joint_tool.cpp): adopts its worker's results, a left click while it waits
@@ -353,6 +356,7 @@ class StudioApp {
   std::vector<std::array<bool, 2>> occlusion_;  ///< per point: source, target hidden in 3D
   std::unique_ptr<DeformSession> deform_;
   std::unique_ptr<ExportJob> export_;
+  std::unique_ptr<StudioTools> studioTools_;
   std::vector<std::array<float, 4>> keyframeBlocks_;
   std::string exportError_, animateCommand_;
 

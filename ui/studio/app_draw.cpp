@@ -12,6 +12,7 @@
 #include <tuple>
 
 #include "app.hpp"
+#include "studio_tools.hpp"
 #include "deform_session.hpp"
 #include "gl_texture.hpp"
 #include "view3d.hpp"
@@ -184,6 +185,10 @@ void StudioApp::drawPanes() {
       dl->AddCircle({float(mouseX_), float(mouseY_)}, float(tools_.brushRadiusMm / plane.mmPerPixel),
                     tools_.tool == Tool::Paint ? IM_COL32(255, 255, 255, 220) : IM_COL32(255, 120, 120, 220), 32);
     dl->PopClipRect();
+    studioTools_->measure.draw(plane, a.x, a.y, p.rect.w, p.rect.h,
+                               p.rect.contains(mouseX_, mouseY_)
+                                   ? std::optional<Vec3>(plane.toMm(mouseX_ - a.x, mouseY_ - a.y))
+                                   : std::nullopt);
     drawControlPoints(p);
     drawJoints(p);
     dl->AddRect(a, b, planeColour(plane.normal));
@@ -300,6 +305,7 @@ std::vector<std::string> StudioApp::runningWork() const {
   }
   for (const std::string& d : deform_->running())
     if (!pointDrag_) r.push_back(d);  // a drag's own preview is what the drag shows
+  if (studioTools_->figure.job.busy()) r.push_back(with("export figure", studioTools_->figure.job.progress().second));
   if (exporting()) {
     const auto [done, count] = exportProgress();
     r.push_back("exporting frame " + std::to_string(done) + " / " + std::to_string(count));

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "app.hpp"
+#include "studio_tools.hpp"
 #include "label_tools.hpp"
 #include "deform_session.hpp"
 #include "view3d.hpp"
@@ -107,6 +108,10 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   const Pane* pane = paneAt(mouseX_, mouseY_);
   if (!pane) return;
   if (button == GLFW_MOUSE_BUTTON_LEFT && jointClick(*pane, mouseX_, mouseY_)) return;  // the joint tool's pick
+  // The ruler or angle tool takes left clicks in the slices.
+  if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT &&
+      studioTools_->measure.click(*pane->slice, planeOf(*pane).toMm(mouseX_ - pane->rect.x, mouseY_ - pane->rect.y)))
+    return;
   if (pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT && (mods & GLFW_MOD_CONTROL)) {
     clickIn3d(*pane, mouseX_, mouseY_);  // Ctrl+click picks the visible surface
     return;

@@ -1,4 +1,5 @@
 #include "loader.hpp"
+#include "raw_dialog.hpp"
 
 #include "vellum/core/error.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -29,6 +30,7 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   io::LoadOptions options;
   options.progress = &progress;
   options.seriesUid = seriesUid;
+  options.allowOutsideData = isOpenRawHeader(volumePath);  // the user's own Open RAW header
   io::LoadedVolume lv = io::loadVolume(volumePath, options);
   options.seriesUid.clear();
   r.warnings = lv.warnings;

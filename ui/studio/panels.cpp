@@ -12,6 +12,7 @@
 #include "joint_tool.hpp"
 #include "panel_illustration.hpp"
 #include "param_widgets.hpp"
+#include "studio_tools.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
@@ -312,6 +313,7 @@ void drawToolPanel(StudioApp& app, float width, float height) {
     jointsSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);
+  if (ImGui::CollapsingHeader("Measure and figures", ImGuiTreeNodeFlags_DefaultOpen)) studioToolsSection(app);
   if (ImGui::CollapsingHeader("Help: shortcuts")) helpSection();
   ImGui::PopItemWidth();
   ImGui::End();

@@ -75,7 +75,7 @@ ParamEdit editParams(const params::Table<S>& table, S& s, const std::vector<std:
       if (ImGui::InputText(label.c_str(), buffer, sizeof buffer)) f.setText(s, buffer), changed = true;
     } else if (f.kind == params::Kind::Vector) {
       const auto v = f.getVector(s);
-      if (f.info.min == 0 && f.info.max == 1) {  // a colour
+      if (f.info.min == 0 && f.info.max == 1 && f.info.unit != "fraction") {  // a colour
         float rgb[3] = {float(v[0]), float(v[1]), float(v[2])};
         if (ImGui::ColorEdit3(label.c_str(), rgb, ImGuiColorEditFlags_Float)) f.setVector(s, {rgb[0], rgb[1], rgb[2]}), changed = true;
       } else {

@@ -10,6 +10,8 @@
 
 #include "app.hpp"
 #include "joint_tool.hpp"
+#include "studio_tools.hpp"
+#include "raw_dialog.hpp"
 #include "vellum/deformation/keyframes.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/json_input.hpp"
@@ -425,6 +427,112 @@ void expandExportCommand(Steps& s, const json& v) {
   });
 }
 
+/// The Export figure dialog's options from an action: "size" [w, h], "scale_bar",
+/// "orientation", "labels" (booleans).
+void setFigureOptions(StudioApp& a, const json& v) {
+  FigureOptions& o = a.studioTools().figure.options;
+  o = FigureOptions{};
+  if (v.contains("size")) o.width = v["size"].at(0).get<int>(), o.height = v["size"].at(1).get<int>();
+  o.scaleBar = v.value("scale_bar", false);
+  o.orientation = v.value("orientation", false);
+  o.labels = v.value("labels", false);
+}
+
+void expandExportFigure(Steps& s, const json& v) {
+  // {"path": P, "size": [w, h], "scale_bar": b, "orientation": b, "labels": b}: Export figure,
+  // waited for; its error fails the action.
+  const std::string path = v.at("path").get<std::string>();
+  s.waitIdle();
+  s.once([=](StudioApp& a) {
+    setFigureOptions(a, v);
+    startFigureExport(a, path);
+  });
+  s.until([](StudioApp& a) { return !a.studioTools().figure.job.busy(); });
+  s.frames(1);  // the frame adopts the outcome
+  s.once([](StudioApp& a) {
+    const FigureExportState& f = a.studioTools().figure;
+    if (!f.lastError.empty()) throw Error("export figure failed: " + f.lastError);
+    if (f.lastWritten.empty()) throw Error("export figure wrote nothing");
+    if (a.errorBoxOpen()) a.answerDialog("ok");
+  });
+}
+
+void expandCopyCommand(Steps& s, const json& v) {
+  // {"figure": P, "path": FILE, options as export_figure}: Copy CLI command for a figure at P;
+  // FILE gets what the clipboard holds.
+  const std::string figure = v.at("figure").get<std::string>(), path = v.at("path").get<std::string>();
+  s.once([=](StudioApp& a) {
+    setFigureOptions(a, v);
+    copyFigureCommand(a, figure);
+    const char* clip = glfwGetClipboardString(nullptr);
+    std::ofstream f(path);
+    f << (clip ? clip : "") << "\n";
+    if (!f) throw Error("cannot write " + path);
+  });
+}
+
+void expandMeasure(Steps& s, const json& v) {
+  // {"tool": "ruler" | "angle", "view": AXIS, "points_voxel": [[i, j, k], ...]}: clicks at those
+  // voxel positions (projected onto the view's slice) with the tool, as a user does;
+  // {"delete": n}: deletes measurement n (from 1). Then prints "measurement N: TEXT" for each.
+  if (v.contains("delete")) {
+    const int n = v["delete"].get<int>();
+    s.once([n](StudioApp& a) { a.studioTools().measure.remove(size_t(n - 1)); });
+  } else {
+    const std::string tool = v.at("tool").get<std::string>();
+    if (tool != "ruler" && tool != "angle") throw Error("measure tool must be \"ruler\" or \"angle\"");
+    const SliceAxis axis = parseAxis(v.at("view").get<std::string>());
+    const json points = v.at("points_voxel");
+    s.frames(1);  // panes laid out
+    s.once([=](StudioApp& a) { a.studioTools().measure.mode = tool == "ruler" ? MeasureMode::Ruler : MeasureMode::Angle; });
+    for (const json& p : points) {
+      auto at = std::make_shared<std::pair<double, double>>();
+      s.once([=](StudioApp& a) {
+        const Vec3 mm = a.scene().ct.geometry().indexToPhysical(Vec3{p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>()});
+        for (const Pane& pane : a.panes())
+          if (pane.slice == axis) {
+            const auto [x, y] = a.planeOf(pane).toPixel(mm);
+            *at = {pane.rect.x + x, pane.rect.y + y};
+            a.injectCursorPos(at->first, at->second);
+            return;
+          }
+        throw Error(std::string("the ") + sliceAxisName(axis) + " slice is not shown");
+      });
+      s.once([](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0); });
+      s.once([](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0); });
+    }
+    s.once([](StudioApp& a) { a.studioTools().measure.mode = MeasureMode::Off; });
+  }
+  s.once([](StudioApp& a) {
+    const auto& items = a.studioTools().measure.items();
+    for (size_t i = 0; i < items.size(); ++i)
+      std::printf("measurement %zu: %s %.6f\n", i + 1, items[i].text().c_str(), items[i].value());
+    std::fflush(stdout);
+  });
+}
+
+void expandOpenRaw(Steps& s, const json& v) {
+  // {"path": RAW, "dims": [x, y, z], "type": "int16", "spacing": [sx, sy, sz], "endian":
+  // "little" | "big", "header": bytes}: the Open RAW dialog's answers; waits for the load.
+  RawDialogState d;
+  d.data = v.at("path").get<std::string>();
+  for (int a = 0; a < 3; ++a) d.dims[a] = v.at("dims").at(a).get<int>();
+  d.type = static_cast<int>(parseVoxelType(v.value("type", "int16")));
+  if (v.contains("spacing"))
+    for (int a = 0; a < 3; ++a) d.spacing[a] = v["spacing"].at(a).get<float>();
+  d.bigEndian = v.value("endian", "little") == "big";
+  d.headerBytes = v.value("header", 0);
+  s.once([d](StudioApp& a) { openRawAs(a, d); });
+  s.once([](StudioApp& a) {
+    if (a.errorBoxOpen()) throw Error("open raw failed (see the message above)");
+  });
+  s.until([](StudioApp& a) { return !a.loading(); });
+  s.frames(1);
+  s.once([](StudioApp& a) {
+    if (!a.lastLoadError().empty()) throw Error("open failed: " + a.lastLoadError());
+  });
+}
+
 void expandHud(Steps& s, const json& v) {
   const bool on = v.get<bool>();
   s.once([on](StudioApp& a) { a.hudVisible = on; });
@@ -743,6 +851,10 @@ const std::map<std::string, Expander>& expanders() {
       {"remove_islands", expandRemoveIslands},
       {"otsu", expandOtsu},
       {"export_command", expandExportCommand},
+      {"export_figure", expandExportFigure},
+      {"copy_command", expandCopyCommand},
+      {"measure", expandMeasure},
+      {"open_raw", expandOpenRaw},
       {"hud", expandHud},
       {"log", expandLog},
       {"controls", expandControls},

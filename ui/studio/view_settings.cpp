@@ -72,7 +72,7 @@ bool sameCamera(const render::Camera& a, const render::Camera& b) {
 bool ViewState::operator==(const ViewState& o) const {
   // Equal when every table field and the pan agree (RenderSettings has no operator==).
   for (const auto& f : render::renderSettingsTable())
-    if (f.get(render) != f.get(o.render)) return false;
+    if (params::format(f, render) != params::format(f, o.render)) return false;  // every kind, exactly
   if (!sameCamera(render.camera, o.render.camera) || view != o.view || illustration != o.illustration ||
       bookmarks.size() != o.bookmarks.size())
     return false;

@@ -143,7 +143,7 @@ vec4 tracePath(int px, int py, uint smp) {
   vec3 dir = normalize(uForward + uPersp * offset);
   vec3 o = uPhysToBox * (origin - uBoxOrigin), d = uPhysToBox * dir;
   vec3 inv = 1.0 / vec3(nonZero(d.x), nonZero(d.y), nonZero(d.z));
-  vec3 t0 = (vec3(-0.5) - o) * inv, t1 = (uBoxDims - vec3(0.5) - o) * inv;
+  vec3 t0 = (uClipLo - o) * inv, t1 = (uClipHi - o) * inv;  // primary rays: the clip box
   vec3 tlo = min(t0, t1), thi = max(t0, t1);
   float tmin = max(max(max(tlo.x, tlo.y), tlo.z), 0.0), tmax = min(min(thi.x, thi.y), thi.z);
   vec4 outc = vec4(0.0);

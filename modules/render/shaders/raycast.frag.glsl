@@ -10,6 +10,8 @@ uniform float uPersp;        // 1 perspective, 0 orthographic
 uniform mat3 uPhysToBox;     // physical offset -> box index offset
 uniform vec3 uBoxOrigin;     // physical position of box index (0,0,0)
 uniform vec3 uBoxDims;
+uniform vec3 uClipLo, uClipHi;  // the clip box in box index coordinates
+uniform int uOnlyLabel;         // LABELS: draw only this id (0 = all)
 uniform float uStep;         // mm
 uniform float uJitter;       // 1: per-pixel sample offset, 0: none
 uniform vec4 uBackground;

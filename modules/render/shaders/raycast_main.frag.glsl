@@ -3,6 +3,12 @@ void main() {
   FragmentRay ray = fragmentRay();
   vec3 origin = ray.origin, dir = ray.dir, o = ray.o, d = ray.d, inv = ray.inv;
   float tmin = ray.tmin, tmax = ray.tmax;
+  {  // the clip box (the whole voxel box unless set): the same steps, fewer of them
+    vec3 c0 = (uClipLo - o) * inv, c1 = (uClipHi - o) * inv;
+    vec3 lo = min(c0, c1), hi = max(c0, c1);
+    tmin = max(tmin, max(max(lo.x, lo.y), lo.z));
+    tmax = min(tmax, min(min(hi.x, hi.y), hi.z));
+  }
 
   vec4 acc = vec4(0.0);
 #ifdef MODE_MIP
@@ -91,6 +97,7 @@ void main() {
             if (a > best) { best = a; bi = q; }
           }
           uint id = bi.x >= 0 ? texelFetch(uLabels, bi, 0).r : 0u;
+          if (uOnlyLabel > 0 && id != uint(uOnlyLabel)) c = vec4(0.0);  // "this segment only"
           if (id < uint(MAX_TINT_LABELS)) {
             vec4 lc = texelFetch(uLabelColours, int(id), 0);
             c.rgb = mix(c.rgb, lc.rgb, uLabelBlend * lc.a);

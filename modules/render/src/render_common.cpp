@@ -45,6 +45,11 @@ Frame makeFrame(const Geometry& source, const Geometry* mapGrid, const RenderSet
                                             {0, 1.0 / f.box.spacing.y, 0},
                                             {0, 0, 1.0 / f.box.spacing.z});
   f.physToBox = invSpacing * dirInv;
+  // Exactly -0.5 and dims - 0.5 unclipped, so the default picture is bit-identical.
+  for (int a = 0; a < 3; ++a) {
+    f.clipLo[a] = -0.5 + s.clipMin[size_t(a)] * double(d[a]);
+    f.clipHi[a] = -0.5 + s.clipMax[size_t(a)] * double(d[a]);
+  }
 
   // Bounding sphere of the box's eight corners (voxel boxes, not centres).
   const Vec3 centre = f.box.indexToPhysical({(d.x - 1) * 0.5, (d.y - 1) * 0.5, (d.z - 1) * 0.5});
@@ -116,7 +121,7 @@ Clip clipRay(const Frame& f, const Ray& r, double jitter) {
   for (int a = 0; a < 3; ++a) {
     double da = c.d[a];
     if (std::abs(da) < 1e-12) da = da < 0 ? -1e-12 : 1e-12;
-    const double t0 = (-0.5 - c.o[a]) / da, t1 = (f.box.dims[a] - 0.5 - c.o[a]) / da;
+    const double t0 = (f.clipLo[a] - c.o[a]) / da, t1 = (f.clipHi[a] - c.o[a]) / da;
     tmin = std::max(tmin, std::min(t0, t1));
     tmax = std::min(tmax, std::max(t0, t1));
   }

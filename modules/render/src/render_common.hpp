@@ -51,6 +51,8 @@ struct Frame {
   /// map grid when deformed). physToBox maps physical offsets to box index offsets.
   Geometry box;
   Mat3 physToBox;
+  /// RenderSettings' clip box in box index coordinates ([-0.5, dims - 0.5] unclipped).
+  Vec3 clipLo, clipHi;
   double stepMm = 1;
 };
 

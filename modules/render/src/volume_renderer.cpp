@@ -429,7 +429,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.gaussian = deform && deform->upsampling == Upsampling::Gaussian;
   variant.snap = deform && snap.has_value();
   variant.outputBox = deform && output.has_value();
-  variant.labels = hasLabels && s.labelBlend > 0 && !variant.mip;
+  variant.labels = hasLabels && (s.labelBlend > 0 || s.onlyLabel > 0) && !variant.mip;
   variant.opaqueDepth = opaqueDepth;
   variant.turnNormals = deform && s.shading && s.turnDeformedNormals && !variant.mip;
   variant.lighting = s.lighting.on() && s.shading && !variant.mip && lightSource != nullptr;
@@ -575,6 +575,9 @@ void VolumeRenderer::Impl::setFrameUniforms(GLuint p, const RenderSettings& s, c
   glUniformMatrix3fv(glGetUniformLocation(p, "uPhysToBox"), 1, GL_TRUE, mat);
   uniform3(p, "uBoxOrigin", f.box.origin);
   uniform3(p, "uBoxDims", {double(f.box.dims.x), double(f.box.dims.y), double(f.box.dims.z)});
+  uniform3(p, "uClipLo", f.clipLo);
+  uniform3(p, "uClipHi", f.clipHi);
+  glUniform1i(glGetUniformLocation(p, "uOnlyLabel"), s.onlyLabel);
   uniform1(p, "uStep", f.stepMm);
   uniform1(p, "uJitter", s.jitter ? 1.0 : 0.0);
   glUniform4f(glGetUniformLocation(p, "uBackground"), s.background[0], s.background[1],

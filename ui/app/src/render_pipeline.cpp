@@ -101,16 +101,17 @@ RenderResult runRender(const RenderRequest& r, Progress& progress) {
   if (attributeMap) renderer.setBackwardMap(&*attributeMap);
   // Label colours tint the volume (the studio's "Label colours"): labelColours, or with a
   // label blend alone the label map's colours.
-  if (!r.labelColours.empty() && s.labelBlend == 0) s.labelBlend = 0.5;
+  // With --only-label the labels filter; the blend is then only what --label-blend says.
+  if (!r.labelColours.empty() && s.labelBlend == 0 && s.onlyLabel == 0) s.labelBlend = 0.5;
   std::optional<render::LabelTint> tint;
-  if (s.labelBlend > 0) {
+  if (s.labelBlend > 0 || s.onlyLabel > 0) {
     std::optional<LabelVolume> colours;
     if (!r.labelColours.empty()) {
       colours = loadLabelsLike(r.labelColours, r.load);
       requireSameGrid(*colours, grid, r.labelColours);
     }
     const LabelVolume* source = colours ? &*colours : labels ? &*labels : nullptr;
-    if (!source) throw Error("--label-blend needs --label-colours (the labels whose colours tint the volume)");
+    if (!source) throw Error("--label-blend and --only-label need --label-colours (the label map)");
     tint = render::makeLabelTint(*source);
     renderer.setLabelTint(&*tint);
   }

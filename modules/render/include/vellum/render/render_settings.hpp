@@ -102,6 +102,13 @@ struct RenderSettings {
   /// Label colours in the 3D view: how much each sample's label colour replaces the transfer
   /// function's colour (0 = off; needs a LabelTint, see label_tint.hpp). DVR only.
   double labelBlend = 0.0;
+  /// Clipping box (region of interest): only what lies inside is drawn, as fractions of the
+  /// voxel box along its i, j, k axes (of the map grid when deformed); 0..1 = all of it.
+  /// The key light's shadows and the path tracer's scattering still see the whole volume.
+  std::array<double, 3> clipMin{0, 0, 0}, clipMax{1, 1, 1};
+  /// Draws only the samples of this label id (0 = all); needs a LabelTint (the label map).
+  /// DVR, ray caster.
+  int onlyLabel = 0;
   Lighting lighting;  ///< DVR with shading only
   Quality quality = Quality::Standard;  ///< cinematic: VolumeRenderer::render() path traces (DVR presets)
   Cinematic cinematic;
