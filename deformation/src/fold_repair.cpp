@@ -193,6 +193,16 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
           if (g.node(a, b, c) != n && forbidden((next + at(u, g.node(a, b, c))) * 0.5)) return true;
     return false;
   };
+  constexpr double kWorstFloor = -1.0;
+  auto worstAround = [&](int64_t n) {
+    const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+    double w = std::numeric_limits<double>::infinity();
+    for (int q = 0; q < 8; ++q) {
+      const int64_t a = i - (q & 1), b = j - ((q >> 1) & 1), c = k - ((q >> 2) & 1);
+      if (g.isCell(a, b, c)) w = std::min(w, cellMin(u, g, a, b, c));
+    }
+    return w;
+  };
   const double maxStep = 0.2 * std::min({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
   // Passes without fewer folding cells after which the repair gives up.
   constexpr int kStallRounds = 50;
@@ -274,7 +284,20 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
       // A node may not move into a rigid body, nor bring the voxels between it and a neighbour
       // there (the midpoints stand for them): they would show bone moved non-rigidly.
       if (forbidden && intoBody(n, next)) continue;
-      for (int a = 0; a < 3; ++a) u[static_cast<size_t>(3 * n + a)] = static_cast<float>(next[a]);
+      // No gross folds made: a move that drops the worst of the node's 8 cells below -1 (or
+      // deeper, where it already was) is undone; shallow transient dips are what the
+      // projections need to get out of a fold. Without it, nodes released next to two bodies locked hard
+      // with very different transforms (the hallux on the feet) were pushed into ever worse cells.
+      const double worstBefore = worstAround(n);
+      float old[3];
+      for (int a = 0; a < 3; ++a) {
+        old[a] = u[static_cast<size_t>(3 * n + a)];
+        u[static_cast<size_t>(3 * n + a)] = static_cast<float>(next[a]);
+      }
+      if (const double worstAfter = worstAround(n); worstAfter < worstBefore && worstAfter < kWorstFloor) {
+        for (int a = 0; a < 3; ++a) u[static_cast<size_t>(3 * n + a)] = old[a];
+        continue;
+      }
       if (!written[static_cast<size_t>(n)]) { written[static_cast<size_t>(n)] = 1; ++st.nodesRelaxed; }
       // The 8 cells around the node changed.
       const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);

@@ -140,9 +140,8 @@ TEST(FoldRepair, RigidBlendLeavesNoFoldInTissueAndKeepsBonesAndFixedRegions) {
 
 // Two bones one above the other (a joint gap of 6 mm, two control cells) turn opposite ways,
 // 15 degrees each about the medio-lateral axis through the gap, as a pose gives them: the back
-// of the gap closes to a third. Their weight-1 cores lock every node of the gap, so a repair
-// that never moves a core node leaves the folds there; releasing the cores' nodes outside the
-// bones (soft locks) unfolds the gap with the bones exactly rigid.
+// of the gap closes to a third and the blend folds there. After the repair no tissue voxel
+// folds, no cell is left locked all round, and both bones keep their turn exactly.
 TEST(FoldRepair, TwoBonesTurningOppositeWaysLeaveNoFold) {
   Geometry g;
   g.dims = {32, 36, 44};
@@ -177,7 +176,6 @@ TEST(FoldRepair, TwoBonesTurningOppositeWaysLeaveNoFold) {
   const FoldRepairStats st = applyRigidity(repaired, bodies, on, known);
   const RigidityReport a = measureRigidityVoxels(plain, g, bodies), b = measureRigidityVoxels(repaired, g, bodies);
   ASSERT_GT(a.foldFraction, 0.0) << "the blend must fold between the bones (else the test proves nothing)";
-  EXPECT_GT(st.nodesReleased, 0);
   EXPECT_EQ(st.lockedCells, 0);
   EXPECT_EQ(b.foldFraction, 0.0) << "min det J " << b.minJacobian << ", cells left " << st.cellsAfter;
   EXPECT_GT(b.minJacobian, 0.0);
