@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
@@ -14,7 +15,6 @@
 #include "vellum/core/process_time.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/map_file.hpp"
-#include "vellum/deformation/mls.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/deformation/synthesis.hpp"
 
@@ -85,9 +85,8 @@ Volume<T> padded(const Volume<T>& v, const Padding& pad, T fill) {
 }
 
 /// The automatic padding (--pad-mm -1), per axis and side: the content (voxels above the
-/// background: CT above -500 HU) on a coarse lattice is carried forward by the points' map (the
-/// MLS map from sources to targets: the forward displacement; points in air carry nothing);
-/// a side grows by how far that passes its face, plus half the lattice step and a
+/// background: CT above -500 HU) on a coarse lattice is carried forward by the displacement of
+/// its nearest control point (the forward displacement; points in air carry nothing); a side grows by how far that passes its face, plus half the lattice step and a
 /// control cell diagonal (what the lattice and the blend may add). Sides nothing moves out of
 /// stay: a foot flexing down grows the floor only.
 Padding autoPadding(const Run& run) {
@@ -106,9 +105,21 @@ Padding autoPadding(const Run& run) {
               if (double(v(i, j, k)) > above) content.push_back(g.indexToPhysical({double(i), double(j), double(k)}));
       },
       run.loaded.volume);
-  ControlPoints forward;
-  for (const auto& p : run.points.points) forward.push_back({p.target, p.source, {}});  // source -> target
-  const std::vector<Vec3> moved = content.empty() || forward.empty() ? std::vector<Vec3>{} : evaluateMls(forward, run.params.mls, content);
+  // Each sample moves as its nearest control point does: local, so content held by still
+  // points (a leg above a flexing foot, the fixed regions' points) does not move, where the MLS
+  // field's far reach moved the top of the feet's legs 22 mm up. Parallel over the samples.
+  const auto& pts = run.points.points;
+  std::vector<Vec3> moved(content.size());
+  parallelFor(static_cast<int64_t>(content.size()), [&](int64_t t0, int64_t t1) {
+    for (int64_t t = t0; t < t1; ++t) {
+      const Vec3& x = content[static_cast<size_t>(t)];
+      double best = std::numeric_limits<double>::infinity();
+      Vec3 d{0, 0, 0};
+      for (const auto& p : pts)
+        if (const double e = dot(p.source - x, p.source - x); e < best) { best = e; d = p.target - p.source; }
+      moved[static_cast<size_t>(t)] = x + d;
+    }
+  });
   const double margin = 0.5 * double(step) + norm(g.spacing) * run.params.controlScale / std::min({g.spacing.x, g.spacing.y, g.spacing.z});
   double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};  // voxels past each face
   for (const Vec3& m : moved) {
