@@ -63,7 +63,6 @@ struct Run {
 /// Voxels added below (lo) and above (hi) the box along each axis.
 struct Padding {
   std::array<int64_t, 3> lo{0, 0, 0}, hi{0, 0, 0};
-  bool any() const { return lo != std::array<int64_t, 3>{0, 0, 0} || hi != std::array<int64_t, 3>{0, 0, 0}; }
 };
 
 /// `v` inside a box grown by pad.lo[a] / pad.hi[a] voxels below / above along axis a, `fill`
@@ -86,7 +85,8 @@ Volume<T> padded(const Volume<T>& v, const Padding& pad, T fill) {
 
 /// The automatic padding (--pad-mm -1), per axis and side: the content (voxels above the
 /// background: CT above -500 HU) on a coarse lattice is carried forward by the displacement of
-/// its nearest control point (the forward displacement; points in air carry nothing); a side grows by how far that passes its face, plus half the lattice step and a
+/// its nearest control point (the forward displacement of what is there; points in air carry
+/// nothing); a side grows by how far that passes its face, plus half the lattice step and a
 /// control cell diagonal (what the lattice and the blend may add). Sides nothing moves out of
 /// stay: a foot flexing down grows the floor only.
 Padding autoPadding(const Run& run) {
@@ -120,7 +120,8 @@ Padding autoPadding(const Run& run) {
       moved[static_cast<size_t>(t)] = x + d;
     }
   });
-  const double margin = 0.5 * double(step) + norm(g.spacing) * run.params.controlScale / std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double margin = 0.5 * double(step) + norm(g.spacing) * run.params.controlScale / minSpacing;  // voxels
   double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};  // voxels past each face
   for (const Vec3& m : moved) {
     const Vec3 idx = g.physicalToIndex(m);
