@@ -5,8 +5,8 @@
 // moves the FREE corners of each folding cell, pass after pass, to lift its Jacobians above a
 // threshold (projections of the linearised Jacobians, averaged per node, a bounded step), and
 // checks the cells around what moved, so a fold spreads into a transition wide enough not to
-// fold. Locked nodes (rigid cores, fixed regions) are never written, so bones stay exactly as
-// rigid and fixed regions exactly still. See docs/deformation.md.
+// fold. Hard-locked nodes (inside bones, fixed voxels' cells) are never written, soft ones only
+// where a fold is locked all round: bones stay rigid, fixed regions still. docs/deformation.md.
 #include <cstdint>
 #include <functional>
 #include <vector>
