@@ -63,6 +63,7 @@ double cellMin(const std::vector<float>& u, const Grid& g, int64_t i, int64_t j,
 struct Scan {
   std::vector<int64_t> bad;
   double minDet = std::numeric_limits<double>::infinity();
+  double goodMin = std::numeric_limits<double>::infinity();  ///< over the cells at or above the threshold
 };
 Scan scanCells(const std::vector<float>& u, const Grid& g, const std::vector<int64_t>* candidates, double threshold,
                const std::function<bool(const Vec3&)>& cares) {
@@ -75,6 +76,7 @@ Scan scanCells(const std::vector<float>& u, const Grid& g, const std::vector<int
       const double det = cellMin(u, g, i, j, k);
       if (det >= threshold) {
         local.minDet = std::min(local.minDet, det);
+        local.goodMin = std::min(local.goodMin, det);
         return;
       }
       bool care = !cares;
@@ -97,6 +99,7 @@ Scan scanCells(const std::vector<float>& u, const Grid& g, const std::vector<int
     std::lock_guard lock(mutex);
     s.bad.insert(s.bad.end(), local.bad.begin(), local.bad.end());
     s.minDet = std::min(s.minDet, local.minDet);
+    s.goodMin = std::min(s.goodMin, local.goodMin);
   });
   std::sort(s.bad.begin(), s.bad.end());
   return s;
@@ -125,17 +128,49 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
   st.minJacobianBefore = scan.minDet;
   st.minJacobianAfter = scan.minDet;
   if (scan.bad.empty()) return st;
-  auto isLocked = [&](int64_t n) { return !locked.empty() && locked[static_cast<size_t>(n)] != 0; };
-  auto allLocked = [&](int64_t c) {
+  const double untouchedMin = scan.goodMin;  // cells never written around keep their det
+  // Every cell that was folding or had a corner moved: the only ones the final count must visit.
+  std::vector<uint8_t> visited(static_cast<size_t>(nodes), 0);
+  std::vector<int64_t> visitedList = scan.bad;
+  for (int64_t c : scan.bad) visited[static_cast<size_t>(c)] = 1;
+  // The lock levels, copied: soft locks are released below where a fold is locked all round.
+  std::vector<uint8_t> lock = locked;
+  auto isLocked = [&](int64_t n) { return !lock.empty() && lock[static_cast<size_t>(n)] != kNodeFree; };
+  auto corners = [&](int64_t c, int64_t (&out)[8]) {
     const int64_t i = c % g.d.x, j = (c / g.d.x) % g.d.y, k = c / (g.d.x * g.d.y);
+    for (int q = 0; q < 8; ++q) out[q] = g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1));
+  };
+  auto allHard = [&](int64_t c) {
+    int64_t n[8];
+    corners(c, n);
     for (int q = 0; q < 8; ++q)
-      if (!isLocked(g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1)))) return false;
+      if (lock.empty() || lock[static_cast<size_t>(n[q])] != kNodeHardLock) return false;
     return true;
   };
-  // A cell whose 8 corners are locked cannot be repaired here (two rigid fits, or a fit and a
-  // fixed region, meet in it): growing a region around it would only smooth tissue for nothing.
+  // A folding cell whose 8 corners are all locked (two bodies' cores, or a core and a fixed
+  // region's margin, meet in it: bones turning differently side by side) gets its soft-locked
+  // corners released: a node only has to hold where it lies inside its bone (the voxel snap
+  // and the midpoint guard below keep the bone's voxels exact). A cell locked hard all round
+  // (two bodies' voxels in one cell) cannot be repaired here and is dropped: growing a region
+  // around it would only smooth tissue for nothing.
   auto dropLocked = [&](std::vector<int64_t>& cells) {
-    cells.erase(std::remove_if(cells.begin(), cells.end(), allLocked), cells.end());
+    cells.erase(std::remove_if(cells.begin(), cells.end(),
+                               [&](int64_t c) {
+                                 int64_t n[8];
+                                 corners(c, n);
+                                 bool anyFree = false;
+                                 for (int q = 0; q < 8 && !anyFree; ++q) anyFree = !isLocked(n[q]);
+                                 if (anyFree) return false;
+                                 bool released = false;
+                                 for (int q = 0; q < 8; ++q)
+                                   if (lock[static_cast<size_t>(n[q])] == kNodeSoftLock) {
+                                     lock[static_cast<size_t>(n[q])] = kNodeFree;
+                                     ++st.nodesReleased;
+                                     released = true;
+                                   }
+                                 return !released;
+                               }),
+                cells.end());
   };
   dropLocked(scan.bad);
   // Each pass moves the free corners of every folding cell so that its Jacobians rise: for
@@ -158,11 +193,22 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
           if (g.node(a, b, c) != n && forbidden((next + at(u, g.node(a, b, c))) * 0.5)) return true;
     return false;
   };
+  constexpr double kWorstFloor = -1.0;
+  auto worstAround = [&](int64_t n) {
+    const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+    double w = std::numeric_limits<double>::infinity();
+    for (int q = 0; q < 8; ++q) {
+      const int64_t a = i - (q & 1), b = j - ((q >> 1) & 1), c = k - ((q >> 2) & 1);
+      if (g.isCell(a, b, c)) w = std::min(w, cellMin(u, g, a, b, c));
+    }
+    return w;
+  };
   const double maxStep = 0.2 * std::min({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
   // Passes without fewer folding cells after which the repair gives up.
-  constexpr int kStallRounds = 200;
+  constexpr int kStallRounds = 50;
   size_t fewest = scan.bad.size();
   int lastGain = 0;
+  bool releasedAtStall = false;
   for (; st.rounds < params.maxRounds && !scan.bad.empty(); ++st.rounds) {
     touched.clear();
     for (int64_t c : scan.bad) {
@@ -238,7 +284,20 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
       // A node may not move into a rigid body, nor bring the voxels between it and a neighbour
       // there (the midpoints stand for them): they would show bone moved non-rigidly.
       if (forbidden && intoBody(n, next)) continue;
-      for (int a = 0; a < 3; ++a) u[static_cast<size_t>(3 * n + a)] = static_cast<float>(next[a]);
+      // No gross folds made: a move that drops the worst of the node's 8 cells below -1 (or
+      // deeper, where it already was) is undone; shallow transient dips are what the
+      // projections need to get out of a fold. Without it, nodes released next to two bodies locked hard
+      // with very different transforms (the hallux on the feet) were pushed into ever worse cells.
+      const double worstBefore = worstAround(n);
+      float old[3];
+      for (int a = 0; a < 3; ++a) {
+        old[a] = u[static_cast<size_t>(3 * n + a)];
+        u[static_cast<size_t>(3 * n + a)] = static_cast<float>(next[a]);
+      }
+      if (const double worstAfter = worstAround(n); worstAfter < worstBefore && worstAfter < kWorstFloor) {
+        for (int a = 0; a < 3; ++a) u[static_cast<size_t>(3 * n + a)] = old[a];
+        continue;
+      }
       if (!written[static_cast<size_t>(n)]) { written[static_cast<size_t>(n)] = 1; ++st.nodesRelaxed; }
       // The 8 cells around the node changed.
       const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
@@ -249,7 +308,10 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
         if (!seen[static_cast<size_t>(cell)]) { seen[static_cast<size_t>(cell)] = 1; cellMark.push_back(cell); }
       }
     }
-    for (int64_t c : cellMark) seen[static_cast<size_t>(c)] = 0;
+    for (int64_t c : cellMark) {
+      seen[static_cast<size_t>(c)] = 0;
+      if (!visited[static_cast<size_t>(c)]) { visited[static_cast<size_t>(c)] = 1; visitedList.push_back(c); }
+    }
     // Once a fold is being repaired its neighbours are checked whether they map to tissue or
     // not: the compression must be free to spread into the air next to the skin.
     scan = scanCells(u, g, &cellMark, params.minJacobian, {});
@@ -259,15 +321,34 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
       fewest = scan.bad.size();
       lastGain = st.rounds;
     } else if (st.rounds - lastGain > kStallRounds) {
-      ++st.rounds;
-      break;
+      // Stalled: the free corners cannot lift what is left. Once, release the soft locks of
+      // every cell still folding (a cell with 4-7 locked corners may need them) and go on.
+      bool released = false;
+      if (!releasedAtStall)
+        for (int64_t c : scan.bad) {
+          int64_t n[8];
+          corners(c, n);
+          for (int q = 0; q < 8; ++q)
+            if (!lock.empty() && lock[static_cast<size_t>(n[q])] == kNodeSoftLock) {
+              lock[static_cast<size_t>(n[q])] = kNodeFree;
+              ++st.nodesReleased;
+              released = true;
+            }
+        }
+      releasedAtStall = true;
+      if (!released) {
+        ++st.rounds;
+        break;
+      }
+      lastGain = st.rounds;
     }
   }
-  // The final count over every cell (a relaxed node may have bent a cell it was not checked in).
-  const Scan after = scanCells(u, g, nullptr, params.minJacobian, cares);
+  // The final count over every cell that folded or had a corner moved (a relaxed node may have
+  // bent a cell it was not checked in); the others are as the first scan found them.
+  const Scan after = scanCells(u, g, &visitedList, params.minJacobian, cares);
   st.cellsAfter = static_cast<int64_t>(after.bad.size());
-  st.minJacobianAfter = after.minDet;
-  st.lockedCells = std::count_if(after.bad.begin(), after.bad.end(), allLocked);
+  st.minJacobianAfter = std::min(after.minDet, untouchedMin);
+  st.lockedCells = std::count_if(after.bad.begin(), after.bad.end(), allHard);
   return st;
 }
 

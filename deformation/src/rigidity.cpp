@@ -526,8 +526,8 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
   // the fold repair never moves them. The band around a body stays free: the voxel snap keeps
   // the voxels that land in the body on its fit within a cell diagonal.
   std::vector<uint8_t> locked(params.repairFolds ? static_cast<size_t>(d.voxelCount()) : 0, 0);
-  auto lock = [&](int64_t node) {
-    if (!locked.empty()) locked[static_cast<size_t>(node)] = 1;
+  auto lock = [&](int64_t node, uint8_t level) {
+    if (!locked.empty()) locked[static_cast<size_t>(node)] = level;
   };
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
@@ -547,12 +547,14 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
             fixedW = weight(std::min(f.sample(gi, d), f.at(i, j, k)), fixedMargin);
             if (fixedW >= 1) {  // exactly where it was
               o[0] = static_cast<float>(v.x); o[1] = static_cast<float>(v.y); o[2] = static_cast<float>(v.z);
-              lock(node);
+              // Hard at the corners of the cells holding a fixed voxel (field 0 there): they
+              // keep those voxels exactly still; the margin beyond may give way to a fold.
+              lock(node, f.at(i, j, k) <= 0 ? kNodeHardLock : kNodeSoftLock);
               continue;
             }
           }
           double sum = fixedW;
-          bool core = false;  // lands in a body: locked
+          bool core = false;  // weight 1 (within a spacing of a body): soft-locked
           Vec3 acc = v * fixedW;
           for (int c = 0; c < nc; ++c) {
             if (c == fixedBody || !fits[static_cast<size_t>(c)].valid) continue;
@@ -567,11 +569,10 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
           // A node that now lands inside a body follows that body exactly (only happens in
           // the inner band where the weight is already ~1, so the snap is invisible).
           const uint16_t c2 = lookup.bodyClassAt(out);
-          if (c2 >= 2 && fits[c2 - 2u].valid) {
-            out = fits[c2 - 2u].apply(v);
-            core = true;
-          }
-          if (core) lock(node);
+          const bool inBody = c2 >= 2 && fits[c2 - 2u].valid;
+          if (inBody) out = fits[c2 - 2u].apply(v);
+          if (inBody) lock(node, kNodeHardLock);
+          else if (core) lock(node, kNodeSoftLock);
           o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);
         }
   });

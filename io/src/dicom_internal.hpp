@@ -112,6 +112,14 @@ int64_t decodeFile(const FileHeader& header,
 void resampleStack(const SlicePlan& plan, const std::vector<int16_t>& stack, VolumeI16& out,
                    double background, Progress* progress);
 
+/// Repairs single mis-registered slices of the decoded stack (one slice per plan slice, i
+/// fastest) in place: a slice whose correlation with both neighbours drops far below theirs
+/// with each other, and that an in-plane shift brings back into line, is replaced by
+/// interpolating its neighbours (linear along the normal). One warning per repaired slice,
+/// naming its file, the shift and the correlations. Returns how many slices were replaced.
+int64_t repairMisregisteredSlices(const SlicePlan& plan, int16_t* stack, int64_t columns, int64_t rows,
+                                  std::vector<std::string>& warnings);
+
 /// "1.234" style short number for messages.
 std::string num(double v, int decimals = 3);
 

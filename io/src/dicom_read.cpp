@@ -222,6 +222,10 @@ LoadedVolume loadDicom(const std::filesystem::path& path, const LoadOptions& opt
   const int64_t saturated = decodeIntoStack(files, targets, plan, stack, progress, asFloat);
   if (progress) progress->end();
 
+  // Single mis-registered slices, before resampling (which would spread one into two).
+  if (options.repairSlices)
+    repairMisregisteredSlices(plan, stack.data(), stackGeometry.dims.x, stackGeometry.dims.y, result.warnings);
+
   if (duplicateCount > 0)
     result.warnings.push_back("dropped " + std::to_string(duplicateCount) +
                               " duplicate slice" + (duplicateCount > 1 ? "s" : "") +

@@ -2,6 +2,7 @@
 // sort along the slice normal (never by file name or InstanceNumber), measure the spacing,
 // detect duplicates, gaps, uneven spacing and gantry tilt, and resample when needed.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 
@@ -183,9 +184,20 @@ double sliceSpacing(SlicePlan& plan, int64_t& count) {
                                       [&](double g) { return g > 1.5 * target; });
       std::string why = "uneven slice spacing: gaps between slices range " + num(minGap, 3) +
                         ".." + num(maxGap, 3) + " mm";
-      if (wide > 0)
+      if (wide > 0) {
         why += " (" + std::to_string(wide) + " gap" + (wide > 1 ? "s" : "") +
-               " wider than 1.5x " + num(target, 3) + " mm: missing slices?)";
+               " wider than 1.5x " + num(target, 3) + " mm: missing slices?";
+        // Name where (the first few): the slice files on either side of each gap.
+        int named = 0;
+        for (size_t k = 1; k < n && named < 3; ++k)
+          if (gaps[k - 1] > 1.5 * target) {
+            why += std::string(named++ ? ";" : "") + " between " + plan.slices[k - 1].file.filename().string() +
+                   " and " + plan.slices[k].file.filename().string() + " at " + num(plan.offsets[k - 1], 3) +
+                   ".." + num(plan.offsets[k], 3) + " mm, interpolated from them";
+          }
+        if (wide > named) why += "; ...";
+        why += ")";
+      }
       plan.warnings.push_back(why + "; resampled " + std::to_string(n) + " slices to " +
                               std::to_string(count) + " slices " + num(spacing, 3) +
                               " mm apart by linear interpolation along the slice normal");
@@ -287,6 +299,87 @@ void resampleStack(const SlicePlan& plan, const std::vector<int16_t>& stack, Vol
     }
   });
   if (progress) progress->end();
+}
+
+namespace {
+
+/// Normalised cross-correlation of slice `a` moved by (dx, dy) pixels against `b` (b(i, j) with
+/// a(i - dx, j - dy)) over a lattice of every `step`-th pixel where both exist; b may be a
+/// float image (the neighbours' mean). -1 when there is nothing to compare or no contrast.
+template <class B>
+double correlation(const int16_t* a, const B* b, int64_t nx, int64_t ny, int64_t dx, int64_t dy, int64_t step) {
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+  int64_t n = 0;
+  for (int64_t j = std::max<int64_t>(0, dy); j < std::min(ny, ny + dy); j += step)
+    for (int64_t i = std::max<int64_t>(0, dx); i < std::min(nx, nx + dx); i += step) {
+      const double x = a[(j - dy) * nx + (i - dx)], y = b[j * nx + i];
+      sa += x; sb += y; saa += x * x; sbb += y * y; sab += x * y;
+      ++n;
+    }
+  if (n < 16) return -1;
+  const double va = saa - sa * sa / double(n), vb = sbb - sb * sb / double(n);
+  if (va <= 1e-9 || vb <= 1e-9) return -1;
+  return (sab - sa * sb / double(n)) / std::sqrt(va * vb);
+}
+
+}  // namespace
+
+int64_t repairMisregisteredSlices(const SlicePlan& plan, int16_t* stack, int64_t nx, int64_t ny,
+                                  std::vector<std::string>& warnings) {
+  const auto n = static_cast<int64_t>(plan.slices.size());
+  if (n < 3 || nx < 8 || ny < 8) return 0;
+  const int64_t plane = nx * ny;
+  // About 128 x 128 samples per slice whatever its size: a shift of a whole slice shows at that scale.
+  const int64_t step = std::max<int64_t>(1, std::min(nx, ny) / 128);
+  auto slice = [&](int64_t k) { return stack + k * plane; };
+  // Each interior slice against its two neighbours, and the neighbours against each other.
+  std::vector<std::array<double, 3>> c(static_cast<size_t>(n), {1, 1, 1});
+  parallelFor(n - 2, [&](int64_t t0, int64_t t1) {
+    for (int64_t k = t0 + 1; k < t1 + 1; ++k)
+      c[static_cast<size_t>(k)] = {correlation(slice(k), slice(k - 1), nx, ny, 0, 0, step),
+                                   correlation(slice(k), slice(k + 1), nx, ny, 0, 0, step),
+                                   correlation(slice(k - 1), slice(k + 1), nx, ny, 0, 0, step)};
+  });
+  int64_t repaired = 0;
+  std::vector<float> mean(static_cast<size_t>(plane));
+  for (int64_t k = 1; k + 1 < n; ++k) {
+    const auto [prev, next, across] = c[static_cast<size_t>(k)];
+    // The neighbours agree with each other, the slice with neither: a drop of at least 0.1 and
+    // three times the neighbours' own distance from 1 (an ordinary slice correlates better with
+    // its neighbours than they do with each other two spacings apart).
+    const double best = std::max(prev, next);
+    if (!(across > 0.5 && best < across - 0.1 && 1 - best > 3 * (1 - across))) continue;
+    // Does an in-plane shift explain it? Search +-1/16 of the slice on the lattice, then refine.
+    const int64_t prevOff = (k - 1) * plane, nextOff = (k + 1) * plane;
+    for (int64_t p = 0; p < plane; ++p) mean[static_cast<size_t>(p)] = 0.5f * (float(stack[prevOff + p]) + float(stack[nextOff + p]));
+    const int64_t reach = std::max<int64_t>(2, std::max(nx, ny) / 16);
+    double bestC = -2;
+    int64_t bx = 0, by = 0;
+    for (int64_t dy = -reach; dy <= reach; dy += step)
+      for (int64_t dx = -reach; dx <= reach; dx += step)
+        if (const double r = correlation(slice(k), mean.data(), nx, ny, dx, dy, step); r > bestC) { bestC = r; bx = dx; by = dy; }
+    const int64_t cx = bx, cy = by;
+    for (int64_t dy = cy - step; dy <= cy + step; ++dy)
+      for (int64_t dx = cx - step; dx <= cx + step; ++dx)
+        if (const double r = correlation(slice(k), mean.data(), nx, ny, dx, dy, step); r > bestC) { bestC = r; bx = dx; by = dy; }
+    if ((bx == 0 && by == 0) || bestC < across - 0.05) continue;  // not a shift: leave it (anatomy, artefact)
+    const double o0 = plan.offsets[static_cast<size_t>(k - 1)], o1 = plan.offsets[static_cast<size_t>(k)],
+                 o2 = plan.offsets[static_cast<size_t>(k + 1)];
+    const double t = o2 > o0 ? (o1 - o0) / (o2 - o0) : 0.5;
+    int16_t* dst = slice(k);
+    for (int64_t p = 0; p < plane; ++p) {
+      const double v = double(stack[prevOff + p]) + t * (double(stack[nextOff + p]) - double(stack[prevOff + p]));
+      dst[p] = static_cast<int16_t>(std::clamp(std::round(v), -32768.0, 32767.0));
+    }
+    ++repaired;
+    warnings.push_back("slice " + std::to_string(k + 1) + " of " + std::to_string(n) + " (" +
+                       plan.slices[static_cast<size_t>(k)].file.filename().string() + ", " + num(o1, 3) +
+                       " mm) is mis-registered: shifted by (" + std::to_string(-bx) + ", " + std::to_string(-by) +
+                       ") pixels against both neighbours (correlation " + num(prev, 2) + " / " + num(next, 2) +
+                       " with them, " + num(across, 2) + " between them, " + num(bestC, 2) +
+                       " shifted back); replaced by interpolating its neighbours (--no-slice-repair keeps it)");
+  }
+  return repaired;
 }
 
 }  // namespace vellum::io::detail::dicom

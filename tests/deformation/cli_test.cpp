@@ -172,8 +172,8 @@ TEST(DeformCli, DownsampleAndCropApplyToTheVolumeAndItsLabels) {
 }
 
 // Issue 23 §4 (no cuts) and §6 (one gzip stream): a block of tissue near the +x face moves 8 mm
-// out of the box. Without padding the box cuts it; with --pad-mm -1 (automatic) every tissue
-// voxel is in the output, at its world position + 8 mm (the origin moved out). The map file is
+// out of the box. Without padding the box cuts it; with --pad-mm -1 (automatic, per side) only
+// the +x side grows and every tissue voxel is in the output, at its world position + 8 mm. The map file is
 // one gzip member (zlib inflates it in one go to its end) or raw with --no-gzip; both load.
 TEST(DeformCli, PaddingKeepsEveryMovedVoxelAndTheMapIsOneGzipStream) {
   const auto dir = vellum::test::tempDir("deform-pad");
@@ -212,9 +212,10 @@ TEST(DeformCli, PaddingKeepsEveryMovedVoxelAndTheMapIsOneGzipStream) {
        (dir / "pad.json").string()});
   const auto pad = std::get<VolumeI16>(io::loadVolume(dir / "pad.nrrd").volume);
   const Geometry& pg = pad.geometry();
-  // Automatic: 8 mm + a control cell diagonal (2 x 1.73 mm) -> 12 voxels per side.
-  EXPECT_EQ(pg.dims, (Dims{56, 56, 56}));
-  EXPECT_LT(norm(pg.origin - (g.origin - Vec3{12, 12, 12})), 1e-9);
+  // Automatic: the block's +x face (x index 27) goes 4 voxels past the box's (31), + half a
+  // lattice step and a control cell diagonal (0.5 + 2 x 1.73) -> 8 voxels above x, nothing else.
+  EXPECT_EQ(pg.dims, (Dims{40, 32, 32}));
+  EXPECT_LT(norm(pg.origin - g.origin), 1e-9);
   EXPECT_EQ(countTissue(pad), tissue);
   for (int64_t k = 8; k < 24; ++k)
     for (int64_t j = 8; j < 24; ++j)
@@ -223,14 +224,15 @@ TEST(DeformCli, PaddingKeepsEveryMovedVoxelAndTheMapIsOneGzipStream) {
         ASSERT_EQ(pad(std::llround(o.x), std::llround(o.y), std::llround(o.z)), ct(i, j, k)) << i << "," << j << "," << k;
       }
   const nlohmann::json r = nlohmann::json::parse(std::ifstream(dir / "pad.json"));
-  EXPECT_EQ(r["pad_voxels"], nlohmann::json({12, 12, 12}));
+  EXPECT_EQ(r["pad_voxels"]["low"], nlohmann::json({0, 0, 0}));
+  EXPECT_EQ(r["pad_voxels"]["high"], nlohmann::json({8, 0, 0}));
 
   // The map: one gzip member after the header, which zlib inflates to exactly the map's bytes.
   std::ifstream m(dir / "map.nrrd", std::ios::binary);
   const std::string file((std::istreambuf_iterator<char>(m)), std::istreambuf_iterator<char>());
   const size_t body = file.find("\n\n") + 2;
   ASSERT_NE(file.find("encoding: gzip"), std::string::npos);
-  std::vector<uint8_t> bytes(size_t{56} * 56 * 56 * 3 * 4 + 16);
+  std::vector<uint8_t> bytes(size_t{40} * 32 * 32 * 3 * 4 + 16);
   z_stream zs{};
   inflateInit2(&zs, 15 + 16);
   zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(file.data() + body));
@@ -239,7 +241,7 @@ TEST(DeformCli, PaddingKeepsEveryMovedVoxelAndTheMapIsOneGzipStream) {
   zs.avail_out = static_cast<uInt>(bytes.size());
   EXPECT_EQ(inflate(&zs, Z_FINISH), Z_STREAM_END);
   EXPECT_EQ(zs.total_in, file.size() - body) << "more than one gzip member";
-  EXPECT_EQ(zs.total_out, size_t{56} * 56 * 56 * 3 * 4);
+  EXPECT_EQ(zs.total_out, size_t{40} * 32 * 32 * 3 * 4);
   inflateEnd(&zs);
   Geometry mg;
   const std::vector<float> map = deformation::loadBackwardMapNrrd(dir / "map.nrrd", &mg);
@@ -261,7 +263,8 @@ TEST(DeformCli, PaddingKeepsEveryMovedVoxelAndTheMapIsOneGzipStream) {
        "--pad-mm", "10", "--labels", (dir / "labels.nrrd").string(), "--rigid-labels", "2", "--report",
        (dir / "bone.json").string()});
   const nlohmann::json b = nlohmann::json::parse(std::ifstream(dir / "bone.json"));
-  EXPECT_EQ(b["pad_voxels"], nlohmann::json({10, 10, 10}));
+  EXPECT_EQ(b["pad_voxels"]["low"], nlohmann::json({10, 10, 10}));
+  EXPECT_EQ(b["pad_voxels"]["high"], nlohmann::json({10, 10, 10}));
   EXPECT_EQ(b["rigidity"]["after"]["bodies"][0]["samples"].get<int64_t>(), tissue);
   EXPECT_LT(b["rigidity"]["after"]["bone_rms_residual_mm"].get<double>(), 1e-3);
   EXPECT_EQ(countTissue(std::get<VolumeI16>(io::loadVolume(dir / "bone.nrrd").volume)), tissue);

@@ -36,6 +36,9 @@ void InputOptions::addTo(CLI::App& cmd) {
   cmd.add_flag("--allow-outside-data", allowOutsideData,
                ".nhdr/.mhd: read a data file the header names outside its own folder (absolute, '..', "
                "a symlink leading out)");
+  cmd.add_flag("--no-slice-repair", noSliceRepair,
+               "DICOM: keep a single mis-registered slice as it is (by default it is replaced by interpolating "
+               "its neighbours, with a warning naming it)");
 }
 
 Region InputOptions::region() const {
@@ -60,6 +63,7 @@ io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
   o.progress = progress;
   o.region = region();
   o.allowOutsideData = allowOutsideData;
+  o.repairSlices = !noSliceRepair;
   if (!rescale.empty()) o.rescale = std::pair{rescale[0], rescale[1]};
   if (!rawDims.empty()) {
     io::RawLayout r;

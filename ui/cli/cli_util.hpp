@@ -34,10 +34,11 @@ struct InputOptions {
   int downsample = 1;
   std::vector<double> rescale;      ///< slope intercept
   bool allowOutsideData = false;    ///< --allow-outside-data (io::LoadOptions::allowOutsideData)
+  bool noSliceRepair = false;       ///< --no-slice-repair (io::LoadOptions::repairSlices off)
 
   /// Adds --series, --raw-dims, --raw-type, --raw-spacing, --raw-origin, --raw-direction,
   /// --raw-endian, --raw-header, --rescale, --crop, --crop-mm, --downsample,
-  /// --allow-outside-data to `cmd`.
+  /// --allow-outside-data, --no-slice-repair to `cmd`.
   void addTo(CLI::App& cmd);
   /// Turns the flags into io::LoadOptions (with `progress` attached).
   io::LoadOptions toLoadOptions(Progress* progress) const;

@@ -5,8 +5,8 @@
 // moves the FREE corners of each folding cell, pass after pass, to lift its Jacobians above a
 // threshold (projections of the linearised Jacobians, averaged per node, a bounded step), and
 // checks the cells around what moved, so a fold spreads into a transition wide enough not to
-// fold. Locked nodes (rigid cores, fixed regions) are never written, so bones stay exactly as
-// rigid and fixed regions exactly still. See docs/deformation.md.
+// fold. Hard-locked nodes (inside bones, fixed voxels' cells) are never written, soft ones only
+// where a fold is locked all round: bones stay rigid, fixed regions still. docs/deformation.md.
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -19,20 +19,30 @@ struct FoldRepairParams {
   /// A cell is repaired while the smallest trilinear Jacobian det(du/dv) at its 8 corners and its
   /// centre is below this (a margin above 0: the voxels between the corners interpolate them).
   double minJacobian = 0.2;
-  int maxRounds = 1000;  ///< passes over the folding cells (each touches only them); stops after 200 without progress
+  int maxRounds = 1000;  ///< passes over the folding cells (each touches only them); stops after 50 without progress
 };
 
 struct FoldRepairStats {
   int64_t cellsBefore = 0;   ///< cells below minJacobian that the repair cares about, before
   int64_t cellsAfter = 0;    ///< ... and after
-  int64_t lockedCells = 0;   ///< of cellsAfter: all 8 corners locked (two rigid fits or a fit and a fixed region meet)
+  int64_t lockedCells = 0;   ///< of cellsAfter: all 8 corners hard-locked (two bodies' voxels meet in the cell)
+  int64_t nodesReleased = 0; ///< soft-locked nodes released (corners of folding cells locked all round)
   int64_t nodesRelaxed = 0;  ///< free nodes the repair wrote
   int rounds = 0;             ///< passes made
   double minJacobianBefore = 0, minJacobianAfter = 0;  ///< over the cared cells (corners and centres)
 };
 
-/// Repairs `cv` in place. `locked` (one byte per node, or empty = none) marks nodes never
-/// written. `cares(u)` says whether a source position is tissue (a cell is repaired when one of
+/// Lock levels of the `locked` mask.
+enum : uint8_t {
+  kNodeFree = 0,
+  kNodeHardLock = 1,  ///< never written (lands inside a body; a corner of a fixed voxel's cell)
+  /// Locked while its cells can unfold otherwise (a rigid body's weight-1 core outside the body,
+  /// a fixed region's margin): released where a folding cell has all 8 corners locked.
+  kNodeSoftLock = 2,
+};
+
+/// Repairs `cv` in place. `locked` (one byte per node, or empty = none; kNodeSoftLock /
+/// kNodeHardLock) marks nodes not written. `cares(u)` says whether a source position is tissue (a cell is repaired when one of
 /// its corners maps to tissue: folds in air are harmless and left); null = every cell. A free
 /// node is never moved to a source position where `forbidden(u)` (a rigid body's voxels: its
 /// content would be shown moved non-rigidly); null = anywhere.

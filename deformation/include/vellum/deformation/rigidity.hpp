@@ -140,11 +140,10 @@ struct RigidityParams {
   /// spacing of it, the map is the rigid fit.
   double falloffMm = 10.0;
   /// Repair the folds the blend makes in tissue (repairFolds(): the free nodes of each folding
-  /// cell moved; the rigid cores and the fixed regions locked, so they stay exact). Off by
-  /// default here: it can cost seconds on a large grid, too much for the studio's live drags
-  /// and an animation's every frame until measured there; `vellum deform` turns it on
-  /// (app::DeformEngine::foldRepair).
-  bool repairFolds = false;
+  /// cell moved; nodes inside a body or a fixed region locked, so they stay exact). On by
+  /// default: every path that builds a map (deform, animate, pose, the studio) calls
+  /// applyRigidity and gets the same repaired map.
+  bool repairFolds = true;
   FoldRepairParams folds;
 };
 

@@ -66,6 +66,10 @@ struct LoadOptions {
   /// a downloaded header must not be a way to read any file the user can (CLI:
   /// --allow-outside-data).
   bool allowOutsideData = false;
+  /// DICOM: repair single bad slices (a missing slice: a gap of about two spacings; a
+  /// mis-registered one: shifted in-plane against both neighbours) by interpolating its
+  /// neighbours, with a load warning naming the slice (CLI: --no-slice-repair turns it off).
+  bool repairSlices = true;
 };
 
 struct LoadedVolume {
