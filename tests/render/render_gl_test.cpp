@@ -10,6 +10,7 @@
 
 #include "analytic_volumes.hpp"
 #include "image_compare.hpp"
+#include "light_volume.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/phantom/phantom.hpp"
 #include "vellum/render/volume_renderer.hpp"
@@ -525,6 +526,54 @@ TEST(RenderGl, LightingMatchesCpuAndShadowsTheFarSide) {
   EXPECT_GT(brightLeft / litLeft, 1.2);
   EXPECT_LT(brightLeft / litLeft, 1.45);
   expectClose(brighter, renderReferenceCpu(ball, s), "side-lit ball, +0.5 stop");
+}
+
+}  // namespace
+}  // namespace vellum::render
+
+namespace vellum::render {
+namespace {
+
+// The ray caster with the cinematic lights (lighting.toneMap: soft key, fill, sky, ACES): GL
+// equals the CPU reference (the same light volume bytes, lights and tone map), and the soft key
+// light's penumbra is wider than the sharp one's: more light-volume cells half in shadow.
+TEST(RenderGl, ToneMappedAreaLightMatchesCpu) {
+  const AnyVolume ball = test::makeBallVolume(48, 1.0, 14);
+  VolumeRenderer r(gl());
+  r.setVolume(ball);
+  RenderSettings s = baseSettings(Preset::Bone, 96, 96);
+  s.camera.azimuthDeg = 0;
+  s.camera.elevationDeg = 0;
+  s.lighting.shadows = 1;
+  s.lighting.occlusion = 1;
+  s.lighting.azimuthDeg = -70;
+  s.lighting.elevationDeg = 20;
+  s.lighting.toneMap = true;
+  s.lighting.exposure = 0.3;
+  s.cinematic.lightSizeDeg = 8;
+  s.cinematic.fill = 0.3;
+  s.cinematic.sky = 0.4;
+  const RgbaImage soft = r.render(s);
+  expectClose(soft, renderReferenceCpu(ball, s), "tone-mapped area light");
+  s.lighting.toneMap = false;
+  EXPECT_GT(test::compareImages(soft, r.render(s)).meanAbs[0], 1.0) << "the tone map changes the picture";
+  // Left vs right half: lit from the left, the right half is darker (the tone map, the fill
+  // and the sky soften the contrast); the fill keeps it above black.
+  double left = 0, right = 0;
+  for (int y = 0; y < soft.height; ++y)
+    for (int x = 0; x < soft.width; ++x) (x < soft.width / 2 ? left : right) += soft.at(x, y)[1];
+  EXPECT_GT(left, 1.06 * right);
+  EXPECT_GT(right, 0.0);
+  const auto penumbra = [&](double sizeDeg) {
+    const detail::Frame f = detail::makeFrame(geometryOf(ball), nullptr, s);
+    const detail::LightVolume lv =
+        detail::computeLightVolume(detail::makeLightSource(ball), detail::buildTfTable(s, f.stepMm), f.stepMm,
+                                   detail::keyLightDirection(f, s.lighting), s.lighting, sizeDeg);
+    int n = 0;
+    for (size_t i = 0; i < lv.rg.size(); i += 2) n += lv.rg[i] > 25 && lv.rg[i] < 230;
+    return n;
+  };
+  EXPECT_GT(penumbra(8), penumbra(0) * 3 / 2) << "a disc light softens the shadow's edge";
 }
 
 }  // namespace

@@ -5,12 +5,9 @@
 uniform sampler3D uMajorant;   // extinction majorant per mm, per block (or map cell)
 uniform int uSampleBase, uSamplesPerPass;
 uniform uint uSeed;
-uniform vec3 uKeyDir, uFillDir, uSkyUp;
-uniform float uKeyCos, uKeyE, uFillE, uPickKey, uSky;
+uniform float uPickKey;
 uniform int uBounces;
 uniform float uSurfaceOffset;  // mm
-
-const float PI = 3.14159265;
 
 uint pcgHash(uint v) {
   uint state = v * 747796405u + 2891336453u;
@@ -119,10 +116,6 @@ vec3 around(vec3 axis, float cosT, float phi) {
   float sinT = sqrt(max(0.0, 1.0 - cosT * cosT));
   return b1 * (sinT * cos(phi)) + b2 * (sinT * sin(phi)) + axis * cosT;
 }
-float hgPhase(float cosT) {
-  float g = PHASE_G, den = 1.0 + g * g - 2.0 * g * cosT;
-  return (1.0 - g * g) / (4.0 * PI * den * sqrt(den));
-}
 vec3 sampleHg(vec3 axis, float xi1, float xi2) {
   float g = PHASE_G;
   float sq = (1.0 - g * g) / (1.0 + g - 2.0 * g * xi1);
@@ -131,8 +124,6 @@ vec3 sampleHg(vec3 axis, float xi1, float xi2) {
 vec3 sampleCosine(vec3 n, float xi1, float xi2) {
   return around(n, sqrt(max(0.0, 1.0 - xi1)), 2.0 * PI * xi2);
 }
-float skyRadiance(vec3 w) { return uSky * (0.75 + 0.25 * dot(w, uSkyUp)); }
-vec3 toLinearRgb(vec3 c) { return pow(clamp(c, 0.0, 1.0), vec3(2.2)); }
 
 vec4 tracePath(int px, int py, uint smp) {
   gRng = pcgHash(pcgHash(pcgHash(uSeed) ^ uint(px)) ^ (uint(py) * 0x9E3779B9u)) ^ pcgHash(smp + 0x632BE5ABu);
@@ -158,7 +149,10 @@ vec4 tracePath(int px, int py, uint smp) {
 #ifdef ATTRIBUTES
     c.rgb = labShift(c.rgb, texture(uAttr, (p + 0.5) / uBoxDims).xyz);
 #endif
-    vec3 albedo = toLinearRgb(c.rgb);
+#ifdef LABELS
+    c.rgb = labelTint(c.rgb, q.u);
+#endif
+    vec3 albedo = srgbToLinear(c.rgb);
     vec4 n = texture(uNormals, (q.u + 0.5) / uSourceDims);
 #ifdef TURN_NORMALS
     n = deformedNormal(p, n, q.snapped);
@@ -186,7 +180,13 @@ vec4 tracePath(int px, int py, uint smp) {
       fr = hgPhase(dot(dir, wl));
     }
     if (fr > 0.0) {
+#ifdef LIGHTING
+      // Volume shadows (cinematic.volumeShadows): the key light's transmittance from the light
+      // volume (its disc already softens it); the fill is unshadowed, as in the ray caster.
+      float T = key ? texture(uLight, (q.u + uLightOffset + 0.5) * uLightScale).r : 1.0;
+#else
       float T = ratioTrack(p, uPhysToBox * wl);
+#endif
       outc.rgb += beta * (albedo * fr + spec) * E * T;
     }
     float xi3 = rnd(), xi4 = rnd();
@@ -194,7 +194,11 @@ vec4 tracePath(int px, int py, uint smp) {
     beta *= albedo;
     vec3 dd = uPhysToBox * dir;
     if (bounce == uBounces) {
+#ifdef LIGHTING
+      outc.rgb += beta * (skyRadiance(dir) * texture(uLight, (q.u + 0.5) * uLightScale).g);  // the openness
+#else
       outc.rgb += beta * (skyRadiance(dir) * ratioTrack(p, dd));
+#endif
       break;
     }
     if (!deltaTrack(p, dd, 0.0, boxExit(p, dd), tHit)) {

@@ -35,6 +35,7 @@ uniform vec3 uLightDir;        // physical, towards the key light
 uniform float uShadowAmount, uOcclusionAmount;
 uniform float uExposure;       // 2^stops
 #endif
+
 #ifdef DEFORMED
 uniform sampler3D uMap;      // source index coordinates per map node (Gaussian kernel: padded)
 #endif
@@ -178,6 +179,53 @@ vec4 tfLookup(float v) {
 }
 #endif
 
+#ifdef LABELS
+// Label colours (twin of tintByLabels() in label_colour.hpp): the one-hot label colours of the 8
+// voxels around u, trilinear and weighted by each voxel's opacity in this transfer function, so
+// colours blend smoothly across a boundary and a sample on a bone's surface takes the bone's
+// colour, not that of the faint muscle beside it. Untinted voxels pull towards the TF colour.
+// One pass over the 8 corners: the pull towards their label colours and the weight on
+// uOnlyLabel, with trilinear weights times each corner's opacity (byOpacity) or plain.
+float labelCorners(vec3 c, vec3 u, bool byOpacity, out vec3 pull, out float only) {
+  vec3 b = floor(u), f = u - b;
+  ivec3 bi = ivec3(b), dims = ivec3(uSourceDims);
+  pull = vec3(0.0);
+  only = 0.0;
+  float wsum = 0.0;
+  for (int n = 0; n < 8; ++n) {
+    ivec3 o = ivec3(n & 1, (n >> 1) & 1, (n >> 2) & 1);
+    ivec3 q = bi + o;
+    if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
+    vec3 t = mix(1.0 - f, f, vec3(o));
+    float w = t.x * t.y * t.z;
+    if (byOpacity) w *= tfLookup(texelFetch(uVolume, q, 0).r * uValueScale).a;
+    uint id = texelFetch(uLabels, q, 0).r;
+    vec4 lc = id < uint(MAX_TINT_LABELS) ? texelFetch(uLabelColours, int(id), 0) : vec4(0.0);
+    wsum += w;
+    pull += w * lc.a * (lc.rgb - c);
+    if (id == uint(uOnlyLabel)) only += w;
+  }
+  return wsum;
+}
+
+// `onlyShare`: how much of the sample belongs to uOnlyLabel ("this segment only"), blended
+// across its boundary like the colours.
+vec3 labelTint(vec3 c, vec3 u, out float onlyShare) {
+  vec3 pull;
+  float only;
+  float wsum = labelCorners(c, u, true, pull, only);
+  // No corner is opaque (a faint sample between clear voxels): plain trilinear weights.
+  if (!(wsum > 1e-6)) wsum = labelCorners(c, u, false, pull, only);
+  onlyShare = wsum > 0.0 ? only / wsum : 0.0;
+  return wsum > 0.0 ? c + uLabelBlend * pull / wsum : c;
+}
+
+vec3 labelTint(vec3 c, vec3 u) {
+  float onlyShare;
+  return labelTint(c, u, onlyShare);
+}
+#endif
+
 #ifdef SHADING
 vec3 shade(vec3 c, vec4 n, vec3 l) {
   float len = length(n.xyz);
@@ -204,6 +252,18 @@ vec3 shadeLit(vec3 c, vec4 n, vec3 v, vec3 u) {
   vec3 lit = (c * (AMBIENT * A + DIFFUSE * (KEY_SHARE * key * T + (1.0 - KEY_SHARE) * head)) + spec) * uExposure;
   vec3 plain = c * (AMBIENT * A + DIFFUSE * (KEY_SHARE * T + (1.0 - KEY_SHARE))) * uExposure;
   return mix(min(plain, vec3(1.0)), min(lit, vec3(1.0)), w);
+}
+#endif
+
+#if defined(LIGHTING) && defined(TONE_MAP)
+// The scene lights' radiance of a sample (sceneRadiance() of lights.glsl) with the light volume's
+// key-light transmittance (softened by the light's size) and openness.
+vec3 sceneRadianceAt(vec3 c, vec4 n, vec3 v, vec3 u) {
+  vec2 lo = texture(uLight, (u + uLightOffset + 0.5) * uLightScale).rg;
+  float T = mix(1.0, lo.r, uShadowAmount), A = mix(1.0, lo.g, uOcclusionAmount);
+  float len = length(n.xyz);
+  float w = len > 1e-4 ? clamp((n.w - GRAD_LOW) / (GRAD_HIGH - GRAD_LOW), 0.0, 1.0) : 0.0;
+  return sceneRadiance(srgbToLinear(c), n.xyz, w, v, T, A);
 }
 #endif
 

@@ -84,24 +84,10 @@ void main() {
         c.a = 1.0 - pow(max(1.0 - c.a, 1e-6), max(at.w, 0.0));
 #endif
 #ifdef LABELS
-        // The label of the voxel, among the 8 around u, that is most opaque in this transfer
-        // function tints the colour before shading: a sample on a bone's surface (where the
-        // bone preset starts to be opaque) takes the bone's label, not the muscle's beside it.
         {
-          ivec3 b = ivec3(floor(u)), dims = ivec3(uSourceDims), bi = ivec3(-1);
-          float best = -1.0;
-          for (int n = 0; n < 8; ++n) {
-            ivec3 q = b + ivec3(n & 1, (n >> 1) & 1, (n >> 2) & 1);
-            if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
-            float a = tfLookup(texelFetch(uVolume, q, 0).r * uValueScale).a;
-            if (a > best) { best = a; bi = q; }
-          }
-          uint id = bi.x >= 0 ? texelFetch(uLabels, bi, 0).r : 0u;
-          if (uOnlyLabel > 0 && id != uint(uOnlyLabel)) c = vec4(0.0);  // "this segment only"
-          if (id < uint(MAX_TINT_LABELS)) {
-            vec4 lc = texelFetch(uLabelColours, int(id), 0);
-            c.rgb = mix(c.rgb, lc.rgb, uLabelBlend * lc.a);
-          }
+          float onlyShare;
+          c.rgb = labelTint(c.rgb, u, onlyShare);
+          if (uOnlyLabel > 0) c.a *= onlyShare;  // "this segment only", blended at its boundary
         }
 #endif
 #ifdef SHADING
@@ -109,7 +95,9 @@ void main() {
 #ifdef TURN_NORMALS
         n = deformedNormal(p, n, snappedBody);
 #endif
-#ifdef LIGHTING
+#if defined(LIGHTING) && defined(TONE_MAP)
+        c.rgb = sceneRadianceAt(c.rgb, n, -dir, u);
+#elif defined(LIGHTING)
         c.rgb = shadeLit(c.rgb, n, -dir, u);
 #else
         c.rgb = shade(c.rgb, n, -dir);
@@ -124,6 +112,11 @@ void main() {
   }
 #ifdef MODE_MIP
   if (hit) acc = vec4(clamp((maxV - uWinLo) * uWinInvWidth, 0.0, 1.0));
+#endif
+#ifdef TONE_MAP
+  // acc holds linear radiance (premultiplied): the covered part's straight radiance, exposed and
+  // tone mapped like the path tracer's (finishPathTraced), before the background.
+  if (acc.a > 0.0) acc.rgb = toneMap(acc.rgb / acc.a * uExposure) * acc.a;
 #endif
 #ifdef OPAQUE_DEPTH
   // Premultiplied, blended (ONE, ONE_MINUS_SRC_ALPHA) over the surface colour in the target.

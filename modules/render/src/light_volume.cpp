@@ -47,7 +47,7 @@ LightSource makeLightSource(const AnyVolume& volume) {
 }
 
 LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double stepMm, const Vec3& lightDir,
-                               const Lighting& lighting) {
+                               const Lighting& lighting, double lightSizeDeg) {
   const Dims sd = src.source.dims;
   const int64_t largest = std::max({sd.x, sd.y, sd.z});
   // Cells: a multiple of the value grid's factor, about kCellsPerAxis along the largest axis.
@@ -100,27 +100,41 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
   std::vector<float> trans(cells, 1.f);
   auto at = [&](int64_t s, int64_t p, int64_t q) { return s * stride[a] + p * stride[b] + q * stride[c]; };
   const int64_t first = sign > 0 ? n[a] - 1 : 0;
+  // A soft (disc) light: each slice takes the mean of five points of the previous one, the four
+  // outer ones `spread` cells off. Repeated, that is a diffusion (widening as the square root of
+  // the distance, where a disc's penumbra widens linearly); the spread is chosen so that the
+  // penumbra matches the disc's kSoftMatchCells cells behind the occluder.
+  constexpr double kSoftMatchCells = 16;
+  const double cellAcross = std::sqrt(cellMm[b] * cellMm[c]);
+  const double spread = lightSizeDeg > 0 ? std::tan(lightSizeDeg * M_PI / 180) * ds / cellAcross *
+                                               std::sqrt(2.5 * kSoftMatchCells)
+                                         : 0.0;
+  const int taps = spread > 0 ? 5 : 1;
+  const double tapB[5] = {0, spread, -spread, 0, 0}, tapC[5] = {0, 0, 0, spread, -spread};
   for (int64_t step = 1; step < n[a]; ++step) {
     const int64_t s = first - sign * step, prev = s + sign;
     parallelFor(n[c], [&](int64_t q0, int64_t q1) {
       for (int64_t q = q0; q < q1; ++q)
         for (int64_t p = 0; p < n[b]; ++p) {
-          // Bilinear in the previous slice at the point one slice towards the light; outside
-          // the box the light arrives unattenuated through air.
-          const double pb = double(p) + shiftB, pc = double(q) + shiftC;
-          const int64_t b0 = int64_t(std::floor(pb)), c0 = int64_t(std::floor(pc));
-          const double tb = pb - double(b0), tc = pc - double(c0);
+          // Bilinear in the previous slice at the point one slice towards the light (with a
+          // soft light: the mean of that point and four around it); outside the box the light
+          // arrives unattenuated through air.
           double tPrev = 0, sPrev = 0;
-          for (int corner = 0; corner < 4; ++corner) {
-            const int64_t bb = b0 + (corner & 1), cc = c0 + (corner >> 1);
-            const double w = ((corner & 1) ? tb : 1 - tb) * ((corner >> 1) ? tc : 1 - tc);
-            if (bb < 0 || cc < 0 || bb >= n[b] || cc >= n[c]) {
-              tPrev += w;
-              continue;
+          for (int tap = 0; tap < taps; ++tap) {
+            const double pb = double(p) + shiftB + tapB[tap], pc = double(q) + shiftC + tapC[tap];
+            const int64_t b0 = int64_t(std::floor(pb)), c0 = int64_t(std::floor(pc));
+            const double tb = pb - double(b0), tc = pc - double(c0);
+            for (int corner = 0; corner < 4; ++corner) {
+              const int64_t bb = b0 + (corner & 1), cc = c0 + (corner >> 1);
+              const double w = ((corner & 1) ? tb : 1 - tb) * ((corner >> 1) ? tc : 1 - tc) / taps;
+              if (bb < 0 || cc < 0 || bb >= n[b] || cc >= n[c]) {
+                tPrev += w;
+                continue;
+              }
+              const size_t idx = static_cast<size_t>(at(prev, bb, cc));
+              tPrev += w * trans[idx];
+              sPrev += w * sigma[idx];
             }
-            const size_t idx = static_cast<size_t>(at(prev, bb, cc));
-            tPrev += w * trans[idx];
-            sPrev += w * sigma[idx];
           }
           const size_t here = static_cast<size_t>(at(s, p, q));
           trans[here] = float(tPrev * std::exp(-0.5 * (sigma[here] + sPrev) * ds));

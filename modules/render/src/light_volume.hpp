@@ -45,8 +45,9 @@ LightSource makeLightSource(const AnyVolume& volume);
 /// slice by slice away from the light (exact for a directional light, bilinear between
 /// slices); openness 2 * (1 - local mean cell opacity) clamped to [0, 1], the mean over a
 /// Gaussian of lighting.occlusionRadiusMm / 2 with air outside the box (a flat surface is
-/// open, a crevice dark). Parallel; deterministic.
+/// open, a crevice dark). lightSizeDeg > 0: a disc light of that angular radius, soft shadow
+/// edges (an approximation: see the sweep). Parallel; deterministic.
 LightVolume computeLightVolume(const LightSource& source, const TfTable& tf, double stepMm, const Vec3& lightDir,
-                               const Lighting& lighting);
+                               const Lighting& lighting, double lightSizeDeg = 0);
 
 }  // namespace vellum::render::detail

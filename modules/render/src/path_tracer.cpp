@@ -5,9 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include <opencv2/imgproc.hpp>
 
+#include "label_colour.hpp"
 #include "light_volume.hpp"
 #include "map_sampling.hpp"
 #include "normal_volume.hpp"
@@ -29,27 +31,23 @@ RenderSettings denoiseGuideSettings(const RenderSettings& s) {
   RenderSettings g = s;
   g.quality = Quality::Standard;
   g.lighting.shadows = g.lighting.occlusion = 0;  // the plain shaded picture: edges, not light
+  g.lighting.toneMap = false;
   g.labelBlend = 0;
   return g;
 }
 
+RenderSettings tracedSettings(const RenderSettings& s) {
+  RenderSettings t = s;
+  t.width = std::max(1, int(std::lround(s.width * s.cinematic.traceScale)));
+  t.height = std::max(1, int(std::lround(s.height * s.cinematic.traceScale)));
+  return t;
+}
+
 PathLights makePathLights(const Frame& f, const RenderSettings& s) {
-  const Cinematic& c = s.cinematic;
   PathLights l;
-  l.key = keyLightDirection(f, s.lighting);
-  // The fill: the key's azimuth mirrored to the other side of the view, low (10 degrees).
-  Lighting fill = s.lighting;
-  fill.azimuthDeg = -s.lighting.azimuthDeg;
-  fill.elevationDeg = 10;
-  l.fill = keyLightDirection(f, fill);
-  l.up = f.up;
-  l.keyCos = float(std::cos(c.lightSizeDeg * std::numbers::pi / 180));
-  l.keyE = kKeyIrradiance;
-  l.fillE = float(kKeyIrradiance * c.fill);
+  static_cast<SceneLights&>(l) = makeSceneLights(f, s);
   l.pickKey = l.keyE / (l.keyE + l.fillE);
-  l.sky = float(c.sky);
-  l.exposure = float(std::exp2(s.lighting.exposure));
-  l.bounces = c.bounces;
+  l.bounces = s.cinematic.bounces;
   l.surfaceOffsetMm = kSurfaceOffsetVoxels * f.stepMm / s.stepVoxels;
   return l;
 }
@@ -87,15 +85,6 @@ std::vector<float> cellMajorants(const MapCells& cells, const std::vector<float>
 }
 
 namespace {
-// ACES filmic, Narkowicz's fit (input pre-scaled by 0.6 so that 1 maps near the fit's knee).
-float aces(float x) {
-  x *= 0.6f;
-  return std::clamp(x * (2.51f * x + 0.03f) / (x * (2.43f * x + 0.59f) + 0.14f), 0.f, 1.f);
-}
-float toSrgb(float c) { return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.f / 2.4f) - 0.055f; }
-}  // namespace
-
-namespace {
 /// The guided filter (He, Sun & Tang 2010) of each channel of `noisy` under the grey level of
 /// `guide`: per window, the path-traced colour as a linear function of the ray-cast picture's
 /// brightness. Edges and surface detail come from the guide (noise-free), light and shadow from
@@ -130,7 +119,17 @@ cv::Mat guidedDenoise(const cv::Mat& noisy, const RgbaImage& guide, double stren
 }
 }  // namespace
 
-RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s, const RgbaImage* guide) {
+RgbaImage finishPathTraced(const PathSums& traced, const RenderSettings& s, const RgbaImage* guide) {
+  PathSums upsampled;
+  if (traced.width != s.width || traced.height != s.height) {
+    // Traced at a fraction of the size (tracedSettings): the sums bilinearly upsampled; the
+    // guided denoise below puts the full-size edges back.
+    const cv::Mat small(traced.height, traced.width, CV_32FC4, const_cast<float*>(traced.rgba.data()));
+    cv::Mat big;
+    cv::resize(small, big, cv::Size(s.width, s.height), 0, 0, cv::INTER_LINEAR);
+    upsampled = {s.width, s.height, traced.samples, std::vector<float>(big.ptr<float>(), big.ptr<float>() + big.total() * 4)};
+  }
+  const PathSums& sums = upsampled.width ? upsampled : traced;
   const int w = sums.width, h = sums.height;
   const float inv = 1.f / float(std::max(sums.samples, 1));
   const float exposure = float(std::exp2(s.lighting.exposure));
@@ -148,7 +147,7 @@ RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s, const 
         for (int c = 0; c < 3; ++c) {
           // Radiance of the covered part (straight), tone mapped, then over the background.
           const float straight = a > 0 ? px[c] * inv / a : 0.f;
-          const float tm = toSrgb(aces(straight * exposure));
+          const float tm = toneMap(straight * exposure);
           const float o = a * tm + (1 - a) * bg[size_t(c)] * bg[3];
           (*out)[c] = outA > 0 ? std::min(o / outA, 1.f) : 0.f;
         }
@@ -169,8 +168,6 @@ RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s, const 
 }
 
 namespace {
-
-float toLinear(float c) { return std::pow(std::clamp(c, 0.f, 1.f), 2.2f); }
 
 /// An orthonormal basis around unit n (Duff et al. 2017), as basis() in the shader.
 void basis(const Vec3& n, Vec3& b1, Vec3& b2) {
@@ -222,6 +219,8 @@ struct CpuTracer {
   NormalVolume normals;
   const BackwardMap* map = nullptr;
   PreparedMap prepared;
+  const LabelTint* tint = nullptr;  ///< label colours tint the albedo (labelBlend > 0)
+  std::optional<LightVolume> light;  ///< cinematic.volumeShadows: shadows and sky occlusion from it
   PathLights lights;
   std::vector<float> majorant;
   Dims blocks;
@@ -324,7 +323,7 @@ struct CpuTracer {
     return cut ? 0.f : T;
   }
 
-  float skyRadiance(const Vec3& w) const { return lights.sky * float(0.75 + 0.25 * dot(w, lights.up)); }
+  float skyRadiance(const Vec3& w) const { return detail::skyRadiance(lights, w); }
 
   /// One path through pixel (x, y): premultiplied radiance and coverage.
   std::array<float, 4> path(int x, int y, uint32_t sample) const {
@@ -357,7 +356,8 @@ struct CpuTracer {
         const auto at = sampleClamped<4>(map->attributes, map->grid.dims, p);
         rgb = labShift(rgb, at[0], at[1], at[2]);
       }
-      const std::array<float, 3> albedo{toLinear(rgb[0]), toLinear(rgb[1]), toLinear(rgb[2])};
+      if (tint) rgb = tintByLabels(rgb, q.u, vol, tf, *tint, float(s.labelBlend));
+      const std::array<float, 3> albedo{srgbToLinear(rgb[0]), srgbToLinear(rgb[1]), srgbToLinear(rgb[2])};
       std::array<float, 4> n = normals.sample(q.u.x, q.u.y, q.u.z);
       if (map && s.turnDeformedNormals) n = prepared.turnNormal(p, n, q.snapped);
       const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
@@ -394,7 +394,8 @@ struct CpuTracer {
         fr = float(hgPhase(dot(dir, wl)));
       }
       if (fr > 0) {
-        const float T = ratioTrack(p, f.physToBox * wl, rng);
+        // Volume shadows: the light volume's transmittance for the key, the fill unshadowed.
+        const float T = light ? (key ? light->sample(q.u + light->towardsLight)[0] : 1.f) : ratioTrack(p, f.physToBox * wl, rng);
         for (int k = 0; k < 3; ++k) out[size_t(k)] += beta[size_t(k)] * (albedo[size_t(k)] * fr + spec) * E * T;
       }
       // The next direction: cosine-weighted about the normal, or from the phase function.
@@ -403,7 +404,7 @@ struct CpuTracer {
       for (int k = 0; k < 3; ++k) beta[size_t(k)] *= albedo[size_t(k)];
       const Vec3 d = f.physToBox * dir;
       if (bounce == lights.bounces) {  // the last vertex: sky light through the volume
-        const float T = ratioTrack(p, d, rng);
+        const float T = light ? light->sample(q.u)[1] : ratioTrack(p, d, rng);  // volume: the openness
         const float L = skyRadiance(dir) * T;
         for (int k = 0; k < 3; ++k) out[size_t(k)] += beta[size_t(k)] * L;
         break;
@@ -426,7 +427,8 @@ namespace vellum::render {
 
 using namespace detail;
 
-PathSums detail::pathTraceCpu(const AnyVolume& volume, const RenderSettings& settings, const BackwardMap* map) {
+PathSums detail::pathTraceCpu(const AnyVolume& volume, const RenderSettings& settings, const BackwardMap* map,
+                              const LabelTint* tint) {
   checkImageSize(settings.width, settings.height);
   if (settings.preset == Preset::Mip) throw Error("cinematic quality needs a DVR preset (not mip)");
   const Geometry& g = geometryOf(volume);
@@ -443,6 +445,13 @@ PathSums detail::pathTraceCpu(const AnyVolume& volume, const RenderSettings& set
         tr.tf = buildTfTable(settings, tr.f.stepMm);
         tr.normals = computeNormalVolume(volume);
         tr.lights = makePathLights(tr.f, settings);
+        if (settings.cinematic.volumeShadows)
+          tr.light = computeLightVolume(makeLightSource(volume), tr.tf, tr.f.stepMm, tr.lights.key, settings.lighting,
+                                        settings.cinematic.lightSizeDeg);
+        if (tint && settings.labelBlend > 0) {
+          if (!(tint->ids.dims() == g.dims)) throw Error("label tint: label map does not match the volume");
+          tr.tint = tint;
+        }
         if (map) {
           // One majorant for the whole map grid (delta tracking is unbiased for any bound; the
           // GL path bounds per map cell).
@@ -475,10 +484,11 @@ PathSums detail::pathTraceCpu(const AnyVolume& volume, const RenderSettings& set
   return sums;
 }
 
-RgbaImage renderPathTracedCpu(const AnyVolume& volume, const RenderSettings& settings, const BackwardMap* map) {
+RgbaImage renderPathTracedCpu(const AnyVolume& volume, const RenderSettings& settings, const BackwardMap* map,
+                              const LabelTint* tint) {
   RgbaImage guide;
   if (settings.cinematic.denoise > 0) guide = renderReferenceCpu(volume, denoiseGuideSettings(settings), map);
-  return finishPathTraced(pathTraceCpu(volume, settings, map), settings, &guide);
+  return finishPathTraced(pathTraceCpu(volume, tracedSettings(settings), map, tint), settings, &guide);
 }
 
 }  // namespace vellum::render

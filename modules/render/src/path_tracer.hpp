@@ -6,23 +6,20 @@
 #include <vector>
 
 #include "empty_space.hpp"
+#include "lights.hpp"
 #include "render_common.hpp"
 #include "vellum/core/image.hpp"
+#include "vellum/render/label_tint.hpp"
 
 namespace vellum::render::detail {
 
 /// Opacity per step -> extinction per mm; alpha is capped (an opaque table entry would give an
 /// infinite majorant).
 constexpr float kMaxPathAlpha = 0.9999f;
-/// Henyey-Greenstein anisotropy of the volume phase function (slightly forward, as tissue).
-constexpr float kPhaseG = 0.2f;
 /// Ratio tracking stops when the transmittance falls below this (a shadow).
 constexpr float kMinTransmittance = 1e-3f;
 /// How far a tracking step moves past a block face, in mm (so that the next block is entered).
 constexpr float kBlockNudgeMm = 1e-3f;
-/// Irradiance of the key light at normal incidence: pi, so that a white Lambertian surface
-/// facing it has radiance 1.
-constexpr float kKeyIrradiance = 3.14159265f;
 /// Surface (BRDF) events: outgoing rays start up to this many voxels (of the smallest spacing)
 /// above the event, along the normal (see CpuTracer::path).
 constexpr double kSurfaceOffsetVoxels = 2.0;
@@ -49,16 +46,9 @@ struct PathRng {
   }
 };
 
-/// The lights of a frame, physical directions pointing towards them: the key light (a disc of
-/// angular radius lightSizeDeg: soft shadows), a fill light mirrored to the other side and
-/// lower, and a sky of radiance sky * (0.75 + 0.25 cos(angle to the view's up)).
-struct PathLights {
-  Vec3 key, fill, up;
-  float keyCos = 1;      ///< cos of the key light's angular radius
-  float keyE = 0, fillE = 0;  ///< irradiance at normal incidence
-  float sky = 0;
+/// The scene lights (lights.hpp, shared with the ray caster) and how the paths sample them.
+struct PathLights : SceneLights {
   float pickKey = 1;     ///< probability that next-event estimation samples the key (else the fill)
-  float exposure = 1;    ///< 2^stops
   int bounces = 1;
   float surfaceOffsetMm = 1;  ///< the most a surface event's outgoing rays start above it
 };
@@ -85,12 +75,16 @@ struct PathSums {
 /// of the same view (`guide`, made with denoiseGuideSettings()), window radius 1 + 5 x denoise
 /// pixels. GL and CPU both end here.
 RgbaImage finishPathTraced(const PathSums& sums, const RenderSettings& s, const RgbaImage* guide);
+/// The settings the paths are traced with: the image size times cinematic.traceScale (at least
+/// 1 pixel); finishPathTraced() upsamples their sums to the full size.
+RenderSettings tracedSettings(const RenderSettings& s);
 /// The settings of the denoise guide: the same view ray cast with plain shading.
 RenderSettings denoiseGuideSettings(const RenderSettings& s);
 
 /// The CPU reference's sums (renderPathTracedCpu() before finishPathTraced()): for tests that
 /// check radiance before the tone map.
-PathSums pathTraceCpu(const AnyVolume& volume, const RenderSettings& s, const BackwardMap* map);
+PathSums pathTraceCpu(const AnyVolume& volume, const RenderSettings& s, const BackwardMap* map,
+                      const LabelTint* tint = nullptr);
 
 /// Samples per pass of the progressive loop: small passes, so that a time limit is honoured
 /// within about one pass and a GPU watchdog never fires.

@@ -50,7 +50,7 @@ PathSums AccumulationTarget::read(int samples) const {
   return s;
 }
 
-void setPathTraceUniforms(GLuint p, const PathLights& l, int seed) {
+void setSceneLightUniforms(GLuint p, const SceneLights& l) {
   auto vec = [&](const char* name, const Vec3& v) {
     glUniform3f(glGetUniformLocation(p, name), float(v.x), float(v.y), float(v.z));
   };
@@ -60,8 +60,12 @@ void setPathTraceUniforms(GLuint p, const PathLights& l, int seed) {
   glUniform1f(glGetUniformLocation(p, "uKeyCos"), l.keyCos);
   glUniform1f(glGetUniformLocation(p, "uKeyE"), l.keyE);
   glUniform1f(glGetUniformLocation(p, "uFillE"), l.fillE);
-  glUniform1f(glGetUniformLocation(p, "uPickKey"), l.pickKey);
   glUniform1f(glGetUniformLocation(p, "uSky"), l.sky);
+}
+
+void setPathTraceUniforms(GLuint p, const PathLights& l, int seed) {
+  setSceneLightUniforms(p, l);
+  glUniform1f(glGetUniformLocation(p, "uPickKey"), l.pickKey);
   glUniform1i(glGetUniformLocation(p, "uBounces"), l.bounces);
   glUniform1f(glGetUniformLocation(p, "uSurfaceOffset"), l.surfaceOffsetMm);
   glUniform1ui(glGetUniformLocation(p, "uSeed"), uint32_t(seed));

@@ -27,6 +27,8 @@ class AccumulationTarget {
 };
 
 /// The light, seed and bounce uniforms of the path-trace program `p` (in use).
+/// The scene lights' uniforms of lights.glsl (the ray caster's TONE_MAP and the path tracer).
+void setSceneLightUniforms(GLuint p, const SceneLights& lights);
 void setPathTraceUniforms(GLuint p, const PathLights& lights, int seed);
 
 /// Runs sample passes into the bound target: drawPass(first sample, count) until `samples`

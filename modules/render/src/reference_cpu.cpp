@@ -4,7 +4,9 @@
 #include <limits>
 #include <optional>
 
+#include "label_colour.hpp"
 #include "light_volume.hpp"
+#include "lights.hpp"
 #include "map_sampling.hpp"
 #include "normal_volume.hpp"
 #include "render_common.hpp"
@@ -28,6 +30,7 @@ struct Context {
   const OpaqueLayer* opaque = nullptr;
   std::optional<LightVolume> light;  ///< cinematic lighting (light_volume.hpp)
   Vec3 lightDir;
+  SceneLights scene;  ///< lighting.toneMap: the path tracer's lights (lights.hpp)
 };
 
 std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float, 4>& n,
@@ -114,34 +117,28 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
           rgb = labShift(rgb, a[0], a[1], a[2]);
           c[3] = 1.f - std::pow(std::max(1.f - c[3], 1e-6f), std::max(a[3], 0.f));
         }
-        if (cx.tint) {  // the label of the most opaque corner voxel (as the shader)
-          const Dims& d = cx.tint->ids.dims();
-          const int64_t bx = int64_t(std::floor(u.x)), by = int64_t(std::floor(u.y)), bz = int64_t(std::floor(u.z));
-          float best = -1.f;
-          int64_t qi = -1, qj = 0, qk = 0;
-          for (int n = 0; n < 8; ++n) {
-            const int64_t i = bx + (n & 1), j = by + ((n >> 1) & 1), k = bz + ((n >> 2) & 1);
-            if (i < 0 || j < 0 || k < 0 || i >= d.x || j >= d.y || k >= d.z) continue;
-            const float a = cx.tf.lookup(double(vol(i, j, k)))[3];
-            if (a > best) best = a, qi = i, qj = j, qk = k;
-          }
-          const uint16_t id = qi >= 0 ? cx.tint->ids(qi, qj, qk) : 0;
-          if (id < kMaxTintLabels) {
-            const auto& lc = cx.tint->colours[id];
-            const float t = float(s.labelBlend) * (lc[3] / 255.f);
-            for (int ch = 0; ch < 3; ++ch) rgb[ch] += t * (lc[ch] / 255.f - rgb[ch]);
-          }
-        }
+        if (cx.tint) rgb = tintByLabels(rgb, u, vol, cx.tf, *cx.tint, float(s.labelBlend));
         if (s.shading) {
           std::array<float, 4> n = cx.normals.sample(u.x, u.y, u.z);
           if (cx.map && s.turnDeformedNormals) n = cx.prepared.turnNormal(p, n, snappedBody);
-          rgb = cx.light ? shadeLit(rgb, n, ray.dir * -1.0, u, cx) : shade(rgb, n, -ray.dir);
+          if (cx.light && s.lighting.toneMap) {  // linear radiance, tone mapped at the end (lights.hpp)
+            const auto lo = cx.light->sample(u + cx.light->towardsLight);
+            const float tKey = float(1 + s.lighting.shadows * (lo[0] - 1)), open = float(1 + s.lighting.occlusion * (lo[1] - 1));
+            const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+            const float w = len > 1e-4f ? std::clamp((n[3] - kGradLow) / (kGradHigh - kGradLow), 0.f, 1.f) : 0.f;
+            rgb = sceneRadiance(cx.scene, {srgbToLinear(rgb[0]), srgbToLinear(rgb[1]), srgbToLinear(rgb[2])},
+                                {n[0], n[1], n[2]}, w, ray.dir * -1.0, tKey, open);
+          } else {
+            rgb = cx.light ? shadeLit(rgb, n, ray.dir * -1.0, u, cx) : shade(rgb, n, -ray.dir);
+          }
         }
         const double w = (1 - acc[3]) * c[3];
         for (int ch = 0; ch < 3; ++ch) acc[ch] += w * rgb[ch];
         acc[3] += w;
         if (acc[3] >= kEarlyTerminationAlpha) break;
       }
+      if (cx.light && s.lighting.toneMap && acc[3] > 0)  // as finishPathTraced: straight radiance, exposed
+        for (int ch = 0; ch < 3; ++ch) acc[ch] = double(toneMap(float(acc[ch] / acc[3]) * cx.scene.exposure)) * acc[3];
       if (mip && hit) {
         const double g = mipGrey(s, maxV);
         acc = {g, g, g, g};
@@ -176,7 +173,9 @@ RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& sett
     if (settings.shading) cx.normals = computeNormalVolume(volume);
     if (settings.shading && settings.lighting.on()) {
       cx.lightDir = keyLightDirection(cx.frame, settings.lighting);
-      cx.light = computeLightVolume(makeLightSource(volume), cx.tf, cx.frame.stepMm, cx.lightDir, settings.lighting);
+      cx.light = computeLightVolume(makeLightSource(volume), cx.tf, cx.frame.stepMm, cx.lightDir, settings.lighting,
+                                    settings.lighting.toneMap ? settings.cinematic.lightSizeDeg : 0.0);
+      cx.scene = makeSceneLights(cx.frame, settings);
     }
   }
   if (map) cx.prepared = prepareMap(*map, g);

@@ -74,6 +74,8 @@ const params::Table<RenderSettings>& renderSettingsTable() {
                       {"Light elevation", "key light raised towards the top of the view", "degrees", -90, 90}),
       params::real<R>("exposure", [](auto& s) -> auto& { return s.lighting.exposure; },
                       {"Exposure", "with shadows or occlusion, or cinematic: brightens the lit colour by this many stops", "stops", -4, 4}),
+      params::flag<R>("tone_map", [](auto& s) -> auto& { return s.lighting.toneMap; },
+                      {"Tone map", "ray caster (shaded DVR): the cinematic lights (soft key, fill, sky; shadows and occlusion as set) in linear light, ACES tone mapped with the exposure", ""}),
       params::choice<R>("quality", [](auto& s) -> auto& { return s.quality; }, kQualityNames,
                         {"Quality", "standard ray casting, or cinematic: progressive path tracing (DVR presets; docs/lighting.md)", ""}),
       params::integer<R>("samples", [](auto& s) -> auto& { return s.cinematic.samples; },
@@ -87,11 +89,15 @@ const params::Table<RenderSettings>& renderSettingsTable() {
       params::real<R>("denoise", [](auto& s) -> auto& { return s.cinematic.denoise; },
                       {"Denoise", "cinematic: edge-aware filter at the end, guided by the ray-cast picture (0 = off)", "", 0, 1}),
       params::real<R>("light_size", [](auto& s) -> auto& { return s.cinematic.lightSizeDeg; },
-                      {"Light size", "cinematic: angular radius of the key light (soft shadow edges; 0 = sharp)", "degrees", 0, 45}),
+                      {"Light size", "cinematic or tone_map: angular radius of the key light (soft shadow edges; 0 = sharp)", "degrees", 0, 45}),
       params::real<R>("fill_light", [](auto& s) -> auto& { return s.cinematic.fill; },
-                      {"Fill light", "cinematic: a second light mirrored from the key, relative to it (0 = off)", "", 0, 2}),
+                      {"Fill light", "cinematic or tone_map: a second light mirrored from the key, relative to it (0 = off)", "", 0, 2}),
       params::real<R>("sky_light", [](auto& s) -> auto& { return s.cinematic.sky; },
-                      {"Sky light", "cinematic: radiance of the surrounding sky (ambient light the volume occludes)", "", 0, 4}),
+                      {"Sky light", "cinematic or tone_map: radiance of the surrounding sky (ambient light the volume occludes)", "", 0, 4}),
+      params::real<R>("trace_scale", [](auto& s) -> auto& { return s.cinematic.traceScale; },
+                      {"Trace scale", "cinematic: paths traced at this fraction of the image size, upsampled under the full-size denoise guide", "", 0.25, 1}),
+      params::flag<R>("volume_shadows", [](auto& s) -> auto& { return s.cinematic.volumeShadows; },
+                      {"Volume shadows", "cinematic: key-light shadows and sky occlusion from the precomputed light volume instead of traced rays (faster, coarser)", ""}),
   };
   return table;
 }

@@ -30,6 +30,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.opaqueDepth) s << "#define OPAQUE_DEPTH\n";
   if (v.turnNormals && v.deformed && v.shading && !v.mip) s << "#define TURN_NORMALS\n";
   if (v.lighting && v.shading && !v.mip) s << "#define LIGHTING\n";
+  if (v.toneMap && v.lighting && v.shading && !v.mip) s << "#define TONE_MAP\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
   s << "#define BLOCK_SIZE " << (v.deformed ? 1 : kBlockSize) << "\n";
@@ -43,14 +44,15 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define OUTSIDE " << PreparedMap::kOutside << "\n";
   s << "#define OPAQUE_RANGE_MM " << kOpaqueDepthRangeMm << "\n";
   s << "#define NORMAL_STEP " << PreparedMap::kNormalStepNodes << "\n";
+  s << "#define PHASE_G " << kPhaseG << "\n";
   s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
   s << mapLayoutGlsl(v.gaussian && v.deformed ? Upsampling::Gaussian : Upsampling::Trilinear, v.snap && v.deformed);
   if (v.pathTrace) {
-    s << "#define MAX_PATH_ALPHA " << kMaxPathAlpha << "\n#define PHASE_G " << kPhaseG << "\n";
+    s << "#define MAX_PATH_ALPHA " << kMaxPathAlpha << "\n";
     s << "#define MIN_TRANSMITTANCE " << kMinTransmittance << "\n#define BLOCK_NUDGE " << kBlockNudgeMm << "\n";
     s << "#define MAX_TRACKING " << kMaxTrackingSteps << "\n";
   }
-  s << glsl::kRaycastFrag << glsl::kRayCommon << (v.pathTrace ? glsl::kPathTraceMainFrag : glsl::kRaycastMainFrag);
+  s << glsl::kLights << glsl::kRaycastFrag << glsl::kRayCommon << (v.pathTrace ? glsl::kPathTraceMainFrag : glsl::kRaycastMainFrag);
   return s.str();
 }
 

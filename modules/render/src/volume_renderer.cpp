@@ -172,6 +172,7 @@ struct VolumeRenderer::Impl {
   std::vector<float> lightAlpha;
   Vec3 lightDir;
   double lightRadius = -1;
+  double lightSize = -1;
   /// Cinematic quality (path_tracer_gl.hpp): extinction majorants per skip block, the float
   /// accumulation target.
   GLuint majorantTex = 0;
@@ -345,10 +346,12 @@ struct VolumeRenderer::Impl {
     const Vec3 dir = keyLightDirection(f, s.lighting);
     std::vector<float> alpha(tf.rgba.size() / 4);
     for (size_t i = 0; i < alpha.size(); ++i) alpha[i] = tf.rgba[4 * i + 3];
+    const bool soft = s.lighting.toneMap || s.quality == Quality::Cinematic;  // the scene lights' disc
+    const double size = soft ? s.cinematic.lightSizeDeg : 0.0;
     const bool same = lightTex && alpha == lightAlpha && norm(dir - lightDir) < 1e-9 &&
-                      lightRadius == s.lighting.occlusionRadiusMm;
+                      lightRadius == s.lighting.occlusionRadiusMm && lightSize == size;
     if (!same) {
-      light = computeLightVolume(*lightSource, tf, f.stepMm, dir, s.lighting);
+      light = computeLightVolume(*lightSource, tf, f.stepMm, dir, s.lighting, size);
       deleteTexture(lightTex);
       glActiveTexture(GL_TEXTURE0 + kUnitLight);  // not the unit bound last (the skip grid's)
       glGenTextures(1, &lightTex);
@@ -369,6 +372,7 @@ struct VolumeRenderer::Impl {
       lightAlpha = std::move(alpha);
       lightDir = dir;
       lightRadius = s.lighting.occlusionRadiusMm;
+      lightSize = size;
     }
     glActiveTexture(GL_TEXTURE0 + kUnitLight);
     glBindTexture(GL_TEXTURE_3D, lightTex);
@@ -379,6 +383,7 @@ struct VolumeRenderer::Impl {
     uniform1(p, "uShadowAmount", s.lighting.shadows);
     uniform1(p, "uOcclusionAmount", s.lighting.occlusion);
     uniform1(p, "uExposure", std::exp2(s.lighting.exposure));
+    if (s.lighting.toneMap) setSceneLightUniforms(p, makeSceneLights(f, s));
   }
 
   /// Ray casts rows [rowBegin, rowEnd) (row 0 = top) of the image `s` describes into the bound
@@ -433,11 +438,14 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.opaqueDepth = opaqueDepth;
   variant.turnNormals = deform && s.shading && s.turnDeformedNormals && !variant.mip;
   variant.lighting = s.lighting.on() && s.shading && !variant.mip && lightSource != nullptr;
+  variant.toneMap = variant.lighting && s.lighting.toneMap;
   if (pathTrace) {  // the path tracer reads normals (its BRDF), and lights by itself
     variant.pathTrace = true;
     variant.shading = true;
     variant.turnNormals = deform && s.turnDeformedNormals;
-    variant.lighting = variant.labels = variant.opaqueDepth = false;
+    variant.toneMap = variant.opaqueDepth = false;
+    // Volume shadows: the light volume instead of traced shadow and sky rays.
+    variant.lighting = s.cinematic.volumeShadows && lightSource != nullptr;
   }
   const GLuint p = program(variant);
   glUseProgram(p);
@@ -527,7 +535,6 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
 RgbaImage VolumeRenderer::Impl::renderCinematic(const RenderSettings& s) {
   uploadMap();
   const BackwardMap* deform = map ? &*map : nullptr;
-  const Frame f = makeFrame(source, deform ? &deform->grid : nullptr, s);
   const auto t0 = std::chrono::steady_clock::now();
   RgbaImage guide;  // the denoise's edges: the same view ray cast (path_tracer.hpp)
   if (s.cinematic.denoise > 0) {
@@ -536,11 +543,14 @@ RgbaImage VolumeRenderer::Impl::renderCinematic(const RenderSettings& s) {
     draw(denoiseGuideSettings(s), target.framebuffer(), 0, s.height, 0);
     readRgbaRows(target.framebuffer(), 0, s.height, guide, "denoise guide");
   }
-  const GLuint p = useProgram(s, f, deform, false, true);
-  setFrameUniforms(p, s, f);
-  setPathTraceUniforms(p, makePathLights(f, s), s.cinematic.seed);
-  accumulation.bindCleared(s.width, s.height);
-  glViewport(0, 0, s.width, s.height);
+  // The paths: at cinematic.traceScale of the size (finishPathTraced upsamples them).
+  const RenderSettings ts = tracedSettings(s);
+  const Frame ft = makeFrame(source, deform ? &deform->grid : nullptr, ts);
+  const GLuint p = useProgram(ts, ft, deform, false, true);
+  setFrameUniforms(p, ts, ft);
+  setPathTraceUniforms(p, makePathLights(ft, ts), s.cinematic.seed);
+  accumulation.bindCleared(ts.width, ts.height);
+  glViewport(0, 0, ts.width, ts.height);
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_SCISSOR_TEST);
   glEnable(GL_BLEND);  // each pass adds its samples' sums

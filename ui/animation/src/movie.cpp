@@ -43,6 +43,7 @@ struct MovieRenderer::Impl {
     frames = track.frameCount(spec.fps);
     if (!spec.title.empty()) titleFrames = std::max(1, static_cast<int>(std::lround(spec.titleSeconds * spec.fps)));
     renderer.setVolume(volume);
+    if (spec.tint) renderer.setLabelTint(spec.tint);
     if (!spec.moviePath.empty())
       video = std::make_unique<io::VideoWriter>(spec.moviePath, spec.settings.width, spec.settings.height, spec.fps);
     if (!spec.framesDir.empty()) fs::create_directories(spec.framesDir);

@@ -5,12 +5,14 @@
 #include <chrono>
 #include <sstream>
 
+#include "vellum/app/figures.hpp"
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
 #include "vellum/app/table_removal.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/render/gl_context.hpp"
+#include "vellum/render/label_tint.hpp"
 
 namespace vellum::app {
 using namespace vellum::deformation;
@@ -150,6 +152,18 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
     o.allowOutsideData = request.load.allowOutsideData;
     names = io::loadLabels(request.engine.labels, o);
     withLabels.labels = &*names;
+  }
+  // Label colours (--label-blend): the --labels map's table colours, through every frame's map.
+  std::optional<render::LabelTint> tint;
+  if (request.settings.labelBlend > 0) {
+    if (request.engine.labels.empty()) throw Error("--label-blend needs the label map of --labels");
+    io::LoadOptions o;
+    o.region = request.load.region;
+    o.allowOutsideData = request.load.allowOutsideData;
+    const LabelVolume labels = names ? *names : io::loadLabels(request.engine.labels, o);
+    requireSameGrid(labels, grid, request.engine.labels);
+    tint = render::makeLabelTint(labels);
+    withLabels.tint = &*tint;
   }
   if (!spec.moviePath.empty()) ensureParentFolder(spec.moviePath);
   if (!spec.framesDir.empty()) ensureParentFolder(spec.framesDir);

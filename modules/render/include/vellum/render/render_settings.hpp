@@ -55,7 +55,10 @@ struct Lighting {
   /// Brightens the lit colour by 2^exposure stops before it is clamped (the shadowed picture
   /// is darker than the headlit one; about +0.3 restores its mid-tones).
   double exposure = 0;
-  bool on() const { return shadows > 0 || occlusion > 0; }
+  /// The cinematic path tracer's lights (Cinematic: soft key of lightSizeDeg, fill, sky) in
+  /// linear light, ACES tone mapped with the exposure, instead of key + headlight clamped.
+  bool toneMap = false;
+  bool on() const { return shadows > 0 || occlusion > 0 || toneMap; }
 };
 
 /// How the picture is made: the ray caster (one pass, local shading and the lighting terms
@@ -66,7 +69,7 @@ enum class Quality {
 };
 
 /// The path tracer's settings (Quality::Cinematic). The key light's direction and the exposure
-/// are Lighting's.
+/// are Lighting's; the light size, fill and sky also light the ray caster with Lighting::toneMap.
 struct Cinematic {
   int samples = 64;        ///< paths per pixel
   double timeLimitS = 0;   ///< stop after the sample pass that crosses this (0 = none; at least one pass)
@@ -76,6 +79,14 @@ struct Cinematic {
   double lightSizeDeg = 6; ///< the key light's angular radius: soft shadow edges (0 = sharp)
   double fill = 0.3;       ///< a second (fill) light, mirrored from the key, relative to the key
   double sky = 0.6;        ///< radiance of the surrounding sky light (ambient, occluded by the volume)
+  /// Paths are traced at this fraction of the image's width and height and upsampled before the
+  /// denoise, whose guide (the ray-cast picture) is full size: 0.5 = a quarter of the paths per
+  /// sample pass, edges still sharp.
+  double traceScale = 1;
+  /// The key light's shadow and the sky's occlusion looked up in the ray caster's light volume
+  /// (soft by lightSizeDeg) instead of traced per path: far cheaper, the light volume's
+  /// resolution (about 1/192 of the volume) instead of exact shadows.
+  bool volumeShadows = false;
 };
 
 struct RenderSettings {

@@ -15,6 +15,7 @@
 #include "vellum/deformation/rigidity.hpp"
 #include "vellum/render/annotations.hpp"
 #include "vellum/render/backward_map.hpp"
+#include "vellum/render/label_tint.hpp"
 #include "vellum/render/gl_context.hpp"
 #include "vellum/render/render_settings.hpp"
 
@@ -35,6 +36,8 @@ struct MovieSpec {
   /// pulled through the map; each leader line ends on the structure's centre where the frame
   /// draws it (render::deformedPositions), framed as the renderer frames the map's grid.
   const LabelVolume* labels = nullptr;
+  /// Label colours (settings.labelBlend > 0): the volume tinted by them, through each frame's map.
+  const render::LabelTint* tint = nullptr;
   std::vector<uint16_t> labelIds;  ///< structures to name (empty: every id of the table)
   /// A title card before the first frame (title centred, subtitle beneath it, on the
   /// settings' background), shown for titleSeconds; none when the title is empty.
