@@ -442,6 +442,34 @@ void expandControls(Steps& s, const json& v) {
   s.frames(1);
 }
 
+void expandSnakeControl(Steps& s, const json& v) {
+  // {"snake_control": "pause" | "resume" | "accept" | "cancel"}: the snake panel's buttons.
+  // "pause" waits for the first live contour, then until the worker has stopped, and prints
+  // the iteration it stopped at; "accept" and "cancel" wait until what they keep is applied.
+  const std::string what = v.get<std::string>();
+  if (what == "pause") {
+    s.until([](StudioApp& a) { return a.snakeJob().live().first != nullptr || !a.snakeJob().busy(); });
+    s.once([](StudioApp& a) { a.snakeJob().setPaused(true); });
+    s.until([](StudioApp& a) { return a.snakeJob().parked() || !a.snakeJob().busy(); });
+    s.once([](StudioApp& a) {
+      const auto [iteration, factor] = a.snakeJob().liveIteration();
+      const auto live = a.snakeJob().live().first;
+      std::cout << "snake paused at iteration " << iteration << " (1/" << factor << " resolution) ("
+                << (live ? segmentation::countVoxels(*live) : 0) << " voxels)" << std::endl;
+    });
+  } else if (what == "resume") {
+    s.once([](StudioApp& a) { a.snakeJob().setPaused(false); });
+  } else if (what == "accept" || what == "cancel") {
+    if (what == "accept") s.once([](StudioApp& a) { a.snakeJob().acceptCurrent(); });
+    else s.once([](StudioApp& a) { a.snakeJob().cancel(); });
+    s.until([](StudioApp& a) { return !a.snakeJob().pending(); });
+    s.waitTasks();
+  } else {
+    throw Error("snake_control must be pause, resume, accept or cancel");
+  }
+  s.frames(1);
+}
+
 void expandPointDrag(Steps& s, const json& v) {
   // Finds where the point's end is drawn (3D view first), then drags from there through the
   // real mouse path: press, `steps` moves, release.
@@ -724,6 +752,7 @@ const std::map<std::string, Expander>& expanders() {
       {"bookmark", expandBookmark},
       {"remove_islands", expandRemoveIslands},
       {"otsu", expandOtsu},
+      {"snake_control", expandSnakeControl},
       {"export_command", expandExportCommand},
       {"hud", expandHud},
       {"log", expandLog},
