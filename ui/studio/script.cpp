@@ -443,11 +443,23 @@ void expandControls(Steps& s, const json& v) {
 }
 
 void expandSnakeControl(Steps& s, const json& v) {
-  // {"snake_control": "pause" | "resume" | "accept" | "cancel"}: the snake panel's buttons.
-  // "pause" waits for the first live contour, then until the worker has stopped, and prints
-  // the iteration it stopped at; "accept" and "cancel" wait until what they keep is applied.
+  // {"snake_control": "pause" | "resume" | "accept" | "cancel" | "wait"}: the snake panel's
+  // buttons. "pause" waits for the first live contour, then until the worker has stopped, and
+  // prints the iteration it stopped at; "accept", "cancel" and "wait" wait until what they keep
+  // is applied. {"snake_control": {"seed_mm": [x, y, z]}} starts a snake there (as a click in a
+  // slice at that point does; benchmarks).
+  if (v.is_object()) {
+    const auto& p = v.at("seed_mm");
+    const Vec3 seed{p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>()};
+    s.once([seed](StudioApp& a) { a.startSnake(seed); });
+    s.frames(1);
+    return;
+  }
   const std::string what = v.get<std::string>();
-  if (what == "pause") {
+  if (what == "wait") {
+    s.until([](StudioApp& a) { return !a.snakeJob().pending(); });
+    s.waitTasks();
+  } else if (what == "pause") {
     s.until([](StudioApp& a) { return a.snakeJob().live().first != nullptr || !a.snakeJob().busy(); });
     s.once([](StudioApp& a) { a.snakeJob().setPaused(true); });
     s.until([](StudioApp& a) { return a.snakeJob().parked() || !a.snakeJob().busy(); });

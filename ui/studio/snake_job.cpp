@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <vector>
 
 #include "vellum/app/segment_pipeline.hpp"
 #include "vellum/core/error.hpp"
@@ -16,7 +17,9 @@ namespace seg = vellum::segmentation;
 
 namespace {
 /// Thrown by the observer when the user accepts the contour shown: unwinds the evolution.
-struct AcceptNow {};
+struct AcceptNow {
+  bool settled = false;  ///< the stop was kSnakeSettleFraction's, not the user's
+};
 
 /// `m` (any grid over the same space) on grid `g`, nearest voxel: a coarse level's contour or
 /// the box's result on the scan's grid. Voxels of `g` outside m's grid are 0.
@@ -140,6 +143,7 @@ bool SnakeJob::start(SnakeRequest request) {
         const VolumeI16 crop = whole ? VolumeI16() : std::get<VolumeI16>(cropVolume(AnyVolume(ct), box));
         const VolumeI16& region = whole ? ct : crop;
         const Dims rd = region.dims();
+        std::vector<std::pair<int, int64_t>> fullCounts;  // (iteration, inside voxels) at full resolution
         // Every few iterations the contour so far goes to the slices (live evolution); here
         // the worker parks while paused and unwinds when the user accepts.
         const auto publish = [&](const seg::Mask& inside, int iteration) {
@@ -160,6 +164,19 @@ bool SnakeJob::start(SnakeRequest request) {
           }
           parked_ = false;
           if (accept_) throw AcceptNow{};
+          if (factor == 1) {
+            const int64_t n = seg::countVoxels(inside);
+            fullCounts.emplace_back(iteration, n);
+            int64_t lo = n, hi = n;
+            for (auto it = fullCounts.rbegin(); it != fullCounts.rend(); ++it) {
+              lo = std::min(lo, it->second);
+              hi = std::max(hi, it->second);
+              if (iteration - it->first >= kSnakeSettleIterations) {
+                if (double(hi - lo) <= kSnakeSettleFraction * double(n) && n > 0) throw AcceptNow{true};
+                break;
+              }
+            }
+          }
         };
         // What the UI shows for a contour kept before the end: on the scan's grid.
         const auto kept = [&](const seg::Mask& m, std::string note) {
@@ -182,7 +199,7 @@ bool SnakeJob::start(SnakeRequest request) {
               << " mm box about the seed: seed again beyond it to extend";
             out.note = n.str();
           }
-        } catch (const AcceptNow&) {
+        } catch (const AcceptNow& stop) {
           std::shared_ptr<const seg::Mask> m;
           int factor = 1;
           {
@@ -192,9 +209,14 @@ bool SnakeJob::start(SnakeRequest request) {
           }
           if (!m) throw Cancelled();
           std::ostringstream n;
-          n << "accepted the contour at iteration " << liveIteration().first
-            << (factor > 1 ? " of the 1/" + std::to_string(factor) + " resolution level" : " at full resolution");
+          if (stop.settled)
+            n << "settled at iteration " << liveIteration().first << " (the inside changed by under "
+              << 100 * kSnakeSettleFraction << " % over " << kSnakeSettleIterations << " iterations)";
+          else
+            n << "accepted the contour at iteration " << liveIteration().first
+              << (factor > 1 ? " of the 1/" + std::to_string(factor) + " resolution level" : " at full resolution");
           out = kept(*m, n.str());
+          out.converged = stop.settled;
         } catch (const Cancelled&) {
           std::shared_ptr<const seg::Mask> m;
           {

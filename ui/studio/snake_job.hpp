@@ -32,6 +32,12 @@ struct SnakeRequest {
 /// Half the side of the snake's box about the seed (mm): a limb's cross-section (a knee or a
 /// thigh is 100-180 mm across) with room; clipped to the scan.
 inline constexpr double kSnakeRoiHalfMm = 90;
+/// The full-resolution level stops as settled when the inside's volume changed by less than
+/// this fraction over the last kSnakeSettleIterations: on a real CT the contour's noisy edge
+/// keeps flipping voxels, so the module's own convergence test (changes per iteration) may
+/// never pass before the iteration limit (2000 iterations, minutes, on ct-feet-vhf).
+inline constexpr double kSnakeSettleFraction = 0.002;
+inline constexpr int kSnakeSettleIterations = 50;
 
 struct SnakeJobResult {
   /// "snake cancelled", the segmentation module's message, or why the snake found nothing

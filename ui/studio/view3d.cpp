@@ -219,8 +219,14 @@ void View3D::warmUp(const Scene& scene) {
   render::RenderSettings s = renderSettingsFor(scene, 8, 8);
   renderer_->renderInto(s, target.volumeTarget(false));
   // The deformed variant the studio draws: an identity map with an output box and a rigid snap.
-  render::BackwardMap map = render::identityBackwardMap(g, {}, g);
+  // Its grid as a control grid is (no axis a power of two), over the tiny volume.
+  Geometry nodes = g;
+  nodes.dims = {9, 9, 13};
+  nodes.spacing = {2, 2, 2};
+  render::BackwardMap map = render::identityBackwardMap(nodes, {}, g);
   map.upsampling = scene.view.deformedUpsampling;
+  renderer_->setBackwardMap(&map);  // without rigid labels
+  renderer_->renderInto(s, target.volumeTarget(false));
   auto snap = std::make_shared<RigidSnap>();
   snap->classes = std::make_shared<const std::vector<uint16_t>>(size_t(g.dims.voxelCount()), uint16_t(2));
   snap->classGrid = g;
@@ -499,6 +505,8 @@ void View3D::startRefinement(const Scene& scene, int paneWidth, int paneHeight) 
       }
   }
   refineCol_ = bandRows_ = refineTiles_ = 0;
+  if (rateDeformed_ != hasMap_) probe_ = true;
+  rateDeformed_ = hasMap_;
   shown_ = full_.colourTexture();
   shownBottomUp_ = true;
 }
@@ -550,7 +558,7 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
     }
     // One row already over the budget (a deformed real-size volume on llvmpipe: 0.2-0.5 s per
     // row under load): a band of kTileRows rows drawn as column tiles, a few per frame.
-    if (rows == 1 && cost * msPerCost_ > budgetMs_) rows = std::min(kTileRows, paneHeight - refineRow_);
+    if (probe_ || (rows == 1 && cost * msPerCost_ > budgetMs_)) rows = std::min(kTileRows, paneHeight - refineRow_);
     bandRows_ = rows;
   }
   const int row0 = refineRow_, row1 = refineRow_ + bandRows_;
@@ -562,13 +570,13 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
     const std::vector<double> cols = columnCosts(row0, row1, paneWidth);
     double all = 0;
     for (int x = refineCol_; x < paneWidth; ++x) all += cols[size_t(x)];
-    if (refineCol_ == 0 && all * msPerCost_ <= budgetMs_) {
+    if (refineCol_ == 0 && !probe_ && all * msPerCost_ <= budgetMs_) {
       tileCost = all;
     } else {
       col1 = refineCol_;
       while (col1 < paneWidth) {
         const double next = tileCost + cols[size_t(col1)];
-        if (col1 - refineCol_ >= kMinTileCols && next * msPerCost_ > budgetMs_) break;
+        if (col1 - refineCol_ >= kMinTileCols && (probe_ || next * msPerCost_ > budgetMs_)) break;
         tileCost = next;
         ++col1;
       }
@@ -592,7 +600,8 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   // The rate rises at once and falls slowly: learnt from one tile alone it swung from a cheap
   // tile (4 ms) to a next tile 20x over the budget on the deformed real CT.
   const double observed = std::max(1e-6, lastMs_ / std::max(tileCost, 1e-9));
-  msPerCost_ = observed > msPerCost_ ? observed : 0.75 * msPerCost_ + 0.25 * observed;
+  msPerCost_ = observed > msPerCost_ || probe_ ? observed : 0.75 * msPerCost_ + 0.25 * observed;
+  probe_ = false;
   refineMs_ += lastMs_;
   ++refineTiles_;
   lastScale_ = 1;

@@ -187,6 +187,10 @@ class View3D {
   int refineCol_ = 0, bandRows_ = 0;  ///< within a tiled band: the next column, the band's rows
   int refineTiles_ = 0;
   double budgetMs_ = kInteractiveBudgetMs;
+  /// The rate was learnt without (false) or with a deformation; when that changes the first
+  /// tile is the smallest, a probe whose rate is taken as it is (a deformed ray costs several
+  /// times an undeformed one: the old rate made a first deformed tile of 0.4-0.6 s).
+  bool rateDeformed_ = false, probe_ = false;
   RgbaImage coarseImage_;         ///< the last reduced-resolution frame (row cost predictor)
   std::vector<double> rowCost_;   ///< predicted relative cost of each full-resolution row
   std::vector<uint8_t> hit_;      ///< per coarse pixel: 1 where the ray met something
