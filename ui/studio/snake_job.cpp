@@ -215,6 +215,9 @@ bool SnakeJob::start(SnakeRequest request) {
           else
             n << "accepted the contour at iteration " << liveIteration().first
               << (factor > 1 ? " of the 1/" + std::to_string(factor) + " resolution level" : " at full resolution");
+          if (!whole && factor == 1 && touchesCutFace(*m, box, g.dims))
+            n << "; the contour reached the edge of its " << std::lround(2 * kSnakeRoiHalfMm)
+              << " mm box about the seed: seed again beyond it to extend";
           out = kept(*m, n.str());
           out.converged = stop.settled;
         } catch (const Cancelled&) {
