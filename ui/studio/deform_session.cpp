@@ -167,7 +167,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
       buildingLabels_ = a.rigidLabels;
       bodiesBuild_ = std::async(std::launch::async, [labels = scene.labels, ids = a.rigidLabels] {
         lowerThreadPriority();
-        return inWorkerArena([&] { return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(labels, ids)); });
+        return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(labels, ids));
       });
     }
   }
