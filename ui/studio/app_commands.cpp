@@ -279,7 +279,8 @@ void StudioApp::pollSnake() {
     showError("the snake found nothing: is the seed inside the HU range?");
     return;
   }
-  std::cout << "snake: " << out->iterations << " iterations" << (out->converged ? ", converged" : "") << std::endl;
+  std::cout << "snake: " << out->iterations << " iterations" << (out->converged ? ", converged" : "")
+            << (out->note.empty() ? "" : "; " + out->note) << std::endl;
   auto mask = std::make_shared<const segmentation::Mask>(std::move(out->mask));
   editInWorker("snake", [mask, id = tools_.activeLabel](LabelVolume& l, Progress&) {
     segmentation::addSegment(l, *mask, labelFor(l, id, "Snake " + std::to_string(id)),

@@ -47,7 +47,7 @@ class BackgroundJob {
       lowerThreadPriority();  // the window's frames come first
       Result r;
       try {
-        r = work(*progress_);
+        r = inWorkerArena([&] { return work(*progress_); });
       } catch (const Cancelled&) {
         r = failed_(what_ + " cancelled");
       } catch (const std::exception& e) {

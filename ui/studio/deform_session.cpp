@@ -82,8 +82,11 @@ std::future<DeformSession::Solved> DeformSession::solveOnWorker(std::unique_ptr<
   // false, so it cannot change under the worker.
   return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress), background] {
     if (background) lowerThreadPriority();
-    if (!*slot) *slot = std::make_unique<Deformer>(AnyVolume(*ct), params);
-    return solve(**slot, in, *progress);
+    // In a smaller arena, also for the solves the user waits for: the UI thread keeps a core.
+    return inWorkerArena([&] {
+      if (!*slot) *slot = std::make_unique<Deformer>(AnyVolume(*ct), params);
+      return solve(**slot, in, *progress);
+    });
   });
 }
 

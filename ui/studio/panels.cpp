@@ -203,6 +203,12 @@ void segmentationSection(StudioApp& app) {
     ImGui::ProgressBar(static_cast<float>(fraction), {-70, 0});
     ImGui::SameLine();
     if (ImGui::Button("Cancel##snake")) app.snakeJob().cancel();
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("stops; after the coarse levels their contour is kept (Ctrl+Z drops it)");
+    // ITK-SNAP's habit: pause to look, accept the contour as it is.
+    const bool paused = app.snakeJob().pauseRequested();
+    if (ImGui::Button(paused ? "Resume##snake" : "Pause##snake")) app.snakeJob().setPaused(!paused);
+    ImGui::SameLine();
+    if (ImGui::Button("Accept current##snake")) app.snakeJob().acceptCurrent();
   }
   t.tool = static_cast<Tool>(tool);
   ImGui::SliderFloat("Brush radius (mm)", &t.brushRadiusMm, 0.5f, 30.f, "%.1f");

@@ -551,6 +551,46 @@ void expandControls(Steps& s, const json& v) {
   s.frames(1);
 }
 
+void expandSnakeControl(Steps& s, const json& v) {
+  // {"snake_control": "pause" | "resume" | "accept" | "cancel" | "wait"}: the snake panel's
+  // buttons. "pause" waits for the first live contour, then until the worker has stopped, and
+  // prints the iteration it stopped at; "accept", "cancel" and "wait" wait until what they keep
+  // is applied. {"snake_control": {"seed_mm": [x, y, z]}} starts a snake there (as a click in a
+  // slice at that point does; benchmarks).
+  if (v.is_object()) {
+    const auto& p = v.at("seed_mm");
+    const Vec3 seed{p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>()};
+    s.once([seed](StudioApp& a) { a.startSnake(seed); });
+    s.frames(1);
+    return;
+  }
+  const std::string what = v.get<std::string>();
+  if (what == "wait") {
+    s.until([](StudioApp& a) { return !a.snakeJob().pending(); });
+    s.waitTasks();
+  } else if (what == "pause") {
+    s.until([](StudioApp& a) { return a.snakeJob().live().first != nullptr || !a.snakeJob().busy(); });
+    s.once([](StudioApp& a) { a.snakeJob().setPaused(true); });
+    s.until([](StudioApp& a) { return a.snakeJob().parked() || !a.snakeJob().busy(); });
+    s.once([](StudioApp& a) {
+      const auto [iteration, factor] = a.snakeJob().liveIteration();
+      const auto live = a.snakeJob().live().first;
+      std::cout << "snake paused at iteration " << iteration << " (1/" << factor << " resolution) ("
+                << (live ? segmentation::countVoxels(*live) : 0) << " voxels)" << std::endl;
+    });
+  } else if (what == "resume") {
+    s.once([](StudioApp& a) { a.snakeJob().setPaused(false); });
+  } else if (what == "accept" || what == "cancel") {
+    if (what == "accept") s.once([](StudioApp& a) { a.snakeJob().acceptCurrent(); });
+    else s.once([](StudioApp& a) { a.snakeJob().cancel(); });
+    s.until([](StudioApp& a) { return !a.snakeJob().pending(); });
+    s.waitTasks();
+  } else {
+    throw Error("snake_control must be pause, resume, accept or cancel");
+  }
+  s.frames(1);
+}
+
 void expandPointDrag(Steps& s, const json& v) {
   // Finds where the point's end is drawn (3D view first), then drags from there through the
   // real mouse path: press, `steps` moves, release.
@@ -850,6 +890,7 @@ const std::map<std::string, Expander>& expanders() {
       {"bookmark", expandBookmark},
       {"remove_islands", expandRemoveIslands},
       {"otsu", expandOtsu},
+      {"snake_control", expandSnakeControl},
       {"export_command", expandExportCommand},
       {"export_figure", expandExportFigure},
       {"copy_command", expandCopyCommand},

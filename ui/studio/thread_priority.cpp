@@ -1,5 +1,9 @@
 #include "thread_priority.hpp"
 
+#include <algorithm>
+
+#include <tbb/info.h>
+
 #if defined(__linux__)
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -7,6 +11,8 @@
 #endif
 
 namespace vellum::studio {
+
+int workerConcurrency() { return std::max(1, tbb::info::default_concurrency() - 1); }
 
 void lowerThreadPriority() {
 #if defined(__linux__)

@@ -200,6 +200,47 @@ View3D::View3D(render::GlContext& context)
     : context_(context), renderer_(std::make_unique<render::VolumeRenderer>(context)), coarse_(context), full_(context),
       meshLayer_(context) {}
 
+void View3D::warmUp(const Scene& scene) {
+  if (warmed_ || hasVolume_) return;
+  warmed_ = true;
+  context_.makeCurrent();
+  // llvmpipe keys the code it generates on the textures' formats and on whether each axis is a
+  // power of two: the tiny volume is a 512x512xN CT's pattern (x, y powers of two, z not; its
+  // 8-voxel blocks the same), the CT's voxel type.
+  Geometry g;
+  g.dims = {16, 16, 24};
+  VolumeI16 tiny(g, int16_t(-1000), -1000.0);
+  for (int64_t k = 4; k < 20; ++k)
+    for (int64_t j = 4; j < 12; ++j)
+      for (int64_t i = 4; i < 12; ++i) tiny(i, j, k) = 1200;  // bone: every preset draws it
+  renderer_->setVolume(AnyVolume(tiny));
+  render::FramebufferTarget target(context_);
+  target.resize(8, 8);
+  render::RenderSettings s = renderSettingsFor(scene, 8, 8);
+  renderer_->renderInto(s, target.volumeTarget(false));
+  // The deformed variant the studio draws: an identity map with an output box and a rigid snap.
+  // Its grid as a control grid is (no axis a power of two), over the tiny volume.
+  Geometry nodes = g;
+  nodes.dims = {9, 9, 13};
+  nodes.spacing = {2, 2, 2};
+  render::BackwardMap map = render::identityBackwardMap(nodes, {}, g);
+  map.upsampling = scene.view.deformedUpsampling;
+  renderer_->setBackwardMap(&map);  // without rigid labels
+  renderer_->renderInto(s, target.volumeTarget(false));
+  auto snap = std::make_shared<RigidSnap>();
+  snap->classes = std::make_shared<const std::vector<uint16_t>>(size_t(g.dims.voxelCount()), uint16_t(2));
+  snap->classGrid = g;
+  snap->fits = {{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}};
+  snap->valid = {1};
+  snap->maxSnapMm = 1;
+  map.rigidSnap = snap;
+  renderer_->setBackwardMap(&map);
+  renderer_->renderInto(s, target.volumeTarget(false));
+  renderer_->setBackwardMap(nullptr);
+  glFinish();
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
 void View3D::setVolume(const VolumeI16& ct) {
   context_.makeCurrent();
   dropPendingMaps();
@@ -256,7 +297,7 @@ bool View3D::stepMap(size_t maxBytes) {
     preparingRevision_ = nextMap_->revision;
     preparing_ = Future(std::async(std::launch::async, [map = std::move(nextMap_->map), volume = volumePrepared_] {
       lowerThreadPriority();
-      return render::VolumeRenderer::prepareBackwardMap(map, *volume);
+      return inWorkerArena([&] { return render::VolumeRenderer::prepareBackwardMap(map, *volume); });
     }));
     nextMap_.reset();
   }
@@ -357,6 +398,13 @@ RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
   return target.readColour();
 }
 
+RgbaImage View3D::readShown() {
+  context_.makeCurrent();
+  if (shown_ != 0 && shown_ == full_.colourTexture()) return full_.readColour();
+  if (shown_ != 0 && shown_ == coarse_.colourTexture()) return coarse_.readColour();
+  return {};
+}
+
 std::vector<double> View3D::predictRowCosts(const RgbaImage& coarse, int height) const {
   // Rays that hit something cost far more than rays through empty space or past the volume:
   // weight each full-resolution row by the object pixels of the matching coarse row.
@@ -371,6 +419,21 @@ std::vector<double> View3D::predictRowCosts(const RgbaImage& coarse, int height)
       hits += p[0] != bg[0] || p[1] != bg[1] || p[2] != bg[2];
     }
     cost[static_cast<size_t>(y)] += 10.0 * hits * (double(scale_) * scale_);
+  }
+  return cost;
+}
+
+std::vector<double> View3D::columnCosts(int row0, int row1, int width) const {
+  // The row model spread over the row: 1 per row for the background, 10 * scale² per coarse
+  // hit pixel (scale full-resolution pixels wide), as predictRowCosts.
+  std::vector<double> cost(static_cast<size_t>(width), double(row1 - row0) / width);
+  const int cw = coarseImage_.width, ch = coarseImage_.height;
+  if (cw == 0 || ch == 0 || hit_.size() != size_t(cw) * ch) return cost;
+  const double perHit = 10.0 * scale_;
+  for (int y = row0; y < row1; ++y) {
+    const int cy = std::min(ch - 1, y * ch / refineHeight_);
+    for (int x = 0; x < width; ++x)
+      if (hit_[size_t(cy) * cw + std::min(cw - 1, x * cw / width)]) cost[size_t(x)] += perHit;
   }
   return cost;
 }
@@ -432,6 +495,18 @@ void View3D::startRefinement(const Scene& scene, int paneWidth, int paneHeight) 
   }
   coarseImage_ = coarse_.width() > 0 ? coarse_.readColour() : RgbaImage();  // small, finished frames ago
   rowCost_ = predictRowCosts(coarseImage_, paneHeight);
+  hit_.assign(size_t(coarseImage_.width) * coarseImage_.height, 0);
+  if (!hit_.empty()) {
+    const uint8_t* bg = coarseImage_.at(0, 0);
+    for (int y = 0; y < coarseImage_.height; ++y)
+      for (int x = 0; x < coarseImage_.width; ++x) {
+        const uint8_t* p = coarseImage_.at(x, y);
+        hit_[size_t(y) * coarseImage_.width + x] = p[0] != bg[0] || p[1] != bg[1] || p[2] != bg[2];
+      }
+  }
+  refineCol_ = bandRows_ = refineTiles_ = 0;
+  if (rateDeformed_ != hasMap_) probe_ = true;
+  rateDeformed_ = hasMap_;
   shown_ = full_.colourTexture();
   shownBottomUp_ = true;
 }
@@ -472,29 +547,66 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
   // Idle: refine to full resolution a band of rows per frame, each band sized to the
   // interactive budget, so that no frame blocks for a whole full-resolution render.
   if (!refining_) startRefinement(scene, paneWidth, paneHeight);
-  // The band: as many rows as the predicted cost allows within the budget (at least one: a
-  // deformed real-size volume can cost over the budget in 4 rows on llvmpipe).
-  int rows = 0;
-  for (double cost = 0; refineRow_ + rows < paneHeight; ++rows) {
-    cost += rowCost_[static_cast<size_t>(refineRow_ + rows)];
-    if (rows >= 1 && cost * msPerCost_ > kInteractiveBudgetMs) break;
+  if (refineCol_ == 0) {
+    // The band: as many rows as the predicted cost allows within the budget.
+    int rows = 0;
+    double cost = 0;
+    for (; refineRow_ + rows < paneHeight; ++rows) {
+      const double next = cost + rowCost_[static_cast<size_t>(refineRow_ + rows)];
+      if (rows >= 1 && next * msPerCost_ > budgetMs_) break;
+      cost = next;
+    }
+    // One row already over the budget (a deformed real-size volume on llvmpipe: 0.2-0.5 s per
+    // row under load): a band of kTileRows rows drawn as column tiles, a few per frame.
+    if (probe_ || (rows == 1 && cost * msPerCost_ > budgetMs_)) rows = std::min(kTileRows, paneHeight - refineRow_);
+    bandRows_ = rows;
   }
-  double bandCost = 0;
-  for (int r = 0; r < rows; ++r) bandCost += rowCost_[static_cast<size_t>(refineRow_ + r)];
+  const int row0 = refineRow_, row1 = refineRow_ + bandRows_;
+  int col1 = paneWidth;
+  double tileCost = 0;
+  if (refineCol_ > 0 || bandRows_ > 1) {
+    // Columns while the predicted cost fits (at least kMinTileCols); a whole-width band when
+    // it all fits.
+    const std::vector<double> cols = columnCosts(row0, row1, paneWidth);
+    double all = 0;
+    for (int x = refineCol_; x < paneWidth; ++x) all += cols[size_t(x)];
+    if (refineCol_ == 0 && !probe_ && all * msPerCost_ <= budgetMs_) {
+      tileCost = all;
+    } else {
+      col1 = refineCol_;
+      while (col1 < paneWidth) {
+        const double next = tileCost + cols[size_t(col1)];
+        if (col1 - refineCol_ >= kMinTileCols && (probe_ || next * msPerCost_ > budgetMs_)) break;
+        tileCost = next;
+        ++col1;
+      }
+      if (paneWidth - col1 < kMinTileCols) {  // no sliver left for its own frame
+        for (; col1 < paneWidth; ++col1) tileCost += cols[size_t(col1)];
+      }
+    }
+  } else {
+    tileCost = rowCost_[static_cast<size_t>(row0)];
+  }
   const auto t0 = std::chrono::steady_clock::now();
   context_.makeCurrent();
   render::RenderTarget target = full_.volumeTarget(false);
   if (drawingMeshes(scene)) {  // the meshes' rows under the band, rays stopped at their depth
-    full_.copyColourRows(meshLayer_, refineRow_, refineRow_ + rows);
+    if (refineCol_ == 0) full_.copyColourRows(meshLayer_, row0, row1);  // once per band
     target.opaqueDepth = meshLayer_.depthTexture();
   }
-  renderer_->renderIntoRows(renderSettingsFor(scene, paneWidth, paneHeight), target, refineRow_, refineRow_ + rows);
-  glFinish();  // the band's real cost teaches the cost per row (see renderCoarse)
+  renderer_->renderIntoTile(renderSettingsFor(scene, paneWidth, paneHeight), target, refineCol_, col1, row0, row1);
+  glFinish();  // the tile's real cost teaches the cost per row (see renderCoarse)
   lastMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  msPerCost_ = std::max(1e-4, lastMs_ / bandCost);
+  // The rate rises at once and falls slowly: learnt from one tile alone it swung from a cheap
+  // tile (4 ms) to a next tile 20x over the budget on the deformed real CT.
+  const double observed = std::max(1e-6, lastMs_ / std::max(tileCost, 1e-9));
+  msPerCost_ = observed > msPerCost_ || probe_ ? observed : 0.75 * msPerCost_ + 0.25 * observed;
+  probe_ = false;
   refineMs_ += lastMs_;
+  ++refineTiles_;
   lastScale_ = 1;
-  refineRow_ += rows;
+  refineCol_ = col1 >= paneWidth ? 0 : col1;
+  if (refineCol_ == 0) refineRow_ += bandRows_;
   if (refineRow_ >= paneHeight) {
     refined_ = true;
     refining_ = false;

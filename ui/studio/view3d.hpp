@@ -4,8 +4,9 @@
 // meshes first when they are on (render::MeshRenderer; rays stop at their depth).
 // Progressive refinement: while the user drags, frames render at 1/2..1/8 of the pane's
 // resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when the view rests, the full-resolution picture is rendered a band of rows
-// per frame (VolumeRenderer::renderIntoRows, each band sized to the same budget) over the
-// scaled-up coarse picture, so the window stays responsive throughout.
+// per frame (VolumeRenderer::renderIntoTile, each band sized to the same budget; a band whose
+// single row is over budget is cut into column tiles) over the scaled-up coarse picture, so
+// the window stays responsive throughout.
 #include <future>
 #include <memory>
 #include <optional>
@@ -64,9 +65,18 @@ std::string cliRenderCommand(const Scene& scene, int width, int height, const st
 class View3D {
  public:
   static constexpr double kInteractiveBudgetMs = 60;
+  /// Tiled refinement: when one full-width row is predicted over the budget (a deformed
+  /// real-size volume on llvmpipe), the band is kTileRows rows cut into column tiles.
+  static constexpr int kTileRows = 16, kMinTileCols = 8;
 
   explicit View3D(render::GlContext& context);
   void setVolume(const VolumeI16& ct);
+  /// Once per window, before its first volume (while that loads): draws a tiny volume with
+  /// `scene`'s settings, plain and deformed (rigid snap, output box), so that the shaders are
+  /// compiled — and llvmpipe's code for them generated — before the first picture instead of
+  /// in its first 3D frames (0.3-1.2 s each at load on this machine). Does nothing once done
+  /// or while a volume is shown.
+  void warmUp(const Scene& scene);
   /// The same with the renderer's CPU part made on a worker (Loader), uploaded a slab of about
   /// `maxBytes` per call so that no frame waits for the whole upload; true once complete
   /// (until then the view draws nothing new).
@@ -104,6 +114,8 @@ class View3D {
   /// The GL texture to show (0: nothing yet): the view's own framebuffer colour, drawn in
   /// place by the renderer (no read-back), or the illustration's uploaded image.
   unsigned textureId() const { return shown_; }
+  /// The picture shown now, read back (row 0 = top; tests): empty for the illustration's.
+  RgbaImage readShown();
   /// True when that texture's row 0 is the bottom (a framebuffer's), false for an upload.
   bool textureBottomUp() const { return shownBottomUp_; }
   /// True when the displayed image is full resolution and up to date.
@@ -119,6 +131,10 @@ class View3D {
   }
   /// Sum of the band renders of the last completed (or running) refinement.
   double refineMs() const { return refineMs_; }
+  /// Tiles (or whole-width bands) the last completed (or running) refinement drew.
+  int refineTiles() const { return refineTiles_; }
+  /// The per-frame budget refinement tiles are sized to (tests make it tiny to force tiles).
+  void setRefineBudgetMs(double ms) { budgetMs_ = ms; }
   void invalidate() {
     refined_ = refining_ = false;
     lastKey_.clear();
@@ -141,6 +157,7 @@ class View3D {
   unsigned shown_ = 0;
   bool shownBottomUp_ = false;
   bool hasVolume_ = false, hasMap_ = false;
+  bool warmed_ = false;
   /// The volume's CPU part (from uploadVolumeStep), which map preparation needs; null after
   /// setVolume().
   std::shared_ptr<const render::VolumeRenderer::Prepared> volumePrepared_;
@@ -167,8 +184,18 @@ class View3D {
   // Banded refinement state.
   bool refining_ = false;
   int refineRow_ = 0, refineHeight_ = 0;
+  int refineCol_ = 0, bandRows_ = 0;  ///< within a tiled band: the next column, the band's rows
+  int refineTiles_ = 0;
+  double budgetMs_ = kInteractiveBudgetMs;
+  /// The rate was learnt without (false) or with a deformation; when that changes the first
+  /// tile is the smallest, a probe whose rate is taken as it is (a deformed ray costs several
+  /// times an undeformed one: the old rate made a first deformed tile of 0.4-0.6 s).
+  bool rateDeformed_ = false, probe_ = false;
   RgbaImage coarseImage_;         ///< the last reduced-resolution frame (row cost predictor)
   std::vector<double> rowCost_;   ///< predicted relative cost of each full-resolution row
+  std::vector<uint8_t> hit_;      ///< per coarse pixel: 1 where the ray met something
+  /// Predicted relative cost of each column of rows [row0, row1) (rowCost_'s model, per pixel).
+  std::vector<double> columnCosts(int row0, int row1, int width) const;
   double msPerCost_ = 0.01;       ///< learnt from each band
   double refineMs_ = 0;
   std::vector<double> predictRowCosts(const RgbaImage& coarse, int height) const;

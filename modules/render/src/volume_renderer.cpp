@@ -389,7 +389,8 @@ struct VolumeRenderer::Impl {
   /// Ray casts rows [rowBegin, rowEnd) (row 0 = top) of the image `s` describes into the bound
   /// framebuffer `fbo` (viewport = the whole image, the rest scissored away); with an opaque
   /// depth texture, rays stop at it and the result is blended over the colour there.
-  void draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth);
+  void draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth, int colBegin = 0,
+            int colEnd = -1);
   /// The program of this frame's variant, in use, with its textures bound and the transfer
   /// function (or MIP window) and skip grid set.
   GLuint useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform, bool opaqueDepth,
@@ -598,7 +599,8 @@ void VolumeRenderer::Impl::setFrameUniforms(GLuint p, const RenderSettings& s, c
 
 }
 
-void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth) {
+void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegin, int rowEnd, GLuint opaqueDepth,
+                                int colBegin, int colEnd) {
   uploadMap();
   const BackwardMap* deform = map ? &*map : nullptr;
   const Frame f = makeFrame(source, deform ? &deform->grid : nullptr, s);
@@ -621,7 +623,8 @@ void VolumeRenderer::Impl::draw(const RenderSettings& s, GLuint fbo, int rowBegi
   // Rows [rowBegin, rowEnd) from the top are GL rows [height - rowEnd, height - rowBegin).
   const int glRow0 = s.height - rowEnd, rows = rowEnd - rowBegin;
   glEnable(GL_SCISSOR_TEST);
-  glScissor(0, glRow0, s.width, rows);
+  if (colEnd < 0) colEnd = s.width;
+  glScissor(colBegin, glRow0, colEnd - colBegin, rows);
   glBindVertexArray(vao);
   glDrawArrays(GL_TRIANGLES, 0, 3);
   glDisable(GL_SCISSOR_TEST);
@@ -933,18 +936,25 @@ void VolumeRenderer::renderInto(const RenderSettings& s, const RenderTarget& tar
 }
 
 void VolumeRenderer::renderIntoRows(const RenderSettings& s, const RenderTarget& target, int rowBegin, int rowEnd) {
+  renderIntoTile(s, target, 0, s.width, rowBegin, rowEnd);
+}
+
+void VolumeRenderer::renderIntoTile(const RenderSettings& s, const RenderTarget& target, int colBegin, int colEnd,
+                                    int rowBegin, int rowEnd) {
   checkImageSize(s.width, s.height);
   if (target.width != s.width || target.height != s.height)
     throw Error("renderInto: the target is " + std::to_string(target.width) + "x" + std::to_string(target.height) +
                 ", the settings " + std::to_string(s.width) + "x" + std::to_string(s.height));
   rowBegin = std::clamp(rowBegin, 0, s.height);
   rowEnd = std::clamp(rowEnd, rowBegin, s.height);
-  if (rowBegin == rowEnd) return;
+  colBegin = std::clamp(colBegin, 0, s.width);
+  colEnd = std::clamp(colEnd, colBegin, s.width);
+  if (rowBegin == rowEnd || colBegin == colEnd) return;
   if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
   Impl& m = *impl_;
   m.context.makeCurrent();
   m.timer.begin();
-  m.draw(s, target.framebuffer, rowBegin, rowEnd, target.opaqueDepth);
+  m.draw(s, target.framebuffer, rowBegin, rowEnd, target.opaqueDepth, colBegin, colEnd);
   m.timer.end();
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
   checkGlError("ray casting into a target");

@@ -92,6 +92,11 @@ class VolumeRenderer {
   /// renderInto() for rows [rowBegin, rowEnd) only (row 0 = top; the rest is scissored away):
   /// the studio's banded refinement.
   void renderIntoRows(const RenderSettings& settings, const RenderTarget& target, int rowBegin, int rowEnd);
+  /// renderInto() for the tile of columns [colBegin, colEnd) and rows [rowBegin, rowEnd) only
+  /// (row 0 = top; the rest is scissored away; the same pixels as a whole renderInto()): the
+  /// studio's tiled refinement, where one deformed full-width row can cost over a frame.
+  void renderIntoTile(const RenderSettings& settings, const RenderTarget& target, int colBegin, int colEnd,
+                      int rowBegin, int rowEnd);
   /// Milliseconds the last render() spent on the GPU side (glFinish-bounded).
   double lastRenderMs() const;
   /// GPU milliseconds of a recent renderInto() (GL_TIME_ELAPSED, read without stalling). On
