@@ -22,6 +22,8 @@ uniform vec4 uSlots[SLOT_CAP];  // (id, shell id, shell mm, 0) in paint order
 uniform int uNumSlots;         // = NSLOTS, as a uniform: loops over it are not unrolled
 uniform mat3 uGradToPhys;      // index-space gradient -> physical
 uniform vec4 uGradLo[NGROUPS], uGradHi[NGROUPS];  // where each slot's gradient matters
+uniform vec4 uSkipOut[NGROUPS], uSkipIn[NGROUPS];  // adaptive step: skipBands()
+uniform float uSkipOn;
 uniform sampler2D uStyle;      // STYLE_ROW_TEXELS x 256: read with the STYLE_* macros
 uniform sampler3D uOccupancy;
 uniform ivec3 uBlocks;

@@ -4,6 +4,8 @@
 
 #include <chrono>
 #include <cstring>
+#include <cstdlib>
+#include <cstdio>
 #include <map>
 
 #include "gl_util.hpp"        // modules/render: buildProgram, checkGlError, readRgbaRows
@@ -220,7 +222,8 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   glBindTexture(GL_TEXTURE_2D, m.styleTex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kRowTexels, kMaxLabels, GL_RGBA, GL_FLOAT, table.texels.data());
-  const std::vector<uint8_t> occ = blockOccupancy(m.blocks, table, m.slots, sf.coverageH, sf.inkReachMm);
+  const std::vector<uint8_t> occ =
+      occupancyTexels(blockOccupancy(m.blocks, table, m.slots, sf.coverageH, sf.inkReachMm), m.blocks.blocks);
   glBindTexture(GL_TEXTURE_3D, m.occTex);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(m.blocks.blocks.x), GLsizei(m.blocks.blocks.y),
                   GLsizei(m.blocks.blocks.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
@@ -273,6 +276,14 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     gradientWindows(table, m.slots, sf.coverageH, lo, hi);
     glUniform4fv(glGetUniformLocation(p, "uGradLo"), GLsizei(lo.size() / 4), lo.data());
     glUniform4fv(glGetUniformLocation(p, "uGradHi"), GLsizei(hi.size() / 4), hi.data());
+    std::vector<float> so, si;
+    skipBands(table, m.slots, sf.coverageH, sf.inkPassMm, skipMarginMm(g), so, si);
+    for (std::vector<float>* v : {&so, &si})  // GLSL floats: inf as a large finite value
+      for (float& x : *v) x = std::clamp(x, -1e30f, 1e30f);
+    glUniform4fv(glGetUniformLocation(p, "uSkipOut"), GLsizei(so.size() / 4), so.data());
+    glUniform4fv(glGetUniformLocation(p, "uSkipIn"), GLsizei(si.size() / 4), si.data());
+    u1(p, "uSkipOn", settings.adaptiveStep ? 1.0 : 0.0);
+    if (std::getenv("VELLUM_DEBUG_STEPS")) for (size_t i = 0; i < so.size(); ++i) fprintf(stderr, "skip %zu out %g in %g vis0 %d\n", i, so[i], si[i], int(table.visible[0]));
   }
   u1(p, "uTfLo", table.tfLo);
   u1(p, "uTfHi", table.tfHi);

@@ -82,6 +82,7 @@ struct CpuContext {
   bool useCt = false;
   std::optional<TextureVolume> texVol;
   SampleFrame sf;
+  float skipMarginMm = 0;
 };
 
 Vec3f f3(const Vec3& v) { return {float(v.x), float(v.y), float(v.z)}; }
@@ -101,8 +102,9 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
   std::vector<uint8_t> inPass(ns + 1);         // the ray is near the slot's surface
   std::vector<float> passAcc((ns + 1) * 4);    // what was composited when that pass began
   const auto& m = cx.sf.gradToPhys;
-  std::vector<float> lo, hi;
+  std::vector<float> lo, hi, skipOut, skipIn;
   gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
+  skipBands(cx.table, cx.fields.slots, cx.sf.coverageH, cx.sf.inkPassMm, cx.skipMarginMm, skipOut, skipIn);
   for (int y = y0; y < y1; ++y)
     for (int x = 0; x < s.width; ++x) {
       const render::detail::Ray ray = render::detail::pixelRay(f, x, y);
@@ -189,8 +191,14 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
             }
           }
         }
+        // Adaptive step: a sample in homogeneous space stands for the samples up to the
+        // nearest band (skipBands), composited as one span.
+        const int span = cx.settings.adaptiveStep ? skipSamples(d.data(), ns, skipOut.data(), skipIn.data(),
+                                                                float(f.stepMm), clip.k1 - k + 1)
+                                                  : 1;
+        k += span - 1;
         if (sum[3] > 0.f) {
-          const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm));
+          const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm) * float(span));
           for (int ch = 0; ch < 3; ++ch) acc[ch] += (1.f - acc[3]) * aStep * (sum[size_t(ch)] / sum[3]);
           acc[3] += (1.f - acc[3]) * aStep;
           if (acc[3] >= kEarlyAlpha && !holdInk) break;
@@ -237,6 +245,9 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
     // A line's three samples lie within half its width (at the farthest depth) plus two steps.
     const double far = f.perspective ? norm(centre - f.eye) + radius : 0.0;
     sf.inkReachMm = float(0.5 * t.maxLineWidthPx * (sf.pixMm0 + sf.pixMm1 * far) + 2.0 * f.stepMm + 0.5);
+    // The ray is "in a pass" near a surface within max((w/2 + 1) px, 1.5 h) (main loop).
+    sf.inkPassMm = std::max({sf.inkReachMm, float((0.5 * t.maxLineWidthPx + 1.0) * (sf.pixMm0 + sf.pixMm1 * far)),
+                             1.5f * sf.coverageH});
   }
   const Mat3 m = g.direction * Mat3::fromColumns({1 / g.spacing.x, 0, 0}, {0, 1 / g.spacing.y, 0}, {0, 0, 1 / g.spacing.z});
   for (int r = 0; r < 3; ++r)
@@ -262,6 +273,7 @@ RgbaImage renderIllustrationCpu(const ShapeScene& scene, const Style& style, con
     cx.texVol = loadTextureVolume(style.textureVolume);
   }
   cx.sf = makeSampleFrame(scene.distance.geometry(), cx.frame, cx.table);
+  cx.skipMarginMm = skipMarginMm(scene.distance.geometry());
   RgbaImage image(settings.render.width, settings.render.height);
   parallelFor(settings.render.height, [&](int64_t y0, int64_t y1) { renderRows(cx, image, int(y0), int(y1)); });
   return image;
