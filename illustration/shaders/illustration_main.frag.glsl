@@ -29,7 +29,6 @@ void main() {
   float depth0 = dot(origin - uCentre, uForward), depthRate = dot(dir, uForward);
 
   vec4 acc = vec4(0.0);
-  float dbgEval = 0.0, dbgSkip = 0.0, dbgBlk = 0.0;
   float jitter = uJitter * pixelJitter(uint(gl_FragCoord.x), uint(uViewport.y - gl_FragCoord.y));
   if (tmax >= tmin) {
     int k0 = int(ceil(tmin / uStep - jitter));
@@ -45,13 +44,14 @@ void main() {
     float inked[SLOT_CAP];   // line ink laid in the ray's current pass near each slot's surface
     bool inPass[SLOT_CAP];   // the ray is near the slot's surface
     vec4 passAcc[SLOT_CAP];  // what was composited when that pass began
+    bool entered[SLOT_CAP];  // the ray has been well inside the slot: no lines behind
     for (int s = 0; s < NSLOTS; ++s) {
       hist[s] = vec2(INK_NONE);
       inked[s] = 0.0;
       inPass[s] = false;
       passAcc[s] = vec4(0.0);
+      entered[s] = false;
     }
-    float px = gl_FragCoord.x, py = uViewport.y - gl_FragCoord.y;
 #endif
     for (int k = k0; k <= k1; ++k) {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
@@ -65,7 +65,6 @@ void main() {
         emptyRun = max(occ, 1);
       }
       if (!blockOccupied) {
-        dbgBlk += 1.0;
         // The cube of empty blocks around b (grid edges: the box's margin).
         ivec3 bl = b - (emptyRun - 1), bh = b + (emptyRun - 1);
         vec3 lo = mix(vec3(bl * BLOCK_SIZE), vec3(-2.0), lessThanEqual(bl, ivec3(0)));
@@ -200,7 +199,7 @@ void main() {
         // less than its quantum) the line's ink, laid once per pass: the strongest minimum of
         // the pass counts, so no pass is missed nor inked twice.
         float hw = (0.5 * lw + 1.0) * pixB;
-        if (lw > 0.0 && a < INK_NONE && b <= a && b <= c && inPass[s] && b - 0.25 * abs(c - a) < hw && b > -hw) {
+        if (lw > 0.0 && !entered[s] && a < INK_NONE && b <= a && b <= c && inPass[s] && b - 0.25 * abs(c - a) < hw && b > -hw) {
           // Refined at a quarter step around the three samples' vertex: the closest approach
           // then no longer depends on where the (jittered) samples fell, so lines do not break.
           float x = inkVertex(a, b, c);
@@ -215,6 +214,9 @@ void main() {
             acc = inkUnder(acc, passAcc[s], vec4(add * lc, add));
           }
         }
+        // Hidden lines: once the ray is well inside the slot, its silhouettes further on (the
+        // far side of a transparent skin, the other foot behind it) are not drawn.
+        if (c < -(0.5 * lw + 1.0) * pixC) entered[s] = true;
         // The pass near the surface: it starts before any sample of it is composited.
         if (!(abs(c) < max((0.5 * lw + 1.0) * pixC, 1.5 * uCoverageH))) {
           inPass[s] = false;
@@ -229,14 +231,13 @@ void main() {
         float gl;
         vec3 nn = normOrZero(G[s], gl);
         if (hs > 0.0 && b < INK_NONE && b > 0.0 && c <= 0.0 && gl > 1e-6 && inPass[s]) {
-          float ia = op * inkHatch(dot(nn, uLight), px, py, hs, STYLE_HATCH_WIDTH_PX_AT(iid));
+          float ia = op * inkHatch(dot(nn, uLight), pMm, nn, hs, STYLE_HATCH_WIDTH_PX_AT(iid));
           acc = inkUnder(acc, passAcc[s], vec4(ia * lc, ia));
         }
       }
 #endif
       // Adaptive step: in homogeneous space this sample stands for the next ones up to the
       // nearest band (the landing sample still inside it, so the ink history stays exact).
-      dbgEval += 1.0;
       float span = floor(0.9 * homog / uStep);
       if (blockSame) {  // to the block's exit (the landing sample is the first one past it)
         vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
@@ -247,7 +248,6 @@ void main() {
       }
       span = uSkipOn > 0.0 && span >= 2.0 ? min(span, float(k1 - k + 1)) : 1.0;
       k += int(span) - 1;
-      dbgSkip += span - 1.0;
       if (sum.a > 0.0) {
         vec3 rgb = sum.rgb / sum.a;
         float aStep = 1.0 - pow(max(1.0 - sum.a, 0.0), uStep * span);
@@ -259,7 +259,5 @@ void main() {
   }
   vec4 outc = acc + (1.0 - acc.a) * vec4(uBackground.rgb * uBackground.a, uBackground.a);
   fragColor = outc.a > 0.0 ? vec4(min(outc.rgb / outc.a, vec3(1.0)), outc.a) : vec4(0.0);
-#ifdef DEBUG_STEPS
-  fragColor = vec4(dbgEval / 1020.0, dbgSkip / 1020.0, dbgBlk / 1020.0, 1.0);
-#endif
+
 }

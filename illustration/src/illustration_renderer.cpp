@@ -4,8 +4,6 @@
 
 #include <chrono>
 #include <cstring>
-#include <cstdlib>
-#include <cstdio>
 #include <map>
 
 #include "gl_util.hpp"        // modules/render: buildProgram, checkGlError, readRgbaRows
@@ -223,7 +221,8 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kRowTexels, kMaxLabels, GL_RGBA, GL_FLOAT, table.texels.data());
   const std::vector<uint8_t> occ =
-      occupancyTexels(blockOccupancy(m.blocks, table, m.slots, sf.coverageH, sf.inkReachMm), m.blocks.blocks);
+      occupancyTexels(blockOccupancy(m.blocks, table, m.slots, sf.coverageH, sf.inkReachMm, sf.inkLineMm), m.blocks.blocks);
+  }
   glBindTexture(GL_TEXTURE_3D, m.occTex);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(m.blocks.blocks.x), GLsizei(m.blocks.blocks.y),
                   GLsizei(m.blocks.blocks.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
@@ -283,7 +282,14 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     glUniform4fv(glGetUniformLocation(p, "uSkipOut"), GLsizei(so.size() / 4), so.data());
     glUniform4fv(glGetUniformLocation(p, "uSkipIn"), GLsizei(si.size() / 4), si.data());
     u1(p, "uSkipOn", settings.adaptiveStep ? 1.0 : 0.0);
-    if (std::getenv("VELLUM_DEBUG_STEPS")) for (size_t i = 0; i < so.size(); ++i) fprintf(stderr, "skip %zu out %g in %g vis0 %d\n", i, so[i], si[i], int(table.visible[0]));
+    float axes[9];
+    for (int l = 0; l < 3; ++l) {
+      axes[l * 3] = sf.hatchAxis[l].x;
+      axes[l * 3 + 1] = sf.hatchAxis[l].y;
+      axes[l * 3 + 2] = sf.hatchAxis[l].z;
+    }
+    glUniform3fv(glGetUniformLocation(p, "uHatchAxis"), 3, axes);
+    u1(p, "uHatchPixMm", sf.hatchPixMm);
   }
   u1(p, "uTfLo", table.tfLo);
   u1(p, "uTfHi", table.tfHi);

@@ -342,7 +342,7 @@ void computeBlockCtRange(BlockFields& b, const AnyVolume& ctAny) {
 }
 
 std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
-                                    float coverageH, float inkReachMm) {
+                                    float coverageH, float inkReachMm, float inkLineMm) {
   const bool haveCtRange = !b.ctMin.empty();
   // Prefix count of TF entries with opacity: "any opacity in [i0, i1]" in O(1).
   std::vector<int> opaque(kTfSize + 1, 0);
@@ -382,8 +382,12 @@ std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, c
       // Ink: lines and hatching live within inkReachMm of the slot's outer surface (also
       // outside it, where a ray passes close by), whatever the coverage.
       const int inkId = sl.shellId > 0 ? sl.shellId : sl.id;
+      // A constant field over the dilated block (the narrow band's clamp) beyond a line's
+      // reach has no minimum to ink and no sign change to hatch: no ink there, however wide
+      // inkReachMm is (at fine voxels it exceeds the band, and every block would march).
+      const bool flat = lo == hi && std::abs(lo) > inkLineMm;
       if (inkId < kMaxLabels && t.visible[size_t(inkId)] && t.row(inkId)[slot::Ink] && lo < inkReachMm &&
-          hi > -inkReachMm) {
+          hi > -inkReachMm && !flat) {
         on = true;
         break;
       }
@@ -630,20 +634,31 @@ float FieldVolume::at(float x, float y, float z, int slot) const {
   return out;
 }
 
-float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx) {
+float inkHatch(float ndl, const float* u, const float* fade, float spacingPx, float widthPx) {
   float ink = 0.f;
   const float thresholds[3] = {0.6f, 0.25f, -0.2f};
   for (int layer = 0; layer < 3; ++layer) {
     const float w = widthPx * std::clamp((thresholds[layer] - ndl) / 0.25f, 0.f, 1.f);
     if (!(w > 0.f)) break;
-    // Distance (px) from the pixel centre to the nearest stroke's centre line.
-    const float u = layer == 0 ? (px + py) * 0.70710678f : layer == 1 ? (px - py) * 0.70710678f : px;
-    const float f = u / spacingPx - std::floor(u / spacingPx);
+    // Distance (px) from the sample to the nearest stroke plane's centre.
+    const float f = u[layer] / spacingPx - std::floor(u[layer] / spacingPx);
     const float dist = std::abs(f - 0.5f) * spacingPx;
-    const float cov = std::clamp(0.5f * w - dist + 0.5f, 0.f, 1.f) * std::min(w, 1.f);
+    const float cov = std::clamp(0.5f * w - dist + 0.5f, 0.f, 1.f) * std::min(w, 1.f) * fade[layer];
     ink = ink + cov - ink * cov;
   }
   return ink;
+}
+
+void hatchCoordinates(const SampleFrame& f, Vec3f pMm, Vec3f n, float* u, float* fade) {
+  for (int l = 0; l < 3; ++l) {
+    const Vec3f a = f.hatchAxis[l];
+    u[l] = dot(pMm, a) / f.hatchPixMm;
+    // Strokes are the surface's cuts by planes across the axis: where the surface lies
+    // along those planes (n parallel to the axis) they would swell into blots, so they fade.
+    const float c = std::abs(dot(n, a));
+    const float sine = std::sqrt(std::max(1.f - c * c, 0.f));
+    fade[l] = std::clamp((sine - 0.25f) / 0.3f, 0.f, 1.f);
+  }
 }
 
 namespace {

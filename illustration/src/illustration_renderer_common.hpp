@@ -140,9 +140,10 @@ void computeBlockCtRange(BlockFields& b, const AnyVolume& ct);
 /// 0 shows wherever no slot covers the whole block. Rows with ink (lines, hatching) also
 /// need every block their surface passes within inkReachMm of (SampleFrame::inkReachMm):
 /// a line is found at a minimum of d along the ray, from three consecutive samples.
+/// A block whose slot field is constant at |d| > inkLineMm (SampleFrame) needs no ink.
 /// Returns 0 (empty), 255 (march every step) or 128 (homogeneous: markHomogeneousBlocks).
 std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
-                                    float coverageH, float inkReachMm = 0);
+                                    float coverageH, float inkReachMm = 0, float inkLineMm = 0);
 
 /// Marks occupied blocks (255) homogeneous (128) where every sample has the same styled colour
 /// and opacity (but for depth dimming): each slot's distance is constant over the dilated
@@ -165,11 +166,15 @@ std::vector<uint8_t> occupancyTexels(const std::vector<uint8_t>& occ, const Dims
 float inkLine(float a, float b, float c, float widthPx, float pixMm);
 /// The vertex (in steps from b, clamped to [-1, 1]) of the parabola through (-1, a), (0, b), (1, c).
 float inkVertex(float a, float b, float c);
-/// Hatching coverage at pixel centre (px, py) (row 0 at the top) for light n.l: diagonal
-/// strokes spacingPx apart where n.l < 0.6, crossing ones where n.l < 0.25, vertical ones
-/// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25.
-float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx);
-
+/// Hatching coverage for light n.l, in object space (a movie's strokes stay on the surface):
+/// layer l's strokes are the surface's cuts by planes across hatchAxis[l], spacingPx apart at
+/// the scene centre's pixel size; u[l] = the sample's position along the axis in those pixels
+/// (hatchCoordinates). Strokes where n.l < 0.6, crossing ones where n.l < 0.25, a third layer
+/// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25, times fade[l].
+float inkHatch(float ndl, const float* u, const float* fade, float spacingPx, float widthPx);
+struct SampleFrame;
+/// u and fade of inkHatch at a sample (physical position pMm, unit normal n).
+void hatchCoordinates(const SampleFrame& f, Vec3f pMm, Vec3f n, float* u, float* fade);
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].
 struct TextureVolume {
   Dims dims;
@@ -188,6 +193,11 @@ struct SampleFrame {
   float pixMm0 = 1, pixMm1 = 0;
   float inkReachMm = 0;  ///< distance from a surface within which ink samples matter (occupancy)
   float inkPassMm = 0;   ///< widest "pass near a surface" of the ink rows (farthest depth): skipBands
+  float inkLineMm = 0;   ///< farthest a sampled minimum can still lay line ink (half line + a pixel + half a step)
+  /// Hatching (object space): stroke-plane normals in physical space (superior-inferior, then
+  /// the two diagonals across it) and the pixel size at the scene centre (stroke spacing).
+  Vec3f hatchAxis[3];
+  float hatchPixMm = 1;
   std::array<float, 9> gradToPhys{};  ///< index-space gradient -> physical (D * diag(1/spacing)), row-major
 };
 

@@ -1,7 +1,6 @@
 #include "illustration_renderer_shader.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <iomanip>
 #include <sstream>
 
@@ -14,7 +13,6 @@ namespace vellum::illustration::detail {
 std::string illustrationFragmentSource(const ShaderVariant& v) {
   std::ostringstream s;
   s << "#version 450 core\n";
-  if (std::getenv("VELLUM_DEBUG_STEPS")) s << "#define DEBUG_STEPS\n";
   s << (v.eight ? "#define EIGHT\n" : "#define NEAREST\n");
   if (v.ct) s << "#define USE_CT\n";
   if (v.texture) s << "#define USE_TEXTURE\n";
