@@ -222,7 +222,6 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kRowTexels, kMaxLabels, GL_RGBA, GL_FLOAT, table.texels.data());
   const std::vector<uint8_t> occ =
       occupancyTexels(blockOccupancy(m.blocks, table, m.slots, sf.coverageH, sf.inkReachMm, sf.inkLineMm), m.blocks.blocks);
-  }
   glBindTexture(GL_TEXTURE_3D, m.occTex);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(m.blocks.blocks.x), GLsizei(m.blocks.blocks.y),
                   GLsizei(m.blocks.blocks.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
