@@ -34,7 +34,8 @@ void main() {
     int k0 = int(ceil(tmin / uStep - jitter));
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
     ivec3 lastBlock = ivec3(-1);
-    bool blockOccupied = false;
+    bool blockOccupied = false, blockSame = false;
+    int emptyRun = 1;
 #ifndef USE_INK
     const bool holdInk = false;
 #else
@@ -43,24 +44,31 @@ void main() {
     float inked[SLOT_CAP];   // line ink laid in the ray's current pass near each slot's surface
     bool inPass[SLOT_CAP];   // the ray is near the slot's surface
     vec4 passAcc[SLOT_CAP];  // what was composited when that pass began
+    bool entered[SLOT_CAP];  // the ray has been well inside the slot: no lines behind
     for (int s = 0; s < NSLOTS; ++s) {
       hist[s] = vec2(INK_NONE);
       inked[s] = 0.0;
       inPass[s] = false;
       passAcc[s] = vec4(0.0);
+      entered[s] = false;
     }
-    float px = gl_FragCoord.x, py = uViewport.y - gl_FragCoord.y;
 #endif
     for (int k = k0; k <= k1; ++k) {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
       ivec3 b = clamp(ivec3(floor(p / float(BLOCK_SIZE))), ivec3(0), uBlocks - 1);
       if (b != lastBlock) {  // one occupancy fetch per block entered, not per sample
         lastBlock = b;
-        blockOccupied = texelFetch(uOccupancy, b, 0).r >= 0.5;
+        // occupancyTexels(): 255 mixed, 254 homogeneous, else empty for that many blocks around.
+        int occ = int(texelFetch(uOccupancy, b, 0).r * 255.0 + 0.5);
+        blockOccupied = occ >= 254;
+        blockSame = occ == 254 && uSkipOn > 0.0;
+        emptyRun = max(occ, 1);
       }
       if (!blockOccupied) {
-        vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
-        vec3 hi = mix(vec3((b + 1) * BLOCK_SIZE), uBoxDims + 2.0, equal(b, uBlocks - 1));
+        // The cube of empty blocks around b (grid edges: the box's margin).
+        ivec3 bl = b - (emptyRun - 1), bh = b + (emptyRun - 1);
+        vec3 lo = mix(vec3(bl * BLOCK_SIZE), vec3(-2.0), lessThanEqual(bl, ivec3(0)));
+        vec3 hi = mix(vec3((bh + 1) * BLOCK_SIZE), uBoxDims + 2.0, greaterThanEqual(bh, uBlocks - 1));
         // Sides chosen with nonZero()'s sign (a +0 component counts as positive), and the
         // step index clamped before int conversion: axis-aligned rays give +-1e12 here.
         vec3 tb = (mix(lo, hi, greaterThanEqual(d, vec3(0.0))) - o) * inv;
@@ -87,8 +95,11 @@ void main() {
       // Every segment's own distance and its gradient, from the interpolated field.
       float D[SLOT_CAP];
       vec3 G[SLOT_CAP];
+      float homog = 1e30;  // distance to the nearest slot band (skipBands; skipSamples on the CPU)
       for (int g = 0; g < NGROUPS; ++g) {
         vec4 c = fieldAt(p, g);
+        vec4 r4 = max(max(c - uSkipOut[g], -uSkipIn[g] - c), vec4(0.0));
+        homog = min(homog, min(min(r4.x, r4.y), min(r4.z, r4.w)));
         vec4 gx = vec4(0.0), gy = vec4(0.0), gz = vec4(0.0);
         // Gradients only where they can change the picture (gradientWindows).
         if (any(bvec4(uvec4(greaterThan(c, uGradLo[g])) & uvec4(lessThan(c, uGradHi[g]))))) {
@@ -188,7 +199,7 @@ void main() {
         // less than its quantum) the line's ink, laid once per pass: the strongest minimum of
         // the pass counts, so no pass is missed nor inked twice.
         float hw = (0.5 * lw + 1.0) * pixB;
-        if (lw > 0.0 && a < INK_NONE && b <= a && b <= c && inPass[s] && b - 0.25 * abs(c - a) < hw && b > -hw) {
+        if (lw > 0.0 && !entered[s] && a < INK_NONE && b <= a && b <= c && inPass[s] && b - 0.25 * abs(c - a) < hw && b > -hw) {
           // Refined at a quarter step around the three samples' vertex: the closest approach
           // then no longer depends on where the (jittered) samples fell, so lines do not break.
           float x = inkVertex(a, b, c);
@@ -203,6 +214,9 @@ void main() {
             acc = inkUnder(acc, passAcc[s], vec4(add * lc, add));
           }
         }
+        // Hidden lines: once the ray is well inside the slot, its silhouettes further on (the
+        // far side of a transparent skin, the other foot behind it) are not drawn.
+        if (c < -(0.5 * lw + 1.0) * pixC) entered[s] = true;
         // The pass near the surface: it starts before any sample of it is composited.
         if (!(abs(c) < max((0.5 * lw + 1.0) * pixC, 1.5 * uCoverageH))) {
           inPass[s] = false;
@@ -217,14 +231,26 @@ void main() {
         float gl;
         vec3 nn = normOrZero(G[s], gl);
         if (hs > 0.0 && b < INK_NONE && b > 0.0 && c <= 0.0 && gl > 1e-6 && inPass[s]) {
-          float ia = op * inkHatch(dot(nn, uLight), px, py, hs, STYLE_HATCH_WIDTH_PX_AT(iid));
+          float ia = op * inkHatch(dot(nn, uLight), pMm, nn, hs, STYLE_HATCH_WIDTH_PX_AT(iid));
           acc = inkUnder(acc, passAcc[s], vec4(ia * lc, ia));
         }
       }
 #endif
+      // Adaptive step: in homogeneous space this sample stands for the next ones up to the
+      // nearest band (the landing sample still inside it, so the ink history stays exact).
+      float span = floor(0.9 * homog / uStep);
+      if (blockSame) {  // to the block's exit (the landing sample is the first one past it)
+        vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
+        vec3 hi = mix(vec3((b + 1) * BLOCK_SIZE), uBoxDims + 2.0, equal(b, uBlocks - 1));
+        vec3 tb = (mix(lo, hi, greaterThanEqual(d, vec3(0.0))) - o) * inv;
+        float kExit = clamp(ceil(min(min(tb.x, tb.y), tb.z) / uStep - jitter), float(k), float(k1) + 1.0);
+        span = max(span, kExit - float(k));
+      }
+      span = uSkipOn > 0.0 && span >= 2.0 ? min(span, float(k1 - k + 1)) : 1.0;
+      k += int(span) - 1;
       if (sum.a > 0.0) {
         vec3 rgb = sum.rgb / sum.a;
-        float aStep = 1.0 - pow(max(1.0 - sum.a, 0.0), uStep);
+        float aStep = 1.0 - pow(max(1.0 - sum.a, 0.0), uStep * span);
         acc.rgb += (1.0 - acc.a) * aStep * rgb;
         acc.a += (1.0 - acc.a) * aStep;
         if (acc.a >= EARLY_ALPHA && !holdInk) break;
@@ -233,4 +259,5 @@ void main() {
   }
   vec4 outc = acc + (1.0 - acc.a) * vec4(uBackground.rgb * uBackground.a, uBackground.a);
   fragColor = outc.a > 0.0 ? vec4(min(outc.rgb / outc.a, vec3(1.0)), outc.a) : vec4(0.0);
+
 }

@@ -22,6 +22,10 @@ uniform vec4 uSlots[SLOT_CAP];  // (id, shell id, shell mm, 0) in paint order
 uniform int uNumSlots;         // = NSLOTS, as a uniform: loops over it are not unrolled
 uniform mat3 uGradToPhys;      // index-space gradient -> physical
 uniform vec4 uGradLo[NGROUPS], uGradHi[NGROUPS];  // where each slot's gradient matters
+uniform vec4 uSkipOut[NGROUPS], uSkipIn[NGROUPS];  // adaptive step: skipBands()
+uniform float uSkipOn;
+uniform vec3 uHatchAxis[3];     // hatching planes' normals (physical), SampleFrame::hatchAxis
+uniform float uHatchPixMm;
 uniform sampler2D uStyle;      // STYLE_ROW_TEXELS x 256: read with the STYLE_* macros
 uniform sampler3D uOccupancy;
 uniform ivec3 uBlocks;
@@ -158,16 +162,19 @@ float inkLine(float a, float b, float c, float widthPx, float pixMm) {
   float m = b + 0.25 * (c - a) * inkVertex(a, b, c);
   return clamp((0.5 * widthPx * pixMm - abs(m)) / pixMm + 0.5, 0.0, 1.0);
 }
-float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx) {
+float inkHatch(float ndl, vec3 pMm, vec3 n, float spacingPx, float widthPx) {
   float ink = 0.0;
   for (int layer = 0; layer < 3; ++layer) {
     float th = layer == 0 ? 0.6 : layer == 1 ? 0.25 : -0.2;
     float w = widthPx * clamp((th - ndl) / 0.25, 0.0, 1.0);
     if (!(w > 0.0)) break;
-    float u = layer == 0 ? (px + py) * 0.70710678 : layer == 1 ? (px - py) * 0.70710678 : px;
+    vec3 a = uHatchAxis[layer];
+    float u = dot(pMm, a) / uHatchPixMm;
+    float c = abs(dot(n, a));
+    float fade = clamp((sqrt(max(1.0 - c * c, 0.0)) - 0.25) / 0.3, 0.0, 1.0);
     float f = u / spacingPx - floor(u / spacingPx);
     float dist = abs(f - 0.5) * spacingPx;
-    float cov = clamp(0.5 * w - dist + 0.5, 0.0, 1.0) * min(w, 1.0);
+    float cov = clamp(0.5 * w - dist + 0.5, 0.0, 1.0) * min(w, 1.0) * fade;
     ink = ink + cov - ink * cov;
   }
   return ink;

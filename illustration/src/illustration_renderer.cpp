@@ -220,7 +220,8 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   glBindTexture(GL_TEXTURE_2D, m.styleTex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, kRowTexels, kMaxLabels, GL_RGBA, GL_FLOAT, table.texels.data());
-  const std::vector<uint8_t> occ = blockOccupancy(m.blocks, table, m.slots, sf.coverageH, sf.inkReachMm);
+  const std::vector<uint8_t> occ =
+      occupancyTexels(blockOccupancy(m.blocks, table, m.slots, sf.coverageH, sf.inkReachMm, sf.inkLineMm), m.blocks.blocks);
   glBindTexture(GL_TEXTURE_3D, m.occTex);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(m.blocks.blocks.x), GLsizei(m.blocks.blocks.y),
                   GLsizei(m.blocks.blocks.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
@@ -273,6 +274,21 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     gradientWindows(table, m.slots, sf.coverageH, lo, hi);
     glUniform4fv(glGetUniformLocation(p, "uGradLo"), GLsizei(lo.size() / 4), lo.data());
     glUniform4fv(glGetUniformLocation(p, "uGradHi"), GLsizei(hi.size() / 4), hi.data());
+    std::vector<float> so, si;
+    skipBands(table, m.slots, sf.coverageH, sf.inkPassMm, skipMarginMm(g), so, si);
+    for (std::vector<float>* v : {&so, &si})  // GLSL floats: inf as a large finite value
+      for (float& x : *v) x = std::clamp(x, -1e30f, 1e30f);
+    glUniform4fv(glGetUniformLocation(p, "uSkipOut"), GLsizei(so.size() / 4), so.data());
+    glUniform4fv(glGetUniformLocation(p, "uSkipIn"), GLsizei(si.size() / 4), si.data());
+    u1(p, "uSkipOn", settings.adaptiveStep ? 1.0 : 0.0);
+    float axes[9];
+    for (int l = 0; l < 3; ++l) {
+      axes[l * 3] = sf.hatchAxis[l].x;
+      axes[l * 3 + 1] = sf.hatchAxis[l].y;
+      axes[l * 3 + 2] = sf.hatchAxis[l].z;
+    }
+    glUniform3fv(glGetUniformLocation(p, "uHatchAxis"), 3, axes);
+    u1(p, "uHatchPixMm", sf.hatchPixMm);
   }
   u1(p, "uTfLo", table.tfLo);
   u1(p, "uTfHi", table.tfHi);

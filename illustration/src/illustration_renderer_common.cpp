@@ -189,6 +189,44 @@ void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, f
   }
 }
 
+void skipBands(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH, float inkPassMm,
+               float marginMm, std::vector<float>& out, std::vector<float>& in) {
+  const size_t n = std::max<size_t>((slots.size() + 3) / 4 * 4, 4);
+  const float inf = std::numeric_limits<float>::infinity();
+  // Padding channels hold far-outside distances: never the limit.
+  out.assign(n, -inf);
+  in.assign(n, -inf);
+  if (t.visible[0]) {
+    std::fill(out.begin(), out.begin() + long(slots.size()), inf);
+    std::fill(in.begin(), in.begin() + long(slots.size()), inf);
+    return;
+  }
+  std::vector<float> lo, hi;
+  gradientWindows(t, slots, coverageH, lo, hi);
+  for (size_t s = 0; s < slots.size(); ++s) {
+    const PaintSlot& sl = slots[s];
+    // Coverage ramps over |d| < h/2 for every slot (an invisible one still hides those under it).
+    float o = 0.5f * coverageH, i = 0.5f * coverageH;
+    const int inkId = sl.shellId > 0 ? sl.shellId : sl.id;
+    if (inkId < kMaxLabels && t.visible[size_t(inkId)] && t.row(inkId)[slot::Ink]) {
+      o = std::max(o, inkPassMm);
+      i = std::max(i, inkPassMm);
+    }
+    if (lo[s] < 0.f) i = std::max(i, -lo[s]);  // normal terms, boundary band and shell fade by then
+    for (int id : {sl.id, sl.shellId}) {
+      if (id <= 0 || id >= kMaxLabels || !t.shows[size_t(id)]) continue;
+      const StyleRow r = t.row(id);
+      const bool ct = (r[slot::LambdaIllum] > 0.f && r[slot::Illum] == IllumMode::Ct) ||
+                      r[slot::BoundaryMeasure] == BoundaryMeasure::Ct;
+      const bool tex = r[slot::LambdaTexture] > 0.f && r[slot::Texture] != SolidTexture::None;
+      if (ct || tex) i = inf;
+      else i = std::max(i, r[slot::BoundaryWidthMm] + (sl.shellId > 0 ? sl.shellMm + coverageH : 0.f));
+    }
+    out[s] = o + marginMm;
+    in[s] = i + marginMm;
+  }
+}
+
 void FieldVolume::sample(float x, float y, float z, bool central, const float* lo, const float* hi, float* d,
                          Vec3f* g) const {
   // As the shader: p clamped to the grid (clamp to edge), trilinear per group texel fetch.
@@ -304,7 +342,7 @@ void computeBlockCtRange(BlockFields& b, const AnyVolume& ctAny) {
 }
 
 std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
-                                    float coverageH, float inkReachMm) {
+                                    float coverageH, float inkReachMm, float inkLineMm) {
   const bool haveCtRange = !b.ctMin.empty();
   // Prefix count of TF entries with opacity: "any opacity in [i0, i1]" in O(1).
   std::vector<int> opaque(kTfSize + 1, 0);
@@ -344,8 +382,12 @@ std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, c
       // Ink: lines and hatching live within inkReachMm of the slot's outer surface (also
       // outside it, where a ray passes close by), whatever the coverage.
       const int inkId = sl.shellId > 0 ? sl.shellId : sl.id;
+      // A constant field over the dilated block (the narrow band's clamp) beyond a line's
+      // reach has no minimum to ink and no sign change to hatch: no ink there, however wide
+      // inkReachMm is (at fine voxels it exceeds the band, and every block would march).
+      const bool flat = lo == hi && std::abs(lo) > inkLineMm;
       if (inkId < kMaxLabels && t.visible[size_t(inkId)] && t.row(inkId)[slot::Ink] && lo < inkReachMm &&
-          hi > -inkReachMm) {
+          hi > -inkReachMm && !flat) {
         on = true;
         break;
       }
@@ -367,7 +409,81 @@ std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, c
     }
     occ[bi] = on ? 255 : 0;
   }
+  markHomogeneousBlocks(b, t, slots, coverageH, occ);
   return occ;
+}
+
+std::vector<uint8_t> occupancyTexels(const std::vector<uint8_t>& occ, const Dims& blocks) {
+  // Chebyshev (L-inf) distance in blocks to the nearest non-empty block, separable: along x
+  // (two sweeps), then y and z as min over j of max(|i - j|, previous), within a window.
+  constexpr int cap = kEmptyRunCap;
+  const int64_t nx = blocks.x, ny = blocks.y, nz = blocks.z;
+  std::vector<int> dist(occ.size());
+  parallelFor(ny * nz, [&](int64_t r0, int64_t r1) {
+    for (int64_t r = r0; r < r1; ++r) {
+      int* row = dist.data() + r * nx;
+      const uint8_t* o = occ.data() + r * nx;
+      int run = cap;
+      for (int64_t x = 0; x < nx; ++x) row[x] = run = o[x] ? 0 : std::min(run + 1, cap);
+      run = cap;
+      for (int64_t x = nx - 1; x >= 0; --x) row[x] = std::min(row[x], run = o[x] ? 0 : std::min(run + 1, cap));
+    }
+  });
+  auto pass = [&](int64_t n, int64_t stride, int64_t lines, auto lineStart) {
+    parallelFor(lines, [&](int64_t l0, int64_t l1) {
+      std::vector<int> in(size_t(n), cap);
+      for (int64_t l = l0; l < l1; ++l) {
+        int* base = dist.data() + lineStart(l);
+        for (int64_t i = 0; i < n; ++i) in[size_t(i)] = base[i * stride];
+        for (int64_t i = 0; i < n; ++i) {
+          int best = in[size_t(i)];
+          for (int64_t j = std::max<int64_t>(0, i - best + 1); j < std::min<int64_t>(n, i + best); ++j)
+            best = std::min(best, std::max(int(std::abs(i - j)), in[size_t(j)]));
+          base[i * stride] = best;
+        }
+      }
+    });
+  };
+  pass(ny, nx, nx * nz, [&](int64_t l) { return (l / nx) * nx * ny + l % nx; });
+  pass(nz, nx * ny, nx * ny, [&](int64_t l) { return l; });
+  std::vector<uint8_t> tex(occ.size());
+  for (size_t i = 0; i < occ.size(); ++i)
+    tex[i] = occ[i] == 255 ? 255 : occ[i] ? 254 : uint8_t(std::clamp(dist[i], 1, cap));
+  return tex;
+}
+
+void markHomogeneousBlocks(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
+                           float coverageH, std::vector<uint8_t>& occ) {
+  if (t.visible[0]) return;  // label 0 follows the nearest surface everywhere
+  std::vector<float> out, in;
+  skipBands(t, slots, coverageH, 0.f, 0.f, out, in);
+  const size_t ns = slots.size();
+  // Rows whose look varies with the CT or a texture inside a segment.
+  std::vector<uint8_t> varies(ns, 0);
+  for (size_t s = 0; s < ns; ++s)
+    for (int id : {slots[s].id, slots[s].shellId}) {
+      if (id <= 0 || id >= kMaxLabels || !t.shows[size_t(id)]) continue;
+      const StyleRow r = t.row(id);
+      if ((r[slot::LambdaIllum] > 0.f && r[slot::Illum] == IllumMode::Ct) ||
+          r[slot::BoundaryMeasure] == BoundaryMeasure::Ct ||
+          (r[slot::LambdaTexture] > 0.f && r[slot::Texture] != SolidTexture::None))
+        varies[s] = 1;
+    }
+  for (size_t bi = 0; bi < occ.size(); ++bi) {
+    if (occ[bi] == 0) continue;
+    bool same = true;
+    for (size_t s = 0; s < ns && same; ++s) {
+      const float lo = b.minD[bi * ns + s], hi = b.maxD[bi * ns + s];
+      const bool covers = lo < 0.5f * coverageH;
+      if (covers && varies[s]) same = false;
+      // A constant field (the narrow band's clamp: deep inside or far outside) has a constant
+      // distance and a zero gradient, so the slot's part of every sample is the same; so
+      // does a slot whose whole range is beyond its bands (skipBands). Ink too: no minimum
+      // below the clamp, no sign change.
+      else same = lo == hi || lo >= out[s] || hi <= -in[s];
+    }
+    if (same) occ[bi] = 128;
+  }
 }
 
 TextureVolume loadTextureVolume(const std::string& path) {
@@ -518,20 +634,31 @@ float FieldVolume::at(float x, float y, float z, int slot) const {
   return out;
 }
 
-float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx) {
+float inkHatch(float ndl, const float* u, const float* fade, float spacingPx, float widthPx) {
   float ink = 0.f;
   const float thresholds[3] = {0.6f, 0.25f, -0.2f};
   for (int layer = 0; layer < 3; ++layer) {
     const float w = widthPx * std::clamp((thresholds[layer] - ndl) / 0.25f, 0.f, 1.f);
     if (!(w > 0.f)) break;
-    // Distance (px) from the pixel centre to the nearest stroke's centre line.
-    const float u = layer == 0 ? (px + py) * 0.70710678f : layer == 1 ? (px - py) * 0.70710678f : px;
-    const float f = u / spacingPx - std::floor(u / spacingPx);
+    // Distance (px) from the sample to the nearest stroke plane's centre.
+    const float f = u[layer] / spacingPx - std::floor(u[layer] / spacingPx);
     const float dist = std::abs(f - 0.5f) * spacingPx;
-    const float cov = std::clamp(0.5f * w - dist + 0.5f, 0.f, 1.f) * std::min(w, 1.f);
+    const float cov = std::clamp(0.5f * w - dist + 0.5f, 0.f, 1.f) * std::min(w, 1.f) * fade[layer];
     ink = ink + cov - ink * cov;
   }
   return ink;
+}
+
+void hatchCoordinates(const SampleFrame& f, Vec3f pMm, Vec3f n, float* u, float* fade) {
+  for (int l = 0; l < 3; ++l) {
+    const Vec3f a = f.hatchAxis[l];
+    u[l] = dot(pMm, a) / f.hatchPixMm;
+    // Strokes are the surface's cuts by planes across the axis: where the surface lies
+    // along those planes (n parallel to the axis) they would swell into blots, so they fade.
+    const float c = std::abs(dot(n, a));
+    const float sine = std::sqrt(std::max(1.f - c * c, 0.f));
+    fade[l] = std::clamp((sine - 0.25f) / 0.3f, 0.f, 1.f);
+  }
 }
 
 namespace {

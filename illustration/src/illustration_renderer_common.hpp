@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 #include <algorithm>
+#include <cmath>
 
 #include "style_layout.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
@@ -95,6 +96,27 @@ struct FieldVolume {
 /// everywhere when label 0 shows (it takes the nearest surface's gradient); empty otherwise.
 void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH,
                      std::vector<float>& lo, std::vector<float>& hi);
+/// Adaptive step (empty and homogeneous space): per slot (padded to whole groups), the
+/// distances beyond which the slot's part of every sample is constant along the ray: outside
+/// d > out[s] (coverage 0 and no ink pass) or inside d < -in[s] (full coverage, no boundary,
+/// normal, shell or ink terms; rows reading the CT or a texture never qualify: in = inf).
+/// A sample whose slots are all beyond theirs stands for the next floor(0.9 * r / step)
+/// samples, r = min over slots of (d - out, -in - d): its colour is composited once for that
+/// length (exact but for depth dimming across the span). marginMm covers the far field's upper
+/// bound (about a voxel). Everything is inf when label 0 shows (it follows every surface).
+void skipBands(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH, float inkPassMm,
+               float marginMm, std::vector<float>& out, std::vector<float>& in);
+/// skipBands' margin for a grid: the far field's error (about a voxel of the largest spacing).
+inline float skipMarginMm(const Geometry& g) { return float(1.5 * std::max({g.spacing.x, g.spacing.y, g.spacing.z})); }
+/// Samples a homogeneous sample stands for (1 = no skip), given the slots' distances d (slot
+/// order), the bands, the step and the samples left on the ray (the GL shader's formula).
+inline int skipSamples(const float* d, size_t n, const float* out, const float* in, float stepMm, int64_t left) {
+  float r = 1e30f;
+  for (size_t s = 0; s < n; ++s) r = std::min(r, std::max({d[s] - out[s], -in[s] - d[s], 0.f}));
+  const float k = std::floor(0.9f * r / stepMm);
+  if (!(k >= 2.f)) return 1;
+  return int(std::min<int64_t>(int64_t(std::min(k, 1e6f)), std::max<int64_t>(left, 1)));
+}
 /// Slots from the scene; `decode` fills value (the CPU reference).
 FieldVolume makeFieldVolume(const ShapeScene& scene, bool decode);
 /// Interleaved RGBA int16 texels of group g, slices [z0, z1) (the GL upload, slab by slab).
@@ -118,8 +140,23 @@ void computeBlockCtRange(BlockFields& b, const AnyVolume& ct);
 /// 0 shows wherever no slot covers the whole block. Rows with ink (lines, hatching) also
 /// need every block their surface passes within inkReachMm of (SampleFrame::inkReachMm):
 /// a line is found at a minimum of d along the ray, from three consecutive samples.
+/// A block whose slot field is constant at |d| > inkLineMm (SampleFrame) needs no ink.
+/// Returns 0 (empty), 255 (march every step) or 128 (homogeneous: markHomogeneousBlocks).
 std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
-                                    float coverageH, float inkReachMm = 0);
+                                    float coverageH, float inkReachMm = 0, float inkLineMm = 0);
+
+/// Marks occupied blocks (255) homogeneous (128) where every sample has the same styled colour
+/// and opacity (but for depth dimming): each slot's distance is constant over the dilated
+/// block (the narrow band's clamp) or beyond its skipBands. The shader evaluates one sample
+/// there and composites it over the block's length (adaptive step at block scale).
+void markHomogeneousBlocks(const BlockFields& b, const StyleTable& t, const std::vector<PaintSlot>& slots,
+                           float coverageH, std::vector<uint8_t>& occ);
+
+/// The occupancy texture: 255 mixed, 254 homogeneous, and for an empty block the Chebyshev
+/// distance n (1..kEmptyRunCap) in blocks to the nearest non-empty one: every block within
+/// n - 1 of it is empty too, so the ray leaves that whole cube in one step.
+constexpr int kEmptyRunCap = 64;
+std::vector<uint8_t> occupancyTexels(const std::vector<uint8_t>& occ, const Dims& blocks);
 
 /// Ink of a silhouette/contour line (CPU reference of inkLine() in the shader): a, b, c are a
 /// segment's distances at three consecutive samples with b a local minimum; the parabola
@@ -129,11 +166,15 @@ std::vector<uint8_t> blockOccupancy(const BlockFields& b, const StyleTable& t, c
 float inkLine(float a, float b, float c, float widthPx, float pixMm);
 /// The vertex (in steps from b, clamped to [-1, 1]) of the parabola through (-1, a), (0, b), (1, c).
 float inkVertex(float a, float b, float c);
-/// Hatching coverage at pixel centre (px, py) (row 0 at the top) for light n.l: diagonal
-/// strokes spacingPx apart where n.l < 0.6, crossing ones where n.l < 0.25, vertical ones
-/// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25.
-float inkHatch(float ndl, float px, float py, float spacingPx, float widthPx);
-
+/// Hatching coverage for light n.l, in object space (a movie's strokes stay on the surface):
+/// layer l's strokes are the surface's cuts by planes across hatchAxis[l], spacingPx apart at
+/// the scene centre's pixel size; u[l] = the sample's position along the axis in those pixels
+/// (hatchCoordinates). Strokes where n.l < 0.6, crossing ones where n.l < 0.25, a third layer
+/// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25, times fade[l].
+float inkHatch(float ndl, const float* u, const float* fade, float spacingPx, float widthPx);
+struct SampleFrame;
+/// u and fade of inkHatch at a sample (physical position pMm, unit normal n).
+void hatchCoordinates(const SampleFrame& f, Vec3f pMm, Vec3f n, float* u, float* fade);
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].
 struct TextureVolume {
   Dims dims;
@@ -151,6 +192,12 @@ struct SampleFrame {
   /// perspective: growing with the distance from the eye). Ink widths are in pixels.
   float pixMm0 = 1, pixMm1 = 0;
   float inkReachMm = 0;  ///< distance from a surface within which ink samples matter (occupancy)
+  float inkPassMm = 0;   ///< widest "pass near a surface" of the ink rows (farthest depth): skipBands
+  float inkLineMm = 0;   ///< farthest a sampled minimum can still lay line ink (half line + a pixel + half a step)
+  /// Hatching (object space): stroke-plane normals in physical space (superior-inferior, then
+  /// the two diagonals across it) and the pixel size at the scene centre (stroke spacing).
+  Vec3f hatchAxis[3];
+  float hatchPixMm = 1;
   std::array<float, 9> gradToPhys{};  ///< index-space gradient -> physical (D * diag(1/spacing)), row-major
 };
 

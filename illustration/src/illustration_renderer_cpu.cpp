@@ -82,6 +82,7 @@ struct CpuContext {
   bool useCt = false;
   std::optional<TextureVolume> texVol;
   SampleFrame sf;
+  float skipMarginMm = 0;
 };
 
 Vec3f f3(const Vec3& v) { return {float(v.x), float(v.y), float(v.z)}; }
@@ -100,9 +101,11 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
   std::vector<float> inked(ns + 1);  // line ink laid in the ray's current pass near each slot's surface
   std::vector<uint8_t> inPass(ns + 1);         // the ray is near the slot's surface
   std::vector<float> passAcc((ns + 1) * 4);    // what was composited when that pass began
+  std::vector<uint8_t> entered(ns + 1);        // the ray has been inside the slot (no lines behind it)
   const auto& m = cx.sf.gradToPhys;
-  std::vector<float> lo, hi;
+  std::vector<float> lo, hi, skipOut, skipIn;
   gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
+  skipBands(cx.table, cx.fields.slots, cx.sf.coverageH, cx.sf.inkPassMm, cx.skipMarginMm, skipOut, skipIn);
   for (int y = y0; y < y1; ++y)
     for (int x = 0; x < s.width; ++x) {
       const render::detail::Ray ray = render::detail::pixelRay(f, x, y);
@@ -113,7 +116,7 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
       std::fill(histB.begin(), histB.end(), kInkNone);
       std::fill(inked.begin(), inked.end(), 0.f);
       std::fill(inPass.begin(), inPass.end(), uint8_t(0));
-      const float pxc = float(x) + 0.5f, pyc = float(y) + 0.5f;
+      std::fill(entered.begin(), entered.end(), uint8_t(0));
       bool holdInk = false;
       for (int64_t k = clip.k0; k <= clip.k1; ++k) {
         const Vec3 p = clip.o + clip.d * ((double(k) + clip.jitter) * f.stepMm);
@@ -155,7 +158,7 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
             const float op = r[slot::LineOpacity], lw = r[slot::LineWidthPx], hs = r[slot::HatchSpacingPx];
             // Every sampled minimum (ties too); the strongest of a pass counts.
             const float hw = (0.5f * lw + 1.f) * pixB;
-            if (lw > 0.f && a < kInkNone && b <= a && b <= c && inPass[i] && b - 0.25f * std::abs(c - a) < hw &&
+            if (lw > 0.f && !entered[i] && a < kInkNone && b <= a && b <= c && inPass[i] && b - 0.25f * std::abs(c - a) < hw &&
                 b > -hw) {
               // Refined at a quarter step around the samples' vertex (as the shader).
               const float xv = inkVertex(a, b, c);
@@ -173,6 +176,9 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
                 under(&passAcc[i * 4], r[slot::LineColour], more);
               }
             }
+            // Hidden lines: once the ray is well inside the slot, its silhouettes further on
+            // (the far side of a transparent skin, the other foot behind) are not drawn.
+            if (c < -(0.5f * lw + 1.f) * pixC) entered[i] = 1;
             if (!(std::abs(c) < std::max((0.5f * lw + 1.f) * pixC, 1.5f * cx.sf.coverageH))) {
               inPass[i] = 0;
               inked[i] = 0.f;
@@ -185,12 +191,20 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
             const float gl = std::sqrt(dot(g, g));
             if (hs > 0.f && b < kInkNone && b > 0.f && c <= 0.f && gl > 1e-6f && inPass[i]) {
               const float ndl = dot(g * (1.f / gl), cx.sf.light);
-              under(&passAcc[i * 4], r[slot::LineColour], op * inkHatch(ndl, pxc, pyc, hs, r[slot::HatchWidthPx]));
+              float u[3], fade[3];
+              hatchCoordinates(cx.sf, pMm, g * (1.f / gl), u, fade);
+              under(&passAcc[i * 4], r[slot::LineColour], op * inkHatch(ndl, u, fade, hs, r[slot::HatchWidthPx]));
             }
           }
         }
+        // Adaptive step: a sample in homogeneous space stands for the samples up to the
+        // nearest band (skipBands), composited as one span.
+        const int span = cx.settings.adaptiveStep ? skipSamples(d.data(), ns, skipOut.data(), skipIn.data(),
+                                                                float(f.stepMm), clip.k1 - k + 1)
+                                                  : 1;
+        k += span - 1;
         if (sum[3] > 0.f) {
-          const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm));
+          const float aStep = 1.f - std::pow(std::max(1.f - sum[3], 0.f), float(f.stepMm) * float(span));
           for (int ch = 0; ch < 3; ++ch) acc[ch] += (1.f - acc[3]) * aStep * (sum[size_t(ch)] / sum[3]);
           acc[3] += (1.f - acc[3]) * aStep;
           if (acc[3] >= kEarlyAlpha && !holdInk) break;
@@ -237,6 +251,19 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
     // A line's three samples lie within half its width (at the farthest depth) plus two steps.
     const double far = f.perspective ? norm(centre - f.eye) + radius : 0.0;
     sf.inkReachMm = float(0.5 * t.maxLineWidthPx * (sf.pixMm0 + sf.pixMm1 * far) + 2.0 * f.stepMm + 0.5);
+    sf.inkLineMm = float((0.5 * t.maxLineWidthPx + 1.0) * (sf.pixMm0 + sf.pixMm1 * far) + 0.5 * f.stepMm);
+    // The ray is "in a pass" near a surface within max((w/2 + 1) px, 1.5 h) (main loop).
+    sf.inkPassMm = std::max({sf.inkReachMm, float((0.5 * t.maxLineWidthPx + 1.0) * (sf.pixMm0 + sf.pixMm1 * far)),
+                             1.5f * sf.coverageH});
+  }
+  {
+    // Hatching planes: across the grid's z axis (cross-contours) and the two diagonals of z
+    // with x; fixed to the anatomy, so strokes stay on the surface as the camera moves.
+    const Vec3 z = normalized(g.direction * Vec3{0, 0, 1}), x = normalized(g.direction * Vec3{1, 0, 0});
+    sf.hatchAxis[0] = f3(z);
+    sf.hatchAxis[1] = f3(normalized(z + x));
+    sf.hatchAxis[2] = f3(normalized(z - x));
+    sf.hatchPixMm = float(pix * (f.perspective ? norm(centre - f.eye) : 1.0));
   }
   const Mat3 m = g.direction * Mat3::fromColumns({1 / g.spacing.x, 0, 0}, {0, 1 / g.spacing.y, 0}, {0, 0, 1 / g.spacing.z});
   for (int r = 0; r < 3; ++r)
@@ -262,6 +289,7 @@ RgbaImage renderIllustrationCpu(const ShapeScene& scene, const Style& style, con
     cx.texVol = loadTextureVolume(style.textureVolume);
   }
   cx.sf = makeSampleFrame(scene.distance.geometry(), cx.frame, cx.table);
+  cx.skipMarginMm = skipMarginMm(scene.distance.geometry());
   RgbaImage image(settings.render.width, settings.render.height);
   parallelFor(settings.render.height, [&](int64_t y0, int64_t y1) { renderRows(cx, image, int(y0), int(y1)); });
   return image;

@@ -115,7 +115,7 @@ const params::Table<SegmentStyle>& segmentTable() {
       vector<S>("line_colour", [](auto& s) -> auto& { return s.lineColour; },
                 {"Line colour", "ink colour of lines and hatching", "", 0, 1}),
       real<S>("hatch_spacing_px", [](auto& s) -> auto& { return s.hatchSpacingPx; },
-              {"Hatch spacing", "screen-space hatching on the segment's front surface, strokes this far apart: one diagonal layer where n.l < 0.6, a crossing layer where n.l < 0.25, a third where n.l < -0.2, each stroke widening from 0 as the tone darkens (0 = none)", "px", 0, 256}),
+              {"Hatch spacing", "hatching on the segment's front surface, in object space (the surface cut by parallel planes fixed to the anatomy, so strokes stay put in a movie), strokes this far apart at the scene centre's pixel size: one layer of cross-contours (planes across the grid's z axis) where n.l < 0.6, a crossing diagonal layer where n.l < 0.25, a third where n.l < -0.2, each stroke widening from 0 as the tone darkens (0 = none)", "px", 0, 256}),
       real<S>("hatch_width_px", [](auto& s) -> auto& { return s.hatchWidthPx; },
               {"Hatch width", "width of a hatching stroke at full darkness", "px", 0.1, 32}),
   };

@@ -8,6 +8,7 @@
 #include "vellum/app/run_report.hpp"
 #include "vellum/app/table_removal.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/process_time.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/render/contact_sheet.hpp"
 
@@ -97,12 +98,14 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
                                  " (" + geometryOf(lv.volume).dims.str() + "): make the shape folder from this CT");
   scene.ct = std::move(lv.volume);
   const double loadS = secondsSince(t0);
+  const double loadCpuMs = processCpuMs();
 
   // One context, one upload: every style and view below draws from the same textures.
   auto context = render::GlContext::createHeadless();
   ill::IllustrationRenderer renderer(*context);
   renderer.setScene(scene);
   result.uploadMs = renderer.lastUploadMs();
+  const double uploadCpuMs = processCpuMs() - loadCpuMs;  // context, packing and upload
   const Geometry& grid = scene.distance.geometry();
   RunOutputs written;  // a failure (or Ctrl-C) between figures leaves none of this run's
   ensureParentFolder(r.output);
@@ -120,8 +123,10 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
       // leaves the annotations their room.
       s.render.camera = ill::frameFigure(scene.segments, style, s.render, r.framing,
                                          annotationRoom(annotations, r.labelIds, scene.segments, style, s.render));
+      const double cpu0 = processCpuMs();
       RgbaImage image = renderer.render(style, s);
       const double renderMs = renderer.lastRenderMs();  // before the label probes render again
+      const double renderCpuMs = processCpuMs() - cpu0;  // load-independent (all GL threads)
       // A GL draw cannot be interrupted: Ctrl-C during it cancels here, before anything is written.
       progress.checkCancelled();
       // Labels only for segments the figure shows, each where it shows (alone, where it can).
@@ -154,6 +159,7 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
                      {"pan_applied_mm", vec3Json(cam.panMm)}};
       f["labels"] = layout.labelTexts;
       f["render_ms"] = renderMs;
+      f["render_cpu_ms"] = renderCpuMs;
       f["annotate_seconds"] = annotateS;  // labels: probe renders and anchors
       figures.push_back(std::move(f));
     }
@@ -187,6 +193,8 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
   j["dims"] = {grid.dims.x, grid.dims.y, grid.dims.z};
   j["load_seconds"] = loadS;
   j["upload_ms"] = result.uploadMs;
+  j["load_cpu_ms"] = loadCpuMs;
+  j["upload_cpu_ms"] = uploadCpuMs;
   j["renderer"] = context->renderer();
   j["total_seconds"] = secondsSince(t0);
   if (!r.report.empty()) {

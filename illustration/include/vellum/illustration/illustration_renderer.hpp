@@ -52,6 +52,11 @@ struct IllustrationSettings {
   /// per-pixel jitter hides sampling rings.
   render::RenderSettings render;
   Interpolation interpolation = Interpolation::Eight;
+  /// Adaptive step: where every segment's distance says the samples ahead are all alike
+  /// (empty space, or deep inside a translucent fill), one sample stands for them (the
+  /// reference, false, marches every step; figures agree within the PSNR in
+  /// docs/benchmarks-illustration.md).
+  bool adaptiveStep = true;
   IllustrationSettings() { render.stepVoxels = 1.0; }
 };
 
