@@ -167,13 +167,13 @@ Mask hysteresis(const VolumeI16& ct, const HysteresisParams& p) {
 const params::Table<HysteresisParams>& hysteresisParamsTable() {
   using H = HysteresisParams;
   static const params::Table<H> table{
-      params::real<H>("strong_lower", [](auto& p) -> auto& { return p.strong.lower; },
+      params::real<H>("strong_lower", params::nested(&H::strong, &HuInterval::lower),
                       {"Strong threshold", "voxels at or above it seed the mask", "HU", -1024, 3071}),
-      params::real<H>("strong_upper", [](auto& p) -> auto& { return p.strong.upper; },
+      params::real<H>("strong_upper", params::nested(&H::strong, &HuInterval::upper),
                       {"Strong upper", "upper end of the seeding interval", "HU", -1024, 3071}),
-      params::real<H>("weak_lower", [](auto& p) -> auto& { return p.weak.lower; },
+      params::real<H>("weak_lower", params::nested(&H::weak, &HuInterval::lower),
                       {"Weak threshold", "voxels at or above it join when connected to a seed", "HU", -1024, 3071}),
-      params::real<H>("weak_upper", [](auto& p) -> auto& { return p.weak.upper; },
+      params::real<H>("weak_upper", params::nested(&H::weak, &HuInterval::upper),
                       {"Weak upper", "upper end of the joining interval", "HU", -1024, 3071}),
   };
   return table;
