@@ -54,23 +54,23 @@ const params::Table<SegmentStyle>& segmentTable() {
                 {"Colour", "segment colour (I_coloring, I_illum in phong mode)", "", 0, 1}),
       real<S>("tone_amount", &S::toneAmount,
               {"Tone", "0 = flat colour, 1 = full Gooch tone shading", "", 0, 1}),
-      vector<S>("tone_warm", &S::warm,
+      vector<S>("tone_warm", &S::toneWarm,
                 {"Warm tone", "Gooch warm colour (normal faces the light)", "", 0, 1}),
-      vector<S>("tone_cool", &S::cool,
+      vector<S>("tone_cool", &S::toneCool,
                 {"Cool tone", "Gooch cool colour (normal faces away from the light)", "", 0, 1}),
       real<S>("tone_alpha", &S::toneAlpha,
               {"Tone alpha", "Gooch alpha: share of the segment colour in the cool tone", "", 0, 1}),
       real<S>("tone_beta", &S::toneBeta,
               {"Tone beta", "Gooch beta: share of the segment colour in the warm tone", "", 0, 1}),
-      real<S>("depth_strength", &S::dimStrength,
+      real<S>("depth_strength", &S::depthStrength,
               {"Depth dimming", "how far the colour blends to depth_colour at depth_end (0 = off)", "", 0, 1}),
-      real<S>("depth_start", &S::dimStart,
+      real<S>("depth_start", &S::depthStart,
               {"Depth start", "depth where dimming starts, from the nearest point of the volume's bounding sphere along the view (see depth_units)", "", 0, 100000}),
-      real<S>("depth_end", &S::dimEnd,
+      real<S>("depth_end", &S::depthEnd,
               {"Depth end", "depth where dimming is full (> depth_start)", "", 0, 100000}),
-      choice<S>("depth_units", &S::dimUnits, {"fraction", "mm"},
+      choice<S>("depth_units", &S::depthUnits, {"fraction", "mm"},
                 {"Depth units", "fraction: depths are fractions of the bounding sphere's diameter (0 = nearest, 1 = farthest point), at most 1; mm: millimetres", ""}),
-      vector<S>("depth_colour", &S::dimColour,
+      vector<S>("depth_colour", &S::depthColour,
                 {"Depth colour", "colour distant parts fade to (usually the background)", "", 0, 1}),
       choice<S>("texture", &S::texture,
                 {"none", "noise", "marble", "wood", "stripes", "stipple", "volume"},
@@ -160,9 +160,9 @@ void readFields(S& target, const params::Table<S>& table, const json& obj, const
 
 SegmentStyle readRow(const json& obj, const std::string& where, SegmentStyle base) {
   readFields(base, segmentTable(), obj, where, {});
-  if (base.dimEnd <= base.dimStart && base.dimStrength > 0)
+  if (base.depthEnd <= base.depthStart && base.depthStrength > 0)
     throw FieldProblem{where + ".depth_end: must be greater than depth_start"};
-  if (base.dimUnits == DepthUnits::Fraction && (base.dimStart > 1 || base.dimEnd > 1))
+  if (base.depthUnits == DepthUnits::Fraction && (base.depthStart > 1 || base.depthEnd > 1))
     throw FieldProblem{where + ".depth_start/depth_end: fractions must be in [0, 1] (or set depth_units to \"mm\")"};
   return base;
 }
@@ -317,8 +317,8 @@ SegmentStyle row(const std::string& match, Rgb colour, float opacity) {
 }
 
 void tone(SegmentStyle& r, Rgb warm, Rgb cool, float alpha, float beta) {
-  r.warm = warm;
-  r.cool = cool;
+  r.toneWarm = warm;
+  r.toneCool = cool;
   r.toneAlpha = alpha;
   r.toneBeta = beta;
 }
@@ -336,10 +336,10 @@ void boundary(SegmentStyle& r, float kc, float ks, float ke) {
 }
 
 void dim(SegmentStyle& r, float strength, Rgb colour) {
-  r.dimStrength = strength;
-  r.dimStart = 0.35f;
-  r.dimEnd = 0.9f;
-  r.dimColour = colour;
+  r.depthStrength = strength;
+  r.depthStart = 0.35f;
+  r.depthEnd = 0.9f;
+  r.depthColour = colour;
 }
 
 Style textbook() {
@@ -453,7 +453,7 @@ Style dvrColour() {
   for (auto& r : s.segments) {
     silhouette(r, 1, 0, 1);
     boundary(r, 1, 0, 1);
-    r.dimStrength = 0;
+    r.depthStrength = 0;
     r.opacity = std::max(r.opacity, 0.15f);
   }
   return s;

@@ -24,29 +24,17 @@ HuInterval presetInterval(Preset p) {
   return {};
 }
 
-const char* presetName(Preset p) {
-  switch (p) {
-    case Preset::Bone: return "bone";
-    case Preset::WholeBone: return "whole-bone";
-    case Preset::SoftTissue: return "soft-tissue";
-    case Preset::SkinAir: return "skin-air";
-    case Preset::Fat: return "fat";
-    case Preset::Lung: return "lung";
-  }
-  return "?";
+const params::EnumTable<Preset>& presets() {
+  static const params::EnumTable<Preset> t{
+      "preset", {"bone", "soft-tissue", "skin-air", "fat", "lung", "whole-bone"},
+      {{"soft", Preset::SoftTissue}, {"skin", Preset::SkinAir}}};
+  return t;
 }
 
 std::vector<Preset> allPresets() {
   return {Preset::Bone, Preset::WholeBone, Preset::SoftTissue, Preset::SkinAir, Preset::Fat, Preset::Lung};
 }
 
-Preset parsePreset(const std::string& name) {
-  for (Preset p : allPresets())
-    if (name == presetName(p)) return p;
-  if (name == "soft") return Preset::SoftTissue;
-  if (name == "skin") return Preset::SkinAir;
-  throw Error("unknown preset '" + name + "' (bone, soft-tissue, skin-air, fat, lung)");
-}
 
 Mask threshold(const VolumeI16& ct, const HuInterval& interval) {
   Mask out(ct.geometry(), 0, 0.0);

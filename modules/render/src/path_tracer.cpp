@@ -45,9 +45,9 @@ PathLights makePathLights(const Frame& f, const RenderSettings& s) {
   l.up = f.up;
   l.keyCos = float(std::cos(c.lightSizeDeg * std::numbers::pi / 180));
   l.keyE = kKeyIrradiance;
-  l.fillE = float(kKeyIrradiance * c.fill);
+  l.fillE = float(kKeyIrradiance * c.fillLight);
   l.pickKey = l.keyE / (l.keyE + l.fillE);
-  l.sky = float(c.sky);
+  l.sky = float(c.skyLight);
   l.exposure = float(std::exp2(s.lighting.exposure));
   l.bounces = c.bounces;
   l.surfaceOffsetMm = kSurfaceOffsetVoxels * f.stepMm / s.stepVoxels;

@@ -8,24 +8,12 @@
 namespace vellum::render {
 
 namespace {
-// In Preset's enum order: the names users type, and the table's choices.
-const std::vector<std::string> kPresetNames{"bone", "soft-tissue", "skin", "mip"};
 const std::vector<std::string> kQualityNames{"standard", "cinematic"};
 }  // namespace
 
-const char* presetName(Preset p) {
-  const auto i = static_cast<size_t>(p);
-  return i < kPresetNames.size() ? kPresetNames[i].c_str() : "?";
-}
-
-std::vector<Preset> allPresets() {
-  return {Preset::Bone, Preset::SoftTissueBone, Preset::Skin, Preset::Mip};
-}
-
-Preset parsePreset(const std::string& name) {
-  for (Preset p : allPresets())
-    if (name == presetName(p)) return p;
-  throw Error("unknown render preset '" + name + "'; valid: bone, soft-tissue, skin, mip");
+const params::EnumTable<Preset>& presets() {
+  static const params::EnumTable<Preset> t{"render preset", {"bone", "soft-tissue", "skin", "mip"}};
+  return t;
 }
 
 const params::Table<RenderSettings>& renderSettingsTable() {
@@ -34,7 +22,7 @@ const params::Table<RenderSettings>& renderSettingsTable() {
   static const params::Table<R> table{
       params::integer<R>("width", &R::width, {"Width", "image width", "pixels", 1, detail::kMaxImageSize}),
       params::integer<R>("height", &R::height, {"Height", "image height", "pixels", 1, detail::kMaxImageSize}),
-      params::choice<R>("preset", &R::preset, kPresetNames,
+      params::choice<R>("preset", &R::preset, presets().names,
                         {"Preset", "transfer function: opaque bone, soft tissue over bone, skin surface, or MIP", ""}),
       params::real<R>("azimuth", params::nested(&R::camera, &Camera::azimuthDeg),
                       {"Azimuth", "camera turn about the superior axis; 0 looks from anterior", "degrees", -3600, 3600}),
@@ -82,9 +70,9 @@ const params::Table<RenderSettings>& renderSettingsTable() {
                       {"Denoise", "cinematic: edge-aware filter at the end, guided by the ray-cast picture (0 = off)", "", 0, 1}),
       params::real<R>("light_size", params::nested(&R::cinematic, &Cinematic::lightSizeDeg),
                       {"Light size", "cinematic: angular radius of the key light (soft shadow edges; 0 = sharp)", "degrees", 0, 45}),
-      params::real<R>("fill_light", params::nested(&R::cinematic, &Cinematic::fill),
+      params::real<R>("fill_light", params::nested(&R::cinematic, &Cinematic::fillLight),
                       {"Fill light", "cinematic: a second light mirrored from the key, relative to it (0 = off)", "", 0, 2}),
-      params::real<R>("sky_light", params::nested(&R::cinematic, &Cinematic::sky),
+      params::real<R>("sky_light", params::nested(&R::cinematic, &Cinematic::skyLight),
                       {"Sky light", "cinematic: radiance of the surrounding sky (ambient light the volume occludes)", "", 0, 4}),
   };
   return table;

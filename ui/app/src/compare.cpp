@@ -294,20 +294,9 @@ void compareGreyVolumes(const AnyVolume& a, const AnyVolume& b, const CompareReq
 
 }  // namespace
 
-const char* compareKindName(CompareKind kind) {
-  switch (kind) {
-    case CompareKind::Auto: return "auto";
-    case CompareKind::Labels: return "labels";
-    case CompareKind::Image: return "image";
-    case CompareKind::Volume: return "volume";
-  }
-  return "auto";
-}
-
-CompareKind parseCompareKind(const std::string& name) {
-  for (CompareKind k : {CompareKind::Auto, CompareKind::Labels, CompareKind::Image, CompareKind::Volume})
-    if (name == compareKindName(k)) return k;
-  throw Error("--kind: '" + name + "' is not one of auto, labels, image, volume");
+const params::EnumTable<CompareKind>& compareKinds() {
+  static const params::EnumTable<CompareKind> t{"--kind", {"auto", "labels", "image", "volume"}};
+  return t;
 }
 
 const params::Table<CompareTolerances>& compareTolerancesTable() {

@@ -335,7 +335,7 @@ std::string DeformEngine::rigidLabelsArgument() const {
 const params::Table<DeformEngine>& deformEngineTable() {
   using E = DeformEngine;
   static const params::Table<E> t{
-      params::choice<E>("upsampling", &E::upsampling, {"trilinear", "gaussian"},
+      params::choice<E>("upsampling", &E::upsampling, upsamplings().names,
                         {"Map upsampling", "how the control-grid map reaches every voxel (Gaussian: smoother, slower)", ""}),
       params::text<E>("labels", &E::labels,
                       {"Rigid-bone labels", "label map on the volume's grid (NRRD ...); the --rigid-labels ids stay rigid", ""}),

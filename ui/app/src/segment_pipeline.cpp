@@ -119,25 +119,6 @@ seg::Mask postProcess(const SegmentSettings& r, seg::Mask m, nlohmann::json& inf
   return m;
 }
 
-/// The fields of `sub` as fields of S under `prefix` (the split's own table, described once).
-template <class S, class Sub, class Ref>
-std::vector<params::Field<S>> embedded(const std::string& prefix, Ref ref, const params::Table<Sub>& sub) {
-  std::vector<params::Field<S>> out;
-  for (const params::Field<Sub>& f : sub) {
-    params::Field<S> e = params::makeField<S>(prefix + f.key, f.info, f.kind);
-    e.optional = f.optional;
-    e.choices = f.choices;
-    if (f.get) e.get = [ref, g = f.get](const S& s) { return g(ref(s)); };
-    if (f.set) e.set = [ref, st = f.set](S& s, std::optional<double> v) { st(ref(s), v); };
-    if (f.getText) e.getText = [ref, g = f.getText](const S& s) { return g(ref(s)); };
-    if (f.setText) e.setText = [ref, st = f.setText](S& s, const std::string& v) { st(ref(s), v); };
-    if (f.getVector) e.getVector = [ref, g = f.getVector](const S& s) { return g(ref(s)); };
-    if (f.setVector) e.setVector = [ref, st = f.setVector](S& s, const std::array<double, 3>& v) { st(ref(s), v); };
-    out.push_back(std::move(e));
-  }
-  return out;
-}
-
 }  // namespace
 
 const params::Table<SegmentSettings>& segmentSettingsTable() {
@@ -184,8 +165,8 @@ const params::Table<SegmentSettings>& segmentSettingsTable() {
               {"Split objects", "post, last: split into separate objects (bones touching at joints, two feet), "
                                 "one label id each, largest first (watershed on the depth below the surface)", ""}),
     };
-    for (auto& f : embedded<R, seg::SplitParams>("split_", nested(&R::post, &SegmentPostProcessing::splitParams),
-                                                  seg::splitParamsTable()))
+    for (auto& f : params::embed<R>("split_", nested(&R::post, &SegmentPostProcessing::splitParams),
+                                    seg::splitParamsTable()))
       rows.push_back(std::move(f));
     return rows;
   }();

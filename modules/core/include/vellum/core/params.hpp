@@ -182,6 +182,27 @@ Field<S> vector(std::string key, Ref ref, Info info) {
   return f;
 }
 
+/// The fields of `sub` (the table of a member struct, reached by `ref`) as fields of S, keys
+/// prefixed with `prefix`: a struct described once and embedded in the tables that hold it.
+template <class S, class Sub, class Ref>
+Table<S> embed(const std::string& prefix, Ref ref, const Table<Sub>& sub) {
+  Table<S> out;
+  for (const Field<Sub>& f : sub) {
+    Field<S> e = makeField<S>(prefix + f.key, f.info, f.kind);
+    e.optional = f.optional;
+    e.choices = f.choices;
+    if (f.get) e.get = [ref, g = f.get](const S& s) { return g(detail::member(ref, s)); };
+    if (f.set) e.set = [ref, st = f.set](S& s, std::optional<double> v) { st(detail::member(ref, s), v); };
+    if (f.getText) e.getText = [ref, g = f.getText](const S& s) { return g(detail::member(ref, s)); };
+    if (f.setText) e.setText = [ref, st = f.setText](S& s, const std::string& v) { st(detail::member(ref, s), v); };
+    if (f.getVector) e.getVector = [ref, g = f.getVector](const S& s) { return g(detail::member(ref, s)); };
+    if (f.setVector)
+      e.setVector = [ref, st = f.setVector](S& s, const std::array<double, 3>& v) { st(detail::member(ref, s), v); };
+    out.push_back(std::move(e));
+  }
+  return out;
+}
+
 /// The field of `table` with key `key`, or nullptr.
 template <class S>
 const Field<S>* findField(const Table<S>& table, const std::string& key) {
