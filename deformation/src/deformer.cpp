@@ -81,7 +81,6 @@ Deformer::Deformer(const AnyVolume& source, const DeformParams& params)
                                                             {0, 0, m.output.spacing.z});
   if (!toMm.inverse(m.mmToIndex)) throw Error("deformation source: singular geometry");
   if (params.density.enabled) {
-    if (params.density.iterations < 0) throw Error("density iterations must be >= 0");
     const auto t0 = std::chrono::steady_clock::now();
     m.density = std::make_unique<DensityVolume>(source, params.density);
     m.timings.densityBuildMs = msSince(t0);
@@ -116,7 +115,7 @@ void Deformer::setPoints(const ControlPoints& points) {
 void Deformer::Impl::rebuildRhoFields(Progress& progress) {
   timings.rhoFieldsRebuilt = 0;
   timings.rhoCacheMs = 0;
-  if (!density || !params.density.useRhoCache) return;
+  if (!density || !params.density.rhoCache) return;
   const size_t n = points.size();
   std::vector<int> stale;
   for (size_t i = 0; i < n; ++i)
@@ -200,7 +199,7 @@ void Deformer::Impl::solveRow(RowWork& w, const std::vector<Vec3>& xIdx, bool wi
   for (int it = 0; it < params.density.iterations; ++it) {
     for (int x = 0; x < len; ++x) {
       const Vec3 ui = sourceIndex({w.u[3 * x], w.u[3 * x + 1], w.u[3 * x + 2]});
-      if (params.density.useRhoCache) {
+      if (params.density.rhoCache) {
         lookupRho(ui, w.rho.data() + x, len);
       } else {
         for (int p = 0; p < n; ++p)

@@ -6,33 +6,21 @@
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/deformation/deform_params.hpp"
 
 namespace vellum::deformation {
 
-const char* phiRuleName(PhiRule r) {
-  switch (r) {
-    case PhiRule::Min: return "min";
-    case PhiRule::Mean: return "mean";
-    case PhiRule::None: return "none";
-  }
-  return "?";
+const params::EnumTable<PhiRule>& phiRules() {
+  static const params::EnumTable<PhiRule> t{"phi rule", {"min", "mean", "none"}};
+  return t;
 }
-PhiRule parsePhiRule(const std::string& name) {
-  if (name == "min") return PhiRule::Min;
-  if (name == "mean") return PhiRule::Mean;
-  if (name == "none") return PhiRule::None;
-  throw Error("unknown phi rule '" + name + "' (min, mean, none)");
+const params::EnumTable<RayMode>& rayModes() {
+  static const params::EnumTable<RayMode> t{"ray mode", {"linear", "conic"}};
+  return t;
 }
-const char* rayModeName(RayMode r) { return r == RayMode::Linear ? "linear" : "conic"; }
-RayMode parseRayMode(const std::string& name) {
-  if (name == "linear") return RayMode::Linear;
-  if (name == "conic") return RayMode::Conic;
-  throw Error("unknown ray mode '" + name + "' (linear, conic)");
-}
-MipReduction parseMipReduction(const std::string& name) {
-  if (name == "mean") return MipReduction::Mean;
-  if (name == "max") return MipReduction::Max;
-  throw Error("unknown mip reduction '" + name + "' (mean, max)");
+const params::EnumTable<MipReduction>& mipReductions() {
+  static const params::EnumTable<MipReduction> t{"mip reduction", {"mean", "max"}};
+  return t;
 }
 
 namespace {
@@ -86,12 +74,8 @@ inline double sampleFast(const VolumeF32& v, const Vec3& p) {
 
 DensityVolume::DensityVolume(const AnyVolume& source, const DensityParams& params)
     : params_(params) {
-  if (!(params.phiMin > 0) || params.phiMin > 1) throw Error("density phiMin must be in (0, 1]");
+  params::validate(densityParamsTable(), params);
   if (!(params.windowHighHu > params.windowLowHu)) throw Error("density window is empty");
-  if (params.rays == RayMode::Linear && !(params.linearStepVoxels > 0))
-    throw Error("density linear ray step must be > 0");
-  if (params.rays == RayMode::Conic && !(params.coneSlope > 0))
-    throw Error("density cone slope must be > 0");
   const Geometry& g = geometryOf(source);
   const double lo = params.windowLowHu, scale = 1.0 / (params.windowHighHu - lo);
   const float floor = static_cast<float>(params.phiMin);
@@ -142,7 +126,7 @@ double DensityVolume::rho(const Vec3& aIdx, const Vec3& bIdx) const {
   const double minSp = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
   constexpr double kRhoFloorMm = 1e-3;
   if (!(lenMm > 1e-9)) {
-    if (params_.lengthNormalised)  // the limit of integral / (phi * length) at a point
+    if (params_.lengthNormalisedRho)  // the limit of integral / (phi * length) at a point
       return std::max(static_cast<double>(levels_[0].sampleLinear(aIdx)) /
                           (params_.phi == PhiRule::Min ? std::max(static_cast<double>(levels_[0].sampleLinear(aIdx)), params_.phiMin)
                            : params_.phi == PhiRule::Mean ? globalMean_ : 1.0), 1e-6);
@@ -205,7 +189,7 @@ double DensityVolume::rho(const Vec3& aIdx, const Vec3& bIdx) const {
     case PhiRule::Mean: phi = globalMean_; break;
     case PhiRule::None: phi = 1.0; break;
   }
-  if (params_.lengthNormalised) return std::max(integral / (phi * lenMm), 1e-6);
+  if (params_.lengthNormalisedRho) return std::max(integral / (phi * lenMm), 1e-6);
   return std::max(integral / phi, kRhoFloorMm);
 }
 

@@ -7,20 +7,9 @@
 
 namespace vellum::deformation {
 
-const char* interpolationName(Interpolation i) {
-  switch (i) {
-    case Interpolation::Linear: return "linear";
-    case Interpolation::Smooth: return "smooth";
-    case Interpolation::Eased: return "eased";
-  }
-  return "?";
-}
-
-Interpolation parseInterpolation(const std::string& name) {
-  if (name == "linear") return Interpolation::Linear;
-  if (name == "smooth") return Interpolation::Smooth;
-  if (name == "eased") return Interpolation::Eased;
-  throw Error("unknown interpolation '" + name + "' (linear, smooth, eased)");
+const params::EnumTable<Interpolation>& interpolations() {
+  static const params::EnumTable<Interpolation> t{"interpolation", {"linear", "smooth", "eased"}};
+  return t;
 }
 
 void KeyframeTrack::validate() const {

@@ -13,20 +13,9 @@ bool hasAttributes(const ControlPoints& points) {
                      [](const ControlPoint& p) { return !p.attributes.isDefault(); });
 }
 
-const char* mlsMethodName(MlsMethod m) {
-  switch (m) {
-    case MlsMethod::Affine: return "affine";
-    case MlsMethod::Similarity: return "similarity";
-    case MlsMethod::Rigid: return "rigid";
-  }
-  return "?";
-}
-
-MlsMethod parseMlsMethod(const std::string& name) {
-  if (name == "affine") return MlsMethod::Affine;
-  if (name == "similarity") return MlsMethod::Similarity;
-  if (name == "rigid") return MlsMethod::Rigid;
-  throw Error("unknown MLS method '" + name + "' (affine, similarity, rigid)");
+const params::EnumTable<MlsMethod>& mlsMethods() {
+  static const params::EnumTable<MlsMethod> t{"MLS method", {"affine", "similarity", "rigid"}};
+  return t;
 }
 
 std::vector<Vec3> evaluateMls(const ControlPoints& points, const MlsParams& params,

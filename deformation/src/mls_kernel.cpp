@@ -8,6 +8,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/core/rigid_fit.hpp"
 #include "vellum/core/simd_clones.hpp"
+#include "vellum/deformation/deform_params.hpp"
 
 namespace vellum::deformation::detail {
 namespace {
@@ -382,10 +383,7 @@ PointData PointData::from(const ControlPoints& points, bool withAttributes) {
 
 RowEvaluator::RowEvaluator(const PointData& points, const MlsParams& params, int maxLen)
     : p_(points), params_(params), maxLen_((std::max(maxLen, 1) + kLanes - 1) / kLanes * kLanes) {
-  if (!(params.power > 0) || !std::isfinite(params.power))
-    throw Error("MLS weight power must be > 0");
-  if (!(params.regularisation > 0) || params.regularisation >= 1)
-    throw Error("MLS regularisation must be in (0, 1)");
+  params::validate(mlsParamsTable(), params);
   const size_t n = static_cast<size_t>(p_.count) * maxLen_;
   w0_.assign(n, 0.0);
   w_.assign(n, 0.0);

@@ -6,6 +6,7 @@
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/json_input.hpp"
+#include "vellum/deformation/deform_params.hpp"
 #include "vellum/io/nrrd_writer.hpp"
 
 namespace vellum::deformation {
@@ -88,9 +89,13 @@ PointFile loadControlPoints(const fs::path& path) {
   if (!j.contains("points")) throw FileError(path, "missing \"points\"");
   f.points = readPoints(j.at("points"), path);
   if (j.contains("power")) {
-    if (!j.at("power").is_number() || !(j.at("power").get<double>() > 0))
-      throw FileError(path, "\"power\" must be a number > 0");
-    f.power = j.at("power").get<double>();
+    // The engine's range for the MLS power, from its parameter table.
+    const auto* power = params::findField(mlsParamsTable(), "power");
+    MlsParams probe;
+    if (j.at("power").is_number()) probe.power = j.at("power").get<double>();
+    if (!j.at("power").is_number() || !(probe.power >= power->info.min && probe.power <= power->info.max))
+      throw FileError(path, "\"power\" must be a number in " + params::rangeText(power->kind, power->info, {}));
+    f.power = probe.power;
   }
   return f;
 }

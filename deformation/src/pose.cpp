@@ -136,24 +136,24 @@ double twistDeg(const Mat3& r, const Vec3& n) {
 const params::Table<PoseOptions>& poseOptionsTable() {
   using O = PoseOptions;
   static const params::Table<O> t{
-      params::real<O>("sample_spread", [](auto& o) -> auto& { return o.sampleSpread; },
+      params::real<O>("sample_spread", &O::sampleSpread,
                       {"Bone sample spread", "points on each bone at its centroid +- this many standard deviations "
                        "along its principal axes (snapped to the bone's nearest voxel)", "", 0.1, 3}),
-      params::real<O>("sample_step", [](auto& o) -> auto& { return o.sampleStepMm; },
+      params::real<O>("sample_step", &O::sampleStepMm,
                       {"Bone sample step", "also one point per cell of this size on every bone of a joint, so "
                        "that each bone's own points dominate the map inside it (0 = principal samples only)",
                        "mm", 0, 200}),
-      params::integer<O>("anchors", [](auto& o) -> auto& { return o.anchors; },
+      params::integer<O>("anchors", &O::anchors,
                          {"Still anchors", "points on the volume's inset box that stay put (0 = none)", "", 0, 64}),
-      params::real<O>("anchor_inset", [](auto& o) -> auto& { return o.anchorInset; },
+      params::real<O>("anchor_inset", &O::anchorInset,
                       {"Anchor inset", "inset of the anchors' box, fraction of the volume's extent", "", 0, 0.49}),
-      params::real<O>("contact", [](auto& o) -> auto& { return o.contactMm; },
+      params::real<O>("contact", &O::contactMm,
                       {"Contact distance", "\"axis\": \"estimate\": parent and child voxels this close form the "
                        "joint's contact zone", "mm", 0.5, 30}),
-      params::real<O>("max_step", [](auto& o) -> auto& { return o.maxStepDeg; },
+      params::real<O>("max_step", &O::maxStepDeg,
                       {"Movie angle step", "movies: generated keyframes at most this many degrees apart per joint",
                        "deg", 0.1, 90}),
-      params::integer<O>("measure_stride", [](auto& o) -> auto& { return o.measureStride; },
+      params::integer<O>("measure_stride", &O::measureStride,
                          {"Joint measure stride", "joint measures visit every N-th voxel per axis (1 = all)", "", 1, 64}),
   };
   return t;

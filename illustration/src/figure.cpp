@@ -35,20 +35,9 @@ std::vector<uint8_t> styleDrawnIds(const Style& style, const LabelVolume& segmen
   return out;
 }
 
-Framing parseFraming(const std::string& name) {
-  if (name == "drawn") return Framing::Drawn;
-  if (name == "segments") return Framing::Segments;
-  if (name == "volume") return Framing::Volume;
-  throw Error("framing '" + name + "': expected drawn, segments or volume");
-}
-
-const char* framingName(Framing f) {
-  switch (f) {
-    case Framing::Drawn: return "drawn";
-    case Framing::Segments: return "segments";
-    case Framing::Volume: return "volume";
-  }
-  return "?";
+const params::EnumTable<Framing>& framings() {
+  static const params::EnumTable<Framing> t{"framing", {"drawn", "segments", "volume"}};
+  return t;
 }
 
 render::Camera frameFigure(const LabelVolume& segments, const Style& style, const render::RenderSettings& settings,

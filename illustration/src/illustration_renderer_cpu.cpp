@@ -13,12 +13,9 @@ namespace vellum::illustration {
 
 using namespace detail;
 
-const char* interpolationName(Interpolation i) { return i == Interpolation::Eight ? "eight" : "nearest"; }
-
-Interpolation parseInterpolation(const std::string& name) {
-  if (name == "eight") return Interpolation::Eight;
-  if (name == "nearest") return Interpolation::Nearest;
-  throw Error("unknown interpolation '" + name + "' (valid: eight, nearest)");
+const params::EnumTable<Interpolation>& interpolations() {
+  static const params::EnumTable<Interpolation> t{"interpolation", {"eight", "nearest"}};
+  return t;
 }
 
 void validateScene(const ShapeScene& scene) {

@@ -204,18 +204,18 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
 const params::Table<ShapeOptions>& shapeOptionsTable() {
   using S = ShapeOptions;
   static const params::Table<S> table{
-      params::integer<S>("denoise_iterations", [](auto& o) -> auto& { return o.denoise.iterations; },
+      params::integer<S>("denoise_iterations", params::nested(&S::denoise, &DenoiseOptions::iterations),
                          {"Denoising steps", "constrained mean-curvature steps of the level-set denoising", "", 0, 1000}),
-      params::real<S>("denoise_margin", [](auto& o) -> auto& { return o.denoise.marginVoxels; },
+      params::real<S>("denoise_margin", params::nested(&S::denoise, &DenoiseOptions::marginVoxels),
                       {"Constraint margin", "phi <= -m inside, >= +m outside at voxel centres (keeps thin sheets)",
                        "voxels", 0, 0.5}),
-      params::integer<S>("target_faces", [](auto& o) -> auto& { return o.targetFaces; },
+      params::integer<S>("target_faces", &S::targetFaces,
                          {"Face budget", "per-segment face budget of the decimation; 0 = no decimation", "", 0, 10000000}),
-      params::integer<S>("smoothing_iterations", [](auto& o) -> auto& { return o.smoothingIterations; },
+      params::integer<S>("smoothing_iterations", &S::smoothingIterations,
                          {"Smoothing passes", "OpenMesh tangential smoothing passes", "", 0, 100}),
-      params::real<S>("adaptivity", [](auto& o) -> auto& { return o.adaptivity; },
+      params::real<S>("adaptivity", &S::adaptivity,
                       {"Meshing adaptivity", "OpenVDB volumeToMesh adaptivity; 0 = uniform", "", 0, 1}),
-      params::real<S>("band", [](auto& o) -> auto& { return o.exactBandMm; },
+      params::real<S>("band", &S::exactBandMm,
                       {"Exact band", "half-width of the band of exact distances; 0 = 3 voxels of the smallest spacing, at least 2 of the largest", "mm", 0, 1000}),
   };
   return table;

@@ -39,84 +39,84 @@ const params::Table<SegmentStyle>& segmentTable() {
   using S = SegmentStyle;
   using params::real, params::flag, params::choice, params::text, params::vector;
   static const params::Table<S> t = {
-      text<S>("match", [](auto& s) -> auto& { return s.match; },
+      text<S>("match", &S::match,
               {"Match", "label-table name this row styles (case-insensitive; a row also matches names that contain it)", ""}),
-      flag<S>("visible", [](auto& s) -> auto& { return s.visible; }, {"Visible", "draw this segment at all", ""}),
-      real<S>("lambda_illum", [](auto& s) -> auto& { return s.lambdaIllum; },
+      flag<S>("visible", &S::visible, {"Visible", "draw this segment at all", ""}),
+      real<S>("lambda_illum", &S::lambdaIllum,
               {"l1 illumination", "weight l1 of I_illum (Blinn-Phong or the CT's transfer function)", "", 0, 1}),
-      real<S>("lambda_colouring", [](auto& s) -> auto& { return s.lambdaColouring; },
+      real<S>("lambda_colouring", &S::lambdaColouring,
               {"l2 colouring", "weight l2 of I_coloring (tone-shaded, depth-dimmed colour)", "", 0, 1}),
-      real<S>("lambda_texture", [](auto& s) -> auto& { return s.lambdaTexture; },
+      real<S>("lambda_texture", &S::lambdaTexture,
               {"l3 texture", "weight l3 of I_solidtex (solid texture)", "", 0, 1}),
-      real<S>("opacity", [](auto& s) -> auto& { return s.opacity; },
+      real<S>("opacity", &S::opacity,
               {"Opacity", "opacity per mm of ray (as the render module's transfer functions)", "", 0, 1}),
-      vector<S>("colour", [](auto& s) -> auto& { return s.colour; },
+      vector<S>("colour", &S::colour,
                 {"Colour", "segment colour (I_coloring, I_illum in phong mode)", "", 0, 1}),
-      real<S>("tone_amount", [](auto& s) -> auto& { return s.toneAmount; },
+      real<S>("tone_amount", &S::toneAmount,
               {"Tone", "0 = flat colour, 1 = full Gooch tone shading", "", 0, 1}),
-      vector<S>("tone_warm", [](auto& s) -> auto& { return s.warm; },
+      vector<S>("tone_warm", &S::toneWarm,
                 {"Warm tone", "Gooch warm colour (normal faces the light)", "", 0, 1}),
-      vector<S>("tone_cool", [](auto& s) -> auto& { return s.cool; },
+      vector<S>("tone_cool", &S::toneCool,
                 {"Cool tone", "Gooch cool colour (normal faces away from the light)", "", 0, 1}),
-      real<S>("tone_alpha", [](auto& s) -> auto& { return s.toneAlpha; },
+      real<S>("tone_alpha", &S::toneAlpha,
               {"Tone alpha", "Gooch alpha: share of the segment colour in the cool tone", "", 0, 1}),
-      real<S>("tone_beta", [](auto& s) -> auto& { return s.toneBeta; },
+      real<S>("tone_beta", &S::toneBeta,
               {"Tone beta", "Gooch beta: share of the segment colour in the warm tone", "", 0, 1}),
-      real<S>("depth_strength", [](auto& s) -> auto& { return s.dimStrength; },
+      real<S>("depth_strength", &S::depthStrength,
               {"Depth dimming", "how far the colour blends to depth_colour at depth_end (0 = off)", "", 0, 1}),
-      real<S>("depth_start", [](auto& s) -> auto& { return s.dimStart; },
+      real<S>("depth_start", &S::depthStart,
               {"Depth start", "depth where dimming starts, from the nearest point of the volume's bounding sphere along the view (see depth_units)", "", 0, 100000}),
-      real<S>("depth_end", [](auto& s) -> auto& { return s.dimEnd; },
+      real<S>("depth_end", &S::depthEnd,
               {"Depth end", "depth where dimming is full (> depth_start)", "", 0, 100000}),
-      choice<S>("depth_units", [](auto& s) -> auto& { return s.dimUnits; }, {"fraction", "mm"},
+      choice<S>("depth_units", &S::depthUnits, {"fraction", "mm"},
                 {"Depth units", "fraction: depths are fractions of the bounding sphere's diameter (0 = nearest, 1 = farthest point), at most 1; mm: millimetres", ""}),
-      vector<S>("depth_colour", [](auto& s) -> auto& { return s.dimColour; },
+      vector<S>("depth_colour", &S::depthColour,
                 {"Depth colour", "colour distant parts fade to (usually the background)", "", 0, 1}),
-      choice<S>("texture", [](auto& s) -> auto& { return s.texture; },
+      choice<S>("texture", &S::texture,
                 {"none", "noise", "marble", "wood", "stripes", "stipple", "volume"},
                 {"Texture", "solid texture of I_solidtex (volume: the style's texture_volume)", ""}),
-      real<S>("texture_scale_mm", [](auto& s) -> auto& { return s.textureScaleMm; },
+      real<S>("texture_scale_mm", &S::textureScaleMm,
               {"Texture scale", "size of one texture feature (volume: mm per texture voxel)", "mm", 0.05, 1000}),
-      vector<S>("texture_colour1", [](auto& s) -> auto& { return s.textureColour1; },
+      vector<S>("texture_colour1", &S::textureColour1,
                 {"Texture colour 1", "texture colour at 0", "", 0, 1}),
-      vector<S>("texture_colour2", [](auto& s) -> auto& { return s.textureColour2; },
+      vector<S>("texture_colour2", &S::textureColour2,
                 {"Texture colour 2", "texture colour at 1 (stipple: the dots)", "", 0, 1}),
-      choice<S>("boundary_measure", [](auto& s) -> auto& { return s.boundaryMeasure; }, {"distance", "ct"},
+      choice<S>("boundary_measure", &S::boundaryMeasure, {"distance", "ct"},
                 {"Boundary measure", "b in boundary enhancement: distance = clamp(1 - |d|/boundary_width_mm, 0, 1) (d: shape distance); ct = clamp(|grad CT|/ct_gradient_scale, 0, 1)", ""}),
-      real<S>("boundary_width_mm", [](auto& s) -> auto& { return s.boundaryWidthMm; },
+      real<S>("boundary_width_mm", &S::boundaryWidthMm,
               {"Boundary width", "width of the distance boundary band", "mm", 0.01, 100}),
-      real<S>("ct_gradient_scale", [](auto& s) -> auto& { return s.ctGradientScale; },
+      real<S>("ct_gradient_scale", &S::ctGradientScale,
               {"CT gradient scale", "CT gradient magnitude that counts as a full boundary", "HU/mm", 1, 100000}),
-      real<S>("boundary_kc", [](auto& s) -> auto& { return s.boundaryKc; },
+      real<S>("boundary_kc", &S::boundaryKc,
               {"Boundary kc", "boundary enhancement k_c: opacity *= k_c + k_s * b^k_e", "", 0, 100}),
-      real<S>("boundary_ks", [](auto& s) -> auto& { return s.boundaryKs; },
+      real<S>("boundary_ks", &S::boundaryKs,
               {"Boundary ks", "boundary enhancement k_s", "", 0, 100}),
-      real<S>("boundary_ke", [](auto& s) -> auto& { return s.boundaryKe; },
+      real<S>("boundary_ke", &S::boundaryKe,
               {"Boundary ke", "boundary enhancement k_e", "", 0.01, 64}),
-      real<S>("silhouette_kc", [](auto& s) -> auto& { return s.silhouetteKc; },
+      real<S>("silhouette_kc", &S::silhouetteKc,
               {"Silhouette kc", "silhouette enhancement k_c: opacity *= k_c + k_s * (1 - |n.v|)^k_e", "", 0, 100}),
-      real<S>("silhouette_ks", [](auto& s) -> auto& { return s.silhouetteKs; },
+      real<S>("silhouette_ks", &S::silhouetteKs,
               {"Silhouette ks", "silhouette enhancement k_s", "", 0, 100}),
-      real<S>("silhouette_ke", [](auto& s) -> auto& { return s.silhouetteKe; },
+      real<S>("silhouette_ke", &S::silhouetteKe,
               {"Silhouette ke", "silhouette enhancement k_e", "", 0.01, 64}),
-      choice<S>("illum", [](auto& s) -> auto& { return s.illum; }, {"phong", "ct"},
+      choice<S>("illum", &S::illum, {"phong", "ct"},
                 {"Illumination", "I_illum: phong = Blinn-Phong of colour on the distance normal; ct = the CT's transfer function (style ct_preset) shaded on the CT gradient", ""}),
-      real<S>("ambient", [](auto& s) -> auto& { return s.ambient; },
+      real<S>("ambient", &S::ambient,
               {"Ambient", "ambient term (phong, CT shading and texture shading)", "", 0, 1}),
-      real<S>("diffuse", [](auto& s) -> auto& { return s.diffuse; }, {"Diffuse", "diffuse term", "", 0, 1}),
-      real<S>("specular", [](auto& s) -> auto& { return s.specular; }, {"Specular", "specular term", "", 0, 1}),
-      real<S>("shininess", [](auto& s) -> auto& { return s.shininess; }, {"Shininess", "specular exponent", "", 1, 256}),
-      real<S>("tone_key", [](auto& s) -> auto& { return s.toneKey; },
+      real<S>("diffuse", &S::diffuse, {"Diffuse", "diffuse term", "", 0, 1}),
+      real<S>("specular", &S::specular, {"Specular", "specular term", "", 0, 1}),
+      real<S>("shininess", &S::shininess, {"Shininess", "specular exponent", "", 1, 256}),
+      real<S>("tone_key", &S::toneKey,
               {"Tone key", "n.l of the lit mid-tone that shows `colour` exactly: the Gooch tone (per channel) and the Phong/texture light are divided by their value there, so shading lightens highlights and darkens shadows around the style colour instead of multiplying it down (0 = off: plain Gooch and Phong)", "", 0, 1}),
-      real<S>("line_width_px", [](auto& s) -> auto& { return s.lineWidthPx; },
+      real<S>("line_width_px", &S::lineWidthPx,
               {"Line width", "ink line along silhouettes and contours, in pixels whatever the zoom: drawn where a ray passes within half of it of this segment's surface (the distance field's minimum along the ray; 0 = no lines)", "px", 0, 32}),
-      real<S>("line_opacity", [](auto& s) -> auto& { return s.lineOpacity; },
+      real<S>("line_opacity", &S::lineOpacity,
               {"Line opacity", "opacity of ink lines and hatching", "", 0, 1}),
-      vector<S>("line_colour", [](auto& s) -> auto& { return s.lineColour; },
+      vector<S>("line_colour", &S::lineColour,
                 {"Line colour", "ink colour of lines and hatching", "", 0, 1}),
-      real<S>("hatch_spacing_px", [](auto& s) -> auto& { return s.hatchSpacingPx; },
+      real<S>("hatch_spacing_px", &S::hatchSpacingPx,
               {"Hatch spacing", "hatching on the segment's front surface, in object space (the surface cut by parallel planes fixed to the anatomy, so strokes stay put in a movie), strokes this far apart at the scene centre's pixel size: one layer of cross-contours (planes across the grid's z axis) where n.l < 0.6, a crossing diagonal layer where n.l < 0.25, a third where n.l < -0.2, each stroke widening from 0 as the tone darkens (0 = none)", "px", 0, 256}),
-      real<S>("hatch_width_px", [](auto& s) -> auto& { return s.hatchWidthPx; },
+      real<S>("hatch_width_px", &S::hatchWidthPx,
               {"Hatch width", "width of a hatching stroke at full darkness", "px", 0.1, 32}),
   };
   return t;
@@ -126,15 +126,15 @@ const params::Table<Style>& globalTable() {
   using S = Style;
   using params::text, params::vector;
   static const params::Table<S> t = {
-      text<S>("name", [](auto& s) -> auto& { return s.name; }, {"Name", "style name", ""}),
-      text<S>("description", [](auto& s) -> auto& { return s.description; }, {"Description", "one line for humans", ""}),
-      vector<S>("light", [](auto& s) -> auto& { return s.light; },
+      text<S>("name", &S::name, {"Name", "style name", ""}),
+      text<S>("description", &S::description, {"Description", "one line for humans", ""}),
+      vector<S>("light", &S::light,
                 {"Light", "light direction in camera space: right, up, toward the viewer (normalised; not all 0)", ""}),
-      vector<S>("background", [](auto& s) -> auto& { return s.background; },
+      vector<S>("background", &S::background,
                 {"Background", "figure background the CLI uses unless --transparent / --background", "", 0, 1}),
-      text<S>("ct_preset", [](auto& s) -> auto& { return s.ctPreset; },
+      text<S>("ct_preset", &S::ctPreset,
               {"CT preset", "render-module transfer function for illum = ct rows", ""}, {"bone", "soft-tissue", "skin"}),
-      text<S>("texture_volume", [](auto& s) -> auto& { return s.textureVolume; },
+      text<S>("texture_volume", &S::textureVolume,
               {"Texture volume", "volume file (any format io reads) for texture = volume rows; values are normalised to [0, 1] over its range and tiled", ""}),
   };
   return t;
@@ -160,9 +160,9 @@ void readFields(S& target, const params::Table<S>& table, const json& obj, const
 
 SegmentStyle readRow(const json& obj, const std::string& where, SegmentStyle base) {
   readFields(base, segmentTable(), obj, where, {});
-  if (base.dimEnd <= base.dimStart && base.dimStrength > 0)
+  if (base.depthEnd <= base.depthStart && base.depthStrength > 0)
     throw FieldProblem{where + ".depth_end: must be greater than depth_start"};
-  if (base.dimUnits == DepthUnits::Fraction && (base.dimStart > 1 || base.dimEnd > 1))
+  if (base.depthUnits == DepthUnits::Fraction && (base.depthStart > 1 || base.depthEnd > 1))
     throw FieldProblem{where + ".depth_start/depth_end: fractions must be in [0, 1] (or set depth_units to \"mm\")"};
   return base;
 }
@@ -317,8 +317,8 @@ SegmentStyle row(const std::string& match, Rgb colour, float opacity) {
 }
 
 void tone(SegmentStyle& r, Rgb warm, Rgb cool, float alpha, float beta) {
-  r.warm = warm;
-  r.cool = cool;
+  r.toneWarm = warm;
+  r.toneCool = cool;
   r.toneAlpha = alpha;
   r.toneBeta = beta;
 }
@@ -336,10 +336,10 @@ void boundary(SegmentStyle& r, float kc, float ks, float ke) {
 }
 
 void dim(SegmentStyle& r, float strength, Rgb colour) {
-  r.dimStrength = strength;
-  r.dimStart = 0.35f;
-  r.dimEnd = 0.9f;
-  r.dimColour = colour;
+  r.depthStrength = strength;
+  r.depthStart = 0.35f;
+  r.depthEnd = 0.9f;
+  r.depthColour = colour;
 }
 
 Style textbook() {
@@ -453,7 +453,7 @@ Style dvrColour() {
   for (auto& r : s.segments) {
     silhouette(r, 1, 0, 1);
     boundary(r, 1, 0, 1);
-    r.dimStrength = 0;
+    r.depthStrength = 0;
     r.opacity = std::max(r.opacity, 0.15f);
   }
   return s;

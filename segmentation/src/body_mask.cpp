@@ -14,17 +14,17 @@ namespace vellum::segmentation {
 const params::Table<BodyMaskParams>& bodyMaskParamsTable() {
   using B = BodyMaskParams;
   static const params::Table<B> table{
-      params::real<B>("air_threshold", [](auto& p) -> auto& { return p.airThresholdHu; },
+      params::real<B>("air_threshold", &B::airThresholdHu,
                       {"Air threshold", "the body is everything above it", "HU", -1000, 0}),
-      params::real<B>("opening_radius", [](auto& p) -> auto& { return p.openingRadiusMm; },
+      params::real<B>("opening_radius", &B::openingRadiusMm,
                       {"Opening radius", "contacts thinner than about twice this are cut (table pads, rods)", "mm",
                        0, 30}),
-      params::real<B>("min_part_volume", [](auto& p) -> auto& { return p.minPartMl; },
+      params::real<B>("min_part_volume", &B::minPartMl,
                       {"Smallest body part",
                        "every separate part at least this large (and thick) is kept: two legs, two feet, arms "
                        "beside a chest; smaller pieces go",
                        "mL", 0, 1e6}),
-      params::real<B>("min_part_thickness", [](auto& p) -> auto& { return p.minPartThicknessMm; },
+      params::real<B>("min_part_thickness", &B::minPartThicknessMm,
                       {"Thinnest body part",
                        "a part must be at least this thick somewhere (largest ball inside it): table tops and "
                        "pads are thinner than a foot or a wrist",

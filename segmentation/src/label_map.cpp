@@ -8,11 +8,10 @@
 
 namespace vellum::segmentation {
 
-OverlapRule parseOverlapRule(const std::string& name) {
-  if (name == "overwrite") return OverlapRule::Overwrite;
-  if (name == "keep-existing" || name == "only-background") return OverlapRule::KeepExisting;
-  if (name == "replace") return OverlapRule::Replace;
-  throw Error("unknown overlap rule '" + name + "' (overwrite, keep-existing, replace)");
+const params::EnumTable<OverlapRule>& overlapRules() {
+  static const params::EnumTable<OverlapRule> t{
+      "overlap rule", {"overwrite", "keep-existing", "replace"}, {{"only-background", OverlapRule::KeepExisting}}};
+  return t;
 }
 
 namespace {

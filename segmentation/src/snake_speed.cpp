@@ -12,10 +12,9 @@
 
 namespace vellum::segmentation {
 
-SpeedType parseSpeedType(const std::string& name) {
-  if (name == "threshold" || name == "region") return SpeedType::Threshold;
-  if (name == "edge") return SpeedType::Edge;
-  throw Error("unknown speed type '" + name + "' (threshold, edge)");
+const params::EnumTable<SpeedType>& speedTypes() {
+  static const params::EnumTable<SpeedType> t{"speed type", {"threshold", "edge"}, {{"region", SpeedType::Threshold}}};
+  return t;
 }
 
 VolumeF32 gaussianBlur(const VolumeI16& ct, double sigmaMm, Progress& progress) {

@@ -16,10 +16,10 @@ namespace vellum::segmentation {
 const params::Table<SplitParams>& splitParamsTable() {
   using S = SplitParams;
   static const params::Table<S> table{
-      params::real<S>("neck", [](auto& p) -> auto& { return p.neckMm; },
+      params::real<S>("neck", &S::neckMm,
                       {"Split neck", "contacts narrower than about twice this are cut (0 = split only unconnected pieces)",
                        "mm", 0, 50}),
-      params::real<S>("min_volume", [](auto& p) -> auto& { return p.minVolumeMm3; },
+      params::real<S>("min_volume", &S::minVolumeMm3,
                       {"Split minimum volume", "smaller objects merge into their largest-contact neighbour or are dropped",
                        "mm^3", 0, 1e12}),
   };

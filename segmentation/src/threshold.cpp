@@ -24,29 +24,17 @@ HuInterval presetInterval(Preset p) {
   return {};
 }
 
-const char* presetName(Preset p) {
-  switch (p) {
-    case Preset::Bone: return "bone";
-    case Preset::WholeBone: return "whole-bone";
-    case Preset::SoftTissue: return "soft-tissue";
-    case Preset::SkinAir: return "skin-air";
-    case Preset::Fat: return "fat";
-    case Preset::Lung: return "lung";
-  }
-  return "?";
+const params::EnumTable<Preset>& presets() {
+  static const params::EnumTable<Preset> t{
+      "preset", {"bone", "soft-tissue", "skin-air", "fat", "lung", "whole-bone"},
+      {{"soft", Preset::SoftTissue}, {"skin", Preset::SkinAir}}};
+  return t;
 }
 
 std::vector<Preset> allPresets() {
   return {Preset::Bone, Preset::WholeBone, Preset::SoftTissue, Preset::SkinAir, Preset::Fat, Preset::Lung};
 }
 
-Preset parsePreset(const std::string& name) {
-  for (Preset p : allPresets())
-    if (name == presetName(p)) return p;
-  if (name == "soft") return Preset::SoftTissue;
-  if (name == "skin") return Preset::SkinAir;
-  throw Error("unknown preset '" + name + "' (bone, soft-tissue, skin-air, fat, lung)");
-}
 
 Mask threshold(const VolumeI16& ct, const HuInterval& interval) {
   Mask out(ct.geometry(), 0, 0.0);
@@ -167,13 +155,13 @@ Mask hysteresis(const VolumeI16& ct, const HysteresisParams& p) {
 const params::Table<HysteresisParams>& hysteresisParamsTable() {
   using H = HysteresisParams;
   static const params::Table<H> table{
-      params::real<H>("strong_lower", [](auto& p) -> auto& { return p.strong.lower; },
+      params::real<H>("strong_lower", params::nested(&H::strong, &HuInterval::lower),
                       {"Strong threshold", "voxels at or above it seed the mask", "HU", -1024, 3071}),
-      params::real<H>("strong_upper", [](auto& p) -> auto& { return p.strong.upper; },
+      params::real<H>("strong_upper", params::nested(&H::strong, &HuInterval::upper),
                       {"Strong upper", "upper end of the seeding interval", "HU", -1024, 3071}),
-      params::real<H>("weak_lower", [](auto& p) -> auto& { return p.weak.lower; },
+      params::real<H>("weak_lower", params::nested(&H::weak, &HuInterval::lower),
                       {"Weak threshold", "voxels at or above it join when connected to a seed", "HU", -1024, 3071}),
-      params::real<H>("weak_upper", [](auto& p) -> auto& { return p.weak.upper; },
+      params::real<H>("weak_upper", params::nested(&H::weak, &HuInterval::upper),
                       {"Weak upper", "upper end of the joining interval", "HU", -1024, 3071}),
   };
   return table;

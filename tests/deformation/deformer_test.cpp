@@ -27,7 +27,7 @@ DeformParams densityParams(RayMode rays, bool cache) {
   DeformParams p;
   p.density.enabled = true;
   p.density.rays = rays;
-  p.density.useRhoCache = cache;
+  p.density.rhoCache = cache;
   p.density.iterations = 3;
   return p;
 }
@@ -172,9 +172,9 @@ TEST(Density, RhoIsSegmentLengthInHomogeneousRegionsAndGrowsThroughBone) {
   for (RayMode rays : {RayMode::Linear, RayMode::Conic}) {
     DensityParams p;
     p.rays = rays;
-    p.lengthNormalised = false;  // the paper's rho
+    p.lengthNormalisedRho = false;  // the paper's rho
     const DensityVolume dv(AnyVolume(v), p);
-    p.lengthNormalised = true;
+    p.lengthNormalisedRho = true;
     const DensityVolume dn(AnyVolume(v), p);
     EXPECT_NEAR(dn.rho({5, 5, 5}, {5, 15, 5}), 1.0, 1e-5);
     EXPECT_GT(dn.rho({5, 20, 20}, {35, 20, 20}), 1.1);
@@ -188,7 +188,7 @@ TEST(Density, RhoIsSegmentLengthInHomogeneousRegionsAndGrowsThroughBone) {
   }
   DensityParams none;
   none.phi = PhiRule::None;
-  none.lengthNormalised = false;
+  none.lengthNormalisedRho = false;
   const DensityVolume dv(AnyVolume(v), none);
   EXPECT_NEAR(dv.rho({5, 5, 5}, {5, 15, 5}), 20.0 * 1040.0 / 3000.0, 1e-4);
 }

@@ -133,7 +133,7 @@ void BM_DensityUpdate(benchmark::State& state) {
   p.controlScale = s;
   p.density.enabled = true;
   p.density.iterations = 3;
-  p.density.useRhoCache = cache;
+  p.density.rhoCache = cache;
   Deformer d(vol, p);
   d.setPoints(pts);
   d.update();

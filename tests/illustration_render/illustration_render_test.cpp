@@ -233,8 +233,8 @@ TEST(IllustrationGl, ToneIsWarmTowardTheLightAndCoolAway) {
   st.light = {1.f, 0.f, 0.2f};  // from screen right
   st.fallback.opacity = 1;
   st.fallback.colour = {0.5f, 0.5f, 0.5f};
-  st.fallback.warm = {0.8f, 0.6f, 0.f};
-  st.fallback.cool = {0.f, 0.1f, 0.8f};
+  st.fallback.toneWarm = {0.8f, 0.6f, 0.f};
+  st.fallback.toneCool = {0.f, 0.1f, 0.8f};
   const ShapeScene scene = test::makeScene(48, {{"ball", [](const Vec3& p) { return test::sphereSdf(p, {0, 0, 0}, 16); }}});
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const RgbaImage img = gpu(scene, st, front(96, mode));
@@ -257,10 +257,10 @@ TEST(IllustrationGl, DepthDimmingFadesTheFarSphere) {
   st.fallback.opacity = 1;
   st.fallback.colour = {0.8f, 0.1f, 0.1f};
   st.fallback.toneAmount = 0;
-  st.fallback.dimStrength = 1;
-  st.fallback.dimStart = 0.2f;
-  st.fallback.dimEnd = 0.8f;
-  st.fallback.dimColour = {1, 1, 1};
+  st.fallback.depthStrength = 1;
+  st.fallback.depthStart = 0.2f;
+  st.fallback.depthEnd = 0.8f;
+  st.fallback.depthColour = {1, 1, 1};
   IllustrationSettings s = front(96);
   s.render.background = {1, 1, 1, 1};
   const RgbaImage img = gpu(scene, st, s);
@@ -271,11 +271,11 @@ TEST(IllustrationGl, DepthDimmingFadesTheFarSphere) {
   EXPECT_LT(int(nearPx[1]), 120);
   // The same in mm: the bounding sphere of the 48 mm box is 83.1 mm across.
   Style mm = st;
-  mm.fallback.dimUnits = DepthUnits::Mm;
-  mm.fallback.dimStart = 0.2f * 83.138f;
-  mm.fallback.dimEnd = 0.8f * 83.138f;
+  mm.fallback.depthUnits = DepthUnits::Mm;
+  mm.fallback.depthStart = 0.2f * 83.138f;
+  mm.fallback.depthEnd = 0.8f * 83.138f;
   EXPECT_LE(test::compareImages(gpu(scene, mm, s), img).maxAbs, 1.0);
-  st.fallback.dimStrength = 0;
+  st.fallback.depthStrength = 0;
   const RgbaImage flat = gpu(scene, st, s);
   EXPECT_NEAR(int(flat.at(48 + 14, 48)[1]), int(flat.at(48 - 14, 48)[1]), 3);
 }

@@ -13,6 +13,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/deformation/deform_params.hpp"
+#include "vellum/deformation/mls.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 #include "vellum/render/render_settings.hpp"
@@ -94,6 +95,29 @@ TEST(Params, ParseFormatAndRangeErrorsNameTheKey) {
   Geometry g;
   g.dims = {8, 8, 8};
   EXPECT_THROW(deformation::Deformer(VolumeI16(g, -1000), bad), Error);
+}
+
+TEST(Params, EnumTablesRoundTripNameTheChoicesAndKeepOneRange) {
+  for (const auto m : deformation::mlsMethods().all())
+    EXPECT_EQ(deformation::parseMlsMethod(deformation::mlsMethodName(m)), m);
+  for (const auto p : segmentation::presets().all())
+    EXPECT_EQ(segmentation::parsePreset(segmentation::presetName(p)), p);
+  EXPECT_EQ(segmentation::presets().all().size(), segmentation::allPresets().size());
+  // An older spelling still reads; the name written is the table's.
+  EXPECT_EQ(segmentation::parsePreset("soft"), segmentation::Preset::SoftTissue);
+  EXPECT_STREQ(segmentation::presetName(segmentation::Preset::SoftTissue), "soft-tissue");
+  EXPECT_EQ(errorOf([] { segmentation::parsePreset("bogus"); }),
+            "preset: 'bogus' is not one of bone, soft-tissue, skin-air, fat, lung, whole-bone");
+  EXPECT_EQ(errorOf([] { render::parsePreset("bone-ish"); }),
+            "render preset: 'bone-ish' is not one of bone, soft-tissue, skin, mip");
+  // The parameter table's choices are the enum table's names.
+  EXPECT_EQ(params::findField(deformation::deformParamsTable(), "method")->choices, deformation::mlsMethods().names);
+  EXPECT_EQ(params::findField(render::renderSettingsTable(), "preset")->choices, render::presets().names);
+  // One range per parameter: the MLS evaluator refuses what the table refuses, in its words.
+  deformation::MlsParams low;
+  low.power = 0.4;
+  EXPECT_EQ(errorOf([&] { deformation::evaluateMls({{{0, 0, 0}, {1, 0, 0}, {}}}, low, {{0, 0, 0}}); }),
+            "power = 0.4 is outside 0.5..8");
 }
 
 TEST(Params, GeneratedCliFlagsWriteTheStructAndCheckRanges) {

@@ -39,8 +39,8 @@ RenderSettings ballSettings() {
   s.quality = Quality::Cinematic;
   s.cinematic.samples = 32;
   s.cinematic.lightSizeDeg = 0;
-  s.cinematic.fill = 0;
-  s.cinematic.sky = 0.5;
+  s.cinematic.fillLight = 0;
+  s.cinematic.skyLight = 0.5;
   s.cinematic.denoise = 0;
   s.lighting.azimuthDeg = 90;  // from the right of the view
   s.lighting.elevationDeg = 0;
@@ -56,7 +56,7 @@ TEST(PathTracerCpu, BallLitFromOneSideHasTheAnalyticRadiance) {
   const Vec3 key = keyLightDirection(f, s.lighting);
   ASSERT_NEAR(dot(key, f.right), 1.0, 1e-9);
   const double albedo = std::pow(kGrey, 2.2);
-  const double sky = s.cinematic.sky;
+  const double sky = s.cinematic.skyLight;
   // Sums of measured and expected radiance over the pixels well inside each half of the disc
   // (the hit point's radius is where the value crosses 50 HU: the ball's edge profile is
   // symmetric about kRadius).

@@ -551,7 +551,7 @@ TEST(RenderGl, ToneMappedAreaLightMatchesCpu) {
   s.lighting.toneMap = true;
   s.lighting.exposure = 0.3;
   s.cinematic.lightSizeDeg = 8;
-  s.cinematic.fill = 0.3;
+  s.cinematic.fillLight = 0.3;
   s.cinematic.sky = 0.4;
   const RgbaImage soft = r.render(s);
   expectClose(soft, renderReferenceCpu(ball, s), "tone-mapped area light");

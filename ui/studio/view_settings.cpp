@@ -7,39 +7,29 @@
 
 namespace vellum::studio {
 
-const char* layoutName(Layout l) {
-  switch (l) {
-    case Layout::ThreeD: return "3d";
-    case Layout::TwoByTwo: return "2x2";
-    case Layout::OneByThree: return "1x3";
-  }
-  return "2x2";
-}
-
-Layout parseLayout(const std::string& name) {
-  for (Layout l : {Layout::ThreeD, Layout::TwoByTwo, Layout::OneByThree})
-    if (name == layoutName(l)) return l;
-  throw Error("unknown layout '" + name + "' (3d, 2x2, 1x3)");
+const params::EnumTable<Layout>& layouts() {
+  static const params::EnumTable<Layout> t{"layout", {"3d", "2x2", "1x3"}};
+  return t;
 }
 
 const params::Table<ViewSettings>& viewSettingsTable() {
   using V = ViewSettings;
   static const params::Table<V> t{
-      params::choice<V>("layout", [](auto& v) -> auto& { return v.layout; }, {"3d", "2x2", "1x3"},
+      params::choice<V>("layout", &V::layout, layouts().names,
                         {"Layout", "3D view only, 2x2 (axial, coronal, sagittal, 3D) or 1x3 (the three slices)", ""}),
-      params::real<V>("slice_window_center", [](auto& v) -> auto& { return v.sliceWindow.center; },
+      params::real<V>("slice_window_center", params::nested(&V::sliceWindow, &WindowLevel::center),
                       {"Slice level", "centre of the slices' grey-value window", "HU", -4000, 4000}),
-      params::real<V>("slice_window_width", [](auto& v) -> auto& { return v.sliceWindow.width; },
+      params::real<V>("slice_window_width", params::nested(&V::sliceWindow, &WindowLevel::width),
                       {"Slice window", "width of the slices' grey-value window", "HU", 1, 10000}),
-      params::real<V>("label_opacity", [](auto& v) -> auto& { return v.labelOpacity; },
+      params::real<V>("label_opacity", &V::labelOpacity,
                       {"Label opacity", "fill opacity of the label overlay in the slices (outlines stay opaque)", "", 0, 1}),
-      params::flag<V>("meshes_3d", [](auto& v) -> auto& { return v.meshesIn3d; },
+      params::flag<V>("meshes_3d", &V::meshesIn3d,
                       {"Meshes in 3D view", "draw the shape folder's segment meshes opaque in the 3D view (render presets); the volume in front of them is composited over them", ""}),
-      params::choice<V>("deformed_upsampling", [](auto& v) -> auto& { return v.deformedUpsampling; },
-                        {"trilinear", "gaussian"},  // deformation::parseUpsampling's names, in enum order
+      params::choice<V>("deformed_upsampling", &V::deformedUpsampling,
+                        upsamplings().names,
                         {"Map upsampling", "how the deformed view and the movie export interpolate the map between "
                                            "control nodes (vellum deform/animate --upsampling)", ""}),
-      params::flag<V>("deformed_slices", [](auto& v) -> auto& { return v.deformedSlices; },
+      params::flag<V>("deformed_slices", &V::deformedSlices,
                       {"Deformed slices", "while a deformation is shown, the slice views show the CT and labels "
                                           "through it, as the 3D view does; off: the undeformed volume", ""}),
   };

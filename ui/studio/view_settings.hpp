@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/deformation/control_volume.hpp"
 #include "vellum/illustration/style.hpp"
@@ -16,9 +17,9 @@ namespace vellum::studio {
 
 enum class Layout { ThreeD, TwoByTwo, OneByThree };
 /// "3d", "2x2", "1x3".
-const char* layoutName(Layout l);
-/// Parses the names above; throws vellum::Error listing them.
-Layout parseLayout(const std::string& name);
+const params::EnumTable<Layout>& layouts();
+inline const char* layoutName(Layout l) { return layouts().name(l); }
+inline Layout parseLayout(const std::string& name) { return layouts().parse(name); }
 
 /// Window/level in HU (centre, width).
 struct WindowLevel {

@@ -19,12 +19,9 @@ void put(std::array<float, 12>& e, const Mat3& m, const Vec3& b) {
 
 }  // namespace
 
-const char* upsamplingName(Upsampling u) { return u == Upsampling::Trilinear ? "trilinear" : "gaussian"; }
-
-Upsampling parseUpsampling(const std::string& name) {
-  if (name == "trilinear") return Upsampling::Trilinear;
-  if (name == "gaussian") return Upsampling::Gaussian;
-  throw Error("unknown upsampling '" + name + "' (trilinear, gaussian)");
+const params::EnumTable<Upsampling>& upsamplings() {
+  static const params::EnumTable<Upsampling> t{"upsampling", {"trilinear", "gaussian"}};
+  return t;
 }
 
 // Trilinear: the two nodes around o / s.

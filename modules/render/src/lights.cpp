@@ -20,8 +20,8 @@ SceneLights makeSceneLights(const Frame& f, const RenderSettings& s) {
   l.up = f.up;
   l.keyCos = float(std::cos(c.lightSizeDeg * std::numbers::pi / 180));
   l.keyE = kKeyIrradiance;
-  l.fillE = float(kKeyIrradiance * c.fill);
-  l.sky = float(c.sky);
+  l.fillE = float(kKeyIrradiance * c.fillLight);
+  l.sky = float(c.skyLight);
   l.exposure = float(std::exp2(s.lighting.exposure));
   return l;
 }

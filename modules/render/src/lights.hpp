@@ -20,7 +20,7 @@ constexpr double kFillElevationDeg = 10;
 
 /// The lights of a frame, physical directions pointing towards them: the key light (a disc of
 /// angular radius cinematic.lightSizeDeg), the fill light (the key's azimuth mirrored, low;
-/// irradiance cinematic.fill x the key's), a sky of radiance sky * (0.75 + 0.25 cos(angle to
+/// irradiance cinematic.fillLight x the key's), a sky of radiance sky * (0.75 + 0.25 cos(angle to
 /// the view's up)), and the exposure 2^lighting.exposure.
 struct SceneLights {
   Vec3 key, fill, up;

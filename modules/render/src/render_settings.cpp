@@ -8,95 +8,83 @@
 namespace vellum::render {
 
 namespace {
-// In Preset's enum order: the names users type, and the table's choices.
-const std::vector<std::string> kPresetNames{"bone", "soft-tissue", "skin", "mip"};
 const std::vector<std::string> kQualityNames{"standard", "cinematic"};
 }  // namespace
 
-const char* presetName(Preset p) {
-  const auto i = static_cast<size_t>(p);
-  return i < kPresetNames.size() ? kPresetNames[i].c_str() : "?";
-}
-
-std::vector<Preset> allPresets() {
-  return {Preset::Bone, Preset::SoftTissueBone, Preset::Skin, Preset::Mip};
-}
-
-Preset parsePreset(const std::string& name) {
-  for (Preset p : allPresets())
-    if (name == presetName(p)) return p;
-  throw Error("unknown render preset '" + name + "'; valid: bone, soft-tissue, skin, mip");
+const params::EnumTable<Preset>& presets() {
+  static const params::EnumTable<Preset> t{"render preset", {"bone", "soft-tissue", "skin", "mip"}};
+  return t;
 }
 
 const params::Table<RenderSettings>& renderSettingsTable() {
   using params::Info;
   using R = RenderSettings;
   static const params::Table<R> table{
-      params::integer<R>("width", [](auto& s) -> auto& { return s.width; }, {"Width", "image width", "pixels", 1, detail::kMaxImageSize}),
-      params::integer<R>("height", [](auto& s) -> auto& { return s.height; }, {"Height", "image height", "pixels", 1, detail::kMaxImageSize}),
-      params::choice<R>("preset", [](auto& s) -> auto& { return s.preset; }, kPresetNames,
+      params::integer<R>("width", &R::width, {"Width", "image width", "pixels", 1, detail::kMaxImageSize}),
+      params::integer<R>("height", &R::height, {"Height", "image height", "pixels", 1, detail::kMaxImageSize}),
+      params::choice<R>("preset", &R::preset, presets().names,
                         {"Preset", "transfer function: opaque bone, soft tissue over bone, skin surface, or MIP", ""}),
-      params::real<R>("azimuth", [](auto& s) -> auto& { return s.camera.azimuthDeg; },
+      params::real<R>("azimuth", params::nested(&R::camera, &Camera::azimuthDeg),
                       {"Azimuth", "camera turn about the superior axis; 0 looks from anterior", "degrees", -3600, 3600}),
-      params::real<R>("elevation", [](auto& s) -> auto& { return s.camera.elevationDeg; },
+      params::real<R>("elevation", params::nested(&R::camera, &Camera::elevationDeg),
                       {"Elevation", "camera tilt towards superior", "degrees", -90, 90}),
-      params::real<R>("zoom", [](auto& s) -> auto& { return s.camera.zoom; },
+      params::real<R>("zoom", params::nested(&R::camera, &Camera::zoom),
                       {"Zoom", "1 = the volume's bounding sphere fills the view (illustrate: what it draws, see --frame)", "", 0.05, 50}),
-      params::real<R>("fov", [](auto& s) -> auto& { return s.camera.fieldOfViewDeg; },
+      params::real<R>("fov", params::nested(&R::camera, &Camera::fieldOfViewDeg),
                       {"Field of view", "vertical; 0 = orthographic projection", "degrees", 0, 120}),
-      params::real<R>("window_center", [](auto& s) -> auto& { return s.windowCenter; },
+      params::real<R>("window_center", &R::windowCenter,
                       {"Window centre", "MIP grey mapping; DVR: shifts the transfer function", "HU", -32768, 32767}),
-      params::real<R>("window_width", [](auto& s) -> auto& { return s.windowWidth; },
+      params::real<R>("window_width", &R::windowWidth,
                       {"Window width", "MIP grey mapping; DVR: scales the transfer function (0 = the preset's own)", "HU", 0, 65536}),
-      params::flag<R>("shading", [](auto& s) -> auto& { return s.shading; },
+      params::flag<R>("shading", &R::shading,
                       {"Shading", "Blinn-Phong shading from the gradient (DVR presets)", ""}),
-      params::real<R>("step", [](auto& s) -> auto& { return s.stepVoxels; },
+      params::real<R>("step", &R::stepVoxels,
                       {"Ray step", "sampling step along rays", "voxels", 0.05, 4}),
-      params::flag<R>("jitter", [](auto& s) -> auto& { return s.jitter; },
+      params::flag<R>("jitter", &R::jitter,
                       {"Jitter", "fixed per-pixel ray offsets: fine noise instead of wood-grain rings", ""}),
-      params::real<R>("label_blend", [](auto& s) -> auto& { return s.labelBlend; },
+      params::real<R>("label_blend", &R::labelBlend,
                       {"Label colours", "how much label colours tint the volume (0 = off; needs a label map)", "", 0, 1}),
-      params::vector<R>("clip_min", [](auto& s) -> auto& { return s.clipMin; },
+      params::vector<R>("clip_min", &R::clipMin,
                         {"Clip box min", "region of interest: its low corner as fractions of the volume's i, j, k extent", "fraction", 0, 1}),
-      params::vector<R>("clip_max", [](auto& s) -> auto& { return s.clipMax; },
+      params::vector<R>("clip_max", &R::clipMax,
                         {"Clip box max", "region of interest: its high corner as fractions of the volume's i, j, k extent", "fraction", 0, 1}),
-      params::integer<R>("only_label", [](auto& s) -> auto& { return s.onlyLabel; },
+      params::integer<R>("only_label", &R::onlyLabel,
                          {"Only label", "draw only this label id's voxels (0 = all; needs a label map)", "", 0, 65535}),
-      params::real<R>("shadows", [](auto& s) -> auto& { return s.lighting.shadows; },
+      params::real<R>("shadows", params::nested(&R::lighting, &Lighting::shadows),
                       {"Shadows", "volumetric shadows of the key light: how much they darken (0 = off; shaded DVR)", "", 0, 1}),
-      params::real<R>("occlusion", [](auto& s) -> auto& { return s.lighting.occlusion; },
+      params::real<R>("occlusion", params::nested(&R::lighting, &Lighting::occlusion),
                       {"Ambient occlusion", "how much crevices darken, from the opacity around each sample (0 = off)", "", 0, 1}),
-      params::real<R>("occlusion_radius", [](auto& s) -> auto& { return s.lighting.occlusionRadiusMm; },
+      params::real<R>("occlusion_radius", params::nested(&R::lighting, &Lighting::occlusionRadiusMm),
                       {"Occlusion radius", "the neighbourhood whose opacity occludes", "mm", 1, 100}),
-      params::real<R>("light_azimuth", [](auto& s) -> auto& { return s.lighting.azimuthDeg; },
+      params::real<R>("light_azimuth", params::nested(&R::lighting, &Lighting::azimuthDeg),
                       {"Light azimuth", "key light turned about the view's up axis; 0 = from the eye, negative = from the left", "degrees", -180, 180}),
-      params::real<R>("light_elevation", [](auto& s) -> auto& { return s.lighting.elevationDeg; },
+      params::real<R>("light_elevation", params::nested(&R::lighting, &Lighting::elevationDeg),
                       {"Light elevation", "key light raised towards the top of the view", "degrees", -90, 90}),
-      params::real<R>("exposure", [](auto& s) -> auto& { return s.lighting.exposure; },
+      params::real<R>("exposure", params::nested(&R::lighting, &Lighting::exposure),
                       {"Exposure", "with shadows or occlusion, or cinematic: brightens the lit colour by this many stops", "stops", -4, 4}),
-      params::flag<R>("tone_map", [](auto& s) -> auto& { return s.lighting.toneMap; },
+      params::flag<R>("tone_map", params::nested(&R::lighting, &Lighting::toneMap),
                       {"Tone map", "ray caster (shaded DVR): the cinematic lights (soft key, fill, sky; shadows and occlusion as set) in linear light, ACES tone mapped with the exposure", ""}),
-      params::choice<R>("quality", [](auto& s) -> auto& { return s.quality; }, kQualityNames,
+      params::choice<R>("quality", &R::quality, kQualityNames,
                         {"Quality", "standard ray casting, or cinematic: progressive path tracing (DVR presets; docs/lighting.md)", ""}),
-      params::integer<R>("samples", [](auto& s) -> auto& { return s.cinematic.samples; },
+      params::integer<R>("samples", params::nested(&R::cinematic, &Cinematic::samples),
                          {"Samples", "cinematic: paths per pixel (a movie frame takes as many)", "", 1, 65536}),
-      params::real<R>("time_limit", [](auto& s) -> auto& { return s.cinematic.timeLimitS; },
+      params::real<R>("time_limit", params::nested(&R::cinematic, &Cinematic::timeLimitS),
                       {"Time limit", "cinematic: stop after the sample pass that crosses it (0 = none)", "s", 0, 86400}),
-      params::integer<R>("seed", [](auto& s) -> auto& { return s.cinematic.seed; },
+      params::integer<R>("seed", params::nested(&R::cinematic, &Cinematic::seed),
                          {"Seed", "cinematic: random seed; the same seed gives the same picture", "", 0, 2147483647}),
-      params::integer<R>("bounces", [](auto& s) -> auto& { return s.cinematic.bounces; },
+      params::integer<R>("bounces", params::nested(&R::cinematic, &Cinematic::bounces),
                          {"Bounces", "cinematic: scattering events per path (1 = single scattering)", "", 1, 8}),
-      params::real<R>("denoise", [](auto& s) -> auto& { return s.cinematic.denoise; },
+      params::real<R>("denoise", params::nested(&R::cinematic, &Cinematic::denoise),
                       {"Denoise", "cinematic: edge-aware filter at the end, guided by the ray-cast picture (0 = off)", "", 0, 1}),
-      params::real<R>("light_size", [](auto& s) -> auto& { return s.cinematic.lightSizeDeg; },
+      params::real<R>("light_size", params::nested(&R::cinematic, &Cinematic::lightSizeDeg),
                       {"Light size", "cinematic or tone_map: angular radius of the key light (soft shadow edges; 0 = sharp)", "degrees", 0, 45}),
-      params::real<R>("fill_light", [](auto& s) -> auto& { return s.cinematic.fill; },
+      params::real<R>("fill_light", params::nested(&R::cinematic, &Cinematic::fillLight),
                       {"Fill light", "cinematic or tone_map: a second light mirrored from the key, relative to it (0 = off)", "", 0, 2}),
-      params::real<R>("sky_light", [](auto& s) -> auto& { return s.cinematic.sky; },
+      params::real<R>("sky_light", params::nested(&R::cinematic, &Cinematic::skyLight),
                       {"Sky light", "cinematic or tone_map: radiance of the surrounding sky (ambient light the volume occludes)", "", 0, 4}),
-      params::real<R>("trace_scale", [](auto& s) -> auto& { return s.cinematic.traceScale; },
+      params::real<R>("trace_scale", params::nested(&R::cinematic, &Cinematic::traceScale),
                       {"Trace scale", "cinematic: paths traced at this fraction of the image size, upsampled under the full-size denoise guide", "", 0.25, 1}),
-      params::flag<R>("volume_shadows", [](auto& s) -> auto& { return s.cinematic.volumeShadows; },
+      params::flag<R>("volume_shadows", params::nested(&R::cinematic, &Cinematic::volumeShadows),
                       {"Volume shadows", "cinematic: key-light shadows and sky occlusion from the precomputed light volume instead of traced rays (faster, coarser)", ""}),
   };
   return table;

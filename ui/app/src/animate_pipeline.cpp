@@ -53,18 +53,18 @@ std::string singleQuoted(const std::filesystem::path& p) {
 const params::Table<AnimateRequest>& animateRequestTable() {
   using R = AnimateRequest;
   static const params::Table<R> t{
-      params::real<R>("fps", [](auto& r) -> auto& { return r.fps; }, {"FPS", "frames per second", "", 0.01, 240}),
-      params::real<R>("camera_orbit", [](auto& r) -> auto& { return r.orbitDeg; },
+      params::real<R>("fps", &R::fps, {"FPS", "frames per second", "", 0.01, 240}),
+      params::real<R>("camera_orbit", &R::orbitDeg,
                       {"Camera orbit", "turn the camera by this many degrees over the animation", "deg", -3600, 3600}),
-      params::flag<R>("loop", [](auto& r) -> auto& { return r.loop; },
+      params::flag<R>("loop", &R::loop,
                       {"Loop", "seamless loop: back to the first keyframe, no repeated frame", ""}),
-      params::text<R>("title", [](auto& r) -> auto& { return r.title; },
+      params::text<R>("title", &R::title,
                       {"Title", "a title card shown before the first frame (empty: none)", ""}),
-      params::text<R>("subtitle", [](auto& r) -> auto& { return r.subtitle; },
+      params::text<R>("subtitle", &R::subtitle,
                       {"Subtitle", "a second, smaller line on the title card", ""}),
-      params::real<R>("title_seconds", [](auto& r) -> auto& { return r.titleSeconds; },
+      params::real<R>("title_seconds", &R::titleSeconds,
                       {"Title seconds", "how long the title card shows", "s", 0.1, 30}),
-      params::text<R>("caption", [](auto& r) -> auto& { return r.caption; },
+      params::text<R>("caption", &R::caption,
                       {"Caption", "text at the bottom of every frame; a keyframe's \"caption\" replaces it while it plays", ""}),
   };
   return t;

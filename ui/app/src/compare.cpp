@@ -294,41 +294,30 @@ void compareGreyVolumes(const AnyVolume& a, const AnyVolume& b, const CompareReq
 
 }  // namespace
 
-const char* compareKindName(CompareKind kind) {
-  switch (kind) {
-    case CompareKind::Auto: return "auto";
-    case CompareKind::Labels: return "labels";
-    case CompareKind::Image: return "image";
-    case CompareKind::Volume: return "volume";
-  }
-  return "auto";
-}
-
-CompareKind parseCompareKind(const std::string& name) {
-  for (CompareKind k : {CompareKind::Auto, CompareKind::Labels, CompareKind::Image, CompareKind::Volume})
-    if (name == compareKindName(k)) return k;
-  throw Error("--kind: '" + name + "' is not one of auto, labels, image, volume");
+const params::EnumTable<CompareKind>& compareKinds() {
+  static const params::EnumTable<CompareKind> t{"--kind", {"auto", "labels", "image", "volume"}};
+  return t;
 }
 
 const params::Table<CompareTolerances>& compareTolerancesTable() {
   using T = CompareTolerances;
   using params::real;
   static const params::Table<T> t{
-      real<T>("min_dice", [](auto& s) -> auto& { return s.minDice; },
+      real<T>("min_dice", &T::minDice,
               {"Minimum Dice", "labels: every id's Dice must be at least this", "", 0, 1}),
-      real<T>("max_hd95", [](auto& s) -> auto& { return s.maxHd95Mm; },
+      real<T>("max_hd95", &T::maxHd95Mm,
               {"Maximum HD95", "labels: every id's 95th-percentile surface distance must be at most this (unset: not checked)", "mm", 0, 1e6}),
-      real<T>("max_assd", [](auto& s) -> auto& { return s.maxAssdMm; },
+      real<T>("max_assd", &T::maxAssdMm,
               {"Maximum ASSD", "labels: every id's average symmetric surface distance must be at most this (unset: not checked)", "mm", 0, 1e6}),
-      real<T>("tolerance", [](auto& s) -> auto& { return s.tolerance; },
+      real<T>("tolerance", &T::tolerance,
               {"Tolerance", "images: difference allowed per channel (0..255); volumes: per voxel, in the volume's unit (HU for CT)", "", 0, 1e9}),
-      real<T>("max_differing_percent", [](auto& s) -> auto& { return s.maxDifferingPercent; },
+      real<T>("max_differing_percent", &T::maxDifferingPercent,
               {"Differing share", "images / volumes: share of pixels / voxels allowed to differ by more than the tolerance", "%", 0, 100}),
-      real<T>("min_psnr", [](auto& s) -> auto& { return s.minPsnrDb; },
+      real<T>("min_psnr", &T::minPsnrDb,
               {"Minimum PSNR", "images: peak signal-to-noise ratio of the RGB planes at least this (unset: not checked)", "dB", 0, 1000}),
-      real<T>("min_ssim", [](auto& s) -> auto& { return s.minSsim; },
+      real<T>("min_ssim", &T::minSsim,
               {"Minimum SSIM", "images: mean structural similarity of the luminance at least this (unset: not checked)", "", -1, 1}),
-      real<T>("percentile", [](auto& s) -> auto& { return s.percentile; },
+      real<T>("percentile", &T::percentile,
               {"Percentile", "images: the percentile of the pixel differences reported", "%", 0, 100}),
   };
   return t;

@@ -402,13 +402,13 @@ std::string DeformEngine::rigidLabelsArgument() const {
 const params::Table<DeformEngine>& deformEngineTable() {
   using E = DeformEngine;
   static const params::Table<E> t{
-      params::choice<E>("upsampling", [](auto& e) -> auto& { return e.upsampling; }, {"trilinear", "gaussian"},
+      params::choice<E>("upsampling", &E::upsampling, upsamplings().names,
                         {"Map upsampling", "how the control-grid map reaches every voxel (Gaussian: smoother, slower)", ""}),
-      params::text<E>("labels", [](auto& e) -> auto& { return e.labels; },
+      params::text<E>("labels", &E::labels,
                       {"Rigid-bone labels", "label map on the volume's grid (NRRD ...); the --rigid-labels ids stay rigid", ""}),
-      params::real<E>("rigid_falloff", [](auto& e) -> auto& { return e.rigidFalloffMm; },
+      params::real<E>("rigid_falloff", &E::rigidFalloffMm,
                       {"Rigid falloff", "blend band outside each bone", "mm", 0, 1000}),
-      params::integer<E>("rigidity_stride", [](auto& e) -> auto& { return e.rigidityStride; },
+      params::integer<E>("rigidity_stride", &E::rigidityStride,
                          {"Rigidity stride", "voxel-level rigidity measures visit every N-th voxel per axis (1 = all)",
                           "", 1, 64}),
   };
@@ -418,15 +418,15 @@ const params::Table<DeformEngine>& deformEngineTable() {
 const params::Table<DeformRequest>& deformRequestTable() {
   using R = DeformRequest;
   static const params::Table<R> t{
-      params::flag<R>("psnr", [](auto& r) -> auto& { return r.psnr; },
+      params::flag<R>("psnr", &R::psnr,
                       {"PSNR", "also synthesise at s = 1 and report the PSNR of the result against it", ""}),
-      params::real<R>("pad_mm", [](auto& r) -> auto& { return r.padMm; },
+      params::real<R>("pad_mm", &R::padMm,
                       {"Output padding", "grow the output box by this on every side so what moves out is not cut "
                        "(origin moves out, world positions kept); -1 = automatic, per side: only the sides the "
                        "content's forward displacement passes, by that much + a cell", "mm", -1, 500}),
-      params::flag<R>("fold_repair", [](auto& r) -> auto& { return r.engine.foldRepair; },
+      params::flag<R>("fold_repair", params::nested(&R::engine, &DeformEngine::foldRepair),
                       {"Fold repair", "relax the map around cells that fold in tissue (det J < 0.2); bones and fixed regions stay exact", ""}),
-      params::flag<R>("no_gzip", [](auto& r) -> auto& { return r.noGzip; },
+      params::flag<R>("no_gzip", &R::noGzip,
                       {"No gzip", "write the NRRD outputs (volume, map, attributes) raw instead of gzip", ""}),
   };
   return t;

@@ -15,11 +15,11 @@ namespace ill = vellum::illustration;
 const params::Table<PoseGltfOptions>& poseGltfOptionsTable() {
   using O = PoseGltfOptions;
   static const params::Table<O> t{
-      params::real<O>("gltf_keys_per_second", [](auto& o) -> auto& { return o.keysPerSecond; },
+      params::real<O>("gltf_keys_per_second", &O::keysPerSecond,
                       {"glTF keys per second", "how densely the pose's keyframes are sampled into the glTF animation", "1/s", 1, 120}),
-      params::integer<O>("gltf_bone_faces", [](auto& o) -> auto& { return o.boneFaces; },
+      params::integer<O>("gltf_bone_faces", &O::boneFaces,
                          {"glTF bone faces", "face budget of each bone mesh", "faces", 100, 10000000}),
-      params::integer<O>("gltf_skin_faces", [](auto& o) -> auto& { return o.skinFaces; },
+      params::integer<O>("gltf_skin_faces", &O::skinFaces,
                          {"glTF skin faces", "face budget of the skin mesh", "faces", 100, 10000000}),
   };
   return t;

@@ -55,10 +55,10 @@ nlohmann::json jointsJson(const Pose& pose, const std::vector<double>& angles, c
 const params::Table<PoseRequest>& poseRequestTable() {
   using R = PoseRequest;
   static const params::Table<R> t{
-      params::real<R>("frame_time", [](auto& r) -> auto& { return r.frameTimeS; },
+      params::real<R>("frame_time", &R::frameTimeS,
                       {"Pose time", "the time (s) in the pose file's keyframes whose angles --out gets; "
                        "negative: the last keyframe", "s", -1, 1e6}),
-      params::flag<R>("exact_bones", [](auto& r) -> auto& { return r.exactBones; },
+      params::flag<R>("exact_bones", &R::exactBones,
                       {"Exact bones", "each bone takes its joints' transform (still bones the identity) instead of "
                        "the best rigid fit of the MLS map over it", ""}),
   };

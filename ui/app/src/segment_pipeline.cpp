@@ -119,73 +119,54 @@ seg::Mask postProcess(const SegmentSettings& r, seg::Mask m, nlohmann::json& inf
   return m;
 }
 
-/// The fields of `sub` as fields of S under `prefix` (the split's own table, described once).
-template <class S, class Sub, class Ref>
-std::vector<params::Field<S>> embedded(const std::string& prefix, Ref ref, const params::Table<Sub>& sub) {
-  std::vector<params::Field<S>> out;
-  for (const params::Field<Sub>& f : sub) {
-    params::Field<S> e = params::makeField<S>(prefix + f.key, f.info, f.kind);
-    e.optional = f.optional;
-    e.choices = f.choices;
-    if (f.get) e.get = [ref, g = f.get](const S& s) { return g(ref(s)); };
-    if (f.set) e.set = [ref, st = f.set](S& s, std::optional<double> v) { st(ref(s), v); };
-    if (f.getText) e.getText = [ref, g = f.getText](const S& s) { return g(ref(s)); };
-    if (f.setText) e.setText = [ref, st = f.setText](S& s, const std::string& v) { st(ref(s), v); };
-    if (f.getVector) e.getVector = [ref, g = f.getVector](const S& s) { return g(ref(s)); };
-    if (f.setVector) e.setVector = [ref, st = f.setVector](S& s, const std::array<double, 3>& v) { st(ref(s), v); };
-    out.push_back(std::move(e));
-  }
-  return out;
-}
-
 }  // namespace
 
 const params::Table<SegmentSettings>& segmentSettingsTable() {
   using R = SegmentSettings;
-  using params::real, params::integer, params::flag, params::text;
+  using params::real, params::integer, params::flag, params::text, params::nested;
   static const params::Table<R> t = [] {
     params::Table<R> rows{
-      text<R>("method", [](auto& r) -> auto& { return r.method; }, {"Method", "segmentation method", ""},
+      text<R>("method", &R::method, {"Method", "segmentation method", ""},
               {"threshold", "otsu", "multi-otsu", "hysteresis", "grow", "confidence", "snake"}),
-      text<R>("preset", [](auto& r) -> auto& { return r.preset; },
+      text<R>("preset", &R::preset,
               {"HU preset", "interval preset (bone [700,3071] cortex, whole-bone [550,3071], soft-tissue [-500,300], "
                             "skin-air [-500,3071], fat [-190,-30], lung [-950,-500]); empty: the method's default", ""}),
-      real<R>("lower", [](auto& r) -> auto& { return r.lower; },
+      real<R>("lower", &R::lower,
               {"Lower", "lower bound (overrides the preset; otsu: histogram range; hysteresis: weak threshold)", "HU", -32768, 32767}),
-      real<R>("upper", [](auto& r) -> auto& { return r.upper; }, {"Upper", "upper bound (overrides the preset)", "HU", -32768, 32767}),
-      real<R>("strong", [](auto& r) -> auto& { return r.strong; },
+      real<R>("upper", &R::upper, {"Upper", "upper bound (overrides the preset)", "HU", -32768, 32767}),
+      real<R>("strong", &R::strong,
               {"Strong", "hysteresis: lower bound of the strong interval (unset: the hysteresis table's)", "HU", -32768, 32767}),
-      integer<R>("classes", [](auto& r) -> auto& { return r.classes; }, {"Classes", "multi-otsu: number of classes", "", 2, 8}),
-      real<R>("radius", [](auto& r) -> auto& { return r.bubbleRadiusMm; }, {"Bubble radius", "snake: seed bubble radius", "mm", 0.1, 500}),
-      integer<R>("iterations", [](auto& r) -> auto& { return r.iterations; },
+      integer<R>("classes", &R::classes, {"Classes", "multi-otsu: number of classes", "", 2, 8}),
+      real<R>("radius", &R::bubbleRadiusMm, {"Bubble radius", "snake: seed bubble radius", "mm", 0.1, 500}),
+      integer<R>("iterations", &R::iterations,
                  {"Iterations", "snake: iteration limit (unset 2000); confidence: passes (unset 4)", "", 1, 100000}),
-      text<R>("speed", [](auto& r) -> auto& { return r.speed; },
+      text<R>("speed", &R::speed,
               {"Snake speed", "threshold (region competition inside the HU interval) | edge (stops at gradients)", ""},
               {"threshold", "edge"}),
-      real<R>("curvature", [](auto& r) -> auto& { return r.curvature; }, {"Curvature", "snake: curvature weight (smooths)", "mm", 0, 100}),
-      real<R>("propagation", [](auto& r) -> auto& { return r.propagation; }, {"Propagation", "snake: propagation weight", "", -10, 10}),
-      real<R>("advection", [](auto& r) -> auto& { return r.advection; },
+      real<R>("curvature", &R::curvature, {"Curvature", "snake: curvature weight (smooths)", "mm", 0, 100}),
+      real<R>("propagation", &R::propagation, {"Propagation", "snake: propagation weight", "", -10, 10}),
+      real<R>("advection", &R::advection,
               {"Advection", "snake: advection weight (unset: 0 threshold speed, 2 edge speed)", "", 0, 100}),
-      real<R>("sigma", [](auto& r) -> auto& { return r.sigma; }, {"Edge sigma", "edge speed: Gaussian sigma", "mm", 0, 50}),
-      real<R>("kappa", [](auto& r) -> auto& { return r.kappa; }, {"Edge kappa", "edge speed: gradient where g = 0.5", "HU/mm", 1, 100000}),
-      real<R>("exponent", [](auto& r) -> auto& { return r.exponent; }, {"Edge exponent", "edge speed: g = 1/(1+(|grad|/kappa)^exponent)", "", 0.5, 16}),
-      real<R>("multiplier", [](auto& r) -> auto& { return r.multiplier; },
+      real<R>("sigma", &R::sigma, {"Edge sigma", "edge speed: Gaussian sigma", "mm", 0, 50}),
+      real<R>("kappa", &R::kappa, {"Edge kappa", "edge speed: gradient where g = 0.5", "HU/mm", 1, 100000}),
+      real<R>("exponent", &R::exponent, {"Edge exponent", "edge speed: g = 1/(1+(|grad|/kappa)^exponent)", "", 0.5, 16}),
+      real<R>("multiplier", &R::multiplier,
               {"Confidence multiplier", "confidence: interval = mean +- multiplier * std", "", 0.1, 20}),
-      real<R>("close", [](auto& r) -> auto& { return r.post.closeMm; }, {"Close", "post: morphological closing radius (0 = off)", "mm", 0, 100}),
-      real<R>("open", [](auto& r) -> auto& { return r.post.openMm; }, {"Open", "post: morphological opening radius (0 = off)", "mm", 0, 100}),
-      flag<R>("fill_holes", [](auto& r) -> auto& { return r.post.fillHoles; }, {"Fill holes", "post: fill enclosed cavities (3D)", ""}),
-      flag<R>("fill_holes_slices", [](auto& r) -> auto& { return r.post.fillHolesSlices; },
+      real<R>("close", nested(&R::post, &SegmentPostProcessing::closeMm), {"Close", "post: morphological closing radius (0 = off)", "mm", 0, 100}),
+      real<R>("open", nested(&R::post, &SegmentPostProcessing::openMm), {"Open", "post: morphological opening radius (0 = off)", "mm", 0, 100}),
+      flag<R>("fill_holes", nested(&R::post, &SegmentPostProcessing::fillHoles), {"Fill holes", "post: fill enclosed cavities (3D)", ""}),
+      flag<R>("fill_holes_slices", nested(&R::post, &SegmentPostProcessing::fillHolesSlices),
               {"Fill holes in slices", "post: fill holes enclosed in any axial, coronal or sagittal slice (then 3D)", ""}),
-      real<R>("min_island", [](auto& r) -> auto& { return r.post.minIslandMm3; },
+      real<R>("min_island", nested(&R::post, &SegmentPostProcessing::minIslandMm3),
               {"Min island", "post: remove pieces smaller than this volume (0 = off)", "mm^3", 0, 1e12}),
-      flag<R>("keep_largest", [](auto& r) -> auto& { return r.post.keepLargest; },
+      flag<R>("keep_largest", nested(&R::post, &SegmentPostProcessing::keepLargest),
               {"Keep largest", "post: keep the largest piece (with seeds: the pieces holding them)", ""}),
-      flag<R>("split", [](auto& r) -> auto& { return r.post.split; },
+      flag<R>("split", nested(&R::post, &SegmentPostProcessing::split),
               {"Split objects", "post, last: split into separate objects (bones touching at joints, two feet), "
                                 "one label id each, largest first (watershed on the depth below the surface)", ""}),
     };
-    for (auto& f : embedded<R, seg::SplitParams>("split_", [](auto& r) -> auto& { return r.post.splitParams; },
-                                                  seg::splitParamsTable()))
+    for (auto& f : params::embed<R>("split_", nested(&R::post, &SegmentPostProcessing::splitParams),
+                                    seg::splitParamsTable()))
       rows.push_back(std::move(f));
     return rows;
   }();

@@ -8,6 +8,10 @@
 namespace vellum::deformation {
 
 const params::Table<DeformParams>& deformParamsTable();
+/// The MLS and density parts of deformParamsTable(), for code that holds only those structs
+/// (evaluateMls, DensityVolume, control-point files): one range per parameter.
+const params::Table<MlsParams>& mlsParamsTable();
+const params::Table<DensityParams>& densityParamsTable();
 
 /// Throws vellum::Error naming the first parameter outside its range.
 void validate(const DeformParams& p);

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/volume.hpp"
 
 namespace vellum::deformation {
@@ -23,16 +24,19 @@ enum class RayMode {
 };
 enum class MipReduction { Mean, Max };
 
-const char* phiRuleName(PhiRule r);
-PhiRule parsePhiRule(const std::string& name);        ///< "min", "mean", "none"
-const char* rayModeName(RayMode r);
-RayMode parseRayMode(const std::string& name);        ///< "linear", "conic"
-MipReduction parseMipReduction(const std::string& name);  ///< "mean", "max"
+const params::EnumTable<PhiRule>& phiRules();            ///< "min", "mean", "none"
+const params::EnumTable<RayMode>& rayModes();            ///< "linear", "conic"
+const params::EnumTable<MipReduction>& mipReductions();  ///< "mean", "max"
+inline const char* phiRuleName(PhiRule r) { return phiRules().name(r); }
+inline PhiRule parsePhiRule(const std::string& name) { return phiRules().parse(name); }
+inline const char* rayModeName(RayMode r) { return rayModes().name(r); }
+inline RayMode parseRayMode(const std::string& name) { return rayModes().parse(name); }
+inline MipReduction parseMipReduction(const std::string& name) { return mipReductions().parse(name); }
 
 struct DensityParams {
   bool enabled = false;
   PhiRule phi = PhiRule::Min;
-  double phiMin = 0.05;          ///< floor of I and of phi (> 0)
+  double phiMin = 0.05;          ///< floor of I and of phi (range: densityParamsTable())
   double windowLowHu = -1000;    ///< I = 0 here ...
   double windowHighHu = 2000;    ///< ... and 1 here
   int iterations = 3;            ///< fixed-point iterations K (paper: 2..3)
@@ -41,13 +45,13 @@ struct DensityParams {
   double linearStepVoxels = 1.0; ///< linear rays: step in voxels of the smallest spacing
   double coneSlope = 0.15;       ///< conic rays: step and footprint = slope * distance (voxels)
   MipReduction reduction = MipReduction::Mean;
-  bool useRhoCache = true;       ///< false: cast rays to u_k for every node and iteration
+  bool rhoCache = true;          ///< false: cast rays to u_k for every node and iteration
   /// Divide rho by the segment length (mm): the weight keeps the power n and only the
   /// density contrast along the segment (>= 1 with phi = min) modulates it. false = the
   /// paper's rho, which in homogeneous tissue grows like the distance (effective power n - 1,
   /// so the map spreads more): on the knee phantom that bent bone MORE than plain MLS, see
   /// docs/deformation.md; hence the default true.
-  bool lengthNormalised = true;
+  bool lengthNormalisedRho = true;
 };
 
 /// The normalised density I of a source volume and its 3D mip pyramid (level 0 = full

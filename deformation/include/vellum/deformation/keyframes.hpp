@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/deformation/control_point.hpp"
 
 namespace vellum::deformation {
@@ -14,8 +15,9 @@ enum class Interpolation {
   Smooth,  ///< Catmull-Rom through the keyframes (C1)
   Eased,   ///< linear path, smoothstep timing (stops at each keyframe)
 };
-const char* interpolationName(Interpolation i);
-Interpolation parseInterpolation(const std::string& name);  ///< "linear", "smooth", "eased"
+const params::EnumTable<Interpolation>& interpolations();  ///< "linear", "smooth", "eased"
+inline const char* interpolationName(Interpolation i) { return interpolations().name(i); }
+inline Interpolation parseInterpolation(const std::string& name) { return interpolations().parse(name); }
 
 /// Sanity limits (a keyframe file asking for more is refused, naming the field).
 constexpr double kMaxKeyframeDurationS = 3600;  ///< one hour per keyframe

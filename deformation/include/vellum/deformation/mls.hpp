@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/deformation/control_point.hpp"
 
 namespace vellum::deformation {
@@ -27,13 +28,13 @@ enum class MlsMethod {
   Similarity,  ///< rotation + uniform scale: R, mu from the SVD of B (Kabsch)
   Rigid,       ///< rotation only: R from the SVD of B
 };
-const char* mlsMethodName(MlsMethod m);
-/// "affine", "similarity", "rigid"; throws vellum::Error listing them.
-MlsMethod parseMlsMethod(const std::string& name);
+const params::EnumTable<MlsMethod>& mlsMethods();  ///< "affine", "similarity", "rigid"
+inline const char* mlsMethodName(MlsMethod m) { return mlsMethods().name(m); }
+inline MlsMethod parseMlsMethod(const std::string& name) { return mlsMethods().parse(name); }
 
 struct MlsParams {
   MlsMethod method = MlsMethod::Affine;
-  double power = 2.0;            ///< n in w = 1/|v-y|^n (paper: 2..4); must be > 0
+  double power = 2.0;            ///< n in w = 1/|v-y|^n (paper: 2..4); range in mlsParamsTable()
   double regularisation = 1e-6;  ///< eps above
 };
 

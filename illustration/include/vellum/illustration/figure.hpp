@@ -19,8 +19,9 @@ std::vector<uint8_t> styleDrawnIds(const Style& style, const LabelVolume& segmen
 /// What zoom 1 fits: the segments the style draws (default), every labelled segment (the same
 /// framing for every style: plates that compare styles), or the volume's bounding sphere.
 enum class Framing { Drawn, Segments, Volume };
-Framing parseFraming(const std::string& name);  ///< "drawn" | "segments" | "volume"
-const char* framingName(Framing f);
+const params::EnumTable<Framing>& framings();  ///< "drawn", "segments", "volume"
+inline Framing parseFraming(const std::string& name) { return framings().parse(name); }
+inline const char* framingName(Framing f) { return framings().name(f); }
 
 /// The camera of `settings` fitted (render::fitCamera) to what `framing` names, inside the
 /// image less `insets` (the annotations' room: render::annotationInsets); its zoom and pan act

@@ -17,6 +17,7 @@
 #include <optional>
 #include <string>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/image.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/volume.hpp"
@@ -28,8 +29,9 @@
 namespace vellum::illustration {
 
 enum class Interpolation { Eight, Nearest };
-const char* interpolationName(Interpolation i);
-Interpolation parseInterpolation(const std::string& name);  ///< "eight" | "nearest"
+const params::EnumTable<Interpolation>& interpolations();  ///< "eight", "nearest"
+inline const char* interpolationName(Interpolation i) { return interpolations().name(i); }
+inline Interpolation parseInterpolation(const std::string& name) { return interpolations().parse(name); }
 
 /// What is rendered: the shape folder's volumes (same grid), and optionally the CT.
 struct ShapeScene {

@@ -32,13 +32,13 @@ struct SegmentStyle {
   Rgb colour{1.f, 1.f, 1.f};
   // Gooch tone shading of I_coloring: k = (1 + n.l) / 2, c = k*(warm + beta*colour) + (1-k)*(cool + alpha*colour)
   float toneAmount = 1.f;  ///< 0 = flat colour, 1 = full tone shading
-  Rgb warm{0.4f, 0.4f, 0.f}, cool{0.f, 0.f, 0.4f};
+  Rgb toneWarm{0.4f, 0.4f, 0.f}, toneCool{0.f, 0.f, 0.4f};
   float toneAlpha = 0.25f, toneBeta = 0.5f;
-  // Depth dimming of I_coloring toward dimColour between two depths along the view, from the
+  // Depth dimming of I_coloring toward depthColour between two depths along the view, from the
   // nearest point of the volume's bounding sphere: fractions of its diameter, or mm.
-  float dimStrength = 0.f, dimStart = 0.3f, dimEnd = 1.f;
-  DepthUnits dimUnits = DepthUnits::Fraction;
-  Rgb dimColour{1.f, 1.f, 1.f};
+  float depthStrength = 0.f, depthStart = 0.3f, depthEnd = 1.f;
+  DepthUnits depthUnits = DepthUnits::Fraction;
+  Rgb depthColour{1.f, 1.f, 1.f};
   // Solid texture
   SolidTexture texture = SolidTexture::None;
   float textureScaleMm = 8.f;

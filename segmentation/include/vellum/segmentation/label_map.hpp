@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/segmentation/mask.hpp"
 
@@ -17,7 +18,8 @@ enum class OverlapRule {
   Replace,       ///< the id's previous voxels are cleared first, then Overwrite
 };
 /// "overwrite" | "keep-existing" (alias "only-background") | "replace".
-OverlapRule parseOverlapRule(const std::string& name);
+const params::EnumTable<OverlapRule>& overlapRules();
+inline OverlapRule parseOverlapRule(const std::string& name) { return overlapRules().parse(name); }
 
 struct AddResult {
   int64_t written = 0;   ///< voxels that now carry the id because of the mask

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/segmentation/mask.hpp"
 
@@ -30,7 +31,8 @@ enum class SpeedType {
   Threshold,  ///< region competition: S in [-1, 1], positive inside the HU interval
   Edge,       ///< S = g = 1 / (1 + (|grad(G_sigma * I)| / kappa)^exponent) in (0, 1]
 };
-SpeedType parseSpeedType(const std::string& name);  ///< "threshold" | "edge"
+const params::EnumTable<SpeedType>& speedTypes();  ///< "threshold" (alias "region") | "edge"
+inline SpeedType parseSpeedType(const std::string& name) { return speedTypes().parse(name); }
 
 /// Smooth two-sided region speed: S(I) = tanh(min(I - lower, upper - I) / smoothnessHu),
 /// so S = +1 well inside [lower, upper], -1 well outside, 0 at the thresholds.

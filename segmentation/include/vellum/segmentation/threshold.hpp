@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "vellum/core/progress.hpp"
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/segmentation/mask.hpp"
 
@@ -38,9 +39,10 @@ enum class Preset { Bone, SoftTissue, SkinAir, Fat, Lung, WholeBone };
 HuInterval presetInterval(Preset p);
 /// "bone", "whole-bone", "soft-tissue" (or "soft"), "skin-air" (or "skin"), "fat", "lung"; throws
 /// vellum::Error listing the valid names.
-Preset parsePreset(const std::string& name);
-const char* presetName(Preset p);
-std::vector<Preset> allPresets();
+const params::EnumTable<Preset>& presets();
+inline Preset parsePreset(const std::string& name) { return presets().parse(name); }
+inline const char* presetName(Preset p) { return presets().name(p); }
+std::vector<Preset> allPresets();  ///< in the order menus list them (whole-bone after bone)
 
 /// Voxels with lower <= HU <= upper (parallel).
 Mask threshold(const VolumeI16& ct, const HuInterval& interval);

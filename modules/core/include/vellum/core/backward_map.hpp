@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/geometry.hpp"
 
 namespace vellum {
@@ -24,8 +25,9 @@ enum class Upsampling {
   Trilinear = 0,  ///< default: fast, exact for affine maps
   Gaussian = 1,   ///< separable 4-tap Gaussian (sigma 0.6 node), corrected to reproduce linear maps
 };
-const char* upsamplingName(Upsampling u);
-Upsampling parseUpsampling(const std::string& name);  ///< "trilinear", "gaussian"
+const params::EnumTable<Upsampling>& upsamplings();  ///< "trilinear", "gaussian"
+inline const char* upsamplingName(Upsampling u) { return upsamplings().name(u); }
+inline Upsampling parseUpsampling(const std::string& name) { return upsamplings().parse(name); }
 
 /// Standard deviation of the Gaussian kernel, in node spacings.
 constexpr double kGaussianUpsamplingSigma = 0.6;

@@ -7,8 +7,12 @@
 //
 //   const params::Table<MlsParams>& mlsTable() {
 //     static const params::Table<MlsParams> t{
-//       params::real<MlsParams>("power", [](auto& p) -> auto& { return p.power; },
+//       params::real<MlsParams>("power", &MlsParams::power,
 //                               {"MLS power", "n in w = 1/|v - y|^n", "", 0.5, 8}),
+//
+// A field names its member by pointer to member (&S::x), a nested one with
+// params::nested(&S::camera, &Camera::azimuthDeg), or (rarely) any callable returning a
+// reference to it.
 //     };
 //     return t;
 //   }
@@ -74,7 +78,19 @@ Field<S> makeField(std::string key, Info info, Kind kind) {
 /// 0.30000001192...): float members print and serialise as written.
 double floatValue(float v);
 
+/// A member of a member, for a Field: nested(&RenderSettings::camera, &Camera::azimuthDeg).
+template <class... Members>
+auto nested(Members... members) {
+  return [=](auto& s) -> auto& { return (s .* ... .* members); };
+}
+
 namespace detail {
+// The member a field is bound to: a pointer to member or a callable returning a reference.
+template <class Ref, class T>
+decltype(auto) member(const Ref& ref, T& s) {
+  if constexpr (std::is_member_object_pointer_v<Ref>) return (s.*ref);
+  else return ref(s);
+}
 template <class T> struct IsOptional : std::false_type {};
 template <class T> double asDouble(T v) {
   if constexpr (std::is_same_v<T, float>) return floatValue(v);
@@ -84,11 +100,11 @@ template <class T> struct IsOptional<std::optional<T>> : std::true_type {};
 
 template <class S, class Ref>
 Field<S> numeric(Kind kind, std::string key, Ref ref, Info info) {
-  using Member = std::remove_cvref_t<decltype(ref(std::declval<S&>()))>;
+  using Member = std::remove_cvref_t<decltype(detail::member(ref, std::declval<S&>()))>;
   Field<S> f = makeField<S>(std::move(key), std::move(info), kind);
   f.optional = IsOptional<Member>::value;
   f.get = [ref](const S& s) -> std::optional<double> {
-    const auto& m = ref(s);
+    const auto& m = detail::member(ref, s);
     if constexpr (IsOptional<Member>::value) {
       if (!m) return std::nullopt;
       return detail::asDouble(*m);
@@ -97,7 +113,7 @@ Field<S> numeric(Kind kind, std::string key, Ref ref, Info info) {
     }
   };
   f.set = [ref](S& s, std::optional<double> v) {
-    auto& m = ref(s);
+    auto& m = detail::member(ref, s);
     if constexpr (IsOptional<Member>::value) {
       using T = typename Member::value_type;
       m = v ? std::optional<T>(static_cast<T>(*v)) : std::nullopt;
@@ -129,14 +145,14 @@ Field<S> flag(std::string key, Ref ref, Info info) {
 /// An enum member whose enumerators are 0, 1, 2 ... in the order of `names`.
 template <class S, class Ref>
 Field<S> choice(std::string key, Ref ref, std::vector<std::string> names, Info info) {
-  using Enum = std::remove_cvref_t<decltype(ref(std::declval<S&>()))>;
+  using Enum = std::remove_cvref_t<decltype(detail::member(ref, std::declval<S&>()))>;
   Field<S> f = makeField<S>(std::move(key), std::move(info), Kind::Choice);
   f.info.min = 0;
   f.info.max = static_cast<double>(names.size()) - 1;
   f.choices = std::move(names);
-  f.get = [ref](const S& s) -> std::optional<double> { return static_cast<double>(static_cast<int>(ref(s))); };
+  f.get = [ref](const S& s) -> std::optional<double> { return static_cast<double>(static_cast<int>(detail::member(ref, s))); };
   f.set = [ref](S& s, std::optional<double> v) {
-    if (v) ref(s) = static_cast<Enum>(static_cast<int>(*v));
+    if (v) detail::member(ref, s) = static_cast<Enum>(static_cast<int>(*v));
   };
   return f;
 }
@@ -145,8 +161,8 @@ template <class S, class Ref>
 Field<S> text(std::string key, Ref ref, Info info, std::vector<std::string> choices = {}) {
   Field<S> f = makeField<S>(std::move(key), std::move(info), Kind::Text);
   f.choices = std::move(choices);
-  f.getText = [ref](const S& s) { return std::string(ref(s)); };
-  f.setText = [ref](S& s, const std::string& v) { ref(s) = v; };
+  f.getText = [ref](const S& s) { return std::string(detail::member(ref, s)); };
+  f.setText = [ref](S& s, const std::string& v) { detail::member(ref, s) = v; };
   return f;
 }
 /// Three numbers (a std::array<float|double, 3> or a Vec3-like member with operator[]),
@@ -155,15 +171,36 @@ template <class S, class Ref>
 Field<S> vector(std::string key, Ref ref, Info info) {
   Field<S> f = makeField<S>(std::move(key), std::move(info), Kind::Vector);
   f.getVector = [ref](const S& s) {
-    const auto& m = ref(s);
+    const auto& m = detail::member(ref, s);
     return std::array<double, 3>{detail::asDouble(m[0]), detail::asDouble(m[1]), detail::asDouble(m[2])};
   };
   f.setVector = [ref](S& s, const std::array<double, 3>& v) {
-    auto& m = ref(s);
+    auto& m = detail::member(ref, s);
     using T = std::remove_cvref_t<decltype(m[0])>;
     for (int i = 0; i < 3; ++i) m[i] = static_cast<T>(v[i]);
   };
   return f;
+}
+
+/// The fields of `sub` (the table of a member struct, reached by `ref`) as fields of S, keys
+/// prefixed with `prefix`: a struct described once and embedded in the tables that hold it.
+template <class S, class Sub, class Ref>
+Table<S> embed(const std::string& prefix, Ref ref, const Table<Sub>& sub) {
+  Table<S> out;
+  for (const Field<Sub>& f : sub) {
+    Field<S> e = makeField<S>(prefix + f.key, f.info, f.kind);
+    e.optional = f.optional;
+    e.choices = f.choices;
+    if (f.get) e.get = [ref, g = f.get](const S& s) { return g(detail::member(ref, s)); };
+    if (f.set) e.set = [ref, st = f.set](S& s, std::optional<double> v) { st(detail::member(ref, s), v); };
+    if (f.getText) e.getText = [ref, g = f.getText](const S& s) { return g(detail::member(ref, s)); };
+    if (f.setText) e.setText = [ref, st = f.setText](S& s, const std::string& v) { st(detail::member(ref, s), v); };
+    if (f.getVector) e.getVector = [ref, g = f.getVector](const S& s) { return g(detail::member(ref, s)); };
+    if (f.setVector)
+      e.setVector = [ref, st = f.setVector](S& s, const std::array<double, 3>& v) { st(detail::member(ref, s), v); };
+    out.push_back(std::move(e));
+  }
+  return out;
 }
 
 /// The field of `table` with key `key`, or nullptr.

@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/core/vec.hpp"
 
@@ -15,10 +16,11 @@ enum class Preset {
   Skin,            ///< "skin": opaque skin surface
   Mip,             ///< "mip": maximum intensity projection, grey by window/level
 };
-const char* presetName(Preset p);
+const params::EnumTable<Preset>& presets();
+inline const char* presetName(Preset p) { return presets().name(p); }
 /// Parses the names above; throws vellum::Error listing the valid ones.
-Preset parsePreset(const std::string& name);
-std::vector<Preset> allPresets();
+inline Preset parsePreset(const std::string& name) { return presets().parse(name); }
+inline std::vector<Preset> allPresets() { return presets().all(); }
 
 /// Piecewise-linear RGBA over scalar value (HU for CT). Colour in [0,1]; alpha is opacity
 /// per millimetre of ray (so images do not change with the sampling step).
@@ -77,8 +79,8 @@ struct Cinematic {
   int bounces = 1;         ///< scattering events per path: 1 = single scattering (+ sky light)
   double denoise = 0.5;    ///< edge-aware filter at the end (guided by the ray-cast picture), 0 = off
   double lightSizeDeg = 6; ///< the key light's angular radius: soft shadow edges (0 = sharp)
-  double fill = 0.3;       ///< a second (fill) light, mirrored from the key, relative to the key
-  double sky = 0.6;        ///< radiance of the surrounding sky light (ambient, occluded by the volume)
+  double fillLight = 0.3;  ///< a second (fill) light, mirrored from the key, relative to the key
+  double skyLight = 0.6;   ///< radiance of the surrounding sky light (ambient, occluded by the volume)
   /// Paths are traced at this fraction of the image's width and height and upsampled before the
   /// denoise, whose guide (the ray-cast picture) is full size: 0.5 = a quarter of the paths per
   /// sample pass, edges still sharp.

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/core/enum_table.hpp"
 #include "vellum/core/image.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/core/volume.hpp"
@@ -19,10 +20,10 @@
 namespace vellum::app {
 
 enum class CompareKind { Auto, Labels, Image, Volume };
-/// "auto", "labels", "image", "volume".
-const char* compareKindName(CompareKind kind);
-/// The names above; throws vellum::Error naming the choices.
-CompareKind parseCompareKind(const std::string& name);
+/// "auto", "labels", "image", "volume"; parse errors name the flag, --kind.
+const params::EnumTable<CompareKind>& compareKinds();
+inline const char* compareKindName(CompareKind kind) { return compareKinds().name(kind); }
+inline CompareKind parseCompareKind(const std::string& name) { return compareKinds().parse(name); }
 
 /// What still counts as "the same". One table: the flags of `vellum compare` and the
 /// "tolerances" object of a check in a QA manifest.
