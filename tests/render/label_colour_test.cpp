@@ -90,7 +90,7 @@ TEST(LabelColours, TwoLabelsTakeTheirColoursAndBlendAtTheBoundary) {
   s.quality = Quality::Cinematic;
   s.cinematic.samples = 2;
   s.cinematic.denoise = 0;
-  s.cinematic.sky = 1.0;
+  s.cinematic.skyLight = 1.0;
   s.lighting.azimuthDeg = -60;  // the front face lit, its specular highlight far off (white)
   s.lighting.elevationDeg = 45;
   expectTwoColours(renderPathTracedCpu(v.ct, s, nullptr, &v.tint), "cinematic");

@@ -552,7 +552,7 @@ TEST(RenderGl, ToneMappedAreaLightMatchesCpu) {
   s.lighting.exposure = 0.3;
   s.cinematic.lightSizeDeg = 8;
   s.cinematic.fillLight = 0.3;
-  s.cinematic.sky = 0.4;
+  s.cinematic.skyLight = 0.4;
   const RgbaImage soft = r.render(s);
   expectClose(soft, renderReferenceCpu(ball, s), "tone-mapped area light");
   s.lighting.toneMap = false;
