@@ -221,3 +221,65 @@ TEST(ShapePipeline, WritesTheFolderAndItsReport) {
   EXPECT_THROW(app::runShape(bad), Error);
   EXPECT_FALSE(fs::exists(dir / "bad"));
 }
+
+// The lighting layer (docs/lighting.md): off, the figure is the one drawn without it whatever
+// the other lighting fields say; on, a key light from the left of the view puts the right-hand
+// sphere's light-facing side in the left sphere's shadow, while the left sphere's same side is
+// in the open (both compared as lit / unlit, so the styles' colours cancel).
+TEST(IllustratePipeline, LightingLayerOffIsUnchangedAndShadowsTheSphereBehind) {
+  const auto dir = test::tempDir("illustrate-light");
+  const illustration::ShapeScene scene = test::twoSpheres(32);
+  test::writeShapeFolder(scene, dir / "shape");
+  VolumeI16 ct(scene.distance.geometry(), -1000, -1000);
+  const Dims d = ct.dims();
+  for (int64_t k = 0; k < d.z; ++k)
+    for (int64_t j = 0; j < d.y; ++j)
+      for (int64_t i = 0; i < d.x; ++i)
+        if (scene.segments(i, j, k) != 0) ct(i, j, k) = 1500;  // both spheres bone
+  io::saveVolume(ct, dir / "ct.nrrd");
+  app::IllustrateRequest r;
+  r.input = dir / "ct.nrrd";
+  r.shape = dir / "shape";
+  r.settings.render.width = r.settings.render.height = 64;
+  r.settings.render.camera = {0, 0, 1, {0, 0, 0}, 0};  // anterior, orthographic: the spheres side by side
+  r.presets = {"dvr"};
+  r.transparent = true;
+  r.framing = illustration::Framing::Segments;
+  r.output = dir / "absent.png";
+  app::runIllustrate(r);
+  app::IllustrateRequest off = r;
+  off.output = dir / "off.png";
+  off.settings.render.lighting.azimuthDeg = -90;  // lighting fields set, every term off
+  off.settings.render.lighting.exposure = 1;
+  off.settings.render.lighting.occlusionRadiusMm = 3;
+  app::runIllustrate(off);
+  EXPECT_EQ(readAll(off.output), readAll(r.output));
+
+  app::IllustrateRequest on = off;
+  on.output = dir / "on.png";
+  on.settings.render.lighting = {};
+  on.settings.render.lighting.shadows = 1;
+  on.settings.render.lighting.azimuthDeg = -90;  // from the left of the view, level
+  on.settings.render.lighting.elevationDeg = 0;
+  app::runIllustrate(on);
+  const RgbaImage plain = test::readPng(r.output), lit = test::readPng(on.output);
+  // The middle row's two runs of figure: each sphere's left quarter, lit / plain.
+  const int y = 32;
+  std::vector<std::pair<int, int>> runs;
+  for (int x = 0; x < 64; ++x)
+    if (plain.at(x, y)[3] > 250) {
+      if (runs.empty() || runs.back().second != x - 1) runs.push_back({x, x});
+      runs.back().second = x;
+    }
+  ASSERT_EQ(runs.size(), 2u);
+  auto ratio = [&](const std::pair<int, int>& run) {
+    const int x = run.first + (run.second - run.first) / 4;
+    double p = 0, l = 0;
+    for (int c = 0; c < 3; ++c) p += plain.at(x, y)[c], l += lit.at(x, y)[c];
+    return l / std::max(p, 1.0);
+  };
+  const double open = ratio(runs[0]), shadowed = ratio(runs[1]);
+  EXPECT_GT(open, 0.6) << "the open side keeps most of its light";
+  EXPECT_LT(shadowed, 0.6 * open) << "open " << open << " shadowed " << shadowed;
+  EXPECT_EQ(lit.at(0, 0)[3], 0) << "the background stays transparent";
+}

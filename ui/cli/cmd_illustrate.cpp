@@ -21,7 +21,7 @@ namespace {
 /// The flags: the app request's fields, and the texts parsed into it.
 struct IllustrateArgs {
   app::IllustrateRequest request;
-  std::string preset, views, size = "512x512", interp = "eight", frame = "drawn";
+  std::string preset, views, size = "512x512", interp = "eight", frame = "drawn", lightPreset;
   render::RenderSettings camera = [] {  // the render table's camera and step flags write here
     render::RenderSettings s;
     s.stepVoxels = 1.0;  // distance fields are smooth: a voxel step suffices
@@ -42,6 +42,8 @@ void runIllustrate(const IllustrateArgs& a) {
   s.render.camera = a.camera.camera;
   if (!a.pan.empty()) s.render.camera.panMm = {a.pan[0], a.pan[1], a.pan[2]};
   s.render.stepVoxels = a.camera.stepVoxels;
+  s.render.lighting = a.camera.lighting;  // the optional lighting layer (off unless asked)
+  if (!a.lightPreset.empty()) r.lightPreset = render::parsePreset(a.lightPreset);
   std::tie(s.render.width, s.render.height) = parseSize(a.size);
   s.interpolation = illustration::parseInterpolation(a.interp);
   if (!a.background.empty())
@@ -135,12 +137,18 @@ void addIllustrateCommand(CLI::App& app) {
   cmd->add_flag("--plate", r.plate, "one contact sheet at --out instead of a file each: a row per style, a column per view");
   cmd->add_option("--out,-o", r.output, "figure path (.png, .tif, .jpg)")->required();
   cmd->add_option("--size", a->size, "image size WxH, up to 4096x4096")->capture_default_str();
-  // The camera and the ray step only: the rest of the render table (transfer function,
-  // lighting) is the volume renderer's; the style does that here.
+  // The camera, the ray step and the lighting layer's terms: the rest of the render table
+  // (transfer function, quality) is the volume renderer's; the style does that here.
   std::set<std::string> notHere;
   for (const auto& field : render::renderSettingsTable())
-    if (!std::set<std::string>{"azimuth", "elevation", "zoom", "fov", "step"}.count(field.key)) notHere.insert(field.key);
+    if (!std::set<std::string>{"azimuth", "elevation", "zoom", "fov", "step", "shadows", "occlusion", "occlusion_radius",
+                               "light_azimuth", "light_elevation", "exposure", "tone_map"}
+             .count(field.key))
+      notHere.insert(field.key);
   addFlags(*cmd, a->camera, render::renderSettingsTable(), notHere);
+  cmd->add_option("--light-preset", a->lightPreset,
+                  "with --shadows/--occlusion/--tone-map: the render preset whose opacity casts the shadows and "
+                  "whose surface is lit (bone | soft-tissue | skin; default bone; docs/lighting.md)");
   cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z), after the framing")->expected(3);
   cmd->add_option("--frame", a->frame,
                   "what --zoom 1 fits: drawn (the segments the style draws) | segments (every segment: the same "

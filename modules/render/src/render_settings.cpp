@@ -51,7 +51,7 @@ const params::Table<RenderSettings>& renderSettingsTable() {
       params::integer<R>("only_label", &R::onlyLabel,
                          {"Only label", "draw only this label id's voxels (0 = all; needs a label map)", "", 0, 65535}),
       params::real<R>("shadows", params::nested(&R::lighting, &Lighting::shadows),
-                      {"Shadows", "volumetric shadows of the key light: how much they darken (0 = off; shaded DVR)", "", 0, 1}),
+                      {"Shadows", "volumetric shadows of the key light: how much they darken (0 = off; shaded DVR; illustrate: a layer over the figure)", "", 0, 1}),
       params::real<R>("occlusion", params::nested(&R::lighting, &Lighting::occlusion),
                       {"Ambient occlusion", "how much crevices darken, from the opacity around each sample (0 = off)", "", 0, 1}),
       params::real<R>("occlusion_radius", params::nested(&R::lighting, &Lighting::occlusionRadiusMm),

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <optional>
 
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
@@ -11,6 +13,7 @@
 #include "vellum/core/process_time.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/render/contact_sheet.hpp"
+#include "vellum/render/volume_renderer.hpp"
 
 namespace vellum::app {
 namespace ill = vellum::illustration;
@@ -35,6 +38,49 @@ std::vector<FigureView> requestedViews(const IllustrateRequest& r) {
   if (!r.views.empty()) return r.views;
   const render::Camera& c = r.settings.render.camera;
   return {FigureView{"", c.azimuthDeg, c.elevationDeg}};
+}
+
+/// The lighting layer: the CT ray cast for the figure's camera plain and lit (the render
+/// module's light volume: shadows, occlusion, tone map as `lighting` says), and per pixel the
+/// lit/plain luminance ratio, faded to 1 where the plain render is transparent (no surface
+/// for the light to act on). The ratio keeps the illustration's colours and carries only the
+/// light: shadowed or occluded surfaces darken, and the key light models the forms.
+std::vector<float> lightFactor(render::VolumeRenderer& vr, const render::RenderSettings& figure,
+                               const render::Lighting& lighting, render::Preset preset) {
+  render::RenderSettings s = figure;
+  s.preset = preset;
+  s.transferFunction = {};
+  s.shading = true;
+  s.quality = render::Quality::Standard;
+  s.background = {0.f, 0.f, 0.f, 0.f};
+  s.lighting = {};
+  const RgbaImage plain = vr.render(s);
+  s.lighting = lighting;
+  const RgbaImage lit = vr.render(s);
+  auto luminance = [](const uint8_t* p) { return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2]; };
+  std::vector<float> f(size_t(plain.width) * plain.height, 1.f);
+  for (size_t i = 0; i < f.size(); ++i) {
+    const uint8_t* a = plain.pixels.data() + 4 * i;
+    const float lp = luminance(a), ll = luminance(lit.pixels.data() + 4 * i);
+    if (lp < 1.f) continue;  // black in the plain render: no ratio to take
+    const float w = a[3] / 255.f;
+    f[i] = 1.f + w * (std::min(ll / lp, 4.f) - 1.f);
+  }
+  return f;
+}
+
+/// The figure's colour times the factor (straight alpha: the figure alone, its background
+/// transparent), then over `background` as the renderer composites it.
+void applyLight(RgbaImage& image, const std::vector<float>& factor, const std::array<float, 4>& background) {
+  for (size_t i = 0; i < factor.size(); ++i) {
+    uint8_t* p = image.pixels.data() + 4 * i;
+    const float a = p[3] / 255.f, ab = background[3], ao = a + ab * (1 - a);
+    for (int c = 0; c < 3; ++c) {
+      const float fg = std::min(255.f, p[c] * factor[i]), bg = background[size_t(c)] * 255.f;
+      p[c] = uint8_t(std::lround(ao > 0 ? (fg * a + bg * ab * (1 - a)) / ao : 0.f));
+    }
+    p[3] = uint8_t(std::lround(ao * 255.f));
+  }
 }
 
 }  // namespace
@@ -106,6 +152,10 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
   renderer.setScene(scene);
   result.uploadMs = renderer.lastUploadMs();
   const double uploadCpuMs = processCpuMs() - loadCpuMs;  // context, packing and upload
+  // The lighting layer's ray caster, on the same context (only when asked: off costs nothing).
+  const render::Lighting& lighting = r.settings.render.lighting;
+  std::optional<render::VolumeRenderer> lightRenderer;
+  if (lighting.on()) lightRenderer.emplace(*context).setVolume(*scene.ct);
   const Geometry& grid = scene.distance.geometry();
   RunOutputs written;  // a failure (or Ctrl-C) between figures leaves none of this run's
   ensureParentFolder(r.output);
@@ -124,8 +174,19 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
       s.render.camera = ill::frameFigure(scene.segments, style, s.render, r.framing,
                                          annotationRoom(annotations, r.labelIds, scene.segments, style, s.render));
       const double cpu0 = processCpuMs();
-      RgbaImage image = renderer.render(style, s);
-      const double renderMs = renderer.lastRenderMs();  // before the label probes render again
+      RgbaImage image;
+      double renderMs = 0;
+      if (!lightRenderer) {
+        image = renderer.render(style, s);
+        renderMs = renderer.lastRenderMs();  // before the label probes render again
+      } else {
+        ill::IllustrationSettings alone = s;  // the figure without its background, lit, then over it
+        alone.render.background[3] = 0.f;
+        image = renderer.render(style, alone);
+        renderMs = renderer.lastRenderMs();
+        applyLight(image, lightFactor(*lightRenderer, s.render, lighting, r.lightPreset), s.render.background);
+        renderMs += lightRenderer->lastRenderMs();
+      }
       const double renderCpuMs = processCpuMs() - cpu0;  // load-independent (all GL threads)
       // A GL draw cannot be interrupted: Ctrl-C during it cancels here, before anything is written.
       progress.checkCancelled();
@@ -180,6 +241,11 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
   const ill::IllustrationSettings& s0 = r.settings;
   j["size"] = {s0.render.width, s0.render.height};
   j["interpolation"] = ill::interpolationName(s0.interpolation);
+  if (lighting.on())
+    j["lighting"] = {{"shadows", lighting.shadows}, {"occlusion", lighting.occlusion},
+                     {"occlusion_radius_mm", lighting.occlusionRadiusMm}, {"light_azimuth", lighting.azimuthDeg},
+                     {"light_elevation", lighting.elevationDeg}, {"exposure", lighting.exposure},
+                     {"tone_map", lighting.toneMap}, {"preset", render::presets().name(r.lightPreset)}};
   if (figures.size() == 1 && !r.plate) {
     j.update(figures[0]);  // one figure: its keys at the top, as they always were
   } else {

@@ -36,6 +36,11 @@ struct IllustrateRequest {
   bool plate = false;
   /// Size, camera (zoom and pan on top of the framing), step, interpolation.
   illustration::IllustrationSettings settings;
+  /// The lighting layer (docs/lighting.md, "Illustrations"): settings.render.lighting on (shadows,
+  /// occlusion or tone map) multiplies each figure's colour by how much the ray caster's light
+  /// volume darkens (or brightens) the CT drawn with this preset under the same camera. Off
+  /// (the default): the figures are exactly those without it.
+  render::Preset lightPreset = render::Preset::Bone;
   std::optional<std::array<float, 4>> background;  ///< empty: each style's own
   bool transparent = false;                        ///< background alpha 0
   illustration::Framing framing = illustration::Framing::Drawn;
