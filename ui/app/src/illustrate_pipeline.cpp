@@ -42,9 +42,9 @@ std::vector<FigureView> requestedViews(const IllustrateRequest& r) {
 
 /// The lighting layer: the CT ray cast for the figure's camera plain and lit (the render
 /// module's light volume: shadows, occlusion, tone map as `lighting` says), and per pixel the
-/// lit/plain luminance ratio, faded to 1 where the plain render is transparent (no surface
-/// for the light to act on). The ratio keeps the illustration's colours and carries only the
-/// light: shadowed or occluded surfaces darken, and the key light models the forms.
+/// lit/plain luminance ratio (at most 1), faded to 1 where the plain render is transparent (no
+/// surface for the light to act on), 3x3 mean. The ratio keeps the illustration's colours and
+/// carries only the light: shadowed or occluded surfaces darken, the key light models the forms.
 std::vector<float> lightFactor(render::VolumeRenderer& vr, const render::RenderSettings& figure,
                                const render::Lighting& lighting, render::Preset preset) {
   render::RenderSettings s = figure;
@@ -58,15 +58,28 @@ std::vector<float> lightFactor(render::VolumeRenderer& vr, const render::RenderS
   s.lighting = lighting;
   const RgbaImage lit = vr.render(s);
   auto luminance = [](const uint8_t* p) { return 0.2126f * p[0] + 0.7152f * p[1] + 0.0722f * p[2]; };
-  std::vector<float> f(size_t(plain.width) * plain.height, 1.f);
+  const int w = plain.width, h = plain.height;
+  std::vector<float> f(size_t(w) * h, 1.f);
   for (size_t i = 0; i < f.size(); ++i) {
     const uint8_t* a = plain.pixels.data() + 4 * i;
     const float lp = luminance(a), ll = luminance(lit.pixels.data() + 4 * i);
     if (lp < 1.f) continue;  // black in the plain render: no ratio to take
-    const float w = a[3] / 255.f;
-    f[i] = 1.f + w * (std::min(ll / lp, 4.f) - 1.f);
+    // At most 1: the layer only darkens (the exposure lifts it towards the figure's own colour,
+    // never past it, so a style's palette is kept).
+    f[i] = 1.f + a[3] / 255.f * (std::min(ll / lp, 1.f) - 1.f);
   }
-  return f;
+  // A 3x3 mean: the CT's gradient noise makes the ratio speckle from pixel to pixel.
+  std::vector<float> m(f.size());
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      float sum = 0;
+      int n = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          if (x + dx >= 0 && x + dx < w && y + dy >= 0 && y + dy < h) sum += f[size_t(y + dy) * w + x + dx], ++n;
+      m[size_t(y) * w + x] = sum / n;
+    }
+  return m;
 }
 
 /// The figure's colour times the factor (straight alpha: the figure alone, its background
