@@ -77,16 +77,19 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const SolveInputs
 
 std::future<DeformSession::Solved> DeformSession::solveOnWorker(std::unique_ptr<Deformer>* slot, const VolumeI16* ct,
                                                                 DeformParams params, SolveInputs in,
-                                                                std::shared_ptr<Progress> progress, bool background) {
+                                                                std::shared_ptr<Progress> progress, SolveKind kind) {
   // The CT is read, not copied, here: the studio adopts a new volume only once busy() is
   // false, so it cannot change under the worker.
-  return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress), background] {
-    if (background) lowerThreadPriority();
-    // In a smaller arena, also for the solves the user waits for: the UI thread keeps a core.
-    return inWorkerArena([&] {
+  return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress), kind] {
+    if (kind == SolveKind::Background) lowerThreadPriority();
+    auto work = [&] {
       if (!*slot) *slot = std::make_unique<Deformer>(AnyVolume(*ct), params);
       return solve(**slot, in, *progress);
-    });
+    };
+    // A drag's preview is what the user waits for (the first drag response): all the cores.
+    // The others in a smaller arena, so that the UI thread keeps a core.
+    if (kind == SolveKind::DragPreview) return work();
+    return inWorkerArena(work);
   });
 }
 
@@ -242,14 +245,14 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     if ((preview_ && previewKey_ == key) || previewWork_.valid()) return changed;
     previewForDrag_ = true;
     previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key),
-                                 std::make_shared<Progress>());
+                                 std::make_shared<Progress>(), SolveKind::DragPreview);
     return changed;
   }
   if (mapKey_ == key) {  // up to date: get the preview's deformer ready for the next drag
     if (!previewWork_.valid() && !previewDeformer_) {
       previewForDrag_ = false;
       previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key),
-                                   std::make_shared<Progress>(), /*background=*/true);
+                                   std::make_shared<Progress>(), SolveKind::Background);
     }
     return changed;
   }

@@ -102,12 +102,15 @@ class DeformSession {
   bool liveExact(const deformation::ControlPoints& points) const;
   /// Solves `points` on `deformer` with the rigid blend: the work of both paths.
   static Solved solve(deformation::Deformer& deformer, const SolveInputs& in, Progress& progress);
-  /// On a worker: makes *slot from `ct` (when empty) and solves with it (`background`: at the
-  /// lowered priority of work nobody waits for, lowerThreadPriority). The UI thread leaves
+  /// How a solve shares the machine: the exact map in the worker arena (inWorkerArena); a
+  /// drag's preview, which the user waits for, on all the cores; the preview engine made ready
+  /// for the next drag also at the lowered priority of work nobody waits for.
+  enum class SolveKind { Exact, DragPreview, Background };
+  /// On a worker: makes *slot from `ct` (when empty) and solves with it. The UI thread leaves
   /// *slot alone until the future is ready.
   static std::future<Solved> solveOnWorker(std::unique_ptr<deformation::Deformer>* slot, const VolumeI16* ct,
                                            deformation::DeformParams params, SolveInputs in,
-                                           std::shared_ptr<Progress> progress, bool background = false);
+                                           std::shared_ptr<Progress> progress, SolveKind kind = SolveKind::Exact);
   SolveInputs inputs(const Scene& scene, const std::string& key) const;
   void adopt(Solved s, bool preview);
   void waitForSolve();

@@ -440,6 +440,11 @@ std::vector<double> View3D::columnCosts(int row0, int row1, int width) const {
 
 void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (hasMap_ != coarseDeformed_) {  // the other kind of view: its own learnt resolution
+    std::swap(scale_, otherScale_);
+    std::swap(stepFactor_, otherStepFactor_);
+    coarseDeformed_ = hasMap_;
+  }
   const int w = std::max(1, paneWidth / scale_), h = std::max(1, paneHeight / scale_);
   if (illustrating(scene)) {  // the illustration renderer reads back: upload its image
     coarseImage_ = renderImage(scene, w, h);

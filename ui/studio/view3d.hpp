@@ -176,6 +176,13 @@ class View3D {
   uint64_t mapRevision_ = 0;
   int scale_ = 4, lastScale_ = 1;
   int stepFactor_ = 1, lastStepFactor_ = 1;  ///< coarse frames' ray step (x the scene's) beyond 1/16  // first drag starts at 1/4: 1/2 is over budget at 256³
+  /// The coarse resolution and step are learnt per kind of view: those of the other kind
+  /// (deformed when coarseDeformed_ is false) wait here. A deformed ray costs an order more
+  /// than a plain one on llvmpipe (0.04-0.09 ms per pixel on the deformed real CT), so the first
+  /// deformed coarse frame drawn at the plain view's 1/8 took 0.1 s quiet, 0.7-4 s loaded; the
+  /// deformed view starts at 1/16.
+  int otherScale_ = 16, otherStepFactor_ = 1;
+  bool coarseDeformed_ = false;
   double lastMs_ = 0;
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
   /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
