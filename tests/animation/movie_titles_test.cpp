@@ -100,3 +100,28 @@ TEST(MovieTitles, KeyframeCaptionAtTime) {
   EXPECT_EQ(track.captionAt(2.0), "C");
   EXPECT_EQ(track.captionAt(5.0), "C");
 }
+
+// Issue 23 §6: a movie's in-between frames may be measured coarser; the frames that show a
+// keyframe's pose and the last frame keep the full stride, and each frame says its stride.
+TEST(MovieRigidity, InBetweenFramesAreMeasuredAtTheirOwnStride) {
+  const VolumeI16 ct = boxVolume();
+  const auto rest = deformation::boxControlPoints(ct.geometry(), 8, 0.1);
+  auto moved = rest;
+  for (auto& p : moved) p.target.x += 2;  // the whole box 2 mm along x: a rigid move
+  deformation::KeyframeTrack track;
+  track.keyframes = {{1.0, rest, std::nullopt, ""}, {1.0, moved, std::nullopt, ""}, {0.0, rest, std::nullopt, ""}};
+  animation::MovieSpec spec;
+  spec.fps = 2;  // frames at 0, 0.5, 1, 1.5, 2 s: keyframes at frames 0, 2 and 4
+  spec.settings.width = spec.settings.height = 32;
+  const auto bodies = deformation::RigidBodies::fromThreshold(ct);
+  static auto context = render::GlContext::createHeadless();
+  animation::MovieRenderer movie(*context, ct, track, {}, {&bodies, 10, 1, 2}, spec);
+  while (!movie.done()) movie.renderNext();
+  const animation::MovieResult r = movie.finish();
+  ASSERT_EQ(r.perFrame.size(), 5u);
+  const int expected[5] = {1, 2, 1, 2, 1};
+  for (size_t f = 0; f < 5; ++f) {
+    EXPECT_EQ(r.perFrame[f].voxelsAsRendered.stride, expected[f]) << "frame " << f;
+    EXPECT_EQ(r.perFrame[f].voxelsAsRendered.nodes, expected[f] == 1 ? 24 * 24 * 24 : 12 * 12 * 12) << "frame " << f;
+  }
+}

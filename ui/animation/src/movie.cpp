@@ -49,11 +49,23 @@ struct MovieRenderer::Impl {
     if (!spec.framesDir.empty()) fs::create_directories(spec.framesDir);
   }
 
-  void measure(const ControlVolume& cv) {
+  // Frame f shows a keyframe's pose (the frame nearest its time) or is the last frame.
+  bool atKeyframe(int f) const {
+    if (f + 1 >= frames) return true;
+    double t = 0;
+    for (const auto& k : track.keyframes) {
+      if (std::lround(t * spec.fps) == f) return true;
+      t += k.durationS;
+    }
+    return std::lround(t * spec.fps) == f;
+  }
+
+  void measure(const ControlVolume& cv, int f) {
     // Voxel level over the map the renderer samples: the node map upsampled with the spec's
     // kernel and the voxel snap, as the GL path applies them (deformation::rendered).
-    const RigidityReport m = measureRigidityVoxels(cv, geometry, *rigidity.bodies, spec.upsampling,
-                                                   rigidity.measureStride);
+    const int stride = rigidity.inBetweenStride > 0 && !atKeyframe(f) ? rigidity.inBetweenStride
+                                                                       : rigidity.measureStride;
+    const RigidityReport m = measureRigidityVoxels(cv, geometry, *rigidity.bodies, spec.upsampling, stride);
     result.perFrame.push_back({m, measureRigidity(cv, *rigidity.bodies)});
     RigidityReport& w = result.worst;
     w.boneRmsResidualMm = std::max(w.boneRmsResidualMm, m.boneRmsResidualMm);
@@ -169,7 +181,7 @@ struct MovieRenderer::Impl {
     const std::string caption = track.captionAt(track.frameTimeS(f, spec.fps));
     render::drawCaption(img, caption.empty() ? spec.caption : caption, spec.annotations.textHeightPx);
     write(img);
-    if (rigidity.bodies && rigidity.measureStride > 0) measure(cv);
+    if (rigidity.bodies && rigidity.measureStride > 0) measure(cv, f);
     ++next;
     return img;
   }

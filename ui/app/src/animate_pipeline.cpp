@@ -171,7 +171,8 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   const auto render = [&](const animation::MovieSpec& s) {
     auto context = render::GlContext::createHeadless();
     const animation::MovieRigidity rigidity{bodies ? &*bodies : nullptr, request.engine.rigidFalloffMm,
-                                            request.engine.rigidityStride};
+                                            request.engine.rigidityStride,
+                                            coarseMeasureStride(grid, request.engine.rigidityStride)};
     result.movie = animation::renderTrack(*context, lv.volume, track, params, rigidity, s, progress);
   };
   if (spec.framesDir.empty()) {

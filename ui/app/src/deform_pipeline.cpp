@@ -202,10 +202,10 @@ void keepBonesRigid(Run& run) {
   const DeformEngine& e = run.request.engine;
   const Geometry& g = geometryOf(run.loaded.volume);
   nlohmann::json& rigidity = run.report["rigidity"];
-  // "before" is for comparison only: on a large volume (over 32 M voxels: the feet, a 512^2 x 350
-  // CT) every 2nd voxel per axis, which halves what the measures cost (they were half of the
-  // whole run's CPU at 512^2 x 350); "after", the result's own measure, visits every voxel.
-  const int beforeStride = g.dims.voxelCount() > (int64_t{1} << 25) ? std::max(2, e.rigidityStride) : e.rigidityStride;
+  // "before" is for comparison only: coarser on a large volume, which halves what the measures
+  // cost (they were half of the whole run's CPU at 512^2 x 350); "after", the result's own
+  // measure, visits every voxel.
+  const int beforeStride = coarseMeasureStride(g, e.rigidityStride);
   rigidity["before"] = toJson(measureRigidityVoxels(run.cv, g, *run.bodies, e.upsampling, beforeStride));
   rigidity["before_nodes"] = toJson(measureRigidity(run.cv, *run.bodies));
   run.cpu.lap("rigidity_before_measures");  // the "rigidity" lap below: blend, repair, the after measures
@@ -397,6 +397,10 @@ std::string DeformEngine::rigidLabelsArgument() const {
   }
   for (uint16_t id : rigidIds) out += (out.empty() ? "" : ",") + std::to_string(id);
   return out;
+}
+
+int coarseMeasureStride(const Geometry& grid, int stride) {
+  return grid.dims.voxelCount() > (int64_t{1} << 25) ? std::max(2, stride) : stride;
 }
 
 const params::Table<DeformEngine>& deformEngineTable() {

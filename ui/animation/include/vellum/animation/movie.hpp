@@ -58,6 +58,11 @@ struct MovieRigidity {
   const deformation::RigidBodies* bodies = nullptr;
   double falloffMm = 10;
   int measureStride = 1;
+  /// Voxel-level stride of the frames between keyframes (0: measureStride). The frames nearest
+  /// each keyframe's time and the last frame are measured at measureStride; each frame's
+  /// report carries the stride it was measured at. A movie of a large volume measures its
+  /// in-between frames coarser: the measure is a large part of a frame's CPU.
+  int inBetweenStride = 0;
 };
 
 struct FrameRigidity {

@@ -61,6 +61,11 @@ struct DeformEngine {
   std::optional<deformation::RigidBodies> rigidBodies(const Geometry& grid, const io::LoadOptions& load) const;
 };
 
+/// The stride of the voxel-level measures that are for comparison or between keyframes: on a
+/// large volume (over 32 M voxels: a 512^2 x 350 CT) at least 2, which cuts what such a
+/// measure costs ~8x (`deform`'s "before", `animate`'s in-between frames); else `stride`.
+int coarseMeasureStride(const Geometry& grid, int stride);
+
 /// upsampling, labels, rigid_falloff, rigidity_stride (the engine's own parameters are
 /// deformParamsTable(); the rigid ids are a list, not a table row).
 const params::Table<DeformEngine>& deformEngineTable();
