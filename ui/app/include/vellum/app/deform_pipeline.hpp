@@ -44,8 +44,8 @@ struct DeformEngine {
   double rigidFalloffMm = 10;      ///< blend band outside each bone
   int rigidityStride = 1;          ///< voxel-level rigidity measures: every N-th voxel per axis
   /// Repair the blend's folds in tissue (deformation::repairFolds): `deform --fold-repair`
-  /// (deformRequestTable); rigidity() carries it. `animate` and the studio call applyRigidity
-  /// with RigidityParams' default (no repair) for now.
+  /// (deformRequestTable); rigidity() carries it. `animate`, `pose` and the studio call
+  /// applyRigidity with RigidityParams' default, which repairs too.
   bool foldRepair = true;
   /// The rigid blend's parameters: rigidFalloffMm and foldRepair.
   deformation::RigidityParams rigidity() const;
