@@ -105,6 +105,18 @@ class VolumeRenderer {
   double lastGpuMs() const;
   /// Samples per pixel of the last cinematic render() (0 before any).
   int lastSamples() const;
+  /// Progressive cinematic rendering, for a viewer that refines while the camera rests:
+  /// beginCinematic() starts a picture of `settings` (a DVR preset; the denoise guide is ray
+  /// cast now and the float sums cleared), each addCinematicSamples(n) adds n paths per pixel
+  /// and returns the total so far, resolveCinematic() is the picture of the sums so far (tone
+  /// mapped, denoised). N samples added in any batches resolve to exactly render()'s picture
+  /// with samples = N and the same seed. Independent of render(), which keeps its own sums.
+  /// Begin again after changing the view, volume, map or tint.
+  void beginCinematic(const RenderSettings& settings);
+  int addCinematicSamples(int n);
+  RgbaImage resolveCinematic();
+  /// Samples per pixel summed since beginCinematic() (0 before).
+  int cinematicSamples() const;
 
  private:
   struct Impl;
