@@ -1,5 +1,6 @@
 // The studio at real size (issue #22): the 3D view's tiled refinement draws the pixels of one
-// whole render (and the cinematic view at rest converges to one render's), and the snake's Pause / Accept current keeps the contour shown when accepted.
+// whole render, and the snake's Pause / Accept current keeps the contour shown when accepted.
+// Issue #24: the cinematic view at rest converges to one render's picture.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
