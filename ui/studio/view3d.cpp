@@ -628,33 +628,53 @@ bool View3D::refineCinematic(const Scene& scene, int paneWidth, int paneHeight) 
   };
   context_.makeCurrent();
   const render::RenderSettings s = renderSettingsFor(scene, paneWidth, paneHeight);
+  const int rows = s.height;
   if (!cinematic_) {  // the denoise guide: one ray cast of the pane, this frame
     renderer_->beginCinematic(s);
     cinematic_ = true;
     cinematicBatch_ = 1;
+    cinematicRow_ = 0;
     cinematicMs_ = 0;
     refineTiles_ = 0;
   }
-  const int n = std::clamp(cinematicBatch_, 1, std::max(1, s.cinematic.samples - renderer_->cinematicSamples()));
+  int total = renderer_->cinematicSamples();
   const auto t1 = std::chrono::steady_clock::now();
-  const int total = renderer_->addCinematicSamples(n);
-  glFinish();  // the batch's real cost sizes the next one (see renderCoarse)
-  const double batchMs = since(t1);
-  cinematicImage_ = renderer_->resolveCinematic();
-  texture_.upload(cinematicImage_);
-  shown_ = texture_.id();
-  shownBottomUp_ = false;
+  // One sample of the whole pane over budget (llvmpipe: seconds at pane size), or its cost not
+  // known yet: the sample in bands of rows sized to the budget, one band per frame, shown once
+  // every row has it (a pane with half its rows one sample ahead would show a seam).
+  if (cinematicRow_ > 0 || msPerRow_ <= 0 || msPerRow_ * rows > budgetMs_) {
+    const int band = msPerRow_ > 0 ? std::clamp(int(budgetMs_ / msPerRow_), 1, rows - cinematicRow_)
+                                   : std::min(rows - cinematicRow_, std::max(1, rows / 16));  // a probe
+    total = renderer_->addCinematicRows(cinematicRow_, cinematicRow_ + band);
+    glFinish();  // the band's real cost sizes the next one (see renderCoarse)
+    msPerRow_ = since(t1) / band;
+    cinematicRow_ = (cinematicRow_ + band) % rows;
+  } else {
+    const int n = std::clamp(cinematicBatch_, 1, std::max(1, s.cinematic.samples - total));
+    total = renderer_->addCinematicSamples(n);
+    glFinish();
+    const double batchMs = since(t1);
+    msPerRow_ = batchMs / n / rows;
+    // The next batch: what fits in the budget beside this frame's resolve (read-back, tone
+    // map, denoise, upload), at this batch's cost per sample; at most doubling, at least one.
+    const double fixedMs = std::max(0.0, lastResolveMs_);
+    cinematicBatch_ = std::clamp(int((budgetMs_ - fixedMs) / std::max(1e-3, batchMs / n)), 1, std::max(1, 2 * n));
+  }
+  ++refineTiles_;
+  if (cinematicRow_ == 0) {  // a whole sample (or batch) more: show the running picture
+    const auto t2 = std::chrono::steady_clock::now();
+    cinematicImage_ = renderer_->resolveCinematic();
+    texture_.upload(cinematicImage_);
+    shown_ = texture_.id();
+    shownBottomUp_ = false;
+    lastResolveMs_ = since(t2);
+  }
   lastMs_ = since(t0);
   cinematicMs_ += lastMs_;
-  // The next batch: what fits in the budget beside this frame's resolve (read-back, tone map,
-  // denoise, upload), at this batch's cost per sample; at most doubling, at least one.
-  const double perSample = std::max(1e-3, batchMs / n), fixedMs = std::max(0.0, lastMs_ - batchMs);
-  cinematicBatch_ = std::clamp(int((budgetMs_ - fixedMs) / perSample), 1, std::max(1, 2 * n));
   lastScale_ = 1;
   refineMs_ = cinematicMs_;
-  ++refineTiles_;
   const double limitMs = 1000.0 * s.cinematic.timeLimitS;
-  refined_ = total >= s.cinematic.samples || (limitMs > 0 && cinematicMs_ >= limitMs);
+  refined_ = cinematicRow_ == 0 && (total >= s.cinematic.samples || (limitMs > 0 && cinematicMs_ >= limitMs));
   return true;
 }
 

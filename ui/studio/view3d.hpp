@@ -9,7 +9,9 @@
 // the window stays responsive throughout. With the cinematic quality (path traced, DVR presets,
 // no meshes) the view at rest instead adds a batch of samples per frame (sized to the same
 // budget) to the renderer's progressive picture and shows the running result, until the
-// scene's sample count (or time limit); any change of the view starts it again.
+// scene's sample count (or time limit); any change of the view starts it again. When one
+// sample of the pane is over the budget (llvmpipe), each sample is drawn a band of rows per
+// frame and the picture shown as each sample completes.
 #include <future>
 #include <memory>
 #include <optional>
@@ -193,6 +195,9 @@ class View3D {
   bool refineCinematic(const Scene& scene, int paneWidth, int paneHeight);
   bool cinematic_ = false;      ///< the renderer's progressive picture is this view's (lastKey_)
   int cinematicBatch_ = 1;      ///< samples per frame, sized to the budget from the last batch
+  int cinematicRow_ = 0;        ///< banded: the next row of the sample in progress (0: none)
+  double msPerRow_ = 0;         ///< one sample's cost per pane row, learnt (0: not yet)
+  double lastResolveMs_ = 0;    ///< the last running picture's read-back, denoise and upload
   double cinematicMs_ = 0;      ///< wall time since the picture began (the time limit)
   RgbaImage cinematicImage_;    ///< the running picture shown (readShown)
   // Banded refinement state.

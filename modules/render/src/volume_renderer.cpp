@@ -408,7 +408,9 @@ struct VolumeRenderer::Impl {
   /// intact): the denoise guide and a cleared float target; sample passes added into it;
   /// the picture of the sums so far, tone mapped and denoised.
   void beginCinematic(Progressive& pr, const RenderSettings& s);
-  int addCinematicPasses(Progressive& pr, const Cinematic& budget);
+  /// Passes over the whole picture, or (rowBegin < rowEnd, image rows, row 0 = top) one
+  /// uncounted pass over those rows only (the caller counts the sample once all rows have it).
+  int addCinematicPasses(Progressive& pr, const Cinematic& budget, int rowBegin = 0, int rowEnd = 0);
   RgbaImage resolveCinematic(const Progressive& pr) const;
   /// The path tracer's majorant texture for this frame's table (per source block, or map cell).
   void useMajorants(const TfTable& tf, const Frame& f, const BackwardMap* deform, const Dims& dims);
@@ -563,7 +565,7 @@ void VolumeRenderer::Impl::beginCinematic(Progressive& pr, const RenderSettings&
   pr.begun = true;
 }
 
-int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& budget) {
+int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& budget, int rowBegin, int rowEnd) {
   // The whole GL state again on every call: between two calls a viewer draws other things.
   const BackwardMap* deform = map ? &*map : nullptr;
   const RenderSettings ts = tracedSettings(pr.settings);
@@ -575,6 +577,13 @@ int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& b
   glViewport(0, 0, ts.width, ts.height);
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_SCISSOR_TEST);
+  const bool band = rowBegin < rowEnd;
+  if (band) {  // the traced picture's rows of the band (traceScale), GL's row 0 at the bottom
+    const int h = pr.settings.height;
+    const int t0 = int(int64_t(rowBegin) * ts.height / h), t1 = rowEnd >= h ? ts.height : int(int64_t(rowEnd) * ts.height / h);
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(0, ts.height - t1, ts.width, t1 - t0);
+  }
   glEnable(GL_BLEND);  // each pass adds its samples' sums
   glBlendEquation(GL_FUNC_ADD);
   glBlendFunc(GL_ONE, GL_ONE);
@@ -586,8 +595,9 @@ int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& b
     glDrawArrays(GL_TRIANGLES, 0, 3);
   });
   glDisable(GL_BLEND);
+  glDisable(GL_SCISSOR_TEST);
   checkGlError("path tracing");
-  pr.samples += done;
+  if (!band) pr.samples += done;
   return done;
 }
 
@@ -1014,6 +1024,22 @@ int VolumeRenderer::addCinematicSamples(int n) {
   budget.samples = n;
   budget.timeLimitS = 0;
   m.addCinematicPasses(m.progressive, budget);
+  return m.progressive.samples;
+}
+
+int VolumeRenderer::addCinematicRows(int rowBegin, int rowEnd) {
+  Impl& m = *impl_;
+  if (!m.progressive.begun) throw Error("addCinematicRows: call beginCinematic first");
+  const int h = m.progressive.settings.height;
+  rowBegin = std::clamp(rowBegin, 0, h);
+  rowEnd = std::clamp(rowEnd, rowBegin, h);
+  if (rowBegin == rowEnd) return m.progressive.samples;
+  m.context.makeCurrent();
+  Cinematic one = m.progressive.settings.cinematic;
+  one.samples = 1;
+  one.timeLimitS = 0;
+  m.addCinematicPasses(m.progressive, one, rowBegin, rowEnd);
+  if (rowEnd == h) ++m.progressive.samples;  // every row has it now
   return m.progressive.samples;
 }
 

@@ -114,6 +114,11 @@ class VolumeRenderer {
   /// Begin again after changing the view, volume, map or tint.
   void beginCinematic(const RenderSettings& settings);
   int addCinematicSamples(int n);
+  /// The next sample over image rows [rowBegin, rowEnd) only (row 0 = top), for a viewer that
+  /// cannot afford a whole pass in one frame: call with consecutive bands from row 0; the
+  /// sample counts (and is returned in the total) once a band ends at the last row. Resolve
+  /// between whole samples only. The sums are bit-identical to whole passes.
+  int addCinematicRows(int rowBegin, int rowEnd);
   RgbaImage resolveCinematic();
   /// Samples per pixel summed since beginCinematic() (0 before).
   int cinematicSamples() const;
