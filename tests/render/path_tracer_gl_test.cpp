@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "analytic_volumes.hpp"
+#include "vellum/core/error.hpp"
 #include "vellum/render/path_tracer.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
@@ -100,6 +101,33 @@ TEST(PathTracerGl, DeterministicForAFixedSeed) {
   EXPECT_EQ(a.pixels, r.render(s).pixels) << "bit-identical twice";
   s.cinematic.seed = 8;
   EXPECT_NE(a.pixels, r.render(s).pixels);
+}
+
+TEST(PathTracerGl, ProgressiveBatchesEqualOneRender) {
+  // The studio's refinement at rest: N batches of one sample resolve to render()'s picture with
+  // N samples, bit for bit, even with a one-shot render of another view in between.
+  const VolumeI16 v = test::makeAnalyticVolume(32);
+  VolumeRenderer r(ptGl());
+  r.setVolume(v);
+  RenderSettings s = cinematic(Preset::SoftTissueBone, 5, 3);
+  s.cinematic.denoise = 0.5;
+  s.cinematic.bounces = 2;
+  EXPECT_THROW(r.addCinematicSamples(1), Error);
+  r.beginCinematic(s);
+  EXPECT_EQ(r.cinematicSamples(), 0);
+  EXPECT_EQ(r.addCinematicSamples(1), 1);
+  const RgbaImage one = r.resolveCinematic();
+  RenderSettings other = cinematic(Preset::Bone, 2, 9);
+  other.camera.azimuthDeg = -70;
+  r.render(other);
+  for (int i = 1; i < 5; ++i) EXPECT_EQ(r.addCinematicSamples(1), i + 1);
+  const RgbaImage progressive = r.resolveCinematic();
+  const RgbaImage once = r.render(s);
+  EXPECT_EQ(r.lastSamples(), 5);
+  EXPECT_EQ(progressive.pixels, once.pixels) << "5 x 1 sample == 5 samples";
+  EXPECT_NE(one.pixels, once.pixels) << "the running picture changes as samples add up";
+  s.cinematic.samples = 1;
+  EXPECT_EQ(one.pixels, r.render(s).pixels) << "after one batch: render() with 1 sample";
 }
 
 TEST(PathTracerGl, ErrorFallsWithSamples) {

@@ -1,5 +1,6 @@
 // The studio at real size (issue #22): the 3D view's tiled refinement draws the pixels of one
 // whole render, and the snake's Pause / Accept current keeps the contour shown when accepted.
+// Issue #24: the cinematic view at rest converges to one render's picture.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -45,6 +46,46 @@ TEST(StudioRealSize, TiledRefinementGivesTheOneRenderPicture) {
   ASSERT_EQ(tiled.width, w);
   ASSERT_EQ(tiled.height, h);
   EXPECT_TRUE(tiled.pixels == whole.pixels) << "tiles differ from the whole render";
+}
+
+TEST(StudioCinematic, RestingAddsSamplesUpToTheRenderPicture) {
+  // Issue #24: at rest the cinematic view adds samples frame by frame (a budget no sample fits:
+  // each sample a band of rows per frame), ends on exactly the picture of one render, and a
+  // camera change starts again.
+  phantom::PhantomOptions o;
+  o.dims = {32, 32, 36};
+  Scene scene;
+  scene.ct = phantom::makePhantom(o).ct;
+  scene.resetView();
+  scene.render.quality = render::Quality::Cinematic;
+  scene.render.cinematic.samples = 4;
+  auto context = render::GlContext::createHeadless();
+  View3D view(*context);
+  view.setVolume(scene.ct);
+  view.setRefineBudgetMs(1e-6);
+  const int w = 40, h = 30;
+  ASSERT_TRUE(view.cinematic(scene));
+  view.update(scene, w, h, false);  // a new view: the coarse ray-cast frame first
+  EXPECT_EQ(view.cinematicSamples(), 0);
+  std::vector<int> samples;  // the distinct counts shown, in order
+  int frames = 0;
+  for (; !view.refined() && frames < 1000; ++frames) {
+    view.update(scene, w, h, false);
+    if (samples.empty() || samples.back() != view.cinematicSamples()) samples.push_back(view.cinematicSamples());
+  }
+  ASSERT_TRUE(view.refined());
+  EXPECT_EQ(samples, (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_GT(frames, 4 * 2) << "each sample drawn in bands over several frames";
+  EXPECT_FALSE(view.update(scene, w, h, false)) << "converged: nothing more to do at rest";
+  const RgbaImage rested = view.readShown();
+  ASSERT_EQ(rested.width, w);
+  EXPECT_TRUE(rested.pixels == view.renderImage(scene, w, h).pixels) << "not the picture of `vellum render`";
+  scene.render.camera.azimuthDeg += 20;
+  view.update(scene, w, h, false);
+  EXPECT_FALSE(view.refined());
+  EXPECT_EQ(view.cinematicSamples(), 0);
+  for (frames = 0; view.cinematicSamples() == 0 && frames < 1000; ++frames) view.update(scene, w, h, false);
+  EXPECT_EQ(view.cinematicSamples(), 1) << "restarted from one sample";
 }
 
 TEST(StudioRealSize, SnakePauseThenAcceptKeepsTheContourShown) {

@@ -399,6 +399,7 @@ RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
 }
 
 RgbaImage View3D::readShown() {
+  if (cinematic_ && shown_ != 0 && shown_ == texture_.id()) return cinematicImage_;
   context_.makeCurrent();
   if (shown_ != 0 && shown_ == full_.colourTexture()) return full_.readColour();
   if (shown_ != 0 && shown_ == coarse_.colourTexture()) return coarse_.readColour();
@@ -466,7 +467,7 @@ void View3D::renderCoarse(const Scene& scene, int paneWidth, int paneHeight, con
   lastScale_ = scale_;
   lastStepFactor_ = stepFactor_;
   lastKey_ = key;
-  refined_ = false;
+  refined_ = cinematic_ = false;  // a changed view: the path-traced picture starts again
   // Cost scales with pixels: halve the resolution when over budget; double it only when 4x
   // the pixels are predicted to fit (hysteresis: no oscillation between two factors).
   // Up to 1/16: a deformed 512²×350 volume on llvmpipe is over budget even at 1/8. Beyond
@@ -549,6 +550,7 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
     refined_ = true;
     return true;
   }
+  if (cinematic(scene)) return refineCinematic(scene, paneWidth, paneHeight);
   // Idle: refine to full resolution a band of rows per frame, each band sized to the
   // interactive budget, so that no frame blocks for a whole full-resolution render.
   if (!refining_) startRefinement(scene, paneWidth, paneHeight);
@@ -616,6 +618,68 @@ bool View3D::update(const Scene& scene, int paneWidth, int paneHeight, bool inte
     refined_ = true;
     refining_ = false;
   }
+  return true;
+}
+
+bool View3D::cinematic(const Scene& scene) const {
+  return scene.render.quality == render::Quality::Cinematic && scene.render.preset != render::Preset::Mip &&
+         !illustrating(scene) && !drawingMeshes(scene);  // the path tracer has no opaque-depth layer
+}
+
+bool View3D::refineCinematic(const Scene& scene, int paneWidth, int paneHeight) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto since = [](auto t) {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count();
+  };
+  context_.makeCurrent();
+  const render::RenderSettings s = renderSettingsFor(scene, paneWidth, paneHeight);
+  const int rows = s.height;
+  if (!cinematic_) {  // the denoise guide: one ray cast of the pane, this frame
+    renderer_->beginCinematic(s);
+    cinematic_ = true;
+    cinematicBatch_ = 1;
+    cinematicRow_ = 0;
+    cinematicMs_ = 0;
+    refineTiles_ = 0;
+  }
+  int total = renderer_->cinematicSamples();
+  const auto t1 = std::chrono::steady_clock::now();
+  // One sample of the whole pane over budget (llvmpipe: seconds at pane size), or its cost not
+  // known yet: the sample in bands of rows sized to the budget, one band per frame, shown once
+  // every row has it (a pane with half its rows one sample ahead would show a seam).
+  if (cinematicRow_ > 0 || msPerRow_ <= 0 || msPerRow_ * rows > budgetMs_) {
+    const int band = msPerRow_ > 0 ? std::clamp(int(budgetMs_ / msPerRow_), 1, rows - cinematicRow_)
+                                   : std::min(rows - cinematicRow_, std::max(1, rows / 16));  // a probe
+    total = renderer_->addCinematicRows(cinematicRow_, cinematicRow_ + band);
+    glFinish();  // the band's real cost sizes the next one (see renderCoarse)
+    msPerRow_ = since(t1) / band;
+    cinematicRow_ = (cinematicRow_ + band) % rows;
+  } else {
+    const int n = std::clamp(cinematicBatch_, 1, std::max(1, s.cinematic.samples - total));
+    total = renderer_->addCinematicSamples(n);
+    glFinish();
+    const double batchMs = since(t1);
+    msPerRow_ = batchMs / n / rows;
+    // The next batch: what fits in the budget beside this frame's resolve (read-back, tone
+    // map, denoise, upload), at this batch's cost per sample; at most doubling, at least one.
+    const double fixedMs = std::max(0.0, lastResolveMs_);
+    cinematicBatch_ = std::clamp(int((budgetMs_ - fixedMs) / std::max(1e-3, batchMs / n)), 1, std::max(1, 2 * n));
+  }
+  ++refineTiles_;
+  if (cinematicRow_ == 0) {  // a whole sample (or batch) more: show the running picture
+    const auto t2 = std::chrono::steady_clock::now();
+    cinematicImage_ = renderer_->resolveCinematic();
+    texture_.upload(cinematicImage_);
+    shown_ = texture_.id();
+    shownBottomUp_ = false;
+    lastResolveMs_ = since(t2);
+  }
+  lastMs_ = since(t0);
+  cinematicMs_ += lastMs_;
+  lastScale_ = 1;
+  refineMs_ = cinematicMs_;
+  const double limitMs = 1000.0 * s.cinematic.timeLimitS;
+  refined_ = cinematicRow_ == 0 && (total >= s.cinematic.samples || (limitMs > 0 && cinematicMs_ >= limitMs));
   return true;
 }
 

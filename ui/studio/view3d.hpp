@@ -6,7 +6,12 @@
 // resolution (the factor adapts to keep a render near kInteractiveBudgetMs); when the view rests, the full-resolution picture is rendered a band of rows
 // per frame (VolumeRenderer::renderIntoTile, each band sized to the same budget; a band whose
 // single row is over budget is cut into column tiles) over the scaled-up coarse picture, so
-// the window stays responsive throughout.
+// the window stays responsive throughout. With the cinematic quality (path traced, DVR presets,
+// no meshes) the view at rest instead adds a batch of samples per frame (sized to the same
+// budget) to the renderer's progressive picture and shows the running result, until the
+// scene's sample count (or time limit); any change of the view starts it again. When one
+// sample of the pane is over the budget (llvmpipe), each sample is drawn a band of rows per
+// frame and the picture shown as each sample completes.
 #include <future>
 #include <memory>
 #include <optional>
@@ -129,6 +134,11 @@ class View3D {
   double refineProgress() const {
     return refining_ && refineHeight_ > 0 ? double(refineRow_) / refineHeight_ : 1.0;
   }
+  /// True when `scene` refines by path tracing at rest (cinematic quality, a DVR preset, no
+  /// illustration or meshes).
+  bool cinematic(const Scene& scene) const;
+  /// Cinematic at rest: the samples per pixel of the picture shown (0 when not path traced).
+  int cinematicSamples() const { return cinematic_ ? renderer_->cinematicSamples() : 0; }
   /// Sum of the band renders of the last completed (or running) refinement.
   double refineMs() const { return refineMs_; }
   /// Tiles (or whole-width bands) the last completed (or running) refinement drew.
@@ -136,7 +146,7 @@ class View3D {
   /// The per-frame budget refinement tiles are sized to (tests make it tiny to force tiles).
   void setRefineBudgetMs(double ms) { budgetMs_ = ms; }
   void invalidate() {
-    refined_ = refining_ = false;
+    refined_ = refining_ = cinematic_ = false;
     lastKey_.clear();
   }
 
@@ -188,6 +198,15 @@ class View3D {
   /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
   void drawFrame(const Scene& scene, render::FramebufferTarget& target, int stepFactor = 1);
   void startRefinement(const Scene& scene, int paneWidth, int paneHeight);
+  /// Cinematic at rest: one batch of samples added and the running picture shown.
+  bool refineCinematic(const Scene& scene, int paneWidth, int paneHeight);
+  bool cinematic_ = false;      ///< the renderer's progressive picture is this view's (lastKey_)
+  int cinematicBatch_ = 1;      ///< samples per frame, sized to the budget from the last batch
+  int cinematicRow_ = 0;        ///< banded: the next row of the sample in progress (0: none)
+  double msPerRow_ = 0;         ///< one sample's cost per pane row, learnt (0: not yet)
+  double lastResolveMs_ = 0;    ///< the last running picture's read-back, denoise and upload
+  double cinematicMs_ = 0;      ///< wall time since the picture began (the time limit)
+  RgbaImage cinematicImage_;    ///< the running picture shown (readShown)
   // Banded refinement state.
   bool refining_ = false;
   int refineRow_ = 0, refineHeight_ = 0;

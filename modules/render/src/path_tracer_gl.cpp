@@ -32,6 +32,11 @@ void AccumulationTarget::bindCleared(int w, int h) {
   glClearBufferfv(GL_COLOR, 0, zero);
 }
 
+void AccumulationTarget::bind() const {
+  if (!fbo_) throw Error("cinematic: the accumulation target was never cleared");
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
+}
+
 PathSums AccumulationTarget::read(int samples) const {
   PathSums s;
   s.width = width_;

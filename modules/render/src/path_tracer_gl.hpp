@@ -18,6 +18,8 @@ class AccumulationTarget {
   AccumulationTarget& operator=(const AccumulationTarget&) = delete;
   /// Makes it w x h (if needed), binds it and clears it to zero.
   void bindCleared(int w, int h);
+  /// Binds it as it is (more passes add into the sums).
+  void bind() const;
   /// The sums (row 0 = top) after `samples` paths per pixel.
   PathSums read(int samples) const;
 

@@ -173,11 +173,19 @@ struct VolumeRenderer::Impl {
   Vec3 lightDir;
   double lightRadius = -1;
   double lightSize = -1;
-  /// Cinematic quality (path_tracer_gl.hpp): extinction majorants per skip block, the float
-  /// accumulation target.
+  /// Cinematic quality (path_tracer_gl.hpp): extinction majorants per skip block.
   GLuint majorantTex = 0;
   Dims majorantDims;
-  AccumulationTarget accumulation;
+  /// A path-traced picture in progress: its settings (full size), the denoise guide, the
+  /// samples per pixel summed so far into its float target.
+  struct Progressive {
+    RenderSettings settings;
+    RgbaImage guide;
+    int samples = 0;
+    bool begun = false;
+    AccumulationTarget accumulation;
+  };
+  Progressive oneShot, progressive;
 
   explicit Impl(GlContext& c) : context(c) {
     context.makeCurrent();
@@ -395,8 +403,15 @@ struct VolumeRenderer::Impl {
   /// function (or MIP window) and skip grid set.
   GLuint useProgram(const RenderSettings& s, const Frame& f, const BackwardMap* deform, bool opaqueDepth,
                     bool pathTrace = false);
-  /// Quality::Cinematic: progressive path tracing into the float target, tone mapped and denoised.
-  RgbaImage renderCinematic(const RenderSettings& s);
+  /// Quality::Cinematic, as steps (render() runs all three on `oneShot`, the public
+  /// begin/add/resolve API on `progressive`, so a one-shot render leaves a progressive one
+  /// intact): the denoise guide and a cleared float target; sample passes added into it;
+  /// the picture of the sums so far, tone mapped and denoised.
+  void beginCinematic(Progressive& pr, const RenderSettings& s);
+  /// Passes over the whole picture, or (rowBegin < rowEnd, image rows, row 0 = top) one
+  /// uncounted pass over those rows only (the caller counts the sample once all rows have it).
+  int addCinematicPasses(Progressive& pr, const Cinematic& budget, int rowBegin = 0, int rowEnd = 0);
+  RgbaImage resolveCinematic(const Progressive& pr) const;
   /// The path tracer's majorant texture for this frame's table (per source block, or map cell).
   void useMajorants(const TfTable& tf, const Frame& f, const BackwardMap* deform, const Dims& dims);
   /// Camera, box, step, background and value-scale uniforms.
@@ -533,43 +548,62 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
   checkGlError("cinematic majorants");
 }
 
-RgbaImage VolumeRenderer::Impl::renderCinematic(const RenderSettings& s) {
+void VolumeRenderer::Impl::beginCinematic(Progressive& pr, const RenderSettings& s) {
   uploadMap();
-  const BackwardMap* deform = map ? &*map : nullptr;
-  const auto t0 = std::chrono::steady_clock::now();
-  RgbaImage guide;  // the denoise's edges: the same view ray cast (path_tracer.hpp)
+  pr.settings = s;
+  pr.samples = 0;
+  pr.guide = RgbaImage();  // the denoise's edges: the same view ray cast (path_tracer.hpp)
   if (s.cinematic.denoise > 0) {
-    guide = RgbaImage(s.width, s.height);
+    pr.guide = RgbaImage(s.width, s.height);
     target.bind(s.width, s.height, "render");
     draw(denoiseGuideSettings(s), target.framebuffer(), 0, s.height, 0);
-    readRgbaRows(target.framebuffer(), 0, s.height, guide, "denoise guide");
+    readRgbaRows(target.framebuffer(), 0, s.height, pr.guide, "denoise guide");
   }
   // The paths: at cinematic.traceScale of the size (finishPathTraced upsamples them).
   const RenderSettings ts = tracedSettings(s);
+  pr.accumulation.bindCleared(ts.width, ts.height);
+  pr.begun = true;
+}
+
+int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& budget, int rowBegin, int rowEnd) {
+  // The whole GL state again on every call: between two calls a viewer draws other things.
+  const BackwardMap* deform = map ? &*map : nullptr;
+  const RenderSettings ts = tracedSettings(pr.settings);
   const Frame ft = makeFrame(source, deform ? &deform->grid : nullptr, ts);
   const GLuint p = useProgram(ts, ft, deform, false, true);
   setFrameUniforms(p, ts, ft);
-  setPathTraceUniforms(p, makePathLights(ft, ts), s.cinematic.seed);
-  accumulation.bindCleared(ts.width, ts.height);
+  setPathTraceUniforms(p, makePathLights(ft, ts), pr.settings.cinematic.seed);
+  pr.accumulation.bind();
   glViewport(0, 0, ts.width, ts.height);
   glDisable(GL_DEPTH_TEST);
   glDisable(GL_SCISSOR_TEST);
+  const bool band = rowBegin < rowEnd;
+  if (band) {  // the traced picture's rows of the band (traceScale), GL's row 0 at the bottom
+    const int h = pr.settings.height;
+    const int t0 = int(int64_t(rowBegin) * ts.height / h), t1 = rowEnd >= h ? ts.height : int(int64_t(rowEnd) * ts.height / h);
+    glEnable(GL_SCISSOR_TEST);
+    glScissor(0, ts.height - t1, ts.width, t1 - t0);
+  }
   glEnable(GL_BLEND);  // each pass adds its samples' sums
   glBlendEquation(GL_FUNC_ADD);
   glBlendFunc(GL_ONE, GL_ONE);
   glBindVertexArray(vao);
-  const int samples = runSamplePasses(s.cinematic, [&](int first, int count) {
-    glUniform1i(glGetUniformLocation(p, "uSampleBase"), first);
+  const int base = pr.samples;  // sample indices continue: N passes of 1 = one pass run of N
+  const int done = runSamplePasses(budget, [&](int first, int count) {
+    glUniform1i(glGetUniformLocation(p, "uSampleBase"), base + first);
     glUniform1i(glGetUniformLocation(p, "uSamplesPerPass"), count);
     glDrawArrays(GL_TRIANGLES, 0, 3);
   });
   glDisable(GL_BLEND);
+  glDisable(GL_SCISSOR_TEST);
   checkGlError("path tracing");
-  const PathSums sums = accumulation.read(samples);
-  RgbaImage image = finishPathTraced(sums, s, &guide);
-  lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  lastSamples = samples;
-  return image;
+  if (!band) pr.samples += done;
+  return done;
+}
+
+RgbaImage VolumeRenderer::Impl::resolveCinematic(const Progressive& pr) const {
+  const PathSums sums = pr.accumulation.read(pr.samples);
+  return finishPathTraced(sums, pr.settings, &pr.guide);
 }
 
 void VolumeRenderer::Impl::setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const {
@@ -903,8 +937,15 @@ RgbaImage VolumeRenderer::render(const RenderSettings& s) {
   checkImageSize(s.width, s.height);
   if (s.quality == Quality::Cinematic && s.preset != Preset::Mip) {
     if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
-    impl_->context.makeCurrent();
-    return impl_->renderCinematic(s);
+    Impl& m = *impl_;
+    m.context.makeCurrent();
+    const auto t0 = std::chrono::steady_clock::now();
+    m.beginCinematic(m.oneShot, s);
+    m.addCinematicPasses(m.oneShot, s.cinematic);
+    RgbaImage image = m.resolveCinematic(m.oneShot);
+    m.lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    m.lastSamples = m.oneShot.samples;
+    return image;
   }
   RgbaImage image(s.width, s.height);
   renderRows(s, 0, s.height, image);
@@ -965,5 +1006,53 @@ double VolumeRenderer::lastRenderMs() const { return impl_->lastMs; }
 double VolumeRenderer::lastGpuMs() const { return impl_->timer.lastMs(); }
 
 int VolumeRenderer::lastSamples() const { return impl_->lastSamples; }
+
+void VolumeRenderer::beginCinematic(const RenderSettings& s) {
+  checkImageSize(s.width, s.height);
+  if (s.preset == Preset::Mip) throw Error("cinematic: the mip preset is not path traced");
+  if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
+  impl_->context.makeCurrent();
+  impl_->beginCinematic(impl_->progressive, s);
+}
+
+int VolumeRenderer::addCinematicSamples(int n) {
+  Impl& m = *impl_;
+  if (!m.progressive.begun) throw Error("addCinematicSamples: call beginCinematic first");
+  if (n <= 0) return m.progressive.samples;
+  m.context.makeCurrent();
+  Cinematic budget = m.progressive.settings.cinematic;
+  budget.samples = n;
+  budget.timeLimitS = 0;
+  m.addCinematicPasses(m.progressive, budget);
+  return m.progressive.samples;
+}
+
+int VolumeRenderer::addCinematicRows(int rowBegin, int rowEnd) {
+  Impl& m = *impl_;
+  if (!m.progressive.begun) throw Error("addCinematicRows: call beginCinematic first");
+  const int h = m.progressive.settings.height;
+  rowBegin = std::clamp(rowBegin, 0, h);
+  rowEnd = std::clamp(rowEnd, rowBegin, h);
+  if (rowBegin == rowEnd) return m.progressive.samples;
+  m.context.makeCurrent();
+  Cinematic one = m.progressive.settings.cinematic;
+  one.samples = 1;
+  one.timeLimitS = 0;
+  m.addCinematicPasses(m.progressive, one, rowBegin, rowEnd);
+  if (rowEnd == h) ++m.progressive.samples;  // every row has it now
+  return m.progressive.samples;
+}
+
+RgbaImage VolumeRenderer::resolveCinematic() {
+  Impl& m = *impl_;
+  if (!m.progressive.begun || m.progressive.samples == 0)
+    throw Error("resolveCinematic: no samples yet (beginCinematic, then addCinematicSamples)");
+  m.context.makeCurrent();
+  RgbaImage image = m.resolveCinematic(m.progressive);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  return image;
+}
+
+int VolumeRenderer::cinematicSamples() const { return impl_->progressive.begun ? impl_->progressive.samples : 0; }
 
 }  // namespace vellum::render

@@ -105,6 +105,23 @@ class VolumeRenderer {
   double lastGpuMs() const;
   /// Samples per pixel of the last cinematic render() (0 before any).
   int lastSamples() const;
+  /// Progressive cinematic rendering, for a viewer that refines while the camera rests:
+  /// beginCinematic() starts a picture of `settings` (a DVR preset; the denoise guide is ray
+  /// cast now and the float sums cleared), each addCinematicSamples(n) adds n paths per pixel
+  /// and returns the total so far, resolveCinematic() is the picture of the sums so far (tone
+  /// mapped, denoised). N samples added in any batches resolve to exactly render()'s picture
+  /// with samples = N and the same seed. Independent of render(), which keeps its own sums.
+  /// Begin again after changing the view, volume, map or tint.
+  void beginCinematic(const RenderSettings& settings);
+  int addCinematicSamples(int n);
+  /// The next sample over image rows [rowBegin, rowEnd) only (row 0 = top), for a viewer that
+  /// cannot afford a whole pass in one frame: call with consecutive bands from row 0; the
+  /// sample counts (and is returned in the total) once a band ends at the last row. Resolve
+  /// between whole samples only. The sums are bit-identical to whole passes.
+  int addCinematicRows(int rowBegin, int rowEnd);
+  RgbaImage resolveCinematic();
+  /// Samples per pixel summed since beginCinematic() (0 before).
+  int cinematicSamples() const;
 
  private:
   struct Impl;
