@@ -14,6 +14,7 @@
 #include "app.hpp"
 #include "studio_tools.hpp"
 #include "deform_session.hpp"
+#include "export_figure.hpp"
 #include "gl_texture.hpp"
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
@@ -368,7 +369,7 @@ std::pair<int, int> StudioApp::pane3dSize() const {
 
 std::string StudioApp::cliCommand(const std::string& out) const {
   const auto [w, h] = pane3dSize();
-  return cliRenderCommand(scene_, w, h, out);
+  return renderCommand(scene_, out, w, h);
 }
 
 void StudioApp::save3dScreenshot(const fs::path& path, int width, int height) {

@@ -46,7 +46,6 @@ void planRender(const Scene& scene, const fs::path& out, const FigureOptions& o,
   r.output = fs::absolute(out);
   r.settings = renderSettingsFor(scene, o.width, o.height);
   r.presets = {r.settings.preset};
-  // cliRenderCommand() names the label file for the tint only when it has one.
   const bool haveLabelFile = !scene.labelsPath.empty();
   const fs::path labelFile = haveLabelFile ? fs::absolute(scene.labelsPath) : fs::path();
   // The tint and "this segment only" read the label file (unsaved labels cannot be named).
@@ -66,7 +65,7 @@ void planRender(const Scene& scene, const fs::path& out, const FigureOptions& o,
   r.annotations.labels = labels;
   r.load.seriesUid = scene.seriesUid;
   r.load.allowOutsideData = isOpenRawHeader(scene.volumePath);
-  // As cmd_render binds its flags: every render-table setting (cliRenderCommand's way), the
+  // As cmd_render binds its flags: every render-table setting (the table's own flags), the
   // pan, the tint's label file; paths absolute so the line runs from any folder.
   std::ostringstream cmd;
   std::vector<std::string> skip{"width", "height"};
@@ -142,6 +141,16 @@ void planIllustration(const Scene& scene, const fs::path& out, const FigureOptio
 }
 
 }  // namespace
+
+std::string renderCommand(const Scene& scene, const fs::path& out, int width, int height) {
+  if (scene.volumePath.empty()) return {};  // a volume without a file: nothing the CLI could read
+  FigureOptions o;
+  o.width = width;
+  o.height = height;
+  FigurePlan plan;
+  planRender(scene, out, o, plan);
+  return plan.command;
+}
 
 FigurePlan planFigure(const Scene& scene, const fs::path& out, const FigureOptions& o) {
   if (!scene.hasVolume()) throw Error("no volume is open");

@@ -39,6 +39,10 @@ struct FigurePlan {
   std::vector<std::string> leftOut;
 };
 
+/// The `vellum render` line that writes the 3D view's ray cast at width x height into `out`
+/// (the View panel's Copy CLI command): Export figure's render plan without annotations.
+std::string renderCommand(const Scene& scene, const std::filesystem::path& out, int width, int height);
+
 /// The plan for `scene`'s 3D view written to `out`. Throws vellum::Error when the view cannot
 /// be written by the CLI (no volume; an illustration whose shapes have no folder).
 FigurePlan planFigure(const Scene& scene, const std::filesystem::path& out, const FigureOptions& options);

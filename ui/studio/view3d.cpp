@@ -166,23 +166,6 @@ bool occludedInView(const Scene& scene, const deformation::MapSampler* map, cons
   return firstVisible(scene, map, origin, dir, norm(mm - origin) - voxel).has_value();
 }
 
-std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out) {
-  const render::RenderSettings s = renderSettingsFor(scene, width, height);
-  std::ostringstream c;
-  c.precision(10);
-  auto quoted = [](const std::string& t) { return "'" + t + "'"; };
-  // Every render setting from the same table as the CLI's flags, so the two cannot drift.
-  // Label colours need the label file; unsaved labels cannot be named, so the blend is left out.
-  const bool tint = s.labelBlend > 0 && !scene.labelsPath.empty();
-  std::vector<std::string> skip{"width", "height"};
-  if (!tint) skip.push_back("label_blend");
-  c << "vellum render " << quoted(scene.volumePath.string()) << " --out " << quoted(out) << " --size " << s.width
-    << "x" << s.height << params::cliArguments(render::renderSettingsTable(), s, skip) << " --pan "
-    << s.camera.panMm.x << ' ' << s.camera.panMm.y << ' ' << s.camera.panMm.z;
-  if (tint) c << " --label-colours " << quoted(scene.labelsPath.string());
-  return c.str();
-}
-
 namespace {
 /// What a frame depends on; a change means "render again".
 std::string viewKey(const Scene& s, int w, int h) {

@@ -64,8 +64,6 @@ bool occludedInView(const Scene& scene, const deformation::MapSampler* map, cons
 /// `vellum illustrate` with the same flags.
 illustration::IllustrationSettings illustrationSettingsFor(const Scene& scene, int width, int height);
 
-/// The `vellum render` command line that writes the 3D view at width x height to `out`.
-std::string cliRenderCommand(const Scene& scene, int width, int height, const std::string& out);
 
 class View3D {
  public:
