@@ -158,7 +158,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curve_.busy() &&
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curves_.busy() &&
          !scene_.authoring.playing && !(joints_ && joints_->busy());
 }
 
@@ -184,7 +184,7 @@ void StudioApp::pollWorkers() {
   pollLoader();
   pollSnake();
   pollShapes();
-  pollCurveAnalogy();
+  curves_.poll();
   pollJoints();
   const double now = glfwGetTime();
   tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);

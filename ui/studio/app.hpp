@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "curve_controller.hpp"
 #include "file_browser.hpp"
 #include "label_tools.hpp"
 #include "layout.hpp"
@@ -130,13 +131,8 @@ class StudioApp {
   void setStylePreset(const std::string& name);
   void setStyleField(const std::string& segment, const std::string& key, const std::string& value);
   ShapeJob& shapeJob() { return shapes_; }
-  /// Curve analogy by drawing (Illustration panel): the tool's state, tracing on/off (on sets
-  /// the plate view), a drawing's outline as C0, and Apply: app::runCurveAnalogy on a worker
-  /// into `<shapes>-curve-N`, loaded as the scene's shapes when done, one undo step.
-  CurveTool& curveTool() { return curve_; }
-  void setTracing(bool on);
-  void loadCurveDrawing(const std::filesystem::path& path);
-  void applyCurveAnalogy();
+  /// Curve analogy by drawing (Illustration panel): curve_controller.hpp.
+  CurveController& curves() { return curves_; }
   /// A Deformation-panel engine edit: begin with the parameters before it, end records one
   /// undo step (the track is unchanged).
   void beginEngineEdit(const deformation::DeformParams& before);
@@ -245,6 +241,10 @@ class StudioApp {
   /// runs after a successful save. Errors go to the error box.
   void saveSceneOrAsk(std::function<void()> then = {});
 
+  /// The 3D view draws again (the camera changed outside a view edit: tracing's plate view).
+  void invalidate3d();
+  void markSlicesDirty() { slicesDirty_ = true; }
+
   // State for panels and scripts.
   Scene& scene() { return scene_; }
   ToolState& tools() { return tools_; }
@@ -314,7 +314,6 @@ class StudioApp {
   void drawHud();
   void captureWindow();
   const Pane* paneAt(double x, double y) const;
-  void markSlicesDirty() { slicesDirty_ = true; }
   void pushEdit(LabelDelta delta);
   /// A label edit (locked segments protected) on the task queue's worker, recorded as one
   /// undo step when the window applies it (see editInWorker in app_commands.cpp).
@@ -396,11 +395,7 @@ class StudioApp {
   SnakeJob snake_;
   ShapeJob shapes_;
   void pollShapes();
-  CurveTool curve_;
-  void pollCurveAnalogy();
-  void drawCurveTrace(const Pane& pane);
-  /// The plate view at w x h: the scene's azimuth and elevation, orthographic, zoom 1, no pan.
-  render::RenderSettings curvePlateView(int w, int h) const;
+  CurveController curves_{*this};
   FileBrowser browser_;
   std::vector<Pane> panes_;
   RecentFiles recent_;

@@ -33,6 +33,8 @@ void StudioApp::viewChanged() {
   markSlicesDirty();
 }
 
+void StudioApp::invalidate3d() { view3d_->invalidate(); }
+
 void StudioApp::pushViewEdit(const std::string& description, const ViewState& before) {
   undo_.push(ViewEdit{description, before, scene_.viewState()});
   viewChanged();

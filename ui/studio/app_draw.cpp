@@ -165,7 +165,7 @@ void StudioApp::drawPanes() {
       drawOrientationMarker(dl, {b.x - 44, b.y - 44}, 30, scene_.render.camera);
       drawControlPoints(p);
       drawJoints(p);
-      drawCurveTrace(p);
+      curves_.draw(p);
       continue;
     }
     const GlTexture& t = *sliceTextures_[static_cast<size_t>(*p.slice)];
@@ -311,7 +311,7 @@ std::vector<std::string> StudioApp::runningWork() const {
     const auto [done, count] = exportProgress();
     r.push_back("exporting frame " + std::to_string(done) + " / " + std::to_string(count));
   }
-  if (curve_.busy()) r.push_back("curve analogy");
+  if (curves_.busy()) r.push_back("curve analogy");
   if (upload3d_) r.push_back("uploading the volume to the 3D view");
   return r;
 }

@@ -36,12 +36,7 @@ void StudioApp::onCursorPos(double x, double y) {
     movePointDrag(x, y);
     return;
   }
-  if (curve_.stroke) {  // tracing C0 in the 3D view's pixels
-    const Pane& pane = *dragPane_;
-    const illustration::Point2 q{x - pane.rect.x, y - pane.rect.y};
-    if (curve_.c0.empty() || std::hypot(q.x - curve_.c0.back().x, q.y - curve_.c0.back().y) >= 1.0) curve_.c0.push_back(q);
-    return;
-  }
+  if (curves_.extendStroke(*dragPane_, x, y)) return;  // tracing C0 in the 3D view's pixels
   const Pane& pane = *dragPane_;
   const bool shift = dragMods_ & GLFW_MOD_SHIFT;
   if (!pane.is3d()) {
@@ -98,7 +93,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
     }
     if (button == dragButton_) {
       if (pointDrag_) endPointDrag();
-      curve_.stroke = false;
+      curves_.endStroke();
       dragPane_.reset();
       dragButton_ = -1;
     }
@@ -121,14 +116,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   dragMods_ = mods;
   pressX_ = mouseX_;
   pressY_ = mouseY_;
-  if (curve_.tracing && pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {  // a new C0
-    curve_.stroke = true;
-    curve_.drawing.clear();
-    curve_.c0 = {{mouseX_ - pane->rect.x, mouseY_ - pane->rect.y}};
-    curve_.viewWidth = int(pane->rect.w);
-    curve_.viewHeight = int(pane->rect.h);
-    return;
-  }
+  if (button == GLFW_MOUSE_BUTTON_LEFT && curves_.beginStroke(*pane, mouseX_, mouseY_)) return;  // a new C0
   // A press on a control point's dot drags that point (Shift: along one axis) in any tool.
   if (button == GLFW_MOUSE_BUTTON_LEFT && beginPointDrag(*pane, mouseX_, mouseY_, mods)) return;
   if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {

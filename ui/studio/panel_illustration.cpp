@@ -87,7 +87,7 @@ void meshesToggle(StudioApp& app) {
 /// (and what it carries), Apply: a new shape folder, one undo step.
 void curveSection(StudioApp& app) {
   Scene& s = app.scene();
-  CurveTool& c = app.curveTool();
+  CurveTool& c = app.curves().state();
   if (!ImGui::TreeNode("Curve analogy")) return;
   if (s.shapesPath.empty() || !s.shapeMeshes || s.shapeMeshes->empty()) {
     ImGui::TextDisabled("needs shapes opened from a vellum shape folder");
@@ -113,18 +113,18 @@ void curveSection(StudioApp& app) {
     ImGui::TreePop();
   }
   bool tracing = c.tracing;
-  if (ImGui::Checkbox("Trace C0", &tracing)) app.setTracing(tracing);
+  if (ImGui::Checkbox("Trace C0", &tracing)) app.curves().setTracing(tracing);
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("left-drag in the 3D view draws the outline the structure should follow (plate view: orthographic)");
   static char drawing[512] = "";
   ImGui::InputTextWithHint("##drawing", "drawing (PNG)", drawing, sizeof drawing);
   ImGui::SameLine();
-  if (ImGui::Button("Load##drawing") && drawing[0]) guarded(app, [&] { app.loadCurveDrawing(drawing); });
+  if (ImGui::Button("Load##drawing") && drawing[0]) guarded(app, [&] { app.curves().loadDrawing(drawing); });
   ImGui::Text("C0: %zu points%s", c.c0.size(), c.drawing.empty() ? "" : " (drawing)");
   ImGui::SameLine();
   if (ImGui::SmallButton("Clear")) c.c0.clear(), c.drawing.clear();
   ImGui::BeginDisabled(c.c0.size() < 3 || c.segment.empty());
-  if (ImGui::Button("Apply curve analogy")) guarded(app, [&] { app.applyCurveAnalogy(); });
+  if (ImGui::Button("Apply curve analogy")) guarded(app, [&] { app.curves().apply(); });
   ImGui::EndDisabled();
   ImGui::TreePop();
 }

@@ -827,7 +827,7 @@ void expandCurveAnalogy(Steps& s, const json& v) {
     std::vector<std::pair<double, double>> trace;
     for (const auto& p : v["trace"]) trace.push_back(point(p));
     if (trace.size() < 3) throw Error("\"trace\" needs at least 3 points");
-    s.once([](StudioApp& a) { a.setTracing(true); });
+    s.once([](StudioApp& a) { a.curves().setTracing(true); });
     s.frames(2);
     s.once([p = trace.front()](StudioApp& a) { a.injectCursorPos(p.first, p.second); });
     s.once([](StudioApp& a) { a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_PRESS, 0); });
@@ -835,26 +835,26 @@ void expandCurveAnalogy(Steps& s, const json& v) {
       s.once([p = trace[i]](StudioApp& a) { a.injectCursorPos(p.first, p.second); });
     s.once([](StudioApp& a) {
       a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, 0);
-      a.setTracing(false);
+      a.curves().setTracing(false);
     });
   } else {
     const std::string drawing = v.at("drawing").get<std::string>();
-    s.once([drawing](StudioApp& a) { a.loadCurveDrawing(drawing); });
+    s.once([drawing](StudioApp& a) { a.curves().loadDrawing(drawing); });
   }
   const bool apply = v.value("apply", true);
   s.once([segment, transfer, apply](StudioApp& a) {
-    a.curveTool().segment = segment;
-    a.curveTool().transfer = {transfer.begin(), transfer.end()};
-    if (apply) a.applyCurveAnalogy();
+    a.curves().state().segment = segment;
+    a.curves().state().transfer = {transfer.begin(), transfer.end()};
+    if (apply) a.curves().apply();
   });
   if (!apply) return;  // C0 and the structure are set; the panel's Apply (or another action) runs it
-  s.until([](StudioApp& a) { return !a.curveTool().busy(); });
+  s.until([](StudioApp& a) { return !a.curves().state().busy(); });
   s.frames(1);  // the frame that adopts the result starts loading the new folder
   s.until([](StudioApp& a) { return !a.tasks().busy() && !a.shapeJob().pending(); });
   s.frames(2);
   s.once([](StudioApp& a) {
-    if (!a.curveTool().lastError.empty()) throw Error("curve analogy failed: " + a.curveTool().lastError);
-    if (a.scene().shapesPath != a.curveTool().jobOut) throw Error("the bent shapes were not loaded");
+    if (!a.curves().state().lastError.empty()) throw Error("curve analogy failed: " + a.curves().state().lastError);
+    if (a.scene().shapesPath != a.curves().state().jobOut) throw Error("the bent shapes were not loaded");
   });
 }
 

@@ -1,15 +1,17 @@
-// StudioApp: curve analogy by drawing ([SAVI 2.3] in docs/references.md). C0 is traced with
-// the mouse over the 3D view in the plate view `vellum curve-analogy` uses, or taken from a
-// drawing's outline; Apply runs the command's pipeline (app::runCurveAnalogy) on a worker
+// CurveController: curve analogy by drawing ([SAVI 2.3] in docs/references.md). C0 is traced
+// with the mouse over the 3D view in the plate view `vellum curve-analogy` uses, or taken from
+// a drawing's outline; Apply runs the command's pipeline (app::runCurveAnalogy) on a worker
 // into a new shape folder beside the current one, which then becomes the scene's shapes.
+#include "curve_controller.hpp"
+
 #include <imgui.h>
 
 #include <chrono>
+#include <cmath>
 #include <iostream>
 
 #include "app.hpp"
 #include "curve_tool.hpp"
-#include "view3d.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/illustration/curve_analogy.hpp"
 
@@ -24,8 +26,8 @@ fs::path nextCurveFolder(const fs::path& folder) {
   }
 }
 
-render::RenderSettings StudioApp::curvePlateView(int w, int h) const {
-  render::RenderSettings s = scene_.render;
+render::RenderSettings CurveController::plateView(int w, int h) const {
+  render::RenderSettings s = app_.scene().render;
   s.width = w;
   s.height = h;
   s.camera.fieldOfViewDeg = 0;  // an illustration plate has no perspective
@@ -34,18 +36,18 @@ render::RenderSettings StudioApp::curvePlateView(int w, int h) const {
   return s;
 }
 
-void StudioApp::setTracing(bool on) {
+void CurveController::setTracing(bool on) {
   curve_.tracing = on;
   curve_.stroke = false;
   if (!on) return;
-  render::Camera& c = scene_.render.camera;  // show what C0 will be matched against
+  render::Camera& c = app_.scene().render.camera;  // show what C0 will be matched against
   c.fieldOfViewDeg = 0;
   c.zoom = 1.0;
   c.panMm = {0, 0, 0};
-  view3d_->invalidate();
+  app_.invalidate3d();
 }
 
-void StudioApp::loadCurveDrawing(const fs::path& path) {
+void CurveController::loadDrawing(const fs::path& path) {
   int w = 0, h = 0;
   illustration::Polyline2 c0 = illustration::loadDrawingOutline(path, w, h);
   curve_.c0 = std::move(c0);
@@ -53,26 +55,27 @@ void StudioApp::loadCurveDrawing(const fs::path& path) {
   curve_.viewHeight = h;
   curve_.drawing = path;
   setTracing(false);
-  render::Camera& c = scene_.render.camera;  // the drawing is a plate view at its own size
+  render::Camera& c = app_.scene().render.camera;  // the drawing is a plate view at its own size
   c.fieldOfViewDeg = 0;
   c.zoom = 1.0;
   c.panMm = {0, 0, 0};
-  view3d_->invalidate();
+  app_.invalidate3d();
 }
 
-void StudioApp::applyCurveAnalogy() {
+void CurveController::apply() {
+  const Scene& scene = app_.scene();
   if (curve_.busy()) throw Error("a curve analogy is already running");
-  if (scene_.shapesPath.empty())
+  if (scene.shapesPath.empty())
     throw Error("curve analogy needs shapes from a `vellum shape` folder (File > shapes, or make them and save)");
   if (curve_.segment.empty()) throw Error("pick the structure to bend");
   app::CurveAnalogyRequest r;
-  r.dir = scene_.shapesPath;
-  r.out = nextCurveFolder(scene_.shapesPath);
+  r.dir = scene.shapesPath;
+  r.out = nextCurveFolder(scene.shapesPath);
   r.segment = curve_.segment;
   r.transfer.assign(curve_.transfer.begin(), curve_.transfer.end());
   r.curve = curve_.c0;
   r.curveSource = curve_.drawing.empty() ? std::string("studio trace") : curve_.drawing.string();
-  r.view = curvePlateView(curve_.viewWidth, curve_.viewHeight);
+  r.view = plateView(curve_.viewWidth, curve_.viewHeight);
   if (r.curve.size() < 3) throw Error("trace C0 over the 3D view, or load a drawing, first");
   curve_.jobBefore = r.dir;
   curve_.jobOut = r.out;
@@ -80,7 +83,7 @@ void StudioApp::applyCurveAnalogy() {
   curve_.job = std::async(std::launch::async, [r] { return app::runCurveAnalogy(r); });
 }
 
-void StudioApp::pollCurveAnalogy() {
+void CurveController::poll() {
   if (!curve_.busy() || curve_.job.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
   try {
     curve_.job.get();
@@ -88,17 +91,17 @@ void StudioApp::pollCurveAnalogy() {
     curve_.job = {};
     curve_.lastError = e.what();
     std::cerr << "vellum-studio: " << curve_.lastError << "\n";
-    showError(curve_.lastError);
+    app_.showError(curve_.lastError);
     return;
   }
   curve_.job = {};
-  undo_.push(ShapesEdit{"curve analogy", curve_.jobBefore, curve_.jobOut});
+  app_.undoStack().push(ShapesEdit{"curve analogy", curve_.jobBefore, curve_.jobOut});
   curve_.c0.clear();
   curve_.drawing.clear();
-  makeShapes(curve_.jobOut);
+  app_.makeShapes(curve_.jobOut);
 }
 
-void StudioApp::drawCurveTrace(const Pane& pane) {
+void CurveController::draw(const Pane& pane) const {
   if (curve_.c0.size() < 2 || curve_.viewWidth <= 0 || curve_.viewHeight <= 0) return;
   // C0's image (viewWidth x viewHeight) fitted into the pane by height, centred: the plate
   // view frames the volume by the image height.
@@ -109,6 +112,24 @@ void StudioApp::drawCurveTrace(const Pane& pane) {
   pts.reserve(curve_.c0.size());
   for (const auto& p : curve_.c0) pts.push_back({float(ox + p.x * s), float(oy + p.y * s)});
   dl->AddPolyline(pts.data(), int(pts.size()), IM_COL32(255, 140, 0, 255), curve_.stroke ? 0 : ImDrawFlags_Closed, 2.0f);
+}
+
+bool CurveController::beginStroke(const Pane& pane, double x, double y) {
+  if (!curve_.tracing || !pane.is3d()) return false;
+  curve_.stroke = true;
+  curve_.drawing.clear();
+  curve_.c0 = {{x - pane.rect.x, y - pane.rect.y}};
+  curve_.viewWidth = int(pane.rect.w);
+  curve_.viewHeight = int(pane.rect.h);
+  return true;
+}
+
+bool CurveController::extendStroke(const Pane& pane, double x, double y) {
+  if (!curve_.stroke) return false;
+  // Tracing C0 in the 3D view's pixels.
+  const illustration::Point2 q{x - pane.rect.x, y - pane.rect.y};
+  if (curve_.c0.empty() || std::hypot(q.x - curve_.c0.back().x, q.y - curve_.c0.back().y) >= 1.0) curve_.c0.push_back(q);
+  return true;
 }
 
 }  // namespace vellum::studio
