@@ -145,7 +145,7 @@ int StudioApp::run() {
     frame();
   }
   loader_.cancel();
-  snake_.cancel();
+  segmentation_.snake().cancel();
   shapes_.cancel();
   tasks_.cancel();
   tasks_.wait();  // it reads the scene, which goes with this object
@@ -158,7 +158,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !snake_.pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curves_.busy() &&
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !segmentation_.snake().pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curves_.busy() &&
          !scene_.authoring.playing && !(joints_ && joints_->busy());
 }
 
@@ -182,7 +182,7 @@ void StudioApp::frame() {
 void StudioApp::pollWorkers() {
   pollTasks();
   pollLoader();
-  pollSnake();
+  segmentation_.pollSnake();
   pollShapes();
   curves_.poll();
   pollJoints();
@@ -324,7 +324,7 @@ void StudioApp::adoptLoad(LoadResult r) {
     scene_.resetView();
   }
   undo_.clear();
-  tools_.activeLabel = std::max<uint16_t>(1, scene_.labels.table().empty() ? 1 : scene_.labels.table().front().id);
+  segmentation_.tools().activeLabel = std::max<uint16_t>(1, scene_.labels.table().empty() ? 1 : scene_.labels.table().front().id);
   // The 3D view's textures are uploaded a slab per frame from the next frame on (the slices
   // show the new volume at once).
   if (r.prepared && r.renderVolume) upload3d_ = Upload3d{r.renderVolume, r.prepared};

@@ -24,6 +24,7 @@
 #include "snake_job.hpp"
 #include "task_queue.hpp"
 #include "scene.hpp"
+#include "segmentation_controller.hpp"
 #include "undo.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
@@ -45,31 +46,6 @@ struct StudioTools;
 struct PointHandle {
   int index = -1;
   PointEnd end = PointEnd::Target;
-};
-
-enum class Tool { Navigate, Paint, Erase, Grow, Snake };
-
-/// What dragging a control point does: move it, or change one of its attributes (vertical:
-/// lightness; horizontal a = green->red and vertical b = blue->yellow; vertical: density).
-enum class PointTool { Move, Lightness, Hue, Density };
-
-/// Segmentation panel state (not saved in scenes).
-struct ToolState {
-  Tool tool = Tool::Navigate;
-  float brushRadiusMm = 4.f;
-  float minIslandMm3 = 100.f;  ///< "Remove islands" keeps components at least this large
-  uint16_t activeLabel = 1;
-  segmentation::HuInterval threshold = segmentation::presetInterval(segmentation::Preset::Bone);
-  bool thresholdPreview = false;
-  PointTool pointTool = PointTool::Move;
-  /// The snake tool's settings (speed, weights, iterations, post-processing), edited through
-  /// segmentSettingsTable() like `vellum segment`'s flags; the seed, the bubble radius (the
-  /// brush radius) and the HU range (the threshold's) come from the tools above.
-  app::SegmentSettings snake = [] {
-    app::SegmentSettings r;
-    r.method = "snake";
-    return r;
-  }();
 };
 
 /// The attribute change of a drag by (dx, dy) pixels from `start` with an attribute tool.
@@ -157,13 +133,6 @@ class StudioApp {
   void setWindowPreset(const std::string& name);
   bool undo();
   bool redo();
-  void applyThreshold();
-  void keepLargestOfActive();
-  void fillHolesOfActive();
-  void removeIslandsOfActive();
-  void morphologyOfActive(Morphology op);
-  /// Sets the threshold range to [Otsu, 3071] HU.
-  void otsuThreshold();
   // Deformation authoring (app_points.cpp, app_animation.cpp).
   /// Places the 16 default points (box) or the points from the label map as one keyframe.
   void placeControls(bool fromLabels);
@@ -247,9 +216,9 @@ class StudioApp {
 
   // State for panels and scripts.
   Scene& scene() { return scene_; }
-  ToolState& tools() { return tools_; }
+  /// The segmentation tools and their label edits (segmentation_controller.hpp).
+  SegmentationController& segmentation() { return segmentation_; }
   Loader& loader() { return loader_; }
-  SnakeJob& snakeJob() { return snake_; }
   /// The queued edits (label operations, label and scene files) and the task running.
   TaskQueue& tasks() { return tasks_; }
   /// True while tasks read the label map and CT on a worker: edits then queue behind them
@@ -267,9 +236,6 @@ class StudioApp {
   void holdTasks(bool on);
   /// What runs on workers now, one line each ("remove islands 40%"), for the status line.
   std::vector<std::string> runningWork() const;
-  /// Starts the snake from a seed (mm) with the threshold range as its inside and the brush
-  /// radius as its bubble (what the Snake tool's click does).
-  void startSnake(const Vec3& seedMm);
   UndoStack& undoStack() { return undo_; }
   FileBrowser& fileBrowser() { return browser_; }
   bool loading() const { return loader_.pending() || pendingLoad_.has_value(); }
@@ -307,24 +273,14 @@ class StudioApp {
   void presentFrame();
   void logFrame(const FrameViews& v);
   void pollLoader();
-  void pollSnake();
   void adoptLoad(LoadResult r);
   void updateSliceTextures();
   void drawPanes();
   void drawHud();
   void captureWindow();
   const Pane* paneAt(double x, double y) const;
-  void pushEdit(LabelDelta delta);
-  /// A label edit (locked segments protected) on the task queue's worker, recorded as one
-  /// undo step when the window applies it (see editInWorker in app_commands.cpp).
-  void editInWorker(const std::string& description, std::function<void(LabelVolume&, Progress&)> fn);
-  /// True (and a notice) when the labels are frozen by running tasks: `what` waits.
-  bool refuseWhileFrozen(const std::string& what);
   void pollTasks();
   void drawStatus();
-  void paintAt(const Pane& pane, double x, double y);
-  void growAt(const Pane& pane, double x, double y);
-  void growFromPoint(const Vec3& seedMm);
   /// Ctrl+click in the 3D view: the crosshair (Navigate) or a seed (Grow, Snake) on the
   /// visible surface under the pointer.
   void clickIn3d(const Pane& pane, double x, double y);
@@ -371,7 +327,7 @@ class StudioApp {
   double lastSlicesMs_ = 0;
   bool slicesRendered_ = false;  ///< in this frame (--log-frames)
   Scene scene_;
-  ToolState tools_;
+  SegmentationController segmentation_{*this};  ///< before tasks_: its queued edits refer to it
   UndoStack undo_;
   std::optional<ViewState> viewEditBefore_;
   std::optional<deformation::DeformParams> engineEditBefore_;  ///< the state before a View-panel edit in progress
@@ -392,7 +348,6 @@ class StudioApp {
   std::shared_ptr<std::atomic<bool>> holding_ = std::make_shared<std::atomic<bool>>(false);
   std::string lastTaskError_, notice_;
   double noticeUntil_ = 0;
-  SnakeJob snake_;
   ShapeJob shapes_;
   void pollShapes();
   CurveController curves_{*this};
@@ -433,13 +388,6 @@ class StudioApp {
   int dragButton_ = -1, dragMods_ = 0;
   std::optional<Pane> dragPane_;  ///< a copy: panes_ is rebuilt every frame
   std::array<bool, 3> virtualDown_{false, false, false};
-  /// A brush stroke in progress: the voxels it changed (index, previous id) and the label
-  /// table before it, made into one undo step on release (no copy of the whole map).
-  struct Stroke {
-    std::vector<std::pair<uint64_t, uint16_t>> changed;
-    std::vector<Label> tableBefore;
-  };
-  std::optional<Stroke> stroke_;
 
   std::filesystem::path pendingScreenshot_;
   std::optional<std::string> screenshotError_;

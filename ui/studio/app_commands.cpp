@@ -19,13 +19,6 @@
 namespace vellum::studio {
 namespace fs = std::filesystem;
 
-namespace {
-Label labelFor(const LabelVolume& labels, uint16_t id, const std::string& defaultName) {
-  if (auto l = labels.label(id)) return *l;
-  return {id, defaultName, defaultLabelColor(id)};
-}
-}  // namespace
-
 // ---- commands ----------------------------------------------------------------------------
 
 void StudioApp::viewChanged() {
@@ -127,29 +120,6 @@ void StudioApp::setWindowPreset(const std::string& name) {
   throw Error("unknown window preset '" + name + "' (" + names + ")");
 }
 
-void StudioApp::editInWorker(const std::string& description, std::function<void(LabelVolume&, Progress&)> fn) {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  // The worker diffs a copy of the labels as they will be when this task starts (the tasks
-  // before it applied, nothing else changing them meanwhile: labelsFrozen()); the UI thread
-  // applies the delta, one undo step.
-  tasks_.push(description, [this, description, fn = std::move(fn), locked = scene_.lockedLabels](Progress& p) {
-    p.begin(description, 1);
-    auto delta = std::make_shared<LabelDelta>(
-        diffEdit(scene_.labels, description, [&](LabelVolume& l) { fn(l, p); }, locked));
-    p.checkCancelled();  // a cancel during the work drops its result
-    return TaskQueue::Apply([this, delta] {
-      applyDelta(scene_.labels, *delta, true);
-      pushEdit(std::move(*delta));
-    });
-  });
-}
-
-bool StudioApp::refuseWhileFrozen(const std::string& what) {
-  if (!labelsFrozen()) return false;
-  notify(what + " refused: wait for " + tasks_.running() + " (or cancel it)");
-  return true;
-}
-
 void StudioApp::holdTasks(bool on) {
   if (!on) {
     *holding_ = false;
@@ -178,13 +148,6 @@ void StudioApp::pollTasks() {
     if (error.size() >= 9 && error.compare(error.size() - 9, 9, "cancelled") == 0) notify(error);
     else showError(error);
   });
-}
-
-void StudioApp::pushEdit(LabelDelta delta) {
-  if (delta.empty()) return;
-  undo_.push(std::move(delta));
-  scene_.touchLabels();
-  markSlicesDirty();
 }
 
 bool StudioApp::undo() {
@@ -217,78 +180,6 @@ bool StudioApp::redo() {
   return true;
 }
 
-
-void StudioApp::applyThreshold() {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  const auto& t = tools_.threshold;
-  std::ostringstream name;
-  name << "Threshold " << t.lower << ".." << t.upper;
-  // The label as the table has it when the task runs (an earlier queued edit may name it).
-  editInWorker("threshold", [this, t, id = tools_.activeLabel, name = name.str()](LabelVolume& l, Progress&) {
-    thresholdInto(l, scene_.ct, t, labelFor(l, id, name));
-  });
-}
-
-void StudioApp::keepLargestOfActive() {
-  editInWorker("keep largest", [id = tools_.activeLabel](LabelVolume& l, Progress&) { keepLargest(l, id); });
-}
-
-void StudioApp::fillHolesOfActive() {
-  editInWorker("fill holes", [id = tools_.activeLabel](LabelVolume& l, Progress&) { fillHoles(l, id); });
-}
-
-void StudioApp::removeIslandsOfActive() {
-  editInWorker("remove islands", [id = tools_.activeLabel, mm3 = tools_.minIslandMm3](LabelVolume& l, Progress&) {
-    removeIslands(l, id, mm3);
-  });
-}
-
-void StudioApp::morphologyOfActive(Morphology op) {
-  editInWorker(morphologyName(op), [id = tools_.activeLabel, op, r = tools_.brushRadiusMm](LabelVolume& l, Progress& p) {
-    morphology(l, id, op, r, p);
-  });
-}
-
-void StudioApp::otsuThreshold() {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  tools_.threshold = {otsuHu(scene_.ct), 3071};
-}
-
-void StudioApp::startSnake(const Vec3& seedMm) {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  // The request `vellum segment --method snake --lower L --upper U --seed S --radius R` makes,
-  // with the panel's snake settings.
-  app::SegmentSettings snake = tools_.snake;
-  snake.method = "snake";
-  snake.lower = tools_.threshold.lower;
-  snake.upper = tools_.threshold.upper;
-  snake.seedsMm = {seedMm};
-  snake.bubbleRadiusMm = tools_.brushRadiusMm;
-  if (!snake_.start({scene_.ct, std::move(snake), scene_.volumeGeneration}))
-    throw Error("a snake is already running; cancel it first (Escape)");
-}
-
-void StudioApp::pollSnake() {
-  auto out = snake_.take();
-  if (!out) return;
-  if (!out->error.empty()) {
-    std::cerr << "vellum-studio: " << out->error << "\n";
-    if (out->error != "snake cancelled") showError(out->error);
-    return;
-  }
-  if (out->volumeGeneration != scene_.volumeGeneration) return;  // another volume was opened meanwhile
-  if (segmentation::countVoxels(out->mask) == 0) {
-    showError("the snake found nothing: is the seed inside the HU range?");
-    return;
-  }
-  std::cout << "snake: " << out->iterations << " iterations" << (out->converged ? ", converged" : "")
-            << (out->note.empty() ? "" : "; " + out->note) << std::endl;
-  auto mask = std::make_shared<const segmentation::Mask>(std::move(out->mask));
-  editInWorker("snake", [mask, id = tools_.activeLabel](LabelVolume& l, Progress&) {
-    segmentation::addSegment(l, *mask, labelFor(l, id, "Snake " + std::to_string(id)),
-                             segmentation::OverlapRule::Overwrite);
-  });
-}
 
 void StudioApp::makeShapes(const fs::path& folder) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
@@ -389,29 +280,5 @@ void StudioApp::quit(int code) {
   quitRequested_ = true;
 }
 
-void StudioApp::paintAt(const Pane& pane, double x, double y) {
-  const SlicePlane plane = planeOf(pane);
-  const uint16_t id = tools_.tool == Tool::Paint ? tools_.activeLabel : 0;
-  // Deformed slices: the ball goes around the source of the pixel under the pointer.
-  const auto at = sliceSourceMm(plane.toMm(x - pane.rect.x, y - pane.rect.y));
-  if (at && stroke_ &&
-      paintSphere(scene_.labels, *at, tools_.brushRadiusMm, id, scene_.lockedLabels, &stroke_->changed) > 0)
-    markSlicesDirty();
-}
-
-void StudioApp::growAt(const Pane& pane, double x, double y) {
-  const SlicePlane plane = planeOf(pane);
-  if (const auto seed = sliceSourceMm(plane.toMm(x - pane.rect.x, y - pane.rect.y))) growFromPoint(*seed);
-}
-
-void StudioApp::growFromPoint(const Vec3& seed) {
-  try {
-    editInWorker("grow", [this, seed, id = tools_.activeLabel, t = tools_.threshold](LabelVolume& l, Progress&) {
-      growFromSeed(l, scene_.ct, seed, t, labelFor(l, id, "Region " + std::to_string(id)));
-    });
-  } catch (const std::exception& e) {
-    showError(e.what());
-  }
-}
 
 }  // namespace vellum::studio

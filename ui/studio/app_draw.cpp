@@ -83,7 +83,7 @@ void StudioApp::updateSliceTextures() {
   key.precision(10);
   key << scene_.crosshairMm.x << ' ' << scene_.crosshairMm.y << ' ' << scene_.crosshairMm.z << ' '
       << scene_.view.sliceWindow.center << ' ' << scene_.view.sliceWindow.width << ' ' << scene_.view.labelOpacity << ' '
-      << tools_.thresholdPreview << ' ' << tools_.threshold.lower << ' ' << tools_.threshold.upper << ' '
+      << segmentation_.tools().thresholdPreview << ' ' << segmentation_.tools().threshold.lower << ' ' << segmentation_.tools().threshold.upper << ' '
       << scene_.hiddenLabels.size();
   // Deformed slices follow the map (every move of a drag); undeformed ones ignore it.
   key << " map " << (map ? deform_->mapRevision() : 0);
@@ -92,7 +92,7 @@ void StudioApp::updateSliceTextures() {
   // again when the drag ends.
   const int reduce = map && pointDrag_ ? sliceDragReduce_ : 1;
   key << " reduce " << reduce;
-  const auto [snakeLive, snakeRevision] = snake_.live();
+  const auto [snakeLive, snakeRevision] = segmentation_.snake().live();
   if (snakeLive) key << " snake " << snakeRevision;
   if (slicesDirty_) paneSliceKeys_ = {};
   const auto t0 = std::chrono::steady_clock::now();
@@ -101,7 +101,7 @@ void StudioApp::updateSliceTextures() {
   style.labels = &scene_.labels;
   style.labelOpacity = scene_.view.labelOpacity;
   style.hidden = &scene_.hiddenLabels;
-  if (tools_.thresholdPreview) style.thresholdPreview = tools_.threshold;
+  if (segmentation_.tools().thresholdPreview) style.thresholdPreview = segmentation_.tools().threshold;
   style.snakePreview = snakeLive.get();
   style.map = map;
   int rendered = 0;
@@ -182,9 +182,9 @@ void StudioApp::drawPanes() {
     // Vertical line: the plane whose normal is u; horizontal: the plane whose normal is v.
     dl->AddLine({a.x + float(cx), a.y}, {a.x + float(cx), b.y}, planeColour(plane.u));
     dl->AddLine({a.x, a.y + float(cy)}, {b.x, a.y + float(cy)}, planeColour(plane.v));
-    if ((tools_.tool == Tool::Paint || tools_.tool == Tool::Erase) && p.rect.contains(mouseX_, mouseY_))
-      dl->AddCircle({float(mouseX_), float(mouseY_)}, float(tools_.brushRadiusMm / plane.mmPerPixel),
-                    tools_.tool == Tool::Paint ? IM_COL32(255, 255, 255, 220) : IM_COL32(255, 120, 120, 220), 32);
+    if ((segmentation_.tools().tool == Tool::Paint || segmentation_.tools().tool == Tool::Erase) && p.rect.contains(mouseX_, mouseY_))
+      dl->AddCircle({float(mouseX_), float(mouseY_)}, float(segmentation_.tools().brushRadiusMm / plane.mmPerPixel),
+                    segmentation_.tools().tool == Tool::Paint ? IM_COL32(255, 255, 255, 220) : IM_COL32(255, 120, 120, 220), 32);
     dl->PopClipRect();
     studioTools_->measure.draw(plane, a.x, a.y, p.rect.w, p.rect.h,
                                p.rect.contains(mouseX_, mouseY_)
@@ -296,8 +296,8 @@ std::vector<std::string> StudioApp::runningWork() const {
     if (tasks_.waiting()) line += "  (" + std::to_string(tasks_.waiting()) + " queued)";
     r.push_back(line);
   }
-  if (snake_.busy()) {
-    const auto [stage, f] = snake_.progress();
+  if (segmentation_.snake().busy()) {
+    const auto [stage, f] = segmentation_.snake().progress();
     r.push_back(with(stage, f));
   }
   if (shapes_.busy()) {

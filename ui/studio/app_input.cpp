@@ -41,14 +41,12 @@ void StudioApp::onCursorPos(double x, double y) {
   const bool shift = dragMods_ & GLFW_MOD_SHIFT;
   if (!pane.is3d()) {
     if (dragButton_ == GLFW_MOUSE_BUTTON_LEFT) {
-      if (tools_.tool == Tool::Grow || tools_.tool == Tool::Snake) {
-        // The seed click acts once (on press); dragging does nothing more.
-      } else if (tools_.tool == Tool::Navigate) {
+      if (segmentation_.tools().tool == Tool::Navigate) {
         const SlicePlane plane = planeOf(pane);
         scene_.crosshairMm = plane.toMm(x - pane.rect.x, y - pane.rect.y);
         markSlicesDirty();
-      } else if (stroke_) {  // a stroke the press started (not refused)
-        paintAt(pane, x, y);
+      } else {
+        segmentation_.dragInSlice(pane, x, y);  // paint, erase (grow and snake seed on press)
       }
     } else if (dragButton_ == GLFW_MOUSE_BUTTON_MIDDLE) {  // pan: the picture follows the pointer
       SliceNavigation& nav = sliceNav_[static_cast<size_t>(*pane.slice)];
@@ -86,11 +84,7 @@ void StudioApp::onCursorPos(double x, double y) {
 
 void StudioApp::onMouseButton(int button, int action, int mods) {
   if (action == GLFW_RELEASE) {
-    if (stroke_) {
-      pushEdit(strokeDelta(std::move(stroke_->changed), std::move(stroke_->tableBefore), scene_.labels,
-                           tools_.tool == Tool::Paint ? "paint" : "erase"));
-      stroke_.reset();
-    }
+    segmentation_.release();  // a brush stroke becomes one undo step
     if (button == dragButton_) {
       if (pointDrag_) endPointDrag();
       curves_.endStroke();
@@ -120,26 +114,8 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   // A press on a control point's dot drags that point (Shift: along one axis) in any tool.
   if (button == GLFW_MOUSE_BUTTON_LEFT && beginPointDrag(*pane, mouseX_, mouseY_, mods)) return;
   if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {
-    if (tools_.tool == Tool::Grow) {
-      growAt(*pane, mouseX_, mouseY_);
-      return;
-    }
-    if (tools_.tool == Tool::Snake) {
-      const SlicePlane plane = planeOf(*pane);
-      try {
-        if (const auto seed = sliceSourceMm(plane.toMm(mouseX_ - pane->rect.x, mouseY_ - pane->rect.y)))
-          startSnake(*seed);
-      } catch (const std::exception& e) {
-        showError(e.what());
-      }
-      return;
-    }
-    if (tools_.tool != Tool::Navigate) {
-      // A worker reads the labels: the stroke would race it (and its delta would undo the
-      // stroke), so it is refused with a notice rather than lost silently.
-      if (refuseWhileFrozen(tools_.tool == Tool::Paint ? "painting" : "erasing")) return;
-      stroke_ = Stroke{{}, scene_.labels.table()};  // the undo step is made on release
-    }
+    // Grow and Snake seed here, Paint and Erase begin a stroke (or are refused).
+    if (segmentation_.pressInSlice(*pane, mouseX_, mouseY_)) return;
     onCursorPos(mouseX_, mouseY_);  // a click acts where it lands
   }
 }
@@ -154,11 +130,7 @@ void StudioApp::clickIn3d(const Pane& pane, double x, double y) {
   const std::optional<Vec3> source = map ? map->sourceMm(*p) : p;
   if (!source) return;
   try {
-    if (tools_.tool == Tool::Grow) {
-      growFromPoint(*source);
-    } else if (tools_.tool == Tool::Snake) {
-      startSnake(*source);
-    } else {
+    if (!segmentation_.seedIn3d(*source)) {  // Grow and Snake seed there
       scene_.crosshairMm = map && scene_.view.deformedSlices ? *p : *source;  // the slices jump there
       markSlicesDirty();
     }
@@ -212,9 +184,9 @@ void StudioApp::onKey(int key, int action, int mods) {
       // Escape cancels what runs (a snake, a load); with nothing running, back to Navigate.
       if (exporting()) cancelExport();
       else if (tasks_.busy()) tasks_.cancel();
-      else if (snake_.busy()) snake_.cancel();
+      else if (segmentation_.snake().busy()) segmentation_.snake().cancel();
       else if (loader_.busy()) loader_.cancel();
-      else tools_.tool = Tool::Navigate;
+      else segmentation_.tools().tool = Tool::Navigate;
     }
   } catch (const std::exception& e) {
     showError(e.what());

@@ -208,7 +208,7 @@ bool StudioApp::beginPointDrag(const Pane& pane, double x, double y, int mods) {
   PointDrag d;
   d.handle = *hit;
   d.startMm = endOf(a.editablePoints()[size_t(hit->index)], hit->end);
-  d.tool = tools_.pointTool;
+  d.tool = segmentation_.tools().pointTool;
   d.startAttributes = a.editablePoints()[size_t(hit->index)].attributes;
   d.pressX = x;
   d.pressY = y;

@@ -68,11 +68,11 @@ void pointsRow(StudioApp& app) {
     const int i = a.selected;
     guarded(app, [&] { app.editTrack("delete point", [i](Authoring& x) { deletePoint(x, i); }); });
   }
-  int tool = static_cast<int>(app.tools().pointTool);
+  int tool = static_cast<int>(app.segmentation().tools().pointTool);
   const char* names[] = {"move", "light", "hue", "density"};  // what dragging a dot does
   for (int t = 0; t < 4; ++t) {
     if (t) ImGui::SameLine();
-    if (ImGui::RadioButton(names[t], &tool, t)) app.tools().pointTool = static_cast<PointTool>(t);
+    if (ImGui::RadioButton(names[t], &tool, t)) app.segmentation().tools().pointTool = static_cast<PointTool>(t);
   }
   const int n = a.active() ? int(a.track.keyframes.front().points.size()) : 0;
   ImGui::Text("%d points", n);

@@ -148,7 +148,7 @@ void viewSection(StudioApp& app) {
 }
 
 void segmentationSection(StudioApp& app) {
-  ToolState& t = app.tools();
+  ToolState& t = app.segmentation().tools();
   static int presetIndex = 0;
   const auto presets = seg::allPresets();
   if (ImGui::BeginCombo("HU preset", seg::presetName(presets[static_cast<size_t>(presetIndex)]))) {
@@ -163,19 +163,19 @@ void segmentationSection(StudioApp& app) {
   if (ImGui::DragFloat2("HU range", range, 5.f, -1024.f, 3071.f)) t.threshold = {range[0], range[1]};
   ImGui::Checkbox("Preview", &t.thresholdPreview);
   ImGui::SameLine();
-  if (ImGui::Button("Otsu")) guarded(app, [&] { app.otsuThreshold(); });
+  if (ImGui::Button("Otsu")) guarded(app, [&] { app.segmentation().otsuThreshold(); });
   ImGui::SameLine();
-  if (ImGui::Button("Apply threshold")) guarded(app, [&] { app.applyThreshold(); });
-  if (ImGui::Button("Keep largest")) guarded(app, [&] { app.keepLargestOfActive(); });
+  if (ImGui::Button("Apply threshold")) guarded(app, [&] { app.segmentation().applyThreshold(); });
+  if (ImGui::Button("Keep largest")) guarded(app, [&] { app.segmentation().keepLargestOfActive(); });
   ImGui::SameLine();
-  if (ImGui::Button("Fill holes")) guarded(app, [&] { app.fillHolesOfActive(); });
-  if (ImGui::Button("Remove islands <")) guarded(app, [&] { app.removeIslandsOfActive(); });
+  if (ImGui::Button("Fill holes")) guarded(app, [&] { app.segmentation().fillHolesOfActive(); });
+  if (ImGui::Button("Remove islands <")) guarded(app, [&] { app.segmentation().removeIslandsOfActive(); });
   ImGui::SameLine();
   ImGui::SetNextItemWidth(-40);
   ImGui::DragFloat("mm3", &t.minIslandMm3, 10.f, 0.f, 1e7f, "%.0f");
   for (Morphology op : {Morphology::Dilate, Morphology::Erode, Morphology::Open, Morphology::Close}) {
     if (op != Morphology::Dilate) ImGui::SameLine();
-    if (ImGui::Button(morphologyName(op))) guarded(app, [&] { app.morphologyOfActive(op); });
+    if (ImGui::Button(morphologyName(op))) guarded(app, [&] { app.segmentation().morphologyOfActive(op); });
   }
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("ball of the brush radius, on the active label");
   int tool = static_cast<int>(t.tool);
@@ -193,22 +193,22 @@ void segmentationSection(StudioApp& app) {
                       "inside = the HU range (e.g. the soft-tissue preset); Escape cancels");
   if (ImGui::TreeNode("Snake settings (vellum segment)")) {
     // Generated from the request table `vellum segment --method snake` takes its flags from.
-    editParams(app::segmentSettingsTable(), app.tools().snake,
+    editParams(app::segmentSettingsTable(), app.segmentation().tools().snake,
                {"method", "preset", "lower", "upper", "strong", "classes", "radius", "multiplier"});
     ImGui::TreePop();
   }
-  if (app.snakeJob().busy()) {
-    const auto [stage, fraction] = app.snakeJob().progress();
+  if (app.segmentation().snake().busy()) {
+    const auto [stage, fraction] = app.segmentation().snake().progress();
     ImGui::TextUnformatted(stage.c_str());
     ImGui::ProgressBar(static_cast<float>(fraction), {-70, 0});
     ImGui::SameLine();
-    if (ImGui::Button("Cancel##snake")) app.snakeJob().cancel();
+    if (ImGui::Button("Cancel##snake")) app.segmentation().snake().cancel();
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("stops; after the coarse levels their contour is kept (Ctrl+Z drops it)");
     // ITK-SNAP's habit: pause to look, accept the contour as it is.
-    const bool paused = app.snakeJob().pauseRequested();
-    if (ImGui::Button(paused ? "Resume##snake" : "Pause##snake")) app.snakeJob().setPaused(!paused);
+    const bool paused = app.segmentation().snake().pauseRequested();
+    if (ImGui::Button(paused ? "Resume##snake" : "Pause##snake")) app.segmentation().snake().setPaused(!paused);
     ImGui::SameLine();
-    if (ImGui::Button("Accept current##snake")) app.snakeJob().acceptCurrent();
+    if (ImGui::Button("Accept current##snake")) app.segmentation().snake().acceptCurrent();
   }
   t.tool = static_cast<Tool>(tool);
   ImGui::SliderFloat("Brush radius (mm)", &t.brushRadiusMm, 0.5f, 30.f, "%.1f");
@@ -219,7 +219,7 @@ void segmentationSection(StudioApp& app) {
 
 void labelTable(StudioApp& app) {
   Scene& s = app.scene();
-  ToolState& t = app.tools();
+  ToolState& t = app.segmentation().tools();
   int active = t.activeLabel;
   if (ImGui::InputInt("Active label", &active)) t.activeLabel = static_cast<uint16_t>(std::clamp(active, 1, 65535));
   if (ImGui::Button("New label")) t.activeLabel = s.labels.nextFreeId();

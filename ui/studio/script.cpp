@@ -251,13 +251,13 @@ void expandSaveLabels(Steps& s, const json& v) {
 void expandThreshold(Steps& s, const json& v) {
   const json spec = v;
   s.once([spec](StudioApp& a) {
-    ToolState& t = a.tools();
+    ToolState& t = a.segmentation().tools();
     if (spec.contains("preset")) t.threshold = segmentation::presetInterval(segmentation::parsePreset(spec["preset"]));
     t.threshold.lower = spec.value("lower", t.threshold.lower);
     t.threshold.upper = spec.value("upper", t.threshold.upper);
     if (spec.contains("label")) t.activeLabel = spec["label"].get<uint16_t>();
     t.thresholdPreview = spec.value("preview", false);
-    if (spec.value("apply", true)) a.applyThreshold();
+    if (spec.value("apply", true)) a.segmentation().applyThreshold();
   });
   if (v.value("wait", true)) s.waitTasks();  // "wait": false leaves it queued (the next edits queue behind it)
 }
@@ -270,26 +270,26 @@ void expandTool(Steps& s, const json& v) {
                     : t == "snake"    ? Tool::Snake
                     : t == "navigate" ? Tool::Navigate
                                       : throw Error("unknown tool '" + t + "'");
-  s.once([tool](StudioApp& a) { a.tools().tool = tool; });
+  s.once([tool](StudioApp& a) { a.segmentation().tools().tool = tool; });
 }
 
 void expandBrushRadius(Steps& s, const json& v) {
   const double r = v.get<double>();
-  s.once([r](StudioApp& a) { a.tools().brushRadiusMm = static_cast<float>(r); });
+  s.once([r](StudioApp& a) { a.segmentation().tools().brushRadiusMm = static_cast<float>(r); });
 }
 
 void expandActiveLabel(Steps& s, const json& v) {
   const auto id = v.get<uint16_t>();
-  s.once([id](StudioApp& a) { a.tools().activeLabel = id; });
+  s.once([id](StudioApp& a) { a.segmentation().tools().activeLabel = id; });
 }
 
 void expandKeepLargest(Steps& s, const json&) {
-  s.once([](StudioApp& a) { a.keepLargestOfActive(); });
+  s.once([](StudioApp& a) { a.segmentation().keepLargestOfActive(); });
   s.waitTasks();
 }
 
 void expandFillHoles(Steps& s, const json& v) {
-  s.once([](StudioApp& a) { a.fillHolesOfActive(); });
+  s.once([](StudioApp& a) { a.segmentation().fillHolesOfActive(); });
   if (!(v.is_boolean() && !v.get<bool>())) s.waitTasks();  // false: queued, not waited for
 }
 
@@ -300,7 +300,7 @@ void expandMorphology(Steps& s, const json& v) {
                        : op == "open"  ? Morphology::Open
                        : op == "close" ? Morphology::Close
                                        : throw Error("unknown morphology '" + op + "'");
-  s.once([m](StudioApp& a) { a.morphologyOfActive(m); });
+  s.once([m](StudioApp& a) { a.segmentation().morphologyOfActive(m); });
   s.waitTasks();
 }
 
@@ -401,8 +401,8 @@ void expandRemoveIslands(Steps& s, const json& v) {
   // mm³, or {"mm3": mm³, "wait": false} (queued, not waited for).
   const double mm3 = v.is_object() ? v.at("mm3").get<double>() : v.get<double>();
   s.once([mm3](StudioApp& a) {
-    a.tools().minIslandMm3 = static_cast<float>(mm3);
-    a.removeIslandsOfActive();
+    a.segmentation().tools().minIslandMm3 = static_cast<float>(mm3);
+    a.segmentation().removeIslandsOfActive();
   });
   if (!v.is_object() || v.value("wait", true)) s.waitTasks();
 }
@@ -414,7 +414,7 @@ void expandHoldTasks(Steps& s, const json& v) {
 }
 
 void expandOtsu(Steps& s, const json&) {
-  s.once([](StudioApp& a) { a.otsuThreshold(); });
+  s.once([](StudioApp& a) { a.segmentation().otsuThreshold(); });
 }
 
 void expandExportCommand(Steps& s, const json& v) {
@@ -560,30 +560,30 @@ void expandSnakeControl(Steps& s, const json& v) {
   if (v.is_object()) {
     const auto& p = v.at("seed_mm");
     const Vec3 seed{p.at(0).get<double>(), p.at(1).get<double>(), p.at(2).get<double>()};
-    s.once([seed](StudioApp& a) { a.startSnake(seed); });
+    s.once([seed](StudioApp& a) { a.segmentation().startSnake(seed); });
     s.frames(1);
     return;
   }
   const std::string what = v.get<std::string>();
   if (what == "wait") {
-    s.until([](StudioApp& a) { return !a.snakeJob().pending(); });
+    s.until([](StudioApp& a) { return !a.segmentation().snake().pending(); });
     s.waitTasks();
   } else if (what == "pause") {
-    s.until([](StudioApp& a) { return a.snakeJob().live().first != nullptr || !a.snakeJob().busy(); });
-    s.once([](StudioApp& a) { a.snakeJob().setPaused(true); });
-    s.until([](StudioApp& a) { return a.snakeJob().parked() || !a.snakeJob().busy(); });
+    s.until([](StudioApp& a) { return a.segmentation().snake().live().first != nullptr || !a.segmentation().snake().busy(); });
+    s.once([](StudioApp& a) { a.segmentation().snake().setPaused(true); });
+    s.until([](StudioApp& a) { return a.segmentation().snake().parked() || !a.segmentation().snake().busy(); });
     s.once([](StudioApp& a) {
-      const auto [iteration, factor] = a.snakeJob().liveIteration();
-      const auto live = a.snakeJob().live().first;
+      const auto [iteration, factor] = a.segmentation().snake().liveIteration();
+      const auto live = a.segmentation().snake().live().first;
       std::cout << "snake paused at iteration " << iteration << " (1/" << factor << " resolution) ("
                 << (live ? segmentation::countVoxels(*live) : 0) << " voxels)" << std::endl;
     });
   } else if (what == "resume") {
-    s.once([](StudioApp& a) { a.snakeJob().setPaused(false); });
+    s.once([](StudioApp& a) { a.segmentation().snake().setPaused(false); });
   } else if (what == "accept" || what == "cancel") {
-    if (what == "accept") s.once([](StudioApp& a) { a.snakeJob().acceptCurrent(); });
-    else s.once([](StudioApp& a) { a.snakeJob().cancel(); });
-    s.until([](StudioApp& a) { return !a.snakeJob().pending(); });
+    if (what == "accept") s.once([](StudioApp& a) { a.segmentation().snake().acceptCurrent(); });
+    else s.once([](StudioApp& a) { a.segmentation().snake().cancel(); });
+    s.until([](StudioApp& a) { return !a.segmentation().snake().pending(); });
     s.waitTasks();
   } else {
     throw Error("snake_control must be pause, resume, accept or cancel");
@@ -617,8 +617,8 @@ void expandPointDrag(Steps& s, const json& v) {
   auto trackBefore = std::make_shared<deformation::KeyframeTrack>();
   s.once([=](StudioApp& a) {
     *trackBefore = a.scene().authoring.track;
-    *previousTool = a.tools().pointTool;
-    a.tools().pointTool = tool;  // the panel's Drag radio buttons
+    *previousTool = a.segmentation().tools().pointTool;
+    a.segmentation().tools().pointTool = tool;  // the panel's Drag radio buttons
     const auto p = a.pointOnScreen(index, end, view);
     if (!p)
       throw Error("control point " + std::to_string(index) + " is not on screen" + (view.empty() ? "" : " in " + view));
@@ -632,7 +632,7 @@ void expandPointDrag(Steps& s, const json& v) {
   }
   s.once([=](StudioApp& a) {
     a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
-    a.tools().pointTool = *previousTool;
+    a.segmentation().tools().pointTool = *previousTool;
     // The press landed elsewhere (another dot, a panel), or the drag was clamped away.
     if (samePoints(*trackBefore, a.scene().authoring.track)) throw Error(attribute ? "changed nothing" : "moved nothing");
   });
