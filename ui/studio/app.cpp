@@ -223,7 +223,7 @@ StudioApp::FrameViews StudioApp::updateViews() {
   if (upload3d_ && upload3d_->adopted++ > 0 &&
       view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
     upload3d_.reset();
-  const bool livePoints = pointDrag_.has_value() || scene_.authoring.playing || (joints_ && joints_->dragging);
+  const bool livePoints = points_.dragging() || scene_.authoring.playing || (joints_ && joints_->dragging);
   v.mapUpdated = deform_->update(scene_, livePoints);
   if (deform_->exactSolveRunning() && !interacting3d()) {
     // The exact map is on the worker (just started, or still running): wait for it a little

@@ -17,6 +17,7 @@
 #include "layout.hpp"
 #include "loader.hpp"
 #include "mpr.hpp"
+#include "point_controller.hpp"
 #include "recent_files.hpp"
 #include "curve_tool.hpp"
 #include "shape_job.hpp"
@@ -41,16 +42,6 @@ class DeformSession;
 class ExportJob;
 class JointTool;
 struct StudioTools;
-
-/// Where a control point's end is drawn in a pane (window pixels) and which it is.
-struct PointHandle {
-  int index = -1;
-  PointEnd end = PointEnd::Target;
-};
-
-/// The attribute change of a drag by (dx, dy) pixels from `start` with an attribute tool.
-void applyAttributeDrag(deformation::PointAttributes& out, const deformation::PointAttributes& start, PointTool tool,
-                        double dx, double dy);
 
 struct StudioOptions {
   std::string input;   ///< volume, DICOM folder or scene to open at start
@@ -109,17 +100,8 @@ class StudioApp {
   ShapeJob& shapeJob() { return shapes_; }
   /// Curve analogy by drawing (Illustration panel): curve_controller.hpp.
   CurveController& curves() { return curves_; }
-  /// A Deformation-panel engine edit: begin with the parameters before it, end records one
-  /// undo step (the track is unchanged).
-  void beginEngineEdit(const deformation::DeformParams& before);
   /// While playing or scrubbing a track with keyframed cameras, the 3D view follows them.
   void followKeyframeCamera();
-  void endEngineEdit();
-  /// The rigid bones (label ids kept rigid, falloff in mm) set to `labels` / `falloffMm`, one
-  /// undo step (the Deformation panel's checkboxes, the falloff slider's finished drag, the
-  /// script's `rigid_labels`). `before` is the state the step undoes to (default: now).
-  void setRigid(std::vector<uint16_t> labels, double falloffMm, const std::string& description,
-                std::optional<std::pair<std::vector<uint16_t>, double>> before = std::nullopt);
   void goToBookmark(size_t index);
   void deleteBookmark(size_t index);
   void resetView();
@@ -133,16 +115,9 @@ class StudioApp {
   void setWindowPreset(const std::string& name);
   bool undo();
   bool redo();
-  // Deformation authoring (app_points.cpp, app_animation.cpp).
-  /// Places the 16 default points (box) or the points from the label map as one keyframe.
-  void placeControls(bool fromLabels);
-  /// Records a change of the keyframe track as one undo step.
-  void editTrack(const std::string& description, const std::function<void(Authoring&)>& fn);
-  /// Records a track change already made (continuous drags) as one undo step.
-  void pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore);
-  /// Window pixel where point `index`'s end is drawn in the first pane that shows it (3D first),
-  /// or in the pane named `view` ("3d", "axial", "coronal", "sagittal").
-  std::optional<std::pair<double, double>> pointOnScreen(int index, PointEnd end, const std::string& view = "") const;
+  // Deformation authoring: the control points, track, engine and rigid edits
+  // (point_controller.hpp); playback and the movie export (app_animation.cpp).
+  PointController& points() { return points_; }
   /// Where the timeline drew each keyframe's block in the last frame (window pixels: x, y,
   /// width, height); its rightmost kKeyframeHandlePx are the duration handle.
   static constexpr float kKeyframeHandlePx = 6;
@@ -286,29 +261,9 @@ class StudioApp {
   void clickIn3d(const Pane& pane, double x, double y);
   std::pair<int, int> pane3dSize() const;
   void drawPlanesIn3d(const Pane& pane);
-  // Control points: drawing, picking and dragging (app_points.cpp).
-  std::optional<std::pair<double, double>> pointInPane(const Pane& pane, const Vec3& mm) const;
-  std::optional<PointHandle> pickPoint(const Pane& pane, double x, double y) const;
-  void drawControlPoints(const Pane& pane);
-  void drawKeyframeConnector(const Pane& pane);
-  bool beginPointDrag(const Pane& pane, double x, double y, int mods);
-  void movePointDrag(double x, double y);
-  void endPointDrag();
   void tickAnimation(double dtS);
-  struct PointDrag {
-    PointHandle handle;
-    Vec3 startMm;
-    double pressX = 0, pressY = 0;
-    int mods = 0;
-    PointTool tool = PointTool::Move;
-    deformation::PointAttributes startAttributes;
-    deformation::KeyframeTrack before;
-    int keyframeBefore = 0;
-  };
-  std::optional<PointDrag> pointDrag_;
+  PointController points_{*this};
   double lastTickS_ = 0;
-  std::string occlusionKey_;                  ///< what occlusion_ was computed for
-  std::vector<std::array<bool, 2>> occlusion_;  ///< per point: source, target hidden in 3D
   std::unique_ptr<DeformSession> deform_;
   std::unique_ptr<ExportJob> export_;
   std::unique_ptr<StudioTools> studioTools_;
@@ -330,7 +285,6 @@ class StudioApp {
   SegmentationController segmentation_{*this};  ///< before tasks_: its queued edits refer to it
   UndoStack undo_;
   std::optional<ViewState> viewEditBefore_;
-  std::optional<deformation::DeformParams> engineEditBefore_;  ///< the state before a View-panel edit in progress
   void pushViewEdit(const std::string& description, const ViewState& before);
   void viewChanged();  ///< layout, preset ... changed: redraw slices and the 3D view
   Loader loader_;

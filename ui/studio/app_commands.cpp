@@ -151,7 +151,7 @@ void StudioApp::pollTasks() {
 }
 
 bool StudioApp::undo() {
-  if (pointDrag_) return false;  // not in the middle of a drag
+  if (points_.dragging()) return false;  // not in the middle of a drag
   if (labelsFrozen()) {  // after the running edits, in order
     tasks_.push("undo", [this](Progress&) { return TaskQueue::Apply([this] { undo(); }); });
     return true;
@@ -166,7 +166,7 @@ bool StudioApp::undo() {
 }
 
 bool StudioApp::redo() {
-  if (pointDrag_) return false;  // not in the middle of a drag
+  if (points_.dragging()) return false;  // not in the middle of a drag
   if (labelsFrozen()) {
     tasks_.push("redo", [this](Progress&) { return TaskQueue::Apply([this] { redo(); }); });
     return true;

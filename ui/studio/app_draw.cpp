@@ -90,7 +90,7 @@ void StudioApp::updateSliceTextures() {
   // While a control point is dragged the deformed slices are resampled every frame through a
   // new map: at reduced resolution (1/2, or 1/4 when 1/2 took over kSliceDragBudgetMs), full
   // again when the drag ends.
-  const int reduce = map && pointDrag_ ? sliceDragReduce_ : 1;
+  const int reduce = map && points_.dragging() ? sliceDragReduce_ : 1;
   key << " reduce " << reduce;
   const auto [snakeLive, snakeRevision] = segmentation_.snake().live();
   if (snakeLive) key << " snake " << snakeRevision;
@@ -163,7 +163,7 @@ void StudioApp::drawPanes() {
       if (upload3d_) dl->AddText({a.x + 6, a.y + 22}, IM_COL32(150, 200, 255, 255), "uploading the volume ...");
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawOrientationMarker(dl, {b.x - 44, b.y - 44}, 30, scene_.render.camera);
-      drawControlPoints(p);
+      points_.draw(p);
       drawJoints(p);
       curves_.draw(p);
       continue;
@@ -190,7 +190,7 @@ void StudioApp::drawPanes() {
                                p.rect.contains(mouseX_, mouseY_)
                                    ? std::optional<Vec3>(plane.toMm(mouseX_ - a.x, mouseY_ - a.y))
                                    : std::nullopt);
-    drawControlPoints(p);
+    points_.draw(p);
     drawJoints(p);
     dl->AddRect(a, b, planeColour(plane.normal));
     std::string title = sliceAxisName(*p.slice);
@@ -305,7 +305,7 @@ std::vector<std::string> StudioApp::runningWork() const {
     r.push_back(with(stage, f));
   }
   for (const std::string& d : deform_->running())
-    if (!pointDrag_) r.push_back(d);  // a drag's own preview is what the drag shows
+    if (!points_.dragging()) r.push_back(d);  // a drag's own preview is what the drag shows
   if (studioTools_->figure.job.busy()) r.push_back(with("export figure", studioTools_->figure.job.progress().second));
   if (exporting()) {
     const auto [done, count] = exportProgress();

@@ -17,7 +17,7 @@ namespace vellum::studio {
 namespace fs = std::filesystem;
 
 bool StudioApp::interacting3d() const {
-  return (dragPane_ && dragPane_->is3d()) || pointDrag_ || scene_.authoring.playing ||
+  return (dragPane_ && dragPane_->is3d()) || points_.dragging() || scene_.authoring.playing ||
          glfwGetTime() < zoomInteractionUntil_;
 }
 
@@ -32,8 +32,8 @@ void StudioApp::onCursorPos(double x, double y) {
   mouseX_ = x;
   mouseY_ = y;
   if (!dragPane_ || !scene_.hasVolume()) return;
-  if (pointDrag_) {
-    movePointDrag(x, y);
+  if (points_.dragging()) {
+    points_.moveDrag(*dragPane_, x, y);
     return;
   }
   if (curves_.extendStroke(*dragPane_, x, y)) return;  // tracing C0 in the 3D view's pixels
@@ -86,7 +86,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   if (action == GLFW_RELEASE) {
     segmentation_.release();  // a brush stroke becomes one undo step
     if (button == dragButton_) {
-      if (pointDrag_) endPointDrag();
+      points_.endDrag();
       curves_.endStroke();
       dragPane_.reset();
       dragButton_ = -1;
@@ -112,7 +112,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   pressY_ = mouseY_;
   if (button == GLFW_MOUSE_BUTTON_LEFT && curves_.beginStroke(*pane, mouseX_, mouseY_)) return;  // a new C0
   // A press on a control point's dot drags that point (Shift: along one axis) in any tool.
-  if (button == GLFW_MOUSE_BUTTON_LEFT && beginPointDrag(*pane, mouseX_, mouseY_, mods)) return;
+  if (button == GLFW_MOUSE_BUTTON_LEFT && points_.beginDrag(*pane, mouseX_, mouseY_, mods)) return;
   if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT) {
     // Grow and Snake seed here, Paint and Erase begin a stroke (or are refused).
     if (segmentation_.pressInSlice(*pane, mouseX_, mouseY_)) return;
@@ -198,4 +198,12 @@ void StudioApp::onDrop(const std::vector<std::string>& paths) {
 }
 
 
+}  // namespace vellum::studio
+
+namespace vellum::studio {
+std::pair<int, int> StudioApp::windowSize() const {
+  int w = 0, h = 0;
+  glfwGetWindowSize(window_, &w, &h);
+  return {w, h};
+}
 }  // namespace vellum::studio

@@ -336,7 +336,7 @@ void StudioApp::drawJoints(const Pane& pane) {
   ImDrawList* dl = ImGui::GetBackgroundDrawList();
   dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
   const auto at = [&](const Vec3& mm) -> std::optional<ImVec2> {
-    const auto p = pointInPane(pane, mm);
+    const auto p = points_.pointInPane(pane, mm);
     if (!p) return std::nullopt;
     return ImVec2{float(p->first), float(p->second)};
   };

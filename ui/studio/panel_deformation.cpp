@@ -32,7 +32,7 @@ void rigidBones(StudioApp& app) {
         std::vector<uint16_t> ids = a.rigidLabels;
         if (on) ids.push_back(l.id);
         else ids.erase(std::remove(ids.begin(), ids.end(), l.id), ids.end());
-        app.setRigid(std::move(ids), a.falloffMm, on ? "rigid label on" : "rigid label off");
+        app.points().setRigid(std::move(ids), a.falloffMm, on ? "rigid label on" : "rigid label off");
       }
     }
     if (app.scene().labels.table().empty()) ImGui::TextDisabled("no label table");
@@ -48,7 +48,7 @@ void rigidBones(StudioApp& app) {
     a.touch();
   }
   if (ImGui::IsItemDeactivatedAfterEdit() && dragStart) {
-    app.setRigid(a.rigidLabels, a.falloffMm, "rigid falloff", dragStart);
+    app.points().setRigid(a.rigidLabels, a.falloffMm, "rigid falloff", dragStart);
     dragStart.reset();
   }
 }
@@ -56,23 +56,23 @@ void rigidBones(StudioApp& app) {
 void pointsRow(StudioApp& app) {
   Scene& s = app.scene();
   Authoring& a = s.authoring;
-  if (ImGui::Button("16 default points")) guarded(app, [&] { app.placeControls(false); });
+  if (ImGui::Button("16 default points")) guarded(app, [&] { app.points().placeControls(false); });
   ImGui::SameLine();
-  if (ImGui::Button("Points from labels")) guarded(app, [&] { app.placeControls(true); });
+  if (ImGui::Button("Points from labels")) guarded(app, [&] { app.points().placeControls(true); });
   if (ImGui::Button("Add point")) {
     // At the crosshair: the point the slices show.
-    guarded(app, [&] { app.editTrack("add point", [&](Authoring& x) { addPoint(x, s.crosshairMm); }); });
+    guarded(app, [&] { app.points().editTrack("add point", [&](Authoring& x) { addPoint(x, s.crosshairMm); }); });
   }
   ImGui::SameLine();
   if (ImGui::Button("Delete point") && a.selected >= 0) {
     const int i = a.selected;
-    guarded(app, [&] { app.editTrack("delete point", [i](Authoring& x) { deletePoint(x, i); }); });
+    guarded(app, [&] { app.points().editTrack("delete point", [i](Authoring& x) { deletePoint(x, i); }); });
   }
-  int tool = static_cast<int>(app.segmentation().tools().pointTool);
+  int tool = static_cast<int>(app.points().tool());
   const char* names[] = {"move", "light", "hue", "density"};  // what dragging a dot does
   for (int t = 0; t < 4; ++t) {
     if (t) ImGui::SameLine();
-    if (ImGui::RadioButton(names[t], &tool, t)) app.segmentation().tools().pointTool = static_cast<PointTool>(t);
+    if (ImGui::RadioButton(names[t], &tool, t)) app.points().tool() = static_cast<PointTool>(t);
   }
   const int n = a.active() ? int(a.track.keyframes.front().points.size()) : 0;
   ImGui::Text("%d points", n);
@@ -88,8 +88,8 @@ void pointsRow(StudioApp& app) {
     const deformation::DeformParams before = a.engine;
     const ParamEdit e = editParams(deformation::deformParamsTable(), a.engine);
     if (e.changed) a.touch();  // re-solve with the new parameters
-    if (e.started) app.beginEngineEdit(before);
-    if (e.finished) app.endEngineEdit();
+    if (e.started) app.points().beginEngineEdit(before);
+    if (e.finished) app.points().endEngineEdit();
     ImGui::TreePop();
   }
   if (const auto* t = app.deformSession().timings(); t && app.deformSession().map()) {
@@ -133,7 +133,7 @@ void keyframeBlocks(StudioApp& app) {
       if (const ImGuiPayload* p = ImGui::AcceptDragDropPayload("VELLUM_KEYFRAME")) {
         const int from = *static_cast<const int*>(p->Data);
         if (from != k)
-          guarded(app, [&] { app.editTrack("move keyframe", [from, k](Authoring& x) { moveKeyframeTo(x, from, k); }); });
+          guarded(app, [&] { app.points().editTrack("move keyframe", [from, k](Authoring& x) { moveKeyframeTo(x, from, k); }); });
       }
       ImGui::EndDragDropTarget();
     }
@@ -152,7 +152,7 @@ void keyframeBlocks(StudioApp& app) {
     if (ImGui::IsItemDeactivated() && before) {
       if (before->keyframes.size() == a.track.keyframes.size() &&
           before->keyframes[size_t(k)].durationS != a.track.keyframes[size_t(k)].durationS)
-        app.pushTrackEdit("keyframe duration", std::move(*before), beforeKeyframe);
+        app.points().pushTrackEdit("keyframe duration", std::move(*before), beforeKeyframe);
       before.reset();
     }
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("drag to change K%d's duration", k);
@@ -168,25 +168,25 @@ void timeline(StudioApp& app) {
   if (ImGui::DragFloat("Duration s", &duration, 0.05f, 0.05f, 60.f, "%.2f")) {
     const int k = a.keyframe;
     const double d = std::max(0.05f, duration);
-    app.editTrack("keyframe duration", [k, d](Authoring& x) { x.track.keyframes[size_t(k)].durationS = d; });
+    app.points().editTrack("keyframe duration", [k, d](Authoring& x) { x.track.keyframes[size_t(k)].durationS = d; });
   }
-  if (ImGui::Button("Add keyframe")) guarded(app, [&] { app.editTrack("add keyframe", addKeyframe); });
+  if (ImGui::Button("Add keyframe")) guarded(app, [&] { app.points().editTrack("add keyframe", addKeyframe); });
   ImGui::SameLine();
   if (ImGui::Button("Delete keyframe") && a.track.keyframes.size() > 1) {
     const int k = a.keyframe;
-    guarded(app, [&] { app.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); }); });
+    guarded(app, [&] { app.points().editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); }); });
   }
   ImGui::SameLine();
   {
     const int k = a.keyframe, n = int(a.track.keyframes.size());
     ImGui::BeginDisabled(k <= 0);
     if (ImGui::ArrowButton("##earlier", ImGuiDir_Left))
-      guarded(app, [&] { app.editTrack("move keyframe", [k](Authoring& x) { moveKeyframe(x, k, -1); }); });
+      guarded(app, [&] { app.points().editTrack("move keyframe", [k](Authoring& x) { moveKeyframe(x, k, -1); }); });
     ImGui::EndDisabled();
     ImGui::SameLine();
     ImGui::BeginDisabled(k + 1 >= n);
     if (ImGui::ArrowButton("##later", ImGuiDir_Right))
-      guarded(app, [&] { app.editTrack("move keyframe", [k](Authoring& x) { moveKeyframe(x, k, +1); }); });
+      guarded(app, [&] { app.points().editTrack("move keyframe", [k](Authoring& x) { moveKeyframe(x, k, +1); }); });
     ImGui::EndDisabled();
     if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) ImGui::SetTooltip("move the keyframe earlier / later");
   }
@@ -195,7 +195,7 @@ void timeline(StudioApp& app) {
     if (ImGui::Button("Key camera"))
       guarded(app, [&] {
         const render::Camera c = app.scene().render.camera;
-        app.editTrack("keyframe camera", [k, c](Authoring& x) {
+        app.points().editTrack("keyframe camera", [k, c](Authoring& x) {
           x.track.keyframes[size_t(k)].camera = keyframeCameraOf(c);
         });
       });
@@ -203,7 +203,7 @@ void timeline(StudioApp& app) {
     if (a.track.keyframes[size_t(k)].camera) {
       ImGui::SameLine();
       if (ImGui::Button("Clear camera"))
-        guarded(app, [&] { app.editTrack("clear keyframe camera", [k](Authoring& x) { x.track.keyframes[size_t(k)].camera.reset(); }); });
+        guarded(app, [&] { app.points().editTrack("clear keyframe camera", [k](Authoring& x) { x.track.keyframes[size_t(k)].camera.reset(); }); });
       ImGui::SameLine();
       const deformation::KeyframeCamera& kc = *a.track.keyframes[size_t(k)].camera;
       ImGui::TextDisabled("az %.0f el %.0f zoom %.2f fov %.0f", kc.azimuthDeg, kc.elevationDeg, kc.zoom,
@@ -212,10 +212,10 @@ void timeline(StudioApp& app) {
   }
   int interp = static_cast<int>(a.track.interpolation);
   if (ImGui::Combo("Interpolation", &interp, "linear\0smooth\0eased\0")) {
-    app.editTrack("interpolation", [interp](Authoring& x) { x.track.interpolation = static_cast<Interpolation>(interp); });
+    app.points().editTrack("interpolation", [interp](Authoring& x) { x.track.interpolation = static_cast<Interpolation>(interp); });
   }
   bool loop = a.track.loop;
-  if (ImGui::Checkbox("Loop", &loop)) app.editTrack("loop", [loop](Authoring& x) { x.track.loop = loop; });
+  if (ImGui::Checkbox("Loop", &loop)) app.points().editTrack("loop", [loop](Authoring& x) { x.track.loop = loop; });
   ImGui::SameLine();
   if (ImGui::Button(a.playing ? "Pause" : "Play")) guarded(app, [&] { app.play(!a.playing); });
   float t = float(a.timeS.value_or(keyframeStartS(a.track, a.keyframe)));

@@ -546,7 +546,7 @@ void expandLog(Steps& s, const json& v) {
 void expandControls(Steps& s, const json& v) {
   const std::string which = v.get<std::string>();
   if (which != "default" && which != "labels") throw Error("controls must be \"default\" or \"labels\"");
-  s.once([which](StudioApp& a) { a.placeControls(which == "labels"); });
+  s.once([which](StudioApp& a) { a.points().placeControls(which == "labels"); });
   if (which == "labels") s.waitTasks();  // made on the task queue's worker
   s.frames(1);
 }
@@ -617,9 +617,9 @@ void expandPointDrag(Steps& s, const json& v) {
   auto trackBefore = std::make_shared<deformation::KeyframeTrack>();
   s.once([=](StudioApp& a) {
     *trackBefore = a.scene().authoring.track;
-    *previousTool = a.segmentation().tools().pointTool;
-    a.segmentation().tools().pointTool = tool;  // the panel's Drag radio buttons
-    const auto p = a.pointOnScreen(index, end, view);
+    *previousTool = a.points().tool();
+    a.points().tool() = tool;  // the panel's Drag radio buttons
+    const auto p = a.points().pointOnScreen(index, end, view);
     if (!p)
       throw Error("control point " + std::to_string(index) + " is not on screen" + (view.empty() ? "" : " in " + view));
     *from = *p;
@@ -632,7 +632,7 @@ void expandPointDrag(Steps& s, const json& v) {
   }
   s.once([=](StudioApp& a) {
     a.injectMouseButton(GLFW_MOUSE_BUTTON_LEFT, GLFW_RELEASE, mods);
-    a.segmentation().tools().pointTool = *previousTool;
+    a.points().tool() = *previousTool;
     // The press landed elsewhere (another dot, a panel), or the drag was clamped away.
     if (samePoints(*trackBefore, a.scene().authoring.track)) throw Error(attribute ? "changed nothing" : "moved nothing");
   });
@@ -644,19 +644,19 @@ void expandKeyframe(Steps& s, const json& v) {
   s.once([spec](StudioApp& a) {
     if (spec.is_string()) {
       const std::string op = spec.get<std::string>();
-      if (op == "add") a.editTrack("add keyframe", addKeyframe);
+      if (op == "add") a.points().editTrack("add keyframe", addKeyframe);
       else if (op == "delete") {
         const int k = a.scene().authoring.keyframe;
-        a.editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); });
+        a.points().editTrack("delete keyframe", [k](Authoring& x) { deleteKeyframe(x, k); });
       } else if (op == "camera") {  // the view's camera into the edited keyframe
         const int k = a.scene().authoring.keyframe;
         const render::Camera c = a.scene().render.camera;
-        a.editTrack("keyframe camera", [k, c](Authoring& x) {
+        a.points().editTrack("keyframe camera", [k, c](Authoring& x) {
           x.track.keyframes[size_t(k)].camera = keyframeCameraOf(c);
         });
       } else if (op == "earlier" || op == "later") {
         const int k = a.scene().authoring.keyframe, by = op == "earlier" ? -1 : 1;
-        a.editTrack("move keyframe", [k, by](Authoring& x) { moveKeyframe(x, k, by); });
+        a.points().editTrack("move keyframe", [k, by](Authoring& x) { moveKeyframe(x, k, by); });
       } else throw Error("keyframe must be \"add\", \"delete\", \"camera\", \"earlier\", \"later\" or an object");
       return;
     }
@@ -669,7 +669,7 @@ void expandKeyframe(Steps& s, const json& v) {
       au.timeS.reset();
       au.touch();
     }
-    a.editTrack("keyframe settings", [&spec](Authoring& x) {
+    a.points().editTrack("keyframe settings", [&spec](Authoring& x) {
       if (spec.contains("duration")) x.track.keyframes[size_t(x.keyframe)].durationS = spec["duration"].get<double>();
       if (spec.contains("interpolation"))
         x.track.interpolation = deformation::parseInterpolation(spec["interpolation"].get<std::string>());
@@ -767,7 +767,7 @@ void expandExportMovie(Steps& s, const json& v) {
 
 void expandRigidLabels(Steps& s, const json& v) {
   const std::vector<uint16_t> ids = v.get<std::vector<uint16_t>>();
-  s.once([ids](StudioApp& a) { a.setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
+  s.once([ids](StudioApp& a) { a.points().setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
 }
 
 void expandJoint(Steps& s, const json& v) {

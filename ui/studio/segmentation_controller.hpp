@@ -26,10 +26,6 @@ class StudioApp;
 
 enum class Tool { Navigate, Paint, Erase, Grow, Snake };
 
-/// What dragging a control point does: move it, or change one of its attributes (vertical:
-/// lightness; horizontal a = green->red and vertical b = blue->yellow; vertical: density).
-enum class PointTool { Move, Lightness, Hue, Density };
-
 /// Segmentation panel state (not saved in scenes).
 struct ToolState {
   Tool tool = Tool::Navigate;
@@ -38,7 +34,6 @@ struct ToolState {
   uint16_t activeLabel = 1;
   segmentation::HuInterval threshold = segmentation::presetInterval(segmentation::Preset::Bone);
   bool thresholdPreview = false;
-  PointTool pointTool = PointTool::Move;
   /// The snake tool's settings (speed, weights, iterations, post-processing), edited through
   /// segmentSettingsTable() like `vellum segment`'s flags; the seed, the bubble radius (the
   /// brush radius) and the HU range (the threshold's) come from the tools above.

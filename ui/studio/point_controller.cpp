@@ -1,8 +1,10 @@
-// StudioApp: the control-point metaphor. Source = grey dot, target = green dot, a grey line
+// PointController: the control-point metaphor. Source = grey dot, target = green dot, a grey line
 // between them (green for the selected point), sized in screen pixels, over the 3D view
 // (projected with render::Projection, the renderer's own camera) and the slice views. A press
 // on a dot drags that end in the plane through it parallel to the screen (Shift: along the
 // LPS axis closest to the pointer's motion); in a slice, within the slice plane.
+#include "point_controller.hpp"
+
 #include <GLFW/glfw3.h>
 #include <imgui.h>
 
@@ -30,6 +32,8 @@ const ImU32 kSelectedRing = IM_COL32(255, 255, 255, 255);
 Vec3 endOf(const deformation::ControlPoint& p, PointEnd e) { return e == PointEnd::Source ? p.source : p.target; }
 }  // namespace
 
+Scene& PointController::scene() const { return app_.scene(); }
+
 void applyAttributeDrag(deformation::PointAttributes& out, const deformation::PointAttributes& start, PointTool tool,
                         double dx, double dy) {
   out = start;
@@ -49,30 +53,30 @@ void applyAttributeDrag(deformation::PointAttributes& out, const deformation::Po
   }
 }
 
-std::optional<std::pair<double, double>> StudioApp::pointInPane(const Pane& pane, const Vec3& mm) const {
+std::optional<std::pair<double, double>> PointController::pointInPane(const Pane& pane, const Vec3& mm) const {
   if (pane.is3d()) {
-    const render::Projection proj(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
+    const render::Projection proj(scene().ct.geometry(), renderSettingsFor(scene(), int(pane.rect.w), int(pane.rect.h)));
     const auto px = proj.toPixel(mm);
     if (!px) return std::nullopt;
     // Projection puts pixel centres on integers; window coordinates put them at +0.5.
     return std::pair{pane.rect.x + px->x + 0.5, pane.rect.y + px->y + 0.5};
   }
-  const SlicePlane plane = planeOf(pane);
+  const SlicePlane plane = app_.planeOf(pane);
   const auto [x, y] = plane.toPixel(mm);
   return std::pair{pane.rect.x + x, pane.rect.y + y};
 }
 
-std::optional<PointHandle> StudioApp::pickPoint(const Pane& pane, double x, double y) const {
-  if (scene_.authoring.pose) return std::nullopt;  // not drawn (drawControlPoints)
-  const ControlPoints pts = scene_.authoring.currentPoints();
+std::optional<PointHandle> PointController::pickPoint(const Pane& pane, double x, double y) const {
+  if (scene().authoring.pose) return std::nullopt;  // not drawn (drawControlPoints)
+  const ControlPoints pts = scene().authoring.currentPoints();
   // Dots that coincide on screen (points stacked along the view axis) are told apart by depth:
   // in 3D the one nearest the eye, in a slice the one nearest the slice plane.
   std::optional<render::Projection> proj;
   std::optional<SlicePlane> plane;
-  if (pane.is3d()) proj.emplace(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
-  else plane = planeOf(pane);
+  if (pane.is3d()) proj.emplace(scene().ct.geometry(), renderSettingsFor(scene(), int(pane.rect.w), int(pane.rect.h)));
+  else plane = app_.planeOf(pane);
   auto depthOf = [&](const Vec3& mm) {
-    if (plane) return std::abs(dot(mm - scene_.crosshairMm, plane->normal));
+    if (plane) return std::abs(dot(mm - scene().crosshairMm, plane->normal));
     const auto px = proj->toPixel(mm);
     return px ? px->z : 1e300;
   };
@@ -91,12 +95,12 @@ std::optional<PointHandle> StudioApp::pickPoint(const Pane& pane, double x, doub
   return best;
 }
 
-std::optional<std::pair<double, double>> StudioApp::pointOnScreen(int index, PointEnd end,
+std::optional<std::pair<double, double>> PointController::pointOnScreen(int index, PointEnd end,
                                                                   const std::string& view) const {
-  const ControlPoints pts = scene_.authoring.currentPoints();
+  const ControlPoints pts = scene().authoring.currentPoints();
   if (index < 0 || index >= int(pts.size())) return std::nullopt;
   std::vector<const Pane*> order;
-  for (const Pane& p : panes_) {
+  for (const Pane& p : app_.panes()) {
     if (!view.empty() && view != (p.is3d() ? "3d" : sliceAxisName(*p.slice))) continue;
     if (p.is3d()) order.insert(order.begin(), &p);
     else order.push_back(&p);
@@ -107,13 +111,13 @@ std::optional<std::pair<double, double>> StudioApp::pointOnScreen(int index, Poi
   return std::nullopt;
 }
 
-void StudioApp::drawControlPoints(const Pane& pane) {
-  if (scene_.authoring.pose) return;  // the joint tool's generated points: its axes are the handles
-  const ControlPoints pts = scene_.authoring.currentPoints();
+void PointController::draw(const Pane& pane) {
+  if (scene().authoring.pose) return;  // the joint tool's generated points: its axes are the handles
+  const ControlPoints pts = scene().authoring.currentPoints();
   if (pts.empty()) return;
   ImDrawList* dl = ImGui::GetBackgroundDrawList();
   dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
-  const int selected = scene_.authoring.selected;
+  const int selected = scene().authoring.selected;
   // Selected last, so its line and dots lie on top.
   std::vector<int> order;
   for (int i = 0; i < int(pts.size()); ++i)
@@ -122,24 +126,24 @@ void StudioApp::drawControlPoints(const Pane& pane) {
   // In a slice, points away from the slice plane are dimmed (they are not in that section).
   std::optional<SlicePlane> plane;
   if (!pane.is3d())
-    plane = planeOf(pane);
-  const Vec3& sp = scene_.ct.geometry().spacing;
+    plane = app_.planeOf(pane);
+  const Vec3& sp = scene().ct.geometry().spacing;
   const double nearMm = 1.5 * std::max({sp.x, sp.y, sp.z});
   // In the 3D view, dots behind the volume's first visible surface are dimmed (depth test
   // on the CPU along the eye ray, through the deformation the view draws).
-  const deformation::MapSampler* map = deform_->sampler();
+  const deformation::MapSampler* map = app_.deformSession().sampler();
   auto hidden = [&](const Vec3& mm) {
-    return plane ? std::abs(dot(mm - scene_.crosshairMm, plane->normal)) > nearMm : occludedInView(scene_, map, mm);
+    return plane ? std::abs(dot(mm - scene().crosshairMm, plane->normal)) > nearMm : occludedInView(scene(), map, mm);
   };
   if (!plane) {
     // The eye rays depend on the view and the map, not on the pane: cache them across frames.
     std::ostringstream key;
     key.precision(12);
-    const auto& c = scene_.render.camera;
+    const auto& c = scene().render.camera;
     key << c.azimuthDeg << ' ' << c.elevationDeg << ' ' << c.fieldOfViewDeg << ' ' << c.panMm.x << ' ' << c.panMm.y
-        << ' ' << c.panMm.z << ' ' << int(scene_.render.preset) << ' ' << scene_.render.windowCenter << ' '
-        << scene_.render.windowWidth << ' ' << deform_->mapRevision() << ' ' << scene_.authoring.revision << ' '
-        << scene_.volumeGeneration;
+        << ' ' << c.panMm.z << ' ' << int(scene().render.preset) << ' ' << scene().render.windowCenter << ' '
+        << scene().render.windowWidth << ' ' << app_.deformSession().mapRevision() << ' ' << scene().authoring.revision << ' '
+        << scene().volumeGeneration;
     if (key.str() != occlusionKey_ || occlusion_.size() != pts.size()) {
       occlusion_.resize(pts.size());
       for (size_t i = 0; i < pts.size(); ++i) occlusion_[i] = {hidden(pts[i].source), hidden(pts[i].target)};
@@ -168,10 +172,10 @@ void StudioApp::drawControlPoints(const Pane& pane) {
   dl->PopClipRect();
 }
 
-void StudioApp::drawKeyframeConnector(const Pane& pane) {
+void PointController::drawKeyframeConnector(const Pane& pane) {
   // The selected point's target in the previous / current / next keyframe, red / green / blue,
   // joined by a Y: three arms from their centroid.
-  const Authoring& a = scene_.authoring;
+  const Authoring& a = scene().authoring;
   const int n = int(a.track.keyframes.size());
   if (n < 2 || a.selected < 0 || a.timeS) return;
   std::vector<std::pair<ImVec2, ImU32>> ends;
@@ -195,11 +199,11 @@ void StudioApp::drawKeyframeConnector(const Pane& pane) {
   }
 }
 
-bool StudioApp::beginPointDrag(const Pane& pane, double x, double y, int mods) {
-  if (scene_.authoring.playing || !scene_.authoring.active()) return false;
+bool PointController::beginDrag(const Pane& pane, double x, double y, int mods) {
+  if (scene().authoring.playing || !scene().authoring.active()) return false;
   const auto hit = pickPoint(pane, x, y);
   if (!hit) return false;
-  Authoring& a = scene_.authoring;
+  Authoring& a = scene().authoring;
   if (a.timeS) {  // scrubbed between keyframes: edit the keyframe being shown
     a.timeS.reset();
     a.touch();
@@ -208,26 +212,25 @@ bool StudioApp::beginPointDrag(const Pane& pane, double x, double y, int mods) {
   PointDrag d;
   d.handle = *hit;
   d.startMm = endOf(a.editablePoints()[size_t(hit->index)], hit->end);
-  d.tool = segmentation_.tools().pointTool;
+  d.tool = tool_;
   d.startAttributes = a.editablePoints()[size_t(hit->index)].attributes;
   d.pressX = x;
   d.pressY = y;
   d.mods = mods;
   d.before = a.track;
   d.keyframeBefore = a.keyframe;
-  pointDrag_ = d;
+  drag_ = d;
   return true;
 }
 
-void StudioApp::movePointDrag(double x, double y) {
-  if (!pointDrag_ || !dragPane_) return;
-  const PointDrag& d = *pointDrag_;
-  const Pane& pane = *dragPane_;
+void PointController::moveDrag(const Pane& pane, double x, double y) {
+  if (!drag_) return;
+  const PointDrag& d = *drag_;
   const double dx = x - d.pressX, dy = y - d.pressY;
   if (d.tool != PointTool::Move) {
-    applyAttributeDrag(scene_.authoring.editablePoints()[size_t(d.handle.index)].attributes, d.startAttributes, d.tool,
+    applyAttributeDrag(scene().authoring.editablePoints()[size_t(d.handle.index)].attributes, d.startAttributes, d.tool,
                        dx, dy);
-    scene_.authoring.touch();
+    scene().authoring.touch();
     return;
   }
   // Screen directions at the point's depth: the pixel motion of 1 mm along right, up (3D) or
@@ -235,14 +238,14 @@ void StudioApp::movePointDrag(double x, double y) {
   Vec3 right, down;
   double pxPerMm = 1;
   if (pane.is3d()) {
-    const render::Projection proj(scene_.ct.geometry(), renderSettingsFor(scene_, int(pane.rect.w), int(pane.rect.h)));
+    const render::Projection proj(scene().ct.geometry(), renderSettingsFor(scene(), int(pane.rect.w), int(pane.rect.h)));
     const auto p0 = proj.toPixel(d.startMm), p1 = proj.toPixel(d.startMm + proj.screenRight());
     if (!p0 || !p1) return;
     pxPerMm = std::hypot(p1->x - p0->x, p1->y - p0->y);
     right = proj.screenRight();
     down = -proj.screenUp();
   } else {
-    const SlicePlane plane = planeOf(pane);
+    const SlicePlane plane = app_.planeOf(pane);
     pxPerMm = 1.0 / plane.mmPerPixel;
     right = plane.u;
     down = plane.v;
@@ -266,67 +269,67 @@ void StudioApp::movePointDrag(double x, double y) {
     const double sx = dot(e, right), sy = dot(e, down), len2 = sx * sx + sy * sy;
     move = len2 > 1e-12 ? e * ((dx * sx + dy * sy) / len2 / pxPerMm) : Vec3{};
   }
-  auto& p = scene_.authoring.editablePoints()[size_t(d.handle.index)];
+  auto& p = scene().authoring.editablePoints()[size_t(d.handle.index)];
   (d.handle.end == PointEnd::Source ? p.source : p.target) = d.startMm + move;
-  scene_.authoring.touch();
+  scene().authoring.touch();
 }
 
-void StudioApp::endPointDrag() {
-  if (!pointDrag_) return;
+void PointController::endDrag() {
+  if (!drag_) return;
   TrackEdit e;
-  e.description = "drag point " + std::to_string(pointDrag_->handle.index);
-  e.before = std::move(pointDrag_->before);
-  e.keyframeBefore = pointDrag_->keyframeBefore;
-  e.after = scene_.authoring.track;
-  e.keyframeAfter = scene_.authoring.keyframe;
-  pointDrag_.reset();
-  if (!samePoints(e.before, e.after)) undo_.push(std::move(e));  // a click without motion only selects
+  e.description = "drag point " + std::to_string(drag_->handle.index);
+  e.before = std::move(drag_->before);
+  e.keyframeBefore = drag_->keyframeBefore;
+  e.after = scene().authoring.track;
+  e.keyframeAfter = scene().authoring.keyframe;
+  drag_.reset();
+  if (!samePoints(e.before, e.after)) app_.undoStack().push(std::move(e));  // a click without motion only selects
 }
 
-void StudioApp::editTrack(const std::string& description, const std::function<void(Authoring&)>& fn) {
+void PointController::editTrack(const std::string& description, const std::function<void(Authoring&)>& fn) {
   TrackEdit e;
   e.description = description;
-  e.before = scene_.authoring.track;
-  e.keyframeBefore = scene_.authoring.keyframe;
-  e.engineBefore = scene_.authoring.engine;
-  fn(scene_.authoring);
-  e.after = scene_.authoring.track;
-  e.keyframeAfter = scene_.authoring.keyframe;
-  e.engineAfter = scene_.authoring.engine;
-  scene_.authoring.touch();
-  undo_.push(std::move(e));
+  e.before = scene().authoring.track;
+  e.keyframeBefore = scene().authoring.keyframe;
+  e.engineBefore = scene().authoring.engine;
+  fn(scene().authoring);
+  e.after = scene().authoring.track;
+  e.keyframeAfter = scene().authoring.keyframe;
+  e.engineAfter = scene().authoring.engine;
+  scene().authoring.touch();
+  app_.undoStack().push(std::move(e));
 }
 
-void StudioApp::pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore) {
+void PointController::pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore) {
   TrackEdit e;
   e.description = description;
   e.before = std::move(before);
   e.keyframeBefore = keyframeBefore;
-  e.after = scene_.authoring.track;
-  e.keyframeAfter = scene_.authoring.keyframe;
-  e.engineBefore = e.engineAfter = scene_.authoring.engine;
-  undo_.push(std::move(e));
+  e.after = scene().authoring.track;
+  e.keyframeAfter = scene().authoring.keyframe;
+  e.engineBefore = e.engineAfter = scene().authoring.engine;
+  app_.undoStack().push(std::move(e));
 }
 
-void StudioApp::beginEngineEdit(const deformation::DeformParams& before) {
+void PointController::beginEngineEdit(const deformation::DeformParams& before) {
   if (!engineEditBefore_) engineEditBefore_ = before;
 }
 
-void StudioApp::endEngineEdit() {
+void PointController::endEngineEdit() {
   TrackEdit e;
   e.description = "engine parameters";
-  e.before = e.after = scene_.authoring.track;
-  e.keyframeBefore = e.keyframeAfter = scene_.authoring.keyframe;
-  e.engineBefore = engineEditBefore_.value_or(scene_.authoring.engine);
-  e.engineAfter = scene_.authoring.engine;
+  e.before = e.after = scene().authoring.track;
+  e.keyframeBefore = e.keyframeAfter = scene().authoring.keyframe;
+  e.engineBefore = engineEditBefore_.value_or(scene().authoring.engine);
+  e.engineAfter = scene().authoring.engine;
   engineEditBefore_.reset();
-  scene_.authoring.touch();
-  undo_.push(std::move(e));
+  scene().authoring.touch();
+  app_.undoStack().push(std::move(e));
 }
 
-void StudioApp::setRigid(std::vector<uint16_t> labels, double falloffMm, const std::string& description,
+void PointController::setRigid(std::vector<uint16_t> labels, double falloffMm, const std::string& description,
                          std::optional<std::pair<std::vector<uint16_t>, double>> before) {
-  Authoring& a = scene_.authoring;
+  Authoring& a = scene().authoring;
   TrackEdit e;
   e.description = description;
   e.before = e.after = a.track;
@@ -339,20 +342,20 @@ void StudioApp::setRigid(std::vector<uint16_t> labels, double falloffMm, const s
   a.rigidLabels = std::move(labels);
   a.falloffMm = falloffMm;
   a.touch();
-  undo_.push(std::move(e));
+  app_.undoStack().push(std::move(e));
 }
 
-void StudioApp::placeControls(bool fromLabels) {
-  if (!scene_.hasVolume()) throw Error("no volume is open");
-  if (fromLabels && scene_.labels.ids().empty()) throw Error("no label map is open");
+void PointController::placeControls(bool fromLabels) {
+  if (!scene().hasVolume()) throw Error("no volume is open");
+  if (fromLabels && scene().labels.ids().empty()) throw Error("no label map is open");
   if (!fromLabels) {
-    ControlPoints pts = deformation::boxControlPoints(scene_.ct.geometry());
+    ControlPoints pts = deformation::boxControlPoints(scene().ct.geometry());
     editTrack("default points", [&](Authoring& a) { placePoints(a, std::move(pts)); });
     return;
   }
   // A pass over the whole label map: on the task queue's worker, after the queued label edits.
-  tasks_.push("points from labels", [this](Progress&) {
-    auto pts = std::make_shared<ControlPoints>(deformation::labelControlPoints(scene_.labels));
+  app_.tasks().push("points from labels", [this](Progress&) {
+    auto pts = std::make_shared<ControlPoints>(deformation::labelControlPoints(scene().labels));
     return TaskQueue::Apply([this, pts] {
       editTrack("points from labels", [&](Authoring& a) { placePoints(a, std::move(*pts)); });
     });
@@ -361,10 +364,3 @@ void StudioApp::placeControls(bool fromLabels) {
 
 }  // namespace vellum::studio
 
-namespace vellum::studio {
-std::pair<int, int> StudioApp::windowSize() const {
-  int w = 0, h = 0;
-  glfwGetWindowSize(window_, &w, &h);
-  return {w, h};
-}
-}  // namespace vellum::studio
