@@ -37,11 +37,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
-using vellum::test::studio::awaitExactMap;
-using vellum::test::studio::q;
-using vellum::test::studio::runStudio;
-using vellum::test::studio::slurp;
-using vellum::test::studio::writePhantom;
+using namespace vellum::test::studio;
 
 TEST(StudioAuthoringModel, AddKeyframeCopiesAndTrackEditsUndoExactly) {
   Geometry g;
@@ -84,9 +80,7 @@ TEST(StudioAuthoringModel, AddKeyframeCopiesAndTrackEditsUndoExactly) {
 
 TEST(StudioAuthoringModel, SceneFileKeepsTheTrackBesideItAndNamesBadKeyframes) {
   const fs::path d = test::tempDir("studio-authoring-scene");
-  phantom::PhantomOptions o;
-  o.dims = {24, 24, 24};
-  const auto ph = phantom::makePhantom(o);
+  const auto ph = phantomOf({24, 24, 24});
   io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
   Scene scene;
   scene.ct = ph.ct;
@@ -121,9 +115,7 @@ TEST(StudioAuthoringModel, SceneFileKeepsTheTrackBesideItAndNamesBadKeyframes) {
 // "gaussian" its frame is the frame `vellum animate --upsampling gaussian` renders (the movie
 // renderer), pixel for pixel, and differs from the trilinear one.
 TEST(StudioAuthoringModel, LiveViewUsesTheChosenUpsamplingLikeVellumAnimate) {
-  phantom::PhantomOptions o;
-  o.dims = {40, 40, 40};
-  const auto ph = phantom::makePhantom(o);
+  const auto ph = phantomOf({40, 40, 40});
   Scene scene;
   scene.ct = ph.ct;
   scene.view.deformedUpsampling = Upsampling::Gaussian;
@@ -159,11 +151,10 @@ TEST(StudioAuthoringModel, LiveViewUsesTheChosenUpsamplingLikeVellumAnimate) {
 }
 
 TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-authoring");
   const auto ph = writePhantom(d, 64);
-  const std::string script = R"({"actions":[
-    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+  const std::string script = scriptOnPhantom(d) + R"(
     {"layout":"3d"},{"hud":false},{"set":{"deformed_upsampling":"gaussian"}},
     {"controls":"default"},{"save_scene":)" + q(d / "s0.json") + R"(},
     {"drag_point":{"index":4,"end":"target","by_px":[40,-30]}},{"wait_idle":true},
@@ -262,11 +253,10 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
 }
 
 TEST(StudioAuthoringScript, PointsFromLabelsAndASliceDragStaysInTheSlicePlane) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-authoring-slice");
   const auto ph = writePhantom(d, 48);
-  const std::string script = R"({"actions":[
-    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+  const std::string script = scriptOnPhantom(d) + R"(
     {"layout":"2x2"},{"controls":"labels"},{"save_scene":)" + q(d / "a.json") + R"(},
     {"drag_point":{"index":0,"end":"target","by_px":[20,-10],"view":"axial"}},
     {"save_scene":)" + q(d / "b.json") + R"(},{"quit":0}]})";
@@ -293,11 +283,10 @@ TEST(StudioAuthoringScript, PointsFromLabelsAndASliceDragStaysInTheSlicePlane) {
 // make the same call) sets them and re-solves with them; Ctrl+Z restores the labels chosen
 // from the names, Ctrl+Shift+Z the edit.
 TEST(StudioAuthoringScript, RigidLabelEditsUndoAndRedo) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-authoring-rigid");
   const auto ph = writePhantom(d, 40);
-  const std::string script = R"({"actions":[
-    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+  const std::string script = scriptOnPhantom(d) + R"(
     {"layout":"3d"},{"controls":"default"},{"save_scene":)" + q(d / "a.json") + R"(},
     {"rigid_labels":[6,4,6]},{"save_scene":)" + q(d / "b.json") + R"(},
     {"key":"ctrl+z"},{"save_scene":)" + q(d / "c.json") + R"(},
@@ -319,11 +308,9 @@ TEST(StudioAuthoringScript, RigidLabelEditsUndoAndRedo) {
 // pose there (the durations stay in place), its right-edge handle dragged sideways retimes
 // it; each drag is one undo step.
 TEST(StudioAuthoringScript, TimelineBlocksReorderAndRetimeByDragging) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-authoring-timeline");
-  phantom::PhantomOptions o;
-  o.dims = {40, 40, 40};
-  const auto ph = phantom::makePhantom(o);
+  const auto ph = phantomOf({40, 40, 40});
   io::saveVolume(AnyVolume(ph.ct), d / "ct.nrrd");
   const std::string script = R"({"actions":[
     {"open":)" + q(d / "ct.nrrd") + R"(},{"layout":"3d"},{"controls":"default"},
@@ -381,12 +368,10 @@ std::string decodedFrameHashes(const fs::path& movie, const fs::path& out) {
 // The MP4 export: the studio's movie and `vellum animate`'s on the same keyframes decode to
 // the same frames.
 TEST(StudioAuthoringScript, Mp4ExportDecodesToTheFramesOfVellumAnimate) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   if (!io::videoEncoderAvailable()) GTEST_SKIP() << "no ffmpeg on PATH";
   const fs::path d = test::tempDir("studio-authoring-mp4");
-  phantom::PhantomOptions o;
-  o.dims = {40, 40, 40};
-  io::saveVolume(AnyVolume(phantom::makePhantom(o).ct), d / "ct.nrrd");
+  io::saveVolume(AnyVolume(phantomOf({40, 40, 40}).ct), d / "ct.nrrd");
   const std::string script = R"({"actions":[
     {"open":)" + q(d / "ct.nrrd") + R"(},{"layout":"3d"},{"controls":"default"},
     {"keyframe":{"select":0,"duration":0.5}},{"keyframe":"add"},
@@ -419,10 +404,8 @@ TEST(StudioAuthoringScript, Mp4ExportDecodesToTheFramesOfVellumAnimate) {
 // A drag solves the exact map at once while that is cheap (a target moved, the last exact
 // solve within the budget); a moved source needs a rho field rebuilt: the coarse preview.
 TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview) {
-  phantom::PhantomOptions o;
-  o.dims = {40, 40, 40};
   Scene scene;
-  scene.ct = phantom::makePhantom(o).ct;
+  scene.ct = phantomOf({40, 40, 40}).ct;
   Authoring& a = scene.authoring;
   placePoints(a, boxControlPoints(scene.ct.geometry()));
   a.touch();
@@ -454,10 +437,8 @@ TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview)
 // Ctrl+click in a deformed 3D view picks the surface where the view draws it: a translation
 // of 10 mm away from the eye moves the picked point 10 mm along the ray.
 TEST(StudioAuthoringModel, PickingThroughTheDeformationFindsTheDrawnSurface) {
-  phantom::PhantomOptions o;
-  o.dims = {64, 64, 64};
   Scene scene;
-  scene.ct = phantom::makePhantom(o).ct;
+  scene.ct = phantomOf({64, 64, 64}).ct;
   const Geometry& g = scene.ct.geometry();
   const auto p0 = pickSurface(scene, 200, 200, 100, 100);  // the centre pixel: its ray passes the centre
   ASSERT_TRUE(p0);
@@ -476,7 +457,7 @@ TEST(StudioAuthoringModel, PickingThroughTheDeformationFindsTheDrawnSurface) {
 // Box points stacked along the axial view's normal share one dot there: a press on it takes
 // the point nearest the slice plane (the one the slice shows), not the lowest index.
 TEST(StudioAuthoringScript, StackedDotsPickThePointNearestTheSlice) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-authoring-stacked");
   writePhantom(d, 48);
   const std::string script = R"({"actions":[

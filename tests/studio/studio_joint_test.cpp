@@ -20,9 +20,7 @@ namespace vellum::studio {
 namespace {
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
-using vellum::test::studio::q;
-using vellum::test::studio::runStudio;
-using vellum::test::studio::slurp;
+using namespace vellum::test::studio;
 
 constexpr int kN = 40;
 constexpr uint16_t kSoft = 100, kFixed = 50;
@@ -56,7 +54,7 @@ void writeLimb(const fs::path& dir, VolumeI16& ct, LabelVolume& labels) {
 }
 
 TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReproducesTheView) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-joint");
   VolumeI16 ct;
   LabelVolume labels;
@@ -70,8 +68,7 @@ TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReprodu
     const auto [x, y] = plane.toPixel(mm);
     return "[" + std::to_string(cor.rect.x + x) + "," + std::to_string(cor.rect.y + y) + "]";
   };
-  const std::string script = R"({"actions":[
-    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+  const std::string script = scriptOnPhantom(d) + R"(
     {"layout":"1x3"},{"hud":false},
     {"joint":{"pick":"parent"}},{"click":)" + px({40, 40, 60}) + R"(},
     {"joint":{"pick":"child"}},{"click":)" + px({40, 40, 24}) + R"(},

@@ -16,9 +16,7 @@
 namespace vellum::studio {
 namespace {
 namespace fs = std::filesystem;
-using vellum::test::studio::q;
-using vellum::test::studio::runStudio;
-using vellum::test::studio::StudioRun;
+using namespace vellum::test::studio;
 
 TEST(StudioRealSize, TiledRefinementGivesTheOneRenderPicture) {
   phantom::PhantomOptions o;

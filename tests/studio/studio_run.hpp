@@ -1,6 +1,7 @@
 #pragma once
 // The studio's tests: running vellum-studio on a script (VELLUM_STUDIO_EXE is the binary), a
-// phantom on disk, waiting for the exact deformation map.
+// phantom on disk and the script that opens it, waiting for the exact deformation map,
+// skipping window tests without an X server.
 #include <sys/wait.h>
 
 #include <chrono>
@@ -14,6 +15,12 @@
 #include "deform_session.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
+
+/// Skips a test that needs the window when there is no X server (ctest runs under xvfb-run -a).
+#define REQUIRE_DISPLAY()                                                               \
+  do {                                                                                  \
+    if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)"; \
+  } while (0)
 
 namespace vellum::test::studio {
 
@@ -62,14 +69,25 @@ inline int runStudio(const std::filesystem::path& dir, const std::string& name, 
   return r.exitCode;
 }
 
+/// The knee phantom at `dims` voxels (its default field of view).
+inline phantom::Phantom phantomOf(Dims dims) {
+  phantom::PhantomOptions o;
+  o.dims = dims;
+  return phantom::makePhantom(o);
+}
+
 /// An n³ knee phantom written as DIR/ct.nrrd and DIR/labels.nrrd, returned for the checks.
 inline phantom::Phantom writePhantom(const std::filesystem::path& dir, int n) {
-  phantom::PhantomOptions o;
-  o.dims = {n, n, n};
-  phantom::Phantom ph = phantom::makePhantom(o);
+  phantom::Phantom ph = phantomOf({n, n, n});
   io::saveVolume(AnyVolume(ph.ct), dir / "ct.nrrd");
   io::saveLabels(ph.labels, dir / "labels.nrrd");
   return ph;
+}
+
+/// A script's beginning: `{"actions":[` and the action that opens writePhantom's files in DIR
+/// with their labels; the test appends its actions and `]}`.
+inline std::string scriptOnPhantom(const std::filesystem::path& dir) {
+  return "{\"actions\":[{\"open\":{\"path\":" + q(dir / "ct.nrrd") + ",\"labels\":" + q(dir / "labels.nrrd") + "}},";
 }
 
 /// Updates `session` for `scene` until the exact map has landed from the worker (at most 30 s).

@@ -20,15 +20,7 @@
 namespace vellum::studio {
 namespace {
 namespace fs = std::filesystem;
-using vellum::test::studio::q;
-using vellum::test::studio::runStudio;
-using vellum::test::studio::stateHome;
-using vellum::test::studio::StudioRun;
-
-#define REQUIRE_DISPLAY()                                                               \
-  do {                                                                                  \
-    if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)"; \
-  } while (0)
+using namespace vellum::test::studio;
 
 /// The names in `dir` (empty when it does not exist).
 std::set<std::string> listing(const fs::path& dir) {

@@ -39,11 +39,7 @@ using namespace vellum::deformation;
 const std::vector<uint16_t> kBones{4, 5, 6, 7, 8, 9, 11};
 
 const phantom::Phantom& knee() {
-  static const phantom::Phantom p = [] {
-    phantom::PhantomOptions o;
-    o.dims = {64, 64, 72};
-    return phantom::makePhantom(o);
-  }();
+  static const phantom::Phantom p = test::studio::phantomOf({64, 64, 72});
   return p;
 }
 
@@ -187,17 +183,13 @@ TEST(StudioDeformedSlices, AMapForAnotherGridIsRefused) {
   EXPECT_THROW(renderSlice(ph.ct, plane, styleWith(nullptr, &map)), Error);
 }
 
-using vellum::test::studio::awaitExactMap;
-using vellum::test::studio::q;
-using vellum::test::studio::runStudio;
-using vellum::test::studio::writePhantom;
+using namespace vellum::test::studio;
 
 TEST(StudioDeformedSlicesScript, ToggleOffRestoresTheUndeformedSliceAndTheSceneKeepsIt) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-deformed-slices");
   const auto ph = writePhantom(d, 48);
-  const std::string script = R"({"actions":[
-    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+  const std::string script = scriptOnPhantom(d) + R"(
     {"layout":"2x2"},{"hud":false},{"screenshot":{"path":)" + q(d / "before.png") + R"(,"view":"axial"}},
     {"controls":"default"},
     {"drag_point":{"index":4,"end":"target","by_px":[40,-30],"view":"axial"}},{"wait_idle":true},
@@ -234,7 +226,7 @@ TEST(StudioDeformedSlicesScript, ToggleOffRestoresTheUndeformedSliceAndTheSceneK
 // Painting in a deformed slice edits the undeformed label map at the source of the pixel under
 // the pointer: the sphere lands around u = map(v), not around v.
 TEST(StudioDeformedSlicesScript, PaintingInADeformedSliceLandsAtTheClickedPixelsSource) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-deformed-paint");
   const auto ph = writePhantom(d, 48);
   // The knee bent 30°, the axial slice through the calf (64 mm below the flexion axis).

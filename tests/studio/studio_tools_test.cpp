@@ -22,15 +22,7 @@
 namespace vellum::studio {
 namespace {
 namespace fs = std::filesystem;
-using vellum::test::studio::q;
-using vellum::test::studio::runStudio;
-using vellum::test::studio::slurp;
-using vellum::test::studio::StudioRun;
-
-#define REQUIRE_DISPLAY()                                                              \
-  do {                                                                                 \
-    if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)"; \
-  } while (0)
+using namespace vellum::test::studio;
 
 // The figure the studio exports (through app::runRender, clip box, annotations and all) and
 // the one `vellum render` writes from the copied command are the same file, byte for byte.
@@ -38,8 +30,7 @@ TEST(StudioTools, ExportedFigureIsWhatTheCopiedCommandWrites) {
   REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-figure");
   vellum::test::studio::writePhantom(d, 48);
-  const std::string script = R"({"actions":[
-    {"open":{"path":)" + q(d / "ct.nrrd") + R"(,"labels":)" + q(d / "labels.nrrd") + R"(}},
+  const std::string script = scriptOnPhantom(d) + R"(
     {"preset":"bone"},{"set":{"clip_max":[1,0.6,1],"azimuth":50}},
     {"export_figure":{"path":)" + q(d / "studio.png") + R"(,"size":[200,160],"scale_bar":true,"orientation":true,"labels":true}},
     {"copy_command":{"figure":)" + q(d / "cli.png") + R"(,"path":)" + q(d / "command.txt") + R"(,"size":[200,160],"scale_bar":true,"orientation":true,"labels":true}},
