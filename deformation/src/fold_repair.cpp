@@ -2,9 +2,12 @@
 #include "vellum/deformation/fold_repair.hpp"
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <optional>
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/index_frame.hpp"
@@ -56,6 +59,77 @@ double cellMin(const std::vector<float>& u, const Grid& g, int64_t i, int64_t j,
   }
   worst = std::min(worst, dot(ex, cross(ey, ez)) / 64.0);
   return worst / g.detIdx;
+}
+
+// Is any cell's smallest Jacobian (cellMin) below `threshold`? The repair's first question on
+// every solve (the studio's drag, every movie frame), where the answer is almost always no:
+// float arithmetic over rows of cells (each row's four node rows read in order, the corners
+// shared with the next cell), parallel over slabs, and every slab stops once one is found.
+// A cell near the threshold is passed to the exact (double) scan: float rounding of the
+// products cannot hide a fold (the margin is far above it). Returns the smallest cellMin over
+// all cells when none is below (what the full scan reports then), nullopt when one is.
+std::optional<double> anyCellBelow(const std::vector<float>& u, const Grid& g, double threshold) {
+  std::atomic<bool> found{false};
+  double smallest = std::numeric_limits<double>::infinity();
+  std::mutex mutex;
+  // Compared against det(edges) in index units: cellMin's value times detIdx, with a margin.
+  const float limit = static_cast<float>((threshold + 0.05) * g.detIdx);
+  const int64_t nx = g.d.x, rowStride = g.d.x, sliceStride = g.d.x * g.d.y;
+  parallelFor(g.d.z - 1, [&](int64_t k0, int64_t k1) {
+    float localMin = std::numeric_limits<float>::infinity();
+    using V = std::array<float, 3>;
+    auto sub = [](const float* a, const float* b) { return V{a[0] - b[0], a[1] - b[1], a[2] - b[2]}; };
+    auto det = [](const V& x, const V& y, const V& z) {
+      return x[0] * (y[1] * z[2] - y[2] * z[1]) + x[1] * (y[2] * z[0] - y[0] * z[2]) + x[2] * (y[0] * z[1] - y[1] * z[0]);
+    };
+    for (int64_t k = k0; k < k1; ++k) {
+      if (found.load(std::memory_order_relaxed)) return;
+      for (int64_t j = 0; j + 1 < g.d.y; ++j) {
+        // Node rows (j, k), (j+1, k), (j, k+1), (j+1, k+1): corners q = a + 2b + 4c.
+        const float* r[4] = {u.data() + 3 * (k * sliceStride + j * rowStride),
+                             u.data() + 3 * (k * sliceStride + (j + 1) * rowStride),
+                             u.data() + 3 * ((k + 1) * sliceStride + j * rowStride),
+                             u.data() + 3 * ((k + 1) * sliceStride + (j + 1) * rowStride)};
+        for (int64_t i = 0; i + 1 < nx; ++i) {
+          const float* p[8];
+          for (int q = 0; q < 4; ++q) {
+            p[2 * q] = r[q] + 3 * i;
+            p[2 * q + 1] = r[q] + 3 * (i + 1);
+          }
+          // p index = a + 2 * (b + 2 * c): same corner numbering as cellMin.
+          V ex[4], ey[4], ez[4];
+          for (int t = 0; t < 4; ++t) {
+            const int b = t & 1, c = t >> 1;
+            ex[t] = sub(p[1 + 2 * b + 4 * c], p[2 * b + 4 * c]);     // x edge at (b, c)
+            ey[t] = sub(p[b + 2 + 4 * c], p[b + 4 * c]);             // y edge at (a = b, c)
+            ez[t] = sub(p[b + 2 * c + 4], p[b + 2 * c]);             // z edge at (a = b, b = c)
+          }
+          float worst = std::numeric_limits<float>::infinity();
+          for (int q = 0; q < 8; ++q) {
+            const int a = q & 1, b = (q >> 1) & 1, c = (q >> 2) & 1;
+            worst = std::min(worst, det(ex[b + 2 * c], ey[a + 2 * c], ez[a + 2 * b]));
+          }
+          V mx{0, 0, 0}, my{0, 0, 0}, mz{0, 0, 0};
+          for (int t = 0; t < 4; ++t)
+            for (int a = 0; a < 3; ++a) {
+              mx[a] += ex[t][a];
+              my[a] += ey[t][a];
+              mz[a] += ez[t][a];
+            }
+          worst = std::min(worst, det(mx, my, mz) / 64.0f);
+          if (!(worst >= limit)) {  // NaN counts as below
+            found.store(true, std::memory_order_relaxed);
+            return;
+          }
+          localMin = std::min(localMin, worst);
+        }
+      }
+    }
+    std::lock_guard lock(mutex);
+    smallest = std::min(smallest, double(localMin));
+  });
+  if (found.load()) return std::nullopt;
+  return smallest / g.detIdx;
 }
 
 // Cells below the threshold that the caller cares about, from a list of candidate cells (node
@@ -123,6 +197,11 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
   if (!locked.empty() && locked.size() != static_cast<size_t>(nodes)) throw Error("fold repair: lock mask size does not match the grid");
   if (g.cells() == 0) return st;
   std::vector<float>& u = cv.sourceMm;
+  // Nothing folds (the usual case): one fast pass, no per-cell bookkeeping.
+  if (const std::optional<double> least = anyCellBelow(u, g, params.minJacobian)) {
+    st.minJacobianBefore = st.minJacobianAfter = *least;
+    return st;
+  }
   Scan scan = scanCells(u, g, nullptr, params.minJacobian, cares);
   st.cellsBefore = static_cast<int64_t>(scan.bad.size());
   st.minJacobianBefore = scan.minDet;

@@ -350,6 +350,47 @@ std::shared_ptr<const RigidSnap> makeRigidSnap(const RigidBodies& bodies, const 
   return snap;
 }
 
+// The width of the fixed regions' blend band: `falloff`, narrowed so that the band ends at the
+// core of the nearest body whose transform moves it by more than half a cell (a still bone
+// agrees with the fixed regions and may lie in their band). Measured on the grid's nodes:
+// the smallest distance to the fixed regions over the nodes within `margin` of such a body.
+double fixedBandClearance(const Geometry& grid, const RigidBodies& bodies, const RigidBodies::GridFields& dist,
+                          const std::vector<RigidFit>& fits, int fixedBody, double margin, double fixedMargin,
+                          double falloff) {
+  const auto& fixedField = dist.perBody[static_cast<size_t>(fixedBody)];
+  if (fixedField.dims.x == 0 || falloff <= 0) return falloff;
+  const double minSpacing = std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+  const Geometry& cg = bodies.classes().geometry();
+  double clearance = std::numeric_limits<double>::infinity();
+  for (int c = 0; c < bodies.componentCount(); ++c) {
+    const auto& fit = fits[static_cast<size_t>(c)];
+    const auto& field = dist.perBody[static_cast<size_t>(c)];
+    if (c == fixedBody || !fit.valid || field.dims.x == 0) continue;
+    // How far the transform moves the body (its box's corners).
+    const auto& b = bodies.boxes()[static_cast<size_t>(c)];
+    double moves = 0;
+    for (int q = 0; q < 8; ++q) {
+      const Vec3 p = cg.indexToPhysical({double((q & 1) ? b[3] : b[0]), double((q & 2) ? b[4] : b[1]),
+                                         double((q & 4) ? b[5] : b[2])});
+      moves = std::max(moves, norm(fit.apply(p) - p));
+    }
+    if (moves <= 0.5 * minSpacing) continue;
+    std::mutex m;
+    parallelFor(field.dims.z, [&](int64_t k0, int64_t k1) {
+      double local = std::numeric_limits<double>::infinity();
+      for (int64_t k = k0; k < k1; ++k)
+        for (int64_t j = 0; j < field.dims.y; ++j)
+          for (int64_t i = 0; i < field.dims.x; ++i) {
+            if (field.dist[static_cast<size_t>((k * field.dims.y + j) * field.dims.x + i)] > margin) continue;
+            local = std::min(local, fixedField.at(i + field.lo[0], j + field.lo[1], k + field.lo[2]));
+          }
+      std::lock_guard lock(m);
+      clearance = std::min(clearance, local);
+    });
+  }
+  return std::clamp(clearance - fixedMargin, 0.0, falloff);
+}
+
 }  // namespace
 
 double RigidBodies::GridFields::BodyField::at(int64_t i, int64_t j, int64_t k) const {
@@ -507,21 +548,32 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
   // nodes between two bones (joint gap < cell) average both fits, which is worse; the voxel
   // snap (RigidSnap) makes voxels inside the body exact instead.
   const double margin = std::max({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
-  // The fixed regions take a whole cell diagonal: every node of a cell that holds a fixed
-  // voxel is then exactly v, so interpolation leaves their voxels where they are (and the snap
-  // makes them exact); nothing is averaged with them there.
-  const double fixedMargin = norm(cv.grid.spacing);
+  // The fixed regions' core is their distance field's zero set: every corner of a cell that
+  // holds a fixed voxel (gridFields() puts them in it), so those nodes are exactly v and
+  // interpolation leaves the fixed voxels where they are (the snap makes them exact). A wider
+  // core (it was a cell diagonal beyond them) only pushes the identity into the tissue beside.
+  const double fixedMargin = 0;
   const double falloff = params.falloffMm;
-  auto weight = [&](double dm, double core) {
+  auto weightOver = [&](double dm, double core, double band) {
     if (dm <= core) return 1.0;
-    if (falloff <= 0 || dm >= core + falloff) return 0.0;
-    const double t = (dm - core) / falloff;
+    if (band <= 0 || dm >= core + band) return 0.0;
+    const double t = (dm - core) / band;
     return 1.0 - t * t * (3 - 2 * t);
   };
+  auto weight = [&](double dm, double core) { return weightOver(dm, core, falloff); };
   const int fixedBody = bodies.fixedBody();
+  // The fixed regions' band ends before the core of every body that moves. A fixed band over a
+  // moving bone (the feet: a still box 7 mm from the turning hallux) pulls the tissue beside and
+  // under the bone towards the identity while the bone itself keeps its transform: across the
+  // direction of motion that is a 40 mm jump over a cell or two, a fold no repair can undo.
+  // Ended short of the bone, the fixed weight depends on the distance to the fixed region
+  // alone (a shear across the gap, fold-free: blending a turn with the identity keeps det > 0).
+  const double fixedFalloff = fixedBody >= 0 ? fixedBandClearance(cv.grid, bodies, *dist, fits, fixedBody, margin,
+                                                                  fixedMargin, falloff)
+                                             : falloff;
   // Trilinear weights are positive, so a field interpolated at gi is never below the nearest-
   // body field interpolated there: beyond the band in that one field, every weight is 0.
-  const double reach = (fixedBody >= 0 ? fixedMargin : margin) + std::max(falloff, 0.0);
+  const double reach = std::max(fixedMargin, margin) + std::max(falloff, 0.0);
   // Nodes that land in a body (set to its fit) or in the fixed regions' core (the identity):
   // the fold repair never moves them. The band around a body stays free: the voxel snap keeps
   // the voxels that land in the body on its fit within a cell diagonal.
@@ -544,7 +596,7 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
           double fixedW = 0;
           if (fixedBody >= 0) {
             const auto& f = dist->perBody[static_cast<size_t>(fixedBody)];
-            fixedW = weight(std::min(f.sample(gi, d), f.at(i, j, k)), fixedMargin);
+            fixedW = weightOver(std::min(f.sample(gi, d), f.at(i, j, k)), fixedMargin, fixedFalloff);
             if (fixedW >= 1) {  // exactly where it was
               o[0] = static_cast<float>(v.x); o[1] = static_cast<float>(v.y); o[2] = static_cast<float>(v.z);
               // Hard at the corners of the cells holding a fixed voxel (field 0 there): they
@@ -553,9 +605,14 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
               continue;
             }
           }
-          double sum = fixedW;
+          // The moving bodies' blend with the MLS map first (overlapping bands normalised),
+          // then the fixed regions' on top of it: where both bands reach, the fixed weight alone
+          // decides how much of the identity there is, so across a fixed band the map is a
+          // mix of the identity and the map beside it (no normalisation against a bone's core,
+          // which made the identity's share vary with the distance to the bone).
+          double sum = 0;
           bool core = false;  // weight 1 (within a spacing of a body): soft-locked
-          Vec3 acc = v * fixedW;
+          Vec3 acc{0, 0, 0};
           for (int c = 0; c < nc; ++c) {
             if (c == fixedBody || !fits[static_cast<size_t>(c)].valid) continue;
             const double a = weight(dist->perBody[static_cast<size_t>(c)].sample(gi, d), margin);
@@ -564,8 +621,9 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
             sum += a;
             acc += fits[static_cast<size_t>(c)].apply(v) * a;
           }
-          if (sum <= 0) continue;
-          Vec3 out = sum >= 1 ? acc / sum : u * (1 - sum) + acc;
+          if (sum <= 0 && fixedW <= 0) continue;
+          const Vec3 moving = sum <= 0 ? u : sum >= 1 ? acc / sum : u * (1 - sum) + acc;
+          Vec3 out = moving * (1 - fixedW) + v * fixedW;
           // A node that now lands inside a body follows that body exactly (only happens in
           // the inner band where the weight is already ~1, so the snap is invisible).
           const uint16_t c2 = lookup.bodyClassAt(out);

@@ -14,8 +14,10 @@
 #include "child_process.hpp"
 #include "test_data.hpp"
 #include "vellum/app/pose_pipeline.hpp"
+#include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/deformation/pose.hpp"
+#include "vellum/deformation/synthesis.hpp"
 #include "vellum/io/volume_io.hpp"
 
 using namespace vellum;
@@ -394,4 +396,72 @@ TEST(Pose, SavedPoseReadsBackAndTwoFixedBoxesStayPut) {
   const nlohmann::json rep = nlohmann::json::parse(std::ifstream(f.report));
   EXPECT_LE(rep["deform"]["rigidity"]["after"]["fixed"]["max_displacement_mm"].get<double>(), 1e-4);
   fs::remove_all(f.dir);
+}
+
+// The feet bench's folds (issue 23 §4): a still block 6 mm beside a child bone split into two
+// ids (a shaft and a distal piece). The fixed regions' blend band used to reach over the turning
+// bone, pulling the tissue under it towards the identity while the bone kept its turn: a fold
+// across the direction of motion. Now the band ends short of the bone: no tissue voxel folds,
+// the block stays exactly, and every voxel showing either piece shows it by the joint's turn.
+TEST(Pose, ChildPiecesBesideAFixedBlockShareTheJointTurnWithoutFolds) {
+  Geometry g;
+  g.dims = {40, 40, 40};
+  g.spacing = {1.5, 1.5, 1.5};
+  VolumeI16 ct(g, -1000);
+  LabelVolume labels(g);
+  for (int k = 0; k < 40; ++k)
+    for (int j = 0; j < 40; ++j)
+      for (int i = 0; i < 40; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        const bool limb = std::hypot(p.x - 30, p.y - 30) <= 5;
+        uint16_t id = p.x >= 4 && p.x <= 56 && p.y >= 4 && p.y <= 56 && p.z >= 4 && p.z <= 56 ? kSoft : 0;
+        if (limb && p.z >= 34 && p.z <= 54) id = 1;       // parent
+        if (limb && p.z >= 8 && p.z < 21) id = 2;         // the child's shaft ...
+        if (limb && p.z >= 21 && p.z <= 28) id = 3;       // ... and its distal piece, touching
+        if (p.x >= 41 && p.x <= 54 && p.y >= 12 && p.y <= 48 && p.z >= 6 && p.z <= 40) id = kFixed;  // 6 mm aside
+        labels(i, j, k) = id;
+        ct(i, j, k) = id == 0 ? -1000 : id == kSoft ? 40 : id == kFixed ? 600 : 1000;
+      }
+  Pose pose;
+  Joint joint;
+  joint.name = "knee";
+  joint.parent = {1};
+  joint.child = {2, 3};
+  joint.axisA = {20, 30, 31};
+  joint.axisB = {40, 30, 31};
+  pose.joints.push_back(joint);
+  pose.fixed.ids = {kFixed};
+  linkJoints(pose);
+  const std::vector<double> angles{25};
+  const PoseSamples samples = poseSamples(pose, labels, PoseOptions{});
+  DeformParams p;
+  p.controlScale = 2;
+  Deformer deformer(AnyVolume(ct), p);
+  deformer.setPoints(posedPoints(samples, pose, angles));
+  ControlVolume cv = deformer.update();
+  const RigidBodies bodies = RigidBodies::fromLabels(labels, {1, 2, 3}, 20, pose.fixed);
+  applyRigidity(cv, bodies, RigidityParams{}, knownBodyTransforms(pose, bodies, angles));
+  const std::vector<float> map = upsampleMap(cv, g);
+  const RigidityReport r = measureRigidityMap(map, g, bodies);
+  EXPECT_EQ(r.foldFraction, 0.0) << "min det J " << r.minJacobian;
+  EXPECT_GT(r.tissueSamples, 20000);
+  EXPECT_LT(r.fixedMaxDisplacementMm, 1e-4);
+  // Every output voxel whose source lies in piece 2 or 3 shows it by the joint's turn.
+  const RigidTransform turn = jointTransforms(pose, angles)[0];
+  int64_t shown[2] = {0, 0};
+  double worst = 0;
+  for (int k = 0; k < 40; ++k)
+    for (int j = 0; j < 40; ++j)
+      for (int i = 0; i < 40; ++i) {
+        const size_t t = static_cast<size_t>((k * 40 + j) * 40 + i);
+        const Vec3 u{map[3 * t], map[3 * t + 1], map[3 * t + 2]};
+        const Vec3 q = g.physicalToIndex(u);
+        const int64_t a = std::llround(q.x), b = std::llround(q.y), c = std::llround(q.z);
+        if (!g.contains(a, b, c) || (labels(a, b, c) != 2 && labels(a, b, c) != 3)) continue;
+        ++shown[labels(a, b, c) - 2];
+        worst = std::max(worst, norm(turn.apply(u) - g.indexToPhysical({double(i), double(j), double(k)})));
+      }
+  EXPECT_GT(shown[0], 200);
+  EXPECT_GT(shown[1], 100);
+  EXPECT_LT(worst, 0.1);
 }

@@ -61,6 +61,8 @@ const params::Table<PoseRequest>& poseRequestTable() {
       params::flag<R>("exact_bones", &R::exactBones,
                       {"Exact bones", "each bone takes its joints' transform (still bones the identity) instead of "
                        "the best rigid fit of the MLS map over it", ""}),
+      // deform's --pad-mm, described once (deformRequestTable()).
+      params::real<R>("pad_mm", &R::padMm, params::findField(deformRequestTable(), "pad_mm")->info),
   };
   return t;
 }
@@ -177,6 +179,7 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     d.pointSet = points;
     d.output = request.output;
     d.keepMap = true;
+    d.padMm = request.padMm;
     if (request.exactBones) {
       const std::vector<RigidTransform> jt = jointTransforms(pose, result.anglesDeg);
       for (uint16_t id : engine.rigidIds) {

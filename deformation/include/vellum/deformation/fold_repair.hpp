@@ -41,7 +41,9 @@ enum : uint8_t {
   kNodeSoftLock = 2,
 };
 
-/// Repairs `cv` in place. `locked` (one byte per node, or empty = none; kNodeSoftLock /
+/// Repairs `cv` in place. A fast pass first (float, parallel, stops at the first cell below
+/// the threshold): when nothing is below it, nothing is written and the stats carry only the
+/// smallest cell Jacobian. `locked` (one byte per node, or empty = none; kNodeSoftLock /
 /// kNodeHardLock) marks nodes not written. `cares(u)` says whether a source position is tissue (a cell is repaired when one of
 /// its corners maps to tissue: folds in air are harmless and left); null = every cell. A free
 /// node is never moved to a source position where `forbidden(u)` (a rigid body's voxels: its

@@ -149,8 +149,11 @@ struct RigidityParams {
 
 /// Blends `cv` towards each body's best rigid transform (Kabsch fit of v -> u over the
 /// nodes whose u lies in the body, all its pieces together). Overlapping bands are
-/// normalised. The fixed body (if any) is the identity and wins: a node within a control-cell
-/// diagonal of it (at v or at u) is exactly v, and its band blends like a rigid body's. Also sets
+/// normalised. The fixed body (if any) is the identity and wins: a corner of a cell holding a
+/// fixed voxel (at v or at u) is exactly v; beyond, its band mixes the identity into the
+/// bodies' blend by its own weight alone, over `falloffMm` narrowed so that it ends where the
+/// nearest moving body's core begins (a fixed band over a turning bone folds the tissue beside
+/// it: issue 23's feet). Also sets
 /// cv.rigidSnap, so that synthesize() / upsampleMap() give every voxel whose source lands in a
 /// body exactly that body's transform (see RigidSnap). Then (params.repairFolds) the folds in
 /// tissue are repaired with the nodes set to a fit or to the identity locked; returns what the

@@ -30,6 +30,9 @@ struct PoseRequest {
   PoseGltfOptions gltfOptions;
   std::filesystem::path keyframesOut;  ///< the generated keyframe track (`vellum animate --keyframes`); empty: not written
   double frameTimeS = -1;  ///< the pose's time (s); < 0: the last keyframe
+  /// --out's box grown by this (mm) on every side; -1: per side, as far as the content moves
+  /// (DeformRequest::padMm: the same parameter, described once in deformRequestTable()).
+  double padMm = 0;
   bool force = false;
   /// Each bone's rigid transform is its joints' (the still bones' the identity) instead of the
   /// best fit of the MLS map over it (the map between bones is still MLS, blended to them).
@@ -44,7 +47,7 @@ struct PoseRequest {
   std::string commandLine;
 };
 
-/// frame_time (the options, the engine and the movie settings have their own tables).
+/// frame_time, exact_bones, pad_mm (deform's row; the options, the engine and the movie settings have their own tables).
 const params::Table<PoseRequest>& poseRequestTable();
 
 struct PoseResult {
