@@ -25,7 +25,6 @@ void main() {
   float tmin = ray.tmin, tmax = ray.tmax;
   vec3 view = -dir;
   vec3 H = normalize(uLight + view);
-  bool zeroVisible = STYLE_VISIBLE_AT(0);
   float depth0 = dot(origin - uCentre, uForward), depthRate = dot(dir, uForward);
 
   vec4 acc = vec4(0.0);
@@ -121,52 +120,52 @@ void main() {
           }
         }
       }
-      // Soft painter's order (shadeSample in illustration_renderer_common.cpp), as one loop
-      // over rows with a single styled() call site and a uniform trip count: the shader
-      // compiler then keeps one copy of the style model (unrolled copies made llvmpipe's
-      // masked execution several times slower). Item 2k: slot n-1-k's shell row, or the
-      // slot's row when it has no shell; 2k+1: its core row (shells only); 2n: label 0.
-      vec4 sum = vec4(0.0);
-      float rest = 1.0, wSlot = 0.0;
+      // Soft painter's order (shadeSample in illustration_renderer_common.cpp). First every
+      // slot's weights, innermost first (an invisible slot still covers what lies inside it);
+      // then one styled() call site in a loop over the items whose row can show (uItems:
+      // item 2k is slot n-1-k's shell row, or the slot's row when it has no shell; 2k+1 its
+      // core row; 2n label 0). llvmpipe runs masked code for every lane, so the loop's trip
+      // count, not a branch, is what saves the style model of an invisible row.
       int n = uNumSlots;
-      for (int i = 0; i <= 2 * n; ++i) {
+      float wFirst[SLOT_CAP], wCore[SLOT_CAP];
+      float rest = 1.0;
+      for (int s = n - 1; s >= 0; --s) {
+        vec4 sl = uSlots[s];
+        float c = clamp(0.5 - D[s] / uCoverageH, 0.0, 1.0);
+        float wSlot = c * rest;
+        rest *= 1.0 - c;
+        float sf = sl.y > 0.0 ? clamp(0.5 + (D[s] + sl.z) / uCoverageH, 0.0, 1.0) : 1.0;
+        wFirst[s] = wSlot * sf;
+        wCore[s] = wSlot * (1.0 - sf);
+      }
+      vec4 sum = vec4(0.0);
+      for (int q = 0; q < uNumItems; ++q) {
+        int i = uItems[q];
         int id;
         float w, dd;
         vec3 g;
         if (i < 2 * n) {
           int s = n - 1 - i / 2;
-          bool first = (i & 1) == 0;
           vec4 sl = uSlots[s];
           float ds = D[s];
-          if (first) {
-            if (!(rest > 0.0)) break;
-            float c = clamp(0.5 - ds / uCoverageH, 0.0, 1.0);
-            wSlot = c * rest;
-            rest *= 1.0 - c;
-          }
-          if (!(wSlot > 0.0)) continue;
-          if (sl.y > 0.0) {
-            float sf = clamp(0.5 + (ds + sl.z) / uCoverageH, 0.0, 1.0);
-            if (first) {
+          if ((i & 1) == 0) {
+            w = wFirst[s];
+            if (sl.y > 0.0) {
               id = int(sl.y);
-              w = wSlot * sf;
               g = ds > -0.5 * sl.z ? G[s] : -G[s];
               dd = max(ds, -sl.z - ds);
             } else {
               id = int(sl.x);
-              w = wSlot * (1.0 - sf);
               g = G[s];
-              dd = ds + sl.z;
+              dd = ds;
             }
           } else {
-            if (!first) continue;
             id = int(sl.x);
-            w = wSlot;
+            w = wCore[s];
             g = G[s];
-            dd = ds;
+            dd = ds + sl.z;
           }
         } else {
-          if (!(rest > 0.0) || !zeroVisible) break;
           int best = -1;
           float bd = FIELD_SCALE;
           for (int s = 0; s < n; ++s)
@@ -187,7 +186,8 @@ void main() {
       // where the ray enters the surface (this sample c). Row: the slot's outermost (shell).
       float pixB = uPixMm.x + uPixMm.y * (t - uStep), pixC = uPixMm.x + uPixMm.y * t;
       holdInk = false;
-      for (int s = 0; s < n; ++s) {
+      for (int q = 0; q < uNumInk; ++q) {  // the slots whose ink row draws (uInkSlots)
+        int s = uInkSlots[q];
         vec4 sl = uSlots[s];
         int iid = sl.y > 0.0 ? int(sl.y) : int(sl.x);
         float a = hist[s].x, b = hist[s].y, c = D[s];

@@ -269,6 +269,14 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     }
     if (!m.slots.empty()) glUniform4fv(glGetUniformLocation(p, "uSlots"), GLsizei(m.slots.size()), slots.data());
     glUniform1i(glGetUniformLocation(p, "uNumSlots"), GLint(m.slots.size()));
+    // The painter's items whose row can show, and the slots that draw ink: the shader loops
+    // over these only (paintItems).
+    std::vector<GLint> items, inkSlots;
+    paintItems(table, m.slots, items, inkSlots);
+    if (!items.empty()) glUniform1iv(glGetUniformLocation(p, "uItems"), GLsizei(items.size()), items.data());
+    glUniform1i(glGetUniformLocation(p, "uNumItems"), GLint(items.size()));
+    if (!inkSlots.empty()) glUniform1iv(glGetUniformLocation(p, "uInkSlots"), GLsizei(inkSlots.size()), inkSlots.data());
+    glUniform1i(glGetUniformLocation(p, "uNumInk"), GLint(inkSlots.size()));
     glUniformMatrix3fv(glGetUniformLocation(p, "uGradToPhys"), 1, GL_TRUE, sf.gradToPhys.data());
     std::vector<float> lo, hi;
     gradientWindows(table, m.slots, sf.coverageH, lo, hi);

@@ -166,6 +166,25 @@ void packFieldSlab(const ShapeScene& scene, int group, int64_t z0, int64_t z1, s
   }
 }
 
+void paintItems(const StyleTable& t, const std::vector<PaintSlot>& slots, std::vector<int>& items,
+                std::vector<int>& inkSlots) {
+  items.clear();
+  inkSlots.clear();
+  const int n = int(slots.size());
+  auto shows = [&](int id) { return id >= 0 && id < kMaxLabels && t.row(id)[slot::Visible]; };
+  for (int i = 0; i < 2 * n; ++i) {
+    const PaintSlot& sl = slots[size_t(n - 1 - i / 2)];
+    const bool first = (i & 1) == 0;
+    if (!first && sl.shellId <= 0) continue;
+    if (shows(first && sl.shellId > 0 ? sl.shellId : sl.id)) items.push_back(i);
+  }
+  if (shows(0)) items.push_back(2 * n);
+  for (int s = 0; s < n; ++s) {
+    const int iid = slots[size_t(s)].shellId > 0 ? slots[size_t(s)].shellId : slots[size_t(s)].id;
+    if (iid < kMaxLabels && t.row(iid)[slot::Ink]) inkSlots.push_back(s);
+  }
+}
+
 void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH,
                      std::vector<float>& lo, std::vector<float>& hi) {
   const size_t n = (slots.size() + 3) / 4 * 4;

@@ -74,6 +74,12 @@ struct PaintSlot {
 constexpr float kFieldScaleMm = float(32767 * kFieldQuantumMm);
 inline float decodeField(int16_t v) { return std::max(float(v) / 32767.f, -1.f) * kFieldScaleMm; }
 
+/// The shader's painter loop visits item 2k = slot n-1-k's shell row (its row when it has
+/// no shell), 2k+1 = its core row (shells only), 2n = label 0: `items` gets those whose row
+/// can show (StyleRow Visible), in that order; `inkSlots` the slots whose outermost row draws
+/// ink. Skipping the others changes nothing in the picture (their samples add nothing).
+void paintItems(const StyleTable& t, const std::vector<PaintSlot>& slots, std::vector<int>& items,
+                std::vector<int>& inkSlots);
 /// The per-segment distances as the shader sees them: slot s is channel s % 4 of group s / 4;
 /// groups are stacked along z in one RGBA16_SNORM texture (dims.x, dims.y, dims.z * groups).
 struct FieldVolume {
