@@ -8,6 +8,33 @@ vec4 fieldAt(vec3 p, int g) {
   return texture(uFields, (pc + 0.5) / vec3(uBoxDims.xy, uBoxDims.z * float(NGROUPS))) * FIELD_SCALE;
 }
 
+#ifdef USE_INK
+// Slot s's unit normal at p (central differences; zero where its field is flat).
+vec3 slotNormal(vec3 p, int s) {
+  int g = s / 4, j = s % 4;
+  vec3 gi = vec3(fieldAt(p + vec3(1.0, 0.0, 0.0), g)[j] - fieldAt(p - vec3(1.0, 0.0, 0.0), g)[j],
+                 fieldAt(p + vec3(0.0, 1.0, 0.0), g)[j] - fieldAt(p - vec3(0.0, 1.0, 0.0), g)[j],
+                 fieldAt(p + vec3(0.0, 0.0, 1.0), g)[j] - fieldAt(p - vec3(0.0, 0.0, 1.0), g)[j]);
+  float len;
+  return normOrZero(uGradToPhys * (0.5 * gi), len);
+}
+// Crease ink at the surface point q (CPU reference: creaseInk() in
+// illustration_renderer_common.cpp): the largest turn of slot s's normal between the points
+// half the line width plus half a pixel either side of q along four screen directions.
+float creaseInk(vec3 q, int s, float widthPx, float angleDeg, float pixMm) {
+  float r = (0.5 * widthPx + 0.5) * pixMm;
+  vec3 ax = (uPhysToBox * uRight) * r, ay = (uPhysToBox * uUp) * r;
+  float cmin = 1.0;
+  for (int i = 0; i < 4; ++i) {
+    vec3 a = i == 0 ? ax : i == 1 ? ay : i == 2 ? 0.70710678 * (ax + ay) : 0.70710678 * (ax - ay);
+    vec3 n0 = slotNormal(q + a, s), n1 = slotNormal(q - a, s);
+    if (dot(n0, n0) > 0.5 && dot(n1, n1) > 0.5) cmin = min(cmin, dot(n0, n1));
+  }
+  float c0 = cos(radians(angleDeg)), c1 = cos(radians(min(angleDeg + 15.0, 180.0)));
+  return clamp((c0 - cmin) / max(c0 - c1, 1e-6), 0.0, 1.0);
+}
+#endif
+
 // The style row last loaded (consecutive samples mostly style the same rows).
 int gCur = -1;
 Row gRow;
@@ -44,6 +71,9 @@ void main() {
     bool inPass[SLOT_CAP];   // the ray is near the slot's surface
     vec4 passAcc[SLOT_CAP];  // what was composited when that pass began
     bool entered[SLOT_CAP];  // the ray has been well inside the slot: no lines behind
+    int creaseS = -1;        // the first slot with creases the ray entered (inked after the march)
+    float creaseT = 0.0;     // where (mm along the ray)
+    vec4 creaseAcc = vec4(0.0);  // what was composited when that pass began
     for (int s = 0; s < NSLOTS; ++s) {
       hist[s] = vec2(INK_NONE);
       inked[s] = 0.0;
@@ -234,6 +264,13 @@ void main() {
           float ia = op * inkHatch(dot(nn, uLight), pMm, nn, hs, STYLE_HATCH_WIDTH_PX_AT(iid));
           acc = inkUnder(acc, passAcc[s], vec4(ia * lc, ia));
         }
+        // Creases: evaluated once per ray after the march (six normals a direction), at the
+        // first entry into a slot that draws them; the ink goes in front of that pass.
+        if (creaseS < 0 && STYLE_CREASE_WIDTH_PX_AT(iid) > 0.0 && b < INK_NONE && b > 0.0 && c <= 0.0 && inPass[s]) {
+          creaseS = s;
+          creaseT = (float(k - 1) + jitter + b / (b - c)) * uStep;
+          creaseAcc = passAcc[s];
+        }
       }
 #endif
       // Adaptive step: in homogeneous space this sample stands for the next ones up to the
@@ -256,6 +293,15 @@ void main() {
         if (acc.a >= EARLY_ALPHA && !holdInk) break;
       }
     }
+#ifdef USE_INK
+    if (creaseS >= 0) {
+      vec4 sl = uSlots[creaseS];
+      int iid = sl.y > 0.0 ? int(sl.y) : int(sl.x);
+      float ia = STYLE_LINE_OPACITY_AT(iid) * creaseInk(o + creaseT * d, creaseS, STYLE_CREASE_WIDTH_PX_AT(iid),
+                                                        STYLE_CREASE_ANGLE_DEG_AT(iid), uPixMm.x + uPixMm.y * creaseT);
+      acc = inkUnder(acc, creaseAcc, vec4(ia * STYLE_LINE_COLOUR_AT(iid), ia));
+    }
+#endif
   }
   vec4 outc = acc + (1.0 - acc.a) * vec4(uBackground.rgb * uBackground.a, uBackground.a);
   fragColor = outc.a > 0.0 ? vec4(min(outc.rgb / outc.a, vec3(1.0)), outc.a) : vec4(0.0);

@@ -145,7 +145,7 @@ void IllustrationRenderer::setScene(const ShapeScene& scene) {
   m.context.makeCurrent();
   const auto t0 = std::chrono::steady_clock::now();
   m.hasScene = false;
-  const Dims d = scene.distance.dims();
+  const Dims d = scene.grid().dims;
   GLint max3d = 0;
   glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
   if (d.x > max3d || d.y > max3d || d.z > max3d)
@@ -179,7 +179,7 @@ void IllustrationRenderer::setScene(const ShapeScene& scene) {
   m.blocks = computeBlockFields(scene);
   m.occTex = make3d(GL_R8, m.blocks.blocks, GL_RED, GL_UNSIGNED_BYTE, nullptr, GL_NEAREST, GL_CLAMP_TO_EDGE);
   checkGlError("scene upload");
-  m.geometry = scene.distance.geometry();
+  m.geometry = scene.grid();
   m.table = scene.segments.table();
   m.maxId = scene.segments.maxId();
   m.ct = scene.ct;

@@ -179,6 +179,12 @@ float inkVertex(float a, float b, float c);
 /// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25, times fade[l].
 float inkHatch(float ndl, const float* u, const float* fade, float spacingPx, float widthPx);
 struct SampleFrame;
+/// Crease ink (CPU reference of creaseInk() in the shader) at the surface point q (continuous
+/// index) of `slot`: the largest angle between the slot's normals (central differences) at
+/// q +- r a, r = (widthPx / 2 + 1/2) pixMm, a = the screen's right, up and two diagonals
+/// (index offsets per mm: right, up), mapped to 0 below angleDeg and 1 from angleDeg + 15.
+float creaseInk(const FieldVolume& f, int slot, Vec3f q, Vec3f rightIdx, Vec3f upIdx, const std::array<float, 9>& gradToPhys,
+                float widthPx, float angleDeg, float pixMm);
 /// u and fade of inkHatch at a sample (physical position pMm, unit normal n).
 void hatchCoordinates(const SampleFrame& f, Vec3f pMm, Vec3f n, float* u, float* fade);
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].
