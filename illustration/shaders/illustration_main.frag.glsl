@@ -8,6 +8,33 @@ vec4 fieldAt(vec3 p, int g) {
   return texture(uFields, (pc + 0.5) / vec3(uBoxDims.xy, uBoxDims.z * float(NGROUPS))) * FIELD_SCALE;
 }
 
+#ifdef USE_INK
+// Slot s's unit normal at p (central differences; zero where its field is flat).
+vec3 slotNormal(vec3 p, int s) {
+  int g = s / 4, j = s % 4;
+  vec3 gi = vec3(fieldAt(p + vec3(1.0, 0.0, 0.0), g)[j] - fieldAt(p - vec3(1.0, 0.0, 0.0), g)[j],
+                 fieldAt(p + vec3(0.0, 1.0, 0.0), g)[j] - fieldAt(p - vec3(0.0, 1.0, 0.0), g)[j],
+                 fieldAt(p + vec3(0.0, 0.0, 1.0), g)[j] - fieldAt(p - vec3(0.0, 0.0, 1.0), g)[j]);
+  float len;
+  return normOrZero(uGradToPhys * (0.5 * gi), len);
+}
+// Crease ink at the surface point q (CPU reference: creaseInk() in
+// illustration_renderer_common.cpp): the largest turn of slot s's normal between the points
+// half the line width plus half a pixel either side of q along four screen directions.
+float creaseInk(vec3 q, int s, float widthPx, float angleDeg, float pixMm) {
+  float r = (0.5 * widthPx + 0.5) * pixMm;
+  vec3 ax = (uPhysToBox * uRight) * r, ay = (uPhysToBox * uUp) * r;
+  float cmin = 1.0;
+  for (int i = 0; i < 4; ++i) {
+    vec3 a = i == 0 ? ax : i == 1 ? ay : i == 2 ? 0.70710678 * (ax + ay) : 0.70710678 * (ax - ay);
+    vec3 n0 = slotNormal(q + a, s), n1 = slotNormal(q - a, s);
+    if (dot(n0, n0) > 0.5 && dot(n1, n1) > 0.5) cmin = min(cmin, dot(n0, n1));
+  }
+  float c0 = cos(radians(angleDeg)), c1 = cos(radians(min(angleDeg + 15.0, 180.0)));
+  return clamp((c0 - cmin) / max(c0 - c1, 1e-6), 0.0, 1.0);
+}
+#endif
+
 // The style row last loaded (consecutive samples mostly style the same rows).
 int gCur = -1;
 Row gRow;
@@ -25,7 +52,6 @@ void main() {
   float tmin = ray.tmin, tmax = ray.tmax;
   vec3 view = -dir;
   vec3 H = normalize(uLight + view);
-  bool zeroVisible = STYLE_VISIBLE_AT(0);
   float depth0 = dot(origin - uCentre, uForward), depthRate = dot(dir, uForward);
 
   vec4 acc = vec4(0.0);
@@ -45,6 +71,9 @@ void main() {
     bool inPass[SLOT_CAP];   // the ray is near the slot's surface
     vec4 passAcc[SLOT_CAP];  // what was composited when that pass began
     bool entered[SLOT_CAP];  // the ray has been well inside the slot: no lines behind
+    int creaseS = -1;        // the first slot with creases the ray entered (inked after the march)
+    float creaseT = 0.0;     // where (mm along the ray)
+    vec4 creaseAcc = vec4(0.0);  // what was composited when that pass began
     for (int s = 0; s < NSLOTS; ++s) {
       hist[s] = vec2(INK_NONE);
       inked[s] = 0.0;
@@ -121,52 +150,52 @@ void main() {
           }
         }
       }
-      // Soft painter's order (shadeSample in illustration_renderer_common.cpp), as one loop
-      // over rows with a single styled() call site and a uniform trip count: the shader
-      // compiler then keeps one copy of the style model (unrolled copies made llvmpipe's
-      // masked execution several times slower). Item 2k: slot n-1-k's shell row, or the
-      // slot's row when it has no shell; 2k+1: its core row (shells only); 2n: label 0.
-      vec4 sum = vec4(0.0);
-      float rest = 1.0, wSlot = 0.0;
+      // Soft painter's order (shadeSample in illustration_renderer_common.cpp). First every
+      // slot's weights, innermost first (an invisible slot still covers what lies inside it);
+      // then one styled() call site in a loop over the items whose row can show (uItems:
+      // item 2k is slot n-1-k's shell row, or the slot's row when it has no shell; 2k+1 its
+      // core row; 2n label 0). llvmpipe runs masked code for every lane, so the loop's trip
+      // count, not a branch, is what saves the style model of an invisible row.
       int n = uNumSlots;
-      for (int i = 0; i <= 2 * n; ++i) {
+      float wFirst[SLOT_CAP], wCore[SLOT_CAP];
+      float rest = 1.0;
+      for (int s = n - 1; s >= 0; --s) {
+        vec4 sl = uSlots[s];
+        float c = clamp(0.5 - D[s] / uCoverageH, 0.0, 1.0);
+        float wSlot = c * rest;
+        rest *= 1.0 - c;
+        float sf = sl.y > 0.0 ? clamp(0.5 + (D[s] + sl.z) / uCoverageH, 0.0, 1.0) : 1.0;
+        wFirst[s] = wSlot * sf;
+        wCore[s] = wSlot * (1.0 - sf);
+      }
+      vec4 sum = vec4(0.0);
+      for (int q = 0; q < uNumItems; ++q) {
+        int i = uItems[q];
         int id;
         float w, dd;
         vec3 g;
         if (i < 2 * n) {
           int s = n - 1 - i / 2;
-          bool first = (i & 1) == 0;
           vec4 sl = uSlots[s];
           float ds = D[s];
-          if (first) {
-            if (!(rest > 0.0)) break;
-            float c = clamp(0.5 - ds / uCoverageH, 0.0, 1.0);
-            wSlot = c * rest;
-            rest *= 1.0 - c;
-          }
-          if (!(wSlot > 0.0)) continue;
-          if (sl.y > 0.0) {
-            float sf = clamp(0.5 + (ds + sl.z) / uCoverageH, 0.0, 1.0);
-            if (first) {
+          if ((i & 1) == 0) {
+            w = wFirst[s];
+            if (sl.y > 0.0) {
               id = int(sl.y);
-              w = wSlot * sf;
               g = ds > -0.5 * sl.z ? G[s] : -G[s];
               dd = max(ds, -sl.z - ds);
             } else {
               id = int(sl.x);
-              w = wSlot * (1.0 - sf);
               g = G[s];
-              dd = ds + sl.z;
+              dd = ds;
             }
           } else {
-            if (!first) continue;
             id = int(sl.x);
-            w = wSlot;
+            w = wCore[s];
             g = G[s];
-            dd = ds;
+            dd = ds + sl.z;
           }
         } else {
-          if (!(rest > 0.0) || !zeroVisible) break;
           int best = -1;
           float bd = FIELD_SCALE;
           for (int s = 0; s < n; ++s)
@@ -187,7 +216,8 @@ void main() {
       // where the ray enters the surface (this sample c). Row: the slot's outermost (shell).
       float pixB = uPixMm.x + uPixMm.y * (t - uStep), pixC = uPixMm.x + uPixMm.y * t;
       holdInk = false;
-      for (int s = 0; s < n; ++s) {
+      for (int q = 0; q < uNumInk; ++q) {  // the slots whose ink row draws (uInkSlots)
+        int s = uInkSlots[q];
         vec4 sl = uSlots[s];
         int iid = sl.y > 0.0 ? int(sl.y) : int(sl.x);
         float a = hist[s].x, b = hist[s].y, c = D[s];
@@ -234,6 +264,13 @@ void main() {
           float ia = op * inkHatch(dot(nn, uLight), pMm, nn, hs, STYLE_HATCH_WIDTH_PX_AT(iid));
           acc = inkUnder(acc, passAcc[s], vec4(ia * lc, ia));
         }
+        // Creases: evaluated once per ray after the march (six normals a direction), at the
+        // first entry into a slot that draws them; the ink goes in front of that pass.
+        if (creaseS < 0 && STYLE_CREASE_WIDTH_PX_AT(iid) > 0.0 && b < INK_NONE && b > 0.0 && c <= 0.0 && inPass[s]) {
+          creaseS = s;
+          creaseT = (float(k - 1) + jitter + b / (b - c)) * uStep;
+          creaseAcc = passAcc[s];
+        }
       }
 #endif
       // Adaptive step: in homogeneous space this sample stands for the next ones up to the
@@ -256,6 +293,15 @@ void main() {
         if (acc.a >= EARLY_ALPHA && !holdInk) break;
       }
     }
+#ifdef USE_INK
+    if (creaseS >= 0) {
+      vec4 sl = uSlots[creaseS];
+      int iid = sl.y > 0.0 ? int(sl.y) : int(sl.x);
+      float ia = STYLE_LINE_OPACITY_AT(iid) * creaseInk(o + creaseT * d, creaseS, STYLE_CREASE_WIDTH_PX_AT(iid),
+                                                        STYLE_CREASE_ANGLE_DEG_AT(iid), uPixMm.x + uPixMm.y * creaseT);
+      acc = inkUnder(acc, creaseAcc, vec4(ia * STYLE_LINE_COLOUR_AT(iid), ia));
+    }
+#endif
   }
   vec4 outc = acc + (1.0 - acc.a) * vec4(uBackground.rgb * uBackground.a, uBackground.a);
   fragColor = outc.a > 0.0 ? vec4(min(outc.rgb / outc.a, vec3(1.0)), outc.a) : vec4(0.0);

@@ -145,7 +145,7 @@ void IllustrationRenderer::setScene(const ShapeScene& scene) {
   m.context.makeCurrent();
   const auto t0 = std::chrono::steady_clock::now();
   m.hasScene = false;
-  const Dims d = scene.distance.dims();
+  const Dims d = scene.grid().dims;
   GLint max3d = 0;
   glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
   if (d.x > max3d || d.y > max3d || d.z > max3d)
@@ -179,7 +179,7 @@ void IllustrationRenderer::setScene(const ShapeScene& scene) {
   m.blocks = computeBlockFields(scene);
   m.occTex = make3d(GL_R8, m.blocks.blocks, GL_RED, GL_UNSIGNED_BYTE, nullptr, GL_NEAREST, GL_CLAMP_TO_EDGE);
   checkGlError("scene upload");
-  m.geometry = scene.distance.geometry();
+  m.geometry = scene.grid();
   m.table = scene.segments.table();
   m.maxId = scene.segments.maxId();
   m.ct = scene.ct;
@@ -269,6 +269,14 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     }
     if (!m.slots.empty()) glUniform4fv(glGetUniformLocation(p, "uSlots"), GLsizei(m.slots.size()), slots.data());
     glUniform1i(glGetUniformLocation(p, "uNumSlots"), GLint(m.slots.size()));
+    // The painter's items whose row can show, and the slots that draw ink: the shader loops
+    // over these only (paintItems).
+    std::vector<GLint> items, inkSlots;
+    paintItems(table, m.slots, items, inkSlots);
+    if (!items.empty()) glUniform1iv(glGetUniformLocation(p, "uItems"), GLsizei(items.size()), items.data());
+    glUniform1i(glGetUniformLocation(p, "uNumItems"), GLint(items.size()));
+    if (!inkSlots.empty()) glUniform1iv(glGetUniformLocation(p, "uInkSlots"), GLsizei(inkSlots.size()), inkSlots.data());
+    glUniform1i(glGetUniformLocation(p, "uNumInk"), GLint(inkSlots.size()));
     glUniformMatrix3fv(glGetUniformLocation(p, "uGradToPhys"), 1, GL_TRUE, sf.gradToPhys.data());
     std::vector<float> lo, hi;
     gradientWindows(table, m.slots, sf.coverageH, lo, hi);

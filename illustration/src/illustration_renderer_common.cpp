@@ -131,7 +131,7 @@ Volume4 computeCtGradient(const AnyVolume& ctAny) {
 
 FieldVolume makeFieldVolume(const ShapeScene& scene, bool decode) {
   FieldVolume fv;
-  fv.dims = scene.distance.dims();
+  fv.dims = scene.grid().dims;
   for (const auto& f : scene.fields) fv.slots.push_back({int(f.id), int(f.shellId), f.shellMm});
   fv.groups = int((fv.slots.size() + 3) / 4);
   if (!decode) return fv;
@@ -154,7 +154,7 @@ FieldVolume makeFieldVolume(const ShapeScene& scene, bool decode) {
 }
 
 void packFieldSlab(const ShapeScene& scene, int group, int64_t z0, int64_t z1, std::vector<int16_t>& out) {
-  const Dims d = scene.distance.dims();
+  const Dims d = scene.grid().dims;
   const size_t slice = size_t(d.x * d.y);
   out.resize(slice * size_t(z1 - z0) * 4);
   for (int c = 0; c < 4; ++c) {
@@ -164,6 +164,48 @@ void packFieldSlab(const ShapeScene& scene, int group, int64_t z0, int64_t z1, s
       for (int64_t v = b; v < e; ++v) out[size_t(v) * 4 + size_t(c)] = src ? src[v] : int16_t(32767);
     }, 1 << 16);
   }
+}
+
+void paintItems(const StyleTable& t, const std::vector<PaintSlot>& slots, std::vector<int>& items,
+                std::vector<int>& inkSlots) {
+  items.clear();
+  inkSlots.clear();
+  const int n = int(slots.size());
+  auto shows = [&](int id) { return id >= 0 && id < kMaxLabels && t.row(id)[slot::Visible]; };
+  for (int i = 0; i < 2 * n; ++i) {
+    const PaintSlot& sl = slots[size_t(n - 1 - i / 2)];
+    const bool first = (i & 1) == 0;
+    if (!first && sl.shellId <= 0) continue;
+    if (shows(first && sl.shellId > 0 ? sl.shellId : sl.id)) items.push_back(i);
+  }
+  if (shows(0)) items.push_back(2 * n);
+  for (int s = 0; s < n; ++s) {
+    const int iid = slots[size_t(s)].shellId > 0 ? slots[size_t(s)].shellId : slots[size_t(s)].id;
+    if (iid < kMaxLabels && t.row(iid)[slot::Ink]) inkSlots.push_back(s);
+  }
+}
+
+float creaseInk(const FieldVolume& f, int slot, Vec3f q, Vec3f rightIdx, Vec3f upIdx, const std::array<float, 9>& m,
+                float widthPx, float angleDeg, float pixMm) {
+  const float r = (0.5f * widthPx + 0.5f) * pixMm;
+  const Vec3f ax = rightIdx * r, ay = upIdx * r;
+  auto normal = [&](Vec3f p) {
+    const float gx = 0.5f * (f.at(p.x + 1.f, p.y, p.z, slot) - f.at(p.x - 1.f, p.y, p.z, slot));
+    const float gy = 0.5f * (f.at(p.x, p.y + 1.f, p.z, slot) - f.at(p.x, p.y - 1.f, p.z, slot));
+    const float gz = 0.5f * (f.at(p.x, p.y, p.z + 1.f, slot) - f.at(p.x, p.y, p.z - 1.f, slot));
+    const Vec3f g{m[0] * gx + m[1] * gy + m[2] * gz, m[3] * gx + m[4] * gy + m[5] * gz, m[6] * gx + m[7] * gy + m[8] * gz};
+    const float len = std::sqrt(dot(g, g));
+    return len > 1e-6f ? g * (1.f / len) : Vec3f{0, 0, 0};
+  };
+  float cmin = 1.f;
+  for (int i = 0; i < 4; ++i) {
+    const Vec3f a = i == 0 ? ax : i == 1 ? ay : i == 2 ? (ax + ay) * 0.70710678f : (ax - ay) * 0.70710678f;
+    const Vec3f n0 = normal(q + a), n1 = normal(q - a);
+    if (dot(n0, n0) > 0.5f && dot(n1, n1) > 0.5f) cmin = std::min(cmin, dot(n0, n1));
+  }
+  constexpr float kRad = 3.14159265358979f / 180.f;
+  const float c0 = std::cos(angleDeg * kRad), c1 = std::cos(std::min(angleDeg + 15.f, 180.f) * kRad);
+  return std::clamp((c0 - cmin) / std::max(c0 - c1, 1e-6f), 0.f, 1.f);
 }
 
 void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH,
@@ -286,7 +328,7 @@ void FieldVolume::sample(float x, float y, float z, bool central, const float* l
 }
 
 BlockFields computeBlockFields(const ShapeScene& scene) {
-  const Dims d = scene.distance.dims();
+  const Dims d = scene.grid().dims;
   BlockFields b;
   b.blocks = {(d.x + kBlock - 1) / kBlock, (d.y + kBlock - 1) / kBlock, (d.z + kBlock - 1) / kBlock};
   b.slots = int(scene.fields.size());
@@ -556,7 +598,9 @@ void packRow(const SegmentStyle& r, bool visible, double diameter, float* p) {
   put(p, slot::LineColour, r.lineColour);
   put(p, slot::HatchSpacingPx, r.hatchSpacingPx);
   put(p, slot::HatchWidthPx, r.hatchWidthPx);
-  put(p, slot::Ink, r.visible && r.lineOpacity > 0 && (r.lineWidthPx > 0 || r.hatchSpacingPx > 0));
+  put(p, slot::CreaseWidthPx, r.creaseWidthPx);
+  put(p, slot::CreaseAngleDeg, r.creaseAngleDeg);
+  put(p, slot::Ink, r.visible && r.lineOpacity > 0 && (r.lineWidthPx > 0 || r.hatchSpacingPx > 0 || r.creaseWidthPx > 0));
 }
 
 }  // namespace
@@ -581,7 +625,7 @@ StyleTable packStyle(const Style& style, const std::vector<Label>& table, int ma
     const SegmentStyle& r = rows[size_t(l)];
     const bool shows = r.visible && (r.lambdaIllum + r.lambdaColouring + r.lambdaTexture) > 0 &&
                        (r.opacity > 0 || (r.illum == IllumMode::Ct && r.lambdaIllum > 0));
-    const bool ink = r.visible && r.lineOpacity > 0 && (r.lineWidthPx > 0 || r.hatchSpacingPx > 0);
+    const bool ink = r.visible && r.lineOpacity > 0 && (r.lineWidthPx > 0 || r.hatchSpacingPx > 0 || r.creaseWidthPx > 0);
     const bool vis = shows || ink;
     packRow(r, vis, diameter, t.texels.data() + size_t(l) * kRowTexels * 4);
     t.visible[size_t(l)] = vis;

@@ -74,6 +74,12 @@ struct PaintSlot {
 constexpr float kFieldScaleMm = float(32767 * kFieldQuantumMm);
 inline float decodeField(int16_t v) { return std::max(float(v) / 32767.f, -1.f) * kFieldScaleMm; }
 
+/// The shader's painter loop visits item 2k = slot n-1-k's shell row (its row when it has
+/// no shell), 2k+1 = its core row (shells only), 2n = label 0: `items` gets those whose row
+/// can show (StyleRow Visible), in that order; `inkSlots` the slots whose outermost row draws
+/// ink. Skipping the others changes nothing in the picture (their samples add nothing).
+void paintItems(const StyleTable& t, const std::vector<PaintSlot>& slots, std::vector<int>& items,
+                std::vector<int>& inkSlots);
 /// The per-segment distances as the shader sees them: slot s is channel s % 4 of group s / 4;
 /// groups are stacked along z in one RGBA16_SNORM texture (dims.x, dims.y, dims.z * groups).
 struct FieldVolume {
@@ -173,6 +179,12 @@ float inkVertex(float a, float b, float c);
 /// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25, times fade[l].
 float inkHatch(float ndl, const float* u, const float* fade, float spacingPx, float widthPx);
 struct SampleFrame;
+/// Crease ink (CPU reference of creaseInk() in the shader) at the surface point q (continuous
+/// index) of `slot`: the largest angle between the slot's normals (central differences) at
+/// q +- r a, r = (widthPx / 2 + 1/2) pixMm, a = the screen's right, up and two diagonals
+/// (index offsets per mm: right, up), mapped to 0 below angleDeg and 1 from angleDeg + 15.
+float creaseInk(const FieldVolume& f, int slot, Vec3f q, Vec3f rightIdx, Vec3f upIdx, const std::array<float, 9>& gradToPhys,
+                float widthPx, float angleDeg, float pixMm);
 /// u and fade of inkHatch at a sample (physical position pMm, unit normal n).
 void hatchCoordinates(const SampleFrame& f, Vec3f pMm, Vec3f n, float* u, float* fade);
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].

@@ -7,6 +7,7 @@
 #include "render_common.hpp"  // modules/render: camera rays, clip, jitter (shared with its shaders)
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/io/nrrd_reader.hpp"
 #include "vellum/io/volume_io.hpp"
 
 namespace vellum::illustration {
@@ -19,13 +20,13 @@ const params::EnumTable<Interpolation>& interpolations() {
 }
 
 void validateScene(const ShapeScene& scene) {
-  scene.distance.geometry().validate("shape distance volume");
-  if (!scene.segments.geometry().approxEqual(scene.distance.geometry()))
+  scene.grid().validate("shape distance volume");
+  if (!scene.segments.geometry().approxEqual(scene.grid()))
     throw Error("shape scene: segments grid " + scene.segments.geometry().dims.str() +
-                " differs from the distance grid " + scene.distance.dims().str());
-  if (scene.ct && !geometryOf(*scene.ct).approxEqual(scene.distance.geometry()))
+                " differs from the distance grid " + scene.grid().dims.str());
+  if (scene.ct && !geometryOf(*scene.ct).approxEqual(scene.grid()))
     throw Error("shape scene: CT grid " + geometryOf(*scene.ct).dims.str() +
-                " differs from the shape grid " + scene.distance.dims().str() +
+                " differs from the shape grid " + scene.grid().dims.str() +
                 " (the shape folder must be made from this CT)");
   if (scene.segments.maxId() >= kMaxLabels)
     throw Error("shape scene: segment ids must be <= 255 (found " + std::to_string(scene.segments.maxId()) + ")");
@@ -33,15 +34,15 @@ void validateScene(const ShapeScene& scene) {
     throw Error("shape scene: no per-segment distances (make the shape folder again with `vellum shape`)");
   for (size_t i = 0; i < scene.fields.size(); ++i) {
     const SegmentField& f = scene.fields[i];
-    if (!f.distance.geometry().approxEqual(scene.distance.geometry()))
+    if (!f.distance.geometry().approxEqual(scene.grid()))
       throw Error("shape scene: the distance of segment '" + f.name + "' has grid " + f.distance.dims().str() +
-                  ", not the scene's " + scene.distance.dims().str());
+                  ", not the scene's " + scene.grid().dims.str());
     if (f.id == 0 || f.id >= kMaxLabels || f.shellId >= kMaxLabels || (i > 0 && f.id <= scene.fields[i - 1].id))
       throw Error("shape scene: segment '" + f.name + "': ids must increase within 1..255");
   }
 }
 
-ShapeScene loadShapeFolder(const std::filesystem::path& dir) {
+ShapeScene loadShapeFolder(const std::filesystem::path& dir, bool unionDistance) {
   if (!std::filesystem::is_directory(dir))
     throw FileError(dir, std::filesystem::exists(dir) ? "is not a shape folder (not a directory)"
                                                       : "no such shape folder (make one with `vellum shape`)");
@@ -49,21 +50,30 @@ ShapeScene loadShapeFolder(const std::filesystem::path& dir) {
   for (const auto& p : {dPath, sPath})
     if (!std::filesystem::exists(p)) throw FileError(p, "missing from the shape folder (make it with `vellum shape`)");
   ShapeScene s;
-  AnyVolume d = io::loadVolume(dPath).volume;
-  if (!std::holds_alternative<VolumeF32>(d))
-    throw FileError(dPath, std::string("expected float32 signed distances, got ") + voxelTypeName(voxelTypeOf(d)));
-  s.distance = std::move(std::get<VolumeF32>(d));
+  Geometry grid;
+  if (unionDistance) {
+    AnyVolume d = io::loadVolume(dPath).volume;
+    if (!std::holds_alternative<VolumeF32>(d))
+      throw FileError(dPath, std::string("expected float32 signed distances, got ") + voxelTypeName(voxelTypeOf(d)));
+    s.distance = std::move(std::get<VolumeF32>(d));
+    grid = s.distance.geometry();
+  } else {
+    // Only its grid: the header (the renderer draws the per-segment fields).
+    const io::NrrdLayout h = io::readNrrdHeader(dPath);
+    if (h.type != "float" || !h.leadingSizes.empty())
+      throw FileError(dPath, "expected float32 signed distances, got " + h.type + (h.leadingSizes.empty() ? "" : " vectors"));
+    grid = h.geometry;
+  }
   s.segments = io::loadLabels(sPath);
-  if (!s.segments.geometry().approxEqual(s.distance.geometry()))
-    throw FileError(sPath, "grid " + s.segments.geometry().dims.str() + " differs from distance.nrrd's " +
-                               s.distance.dims().str());
+  if (!s.segments.geometry().approxEqual(grid))
+    throw FileError(sPath, "grid " + s.segments.geometry().dims.str() + " differs from distance.nrrd's " + grid.dims.str());
   if (s.segments.maxId() >= kMaxLabels)
     throw FileError(sPath, "segment ids must be <= 255 (found " + std::to_string(s.segments.maxId()) + ")");
   s.fields = loadSegmentFields(dir);
   for (const auto& f : s.fields)
-    if (!f.distance.geometry().approxEqual(s.distance.geometry()))
+    if (!f.distance.geometry().approxEqual(grid))
       throw FileError(dir / ("distance-" + std::to_string(f.id) + ".nrrd"),
-                      "grid " + f.distance.dims().str() + " differs from distance.nrrd's " + s.distance.dims().str());
+                      "grid " + f.distance.dims().str() + " differs from distance.nrrd's " + grid.dims.str());
   return s;
 }
 
@@ -115,6 +125,8 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
       std::fill(inPass.begin(), inPass.end(), uint8_t(0));
       std::fill(entered.begin(), entered.end(), uint8_t(0));
       bool holdInk = false;
+      int creaseS = -1;  // as the shader: the first slot with creases the ray entered
+      float creaseT = 0.f, creaseAcc[4] = {0, 0, 0, 0};
       for (int64_t k = clip.k0; k <= clip.k1; ++k) {
         const Vec3 p = clip.o + clip.d * ((double(k) + clip.jitter) * f.stepMm);
         const double t = (double(k) + clip.jitter) * f.stepMm;
@@ -192,6 +204,11 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
               hatchCoordinates(cx.sf, pMm, g * (1.f / gl), u, fade);
               under(&passAcc[i * 4], r[slot::LineColour], op * inkHatch(ndl, u, fade, hs, r[slot::HatchWidthPx]));
             }
+            if (creaseS < 0 && r[slot::CreaseWidthPx] > 0.f && b < kInkNone && b > 0.f && c <= 0.f && inPass[i]) {
+              creaseS = int(i);
+              creaseT = (float(k - 1) + float(clip.jitter) + b / (b - c)) * float(f.stepMm);
+              std::copy(&passAcc[i * 4], &passAcc[i * 4] + 4, creaseAcc);
+            }
           }
         }
         // Adaptive step: a sample in homogeneous space stands for the samples up to the
@@ -205,6 +222,20 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
           for (int ch = 0; ch < 3; ++ch) acc[ch] += (1.f - acc[3]) * aStep * (sum[size_t(ch)] / sum[3]);
           acc[3] += (1.f - acc[3]) * aStep;
           if (acc[3] >= kEarlyAlpha && !holdInk) break;
+        }
+      }
+      if (creaseS >= 0) {
+        const PaintSlot& sl = cx.fields.slots[size_t(creaseS)];
+        const StyleRow r = cx.table.row(sl.shellId > 0 ? sl.shellId : sl.id);
+        const Vec3f q = f3(clip.o + clip.d * double(creaseT));
+        const float ia = r[slot::LineOpacity] *
+                         creaseInk(cx.fields, creaseS, q, f3(f.physToBox * f.right), f3(f.physToBox * f.up), cx.sf.gradToPhys,
+                                   r[slot::CreaseWidthPx], r[slot::CreaseAngleDeg], cx.sf.pixMm0 + cx.sf.pixMm1 * creaseT);
+        const float rr = 1.f - creaseAcc[3];
+        for (int ch = 0; ch < 4; ++ch) {
+          const float x = rr > 1e-6f ? (acc[ch] - creaseAcc[ch]) / rr : 0.f;
+          const float ink = ch == 3 ? ia : ia * r[slot::LineColour][ch];
+          acc[ch] = creaseAcc[ch] + rr * (ink + (1.f - ia) * x);
         }
       }
       const float bgA = s.background[3];
@@ -272,8 +303,8 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
 
 RgbaImage renderIllustrationCpu(const ShapeScene& scene, const Style& style, const IllustrationSettings& settings) {
   validateScene(scene);
-  CpuContext cx{scene, settings, render::detail::makeFrame(scene.distance.geometry(), nullptr, settings.render),
-                packStyle(style, scene.segments.table(), scene.segments.maxId(), scene.distance.geometry()), {}, {},
+  CpuContext cx{scene, settings, render::detail::makeFrame(scene.grid(), nullptr, settings.render),
+                packStyle(style, scene.segments.table(), scene.segments.maxId(), scene.grid()), {}, {},
                 false, {}, {}};
   cx.fields = makeFieldVolume(scene, true);
   if (cx.table.usesCt) {
@@ -285,8 +316,8 @@ RgbaImage renderIllustrationCpu(const ShapeScene& scene, const Style& style, con
     if (style.textureVolume.empty()) throw Error("illustrate: style '" + style.name + "' has texture = volume rows but no texture_volume");
     cx.texVol = loadTextureVolume(style.textureVolume);
   }
-  cx.sf = makeSampleFrame(scene.distance.geometry(), cx.frame, cx.table);
-  cx.skipMarginMm = skipMarginMm(scene.distance.geometry());
+  cx.sf = makeSampleFrame(scene.grid(), cx.frame, cx.table);
+  cx.skipMarginMm = skipMarginMm(scene.grid());
   RgbaImage image(settings.render.width, settings.render.height);
   parallelFor(settings.render.height, [&](int64_t y0, int64_t y1) { renderRows(cx, image, int(y0), int(y1)); });
   return image;

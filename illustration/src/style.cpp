@@ -118,6 +118,10 @@ const params::Table<SegmentStyle>& segmentTable() {
               {"Hatch spacing", "hatching on the segment's front surface, in object space (the surface cut by parallel planes fixed to the anatomy, so strokes stay put in a movie), strokes this far apart at the scene centre's pixel size: one layer of cross-contours (planes across the grid's z axis) where n.l < 0.6, a crossing diagonal layer where n.l < 0.25, a third where n.l < -0.2, each stroke widening from 0 as the tone darkens (0 = none)", "px", 0, 256}),
       real<S>("hatch_width_px", &S::hatchWidthPx,
               {"Hatch width", "width of a hatching stroke at full darkness", "px", 0.1, 32}),
+      real<S>("crease_width_px", &S::creaseWidthPx,
+              {"Crease width", "ink line along creases of the segment's front surface (edges and folds where its normal turns sharply), in pixels: drawn where the normals half the width (plus half a pixel) either side of the ray's entry point, along four screen directions, differ by more than crease_angle_deg (full ink 15 degrees above it; 0 = no creases)", "px", 0, 32}),
+      real<S>("crease_angle_deg", &S::creaseAngleDeg,
+              {"Crease angle", "turn of the surface normal across a crease line's width where its ink starts", "deg", 1, 170}),
   };
   return t;
 }
@@ -391,7 +395,7 @@ Style textbook() {
 Style pen() {
   Style s;
   s.name = "pen";
-  s.description = "pen-and-ink drawing: black lines of constant pixel width along silhouettes and contours, hatching by tone, on white; the skin as an outline only";
+  s.description = "pen-and-ink drawing: black lines of constant pixel width along silhouettes, contours and creases, hatching by tone, on white; the skin as an outline only";
   s.background = {1.f, 1.f, 1.f};
   // Structures: opaque paper-white fill (hides the lines behind them), ink on top.
   SegmentStyle r = row("", {1.f, 1.f, 1.f}, 1.0f);
@@ -399,11 +403,14 @@ Style pen() {
   r.lineWidthPx = 2.0f;
   r.hatchSpacingPx = 5.0f;
   r.hatchWidthPx = 1.4f;
+  r.creaseWidthPx = 1.5f;
+  r.creaseAngleDeg = 30.f;
   s.fallback = r;
   auto skin = r;
   skin.match = "skin";
   skin.opacity = 0;  // outline only: the bones show through
   skin.hatchSpacingPx = 0;
+  skin.creaseWidthPx = 0;
   skin.lineWidthPx = 1.5f;
   s.segments = {skin};
   return s;
@@ -566,6 +573,18 @@ n.l < 0.25, a vertical one where n.l < -0.2, each stroke widening from 0 to `hat
 the tone darkens. The strokes are straight in the image, so no rings or moire follow the
 voxel layers; lit parts stay clean paper (`PenHatchingFollowsTheTone`: mean ink 0.00 where
 n.l > 0.7, 0.22 at n.l 0.3 to 0.5, 0.45 below 0.1).
+
+**Creases.** `crease_width_px` > 0 inks the edges and folds of the segment's front surface,
+where its normal turns sharply: at the point where a ray first enters such a segment, the
+normals (central differences of its distance) half the width plus half a pixel either side
+along the screen's right, up and two diagonal directions are compared, and the largest turn
+maps to ink from `crease_angle_deg` (none below) to 15 degrees more (full). The probes are a
+fixed number of pixels apart, so the line is about the width in pixels at every zoom (wider
+where the distance field rounds an edge over more than a pixel: coarse voxels at a high zoom);
+it is evaluated once per ray, after the march. A smooth surface turns by about 2 r / R (r the
+probe offset, R the radius of curvature), so `pen` (1.5 px, 30 degrees) leaves parts rounder
+than about 4 px in radius alone (`PenCreasesFollowACubesEdgesNotASphere`: a cube's edge inked,
+its faces and a sphere clean; GL = CPU).
 
 **Skin outlines.** The textbook skin was a faint translucent rim from silhouette enhancement
 ((1 - |n.v|)^8): a ray step either caught the thin rim or missed it, so on real skin it came

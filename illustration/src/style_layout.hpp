@@ -54,7 +54,9 @@ namespace vellum::illustration::detail {
   X(LineColour, 12, 0, Rgb, "line_colour", "ink colour")                                               \
   X(HatchSpacingPx, 12, 3, float, "hatch_spacing_px", "hatching stroke spacing in pixels (0 none)")    \
   X(HatchWidthPx, 13, 0, float, "hatch_width_px", "hatching stroke width at full darkness")            \
-  X(Ink, 13, 1, bool, "", "the row draws ink: lines or hatching")
+  X(Ink, 13, 1, bool, "", "the row draws ink: lines, hatching or creases")                            \
+  X(CreaseWidthPx, 13, 2, float, "crease_width_px", "crease line width in pixels (0 none)")              \
+  X(CreaseAngleDeg, 13, 3, float, "crease_angle_deg", "normal turn that starts a crease line")
 
 /// One slot: where a value of type T sits in a row (floats from the row's start).
 template <class T>

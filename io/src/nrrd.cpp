@@ -420,6 +420,15 @@ const char* canonicalTypeName(SampleType t) {
   return "?";
 }
 
+NrrdLayout layoutOf(const NrrdDescription& d) {
+  NrrdLayout l;
+  l.type = canonicalTypeName(d.type);
+  l.leadingSizes = d.leadingSizes;
+  l.leadingKinds = d.leadingKinds;
+  l.geometry = d.g;
+  return l;
+}
+
 }  // namespace
 
 LoadedVolume loadNrrd(const fs::path& path, const LoadOptions& options, ExtraFields* extra) {
@@ -466,11 +475,13 @@ NrrdContents readNrrd(const std::filesystem::path& path, Progress* progress) {
     const size_t w = static_cast<size_t>(sampleSize(d.type));
     for (size_t i = 0; i + w <= c.bytes.size(); i += w) std::reverse(c.bytes.begin() + i, c.bytes.begin() + i + w);
   }
-  c.layout.type = canonicalTypeName(d.type);
-  c.layout.leadingSizes = d.leadingSizes;
-  c.layout.leadingKinds = d.leadingKinds;
-  c.layout.geometry = d.g;
+  c.layout = layoutOf(d);
   return c;
+}
+
+NrrdLayout readNrrdHeader(const std::filesystem::path& path) {
+  using namespace detail;
+  return layoutOf(describeNrrd(path, parseHeader(path), 1 << 16, false));
 }
 
 }  // namespace vellum::io

@@ -399,6 +399,53 @@ TEST(IllustrationStyles, PenDrawsNoLinesBehindATransparentSurface) {
   EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
 }
 
+/// Pen creases: ink where the surface's normal turns sharply, of constant pixel width. A cube
+/// seen edge-on (azimuth 45, elevation 0: two faces meet in a vertical edge at the image's
+/// centre column) gets a line on that edge and none on the faces; a sphere gets none inside
+/// its outline. GL equals the CPU reference.
+TEST(IllustrationStyles, PenCreasesFollowACubesEdgesNotASphere) {
+  Style st = stylePreset("pen");
+  st.fallback.lineWidthPx = 0;     // no silhouettes: only creases ink the picture
+  st.fallback.hatchSpacingPx = 0;
+  ASSERT_GT(st.fallback.creaseWidthPx, 0.f);
+  const ShapeScene cube =
+      test::makeScene(48, {{"bone", [](const Vec3& p) { return test::boxSdf(p, {0, 0, 0}, {10, 10, 10}); }}});
+  IllustrationSettings s = front(128);
+  s.render.camera.azimuthDeg = 45;
+  const RgbaImage g = gpu(cube, st, s);
+  maybeSave(g, "pen-creases-cube");
+  // Across the middle rows: the darkest pixel near the centre column, the line's width (ink
+  // > 0.5) and the darkest ink on the faces (3..9 mm either side of the edge on screen).
+  const double pxMm = pxPerMm(128);
+  double edge = 1, faces = 0, width = 0;
+  for (int y = 64 - 8; y <= 64 + 8; ++y) {
+    double best = 0;
+    int wide = 0;
+    for (int x = 64 - 4; x <= 64 + 4; ++x) {
+      best = std::max(best, ink(g, x, y));
+      wide += ink(g, x, y) > 0.5 ? 1 : 0;
+    }
+    edge = std::min(edge, best);
+    width += wide / 17.0;
+    for (double mm : {-9.0, -6.0, -3.0, 3.0, 6.0, 9.0}) faces = std::max(faces, ink(g, 64 + int(std::lround(mm * pxMm)), y));
+  }
+  const RgbaImage b = gpu(ball(), st, s);
+  maybeSave(b, "pen-creases-sphere");
+  double sphere = 0;
+  for (int y = 0; y < 128; ++y)
+    for (int x = 0; x < 128; ++x)
+      if (std::hypot(x + 0.5 - 64, y + 0.5 - 64) < (kBallMm - 1.5) * pxMm) sphere = std::max(sphere, ink(b, x, y));
+  std::cout << "[ crease ] cube edge ink >= " << edge << ", width " << width << " px (crease_width_px "
+            << st.fallback.creaseWidthPx << "), faces <= " << faces << "; sphere inside its outline <= " << sphere << "\n";
+  EXPECT_GT(edge, 0.8);
+  EXPECT_GE(width, 1.0);
+  EXPECT_LE(width, 3.5);
+  EXPECT_LT(faces, 0.1);
+  EXPECT_LT(sphere, 0.1);
+  const test::ImageDiff d = test::compareImages(g, renderIllustrationCpu(cube, st, s));
+  EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+}
+
 /// Hatching lies on the surface, not the screen: panning the camera by 7 px moves the
 /// hatched ball's picture by 7 px, strokes included (screen-space strokes stayed put).
 TEST(IllustrationStyles, PenHatchingMovesWithTheSurface) {

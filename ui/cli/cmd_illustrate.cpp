@@ -110,7 +110,7 @@ void demoIllustration(const DemoContext& ctx) {
   RgbaImage figure = renderer.render(textbook, s);
   illustration::LabelSearch search;
   search.ids = annotations.labelIds;
-  annotations.apply(figure, scene.distance.geometry(), s.render,
+  annotations.apply(figure, scene.grid(), s.render,
                     illustration::drawnSegmentAnchors(renderer, textbook, s, scene.segments, figure, search));
   io::saveImage(figure, ctx.outDir / "illustration-textbook.png");
   std::cout << "shape folder shape/ + illustration-plate.png (dvr | dvr-colour | opacity-modulation) + "

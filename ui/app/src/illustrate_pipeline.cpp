@@ -141,7 +141,7 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
   plan.json(r.saveStyle, "--save-style").json(r.report, "--report").check();
 
   IllustrateResult result;
-  ill::ShapeScene scene = ill::loadShapeFolder(r.shape);
+  ill::ShapeScene scene = ill::loadShapeFolder(r.shape, false);
   render::AnnotationOptions annotations = r.annotations;
   // A figure framed on its anatomy keeps room for one label column, on the right.
   if (r.framing != ill::Framing::Volume) annotations.labelSide = render::AnnotationOptions::LabelSide::Right;
@@ -152,8 +152,8 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
   result.warnings = std::move(lv.warnings);
   std::optional<segmentation::BodyMaskReport> tableRemoval;
   if (r.removeTable) lv.volume = withoutCtTable(lv.volume, r.input, *r.removeTable, progress, &tableRemoval.emplace());
-  if (!geometryOf(lv.volume).approxEqual(scene.distance.geometry()))
-    throw FileError(r.shape, "grid " + scene.distance.dims().str() + " does not match the CT " + r.input.string() +
+  if (!geometryOf(lv.volume).approxEqual(scene.grid()))
+    throw FileError(r.shape, "grid " + scene.grid().dims.str() + " does not match the CT " + r.input.string() +
                                  " (" + geometryOf(lv.volume).dims.str() + "): make the shape folder from this CT");
   scene.ct = std::move(lv.volume);
   const double loadS = secondsSince(t0);
@@ -169,7 +169,7 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
   const render::Lighting& lighting = r.settings.render.lighting;
   std::optional<render::VolumeRenderer> lightRenderer;
   if (lighting.on()) lightRenderer.emplace(*context).setVolume(*scene.ct);
-  const Geometry& grid = scene.distance.geometry();
+  const Geometry& grid = scene.grid();
   RunOutputs written;  // a failure (or Ctrl-C) between figures leaves none of this run's
   ensureParentFolder(r.output);
   std::vector<RgbaImage> tiles;

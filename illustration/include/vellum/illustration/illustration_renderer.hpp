@@ -35,16 +35,21 @@ inline Interpolation parseInterpolation(const std::string& name) { return interp
 
 /// What is rendered: the shape folder's volumes (same grid), and optionally the CT.
 struct ShapeScene {
-  VolumeF32 distance;            ///< union distance, mm, negative inside (the scene's grid)
+  VolumeF32 distance;            ///< union distance, mm, negative inside (empty: not loaded)
   LabelVolume segments;          ///< ids 0..255, 0 = unclassified, with the label table
   std::vector<SegmentField> fields;  ///< per-segment distances, paint order (what is rendered)
   std::optional<AnyVolume> ct;   ///< needed only by illum = ct / boundary_measure = ct rows
+  /// The scene's grid: the union distance's, or the segments' when it was not loaded (the
+  /// renderer draws the per-segment fields only).
+  const Geometry& grid() const { return distance.empty() ? segments.geometry() : distance.geometry(); }
 };
 
 /// Loads DIR/distance.nrrd, DIR/segments.nrrd and the per-segment distances
 /// (DIR/distances.json); FileError naming the file for a missing folder/file (an older shape
-/// folder: "run `vellum shape` again"), mismatched grids or ids over 255.
-ShapeScene loadShapeFolder(const std::filesystem::path& dir);
+/// folder: "run `vellum shape` again"), mismatched grids or ids over 255. `unionDistance`
+/// false: distance.nrrd's header is read and checked, its samples are not (ShapeScene::distance
+/// stays empty; the renderer needs only the per-segment fields).
+ShapeScene loadShapeFolder(const std::filesystem::path& dir, bool unionDistance = true);
 /// Throws vellum::Error when the volumes' grids differ or ids exceed 255.
 void validateScene(const ShapeScene& scene);
 

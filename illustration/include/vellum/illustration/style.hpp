@@ -59,6 +59,8 @@ struct SegmentStyle {
   float lineWidthPx = 0.f, lineOpacity = 1.f;
   Rgb lineColour{0.f, 0.f, 0.f};
   float hatchSpacingPx = 0.f, hatchWidthPx = 1.f;
+  // Crease lines where the surface's normal turns sharply (edges, folds), constant pixel width.
+  float creaseWidthPx = 0.f, creaseAngleDeg = 30.f;
 
   bool operator==(const SegmentStyle&) const = default;
 };

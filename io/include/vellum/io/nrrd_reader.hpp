@@ -24,4 +24,8 @@ struct NrrdContents {
 /// detached header's data file must lie in the header's folder (LoadOptions::allowOutsideData).
 NrrdContents readNrrd(const std::filesystem::path& path, Progress* progress = nullptr);
 
+/// The header only (type, leading axes, geometry), checked as readNrrd checks it (the data
+/// file must exist), without reading the samples: for a caller that needs a file's grid.
+NrrdLayout readNrrdHeader(const std::filesystem::path& path);
+
 }  // namespace vellum::io
