@@ -173,6 +173,9 @@ struct VolumeRenderer::Impl {
   Vec3 lightDir;
   double lightRadius = -1;
   double lightSize = -1;
+  /// The map it was made through (lightDeformed; not held: a map is replaced each frame of a drag).
+  std::weak_ptr<const PreparedBackwardMap> lightMap;
+  bool lightDeformed = false;
   /// Cinematic quality (path_tracer_gl.hpp): extinction majorants per skip block.
   GLuint majorantTex = 0;
   Dims majorantDims;
@@ -350,16 +353,27 @@ struct VolumeRenderer::Impl {
 
   /// The light volume for this transfer function, light and radius (recomputed only when one
   /// of them changed), bound with its uniforms.
-  void useLight(GLuint p, const RenderSettings& s, const TfTable& tf, const Frame& f) {
+  /// `deformed`: the drawn map, whose output space the light volume then lies in.
+  void useLight(GLuint p, const RenderSettings& s, const TfTable& tf, const Frame& f,
+                const std::shared_ptr<const PreparedBackwardMap>& deformed) {
     const Vec3 dir = keyLightDirection(f, s.lighting);
     std::vector<float> alpha(tf.rgba.size() / 4);
     for (size_t i = 0; i < alpha.size(); ++i) alpha[i] = tf.rgba[4 * i + 3];
     const bool soft = s.lighting.toneMap || s.quality == Quality::Cinematic;  // the scene lights' disc
     const double size = soft ? s.cinematic.lightSizeDeg : 0.0;
     const bool same = lightTex && alpha == lightAlpha && norm(dir - lightDir) < 1e-9 &&
-                      lightRadius == s.lighting.occlusionRadiusMm && lightSize == size;
+                      lightRadius == s.lighting.occlusionRadiusMm && lightSize == size &&
+                      lightDeformed == (deformed != nullptr) && (!deformed || lightMap.lock() == deformed);
     if (!same) {
-      light = computeLightVolume(*lightSource, tf, f.stepMm, dir, s.lighting, size);
+      if (deformed) {  // the deformed anatomy's shadows: the density resampled through the map
+        const PreparedMap pm = prepareMap(*deformed->map, source);
+        light = computeLightVolume(deformedLightSource(*lightSource, pm, *deformed->map), tf, f.stepMm, dir,
+                                   s.lighting, size);
+      } else {
+        light = computeLightVolume(*lightSource, tf, f.stepMm, dir, s.lighting, size);
+      }
+      lightMap = deformed;
+      lightDeformed = deformed != nullptr;
       deleteTexture(lightTex);
       glActiveTexture(GL_TEXTURE0 + kUnitLight);  // not the unit bound last (the skip grid's)
       glGenTextures(1, &lightTex);
@@ -385,7 +399,8 @@ struct VolumeRenderer::Impl {
     glActiveTexture(GL_TEXTURE0 + kUnitLight);
     glBindTexture(GL_TEXTURE_3D, lightTex);
     const Dims& d = light.dims;
-    uniform3(p, "uLightScale", {1.0 / (light.factor * d.x), 1.0 / (light.factor * d.y), 1.0 / (light.factor * d.z)});
+    const Vec3& r = light.boxToSource;
+    uniform3(p, "uLightScale", {r.x / (light.factor * d.x), r.y / (light.factor * d.y), r.z / (light.factor * d.z)});
     uniform3(p, "uLightOffset", light.towardsLight);
     uniform3(p, "uLightDir", dir);
     uniform1(p, "uShadowAmount", s.lighting.shadows);
@@ -519,7 +534,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
     glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
-    if (variant.lighting) useLight(p, s, tf, f);
+    if (variant.lighting) useLight(p, s, tf, f, variant.deformed ? drawnMap : nullptr);
     if (pathTrace) useMajorants(tf, f, deform, skip.dims);
   }
   return p;
@@ -532,6 +547,8 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
     for (size_t i = 3; i < deform->attributes.size(); i += 4) scale = std::max(scale, deform->attributes[i]);
     maj = cellMajorants(drawnMap->cells, maj, blocks.blocks, scale);
   }
+  // Its own unit before a new texture is bound: the unit active now holds the light volume.
+  glActiveTexture(GL_TEXTURE0 + kUnitMajorant);
   if (!majorantTex || !(majorantDims == dims)) {
     deleteTexture(majorantTex);
     glGenTextures(1, &majorantTex);
@@ -540,7 +557,6 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
     setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
     majorantDims = dims;
   }
-  glActiveTexture(GL_TEXTURE0 + kUnitMajorant);
   glBindTexture(GL_TEXTURE_3D, majorantTex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(dims.x), GLsizei(dims.y), GLsizei(dims.z), GL_RED, GL_FLOAT,
