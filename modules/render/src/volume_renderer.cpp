@@ -184,6 +184,8 @@ struct VolumeRenderer::Impl {
   struct Progressive {
     RenderSettings settings;
     RgbaImage guide;
+    std::vector<uint8_t> guideRowDone;  ///< per image row: drawn into the guide (1)
+    int guideRowsLeft = 0;
     int samples = 0;
     bool begun = false;
     AccumulationTarget accumulation;
@@ -422,7 +424,9 @@ struct VolumeRenderer::Impl {
   /// begin/add/resolve API on `progressive`, so a one-shot render leaves a progressive one
   /// intact): the denoise guide and a cleared float target; sample passes added into it;
   /// the picture of the sums so far, tone mapped and denoised.
-  void beginCinematic(Progressive& pr, const RenderSettings& s);
+  void beginCinematic(Progressive& pr, const RenderSettings& s, bool guideInBands = false);
+  /// Rows [rowBegin, rowEnd) of the denoise guide ray cast and read back into pr.guide.
+  void drawGuideRows(Progressive& pr, int rowBegin, int rowEnd);
   /// Passes over the whole picture, or (rowBegin < rowEnd, image rows, row 0 = top) one
   /// uncounted pass over those rows only (the caller counts the sample once all rows have it).
   int addCinematicPasses(Progressive& pr, const Cinematic& budget, int rowBegin = 0, int rowEnd = 0);
@@ -564,21 +568,35 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
   checkGlError("cinematic majorants");
 }
 
-void VolumeRenderer::Impl::beginCinematic(Progressive& pr, const RenderSettings& s) {
+void VolumeRenderer::Impl::beginCinematic(Progressive& pr, const RenderSettings& s, bool guideInBands) {
   uploadMap();
   pr.settings = s;
   pr.samples = 0;
   pr.guide = RgbaImage();  // the denoise's edges: the same view ray cast (path_tracer.hpp)
+  pr.guideRowDone.clear();
+  pr.guideRowsLeft = 0;
   if (s.cinematic.denoise > 0) {
     pr.guide = RgbaImage(s.width, s.height);
-    target.bind(s.width, s.height, "render");
-    draw(denoiseGuideSettings(s), target.framebuffer(), 0, s.height, 0);
-    readRgbaRows(target.framebuffer(), 0, s.height, pr.guide, "denoise guide");
+    pr.guideRowDone.assign(size_t(s.height), 0);
+    pr.guideRowsLeft = s.height;
+    if (!guideInBands) drawGuideRows(pr, 0, s.height);
   }
   // The paths: at cinematic.traceScale of the size (finishPathTraced upsamples them).
   const RenderSettings ts = tracedSettings(s);
   pr.accumulation.bindCleared(ts.width, ts.height);
   pr.begun = true;
+}
+
+void VolumeRenderer::Impl::drawGuideRows(Progressive& pr, int rowBegin, int rowEnd) {
+  const RenderSettings& s = pr.settings;
+  target.bind(s.width, s.height, "render");
+  draw(denoiseGuideSettings(s), target.framebuffer(), rowBegin, rowEnd, 0);
+  readRgbaRows(target.framebuffer(), rowBegin, rowEnd, pr.guide, "denoise guide");
+  for (int y = rowBegin; y < rowEnd; ++y)
+    if (!pr.guideRowDone[size_t(y)]) {
+      pr.guideRowDone[size_t(y)] = 1;
+      --pr.guideRowsLeft;
+    }
 }
 
 int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& budget, int rowBegin, int rowEnd) {
@@ -618,6 +636,7 @@ int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& b
 }
 
 RgbaImage VolumeRenderer::Impl::resolveCinematic(const Progressive& pr) const {
+  if (pr.guideRowsLeft > 0) throw Error("resolveCinematic: the denoise guide is not complete (addCinematicGuideRows)");
   const PathSums sums = pr.accumulation.read(pr.samples);
   return finishPathTraced(sums, pr.settings, &pr.guide);
 }
@@ -1023,12 +1042,28 @@ double VolumeRenderer::lastGpuMs() const { return impl_->timer.lastMs(); }
 
 int VolumeRenderer::lastSamples() const { return impl_->lastSamples; }
 
-void VolumeRenderer::beginCinematic(const RenderSettings& s) {
+void VolumeRenderer::beginCinematic(const RenderSettings& s) { beginCinematic(s, false); }
+
+void VolumeRenderer::beginCinematic(const RenderSettings& s, bool guideInBands) {
   checkImageSize(s.width, s.height);
   if (s.preset == Preset::Mip) throw Error("cinematic: the mip preset is not path traced");
   if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
   impl_->context.makeCurrent();
-  impl_->beginCinematic(impl_->progressive, s);
+  impl_->beginCinematic(impl_->progressive, s, guideInBands);
+}
+
+int VolumeRenderer::addCinematicGuideRows(int rowBegin, int rowEnd) {
+  Impl& m = *impl_;
+  if (!m.progressive.begun) throw Error("addCinematicGuideRows: call beginCinematic first");
+  Impl::Progressive& pr = m.progressive;
+  rowBegin = std::clamp(rowBegin, 0, pr.settings.height);
+  rowEnd = std::clamp(rowEnd, rowBegin, pr.settings.height);
+  if (pr.guideRowsLeft > 0 && rowBegin < rowEnd) {
+    m.context.makeCurrent();
+    m.drawGuideRows(pr, rowBegin, rowEnd);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  }
+  return pr.guideRowsLeft;
 }
 
 int VolumeRenderer::addCinematicSamples(int n) {

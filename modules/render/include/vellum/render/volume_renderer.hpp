@@ -113,6 +113,13 @@ class VolumeRenderer {
   /// with samples = N and the same seed. Independent of render(), which keeps its own sums.
   /// Begin again after changing the view, volume, map or tint.
   void beginCinematic(const RenderSettings& settings);
+  /// guideInBands: the same without the denoise guide's ray cast, which the caller then draws
+  /// in bands of rows with addCinematicGuideRows (a viewer keeps each frame short; the same
+  /// pixels as one ray cast) before the first resolveCinematic().
+  void beginCinematic(const RenderSettings& settings, bool guideInBands);
+  /// Ray casts rows [rowBegin, rowEnd) (row 0 = top) of the denoise guide; returns how many
+  /// of its rows are still to draw (0: complete, or no guide: cinematic.denoise = 0).
+  int addCinematicGuideRows(int rowBegin, int rowEnd);
   int addCinematicSamples(int n);
   /// The next sample over image rows [rowBegin, rowEnd) only (row 0 = top), for a viewer that
   /// cannot afford a whole pass in one frame: call with consecutive bands from row 0; the
