@@ -1066,14 +1066,16 @@ int VolumeRenderer::addCinematicGuideRows(int rowBegin, int rowEnd) {
   return pr.guideRowsLeft;
 }
 
-int VolumeRenderer::addCinematicSamples(int n) {
+int VolumeRenderer::addCinematicSamples(int n) { return addCinematicSamples(n, 0.0); }
+
+int VolumeRenderer::addCinematicSamples(int n, double timeLimitS) {
   Impl& m = *impl_;
   if (!m.progressive.begun) throw Error("addCinematicSamples: call beginCinematic first");
   if (n <= 0) return m.progressive.samples;
   m.context.makeCurrent();
   Cinematic budget = m.progressive.settings.cinematic;
   budget.samples = n;
-  budget.timeLimitS = 0;
+  budget.timeLimitS = std::max(0.0, timeLimitS);
   m.addCinematicPasses(m.progressive, budget);
   return m.progressive.samples;
 }

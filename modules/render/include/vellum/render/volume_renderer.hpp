@@ -121,6 +121,9 @@ class VolumeRenderer {
   /// of its rows are still to draw (0: complete, or no guide: cinematic.denoise = 0).
   int addCinematicGuideRows(int rowBegin, int rowEnd);
   int addCinematicSamples(int n);
+  /// At most n samples, no pass predicted to end past `timeLimitS` seconds (0 = none; at least one):
+  /// a caller that bounds a whole command (`vellum render --time-limit`) gives what is left.
+  int addCinematicSamples(int n, double timeLimitS);
   /// The next sample over image rows [rowBegin, rowEnd) only (row 0 = top), for a viewer that
   /// cannot afford a whole pass in one frame: call with consecutive bands from row 0; the
   /// sample counts (and is returned in the total) once a band ends at the last row. Resolve
