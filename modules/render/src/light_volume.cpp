@@ -49,9 +49,15 @@ LightSource makeLightSource(const AnyVolume& volume) {
 
 LightSource deformedLightSource(const LightSource& src, const PreparedMap& map, const BackwardMap& m) {
   const Geometry& box = m.grid;
-  // About the value grid's spacing (its geometric mean: the output axes need not be the source's).
-  const Vec3 valueMm = src.source.spacing * double(src.factor);
-  double mm = std::cbrt(valueMm.x * valueMm.y * valueMm.z);
+  // One value per cell of the undeformed light volume's size (computeLightVolume's cells; the
+  // geometric mean: the output axes need not be the source's): the same shadow resolution at an
+  // eighth of the map lookups of the value grid's spacing above 384 voxels (rebuilt per map).
+  const Dims sd = src.source.dims;
+  const int64_t largest = std::max({sd.x, sd.y, sd.z});
+  const int64_t perValue = std::max<int64_t>(1, (largest + int64_t(src.factor) * kCellsPerAxis - 1) /
+                                                    (int64_t(src.factor) * kCellsPerAxis));
+  const Vec3 cellMm = src.source.spacing * double(perValue * src.factor);
+  double mm = std::cbrt(cellMm.x * cellMm.y * cellMm.z);
   const Vec3 extent{box.spacing.x * double(box.dims.x), box.spacing.y * double(box.dims.y),
                     box.spacing.z * double(box.dims.z)};
   mm = std::max(mm, std::max({extent.x, extent.y, extent.z}) / kDeformedValuesPerAxis);

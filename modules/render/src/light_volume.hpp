@@ -51,12 +51,12 @@ LightSource makeLightSource(const AnyVolume& volume);
 
 /// Under a deformation the shadows belong to the deformed anatomy (a bending knee casts the
 /// bent knee's shadows): the light source in OUTPUT space, over the map's box (its node
-/// grid's voxel box) at about the undeformed value grid's spacing (at most
-/// kDeformedValuesPerAxis values along the longest axis), each value the undeformed one
+/// grid's voxel box) at about the undeformed light volume's cell size, one value per cell (at
+/// most kDeformedValuesPerAxis values along the longest axis), each value the undeformed one
 /// sampled at the map's u as the ray casters sample it (interpolated, snapped, faded to the
 /// background outside the output box), with the map's density scale. Parallel; deterministic.
 LightSource deformedLightSource(const LightSource& undeformed, const PreparedMap& map, const BackwardMap& m);
-constexpr int kDeformedValuesPerAxis = 256;
+constexpr int kDeformedValuesPerAxis = 256;  ///< a bound; the cell size gives about 192
 /// The CPU references' light source: the volume's, or through `map` (prepared) its deformed one.
 LightSource lightSourceFor(const AnyVolume& volume, const BackwardMap* map, const PreparedMap& prepared);
 
