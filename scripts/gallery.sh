@@ -91,11 +91,11 @@ fi
   echo 
   echo 'Made by `scripts/gallery-cinematic.sh` (not by this page'\''s script: about 15 minutes), the'
   echo 'commands and an illustrator'\''s judgement of each in [lighting.md](lighting.md#cinematic-gallery):'
-  echo 'plain (left) next to `--quality cinematic --trace-scale 0.5 --volume-shadows --exposure -0.5'
-  echo '--sky-light 0.35` (right). In short: the phantom'\''s bone gains soft contact shadows and loses the'
-  echo 'CT speckle; the feet'\''s bone is milkier and flatter than the plain figure (the light volume is'
-  echo 'too coarse for the gaps between the foot bones); skin is softer and warmer but loses relief;'
-  echo 'soft tissue stays grainy at these sample counts.'
+  echo 'plain (left) next to `--quality cinematic --trace-scale 0.5 --volume-shadows` (right; the'
+  echo 'phantom with `--exposure -0.5 --sky-light 0.35`). In short: the phantom'\''s bone gains soft'
+  echo 'contact shadows and loses the CT speckle; the feet'\''s bone is clean but flatter than the plain'
+  echo 'figure (the light volume is too coarse for the gaps between the foot bones); skin is softer but'
+  echo 'loses its relief; soft tissue stays grainy at these sample counts.'
   echo 
   echo '![feet: plain | cinematic, bone and skin](images/cinematic-feet.png)'
   echo 
