@@ -85,6 +85,24 @@ fi
   echo "feet (US National Library of Medicine). Judged as figures in docs/styles.md and docs/lighting.md."
   echo
   cat "$body"
+  # The cinematic figures: scripts/gallery-cinematic.sh makes them (about 15 minutes).
+  echo 
+  echo '## Cinematic (path traced)'
+  echo 
+  echo 'Made by `scripts/gallery-cinematic.sh` (not by this page'\''s script: about 15 minutes), the'
+  echo 'commands and an illustrator'\''s judgement of each in [lighting.md](lighting.md#cinematic-gallery):'
+  echo 'plain (left) next to `--quality cinematic --trace-scale 0.5 --volume-shadows` (right; the'
+  echo 'phantom with `--exposure -0.5 --sky-light 0.35`). In short: the phantom'\''s bone gains soft'
+  echo 'contact shadows and loses the CT speckle; the feet'\''s bone is clean but flatter than the plain'
+  echo 'figure (the light volume is too coarse for the gaps between the foot bones); skin is softer but'
+  echo 'loses its relief; soft tissue stays grainy at these sample counts.'
+  echo 
+  echo '![feet: plain | cinematic, bone and skin](images/cinematic-feet.png)'
+  echo 
+  echo '![phantom: plain | cinematic, bone, skin, soft tissue](images/cinematic-phantom.png)'
+  echo 
+  echo 'The knee bend as a 30-frame cinematic movie, bones rigid, shadows following the bend:'
+  echo '[images/cinematic-knee.mp4](images/cinematic-knee.mp4).'
 } >"$md.tmp"
 mv "$md.tmp" "$md"
 echo "gallery: wrote $md and $(ls "$out" | wc -l) figures in $out" >&2

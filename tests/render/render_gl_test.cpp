@@ -578,3 +578,111 @@ TEST(RenderGl, ToneMappedAreaLightMatchesCpu) {
 
 }  // namespace
 }  // namespace vellum::render
+
+namespace vellum::render {
+namespace {
+
+// A floor slab and a bone block above it (48^3, 1 mm), the block at x index [x0, x0 + 10].
+VolumeI16 blockOverFloor(int x0) {
+  Geometry g;
+  g.dims = {48, 48, 48};
+  g.origin = {-23.5, -23.5, -23.5};
+  VolumeI16 vol(g, int16_t(-1000), -1000.0);
+  for (int64_t k = 0; k < 48; ++k)
+    for (int64_t j = 0; j < 48; ++j)
+      for (int64_t i = 0; i < 48; ++i) {
+        // Clear of the box's faces, where a map's clamped nodes and the plain texture's border differ.
+        const bool floor = k >= 4 && k <= 9 && i >= 3 && i <= 44 && j >= 3 && j <= 44;
+        const bool block = i >= x0 && i <= x0 + 10 && j >= 16 && j <= 30 && k >= 24 && k <= 34;
+        if (floor || block) vol(i, j, k) = 1000;
+      }
+  return vol;
+}
+
+}  // namespace
+
+// Issue 24: under a deformation the light volume is the DEFORMED anatomy's. A map that moves
+// only the upper half (the block, 12 mm along x; the floor stays) must cast the block's shadow
+// where the block now is: the deformed render equals the plain render of the moved block, and
+// the CPU reference agrees. The light volume made from the undeformed source would keep the
+// shadow under the block's old place.
+TEST(RenderGl, ShadowsFollowTheDeformation) {
+  const int shift = 12;
+  const VolumeI16 before = blockOverFloor(10), moved = blockOverFloor(10 + shift);
+  BackwardMap map;  // nodes at the voxel centres; u = v - shift above k = 16, identity below
+  map.grid = before.geometry();
+  for (int64_t k = 0; k < 48; ++k)
+    for (int64_t j = 0; j < 48; ++j)
+      for (int64_t i = 0; i < 48; ++i) {
+        const Vec3 v = map.grid.indexToPhysical({double(i), double(j), double(k)});
+        const double dx = k >= 16 ? shift : 0.0;
+        map.sourceMm.insert(map.sourceMm.end(), {float(v.x - dx), float(v.y), float(v.z)});
+      }
+  RenderSettings s = baseSettings(Preset::Bone, 64, 64);
+  s.camera.azimuthDeg = 0;
+  s.camera.elevationDeg = 35;
+  s.lighting.shadows = 1;
+  s.lighting.occlusion = 0.5;
+  s.lighting.azimuthDeg = 0;
+  s.lighting.elevationDeg = 80;  // from above: the block's shadow falls on the floor beneath it
+
+  // The light volume itself: transmittance at the floor's top under the block's new and old places.
+  const detail::Frame f = detail::makeFrame(before.geometry(), &map.grid, s);
+  const detail::PreparedMap pm = detail::prepareMap(map, before.geometry());
+  const detail::LightVolume lv =
+      detail::computeLightVolume(detail::lightSourceFor(before, &map, pm), detail::buildTfTable(s, f.stepMm), f.stepMm,
+                                 detail::keyLightDirection(f, s.lighting), s.lighting);
+  const double underNew = lv.sample({15.0 + shift, 23, 11})[0], underOld = lv.sample({15.0, 23, 11})[0];
+  std::cout << "[ light ] transmittance under the moved block " << underNew << ", under its old place " << underOld << "\n";
+  EXPECT_LT(underNew, 0.3);
+  EXPECT_GT(underOld, 0.8);
+
+  VolumeRenderer r(gl());
+  r.setVolume(moved);
+  const RgbaImage truth = r.render(s);
+  RenderSettings unshadowed = s;
+  unshadowed.lighting.shadows = 0;
+  const RgbaImage truthUnshadowed = r.render(unshadowed);
+  r.setVolume(before);
+  r.setBackwardMap(&map);
+  const RgbaImage deformed = r.render(s);
+  if (std::getenv("VELLUM_DUMP")) {
+    test::writePng(truth, "/tmp/s24-moved.png");
+    test::writePng(deformed, "/tmp/s24-deformed.png");
+  }
+  EXPECT_GT(coverage(truth), 0.1);
+  expectClose(deformed, truth, "shadows through a moving map vs the moved block");
+  expectClose(deformed, renderReferenceCpu(before, s, &map), "deformed shadows, GL vs CPU");
+
+  // The path tracer's volume shadows (the same light volume, looked up in the box): over the
+  // moved block's shadow (where the ray cast darkens by more than 20 levels) the traced floor is
+  // as dark as the moved block's, not lit as under the block's old place (the undeformed volume).
+  std::vector<uint8_t> shadow(size_t(s.width) * size_t(s.height), 0);
+  size_t shadowPixels = 0;
+  for (int y = 0; y < s.height; ++y)
+    for (int x = 0; x < s.width; ++x)
+      if (int(truthUnshadowed.at(x, y)[0]) - int(truth.at(x, y)[0]) > 20) shadow[size_t(y * s.width + x)] = 1, ++shadowPixels;
+  ASSERT_GT(shadowPixels, 100u);
+  const auto shadowMean = [&](const RgbaImage& img) {
+    double sum = 0;
+    for (size_t i = 0; i < shadow.size(); ++i) sum += shadow[i] ? img.pixels[4 * i] : 0;
+    return sum / double(shadowPixels);
+  };
+  s.quality = Quality::Cinematic;
+  s.cinematic.volumeShadows = true;
+  s.cinematic.samples = 8;
+  s.cinematic.denoise = 0;
+  const double tracedDeformed = shadowMean(r.render(s));
+  r.setBackwardMap(nullptr);
+  // (The first undeformed pass after a deformed one makes a new majorant texture: once, that
+  // replaced the light volume on its texture unit.)
+  const double tracedOldPlace = shadowMean(r.render(s));
+  r.setVolume(moved);
+  const double tracedMoved = shadowMean(r.render(s));
+  std::cout << "[ traced ] red over the shadow: deformed " << tracedDeformed << ", moved block " << tracedMoved
+            << ", block at its old place " << tracedOldPlace << "\n";
+  EXPECT_GT(tracedOldPlace - tracedMoved, 15.0) << "the shadow darkens the floor";
+  EXPECT_LT(std::abs(tracedDeformed - tracedMoved), 0.2 * (tracedOldPlace - tracedMoved));
+}
+
+}  // namespace vellum::render

@@ -66,13 +66,16 @@ TEST(StudioCinematic, RestingAddsSamplesUpToTheRenderPicture) {
   view.update(scene, w, h, false);  // a new view: the coarse ray-cast frame first
   EXPECT_EQ(view.cinematicSamples(), 0);
   std::vector<int> samples;  // the distinct counts shown, in order
-  int frames = 0;
+  int frames = 0, guideFrames = 0;
   for (; !view.refined() && frames < 1000; ++frames) {
     view.update(scene, w, h, false);
     if (samples.empty() || samples.back() != view.cinematicSamples()) samples.push_back(view.cinematicSamples());
+    guideFrames += view.cinematicGuideProgress() < 1;
   }
   ASSERT_TRUE(view.refined());
   EXPECT_EQ(samples, (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_GT(guideFrames, 2) << "the denoise guide's ray cast drawn in bands, not in one frame";
+  EXPECT_EQ(view.cinematicGuideProgress(), 1.0);
   EXPECT_GT(frames, 4 * 2) << "each sample drawn in bands over several frames";
   EXPECT_FALSE(view.update(scene, w, h, false)) << "converged: nothing more to do at rest";
   const RgbaImage rested = view.readShown();

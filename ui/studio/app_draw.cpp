@@ -248,6 +248,12 @@ void StudioApp::drawHud() {
   hud.precision(1);
   hud << "frame " << lastFrameMs_ << " ms   3D " << view3d_->lastRenderMs() << " ms @1/" << view3d_->lastScale();
   if (view3d_->refineProgress() < 1) hud << "  refining " << int(100 * view3d_->refineProgress()) << "%";
+  if (view3d_->cinematic(scene_)) {  // refine at rest: the path tracer's progress
+    if (view3d_->cinematicGuideProgress() < 1)
+      hud << "  cinematic guide " << int(100 * view3d_->cinematicGuideProgress()) << "%";
+    else
+      hud << "  cinematic " << view3d_->cinematicSamples() << "/" << scene_.render.cinematic.samples << " samples";
+  }
   if (deform_->map())
     hud << "   map " << deform_->lastUpdateMs() << " ms"
         << (deform_->solving() ? " (exact map solving)" : deform_->preview() ? " (preview s=8)" : "");

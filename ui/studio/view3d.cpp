@@ -617,16 +617,35 @@ bool View3D::refineCinematic(const Scene& scene, int paneWidth, int paneHeight) 
   context_.makeCurrent();
   const render::RenderSettings s = renderSettingsFor(scene, paneWidth, paneHeight);
   const int rows = s.height;
-  if (!cinematic_) {  // the denoise guide: one ray cast of the pane, this frame
-    renderer_->beginCinematic(s);
+  if (!cinematic_) {
+    renderer_->beginCinematic(s, true);
     cinematic_ = true;
     cinematicBatch_ = 1;
     cinematicRow_ = 0;
     cinematicMs_ = 0;
     refineTiles_ = 0;
+    guideRow_ = 0;
+    guideRowsLeft_ = renderer_->addCinematicGuideRows(0, 0);
+  }
+  const auto t1 = std::chrono::steady_clock::now();
+  if (guideRowsLeft_ > 0) {
+    // The denoise guide, a ray cast of the whole pane (1.8 s on the feet under load), in bands
+    // of rows sized to the budget as the plain refinement's; the first band a probe. The
+    // coarse frame stays shown meanwhile.
+    const int band = msPerGuideRow_ > 0 ? std::clamp(int(budgetMs_ / msPerGuideRow_), 1, rows - guideRow_)
+                                        : std::min(rows - guideRow_, std::max(1, rows / 16));
+    guideRowsLeft_ = renderer_->addCinematicGuideRows(guideRow_, guideRow_ + band);
+    glFinish();  // the band's real cost sizes the next one
+    msPerGuideRow_ = since(t1) / band;
+    guideRow_ += band;
+    ++refineTiles_;
+    lastMs_ = since(t0);
+    cinematicMs_ += lastMs_;
+    refineMs_ = cinematicMs_;
+    lastScale_ = 1;
+    return true;
   }
   int total = renderer_->cinematicSamples();
-  const auto t1 = std::chrono::steady_clock::now();
   // One sample of the whole pane over budget (llvmpipe: seconds at pane size), or its cost not
   // known yet: the sample in bands of rows sized to the budget, one band per frame, shown once
   // every row has it (a pane with half its rows one sample ahead would show a seam).

@@ -137,6 +137,10 @@ class View3D {
   bool cinematic(const Scene& scene) const;
   /// Cinematic at rest: the samples per pixel of the picture shown (0 when not path traced).
   int cinematicSamples() const { return cinematic_ ? renderer_->cinematicSamples() : 0; }
+  /// Cinematic at rest: the fraction of the denoise guide drawn (0..1; 1 when none is needed).
+  double cinematicGuideProgress() const {
+    return cinematic_ && guideRowsLeft_ > 0 ? double(guideRow_) / double(guideRow_ + guideRowsLeft_) : 1.0;
+  }
   /// Sum of the band renders of the last completed (or running) refinement.
   double refineMs() const { return refineMs_; }
   /// Tiles (or whole-width bands) the last completed (or running) refinement drew.
@@ -204,6 +208,8 @@ class View3D {
   double msPerRow_ = 0;         ///< one sample's cost per pane row, learnt (0: not yet)
   double lastResolveMs_ = 0;    ///< the last running picture's read-back, denoise and upload
   double cinematicMs_ = 0;      ///< wall time since the picture began (the time limit)
+  int guideRow_ = 0, guideRowsLeft_ = 0;  ///< the denoise guide's next band, rows still to draw
+  double msPerGuideRow_ = 0;    ///< the guide's ray cast per pane row, learnt (0: not yet)
   RgbaImage cinematicImage_;    ///< the running picture shown (readShown)
   // Banded refinement state.
   bool refining_ = false;

@@ -145,6 +145,7 @@ vec4 tracePath(int px, int py, uint smp) {
   vec3 beta = vec3(1.0);
   for (int bounce = 1; bounce <= uBounces; ++bounce) {
     Point q = locate(p);
+    vec3 pLight = p;  // the light volume lies in the box (deformed: output space)
     vec4 c = tfLookup(valueOf(q));
 #ifdef ATTRIBUTES
     c.rgb = labShift(c.rgb, texture(uAttr, (p + 0.5) / uBoxDims).xyz);
@@ -183,7 +184,7 @@ vec4 tracePath(int px, int py, uint smp) {
 #ifdef LIGHTING
       // Volume shadows (cinematic.volumeShadows): the key light's transmittance from the light
       // volume (its disc already softens it); the fill is unshadowed, as in the ray caster.
-      float T = key ? texture(uLight, (q.u + uLightOffset + 0.5) * uLightScale).r : 1.0;
+      float T = key ? texture(uLight, (pLight + uLightOffset + 0.5) * uLightScale).r : 1.0;
 #else
       float T = ratioTrack(p, uPhysToBox * wl);
 #endif
@@ -195,7 +196,7 @@ vec4 tracePath(int px, int py, uint smp) {
     vec3 dd = uPhysToBox * dir;
     if (bounce == uBounces) {
 #ifdef LIGHTING
-      outc.rgb += beta * (skyRadiance(dir) * texture(uLight, (q.u + 0.5) * uLightScale).g);  // the openness
+      outc.rgb += beta * (skyRadiance(dir) * texture(uLight, (pLight + 0.5) * uLightScale).g);  // the openness
 #else
       outc.rgb += beta * (skyRadiance(dir) * ratioTrack(p, dd));
 #endif

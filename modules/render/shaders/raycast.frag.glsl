@@ -29,8 +29,8 @@ uniform sampler3D uNormals;
 #endif
 #ifdef LIGHTING
 uniform sampler3D uLight;      // per cell: transmittance to the key light, ambient openness
-uniform vec3 uLightScale;      // source index + 0.5 -> texture coordinate
-uniform vec3 uLightOffset;     // one cell towards the light, in source voxels
+uniform vec3 uLightScale;      // box index + 0.5 -> texture coordinate (box: source, or deformed the map's)
+uniform vec3 uLightOffset;     // one cell towards the light, in box index units
 uniform vec3 uLightDir;        // physical, towards the key light
 uniform float uShadowAmount, uOcclusionAmount;
 uniform float uExposure;       // 2^stops
@@ -239,8 +239,8 @@ vec3 shade(vec3 c, vec4 n, vec3 l) {
 #ifdef LIGHTING
 // Twin of shadeLit() in reference_cpu.cpp: the key light (shadowed) with a headlight fill,
 // ambient scaled by the openness; regions without a gradient keep their colour, darkened alike.
-vec3 shadeLit(vec3 c, vec4 n, vec3 v, vec3 u) {
-  vec2 lo = texture(uLight, (u + uLightOffset + 0.5) * uLightScale).rg;
+vec3 shadeLit(vec3 c, vec4 n, vec3 v, vec3 p) {
+  vec2 lo = texture(uLight, (p + uLightOffset + 0.5) * uLightScale).rg;
   float T = mix(1.0, lo.r, uShadowAmount), A = mix(1.0, lo.g, uOcclusionAmount);
   float len = length(n.xyz);
   float w = len > 1e-4 ? clamp((n.w - GRAD_LOW) / (GRAD_HIGH - GRAD_LOW), 0.0, 1.0) : 0.0;
@@ -258,8 +258,8 @@ vec3 shadeLit(vec3 c, vec4 n, vec3 v, vec3 u) {
 #if defined(LIGHTING) && defined(TONE_MAP)
 // The scene lights' radiance of a sample (sceneRadiance() of lights.glsl) with the light volume's
 // key-light transmittance (softened by the light's size) and openness.
-vec3 sceneRadianceAt(vec3 c, vec4 n, vec3 v, vec3 u) {
-  vec2 lo = texture(uLight, (u + uLightOffset + 0.5) * uLightScale).rg;
+vec3 sceneRadianceAt(vec3 c, vec4 n, vec3 v, vec3 p) {
+  vec2 lo = texture(uLight, (p + uLightOffset + 0.5) * uLightScale).rg;
   float T = mix(1.0, lo.r, uShadowAmount), A = mix(1.0, lo.g, uOcclusionAmount);
   float len = length(n.xyz);
   float w = len > 1e-4 ? clamp((n.w - GRAD_LOW) / (GRAD_HIGH - GRAD_LOW), 0.0, 1.0) : 0.0;

@@ -95,10 +95,11 @@ void main() {
 #ifdef TURN_NORMALS
         n = deformedNormal(p, n, snappedBody);
 #endif
+        // The light volume lies in the box the ray marches (deformed: output space), at p.
 #if defined(LIGHTING) && defined(TONE_MAP)
-        c.rgb = sceneRadianceAt(c.rgb, n, -dir, u);
+        c.rgb = sceneRadianceAt(c.rgb, n, -dir, p);
 #elif defined(LIGHTING)
-        c.rgb = shadeLit(c.rgb, n, -dir, u);
+        c.rgb = shadeLit(c.rgb, n, -dir, p);
 #else
         c.rgb = shade(c.rgb, n, -dir);
 #endif

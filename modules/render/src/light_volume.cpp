@@ -27,9 +27,10 @@ Vec3 keyLightDirection(const Frame& f, const Lighting& l) {
   return d * (1.0 / norm(d));
 }
 
-Vec3 LightVolume::cellOf(const Vec3& u) const {
+Vec3 LightVolume::cellOf(const Vec3& p) const {
   const double s = 1.0 / factor;
-  return {(u.x + 0.5) * s - 0.5, (u.y + 0.5) * s - 0.5, (u.z + 0.5) * s - 0.5};
+  return {(p.x + 0.5) * (boxToSource.x * s) - 0.5, (p.y + 0.5) * (boxToSource.y * s) - 0.5,
+          (p.z + 0.5) * (boxToSource.z * s) - 0.5};
 }
 
 std::array<float, 2> LightVolume::sample(const Vec3& u) const {
@@ -46,6 +47,62 @@ LightSource makeLightSource(const AnyVolume& volume) {
   return out;
 }
 
+LightSource deformedLightSource(const LightSource& src, const PreparedMap& map, const BackwardMap& m) {
+  const Geometry& box = m.grid;
+  // One value per cell of the undeformed light volume's size (computeLightVolume's cells; the
+  // geometric mean: the output axes need not be the source's): the same shadow resolution at an
+  // eighth of the map lookups of the value grid's spacing above 384 voxels (rebuilt per map).
+  const Dims sd = src.source.dims;
+  const int64_t largest = std::max({sd.x, sd.y, sd.z});
+  const int64_t perValue = std::max<int64_t>(1, (largest + int64_t(src.factor) * kCellsPerAxis - 1) /
+                                                    (int64_t(src.factor) * kCellsPerAxis));
+  const Vec3 cellMm = src.source.spacing * double(perValue * src.factor);
+  double mm = std::cbrt(cellMm.x * cellMm.y * cellMm.z);
+  const Vec3 extent{box.spacing.x * double(box.dims.x), box.spacing.y * double(box.dims.y),
+                    box.spacing.z * double(box.dims.z)};
+  mm = std::max(mm, std::max({extent.x, extent.y, extent.z}) / kDeformedValuesPerAxis);
+  LightSource out;
+  out.factor = 1;
+  out.source = box;
+  Dims& n = out.source.dims;
+  n = {std::max<int64_t>(1, int64_t(std::ceil(extent.x / mm - 1e-6))),
+       std::max<int64_t>(1, int64_t(std::ceil(extent.y / mm - 1e-6))),
+       std::max<int64_t>(1, int64_t(std::ceil(extent.z / mm - 1e-6)))};
+  // The same voxel box as the map's: w = (p + 0.5) * r - 0.5 with r = n / nodes per axis.
+  const Vec3 r{double(n.x) / double(box.dims.x), double(n.y) / double(box.dims.y), double(n.z) / double(box.dims.z)};
+  out.boxToSource = r;
+  out.source.spacing = {box.spacing.x / r.x, box.spacing.y / r.y, box.spacing.z / r.z};
+  out.source.origin = box.indexToPhysical({0.5 / r.x - 0.5, 0.5 / r.y - 0.5, 0.5 / r.z - 0.5});
+  out.values = VolumeF32(out.source, 0.f, src.values.background());
+  const bool density = !m.attributes.empty();
+  if (density) out.densityScale.assign(static_cast<size_t>(n.voxelCount()), 1.f);
+  const double bg = src.values.background(), f = src.factor;
+  parallelFor(n.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < n.y; ++j)
+        for (int64_t i = 0; i < n.x; ++i) {
+          const Vec3 p{(double(i) + 0.5) / r.x - 0.5, (double(j) + 0.5) / r.y - 0.5, (double(k) + 0.5) / r.z - 0.5};
+          const double inside = map.outputWeight(p);
+          double v = bg;
+          if (inside > 0) {
+            const Vec3 u = map.at(p);  // source index -> the value grid's index
+            v = src.values.sampleLinear({(u.x + 0.5) / f - 0.5, (u.y + 0.5) / f - 0.5, (u.z + 0.5) / f - 0.5});
+            if (inside < 1.0) v = bg + inside * (v - bg);
+          }
+          out.values(i, j, k) = float(v);
+          if (density)
+            out.densityScale[static_cast<size_t>((k * n.y + j) * n.x + i)] =
+                std::max(sampleClamped<4>(m.attributes, box.dims, p)[3], 0.f);
+        }
+  });
+  return out;
+}
+
+LightSource lightSourceFor(const AnyVolume& volume, const BackwardMap* map, const PreparedMap& prepared) {
+  LightSource source = makeLightSource(volume);
+  return map ? deformedLightSource(source, prepared, *map) : source;
+}
+
 LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double stepMm, const Vec3& lightDir,
                                const Lighting& lighting, double lightSizeDeg) {
   const Dims sd = src.source.dims;
@@ -54,6 +111,7 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
   const int64_t perValue = std::max<int64_t>(1, (largest + int64_t(src.factor) * kCellsPerAxis - 1) /
                                                     (int64_t(src.factor) * kCellsPerAxis));
   LightVolume lv;
+  lv.boxToSource = src.boxToSource;
   lv.factor = int(perValue) * src.factor;
   const int f = lv.factor;
   const int64_t fv = perValue;  // value voxels per cell
@@ -75,7 +133,9 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
             for (int64_t b = j * fv; b < std::min(vd.y, (j + 1) * fv); ++b)
               for (int64_t a = i * fv; a < std::min(vd.x, (i + 1) * fv); ++a, ++count) {
                 const double alpha = std::min<double>(tf.lookup(src.values(a, b, c))[3], 0.9999);
-                sum += -std::log1p(-alpha) / stepMm;
+                double s = -std::log1p(-alpha) / stepMm;
+                if (!src.densityScale.empty()) s *= src.densityScale[static_cast<size_t>((c * vd.y + b) * vd.x + a)];
+                sum += s;
               }
           sigma[static_cast<size_t>((k * d.y + j) * d.x + i)] = count ? float(sum / count) : 0.f;
         }
@@ -157,6 +217,9 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
   const Vec3 srcPerMm = indexPerMm(src.source, lightDir);
   const double srcAlong = std::max({std::abs(srcPerMm.x), std::abs(srcPerMm.y), std::abs(srcPerMm.z)});
   lv.towardsLight = srcPerMm * (double(f) / srcAlong);
+  // In box index units (the source's own under no deformation: boxToSource = 1).
+  lv.towardsLight = {lv.towardsLight.x / src.boxToSource.x, lv.towardsLight.y / src.boxToSource.y,
+                     lv.towardsLight.z / src.boxToSource.z};
   return lv;
 }
 

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "map_sampling.hpp"
 #include "render_common.hpp"
 #include "vellum/core/volume.hpp"
 
@@ -21,10 +22,13 @@ struct LightVolume {
   Dims dims;       ///< cells
   int factor = 1;  ///< source voxels per cell along each axis
   std::vector<uint8_t> rg;  ///< per cell: transmittance, openness (0..255), x fastest
-  /// Source index u -> cell index: (u + 0.5) / factor - 0.5 (the texture coordinate is
-  /// (u + 0.5) / (factor * dims)).
-  Vec3 cellOf(const Vec3& u) const;
-  /// Source index offset that moves one cell towards the light (against self-shadowing).
+  /// The frame's box index p (the source index; under a deformation the map node index) ->
+  /// the light source's grid index w = (p + 0.5) * boxToSource - 0.5 (LightSource's).
+  Vec3 boxToSource{1, 1, 1};
+  /// Box index p -> cell index: (p + 0.5) * boxToSource / factor - 0.5 (the texture coordinate
+  /// is (p + 0.5) * boxToSource / (factor * dims)).
+  Vec3 cellOf(const Vec3& p) const;
+  /// Box index offset that moves one cell towards the light (against self-shadowing).
   Vec3 towardsLight;
   /// Trilinear, clamped to the edge, as GL filters the RG8 texture: {transmittance, openness}.
   std::array<float, 2> sample(const Vec3& u) const;
@@ -37,8 +41,24 @@ struct LightSource {
   VolumeF32 values;
   int factor = 1;
   Geometry source;
+  /// The frame's box index p -> `source` index: (p + 0.5) * boxToSource - 0.5 (1: the box is
+  /// the source itself).
+  Vec3 boxToSource{1, 1, 1};
+  /// Empty, or per value voxel the deformation's density scale (optical depth times it).
+  std::vector<float> densityScale;
 };
 LightSource makeLightSource(const AnyVolume& volume);
+
+/// Under a deformation the shadows belong to the deformed anatomy (a bending knee casts the
+/// bent knee's shadows): the light source in OUTPUT space, over the map's box (its node
+/// grid's voxel box) at about the undeformed light volume's cell size, one value per cell (at
+/// most kDeformedValuesPerAxis values along the longest axis), each value the undeformed one
+/// sampled at the map's u as the ray casters sample it (interpolated, snapped, faded to the
+/// background outside the output box), with the map's density scale. Parallel; deterministic.
+LightSource deformedLightSource(const LightSource& undeformed, const PreparedMap& map, const BackwardMap& m);
+constexpr int kDeformedValuesPerAxis = 256;  ///< a bound; the cell size gives about 192
+/// The CPU references' light source: the volume's, or through `map` (prepared) its deformed one.
+LightSource lightSourceFor(const AnyVolume& volume, const BackwardMap* map, const PreparedMap& prepared);
 
 /// Cells of about 1/192 of the largest axis (a multiple of the source's factor); extinction
 /// per mm from the table's alpha (per step of stepMm), averaged per cell; the shadow swept

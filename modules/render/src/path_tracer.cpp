@@ -350,6 +350,7 @@ struct CpuTracer {
     std::array<float, 3> beta{1, 1, 1};
     for (int bounce = 1; bounce <= lights.bounces; ++bounce) {
       const Point q = locate(p);
+      const Vec3 pLight = p;  // the light volume lies in the box (deformed: output space)
       const std::array<float, 4> c = tf.lookup(value(q));
       std::array<float, 3> rgb{c[0], c[1], c[2]};
       if (map && !map->attributes.empty()) {
@@ -395,7 +396,7 @@ struct CpuTracer {
       }
       if (fr > 0) {
         // Volume shadows: the light volume's transmittance for the key, the fill unshadowed.
-        const float T = light ? (key ? light->sample(q.u + light->towardsLight)[0] : 1.f) : ratioTrack(p, f.physToBox * wl, rng);
+        const float T = light ? (key ? light->sample(pLight + light->towardsLight)[0] : 1.f) : ratioTrack(p, f.physToBox * wl, rng);
         for (int k = 0; k < 3; ++k) out[size_t(k)] += beta[size_t(k)] * (albedo[size_t(k)] * fr + spec) * E * T;
       }
       // The next direction: cosine-weighted about the normal, or from the phase function.
@@ -404,7 +405,7 @@ struct CpuTracer {
       for (int k = 0; k < 3; ++k) beta[size_t(k)] *= albedo[size_t(k)];
       const Vec3 d = f.physToBox * dir;
       if (bounce == lights.bounces) {  // the last vertex: sky light through the volume
-        const float T = light ? light->sample(q.u)[1] : ratioTrack(p, d, rng);  // volume: the openness
+        const float T = light ? light->sample(pLight)[1] : ratioTrack(p, d, rng);  // volume: the openness
         const float L = skyRadiance(dir) * T;
         for (int k = 0; k < 3; ++k) out[size_t(k)] += beta[size_t(k)] * L;
         break;
@@ -445,9 +446,10 @@ PathSums detail::pathTraceCpu(const AnyVolume& volume, const RenderSettings& set
         tr.tf = buildTfTable(settings, tr.f.stepMm);
         tr.normals = computeNormalVolume(volume);
         tr.lights = makePathLights(tr.f, settings);
+        if (map) tr.prepared = prepareMap(*map, g);
         if (settings.cinematic.volumeShadows)
-          tr.light = computeLightVolume(makeLightSource(volume), tr.tf, tr.f.stepMm, tr.lights.key, settings.lighting,
-                                        settings.cinematic.lightSizeDeg);
+          tr.light = computeLightVolume(lightSourceFor(volume, map, tr.prepared), tr.tf, tr.f.stepMm, tr.lights.key,
+                                        settings.lighting, settings.cinematic.lightSizeDeg);
         if (tint && settings.labelBlend > 0) {
           if (!(tint->ids.dims() == g.dims)) throw Error("label tint: label map does not match the volume");
           tr.tint = tint;
@@ -456,7 +458,6 @@ PathSums detail::pathTraceCpu(const AnyVolume& volume, const RenderSettings& set
           // One majorant for the whole map grid (delta tracking is unbiased for any bound; the
           // GL path bounds per map cell).
           tr.map = map;
-          tr.prepared = prepareMap(*map, g);
           const BlockRanges ranges = computeBlockRanges(volume);
           const std::vector<float> block = blockMajorants(ranges, tr.tf, tr.f.stepMm);
           float scale = 1;

@@ -78,6 +78,7 @@ void setPathTraceUniforms(GLuint p, const PathLights& l, int seed) {
 
 int runSamplePasses(const Cinematic& c, const std::function<void(int first, int count)>& drawPass) {
   const auto t0 = std::chrono::steady_clock::now();
+  double last = 0;  // seconds at the end of the previous pass
   int done = 0;
   while (done < c.samples) {
     const int n = std::min(kSamplesPerPass, c.samples - done);
@@ -85,7 +86,11 @@ int runSamplePasses(const Cinematic& c, const std::function<void(int first, int 
     done += n;
     if (c.timeLimitS > 0) {
       glFinish();  // the pass's real cost (llvmpipe and GPUs queue draws)
-      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= c.timeLimitS) break;
+      const double now = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      // No pass that would end past the limit, predicted from this one (a limit is a limit:
+      // `vellum render --time-limit` bounds the whole command).
+      if (now + (now - last) > c.timeLimitS) break;
+      last = now;
     }
   }
   return done;

@@ -34,8 +34,8 @@ void setSceneLightUniforms(GLuint p, const SceneLights& lights);
 void setPathTraceUniforms(GLuint p, const PathLights& lights, int seed);
 
 /// Runs sample passes into the bound target: drawPass(first sample, count) until `samples`
-/// are done or, with a time limit, the pass that crosses it has finished. Returns the samples
-/// done (at least one pass).
+/// are done or, with a time limit, the next pass (predicted to take as long as the last) would
+/// end past it. Returns the samples done (at least one pass).
 int runSamplePasses(const Cinematic& c, const std::function<void(int first, int count)>& drawPass);
 
 }  // namespace vellum::render::detail

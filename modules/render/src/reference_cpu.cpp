@@ -48,9 +48,10 @@ std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float
 }
 
 /// Twin of shadeLit() in raycast.frag.glsl.
+/// p: the box index (under a deformation the map's, whose output space the light volume lies in).
 std::array<float, 3> shadeLit(const std::array<float, 3>& c, const std::array<float, 4>& n, const Vec3& v,
-                              const Vec3& u, const Context& cx) {
-  const auto lo = cx.light->sample(u + cx.light->towardsLight);
+                              const Vec3& p, const Context& cx) {
+  const auto lo = cx.light->sample(p + cx.light->towardsLight);
   const Lighting& l = cx.s.lighting;
   const float T = float(1 + l.shadows * (lo[0] - 1)), A = float(1 + l.occlusion * (lo[1] - 1));
   const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
@@ -122,14 +123,14 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
           std::array<float, 4> n = cx.normals.sample(u.x, u.y, u.z);
           if (cx.map && s.turnDeformedNormals) n = cx.prepared.turnNormal(p, n, snappedBody);
           if (cx.light && s.lighting.toneMap) {  // linear radiance, tone mapped at the end (lights.hpp)
-            const auto lo = cx.light->sample(u + cx.light->towardsLight);
+            const auto lo = cx.light->sample(p + cx.light->towardsLight);
             const float tKey = float(1 + s.lighting.shadows * (lo[0] - 1)), open = float(1 + s.lighting.occlusion * (lo[1] - 1));
             const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
             const float w = len > 1e-4f ? std::clamp((n[3] - kGradLow) / (kGradHigh - kGradLow), 0.f, 1.f) : 0.f;
             rgb = sceneRadiance(cx.scene, {srgbToLinear(rgb[0]), srgbToLinear(rgb[1]), srgbToLinear(rgb[2])},
                                 {n[0], n[1], n[2]}, w, ray.dir * -1.0, tKey, open);
           } else {
-            rgb = cx.light ? shadeLit(rgb, n, ray.dir * -1.0, u, cx) : shade(rgb, n, -ray.dir);
+            rgb = cx.light ? shadeLit(rgb, n, ray.dir * -1.0, p, cx) : shade(rgb, n, -ray.dir);
           }
         }
         const double w = (1 - acc[3]) * c[3];
@@ -168,17 +169,17 @@ RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& sett
   const Geometry& g = geometryOf(volume);
   g.validate("render volume");
   Context cx{settings, makeFrame(g, map ? &map->grid : nullptr, settings), {}, {}, map, {}};
+  if (map) cx.prepared = prepareMap(*map, g);
   if (settings.preset != Preset::Mip) {
     cx.tf = buildTfTable(settings, cx.frame.stepMm);
     if (settings.shading) cx.normals = computeNormalVolume(volume);
     if (settings.shading && settings.lighting.on()) {
       cx.lightDir = keyLightDirection(cx.frame, settings.lighting);
-      cx.light = computeLightVolume(makeLightSource(volume), cx.tf, cx.frame.stepMm, cx.lightDir, settings.lighting,
-                                    settings.lighting.toneMap ? settings.cinematic.lightSizeDeg : 0.0);
+      cx.light = computeLightVolume(lightSourceFor(volume, map, cx.prepared), cx.tf, cx.frame.stepMm, cx.lightDir,
+                                    settings.lighting, settings.lighting.toneMap ? settings.cinematic.lightSizeDeg : 0.0);
       cx.scene = makeSceneLights(cx.frame, settings);
     }
   }
-  if (map) cx.prepared = prepareMap(*map, g);
   if (tint && settings.labelBlend > 0 && settings.preset != Preset::Mip) {
     if (!(tint->ids.dims() == g.dims)) throw Error("label tint: label map does not match the volume");
     cx.tint = tint;

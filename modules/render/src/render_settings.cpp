@@ -69,7 +69,7 @@ const params::Table<RenderSettings>& renderSettingsTable() {
       params::integer<R>("samples", params::nested(&R::cinematic, &Cinematic::samples),
                          {"Samples", "cinematic: paths per pixel (a movie frame takes as many)", "", 1, 65536}),
       params::real<R>("time_limit", params::nested(&R::cinematic, &Cinematic::timeLimitS),
-                      {"Time limit", "cinematic: stop after the sample pass that crosses it (0 = none)", "s", 0, 86400}),
+                      {"Time limit", "cinematic: no sample pass that would end past it (0 = none); render: the whole command, loading to written figures, shared by its figures; animate: per frame", "s", 0, 86400}),
       params::integer<R>("seed", params::nested(&R::cinematic, &Cinematic::seed),
                          {"Seed", "cinematic: random seed; the same seed gives the same picture", "", 0, 2147483647}),
       params::integer<R>("bounces", params::nested(&R::cinematic, &Cinematic::bounces),

@@ -173,6 +173,9 @@ struct VolumeRenderer::Impl {
   Vec3 lightDir;
   double lightRadius = -1;
   double lightSize = -1;
+  /// The map it was made through (lightDeformed; not held: a map is replaced each frame of a drag).
+  std::weak_ptr<const PreparedBackwardMap> lightMap;
+  bool lightDeformed = false;
   /// Cinematic quality (path_tracer_gl.hpp): extinction majorants per skip block.
   GLuint majorantTex = 0;
   Dims majorantDims;
@@ -181,6 +184,8 @@ struct VolumeRenderer::Impl {
   struct Progressive {
     RenderSettings settings;
     RgbaImage guide;
+    std::vector<uint8_t> guideRowDone;  ///< per image row: drawn into the guide (1)
+    int guideRowsLeft = 0;
     int samples = 0;
     bool begun = false;
     AccumulationTarget accumulation;
@@ -350,16 +355,27 @@ struct VolumeRenderer::Impl {
 
   /// The light volume for this transfer function, light and radius (recomputed only when one
   /// of them changed), bound with its uniforms.
-  void useLight(GLuint p, const RenderSettings& s, const TfTable& tf, const Frame& f) {
+  /// `deformed`: the drawn map, whose output space the light volume then lies in.
+  void useLight(GLuint p, const RenderSettings& s, const TfTable& tf, const Frame& f,
+                const std::shared_ptr<const PreparedBackwardMap>& deformed) {
     const Vec3 dir = keyLightDirection(f, s.lighting);
     std::vector<float> alpha(tf.rgba.size() / 4);
     for (size_t i = 0; i < alpha.size(); ++i) alpha[i] = tf.rgba[4 * i + 3];
     const bool soft = s.lighting.toneMap || s.quality == Quality::Cinematic;  // the scene lights' disc
     const double size = soft ? s.cinematic.lightSizeDeg : 0.0;
     const bool same = lightTex && alpha == lightAlpha && norm(dir - lightDir) < 1e-9 &&
-                      lightRadius == s.lighting.occlusionRadiusMm && lightSize == size;
+                      lightRadius == s.lighting.occlusionRadiusMm && lightSize == size &&
+                      lightDeformed == (deformed != nullptr) && (!deformed || lightMap.lock() == deformed);
     if (!same) {
-      light = computeLightVolume(*lightSource, tf, f.stepMm, dir, s.lighting, size);
+      if (deformed) {  // the deformed anatomy's shadows: the density resampled through the map
+        const PreparedMap pm = prepareMap(*deformed->map, source);
+        light = computeLightVolume(deformedLightSource(*lightSource, pm, *deformed->map), tf, f.stepMm, dir,
+                                   s.lighting, size);
+      } else {
+        light = computeLightVolume(*lightSource, tf, f.stepMm, dir, s.lighting, size);
+      }
+      lightMap = deformed;
+      lightDeformed = deformed != nullptr;
       deleteTexture(lightTex);
       glActiveTexture(GL_TEXTURE0 + kUnitLight);  // not the unit bound last (the skip grid's)
       glGenTextures(1, &lightTex);
@@ -385,7 +401,8 @@ struct VolumeRenderer::Impl {
     glActiveTexture(GL_TEXTURE0 + kUnitLight);
     glBindTexture(GL_TEXTURE_3D, lightTex);
     const Dims& d = light.dims;
-    uniform3(p, "uLightScale", {1.0 / (light.factor * d.x), 1.0 / (light.factor * d.y), 1.0 / (light.factor * d.z)});
+    const Vec3& r = light.boxToSource;
+    uniform3(p, "uLightScale", {r.x / (light.factor * d.x), r.y / (light.factor * d.y), r.z / (light.factor * d.z)});
     uniform3(p, "uLightOffset", light.towardsLight);
     uniform3(p, "uLightDir", dir);
     uniform1(p, "uShadowAmount", s.lighting.shadows);
@@ -407,7 +424,9 @@ struct VolumeRenderer::Impl {
   /// begin/add/resolve API on `progressive`, so a one-shot render leaves a progressive one
   /// intact): the denoise guide and a cleared float target; sample passes added into it;
   /// the picture of the sums so far, tone mapped and denoised.
-  void beginCinematic(Progressive& pr, const RenderSettings& s);
+  void beginCinematic(Progressive& pr, const RenderSettings& s, bool guideInBands = false);
+  /// Rows [rowBegin, rowEnd) of the denoise guide ray cast and read back into pr.guide.
+  void drawGuideRows(Progressive& pr, int rowBegin, int rowEnd);
   /// Passes over the whole picture, or (rowBegin < rowEnd, image rows, row 0 = top) one
   /// uncounted pass over those rows only (the caller counts the sample once all rows have it).
   int addCinematicPasses(Progressive& pr, const Cinematic& budget, int rowBegin = 0, int rowEnd = 0);
@@ -519,7 +538,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
     glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
-    if (variant.lighting) useLight(p, s, tf, f);
+    if (variant.lighting) useLight(p, s, tf, f, variant.deformed ? drawnMap : nullptr);
     if (pathTrace) useMajorants(tf, f, deform, skip.dims);
   }
   return p;
@@ -532,6 +551,8 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
     for (size_t i = 3; i < deform->attributes.size(); i += 4) scale = std::max(scale, deform->attributes[i]);
     maj = cellMajorants(drawnMap->cells, maj, blocks.blocks, scale);
   }
+  // Its own unit before a new texture is bound: the unit active now holds the light volume.
+  glActiveTexture(GL_TEXTURE0 + kUnitMajorant);
   if (!majorantTex || !(majorantDims == dims)) {
     deleteTexture(majorantTex);
     glGenTextures(1, &majorantTex);
@@ -540,7 +561,6 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
     setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
     majorantDims = dims;
   }
-  glActiveTexture(GL_TEXTURE0 + kUnitMajorant);
   glBindTexture(GL_TEXTURE_3D, majorantTex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(dims.x), GLsizei(dims.y), GLsizei(dims.z), GL_RED, GL_FLOAT,
@@ -548,21 +568,35 @@ void VolumeRenderer::Impl::useMajorants(const TfTable& tf, const Frame& f, const
   checkGlError("cinematic majorants");
 }
 
-void VolumeRenderer::Impl::beginCinematic(Progressive& pr, const RenderSettings& s) {
+void VolumeRenderer::Impl::beginCinematic(Progressive& pr, const RenderSettings& s, bool guideInBands) {
   uploadMap();
   pr.settings = s;
   pr.samples = 0;
   pr.guide = RgbaImage();  // the denoise's edges: the same view ray cast (path_tracer.hpp)
+  pr.guideRowDone.clear();
+  pr.guideRowsLeft = 0;
   if (s.cinematic.denoise > 0) {
     pr.guide = RgbaImage(s.width, s.height);
-    target.bind(s.width, s.height, "render");
-    draw(denoiseGuideSettings(s), target.framebuffer(), 0, s.height, 0);
-    readRgbaRows(target.framebuffer(), 0, s.height, pr.guide, "denoise guide");
+    pr.guideRowDone.assign(size_t(s.height), 0);
+    pr.guideRowsLeft = s.height;
+    if (!guideInBands) drawGuideRows(pr, 0, s.height);
   }
   // The paths: at cinematic.traceScale of the size (finishPathTraced upsamples them).
   const RenderSettings ts = tracedSettings(s);
   pr.accumulation.bindCleared(ts.width, ts.height);
   pr.begun = true;
+}
+
+void VolumeRenderer::Impl::drawGuideRows(Progressive& pr, int rowBegin, int rowEnd) {
+  const RenderSettings& s = pr.settings;
+  target.bind(s.width, s.height, "render");
+  draw(denoiseGuideSettings(s), target.framebuffer(), rowBegin, rowEnd, 0);
+  readRgbaRows(target.framebuffer(), rowBegin, rowEnd, pr.guide, "denoise guide");
+  for (int y = rowBegin; y < rowEnd; ++y)
+    if (!pr.guideRowDone[size_t(y)]) {
+      pr.guideRowDone[size_t(y)] = 1;
+      --pr.guideRowsLeft;
+    }
 }
 
 int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& budget, int rowBegin, int rowEnd) {
@@ -602,6 +636,7 @@ int VolumeRenderer::Impl::addCinematicPasses(Progressive& pr, const Cinematic& b
 }
 
 RgbaImage VolumeRenderer::Impl::resolveCinematic(const Progressive& pr) const {
+  if (pr.guideRowsLeft > 0) throw Error("resolveCinematic: the denoise guide is not complete (addCinematicGuideRows)");
   const PathSums sums = pr.accumulation.read(pr.samples);
   return finishPathTraced(sums, pr.settings, &pr.guide);
 }
@@ -1007,22 +1042,40 @@ double VolumeRenderer::lastGpuMs() const { return impl_->timer.lastMs(); }
 
 int VolumeRenderer::lastSamples() const { return impl_->lastSamples; }
 
-void VolumeRenderer::beginCinematic(const RenderSettings& s) {
+void VolumeRenderer::beginCinematic(const RenderSettings& s) { beginCinematic(s, false); }
+
+void VolumeRenderer::beginCinematic(const RenderSettings& s, bool guideInBands) {
   checkImageSize(s.width, s.height);
   if (s.preset == Preset::Mip) throw Error("cinematic: the mip preset is not path traced");
   if (!impl_->hasVolume) throw Error("render: no volume set (call setVolume first)");
   impl_->context.makeCurrent();
-  impl_->beginCinematic(impl_->progressive, s);
+  impl_->beginCinematic(impl_->progressive, s, guideInBands);
 }
 
-int VolumeRenderer::addCinematicSamples(int n) {
+int VolumeRenderer::addCinematicGuideRows(int rowBegin, int rowEnd) {
+  Impl& m = *impl_;
+  if (!m.progressive.begun) throw Error("addCinematicGuideRows: call beginCinematic first");
+  Impl::Progressive& pr = m.progressive;
+  rowBegin = std::clamp(rowBegin, 0, pr.settings.height);
+  rowEnd = std::clamp(rowEnd, rowBegin, pr.settings.height);
+  if (pr.guideRowsLeft > 0 && rowBegin < rowEnd) {
+    m.context.makeCurrent();
+    m.drawGuideRows(pr, rowBegin, rowEnd);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  }
+  return pr.guideRowsLeft;
+}
+
+int VolumeRenderer::addCinematicSamples(int n) { return addCinematicSamples(n, 0.0); }
+
+int VolumeRenderer::addCinematicSamples(int n, double timeLimitS) {
   Impl& m = *impl_;
   if (!m.progressive.begun) throw Error("addCinematicSamples: call beginCinematic first");
   if (n <= 0) return m.progressive.samples;
   m.context.makeCurrent();
   Cinematic budget = m.progressive.settings.cinematic;
   budget.samples = n;
-  budget.timeLimitS = 0;
+  budget.timeLimitS = std::max(0.0, timeLimitS);
   m.addCinematicPasses(m.progressive, budget);
   return m.progressive.samples;
 }

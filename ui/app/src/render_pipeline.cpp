@@ -2,6 +2,7 @@
 #include "vellum/app/render_pipeline.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "vellum/app/outputs.hpp"
@@ -57,7 +58,18 @@ std::vector<fs::path> renderOutputs(const RenderRequest& r) {
   return paths;
 }
 
+namespace {
+
+/// Seconds a cinematic figure keeps back from its share of --time-limit for what follows its
+/// sampling: read-back, tone map, denoise and the PNG (measured 1024²: about 1 s on the loaded
+/// 2-core machine; docs/benchmarks-render.md).
+double finishReserveS(const render::RenderSettings& s) { return 0.25 + 0.75e-6 * double(s.width) * double(s.height); }
+
+}  // namespace
+
 RenderResult runRender(const RenderRequest& r, Progress& progress) {
+  // --time-limit bounds the whole command, as a user times it: loading and set-up count.
+  const auto commandStart = std::chrono::steady_clock::now();
   if (r.presets.empty()) throw Error("render: no preset");
   const std::vector<fs::path> outputs = renderOutputs(r);
   const std::vector<FigureView> views = requestedViews(r);
@@ -126,12 +138,32 @@ RenderResult runRender(const RenderRequest& r, Progress& progress) {
   nlohmann::json figures = nlohmann::json::array();
   std::vector<RgbaImage> tiles;
   run.mark("prepare");
+  const double timeLimitS = r.settings.cinematic.timeLimitS;
+  size_t figuresLeft = r.presets.size() * views.size();
   for (render::Preset p : r.presets)
     for (const FigureView& view : views) {
       s.preset = p;
       s.camera.azimuthDeg = view.azimuthDeg;
       s.camera.elevationDeg = view.elevationDeg;
-      RgbaImage image = renderer.render(s);
+      const bool cinematic = r.settings.quality == render::Quality::Cinematic && p != render::Preset::Mip;
+      RgbaImage image;
+      double drawMs = 0;
+      int samples = 0;
+      if (cinematic && timeLimitS > 0) {
+        // The figure's share of what is left of the limit, less its finish; at least one sample.
+        const auto t0 = std::chrono::steady_clock::now();
+        renderer.beginCinematic(s);
+        const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - commandStart).count();
+        const double share = (timeLimitS - elapsed) / double(figuresLeft) - finishReserveS(s);
+        samples = renderer.addCinematicSamples(s.cinematic.samples, std::max(share, 1e-3));
+        image = renderer.resolveCinematic();
+        drawMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      } else {
+        image = renderer.render(s);
+        drawMs = renderer.lastRenderMs();
+        samples = cinematic ? renderer.lastSamples() : 0;
+      }
+      --figuresLeft;
       // A GL draw cannot be interrupted: Ctrl-C during it cancels here, before anything is written.
       progress.checkCancelled();
       if (anyAnnotation(annotations)) {
@@ -145,10 +177,9 @@ RenderResult runRender(const RenderRequest& r, Progress& progress) {
       const fs::path path = outputs[r.plate ? 0 : result.figures.size()];
       std::string stage = std::string("render ") + render::presetName(p);
       if (!view.name.empty()) stage += " " + view.name;
-      nlohmann::json f = {{"preset", render::presetName(p)}, {"draw_ms", renderer.lastRenderMs()}};
+      nlohmann::json f = {{"preset", render::presetName(p)}, {"draw_ms", drawMs}};
       if (!r.views.empty()) f["view"] = view.name;
-      const bool cinematic = r.settings.quality == render::Quality::Cinematic && p != render::Preset::Mip;
-      if (cinematic) f["samples"] = renderer.lastSamples();
+      if (cinematic) f["samples"] = samples;
       if (r.plate) {
         tiles.push_back(std::move(image));
         run.mark(stage);
@@ -160,7 +191,7 @@ RenderResult runRender(const RenderRequest& r, Progress& progress) {
         f["path"] = path.string();
       }
       figures.push_back(std::move(f));
-      result.figures.push_back({path, p, view.name, renderer.lastRenderMs(), cinematic ? renderer.lastSamples() : 0});
+      result.figures.push_back({path, p, view.name, drawMs, samples});
     }
   if (r.plate) {
     const int columns = static_cast<int>(views.size() > 1 ? views.size() : r.presets.size());

@@ -113,7 +113,17 @@ class VolumeRenderer {
   /// with samples = N and the same seed. Independent of render(), which keeps its own sums.
   /// Begin again after changing the view, volume, map or tint.
   void beginCinematic(const RenderSettings& settings);
+  /// guideInBands: the same without the denoise guide's ray cast, which the caller then draws
+  /// in bands of rows with addCinematicGuideRows (a viewer keeps each frame short; the same
+  /// pixels as one ray cast) before the first resolveCinematic().
+  void beginCinematic(const RenderSettings& settings, bool guideInBands);
+  /// Ray casts rows [rowBegin, rowEnd) (row 0 = top) of the denoise guide; returns how many
+  /// of its rows are still to draw (0: complete, or no guide: cinematic.denoise = 0).
+  int addCinematicGuideRows(int rowBegin, int rowEnd);
   int addCinematicSamples(int n);
+  /// At most n samples, no pass predicted to end past `timeLimitS` seconds (0 = none; at least one):
+  /// a caller that bounds a whole command (`vellum render --time-limit`) gives what is left.
+  int addCinematicSamples(int n, double timeLimitS);
   /// The next sample over image rows [rowBegin, rowEnd) only (row 0 = top), for a viewer that
   /// cannot afford a whole pass in one frame: call with consecutive bands from row 0; the
   /// sample counts (and is returned in the total) once a band ends at the last row. Resolve
