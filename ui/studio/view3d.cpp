@@ -243,17 +243,8 @@ bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
   if (!renderer_->uploadVolumeStep(std::move(ct), std::move(prepared), maxBytes)) return false;
   labelsKey_.clear();
   hasVolume_ = true;
-  startCoarseForNewVolume();
   invalidate();
   return true;
-}
-
-void View3D::startCoarseForNewVolume() {
-  // A new volume's first plain draw at no finer than 1/8: at the 1/4 learnt on the previous
-  // volume (or the start) it took 0.37 s for 512^2 x 350 at load 12, the longest frame after
-  // the load; the rate learnt from it brings later frames back to 1/4 when they fit.
-  int& plain = coarseDeformed_ ? otherScale_ : scale_;
-  plain = std::max(plain, 8);
 }
 
 void View3D::setBackwardMap(std::shared_ptr<const render::BackwardMap> map, uint64_t revision) {

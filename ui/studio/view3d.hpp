@@ -193,7 +193,6 @@ class View3D {
   bool coarseDeformed_ = false;
   double lastMs_ = 0;
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
-  void startCoarseForNewVolume();
   /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
   void drawFrame(const Scene& scene, render::FramebufferTarget& target, int stepFactor = 1);
   void startRefinement(const Scene& scene, int paneWidth, int paneHeight);
