@@ -5,8 +5,10 @@
 //
 // At real size (512² x 350) the snake runs on a box of kSnakeRoiHalfMm about the seed, not the
 // whole scan: the speed image, the coarse levels and each live contour cost in proportion to
-// the box (a limb), not to the table and the other leg. As in ITK-SNAP the user can pause it
-// and accept the contour as it is; a cancel after the coarse levels keeps their contour.
+// the box (a limb), not to the table and the other leg. Where the coarse contour reaches a
+// face of the box the box grows and the snake goes on from that contour (a foot is longer than
+// the box). As in ITK-SNAP the user can pause it and accept the contour as it is; a cancel
+// after the coarse levels keeps their contour.
 #include <atomic>
 #include <condition_variable>
 #include <memory>
