@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -92,26 +93,72 @@ void bubblePhi(const Geometry& g, const std::vector<Bubble>& bubbles, std::vecto
   });
 }
 
+/// One coarse level per factor 2 while the coarse grid keeps >= 64 voxels on its longest axis
+/// and >= 24 on its shortest, at most 2. (The shortest axis alone, >= 64, left a limb-sized
+/// box of a real scan — 181 x 181 x 100 voxels on ct-feet-vhf — with no coarse level at all:
+/// every step of the growth from the seed ran at full resolution.)
 int autoLevels(const Dims& d) {
-  int64_t m = std::min({d.x, d.y, d.z});
+  int64_t lo = std::min({d.x, d.y, d.z}), hi = std::max({d.x, d.y, d.z});
   int levels = 0;
-  while (levels < 2 && m / 2 >= 64) { m /= 2; ++levels; }
+  while (levels < 2 && hi / 2 >= 64 && lo / 2 >= 24) { lo /= 2; hi /= 2; ++levels; }
   return levels;
 }
+
+void checkParams(const SnakeParams& p) {
+  if (p.maxIterations < 1) throw Error("snake: iterations must be >= 1");
+  if (!(p.cflNumber > 0 && p.cflNumber <= 1)) throw Error("snake: CFL number must be in (0, 1]");
+  if (p.curvature < 0) throw Error("snake: curvature weight must be >= 0");
+  if (p.settleFraction < 0 || p.settleWindow < 1) throw Error("snake: settle fraction must be >= 0, window >= 1");
+}
+
+/// Fills phi (the coarsest level's grid) with the start region, clamped to +-clamp.
+using StartPhi = std::function<void(const Geometry& g, std::vector<float>& phi, float clamp)>;
+
+SnakeResult evolve(const SpeedImage& speed, const StartPhi& startPhi, const SnakeParams& p, Progress& progress,
+                   const SnakeObserver& observe, int observeEvery);
 
 }  // namespace
 
 SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubbles, const SnakeParams& p,
                         Progress& progress, const SnakeObserver& observe, int observeEvery) {
   if (bubbles.empty()) throw Error("snake: at least one seed bubble is needed");
-  if (p.maxIterations < 1) throw Error("snake: iterations must be >= 1");
-  if (!(p.cflNumber > 0 && p.cflNumber <= 1)) throw Error("snake: CFL number must be in (0, 1]");
-  if (p.curvature < 0) throw Error("snake: curvature weight must be >= 0");
+  checkParams(p);
   const Geometry& g = speed.values.geometry();
   for (const Bubble& b : bubbles) {
     seedsToVoxels(g, {b.centerMm});  // throws for a centre outside the grid
     if (!(b.radiusMm > 0)) throw Error("snake: bubble radius must be > 0 mm");
   }
+  return evolve(speed, [&](const Geometry& lg, std::vector<float>& phi, float clamp) { bubblePhi(lg, bubbles, phi, clamp); },
+                p, progress, observe, observeEvery);
+}
+
+SnakeResult evolveSnakeFrom(const SpeedImage& speed, const Mask& start, const SnakeParams& p, Progress& progress,
+                        const SnakeObserver& observe, int observeEvery) {
+  checkParams(p);
+  const Geometry& g = speed.values.geometry();
+  if (!(start.dims() == g.dims)) throw Error("snake: the start region is not on the speed image's grid");
+  if (countVoxels(start) == 0) throw Error("snake: the start region is empty");
+  return evolve(
+      speed,
+      [&](const Geometry& lg, std::vector<float>& phi, float clamp) {
+        // Nearest voxel of the start region at each (coarse) voxel's centre: inside or outside.
+        const Geometry::ToIndex toStart = g.physicalToIndexMap();
+        parallelFor(lg.dims.z, [&](int64_t k0, int64_t k1) {
+          for (int64_t k = k0; k < k1; ++k)
+            for (int64_t j = 0; j < lg.dims.y; ++j)
+              for (int64_t i = 0; i < lg.dims.x; ++i) {
+                const bool in = start.sampleNearest(toStart(lg.indexToPhysical({double(i), double(j), double(k)}))) != 0;
+                phi[static_cast<size_t>((k * lg.dims.y + j) * lg.dims.x + i)] = in ? -clamp : clamp;
+              }
+        });
+      },
+      p, progress, observe, observeEvery);
+}
+
+namespace {
+SnakeResult evolve(const SpeedImage& speed, const StartPhi& startPhi, const SnakeParams& p, Progress& progress,
+                   const SnakeObserver& observe, int observeEvery) {
+  const Geometry& g = speed.values.geometry();
   const auto t0 = std::chrono::steady_clock::now();
   const bool edge = speed.type == SpeedType::Edge;
   // Coarse levels: min-pooling keeps barriers (thin walls, edges) closed at the coarse level;
@@ -123,7 +170,8 @@ SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubb
   for (int l = 0; l < levels; ++l) pyramid.push_back(downsample2(l == 0 ? speed.values : pyramid.back()));
 
   SnakeResult res;
-  const LevelSetStopping stop{p.maxIterations, p.convergenceFraction, p.convergenceWindow};
+  const LevelSetStopping stop{p.maxIterations, p.convergenceFraction, p.convergenceWindow, p.settleFraction,
+                              p.settleWindow};
   const double advection = resolvedAdvection(p, speed.type);
   std::unique_ptr<NarrowBandLevelSet> coarser;  // the converged level below, until the next one starts from it
   for (int l = levels; l >= 0; --l) {
@@ -131,7 +179,7 @@ SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubb
     auto ev = std::make_unique<NarrowBandLevelSet>(S.geometry(), p.cflNumber);
     const LevelSetRate rate = SnakeRate{S.data(), edge, p.propagation, p.curvature, advection};
     if (!coarser) {
-      bubblePhi(S.geometry(), bubbles, ev->phi(), ev->clampValue());
+      startPhi(S.geometry(), ev->phi(), ev->clampValue());
       ev->initialise();
     } else {
       // Edge speed only expands, so a coarse contour that crossed a thin wall (its position is
@@ -159,6 +207,7 @@ SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubb
     }
     res.iterations = r.iterations;
     res.converged = r.converged;
+    res.settled = r.settled;
     res.secondsPerIteration = r.iterations > 0 ? r.seconds / r.iterations : 0;
     res.finalContourVoxels = r.contourVoxels;
     res.phi = VolumeF32(g, 0.0f, ev->clampValue());
@@ -174,5 +223,6 @@ SnakeResult evolveSnake(const SpeedImage& speed, const std::vector<Bubble>& bubb
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
 }
+}  // namespace
 
 }  // namespace vellum::segmentation

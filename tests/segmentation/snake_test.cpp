@@ -120,3 +120,32 @@ TEST(Snake, ObserverSeesTheContourGrow) {
   EXPECT_LE(voxels.back(), countVoxels(r.mask));
   EXPECT_EQ(int(iterations.size()), r.iterations / 3);
 }
+
+// A snake continued from a region (the studio's grown box) reaches the snake from a bubble;
+// with the per-step test switched off, the settle test (the inside's volume no longer changes)
+// stops it long before the iteration limit.
+TEST(Snake, ContinuedFromARegionAndSettled) {
+  Scene s;
+  const SpeedImage speed = thresholdSpeed(s.ct, {-500, 300, 60});
+  SnakeParams p;
+  p.coarseLevels = 0;
+  p.convergenceWindow = 1 << 20;  // the per-step test never passes: only the settle test can stop it
+  p.maxIterations = 1000;
+  const SnakeResult fromBubble = evolveSnake(speed, {{s.c, 4.0}}, p);
+  EXPECT_TRUE(fromBubble.settled);
+  EXPECT_LT(fromBubble.iterations, 400);
+  EXPECT_GT(overlap(fromBubble.mask, s.truth).dice, 0.97);
+  // A 9 mm cube off the centre, as the start region (the truth's half-width is 15 mm).
+  Mask start(s.g, 0, 0.0);
+  for (int64_t k = 0; k < s.g.dims.z; ++k)
+    for (int64_t j = 0; j < s.g.dims.y; ++j)
+      for (int64_t i = 0; i < s.g.dims.x; ++i) {
+        const Vec3 d = s.g.indexToPhysical({double(i), double(j), double(k)}) - (s.c + Vec3{-4, 2, 0});
+        start(i, j, k) = std::abs(d.x) <= 4.5 && std::abs(d.y) <= 4.5 && std::abs(d.z) <= 4.5;
+      }
+  const SnakeResult fromRegion = evolveSnakeFrom(speed, start, p);
+  EXPECT_TRUE(fromRegion.settled);
+  EXPECT_GT(overlap(fromRegion.mask, s.truth).dice, 0.97);
+  EXPECT_GT(overlap(fromRegion.mask, fromBubble.mask).dice, 0.98);
+  EXPECT_THROW(evolveSnakeFrom(speed, Mask(s.g, 0, 0.0), p), Error);
+}

@@ -4,8 +4,10 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 #include <vector>
 
@@ -17,8 +19,11 @@ namespace seg = vellum::segmentation;
 
 namespace {
 /// Thrown by the observer when the user accepts the contour shown: unwinds the evolution.
-struct AcceptNow {
-  bool settled = false;  ///< the stop was kSnakeSettleFraction's, not the user's
+struct AcceptNow {};
+/// Thrown by the observer when the contour reached a face of its box that can grow.
+struct GrowBox {
+  VoxelBox box;  ///< the grown box
+  std::shared_ptr<const segmentation::Mask> contour;
 };
 
 /// `m` (any grid over the same space) on grid `g`, nearest voxel: a coarse level's contour or
@@ -47,9 +52,11 @@ seg::Mask paste(const seg::Mask& m, const VoxelBox& b, const Geometry& g) {
   return out;
 }
 
-/// True when the mask has a voxel on a face of its grid that is not a face of the scan (box
-/// `b` of the scan's `dims`): the contour was stopped by the box, not by the anatomy.
-bool touchesCutFace(const seg::Mask& m, const VoxelBox& b, const Dims& dims) {
+/// Per face of box `b` of the scan's `dims` (axis * 2 + side): true when the mask (on the
+/// box's voxels or a coarser grid over the box) has a voxel on it and it is not a face of the
+/// scan: the contour was stopped by the box, not by the anatomy.
+std::array<bool, 6> cutFacesReached(const seg::Mask& m, const VoxelBox& b, const Dims& dims) {
+  std::array<bool, 6> out{};
   const Dims d = m.dims();
   const int64_t full[3] = {dims.x, dims.y, dims.z}, n[3] = {d.x, d.y, d.z};
   for (int axis = 0; axis < 3; ++axis)
@@ -57,16 +64,32 @@ bool touchesCutFace(const seg::Mask& m, const VoxelBox& b, const Dims& dims) {
       if (side == 0 ? b.lo[size_t(axis)] == 0 : b.hi[size_t(axis)] == full[axis] - 1) continue;  // the scan's own face
       const int64_t at = side == 0 ? 0 : n[axis] - 1;
       const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
-      for (int64_t u = 0; u < n[a1]; ++u)
+      for (int64_t u = 0; u < n[a1] && !out[size_t(axis * 2 + side)]; ++u)
         for (int64_t v = 0; v < n[a2]; ++v) {
           int64_t ijk[3];
           ijk[axis] = at;
           ijk[a1] = u;
           ijk[a2] = v;
-          if (m(ijk[0], ijk[1], ijk[2])) return true;
+          if (m(ijk[0], ijk[1], ijk[2])) {
+            out[size_t(axis * 2 + side)] = true;
+            break;
+          }
         }
     }
-  return false;
+  return out;
+}
+
+bool touchesCutFace(const seg::Mask& m, const VoxelBox& b, const Dims& dims) {
+  const auto f = cutFacesReached(m, b, dims);
+  return std::any_of(f.begin(), f.end(), [](bool x) { return x; });
+}
+
+std::string boxSize(const VoxelBox& b, const Geometry& g) {
+  const Dims d = b.dims();
+  std::ostringstream s;
+  s << std::lround(double(d.x) * g.spacing.x) << " x " << std::lround(double(d.y) * g.spacing.y) << " x "
+    << std::lround(double(d.z) * g.spacing.z) << " mm";
+  return s.str();
 }
 }  // namespace
 
@@ -90,6 +113,19 @@ VoxelBox snakeBox(const Geometry& g, const Vec3& seedMm, double halfMm) {
     b.hi[a] = std::clamp<int64_t>(b.hi[a], b.lo[a], dims[a] - 1);
   }
   return b;
+}
+
+VoxelBox growSnakeBox(const VoxelBox& box, const seg::Mask& m, const Geometry& g, double growMm) {
+  const auto faces = cutFacesReached(m, box, g.dims);
+  const int64_t full[3] = {g.dims.x, g.dims.y, g.dims.z};
+  const double spacing[3] = {g.spacing.x, g.spacing.y, g.spacing.z};
+  VoxelBox out = box;
+  for (size_t a = 0; a < 3; ++a) {
+    const int64_t by = std::max<int64_t>(1, std::lround(growMm / spacing[a]));
+    if (faces[a * 2]) out.lo[a] = std::max<int64_t>(0, box.lo[a] - by);
+    if (faces[a * 2 + 1]) out.hi[a] = std::min<int64_t>(full[a] - 1, box.hi[a] + by);
+  }
+  return out;
 }
 
 std::string snakeFoundNothingReason(const VolumeI16& ct, const app::SegmentSettings& a) {
@@ -137,22 +173,32 @@ bool SnakeJob::start(SnakeRequest request) {
       [this, request = std::move(request)](Progress& progress) {
         const VolumeI16& ct = request.ct;
         const Geometry& g = ct.geometry();
-        // The box about the (first) seed; every seed must lie in it (evolveSnake checks).
-        const VoxelBox box = snakeBox(g, request.segment.seedsMm.front(), kSnakeRoiHalfMm);
-        const bool whole = box.dims().voxelCount() == g.dims.voxelCount();
-        const VolumeI16 crop = whole ? VolumeI16() : std::get<VolumeI16>(cropVolume(AnyVolume(ct), box));
-        const VolumeI16& region = whole ? ct : crop;
-        const Dims rd = region.dims();
-        std::vector<std::pair<int, int64_t>> fullCounts;  // (iteration, inside voxels) at full resolution
+        // The box about the (first) seed; every seed must lie in it (evolveSnake checks). It
+        // grows where the contour reaches one of its faces (GrowBox below).
+        VoxelBox box = snakeBox(g, request.segment.seedsMm.front(), kSnakeRoiHalfMm);
+        VolumeI16 crop;
+        bool whole = false;
+        Dims rd;
+        const auto setBox = [&](const VoxelBox& b) {
+          box = b;
+          whole = box.dims().voxelCount() == g.dims.voxelCount();
+          crop = whole ? VolumeI16() : std::get<VolumeI16>(cropVolume(AnyVolume(ct), box));
+          rd = box.dims();
+        };
+        setBox(box);
+        const auto region = [&]() -> const VolumeI16& { return whole ? ct : crop; };
+        int growths = 0;
+        bool sawCoarse = false;  ///< this box's evolution had a coarse level
         // Every few iterations the contour so far goes to the slices (live evolution); here
-        // the worker parks while paused and unwinds when the user accepts.
+        // the worker parks while paused, unwinds when the user accepts, and grows the box
+        // when the contour reached one of its cut faces.
         const auto publish = [&](const seg::Mask& inside, int iteration) {
           auto copy = std::make_shared<const seg::Mask>(inside);
           const int factor = std::max<int>(1, int(std::lround(double(rd.x) / std::max<int64_t>(1, inside.dims().x))));
           {
             std::lock_guard lock(liveMutex_);
             if (factor == 1 && liveFactor_ > 1) coarse_ = live_;  // the coarse levels' last contour
-            live_ = std::move(copy);
+            live_ = copy;
             liveIteration_ = iteration;
             liveFactor_ = factor;
             ++liveRevision_;
@@ -164,70 +210,87 @@ bool SnakeJob::start(SnakeRequest request) {
           }
           parked_ = false;
           if (accept_) throw AcceptNow{};
-          if (factor == 1) {
-            const int64_t n = seg::countVoxels(inside);
-            fullCounts.emplace_back(iteration, n);
-            int64_t lo = n, hi = n;
-            for (auto it = fullCounts.rbegin(); it != fullCounts.rend(); ++it) {
-              lo = std::min(lo, it->second);
-              hi = std::max(hi, it->second);
-              if (iteration - it->first >= kSnakeSettleIterations) {
-                if (double(hi - lo) <= kSnakeSettleFraction * double(n) && n > 0) throw AcceptNow{true};
-                break;
-              }
-            }
+          // Grown from the coarse levels' contours (a restart is cheap there); at full
+          // resolution only when there was no coarse level (a small box).
+          sawCoarse = sawCoarse || factor > 1;
+          if (!whole && growths < kSnakeRoiGrowths && (factor > 1 || !sawCoarse)) {
+            const VoxelBox grown = growSnakeBox(box, inside, g, kSnakeRoiGrowMm);
+            if (grown.lo != box.lo || grown.hi != box.hi) throw GrowBox{grown, copy};
           }
         };
         // What the UI shows for a contour kept before the end: on the scan's grid.
         const auto kept = [&](const seg::Mask& m, std::string note) {
           SnakeJobResult out;
-          out.mask = paste(m.dims() == rd ? m : resampleNearest(m, region.geometry()), box, g);
+          out.mask = paste(m.dims() == rd ? m : resampleNearest(m, region().geometry()), box, g);
           out.note = std::move(note);
           std::lock_guard lock(liveMutex_);
           out.iterations = liveIteration_;
           return out;
         };
-        SnakeJobResult out;
-        try {
-          app::SegmentationResult r = app::runSegmentation(region, request.segment, progress, publish);
-          out.iterations = r.info["snake"]["iterations"].get<int>();
-          out.converged = r.info["snake"]["converged"].get<bool>();
-          out.mask = whole ? std::move(r.mask) : paste(r.mask, box, g);
-          if (!whole && touchesCutFace(r.mask, box, g.dims)) {
-            std::ostringstream n;
-            n << "the contour reached the edge of its " << std::lround(2 * kSnakeRoiHalfMm)
-              << " mm box about the seed: seed again beyond it to extend";
-            out.note = n.str();
-          }
-        } catch (const AcceptNow& stop) {
-          std::shared_ptr<const seg::Mask> m;
-          int factor = 1;
-          {
-            std::lock_guard lock(liveMutex_);
-            m = live_;
-            factor = liveFactor_;
-          }
-          if (!m) throw Cancelled();
+        const auto boxNote = [&](const seg::Mask& m) {
           std::ostringstream n;
-          if (stop.settled)
-            n << "settled at iteration " << liveIteration().first << " (the inside changed by under "
-              << 100 * kSnakeSettleFraction << " % over " << kSnakeSettleIterations << " iterations)";
-          else
+          if (growths > 0) n << "the box about the seed grew " << growths << (growths == 1 ? " time" : " times") << " (to " << boxSize(box, g) << ")";
+          if (!whole && touchesCutFace(m, box, g.dims))
+            n << (growths > 0 ? "; " : "") << "the contour reached the edge of its " << boxSize(box, g)
+              << " box about the seed: seed again beyond it to extend";
+          return n.str();
+        };
+        SnakeJobResult out;
+        app::SegmentSettings settings = request.segment;
+        for (;;) {
+          try {
+            app::SegmentationResult r = app::runSegmentation(region(), settings, progress, publish);
+            out.iterations = r.info["snake"]["iterations"].get<int>();
+            out.converged = r.info["snake"]["converged"].get<bool>();
+            const bool settled = r.info["snake"].value("settled", false);
+            std::ostringstream n;
+            if (settled)
+              n << "settled at iteration " << out.iterations << " (the inside changed by under "
+                << 100 * seg::SnakeParams{}.settleFraction << " % over " << seg::SnakeParams{}.settleWindow << " iterations)";
+            const std::string b = boxNote(r.mask);
+            if (!b.empty()) n << (settled ? "; " : "") << b;
+            out.note = n.str();
+            out.mask = whole ? std::move(r.mask) : paste(r.mask, box, g);
+          } catch (const GrowBox& grow) {
+            // Go on from the contour reached, on the grown box (its coarse levels first).
+            setBox(grow.box);
+            ++growths;
+            sawCoarse = false;
+            std::printf("snake: box grown to %s at iteration %d of the 1/%d level\n", boxSize(box, g).c_str(),
+                        liveIteration().first, liveIteration().second);
+            std::fflush(stdout);
+            auto start = std::make_shared<seg::Mask>(resampleNearest(*grow.contour, region().geometry()));
+            {
+              std::lock_guard lock(liveMutex_);
+              coarse_ = grow.contour;  // what a cancel keeps until this box's coarse levels are done
+            }
+            settings.snakeStart = std::move(start);
+            continue;
+          } catch (const AcceptNow&) {
+            std::shared_ptr<const seg::Mask> m;
+            int factor = 1;
+            {
+              std::lock_guard lock(liveMutex_);
+              m = live_;
+              factor = liveFactor_;
+            }
+            if (!m) throw Cancelled();
+            std::ostringstream n;
             n << "accepted the contour at iteration " << liveIteration().first
               << (factor > 1 ? " of the 1/" + std::to_string(factor) + " resolution level" : " at full resolution");
-          if (!whole && factor == 1 && touchesCutFace(*m, box, g.dims))
-            n << "; the contour reached the edge of its " << std::lround(2 * kSnakeRoiHalfMm)
-              << " mm box about the seed: seed again beyond it to extend";
-          out = kept(*m, n.str());
-          out.converged = stop.settled;
-        } catch (const Cancelled&) {
-          std::shared_ptr<const seg::Mask> m;
-          {
-            std::lock_guard lock(liveMutex_);
-            m = coarse_;
+            const std::string b = factor == 1 ? boxNote(*m) : std::string();
+            if (!b.empty()) n << "; " << b;
+            out = kept(*m, n.str());
+          } catch (const Cancelled&) {
+            std::shared_ptr<const seg::Mask> m;
+            {
+              std::lock_guard lock(liveMutex_);
+              m = coarse_;
+            }
+            if (!m) throw;  // cancelled before the coarse levels were done: nothing kept
+            out = kept(*m, "cancelled at full resolution: kept the coarse contour (Ctrl+Z drops it)");
           }
-          if (!m) throw;  // cancelled before the coarse levels were done: nothing kept
-          out = kept(*m, "cancelled at full resolution: kept the coarse contour (Ctrl+Z drops it)");
+          break;
         }
         if (seg::countVoxels(out.mask) == 0) out.error = snakeFoundNothingReason(ct, request.segment);
         return out;

@@ -5,8 +5,10 @@
 //
 // At real size (512² x 350) the snake runs on a box of kSnakeRoiHalfMm about the seed, not the
 // whole scan: the speed image, the coarse levels and each live contour cost in proportion to
-// the box (a limb), not to the table and the other leg. As in ITK-SNAP the user can pause it
-// and accept the contour as it is; a cancel after the coarse levels keeps their contour.
+// the box (a limb), not to the table and the other leg. Where the coarse contour reaches a
+// face of the box the box grows and the snake goes on from that contour (a foot is longer than
+// the box). As in ITK-SNAP the user can pause it and accept the contour as it is; a cancel
+// after the coarse levels keeps their contour.
 #include <atomic>
 #include <condition_variable>
 #include <memory>
@@ -32,12 +34,13 @@ struct SnakeRequest {
 /// Half the side of the snake's box about the seed (mm): a limb's cross-section (a knee or a
 /// thigh is 100-180 mm across) with room; clipped to the scan.
 inline constexpr double kSnakeRoiHalfMm = 90;
-/// The full-resolution level stops as settled when the inside's volume changed by less than
-/// this fraction over the last kSnakeSettleIterations: on a real CT the contour's noisy edge
-/// keeps flipping voxels, so the module's own convergence test (changes per iteration) may
-/// never pass before the iteration limit (2000 iterations, minutes, on ct-feet-vhf).
-inline constexpr double kSnakeSettleFraction = 0.002;
-inline constexpr int kSnakeSettleIterations = 50;
+/// Where the contour (at any level) reaches a face of the box that is not the scan's, the box
+/// grows by this much on that side and the snake goes on from the contour it had: a foot is
+/// longer than the box, a region may reach past it (at most kSnakeRoiGrowths times).
+inline constexpr double kSnakeRoiGrowMm = 90;
+inline constexpr int kSnakeRoiGrowths = 6;
+/// (The snake stops as settled when its inside's volume no longer changes:
+/// segmentation::SnakeParams::settleFraction, at every level.)
 
 struct SnakeJobResult {
   /// "snake cancelled", the segmentation module's message, or why the snake found nothing
@@ -53,6 +56,11 @@ struct SnakeJobResult {
 
 /// The voxel box of half-side `halfMm` about `seedMm` on `g`, clipped to the grid.
 VoxelBox snakeBox(const Geometry& g, const Vec3& seedMm, double halfMm);
+
+/// `box` (on a scan of grid `g`) grown by `growMm` on the faces `m` reaches (a mask on the
+/// box's voxels or a coarser grid over the same box) that are not faces of the scan; `box`
+/// itself when there is none.
+VoxelBox growSnakeBox(const VoxelBox& box, const segmentation::Mask& m, const Geometry& g, double growMm);
 
 /// Why a snake from `request` found nothing, in the user's terms (the seed's HU against the
 /// range, a bubble smaller than a voxel, a region thinner than the bubble).

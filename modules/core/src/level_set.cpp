@@ -207,6 +207,7 @@ NarrowBandLevelSet::Change NarrowBandLevelSet::step(const LevelSetRate& rate) {
           const float nv = std::clamp(static_cast<float>(v + dt * rate_[a]), -clamp_, clamp_);
           if ((v <= 0) != (nv <= 0)) {
             ++c.changed;
+            c.net += nv <= 0 ? 1 : -1;
             c.leftActive = c.leftActive || !neighboursActive(q);
           }
           v = nv;
@@ -482,6 +483,17 @@ LevelSetRunResult NarrowBandLevelSet::run(const LevelSetRate& rate, const LevelS
   progress.begin(stage, static_cast<uint64_t>(std::max(stop.maxIterations, 1)));
   int sinceRebuild = 0;
   bool leftActive = false;
+  // Inside voxel count per step, for the settle test (one dense count per run).
+  std::deque<int64_t> insideHistory;
+  int64_t insideCount = 0;
+  if (stop.settleFraction > 0)
+    insideCount = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, phi_.size(), 1 << 16), int64_t{0},
+        [&](const tbb::blocked_range<size_t>& b, int64_t n) {
+          for (size_t q = b.begin(); q < b.end(); ++q) n += phi_[q] <= 0;
+          return n;
+        },
+        std::plus<>());
   for (int it = 0; it < stop.maxIterations; ++it) {
     // Re-distance at least every kMaxStepsBetweenRebuilds steps (phi drifts from a distance
     // function), and at once when the front reached the edge of the active voxels.
@@ -506,6 +518,18 @@ LevelSetRunResult NarrowBandLevelSet::run(const LevelSetRate& rate, const LevelS
             stop.fraction * static_cast<double>(std::max<size_t>(interfaceCount_, 1))) {
       r.converged = true;
       break;
+    }
+    if (stop.settleFraction > 0) {
+      insideCount += change.net;
+      insideHistory.push_back(insideCount);
+      if (static_cast<int>(insideHistory.size()) > stop.settleWindow + 1) insideHistory.pop_front();
+      if (static_cast<int>(insideHistory.size()) == stop.settleWindow + 1 && insideCount > 0) {
+        const auto [lo, hi] = std::minmax_element(insideHistory.begin(), insideHistory.end());
+        if (static_cast<double>(*hi - *lo) <= stop.settleFraction * static_cast<double>(insideCount)) {
+          r.converged = r.settled = true;
+          break;
+        }
+      }
     }
   }
   if (redistanceAtEnd) rebuild();

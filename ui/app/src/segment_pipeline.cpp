@@ -90,9 +90,10 @@ seg::Mask runMethod(const SegmentSettings& a, const VolumeI16& ct, nlohmann::jso
     if (a.iterations) p.maxIterations = *a.iterations;
     std::vector<seg::Bubble> bubbles;
     for (const Vec3& s : seeds) bubbles.push_back({s, a.bubbleRadiusMm});
-    auto r = seg::evolveSnake(speed, bubbles, p, progress, observe, 5);
+    auto r = a.snakeStart ? seg::evolveSnakeFrom(speed, *a.snakeStart, p, progress, observe, 5)
+                          : seg::evolveSnake(speed, bubbles, p, progress, observe, 5);
     info["snake"] = {{"speed", a.speed}, {"iterations", r.iterations}, {"coarse_iterations", r.coarseIterations},
-                     {"converged", r.converged}, {"seconds", r.seconds},
+                     {"converged", r.converged}, {"settled", r.settled}, {"seconds", r.seconds},
                      {"ms_per_iteration", 1000 * r.secondsPerIteration},
                      {"propagation", p.propagation}, {"curvature", p.curvature}, {"advection", seg::resolvedAdvection(p, type)},
                      {"bubble_radius_mm", a.bubbleRadiusMm}};

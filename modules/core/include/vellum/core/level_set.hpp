@@ -57,11 +57,18 @@ struct LevelSetStopping {
   /// averaged at most `fraction` * (voxels on the contour).
   double fraction = 0.002;
   int window = 10;
+  /// Also stopped ("settled") when the inside's voxel count stayed within
+  /// `settleFraction` * (inside voxels) over the last `settleWindow` steps; 0 = off. On a real
+  /// CT the contour's noisy edge keeps flipping voxels, so the test above may never pass
+  /// although the region no longer changes.
+  double settleFraction = 0;
+  int settleWindow = 50;
 };
 
 struct LevelSetRunResult {
   int iterations = 0;
   bool converged = false;
+  bool settled = false;  ///< converged by LevelSetStopping::settleFraction
   double seconds = 0;
   int64_t contourVoxels = 0;  ///< voxels next to the zero level at the end
 };
@@ -89,7 +96,8 @@ class NarrowBandLevelSet {
   struct Change {
     int64_t changed = 0;
     bool leftActive = false;
-    Change operator+(const Change& o) const { return {changed + o.changed, leftActive || o.leftActive}; }
+    int64_t net = 0;  ///< voxels that went inside minus those that went outside
+    Change operator+(const Change& o) const { return {changed + o.changed, leftActive || o.leftActive, net + o.net}; }
   };
   /// One explicit step over the active voxels, dt from the CFL limit of the rates' bounds.
   Change step(const LevelSetRate& rate);

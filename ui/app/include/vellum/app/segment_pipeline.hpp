@@ -8,6 +8,7 @@
 
 #include <array>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -43,6 +44,9 @@ struct SegmentSettings {
   std::optional<double> strong;               ///< hysteresis: lower bound of the strong interval
   int classes = 3;                            ///< multi-otsu
   std::vector<Vec3> seedsMm;                  ///< grow, confidence, snake
+  /// snake: start from this region (on the input's grid) instead of bubbles at the seeds: a
+  /// snake continued on a larger box (the studio). Not a flag.
+  std::shared_ptr<const segmentation::Mask> snakeStart;
   double bubbleRadiusMm = 5;                  ///< snake: seed bubble radius
   std::optional<int> iterations;              ///< confidence / snake; unset = the method's default
   std::string speed = "threshold";            ///< snake: threshold | edge
