@@ -77,9 +77,9 @@ void addCompareCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "compare", "Compare two label maps (Dice, Jaccard, HD95, ASSD per id), images (difference, PSNR, SSIM, "
                  "heat map) or volumes (geometry, HU differences); exit 0 within tolerance, 1 outside, 2 on error");
-  cmd->add_option("a", a->a, "the result: label map, image (PNG, TIFF, JPEG) or volume (any format `info` reads)")
+  addInput(*cmd, "a", a->a, "the result: label map, image (PNG, TIFF, JPEG) or volume (any format `info` reads)")
       ->required();
-  cmd->add_option("b", a->b, "the baseline or reference, of the same kind")->required();
+  addInput(*cmd, "b", a->b, "the baseline or reference, of the same kind")->required();
   cmd->add_option("--kind", a->kind, "auto | labels | image | volume (auto: images by extension, unsigned integer "
                                      "volumes as label maps, other volumes as grey)")
       ->capture_default_str();
@@ -87,8 +87,8 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--a-ids", a->aIds, "labels: compare the union of these ids in A with --b-ids in B as one mask")
       ->delimiter(',');
   cmd->add_option("--b-ids", a->bIds, "labels: the ids of B matched by --a-ids (default: the same)")->delimiter(',');
-  cmd->add_option("--json,--report", a->json, "write the comparison as JSON to this file ('-': stdout only)");
-  cmd->add_option("--heatmap", a->heatmap, "write the differences as a PNG (images: a heat map; label maps and "
+  addOutput(*cmd, "--json,--report", a->json, "write the comparison as JSON to this file ('-': stdout only)");
+  addOutput(*cmd, "--heatmap", a->heatmap, "write the differences as a PNG (images: a heat map; label maps and "
                                            "volumes: the axial slice with the most disagreement)");
   cmd->add_flag("--quiet,-q", a->quiet, "print nothing; the exit code says pass (0) or fail (1)");
   addFlags(*cmd, a->tolerances, app::compareTolerancesTable());

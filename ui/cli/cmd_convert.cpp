@@ -24,12 +24,12 @@ void addConvertCommand(CLI::App& app) {
   auto a = std::make_shared<ConvertArgs>();
   app::ConvertRequest& r = a->request;
   auto* cmd = app.add_subcommand("convert", "Convert a volume or label map between formats (DICOM, NRRD, RAW, MetaImage, NIfTI, VTI)");
-  cmd->add_option("input", r.input, "input volume file or DICOM folder")->required();
-  cmd->add_option("output", r.output, "output file (format from extension) or folder (DICOM series)")->required();
+  addInput(*cmd, "input", r.input, "input volume file or DICOM folder")->required();
+  addOutput(*cmd, "output", r.output, "output file (format from extension) or folder (DICOM series)")->required();
   cmd->add_option("--type", a->type, "convert voxels to int16 | uint8 | uint16 | float32 (rounding, saturating)");
   cmd->add_flag("--labels", r.labels, "treat the input as a label map (keeps the label table)");
   cmd->add_flag("--no-gzip", a->rawEncoding, "NRRD: raw encoding instead of gzip");
-  cmd->add_option("--report", r.report, "write a JSON report: version, command, input and output with fingerprints, memory");
+  addOutput(*cmd, "--report", r.report, "write a JSON report: version, command, input and output with fingerprints, memory");
   a->in.addTo(*cmd);
   addForceFlag(*cmd, r.force);
   cmd->footer("Example: vellum convert ../shared/data/ct-head-phantom head.nrrd");

@@ -134,10 +134,10 @@ void demoCurveAnalogy(const DemoContext& ctx) {
 void addCurveAnalogyCommand(CLI::App& app) {
   auto a = std::make_shared<CurveArgs>();
   auto* cmd = app.add_subcommand("curve-analogy", "Bend a shape folder's segment toward an illustrator's outline (curve analogy), carry other segments and the CT along");
-  cmd->add_option("dir", a->request.dir, "input shape folder (from `vellum shape`)")->required();
+  addInput(*cmd, "dir", a->request.dir, "input shape folder (from `vellum shape`)")->required();
   cmd->add_option("--segment,-s", a->request.segment, "segment whose outline follows the curve")->required();
-  cmd->add_option("--curve", a->curve, "C0 as JSON {\"points\": [[x, y], ...]} in image pixels of the view (--size)");
-  cmd->add_option("--drawing", a->drawing, "C0 from a drawing (PNG/JPG): outer contour of its dark strokes; the view's image has the drawing's size");
+  addInput(*cmd, "--curve", a->curve, "C0 as JSON {\"points\": [[x, y], ...]} in image pixels of the view (--size)");
+  addInput(*cmd, "--drawing", a->drawing, "C0 from a drawing (PNG/JPG): outer contour of its dark strokes; the view's image has the drawing's size");
   cmd->add_option("--view", a->view, "front | side | top | oblique (orthographic)")->capture_default_str();
   cmd->add_option("--azimuth", a->azimuth, "camera azimuth (deg), overrides --view");
   cmd->add_option("--elevation", a->elevation, "camera elevation (deg), with --azimuth")->capture_default_str();
@@ -148,10 +148,10 @@ void addCurveAnalogyCommand(CLI::App& app) {
   cmd->add_option("--proxy-faces", a->request.proxyFaces, "face budget of the proxy (cage) mesh; doubled (twice at most) while a moved mesh self-intersects")->capture_default_str();
   cmd->add_option("--transfer", a->request.transfer, "NAME[,NAME..]: other segments moved by the cage");
   cmd->add_option("--dark-threshold", a->darkThreshold, "--drawing: grey level below which a pixel is a stroke")->capture_default_str();
-  cmd->add_option("--out,-o", a->request.out, "output shape folder (+ curve_analogy/ with curves, proxies, before_after.png)")->required();
-  cmd->add_option("--map-out", a->request.mapOut, "CT backward map NRRD (format of `deform --map-out`)");
+  addOutput(*cmd, "--out,-o", a->request.out, "output shape folder (+ curve_analogy/ with curves, proxies, before_after.png)")->required();
+  addOutput(*cmd, "--map-out", a->request.mapOut, "CT backward map NRRD (format of `deform --map-out`)");
   cmd->add_option("--map-step", a->request.mapStep, "voxels between exact map samples (trilinear in between)")->capture_default_str();
-  cmd->add_option("--report", a->request.report, "also write the curve-analogy report JSON here");
+  addOutput(*cmd, "--report", a->request.report, "also write the curve-analogy report JSON here");
   addForceFlag(*cmd, a->request.force);
   cmd->footer("Example: vellum curve-analogy shape/ --segment skin --drawing calf.png --view side --transfer bone --out shape-bent/ --map-out bent-map.nrrd");
   cmd->callback([a] { runCurveAnalogy(*a); });

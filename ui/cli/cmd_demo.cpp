@@ -33,7 +33,7 @@ struct View {
 void addDemoCommand(CLI::App& app) {
   auto a = std::make_shared<DemoArgs>();
   auto* cmd = app.add_subcommand("demo", "Run the main job on the built-in phantom: figures, segmentation, deformation");
-  cmd->add_option("--out,-o", a->out, "output folder (created)")->capture_default_str();
+  addOutput(*cmd, "--out,-o", a->out, "output folder (created)")->capture_default_str();
   cmd->add_option("--size", a->size, "phantom voxels per axis")->capture_default_str()->check(CLI::Range(32, 512));
   cmd->add_option("--image-size", a->imageSize, "figure size in pixels (square)")->capture_default_str()->check(CLI::Range(64, 4096));
   cmd->add_option("--seed", a->seed, "phantom noise seed")->capture_default_str();

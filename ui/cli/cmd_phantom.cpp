@@ -28,9 +28,9 @@ struct PhantomArgs {
 void addPhantomCommand(CLI::App& app) {
   auto a = std::make_shared<PhantomArgs>();
   auto* cmd = app.add_subcommand("phantom", "Generate the synthetic knee CT phantom (HU) and its ground-truth labels");
-  cmd->add_option("--out,-o", a->out, "CT output: .nrrd, .raw (+ .raw.json sidecar), .mha/.mhd, .vti or a DICOM folder")
+  addOutput(*cmd, "--out,-o", a->out, "CT output: .nrrd, .raw (+ .raw.json sidecar), .mha/.mhd, .vti or a DICOM folder")
       ->required();
-  cmd->add_option("--labels", a->labels, "ground-truth label map output (.nrrd with label table)");
+  addOutput(*cmd, "--labels", a->labels, "ground-truth label map output (.nrrd with label table)");
   cmd->add_option("--size", a->size, "voxels per axis (cube), 16..1024")->capture_default_str()->check(CLI::Range(16, 1024));
   cmd->add_option("--dims", a->dims, "voxels per axis X Y Z (overrides --size)")->expected(3);
   cmd->add_option("--spacing", a->spacing, "spacing in mm (default: 180x180x220 mm field of view / dims)")->expected(3);
@@ -38,7 +38,7 @@ void addPhantomCommand(CLI::App& app) {
   cmd->add_option("--noise", a->noise, "noise standard deviation in HU")->capture_default_str();
   cmd->add_option("--flexion", a->flexion, "knee flexion in degrees")->capture_default_str();
   cmd->add_flag("--no-partial-volume", a->noPartialVolume, "hard tissue edges (no supersampling)");
-  cmd->add_option("--report", a->report, "write a JSON report: version, command, options, outputs with fingerprints, time, memory");
+  addOutput(*cmd, "--report", a->report, "write a JSON report: version, command, options, outputs with fingerprints, time, memory");
   addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum phantom --size 256 --out knee.nrrd --labels knee-labels.nrrd");
   cmd->callback([a] {

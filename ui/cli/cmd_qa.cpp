@@ -108,15 +108,15 @@ void addQaCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "qa", "Run a QA manifest's cases (vellum commands, checks against baselines and references, time and memory "
             "ceilings) in parallel or on Snakemake; JUnit XML and HTML report; exit 0 all pass, 1 any failure, 2 error");
-  cmd->add_option("manifest", a->manifest, "the QA manifest (JSON; docs/qa.md)");
-  cmd->add_option("--out,-o", a->out, "the run folder: case outputs, logs, report.html, junit.xml, summary.json");
+  addInput(*cmd, "manifest", a->manifest, "the QA manifest (JSON; docs/qa.md)");
+  addOutput(*cmd, "--out,-o", a->out, "the run folder: case outputs, logs, report.html, junit.xml, summary.json");
   cmd->add_option("--jobs,-j", a->jobs, "cases at once (Snakemake: --cores)")->capture_default_str()->check(CLI::Range(1, 1024));
   cmd->add_option("--baselines", a->baselines, "the baseline store (default: the manifest's \"baselines\", else baselines/ beside it)");
   cmd->add_flag("--update-baselines", a->update, "write the cases' outputs into the baseline store (with a sidecar "
                                                  "naming the commands and the Vellum version) instead of comparing");
   cmd->add_option("--case", a->caseName, "run only this case, in this process (what each parallel or Snakemake job runs)");
   cmd->add_flag("--list-cases", a->listCases, "print the manifest's case names");
-  cmd->add_option("--report-from", a->reportFrom, "write the report of a run folder from its cases' results");
+  addInput(*cmd, "--report-from", a->reportFrom, "write the report of a run folder from its cases' results");
   cmd->add_flag("--snakemake", a->snakemake, "run the cases as a Snakemake workflow (one job per case, the report last)");
   cmd->add_flag("--snakefile-only", a->snakefileOnly, "write the workflow to OUT/workflow and print how to run it");
   cmd->add_option("--profile", a->profile, "--snakemake: a Snakemake profile (e.g. scripts/qa/slurm for Slurm)");

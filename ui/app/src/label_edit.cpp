@@ -80,7 +80,7 @@ LabelEditResult runLabelEdit(const LabelEditRequest& r, Progress& progress) {
     edited.setLabel(l);
   }
   for (const auto& [id, rgb] : r.colours) {
-    if (!holds(id)) throw Error("--color: id " + std::to_string(id) + " is not in the edited map");
+    if (!holds(id)) throw Error("--colour: id " + std::to_string(id) + " is not in the edited map");
     Label l = edited.label(id).value_or(Label{id, "label " + std::to_string(id), rgb});
     l.rgb = rgb;
     edited.setLabel(l);
