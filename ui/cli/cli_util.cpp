@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "cli_params.hpp"
@@ -15,40 +17,65 @@
 namespace vellum::cli {
 
 namespace {
-std::vector<std::pair<CLI::App*, std::function<std::vector<std::string>()>>>& inputRegistry() {
-  static std::vector<std::pair<CLI::App*, std::function<std::vector<std::string>()>>> r;
-  return r;
+// The options that name inputs (true) and outputs (false). Only looked up with the live app's
+// options, never dereferenced: an app that is gone (the demo's inner commands) leaves a
+// harmless entry.
+std::map<const CLI::Option*, bool>& pathOptions() {
+  static std::map<const CLI::Option*, bool> options;
+  return options;
 }
 }  // namespace
 
-void registerInput(CLI::App& cmd, std::function<std::vector<std::string>()> values) {
-  inputRegistry().emplace_back(&cmd, std::move(values));
+std::function<void()> resultCommand(std::function<int()> work) {
+  return [work = std::move(work)] {
+    int code = ExitCode::Success;
+    try {
+      code = work();
+    } catch (const Cancelled&) {
+      throw;
+    } catch (const std::exception& e) {
+      std::cerr << "vellum: error: " << e.what() << "\n";
+      code = ExitCode::Usage;
+    }
+    std::cout.flush();
+    if (code != ExitCode::Success) throw CLI::RuntimeError(code);  // main.cpp exits with it, silently
+  };
 }
 
-bool isCommandInput(const std::filesystem::path& path) {
+CLI::Option* markPath(CLI::Option* option, bool input) {
+  pathOptions()[option] = input;
+  return option;
+}
+
+bool isCommandInput(const CLI::App& app, const std::filesystem::path& path) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  const fs::path p = fs::weakly_canonical(fs::absolute(path, ec), ec).lexically_normal();
-  for (const auto& [cmd, values] : inputRegistry()) {
-    if (!cmd->parsed()) continue;
-    for (const std::string& v : values()) {
-      if (v.empty()) continue;
-      const fs::path in = fs::weakly_canonical(fs::absolute(v, ec), ec).lexically_normal();
-      // The input itself, or a file inside an input folder (a DICOM slice, a shape folder's file).
-      const auto [end, _] = std::mismatch(in.begin(), in.end(), p.begin(), p.end());
-      if (end == in.end()) return true;
+  const auto normal = [&ec](const fs::path& p) { return fs::weakly_canonical(fs::absolute(p, ec), ec).lexically_normal(); };
+  const fs::path p = normal(path);
+  bool input = false;
+  for (const CLI::App* sub : app.get_subcommands())
+    for (const CLI::Option* o : sub->get_options()) {
+      const auto kind = pathOptions().find(o);
+      if (kind == pathOptions().end()) continue;
+      for (const std::string& v : o->results()) {
+        if (v.empty()) continue;
+        const fs::path named = normal(v);
+        // The path itself, or a file inside its folder (a DICOM slice, a shape folder's file).
+        if (std::mismatch(named.begin(), named.end(), p.begin(), p.end()).first != named.end()) continue;
+        if (!kind->second) return false;  // an output's problem (also one that is an input)
+        input = true;
+      }
     }
-  }
-  return false;
+  return input;
 }
 
 const params::Table<InputOptions>& inputOptionsTable() {
   using IO = InputOptions;
   static const params::Table<IO> t{
-      params::text<IO>("series", &IO::seriesUid, {"Series", "DICOM: SeriesInstanceUID to load (default: largest CT series)"}),
-      params::text<IO>("raw_type", &IO::rawType, {"RAW voxel type", "bare .raw without sidecar: the voxel type"},
+      params::text<IO>("series", &IO::seriesUid, {"Series", "DICOM: SeriesInstanceUID to load (default: largest CT series)", ""}),
+      params::text<IO>("raw_type", &IO::rawType, {"RAW voxel type", "bare .raw without sidecar: the voxel type", ""},
                        {"int16", "uint8", "uint16", "float32"}),
-      params::text<IO>("raw_endian", &IO::rawEndian, {"RAW byte order", "bare .raw: the byte order"}, {"little", "big"}),
+      params::text<IO>("raw_endian", &IO::rawEndian, {"RAW byte order", "bare .raw: the byte order", ""}, {"little", "big"}),
       params::integer<IO>("raw_header", &IO::rawHeader,
                           {"RAW header", "bare .raw: bytes to skip before the voxels", "bytes", 0}),
       params::integer<IO>("downsample", &IO::downsample,
@@ -56,10 +83,10 @@ const params::Table<InputOptions>& inputOptionsTable() {
                            "", 1, 16}),
       params::flag<IO>("allow_outside_data", &IO::allowOutsideData,
                        {"Data outside", ".nhdr/.mhd: read a data file the header names outside its own folder (absolute, "
-                                        "'..', a symlink leading out)"}),
+                                        "'..', a symlink leading out)", ""}),
       params::flag<IO>("no_slice_repair", &IO::noSliceRepair,
                        {"No slice repair", "DICOM: keep a single mis-registered slice as it is (by default it is replaced "
-                                           "by interpolating its neighbours, with a warning naming it)"}),
+                                           "by interpolating its neighbours, with a warning naming it)", ""}),
   };
   return t;
 }
@@ -129,28 +156,32 @@ void TableRemovalOptions::addTo(CLI::App& cmd) {
   addFlags(cmd, params, segmentation::bodyMaskParamsTable(), {}, "table_");
 }
 
-AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::path& path) {
-  if (!enabled) return volume;
+namespace {
+/// Runs one table-removal step with a progress bar, prints its one-line summary and keeps its report.
+template <class Step>
+auto withTableReport(std::optional<segmentation::BodyMaskReport>& report, Step step) {
   segmentation::BodyMaskReport r;
-  {
+  auto out = [&] {
     ProgressBar bar;
-    volume = app::withoutCtTable(volume, path, params, bar.progress(), &r);
-  }
+    return step(bar.progress(), &r);
+  }();
   std::cerr << app::tableRemovalSummary(r) << "\n";
   report = r;
-  return volume;
+  return out;
+}
+}  // namespace
+
+AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::path& path) {
+  if (!enabled) return volume;
+  return withTableReport(report, [&](Progress& p, segmentation::BodyMaskReport* r) {
+    return app::withoutCtTable(volume, path, params, p, r);
+  });
 }
 
 segmentation::Mask TableRemovalOptions::bodyMask(const AnyVolume& volume, const std::filesystem::path& path) {
-  segmentation::BodyMaskReport r;
-  segmentation::Mask body;
-  {
-    ProgressBar bar;
-    body = app::ctBodyMask(volume, path, params, bar.progress(), &r);
-  }
-  std::cerr << app::tableRemovalSummary(r) << "\n";
-  report = r;
-  return body;
+  return withTableReport(report, [&](Progress& p, segmentation::BodyMaskReport* r) {
+    return app::ctBodyMask(volume, path, params, p, r);
+  });
 }
 
 void TableRemovalOptions::addToReport(nlohmann::json& j) const {
@@ -163,17 +194,17 @@ const params::Table<FigureOptions>& figureOptionsTable() {
   static const params::Table<F> t{
       params::flag<F>("scale_bar", params::nested(&F::annotations, &A::scaleBar),
                       {"Scale bar", "draw a scale bar in mm (exact for --fov 0; in perspective it holds at the centre's "
-                                    "depth)"}),
+                                    "depth)", ""}),
       params::real<F>("scale_bar_mm", params::nested(&F::annotations, &A::scaleBarMm),
                       {"Scale bar length", "0: a round length near a fifth of the width", "mm", 0}),
       params::flag<F>("orientation", params::nested(&F::annotations, &A::orientation),
-                      {"Orientation", "draw the orientation letters (A/P, L/R, S/I) at the edges"}),
+                      {"Orientation", "draw the orientation letters (A/P, L/R, S/I) at the edges", ""}),
       params::real<F>("label_size", params::nested(&F::annotations, &A::textHeightPx),
                       {"Label size", "height of the annotation text's capitals (labels, scale bar, orientation "
                                      "letters); 0: scaled with the figure, else at least 4",
                        "px", 0, 400}),
       params::flag<F>("annotate", &F::annotateAll,
-                      {"Annotate", "scale bar and orientation letters (and labels with --label-map / --labels)"}),
+                      {"Annotate", "scale bar and orientation letters (and labels with --label-map / --labels)", ""}),
   };
   return t;
 }
@@ -202,17 +233,17 @@ const params::Table<FigureFlags>& figureFlagsTable() {
       params::text<F>("view", &F::view,
                       {"Views", "anterior | posterior | left | right | lateral (= left) | superior | inferior | AZ | "
                                 "AZ:EL (degrees), or a comma list: one figure each from one upload, suffixed -VIEW "
-                                "(overrides --azimuth/--elevation); empty: the camera's"}),
+                                "(overrides --azimuth/--elevation); empty: the camera's", ""}),
       params::flag<F>("plate", &F::plate,
                       {"Plate", "one contact sheet at --out instead of a file each: a row per preset or style, a "
-                                "column per view"}),
+                                "column per view", ""}),
       params::text<F>("size", &F::size, {"Size", "image size WxH, up to 4096x4096", "px"}),
       params::vector<F>("pan", &F::pan,
                         {"Pan", "shift of the look-at point (x y z, or x,y,z), after the framing", "mm"}),
       params::text<F>("background", &F::background,
                       {"Background", "background colour R,G,B or R,G,B,A, each 0..1 (spaces may stand for the "
-                                     "commas); empty: the preset's or style's"}),
-      params::flag<F>("transparent", &F::transparent, {"Transparent", "transparent background (PNG/TIFF alpha)"}),
+                                     "commas); empty: the preset's or style's", ""}),
+      params::flag<F>("transparent", &F::transparent, {"Transparent", "transparent background (PNG/TIFF alpha)", ""}),
   };
   return t;
 }

@@ -31,29 +31,32 @@ inline constexpr int Usage = 2;      ///< a bad flag or value, a missing or unre
 inline constexpr int Cancelled = 130;
 }  // namespace ExitCode
 
+/// The callback of a command whose exit 1 is its result ("checks failed": compare, qa): runs
+/// `work`, which returns the exit code, and reports any error as exit 2, so that 1 keeps one
+/// meaning; cancelling stays 130.
+std::function<void()> resultCommand(std::function<int()> work);
+
+/// Marks `option` as naming an input, or an output (addInput / addOutput do; a table's path
+/// field after addFlags).
+CLI::Option* markPath(CLI::Option* option, bool input);
+inline CLI::Option* markInput(CLI::Option* option) { return markPath(option, true); }
+
 /// The I/O options, one line each: `addInput` for a file or folder the command reads (a
 /// vellum::FileError naming it, or a file inside it, exits 2: an input error), `addOutput`
-/// for one it writes (a failure there exits 1). `name` as CLI11 takes it ("input",
-/// "--labels,-l"); the target is a path or string member of the command's request.
-template <class T>
-CLI::Option* addInput(CLI::App& cmd, const std::string& name, T& target, const std::string& help);
-template <class T>
-CLI::Option* addOutput(CLI::App& cmd, const std::string& name, T& target, const std::string& help) {
-  return cmd.add_option(name, target, help);
-}
-/// Whether `path` is (or lies in) an input of the command that was parsed.
-bool isCommandInput(const std::filesystem::path& path);
-/// Registers what `addInput` bound (cli_util.cpp).
-void registerInput(CLI::App& cmd, std::function<std::vector<std::string>()> values);
-
+/// for one it writes (a failure there exits 1, also where the output is an input too: the
+/// output policy's refusal). `name` as CLI11 takes it ("input", "--labels,-l"); the target
+/// is a path or string member of the command's request.
 template <class T>
 CLI::Option* addInput(CLI::App& cmd, const std::string& name, T& target, const std::string& help) {
-  registerInput(cmd, [&target] {
-    if constexpr (std::is_same_v<T, std::vector<std::string>>) return target;
-    else return std::vector<std::string>{std::filesystem::path(target).string()};
-  });
-  return cmd.add_option(name, target, help);
+  return markPath(cmd.add_option(name, target, help), true);
 }
+template <class T>
+CLI::Option* addOutput(CLI::App& cmd, const std::string& name, T& target, const std::string& help) {
+  return markPath(cmd.add_option(name, target, help), false);
+}
+/// Whether a problem with `path` is an input error: it is (or lies in) the value of an input
+/// option of the subcommand `app` parsed, and not in an output's.
+bool isCommandInput(const CLI::App& app, const std::filesystem::path& path);
 
 /// Options every command that reads a volume accepts: --series and the bare-.raw layout.
 struct InputOptions {

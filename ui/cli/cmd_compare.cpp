@@ -23,7 +23,7 @@ struct CompareArgs {
   InputOptions in;
 };
 
-void run(const CompareArgs& a) {
+int run(const CompareArgs& a) {
   app::CompareRequest q;
   q.a = a.a;
   q.b = a.b;
@@ -67,7 +67,7 @@ void run(const CompareArgs& a) {
   }
   outputs.commit();
   std::cout.flush();
-  if (!r.pass) throw CLI::RuntimeError(1);  // CLI11 exits with the code and prints nothing
+  return r.pass ? ExitCode::Success : ExitCode::Failure;
 }
 
 }  // namespace
@@ -95,19 +95,7 @@ void addCompareCommand(CLI::App& app) {
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum compare seg.nrrd truth.nrrd --min-dice 0.95 --max-hd95 2 --json cmp.json\n"
               "         vellum compare new.png baseline.png --tolerance 2 --max-differing-percent 0.1 --heatmap diff.png");
-  cmd->callback([a] {
-    try {
-      run(*a);
-    } catch (const CLI::RuntimeError&) {
-      throw;
-    } catch (const Cancelled&) {
-      throw;
-    } catch (const std::exception& e) {
-      // An input that cannot be read is an error (2), not a difference (1).
-      std::cerr << "vellum: error: " << e.what() << "\n";
-      throw CLI::RuntimeError(2);
-    }
-  });
+  cmd->callback(resultCommand([a] { return run(*a); }));
 }
 
 }  // namespace vellum::cli

@@ -21,8 +21,7 @@ using namespace vellum::deformation;
 
 void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
   const auto engineFlags = addFlags(cmd, engine.params, deformParamsTable());
-  addFlags(cmd, engine, app::deformEngineTable());
-  registerInput(cmd, [&engine] { return std::vector<std::string>{engine.labels}; });  // --labels
+  markInput(addFlags(cmd, engine, app::deformEngineTable()).at("labels"));
   // Tokens "4", "4+5": parsed into the engine when the command line is complete.
   auto rigidTokens = std::make_shared<std::vector<std::string>>();
   cmd.add_option("--rigid-labels", *rigidTokens,

@@ -36,6 +36,18 @@ struct SegmentArgs {
   InputOptions in;
 };
 
+/// How the segment joins the label map, described once (docs/parameters.md).
+const params::Table<app::SegmentRequest>& segmentLabelTable() {
+  using R = app::SegmentRequest;
+  static const params::Table<R> t{
+      params::integer<R>("label_id", &R::labelId, {"Label id", "segment id; 0: the lowest free id", "", 0, 65535}),
+      params::text<R>("label_name", &R::labelName, {"Label name", "segment name; empty: the method's", ""}),
+      params::text<R>("overlap", &R::overlap, {"Overlap", "where segments overlap", ""},
+                      {"overwrite", "keep-existing", "replace"}),
+  };
+  return t;
+}
+
 /// The result on stdout: the segment, then each truth comparison.
 void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& result) {
   const nlohmann::json& j = result.report;
@@ -89,6 +101,8 @@ void runSegment(SegmentArgs& a) {
 
 }  // namespace
 
+std::string segmentLabelFlagsMarkdown() { return params::markdown(segmentLabelTable()); }
+
 void addSegmentCommand(CLI::App& app) {
   auto a = std::make_shared<SegmentArgs>();
   auto* cmd = app.add_subcommand("segment", "Segment a CT volume into a label map (thresholds, Otsu, region growing, 3D snakes)");
@@ -101,10 +115,8 @@ void addSegmentCommand(CLI::App& app) {
   cmd->add_option("--split-seed", a->splitSeeds, "with --split: one object per seed x,y,z in mm (repeatable; "
                                                   "pieces without a seed are dropped)");
   addInput(*cmd, "--into", r.into, "add the segment into this existing label map (written to --out)");
-  cmd->add_option("--label-id", r.labelId, "segment id (default: the lowest free id)");
-  cmd->add_option("--label-name", r.labelName, "segment name (default: the method)");
+  addFlags(*cmd, r, segmentLabelTable());
   addColourOption(*cmd, a->colour, "R,G,B", "segment colour");
-  cmd->add_option("--overlap", r.overlap, "where segments overlap: overwrite | keep-existing | replace")->capture_default_str();
   addInput(*cmd, "--truth", r.truth, "truth label map: report Dice, Jaccard, volume difference, HD95");
   cmd->add_option("--truth-ids", r.truthIds, "compare against the union of these truth ids (default: the same id)")->delimiter(',');
   addOutput(*cmd, "--report", r.report, "write parameters, timings, iterations and metrics as JSON");

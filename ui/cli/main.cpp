@@ -61,7 +61,7 @@ int runAndExit(CLI::App& app, std::vector<std::string>& args) {
   } catch (const vellum::FileError& e) {
     // A file the command reads is an input error; one it writes (full disk, an output the
     // policy refuses to replace) is a runtime failure.
-    return fail(e.what(), vellum::cli::isCommandInput(e.path()) ? ExitCode::Usage : ExitCode::Failure);
+    return fail(e.what(), vellum::cli::isCommandInput(app, e.path()) ? ExitCode::Usage : ExitCode::Failure);
   } catch (const vellum::Error& e) {
     // Vellum's own errors name the parameter or flag at fault (core/error.hpp).
     return fail(e.what(), ExitCode::Usage);

@@ -1,5 +1,6 @@
 // `vellum labels` as one call (label_edit.hpp).
 #include "vellum/app/label_edit.hpp"
+#include "vellum/app/run_io.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -87,11 +88,7 @@ LabelEditResult runLabelEdit(const LabelEditRequest& r, Progress& progress) {
   }
   result.after = entries(edited);
   RunOutputs outputs;
-  ensureParentFolder(r.output);
-  io::SaveOptions so;
-  so.force = r.force;
-  io::saveLabels(edited, r.output, so);
-  outputs.wrote(r.output);
+  saveLabelsOutput(outputs, edited, r.output, r.force);
   run.mark("edit and write");
   if (!r.report.empty()) {
     run.outputVolume(r.output);
