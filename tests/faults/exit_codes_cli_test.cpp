@@ -15,17 +15,17 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Run {
+struct CliRun {
   int rc;
   std::string out;  ///< stdout and stderr together
 };
 
-Run vellum(const fs::path& dir, const std::vector<std::string>& args) {
+CliRun runCli(const fs::path& dir, const std::vector<std::string>& args) {
   const int rc = test::Child(args, dir / "log.txt").wait();
   return {rc, test::readAll(dir / "log.txt")};
 }
 
-bool oneErrorLineNaming(const Run& r, const std::string& what) {
+bool oneErrorLineNaming(const CliRun& r, const std::string& what) {
   return std::count(r.out.begin(), r.out.end(), '\n') == 1 && r.out.rfind("vellum: error: ", 0) == 0 &&
          r.out.find(what) != std::string::npos;
 }
@@ -35,29 +35,29 @@ bool oneErrorLineNaming(const Run& r, const std::string& what) {
 TEST(CliExitCodes, UsageAndInputErrorsExitTwoRuntimeFailuresOne) {
   const fs::path dir = test::tempDir("exit_codes");
   const std::string ct = (dir / "ct.nrrd").string();
-  ASSERT_EQ(vellum(dir, {"phantom", "--size", "16", "--out", ct}).rc, 0);
+  ASSERT_EQ(runCli(dir, {"phantom", "--size", "16", "--out", ct}).rc, 0);
 
-  const Run flag = vellum(dir, {"info", ct, "--bogus"});
+  const CliRun flag = runCli(dir, {"info", ct, "--bogus"});
   EXPECT_EQ(flag.rc, 2);
   EXPECT_TRUE(oneErrorLineNaming(flag, "--bogus")) << flag.out;
 
   const std::string missing = (dir / "missing.nrrd").string();
-  const Run file = vellum(dir, {"info", missing});
+  const CliRun file = runCli(dir, {"info", missing});
   EXPECT_EQ(file.rc, 2);
   EXPECT_TRUE(oneErrorLineNaming(file, missing)) << file.out;
 
   std::ofstream(dir / "bad.nrrd") << "not a volume\n";
-  const Run bad = vellum(dir, {"info", (dir / "bad.nrrd").string()});
+  const CliRun bad = runCli(dir, {"info", (dir / "bad.nrrd").string()});
   EXPECT_EQ(bad.rc, 2);
   EXPECT_TRUE(oneErrorLineNaming(bad, "bad.nrrd")) << bad.out;
 
-  const Run value = vellum(dir, {"segment", ct, "--out", (dir / "s.nrrd").string(), "--colour", "2,0,0"});
+  const CliRun value = runCli(dir, {"segment", ct, "--out", (dir / "s.nrrd").string(), "--colour", "2,0,0"});
   EXPECT_EQ(value.rc, 2);
   EXPECT_TRUE(oneErrorLineNaming(value, "--colour")) << value.out;
 
   // An output that cannot be written (its folder is a file) is a runtime failure.
   std::ofstream(dir / "file") << "x";
-  const Run write = vellum(dir, {"convert", ct, (dir / "file" / "out.nrrd").string()});
+  const CliRun write = runCli(dir, {"convert", ct, (dir / "file" / "out.nrrd").string()});
   EXPECT_EQ(write.rc, 1) << write.out;
   EXPECT_NE(write.out.find("out.nrrd"), std::string::npos) << write.out;
 }
@@ -65,9 +65,9 @@ TEST(CliExitCodes, UsageAndInputErrorsExitTwoRuntimeFailuresOne) {
 TEST(CliColour, BritishSpellingInZeroToOneAndTheOldSpellingInBytesGiveOneColour) {
   const fs::path dir = test::tempDir("colour_syntax");
   const std::string ct = (dir / "ct.nrrd").string();
-  ASSERT_EQ(vellum(dir, {"phantom", "--size", "16", "--out", ct}).rc, 0);
+  ASSERT_EQ(runCli(dir, {"phantom", "--size", "16", "--out", ct}).rc, 0);
   const auto segment = [&](const std::string& flag, const std::string& value, const std::string& out) {
-    return vellum(dir, {"segment", ct, "--method", "threshold", "--lower", "200", "--upper", "3000", "--out",
+    return runCli(dir, {"segment", ct, "--method", "threshold", "--lower", "200", "--upper", "3000", "--out",
                         (dir / out).string(), flag, value})
         .rc;
   };

@@ -42,13 +42,7 @@ int runAndExit(CLI::App& app, std::vector<std::string>& args) {
   try {
     app.parse(args);
   } catch (const CLI::Success& e) {
-    return app.exit(e);  // --help, --version
-  } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForAllHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::CallForVersion& e) {
-    return app.exit(e);
+    return app.exit(e);  // --help, --version (CallForHelp, CallForVersion derive from Success)
   } catch (const CLI::RuntimeError& e) {
     return e.get_exit_code();  // a command's own result code (compare, qa: 1 = checks failed)
   } catch (const CLI::ParseError& e) {
