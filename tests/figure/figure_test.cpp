@@ -341,7 +341,7 @@ TEST(FigureCli, IllustrateFramesAndLabelsOnlyWhatItDraws) {
       << readText(err);
   EXPECT_EQ(nlohmann::json::parse(readText(dir / "v.json"))["camera"]["zoom_applied"], 1.0);
 
-  EXPECT_EQ(illustrate(base + "--labels --label-name nerve=Nerve --out " + (dir / "x.png").string(), err), 1);
+  EXPECT_EQ(illustrate(base + "--labels --label-name nerve=Nerve --out " + (dir / "x.png").string(), err), 2);  // a usage error (docs/user-guide.md, "Exit codes")
   std::string e = readText(err);
   EXPECT_NE(e.find("--label-name nerve"), std::string::npos) << e;
   EXPECT_EQ(std::count(e.begin(), e.end(), '\n'), 1) << e;
@@ -374,7 +374,7 @@ TEST(FigureCli, IllustrateFramesAndLabelsOnlyWhatItDraws) {
   EXPECT_NE(e.find("--remove-table: kept 2 body parts"), std::string::npos) << e;
 
   // Not NAME=TEXT.
-  EXPECT_EQ(illustrate(base + "--labels --label-name bone --out " + (dir / "x.png").string(), err), 1);
+  EXPECT_EQ(illustrate(base + "--labels --label-name bone --out " + (dir / "x.png").string(), err), 2);
   e = readText(err);
   EXPECT_NE(e.find("NAME=TEXT"), std::string::npos) << e;
 }

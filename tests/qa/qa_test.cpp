@@ -171,7 +171,7 @@ TEST(Qa, AFailingCommandFailsOnlyItsCase) {
   const nlohmann::json noScan = readJsonFile(dir / "run" / "cases" / "no-scan" / "result.json", 1 << 20, "result");
   EXPECT_NE(noScan["failures"][0].get<std::string>().find("not found"), std::string::npos) << noScan.dump(2);
   const nlohmann::json broken = readJsonFile(dir / "run" / "cases" / "broken" / "result.json", 1 << 20, "result");
-  EXPECT_NE(broken["failures"][0].get<std::string>().find("exit code 1"), std::string::npos);
+  EXPECT_NE(broken["failures"][0].get<std::string>().find("exit code 2"), std::string::npos);
   EXPECT_NE(broken["log_tail"].get<std::string>().find("missing.nrrd"), std::string::npos);
 }
 

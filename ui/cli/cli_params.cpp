@@ -10,6 +10,12 @@ std::string flagHelp(const params::Info& info, const std::string& range) {
   return help + " (" + range + ")";
 }
 
+std::string joinWords(const std::vector<std::string>& words) {
+  std::string out;
+  for (const auto& w : words) out += (out.empty() ? "" : " ") + w;
+  return out;
+}
+
 // "--flag false" means "--flag=false" for a boolean flag of the chosen subcommand (CLI11
 /// takes only the "=" form; a following word that is not a boolean stays a positional).
 std::vector<std::string> joinBooleanFlagValues(CLI::App& app, std::vector<std::string> args) {

@@ -16,6 +16,9 @@ namespace vellum::cli {
 /// "Control scale: the map is ... [voxels] (1..16)".
 std::string flagHelp(const params::Info& info, const std::string& range);
 
+/// The words joined by spaces.
+std::string joinWords(const std::vector<std::string>& words);
+
 /// The command line (without the program name) with "--flag false" (true/false, on/off,
 /// yes/no, 1/0) joined into "--flag=false" for every boolean flag of the subcommand named in
 /// it: CLI11 parses only the "=" form, and a boolean word after a flag is never a positional.
@@ -42,11 +45,9 @@ std::map<std::string, CLI::Option*> addFlags(CLI::App& cmd, S& target, const par
     } else if (f->kind == params::Kind::Vector) {
       o = cmd.add_option_function<std::vector<std::string>>(
           params::cliFlag(prefix + f->key),
-          [&target, f](const std::vector<std::string>& v) {
-            params::parse(*f, target, v.size() == 3 ? v[0] + " " + v[1] + " " + v[2] : std::string());
-          },
-          help);
-      o->expected(3)->type_name("X Y Z");
+          [&target, f](const std::vector<std::string>& v) { params::parse(*f, target, joinWords(v)); }, help);
+      // One syntax for three numbers: "X,Y,Z" (one word) or "X Y Z" (three).
+      o->expected(1, 3)->type_name("X,Y,Z");
     } else {
       o = cmd.add_option_function<std::string>(
           params::cliFlag(prefix + f->key), [&target, f](const std::string& v) { params::parse(*f, target, v); }, help);

@@ -2,8 +2,12 @@
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
+#include <set>
 #include <sstream>
 
 #include "cli_params.hpp"
@@ -12,33 +16,95 @@
 
 namespace vellum::cli {
 
+namespace {
+// The options that name inputs (true) and outputs (false). Only looked up with the live app's
+// options, never dereferenced: an app that is gone (the demo's inner commands) leaves a
+// harmless entry.
+std::map<const CLI::Option*, bool>& pathOptions() {
+  static std::map<const CLI::Option*, bool> options;
+  return options;
+}
+}  // namespace
+
+std::function<void()> resultCommand(std::function<int()> work) {
+  return [work = std::move(work)] {
+    int code = ExitCode::Success;
+    try {
+      code = work();
+    } catch (const Cancelled&) {
+      throw;
+    } catch (const std::exception& e) {
+      std::cerr << "vellum: error: " << e.what() << "\n";
+      code = ExitCode::Usage;
+    }
+    std::cout.flush();
+    if (code != ExitCode::Success) throw CLI::RuntimeError(code);  // main.cpp exits with it, silently
+  };
+}
+
+CLI::Option* markPath(CLI::Option* option, bool input) {
+  pathOptions()[option] = input;
+  return option;
+}
+
+bool isCommandInput(const CLI::App& app, const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto normal = [&ec](const fs::path& p) { return fs::weakly_canonical(fs::absolute(p, ec), ec).lexically_normal(); };
+  const fs::path p = normal(path);
+  bool input = false;
+  for (const CLI::App* sub : app.get_subcommands())
+    for (const CLI::Option* o : sub->get_options()) {
+      const auto kind = pathOptions().find(o);
+      if (kind == pathOptions().end()) continue;
+      for (const std::string& v : o->results()) {
+        if (v.empty()) continue;
+        const fs::path named = normal(v);
+        // The path itself, or a file inside its folder (a DICOM slice, a shape folder's file).
+        if (std::mismatch(named.begin(), named.end(), p.begin(), p.end()).first != named.end()) continue;
+        if (!kind->second) return false;  // an output's problem (also one that is an input)
+        input = true;
+      }
+    }
+  return input;
+}
+
+const params::Table<InputOptions>& inputOptionsTable() {
+  using IO = InputOptions;
+  static const params::Table<IO> t{
+      params::text<IO>("series", &IO::seriesUid, {"Series", "DICOM: SeriesInstanceUID to load (default: largest CT series)", ""}),
+      params::text<IO>("raw_type", &IO::rawType, {"RAW voxel type", "bare .raw without sidecar: the voxel type", ""},
+                       {"int16", "uint8", "uint16", "float32"}),
+      params::text<IO>("raw_endian", &IO::rawEndian, {"RAW byte order", "bare .raw: the byte order", ""}, {"little", "big"}),
+      params::integer<IO>("raw_header", &IO::rawHeader,
+                          {"RAW header", "bare .raw: bytes to skip before the voxels", "bytes", 0}),
+      params::integer<IO>("downsample", &IO::downsample,
+                          {"Downsample", "reduce every N^3 block to one voxel on load (mean; label maps: most frequent id)",
+                           "", 1, 16}),
+      params::flag<IO>("allow_outside_data", &IO::allowOutsideData,
+                       {"Data outside", ".nhdr/.mhd: read a data file the header names outside its own folder (absolute, "
+                                        "'..', a symlink leading out)", ""}),
+      params::flag<IO>("no_slice_repair", &IO::noSliceRepair,
+                       {"No slice repair", "DICOM: keep a single mis-registered slice as it is (by default it is replaced "
+                                           "by interpolating its neighbours, with a warning naming it)", ""}),
+  };
+  return t;
+}
+
 void InputOptions::addTo(CLI::App& cmd) {
-  cmd.add_option("--series", seriesUid, "DICOM: SeriesInstanceUID to load (default: largest CT series)");
+  addFlags(cmd, *this, inputOptionsTable());
+  // Number lists: unset when absent (a table's vector is always set).
   cmd.add_option("--raw-dims", rawDims, "bare .raw without sidecar: dimensions X Y Z")->expected(3);
-  cmd.add_option("--raw-type", rawType, "bare .raw: int16 | uint8 | uint16 | float32")
-      ->capture_default_str();
   cmd.add_option("--raw-spacing", rawSpacing, "bare .raw: spacing in mm (sx sy sz)")->expected(3);
   cmd.add_option("--raw-origin", rawOrigin, "bare .raw: origin in mm (x y z)")->expected(3);
   cmd.add_option("--raw-direction", rawDirection,
                  "bare .raw: direction matrix, 9 numbers row by row (as `vellum info` prints it)")
       ->expected(9);
-  cmd.add_option("--raw-endian", rawEndian, "bare .raw: little | big")
-      ->check(CLI::IsMember({"little", "big"}))
-      ->capture_default_str();
-  cmd.add_option("--raw-header", rawHeader, "bare .raw: bytes to skip before the voxels");
   cmd.add_option("--rescale", rescale, "stored value * SLOPE + INTERCEPT = HU (e.g. 1 -1024 for CT numbers "
                                        "0..4095 in a bare RAW); the volume is then CT")->expected(2);
   cmd.add_option("--crop", cropVoxels, "keep voxels i0 i1 j0 j1 k0 k1 only (inclusive indices; label maps of the "
                                        "command get the same region)")->expected(6);
   cmd.add_option("--crop-mm", cropMm, "keep the voxels inside the box x0 x1 y0 y1 z0 z1 (mm, LPS)")->expected(6);
-  cmd.add_option("--downsample", downsample, "reduce every N^3 block to one voxel on load (mean; label maps: "
-                                             "most frequent id)")->check(CLI::Range(1, 16));
-  cmd.add_flag("--allow-outside-data", allowOutsideData,
-               ".nhdr/.mhd: read a data file the header names outside its own folder (absolute, '..', "
-               "a symlink leading out)");
-  cmd.add_flag("--no-slice-repair", noSliceRepair,
-               "DICOM: keep a single mis-registered slice as it is (by default it is replaced by interpolating "
-               "its neighbours, with a warning naming it)");
 }
 
 Region InputOptions::region() const {
@@ -90,54 +156,125 @@ void TableRemovalOptions::addTo(CLI::App& cmd) {
   addFlags(cmd, params, segmentation::bodyMaskParamsTable(), {}, "table_");
 }
 
-AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::path& path) {
-  if (!enabled) return volume;
+namespace {
+/// Runs one table-removal step with a progress bar, prints its one-line summary and keeps its report.
+template <class Step>
+auto withTableReport(std::optional<segmentation::BodyMaskReport>& report, Step step) {
   segmentation::BodyMaskReport r;
-  {
+  auto out = [&] {
     ProgressBar bar;
-    volume = app::withoutCtTable(volume, path, params, bar.progress(), &r);
-  }
+    return step(bar.progress(), &r);
+  }();
   std::cerr << app::tableRemovalSummary(r) << "\n";
   report = r;
-  return volume;
+  return out;
+}
+}  // namespace
+
+AnyVolume TableRemovalOptions::apply(AnyVolume volume, const std::filesystem::path& path) {
+  if (!enabled) return volume;
+  return withTableReport(report, [&](Progress& p, segmentation::BodyMaskReport* r) {
+    return app::withoutCtTable(volume, path, params, p, r);
+  });
 }
 
 segmentation::Mask TableRemovalOptions::bodyMask(const AnyVolume& volume, const std::filesystem::path& path) {
-  segmentation::BodyMaskReport r;
-  segmentation::Mask body;
-  {
-    ProgressBar bar;
-    body = app::ctBodyMask(volume, path, params, bar.progress(), &r);
-  }
-  std::cerr << app::tableRemovalSummary(r) << "\n";
-  report = r;
-  return body;
+  return withTableReport(report, [&](Progress& p, segmentation::BodyMaskReport* r) {
+    return app::ctBodyMask(volume, path, params, p, r);
+  });
 }
 
 void TableRemovalOptions::addToReport(nlohmann::json& j) const {
   if (report) j["table_removal"] = app::tableRemovalJson(*report);
 }
 
+const params::Table<FigureOptions>& figureOptionsTable() {
+  using F = FigureOptions;
+  using A = render::AnnotationOptions;
+  static const params::Table<F> t{
+      params::flag<F>("scale_bar", params::nested(&F::annotations, &A::scaleBar),
+                      {"Scale bar", "draw a scale bar in mm (exact for --fov 0; in perspective it holds at the centre's "
+                                    "depth)", ""}),
+      params::real<F>("scale_bar_mm", params::nested(&F::annotations, &A::scaleBarMm),
+                      {"Scale bar length", "0: a round length near a fifth of the width", "mm", 0}),
+      params::flag<F>("orientation", params::nested(&F::annotations, &A::orientation),
+                      {"Orientation", "draw the orientation letters (A/P, L/R, S/I) at the edges", ""}),
+      params::real<F>("label_size", params::nested(&F::annotations, &A::textHeightPx),
+                      {"Label size", "height of the annotation text's capitals (labels, scale bar, orientation "
+                                     "letters); 0: scaled with the figure, else at least 4",
+                       "px", 0, 400}),
+      params::flag<F>("annotate", &F::annotateAll,
+                      {"Annotate", "scale bar and orientation letters (and labels with --label-map / --labels)", ""}),
+  };
+  return t;
+}
+
 void FigureOptions::addTo(CLI::App& cmd, LabelSource source) {
-  cmd.add_flag("--scale-bar", annotations.scaleBar,
-               "draw a scale bar in mm (exact for --fov 0; in perspective it holds at the centre's depth)");
-  cmd.add_option("--scale-bar-mm", annotations.scaleBarMm, "scale bar length (default: a round length near a fifth of the width)");
-  cmd.add_flag("--orientation", annotations.orientation, "draw the orientation letters (A/P, L/R, S/I) at the edges");
+  const auto flags = addFlags(cmd, *this, figureOptionsTable());
+  flags.at("label_size")->check([](const std::string& v) {  // 0 (automatic) or readable
+    const double px = std::atof(v.c_str());
+    return px == 0 || px >= 4 ? std::string() : std::string("0 (automatic) or at least 4 pixels");
+  });
   if (source == LabelSource::Input)
     cmd.add_flag("--labels", labelFlag, "name the visible structures, with leader lines");
   else if (source == LabelSource::OtherOption)
     cmd.add_flag("--name-structures", labelFlag, "name the structures of the --labels map, with leader lines that follow them");
   else
-    cmd.add_option("--label-map", labelMap, "label map on the volume's grid: name its visible structures, with leader lines");
+    addInput(cmd, "--label-map", labelMap, "label map on the volume's grid: name its visible structures, with leader lines");
   cmd.add_option("--label-ids", labelIds, "structures to name (default: every id of the label table)")->delimiter(',');
   cmd.add_option("--label-name", labelNames,
                  "text of a structure's label instead of its table name: NAME=TEXT or ID=TEXT, e.g. "
                  "--label-name bone=\"Tibia and fibula\" (repeat for more)");
-  cmd.add_option("--label-size", annotations.textHeightPx,
-                 "height of the annotation text's capitals in pixels (labels, scale bar, orientation letters; "
-                 "default: scaled with the figure)")
-      ->check(CLI::Range(4.0, 400.0));
-  cmd.add_flag("--annotate", annotateAll, "scale bar and orientation letters (and labels with --label-map / --labels)");
+}
+
+const params::Table<FigureFlags>& figureFlagsTable() {
+  using F = FigureFlags;
+  static const params::Table<F> t{
+      params::text<F>("view", &F::view,
+                      {"Views", "anterior | posterior | left | right | lateral (= left) | superior | inferior | AZ | "
+                                "AZ:EL (degrees), or a comma list: one figure each from one upload, suffixed -VIEW "
+                                "(overrides --azimuth/--elevation); empty: the camera's", ""}),
+      params::flag<F>("plate", &F::plate,
+                      {"Plate", "one contact sheet at --out instead of a file each: a row per preset or style, a "
+                                "column per view", ""}),
+      params::text<F>("size", &F::size, {"Size", "image size WxH, up to 4096x4096", "px"}),
+      params::vector<F>("pan", &F::pan,
+                        {"Pan", "shift of the look-at point (x y z, or x,y,z), after the framing", "mm"}),
+      params::text<F>("background", &F::background,
+                      {"Background", "background colour R,G,B or R,G,B,A, each 0..1 (spaces may stand for the "
+                                     "commas); empty: the preset's or style's", ""}),
+      params::flag<F>("transparent", &F::transparent, {"Transparent", "transparent background (PNG/TIFF alpha)", ""}),
+  };
+  return t;
+}
+
+void FigureFlags::addTo(CLI::App& cmd) {
+  addFlags(cmd, *this, figureFlagsTable(), {"background"});
+  // --background: the table's text, also as three or four words (the studio writes "R G B A").
+  const auto* f = params::findField(figureFlagsTable(), "background");
+  cmd.add_option_function<std::vector<std::string>>(
+         "--background",
+         [this, f](const std::vector<std::string>& words) {
+           params::parse(*f, *this, joinWords(words));
+           parseColour(background, "--background", true);  // a bad colour is a usage error now
+         },
+         flagHelp(f->info, params::rangeText(f->kind, f->info, f->choices)))
+      ->expected(1, 4)
+      ->type_name("R,G,B[,A]");
+}
+
+std::pair<int, int> FigureFlags::sizePixels() const { return parseSize(size); }
+
+std::vector<app::FigureView> FigureFlags::views(double elevationDeg) const {
+  std::vector<app::FigureView> out;
+  if (!view.empty())
+    for (const auto& v : app::splitList(view, "--view")) out.push_back(app::parseView(v, elevationDeg));
+  return out;
+}
+
+std::optional<std::array<float, 4>> FigureFlags::backgroundColour() const {
+  if (background.empty()) return std::nullopt;
+  return parseColour(background, "--background", true);
 }
 
 render::AnnotationOptions FigureOptions::resolved(bool haveLabels) const {
@@ -195,9 +332,54 @@ void printLoadWarnings(const std::filesystem::path& input, const std::vector<std
   for (const auto& w : warnings) std::cerr << "warning: " << input.string() << ": " << w << "\n";
 }
 
-std::array<float, 4> backgroundColour(const std::vector<double>& c) {
-  return {float(c[0]), float(c[1]), float(c[2]), c.size() > 3 ? float(c[3]) : 1.f};
+std::array<float, 4> parseColour(const std::string& text, const char* what, bool alpha, double scale) {
+  std::string spaced = text;
+  std::replace(spaced.begin(), spaced.end(), ',', ' ');
+  std::istringstream words(spaced);
+  std::vector<double> c;
+  std::string w;
+  const std::string range = scale == 1.0 ? "0..1" : "0..255";
+  const std::string form = alpha ? "R,G,B or R,G,B,A" : "R,G,B";
+  while (words >> w) {
+    try {
+      size_t used = 0;
+      c.push_back(std::stod(w, &used));
+      if (used != w.size()) throw std::invalid_argument(w);
+    } catch (const std::exception&) {
+      throw Error(std::string(what) + " '" + text + "': expected " + form + " with numbers in " + range);
+    }
+  }
+  if (c.size() != 3 && !(alpha && c.size() == 4))
+    throw Error(std::string(what) + " '" + text + "': expected " + form + " (" + std::to_string(c.size()) + " numbers)");
+  std::array<float, 4> rgba{0.f, 0.f, 0.f, 1.f};
+  for (size_t i = 0; i < c.size(); ++i) {
+    if (!(c[i] >= 0 && c[i] <= scale))
+      throw Error(std::string(what) + " '" + text + "': components must be in " + range);
+    rgba[i] = static_cast<float>(c[i] / scale);
+  }
+  return rgba;
 }
+
+void addColourOption(CLI::App& cmd, std::vector<ColourArg>& target, const std::string& valueName,
+                     const std::string& help) {
+  cmd.add_option_function<std::vector<std::string>>(
+         "--colour", [&target](const std::vector<std::string>& v) { for (const auto& t : v) target.push_back({t, 1.0}); },
+         help + " (R, G, B each 0..1)")
+      ->type_name(valueName);
+  // The old spelling with its old 0..255 scale: hidden (group ""), kept for old commands.
+  cmd.add_option_function<std::vector<std::string>>(
+         "--color", [&target](const std::vector<std::string>& v) { for (const auto& t : v) target.push_back({t, 255.0}); },
+         help + " (old spelling: R, G, B each 0..255)")
+      ->group("");
+}
+
+std::array<uint8_t, 3> colourBytes(const ColourArg& arg, const char* what) {
+  const std::array<float, 4> c = parseColour(arg.text, arg.scale == 1.0 ? what : "--color", false, arg.scale);
+  std::array<uint8_t, 3> rgb{};
+  for (int i = 0; i < 3; ++i) rgb[i] = static_cast<uint8_t>(std::lround(c[i] * 255.0));
+  return rgb;
+}
+
 
 io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
                                   bool quiet) {
@@ -223,7 +405,7 @@ std::pair<int, int> parseSize(const std::string& text) {
   char x = 0;
   if (std::sscanf(text.c_str(), "%d%c%d", &w, &x, &h) != 3 || (x != 'x' && x != 'X') || w <= 0 ||
       h <= 0)
-    throw Error("invalid size '" + text + "' (expected WxH, e.g. 1024x768)");
+    throw Error("--size '" + text + "': expected WxH, e.g. 1024x768");
   return {w, h};
 }
 
@@ -255,14 +437,5 @@ std::vector<double> parseNumberList(const std::string& text, size_t n, const cha
   return v;
 }
 
-std::array<uint8_t, 3> parseRgb255(const std::string& text, const char* what) {
-  const std::vector<double> c = parseNumberList(text, 3, what);
-  std::array<uint8_t, 3> rgb{};
-  for (int i = 0; i < 3; ++i) {
-    if (!(c[i] >= 0 && c[i] <= 255)) throw Error(std::string(what) + ": components must be in 0..255");
-    rgb[i] = static_cast<uint8_t>(c[i]);
-  }
-  return rgb;
-}
 
 }  // namespace vellum::cli

@@ -7,17 +7,56 @@
 #include <array>
 #include <chrono>
 #include <filesystem>
+#include <functional>
+#include <type_traits>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "vellum/app/figures.hpp"
 #include "vellum/app/outputs.hpp"
+#include "vellum/core/params.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/render/annotations.hpp"
 #include "vellum/segmentation/body_mask.hpp"
 
 namespace vellum::cli {
+
+/// Exit codes of every command, decided in one place (main.cpp; docs/user-guide.md).
+namespace ExitCode {
+inline constexpr int Success = 0;
+inline constexpr int Failure = 1;    ///< a runtime failure (an output not written, no GL context, ...)
+inline constexpr int Usage = 2;      ///< a bad flag or value, a missing or unreadable input, bad JSON
+inline constexpr int Cancelled = 130;
+}  // namespace ExitCode
+
+/// The callback of a command whose exit 1 is its result ("checks failed": compare, qa): runs
+/// `work`, which returns the exit code, and reports any error as exit 2, so that 1 keeps one
+/// meaning; cancelling stays 130.
+std::function<void()> resultCommand(std::function<int()> work);
+
+/// Marks `option` as naming an input, or an output (addInput / addOutput do; a table's path
+/// field after addFlags).
+CLI::Option* markPath(CLI::Option* option, bool input);
+inline CLI::Option* markInput(CLI::Option* option) { return markPath(option, true); }
+
+/// The I/O options, one line each: `addInput` for a file or folder the command reads (a
+/// vellum::FileError naming it, or a file inside it, exits 2: an input error), `addOutput`
+/// for one it writes (a failure there exits 1, also where the output is an input too: the
+/// output policy's refusal). `name` as CLI11 takes it ("input", "--labels,-l"); the target
+/// is a path or string member of the command's request.
+template <class T>
+CLI::Option* addInput(CLI::App& cmd, const std::string& name, T& target, const std::string& help) {
+  return markPath(cmd.add_option(name, target, help), true);
+}
+template <class T>
+CLI::Option* addOutput(CLI::App& cmd, const std::string& name, T& target, const std::string& help) {
+  return markPath(cmd.add_option(name, target, help), false);
+}
+/// Whether a problem with `path` is an input error: it is (or lies in) the value of an input
+/// option of the subcommand `app` parsed, and not in an output's.
+bool isCommandInput(const CLI::App& app, const std::filesystem::path& path);
 
 /// Options every command that reads a volume accepts: --series and the bare-.raw layout.
 struct InputOptions {
@@ -36,9 +75,9 @@ struct InputOptions {
   bool allowOutsideData = false;    ///< --allow-outside-data (io::LoadOptions::allowOutsideData)
   bool noSliceRepair = false;       ///< --no-slice-repair (io::LoadOptions::repairSlices off)
 
-  /// Adds --series, --raw-dims, --raw-type, --raw-spacing, --raw-origin, --raw-direction,
-  /// --raw-endian, --raw-header, --rescale, --crop, --crop-mm, --downsample,
-  /// --allow-outside-data, --no-slice-repair to `cmd`.
+  /// Adds inputOptionsTable()'s flags (--series, --raw-type, --raw-endian, --raw-header,
+  /// --downsample, --allow-outside-data, --no-slice-repair) and the number lists --raw-dims,
+  /// --raw-spacing, --raw-origin, --raw-direction, --rescale, --crop, --crop-mm to `cmd`.
   void addTo(CLI::App& cmd);
   /// Turns the flags into io::LoadOptions (with `progress` attached).
   io::LoadOptions toLoadOptions(Progress* progress) const;
@@ -47,6 +86,9 @@ struct InputOptions {
   /// A label map on the input volume's grid, reduced by the same region as the volume.
   LabelVolume loadLabelsOnInputGrid(const std::filesystem::path& path) const;
 };
+
+/// The single-valued flags of InputOptions, described once (docs/parameters.md).
+const params::Table<InputOptions>& inputOptionsTable();
 
 /// --remove-table and its parameters (--table-air-threshold, --table-opening-radius,
 /// --table-min-part-volume, --table-min-part-thickness).
@@ -90,6 +132,30 @@ struct FigureOptions {
                                  const std::vector<render::StructureAnchor>& anchors) const;
 };
 
+/// The switches and numbers of FigureOptions (--scale-bar, --scale-bar-mm, --orientation,
+/// --label-size, --annotate), described once (docs/parameters.md).
+const params::Table<FigureOptions>& figureOptionsTable();
+
+/// The figure flags `render` and `illustrate` share, described once (figureFlagsTable()):
+/// --view, --plate, --size, --pan, --background, --transparent.
+struct FigureFlags {
+  std::string view;               ///< "anterior,lateral", "30:10" (app::parseView)
+  bool plate = false;             ///< one contact sheet instead of a file each
+  std::string size = "512x512";  ///< WxH
+  std::array<double, 3> pan{0, 0, 0};  ///< mm, added to the look-at point
+  std::string background;         ///< "" (the command's own) or R,G,B[,A] in 0..1
+  bool transparent = false;
+
+  void addTo(CLI::App& cmd);
+  /// --size as width and height.
+  std::pair<int, int> sizePixels() const;
+  /// --view as views (empty: the camera's azimuth and elevation; `elevationDeg` for "AZ").
+  std::vector<app::FigureView> views(double elevationDeg) const;
+  /// --background as RGBA, or nullopt when not given.
+  std::optional<std::array<float, 4>> backgroundColour() const;
+};
+const params::Table<FigureFlags>& figureFlagsTable();
+
 /// A progress bar on stderr. It stays silent for the first second (fast work prints
 /// nothing); on a terminal it redraws one line, otherwise it prints a line per 25%.
 class ProgressBar {
@@ -113,8 +179,25 @@ class ProgressBar {
 /// Prints a loader's warnings about `input` to stderr, one "warning: INPUT: ..." line each.
 void printLoadWarnings(const std::filesystem::path& input, const std::vector<std::string>& warnings);
 
-/// --background R G B [A] in 0..1 (alpha 1 when three numbers are given).
-std::array<float, 4> backgroundColour(const std::vector<double>& rgba);
+/// The one colour syntax of the command line: "R,G,B" with each component in 0..1 (the scale of
+/// style files and of every colour in the parameter tables); spaces may stand for the commas
+/// ("R G B", how --background was first written). With `alpha`, a fourth number A (default
+/// 1). `scale` 255: the old `--color` spelling's 0..255 components. Throws vellum::Error
+/// naming `what` (the flag).
+std::array<float, 4> parseColour(const std::string& text, const char* what, bool alpha = false, double scale = 1.0);
+
+/// A colour as typed: its text and its scale (1, or 255 for the old spelling --color).
+struct ColourArg {
+  std::string text;
+  double scale = 1.0;
+};
+/// Adds --colour `valueName` (repeatable when `target` grows) and its old spelling --color
+/// (components 0..255, hidden from --help, so that old commands still work).
+void addColourOption(CLI::App& cmd, std::vector<ColourArg>& target, const std::string& valueName,
+                     const std::string& help);
+/// `arg` as 8-bit RGB (a label table's colour).
+std::array<uint8_t, 3> colourBytes(const ColourArg& arg, const char* what = "--colour");
+
 
 /// Loads a volume with a progress bar; prints warnings to stderr unless `quiet`.
 io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
@@ -146,7 +229,5 @@ std::pair<int, int> parseSize(const std::string& text);
 
 /// Exactly `n` comma-separated numbers ("x,y,z"); throws vellum::Error naming the flag `what`.
 std::vector<double> parseNumberList(const std::string& text, size_t n, const char* what);
-/// "R,G,B" with each component in 0..255; throws vellum::Error naming the flag `what`.
-std::array<uint8_t, 3> parseRgb255(const std::string& text, const char* what);
 
 }  // namespace vellum::cli

@@ -57,15 +57,15 @@ void addAnimateCommand(CLI::App& app) {
   auto a = std::make_shared<AnimateArgs>();
   app::AnimateRequest& r = a->request;
   auto* cmd = app.add_subcommand("animate", "Render a keyframed deformation as an MP4 and/or PNG frames (GL)");
-  cmd->add_option("input", r.input, "volume file or DICOM folder")->required();
-  cmd->add_option("--keyframes", r.keyframes, "keyframe JSON (mm; see docs/deformation.md)")->required();
-  cmd->add_option("--out,-o", r.output, "movie.mp4, or a folder (ending in /) for PNG frames")->required();
-  cmd->add_option("--frames", r.frames, "also write PNG frames into this folder");
+  addInput(*cmd, "input", r.input, "volume file or DICOM folder")->required();
+  addInput(*cmd, "--keyframes", r.keyframes, "keyframe JSON (mm; see docs/deformation.md)")->required();
+  addOutput(*cmd, "--out,-o", r.output, "movie.mp4, or a folder (ending in /) for PNG frames")->required();
+  addOutput(*cmd, "--frames", r.frames, "also write PNG frames into this folder");
   cmd->add_option("--size", a->size, "image size WxH")->capture_default_str();
   addFlags(*cmd, r.settings, render::renderSettingsTable(), {"width", "height"});
   cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z)")->expected(3);
   addFlags(*cmd, r, app::animateRequestTable());  // --fps, --camera-orbit, --loop
-  cmd->add_option("--report", r.report, "JSON report: timings and per-frame rigidity measures");
+  addOutput(*cmd, "--report", r.report, "JSON report: timings and per-frame rigidity measures");
   addForceFlag(*cmd, r.force);
   addEngineFlags(*cmd, r.engine);
   a->in.addTo(*cmd);

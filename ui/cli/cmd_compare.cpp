@@ -23,7 +23,7 @@ struct CompareArgs {
   InputOptions in;
 };
 
-void run(const CompareArgs& a) {
+int run(const CompareArgs& a) {
   app::CompareRequest q;
   q.a = a.a;
   q.b = a.b;
@@ -67,7 +67,7 @@ void run(const CompareArgs& a) {
   }
   outputs.commit();
   std::cout.flush();
-  if (!r.pass) throw CLI::RuntimeError(1);  // CLI11 exits with the code and prints nothing
+  return r.pass ? ExitCode::Success : ExitCode::Failure;
 }
 
 }  // namespace
@@ -77,9 +77,9 @@ void addCompareCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "compare", "Compare two label maps (Dice, Jaccard, HD95, ASSD per id), images (difference, PSNR, SSIM, "
                  "heat map) or volumes (geometry, HU differences); exit 0 within tolerance, 1 outside, 2 on error");
-  cmd->add_option("a", a->a, "the result: label map, image (PNG, TIFF, JPEG) or volume (any format `info` reads)")
+  addInput(*cmd, "a", a->a, "the result: label map, image (PNG, TIFF, JPEG) or volume (any format `info` reads)")
       ->required();
-  cmd->add_option("b", a->b, "the baseline or reference, of the same kind")->required();
+  addInput(*cmd, "b", a->b, "the baseline or reference, of the same kind")->required();
   cmd->add_option("--kind", a->kind, "auto | labels | image | volume (auto: images by extension, unsigned integer "
                                      "volumes as label maps, other volumes as grey)")
       ->capture_default_str();
@@ -87,27 +87,15 @@ void addCompareCommand(CLI::App& app) {
   cmd->add_option("--a-ids", a->aIds, "labels: compare the union of these ids in A with --b-ids in B as one mask")
       ->delimiter(',');
   cmd->add_option("--b-ids", a->bIds, "labels: the ids of B matched by --a-ids (default: the same)")->delimiter(',');
-  cmd->add_option("--json,--report", a->json, "write the comparison as JSON to this file ('-': stdout only)");
-  cmd->add_option("--heatmap", a->heatmap, "write the differences as a PNG (images: a heat map; label maps and "
+  addOutput(*cmd, "--json,--report", a->json, "write the comparison as JSON to this file ('-': stdout only)");
+  addOutput(*cmd, "--heatmap", a->heatmap, "write the differences as a PNG (images: a heat map; label maps and "
                                            "volumes: the axial slice with the most disagreement)");
   cmd->add_flag("--quiet,-q", a->quiet, "print nothing; the exit code says pass (0) or fail (1)");
   addFlags(*cmd, a->tolerances, app::compareTolerancesTable());
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum compare seg.nrrd truth.nrrd --min-dice 0.95 --max-hd95 2 --json cmp.json\n"
               "         vellum compare new.png baseline.png --tolerance 2 --max-differing-percent 0.1 --heatmap diff.png");
-  cmd->callback([a] {
-    try {
-      run(*a);
-    } catch (const CLI::RuntimeError&) {
-      throw;
-    } catch (const Cancelled&) {
-      throw;
-    } catch (const std::exception& e) {
-      // An input that cannot be read is an error (2), not a difference (1).
-      std::cerr << "vellum: error: " << e.what() << "\n";
-      throw CLI::RuntimeError(2);
-    }
-  });
+  cmd->callback(resultCommand([a] { return run(*a); }));
 }
 
 }  // namespace vellum::cli

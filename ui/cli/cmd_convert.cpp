@@ -3,6 +3,7 @@
 #include <iostream>
 #include <memory>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/app/convert_pipeline.hpp"
@@ -18,18 +19,34 @@ struct ConvertArgs {
   InputOptions in;
 };
 
+/// The flags of `convert` besides its paths, described once (docs/parameters.md).
+const params::Table<ConvertArgs>& convertFlagsTable() {
+  using A = ConvertArgs;
+  static const params::Table<A> t{
+      params::text<A>("type", &A::type, {"Voxel type", "convert voxels to this type (rounding, saturating); empty: keep", ""},
+                      {"", "int16", "uint8", "uint16", "float32"}),
+      params::flag<A>("labels", params::nested(&A::request, &app::ConvertRequest::labels),
+                      {"Label map", "treat the input as a label map (keeps the label table)", ""}),
+      params::flag<A>("no_gzip", &A::rawEncoding, {"No gzip", "NRRD: raw encoding instead of gzip", ""}),
+  };
+  return t;
+}
+
 }  // namespace
+
+std::string convertFlagsMarkdown() {
+  const ConvertArgs defaults;  // named: GCC 12 warns (falsely) on the temporary default argument
+  return params::markdown(convertFlagsTable(), defaults);
+}
 
 void addConvertCommand(CLI::App& app) {
   auto a = std::make_shared<ConvertArgs>();
   app::ConvertRequest& r = a->request;
   auto* cmd = app.add_subcommand("convert", "Convert a volume or label map between formats (DICOM, NRRD, RAW, MetaImage, NIfTI, VTI)");
-  cmd->add_option("input", r.input, "input volume file or DICOM folder")->required();
-  cmd->add_option("output", r.output, "output file (format from extension) or folder (DICOM series)")->required();
-  cmd->add_option("--type", a->type, "convert voxels to int16 | uint8 | uint16 | float32 (rounding, saturating)");
-  cmd->add_flag("--labels", r.labels, "treat the input as a label map (keeps the label table)");
-  cmd->add_flag("--no-gzip", a->rawEncoding, "NRRD: raw encoding instead of gzip");
-  cmd->add_option("--report", r.report, "write a JSON report: version, command, input and output with fingerprints, memory");
+  addInput(*cmd, "input", r.input, "input volume file or DICOM folder")->required();
+  addOutput(*cmd, "output", r.output, "output file (format from extension) or folder (DICOM series)")->required();
+  addFlags(*cmd, *a, convertFlagsTable());
+  addOutput(*cmd, "--report", r.report, "write a JSON report: version, command, input and output with fingerprints, memory");
   a->in.addTo(*cmd);
   addForceFlag(*cmd, r.force);
   cmd->footer("Example: vellum convert ../shared/data/ct-head-phantom head.nrrd");

@@ -11,6 +11,7 @@
 #include <memory>
 #include <sstream>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/core/error.hpp"
@@ -32,6 +33,34 @@ struct CurveArgs {
   double azimuth = std::numeric_limits<double>::quiet_NaN(), elevation = 0;
   int darkThreshold = 128;
 };
+
+/// The single-valued flags of `curve-analogy` besides its paths (and --azimuth, unset by
+/// default), described once (docs/parameters.md).
+const params::Table<CurveArgs>& curveFlagsTable() {
+  using A = CurveArgs;
+  using R = app::CurveAnalogyRequest;
+  static const params::Table<A> t{
+      params::text<A>("view", &A::view, {"View", "the orthographic view the curve is drawn in", ""},
+                      {"front", "side", "top", "oblique"}),
+      params::real<A>("elevation", &A::elevation, {"Elevation", "camera elevation, with --azimuth", "degrees", -90, 90}),
+      params::text<A>("size", &A::size, {"Size", "image size WxH the --curve pixels refer to", "px"}),
+      params::real<A>("lambda", params::nested(&A::request, &R::lambda),
+                      {"Lambda", "anchor weight of the Laplacian curve deformation", "", 0}),
+      params::integer<A>("anchors", params::nested(&A::request, &R::anchors),
+                         {"Anchors", "curve points kept in place (where the drawing agrees best)", "", 0}),
+      params::integer<A>("samples", params::nested(&A::request, &R::samples),
+                         {"Samples", "points of the resampled curves", "", 3}),
+      params::integer<A>("proxy_faces", params::nested(&A::request, &R::proxyFaces),
+                         {"Proxy faces", "face budget of the proxy (cage) mesh; doubled (twice at most) while a moved "
+                                         "mesh self-intersects",
+                          "", 1}),
+      params::integer<A>("dark_threshold", &A::darkThreshold,
+                         {"Dark threshold", "--drawing: grey level below which a pixel is a stroke", "", 0, 255}),
+      params::integer<A>("map_step", params::nested(&A::request, &R::mapStep),
+                         {"Map step", "voxels between exact map samples (trilinear in between)", "voxels", 1}),
+  };
+  return t;
+}
 
 render::RenderSettings viewSettings(const CurveArgs& a, int width, int height) {
   render::RenderSettings s;
@@ -110,6 +139,8 @@ std::string quoted(const fs::path& p) { return "\"" + p.string() + "\""; }
 
 }  // namespace
 
+std::string curveAnalogyFlagsMarkdown() { return params::markdown(curveFlagsTable()); }
+
 void demoCurveAnalogy(const DemoContext& ctx) {
   const fs::path dir = ctx.outDir / "curve-analogy";
   fs::create_directories(dir);
@@ -134,24 +165,16 @@ void demoCurveAnalogy(const DemoContext& ctx) {
 void addCurveAnalogyCommand(CLI::App& app) {
   auto a = std::make_shared<CurveArgs>();
   auto* cmd = app.add_subcommand("curve-analogy", "Bend a shape folder's segment toward an illustrator's outline (curve analogy), carry other segments and the CT along");
-  cmd->add_option("dir", a->request.dir, "input shape folder (from `vellum shape`)")->required();
+  addInput(*cmd, "dir", a->request.dir, "input shape folder (from `vellum shape`)")->required();
   cmd->add_option("--segment,-s", a->request.segment, "segment whose outline follows the curve")->required();
-  cmd->add_option("--curve", a->curve, "C0 as JSON {\"points\": [[x, y], ...]} in image pixels of the view (--size)");
-  cmd->add_option("--drawing", a->drawing, "C0 from a drawing (PNG/JPG): outer contour of its dark strokes; the view's image has the drawing's size");
-  cmd->add_option("--view", a->view, "front | side | top | oblique (orthographic)")->capture_default_str();
-  cmd->add_option("--azimuth", a->azimuth, "camera azimuth (deg), overrides --view");
-  cmd->add_option("--elevation", a->elevation, "camera elevation (deg), with --azimuth")->capture_default_str();
-  cmd->add_option("--size", a->size, "image size WxH the --curve pixels refer to")->capture_default_str();
-  cmd->add_option("--lambda", a->request.lambda, "anchor weight of the Laplacian curve deformation")->capture_default_str();
-  cmd->add_option("--anchors", a->request.anchors, "curve points kept in place (where the drawing agrees best)")->capture_default_str();
-  cmd->add_option("--samples", a->request.samples, "points of the resampled curves")->capture_default_str();
-  cmd->add_option("--proxy-faces", a->request.proxyFaces, "face budget of the proxy (cage) mesh; doubled (twice at most) while a moved mesh self-intersects")->capture_default_str();
+  addInput(*cmd, "--curve", a->curve, "C0 as JSON {\"points\": [[x, y], ...]} in image pixels of the view (--size)");
+  addInput(*cmd, "--drawing", a->drawing, "C0 from a drawing (PNG/JPG): outer contour of its dark strokes; the view's image has the drawing's size");
+  addFlags(*cmd, *a, curveFlagsTable());
+  cmd->add_option("--azimuth", a->azimuth, "camera azimuth (deg), overrides --view (unset by default)");
   cmd->add_option("--transfer", a->request.transfer, "NAME[,NAME..]: other segments moved by the cage");
-  cmd->add_option("--dark-threshold", a->darkThreshold, "--drawing: grey level below which a pixel is a stroke")->capture_default_str();
-  cmd->add_option("--out,-o", a->request.out, "output shape folder (+ curve_analogy/ with curves, proxies, before_after.png)")->required();
-  cmd->add_option("--map-out", a->request.mapOut, "CT backward map NRRD (format of `deform --map-out`)");
-  cmd->add_option("--map-step", a->request.mapStep, "voxels between exact map samples (trilinear in between)")->capture_default_str();
-  cmd->add_option("--report", a->request.report, "also write the curve-analogy report JSON here");
+  addOutput(*cmd, "--out,-o", a->request.out, "output shape folder (+ curve_analogy/ with curves, proxies, before_after.png)")->required();
+  addOutput(*cmd, "--map-out", a->request.mapOut, "CT backward map NRRD (format of `deform --map-out`)");
+  addOutput(*cmd, "--report", a->request.report, "also write the curve-analogy report JSON here");
   addForceFlag(*cmd, a->request.force);
   cmd->footer("Example: vellum curve-analogy shape/ --segment skin --drawing calf.png --view side --transfer bone --out shape-bent/ --map-out bent-map.nrrd");
   cmd->callback([a] { runCurveAnalogy(*a); });

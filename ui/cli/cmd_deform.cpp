@@ -21,7 +21,7 @@ using namespace vellum::deformation;
 
 void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
   const auto engineFlags = addFlags(cmd, engine.params, deformParamsTable());
-  addFlags(cmd, engine, app::deformEngineTable());
+  markInput(addFlags(cmd, engine, app::deformEngineTable()).at("labels"));
   // Tokens "4", "4+5": parsed into the engine when the command line is complete.
   auto rigidTokens = std::make_shared<std::vector<std::string>>();
   cmd.add_option("--rigid-labels", *rigidTokens,
@@ -39,10 +39,8 @@ void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
   CLI::Option* power = engineFlags.at("power");
   cmd.parse_complete_callback([&engine, power, rigidTokens] {
     engine.powerGiven = power->count() > 0;
-    if (engine.fixedBoxMm.size() % 6 != 0) {  // a usage error: one line, exit 2
-      std::cerr << "vellum: error: --fixed-box needs 6 numbers per box: x0,y0,z0,x1,y1,z1 (mm)\n";
-      throw CLI::RuntimeError(2);
-    }
+    if (engine.fixedBoxMm.size() % 6 != 0)  // a usage error (exit 2, main.cpp)
+      throw CLI::ValidationError("--fixed-box", "needs 6 numbers per box: x0,y0,z0,x1,y1,z1 (mm)");
     if (!rigidTokens->empty()) engine.setRigidLabels(*rigidTokens);
   });
 }
@@ -101,14 +99,14 @@ void addDeformCommand(CLI::App& app) {
   auto a = std::make_shared<DeformArgs>();
   app::DeformRequest& r = a->request;
   auto* cmd = app.add_subcommand("deform", "Deform a volume with MLS control points (mm); bones can stay rigid");
-  cmd->add_option("input", r.input, "volume file or DICOM folder")->required();
-  cmd->add_option("--points", r.points, "control points JSON (mm; see docs/deformation.md)")->required();
-  cmd->add_option("--out,-o", r.output, "deformed volume (same geometry and type; any writable format)")->required();
-  cmd->add_option("--map-out", r.mapOut, "backward map as a gzip 3-component float32 NRRD (source mm per output voxel)");
-  cmd->add_option("--attributes-out", r.attributesOut,
+  addInput(*cmd, "input", r.input, "volume file or DICOM folder")->required();
+  addInput(*cmd, "--points", r.points, "control points JSON (mm; see docs/deformation.md)")->required();
+  addOutput(*cmd, "--out,-o", r.output, "deformed volume (same geometry and type; any writable format)")->required();
+  addOutput(*cmd, "--map-out", r.mapOut, "backward map as a gzip 3-component float32 NRRD (source mm per output voxel)");
+  addOutput(*cmd, "--attributes-out", r.attributesOut,
                   "attribute field (dL*, da*, db*, density per control-grid node) as a 4-component float NRRD; "
                   "`vellum render OUT --attributes FILE` draws the output as the live deformed render does");
-  cmd->add_option("--report", r.report, "JSON report: stage timings, PSNR, rigidity measures");
+  addOutput(*cmd, "--report", r.report, "JSON report: stage timings, PSNR, rigidity measures");
   addForceFlag(*cmd, r.force);
   addFlags(*cmd, r, app::deformRequestTable());
   addEngineFlags(*cmd, r.engine);
@@ -132,11 +130,11 @@ void addDeformCommand(CLI::App& app) {
 void addControlsCommand(CLI::App& app) {
   auto a = std::make_shared<ControlsArgs>();
   auto* cmd = app.add_subcommand("controls", "Place control points (sources = targets) and write them as JSON (mm)");
-  cmd->add_option("input", a->input, "volume file or DICOM folder (its box is used)")->required();
-  cmd->add_option("--out,-o", a->output, "control-point JSON to write")->required();
+  addInput(*cmd, "input", a->input, "volume file or DICOM folder (its box is used)")->required();
+  addOutput(*cmd, "--out,-o", a->output, "control-point JSON to write")->required();
   cmd->add_option("--count", a->count, "points on the bounding box ([HVD]'s default: 16)")->capture_default_str();
   cmd->add_option("--inset", a->inset, "inner offset as a fraction of the box")->capture_default_str();
-  cmd->add_option("--from-labels", a->fromLabels,
+  addInput(*cmd, "--from-labels", a->fromLabels,
                   "place points from a label map instead: centroids + surface points of each label, "
                   "plus 8 box anchors");
   a->in.addTo(*cmd);

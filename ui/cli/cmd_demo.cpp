@@ -4,6 +4,7 @@
 #include <iostream>
 #include <memory>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/io/image_io.hpp"
@@ -28,16 +29,27 @@ struct View {
   double azimuth, elevation;
 };
 
+/// The demo's single-valued flags, described once (docs/parameters.md).
+const params::Table<DemoArgs>& demoFlagsTable() {
+  using A = DemoArgs;
+  static const params::Table<A> t{
+      params::integer<A>("size", &A::size, {"Size", "phantom voxels per axis", "voxels", 32, 512}),
+      params::integer<A>("image_size", &A::imageSize, {"Image size", "figure size (square)", "px", 64, 4096}),
+      params::integer<A>("seed", &A::seed, {"Seed", "phantom noise seed", "", 0}),
+      params::flag<A>("no_dicom", &A::skipDicom, {"No DICOM", "do not write the phantom as a DICOM series", ""}),
+  };
+  return t;
+}
+
 }  // namespace
+
+std::string demoFlagsMarkdown() { return params::markdown(demoFlagsTable()); }
 
 void addDemoCommand(CLI::App& app) {
   auto a = std::make_shared<DemoArgs>();
   auto* cmd = app.add_subcommand("demo", "Run the main job on the built-in phantom: figures, segmentation, deformation");
-  cmd->add_option("--out,-o", a->out, "output folder (created)")->capture_default_str();
-  cmd->add_option("--size", a->size, "phantom voxels per axis")->capture_default_str()->check(CLI::Range(32, 512));
-  cmd->add_option("--image-size", a->imageSize, "figure size in pixels (square)")->capture_default_str()->check(CLI::Range(64, 4096));
-  cmd->add_option("--seed", a->seed, "phantom noise seed")->capture_default_str();
-  cmd->add_flag("--no-dicom", a->skipDicom, "do not write the phantom as a DICOM series");
+  addOutput(*cmd, "--out,-o", a->out, "output folder (created)")->capture_default_str();
+  addFlags(*cmd, *a, demoFlagsTable());
   addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum demo --out vellum-demo --size 192");
   cmd->callback([a] {

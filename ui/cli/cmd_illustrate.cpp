@@ -21,13 +21,13 @@ namespace {
 /// The flags: the app request's fields, and the texts parsed into it.
 struct IllustrateArgs {
   app::IllustrateRequest request;
-  std::string preset, views, size = "512x512", interp = "eight", frame = "drawn", lightPreset;
+  std::string preset, interp = "eight", frame = "drawn", lightPreset;
+  FigureFlags figureFlags;  ///< --view, --plate, --size, --pan, --background, --transparent
   render::RenderSettings camera = [] {  // the render table's camera and step flags write here
     render::RenderSettings s;
     s.stepVoxels = 1.0;  // distance fields are smooth: a voxel step suffices
     return s;
   }();
-  std::vector<double> background, pan;
   InputOptions in;
   TableRemovalOptions table;
   FigureOptions figure;
@@ -36,18 +36,19 @@ struct IllustrateArgs {
 void runIllustrate(const IllustrateArgs& a) {
   app::IllustrateRequest r = a.request;
   if (!a.preset.empty()) r.presets = app::splitList(a.preset, "--preset");
-  if (!a.views.empty())
-    for (const auto& v : app::splitList(a.views, "--view")) r.views.push_back(app::parseView(v, a.camera.camera.elevationDeg));
+  const FigureFlags& f = a.figureFlags;
+  r.views = f.views(a.camera.camera.elevationDeg);
+  r.plate = f.plate;
+  r.transparent = f.transparent;
   illustration::IllustrationSettings& s = r.settings;
   s.render.camera = a.camera.camera;
-  if (!a.pan.empty()) s.render.camera.panMm = {a.pan[0], a.pan[1], a.pan[2]};
+  s.render.camera.panMm = {f.pan[0], f.pan[1], f.pan[2]};
   s.render.stepVoxels = a.camera.stepVoxels;
   s.render.lighting = a.camera.lighting;  // the optional lighting layer (off unless asked)
   if (!a.lightPreset.empty()) r.lightPreset = render::parsePreset(a.lightPreset);
-  std::tie(s.render.width, s.render.height) = parseSize(a.size);
+  std::tie(s.render.width, s.render.height) = f.sizePixels();
   s.interpolation = illustration::parseInterpolation(a.interp);
-  if (!a.background.empty())
-    r.background = backgroundColour(a.background);
+  if (const auto bg = f.backgroundColour()) r.background = *bg;
   r.framing = illustration::parseFraming(a.frame);
   r.annotations = a.figure.resolved(a.figure.wantsLabels());
   r.labelIds = a.figure.labelIds;
@@ -124,19 +125,14 @@ void addIllustrateCommand(CLI::App& app) {
   for (const auto& n : illustration::stylePresetNames()) presets += (presets.empty() ? "" : " | ") + n;
   auto* cmd = app.add_subcommand("illustrate", "Render a shape folder (from `vellum shape`) as an illustration in a style");
   app::IllustrateRequest& r = a->request;
-  cmd->add_option("input", r.input, "the CT the shape folder was made from")->required();
-  cmd->add_option("--shape", r.shape, "shape folder of `vellum shape` (distances.json, distance-<id>.nrrd, segments.nrrd)")->required();
-  auto* styleOpt = cmd->add_option("--style", r.style, "style file (JSON, see docs/styles.md)");
+  addInput(*cmd, "input", r.input, "the CT the shape folder was made from")->required();
+  addInput(*cmd, "--shape", r.shape, "shape folder of `vellum shape` (distances.json, distance-<id>.nrrd, segments.nrrd)")->required();
+  auto* styleOpt = addInput(*cmd, "--style", r.style, "style file (JSON, see docs/styles.md)");
   cmd->add_option("--preset", a->preset,
                   "built-in style: " + presets + "; or a comma list of them (one figure each from one upload, suffixed -PRESET)")
       ->excludes(styleOpt);
-  cmd->add_option("--view", a->views,
-                  "anterior | posterior | left | right | lateral (= left) | superior | inferior | AZ | AZ:EL "
-                  "(degrees), or a comma list: one figure each from one upload, suffixed -VIEW (overrides "
-                  "--azimuth/--elevation)");
-  cmd->add_flag("--plate", r.plate, "one contact sheet at --out instead of a file each: a row per style, a column per view");
-  cmd->add_option("--out,-o", r.output, "figure path (.png, .tif, .jpg)")->required();
-  cmd->add_option("--size", a->size, "image size WxH, up to 4096x4096")->capture_default_str();
+  addOutput(*cmd, "--out,-o", r.output, "figure path (.png, .tif, .jpg)")->required();
+  a->figureFlags.addTo(*cmd);
   // The camera, the ray step and the lighting layer's terms: the rest of the render table
   // (transfer function, quality) is the volume renderer's; the style does that here.
   std::set<std::string> notHere;
@@ -149,17 +145,14 @@ void addIllustrateCommand(CLI::App& app) {
   cmd->add_option("--light-preset", a->lightPreset,
                   "with --shadows/--occlusion/--tone-map: the render preset whose opacity casts the shadows and "
                   "whose surface is lit (bone | soft-tissue | skin; default bone; docs/lighting.md)");
-  cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z), after the framing")->expected(3);
   cmd->add_option("--frame", a->frame,
                   "what --zoom 1 fits: drawn (the segments the style draws) | segments (every segment: the same "
                   "framing for every style) | volume (the volume's bounding sphere)")
       ->capture_default_str();
   cmd->add_option("--interp", a->interp, "eight (gradients by central differences of the interpolated distances) | nearest (forward differences: faster)")
       ->capture_default_str();
-  cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1 (default: the style's)")->expected(3, 4);
-  cmd->add_flag("--transparent", r.transparent, "transparent background (PNG/TIFF alpha)");
-  cmd->add_option("--save-style", r.saveStyle, "also write the style used as JSON (a starting point for your own)");
-  cmd->add_option("--report", r.report, "write timings and settings as JSON");
+  addOutput(*cmd, "--save-style", r.saveStyle, "also write the style used as JSON (a starting point for your own)");
+  addOutput(*cmd, "--report", r.report, "write timings and settings as JSON");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);
   a->figure.addTo(*cmd, FigureOptions::LabelSource::Input);

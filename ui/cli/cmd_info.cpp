@@ -83,7 +83,7 @@ void printHuman(const nlohmann::json& j) {
 void addInfoCommand(CLI::App& app) {
   auto args = std::make_shared<InfoArgs>();
   auto* cmd = app.add_subcommand("info", "Print a volume's geometry, type, value range, modality and DICOM series");
-  cmd->add_option("input", args->input, "volume file or DICOM folder")->required();
+  addInput(*cmd, "input", args->input, "volume file or DICOM folder")->required();
   cmd->add_flag("--json", args->json, "machine-readable JSON on stdout");
   args->in.addTo(*cmd);
   cmd->footer("Example: vellum info ../shared/data/ct-head-phantom --json");

@@ -14,7 +14,8 @@ namespace {
 
 struct LabelsArgs {
   app::LabelEditRequest request;
-  std::vector<std::string> assign, drop, keep, names, colours;
+  std::vector<std::string> assign, drop, keep, names;
+  std::vector<ColourArg> colours;  ///< --colour ID=R,G,B (0..1) or the old --color (0..255)
 };
 
 uint16_t parseId(const std::string& text, const std::string& flag) {
@@ -68,14 +69,14 @@ void addLabelsCommand(CLI::App& app) {
   auto a = std::make_shared<LabelsArgs>();
   app::LabelEditRequest& r = a->request;
   auto* cmd = app.add_subcommand("labels", "Edit a label map's ids: merge pieces into one id, drop, keep, rename, recolour");
-  cmd->add_option("input", r.input, "label map")->required();
-  cmd->add_option("--out,-o", r.output, "edited label map (.nrrd keeps the label table)")->required();
+  addInput(*cmd, "input", r.input, "label map")->required();
+  addOutput(*cmd, "--out,-o", r.output, "edited label map (.nrrd keeps the label table)")->required();
   cmd->add_option("--assign", a->assign, "IDS=ID: these ids (comma list or ranges 3-7) become ID (repeatable)");
   cmd->add_option("--drop", a->drop, "IDS: these ids become background (repeatable)");
   cmd->add_option("--keep", a->keep, "IDS: every id not listed (and not assigned) becomes background");
   cmd->add_option("--name", a->names, "ID=NAME: the table name of ID in the result (repeatable)");
-  cmd->add_option("--color", a->colours, "ID=R,G,B: the table colour of ID in the result, 0..255 (repeatable)");
-  cmd->add_option("--report", r.report, "write the ids, voxels and volumes before and after as JSON");
+  addColourOption(*cmd, a->colours, "ID=R,G,B", "the table colour of ID in the result (repeatable)");
+  addOutput(*cmd, "--report", r.report, "write the ids, voxels and volumes before and after as JSON");
   addForceFlag(*cmd, r.force);
   cmd->footer(
       "Examples (after `vellum segment ... --split`):\n"
@@ -95,9 +96,10 @@ void addLabelsCommand(CLI::App& app) {
       const auto [id, name] = keyValue(s, "--name", "ID=NAME");
       r.names[parseId(id, "--name")] = name;
     }
-    for (const auto& s : a->colours) {
-      const auto [id, rgb] = keyValue(s, "--color", "ID=R,G,B");
-      r.colours[parseId(id, "--color")] = parseRgb255(rgb, "--color");
+    for (const ColourArg& c : a->colours) {
+      const char* flag = c.scale == 1.0 ? "--colour" : "--color";
+      const auto [id, rgb] = keyValue(c.text, flag, "ID=R,G,B");
+      r.colours[parseId(id, flag)] = colourBytes({rgb, c.scale}, flag);
     }
     r.commandLine = commandLine();
     ProgressBar bar;

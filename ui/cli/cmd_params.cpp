@@ -1,6 +1,7 @@
 // `vellum params [--markdown]`: every parameter table of the library, as docs/parameters.md.
 #include <iostream>
 
+#include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/app/animate_pipeline.hpp"
 #include "vellum/app/compare.hpp"
@@ -47,6 +48,22 @@ std::string parametersMarkdown() {
          params::markdown(deformation::poseOptionsTable());
   out += "\n## Pose glTF export — `app::PoseGltfOptions` (`vellum pose --gltf`)\n\n" +
          params::markdown(app::poseGltfOptionsTable());
+  out += "\n## Volume input — `cli::InputOptions` (every command that reads a volume; also `--raw-dims`, "
+         "`--raw-spacing`, `--raw-origin`, `--raw-direction`, `--rescale`, `--crop`, `--crop-mm`)\n\n" +
+         params::markdown(inputOptionsTable());
+  out += "\n## Figure framing — `cli::FigureFlags` (`vellum render`, `vellum illustrate`)\n\n" +
+         params::markdown(figureFlagsTable());
+  out += "\n## Figure annotations — `cli::FigureOptions` (`vellum render`, `vellum illustrate`, `vellum animate`; "
+         "also `--label-map`/`--labels`, `--label-ids`, `--label-name`)\n\n" +
+         params::markdown(figureOptionsTable());
+  out += "\n## Segment into a label map — `app::SegmentRequest` (`vellum segment`)\n\n" + segmentLabelFlagsMarkdown();
+  out += "\n## `vellum phantom`\n\n" + phantomFlagsMarkdown();
+  out += "\n## `vellum demo`\n\n" + demoFlagsMarkdown();
+  out += "\n## `vellum convert` (besides its paths and the volume input flags)\n\n" + convertFlagsMarkdown();
+  out += "\n## `vellum curve-analogy` (besides its paths, `--segment`, `--transfer` and `--azimuth`)\n\n" +
+         curveAnalogyFlagsMarkdown();
+  out += "\n## `vellum qa` (besides its paths and `--jobs`, whose default is the machine's core count)\n\n" +
+         qaFlagsMarkdown();
   return out;
 }
 

@@ -2,6 +2,7 @@
 #include <iostream>
 #include <memory>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/app/run_report.hpp"
@@ -23,22 +24,34 @@ struct PhantomArgs {
   std::string report;
 };
 
+/// The phantom's single-valued flags, described once (docs/parameters.md).
+const params::Table<PhantomArgs>& phantomFlagsTable() {
+  using A = PhantomArgs;
+  static const params::Table<A> t{
+      params::integer<A>("size", &A::size, {"Size", "voxels per axis (cube)", "voxels", 16, 1024}),
+      params::integer<A>("seed", &A::seed, {"Seed", "noise seed", "", 0}),
+      params::real<A>("noise", &A::noise, {"Noise", "noise standard deviation", "HU", 0}),
+      params::real<A>("flexion", &A::flexion, {"Flexion", "knee flexion", "degrees", -180, 180}),
+      params::flag<A>("no_partial_volume", &A::noPartialVolume,
+                      {"No partial volume", "hard tissue edges (no supersampling)", ""}),
+  };
+  return t;
+}
+
 }  // namespace
+
+std::string phantomFlagsMarkdown() { return params::markdown(phantomFlagsTable()); }
 
 void addPhantomCommand(CLI::App& app) {
   auto a = std::make_shared<PhantomArgs>();
   auto* cmd = app.add_subcommand("phantom", "Generate the synthetic knee CT phantom (HU) and its ground-truth labels");
-  cmd->add_option("--out,-o", a->out, "CT output: .nrrd, .raw (+ .raw.json sidecar), .mha/.mhd, .vti or a DICOM folder")
+  addOutput(*cmd, "--out,-o", a->out, "CT output: .nrrd, .raw (+ .raw.json sidecar), .mha/.mhd, .vti or a DICOM folder")
       ->required();
-  cmd->add_option("--labels", a->labels, "ground-truth label map output (.nrrd with label table)");
-  cmd->add_option("--size", a->size, "voxels per axis (cube), 16..1024")->capture_default_str()->check(CLI::Range(16, 1024));
+  addOutput(*cmd, "--labels", a->labels, "ground-truth label map output (.nrrd with label table)");
+  addFlags(*cmd, *a, phantomFlagsTable());
   cmd->add_option("--dims", a->dims, "voxels per axis X Y Z (overrides --size)")->expected(3);
   cmd->add_option("--spacing", a->spacing, "spacing in mm (default: 180x180x220 mm field of view / dims)")->expected(3);
-  cmd->add_option("--seed", a->seed, "noise seed")->capture_default_str();
-  cmd->add_option("--noise", a->noise, "noise standard deviation in HU")->capture_default_str();
-  cmd->add_option("--flexion", a->flexion, "knee flexion in degrees")->capture_default_str();
-  cmd->add_flag("--no-partial-volume", a->noPartialVolume, "hard tissue edges (no supersampling)");
-  cmd->add_option("--report", a->report, "write a JSON report: version, command, options, outputs with fingerprints, time, memory");
+  addOutput(*cmd, "--report", a->report, "write a JSON report: version, command, options, outputs with fingerprints, time, memory");
   addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum phantom --size 256 --out knee.nrrd --labels knee-labels.nrrd");
   cmd->callback([a] {

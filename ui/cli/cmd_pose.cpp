@@ -67,19 +67,19 @@ void addPoseCommand(CLI::App& app) {
   app::PoseRequest& r = a->request;
   auto* cmd = app.add_subcommand(
       "pose", "Pose bones at joints (pose file: joints, angles over keyframes, fixed regions; points generated)");
-  cmd->add_option("input", r.input, "volume file or DICOM folder")->required();
-  cmd->add_option("--labels", r.labels, "label map on the volume's grid: the bones' ids (one id = one rigid body)")
+  addInput(*cmd, "input", r.input, "volume file or DICOM folder")->required();
+  addInput(*cmd, "--labels", r.labels, "label map on the volume's grid: the bones' ids (one id = one rigid body)")
       ->required();
-  cmd->add_option("--pose", r.pose, "pose file (JSON; see docs/deformation.md, \"Pose file\")")->required();
-  cmd->add_option("--out,-o", r.output, "the deformed volume at the pose (--frame-time; default the last keyframe)");
-  cmd->add_option("--movie", r.movie, "a movie over all keyframes: movie.mp4, or a folder (ending in /) for PNG frames");
-  cmd->add_option("--report", r.report, "JSON report: per joint the achieved angle, per bone RMS/max, fixed regions, folds");
-  cmd->add_option("--points-out", r.pointsOut, "write the generated control points at the pose (vellum deform --points)");
-  cmd->add_option("--keyframes-out", r.keyframesOut,
+  addInput(*cmd, "--pose", r.pose, "pose file (JSON; see docs/deformation.md, \"Pose file\")")->required();
+  addOutput(*cmd, "--out,-o", r.output, "the deformed volume at the pose (--frame-time; default the last keyframe)");
+  addOutput(*cmd, "--movie", r.movie, "a movie over all keyframes: movie.mp4, or a folder (ending in /) for PNG frames");
+  addOutput(*cmd, "--report", r.report, "JSON report: per joint the achieved angle, per bone RMS/max, fixed regions, folds");
+  addOutput(*cmd, "--points-out", r.pointsOut, "write the generated control points at the pose (vellum deform --points)");
+  addOutput(*cmd, "--keyframes-out", r.keyframesOut,
                   "write the generated keyframe track (vellum animate --keyframes)");
   addFlags(*cmd, r, app::poseRequestTable());
   addFlags(*cmd, r.options, deformation::poseOptionsTable());
-  cmd->add_option("--gltf", r.gltf,
+  addOutput(*cmd, "--gltf", r.gltf,
                   "the posed bones (rigid nodes) and skin (morph targets) as an animated glTF 2.0 file (.glb) over the "
                   "keyframes, for slides, web and AR viewers");
   addFlags(*cmd, r.gltfOptions, app::poseGltfOptionsTable());
@@ -98,14 +98,9 @@ void addPoseCommand(CLI::App& app) {
     request.load = a->in.toLoadOptions(nullptr);
     request.commandLine = commandLine();
     app::PoseResult result;
-    try {
+    {  // a bad pose file, label map or request: one line, exit 2 (main.cpp)
       ProgressBar bar;
       result = app::runPose(request, bar.progress());
-    } catch (const Cancelled&) {
-      throw;
-    } catch (const Error& e) {  // a bad pose file, label map or request: one line, exit 2
-      std::cerr << "vellum: error: " << e.what() << "\n";
-      throw CLI::RuntimeError(2);
     }
     printSummary(request, result);
   });

@@ -9,6 +9,7 @@
 #include <memory>
 #include <thread>
 
+#include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
 #include "vellum/app/qa.hpp"
@@ -27,6 +28,27 @@ struct QaArgs {
   bool update = false, listCases = false, snakemake = false, snakefileOnly = false, force = false;
   int jobs = std::max(1u, std::thread::hardware_concurrency());
 };
+
+/// The single-valued flags of `qa` besides its paths, described once (docs/parameters.md);
+/// --jobs stays by hand: its default is the machine's core count.
+const params::Table<QaArgs>& qaFlagsTable() {
+  using A = QaArgs;
+  static const params::Table<A> t{
+      params::flag<A>("update_baselines", &A::update,
+                      {"Update baselines", "write the cases' outputs into the baseline store (with a sidecar naming "
+                                           "the commands and the Vellum version) instead of comparing", ""}),
+      params::text<A>("case", &A::caseName,
+                      {"Case", "run only this case, in this process (what each parallel or Snakemake job runs)", ""}),
+      params::flag<A>("list_cases", &A::listCases, {"List cases", "print the manifest's case names", ""}),
+      params::flag<A>("snakemake", &A::snakemake,
+                      {"Snakemake", "run the cases as a Snakemake workflow (one job per case, the report last)", ""}),
+      params::flag<A>("snakefile_only", &A::snakefileOnly,
+                      {"Snakefile only", "write the workflow to OUT/workflow and print how to run it", ""}),
+      params::text<A>("profile", &A::profile,
+                      {"Profile", "--snakemake: a Snakemake profile (e.g. scripts/qa/slurm for Slurm)", ""}),
+  };
+  return t;
+}
 
 int finish(const app::QaSummary& s, const fs::path& out) {
   std::cout << s.cases - s.failures << " of " << s.cases << " cases pass; report: " << (out / "report.html").string()
@@ -103,39 +125,23 @@ int run(const QaArgs& a) {
 
 }  // namespace
 
+std::string qaFlagsMarkdown() { return params::markdown(qaFlagsTable()); }
+
 void addQaCommand(CLI::App& app) {
   auto a = std::make_shared<QaArgs>();
   auto* cmd = app.add_subcommand(
       "qa", "Run a QA manifest's cases (vellum commands, checks against baselines and references, time and memory "
             "ceilings) in parallel or on Snakemake; JUnit XML and HTML report; exit 0 all pass, 1 any failure, 2 error");
-  cmd->add_option("manifest", a->manifest, "the QA manifest (JSON; docs/qa.md)");
-  cmd->add_option("--out,-o", a->out, "the run folder: case outputs, logs, report.html, junit.xml, summary.json");
+  addInput(*cmd, "manifest", a->manifest, "the QA manifest (JSON; docs/qa.md)");
+  addOutput(*cmd, "--out,-o", a->out, "the run folder: case outputs, logs, report.html, junit.xml, summary.json");
   cmd->add_option("--jobs,-j", a->jobs, "cases at once (Snakemake: --cores)")->capture_default_str()->check(CLI::Range(1, 1024));
   cmd->add_option("--baselines", a->baselines, "the baseline store (default: the manifest's \"baselines\", else baselines/ beside it)");
-  cmd->add_flag("--update-baselines", a->update, "write the cases' outputs into the baseline store (with a sidecar "
-                                                 "naming the commands and the Vellum version) instead of comparing");
-  cmd->add_option("--case", a->caseName, "run only this case, in this process (what each parallel or Snakemake job runs)");
-  cmd->add_flag("--list-cases", a->listCases, "print the manifest's case names");
-  cmd->add_option("--report-from", a->reportFrom, "write the report of a run folder from its cases' results");
-  cmd->add_flag("--snakemake", a->snakemake, "run the cases as a Snakemake workflow (one job per case, the report last)");
-  cmd->add_flag("--snakefile-only", a->snakefileOnly, "write the workflow to OUT/workflow and print how to run it");
-  cmd->add_option("--profile", a->profile, "--snakemake: a Snakemake profile (e.g. scripts/qa/slurm for Slurm)");
+  addFlags(*cmd, *a, qaFlagsTable());
+  addInput(*cmd, "--report-from", a->reportFrom, "write the report of a run folder from its cases' results");
   addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum qa qa.json --out qa-run --jobs 4   (first run: --update-baselines)\n"
               "         vellum qa qa.json --out qa-run --snakemake --profile scripts/qa/slurm");
-  cmd->callback([a] {
-    int code = 0;
-    try {
-      code = run(*a);
-    } catch (const Cancelled&) {
-      throw;
-    } catch (const std::exception& e) {
-      std::cerr << "vellum: error: " << e.what() << "\n";
-      code = 2;
-    }
-    std::cout.flush();
-    if (code != 0) throw CLI::RuntimeError(code);
-  });
+  cmd->callback(resultCommand([a] { return run(*a); }));
 }
 
 }  // namespace vellum::cli

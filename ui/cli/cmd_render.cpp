@@ -16,10 +16,7 @@ namespace {
 struct RenderArgs {
   app::RenderRequest request;
   std::string preset = render::presetName(render::RenderSettings{}.preset);
-  std::string views;
-  std::string size = "512x512";
-  std::vector<double> pan, background;
-  bool transparent = false;
+  FigureFlags frame;  ///< --view, --plate, --size, --pan, --background, --transparent
   InputOptions in;
   TableRemovalOptions table;
   FigureOptions figure;
@@ -31,14 +28,13 @@ void runRender(const RenderArgs& a) {
   if (a.preset == "all") r.presets = render::allPresets();
   else
     for (const auto& name : app::splitList(a.preset, "--preset")) r.presets.push_back(render::parsePreset(name));
-  if (!a.views.empty())
-    for (const auto& v : app::splitList(a.views, "--view")) r.views.push_back(app::parseView(v, r.settings.camera.elevationDeg));
+  r.views = a.frame.views(r.settings.camera.elevationDeg);
+  r.plate = a.frame.plate;
   render::RenderSettings& s = r.settings;
-  std::tie(s.width, s.height) = parseSize(a.size);
-  if (!a.pan.empty()) s.camera.panMm = {a.pan[0], a.pan[1], a.pan[2]};
-  if (!a.background.empty())
-    s.background = backgroundColour(a.background);
-  if (a.transparent) s.background[3] = 0.f;
+  std::tie(s.width, s.height) = a.frame.sizePixels();
+  s.camera.panMm = {a.frame.pan[0], a.frame.pan[1], a.frame.pan[2]};
+  if (const auto bg = a.frame.backgroundColour()) s.background = *bg;
+  if (a.frame.transparent) s.background[3] = 0.f;
   r.labelMap = a.figure.labelMap;
   r.annotations = a.figure.resolved(a.figure.wantsLabels());
   r.labelIds = a.figure.labelIds;
@@ -62,29 +58,21 @@ void addRenderCommand(CLI::App& app) {
   auto a = std::make_shared<RenderArgs>();
   app::RenderRequest& r = a->request;
   auto* cmd = app.add_subcommand("render", "Render a volume through the GL ray caster into a PNG/TIFF figure");
-  cmd->add_option("input", r.input, "volume file or DICOM folder")->required();
-  cmd->add_option("--out,-o", r.output, "figure path (.png, .tif, .jpg)")->required();
+  addInput(*cmd, "input", r.input, "volume file or DICOM folder")->required();
+  addOutput(*cmd, "--out,-o", r.output, "figure path (.png, .tif, .jpg)")->required();
   cmd->add_option("--preset", a->preset,
                   "bone | soft-tissue | skin | mip, a comma list of them, or all (one figure each from one upload, "
                   "suffixed -PRESET)")
       ->capture_default_str();
-  cmd->add_option("--view", a->views,
-                  "anterior | posterior | left | right | lateral (= left) | superior | inferior | AZ | AZ:EL "
-                  "(degrees), or a comma list: one figure each from one upload, suffixed -VIEW (overrides "
-                  "--azimuth/--elevation)");
-  cmd->add_flag("--plate", r.plate, "one contact sheet at --out instead of a file each: a row per preset, a column per view");
-  cmd->add_option("--size", a->size, "image size WxH, up to 4096x4096")->capture_default_str();
+  a->frame.addTo(*cmd);
   addFlags(*cmd, r.settings, render::renderSettingsTable(), {"width", "height", "preset"});
-  cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z)")->expected(3);
-  cmd->add_option("--background", a->background, "background colour r g b [a] in 0..1")->expected(3, 4);
-  cmd->add_flag("--transparent", a->transparent, "transparent background (PNG/TIFF alpha)");
-  cmd->add_option("--label-colours", r.labelColours,
+  addInput(*cmd, "--label-colours", r.labelColours,
                   "label map whose table colours tint the volume by --label-blend (default blend 0.5; "
                   "without this option --label-map's colours are used)");
-  cmd->add_option("--attributes", r.attributes,
+  addInput(*cmd, "--attributes", r.attributes,
                   "attribute field of `vellum deform --attributes-out` for this (deformed) volume: colour shifts "
                   "and density drawn as in the live deformed render");
-  cmd->add_option("--report", r.report,
+  addOutput(*cmd, "--report", r.report,
                   "write a JSON report: version, command, inputs and outputs with fingerprints, settings, timings, memory");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);

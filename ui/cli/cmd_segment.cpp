@@ -32,9 +32,21 @@ struct SegmentArgs {
   app::SegmentRequest request;
   std::vector<std::string> seeds;  ///< "x,y,z" (mm)
   std::vector<std::string> splitSeeds;  ///< "x,y,z" (mm), one object each
-  std::string colour;              ///< "R,G,B" (0..255)
+  std::vector<ColourArg> colour;   ///< --colour R,G,B (0..1) or the old --color (0..255)
   InputOptions in;
 };
+
+/// How the segment joins the label map, described once (docs/parameters.md).
+const params::Table<app::SegmentRequest>& segmentLabelTable() {
+  using R = app::SegmentRequest;
+  static const params::Table<R> t{
+      params::integer<R>("label_id", &R::labelId, {"Label id", "segment id; 0: the lowest free id", "", 0, 65535}),
+      params::text<R>("label_name", &R::labelName, {"Label name", "segment name; empty: the method's", ""}),
+      params::text<R>("overlap", &R::overlap, {"Overlap", "where segments overlap", ""},
+                      {"overwrite", "keep-existing", "replace"}),
+  };
+  return t;
+}
 
 /// The result on stdout: the segment, then each truth comparison.
 void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& result) {
@@ -77,7 +89,7 @@ void runSegment(SegmentArgs& a) {
     r.settings.post.splitParams.seedsMm.push_back({v[0], v[1], v[2]});
   }
   if (!a.splitSeeds.empty() && !r.settings.post.split) throw Error("--split-seed needs --split");
-  if (!a.colour.empty()) r.colour = parseRgb255(a.colour, "--color");
+  if (!a.colour.empty()) r.colour = colourBytes(a.colour.back());
   ProgressBar bar;
   r.load = a.in.toLoadOptions(nullptr);
   r.commandLine = commandLine();
@@ -89,25 +101,25 @@ void runSegment(SegmentArgs& a) {
 
 }  // namespace
 
+std::string segmentLabelFlagsMarkdown() { return params::markdown(segmentLabelTable()); }
+
 void addSegmentCommand(CLI::App& app) {
   auto a = std::make_shared<SegmentArgs>();
   auto* cmd = app.add_subcommand("segment", "Segment a CT volume into a label map (thresholds, Otsu, region growing, 3D snakes)");
   app::SegmentRequest& r = a->request;
-  cmd->add_option("input", r.input, "input volume (file or DICOM folder)")->required();
-  cmd->add_option("--out,-o", r.output, "output label map (.nrrd keeps the label table)")->required();
+  addInput(*cmd, "input", r.input, "input volume (file or DICOM folder)")->required();
+  addOutput(*cmd, "--out,-o", r.output, "output label map (.nrrd keeps the label table)")->required();
   // Method, its settings and post-processing: flags generated from the request's table.
   addFlags(*cmd, r.settings, app::segmentSettingsTable());
   cmd->add_option("--seed", a->seeds, "seed point x,y,z in mm (repeatable; snake: bubble centres)");
   cmd->add_option("--split-seed", a->splitSeeds, "with --split: one object per seed x,y,z in mm (repeatable; "
                                                   "pieces without a seed are dropped)");
-  cmd->add_option("--into", r.into, "add the segment into this existing label map (written to --out)");
-  cmd->add_option("--label-id", r.labelId, "segment id (default: the lowest free id)");
-  cmd->add_option("--label-name", r.labelName, "segment name (default: the method)");
-  cmd->add_option("--color", a->colour, "segment colour R,G,B (0..255)");
-  cmd->add_option("--overlap", r.overlap, "where segments overlap: overwrite | keep-existing | replace")->capture_default_str();
-  cmd->add_option("--truth", r.truth, "truth label map: report Dice, Jaccard, volume difference, HD95");
+  addInput(*cmd, "--into", r.into, "add the segment into this existing label map (written to --out)");
+  addFlags(*cmd, r, segmentLabelTable());
+  addColourOption(*cmd, a->colour, "R,G,B", "segment colour");
+  addInput(*cmd, "--truth", r.truth, "truth label map: report Dice, Jaccard, volume difference, HD95");
   cmd->add_option("--truth-ids", r.truthIds, "compare against the union of these truth ids (default: the same id)")->delimiter(',');
-  cmd->add_option("--report", r.report, "write parameters, timings, iterations and metrics as JSON");
+  addOutput(*cmd, "--report", r.report, "write parameters, timings, iterations and metrics as JSON");
   a->in.addTo(*cmd);
   addForceFlag(*cmd, r.force);
   cmd->footer(

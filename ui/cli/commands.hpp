@@ -29,6 +29,13 @@ void addPoseCommand(CLI::App& app);     // issue 23: joints and poses
 
 /// docs/parameters.md: every parameter table as Markdown (cmd_params.cpp).
 std::string parametersMarkdown();
+/// The commands' own flag tables as Markdown (each in its cmd_<name>.cpp).
+std::string phantomFlagsMarkdown();
+std::string demoFlagsMarkdown();
+std::string convertFlagsMarkdown();
+std::string qaFlagsMarkdown();
+std::string curveAnalogyFlagsMarkdown();
+std::string segmentLabelFlagsMarkdown();
 
 /// What `vellum demo` hands to the parts that later issues add to it.
 struct DemoContext {

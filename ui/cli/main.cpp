@@ -7,6 +7,8 @@
 #include <vector>
 #include <iostream>
 
+#include <nlohmann/json.hpp>
+
 #include "cli_params.hpp"
 #include "cli_util.hpp"
 #include "commands.hpp"
@@ -23,6 +25,46 @@ namespace {
 extern "C" void onInterrupt(int sig) {
   vellum::Progress::requestCancelEverywhere();
   std::signal(sig, SIG_DFL);
+}
+
+/// The one place that turns what a command threw into its exit code (docs/user-guide.md,
+/// "Exit codes"): 0 success; 2 a usage or input error (a bad flag or value, a missing or
+/// unreadable input, bad JSON); 1 a runtime failure (an output that cannot be written or is
+/// refused, no GL context, out of memory); 130 cancelled. Every error is one line on stderr.
+int runAndExit(CLI::App& app, std::vector<std::string>& args) {
+  namespace ExitCode = vellum::cli::ExitCode;
+  const auto fail = [](const std::string& what, int code) {
+    std::string line = what;
+    std::replace(line.begin(), line.end(), '\n', ' ');  // CLI11's messages may hold a newline
+    std::cerr << "vellum: error: " << line << "\n";
+    return code;
+  };
+  try {
+    app.parse(args);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);  // --help, --version (CallForHelp, CallForVersion derive from Success)
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // a command's own result code (compare, qa: 1 = checks failed)
+  } catch (const CLI::ParseError& e) {
+    std::string cmd;
+    for (const CLI::App* sub : app.get_subcommands()) cmd = " " + sub->get_name();
+    return fail(std::string(e.what()) + " (see `vellum" + cmd + " --help`)", ExitCode::Usage);
+  } catch (const vellum::Cancelled&) {
+    std::cerr << "vellum: cancelled\n";
+    return ExitCode::Cancelled;
+  } catch (const vellum::FileError& e) {
+    // A file the command reads is an input error; one it writes (full disk, an output the
+    // policy refuses to replace) is a runtime failure.
+    return fail(e.what(), vellum::cli::isCommandInput(app, e.path()) ? ExitCode::Usage : ExitCode::Failure);
+  } catch (const vellum::Error& e) {
+    // Vellum's own errors name the parameter or flag at fault (core/error.hpp).
+    return fail(e.what(), ExitCode::Usage);
+  } catch (const nlohmann::json::exception& e) {
+    return fail(e.what(), ExitCode::Usage);
+  } catch (const std::exception& e) {
+    return fail(e.what(), ExitCode::Failure);
+  }
+  return ExitCode::Success;
 }
 
 }  // namespace
@@ -68,18 +110,7 @@ int main(int argc, char** argv) {
     }
     commandLine() += (i ? " " : "") + a;
   }
-  try {
-    std::vector<std::string> args = joinBooleanFlagValues(app, std::vector<std::string>(argv + 1, argv + argc));
-    std::reverse(args.begin(), args.end());  // CLI11 takes them last first
-    app.parse(args);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
-  } catch (const vellum::Cancelled&) {
-    std::cerr << "vellum: cancelled\n";
-    return 130;
-  } catch (const std::exception& e) {
-    std::cerr << "vellum: error: " << e.what() << "\n";
-    return 1;
-  }
-  return 0;
+  std::vector<std::string> args = joinBooleanFlagValues(app, std::vector<std::string>(argv + 1, argv + argc));
+  std::reverse(args.begin(), args.end());  // CLI11 takes them last first
+  return runAndExit(app, args);
 }

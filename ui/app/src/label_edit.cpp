@@ -1,5 +1,6 @@
 // `vellum labels` as one call (label_edit.hpp).
 #include "vellum/app/label_edit.hpp"
+#include "vellum/app/run_io.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -80,18 +81,14 @@ LabelEditResult runLabelEdit(const LabelEditRequest& r, Progress& progress) {
     edited.setLabel(l);
   }
   for (const auto& [id, rgb] : r.colours) {
-    if (!holds(id)) throw Error("--color: id " + std::to_string(id) + " is not in the edited map");
+    if (!holds(id)) throw Error("--colour: id " + std::to_string(id) + " is not in the edited map");
     Label l = edited.label(id).value_or(Label{id, "label " + std::to_string(id), rgb});
     l.rgb = rgb;
     edited.setLabel(l);
   }
   result.after = entries(edited);
   RunOutputs outputs;
-  ensureParentFolder(r.output);
-  io::SaveOptions so;
-  so.force = r.force;
-  io::saveLabels(edited, r.output, so);
-  outputs.wrote(r.output);
+  saveLabelsOutput(outputs, edited, r.output, r.force);
   run.mark("edit and write");
   if (!r.report.empty()) {
     run.outputVolume(r.output);

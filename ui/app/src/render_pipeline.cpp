@@ -1,5 +1,6 @@
 // `vellum render` as one call (render_pipeline.hpp).
 #include "vellum/app/render_pipeline.hpp"
+#include "vellum/app/run_io.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -86,11 +87,7 @@ RenderResult runRender(const RenderRequest& r, Progress& progress) {
   run.input(r.labelMap, "label map");
   run.input(r.labelColours, "label colours");
   run.input(r.attributes, "attribute field");
-  io::LoadOptions load = r.load;
-  load.progress = &progress;
-  io::LoadedVolume lv = io::loadVolume(r.input, load);
-  run.loaded(r.input, lv);
-  run.mark("load");
+  io::LoadedVolume lv = loadInput(run, r.input, r.load, progress);
   RenderResult result;
   result.warnings = lv.warnings;
   std::optional<segmentation::BodyMaskReport> tableRemoval;

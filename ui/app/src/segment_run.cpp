@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "vellum/app/figures.hpp"
+#include "vellum/app/run_io.hpp"
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
 #include "vellum/app/segment_pipeline.hpp"
@@ -119,11 +120,7 @@ SegmentResult runSegment(const SegmentRequest& r, Progress& progress) {
   run.input(r.input, "volume");
   run.input(r.into, "label map to add into");
   run.input(r.truth, "truth label map");
-  io::LoadOptions load = r.load;
-  load.progress = &progress;
-  io::LoadedVolume lv = io::loadVolume(r.input, load);
-  run.loaded(r.input, lv);
-  run.mark("load");
+  io::LoadedVolume lv = loadInput(run, r.input, r.load, progress);
   const VolumeI16 ct = toInt16(lv.volume);
   SegmentResult result;
   result.warnings = std::move(lv.warnings);
@@ -149,11 +146,7 @@ SegmentResult runSegment(const SegmentRequest& r, Progress& progress) {
     report["metrics"] = truthMetrics(r, labels, s, id, result.written);
   }
   RunOutputs outputs;
-  ensureParentFolder(r.output);
-  io::SaveOptions so;
-  so.force = r.force;
-  io::saveLabels(labels, r.output, so);
-  outputs.wrote(r.output);
+  saveLabelsOutput(outputs, labels, r.output, r.force);
   run.mark("segment and write");
   report["seconds"] = secondsSince(t0);
   if (!r.report.empty()) {
