@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <optional>
 
+#include "vellum/core/process_time.hpp"
 #include "vellum/deformation/synthesis.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/io/video_io.hpp"
@@ -18,6 +19,17 @@ namespace {
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
+
+// Adds the process CPU time since the last lap to `stage`.
+struct CpuLap {
+  std::map<std::string, double>& into;
+  double last = processCpuMs();
+  void operator()(const char* stage) {
+    const double now = processCpuMs();
+    into[stage] += now - last;
+    last = now;
+  }
+};
 }  // namespace
 
 struct MovieRenderer::Impl {
@@ -151,8 +163,10 @@ struct MovieRenderer::Impl {
     }
     const int f = next - titleFrames;
     const auto t0 = std::chrono::steady_clock::now();
+    CpuLap lap{result.cpuMs};
     deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
     ControlVolume cv = deformer.update();
+    lap("map");
     if (rigidity.bodies) {
       if (spec.knownBodyTransforms)
         applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm},
@@ -160,9 +174,11 @@ struct MovieRenderer::Impl {
       else
         applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm});
     }
+    lap("rigidity");
     const render::BackwardMap map = renderedMap(cv, geometry, spec.upsampling);
     renderer.setBackwardMap(&map);
     result.deformMs += msSince(t0);
+    lap("upload");
     render::RenderSettings s = spec.settings;
     // Keyframed cameras (when the track has any) replace the settings' camera, field by field.
     if (const auto c = track.cameraAt(track.frameTimeS(f, spec.fps))) {
@@ -177,11 +193,14 @@ struct MovieRenderer::Impl {
     const auto t1 = std::chrono::steady_clock::now();
     RgbaImage img = renderer.render(s);
     result.renderMs += msSince(t1);
+    lap("render");
     annotate(img, s, cv, map);
     const std::string caption = track.captionAt(track.frameTimeS(f, spec.fps));
     render::drawCaption(img, caption.empty() ? spec.caption : caption, spec.annotations.textHeightPx);
     write(img);
+    lap("write");
     if (rigidity.bodies && rigidity.measureStride > 0) measure(cv, f);
+    lap("measure");
     ++next;
     return img;
   }

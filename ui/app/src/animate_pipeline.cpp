@@ -37,6 +37,7 @@ nlohmann::json reportJson(const animation::MovieResult& r, const AnimateRequest&
   return {{"frames", r.frames},
           {"fps", request.fps},
           {"timings_ms", {{"deform_per_frame", r.deformMs / frames}, {"render_per_frame", r.renderMs / frames}, {"total", totalMs}}},
+          {"frames_cpu_ms", r.cpuMs},
           {"rigidity_worst", rigid ? toJson(worstOfFrames(r)) : nlohmann::json()},
           {"rigidity_per_frame", perFrameJson(r.perFrame)}};
 }

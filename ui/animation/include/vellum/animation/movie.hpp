@@ -3,6 +3,7 @@
 // studio's export all render through MovieRenderer, so their frames are the same pixels.
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -72,6 +73,11 @@ struct FrameRigidity {
 struct MovieResult {
   int frames = 0;
   double deformMs = 0, renderMs = 0;
+  /// CPU time of the whole process (all threads, the GL driver's included) per stage of the
+  /// frames, summed over them: "map" (the control volume), "rigidity" (blend and fold repair),
+  /// "upload" (the map prepared for and sent to the renderer), "render", "write" (annotations,
+  /// encoding, PNGs), "measure" (the per-frame rigidity measures).
+  std::map<std::string, double> cpuMs;
   deformation::RigidityReport worst;  ///< largest bone residual / fold fraction over the frames
   std::vector<FrameRigidity> perFrame;
   /// With labelled annotations: per frame, where each structure's leader line ends.
