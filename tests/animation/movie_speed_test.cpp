@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 
 #include "vellum/animation/movie.hpp"
 #include "vellum/deformation/placement.hpp"
@@ -60,7 +61,17 @@ TEST(MovieSpeed, OverlappedFramesAreTheSameAndInBetweenFramesMayBeMeasuredAtThei
   const auto r = run(true, {&bodies, 6, 1, 0, false}, overlapped);
   ASSERT_EQ(one.size(), 5u);
   ASSERT_EQ(overlapped.size(), 5u);
-  for (size_t f = 0; f < 5; ++f) EXPECT_EQ(one[f].pixels, overlapped[f].pixels) << "frame " << f;
+  // The same pixels (the rigid fits sum over threads in any order: allow a last-bit wobble).
+  for (size_t f = 0; f < 5; ++f) {
+    int over1 = 0, differ = 0;
+    for (size_t i = 0; i < one[f].pixels.size(); ++i) {
+      const int d = std::abs(int(one[f].pixels[i]) - int(overlapped[f].pixels[i]));
+      differ += d > 0;
+      over1 += d > 1;
+    }
+    EXPECT_EQ(over1, 0) << "frame " << f;
+    EXPECT_LE(differ, 3) << "frame " << f;
+  }
   // The bend shows (frame 4 differs from frame 0) and the bones stay rigid.
   EXPECT_NE(one[0].pixels, one[4].pixels);
   EXPECT_LT(serial.worst.boneRmsResidualMm, 0.05);
@@ -71,9 +82,10 @@ TEST(MovieSpeed, OverlappedFramesAreTheSameAndInBetweenFramesMayBeMeasuredAtThei
     EXPECT_EQ(r.perFrame[f].voxelsAsRendered.voxelLevel, key) << "frame " << f;
     EXPECT_EQ(r.perFrame[f].voxelsAsRendered.stride, key ? 1 : 0) << "frame " << f;
     EXPECT_EQ(r.perFrame[f].nodes.nodes, serial.perFrame[f].nodes.nodes) << "frame " << f;
-    EXPECT_EQ(r.perFrame[f].nodes.boneRmsResidualMm, serial.perFrame[f].nodes.boneRmsResidualMm) << "frame " << f;
-    if (key) EXPECT_EQ(r.perFrame[f].voxelsAsRendered.boneMaxResidualMm, serial.perFrame[f].voxelsAsRendered.boneMaxResidualMm);
+    EXPECT_NEAR(r.perFrame[f].nodes.boneRmsResidualMm, serial.perFrame[f].nodes.boneRmsResidualMm, 1e-9) << "frame " << f;
+    if (key)
+      EXPECT_NEAR(r.perFrame[f].voxelsAsRendered.boneMaxResidualMm, serial.perFrame[f].voxelsAsRendered.boneMaxResidualMm, 1e-9);
   }
-  EXPECT_EQ(r.worst.boneRmsResidualMm, std::max(serial.perFrame[0].voxelsAsRendered.boneRmsResidualMm,
-                                                serial.perFrame[4].voxelsAsRendered.boneRmsResidualMm));
+  EXPECT_NEAR(r.worst.boneRmsResidualMm, std::max(serial.perFrame[0].voxelsAsRendered.boneRmsResidualMm,
+                                                  serial.perFrame[4].voxelsAsRendered.boneRmsResidualMm), 1e-9);
 }
