@@ -136,7 +136,7 @@ MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
               for (int x = box[0]; x <= box[3]; ++x)
                 m = std::max(m, ranges.maxValue[static_cast<size_t>((z * nb.y + y) * nb.x + x)]);
           const size_t n = static_cast<size_t>((cz * mc.cells.y + cy) * mc.cells.x + cx);
-          mc.box[n] = box;
+          for (int a = 0; a < 6; ++a) mc.box[n][static_cast<size_t>(a)] = static_cast<int16_t>(box[static_cast<size_t>(a)]);
           mc.maxValue[n] = m;
         }
   });

@@ -32,7 +32,9 @@ std::vector<uint8_t> blockOccupancy(const BlockRanges& ranges, const TfTable& tf
 /// conservative.
 struct MapCells {
   Dims cells;                            ///< max(nodes - 1, 1) per axis
-  std::vector<std::array<int, 6>> box;   ///< per cell: inclusive block range x0,y0,z0,x1,y1,z1
+  /// Per cell: inclusive block range x0,y0,z0,x1,y1,z1 (16 bits: a 512^2 x 350 map has 12 M
+  /// cells, made every movie frame).
+  std::vector<std::array<int16_t, 6>> box;
   std::vector<float> maxValue;           ///< per cell: largest value its samples can see
 };
 /// Which texels of the map texture a cell's samples read, and how far beyond their bounding box

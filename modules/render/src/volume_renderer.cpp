@@ -790,8 +790,17 @@ void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
     deleteTexture(impl_->attrTex);
     return;
   }
+  setBackwardMap(std::make_shared<const BackwardMap>(*map));
+}
+
+void VolumeRenderer::setBackwardMap(std::shared_ptr<const BackwardMap> map) {
+  if (!map) return setBackwardMap(static_cast<const BackwardMap*>(nullptr));
+  impl_->context.makeCurrent();
+  impl_->dropMapStep();
   validateMap(*map);
-  impl_->map = std::make_shared<const BackwardMap>(*map);
+  // Never drawn again: its cells and texels go before the new ones are made.
+  impl_->drawnMap.reset();
+  impl_->map = std::move(map);
   impl_->mapUploaded = false;
   impl_->uploadMap();
 }

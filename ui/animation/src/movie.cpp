@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <future>
 #include <optional>
 
+#include "vellum/core/process_time.hpp"
 #include "vellum/deformation/synthesis.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/io/video_io.hpp"
@@ -18,6 +20,17 @@ namespace {
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
+
+// Adds the process CPU time since the last lap to `stage`.
+struct CpuLap {
+  std::map<std::string, double>& into;
+  double last = processCpuMs();
+  void operator()(const char* stage) {
+    const double now = processCpuMs();
+    into[stage] += now - last;
+    last = now;
+  }
+};
 }  // namespace
 
 struct MovieRenderer::Impl {
@@ -34,6 +47,14 @@ struct MovieRenderer::Impl {
   int titleFrames = 0;
   RgbaImage card;  ///< the title card (titleCard())
   MovieResult result;
+  /// The next frame's map, made on another thread while this frame renders (the map and the
+  /// rigid blend are CPU work; the render is the GL driver's): frame `pendingFrame`, its wall ms.
+  std::future<std::pair<std::shared_ptr<ControlVolume>, double>> pending;
+  int pendingFrame = -1;
+
+  ~Impl() {
+    if (pending.valid()) pending.wait();  // it uses the deformer and the track
+  }
 
   Impl(render::GlContext& c, const AnyVolume& volume, KeyframeTrack t, const DeformParams& params, MovieRigidity r,
        MovieSpec s)
@@ -63,8 +84,14 @@ struct MovieRenderer::Impl {
   void measure(const ControlVolume& cv, int f) {
     // Voxel level over the map the renderer samples: the node map upsampled with the spec's
     // kernel and the voxel snap, as the GL path applies them (deformation::rendered).
-    const int stride = rigidity.inBetweenStride > 0 && !atKeyframe(f) ? rigidity.inBetweenStride
-                                                                       : rigidity.measureStride;
+    const bool inBetween = !atKeyframe(f);
+    if (inBetween && !rigidity.inBetweenVoxels) {
+      RigidityReport unmeasured;
+      unmeasured.stride = 0;
+      result.perFrame.push_back({unmeasured, measureRigidity(cv, *rigidity.bodies)});
+      return;
+    }
+    const int stride = rigidity.inBetweenStride > 0 && inBetween ? rigidity.inBetweenStride : rigidity.measureStride;
     const RigidityReport m = measureRigidityVoxels(cv, geometry, *rigidity.bodies, spec.upsampling, stride);
     result.perFrame.push_back({m, measureRigidity(cv, *rigidity.bodies)});
     RigidityReport& w = result.worst;
@@ -142,6 +169,24 @@ struct MovieRenderer::Impl {
     return card;
   }
 
+  // Frame f's map as the renderer draws it: the control volume, rigid bones blended in, with
+  // the output grid and kernel set (renderedMap()'s fields, without its copy); its wall ms.
+  std::pair<std::shared_ptr<ControlVolume>, double> frameMap(int f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
+    auto cv = std::make_shared<ControlVolume>(deformer.update());
+    if (rigidity.bodies) {
+      if (spec.knownBodyTransforms)
+        applyRigidity(*cv, *rigidity.bodies, {rigidity.falloffMm},
+                      spec.knownBodyTransforms(track.frameTimeS(f, spec.fps), *rigidity.bodies));
+      else
+        applyRigidity(*cv, *rigidity.bodies, {rigidity.falloffMm});
+    }
+    cv->output = geometry;
+    cv->upsampling = spec.upsampling;
+    return {std::move(cv), msSince(t0)};
+  }
+
   RgbaImage renderNext() {
     if (next < titleFrames) {
       const RgbaImage& card = titleCard();
@@ -150,19 +195,21 @@ struct MovieRenderer::Impl {
       return card;
     }
     const int f = next - titleFrames;
-    const auto t0 = std::chrono::steady_clock::now();
-    deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
-    ControlVolume cv = deformer.update();
-    if (rigidity.bodies) {
-      if (spec.knownBodyTransforms)
-        applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm},
-                      spec.knownBodyTransforms(track.frameTimeS(f, spec.fps), *rigidity.bodies));
-      else
-        applyRigidity(cv, *rigidity.bodies, {rigidity.falloffMm});
+    CpuLap lap{result.cpuMs};
+    // This frame's map (made during the previous frame's render when the frames overlap), then
+    // the next frame's started: it runs on the CPU while the GL driver renders this one.
+    auto [cvShared, deformMs] = pendingFrame == f ? pending.get() : frameMap(f);
+    pendingFrame = -1;
+    result.deformMs += deformMs;
+    lap("map");
+    if (spec.overlapFrames && f + 1 < frames) {
+      pendingFrame = f + 1;
+      pending = std::async(std::launch::async, [this, f] { return frameMap(f + 1); });
     }
-    const render::BackwardMap map = renderedMap(cv, geometry, spec.upsampling);
-    renderer.setBackwardMap(&map);
-    result.deformMs += msSince(t0);
+    const ControlVolume& cv = *cvShared;
+    const render::BackwardMap& map = cv;
+    renderer.setBackwardMap(std::shared_ptr<const render::BackwardMap>(cvShared));
+    lap("upload");
     render::RenderSettings s = spec.settings;
     // Keyframed cameras (when the track has any) replace the settings' camera, field by field.
     if (const auto c = track.cameraAt(track.frameTimeS(f, spec.fps))) {
@@ -177,11 +224,14 @@ struct MovieRenderer::Impl {
     const auto t1 = std::chrono::steady_clock::now();
     RgbaImage img = renderer.render(s);
     result.renderMs += msSince(t1);
+    lap("render");
     annotate(img, s, cv, map);
     const std::string caption = track.captionAt(track.frameTimeS(f, spec.fps));
     render::drawCaption(img, caption.empty() ? spec.caption : caption, spec.annotations.textHeightPx);
     write(img);
+    lap("write");
     if (rigidity.bodies && rigidity.measureStride > 0) measure(cv, f);
+    lap("measure");
     ++next;
     return img;
   }

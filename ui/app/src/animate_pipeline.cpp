@@ -2,6 +2,7 @@
 // (see animate_pipeline.hpp).
 #include "vellum/app/animate_pipeline.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <sstream>
 
@@ -21,23 +22,32 @@ namespace {
 // Per-frame measures as the report writes them.
 nlohmann::json perFrameJson(const std::vector<animation::FrameRigidity>& frames) {
   nlohmann::json j = nlohmann::json::array();
-  for (const auto& f : frames) j.push_back({{"voxels_as_rendered", toJson(f.voxelsAsRendered)}, {"nodes", toJson(f.nodes)}});
+  for (const auto& f : frames)  // null: a frame between keyframes measured at its nodes only
+    j.push_back({{"voxels_as_rendered", f.voxelsAsRendered.voxelLevel ? toJson(f.voxelsAsRendered) : nlohmann::json()},
+                 {"nodes", toJson(f.nodes)}});
   return j;
 }
 
 // The worst frame as rendered, every measure (per body, fixed regions, tissue folds).
 RigidityReport worstOfFrames(const animation::MovieResult& r) {
   std::vector<RigidityReport> frames;
-  for (const auto& f : r.perFrame) frames.push_back(f.voxelsAsRendered);
+  for (const auto& f : r.perFrame)
+    if (f.voxelsAsRendered.voxelLevel) frames.push_back(f.voxelsAsRendered);
   return frames.empty() ? r.worst : worstOf(frames);
 }
 
 nlohmann::json reportJson(const animation::MovieResult& r, const AnimateRequest& request, bool rigid, double totalMs) {
   const int frames = std::max(r.frames, 1);
+  // Which frames rigidity_worst covers: every frame, or (a large volume) the keyframe poses and
+  // the last frame, the others measured at their nodes only.
+  const bool all = std::all_of(r.perFrame.begin(), r.perFrame.end(), [](const auto& f) { return f.voxelsAsRendered.voxelLevel; });
+  const std::string voxelFrames = all ? "all" : "keyframes and the last frame (the others: nodes only)";
   return {{"frames", r.frames},
           {"fps", request.fps},
           {"timings_ms", {{"deform_per_frame", r.deformMs / frames}, {"render_per_frame", r.renderMs / frames}, {"total", totalMs}}},
+          {"frames_cpu_ms", r.cpuMs},
           {"rigidity_worst", rigid ? toJson(worstOfFrames(r)) : nlohmann::json()},
+          {"rigidity_voxel_frames", rigid ? nlohmann::json(voxelFrames) : nlohmann::json()},
           {"rigidity_per_frame", perFrameJson(r.perFrame)}};
 }
 
@@ -170,9 +180,10 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   AnimateResult result;
   const auto render = [&](const animation::MovieSpec& s) {
     auto context = render::GlContext::createHeadless();
+    // A large volume (coarseMeasureStride's rule) measures its in-between frames at their nodes.
+    const bool large = coarseMeasureStride(grid, 1) > 1;
     const animation::MovieRigidity rigidity{bodies ? &*bodies : nullptr, request.engine.rigidFalloffMm,
-                                            request.engine.rigidityStride,
-                                            coarseMeasureStride(grid, request.engine.rigidityStride)};
+                                            request.engine.rigidityStride, 0, !large};
     result.movie = animation::renderTrack(*context, lv.volume, track, params, rigidity, s, progress);
   };
   if (spec.framesDir.empty()) {

@@ -52,6 +52,9 @@ class VolumeRenderer {
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
   void setBackwardMap(const BackwardMap* map);
+  /// The same, sharing `map` instead of copying it; the map drawn before is released before
+  /// this one is prepared (a movie's frames: one map's textures and cells in memory, not two).
+  void setBackwardMap(std::shared_ptr<const BackwardMap> map);
   /// The CPU part of setBackwardMap() (validation, the source-index texels, the map cells'
   /// empty-space ranges, the snap's frames): no GL, so an interactive viewer makes it on a
   /// worker thread, for the volume `volume` was prepared from, and uploads it with

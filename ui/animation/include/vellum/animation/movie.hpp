@@ -3,6 +3,7 @@
 // studio's export all render through MovieRenderer, so their frames are the same pixels.
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -51,6 +52,9 @@ struct MovieSpec {
   /// transform. Empty: every body is fitted.
   std::function<std::vector<std::optional<RigidTransform>>(double timeS, const deformation::RigidBodies&)>
       knownBodyTransforms;
+  /// Each frame's map (MLS, rigid blend, fold repair: CPU) is made on another thread while the
+  /// frame before it renders (GL). The frames are the same either way.
+  bool overlapFrames = true;
 };
 
 /// Rigid bones: the bodies and the blend band; measureStride 0 skips the per-frame measures.
@@ -63,15 +67,26 @@ struct MovieRigidity {
   /// report carries the stride it was measured at. A movie of a large volume measures its
   /// in-between frames coarser: the measure is a large part of a frame's CPU.
   int inBetweenStride = 0;
+  /// False: the frames between keyframes are measured at the node level only (their
+  /// voxelsAsRendered is left unmeasured: voxelLevel false, stride 0). On a 512^2 x 350 CT the
+  /// voxel-level measure upsamples the whole map (1.1 GB) per frame; the snap keeps the voxels
+  /// that land in a bone on its fit whatever the frame, and the keyframe poses are measured in full.
+  bool inBetweenVoxels = true;
 };
 
 struct FrameRigidity {
-  deformation::RigidityReport voxelsAsRendered, nodes;
+  deformation::RigidityReport voxelsAsRendered, nodes;  ///< voxelsAsRendered.voxelLevel: measured
 };
 
 struct MovieResult {
   int frames = 0;
   double deformMs = 0, renderMs = 0;
+  /// CPU time of the whole process (all threads, the GL driver's included) per stage of the
+  /// frames, summed over them: "map" (the control volume with the rigid blend and fold repair,
+  /// or waiting for it), "upload" (the map prepared for and sent to the renderer), "render",
+  /// "write" (annotations, encoding, PNGs), "measure" (the per-frame rigidity measures). With
+  /// overlapFrames the next frame's map is made during "upload" and "render" and counts there.
+  std::map<std::string, double> cpuMs;
   deformation::RigidityReport worst;  ///< largest bone residual / fold fraction over the frames
   std::vector<FrameRigidity> perFrame;
   /// With labelled annotations: per frame, where each structure's leader line ends.

@@ -64,8 +64,10 @@ struct AnimateResult {
   animation::MovieResult movie;
   std::vector<std::string> warnings;  ///< the loader's
   std::string tableRemoval;  ///< --remove-table's one-line summary (app::tableRemovalSummary); empty without it
-  /// frames, fps, timings_ms (deform_per_frame, render_per_frame, total), rigidity_worst,
-  /// rigidity_per_frame: what request.report holds.
+  /// frames, fps, timings_ms (deform_per_frame, render_per_frame, total), frames_cpu_ms (per
+  /// stage), rigidity_worst (over the frames rigidity_voxel_frames names), rigidity_per_frame
+  /// (voxels_as_rendered null where a frame was measured at its nodes only): what
+  /// request.report holds.
   nlohmann::json report;
 };
 

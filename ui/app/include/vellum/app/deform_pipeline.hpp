@@ -63,7 +63,8 @@ struct DeformEngine {
 
 /// The stride of the voxel-level measures that are for comparison or between keyframes: on a
 /// large volume (over 32 M voxels: a 512^2 x 350 CT) at least 2, which cuts what such a
-/// measure costs ~8x (`deform`'s "before", `animate`'s in-between frames); else `stride`.
+/// measure costs ~8x (`deform`'s "before"; `animate` then measures its in-between frames at
+/// their nodes only); else `stride`.
 int coarseMeasureStride(const Geometry& grid, int stride);
 
 /// upsampling, labels, rigid_falloff, rigidity_stride (the engine's own parameters are
