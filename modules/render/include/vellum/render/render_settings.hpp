@@ -74,7 +74,7 @@ enum class Quality {
 /// are Lighting's; the light size, fill and sky also light the ray caster with Lighting::toneMap.
 struct Cinematic {
   int samples = 64;        ///< paths per pixel
-  double timeLimitS = 0;   ///< stop after the sample pass that crosses this (0 = none; at least one pass)
+  double timeLimitS = 0;   ///< no sample pass that would end past it (0 = none; at least one pass); see the time_limit row
   int seed = 1;            ///< the same seed gives the same picture (hash-based random numbers)
   int bounces = 1;         ///< scattering events per path: 1 = single scattering (+ sky light)
   double denoise = 0.5;    ///< edge-aware filter at the end (guided by the ray-cast picture), 0 = off
