@@ -18,6 +18,15 @@ uint8_t toByte(double v) { return static_cast<uint8_t>(std::lround(std::clamp(v,
 /// Index-space step per mm along a physical direction.
 Vec3 indexPerMm(const Geometry& g, const Vec3& dir) { return g.physicalToIndex(g.origin + dir) - g.physicalToIndex(g.origin); }
 
+/// Value voxels per light cell along each axis: cells a multiple of the value grid's factor,
+/// about kCellsPerAxis along the source's largest axis.
+int64_t valuesPerCell(const LightSource& src) {
+  const Dims sd = src.source.dims;
+  const int64_t largest = std::max({sd.x, sd.y, sd.z});
+  const int64_t perCell = int64_t(src.factor) * kCellsPerAxis;
+  return std::max<int64_t>(1, (largest + perCell - 1) / perCell);
+}
+
 }  // namespace
 
 Vec3 keyLightDirection(const Frame& f, const Lighting& l) {
@@ -52,10 +61,7 @@ LightSource deformedLightSource(const LightSource& src, const PreparedMap& map, 
   // One value per cell of the undeformed light volume's size (computeLightVolume's cells; the
   // geometric mean: the output axes need not be the source's): the same shadow resolution at an
   // eighth of the map lookups of the value grid's spacing above 384 voxels (rebuilt per map).
-  const Dims sd = src.source.dims;
-  const int64_t largest = std::max({sd.x, sd.y, sd.z});
-  const int64_t perValue = std::max<int64_t>(1, (largest + int64_t(src.factor) * kCellsPerAxis - 1) /
-                                                    (int64_t(src.factor) * kCellsPerAxis));
+  const int64_t perValue = valuesPerCell(src);
   const Vec3 cellMm = src.source.spacing * double(perValue * src.factor);
   double mm = std::cbrt(cellMm.x * cellMm.y * cellMm.z);
   const Vec3 extent{box.spacing.x * double(box.dims.x), box.spacing.y * double(box.dims.y),
@@ -106,10 +112,7 @@ LightSource lightSourceFor(const AnyVolume& volume, const BackwardMap* map, cons
 LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double stepMm, const Vec3& lightDir,
                                const Lighting& lighting, double lightSizeDeg) {
   const Dims sd = src.source.dims;
-  const int64_t largest = std::max({sd.x, sd.y, sd.z});
-  // Cells: a multiple of the value grid's factor, about kCellsPerAxis along the largest axis.
-  const int64_t perValue = std::max<int64_t>(1, (largest + int64_t(src.factor) * kCellsPerAxis - 1) /
-                                                    (int64_t(src.factor) * kCellsPerAxis));
+  const int64_t perValue = valuesPerCell(src);
   LightVolume lv;
   lv.boxToSource = src.boxToSource;
   lv.factor = int(perValue) * src.factor;
