@@ -3,7 +3,7 @@
 # scripts/gpu/check.sh can run it on a bare machine with an NVIDIA GPU (no packages installed
 # there, nothing fetched). Usage, from the repository root after a Release build:
 #   bash scripts/gpu/bundle.sh [SCAN.nrrd [KEYFRAMES.json]]
-# SCAN: a real scan converted with `vellum convert` (ct-feet-vhf: 18 MB); KEYFRAMES: a movie of
+# SCAN: a real scan (any input `vellum convert` reads: ct-feet-vhf); KEYFRAMES: a movie of
 # the 512x512x350 phantom (docs/benchmarks-deformation.md), both optional.
 # Size matters (the tree that travels is limited), so:
 #  - glibc, libstdc++ and the GL vendor-neutral libraries are not packed (the target has its own;
@@ -13,6 +13,8 @@
 set -euo pipefail
 B=${BUILD:-build}
 V=$B/ui/vellum
+# GL test binaries run there too (they need no library beyond the bundle once GDAL is a stub).
+TESTS=${TESTS:-"$B/tests/render/render_gl_test $B/tests/illustration_render/illustration_render_test $B/tests/illustration_render/illustration_styles_test"}
 MODS="$B/io/libvellum_opencv_codecs.so $B/illustration/libvellum_illustration_vdb.so"
 T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
 mkdir -p .dev "$T/bin" "$T/lib" "$T/mod" "$T/stub"
@@ -22,16 +24,19 @@ nm -D --undefined-only "$IC" | awk '{print $2}' | sed 's/@.*//' | sort -u >"$T/u
 nm -D --defined-only "$G" | awk '{print $3}' | sed 's/@.*//' | sort -u >"$T/def"
 comm -12 "$T/undef" "$T/def" | awk '{print "void " $1 "(void) {}"}' >"$T/stub/gdal_stub.c"
 gcc -shared -fPIC -o "$T/stub/$(basename "$G")" -Wl,-soname,"$(basename "$G")" "$T/stub/gdal_stub.c"
-cp "$V" "$T/bin/"; cp $MODS "$T/mod/"; cp "$T/stub/$(basename "$G")" "$T/lib/"
-(ldd "$V"; LD_LIBRARY_PATH="$T/stub" ldd $MODS) | awk '/=>/{print $3}' | sort -u |
+cp "$V" $TESTS "$T/bin/"; cp $MODS "$T/mod/"; cp "$T/stub/$(basename "$G")" "$T/lib/"
+(ldd "$V"; LD_LIBRARY_PATH="$T/stub" ldd $MODS $TESTS) | awk '/=>/{print $3}' | sort -u |
   grep -vE 'libc\.so|libm\.so|libdl\.so|libpthread|libresolv|librt\.so|libEGL|libGLX|libGLdispatch|libOpenGL|libstdc\+\+|libgcc_s|ld-linux|/stub/' |
   xargs -I{} cp -L {} "$T/lib/"
-strip "$T/bin/vellum" "$T/mod/"*; strip --strip-unneeded "$T/lib/"* 2>/dev/null || true
+strip "$T/bin/"* "$T/mod/"*; strip --strip-unneeded "$T/lib/"* 2>/dev/null || true
 # The modules are opened at the absolute paths compiled into vellum: check.sh puts them back there.
 (cd "$B" && pwd) >"$T/build-path"
 tar -C "$T" -c bin lib mod build-path | xz -T0 -6 >.dev/bundle.tar.xz
 cp /usr/bin/time .dev/time
-if [ $# -ge 1 ]; then cp "$1" .dev/scan.nrrd; fi
+# The scan travels as raw NRRD under xz: 13 MB for ct-feet-vhf against 18 MB as gzip NRRD.
+if [ $# -ge 1 ]; then
+  "$V" convert "$1" "$T/scan.nrrd" --no-gzip >/dev/null && xz -T0 -6 -c "$T/scan.nrrd" >.dev/scan.nrrd.xz
+fi
 if [ $# -ge 2 ]; then cp "$2" .dev/keyframes.json; fi
 mkdir -p .gl /tmp/amd64/partial
 o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'

@@ -8,7 +8,10 @@ for f in .gl/*.deb; do dpkg -x "$f" /; done; ldconfig
 J=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
 [ -f $J ] && export __EGL_VENDOR_LIBRARY_FILENAMES=$J
 mkdir -p /tmp/v /tmp/w; tar -xJf .dev/bundle.tar.xz -C /tmp/v
-B=$(cat /tmp/v/build-path); mkdir -p "$B/io" "$B/illustration"
+# Modules (and the tests' data) are found at the paths compiled in: make them point here.
+B=$(cat /tmp/v/build-path); S=$(dirname "$B")
+if [ ! -e "$S" ]; then mkdir -p "$(dirname "$S")"; ln -s "$R" "$S"; fi
+mkdir -p "$B/io" "$B/illustration"
 cp /tmp/v/mod/libvellum_opencv_codecs.so "$B/io/"; cp /tmp/v/mod/libvellum_illustration_vdb.so "$B/illustration/"
 export LD_LIBRARY_PATH=/tmp/v/lib VELLUM_EGL_PLATFORM=device
 V=/tmp/v/bin/vellum; TM=$R/.dev/time
@@ -21,8 +24,11 @@ T $V illustrate p512.nrrd --shape shape-p512 --preset textbook --size 2048x2048 
 T $V illustrate p512.nrrd --shape shape-p512 --preset textbook --size 2048x2048 --out i2.png --report r-illus2048-warm.json
 T $V render p512.nrrd --preset bone --size 1024x1024 --quality cinematic --trace-scale 0.5 --volume-shadows --samples 4096 --time-limit 30 --out "$OUT/p512-cine1024.png" --report r-cine.json
 T $V render p512.nrrd --preset bone --size 1024x1024 --quality cinematic --volume-shadows --samples 4096 --time-limit 30 --out cine-full.png --report r-cine-full.json
-if [ -f "$R/.dev/scan.nrrd" ]; then
-  cp "$R/.dev/scan.nrrd" scan.nrrd
+for t in /tmp/v/bin/*_test; do
+  (cd "$S" && $TM -f "TIME %e s wall | $(basename $t)" $t --gtest_brief=1 2>&1 | tail -25)
+done
+if [ -f "$R/.dev/scan.nrrd.xz" ]; then
+  xz -dc "$R/.dev/scan.nrrd.xz" >scan.nrrd
   T $V render scan.nrrd --preset bone --size 512x512 --out "$OUT/scan-bone512.png" --report r-scan-bone512.json
   T $V segment scan.nrrd --preset skin-air --fill-holes-slices --label-id 1 --label-name skin --out skin.nrrd
   T $V segment scan.nrrd --lower 200 --upper 3071 --fill-holes-slices --min-island 100 --into skin.nrrd --label-id 2 --label-name bone --out labels.nrrd
