@@ -76,7 +76,7 @@ struct IllustrationRenderer::Impl {
   bool ctUploaded = false;
   std::string texVolPath;
   Dims texVolDims;
-  std::map<int, GLuint> programs;
+  std::map<std::string, GLuint> programs;
   double lastMs = 0, uploadMs = 0;
 
   explicit Impl(render::GlContext& c) : context(c) {
@@ -203,6 +203,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   v.ct = table.usesCt;
   v.slots = int(m.slots.size());
   v.ink = table.usesInk;
+  paintItems(table, m.slots, v.items, v.inkSlots);
   if (v.ct) {
     if (!m.ct) throw Error("illustrate: style '" + style.name + "' uses the CT (illum = ct or boundary_measure = ct) but no CT was given");
     m.uploadCt();
@@ -268,15 +269,6 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
       slots[i * 4 + 2] = m.slots[i].shellMm;
     }
     if (!m.slots.empty()) glUniform4fv(glGetUniformLocation(p, "uSlots"), GLsizei(m.slots.size()), slots.data());
-    glUniform1i(glGetUniformLocation(p, "uNumSlots"), GLint(m.slots.size()));
-    // The painter's items whose row can show, and the slots that draw ink: the shader loops
-    // over these only (paintItems).
-    std::vector<GLint> items, inkSlots;
-    paintItems(table, m.slots, items, inkSlots);
-    if (!items.empty()) glUniform1iv(glGetUniformLocation(p, "uItems"), GLsizei(items.size()), items.data());
-    glUniform1i(glGetUniformLocation(p, "uNumItems"), GLint(items.size()));
-    if (!inkSlots.empty()) glUniform1iv(glGetUniformLocation(p, "uInkSlots"), GLsizei(inkSlots.size()), inkSlots.data());
-    glUniform1i(glGetUniformLocation(p, "uNumInk"), GLint(inkSlots.size()));
     glUniformMatrix3fv(glGetUniformLocation(p, "uGradToPhys"), 1, GL_TRUE, sf.gradToPhys.data());
     std::vector<float> lo, hi;
     gradientWindows(table, m.slots, sf.coverageH, lo, hi);
@@ -289,6 +281,17 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     glUniform4fv(glGetUniformLocation(p, "uSkipOut"), GLsizei(so.size() / 4), so.data());
     glUniform4fv(glGetUniformLocation(p, "uSkipIn"), GLsizei(si.size() / 4), si.data());
     u1(p, "uSkipOn", settings.adaptiveStep ? 1.0 : 0.0);
+    std::vector<float> co, ci, cc;
+    cheapBands(table, m.slots, m.blocks, sf.coverageH, sf.inkSampleMm, co, ci, cc);
+    for (std::vector<float>* v : {&co, &ci, &cc})
+      for (float& x : *v) x = std::clamp(x, -1e30f, 1e30f);
+    glUniform4fv(glGetUniformLocation(p, "uCheapOut"), GLsizei(co.size() / 4), co.data());
+    glUniform4fv(glGetUniformLocation(p, "uCheapIn"), GLsizei(ci.size() / 4), ci.data());
+    glUniform4fv(glGetUniformLocation(p, "uClampMm"), GLsizei(cc.size() / 4), cc.data());
+    // A cached sum stands for samples up to this far along the ray: depth dimming is taken
+    // at the cached sample (as over a homogeneous block).
+    u1(p, "uCheapOn", settings.adaptiveStep && !table.visible[0] ? 1.0 : 0.0);
+    u1(p, "uCheapRunMm", kBlock * f.stepMm);
     float axes[9];
     for (int l = 0; l < 3; ++l) {
       axes[l * 3] = sf.hatchAxis[l].x;
