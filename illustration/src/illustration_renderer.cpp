@@ -281,17 +281,6 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     glUniform4fv(glGetUniformLocation(p, "uSkipOut"), GLsizei(so.size() / 4), so.data());
     glUniform4fv(glGetUniformLocation(p, "uSkipIn"), GLsizei(si.size() / 4), si.data());
     u1(p, "uSkipOn", settings.adaptiveStep ? 1.0 : 0.0);
-    std::vector<float> co, ci, cc;
-    cheapBands(table, m.slots, m.blocks, sf.coverageH, sf.inkSampleMm, co, ci, cc);
-    for (std::vector<float>* v : {&co, &ci, &cc})
-      for (float& x : *v) x = std::clamp(x, -1e30f, 1e30f);
-    glUniform4fv(glGetUniformLocation(p, "uCheapOut"), GLsizei(co.size() / 4), co.data());
-    glUniform4fv(glGetUniformLocation(p, "uCheapIn"), GLsizei(ci.size() / 4), ci.data());
-    glUniform4fv(glGetUniformLocation(p, "uClampMm"), GLsizei(cc.size() / 4), cc.data());
-    // A cached sum stands for samples up to this far along the ray: depth dimming is taken
-    // at the cached sample (as over a homogeneous block).
-    u1(p, "uCheapOn", settings.adaptiveStep && !table.visible[0] ? 1.0 : 0.0);
-    u1(p, "uCheapRunMm", kBlock * f.stepMm);
     float axes[9];
     for (int l = 0; l < 3; ++l) {
       axes[l * 3] = sf.hatchAxis[l].x;

@@ -269,20 +269,6 @@ void skipBands(const StyleTable& t, const std::vector<PaintSlot>& slots, float c
   }
 }
 
-void cheapBands(const StyleTable& t, const std::vector<PaintSlot>& slots, const BlockFields& b, float coverageH,
-                float inkSampleMm, std::vector<float>& out, std::vector<float>& in, std::vector<float>& clamp) {
-  skipBands(t, slots, coverageH, inkSampleMm, 0.f, out, in);
-  const float inf = std::numeric_limits<float>::infinity();
-  clamp.assign(out.size(), inf);
-  const size_t ns = size_t(b.slots), nb = b.minD.size() / std::max<size_t>(ns, 1);
-  for (size_t s = 0; s < slots.size() && s < ns; ++s) {
-    if (in[s] == inf) continue;  // reads the CT or a texture (or label 0 shows): never flat-constant
-    float m = 0.f;
-    for (size_t i = 0; i < nb; ++i) m = std::max({m, -b.minD[i * ns + s], b.maxD[i * ns + s]});
-    clamp[s] = m - 0.005f;  // within half a field quantum of the clamp
-  }
-}
-
 void FieldVolume::sample(float x, float y, float z, bool central, const float* lo, const float* hi, float* d,
                          Vec3f* g) const {
   // As the shader: p clamped to the grid (clamp to edge), trilinear per group texel fetch.

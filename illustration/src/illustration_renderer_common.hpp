@@ -139,15 +139,6 @@ struct BlockFields {
 BlockFields computeBlockFields(const ShapeScene& scene);
 /// Fills ctMin/ctMax from the CT (same grid as the fields).
 void computeBlockCtRange(BlockFields& b, const AnyVolume& ct);
-/// Constant samples (the GL shader's cheap loop): per slot (padded to whole groups), the
-/// distances beyond which the slot's part of THIS sample depends only on its side (skipBands'
-/// bands with the ink pass of one sample, f.inkSampleMm, and no margin: nothing between samples
-/// is assumed), and its field's clamp (the largest |d| in the volume; a slot whose gradient is 0
-/// at +-clamp is constant too; inf for rows that read the CT or a texture). A sample whose
-/// every slot is beyond or flat at its clamp, with no ink pass open, adds the styled sum of
-/// the last full sample in the same state (the slots that cover it) and changes no ink.
-void cheapBands(const StyleTable& t, const std::vector<PaintSlot>& slots, const BlockFields& b, float coverageH,
-                float inkSampleMm, std::vector<float>& out, std::vector<float>& in, std::vector<float>& clamp);
 /// A block is occupied when a visible row can have opacity there: its slot's coverage is
 /// non-zero (min d < h/2); rows whose boundary enhancement has k_c = 0 on the distance measure
 /// are zero wherever |d| >= boundary_width_mm; rows that are only the CT's transfer function
@@ -215,7 +206,6 @@ struct SampleFrame {
   float inkReachMm = 0;  ///< distance from a surface within which ink samples matter (occupancy)
   float inkPassMm = 0;   ///< widest "pass near a surface" of the ink rows (farthest depth): skipBands
   float inkLineMm = 0;   ///< farthest a sampled minimum can still lay line ink (half line + a pixel + half a step)
-  float inkSampleMm = 0; ///< widest |d| at which a sample is in an ink row's pass (farthest depth): cheapBands
   /// Hatching (object space): stroke-plane normals in physical space (superior-inferior, then
   /// the two diagonals across it) and the pixel size at the scene centre (stroke spacing).
   Vec3f hatchAxis[3];

@@ -281,8 +281,8 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
     sf.inkReachMm = float(0.5 * t.maxLineWidthPx * (sf.pixMm0 + sf.pixMm1 * far) + 2.0 * f.stepMm + 0.5);
     sf.inkLineMm = float((0.5 * t.maxLineWidthPx + 1.0) * (sf.pixMm0 + sf.pixMm1 * far) + 0.5 * f.stepMm);
     // The ray is "in a pass" near a surface within max((w/2 + 1) px, 1.5 h) (main loop).
-    sf.inkSampleMm = std::max(float((0.5 * t.maxLineWidthPx + 1.0) * (sf.pixMm0 + sf.pixMm1 * far)), 1.5f * sf.coverageH);
-    sf.inkPassMm = std::max(sf.inkReachMm, sf.inkSampleMm);
+    sf.inkPassMm = std::max({sf.inkReachMm, float((0.5 * t.maxLineWidthPx + 1.0) * (sf.pixMm0 + sf.pixMm1 * far)),
+                             1.5f * sf.coverageH});
   }
   {
     // Hatching planes: across the grid's z axis (cross-contours) and the two diagonals of z
