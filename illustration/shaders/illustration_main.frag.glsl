@@ -152,11 +152,11 @@ void main() {
       }
       // Soft painter's order (shadeSample in illustration_renderer_common.cpp). First every
       // slot's weights, innermost first (an invisible slot still covers what lies inside it);
-      // then one styled() call site in a loop over the items whose row can show (uItems:
+      // then one styled() call site in a loop over the items whose row can show (kItems:
       // item 2k is slot n-1-k's shell row, or the slot's row when it has no shell; 2k+1 its
       // core row; 2n label 0). llvmpipe runs masked code for every lane, so the loop's trip
       // count, not a branch, is what saves the style model of an invisible row.
-      int n = uNumSlots;
+      const int n = NSLOTS;
       float wFirst[SLOT_CAP], wCore[SLOT_CAP];
       float rest = 1.0;
       for (int s = n - 1; s >= 0; --s) {
@@ -169,8 +169,8 @@ void main() {
         wCore[s] = wSlot * (1.0 - sf);
       }
       vec4 sum = vec4(0.0);
-      for (int q = 0; q < uNumItems; ++q) {
-        int i = uItems[q];
+      for (int q = 0; q < NUM_ITEMS; ++q) {
+        int i = kItems[q];
         int id;
         float w, dd;
         vec3 g;
@@ -216,8 +216,8 @@ void main() {
       // where the ray enters the surface (this sample c). Row: the slot's outermost (shell).
       float pixB = uPixMm.x + uPixMm.y * (t - uStep), pixC = uPixMm.x + uPixMm.y * t;
       holdInk = false;
-      for (int q = 0; q < uNumInk; ++q) {  // the slots whose ink row draws (uInkSlots)
-        int s = uInkSlots[q];
+      for (int q = 0; q < NUM_INK; ++q) {  // the slots whose ink row draws (kInkSlots)
+        int s = kInkSlots[q];
         vec4 sl = uSlots[s];
         int iid = sl.y > 0.0 ? int(sl.y) : int(sl.x);
         float a = hist[s].x, b = hist[s].y, c = D[s];

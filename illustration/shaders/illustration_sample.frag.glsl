@@ -19,11 +19,6 @@ uniform float uRadius, uCoverageH;
 uniform vec2 uPixMm;           // pixel size in mm at ray parameter t: x + y * t
 uniform sampler3D uFields;     // per-segment distances, RGBA16_SNORM, groups of 4 stacked in z
 uniform vec4 uSlots[SLOT_CAP];  // (id, shell id, shell mm, 0) in paint order
-uniform int uNumSlots;         // = NSLOTS, as a uniform: loops over it are not unrolled
-uniform int uItems[2 * SLOT_CAP + 1];  // painter's items whose row can show (main loop)
-uniform int uNumItems;
-uniform int uInkSlots[SLOT_CAP];       // slots whose ink row draws lines or hatching
-uniform int uNumInk;
 uniform mat3 uGradToPhys;      // index-space gradient -> physical
 uniform vec4 uGradLo[NGROUPS], uGradHi[NGROUPS];  // where each slot's gradient matters
 uniform vec4 uSkipOut[NGROUPS], uSkipIn[NGROUPS];  // adaptive step: skipBands()

@@ -76,7 +76,7 @@ struct IllustrationRenderer::Impl {
   bool ctUploaded = false;
   std::string texVolPath;
   Dims texVolDims;
-  std::map<int, GLuint> programs;
+  std::map<std::string, GLuint> programs;
   double lastMs = 0, uploadMs = 0;
 
   explicit Impl(render::GlContext& c) : context(c) {
@@ -203,6 +203,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   v.ct = table.usesCt;
   v.slots = int(m.slots.size());
   v.ink = table.usesInk;
+  paintItems(table, m.slots, v.items, v.inkSlots);
   if (v.ct) {
     if (!m.ct) throw Error("illustrate: style '" + style.name + "' uses the CT (illum = ct or boundary_measure = ct) but no CT was given");
     m.uploadCt();
@@ -268,15 +269,6 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
       slots[i * 4 + 2] = m.slots[i].shellMm;
     }
     if (!m.slots.empty()) glUniform4fv(glGetUniformLocation(p, "uSlots"), GLsizei(m.slots.size()), slots.data());
-    glUniform1i(glGetUniformLocation(p, "uNumSlots"), GLint(m.slots.size()));
-    // The painter's items whose row can show, and the slots that draw ink: the shader loops
-    // over these only (paintItems).
-    std::vector<GLint> items, inkSlots;
-    paintItems(table, m.slots, items, inkSlots);
-    if (!items.empty()) glUniform1iv(glGetUniformLocation(p, "uItems"), GLsizei(items.size()), items.data());
-    glUniform1i(glGetUniformLocation(p, "uNumItems"), GLint(items.size()));
-    if (!inkSlots.empty()) glUniform1iv(glGetUniformLocation(p, "uInkSlots"), GLsizei(inkSlots.size()), inkSlots.data());
-    glUniform1i(glGetUniformLocation(p, "uNumInk"), GLint(inkSlots.size()));
     glUniformMatrix3fv(glGetUniformLocation(p, "uGradToPhys"), 1, GL_TRUE, sf.gradToPhys.data());
     std::vector<float> lo, hi;
     gradientWindows(table, m.slots, sf.coverageH, lo, hi);

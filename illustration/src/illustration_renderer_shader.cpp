@@ -10,6 +10,27 @@
 
 namespace vellum::illustration::detail {
 
+namespace {
+// "const int NAME[n] = int[n](a, b, ...);" (one 0 entry when empty: GLSL has no empty arrays).
+std::string constList(const char* name, const std::vector<int>& v) {
+  std::ostringstream s;
+  const size_t n = std::max<size_t>(v.size(), 1);
+  s << "const int " << name << "[" << n << "] = int[" << n << "](";
+  for (size_t i = 0; i < n; ++i) s << (i ? ", " : "") << (i < v.size() ? v[i] : 0);
+  s << ");\n";
+  return s.str();
+}
+}  // namespace
+
+std::string ShaderVariant::key() const {
+  std::ostringstream s;
+  s << eight << ct << texture << textureVolume << ink << ':' << slots << ':';
+  for (int i : items) s << i << ',';
+  s << ':';
+  for (int i : inkSlots) s << i << ',';
+  return s.str();
+}
+
 std::string illustrationFragmentSource(const ShaderVariant& v) {
   std::ostringstream s;
   s << "#version 450 core\n";
@@ -24,6 +45,8 @@ std::string illustrationFragmentSource(const ShaderVariant& v) {
   s << "#define TF_SIZE " << kTfSize << "\n";
   s << "#define BLOCK_SIZE " << kBlock << "\n#define MAX_STEPS " << (1 << 16) << "\n";
   s << "#define EARLY_ALPHA " << kEarlyAlpha << "\n";
+  s << "#define NUM_ITEMS " << v.items.size() << "\n" << constList("kItems", v.items);
+  s << "#define NUM_INK " << v.inkSlots.size() << "\n" << constList("kInkSlots", v.inkSlots);
   s << styleLayoutGlsl();
   if (v.texture) s << glsl::kSolidTexture;
   s << glsl::kIllustrationSampleFrag << render::detail::rayCommonGlsl() << glsl::kIllustrationMainFrag;

@@ -228,6 +228,32 @@ TEST(IllustrationGl, LambdaChangesOnlyThatSegment) {
   }
 }
 
+TEST(IllustrationGl, EachListOfShownRowsAndInkedSlotsGetsItsOwnProgram) {
+  // The shader is compiled per list of shown rows and inked slots (ShaderVariant::items,
+  // inkSlots: constant loops for llvmpipe). One renderer drawing styles that differ only in
+  // which rows show or draw ink must still draw each one as the CPU reference does.
+  IllustrationRenderer r(gl());
+  r.setScene(spheres());
+  const IllustrationSettings s = front(64);
+  Style both = twoRowStyle();
+  Style boneOnly = both;
+  boneOnly.segments[1].opacity = 0;  // the muscle's row does not show
+  Style boneInk = both;
+  boneInk.segments[0].lineWidthPx = 2;  // the bone's outline in ink
+  Style bothInk = boneInk;
+  bothInk.segments[1].lineWidthPx = 2;  // and the muscle's
+  // Fewer rows or inked slots first: a program reused for a longer list would leave some out.
+  std::vector<RgbaImage> drawn;
+  for (const Style* st : {&boneOnly, &both, &boneInk, &bothInk, &boneOnly}) {
+    drawn.push_back(r.render(*st, s));
+    expectClose(drawn.back(), renderIllustrationCpu(spheres(), *st, s), "shown rows / inked slots");
+  }
+  EXPECT_GT(changed(drawn[0], drawn[1]).size(), 100u);  // the muscle came
+  EXPECT_GT(changed(drawn[1], drawn[2]).size(), 20u);   // the bone's outline came
+  EXPECT_GT(changed(drawn[2], drawn[3]).size(), 20u);   // the muscle's outline came
+  EXPECT_TRUE(changed(drawn[0], drawn[4], 0).empty());
+}
+
 TEST(IllustrationGl, ToneIsWarmTowardTheLightAndCoolAway) {
   Style st;
   st.light = {1.f, 0.f, 0.2f};  // from screen right
