@@ -93,7 +93,7 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   request.settings = renderSettingsFor(scene_, width, height);
   request.engine.params = a.engine;
   request.engine.upsampling = scene_.view.deformedUpsampling;  // the live view's map kernel
-  const deformation::RigidBodies* bodies = deform_->bodies();
+  const deformation::RigidBodies* bodies = deform_.session().bodies();
   if (bodies) {
     request.engine.labels = scene_.labelsPath.string();
     request.engine.rigidIds = a.rigidLabels;
@@ -118,7 +118,7 @@ void StudioApp::startExport(const fs::path& out, double fps, int width, int heig
   deformation::saveKeyframes(a.track, request.keyframes);
   animateCommand_ = "vellum animate " + app::animateArguments(request);
   a.playing = false;
-  export_ = std::make_unique<ExportJob>(AnyVolume(scene_.ct), a.track, a.engine, deform_->sharedBodies(), a.falloffMm,
+  export_ = std::make_unique<ExportJob>(AnyVolume(scene_.ct), a.track, a.engine, deform_.session().sharedBodies(), a.falloffMm,
                                         spec);
 }
 

@@ -116,7 +116,7 @@ void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
   std::string text = target.string() + "|" + file.volume.string() + "|" + file.labels.string();
   text += sceneViewJson(file).dump();
   // The keyframe track (control points): its revision counts every edit (and playback).
-  if (file.deformation) text += " track " + std::to_string(scene.authoring.revision);
+  if (file.deformation || file.pose) text += " track " + std::to_string(scene.authoring.revision);
   if (!labelsEdited && text == lastSceneText_) return;
   lastSceneText_ = text;
   std::optional<LabelVolume> labels;

@@ -32,7 +32,7 @@ void rigidBones(StudioApp& app) {
         std::vector<uint16_t> ids = a.rigidLabels;
         if (on) ids.push_back(l.id);
         else ids.erase(std::remove(ids.begin(), ids.end(), l.id), ids.end());
-        app.points().setRigid(std::move(ids), a.falloffMm, on ? "rigid label on" : "rigid label off");
+        app.deform().setRigid(std::move(ids), a.falloffMm, on ? "rigid label on" : "rigid label off");
       }
     }
     if (app.scene().labels.table().empty()) ImGui::TextDisabled("no label table");
@@ -48,7 +48,7 @@ void rigidBones(StudioApp& app) {
     a.touch();
   }
   if (ImGui::IsItemDeactivatedAfterEdit() && dragStart) {
-    app.points().setRigid(a.rigidLabels, a.falloffMm, "rigid falloff", dragStart);
+    app.deform().setRigid(a.rigidLabels, a.falloffMm, "rigid falloff", dragStart);
     dragStart.reset();
   }
 }
@@ -92,10 +92,10 @@ void pointsRow(StudioApp& app) {
     if (e.finished) app.points().endEngineEdit();
     ImGui::TreePop();
   }
-  if (const auto* t = app.deformSession().timings(); t && app.deformSession().map()) {
-    ImGui::Text("map update %.1f ms%s", app.deformSession().lastUpdateMs(), app.deformSession().preview() ? " (preview)" : "");
+  if (const auto* t = app.deform().session().timings(); t && app.deform().session().map()) {
+    ImGui::Text("map update %.1f ms%s", app.deform().session().lastUpdateMs(), app.deform().session().preview() ? " (preview)" : "");
     ImGui::Text("  MLS %.1f, rho %.1f (%d fields), rigid %.1f", t->mapMs, t->rhoCacheMs, t->rhoFieldsRebuilt,
-                app.deformSession().lastRigidityMs());
+                app.deform().session().lastRigidityMs());
   }
 }
 

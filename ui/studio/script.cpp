@@ -767,7 +767,7 @@ void expandExportMovie(Steps& s, const json& v) {
 
 void expandRigidLabels(Steps& s, const json& v) {
   const std::vector<uint16_t> ids = v.get<std::vector<uint16_t>>();
-  s.once([ids](StudioApp& a) { a.points().setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
+  s.once([ids](StudioApp& a) { a.deform().setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
 }
 
 void expandJoint(Steps& s, const json& v) {
@@ -781,9 +781,9 @@ void expandJoint(Steps& s, const json& v) {
     return;
   }
   s.once([v](StudioApp& a) { jointScriptAction(a, v); });
-  s.until([](StudioApp& a) { return !a.joints().busy(); });
+  s.until([](StudioApp& a) { return !a.deform().joints().busy(); });
   s.once([](StudioApp& a) {
-    if (!a.joints().error().empty()) throw Error("joint tool: " + a.joints().error());
+    if (!a.deform().joints().error().empty()) throw Error("joint tool: " + a.deform().joints().error());
   });
 }
 
