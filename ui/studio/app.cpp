@@ -19,7 +19,6 @@
 
 #include "autosave.hpp"
 #include "deform_session.hpp"
-#include "export_job.hpp"
 #include "gl_texture.hpp"
 #include "panels.hpp"
 #include "script.hpp"
@@ -66,7 +65,7 @@ StudioApp::StudioApp(StudioOptions options)
 
 StudioApp::~StudioApp() {
   if (!window_) return;
-  export_.reset();  // GL objects: before the context goes
+  deform_.cancelExport();  // GL objects: before the context goes
   view3d_.reset();
   for (auto& t : sliceTextures_) t.reset();
   ImGui_ImplOpenGL3_Shutdown();
@@ -156,7 +155,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !segmentation_.snake().pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_.session().preview() && !deform_.busy() && !curves_.busy() &&
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !segmentation_.snake().pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !deform_.exporting() && !deform_.session().preview() && !deform_.busy() && !curves_.busy() &&
          !scene_.authoring.playing;
 }
 
@@ -185,8 +184,8 @@ void StudioApp::pollWorkers() {
   curves_.poll();
   deform_.poll();
   const double now = glfwGetTime();
-  tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
-  followKeyframeCamera();
+  deform_.tick(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
+  deform_.followCamera();
   lastTickS_ = now;
   if (unsavedChanges()) autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());  // nothing to keep otherwise
 }

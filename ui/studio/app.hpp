@@ -39,7 +39,6 @@ class WindowContext;
 class ScriptRunner;
 class Autosaver;
 class GlTexture;
-class ExportJob;
 struct StudioTools;
 
 struct StudioOptions {
@@ -99,8 +98,6 @@ class StudioApp {
   ShapeJob& shapeJob() { return shapes_; }
   /// Curve analogy by drawing (Illustration panel): curve_controller.hpp.
   CurveController& curves() { return curves_; }
-  /// While playing or scrubbing a track with keyframed cameras, the 3D view follows them.
-  void followKeyframeCamera();
   void goToBookmark(size_t index);
   void deleteBookmark(size_t index);
   void resetView();
@@ -116,8 +113,8 @@ class StudioApp {
   bool undo() { return undoStep(false); }
   bool redo() { return undoStep(true); }
   // Deformation authoring: the control points, track and engine edits (point_controller.hpp);
-  // the deformation session, rigid bones and joint tool (deform_controller.hpp); playback and
-  // the movie export (app_animation.cpp).
+  // the deformation session, rigid bones, joint tool, playback and the movie export
+  // (deform_controller.hpp).
   PointController& points() { return points_; }
   DeformController& deform() { return deform_; }
   /// Where the timeline drew each keyframe's block in the last frame (window pixels: x, y,
@@ -126,19 +123,6 @@ class StudioApp {
   std::vector<std::array<float, 4>>& keyframeBlocks() { return keyframeBlocks_; }
   /// The window's size in screen pixels (what scripted coordinates refer to).
   std::pair<int, int> windowSize() const;
-  void play(bool on);
-  /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4 on a worker with
-  /// its own headless context, through animation::MovieRenderer (what `vellum animate` runs).
-  /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`).
-  void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0);
-  void cancelExport();
-  bool exporting() const;
-  /// (frames done, frame count) of the running export.
-  std::pair<int, int> exportProgress() const;
-  /// The last export's error ("" after success).
-  const std::string& lastExportError() const { return exportError_; }
-  /// The `vellum animate` command that writes the same frames as the last export.
-  const std::string& lastAnimateCommand() const { return animateCommand_; }
   /// The `vellum render` command for the 3D view at its pane size (512² without a 3D pane).
   std::string cliCommand(const std::string& out) const;
   /// Saves the scene (and the label map next to it when it has no file or was edited). The
@@ -254,13 +238,10 @@ class StudioApp {
   void clickIn3d(const Pane& pane, double x, double y);
   std::pair<int, int> pane3dSize() const;
   void drawPlanesIn3d(const Pane& pane);
-  void tickAnimation(double dtS);
   PointController points_{*this};
   double lastTickS_ = 0;
-  std::unique_ptr<ExportJob> export_;
   std::unique_ptr<StudioTools> studioTools_;
   std::vector<std::array<float, 4>> keyframeBlocks_;
-  std::string exportError_, animateCommand_;
 
   StudioOptions options_;
   GLFWwindow* window_ = nullptr;

@@ -315,8 +315,8 @@ std::vector<std::string> StudioApp::runningWork() const {
   for (const std::string& d : deform_.session().running())
     if (!points_.dragging()) r.push_back(d);  // a drag's own preview is what the drag shows
   if (studioTools_->figure.job.busy()) r.push_back(with("export figure", studioTools_->figure.job.progress().second));
-  if (exporting()) {
-    const auto [done, count] = exportProgress();
+  if (deform_.exporting()) {
+    const auto [done, count] = deform_.exportProgress();
     r.push_back("exporting frame " + std::to_string(done) + " / " + std::to_string(count));
   }
   if (curves_.busy()) r.push_back("curve analogy");

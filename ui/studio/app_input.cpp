@@ -182,7 +182,7 @@ void StudioApp::onKey(int key, int action, int mods) {
       setLayout(key == GLFW_KEY_1 ? Layout::ThreeD : key == GLFW_KEY_2 ? Layout::TwoByTwo : Layout::OneByThree);
     } else if (key == GLFW_KEY_ESCAPE) {
       // Escape cancels what runs (a snake, a load); with nothing running, back to Navigate.
-      if (exporting()) cancelExport();
+      if (deform_.exporting()) deform_.cancelExport();
       else if (tasks_.busy()) tasks_.cancel();
       else if (segmentation_.snake().busy()) segmentation_.snake().cancel();
       else if (loader_.busy()) loader_.cancel();

@@ -1,26 +1,34 @@
 // DeformController (see deform_controller.hpp): the deformation session and the joint tool
-// with the commands that configure them.
+// with the commands that configure them, playback and the movie export.
 #include "deform_controller.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iostream>
 
 #include <imgui.h>
 
 #include "app.hpp"
 #include "deform_session.hpp"
+#include "export_job.hpp"
 #include "joint_tool.hpp"
 #include "view3d.hpp"
+#include "vellum/app/animate_pipeline.hpp"
+#include "vellum/core/error.hpp"
+#include "vellum/deformation/point_files.hpp"
+#include "vellum/io/output_policy.hpp"
 
 namespace vellum::studio {
+namespace fs = std::filesystem;
 
 DeformController::DeformController(StudioApp& app)
     : app_(app), session_(std::make_unique<DeformSession>()), joints_(std::make_unique<JointTool>()) {}
 
 // The members' destructors wait for their workers (the session's read the scene's CT, which
-// StudioApp destroys after this controller).
+// StudioApp destroys after this controller). The export's GL objects go with cancelExport(),
+// which StudioApp calls before its context goes.
 DeformController::~DeformController() = default;
 
 bool DeformController::updateMap(bool interacting, bool waitForExact) {
@@ -154,6 +162,119 @@ void DeformController::pushPoseEdit(const std::string& description, deformation:
 
 void DeformController::restorePose(const deformation::Pose& pose, int keyframe) {
   joints_->restore(app_, pose, keyframe);
+}
+
+// ---- playback and the movie export: an app::AnimateRequest, rendered through
+// animation::MovieRenderer with app::movieSpec (what `vellum animate` runs), and written beside
+// the output as the equivalent `vellum animate` command (app::animateArguments).
+
+void DeformController::play(bool on) {
+  Authoring& a = app_.scene().authoring;
+  if (on && !a.active()) throw Error("nothing to play: place control points first");
+  if (on && !a.timeS) a.timeS = keyframeStartS(a.track, a.keyframe);
+  a.playing = on;
+  a.touch();
+}
+
+void DeformController::tick(double dtS) {
+  if (export_) {
+    try {
+      export_->await(std::chrono::milliseconds(50));  // the frame waits: the export has the cores
+      if (export_->step()) {
+        const auto& r = export_->result();
+        std::cout << "export: " << r.frames << " frames, deform " << r.deformMs / std::max(1, r.frames)
+                  << " ms/frame, render " << r.renderMs / std::max(1, r.frames) << " ms/frame" << std::endl;
+        export_.reset();
+        app_.invalidate3d();
+      }
+    } catch (const std::exception& e) {
+      export_.reset();
+      exportError_ = e.what();
+      app_.showError(exportError_);
+    }
+  }
+  Authoring& a = app_.scene().authoring;
+  if (!a.playing || !a.active()) return;
+  const double total = a.track.totalDurationS();
+  double t = a.timeS.value_or(0) + dtS;
+  if (t >= total) {
+    if (a.track.loop && total > 0) {
+      t = std::fmod(t, total);
+    } else {
+      t = total;
+      a.playing = false;
+    }
+  }
+  a.timeS = t;
+  a.touch();
+}
+
+void DeformController::followCamera() {
+  Scene& scene = app_.scene();
+  const Authoring& a = scene.authoring;
+  if (!a.active() || !a.timeS) return;  // only while playing or scrubbing
+  if (const auto c = a.track.cameraAt(*a.timeS)) {
+    render::Camera& cam = scene.render.camera;
+    cam.azimuthDeg = c->azimuthDeg;
+    cam.elevationDeg = c->elevationDeg;
+    cam.zoom = c->zoom;
+    cam.panMm = c->panMm;
+    if (c->fieldOfViewDeg) cam.fieldOfViewDeg = *c->fieldOfViewDeg;
+  }
+}
+
+void DeformController::startExport(const fs::path& out, double fps, int width, int height, double orbitDeg) {
+  Scene& scene = app_.scene();
+  if (!scene.hasVolume()) throw Error("no volume is open");
+  if (export_) throw Error("an export is running; cancel it first");
+  Authoring& a = scene.authoring;
+  if (!a.active()) throw Error("nothing to export: place control points first");
+  a.track.validate();
+  if (!(fps > 0 && fps <= 240)) throw Error("fps must be in (0, 240]");
+  if (width < 16 || height < 16 || width > 4096 || height > 4096) throw Error("export size must be 16..4096");
+  exportError_.clear();
+  // The request `vellum animate` would run: its movie spec drives the export, and its
+  // arguments are the command line written beside the output.
+  app::AnimateRequest request;
+  request.input = scene.volumePath;
+  request.output = out;
+  request.fps = fps;
+  request.orbitDeg = orbitDeg;
+  request.settings = renderSettingsFor(scene, width, height);
+  request.engine.params = a.engine;
+  request.engine.upsampling = scene.view.deformedUpsampling;  // the live view's map kernel
+  const deformation::RigidBodies* bodies = session_->bodies();
+  if (bodies) {
+    request.engine.labels = scene.labelsPath.string();
+    request.engine.rigidIds = a.rigidLabels;
+    request.engine.rigidFalloffMm = a.falloffMm;
+    request.engine.fixedIds = a.fixed.ids;  // the joint tool's fixed regions (the bodies hold them)
+    for (const auto& b : a.fixed.boxesMm) request.engine.fixedBoxMm.insert(request.engine.fixedBoxMm.end(), b.begin(), b.end());
+  }
+  const animation::MovieSpec spec = app::movieSpec(request);
+  // The keyframes beside the output.
+  const bool isDir = !spec.framesDir.empty();
+  request.keyframes = isDir ? spec.framesDir / "keyframes.json" : fs::path(out.string() + ".keyframes.json");
+  // The output policy, as `vellum animate` follows it: never an input, never a folder Vellum
+  // did not write. The frames are written into their (marked) folder as they are made.
+  io::OutputPlan()
+      .input(scene.volumePath)
+      .input(request.engine.labels, "the label map")
+      .output(spec.moviePath, "the movie")
+      .json(isDir ? fs::path() : request.keyframes, "the keyframes file")
+      .check();
+  if (isDir) io::prepareFolderInPlace(spec.framesDir, io::FolderKind::Frames);
+  else if (out.has_parent_path()) fs::create_directories(out.parent_path());
+  deformation::saveKeyframes(a.track, request.keyframes);
+  animateCommand_ = "vellum animate " + app::animateArguments(request);
+  a.playing = false;
+  export_ = std::make_unique<ExportJob>(AnyVolume(scene.ct), a.track, a.engine, session_->sharedBodies(), a.falloffMm,
+                                        spec);
+}
+
+void DeformController::cancelExport() { export_.reset(); }
+std::pair<int, int> DeformController::exportProgress() const {
+  return export_ ? std::pair{export_->framesDone(), export_->frameCount()} : std::pair{0, 0};
 }
 
 }  // namespace vellum::studio

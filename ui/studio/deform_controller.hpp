@@ -3,10 +3,12 @@
 // solved on its workers), the joint tool (its pose, its preparation worker, its picks and axes
 // drawn over the panes) and the deformation's configuration commands: the rigid bones and the
 // pose edits, each one undo step. StudioApp asks it for the frame's map, hands it the left
-// clicks while the joint tool waits for a pick and lets it draw over each pane; panels and
-// script actions call it through StudioApp::deform(). The control points themselves are the
-// PointController's (point_controller.hpp).
+// clicks while the joint tool waits for a pick and lets it draw over each pane, and ticks
+// playback and the movie export; panels and script actions call it through
+// StudioApp::deform(). The control points themselves are the PointController's
+// (point_controller.hpp).
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -20,6 +22,7 @@ namespace vellum::studio {
 
 class StudioApp;
 class DeformSession;
+class ExportJob;
 class JointTool;
 
 class DeformController {
@@ -52,6 +55,26 @@ class DeformController {
   bool click(const Pane& pane, double x, double y);
   /// The joints' axes and the draft axis points over a pane.
   void draw(const Pane& pane);
+  /// Advances playback by `dtS` seconds and the running export by a frame.
+  void tick(double dtS);
+  /// While playing or scrubbing a track with keyframed cameras, the 3D view follows them.
+  void followCamera();
+
+  // Playback and the movie export.
+  void play(bool on);
+  /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4 on a worker with
+  /// its own headless context, through animation::MovieRenderer (what `vellum animate` runs).
+  /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`).
+  void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0);
+  /// Stops the export (its GL objects go: before the window's context).
+  void cancelExport();
+  bool exporting() const { return export_ != nullptr; }
+  /// (frames done, frame count) of the running export.
+  std::pair<int, int> exportProgress() const;
+  /// The last export's error ("" after success).
+  const std::string& lastExportError() const { return exportError_; }
+  /// The `vellum animate` command that writes the same frames as the last export.
+  const std::string& lastAnimateCommand() const { return animateCommand_; }
 
   // Commands, each one undo step.
   /// The rigid bones (label ids kept rigid, falloff in mm) set to `labels` / `falloffMm` (the
@@ -71,6 +94,8 @@ class DeformController {
   StudioApp& app_;
   std::unique_ptr<DeformSession> session_;
   std::unique_ptr<JointTool> joints_;
+  std::unique_ptr<ExportJob> export_;
+  std::string exportError_, animateCommand_;
 };
 
 }  // namespace vellum::studio

@@ -217,7 +217,7 @@ void timeline(StudioApp& app) {
   bool loop = a.track.loop;
   if (ImGui::Checkbox("Loop", &loop)) app.points().editTrack("loop", [loop](Authoring& x) { x.track.loop = loop; });
   ImGui::SameLine();
-  if (ImGui::Button(a.playing ? "Pause" : "Play")) guarded(app, [&] { app.play(!a.playing); });
+  if (ImGui::Button(a.playing ? "Pause" : "Play")) guarded(app, [&] { app.deform().play(!a.playing); });
   float t = float(a.timeS.value_or(keyframeStartS(a.track, a.keyframe)));
   if (ImGui::SliderFloat("Time s", &t, 0.f, float(total), "%.2f")) {
     a.playing = false;
@@ -236,15 +236,15 @@ void exportRow(StudioApp& app) {
   ImGui::InputFloat("fps", &fps);
   ImGui::InputFloat("Orbit deg", &orbit);
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("turns the camera by this many degrees over the movie (turntable)");
-  if (app.exporting()) {
-    const auto [done, count] = app.exportProgress();
+  if (app.deform().exporting()) {
+    const auto [done, count] = app.deform().exportProgress();
     char label[64];
     std::snprintf(label, sizeof label, "%d / %d frames", done, count);
     ImGui::ProgressBar(count ? float(done) / float(count) : 0.f, {-70, 0}, label);
     ImGui::SameLine();
-    if (ImGui::Button("Cancel##export")) app.cancelExport();
+    if (ImGui::Button("Cancel##export")) app.deform().cancelExport();
   } else if (ImGui::Button("Export movie")) {
-    guarded(app, [&] { app.startExport(out, fps, size[0], size[1], orbit); });
+    guarded(app, [&] { app.deform().startExport(out, fps, size[0], size[1], orbit); });
   }
 }
 

@@ -100,7 +100,7 @@ void jointsSection(StudioApp& app) {
     if (ImGui::InputFloat("Duration s##pose", &dur, 0.f, 0.f, "%.2f", ImGuiInputTextFlags_EnterReturnsTrue))
       guarded(app, [&] { jt.setDuration(app, dur); });
     if (ImGui::Button(scene.authoring.playing ? "Pause##pose" : "Play##pose"))
-      guarded(app, [&] { app.play(!scene.authoring.playing); });
+      guarded(app, [&] { app.deform().play(!scene.authoring.playing); });
   }
   ImGui::Separator();
   // A new joint: bones by clicks in a view (one id per click) or typed; axis two clicks or estimated.

@@ -737,11 +737,11 @@ void expandPlay(Steps& s, const json& v) {
   const double seconds = v.at("seconds").get<double>();
   auto until = std::make_shared<double>();
   s.once([=](StudioApp& a) {
-    a.play(true);
+    a.deform().play(true);
     *until = glfwGetTime() + seconds;
   });
   s.until([=](StudioApp& a) { return glfwGetTime() >= *until || !a.scene().authoring.playing; });
-  s.once([](StudioApp& a) { a.play(false); });
+  s.once([](StudioApp& a) { a.deform().play(false); });
 }
 
 void expandExportMovie(Steps& s, const json& v) {
@@ -752,14 +752,14 @@ void expandExportMovie(Steps& s, const json& v) {
     throw Error("size must be WxH");
   const std::string command = v.value("command", "");
   const double orbit = v.value("orbit", 0.0);
-  s.once([=](StudioApp& a) { a.startExport(out, fps, w, h, orbit); });
+  s.once([=](StudioApp& a) { a.deform().startExport(out, fps, w, h, orbit); });
   if (!v.value("wait", true)) return;  // e.g. to press Escape while it runs
-  s.until([](StudioApp& a) { return !a.exporting(); });
+  s.until([](StudioApp& a) { return !a.deform().exporting(); });
   s.once([=](StudioApp& a) {
-    if (!a.lastExportError().empty()) throw Error("export failed: " + a.lastExportError());
+    if (!a.deform().lastExportError().empty()) throw Error("export failed: " + a.deform().lastExportError());
     if (!command.empty()) {
       std::ofstream f(command);
-      f << a.lastAnimateCommand() << "\n";
+      f << a.deform().lastAnimateCommand() << "\n";
       if (!f) throw Error("cannot write " + command);
     }
   });
