@@ -27,10 +27,7 @@ std::pair<double, size_t> lastAngle(const fs::path& poseFile) {
 
 TEST(StudioJointUndo, UndoAndRedoGiveBackEachAngleExactlyAndTheJointItself) {
   REQUIRE_DISPLAY();
-  const fs::path d = test::tempDir("studio-joint-undo");
-  VolumeI16 ct;
-  LabelVolume labels;
-  writeLimb(d, ct, labels);
+  const fs::path d = limbDir("studio-joint-undo");
   const auto save = [&](const std::string& name) {
     return R"({"wait_idle":true},{"joint":{"save":{"path":)" + q(d / (name + ".pose.json")) + R"(}}},)";
   };
@@ -68,10 +65,7 @@ TEST(StudioJointUndo, UndoAndRedoGiveBackEachAngleExactlyAndTheJointItself) {
 
 TEST(StudioJointUndo, ASceneSavedWithJointsReopensWithTheSamePoseAndPosedTrack) {
   REQUIRE_DISPLAY();
-  const fs::path d = test::tempDir("studio-joint-scene");
-  VolumeI16 ct;
-  LabelVolume labels;
-  writeLimb(d, ct, labels);
+  const fs::path d = limbDir("studio-joint-scene");
   // Saved at keyframe 1 of 3: the estimated axis, the fixed block, two angles.
   const std::string first = scriptOnPhantom(d) + R"(
     {"layout":"1x3"},{"hud":false},

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "deform_session.hpp"
+#include "test_data.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 
@@ -121,6 +122,15 @@ inline void writeLimb(const std::filesystem::path& dir, VolumeI16& ct, LabelVolu
       }
   io::saveVolume(AnyVolume(ct), dir / "ct.nrrd");
   io::saveLabels(labels, dir / "labels.nrrd");
+}
+
+/// writeLimb into a new test::tempDir(name) (removed after the test); returns the folder.
+inline std::filesystem::path limbDir(const std::string& name) {
+  const std::filesystem::path dir = test::tempDir(name);
+  VolumeI16 ct;
+  LabelVolume labels;
+  writeLimb(dir, ct, labels);
+  return dir;
 }
 
 /// Updates `session` for `scene` until the exact map has landed from the worker (at most 30 s).
