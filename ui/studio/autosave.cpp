@@ -81,7 +81,9 @@ std::optional<fs::path> Autosaver::recoverable(const Scene& scene) {
 
 void Autosaver::remove(const fs::path& target) {
   std::error_code ec;  // best effort: a file already gone is fine
-  for (const fs::path& p : {target, labelsFor(target), target.parent_path() / (target.stem().string() + ".keyframes.json")})
+  const fs::path stem = target.parent_path() / target.stem();  // writeSceneFile's files beside it
+  for (const fs::path& p : {target, labelsFor(target), fs::path(stem.string() + ".keyframes.json"),
+                            fs::path(stem.string() + ".pose.json")})
     fs::remove(p, ec);
 }
 
