@@ -22,36 +22,8 @@ namespace fs = std::filesystem;
 using namespace vellum::deformation;
 using namespace vellum::test::studio;
 
-constexpr int kN = 40;
-constexpr uint16_t kSoft = 100, kFixed = 50;
-
-/// Parent bone 1 (z 40..74 mm), child bone 2 (z 12..38 mm): elliptic cylinders (x half-width
-/// 10 mm, y 5 mm) touching across one voxel gap, so the contact zone's widest direction is x;
-/// soft tissue (radius 16 mm) around, a fixed block aside.
-void writeLimb(const fs::path& dir, VolumeI16& ct, LabelVolume& labels) {
-  Geometry g;
-  g.dims = {kN, kN, kN};
-  g.spacing = {2, 2, 2};
-  ct = VolumeI16(g, -1000);
-  labels = LabelVolume(g);
-  for (int k = 0; k < kN; ++k)
-    for (int j = 0; j < kN; ++j)
-      for (int i = 0; i < kN; ++i) {
-        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
-        uint16_t id = 0;
-        int16_t hu = -1000;
-        if (std::hypot(p.x - 40, p.y - 40) <= 16 && p.z >= 4 && p.z <= 76) id = kSoft, hu = 40;
-        if (std::hypot((p.x - 40) / 10, (p.y - 40) / 5) <= 1) {
-          if (p.z >= 40 && p.z <= 74) id = 1, hu = 1000;
-          if (p.z >= 12 && p.z <= 38) id = 2, hu = 1000;
-        }
-        if (p.x >= 2 && p.x <= 10 && p.y >= 2 && p.y <= 10 && p.z >= 2 && p.z <= 30) id = kFixed, hu = 600;
-        ct(i, j, k) = hu;
-        labels(i, j, k) = id;
-      }
-  io::saveVolume(AnyVolume(ct), dir / "ct.nrrd");
-  io::saveLabels(labels, dir / "labels.nrrd");
-}
+constexpr int kN = kLimbN;
+constexpr uint16_t kFixed = kLimbFixed;
 
 TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReproducesTheView) {
   REQUIRE_DISPLAY();

@@ -142,7 +142,7 @@ TEST(StudioSceneFile, RoundTripsWithRelativePaths) {
   std::ifstream in(dir / "scene.json");
   const std::string text((std::istreambuf_iterator<char>(in)), {});
   EXPECT_NE(text.find("\"data/ct.nrrd\""), std::string::npos) << text;
-  EXPECT_NE(text.find("\"version\": 3"), std::string::npos);
+  EXPECT_NE(text.find("\"version\": " + std::to_string(kSceneFormatVersion)), std::string::npos);
   const SceneFile r = readSceneFile(dir / "scene.json");
   EXPECT_EQ(r.volume, (dir / "data" / "ct.nrrd").lexically_normal());
   EXPECT_EQ(r.labels, (dir / "data" / "labels.nrrd").lexically_normal());

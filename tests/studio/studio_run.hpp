@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include <thread>
 
 #include "deform_session.hpp"
+#include "test_data.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 
@@ -88,6 +90,47 @@ inline phantom::Phantom writePhantom(const std::filesystem::path& dir, int n) {
 /// with their labels; the test appends its actions and `]}`.
 inline std::string scriptOnPhantom(const std::filesystem::path& dir) {
   return "{\"actions\":[{\"open\":{\"path\":" + q(dir / "ct.nrrd") + ",\"labels\":" + q(dir / "labels.nrrd") + "}},";
+}
+
+/// The joint tests' limb: 40³ voxels of 2 mm, as the pose tests use. Parent bone 1 (z 40..74
+/// mm), child bone 2 (z 12..38 mm): elliptic cylinders (x half-width 10 mm, y 5 mm) touching
+/// across one voxel gap, so the contact zone's widest direction is x; soft tissue (radius
+/// 16 mm) around, a fixed block aside. Written as DIR/ct.nrrd and DIR/labels.nrrd (what
+/// scriptOnPhantom opens).
+inline constexpr int kLimbN = 40;
+inline constexpr uint16_t kLimbSoft = 100, kLimbFixed = 50;
+inline void writeLimb(const std::filesystem::path& dir, VolumeI16& ct, LabelVolume& labels) {
+  Geometry g;
+  g.dims = {kLimbN, kLimbN, kLimbN};
+  g.spacing = {2, 2, 2};
+  ct = VolumeI16(g, -1000);
+  labels = LabelVolume(g);
+  for (int k = 0; k < kLimbN; ++k)
+    for (int j = 0; j < kLimbN; ++j)
+      for (int i = 0; i < kLimbN; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+        uint16_t id = 0;
+        int16_t hu = -1000;
+        if (std::hypot(p.x - 40, p.y - 40) <= 16 && p.z >= 4 && p.z <= 76) id = kLimbSoft, hu = 40;
+        if (std::hypot((p.x - 40) / 10, (p.y - 40) / 5) <= 1) {
+          if (p.z >= 40 && p.z <= 74) id = 1, hu = 1000;
+          if (p.z >= 12 && p.z <= 38) id = 2, hu = 1000;
+        }
+        if (p.x >= 2 && p.x <= 10 && p.y >= 2 && p.y <= 10 && p.z >= 2 && p.z <= 30) id = kLimbFixed, hu = 600;
+        ct(i, j, k) = hu;
+        labels(i, j, k) = id;
+      }
+  io::saveVolume(AnyVolume(ct), dir / "ct.nrrd");
+  io::saveLabels(labels, dir / "labels.nrrd");
+}
+
+/// writeLimb into a new test::tempDir(name) (removed after the test); returns the folder.
+inline std::filesystem::path limbDir(const std::string& name) {
+  const std::filesystem::path dir = test::tempDir(name);
+  VolumeI16 ct;
+  LabelVolume labels;
+  writeLimb(dir, ct, labels);
+  return dir;
 }
 
 /// Updates `session` for `scene` until the exact map has landed from the worker (at most 30 s).

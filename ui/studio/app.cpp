@@ -19,7 +19,6 @@
 
 #include "autosave.hpp"
 #include "deform_session.hpp"
-#include "export_job.hpp"
 #include "gl_texture.hpp"
 #include "panels.hpp"
 #include "script.hpp"
@@ -62,13 +61,11 @@ volatile std::sig_atomic_t gInterrupted = 0;
 
 
 StudioApp::StudioApp(StudioOptions options)
-    : deform_(std::make_unique<DeformSession>()), studioTools_(std::make_unique<StudioTools>()),
-      options_(std::move(options)) {}
+    : studioTools_(std::make_unique<StudioTools>()), options_(std::move(options)) {}
 
 StudioApp::~StudioApp() {
-  deform_.reset();  // its workers read scene_.ct, which is destroyed before deform_ would be
   if (!window_) return;
-  export_.reset();  // GL objects: before the context goes
+  deform_.cancelExport();  // GL objects: before the context goes
   view3d_.reset();
   for (auto& t : sliceTextures_) t.reset();
   ImGui_ImplOpenGL3_Shutdown();
@@ -158,8 +155,8 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !segmentation_.snake().pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !exporting() && !deform_->preview() && !deform_->busy() && !curves_.busy() &&
-         !scene_.authoring.playing && !(joints_ && joints_->busy());
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !segmentation_.snake().pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !deform_.exporting() && !deform_.session().preview() && !deform_.busy() && !curves_.busy() &&
+         !scene_.authoring.playing;
 }
 
 void StudioApp::frame() {
@@ -185,10 +182,10 @@ void StudioApp::pollWorkers() {
   segmentation_.pollSnake();
   pollShapes();
   curves_.poll();
-  pollJoints();
+  deform_.poll();
   const double now = glfwGetTime();
-  tickAnimation(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
-  followKeyframeCamera();
+  deform_.tick(lastTickS_ > 0 ? now - lastTickS_ : 0.0);
+  deform_.followCamera();
   lastTickS_ = now;
   if (unsavedChanges()) autosaver_->tick(scene_, scene_.labelsRevision, glfwGetTime());  // nothing to keep otherwise
 }
@@ -223,17 +220,9 @@ StudioApp::FrameViews StudioApp::updateViews() {
   if (upload3d_ && upload3d_->adopted++ > 0 &&
       view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
     upload3d_.reset();
-  const bool livePoints = points_.dragging() || scene_.authoring.playing || (joints_ && joints_->dragging);
-  v.mapUpdated = deform_->update(scene_, livePoints);
-  if (deform_->exactSolveRunning() && !interacting3d()) {
-    // The exact map is on the worker (just started, or still running): wait for it a little
-    // (40 ms) rather than draw a frame that takes cores from it and that the map would
-    // replace; short enough that the window still draws several frames a second during a
-    // solve of seconds on a real scan.
-    deform_->awaitSolve(std::chrono::milliseconds(40));
-    v.mapUpdated = deform_->update(scene_, livePoints) || v.mapUpdated;
-  }
-  if (v.mapUpdated) view3d_->setBackwardMap(deform_->sharedMap(), deform_->mapRevision());
+  const DeformSession& session = deform_.session();
+  v.mapUpdated = deform_.updateMap(points_.dragging() || scene_.authoring.playing, !interacting3d());
+  if (v.mapUpdated) view3d_->setBackwardMap(session.sharedMap(), session.mapRevision());
   view3d_->stepMap(kUploadBytesPerFrame);  // the map's CPU part is made on a worker
   updateSliceTextures();  // after the map: deformed slices show this frame's map
   view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
@@ -243,7 +232,7 @@ StudioApp::FrameViews StudioApp::updateViews() {
   // While the exact map is being solved the 3D view keeps its last frame instead of refining
   // a picture the map is about to replace: the solve gets both cores, and no refinement is
   // thrown away.
-  const bool holdFor3d = deform_->exactSolveRunning() && !interacting3d();
+  const bool holdFor3d = session.exactSolveRunning() && !interacting3d();
   for (const Pane& p : panes_)
     if (p.is3d() && !holdFor3d)
       v.rendered3d = view3d_->update(scene_, int(p.rect.w), int(p.rect.h), interacting3d());
@@ -265,11 +254,12 @@ void StudioApp::presentFrame() {
 // --log-frames: one line per frame (docs/studio.md; ui/studio/bench/frame_stats.py reads it).
 void StudioApp::logFrame(const FrameViews& v) {
   const bool map = v.mapUpdated;
+  const DeformSession& session = deform_.session();
   std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d step %d map_pending %d t_ms %.1f\n",
               frameNumber_, lastFrameMs_, v.rendered3d ? 1 : 0, v.rendered3d ? view3d_->lastRenderMs() : 0.0,
-              view3d_->lastScale(), dragPane_ ? 1 : 0, map ? deform_->lastUpdateMs() : 0.0,
-              map ? deform_->timings()->mapMs : 0.0, map ? deform_->timings()->rhoCacheMs : 0.0,
-              map ? deform_->lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0, sliceMap() ? 1 : 0,
+              view3d_->lastScale(), dragPane_ ? 1 : 0, map ? session.lastUpdateMs() : 0.0,
+              map ? session.timings()->mapMs : 0.0, map ? session.timings()->rhoCacheMs : 0.0,
+              map ? session.lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0, sliceMap() ? 1 : 0,
               view3d_->lastStepFactor(), view3d_->mapPending() ? 1 : 0, 1000 * glfwGetTime());
   std::fflush(stdout);  // the log is read while the studio runs
 }
@@ -287,8 +277,8 @@ void StudioApp::pollLoader() {
   if (!pendingLoad_) return;
   // The current volume and labels are read by workers: the queued tasks finish first (a save
   // among them must not be lost), the deformation's solves are only caches and stop.
-  if (pendingLoad_->error.empty() && (tasks_.busy() || deform_->busy())) {
-    deform_->cancel();
+  if (pendingLoad_->error.empty() && (tasks_.busy() || deform_.session().busy())) {
+    deform_.session().cancel();
     return;
   }
   LoadResult r = std::move(*pendingLoad_);
@@ -324,6 +314,14 @@ void StudioApp::adoptLoad(LoadResult r) {
     scene_.resetView();
   }
   undo_.clear();
+  // A scene file describes the whole session: the joint tool takes its joints, or none.
+  if (r.scene && (r.scene->pose || !deform_.joints().pose.joints.empty())) {
+    try {
+      deform_.restorePose(r.scene->pose ? r.scene->pose->pose : deformation::Pose{}, scene_.authoring.keyframe);
+    } catch (const std::exception& e) {
+      notify(std::string("joint tool: ") + e.what());  // e.g. a pose without its label map
+    }
+  }
   segmentation_.tools().activeLabel = std::max<uint16_t>(1, scene_.labels.table().empty() ? 1 : scene_.labels.table().front().id);
   // The 3D view's textures are uploaded a slab per frame from the next frame on (the slices
   // show the new volume at once).

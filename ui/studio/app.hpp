@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "curve_controller.hpp"
+#include "deform_controller.hpp"
 #include "file_browser.hpp"
 #include "label_tools.hpp"
 #include "layout.hpp"
@@ -38,9 +39,6 @@ class WindowContext;
 class ScriptRunner;
 class Autosaver;
 class GlTexture;
-class DeformSession;
-class ExportJob;
-class JointTool;
 struct StudioTools;
 
 struct StudioOptions {
@@ -100,8 +98,6 @@ class StudioApp {
   ShapeJob& shapeJob() { return shapes_; }
   /// Curve analogy by drawing (Illustration panel): curve_controller.hpp.
   CurveController& curves() { return curves_; }
-  /// While playing or scrubbing a track with keyframed cameras, the 3D view follows them.
-  void followKeyframeCamera();
   void goToBookmark(size_t index);
   void deleteBookmark(size_t index);
   void resetView();
@@ -113,33 +109,20 @@ class StudioApp {
   SlicePlane planeOf(const Pane& pane) const;
   /// Sets the slice window to a windowPresets() entry by name (one undo step).
   void setWindowPreset(const std::string& name);
-  bool undo();
-  bool redo();
-  // Deformation authoring: the control points, track, engine and rigid edits
-  // (point_controller.hpp); playback and the movie export (app_animation.cpp).
+  /// Undoes / redoes the last edit (queued behind running label edits; not during a drag).
+  bool undo() { return undoStep(false); }
+  bool redo() { return undoStep(true); }
+  // Deformation authoring: the control points, track and engine edits (point_controller.hpp);
+  // the deformation session, rigid bones, joint tool, playback and the movie export
+  // (deform_controller.hpp).
   PointController& points() { return points_; }
+  DeformController& deform() { return deform_; }
   /// Where the timeline drew each keyframe's block in the last frame (window pixels: x, y,
   /// width, height); its rightmost kKeyframeHandlePx are the duration handle.
   static constexpr float kKeyframeHandlePx = 6;
   std::vector<std::array<float, 4>>& keyframeBlocks() { return keyframeBlocks_; }
   /// The window's size in screen pixels (what scripted coordinates refer to).
   std::pair<int, int> windowSize() const;
-  void play(bool on);
-  /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4 on a worker with
-  /// its own headless context, through animation::MovieRenderer (what `vellum animate` runs).
-  /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`).
-  void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0);
-  void cancelExport();
-  bool exporting() const;
-  /// (frames done, frame count) of the running export.
-  std::pair<int, int> exportProgress() const;
-  /// The last export's error ("" after success).
-  const std::string& lastExportError() const { return exportError_; }
-  /// The `vellum animate` command that writes the same frames as the last export.
-  const std::string& lastAnimateCommand() const { return animateCommand_; }
-  const DeformSession& deformSession() const { return *deform_; }
-  /// The joint tool (joint_tool.hpp; made on first use).
-  JointTool& joints();
   /// The `vellum render` command for the 3D view at its pane size (512² without a 3D pane).
   std::string cliCommand(const std::string& out) const;
   /// Saves the scene (and the label map next to it when it has no file or was edited). The
@@ -230,12 +213,6 @@ class StudioApp {
   StudioTools& studioTools() { return *studioTools_; }
 
  private:
-  // The joint tool (joint_tool.cpp): adopts its worker's results, a left click while it waits
-  // for a pick (true: the click was its), its axes drawn over a pane.
-  std::shared_ptr<JointTool> joints_;
-  void pollJoints();
-  bool jointClick(const Pane& pane, double x, double y);
-  void drawJoints(const Pane& pane);
   void createWindow();
   void frame();
   /// What a frame did, for the frame log.
@@ -261,14 +238,10 @@ class StudioApp {
   void clickIn3d(const Pane& pane, double x, double y);
   std::pair<int, int> pane3dSize() const;
   void drawPlanesIn3d(const Pane& pane);
-  void tickAnimation(double dtS);
   PointController points_{*this};
   double lastTickS_ = 0;
-  std::unique_ptr<DeformSession> deform_;
-  std::unique_ptr<ExportJob> export_;
   std::unique_ptr<StudioTools> studioTools_;
   std::vector<std::array<float, 4>> keyframeBlocks_;
-  std::string exportError_, animateCommand_;
 
   StudioOptions options_;
   GLFWwindow* window_ = nullptr;
@@ -284,6 +257,9 @@ class StudioApp {
   Scene scene_;
   SegmentationController segmentation_{*this};  ///< before tasks_: its queued edits refer to it
   UndoStack undo_;
+  /// After scene_ (its workers read the CT) and undo_ (its edits are undo steps).
+  DeformController deform_{*this};
+  bool undoStep(bool forward);
   std::optional<ViewState> viewEditBefore_;
   void pushViewEdit(const std::string& description, const ViewState& before);
   void viewChanged();  ///< layout, preset ... changed: redraw slices and the 3D view

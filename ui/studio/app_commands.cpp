@@ -150,36 +150,28 @@ void StudioApp::pollTasks() {
   });
 }
 
-bool StudioApp::undo() {
-  if (points_.dragging()) return false;  // not in the middle of a drag
+bool StudioApp::undoStep(bool forward) {
+  if (points_.dragging() || deform_.dragging()) return false;  // not in the middle of a drag
   if (labelsFrozen()) {  // after the running edits, in order
-    tasks_.push("undo", [this](Progress&) { return TaskQueue::Apply([this] { undo(); }); });
+    tasks_.push(forward ? "redo" : "undo",
+                [this, forward](Progress&) { return TaskQueue::Apply([this, forward] { undoStep(forward); }); });
     return true;
   }
   ViewState view = scene_.viewState();
-  if (!undo_.undo(scene_.labels, &scene_.authoring, &view)) return false;
+  if (!undo_.step(forward, scene_.labels, &scene_.authoring, &view)) return false;
   if (undo_.lastWasLabels()) scene_.touchLabels();
   if (undo_.lastWasView()) scene_.setViewState(view), view3d_->invalidate();
   if (const auto folder = undo_.takeShapesToLoad()) makeShapes(*folder);
-  markSlicesDirty();
-  return true;
-}
-
-bool StudioApp::redo() {
-  if (points_.dragging()) return false;  // not in the middle of a drag
-  if (labelsFrozen()) {
-    tasks_.push("redo", [this](Progress&) { return TaskQueue::Apply([this] { redo(); }); });
-    return true;
+  if (auto pose = undo_.takePoseToRestore()) {
+    try {
+      deform_.restorePose(pose->pose, pose->keyframe);
+    } catch (const std::exception& e) {  // the pose is restored; its preparation failed
+      notify(std::string("joint tool: ") + e.what());
+    }
   }
-  ViewState view = scene_.viewState();
-  if (!undo_.redo(scene_.labels, &scene_.authoring, &view)) return false;
-  if (undo_.lastWasLabels()) scene_.touchLabels();
-  if (undo_.lastWasView()) scene_.setViewState(view), view3d_->invalidate();
-  if (const auto folder = undo_.takeShapesToLoad()) makeShapes(*folder);
   markSlicesDirty();
   return true;
 }
-
 
 void StudioApp::makeShapes(const fs::path& folder) {
   if (!scene_.hasVolume()) throw Error("no volume is open");

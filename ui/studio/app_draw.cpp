@@ -37,7 +37,7 @@ ImU32 planeColour(const Vec3& normal) {
 // ---- slices ----------------------------------------------------------------------------
 
 const deformation::MapSampler* StudioApp::sliceMap() const {
-  const deformation::MapSampler* map = scene_.view.deformedSlices ? deform_->sampler() : nullptr;
+  const deformation::MapSampler* map = scene_.view.deformedSlices ? deform_.session().sampler() : nullptr;
   // A map solved for the previous volume is not drawn over a new one (renderSlice refuses it).
   return map && map->output().dims == scene_.ct.geometry().dims && map->output().approxEqual(scene_.ct.geometry())
              ? map
@@ -86,7 +86,7 @@ void StudioApp::updateSliceTextures() {
       << segmentation_.tools().thresholdPreview << ' ' << segmentation_.tools().threshold.lower << ' ' << segmentation_.tools().threshold.upper << ' '
       << scene_.hiddenLabels.size();
   // Deformed slices follow the map (every move of a drag); undeformed ones ignore it.
-  key << " map " << (map ? deform_->mapRevision() : 0);
+  key << " map " << (map ? deform_.session().mapRevision() : 0);
   // While a control point is dragged the deformed slices are resampled every frame through a
   // new map, and while a slice pane is dragged (the crosshair moves) all three every frame:
   // at reduced resolution (1/2, or 1/4 when 1/2 took over kSliceDragBudgetMs), full again when
@@ -166,7 +166,7 @@ void StudioApp::drawPanes() {
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawOrientationMarker(dl, {b.x - 44, b.y - 44}, 30, scene_.render.camera);
       points_.draw(p);
-      drawJoints(p);
+      deform_.draw(p);
       curves_.draw(p);
       continue;
     }
@@ -193,7 +193,7 @@ void StudioApp::drawPanes() {
                                    ? std::optional<Vec3>(plane.toMm(mouseX_ - a.x, mouseY_ - a.y))
                                    : std::nullopt);
     points_.draw(p);
-    drawJoints(p);
+    deform_.draw(p);
     dl->AddRect(a, b, planeColour(plane.normal));
     std::string title = sliceAxisName(*p.slice);
     if (const SliceNavigation& nav = sliceNav_[static_cast<size_t>(*p.slice)]; nav.zoom != 1 || nav.panU != 0 || nav.panV != 0) {
@@ -256,9 +256,9 @@ void StudioApp::drawHud() {
     else
       hud << "  cinematic " << view3d_->cinematicSamples() << "/" << scene_.render.cinematic.samples << " samples";
   }
-  if (deform_->map())
-    hud << "   map " << deform_->lastUpdateMs() << " ms"
-        << (deform_->solving() ? " (exact map solving)" : deform_->preview() ? " (preview s=8)" : "");
+  if (deform_.session().map())
+    hud << "   map " << deform_.session().lastUpdateMs() << " ms"
+        << (deform_.session().solving() ? " (exact map solving)" : deform_.session().preview() ? " (preview s=8)" : "");
   if (sliceMap()) hud << "   deformed slices " << lastSlicesMs_ << " ms";
   if (scene_.hasVolume()) {
     const Pane* p = paneAt(mouseX_, mouseY_);
@@ -312,11 +312,11 @@ std::vector<std::string> StudioApp::runningWork() const {
     const auto [stage, f] = shapes_.progress();
     r.push_back(with(stage, f));
   }
-  for (const std::string& d : deform_->running())
+  for (const std::string& d : deform_.session().running())
     if (!points_.dragging()) r.push_back(d);  // a drag's own preview is what the drag shows
   if (studioTools_->figure.job.busy()) r.push_back(with("export figure", studioTools_->figure.job.progress().second));
-  if (exporting()) {
-    const auto [done, count] = exportProgress();
+  if (deform_.exporting()) {
+    const auto [done, count] = deform_.exportProgress();
     r.push_back("exporting frame " + std::to_string(done) + " / " + std::to_string(count));
   }
   if (curves_.busy()) r.push_back("curve analogy");

@@ -96,7 +96,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
   if (ImGui::GetIO().WantCaptureMouse || !scene_.hasVolume()) return;
   const Pane* pane = paneAt(mouseX_, mouseY_);
   if (!pane) return;
-  if (button == GLFW_MOUSE_BUTTON_LEFT && jointClick(*pane, mouseX_, mouseY_)) return;  // the joint tool's pick
+  if (button == GLFW_MOUSE_BUTTON_LEFT && deform_.click(*pane, mouseX_, mouseY_)) return;  // the joint tool's pick
   // The ruler or angle tool takes left clicks in the slices.
   if (!pane->is3d() && button == GLFW_MOUSE_BUTTON_LEFT &&
       studioTools_->measure.click(*pane->slice, planeOf(*pane).toMm(mouseX_ - pane->rect.x, mouseY_ - pane->rect.y)))
@@ -122,7 +122,7 @@ void StudioApp::onMouseButton(int button, int action, int mods) {
 
 void StudioApp::clickIn3d(const Pane& pane, double x, double y) {
   // The surface as the view draws it, through the deformation when one is shown.
-  const deformation::MapSampler* map = deform_->sampler();
+  const deformation::MapSampler* map = deform_.session().sampler();
   const auto p = pickSurface(scene_, int(pane.rect.w), int(pane.rect.h), x - pane.rect.x, y - pane.rect.y, map);
   if (!p) return;  // nothing visible under the pointer
   // Labels live in the undeformed volume: seeds go to the picked point's source. The crosshair
@@ -182,7 +182,7 @@ void StudioApp::onKey(int key, int action, int mods) {
       setLayout(key == GLFW_KEY_1 ? Layout::ThreeD : key == GLFW_KEY_2 ? Layout::TwoByTwo : Layout::OneByThree);
     } else if (key == GLFW_KEY_ESCAPE) {
       // Escape cancels what runs (a snake, a load); with nothing running, back to Navigate.
-      if (exporting()) cancelExport();
+      if (deform_.exporting()) deform_.cancelExport();
       else if (tasks_.busy()) tasks_.cancel();
       else if (segmentation_.snake().busy()) segmentation_.snake().cancel();
       else if (loader_.busy()) loader_.cancel();

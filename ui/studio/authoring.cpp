@@ -128,4 +128,24 @@ bool samePoints(const deformation::KeyframeTrack& a, const deformation::Keyframe
                     [](const auto& x, const auto& y) { return x.points == y.points; });
 }
 
+bool sameJoints(const deformation::Pose& a, const deformation::Pose& b) {
+  if (a.joints.size() != b.joints.size() || a.fixed.ids != b.fixed.ids || a.fixed.boxesMm != b.fixed.boxesMm) return false;
+  for (size_t j = 0; j < a.joints.size(); ++j) {
+    const deformation::Joint &x = a.joints[j], &y = b.joints[j];
+    if (x.name != y.name || x.parent != y.parent || x.child != y.child || x.estimateAxis != y.estimateAxis) return false;
+    if (!x.estimateAxis && (x.axisA != y.axisA || x.axisB != y.axisB)) return false;
+  }
+  return true;
+}
+
+bool samePose(const deformation::Pose& a, const deformation::Pose& b) {
+  const deformation::KeyframeTrack &s = a.angles, &t = b.angles;
+  if (!sameJoints(a, b) || s.interpolation != t.interpolation || s.loop != t.loop ||
+      s.keyframes.size() != t.keyframes.size() || !samePoints(s, t))
+    return false;
+  for (size_t k = 0; k < s.keyframes.size(); ++k)
+    if (s.keyframes[k].durationS != t.keyframes[k].durationS) return false;
+  return true;
+}
+
 }  // namespace vellum::studio

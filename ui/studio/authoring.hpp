@@ -37,6 +37,10 @@ struct Authoring {
   /// are; its bones then take their joints' transforms at the angles of the time shown
   /// (`vellum pose`'s exact bones) instead of the best rigid fit of the map.
   std::shared_ptr<const deformation::Pose> pose;
+  /// The joint tool's pose as edited (JointTool::pose: joints, fixed regions, angle keyframes),
+  /// what the scene file saves beside the scene; null: no joints. `pose` follows it once the
+  /// tool has prepared it.
+  std::shared_ptr<const deformation::Pose> joints;
   /// The engine (Deformation panel, generated from deformParamsTable(); saved in the scene).
   deformation::DeformParams engine = studioDeformParams();
   uint64_t revision = 0;              ///< bumped by every change of what is drawn
@@ -70,6 +74,11 @@ void deletePoint(Authoring& a, int index);
 
 /// True when both tracks have the same keyframes' points (positions and attributes).
 bool samePoints(const deformation::KeyframeTrack& a, const deformation::KeyframeTrack& b);
+/// The same joints (names, bones, axes as given or "estimate": estimated axes are not
+/// compared) and fixed regions: what the joint tool's preparation depends on.
+bool sameJoints(const deformation::Pose& a, const deformation::Pose& b);
+/// sameJoints() and the same angle track (angles, durations, interpolation, loop).
+bool samePose(const deformation::Pose& a, const deformation::Pose& b);
 
 /// Label ids that look like bone by name (femur, tibia, fibula, patella, bone, ...): the
 /// default rigid bodies of a label map.

@@ -81,7 +81,9 @@ std::optional<fs::path> Autosaver::recoverable(const Scene& scene) {
 
 void Autosaver::remove(const fs::path& target) {
   std::error_code ec;  // best effort: a file already gone is fine
-  for (const fs::path& p : {target, labelsFor(target), target.parent_path() / (target.stem().string() + ".keyframes.json")})
+  const fs::path stem = target.parent_path() / target.stem();  // writeSceneFile's files beside it
+  for (const fs::path& p : {target, labelsFor(target), fs::path(stem.string() + ".keyframes.json"),
+                            fs::path(stem.string() + ".pose.json")})
     fs::remove(p, ec);
 }
 
@@ -116,7 +118,7 @@ void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
   std::string text = target.string() + "|" + file.volume.string() + "|" + file.labels.string();
   text += sceneViewJson(file).dump();
   // The keyframe track (control points): its revision counts every edit (and playback).
-  if (file.deformation) text += " track " + std::to_string(scene.authoring.revision);
+  if (file.deformation || file.pose) text += " track " + std::to_string(scene.authoring.revision);
   if (!labelsEdited && text == lastSceneText_) return;
   lastSceneText_ = text;
   std::optional<LabelVolume> labels;

@@ -11,6 +11,7 @@
 #include <iostream>
 
 #include "app.hpp"
+#include "deform_controller.hpp"
 #include "deform_session.hpp"
 #include "view3d.hpp"
 #include "vellum/app/pose_pipeline.hpp"
@@ -52,6 +53,7 @@ void JointTool::prepare(StudioApp& app) {
   error_.clear();
   samples_.reset();
   Scene& scene = app.scene();
+  publish(app);
   if (pose.joints.empty()) {  // nothing posed: the authoring state is the user's again
     scene.authoring.pose.reset();
     scene.authoring.fixed = {};
@@ -112,7 +114,12 @@ void JointTool::poll(StudioApp& app) {
   work_ = {};
 }
 
+void JointTool::publish(StudioApp& app) const {
+  app.scene().authoring.joints = pose.joints.empty() ? nullptr : std::make_shared<const Pose>(pose);
+}
+
 void JointTool::apply(StudioApp& app) const {
+  publish(app);
   if (!samples_) return;
   Authoring& a = app.scene().authoring;
   KeyframeTrack t;
@@ -167,7 +174,8 @@ void JointTool::addDraftJoint(StudioApp& app) {
   if (next.angles.keyframes.empty()) next.angles.keyframes.push_back(Keyframe{});
   for (Keyframe& k : next.angles.keyframes) k.points.push_back({{0, 0, 0}, {0, 0, 0}, {}});
   linkJoints(next);  // Error: a bone moved twice, a cycle, a child fixed, a degenerate axis
-  pose = std::move(next);
+  const Pose before = std::exchange(pose, std::move(next));
+  app.deform().pushPoseEdit("add joint " + joint.name, before, app.scene().authoring.keyframe);
   selected = int(pose.joints.size()) - 1;
   draftParent.clear();
   draftChild.clear();
@@ -179,6 +187,7 @@ void JointTool::addDraftJoint(StudioApp& app) {
 
 void JointTool::removeJoint(StudioApp& app, int index) {
   if (index < 0 || index >= int(pose.joints.size())) throw Error("no joint " + std::to_string(index));
+  const Pose before = pose;
   pose.joints.erase(pose.joints.begin() + index);
   for (Keyframe& k : pose.angles.keyframes)
     if (index < int(k.points.size())) k.points.erase(k.points.begin() + index);
@@ -186,6 +195,7 @@ void JointTool::removeJoint(StudioApp& app, int index) {
   for (Joint& j : pose.joints) j.proximal = -1;
   linkJoints(pose);
   selected = std::clamp(selected, 0, std::max(0, int(pose.joints.size()) - 1));
+  app.deform().pushPoseEdit("remove joint " + before.joints[size_t(index)].name, before, app.scene().authoring.keyframe);
   prepare(app);
 }
 
@@ -196,7 +206,8 @@ void JointTool::setFixed(StudioApp& app, FixedRegions fixed) {
   next.fixed = std::move(fixed);
   for (Joint& j : next.joints) j.proximal = -1;
   linkJoints(next);  // a child bone fixed is refused
-  pose = std::move(next);
+  const Pose before = std::exchange(pose, std::move(next));
+  app.deform().pushPoseEdit("fixed regions", before, app.scene().authoring.keyframe);
   prepare(app);
 }
 
@@ -211,10 +222,13 @@ void JointTool::setAngle(StudioApp& app, int index, double deg) {
   if (!(std::abs(deg) <= 360)) throw Error("a joint angle must be in -360..360 degrees");
   Authoring& a = app.scene().authoring;
   const int k = clampKeyframe(pose, a.keyframe);
+  const Pose before = pose;
   ControlPoint& p = pose.angles.keyframes[size_t(k)].points[size_t(index)];
   p.source.x = p.target.x = deg;
   a.timeS.reset();  // the edited keyframe is shown
   a.playing = false;
+  // One undo step per call; during a slider drag the drag's end makes the one step.
+  if (!angleDragBefore_) app.deform().pushPoseEdit("angle " + pose.joints[size_t(index)].name, before, a.keyframe);
   apply(app);
 }
 
@@ -222,9 +236,12 @@ void JointTool::addKeyframe(StudioApp& app) {
   if (pose.angles.keyframes.empty()) throw Error("add a joint first");
   Authoring& a = app.scene().authoring;
   const int k = clampKeyframe(pose, a.keyframe);
+  const Pose before = pose;
+  const int keyframeBefore = a.keyframe;
   pose.angles.keyframes.insert(pose.angles.keyframes.begin() + k + 1, pose.angles.keyframes[size_t(k)]);
   a.keyframe = k + 1;
   a.timeS.reset();
+  app.deform().pushPoseEdit("add pose keyframe", before, keyframeBefore);
   apply(app);
 }
 
@@ -240,15 +257,48 @@ void JointTool::selectKeyframe(StudioApp& app, int k) {
 void JointTool::setDuration(StudioApp& app, double seconds) {
   if (pose.angles.keyframes.empty()) throw Error("add a joint first");
   if (!(seconds > 0 && seconds <= kMaxKeyframeDurationS)) throw Error("a keyframe's duration must be in (0, 3600] s");
+  const Pose before = pose;
   pose.angles.keyframes[size_t(clampKeyframe(pose, app.scene().authoring.keyframe))].durationS = seconds;
+  app.deform().pushPoseEdit("pose keyframe duration", before, app.scene().authoring.keyframe);
   apply(app);
 }
 
 void JointTool::load(StudioApp& app, const std::filesystem::path& path) {
-  pose = loadPose(path);  // FileError naming the file and the field
+  Pose loaded = loadPose(path);  // FileError naming the file and the field
+  const int keyframeBefore = app.scene().authoring.keyframe;
+  const Pose before = std::exchange(pose, std::move(loaded));
   selected = 0;
   app.scene().authoring.keyframe = int(pose.angles.keyframes.size()) - 1;  // `vellum pose`'s default pose
   app.scene().authoring.timeS.reset();
+  app.deform().pushPoseEdit("load pose", before, keyframeBefore);
+  prepare(app);
+}
+
+void JointTool::beginAngleDrag(const StudioApp& app) {
+  angleDragBefore_ = std::pair{pose, const_cast<StudioApp&>(app).scene().authoring.keyframe};
+}
+
+void JointTool::endAngleDrag(StudioApp& app) {
+  if (!angleDragBefore_) return;
+  auto [before, keyframe] = std::move(*angleDragBefore_);
+  angleDragBefore_.reset();
+  app.deform().pushPoseEdit("angle", std::move(before), keyframe);
+}
+
+void JointTool::restore(StudioApp& app, Pose p, int keyframe) {
+  angleDragBefore_.reset();
+  Authoring& a = app.scene().authoring;
+  a.keyframe = keyframe;
+  a.timeS.reset();
+  a.playing = false;
+  if (sameJoints(pose, p) && (busy() || ready()) && generation_ == app.scene().volumeGeneration) {
+    // Only the angles (or keyframes) differ: the joints' axes and samples stay; cheap.
+    pose.angles = std::move(p.angles);
+    apply(app);
+    return;
+  }
+  pose = std::move(p);
+  selected = std::clamp(selected, 0, std::max(0, int(pose.joints.size()) - 1));
   prepare(app);
 }
 
@@ -285,99 +335,6 @@ void JointTool::save(const StudioApp& app, const std::filesystem::path& path, co
   }
 }
 
-// --- StudioApp: the tool's member, clicks and drawing -------------------------------------
-
-JointTool& StudioApp::joints() {
-  if (!joints_) joints_ = std::make_shared<JointTool>();
-  return *joints_;
-}
-
-void StudioApp::pollJoints() {
-  if (joints_) joints_->poll(*this);
-}
-
-bool StudioApp::jointClick(const Pane& pane, double x, double y) {
-  if (!joints_ || joints_->pick == JointPick::None) return false;
-  JointTool& jt = *joints_;
-  std::optional<Vec3> source;
-  if (pane.is3d()) {  // the visible surface, back to the undeformed volume the labels live in
-    const deformation::MapSampler* map = deform_->sampler();
-    const auto p = pickSurface(scene_, int(pane.rect.w), int(pane.rect.h), x - pane.rect.x, y - pane.rect.y, map);
-    if (p) source = map ? map->sourceMm(*p) : p;
-  } else {
-    source = sliceSourceMm(planeOf(pane).toMm(x - pane.rect.x, y - pane.rect.y));
-  }
-  if (!source) {
-    notify("nothing under the pointer");
-    return true;
-  }
-  const JointPick what = jt.pick;
-  jt.pick = JointPick::None;
-  if (what == JointPick::AxisA || what == JointPick::AxisB) {
-    (what == JointPick::AxisA ? jt.draftAxisA : jt.draftAxisB) = *source;
-    return true;
-  }
-  const Geometry& g = scene_.labels.geometry();
-  const Vec3 ijk = g.physicalToIndex(*source);
-  const int64_t i = std::llround(ijk.x), j = std::llround(ijk.y), k = std::llround(ijk.z);
-  const uint16_t id = g.contains(i, j, k) ? scene_.labels(i, j, k) : 0;
-  if (id == 0) {
-    notify("no label under the pointer: click on a bone");
-    return true;
-  }
-  std::vector<uint16_t>& ids = what == JointPick::Parent ? jt.draftParent : jt.draftChild;
-  if (std::find(ids.begin(), ids.end(), id) == ids.end()) ids.push_back(id);
-  return true;
-}
-
-void StudioApp::drawJoints(const Pane& pane) {
-  if (!joints_) return;
-  const JointTool& jt = *joints_;
-  ImDrawList* dl = ImGui::GetBackgroundDrawList();
-  dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
-  const auto at = [&](const Vec3& mm) -> std::optional<ImVec2> {
-    const auto p = points_.pointInPane(pane, mm);
-    if (!p) return std::nullopt;
-    return ImVec2{float(p->first), float(p->second)};
-  };
-  // Axes as shown: a joint's axis moves with its proximal joint (chains), at the angles of the
-  // time shown; drawn 30 mm each side of its centre.
-  const Pose& pose = jt.pose;
-  if (jt.ready() && !pose.angles.keyframes.empty()) {
-    const Authoring& a = scene_.authoring;
-    const double t = a.timeS.value_or(keyframeStartS(pose.angles, std::clamp(a.keyframe, 0, int(pose.angles.keyframes.size()) - 1)));
-    const std::vector<RigidTransform> moved = jointTransforms(pose, pose.anglesAt(t));
-    const std::vector<double> angles = pose.anglesAt(t);
-    for (size_t j = 0; j < pose.joints.size(); ++j) {
-      const Joint& joint = pose.joints[j];
-      const RigidTransform m = joint.proximal < 0 ? RigidTransform{} : moved[size_t(joint.proximal)];
-      const Vec3 c = m.apply((joint.axisA + joint.axisB) * 0.5);
-      const Vec3 d = normalized(m.rotation * (joint.axisB - joint.axisA));
-      const auto p0 = at(c - d * 30.0), p1 = at(c + d * 30.0), pc = at(c);
-      if (!p0 || !p1 || !pc) continue;
-      const bool sel = int(j) == jt.selected;
-      const ImU32 col = sel ? IM_COL32(255, 220, 40, 255) : IM_COL32(255, 150, 40, 220);
-      dl->AddLine(*p0, *p1, IM_COL32(0, 0, 0, 200), sel ? 5.f : 4.f);
-      dl->AddLine(*p0, *p1, col, sel ? 3.f : 2.f);
-      dl->AddCircleFilled(*pc, sel ? 5.f : 4.f, col);
-      char text[96];
-      std::snprintf(text, sizeof text, "%s %.1f deg", joint.name.c_str(), angles[j]);
-      dl->AddText({pc->x + 8, pc->y - 18}, IM_COL32(0, 0, 0, 255), text);
-      dl->AddText({pc->x + 7, pc->y - 19}, col, text);
-    }
-  }
-  for (const auto& p : {jt.draftAxisA, jt.draftAxisB})
-    if (p)
-      if (const auto q = at(*p)) dl->AddCircle(*q, 6.f, IM_COL32(120, 220, 255, 255), 12, 2.f);
-  if (jt.draftAxisA && jt.draftAxisB)
-    if (const auto q0 = at(*jt.draftAxisA), q1 = at(*jt.draftAxisB); q0 && q1)
-      dl->AddLine(*q0, *q1, IM_COL32(120, 220, 255, 255), 2.f);
-  dl->PopClipRect();
-}
-
-}  // namespace vellum::studio
-
-namespace vellum::studio {
 namespace {
 std::vector<uint16_t> idsOf(const nlohmann::json& v) {
   if (v.is_number_integer()) return {v.get<uint16_t>()};
@@ -387,7 +344,7 @@ Vec3 pointOf(const nlohmann::json& v) { return {v.at(0).get<double>(), v.at(1).g
 }  // namespace
 
 void jointScriptAction(StudioApp& app, const nlohmann::json& v) {
-  JointTool& jt = app.joints();
+  JointTool& jt = app.deform().joints();
   if (!v.is_object() || v.size() != 1) throw Error("\"joint\" takes an object with one key");
   const std::string op = v.begin().key();
   const nlohmann::json& x = v.begin().value();
@@ -439,7 +396,7 @@ void jointScriptAction(StudioApp& app, const nlohmann::json& v) {
 
 void saveShownVolume(StudioApp& app, const std::filesystem::path& path) {
   const Scene& scene = app.scene();
-  const deformation::MapSampler* map = app.deformSession().sampler();
+  const deformation::MapSampler* map = app.deform().session().sampler();
   if (!map) throw Error("no deformation is shown");
   io::OutputPlan().input(scene.volumePath).output(path, "the shown volume").check();
   const VolumeI16& ct = scene.ct;

@@ -13,6 +13,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -67,8 +68,11 @@ class JointTool {
   /// The fixed regions (they do not move at all), then prepared again.
   void setFixed(StudioApp& app, deformation::FixedRegions fixed);
   /// Joint `index`'s angle (deg) in the edited keyframe; cheap (no worker): the points move,
-  /// the map follows through the deformation session.
+  /// the map follows through the deformation session. One undo step, or, between
+  /// beginAngleDrag() and endAngleDrag() (the panel's slider held), part of the drag's one step.
   void setAngle(StudioApp& app, int index, double deg);
+  void beginAngleDrag(const StudioApp& app);
+  void endAngleDrag(StudioApp& app);
   /// The edited keyframe's angle of joint `index`.
   double angle(const StudioApp& app, int index) const;
   /// A keyframe after the edited one with its angles (the keyframe timeline's rule); edited next.
@@ -84,6 +88,10 @@ class JointTool {
   /// The `vellum pose` arguments for `poseFile` -> `out` at the edited keyframe's time.
   std::string poseArguments(const StudioApp& app, const std::filesystem::path& poseFile,
                             const std::filesystem::path& out) const;
+  /// Takes `pose` (undo/redo of a pose edit, a scene opened) with `keyframe` edited: when only
+  /// its angles differ from the pose now, the axes and samples stay (cheap); else it is
+  /// prepared again. Not an undo step.
+  void restore(StudioApp& app, deformation::Pose pose, int keyframe);
   /// Adopts a finished preparation (the frame loop calls it).
   void poll(StudioApp& app);
   /// The time (s) of the edited keyframe in the pose's track.
@@ -96,11 +104,15 @@ class JointTool {
   };
   /// Starts estimateAxes + poseSamples on a copy of the labels (a running one is cancelled).
   void prepare(StudioApp& app);
+  /// Copies the pose as edited into the scene (Authoring::joints: what the scene file saves).
+  void publish(StudioApp& app) const;
   /// The pose's keyframes as the authoring track (points posed by posedPoints), its rigid and
   /// fixed ids, and the pose for the exact bones.
   void apply(StudioApp& app) const;
 
   std::future<Prepared> work_;
+  /// The pose and edited keyframe when the angle slider was pressed (its release makes the undo step).
+  std::optional<std::pair<deformation::Pose, int>> angleDragBefore_;
   std::chrono::steady_clock::time_point started_;  ///< of the running preparation
   uint64_t generation_ = 0;  ///< Scene::volumeGeneration the samples were made for
   std::shared_ptr<Progress> progress_;

@@ -32,7 +32,7 @@ void rigidBones(StudioApp& app) {
         std::vector<uint16_t> ids = a.rigidLabels;
         if (on) ids.push_back(l.id);
         else ids.erase(std::remove(ids.begin(), ids.end(), l.id), ids.end());
-        app.points().setRigid(std::move(ids), a.falloffMm, on ? "rigid label on" : "rigid label off");
+        app.deform().setRigid(std::move(ids), a.falloffMm, on ? "rigid label on" : "rigid label off");
       }
     }
     if (app.scene().labels.table().empty()) ImGui::TextDisabled("no label table");
@@ -48,7 +48,7 @@ void rigidBones(StudioApp& app) {
     a.touch();
   }
   if (ImGui::IsItemDeactivatedAfterEdit() && dragStart) {
-    app.points().setRigid(a.rigidLabels, a.falloffMm, "rigid falloff", dragStart);
+    app.deform().setRigid(a.rigidLabels, a.falloffMm, "rigid falloff", dragStart);
     dragStart.reset();
   }
 }
@@ -92,10 +92,10 @@ void pointsRow(StudioApp& app) {
     if (e.finished) app.points().endEngineEdit();
     ImGui::TreePop();
   }
-  if (const auto* t = app.deformSession().timings(); t && app.deformSession().map()) {
-    ImGui::Text("map update %.1f ms%s", app.deformSession().lastUpdateMs(), app.deformSession().preview() ? " (preview)" : "");
+  if (const auto* t = app.deform().session().timings(); t && app.deform().session().map()) {
+    ImGui::Text("map update %.1f ms%s", app.deform().session().lastUpdateMs(), app.deform().session().preview() ? " (preview)" : "");
     ImGui::Text("  MLS %.1f, rho %.1f (%d fields), rigid %.1f", t->mapMs, t->rhoCacheMs, t->rhoFieldsRebuilt,
-                app.deformSession().lastRigidityMs());
+                app.deform().session().lastRigidityMs());
   }
 }
 
@@ -217,7 +217,7 @@ void timeline(StudioApp& app) {
   bool loop = a.track.loop;
   if (ImGui::Checkbox("Loop", &loop)) app.points().editTrack("loop", [loop](Authoring& x) { x.track.loop = loop; });
   ImGui::SameLine();
-  if (ImGui::Button(a.playing ? "Pause" : "Play")) guarded(app, [&] { app.play(!a.playing); });
+  if (ImGui::Button(a.playing ? "Pause" : "Play")) guarded(app, [&] { app.deform().play(!a.playing); });
   float t = float(a.timeS.value_or(keyframeStartS(a.track, a.keyframe)));
   if (ImGui::SliderFloat("Time s", &t, 0.f, float(total), "%.2f")) {
     a.playing = false;
@@ -236,15 +236,15 @@ void exportRow(StudioApp& app) {
   ImGui::InputFloat("fps", &fps);
   ImGui::InputFloat("Orbit deg", &orbit);
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("turns the camera by this many degrees over the movie (turntable)");
-  if (app.exporting()) {
-    const auto [done, count] = app.exportProgress();
+  if (app.deform().exporting()) {
+    const auto [done, count] = app.deform().exportProgress();
     char label[64];
     std::snprintf(label, sizeof label, "%d / %d frames", done, count);
     ImGui::ProgressBar(count ? float(done) / float(count) : 0.f, {-70, 0}, label);
     ImGui::SameLine();
-    if (ImGui::Button("Cancel##export")) app.cancelExport();
+    if (ImGui::Button("Cancel##export")) app.deform().cancelExport();
   } else if (ImGui::Button("Export movie")) {
-    guarded(app, [&] { app.startExport(out, fps, size[0], size[1], orbit); });
+    guarded(app, [&] { app.deform().startExport(out, fps, size[0], size[1], orbit); });
   }
 }
 

@@ -53,7 +53,7 @@ bool idsField(StudioApp& app, const char* label, std::vector<uint16_t>& ids) {
 }  // namespace
 
 void jointsSection(StudioApp& app) {
-  JointTool& jt = app.joints();
+  JointTool& jt = app.deform().joints();
   Scene& scene = app.scene();
   if (!scene.hasVolume() || scene.labels.ids().empty()) {
     ImGui::TextDisabled("open a label map to pose its bones");
@@ -83,8 +83,10 @@ void jointsSection(StudioApp& app) {
     const int j = std::clamp(jt.selected, 0, int(pose.joints.size()) - 1);
     float deg = float(jt.angle(app, j));
     const bool changed = ImGui::SliderFloat("Angle deg", &deg, -90.f, 90.f, "%.1f");
+    if (ImGui::IsItemActivated()) jt.beginAngleDrag(app);  // one drag = one undo step
     jt.dragging = ImGui::IsItemActive();  // the map is solved as during a point drag meanwhile
     if (changed) guarded(app, [&] { jt.setAngle(app, j, deg); });
+    if (ImGui::IsItemDeactivated()) jt.endAngleDrag(app);
     const int n = int(pose.angles.keyframes.size());
     const int k = std::clamp(scene.authoring.keyframe, 0, n - 1);
     ImGui::Text("Pose keyframe %d / %d", k + 1, n);
@@ -98,7 +100,7 @@ void jointsSection(StudioApp& app) {
     if (ImGui::InputFloat("Duration s##pose", &dur, 0.f, 0.f, "%.2f", ImGuiInputTextFlags_EnterReturnsTrue))
       guarded(app, [&] { jt.setDuration(app, dur); });
     if (ImGui::Button(scene.authoring.playing ? "Pause##pose" : "Play##pose"))
-      guarded(app, [&] { app.play(!scene.authoring.playing); });
+      guarded(app, [&] { app.deform().play(!scene.authoring.playing); });
   }
   ImGui::Separator();
   // A new joint: bones by clicks in a view (one id per click) or typed; axis two clicks or estimated.
@@ -133,7 +135,7 @@ void jointsSection(StudioApp& app) {
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("label ids that do not move at all (the other limb, the table)");
   if (ImGui::Button("Load pose...")) {
     app.fileBrowser().open(FileBrowser::Mode::Open, "Load pose file",
-                           [&app](const std::filesystem::path& p) { guarded(app, [&] { app.joints().load(app, p); }); });
+                           [&app](const std::filesystem::path& p) { guarded(app, [&] { app.deform().joints().load(app, p); }); });
   }
   ImGui::SameLine();
   if (!pose.joints.empty() && ImGui::Button("Save pose...")) {
@@ -141,7 +143,7 @@ void jointsSection(StudioApp& app) {
       guarded(app, [&] {
         std::filesystem::path cmd = p;
         cmd += ".command.txt";
-        app.joints().save(app, p, cmd, p.parent_path() / (p.stem().string() + "-posed.nrrd"));
+        app.deform().joints().save(app, p, cmd, p.parent_path() / (p.stem().string() + "-posed.nrrd"));
         app.notify("saved " + p.string() + " and the vellum pose line beside it");
       });
     });

@@ -315,7 +315,7 @@ void drawToolPanel(StudioApp& app, float width, float height) {
   if (ImGui::CollapsingHeader("View", ImGuiTreeNodeFlags_DefaultOpen)) viewSection(app);
   if (ImGui::CollapsingHeader("Illustration")) illustrationSection(app);
   if (ImGui::CollapsingHeader("Deformation", ImGuiTreeNodeFlags_DefaultOpen)) deformationSection(app);
-  if (ImGui::CollapsingHeader("Joints", app.joints().pose.joints.empty() ? 0 : ImGuiTreeNodeFlags_DefaultOpen))
+  if (ImGui::CollapsingHeader("Joints", app.deform().joints().pose.joints.empty() ? 0 : ImGuiTreeNodeFlags_DefaultOpen))
     jointsSection(app);
   if (ImGui::CollapsingHeader("Segmentation", ImGuiTreeNodeFlags_DefaultOpen)) segmentationSection(app);
   if (ImGui::CollapsingHeader("Labels", ImGuiTreeNodeFlags_DefaultOpen)) labelTable(app);

@@ -131,7 +131,7 @@ void PointController::draw(const Pane& pane) {
   const double nearMm = 1.5 * std::max({sp.x, sp.y, sp.z});
   // In the 3D view, dots behind the volume's first visible surface are dimmed (depth test
   // on the CPU along the eye ray, through the deformation the view draws).
-  const deformation::MapSampler* map = app_.deformSession().sampler();
+  const deformation::MapSampler* map = app_.deform().session().sampler();
   auto hidden = [&](const Vec3& mm) {
     return plane ? std::abs(dot(mm - scene().crosshairMm, plane->normal)) > nearMm : occludedInView(scene(), map, mm);
   };
@@ -142,7 +142,7 @@ void PointController::draw(const Pane& pane) {
     const auto& c = scene().render.camera;
     key << c.azimuthDeg << ' ' << c.elevationDeg << ' ' << c.fieldOfViewDeg << ' ' << c.panMm.x << ' ' << c.panMm.y
         << ' ' << c.panMm.z << ' ' << int(scene().render.preset) << ' ' << scene().render.windowCenter << ' '
-        << scene().render.windowWidth << ' ' << app_.deformSession().mapRevision() << ' ' << scene().authoring.revision << ' '
+        << scene().render.windowWidth << ' ' << app_.deform().session().mapRevision() << ' ' << scene().authoring.revision << ' '
         << scene().volumeGeneration;
     if (key.str() != occlusionKey_ || occlusion_.size() != pts.size()) {
       occlusion_.resize(pts.size());
@@ -324,24 +324,6 @@ void PointController::endEngineEdit() {
   e.engineAfter = scene().authoring.engine;
   engineEditBefore_.reset();
   scene().authoring.touch();
-  app_.undoStack().push(std::move(e));
-}
-
-void PointController::setRigid(std::vector<uint16_t> labels, double falloffMm, const std::string& description,
-                         std::optional<std::pair<std::vector<uint16_t>, double>> before) {
-  Authoring& a = scene().authoring;
-  TrackEdit e;
-  e.description = description;
-  e.before = e.after = a.track;
-  e.keyframeBefore = e.keyframeAfter = a.keyframe;
-  e.engineBefore = e.engineAfter = a.engine;
-  e.rigidBefore = before ? TrackEdit::Rigid{before->first, before->second} : TrackEdit::Rigid{a.rigidLabels, a.falloffMm};
-  std::sort(labels.begin(), labels.end());
-  labels.erase(std::unique(labels.begin(), labels.end()), labels.end());
-  e.rigidAfter = TrackEdit::Rigid{labels, falloffMm};
-  a.rigidLabels = std::move(labels);
-  a.falloffMm = falloffMm;
-  a.touch();
   app_.undoStack().push(std::move(e));
 }
 

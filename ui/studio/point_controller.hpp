@@ -1,10 +1,10 @@
 #pragma once
 // The point-authoring controller: owns the control points' interaction (picking, dragging
 // with the Drag tool, the drawn dots and keyframe connector), the track and engine edits that
-// make undo steps, the rigid bones and the points' placement. StudioApp hands it the left
-// presses, drags and releases, lets it draw over each pane; the Deformation panel and the
-// script's actions call it through StudioApp::points(). The deformation session itself (the
-// map the views draw through) stays with the views in StudioApp.
+// make undo steps and the points' placement. StudioApp hands it the left presses, drags and
+// releases, lets it draw over each pane; the Deformation panel and the script's actions call
+// it through StudioApp::points(). The deformation session (the map the views draw through),
+// the rigid bones and the joint tool are the DeformController's (deform_controller.hpp).
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -56,11 +56,6 @@ class PointController {
   /// undo step (the track is unchanged).
   void beginEngineEdit(const deformation::DeformParams& before);
   void endEngineEdit();
-  /// The rigid bones (label ids kept rigid, falloff in mm) set to `labels` / `falloffMm`, one
-  /// undo step (the Deformation panel's checkboxes, the falloff slider's finished drag, the
-  /// script's `rigid_labels`). `before` is the state the step undoes to (default: now).
-  void setRigid(std::vector<uint16_t> labels, double falloffMm, const std::string& description,
-                std::optional<std::pair<std::vector<uint16_t>, double>> before = std::nullopt);
   /// Window pixel where point `index`'s end is drawn in the first pane that shows it (3D first),
   /// or in the pane named `view` ("3d", "axial", "coronal", "sagittal").
   std::optional<std::pair<double, double>> pointOnScreen(int index, PointEnd end, const std::string& view = "") const;

@@ -9,6 +9,7 @@
 #include "vellum/core/params_json.hpp"
 #include "vellum/deformation/deform_params.hpp"
 #include "vellum/deformation/point_files.hpp"
+#include "vellum/deformation/pose.hpp"
 #include "vellum/io/atomic_file.hpp"
 
 namespace vellum::studio {
@@ -156,6 +157,22 @@ SceneDeformation readDeformation(const json& j, const Fields& f, const fs::path&
   return def;
 }
 
+/// "joints": {"pose": FILE}: the pose file beside the scene, read by the pose file's own
+/// reader (errors name that file and its field).
+ScenePose readJoints(const json& j, const Fields& f, const fs::path& base) {
+  const json& o = f.object(j, "joints", "joints");
+  for (auto it = o.begin(); it != o.end(); ++it)
+    if (it.key() != "pose") f.fail("joints." + it.key(), "is not a key of \"joints\" (only \"pose\")");
+  if (!o.contains("pose") || !o.at("pose").is_string() || o.at("pose").get<std::string>().empty())
+    f.fail("joints.pose", "must be a pose file name");
+  ScenePose p;
+  p.posePath = resolvedPath(o.at("pose").get<std::string>(), base);
+  if (!fs::is_regular_file(p.posePath))
+    throw FileError(p.posePath, "referenced by " + f.path.filename().string() + " does not exist");
+  p.pose = deformation::loadPose(p.posePath);
+  return p;
+}
+
 /// The camera fields of the render table (a bookmark is a camera, nothing else).
 json cameraJson(const render::Camera& camera) {
   render::RenderSettings s;
@@ -215,6 +232,7 @@ SceneFile readSceneFile(const fs::path& path) {
     for (uint16_t id : f.ids(j, "hidden_labels", "hidden_labels")) s.hiddenLabels.insert(id);
     for (uint16_t id : f.ids(j, "locked_labels", "locked_labels")) s.lockedLabels.insert(id);
     if (j.contains("deformation")) s.deformation = readDeformation(j, f, base);
+    if (j.contains("joints")) s.pose = readJoints(j, f, base);
   } catch (const json::exception& e) {
     throw FileError(path, std::string("bad scene field: ") + e.what());
   } catch (const FileError&) {
@@ -248,6 +266,12 @@ void writeSceneFile(const SceneFile& s, const fs::path& path) {
                         {"rigid_falloff_mm", s.deformation->falloffMm},
                         {"engine", params::toJson(deformation::deformParamsTable(), s.deformation->engine)}};
   }
+  if (s.pose) {
+    fs::path file = path;
+    file.replace_extension(".pose.json");
+    deformation::savePose(s.pose->pose, file);
+    j["joints"] = {{"pose", storedPath(file, base)}};
+  }
   const std::string text = j.dump(2) + "\n";
   io::writeAtomically(path, [&](const fs::path& tmp) {
     std::ofstream out(tmp, std::ios::binary);
@@ -269,6 +293,7 @@ SceneFile describeScene(const Scene& scene) {
   if (scene.authoring.active())
     s.deformation = SceneDeformation{{}, scene.authoring.track, scene.authoring.keyframe, scene.authoring.rigidLabels,
                                      scene.authoring.falloffMm, scene.authoring.engine};
+  if (scene.authoring.joints) s.pose = ScenePose{{}, *scene.authoring.joints};
   return s;
 }
 

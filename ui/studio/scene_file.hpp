@@ -12,9 +12,9 @@
 namespace vellum::studio {
 
 /// 2 adds "deformation"; 3 writes the view as "view" and "render" objects whose keys are those
-/// of the parameter tables (the CLI flags of `vellum render`), plus "pan" and "camera_bookmarks".
-/// Versions 1 and 2 are read as before.
-inline constexpr int kSceneFormatVersion = 3;
+/// of the parameter tables (the CLI flags of `vellum render`), plus "pan" and "camera_bookmarks";
+/// 4 adds "joints". Versions 1 to 3 are read as before.
+inline constexpr int kSceneFormatVersion = 4;
 
 /// The authored deformation: the keyframes live in a `vellum animate` keyframe file beside
 /// the scene (`<scene>.keyframes.json`), so the CLI can render them as they are.
@@ -25,6 +25,13 @@ struct SceneDeformation {
   std::vector<uint16_t> rigidLabels;
   double falloffMm = 10;
   deformation::DeformParams engine = studioDeformParams();
+};
+
+/// The joint tool's pose: a `vellum pose --pose` file beside the scene (`<scene>.pose.json`,
+/// deformation::savePose / loadPose: one schema, one parser), so the CLI poses it as it is.
+struct ScenePose {
+  std::filesystem::path posePath;  ///< absolute once read
+  deformation::Pose pose;
 };
 
 /// The saved part of a Scene: data paths (absolute once read) and the view state.
@@ -38,6 +45,7 @@ struct SceneFile {
   std::set<uint16_t> hiddenLabels;
   std::set<uint16_t> lockedLabels;
   std::optional<SceneDeformation> deformation;  ///< none: no control points
+  std::optional<ScenePose> pose;                ///< none: no joints
 };
 
 /// Reads and validates a scene file; relative paths are resolved against its folder.
@@ -45,7 +53,8 @@ struct SceneFile {
 /// the missing file ("... referenced by scene.json does not exist") for missing data.
 SceneFile readSceneFile(const std::filesystem::path& path);
 /// Writes `file` to `path` atomically, with paths made relative to path's folder, and the
-/// deformation's keyframes to `<path stem>.keyframes.json` beside it.
+/// deformation's keyframes to `<path stem>.keyframes.json` and the pose to
+/// `<path stem>.pose.json` beside it.
 void writeSceneFile(const SceneFile& file, const std::filesystem::path& path);
 
 /// The view part of a scene file (everything but the paths and the deformation): what

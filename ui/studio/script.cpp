@@ -737,11 +737,11 @@ void expandPlay(Steps& s, const json& v) {
   const double seconds = v.at("seconds").get<double>();
   auto until = std::make_shared<double>();
   s.once([=](StudioApp& a) {
-    a.play(true);
+    a.deform().play(true);
     *until = glfwGetTime() + seconds;
   });
   s.until([=](StudioApp& a) { return glfwGetTime() >= *until || !a.scene().authoring.playing; });
-  s.once([](StudioApp& a) { a.play(false); });
+  s.once([](StudioApp& a) { a.deform().play(false); });
 }
 
 void expandExportMovie(Steps& s, const json& v) {
@@ -752,14 +752,14 @@ void expandExportMovie(Steps& s, const json& v) {
     throw Error("size must be WxH");
   const std::string command = v.value("command", "");
   const double orbit = v.value("orbit", 0.0);
-  s.once([=](StudioApp& a) { a.startExport(out, fps, w, h, orbit); });
+  s.once([=](StudioApp& a) { a.deform().startExport(out, fps, w, h, orbit); });
   if (!v.value("wait", true)) return;  // e.g. to press Escape while it runs
-  s.until([](StudioApp& a) { return !a.exporting(); });
+  s.until([](StudioApp& a) { return !a.deform().exporting(); });
   s.once([=](StudioApp& a) {
-    if (!a.lastExportError().empty()) throw Error("export failed: " + a.lastExportError());
+    if (!a.deform().lastExportError().empty()) throw Error("export failed: " + a.deform().lastExportError());
     if (!command.empty()) {
       std::ofstream f(command);
-      f << a.lastAnimateCommand() << "\n";
+      f << a.deform().lastAnimateCommand() << "\n";
       if (!f) throw Error("cannot write " + command);
     }
   });
@@ -767,7 +767,7 @@ void expandExportMovie(Steps& s, const json& v) {
 
 void expandRigidLabels(Steps& s, const json& v) {
   const std::vector<uint16_t> ids = v.get<std::vector<uint16_t>>();
-  s.once([ids](StudioApp& a) { a.points().setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
+  s.once([ids](StudioApp& a) { a.deform().setRigid(ids, a.scene().authoring.falloffMm, "rigid labels"); });
 }
 
 void expandJoint(Steps& s, const json& v) {
@@ -781,9 +781,9 @@ void expandJoint(Steps& s, const json& v) {
     return;
   }
   s.once([v](StudioApp& a) { jointScriptAction(a, v); });
-  s.until([](StudioApp& a) { return !a.joints().busy(); });
+  s.until([](StudioApp& a) { return !a.deform().joints().busy(); });
   s.once([](StudioApp& a) {
-    if (!a.joints().error().empty()) throw Error("joint tool: " + a.joints().error());
+    if (!a.deform().joints().error().empty()) throw Error("joint tool: " + a.deform().joints().error());
   });
 }
 

@@ -44,6 +44,15 @@ size_t TrackEdit::bytes() const {
   return n;
 }
 
+size_t PoseEdit::bytes() const {
+  size_t n = sizeof(PoseEdit);
+  for (const auto* p : {&before, &after}) {
+    n += p->joints.size() * sizeof(deformation::Joint);
+    for (const auto& k : p->angles.keyframes) n += k.points.size() * sizeof(deformation::ControlPoint);
+  }
+  return n;
+}
+
 void UndoStack::record(UndoEntry entry) {
   undo_.push_back(std::move(entry));
   redo_.clear();
@@ -69,11 +78,21 @@ void UndoStack::push(ShapesEdit edit) {
   record(std::move(edit));
 }
 
+void UndoStack::push(PoseEdit edit) {
+  if (edit.keyframeBefore == edit.keyframeAfter && samePose(edit.before, edit.after)) return;
+  record(std::move(edit));
+}
+
 void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, ViewState* view, bool forward) {
   lastWasView_ = false;
   ++changes_;
   if (const auto* s = std::get_if<ShapesEdit>(&e)) {
     shapesToLoad_ = forward ? s->after : s->before;  // the studio loads it (a worker job)
+    lastWasLabels_ = false;
+    return;
+  }
+  if (const auto* p = std::get_if<PoseEdit>(&e)) {
+    poseToRestore_ = PoseToRestore{forward ? p->after : p->before, forward ? p->keyframeAfter : p->keyframeBefore};
     lastWasLabels_ = false;
     return;
   }
@@ -106,20 +125,23 @@ void UndoStack::apply(const UndoEntry& e, LabelVolume& labels, Authoring* author
   lastWasLabels_ = false;
 }
 
-bool UndoStack::undo(LabelVolume& labels, Authoring* authoring, ViewState* view) {
-  if (undo_.empty()) return false;
-  apply(undo_.back(), labels, authoring, view, false);
-  redo_.push_back(std::move(undo_.back()));
-  undo_.pop_back();
+bool UndoStack::step(bool forward, LabelVolume& labels, Authoring* authoring, ViewState* view) {
+  // Undo takes the last edit to the redo side; redo the other way.
+  std::vector<UndoEntry>& from = forward ? redo_ : undo_;
+  std::vector<UndoEntry>& to = forward ? undo_ : redo_;
+  if (from.empty()) return false;
+  apply(from.back(), labels, authoring, view, forward);
+  to.push_back(std::move(from.back()));
+  from.pop_back();
   return true;
 }
 
+bool UndoStack::undo(LabelVolume& labels, Authoring* authoring, ViewState* view) {
+  return step(false, labels, authoring, view);
+}
+
 bool UndoStack::redo(LabelVolume& labels, Authoring* authoring, ViewState* view) {
-  if (redo_.empty()) return false;
-  apply(redo_.back(), labels, authoring, view, true);
-  undo_.push_back(std::move(redo_.back()));
-  redo_.pop_back();
-  return true;
+  return step(true, labels, authoring, view);
 }
 
 void UndoStack::clear() {

@@ -74,7 +74,24 @@ struct ShapesEdit {
   size_t bytes() const { return sizeof(ShapesEdit); }
 };
 
-using UndoEntry = std::variant<LabelDelta, TrackEdit, ViewEdit, ShapesEdit>;
+/// An edit of the joint tool's pose (a joint added or removed, an angle set or dragged, fixed
+/// regions, pose keyframes, a pose file loaded): the pose before and after and the edited
+/// keyframe. Undo and redo hand the other pose to the joint tool (takePoseToRestore()), which
+/// makes the authoring state from it.
+struct PoseEdit {
+  std::string description;
+  deformation::Pose before, after;
+  int keyframeBefore = 0, keyframeAfter = 0;
+  size_t bytes() const;
+};
+
+/// A pose and its edited keyframe to give back to the joint tool.
+struct PoseToRestore {
+  deformation::Pose pose;
+  int keyframe = 0;
+};
+
+using UndoEntry = std::variant<LabelDelta, TrackEdit, ViewEdit, ShapesEdit, PoseEdit>;
 
 class UndoStack {
  public:
@@ -83,14 +100,20 @@ class UndoStack {
   void push(TrackEdit edit);
   void push(ViewEdit edit);
   void push(ShapesEdit edit);
+  /// Dropped when the pose and keyframe did not change.
+  void push(PoseEdit edit);
   /// After an undo/redo of a ShapesEdit: the folder to load (once), else nullopt.
   std::optional<std::filesystem::path> takeShapesToLoad() { return std::exchange(shapesToLoad_, std::nullopt); }
+  /// After an undo/redo of a PoseEdit: the pose to give the joint tool (once), else nullopt.
+  std::optional<PoseToRestore> takePoseToRestore() { return std::exchange(poseToRestore_, std::nullopt); }
   bool canUndo() const { return !undo_.empty(); }
   bool canRedo() const { return !redo_.empty(); }
   /// Reverts the last edit on `labels` (`authoring` for track edits, `view` for view edits:
   /// one of those missing throws); false when there is none.
   bool undo(LabelVolume& labels, Authoring* authoring = nullptr, ViewState* view = nullptr);
   bool redo(LabelVolume& labels, Authoring* authoring = nullptr, ViewState* view = nullptr);
+  /// undo() when `forward` is false, redo() when true.
+  bool step(bool forward, LabelVolume& labels, Authoring* authoring = nullptr, ViewState* view = nullptr);
   /// True when the last undo/redo changed the labels (false: the track or the view).
   bool lastWasLabels() const { return lastWasLabels_; }
   /// True when the last undo/redo changed the view state.
@@ -106,6 +129,7 @@ class UndoStack {
   std::vector<UndoEntry> undo_, redo_;
   bool lastWasLabels_ = true, lastWasView_ = false;
   std::optional<std::filesystem::path> shapesToLoad_;
+  std::optional<PoseToRestore> poseToRestore_;
   uint64_t changes_ = 0;
   void record(UndoEntry entry);
   void apply(const UndoEntry& e, LabelVolume& labels, Authoring* authoring, ViewState* view, bool forward);
