@@ -22,9 +22,10 @@ struct FoldRepairParams {
   int maxRounds = 1000;  ///< passes over the folding cells (each touches only them); stops after 50 without progress
   /// Second stage, where the passes stalled: harmonic relaxation of the free nodes within r
   /// cells of each cluster still folding, r = 1 .. relaxRadius (0: off), `relaxSteps` Jacobi
-  /// steps each, kept per cluster only when fewer of its cells fold.
+  /// steps each (a few: a partial smoothing; more smoothed folds into the bones' snap on the
+  /// feet), kept per cluster only when fewer of its cells fold.
   int relaxRadius = 4;
-  int relaxSteps = 40;
+  int relaxSteps = 10;
 };
 
 struct FoldRepairStats {
