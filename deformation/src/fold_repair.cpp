@@ -433,8 +433,9 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
     std::vector<uint8_t> inRegion(static_cast<size_t>(nodes), 0), cellSeen(static_cast<size_t>(nodes), 0);
     for (int r = 1; r <= params.relaxRadius && !bad.empty(); ++r) {
       // Clusters: folding cells that touch (26-connected). Small clusters are accepted or
-      // rejected on their own (a wider grouping merged the feet's folds into 4 clusters and
-      // kept relaxations that helped one site and hurt another: 0.19 % against 0.13 %).
+      // rejected on their own (a wider grouping, cells within 2r + 1, merged the feet's folds
+      // into 4 clusters and kept relaxations that helped one site and hurt another: 0.19 %
+      // of tissue voxels folding against 0.13 %, at 40 steps).
       std::vector<uint8_t> isBad(static_cast<size_t>(nodes), 0), done(static_cast<size_t>(nodes), 0);
       for (int64_t c : bad) isBad[static_cast<size_t>(c)] = 1;
       constexpr int64_t reach = 1;
