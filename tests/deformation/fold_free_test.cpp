@@ -216,3 +216,72 @@ TEST(FoldRepair, AMapThatDoesNotFoldIsLeftAsItIsAndItsLeastJacobianReported) {
   }
   EXPECT_GT(repairFolds(tight, {}).cellsBefore, 0);
 }
+
+// A sliding shear the projections cannot lift: the nodes left of x node 5 are locked at the
+// identity, those right of x node 9 locked 12 mm along y (two sides sliding past each other),
+// and the free nodes between are scrambled (each column takes one side or the other), so the
+// cells between fold over and over. The second stage relaxes the free nodes towards the mean
+// of their neighbours, a shear across the gap that does not fold; the locked nodes stay exact.
+TEST(FoldRepair, AScrambledSlideBetweenLockedSidesIsRelaxedIntoAShear) {
+  Geometry out;
+  out.dims = {31, 31, 31};
+  out.spacing = {1, 1, 1};
+  ControlVolume cv = identityControlVolume(out, 2);
+  const Dims d = cv.grid.dims;
+  std::vector<uint8_t> locked(static_cast<size_t>(d.voxelCount()), 0);
+  for (int64_t k = 0; k < d.z; ++k)
+    for (int64_t j = 0; j < d.y; ++j)
+      for (int64_t i = 0; i < d.x; ++i) {
+        const int64_t n = (k * d.y + j) * d.x + i;
+        const bool slides = i >= 10 || (i >= 5 && (j + k + i) % 3 == 0);
+        if (slides) cv.sourceMm[static_cast<size_t>(3 * n + 1)] += 12.0f;
+        if (i < 5 || i >= 10) locked[static_cast<size_t>(n)] = kNodeHardLock;
+      }
+  const ControlVolume before = cv;
+  ASSERT_LT(minCellJacobian(cv), -1.0);
+  FoldRepairParams firstOnly;
+  firstOnly.relaxRadius = 0;
+  ControlVolume projected = cv;
+  const FoldRepairStats p = repairFolds(projected, locked, {}, firstOnly);
+  EXPECT_GT(p.cellsAfter, 0) << "the projections alone leave folds here";
+  const FoldRepairStats st = repairFolds(cv, locked);
+  EXPECT_GT(st.clustersRelaxed, 0);
+  EXPECT_EQ(st.cellsAfter, 0) << "min " << st.minJacobianAfter;
+  EXPECT_GT(minCellJacobian(cv), 0.0);
+  for (int64_t n = 0; n < d.voxelCount(); ++n)
+    if (locked[static_cast<size_t>(n)])
+      ASSERT_EQ(std::memcmp(cv.sourceMm.data() + 3 * n, before.sourceMm.data() + 3 * n, 3 * sizeof(float)), 0) << n;
+}
+
+// Issue 23's sliding contact in small: a block slides 8 mm along y past a still block 2 voxels
+// (one control cell) away, as the right big toe passes the still left one. No tissue voxel
+// folds, the still block does not move at all and is shown nowhere else, and the sliding block
+// keeps its transform.
+TEST(FoldRepair, ABlockSlidingPastAStillBlockTwoVoxelsAwayLeavesNoFoldAndTheStillBlockStill) {
+  Geometry g;
+  g.dims = {40, 32, 24};
+  g.spacing = {1, 1, 1};
+  LabelVolume labels(g);
+  for (int64_t k = 4; k < 20; ++k)
+    for (int64_t j = 8; j < 24; ++j)
+      for (int64_t i = 4; i < 34; ++i) labels(i, j, k) = i < 18 ? 1 : i >= 20 ? 2 : 0;
+  FixedRegions fixed;
+  fixed.ids = {1};
+  const RigidBodies bodies = RigidBodies::fromLabels(labels, {2}, 20, fixed);
+  ASSERT_EQ(bodies.componentCount(), 2);
+  RigidTransform slide;  // backward (output -> source): the block's content moves +8 mm in y
+  slide.translation = {0, -8, 0};
+  std::vector<std::optional<RigidTransform>> known(2);
+  known[0] = slide;
+  ControlVolume cv = identityControlVolume(g, 2);
+  applyRigidity(cv, bodies, RigidityParams{}, known);
+  const RigidityReport r = measureRigidityVoxels(cv, g, bodies);
+  EXPECT_GT(r.tissueSamples, 5000);
+  EXPECT_EQ(r.foldFraction, 0.0) << "min det J " << r.minJacobian;
+  EXPECT_GT(r.fixedSamples, 3000);
+  EXPECT_EQ(r.fixedMaxDisplacementMm, 0.0);
+  EXPECT_EQ(r.fixedContentElsewhere, 0);
+  ASSERT_FALSE(r.bodies[0].fixed);
+  EXPECT_LT(r.bodies[0].rmsResidualMm, 1e-4);
+  EXPECT_NEAR(r.bodies[0].translationMm.y, -8.0, 1e-3);
+}

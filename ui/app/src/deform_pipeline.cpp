@@ -488,6 +488,7 @@ nlohmann::json toJson(const FoldRepairStats& s, bool ran) {
   auto det = [](double d) { return std::isfinite(d) ? nlohmann::json(d) : nlohmann::json(); };
   return {{"cells_before", s.cellsBefore}, {"cells_after", s.cellsAfter}, {"locked_cells_after", s.lockedCells},
           {"nodes_relaxed", s.nodesRelaxed}, {"nodes_released", s.nodesReleased}, {"rounds", s.rounds},
+          {"clusters_relaxed", s.clustersRelaxed},
           {"min_cell_jacobian_before", det(s.minJacobianBefore)}, {"min_cell_jacobian_after", det(s.minJacobianAfter)}};
 }
 

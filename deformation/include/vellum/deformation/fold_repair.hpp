@@ -20,6 +20,12 @@ struct FoldRepairParams {
   /// centre is below this (a margin above 0: the voxels between the corners interpolate them).
   double minJacobian = 0.2;
   int maxRounds = 1000;  ///< passes over the folding cells (each touches only them); stops after 50 without progress
+  /// Second stage, where the passes stalled: harmonic relaxation of the free nodes within r
+  /// cells of each cluster still folding, r = 1 .. relaxRadius (0: off), `relaxSteps` Jacobi
+  /// steps each (a few: a partial smoothing; more smoothed folds into the bones' snap on the
+  /// feet), kept per cluster only when fewer of its cells fold.
+  int relaxRadius = 4;
+  int relaxSteps = 10;
 };
 
 struct FoldRepairStats {
@@ -29,6 +35,7 @@ struct FoldRepairStats {
   int64_t nodesReleased = 0; ///< soft-locked nodes released (corners of folding cells locked all round)
   int64_t nodesRelaxed = 0;  ///< free nodes the repair wrote
   int rounds = 0;             ///< passes made
+  int64_t clustersRelaxed = 0;  ///< second stage: clusters whose harmonic relaxation was kept
   double minJacobianBefore = 0, minJacobianAfter = 0;  ///< over the cared cells (corners and centres)
 };
 
