@@ -16,18 +16,41 @@ namespace vellum::cli {
 namespace {
 
 struct CompareArgs {
-  std::string a, b, kind = "auto", json, heatmap;
+  std::string a, b, json, heatmap;
+  app::CompareKind kind = app::CompareKind::Auto;
   std::vector<uint16_t> ids, aIds, bIds;
   app::CompareTolerances tolerances;
   bool quiet = false;
   InputOptions in;
 };
 
+/// `compare`'s flags besides its paths and tolerances, described once (docs/parameters.md).
+const params::Table<CompareArgs>& compareFlagsTable() {
+  using A = CompareArgs;
+  static const params::Table<A> t{
+      params::choice<A>("kind", &A::kind, app::compareKinds().names,
+                        {"Kind", "what A and B are (auto: images by extension, unsigned integer volumes as label "
+                                 "maps, other volumes as grey)", ""}),
+      params::flag<A>("quiet", &A::quiet, {"Quiet", "print nothing; the exit code says pass (0) or fail (1)", ""}),
+  };
+  return t;
+}
+const ListTable<CompareArgs>& compareListTable() {
+  using A = CompareArgs;
+  static const ListTable<A> t{
+      commaList<A>("ids", &A::ids, "ID,ID..", {"Ids", "labels: compare only these ids (e.g. --ids 1,3)", ""}),
+      commaList<A>("a_ids", &A::aIds, "ID,ID..",
+                   {"A ids", "labels: compare the union of these ids in A with --b-ids in B as one mask", ""}),
+      commaList<A>("b_ids", &A::bIds, "ID,ID..", {"B ids", "labels: the ids of B matched by --a-ids (default: the same)", ""}),
+  };
+  return t;
+}
+
 int run(const CompareArgs& a) {
   app::CompareRequest q;
   q.a = a.a;
   q.b = a.b;
-  q.kind = app::parseCompareKind(a.kind);
+  q.kind = a.kind;
   q.tolerances = a.tolerances;
   q.ids = a.ids;
   q.aIds = a.aIds;
@@ -72,6 +95,10 @@ int run(const CompareArgs& a) {
 
 }  // namespace
 
+std::string compareFlagsMarkdown() {
+  return params::markdown(compareFlagsTable()) + listMarkdownRows(compareListTable());
+}
+
 void addCompareCommand(CLI::App& app) {
   auto a = std::make_shared<CompareArgs>();
   auto* cmd = app.add_subcommand(
@@ -80,17 +107,11 @@ void addCompareCommand(CLI::App& app) {
   addInput(*cmd, "a", a->a, "the result: label map, image (PNG, TIFF, JPEG) or volume (any format `info` reads)")
       ->required();
   addInput(*cmd, "b", a->b, "the baseline or reference, of the same kind")->required();
-  cmd->add_option("--kind", a->kind, "auto | labels | image | volume (auto: images by extension, unsigned integer "
-                                     "volumes as label maps, other volumes as grey)")
-      ->capture_default_str();
-  cmd->add_option("--ids", a->ids, "labels: compare only these ids (e.g. --ids 1,3)")->delimiter(',');
-  cmd->add_option("--a-ids", a->aIds, "labels: compare the union of these ids in A with --b-ids in B as one mask")
-      ->delimiter(',');
-  cmd->add_option("--b-ids", a->bIds, "labels: the ids of B matched by --a-ids (default: the same)")->delimiter(',');
+  addFlags(*cmd, *a, compareFlagsTable(), {}, "", {{"quiet", "-q"}});  // --kind, --quiet
+  addLists(*cmd, *a, compareListTable());  // --ids, --a-ids, --b-ids
   addOutput(*cmd, "--json,--report", a->json, "write the comparison as JSON to this file ('-': stdout only)");
   addOutput(*cmd, "--heatmap", a->heatmap, "write the differences as a PNG (images: a heat map; label maps and "
                                            "volumes: the axial slice with the most disagreement)");
-  cmd->add_flag("--quiet,-q", a->quiet, "print nothing; the exit code says pass (0) or fail (1)");
   addFlags(*cmd, a->tolerances, app::compareTolerancesTable());
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum compare seg.nrrd truth.nrrd --min-dice 0.95 --max-hd95 2 --json cmp.json\n"
