@@ -28,12 +28,13 @@ const std::vector<uint16_t>& kBones = test::kKneeBones;
 
 /// The knee on disk and a bend of the tibia as a keyframe track.
 struct Case : test::KneeOnDisk {
+  explicit Case(const std::string& name) : KneeOnDisk(test::writeKnee(name)) {}
   fs::path keys;
   KeyframeTrack track;
 };
 
 Case makeCase(const std::string& name) {
-  Case c{test::writeKnee(name)};
+  Case c(name);
   c.keys = c.dir / "keys.json";
   c.track = kneeBendTrack(c.ph.ct.geometry(), 25.0, 0.5, phantom::flexionAxisPointMm());
   saveKeyframes(c.track, c.keys);

@@ -30,12 +30,13 @@ const std::vector<uint16_t>& kBones = test::kKneeBones;
 
 /// The knee on disk and a bend of the tibia as a point file.
 struct Case : test::KneeOnDisk {
+  explicit Case(const std::string& name) : KneeOnDisk(test::writeKnee(name)) {}
   fs::path points;
   PointFile bend;
 };
 
 Case makeCase(const std::string& name) {
-  Case c{test::writeKnee(name)};
+  Case c(name);
   c.points = c.dir / "bend.json";
   c.bend.points = kneeBendTrack(c.ph.ct.geometry(), 25.0, 2.0, phantom::flexionAxisPointMm()).keyframes[1].points;
   saveControlPoints(c.bend, c.points);
