@@ -9,7 +9,7 @@
 
 #include "commands.hpp"
 #include "file_errors.hpp"
-#include "test_data.hpp"
+#include "knee_on_disk.hpp"
 #include "vellum/app/animate_pipeline.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/point_files.hpp"
@@ -24,25 +24,18 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::vector<uint16_t> kBones = {4, 5, 6, 7, 8, 9, 11};
+const std::vector<uint16_t>& kBones = test::kKneeBones;
 
-struct Case {
-  fs::path dir, ct, labels, keys;
-  phantom::Phantom ph;
+/// The knee on disk and a bend of the tibia as a keyframe track.
+struct Case : test::KneeOnDisk {
+  explicit Case(const std::string& name) : KneeOnDisk(test::writeKnee(name)) {}
+  fs::path keys;
   KeyframeTrack track;
 };
 
 Case makeCase(const std::string& name) {
-  Case c;
-  c.dir = test::tempDir(name);
-  phantom::PhantomOptions o;
-  o.dims = {32, 32, 40};
-  c.ph = phantom::makePhantom(o);
-  c.ct = c.dir / "ct.nrrd";
-  c.labels = c.dir / "labels.nrrd";
+  Case c(name);
   c.keys = c.dir / "keys.json";
-  io::saveVolume(c.ph.ct, c.ct);
-  io::saveLabels(c.ph.labels, c.labels);
   c.track = kneeBendTrack(c.ph.ct.geometry(), 25.0, 0.5, phantom::flexionAxisPointMm());
   saveKeyframes(c.track, c.keys);
   return c;

@@ -9,7 +9,7 @@
 
 #include "commands.hpp"
 #include "file_errors.hpp"
-#include "test_data.hpp"
+#include "knee_on_disk.hpp"
 #include "vellum/app/deform_pipeline.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/map_file.hpp"
@@ -26,26 +26,18 @@ namespace fs = std::filesystem;
 namespace {
 using test::errorOf;
 
-const std::vector<uint16_t> kBones = {4, 5, 6, 7, 8, 9, 11};
+const std::vector<uint16_t>& kBones = test::kKneeBones;
 
-/// A small knee on disk, its labels, and a bend of the tibia as a point file.
-struct Case {
-  fs::path dir, ct, labels, points;
-  phantom::Phantom ph;
+/// The knee on disk and a bend of the tibia as a point file.
+struct Case : test::KneeOnDisk {
+  explicit Case(const std::string& name) : KneeOnDisk(test::writeKnee(name)) {}
+  fs::path points;
   PointFile bend;
 };
 
 Case makeCase(const std::string& name) {
-  Case c;
-  c.dir = test::tempDir(name);
-  phantom::PhantomOptions o;
-  o.dims = {32, 32, 40};
-  c.ph = phantom::makePhantom(o);
-  c.ct = c.dir / "ct.nrrd";
-  c.labels = c.dir / "labels.nrrd";
+  Case c(name);
   c.points = c.dir / "bend.json";
-  io::saveVolume(c.ph.ct, c.ct);
-  io::saveLabels(c.ph.labels, c.labels);
   c.bend.points = kneeBendTrack(c.ph.ct.geometry(), 25.0, 2.0, phantom::flexionAxisPointMm()).keyframes[1].points;
   saveControlPoints(c.bend, c.points);
   return c;

@@ -7,6 +7,7 @@
 #include "io_test_util.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/volume_io.hpp"
+#include "vec3_near.hpp"
 
 using namespace vellum;
 using namespace vellum::test;
@@ -63,21 +64,15 @@ TEST(Nrrd, RasSpaceIsConvertedToLps) {
   const auto lv = io::loadVolume(dir / "r.nrrd");
   const Geometry& g = geometryOf(lv.volume);
   EXPECT_EQ(g.dims, (Dims{2, 1, 2}));
-  EXPECT_NEAR(g.spacing.x, 2, 1e-12);
-  EXPECT_NEAR(g.spacing.y, 3, 1e-12);
-  EXPECT_NEAR(g.spacing.z, 4, 1e-12);
-  EXPECT_NEAR(g.origin.x, -10, 1e-12);
-  EXPECT_NEAR(g.origin.y, -20, 1e-12);
-  EXPECT_NEAR(g.origin.z, 30, 1e-12);
+  EXPECT_VEC3_NEAR(g.spacing, 2, 3, 4, 1e-12);
+  EXPECT_VEC3_NEAR(g.origin, -10, -20, 30, 1e-12);
   // RAS (0,1,0) -> LPS (0,-1,0); RAS (-1,0,0) -> LPS (1,0,0).
   EXPECT_NEAR(g.direction(1, 0), -1, 1e-12);
   EXPECT_NEAR(g.direction(0, 1), 1, 1e-12);
   EXPECT_NEAR(g.direction(2, 2), 1, 1e-12);
   // Physical position of voxel (1,0,1) in LPS: RAS (10,22,34) -> (-10,-22,34).
   const Vec3 p = g.indexToPhysical({1, 0, 1});
-  EXPECT_NEAR(p.x, -10, 1e-12);
-  EXPECT_NEAR(p.y, -22, 1e-12);
-  EXPECT_NEAR(p.z, 34, 1e-12);
+  EXPECT_VEC3_NEAR(p, -10, -22, 34, 1e-12);
   EXPECT_EQ(at<int16_t>(lv.volume, 1, 0, 1), 4);
 }
 
@@ -196,9 +191,7 @@ TEST(Nifti, SformIsRasAndBecomesLps) {
   EXPECT_EQ(lv.format, "nifti");
   EXPECT_EQ(g.spacing, (Vec3{2, 3, 4}));
   const Vec3 p = g.indexToPhysical({1, 0, 1});  // RAS (10,22,34)
-  EXPECT_NEAR(p.x, -10, 1e-6);
-  EXPECT_NEAR(p.y, -22, 1e-6);
-  EXPECT_NEAR(p.z, 34, 1e-6);
+  EXPECT_VEC3_NEAR(p, -10, -22, 34, 1e-6);
   EXPECT_EQ(at<int16_t>(lv.volume, 1, 0, 1), 8);
 }
 

@@ -8,6 +8,7 @@
 #include "dicom.hpp"
 #include "test_data.hpp"
 #include "vellum/io/volume_io.hpp"
+#include "vec3_near.hpp"
 
 namespace vellum::test {
 namespace {
@@ -33,9 +34,7 @@ TEST(DicomData, HeadPhantomSeries) {
   EXPECT_NEAR(g.spacing.z, 5.0, 1e-3);
   // First slice after sorting: the lowest z (IPP -115.5\-1.85\696.21, InstanceNumber 1,
   // file I10.dcm; name order would have put I100.dcm second).
-  EXPECT_NEAR(g.origin.x, -115.5, 1e-6);
-  EXPECT_NEAR(g.origin.y, -1.85, 1e-6);
-  EXPECT_NEAR(g.origin.z, 696.21, 1e-6);
+  EXPECT_VEC3_NEAR(g.origin, -115.5, -1.85, 696.21, 1e-6);
   EXPECT_LT(maxAbsDiff(g.direction, Mat3::identity()), 1e-9);
   // Slices strictly increasing along the normal, 5 mm apart, last at 831.21.
   EXPECT_NEAR(g.indexToPhysical({0, 0, 27}).z, 831.21, 1e-3);
@@ -169,9 +168,7 @@ TEST(DicomData, EnhancedCtMultiFrame) {
   // IOP -1\0\0\0\1\0: normal = (0,0,-1). Frames at z = -159 and -149: along the normal
   // -149 comes first, 10 mm apart.
   EXPECT_NEAR(g.spacing.z, 10.0, 1e-6);
-  EXPECT_NEAR(g.origin.x, 99.5, 1e-6);
-  EXPECT_NEAR(g.origin.y, -301.5, 1e-6);
-  EXPECT_NEAR(g.origin.z, -149.0, 1e-6);
+  EXPECT_VEC3_NEAR(g.origin, 99.5, -301.5, -149.0, 1e-6);
   EXPECT_EQ(g.direction.column(0), (Vec3{-1, 0, 0}));
   EXPECT_EQ(g.direction.column(1), (Vec3{0, 1, 0}));
   EXPECT_EQ(g.direction.column(2), (Vec3{0, 0, -1}));

@@ -178,6 +178,40 @@ TEST(Params, ABooleanFlagTakesItsValueAfterASpace) {
   EXPECT_EQ(input, "in.nrrd");
 }
 
+// The list rows of ui/cli's tables: a repeatable value appends, a comma list splits and
+// appends, a count row takes exactly its numbers, each number inside the row's range.
+TEST(Params, ListRowsAppendRepeatsAndTakeTheirCountOfNumbers) {
+  struct Lists {
+    std::vector<std::string> names;
+    std::vector<uint16_t> ids;
+    std::vector<double> box;
+  };
+  static const cli::ListTable<Lists> table{
+      cli::repeated<Lists>("name", &Lists::names, "TEXT", {"Name", "a name", ""}),
+      cli::commaList<Lists>("ids", &Lists::ids, "ID,ID..", {"Ids", "some ids", "", 0, 100}),
+      cli::numbers<Lists>("box", &Lists::box, 3, "X Y Z", {"Box", "a corner", "mm"}),
+  };
+  Lists l;
+  {
+    CLI::App app;
+    cli::addLists(app, l, table);
+    parseArgs(app, {"--name", "a", "--ids", "1,3", "--name", "b c", "--ids", "4", "--box", "1", "2.5", "3"});
+  }
+  EXPECT_EQ(l.names, (std::vector<std::string>{"a", "b c"}));
+  EXPECT_EQ(l.ids, (std::vector<uint16_t>{1, 3, 4}));
+  EXPECT_EQ(l.box, (std::vector<double>{1, 2.5, 3}));
+  for (const std::vector<std::string>& bad : {std::vector<std::string>{"--ids", "1,101"}, {"--box", "1", "2"}}) {
+    CLI::App app;
+    Lists m;
+    cli::addLists(app, m, table);
+    EXPECT_THROW(parseArgs(app, bad), CLI::ParseError) << bad[0];
+  }
+  const std::string docs = cli::listMarkdownTable(table, l);
+  EXPECT_NE(docs.find("| `ids` | 1,3,4 | comma list ID,ID.., each 0..100, repeatable |  | Ids: some ids |"),
+            std::string::npos) << docs;
+  EXPECT_NE(docs.find("| `box` | 1 2.5 3 | 3 numbers X Y Z | mm |"), std::string::npos) << docs;
+}
+
 TEST(Params, JsonRoundTripAndClearErrors) {
   deformation::DeformParams p;
   p.controlScale = 4;

@@ -1,5 +1,6 @@
 #include "cli_params.hpp"
 
+#include <cmath>
 #include <set>
 
 namespace vellum::cli {
@@ -37,6 +38,30 @@ std::vector<std::string> joinBooleanFlagValues(CLI::App& app, std::vector<std::s
     }
   }
   return args;
+}
+
+std::string listRangeText(ListShape shape, size_t count, const std::string& form, const params::Info& info) {
+  std::string each;
+  if (std::isfinite(info.min) || std::isfinite(info.max))
+    each = ", each " + params::rangeText(params::Kind::Real, info, {});
+  switch (shape) {
+    case ListShape::Count:
+      return std::to_string(count) + " numbers " + form + each;
+    case ListShape::Comma:
+      return "comma list " + form + each + ", repeatable";
+    case ListShape::Repeat:
+      break;
+  }
+  return form + ", repeatable";
+}
+
+const params::Table<bool>& forceFlagTable() {
+  static const params::Table<bool> t{
+      params::flag<bool>("force", [](auto& force) -> auto& { return force; },
+                         {"Force", "let an output folder replace a folder Vellum wrote as another kind of output "
+                                   "(never a folder Vellum did not write)", ""}),
+  };
+  return t;
 }
 
 }  // namespace vellum::cli

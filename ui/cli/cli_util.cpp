@@ -91,20 +91,31 @@ const params::Table<InputOptions>& inputOptionsTable() {
   return t;
 }
 
+const ListTable<InputOptions>& inputListTable() {
+  using IO = InputOptions;
+  // Unset when absent (a table's vector is always set).
+  static const ListTable<IO> t{
+      numbers<IO>("raw_dims", &IO::rawDims, 3, "X Y Z",
+                  {"RAW dimensions", "bare .raw without sidecar: dimensions X Y Z", "voxels"}),
+      numbers<IO>("raw_spacing", &IO::rawSpacing, 3, "SX SY SZ", {"RAW spacing", "bare .raw: spacing", "mm"}),
+      numbers<IO>("raw_origin", &IO::rawOrigin, 3, "X Y Z", {"RAW origin", "bare .raw: origin", "mm"}),
+      numbers<IO>("raw_direction", &IO::rawDirection, 9, "9 NUMBERS",
+                  {"RAW direction", "bare .raw: direction matrix, row by row (as `vellum info` prints it)", ""}),
+      numbers<IO>("rescale", &IO::rescale, 2, "SLOPE INTERCEPT",
+                  {"Rescale", "stored value * SLOPE + INTERCEPT = HU (e.g. 1 -1024 for CT numbers 0..4095 in a bare "
+                              "RAW); the volume is then CT", ""}),
+      numbers<IO>("crop", &IO::cropVoxels, 6, "I0 I1 J0 J1 K0 K1",
+                  {"Crop", "keep voxels i0 i1 j0 j1 k0 k1 only (inclusive indices; label maps of the command get the "
+                           "same region)", "voxels"}),
+      numbers<IO>("crop_mm", &IO::cropMm, 6, "X0 X1 Y0 Y1 Z0 Z1",
+                  {"Crop box", "keep the voxels inside the box x0 x1 y0 y1 z0 z1 (LPS)", "mm"}),
+  };
+  return t;
+}
+
 void InputOptions::addTo(CLI::App& cmd) {
   addFlags(cmd, *this, inputOptionsTable());
-  // Number lists: unset when absent (a table's vector is always set).
-  cmd.add_option("--raw-dims", rawDims, "bare .raw without sidecar: dimensions X Y Z")->expected(3);
-  cmd.add_option("--raw-spacing", rawSpacing, "bare .raw: spacing in mm (sx sy sz)")->expected(3);
-  cmd.add_option("--raw-origin", rawOrigin, "bare .raw: origin in mm (x y z)")->expected(3);
-  cmd.add_option("--raw-direction", rawDirection,
-                 "bare .raw: direction matrix, 9 numbers row by row (as `vellum info` prints it)")
-      ->expected(9);
-  cmd.add_option("--rescale", rescale, "stored value * SLOPE + INTERCEPT = HU (e.g. 1 -1024 for CT numbers "
-                                       "0..4095 in a bare RAW); the volume is then CT")->expected(2);
-  cmd.add_option("--crop", cropVoxels, "keep voxels i0 i1 j0 j1 k0 k1 only (inclusive indices; label maps of the "
-                                       "command get the same region)")->expected(6);
-  cmd.add_option("--crop-mm", cropMm, "keep the voxels inside the box x0 x1 y0 y1 z0 z1 (mm, LPS)")->expected(6);
+  addLists(cmd, *this, inputListTable());
 }
 
 Region InputOptions::region() const {
@@ -149,12 +160,22 @@ io::LoadOptions InputOptions::toLoadOptions(Progress* progress) const {
   return o;
 }
 
-void TableRemovalOptions::addTo(CLI::App& cmd) {
-  cmd.add_flag("--remove-table", enabled,
-               "remove the CT table, pads and head holders: keep every body part above air at least "
-               "--table-min-part-volume large and --table-min-part-thickness thick (two legs, two feet)");
-  addFlags(cmd, params, segmentation::bodyMaskParamsTable(), {}, "table_");
+const params::Table<TableRemovalOptions>& tableRemovalTable() {
+  using T = TableRemovalOptions;
+  static const params::Table<T> t = [] {
+    params::Table<T> rows{params::flag<T>(
+        "remove_table", &T::enabled,
+        {"Remove table", "remove the CT table, pads and head holders: keep every body part above air at least "
+                         "--table-min-part-volume large and --table-min-part-thickness thick (two legs, two feet)",
+         ""})};
+    for (auto& f : params::embed<T, segmentation::BodyMaskParams>("table_", &T::params, segmentation::bodyMaskParamsTable()))
+      rows.push_back(std::move(f));
+    return rows;
+  }();
+  return t;
 }
+
+void TableRemovalOptions::addTo(CLI::App& cmd) { addFlags(cmd, *this, tableRemovalTable()); }
 
 namespace {
 /// Runs one table-removal step with a progress bar, prints its one-line summary and keeps its report.
@@ -205,26 +226,40 @@ const params::Table<FigureOptions>& figureOptionsTable() {
                        "px", 0, 400}),
       params::flag<F>("annotate", &F::annotateAll,
                       {"Annotate", "scale bar and orientation letters (and labels with --label-map / --labels)", ""}),
+      params::flag<F>("labels", &F::labelFlag,
+                      {"Labels", "`vellum illustrate`: name the visible structures, with leader lines", ""}),
+      params::flag<F>("name_structures", &F::labelFlag,
+                      {"Name structures", "`vellum animate`: name the structures of the --labels map, with leader "
+                                          "lines that follow them", ""}),
+  };
+  return t;
+}
+
+const ListTable<FigureOptions>& figureListTable() {
+  using F = FigureOptions;
+  static const ListTable<F> t{
+      commaList<F>("label_ids", &F::labelIds, "ID,ID..",
+                   {"Label ids", "structures to name (default: every id of the label table)", ""}),
+      repeated<F>("label_name", &F::labelNames, "NAME=TEXT",
+                  {"Label name", "text of a structure's label instead of its table name: NAME=TEXT or ID=TEXT, e.g. "
+                                 "--label-name bone=\"Tibia and fibula\" (repeat for more)", ""}),
   };
   return t;
 }
 
 void FigureOptions::addTo(CLI::App& cmd, LabelSource source) {
-  const auto flags = addFlags(cmd, *this, figureOptionsTable());
+  // The label switch has the name of the command's label source (a file: --label-map).
+  std::set<std::string> skip{"labels", "name_structures"};
+  if (source == LabelSource::Input) skip.erase("labels");
+  if (source == LabelSource::OtherOption) skip.erase("name_structures");
+  const auto flags = addFlags(cmd, *this, figureOptionsTable(), skip);
   flags.at("label_size")->check([](const std::string& v) {  // 0 (automatic) or readable
     const double px = std::atof(v.c_str());
     return px == 0 || px >= 4 ? std::string() : std::string("0 (automatic) or at least 4 pixels");
   });
-  if (source == LabelSource::Input)
-    cmd.add_flag("--labels", labelFlag, "name the visible structures, with leader lines");
-  else if (source == LabelSource::OtherOption)
-    cmd.add_flag("--name-structures", labelFlag, "name the structures of the --labels map, with leader lines that follow them");
-  else
+  if (source == LabelSource::File)
     addInput(cmd, "--label-map", labelMap, "label map on the volume's grid: name its visible structures, with leader lines");
-  cmd.add_option("--label-ids", labelIds, "structures to name (default: every id of the label table)")->delimiter(',');
-  cmd.add_option("--label-name", labelNames,
-                 "text of a structure's label instead of its table name: NAME=TEXT or ID=TEXT, e.g. "
-                 "--label-name bone=\"Tibia and fibula\" (repeat for more)");
+  addLists(cmd, *this, figureListTable());
 }
 
 const params::Table<FigureFlags>& figureFlagsTable() {
@@ -328,6 +363,10 @@ void ProgressBar::finish() {
   shown_ = false;
 }
 
+void printTableRemoval(const std::string& summary) {
+  if (!summary.empty()) std::cerr << summary << "\n";
+}
+
 void printLoadWarnings(const std::filesystem::path& input, const std::vector<std::string>& warnings) {
   for (const auto& w : warnings) std::cerr << "warning: " << input.string() << ": " << w << "\n";
 }
@@ -414,11 +453,7 @@ std::string& commandLine() {
   return line;
 }
 
-void addForceFlag(CLI::App& cmd, bool& force) {
-  cmd.add_flag("--force", force,
-               "let an output folder replace a folder Vellum wrote as another kind of output (never a folder "
-               "Vellum did not write)");
-}
+void addForceFlag(CLI::App& cmd, bool& force) { addFlags(cmd, force, forceFlagTable()); }
 
 std::vector<double> parseNumberList(const std::string& text, size_t n, const char* what) {
   std::vector<double> v;

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_params.hpp"
 #include "vellum/app/figures.hpp"
 #include "vellum/app/outputs.hpp"
 #include "vellum/core/params.hpp"
@@ -89,9 +90,12 @@ struct InputOptions {
 
 /// The single-valued flags of InputOptions, described once (docs/parameters.md).
 const params::Table<InputOptions>& inputOptionsTable();
+/// Its number lists (--raw-dims, --raw-spacing, --raw-origin, --raw-direction, --rescale,
+/// --crop, --crop-mm).
+const ListTable<InputOptions>& inputListTable();
 
 /// --remove-table and its parameters (--table-air-threshold, --table-opening-radius,
-/// --table-min-part-volume, --table-min-part-thickness).
+/// --table-min-part-volume, --table-min-part-thickness): tableRemovalTable().
 struct TableRemovalOptions {
   bool enabled = false;
   segmentation::BodyMaskParams params;
@@ -105,6 +109,9 @@ struct TableRemovalOptions {
   /// Adds "table_removal" (app::tableRemovalJson) to a command's report when it ran.
   void addToReport(nlohmann::json& report) const;
 };
+
+/// --remove-table and BodyMaskParams' fields as --table-<key>, described once.
+const params::Table<TableRemovalOptions>& tableRemovalTable();
 
 /// --scale-bar, --scale-bar-mm, --orientation, --label-ids, --annotate (and, where a command
 /// takes one, --label-map): figure annotations for `render`, `illustrate` and `animate`, bound
@@ -126,6 +133,12 @@ struct FigureOptions {
   render::AnnotationOptions resolved(bool haveLabels) const;
   bool wantsLabels() const { return labelFlag || !labelMap.empty(); }
   bool any() const { return annotateAll || annotations.scaleBar || annotations.orientation || wantsLabels(); }
+  /// Sets a figure request's annotations (resolved(), labels when asked for) and label ids.
+  template <class Request>
+  void setAnnotations(Request& r) const {
+    r.annotations = resolved(wantsLabels());
+    r.labelIds = labelIds;
+  }
   /// Draws what was asked for into `image` rendered with `settings` around `volume`, with the
   /// labels' anchors found by the caller (illustrate: only drawn segments).
   render::AnnotationLayout apply(RgbaImage& image, const Geometry& volume, const render::RenderSettings& settings,
@@ -133,8 +146,10 @@ struct FigureOptions {
 };
 
 /// The switches and numbers of FigureOptions (--scale-bar, --scale-bar-mm, --orientation,
-/// --label-size, --annotate), described once (docs/parameters.md).
+/// --label-size, --annotate, --labels / --name-structures), described once (docs/parameters.md).
 const params::Table<FigureOptions>& figureOptionsTable();
+/// Its lists: --label-ids, --label-name.
+const ListTable<FigureOptions>& figureListTable();
 
 /// The figure flags `render` and `illustrate` share, described once (figureFlagsTable()):
 /// --view, --plate, --size, --pan, --background, --transparent.
@@ -199,6 +214,36 @@ void addColourOption(CLI::App& cmd, std::vector<ColourArg>& target, const std::s
 std::array<uint8_t, 3> colourBytes(const ColourArg& arg, const char* what = "--colour");
 
 
+/// The command line as typed ("vellum render ..."), for reports; main() sets it.
+std::string& commandLine();
+
+/// Sets the request's volume input (--series, the raw layout, --crop, --downsample), its
+/// --remove-table when `table` asks for it, and the command line its report keeps.
+template <class Request>
+void setVolumeInput(Request& r, const InputOptions& in, const TableRemovalOptions* table = nullptr) {
+  r.load = in.toLoadOptions(nullptr);
+  if constexpr (requires { r.removeTable; })
+    if (table && table->enabled) r.removeTable = table->params;
+  r.commandLine = commandLine();
+}
+
+/// Prints a table-removal summary line to stderr (nothing when empty).
+void printTableRemoval(const std::string& summary);
+
+/// Runs a command's pipeline, `run(request, progress)` (app::runRender ...), behind a progress
+/// bar, then prints to stderr what the run noticed: the loader's warnings about the input and,
+/// where the result has one, the table-removal line.
+template <class Request, class Run>
+auto runPipeline(const Request& request, Run run) {
+  auto result = [&] {
+    ProgressBar bar;
+    return run(request, bar.progress());
+  }();
+  printLoadWarnings(request.input, result.warnings);
+  if constexpr (requires { result.tableRemoval; }) printTableRemoval(result.tableRemoval);
+  return result;
+}
+
 /// Loads a volume with a progress bar; prints warnings to stderr unless `quiet`.
 io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const InputOptions& in,
                                   bool quiet = false);
@@ -214,8 +259,6 @@ using io::OutputPlan;
 /// folder Vellum did not write is never replaced).
 void addForceFlag(CLI::App& cmd, bool& force);
 
-/// The command line as typed ("vellum render ..."), for reports; main() sets it.
-std::string& commandLine();
 
 /// JSON for geometry pieces.
 nlohmann::json toJson(const Vec3& v);

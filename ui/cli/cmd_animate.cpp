@@ -33,15 +33,24 @@ namespace {
 struct AnimateArgs {
   app::AnimateRequest request;  ///< the flags write here
   std::string size = "512x512";
-  std::vector<double> pan;  ///< the camera's look-at shift, mm (as `vellum render --pan`)
   InputOptions in;
   TableRemovalOptions table;
   FigureOptions figure;
 };
 
+/// `animate`'s own flags besides the request's tables, described once (docs/parameters.md).
+const params::Table<AnimateArgs>& animateFlagsTable() {
+  using A = AnimateArgs;
+  static const params::Table<A> t{
+      params::text<A>("size", &A::size, {"Size", "image size WxH", "px"}),
+      params::vector<A>("pan", params::nested(&A::request, &app::AnimateRequest::settings,
+                                              &render::RenderSettings::camera, &render::Camera::panMm),
+                        {"Pan", "shift of the look-at point (x y z, or x,y,z; as `vellum render --pan`)", "mm"}),
+  };
+  return t;
+}
+
 void printSummary(const app::AnimateRequest& request, const app::AnimateResult& result) {
-  printLoadWarnings(request.input, result.warnings);
-  if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
   const MovieResult& r = result.movie;
   const int frames = std::max(r.frames, 1);
   std::cout << request.output.string() << "  " << r.frames << " frames  deform " << r.deformMs / frames
@@ -53,6 +62,8 @@ void printSummary(const app::AnimateRequest& request, const app::AnimateResult& 
 
 }  // namespace
 
+std::string animateFlagsMarkdown() { return params::markdown(animateFlagsTable()); }
+
 void addAnimateCommand(CLI::App& app) {
   auto a = std::make_shared<AnimateArgs>();
   app::AnimateRequest& r = a->request;
@@ -61,9 +72,8 @@ void addAnimateCommand(CLI::App& app) {
   addInput(*cmd, "--keyframes", r.keyframes, "keyframe JSON (mm; see docs/deformation.md)")->required();
   addOutput(*cmd, "--out,-o", r.output, "movie.mp4, or a folder (ending in /) for PNG frames")->required();
   addOutput(*cmd, "--frames", r.frames, "also write PNG frames into this folder");
-  cmd->add_option("--size", a->size, "image size WxH")->capture_default_str();
+  addFlags(*cmd, *a, animateFlagsTable());  // --size, --pan
   addFlags(*cmd, r.settings, render::renderSettingsTable(), {"width", "height"});
-  cmd->add_option("--pan", a->pan, "shift of the look-at point in mm (x y z)")->expected(3);
   addFlags(*cmd, r, app::animateRequestTable());  // --fps, --camera-orbit, --loop
   addOutput(*cmd, "--report", r.report, "JSON report: timings and per-frame rigidity measures");
   addForceFlag(*cmd, r.force);
@@ -76,18 +86,9 @@ void addAnimateCommand(CLI::App& app) {
   cmd->callback([a] {
     app::AnimateRequest request = a->request;
     std::tie(request.settings.width, request.settings.height) = parseSize(a->size);
-    if (!a->pan.empty()) request.settings.camera.panMm = {a->pan[0], a->pan[1], a->pan[2]};
-    request.load = a->in.toLoadOptions(nullptr);
-    if (a->table.enabled) request.removeTable = a->table.params;
-    request.annotations = a->figure.resolved(a->figure.wantsLabels());
-    request.labelIds = a->figure.labelIds;
-    request.commandLine = commandLine();
-    app::AnimateResult result;
-    {
-      ProgressBar bar;
-      result = app::runAnimate(request, bar.progress());
-    }
-    printSummary(request, result);
+    setVolumeInput(request, a->in, &a->table);
+    a->figure.setAnnotations(request);
+    printSummary(request, runPipeline(request, app::runAnimate));
   });
 }
 

@@ -16,31 +16,45 @@ namespace vellum::cli {
 namespace {
 
 struct CompareArgs {
-  std::string a, b, kind = "auto", json, heatmap;
-  std::vector<uint16_t> ids, aIds, bIds;
-  app::CompareTolerances tolerances;
+  app::CompareRequest request;  ///< the flags write here
+  std::string json, heatmap;
   bool quiet = false;
   InputOptions in;
 };
 
+/// `compare`'s flags besides its paths and tolerances, described once (docs/parameters.md).
+const params::Table<CompareArgs>& compareFlagsTable() {
+  using A = CompareArgs;
+  static const params::Table<A> t{
+      params::choice<A>("kind", params::nested(&A::request, &app::CompareRequest::kind), app::compareKinds().names,
+                        {"Kind", "what A and B are (auto: images by extension, unsigned integer volumes as label "
+                                 "maps, other volumes as grey)", ""}),
+      params::flag<A>("quiet", &A::quiet, {"Quiet", "print nothing; the exit code says pass (0) or fail (1)", ""}),
+  };
+  return t;
+}
+const ListTable<app::CompareRequest>& compareListTable() {
+  using R = app::CompareRequest;
+  static const ListTable<R> t{
+      commaList<R>("ids", &R::ids, "ID,ID..", {"Ids", "labels: compare only these ids (e.g. --ids 1,3)", ""}),
+      commaList<R>("a_ids", &R::aIds, "ID,ID..",
+                   {"A ids", "labels: compare the union of these ids in A with --b-ids in B as one mask", ""}),
+      commaList<R>("b_ids", &R::bIds, "ID,ID..", {"B ids", "labels: the ids of B matched by --a-ids (default: the same)", ""}),
+  };
+  return t;
+}
+
 int run(const CompareArgs& a) {
-  app::CompareRequest q;
-  q.a = a.a;
-  q.b = a.b;
-  q.kind = app::parseCompareKind(a.kind);
-  q.tolerances = a.tolerances;
-  q.ids = a.ids;
-  q.aIds = a.aIds;
-  q.bIds = a.bIds;
+  app::CompareRequest q = a.request;
   q.load = a.in.toLoadOptions(nullptr);
   const bool jsonToStdout = a.json == "-";
   OutputPlan plan;
-  plan.input(a.a, "A").input(a.b, "B");
+  plan.input(q.a, "A").input(q.b, "B");
   if (!jsonToStdout) plan.json(a.json, "--json");
   plan.output(a.heatmap, "--heatmap").check();
   app::RunReport run(commandLine());  // the envelope every command's report shares
-  run.input(a.a, "A");
-  run.input(a.b, "B");
+  run.input(q.a, "A");
+  run.input(q.b, "B");
   const app::CompareResult r = app::compareFiles(q);
   run.mark("compare");
   RunOutputs outputs;
@@ -72,26 +86,24 @@ int run(const CompareArgs& a) {
 
 }  // namespace
 
+std::string compareFlagsMarkdown() {
+  return params::markdown(compareFlagsTable()) + listMarkdownRows(compareListTable());
+}
+
 void addCompareCommand(CLI::App& app) {
   auto a = std::make_shared<CompareArgs>();
   auto* cmd = app.add_subcommand(
       "compare", "Compare two label maps (Dice, Jaccard, HD95, ASSD per id), images (difference, PSNR, SSIM, "
                  "heat map) or volumes (geometry, HU differences); exit 0 within tolerance, 1 outside, 2 on error");
-  addInput(*cmd, "a", a->a, "the result: label map, image (PNG, TIFF, JPEG) or volume (any format `info` reads)")
+  addInput(*cmd, "a", a->request.a, "the result: label map, image (PNG, TIFF, JPEG) or volume (any format `info` reads)")
       ->required();
-  addInput(*cmd, "b", a->b, "the baseline or reference, of the same kind")->required();
-  cmd->add_option("--kind", a->kind, "auto | labels | image | volume (auto: images by extension, unsigned integer "
-                                     "volumes as label maps, other volumes as grey)")
-      ->capture_default_str();
-  cmd->add_option("--ids", a->ids, "labels: compare only these ids (e.g. --ids 1,3)")->delimiter(',');
-  cmd->add_option("--a-ids", a->aIds, "labels: compare the union of these ids in A with --b-ids in B as one mask")
-      ->delimiter(',');
-  cmd->add_option("--b-ids", a->bIds, "labels: the ids of B matched by --a-ids (default: the same)")->delimiter(',');
+  addInput(*cmd, "b", a->request.b, "the baseline or reference, of the same kind")->required();
+  addFlags(*cmd, *a, compareFlagsTable(), {}, "", {{"quiet", "-q"}});  // --kind, --quiet
+  addLists(*cmd, a->request, compareListTable());  // --ids, --a-ids, --b-ids
   addOutput(*cmd, "--json,--report", a->json, "write the comparison as JSON to this file ('-': stdout only)");
   addOutput(*cmd, "--heatmap", a->heatmap, "write the differences as a PNG (images: a heat map; label maps and "
                                            "volumes: the axial slice with the most disagreement)");
-  cmd->add_flag("--quiet,-q", a->quiet, "print nothing; the exit code says pass (0) or fail (1)");
-  addFlags(*cmd, a->tolerances, app::compareTolerancesTable());
+  addFlags(*cmd, a->request.tolerances, app::compareTolerancesTable());
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum compare seg.nrrd truth.nrrd --min-dice 0.95 --max-hd95 2 --json cmp.json\n"
               "         vellum compare new.png baseline.png --tolerance 2 --max-differing-percent 0.1 --heatmap diff.png");

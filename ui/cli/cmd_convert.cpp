@@ -54,12 +54,8 @@ void addConvertCommand(CLI::App& app) {
     app::ConvertRequest r = a->request;
     r.gzip = !a->rawEncoding;
     if (!a->type.empty()) r.type = parseVoxelType(a->type);
-    r.load = a->in.toLoadOptions(nullptr);
-    r.commandLine = commandLine();
-    ProgressBar bar;
-    const app::ConvertResult result = app::runConvert(r, bar.progress());
-    bar.finish();
-    printLoadWarnings(r.input, result.warnings);
+    setVolumeInput(r, a->in);
+    const app::ConvertResult result = runPipeline(r, app::runConvert);
     std::cout << r.input.string() << " -> " << r.output.string();
     if (r.labels) std::cout << " (label map, " << result.labelCount << " labels)\n";
     else std::cout << " (" << result.dims.str() << " " << voxelTypeName(result.type) << ")\n";

@@ -30,16 +30,19 @@ namespace {
 struct CurveArgs {
   app::CurveAnalogyRequest request;
   std::string curve, drawing, view = "front", size = "512x512";
-  double azimuth = std::numeric_limits<double>::quiet_NaN(), elevation = 0;
+  std::optional<double> azimuth;  ///< overrides --view when given
+  double elevation = 0;
   int darkThreshold = 128;
 };
 
-/// The single-valued flags of `curve-analogy` besides its paths (and --azimuth, unset by
-/// default), described once (docs/parameters.md).
+/// The flags of `curve-analogy` besides its paths, described once (docs/parameters.md).
 const params::Table<CurveArgs>& curveFlagsTable() {
   using A = CurveArgs;
   using R = app::CurveAnalogyRequest;
   static const params::Table<A> t{
+      params::text<A>("segment", params::nested(&A::request, &R::segment),
+                      {"Segment", "the segment whose outline follows the curve", ""}),
+      params::real<A>("azimuth", &A::azimuth, {"Azimuth", "camera azimuth; overrides --view", "degrees"}),
       params::text<A>("view", &A::view, {"View", "the orthographic view the curve is drawn in", ""},
                       {"front", "side", "top", "oblique"}),
       params::real<A>("elevation", &A::elevation, {"Elevation", "camera elevation, with --azimuth", "degrees", -90, 90}),
@@ -69,8 +72,8 @@ render::RenderSettings viewSettings(const CurveArgs& a, int width, int height) {
   s.camera.fieldOfViewDeg = 0;  // orthographic: an illustration plate has no perspective
   s.camera.zoom = 1.0;
   s.camera.panMm = {0, 0, 0};
-  if (!std::isnan(a.azimuth)) {
-    s.camera.azimuthDeg = a.azimuth;
+  if (a.azimuth) {
+    s.camera.azimuthDeg = *a.azimuth;
     s.camera.elevationDeg = a.elevation;
   } else if (a.view == "front") {
     s.camera.azimuthDeg = 0, s.camera.elevationDeg = 0;
@@ -139,7 +142,17 @@ std::string quoted(const fs::path& p) { return "\"" + p.string() + "\""; }
 
 }  // namespace
 
-std::string curveAnalogyFlagsMarkdown() { return params::markdown(curveFlagsTable()); }
+const ListTable<CurveArgs>& curveListTable() {
+  static const ListTable<CurveArgs> t{
+      repeated<CurveArgs>("transfer", params::nested(&CurveArgs::request, &app::CurveAnalogyRequest::transfer),
+                          "NAME[,NAME..]", {"Transfer", "other segments moved by the cage (repeatable)", ""}),
+  };
+  return t;
+}
+
+std::string curveAnalogyFlagsMarkdown() {
+  return params::markdown(curveFlagsTable()) + listMarkdownRows(curveListTable());
+}
 
 void demoCurveAnalogy(const DemoContext& ctx) {
   const fs::path dir = ctx.outDir / "curve-analogy";
@@ -166,12 +179,10 @@ void addCurveAnalogyCommand(CLI::App& app) {
   auto a = std::make_shared<CurveArgs>();
   auto* cmd = app.add_subcommand("curve-analogy", "Bend a shape folder's segment toward an illustrator's outline (curve analogy), carry other segments and the CT along");
   addInput(*cmd, "dir", a->request.dir, "input shape folder (from `vellum shape`)")->required();
-  cmd->add_option("--segment,-s", a->request.segment, "segment whose outline follows the curve")->required();
   addInput(*cmd, "--curve", a->curve, "C0 as JSON {\"points\": [[x, y], ...]} in image pixels of the view (--size)");
   addInput(*cmd, "--drawing", a->drawing, "C0 from a drawing (PNG/JPG): outer contour of its dark strokes; the view's image has the drawing's size");
-  addFlags(*cmd, *a, curveFlagsTable());
-  cmd->add_option("--azimuth", a->azimuth, "camera azimuth (deg), overrides --view (unset by default)");
-  cmd->add_option("--transfer", a->request.transfer, "NAME[,NAME..]: other segments moved by the cage");
+  addFlags(*cmd, *a, curveFlagsTable(), {}, "", {{"segment", "-s"}}).at("segment")->required();
+  addLists(*cmd, *a, curveListTable());  // --transfer
   addOutput(*cmd, "--out,-o", a->request.out, "output shape folder (+ curve_analogy/ with curves, proxies, before_after.png)")->required();
   addOutput(*cmd, "--map-out", a->request.mapOut, "CT backward map NRRD (format of `deform --map-out`)");
   addOutput(*cmd, "--report", a->request.report, "also write the curve-analogy report JSON here");

@@ -19,29 +19,55 @@ namespace vellum::cli {
 namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
+namespace {
+/// --rigid-labels as typed ("4", "4+5"): parsed into the engine when the command line is complete.
+struct RigidLabelTokens {
+  std::vector<std::string> tokens;
+};
+
+const ListTable<RigidLabelTokens>& rigidLabelsTable() {
+  static const ListTable<RigidLabelTokens> t{
+      commaList<RigidLabelTokens>(
+          "rigid_labels", &RigidLabelTokens::tokens, "ID[+ID],..",
+          {"Rigid labels", "label ids that stay rigid: each id is one rigid body whatever its connectivity, different "
+                           "ids are different bodies (a piece mostly enclosed by another id, e.g. marrow in cortex, "
+                           "moves with it); ids joined by + make one body; the phantom: 4+5,6+7,8+11,9+11 (or "
+                           "4,5,6,7,8,9,11)", ""}),
+  };
+  return t;
+}
+
+/// The engine's lists, described once (docs/parameters.md, "Deformation run").
+const ListTable<app::DeformEngine>& engineListTable() {
+  using E = app::DeformEngine;
+  static const ListTable<E> t{
+      commaList<E>("fixed_labels", &E::fixedIds, "ID,ID..",
+                   {"Fixed labels", "label ids that do not move at all (displacement 0; blended outside over "
+                                    "--rigid-falloff)", ""}),
+      commaList<E>("fixed_box", &E::fixedBoxMm, "X0,Y0,Z0,X1,Y1,Z1",
+                   {"Fixed box", "a box (physical LPS) whose voxels do not move at all (needs --labels); repeat it "
+                                 "for more boxes", "mm"}),
+  };
+  return t;
+}
+}  // namespace
+
+std::string deformListsMarkdown() {
+  return listMarkdownRows(rigidLabelsTable()) + listMarkdownRows(engineListTable());
+}
+
 void addEngineFlags(CLI::App& cmd, app::DeformEngine& engine) {
   const auto engineFlags = addFlags(cmd, engine.params, deformParamsTable());
   markInput(addFlags(cmd, engine, app::deformEngineTable()).at("labels"));
-  // Tokens "4", "4+5": parsed into the engine when the command line is complete.
-  auto rigidTokens = std::make_shared<std::vector<std::string>>();
-  cmd.add_option("--rigid-labels", *rigidTokens,
-                 "label ids that stay rigid: each id is one rigid body whatever its connectivity, different ids "
-                 "are different bodies (a piece mostly enclosed by another id, e.g. marrow in cortex, moves with "
-                 "it); ids joined by + make one body; the phantom: 4+5,6+7,8+11,9+11 (or 4,5,6,7,8,9,11)")
-      ->delimiter(',');
-  cmd.add_option("--fixed-labels", engine.fixedIds,
-                 "label ids that do not move at all (displacement 0; blended outside over --rigid-falloff)")
-      ->delimiter(',');
-  cmd.add_option("--fixed-box", engine.fixedBoxMm,
-                 "x0,y0,z0,x1,y1,z1: a box (mm, physical LPS) whose voxels do not move at all (needs --labels); "
-                 "repeat it for more boxes")
-      ->delimiter(',');
+  auto rigid = std::make_shared<RigidLabelTokens>();
+  addLists(cmd, *rigid, rigidLabelsTable());
+  addLists(cmd, engine, engineListTable());
   CLI::Option* power = engineFlags.at("power");
-  cmd.parse_complete_callback([&engine, power, rigidTokens] {
+  cmd.parse_complete_callback([&engine, power, rigid] {
     engine.powerGiven = power->count() > 0;
     if (engine.fixedBoxMm.size() % 6 != 0)  // a usage error (exit 2, main.cpp)
       throw CLI::ValidationError("--fixed-box", "needs 6 numbers per box: x0,y0,z0,x1,y1,z1 (mm)");
-    if (!rigidTokens->empty()) engine.setRigidLabels(*rigidTokens);
+    if (!rigid->tokens.empty()) engine.setRigidLabels(rigid->tokens);
   });
 }
 
@@ -59,8 +85,17 @@ struct ControlsArgs {
   InputOptions in;
 };
 
+/// `controls`' numbers, described once (docs/parameters.md).
+const params::Table<ControlsArgs>& controlsFlagsTable() {
+  using A = ControlsArgs;
+  static const params::Table<A> t{
+      params::integer<A>("count", &A::count, {"Count", "points on the bounding box ([HVD]'s default: 16)", ""}),
+      params::real<A>("inset", &A::inset, {"Inset", "inner offset as a fraction of the box", ""}),
+  };
+  return t;
+}
+
 void printSummary(const app::DeformRequest& request, const app::DeformResult& r) {
-  printLoadWarnings(request.input, r.warnings);
   const Geometry& g = geometryOf(r.output);
   std::cout << request.output.string() << "  " << g.dims.str() << "  " << r.points << " points  s="
             << r.params.controlScale << "  " << r.report["timings_ms"]["total"].get<double>() / 1000.0 << " s\n";
@@ -116,24 +151,19 @@ void addDeformCommand(CLI::App& app) {
               "the other leg still: --fixed-box x0,y0,z0,x1,y1,z1 or --fixed-labels IDS");
   cmd->callback([a] {
     app::DeformRequest request = a->request;
-    request.load = a->in.toLoadOptions(nullptr);
-    request.commandLine = commandLine();
-    app::DeformResult result;
-    {
-      ProgressBar bar;
-      result = app::runDeform(request, bar.progress());
-    }
-    printSummary(request, result);
+    setVolumeInput(request, a->in);
+    printSummary(request, runPipeline(request, app::runDeform));
   });
 }
+
+std::string controlsFlagsMarkdown() { return params::markdown(controlsFlagsTable()); }
 
 void addControlsCommand(CLI::App& app) {
   auto a = std::make_shared<ControlsArgs>();
   auto* cmd = app.add_subcommand("controls", "Place control points (sources = targets) and write them as JSON (mm)");
   addInput(*cmd, "input", a->input, "volume file or DICOM folder (its box is used)")->required();
   addOutput(*cmd, "--out,-o", a->output, "control-point JSON to write")->required();
-  cmd->add_option("--count", a->count, "points on the bounding box ([HVD]'s default: 16)")->capture_default_str();
-  cmd->add_option("--inset", a->inset, "inner offset as a fraction of the box")->capture_default_str();
+  addFlags(*cmd, *a, controlsFlagsTable());  // --count, --inset
   addInput(*cmd, "--from-labels", a->fromLabels,
                   "place points from a label map instead: centroids + surface points of each label, "
                   "plus 8 box anchors");

@@ -21,7 +21,9 @@ namespace {
 /// The flags: the app request's fields, and the texts parsed into it.
 struct IllustrateArgs {
   app::IllustrateRequest request;
-  std::string preset, interp = "eight", frame = "drawn", lightPreset;
+  std::string preset, lightPreset;
+  illustration::Interpolation interp = illustration::Interpolation::Eight;
+  illustration::Framing frame = illustration::Framing::Drawn;
   FigureFlags figureFlags;  ///< --view, --plate, --size, --pan, --background, --transparent
   render::RenderSettings camera = [] {  // the render table's camera and step flags write here
     render::RenderSettings s;
@@ -47,26 +49,48 @@ void runIllustrate(const IllustrateArgs& a) {
   s.render.lighting = a.camera.lighting;  // the optional lighting layer (off unless asked)
   if (!a.lightPreset.empty()) r.lightPreset = render::parsePreset(a.lightPreset);
   std::tie(s.render.width, s.render.height) = f.sizePixels();
-  s.interpolation = illustration::parseInterpolation(a.interp);
+  s.interpolation = a.interp;
   if (const auto bg = f.backgroundColour()) r.background = *bg;
-  r.framing = illustration::parseFraming(a.frame);
-  r.annotations = a.figure.resolved(a.figure.wantsLabels());
-  r.labelIds = a.figure.labelIds;
-  r.load = a.in.toLoadOptions(nullptr);
-  if (a.table.enabled) r.removeTable = a.table.params;
-  r.commandLine = commandLine();
-  ProgressBar bar;
-  const app::IllustrateResult result = app::runIllustrate(r, bar.progress());
-  bar.finish();
-  printLoadWarnings(r.input, result.warnings);
-  if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
+  r.framing = a.frame;
+  a.figure.setAnnotations(r);
+  setVolumeInput(r, a.in, &a.table);
+  const app::IllustrateResult result = runPipeline(r, app::runIllustrate);
   for (const auto& f : result.figures)
     std::cout << f.path.string() << "  " << f.style << (f.view.empty() ? "" : "  ") << f.view << "  "
               << s.render.width << "x" << s.render.height << "  " << illustration::interpolationName(s.interpolation)
               << "  " << f.renderMs << " ms\n";
 }
 
+/// `illustrate`'s own flags besides the tables it shares, described once (docs/parameters.md).
+const params::Table<IllustrateArgs>& illustrateFlagsTable() {
+  using A = IllustrateArgs;
+  static const std::string presets = [] {
+    std::string names;
+    for (const auto& n : illustration::stylePresetNames()) names += (names.empty() ? "" : " | ") + n;
+    return names;
+  }();
+  static const params::Table<A> t{
+      params::text<A>("preset", &A::preset,
+                      {"Style presets", "a built-in style (" + presets + "), or a comma list of them (one figure "
+                                        "each from one upload, suffixed -PRESET)", ""}),
+      params::text<A>("light_preset", &A::lightPreset,
+                      {"Light preset", "with --shadows/--occlusion/--tone-map: the render preset whose opacity casts "
+                                       "the shadows and whose surface is lit (bone | soft-tissue | skin; empty: bone; "
+                                       "docs/lighting.md)", ""}),
+      params::choice<A>("frame", &A::frame, illustration::framings().names,
+                        {"Framing", "what --zoom 1 fits: drawn (the segments the style draws) | segments (every "
+                                    "segment: the same framing for every style) | volume (the volume's bounding "
+                                    "sphere)", ""}),
+      params::choice<A>("interp", &A::interp, illustration::interpolations().names,
+                        {"Interpolation", "eight (gradients by central differences of the interpolated distances) | "
+                                          "nearest (forward differences: faster)", ""}),
+  };
+  return t;
+}
+
 }  // namespace
+
+std::string illustrateFlagsMarkdown() { return params::markdown(illustrateFlagsTable()); }
 
 void demoIllustration(const DemoContext& ctx) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -121,16 +145,12 @@ void demoIllustration(const DemoContext& ctx) {
 
 void addIllustrateCommand(CLI::App& app) {
   auto a = std::make_shared<IllustrateArgs>();
-  std::string presets;
-  for (const auto& n : illustration::stylePresetNames()) presets += (presets.empty() ? "" : " | ") + n;
   auto* cmd = app.add_subcommand("illustrate", "Render a shape folder (from `vellum shape`) as an illustration in a style");
   app::IllustrateRequest& r = a->request;
   addInput(*cmd, "input", r.input, "the CT the shape folder was made from")->required();
   addInput(*cmd, "--shape", r.shape, "shape folder of `vellum shape` (distances.json, distance-<id>.nrrd, segments.nrrd)")->required();
   auto* styleOpt = addInput(*cmd, "--style", r.style, "style file (JSON, see docs/styles.md)");
-  cmd->add_option("--preset", a->preset,
-                  "built-in style: " + presets + "; or a comma list of them (one figure each from one upload, suffixed -PRESET)")
-      ->excludes(styleOpt);
+  addFlags(*cmd, *a, illustrateFlagsTable(), {"light_preset", "frame", "interp"}).at("preset")->excludes(styleOpt);
   addOutput(*cmd, "--out,-o", r.output, "figure path (.png, .tif, .jpg)")->required();
   a->figureFlags.addTo(*cmd);
   // The camera, the ray step and the lighting layer's terms: the rest of the render table
@@ -142,15 +162,7 @@ void addIllustrateCommand(CLI::App& app) {
              .count(field.key))
       notHere.insert(field.key);
   addFlags(*cmd, a->camera, render::renderSettingsTable(), notHere);
-  cmd->add_option("--light-preset", a->lightPreset,
-                  "with --shadows/--occlusion/--tone-map: the render preset whose opacity casts the shadows and "
-                  "whose surface is lit (bone | soft-tissue | skin; default bone; docs/lighting.md)");
-  cmd->add_option("--frame", a->frame,
-                  "what --zoom 1 fits: drawn (the segments the style draws) | segments (every segment: the same "
-                  "framing for every style) | volume (the volume's bounding sphere)")
-      ->capture_default_str();
-  cmd->add_option("--interp", a->interp, "eight (gradients by central differences of the interpolated distances) | nearest (forward differences: faster)")
-      ->capture_default_str();
+  addFlags(*cmd, *a, illustrateFlagsTable(), {"preset"});  // --light-preset, --frame, --interp
   addOutput(*cmd, "--save-style", r.saveStyle, "also write the style used as JSON (a starting point for your own)");
   addOutput(*cmd, "--report", r.report, "write timings and settings as JSON");
   a->in.addTo(*cmd);

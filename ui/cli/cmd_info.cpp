@@ -16,6 +16,13 @@ struct InfoArgs {
   InputOptions in;
 };
 
+const params::Table<InfoArgs>& infoFlagsTable() {
+  static const params::Table<InfoArgs> t{
+      params::flag<InfoArgs>("json", &InfoArgs::json, {"JSON", "machine-readable JSON on stdout", ""}),
+  };
+  return t;
+}
+
 nlohmann::json describe(const std::string& input, const io::LoadedVolume& lv) {
   const Geometry& g = geometryOf(lv.volume);
   const auto [lo, hi] = std::visit([](const auto& v) { return v.valueRange(); }, lv.volume);
@@ -80,11 +87,13 @@ void printHuman(const nlohmann::json& j) {
 
 }  // namespace
 
+std::string infoFlagsMarkdown() { return params::markdown(infoFlagsTable()); }
+
 void addInfoCommand(CLI::App& app) {
   auto args = std::make_shared<InfoArgs>();
   auto* cmd = app.add_subcommand("info", "Print a volume's geometry, type, value range, modality and DICOM series");
   addInput(*cmd, "input", args->input, "volume file or DICOM folder")->required();
-  cmd->add_flag("--json", args->json, "machine-readable JSON on stdout");
+  addFlags(*cmd, *args, infoFlagsTable());  // --json
   args->in.addTo(*cmd);
   cmd->footer("Example: vellum info ../shared/data/ct-head-phantom --json");
   cmd->callback([args] {

@@ -18,6 +18,19 @@ struct LabelsArgs {
   std::vector<ColourArg> colours;  ///< --colour ID=R,G,B (0..1) or the old --color (0..255)
 };
 
+/// The edits of `labels`, described once (docs/parameters.md); --colour is addColourOption's.
+const ListTable<LabelsArgs>& labelsListTable() {
+  using A = LabelsArgs;
+  static const ListTable<A> t{
+      repeated<A>("assign", &A::assign, "IDS=ID",
+                  {"Assign", "these ids (comma list or ranges 3-7) become ID (repeatable)", ""}),
+      repeated<A>("drop", &A::drop, "IDS", {"Drop", "these ids become background (repeatable)", ""}),
+      repeated<A>("keep", &A::keep, "IDS", {"Keep", "every id not listed (and not assigned) becomes background", ""}),
+      repeated<A>("name", &A::names, "ID=NAME", {"Name", "the table name of ID in the result (repeatable)", ""}),
+  };
+  return t;
+}
+
 uint16_t parseId(const std::string& text, const std::string& flag) {
   try {
     size_t used = 0;
@@ -65,16 +78,15 @@ void print(const char* title, const std::vector<app::LabelEditResult::Entry>& en
 
 }  // namespace
 
+std::string labelsFlagsMarkdown() { return listMarkdownTable(labelsListTable()); }
+
 void addLabelsCommand(CLI::App& app) {
   auto a = std::make_shared<LabelsArgs>();
   app::LabelEditRequest& r = a->request;
   auto* cmd = app.add_subcommand("labels", "Edit a label map's ids: merge pieces into one id, drop, keep, rename, recolour");
   addInput(*cmd, "input", r.input, "label map")->required();
   addOutput(*cmd, "--out,-o", r.output, "edited label map (.nrrd keeps the label table)")->required();
-  cmd->add_option("--assign", a->assign, "IDS=ID: these ids (comma list or ranges 3-7) become ID (repeatable)");
-  cmd->add_option("--drop", a->drop, "IDS: these ids become background (repeatable)");
-  cmd->add_option("--keep", a->keep, "IDS: every id not listed (and not assigned) becomes background");
-  cmd->add_option("--name", a->names, "ID=NAME: the table name of ID in the result (repeatable)");
+  addLists(*cmd, *a, labelsListTable());  // --assign, --drop, --keep, --name
   addColourOption(*cmd, a->colours, "ID=R,G,B", "the table colour of ID in the result (repeatable)");
   addOutput(*cmd, "--report", r.report, "write the ids, voxels and volumes before and after as JSON");
   addForceFlag(*cmd, r.force);

@@ -38,9 +38,22 @@ const params::Table<PhantomArgs>& phantomFlagsTable() {
   return t;
 }
 
+/// Its number lists (unset: a cube of --size voxels, 180x180x220 mm).
+const ListTable<PhantomArgs>& phantomListTable() {
+  using A = PhantomArgs;
+  static const ListTable<A> t{
+      numbers<A>("dims", &A::dims, 3, "X Y Z", {"Dimensions", "voxels per axis X Y Z (overrides --size)", "voxels"}),
+      numbers<A>("spacing", &A::spacing, 3, "SX SY SZ",
+                 {"Spacing", "voxel spacing (default: 180x180x220 mm field of view / dims)", "mm"}),
+  };
+  return t;
+}
+
 }  // namespace
 
-std::string phantomFlagsMarkdown() { return params::markdown(phantomFlagsTable()); }
+std::string phantomFlagsMarkdown() {
+  return params::markdown(phantomFlagsTable()) + listMarkdownRows(phantomListTable());
+}
 
 void addPhantomCommand(CLI::App& app) {
   auto a = std::make_shared<PhantomArgs>();
@@ -49,8 +62,7 @@ void addPhantomCommand(CLI::App& app) {
       ->required();
   addOutput(*cmd, "--labels", a->labels, "ground-truth label map output (.nrrd with label table)");
   addFlags(*cmd, *a, phantomFlagsTable());
-  cmd->add_option("--dims", a->dims, "voxels per axis X Y Z (overrides --size)")->expected(3);
-  cmd->add_option("--spacing", a->spacing, "spacing in mm (default: 180x180x220 mm field of view / dims)")->expected(3);
+  addLists(*cmd, *a, phantomListTable());  // --dims, --spacing
   addOutput(*cmd, "--report", a->report, "write a JSON report: version, command, options, outputs with fingerprints, time, memory");
   addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum phantom --size 256 --out knee.nrrd --labels knee-labels.nrrd");

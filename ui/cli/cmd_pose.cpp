@@ -22,6 +22,14 @@ struct PoseArgs {
   InputOptions in;
 };
 
+/// `pose`'s own flag besides the request's tables, described once (docs/parameters.md).
+const params::Table<PoseArgs>& poseFlagsTable() {
+  static const params::Table<PoseArgs> t{
+      params::text<PoseArgs>("size", &PoseArgs::size, {"Size", "movie frame size WxH", "px"}),
+  };
+  return t;
+}
+
 std::string mm(const nlohmann::json& v, const char* unit = " mm") {
   if (v.is_null()) return "not measured";
   std::ostringstream o;
@@ -31,7 +39,6 @@ std::string mm(const nlohmann::json& v, const char* unit = " mm") {
 }
 
 void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
-  printLoadWarnings(request.input, r.warnings);
   const nlohmann::json& rep = r.report;
   std::cout << "pose at " << rep["time_s"].get<double>() << " s: " << rep["points"]["total"].get<int>()
             << " generated points (" << rep["points"]["bones"].get<int>() << " on bones, "
@@ -62,6 +69,8 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
 
 }  // namespace
 
+std::string poseFlagsMarkdown() { return params::markdown(poseFlagsTable()); }
+
 void addPoseCommand(CLI::App& app) {
   auto a = std::make_shared<PoseArgs>();
   app::PoseRequest& r = a->request;
@@ -85,7 +94,7 @@ void addPoseCommand(CLI::App& app) {
   addFlags(*cmd, r.gltfOptions, app::poseGltfOptionsTable());
   addFlags(*cmd, r.engine.params, deformation::deformParamsTable());
   addFlags(*cmd, r.engine, app::deformEngineTable(), {"labels"});
-  cmd->add_option("--size", a->size, "movie frame size WxH")->capture_default_str();
+  addFlags(*cmd, *a, poseFlagsTable());  // --size
   addFlags(*cmd, r.movieSettings.settings, render::renderSettingsTable(), {"width", "height"});
   addFlags(*cmd, r.movieSettings, app::animateRequestTable(), {"loop"});  // --fps, --camera-orbit
   addForceFlag(*cmd, r.force);
@@ -95,14 +104,9 @@ void addPoseCommand(CLI::App& app) {
   cmd->callback([a] {
     app::PoseRequest request = a->request;
     std::tie(request.movieSettings.settings.width, request.movieSettings.settings.height) = parseSize(a->size);
-    request.load = a->in.toLoadOptions(nullptr);
-    request.commandLine = commandLine();
-    app::PoseResult result;
-    {  // a bad pose file, label map or request: one line, exit 2 (main.cpp)
-      ProgressBar bar;
-      result = app::runPose(request, bar.progress());
-    }
-    printSummary(request, result);
+    setVolumeInput(request, a->in);
+    // A bad pose file, label map or request: one line, exit 2 (main.cpp).
+    printSummary(request, runPipeline(request, app::runPose));
   });
 }
 

@@ -26,14 +26,20 @@ namespace {
 struct QaArgs {
   std::string manifest, out, baselines, caseName, reportFrom, profile;
   bool update = false, listCases = false, snakemake = false, snakefileOnly = false, force = false;
-  int jobs = std::max(1u, std::thread::hardware_concurrency());
+  std::optional<int> jobs;  ///< unset: the machine's core count
+
+  int jobCount() const { return jobs.value_or(static_cast<int>(std::max(1u, std::thread::hardware_concurrency()))); }
 };
 
-/// The single-valued flags of `qa` besides its paths, described once (docs/parameters.md);
-/// --jobs stays by hand: its default is the machine's core count.
+/// The single-valued flags of `qa` besides its paths, described once (docs/parameters.md).
 const params::Table<QaArgs>& qaFlagsTable() {
   using A = QaArgs;
   static const params::Table<A> t{
+      params::integer<A>("jobs", &A::jobs,
+                         {"Jobs", "cases at once (Snakemake: --cores); unset: the machine's core count", "", 1, 1024}),
+      params::text<A>("baselines", &A::baselines,
+                      {"Baselines", "the baseline store (default: the manifest's \"baselines\", else baselines/ "
+                                    "beside it)", ""}),
       params::flag<A>("update_baselines", &A::update,
                       {"Update baselines", "write the cases' outputs into the baseline store (with a sidecar naming "
                                            "the commands and the Vellum version) instead of comparing", ""}),
@@ -68,12 +74,12 @@ int runSnakemake(const QaArgs& a, const fs::path& out) {
   const std::string self = fs::read_symlink("/proc/self/exe").string();
   if (a.snakefileOnly) {
     std::cout << "wrote " << (workflow / "Snakefile").string() << "; run:\n  snakemake -s " << (workflow / "Snakefile").string()
-              << " --directory " << workflow.string() << " --cores " << a.jobs << " --config out=" << out.string()
+              << " --directory " << workflow.string() << " --cores " << a.jobCount() << " --config out=" << out.string()
               << " vellum=" << self << "\n";
     return 0;
   }
   std::vector<std::string> args{"snakemake", "-s", (workflow / "Snakefile").string(), "--directory", workflow.string(),
-                                "--cores", std::to_string(a.jobs), "--quiet", "--config", "out=" + out.string(),
+                                "--cores", std::to_string(a.jobCount()), "--quiet", "--config", "out=" + out.string(),
                                 "vellum=" + self};
   if (!a.profile.empty()) args.insert(args.end(), {"--profile", a.profile});
   std::vector<char*> argv;
@@ -110,7 +116,7 @@ int run(const QaArgs& a) {
   o.out = fs::absolute(a.out).lexically_normal();
   o.baselines = a.baselines;
   o.updateBaselines = a.update;
-  o.jobs = a.jobs;
+  o.jobs = a.jobCount();
   o.force = a.force;
   if (!a.caseName.empty()) {
     for (const auto& c : m.cases)
@@ -134,9 +140,7 @@ void addQaCommand(CLI::App& app) {
             "ceilings) in parallel or on Snakemake; JUnit XML and HTML report; exit 0 all pass, 1 any failure, 2 error");
   addInput(*cmd, "manifest", a->manifest, "the QA manifest (JSON; docs/qa.md)");
   addOutput(*cmd, "--out,-o", a->out, "the run folder: case outputs, logs, report.html, junit.xml, summary.json");
-  cmd->add_option("--jobs,-j", a->jobs, "cases at once (Snakemake: --cores)")->capture_default_str()->check(CLI::Range(1, 1024));
-  cmd->add_option("--baselines", a->baselines, "the baseline store (default: the manifest's \"baselines\", else baselines/ beside it)");
-  addFlags(*cmd, *a, qaFlagsTable());
+  addFlags(*cmd, *a, qaFlagsTable(), {}, "", {{"jobs", "-j"}});
   addInput(*cmd, "--report-from", a->reportFrom, "write the report of a run folder from its cases' results");
   addForceFlag(*cmd, a->force);
   cmd->footer("Example: vellum qa qa.json --out qa-run --jobs 4   (first run: --update-baselines)\n"

@@ -22,6 +22,16 @@ struct RenderArgs {
   FigureOptions figure;
 };
 
+/// `render`'s own flag besides the tables it shares, described once (docs/parameters.md).
+const params::Table<RenderArgs>& renderFlagsTable() {
+  static const params::Table<RenderArgs> t{
+      params::text<RenderArgs>("preset", &RenderArgs::preset,
+                               {"Presets", "bone | soft-tissue | skin | mip, a comma list of them, or all (one figure "
+                                           "each from one upload, suffixed -PRESET)", ""}),
+  };
+  return t;
+}
+
 void runRender(const RenderArgs& a) {
   app::RenderRequest r = a.request;
   r.presets.clear();
@@ -36,16 +46,9 @@ void runRender(const RenderArgs& a) {
   if (const auto bg = a.frame.backgroundColour()) s.background = *bg;
   if (a.frame.transparent) s.background[3] = 0.f;
   r.labelMap = a.figure.labelMap;
-  r.annotations = a.figure.resolved(a.figure.wantsLabels());
-  r.labelIds = a.figure.labelIds;
-  r.load = a.in.toLoadOptions(nullptr);
-  if (a.table.enabled) r.removeTable = a.table.params;
-  r.commandLine = commandLine();
-  ProgressBar bar;
-  const app::RenderResult result = app::runRender(r, bar.progress());
-  bar.finish();
-  printLoadWarnings(r.input, result.warnings);
-  if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
+  a.figure.setAnnotations(r);
+  setVolumeInput(r, a.in, &a.table);
+  const app::RenderResult result = runPipeline(r, app::runRender);
   for (const auto& f : result.figures)
     std::cout << f.path.string() << "  " << render::presetName(f.preset) << (f.view.empty() ? "" : "  ") << f.view
               << "  " << s.width << "x" << s.height << "  " << f.drawMs << " ms"
@@ -54,16 +57,15 @@ void runRender(const RenderArgs& a) {
 
 }  // namespace
 
+std::string renderFlagsMarkdown() { return params::markdown(renderFlagsTable()); }
+
 void addRenderCommand(CLI::App& app) {
   auto a = std::make_shared<RenderArgs>();
   app::RenderRequest& r = a->request;
   auto* cmd = app.add_subcommand("render", "Render a volume through the GL ray caster into a PNG/TIFF figure");
   addInput(*cmd, "input", r.input, "volume file or DICOM folder")->required();
   addOutput(*cmd, "--out,-o", r.output, "figure path (.png, .tif, .jpg)")->required();
-  cmd->add_option("--preset", a->preset,
-                  "bone | soft-tissue | skin | mip, a comma list of them, or all (one figure each from one upload, "
-                  "suffixed -PRESET)")
-      ->capture_default_str();
+  addFlags(*cmd, *a, renderFlagsTable());  // --preset
   a->frame.addTo(*cmd);
   addFlags(*cmd, r.settings, render::renderSettingsTable(), {"width", "height", "preset"});
   addInput(*cmd, "--label-colours", r.labelColours,

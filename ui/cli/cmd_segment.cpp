@@ -48,6 +48,20 @@ const params::Table<app::SegmentRequest>& segmentLabelTable() {
   return t;
 }
 
+/// The seeds and the truth ids, described once (docs/parameters.md).
+const ListTable<SegmentArgs>& segmentListTable() {
+  using A = SegmentArgs;
+  static const ListTable<A> t{
+      repeated<A>("seed", &A::seeds, "X,Y,Z", {"Seed", "seed point (repeatable; snake: bubble centres)", "mm"}),
+      repeated<A>("split_seed", &A::splitSeeds, "X,Y,Z",
+                  {"Split seed", "with --split: one object per seed (repeatable; pieces without a seed are dropped)",
+                   "mm"}),
+      commaList<A>("truth_ids", params::nested(&A::request, &app::SegmentRequest::truthIds), "ID,ID..",
+                   {"Truth ids", "compare against the union of these truth ids (default: the same id)", ""}),
+  };
+  return t;
+}
+
 /// The result on stdout: the segment, then each truth comparison.
 void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& result) {
   const nlohmann::json& j = result.report;
@@ -90,18 +104,15 @@ void runSegment(SegmentArgs& a) {
   }
   if (!a.splitSeeds.empty() && !r.settings.post.split) throw Error("--split-seed needs --split");
   if (!a.colour.empty()) r.colour = colourBytes(a.colour.back());
-  ProgressBar bar;
-  r.load = a.in.toLoadOptions(nullptr);
-  r.commandLine = commandLine();
-  const app::SegmentResult result = app::runSegment(r, bar.progress());
-  bar.finish();
-  printLoadWarnings(r.input, result.warnings);
-  printSegmentResult(r, result);
+  setVolumeInput(r, a.in);
+  printSegmentResult(r, runPipeline(r, app::runSegment));
 }
 
 }  // namespace
 
-std::string segmentLabelFlagsMarkdown() { return params::markdown(segmentLabelTable()); }
+std::string segmentLabelFlagsMarkdown() {
+  return params::markdown(segmentLabelTable()) + listMarkdownRows(segmentListTable());
+}
 
 void addSegmentCommand(CLI::App& app) {
   auto a = std::make_shared<SegmentArgs>();
@@ -111,14 +122,11 @@ void addSegmentCommand(CLI::App& app) {
   addOutput(*cmd, "--out,-o", r.output, "output label map (.nrrd keeps the label table)")->required();
   // Method, its settings and post-processing: flags generated from the request's table.
   addFlags(*cmd, r.settings, app::segmentSettingsTable());
-  cmd->add_option("--seed", a->seeds, "seed point x,y,z in mm (repeatable; snake: bubble centres)");
-  cmd->add_option("--split-seed", a->splitSeeds, "with --split: one object per seed x,y,z in mm (repeatable; "
-                                                  "pieces without a seed are dropped)");
+  addLists(*cmd, *a, segmentListTable());  // --seed, --split-seed, --truth-ids
   addInput(*cmd, "--into", r.into, "add the segment into this existing label map (written to --out)");
   addFlags(*cmd, r, segmentLabelTable());
   addColourOption(*cmd, a->colour, "R,G,B", "segment colour");
   addInput(*cmd, "--truth", r.truth, "truth label map: report Dice, Jaccard, volume difference, HD95");
-  cmd->add_option("--truth-ids", r.truthIds, "compare against the union of these truth ids (default: the same id)")->delimiter(',');
   addOutput(*cmd, "--report", r.report, "write parameters, timings, iterations and metrics as JSON");
   a->in.addTo(*cmd);
   addForceFlag(*cmd, r.force);

@@ -28,6 +28,30 @@ struct ShapeArgs {
   TableRemovalOptions table;
 };
 
+/// The segments, shells and grows of `shape`, and its mesh format, described once
+/// (docs/parameters.md).
+const ListTable<ShapeArgs>& shapeListTable() {
+  using A = ShapeArgs;
+  static const ListTable<A> t{
+      repeated<A>("segment", params::nested(&A::request, &app::ShapeRequest::segments), "NAME=ID[,ID..]",
+                  {"Segment", "ids form one segment (repeatable; NAME defaults to the label name for one id)", ""})
+          .withShortName("-s")
+          .makeRequired(),
+      repeated<A>("shell", &A::shells, "NAME:MM",
+                  {"Shell", "adds a 'NAME boundary' segment MM thick inside NAME (repeatable)", ""}),
+      repeated<A>("grow", &A::grows, "NAME:MM", {"Grow", "grows (MM > 0) or shrinks (MM < 0) a segment (repeatable)", ""}),
+  };
+  return t;
+}
+const params::Table<ShapeArgs>& shapeFlagsTable() {
+  using A = ShapeArgs;
+  static const params::Table<A> t{
+      params::text<A>("mesh_format", params::nested(&A::request, &app::ShapeRequest::meshFormat),
+                      {"Mesh format", "format of meshes/ (binary PLY and STL)", ""}, {"ply", "obj", "stl"}),
+  };
+  return t;
+}
+
 /// "NAME:MM" -> (name, mm).
 std::pair<std::string, double> parseNameMm(const std::string& text, const char* flag) {
   const auto colon = text.rfind(':');
@@ -68,18 +92,14 @@ void runShape(const ShapeArgs& a) {
     auto [name, mm] = parseNameMm(s, "--grow");
     r.grows.push_back({name, mm});
   }
-  r.load = a.in.toLoadOptions(nullptr);
-  if (a.table.enabled) r.removeTable = a.table.params;
-  r.commandLine = commandLine();
-  ProgressBar bar;
-  const app::ShapeResult result = app::runShape(r, bar.progress());
-  bar.finish();
-  printLoadWarnings(r.input, result.warnings);
-  if (!result.tableRemoval.empty()) std::cerr << result.tableRemoval << "\n";
+  setVolumeInput(r, a.in, &a.table);
+  const app::ShapeResult result = runPipeline(r, app::runShape);
   printShapeSummary(result, r.out);
 }
 
 }  // namespace
+
+std::string shapeFlagsMarkdown() { return params::markdown(shapeFlagsTable()) + listMarkdownRows(shapeListTable()); }
 
 void demoShape(const DemoContext& ctx, const fs::path& dir) {
   ShapeArgs a;
@@ -98,12 +118,10 @@ void addShapeCommand(CLI::App& app) {
   auto* cmd = app.add_subcommand("shape", "Clean segment shapes (denoise, mesh, repair) and the shape-aware representation (distance + segmentation volumes)");
   addInput(*cmd, "input", r.input, "input CT volume (file or DICOM folder)")->required();
   addInput(*cmd, "--labels,-l", r.labels, "label map with the segments (NRRD keeps the label table)")->required();
-  cmd->add_option("--segment,-s", r.segments, "NAME=ID[,ID..] (repeatable; ids form one segment; NAME defaults to the label name for one id)")->required();
+  addLists(*cmd, *a, shapeListTable());  // --segment, --shell, --grow
   addOutput(*cmd, "--out,-o", r.out, "output folder: distance-<id>.nrrd + distances.json (each segment's own distance), distance.nrrd, segments.nrrd, shape.json, meshes/")->required();
-  cmd->add_option("--shell", a->shells, "NAME:MM adds a 'NAME boundary' segment MM thick inside NAME (repeatable)");
-  cmd->add_option("--grow", a->grows, "NAME:MM grows (MM > 0) or shrinks (MM < 0) a segment (repeatable)");
   addFlags(*cmd, r.options, ill::shapeOptionsTable());
-  cmd->add_option("--mesh-format", r.meshFormat, "ply | obj | stl (binary PLY and STL)")->capture_default_str();
+  addFlags(*cmd, *a, shapeFlagsTable());  // --mesh-format
   addOutput(*cmd, "--report", r.report, "also write shape.json here");
   a->in.addTo(*cmd);
   a->table.addTo(*cmd);

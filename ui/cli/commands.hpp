@@ -36,6 +36,16 @@ std::string convertFlagsMarkdown();
 std::string qaFlagsMarkdown();
 std::string curveAnalogyFlagsMarkdown();
 std::string segmentLabelFlagsMarkdown();
+std::string renderFlagsMarkdown();
+std::string illustrateFlagsMarkdown();
+std::string animateFlagsMarkdown();
+std::string poseFlagsMarkdown();
+std::string compareFlagsMarkdown();
+std::string labelsFlagsMarkdown();
+std::string shapeFlagsMarkdown();
+std::string controlsFlagsMarkdown();
+std::string infoFlagsMarkdown();
+std::string deformListsMarkdown();
 
 /// What `vellum demo` hands to the parts that later issues add to it.
 struct DemoContext {
