@@ -14,6 +14,7 @@
 #include "shape_internal.hpp"
 #include "vellum/illustration/shape.hpp"
 #include "vellum/io/atomic_file.hpp"
+#include "vellum/io/nrrd_writer.hpp"
 #include "vellum/io/volume_io.hpp"
 
 namespace vellum::illustration {
@@ -68,11 +69,16 @@ void saveSegmentFields(const std::vector<SegmentField>& fields, const fs::path& 
   j["version"] = 1;
   j["quantum_mm"] = kFieldQuantumMm;
   j["fields"] = nlohmann::json::array();
-  io::SaveOptions raw;
-  raw.gzip = false;  // the renderer reads them at every start: no inflate
   for (const auto& f : fields) {
     const std::string file = "distance-" + std::to_string(f.id) + ".nrrd";
-    io::saveVolume(f.distance, dir / file, raw);
+    // The NRRD writer straight from the field's voxels (io::saveVolume would first copy them
+    // into an AnyVolume: a volume-sized allocation). Not gzipped: the renderer reads them at
+    // every start, no inflate.
+    io::NrrdLayout layout;
+    layout.type = "short";
+    layout.geometry = f.distance.geometry();
+    layout.comments = {"Written by Vellum. Format: http://teem.sourceforge.net/nrrd/format.html"};
+    io::writeNrrd(dir / file, layout, f.distance.data(), f.distance.size() * sizeof(int16_t), false, nullptr);
     j["fields"].push_back({{"id", f.id}, {"name", f.name}, {"file", file}, {"shell_id", f.shellId},
                            {"shell_mm", f.shellMm}});
   }

@@ -127,7 +127,17 @@ ShapeResult runShape(const ShapeRequest& r, Progress& progress) {
     fs::create_directories(tmp / "meshes");
     io::SaveOptions raw;
     raw.gzip = false;  // 4 bytes a voxel of smooth floats: gzip would cost seconds for little
-    io::saveVolume(s.distance, tmp / "distance.nrrd", raw);
+    {
+      // Moved into the AnyVolume saveVolume takes and back (a copy would be a volume-sized
+      // allocation), also when saving throws.
+      AnyVolume any(std::move(s.distance));
+      struct Back {
+        AnyVolume& any;
+        VolumeF32& v;
+        ~Back() { v = std::move(std::get<VolumeF32>(any)); }
+      } back{any, s.distance};
+      io::saveVolume(any, tmp / "distance.nrrd", raw);
+    }
     io::saveLabels(s.segmentation, tmp / "segments.nrrd");
     ill::saveSegmentFields(s.fields, tmp);  // per-segment distances (docs/shape.md)
     for (const auto& shape : s.shapes)
