@@ -69,7 +69,9 @@ void edt1d(const float* f, float* out, int64_t n, double s, std::vector<int64_t>
 /// distance (mm, anisotropic spacing honoured) to the nearest band voxel centre plus the
 /// band's width, far - 1.5 h: an upper bound of the true distance that is exact for flat
 /// surfaces; the error stays within about a voxel (measured in the tests).
-void extendFarField(VolumeF32& u, float far) {
+/// `scratch`: a buffer for the squared distances, resized to u.size() (a caller's spare
+/// volume-sized buffer: a fresh 4-byte-a-voxel allocation costs its page faults).
+void extendFarField(VolumeF32& u, float far, std::vector<float>& sq) {
   const Geometry& g = u.geometry();
   const Dims& d = g.dims;
   const float inf = std::numeric_limits<float>::infinity();
@@ -77,7 +79,7 @@ void extendFarField(VolumeF32& u, float far) {
   // layer can be off by a voxel after its renormalisation).
   const float h = static_cast<float>(std::min({g.spacing.x, g.spacing.y, g.spacing.z}));
   const float seed = far - h;
-  std::vector<float> sq(u.size());
+  if (sq.size() != u.size()) resizeHugePaged(sq, u.size());
   parallelFor(static_cast<int64_t>(sq.size()), [&](int64_t b, int64_t e) {
     for (int64_t n = b; n < e; ++n) sq[size_t(n)] = std::abs(u.data()[n]) < seed ? 0.0f : inf;
   }, 1 << 16);
@@ -369,7 +371,8 @@ void applyParity(const GridMesh& gm, const Dims& d, float* absd) {
 }
 }  // namespace
 
-VolumeF32 detail::signedDistance(const TriMesh& mesh, const Geometry& g, const DistanceOptions& options, double extraBandMm) {
+void detail::signedDistanceInto(const TriMesh& mesh, const Geometry& g, const DistanceOptions& options,
+                                double extraBandMm, VolumeF32& out) {
   const Vec3 sp = g.spacing;
   const double h = std::min({sp.x, sp.y, sp.z});
   const double bandMm =
@@ -385,9 +388,24 @@ VolumeF32 detail::signedDistance(const TriMesh& mesh, const Geometry& g, const D
     gm.q[n] = {float(q.x), float(q.y), float(q.z)};
     gm.x[n] = {double(gm.q[n][0]) * sp.x, double(gm.q[n][1]) * sp.y, double(gm.q[n][2]) * sp.z};
   }
-  VolumeF32 out(g, farMm, farMm);
+  if (out.dims() == g.dims && out.size() == size_t(g.dims.voxelCount())) {
+    // Reused: refilled in parallel (its pages are already mapped).
+    out.setGeometry(g);
+    out.setBackground(farMm);
+    float* v = out.data();
+    parallelFor(static_cast<int64_t>(out.size()), [&](int64_t b, int64_t e) { std::fill(v + b, v + e, farMm); },
+                1 << 16);
+  } else {
+    out = VolumeF32(g, farMm, farMm);
+  }
   bandDistances(gm, g, farMm, out.data());
   applyParity(gm, g.dims, out.data());
+}
+
+VolumeF32 detail::signedDistance(const TriMesh& mesh, const Geometry& g, const DistanceOptions& options,
+                                 double extraBandMm) {
+  VolumeF32 out;
+  signedDistanceInto(mesh, g, options, extraBandMm, out);
   return out;
 }
 
@@ -448,10 +466,12 @@ void detail::RepresentationBuilder::add(size_t i, const VolumeF32& distance) {
   }, 1 << 16);
 }
 
-void detail::RepresentationBuilder::finish(VolumeF32& unionDistance, LabelVolume& segmentation) {
+void detail::RepresentationBuilder::finish(VolumeF32& unionDistance, LabelVolume& segmentation,
+                                           std::vector<float>* scratch) {
   if (first_) throw Error("buildRepresentation: one distance volume per segment needed");
   segmentation = LabelVolume(std::move(ids_), std::move(table_));
-  if (std::isfinite(far_)) extendFarField(union_, static_cast<float>(far_));
+  std::vector<float> own;
+  if (std::isfinite(far_)) extendFarField(union_, static_cast<float>(far_), scratch ? *scratch : own);
   unionDistance = std::move(union_);
 }
 

@@ -169,9 +169,10 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
   dopt.bandMm = options.exactBandMm;
   detail::RepresentationBuilder builder(labels.geometry(), segments, shells);
   r.fields.resize(n);
+  VolumeF32 dist;  // one buffer for every segment, then the far field's scratch
   for (size_t i = 0; i < n; ++i) {
     auto t0 = Clock::now();
-    VolumeF32 dist = detail::signedDistance(r.shapes[i].mesh, labels.geometry(), dopt, extra[i]);
+    detail::signedDistanceInto(r.shapes[i].mesh, labels.geometry(), dopt, extra[i], dist);
     r.times.distancesMs += msSince(t0);
     cpuLap("distance");
     t0 = Clock::now();
@@ -193,7 +194,7 @@ ShapeResult runShapePipeline(const LabelVolume& labels, const std::vector<Segmen
   progress.end();
   progress.begin("segmentation", 1);
   auto t0 = Clock::now();
-  builder.finish(r.distance, r.segmentation);
+  builder.finish(r.distance, r.segmentation, &dist.voxels());
   r.times.segmentationMs += msSince(t0);
   cpuLap("far field");
   progress.advance();

@@ -85,7 +85,8 @@ MaskBox buildMask(const Dims& d, int pad, Pred inside) {
   if (b[3] < 0) return m;
   m.ox = b[0] - pad; m.oy = b[1] - pad; m.oz = b[2] - pad;
   m.nx = b[3] - b[0] + 1 + 2 * pad; m.ny = b[4] - b[1] + 1 + 2 * pad; m.nz = b[5] - b[2] + 1 + 2 * pad;
-  m.inside.assign(static_cast<size_t>(m.nx * m.ny * m.nz), 0);
+  // Huge pages: a box of tens of MB is then a few dozen page faults, not thousands.
+  resizeHugePaged(m.inside, static_cast<size_t>(m.nx * m.ny * m.nz), uint8_t{0});
   std::vector<int64_t> counts(static_cast<size_t>(m.nz), 0);
   parallelFor(m.nz, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k) {

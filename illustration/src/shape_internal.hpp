@@ -56,6 +56,10 @@ double maxDistanceToBinaryBoundary(const TriMesh& mesh, const MaskBox& mask, con
 /// One mesh's signed distance on the grid (signedDistances for one mesh; distance.cpp).
 VolumeF32 signedDistance(const TriMesh& mesh, const Geometry& g, const DistanceOptions& options,
                          double extraBandMm);
+/// The same into `out`, whose storage is reused when it already has the grid's dims (one
+/// buffer for all segments: each fresh volume-sized allocation costs its page faults).
+void signedDistanceInto(const TriMesh& mesh, const Geometry& g, const DistanceOptions& options,
+                        double extraBandMm, VolumeF32& out);
 
 /// Field i (id i + 1) of `count` segments: quantised distance and the segment's first shell
 /// (makeSegmentFields for one segment).
@@ -69,7 +73,9 @@ class RepresentationBuilder {
  public:
   RepresentationBuilder(const Geometry& g, const std::vector<Segment>& segments, const std::vector<Shell>& shells);
   void add(size_t i, const VolumeF32& distance);
-  void finish(VolumeF32& unionDistance, LabelVolume& segmentation);
+  /// `scratch` (optional): a spare buffer of any size for the far field's squared distances,
+  /// e.g. the storage of the last segment's distance.
+  void finish(VolumeF32& unionDistance, LabelVolume& segmentation, std::vector<float>* scratch = nullptr);
 
  private:
   std::vector<Segment> segments_;

@@ -44,30 +44,66 @@ struct LevelSet {
 };
 
 namespace {
-/// Voxels of the original binary boundary: inside voxels with an outside face neighbour and
-/// outside voxels with an inside face neighbour (full-grid coordinates).
-std::vector<openvdb::Coord> boundaryVoxels(const MaskBox& m) {
-  std::vector<std::vector<openvdb::Coord>> perSlice(static_cast<size_t>(m.nz));
+using FloatLeaf = openvdb::FloatTree::LeafNodeType;
+
+/// Voxels of the original binary boundary (inside voxels with an outside face neighbour and
+/// outside voxels with an inside face neighbour), grouped by the 8^3 leaf block they lie in:
+/// the constraint then reads each block's leaf (or tile) once instead of walking the tree
+/// for every voxel.
+struct Boundary {
+  std::vector<openvdb::Coord> origins;  ///< leaf origin of each block (full-grid coordinates)
+  std::vector<uint32_t> start;          ///< block b's items: [start[b], start[b + 1])
+  std::vector<uint16_t> items;          ///< leaf offset | 512 when the voxel is inside
+};
+
+Boundary boundaryVoxels(const MaskBox& m) {
+  const int64_t bx0 = (m.ox >> 3), by0 = (m.oy >> 3), bz0 = (m.oz >> 3);
+  const int64_t nbx = ((m.ox + m.nx - 1) >> 3) - bx0 + 1, nby = ((m.oy + m.ny - 1) >> 3) - by0 + 1,
+                nbz = ((m.oz + m.nz - 1) >> 3) - bz0 + 1;
+  const size_t nb = size_t(nbx * nby * nbz);
+  std::vector<std::vector<uint16_t>> perBlock(nb);
   // tbb directly: this module links no Vellum library (its code would be a second copy).
-  tbb::parallel_for(tbb::blocked_range<int64_t>(0, m.nz), [&](const tbb::blocked_range<int64_t>& r) {
-    for (int64_t k = r.begin(); k < r.end(); ++k)
-      for (int64_t j = 0; j < m.ny; ++j)
-        for (int64_t i = 0; i < m.nx; ++i) {
-          const int64_t gi = i + m.ox, gj = j + m.oy, gk = k + m.oz;
-          const bool in = m.at(gi, gj, gk);
-          if (m.at(gi + 1, gj, gk) != in || m.at(gi - 1, gj, gk) != in || m.at(gi, gj + 1, gk) != in ||
-              m.at(gi, gj - 1, gk) != in || m.at(gi, gj, gk + 1) != in || m.at(gi, gj, gk - 1) != in)
-            perSlice[static_cast<size_t>(k)].emplace_back(int(gi), int(gj), int(gk));
-        }
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nb, 16), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t b = r.begin(); b < r.end(); ++b) {
+      const int64_t x0 = (bx0 + int64_t(b) % nbx) * 8, y0 = (by0 + (int64_t(b) / nbx) % nby) * 8,
+                    z0 = (bz0 + int64_t(b) / (nbx * nby)) * 8;
+      auto& out = perBlock[b];
+      for (int64_t x = 0; x < 8; ++x)
+        for (int64_t y = 0; y < 8; ++y)
+          for (int64_t z = 0; z < 8; ++z) {
+            const int64_t gi = x0 + x, gj = y0 + y, gk = z0 + z;
+            const int64_t i = gi - m.ox, j = gj - m.oy, k = gk - m.oz;
+            if (i < 0 || j < 0 || k < 0 || i >= m.nx || j >= m.ny || k >= m.nz) continue;  // outside the box
+            bool in, edge;
+            if (i > 0 && j > 0 && k > 0 && i + 1 < m.nx && j + 1 < m.ny && k + 1 < m.nz) {
+              const uint8_t* p = m.inside.data() + size_t((k * m.ny + j) * m.nx + i);
+              const int64_t sy = m.nx, sz = m.nx * m.ny;
+              in = *p != 0;
+              edge = (p[1] != 0) != in || (p[-1] != 0) != in || (p[sy] != 0) != in || (p[-sy] != 0) != in ||
+                     (p[sz] != 0) != in || (p[-sz] != 0) != in;
+            } else {
+              in = m.at(gi, gj, gk);
+              edge = m.at(gi + 1, gj, gk) != in || m.at(gi - 1, gj, gk) != in || m.at(gi, gj + 1, gk) != in ||
+                     m.at(gi, gj - 1, gk) != in || m.at(gi, gj, gk + 1) != in || m.at(gi, gj, gk - 1) != in;
+            }
+            if (edge) out.push_back(uint16_t(x * 64 + y * 8 + z) | (in ? 512 : 0));
+          }
+    }
   });
-  std::vector<openvdb::Coord> all;
-  for (auto& s : perSlice) all.insert(all.end(), s.begin(), s.end());
-  return all;
+  Boundary bd;
+  bd.start.push_back(0);
+  for (size_t b = 0; b < nb; ++b) {
+    if (perBlock[b].empty()) continue;
+    bd.origins.emplace_back(int((bx0 + int64_t(b) % nbx) * 8), int((by0 + (int64_t(b) / nbx) % nby) * 8),
+                            int((bz0 + int64_t(b) / (nbx * nby)) * 8));
+    bd.items.insert(bd.items.end(), perBlock[b].begin(), perBlock[b].end());
+    bd.start.push_back(uint32_t(bd.items.size()));
+  }
+  return bd;
 }
 
 /// Whitaker's constraint: every voxel centre keeps the sign of the original mask.
-void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const std::vector<openvdb::Coord>& boundary,
-               float kEps) {
+void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const Boundary& boundary, float kEps) {
   // Active voxels (the narrow band), in parallel over leaves.
   openvdb::tree::LeafManager<openvdb::FloatTree> leaves(grid.tree());
   leaves.foreach([&](openvdb::FloatTree::LeafNodeType& leaf, size_t) {
@@ -82,16 +118,23 @@ void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const std::vector<
     }
   });
   // Boundary voxels the tracker may have pruned out of the band with the wrong sign: find
-  // them in parallel (read-only), fix them serially (setValue may allocate leaves).
-  std::vector<openvdb::Coord> bad;
+  // them in parallel (read-only; a block without a leaf has its tile's value throughout),
+  // fix them serially (setValue may allocate leaves).
+  std::vector<std::pair<openvdb::Coord, bool>> bad;
   std::mutex m;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, boundary.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, boundary.origins.size(), 64), [&](const tbb::blocked_range<size_t>& r) {
     auto acc = grid.getConstAccessor();
-    std::vector<openvdb::Coord> local;
-    for (size_t n = r.begin(); n < r.end(); ++n) {
-      const auto& c = boundary[n];
-      const float v = acc.getValue(c);
-      if (mask.at(c.x(), c.y(), c.z()) ? v > -kEps : v < kEps) local.push_back(c);
+    std::vector<std::pair<openvdb::Coord, bool>> local;
+    for (size_t b = r.begin(); b < r.end(); ++b) {
+      const openvdb::Coord& origin = boundary.origins[b];
+      const FloatLeaf* leaf = acc.probeConstLeaf(origin);
+      const float tile = leaf ? 0.0f : acc.getValue(origin);
+      for (uint32_t n = boundary.start[b]; n < boundary.start[b + 1]; ++n) {
+        const openvdb::Index off = boundary.items[n] & 511;
+        const bool in = (boundary.items[n] & 512) != 0;
+        const float v = leaf ? leaf->getValue(off) : tile;
+        if (in ? v > -kEps : v < kEps) local.emplace_back(origin + FloatLeaf::offsetToLocalCoord(off), in);
+      }
     }
     if (!local.empty()) {
       std::lock_guard<std::mutex> lock(m);
@@ -99,7 +142,7 @@ void constrain(openvdb::FloatGrid& grid, const MaskBox& mask, const std::vector<
     }
   });
   auto acc = grid.getAccessor();
-  for (const auto& c : bad) acc.setValue(c, mask.at(c.x(), c.y(), c.z()) ? -kEps : kEps);
+  for (const auto& [c, in] : bad) acc.setValue(c, in ? -kEps : kEps);
 }
 }  // namespace
 

@@ -7,6 +7,7 @@
 
 #include "dicom.hpp"
 #include "io_detail.hpp"
+#include "vellum/core/parallel.hpp"
 
 namespace vellum::io {
 
@@ -177,7 +178,9 @@ namespace {
 /// Label ids never averaged: the region's downsampling takes each block's most frequent id.
 VolumeU16 labelIdsInRegion(const fs::path& path, const AnyVolume& stored, const Region& region) {
   try {
-    return applyRegionToLabels(toLabelIds(path, stored), region);
+    VolumeU16 ids = toLabelIds(path, stored);
+    if (region.empty()) return ids;  // applyRegionToLabels would copy it
+    return applyRegionToLabels(ids, region);
   } catch (const FileError&) {
     throw;
   } catch (const Error& e) {
@@ -203,8 +206,20 @@ void saveLabels(const LabelVolume& labels, const fs::path& path, const SaveOptio
   const std::string format = options.format.empty() ? formatForPath(path) : normalizedFormat(path, options.format);
   uint16_t maxId = labels.ids().empty() ? 0 : labels.maxId();
   for (const Label& l : labels.table()) maxId = std::max(maxId, l.id);
-  AnyVolume ids = maxId < 256 ? AnyVolume(convertVolume<uint8_t>(AnyVolume(labels.ids())))
-                              : AnyVolume(labels.ids());
+  // Narrowed straight from the ids (through an AnyVolume copy it would cost a second
+  // volume-sized allocation), in parallel; every id is < 256 here.
+  AnyVolume ids;
+  if (maxId < 256) {
+    VolumeU8 narrow(labels.ids().geometry(), 0);
+    const uint16_t* src = labels.ids().data();
+    uint8_t* dst = narrow.data();
+    parallelFor(static_cast<int64_t>(narrow.size()), [&](int64_t b, int64_t e) {
+      for (int64_t v = b; v < e; ++v) dst[v] = static_cast<uint8_t>(src[v]);
+    }, 1 << 16);
+    ids = std::move(narrow);
+  } else {
+    ids = labels.ids();
+  }
   std::visit([](auto& v) { v.setBackground(0.0); }, ids);
   if (format == "nrrd") return saveNrrd(ids, path, options.gzip, "", &labels.table(), options.progress);
   SaveOptions plain = options;
