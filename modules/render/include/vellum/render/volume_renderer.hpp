@@ -1,5 +1,6 @@
 #pragma once
 // GLSL ray caster into an offscreen framebuffer, and its CPU reference.
+#include <functional>
 #include <memory>
 
 #include "vellum/core/image.hpp"
@@ -57,7 +58,11 @@ class VolumeRenderer {
   /// them the drawn volume, on the renderer's thread, in about no time. Textures not adopted are
   /// deleted by discardVolumeTextures().
   struct VolumeTextures;
-  static std::shared_ptr<VolumeTextures> makeVolumeTextures(const AnyVolume& volume, const Prepared& prepared);
+  /// Filled about `slabBytes` a call (Mesa holds a lock shared by the contexts through each),
+  /// `betweenSlabs` (may be empty) called between two calls.
+  static std::shared_ptr<VolumeTextures> makeVolumeTextures(const AnyVolume& volume, const Prepared& prepared,
+                                                            size_t slabBytes = size_t(-1),
+                                                            const std::function<void()>& betweenSlabs = {});
   void adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& textures, const Prepared& prepared);
   void discardVolumeTextures(const std::shared_ptr<VolumeTextures>& textures);
   /// `prepared` without its normal volume (4 bytes a voxel, in the texture once uploaded):
