@@ -148,6 +148,9 @@ void StudioApp::saveSliceScreenshot(const fs::path& path, SliceAxis axis) const 
 }
 
 void StudioApp::drawPanes() {
+  // The first volume loads (no views are updated before one is shown): compile the 3D
+  // shaders and Mesa's blit now, not in the first 3D frames.
+  if (loader_.busy()) view3d_->warmUp(scene_);
   ImDrawList* dl = ImGui::GetBackgroundDrawList();
   for (const Pane& p : panes_) {
     const ImVec2 a{p.rect.x, p.rect.y}, b{p.rect.x + p.rect.w, p.rect.y + p.rect.h};

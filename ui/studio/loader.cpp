@@ -36,7 +36,18 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   r.warnings = lv.warnings;
   r.series = lv.series;
   r.seriesUid = lv.seriesUid;
-  r.ct = toInt16(lv.volume);
+  // A CT stored as int16 is not converted (a copy of the whole volume); the 3D view's copy
+  // below is then the loaded volume itself.
+  std::shared_ptr<AnyVolume> loaded;
+  if (std::holds_alternative<VolumeI16>(lv.volume) && request.prepare3d) {
+    loaded = std::make_shared<AnyVolume>(std::move(lv.volume));
+    r.ct = std::get<VolumeI16>(*loaded);
+  } else if (auto* i16 = std::get_if<VolumeI16>(&lv.volume)) {
+    r.ct = std::move(*i16);
+  } else {
+    r.ct = toInt16(lv.volume);
+  }
+  lv.volume = AnyVolume();  // not held while the rest is made
   r.volumePath = volumePath;
   if (!labelsPath.empty()) {
     r.labels = io::loadLabels(labelsPath, options);
@@ -49,7 +60,7 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   }
   if (request.prepare3d) {
     progress.begin("preparing the 3D view", 1);
-    r.renderVolume = std::make_shared<const AnyVolume>(r.ct);
+    r.renderVolume = loaded ? std::move(loaded) : std::make_shared<const AnyVolume>(r.ct);
     r.prepared = render::VolumeRenderer::prepare(*r.renderVolume);
     progress.advance();
   }

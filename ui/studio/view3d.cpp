@@ -2,11 +2,13 @@
 #include "thread_priority.hpp"
 
 #include <GL/glcorearb.h>
+#include <GLFW/glfw3.h>
 
 #include <algorithm>
 #include <cmath>
 #include <chrono>
 #include <future>
+#include <thread>
 #include <sstream>
 
 namespace vellum::studio {
@@ -181,7 +183,28 @@ std::string viewKey(const Scene& s, int w, int h) {
 
 View3D::View3D(render::GlContext& context)
     : context_(context), renderer_(std::make_unique<render::VolumeRenderer>(context)), coarse_(context), full_(context),
-      meshLayer_(context) {}
+      meshLayer_(context) {
+  // GLFW windows are made on the thread that made the window's (this one); the worker only
+  // makes the hidden one's context current. The window hints (GL version, profile) are the
+  // window's, still set. Without GLFW (headless tests) glfwGetCurrentContext() gives null.
+  if (GLFWwindow* window = glfwGetCurrentContext()) {
+    glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);
+    uploadWindow_ = glfwCreateWindow(16, 16, "vellum upload", nullptr, window);
+    glfwWindowHint(GLFW_VISIBLE, GLFW_TRUE);
+    glfwMakeContextCurrent(window);
+  }
+}
+
+View3D::~View3D() {
+  if (volumeJob_.valid()) {  // its textures go with the context
+    try {
+      renderer_->discardVolumeTextures(volumeJob_.get());
+    } catch (const std::exception&) {
+    }
+  }
+  if (uploadWindow_) glfwDestroyWindow(static_cast<GLFWwindow*>(uploadWindow_));
+  context_.makeCurrent();
+}
 
 void View3D::warmUp(const Scene& scene) {
   if (warmed_ || hasVolume_) return;
@@ -220,11 +243,34 @@ void View3D::warmUp(const Scene& scene) {
   renderer_->setBackwardMap(&map);
   renderer_->renderInto(s, target.volumeTarget(false));
   renderer_->setBackwardMap(nullptr);
+  {
+    // What a refinement does first: the coarse frame scaled up into the full-size target (a
+    // linear blit: Mesa makes its blit shader on first use, 0.1-0.2 s under load), then a tile.
+    // llvmpipe keys the blit's code on whether the sizes are powers of two: a pane's are not.
+    render::FramebufferTarget small(context_), big(context_);
+    small.resize(7, 5);
+    renderer_->renderInto(renderSettingsFor(scene, 7, 5), small.volumeTarget(false));
+    big.resize(15, 13);
+    big.copyColourScaled(small);
+    renderer_->renderIntoTile(renderSettingsFor(scene, 15, 13), big.volumeTarget(false), 0, 8, 0, 8);
+  }
   glFinish();
   glBindFramebuffer(GL_FRAMEBUFFER, 0);
 }
 
+void View3D::startScales(const Dims& dims) {
+  // A coarse ray's cost grows with the volume: at 1/4 of a 474x399 pane the first frame of
+  // 512^2 x 350 took 0.6 s under load (about 50 us a pixel), so big volumes start coarser and
+  // the adaptation (renderCoarse) refines the scale from the frames' own times.
+  const double voxels = double(dims.voxelCount());
+  scale_ = voxels > double(1 << 26) ? 16 : voxels > double(1 << 24) ? 8 : 4;
+  stepFactor_ = otherStepFactor_ = 1;
+  otherScale_ = 16;  // the deformed view's (see otherScale_)
+  coarseDeformed_ = false;
+}
+
 void View3D::setVolume(const VolumeI16& ct) {
+  startScales(ct.dims());
   context_.makeCurrent();
   dropPendingMaps();
   volumePrepared_.reset();
@@ -236,15 +282,60 @@ void View3D::setVolume(const VolumeI16& ct) {
 
 bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
                               std::shared_ptr<const render::VolumeRenderer::Prepared> prepared, size_t maxBytes) {
+  if (uploadWindow_) return uploadOnWorker(std::move(ct), std::move(prepared));
   context_.makeCurrent();
   hasVolume_ = false;  // the renderer has dropped the previous volume
   if (volumePrepared_ != prepared) dropPendingMaps();  // made for the previous volume
   volumePrepared_ = prepared;
+  const Dims dims = geometryOf(*ct).dims;
   if (!renderer_->uploadVolumeStep(std::move(ct), std::move(prepared), maxBytes)) return false;
+  startScales(dims);
   labelsKey_.clear();
   hasVolume_ = true;
   invalidate();
   return true;
+}
+
+bool View3D::uploadOnWorker(std::shared_ptr<const AnyVolume> ct,
+                            std::shared_ptr<const render::VolumeRenderer::Prepared> prepared) {
+  if (volumePrepared_ != prepared) {  // a new volume: nothing drawn until it is complete
+    dropPendingMaps();  // made for the previous volume
+    volumePrepared_ = prepared;
+    hasVolume_ = false;
+  }
+  if (volumeJob_.valid()) {
+    if (volumeJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return false;
+    VolumeTextures textures = volumeJob_.get();  // rethrows the worker's error
+    if (jobFor_ == prepared) {
+      context_.makeCurrent();
+      renderer_->adoptVolumeTextures(textures, *prepared);
+      startScales(jobDims_);
+      // The normals are in their texture now: map preparation needs only the blocks.
+      volumePrepared_ = render::VolumeRenderer::withoutNormals(*prepared);
+      jobFor_.reset();
+      labelsKey_.clear();
+      hasVolume_ = true;
+      invalidate();
+      return true;
+    }
+    renderer_->discardVolumeTextures(textures);  // made for a volume since replaced
+  }
+  // One job at a time: the hidden context is current on one thread at most.
+  jobFor_ = prepared;
+  jobDims_ = geometryOf(*ct).dims;
+  volumeJob_ = std::async(std::launch::async, [window = static_cast<GLFWwindow*>(uploadWindow_), ct = std::move(ct),
+                                               prepared = std::move(prepared)] {
+    lowerThreadPriority();
+    glfwMakeContextCurrent(window);
+    struct Release {  // the context is free again for the next job, whatever happens
+      ~Release() { glfwMakeContextCurrent(nullptr); }
+    } release;
+    // 8 MB a call, a pause between calls: the window's draws wait for Mesa's lock on shared
+    // objects while a call copies (the whole 350 MB of normals in one call: a 0.9 s frame under load).
+    return render::VolumeRenderer::makeVolumeTextures(*ct, *prepared, size_t(8) << 20,
+                                                      [] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); });
+  });
+  return false;
 }
 
 void View3D::setBackwardMap(std::shared_ptr<const render::BackwardMap> map, uint64_t revision) {

@@ -72,7 +72,13 @@ class View3D {
   /// real-size volume on llvmpipe), the band is kTileRows rows cut into column tiles.
   static constexpr int kTileRows = 16, kMinTileCols = 8;
 
+  /// When the current context is a GLFW window's (the studio's), a hidden window sharing its
+  /// objects is made too: uploadVolumeStep() fills the volume's textures on a worker thread
+  /// there. Otherwise (tests' headless contexts) uploads go a slab per call on this context.
   explicit View3D(render::GlContext& context);
+  ~View3D();
+  View3D(const View3D&) = delete;
+  View3D& operator=(const View3D&) = delete;
   void setVolume(const VolumeI16& ct);
   /// Once per window, before its first volume (while that loads): draws a tiny volume with
   /// `scene`'s settings, plain and deformed (rigid snap, output box), so that the shaders are
@@ -80,9 +86,11 @@ class View3D {
   /// in its first 3D frames (0.3-1.2 s each at load on this machine). Does nothing once done
   /// or while a volume is shown.
   void warmUp(const Scene& scene);
-  /// The same with the renderer's CPU part made on a worker (Loader), uploaded a slab of about
-  /// `maxBytes` per call so that no frame waits for the whole upload; true once complete
-  /// (until then the view draws nothing new).
+  /// The same with the renderer's CPU part made on a worker (Loader); true once complete
+  /// (until then the view draws nothing). With the upload context the textures are allocated
+  /// and filled on a worker thread (a call only polls it: llvmpipe's allocation alone took
+  /// 0.3-0.5 s a texture at 512^2 x 350, in the frame that made it); otherwise a slab of about
+  /// `maxBytes` per call. Once it returned true, call it again only for another volume.
   bool uploadVolumeStep(std::shared_ptr<const AnyVolume> ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared,
                         size_t maxBytes);
   /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
@@ -169,6 +177,14 @@ class View3D {
   unsigned shown_ = 0;
   bool shownBottomUp_ = false;
   bool hasVolume_ = false, hasMap_ = false;
+  /// The hidden GLFW window whose context shares this one's objects (null: none), current only
+  /// on the worker that fills the volume's textures.
+  void* uploadWindow_ = nullptr;
+  using VolumeTextures = std::shared_ptr<render::VolumeRenderer::VolumeTextures>;
+  std::future<VolumeTextures> volumeJob_;  ///< the worker's textures, for jobFor_
+  std::shared_ptr<const render::VolumeRenderer::Prepared> jobFor_;
+  Dims jobDims_;
+  bool uploadOnWorker(std::shared_ptr<const AnyVolume> ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared);
   bool warmed_ = false;
   /// The volume's CPU part (from uploadVolumeStep), which map preparation needs; null after
   /// setVolume().
@@ -196,6 +212,8 @@ class View3D {
   int otherScale_ = 16, otherStepFactor_ = 1;
   bool coarseDeformed_ = false;
   double lastMs_ = 0;
+  /// The coarse frames' first resolution and ray step for a new volume of `dims`.
+  void startScales(const Dims& dims);
   void renderCoarse(const Scene& scene, int paneWidth, int paneHeight, const std::string& key);
   /// Meshes (when drawn) then the volume into `target`, whole: the coarse frames.
   void drawFrame(const Scene& scene, render::FramebufferTarget& target, int stepFactor = 1);

@@ -2,6 +2,7 @@
 #include "vellum/render/volume_renderer.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -235,7 +236,7 @@ struct VolumeRenderer::Impl {
     return p;
   }
 
-  void checkTextureSize(const Dims& d, const char* what) {
+  static void checkTextureSize(const Dims& d, const char* what) {
     GLint max3d = 0;
     glGetIntegerv(GL_MAX_3D_TEXTURE_SIZE, &max3d);
     if (d.x > max3d || d.y > max3d || d.z > max3d)
@@ -251,25 +252,36 @@ struct VolumeRenderer::Impl {
   /// The volume texture's storage and sampling, without its texels (uploadVolumeSlab).
   template <class T>
   void allocVolume(const Volume<T>& vol) {
+    deleteTexture(volumeTex);
+    volumeTex = newVolumeTexture(vol);
+    valueScale = voxelFormat<T>().scale;
+  }
+  /// A new texture for `vol` on the current context (any thread's), storage and sampling only.
+  template <class T>
+  static GLuint newVolumeTexture(const Volume<T>& vol) {
     const Dims& d = vol.dims();
     checkTextureSize(d, "volume");
     const VoxelFormat fmt = voxelFormat<T>();
-    deleteTexture(volumeTex);
-    glGenTextures(1, &volumeTex);
-    glBindTexture(GL_TEXTURE_3D, volumeTex);
+    GLuint tex = 0;
+    glGenTextures(1, &tex);
+    glBindTexture(GL_TEXTURE_3D, tex);
     glTexStorage3D(GL_TEXTURE_3D, 1, fmt.internal, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
     // Border = background, so that sampling outside matches Volume::sampleLinear.
     const float bg = static_cast<float>(vol.background() / fmt.scale);
     const float border[4] = {bg, bg, bg, bg};
     setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_BORDER, border);
-    valueScale = fmt.scale;
     checkGlError("volume allocation");
+    return tex;
   }
   /// Slices [z0, z1) of the volume into its texture.
   template <class T>
   void uploadVolumeSlab(const Volume<T>& vol, int64_t z0, int64_t z1) {
+    fillVolumeSlab(volumeTex, vol, z0, z1);
+  }
+  template <class T>
+  static void fillVolumeSlab(GLuint tex, const Volume<T>& vol, int64_t z0, int64_t z1) {
     const Dims& d = vol.dims();
-    glBindTexture(GL_TEXTURE_3D, volumeTex);
+    glBindTexture(GL_TEXTURE_3D, tex);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, GLint(z0), GLsizei(d.x), GLsizei(d.y), GLsizei(z1 - z0), GL_RED,
                     voxelFormat<T>().type, vol.data() + static_cast<size_t>(z0 * d.x * d.y));
@@ -282,15 +294,21 @@ struct VolumeRenderer::Impl {
   }
   void allocNormals(const Dims& d) {
     deleteTexture(normalTex);
-    glGenTextures(1, &normalTex);
-    glBindTexture(GL_TEXTURE_3D, normalTex);
+    normalTex = newNormalTexture(d);
+  }
+  static GLuint newNormalTexture(const Dims& d) {
+    GLuint tex = 0;
+    glGenTextures(1, &tex);
+    glBindTexture(GL_TEXTURE_3D, tex);
     glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA8_SNORM, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
     const float border[4] = {0, 0, 0, 0};
     setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_BORDER, border);
     checkGlError("normal volume allocation");
+    return tex;
   }
-  void uploadNormalsSlab(const NormalVolume& n, int64_t z0, int64_t z1) {
-    glBindTexture(GL_TEXTURE_3D, normalTex);
+  void uploadNormalsSlab(const NormalVolume& n, int64_t z0, int64_t z1) { fillNormalsSlab(normalTex, n, z0, z1); }
+  static void fillNormalsSlab(GLuint tex, const NormalVolume& n, int64_t z0, int64_t z1) {
+    glBindTexture(GL_TEXTURE_3D, tex);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, GLint(z0), GLsizei(n.dims.x), GLsizei(n.dims.y), GLsizei(z1 - z0),
                     GL_RGBA, GL_BYTE, n.texels.data() + static_cast<size_t>(z0 * n.dims.x * n.dims.y) * 4);
@@ -776,6 +794,69 @@ bool VolumeRenderer::uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, s
   m.stepUpload.reset();
   finishVolume(g, *prepared);
   return true;
+}
+
+struct VolumeRenderer::VolumeTextures {
+  GLuint volume = 0, normals = 0;
+  double valueScale = 1;
+  Geometry geometry;
+};
+
+std::shared_ptr<VolumeRenderer::VolumeTextures> VolumeRenderer::makeVolumeTextures(
+    const AnyVolume& volume, const Prepared& prepared, size_t slabBytes, const std::function<void()>& betweenSlabs) {
+  const Geometry& g = geometryOf(volume);
+  g.validate("render volume");
+  if (!(prepared.geometry.dims == g.dims)) throw Error("makeVolumeTextures: prepared for another volume");
+  auto t = std::make_shared<VolumeTextures>();
+  t->geometry = g;
+  // Whole z slices, about slabBytes a call: Mesa holds the objects' shared lock through each
+  // texture call, and the other contexts' draws wait for it.
+  const auto slabs = [&](size_t sliceBytes, const auto& fill) {
+    const int64_t step = std::max<int64_t>(1, int64_t(slabBytes / std::max<size_t>(1, sliceBytes)));
+    for (int64_t z = 0; z < g.dims.z; z += step) {
+      if (z > 0 && betweenSlabs) betweenSlabs();
+      fill(z, std::min(g.dims.z, z + step));
+    }
+  };
+  const size_t slice = static_cast<size_t>(g.dims.x * g.dims.y);
+  std::visit(
+      [&](const auto& v) {
+        using T = std::decay_t<decltype(*v.data())>;
+        t->volume = Impl::newVolumeTexture(v);
+        t->valueScale = voxelFormat<T>().scale;
+        slabs(slice * sizeof(T), [&](int64_t z0, int64_t z1) { Impl::fillVolumeSlab(t->volume, v, z0, z1); });
+      },
+      volume);
+  if (betweenSlabs) betweenSlabs();
+  t->normals = Impl::newNormalTexture(g.dims);
+  slabs(slice * 4, [&](int64_t z0, int64_t z1) { Impl::fillNormalsSlab(t->normals, prepared.normals, z0, z1); });
+  glBindTexture(GL_TEXTURE_3D, 0);
+  // Complete before another context samples them (llvmpipe copies at once; a GPU may not).
+  glFinish();
+  return t;
+}
+
+void VolumeRenderer::adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& textures, const Prepared& prepared) {
+  Impl& m = *impl_;
+  if (!(prepared.geometry.dims == textures->geometry.dims)) throw Error("adoptVolumeTextures: prepared for another volume");
+  m.context.makeCurrent();
+  m.stepUpload.reset();
+  deleteTexture(m.volumeTex);
+  deleteTexture(m.normalTex);
+  m.volumeTex = std::exchange(textures->volume, 0);
+  m.normalTex = std::exchange(textures->normals, 0);
+  m.valueScale = textures->valueScale;
+  finishVolume(textures->geometry, prepared);
+}
+
+void VolumeRenderer::discardVolumeTextures(const std::shared_ptr<VolumeTextures>& textures) {
+  impl_->context.makeCurrent();
+  deleteTexture(textures->volume);
+  deleteTexture(textures->normals);
+}
+
+std::shared_ptr<const VolumeRenderer::Prepared> VolumeRenderer::withoutNormals(const Prepared& prepared) {
+  return std::make_shared<const Prepared>(Prepared{prepared.geometry, {}, prepared.blocks, prepared.light});
 }
 
 void VolumeRenderer::setBackwardMap(const BackwardMap* map) {

@@ -1,5 +1,6 @@
 #pragma once
 // GLSL ray caster into an offscreen framebuffer, and its CPU reference.
+#include <functional>
 #include <memory>
 
 #include "vellum/core/image.hpp"
@@ -49,6 +50,24 @@ class VolumeRenderer {
   /// volume is gone). Calling with another volume or setVolume() starts over.
   bool uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, std::shared_ptr<const Prepared> prepared,
                         size_t maxBytes);
+  /// uploadVolumeStep() made elsewhere, for a viewer whose frames must not wait for the
+  /// allocation and copy of the textures (llvmpipe clears and fills about 0.5 GB at
+  /// 512x512x350 — seconds under load): makeVolumeTextures() runs on another thread, on a GL
+  /// context that shares objects with this renderer's and is current there (no renderer state
+  /// is touched; it returns once the textures are complete); adoptVolumeTextures() then makes
+  /// them the drawn volume, on the renderer's thread, in about no time. Textures not adopted are
+  /// deleted by discardVolumeTextures().
+  struct VolumeTextures;
+  /// Filled about `slabBytes` a call (Mesa holds a lock shared by the contexts through each),
+  /// `betweenSlabs` (may be empty) called between two calls.
+  static std::shared_ptr<VolumeTextures> makeVolumeTextures(const AnyVolume& volume, const Prepared& prepared,
+                                                            size_t slabBytes = size_t(-1),
+                                                            const std::function<void()>& betweenSlabs = {});
+  void adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& textures, const Prepared& prepared);
+  void discardVolumeTextures(const std::shared_ptr<VolumeTextures>& textures);
+  /// `prepared` without its normal volume (4 bytes a voxel, in the texture once uploaded):
+  /// what prepareBackwardMap() needs.
+  static std::shared_ptr<const Prepared> withoutNormals(const Prepared& prepared);
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
   void setBackwardMap(const BackwardMap* map);
