@@ -19,12 +19,7 @@ namespace fs = std::filesystem;
 using namespace vellum::test::studio;
 
 TEST(StudioRealSize, TiledRefinementGivesTheOneRenderPicture) {
-  phantom::PhantomOptions o;
-  o.dims = {40, 40, 44};
-  Scene scene;
-  scene.ct = phantom::makePhantom(o).ct;
-  scene.resetView();
-  scene.render.preset = render::Preset::Bone;
+  Scene scene = boneScene();
   auto context = render::GlContext::createHeadless();
   View3D view(*context);
   view.setVolume(scene.ct);

@@ -78,6 +78,15 @@ inline phantom::Phantom phantomOf(Dims dims) {
   return phantom::makePhantom(o);
 }
 
+/// A small knee phantom as a scene: the bone preset and the default view.
+inline ::vellum::studio::Scene boneScene(Dims dims = {40, 40, 44}) {
+  ::vellum::studio::Scene scene;
+  scene.ct = phantomOf(dims).ct;
+  scene.resetView();
+  scene.render.preset = ::vellum::render::Preset::Bone;
+  return scene;
+}
+
 /// An n³ knee phantom written as DIR/ct.nrrd and DIR/labels.nrrd, returned for the checks.
 inline phantom::Phantom writePhantom(const std::filesystem::path& dir, int n) {
   phantom::Phantom ph = phantomOf({n, n, n});

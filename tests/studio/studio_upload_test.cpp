@@ -10,12 +10,14 @@
 #include <memory>
 #include <thread>
 
+#include "studio_run.hpp"
 #include "view3d.hpp"
 #include "window_context.hpp"
 #include "vellum/phantom/phantom.hpp"
 
 namespace vellum::studio {
 namespace {
+using vellum::test::studio::boneScene;
 
 TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
@@ -29,12 +31,7 @@ TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
   ASSERT_NE(window, nullptr);
   {
     WindowContext context(window);
-    phantom::PhantomOptions o;
-    o.dims = {40, 40, 44};
-    Scene scene;
-    scene.ct = phantom::makePhantom(o).ct;
-    scene.resetView();
-    scene.render.preset = render::Preset::Bone;
+    Scene scene = boneScene();
     auto ct = std::make_shared<const AnyVolume>(scene.ct);
     auto prepared = render::VolumeRenderer::prepare(*ct);
     View3D view(context);
