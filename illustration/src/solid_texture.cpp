@@ -1,4 +1,5 @@
-// Value-noise based solid textures. Mirrored in ../shaders/solid_texture.glsl; change both together.
+// Value-noise based solid textures: the CPU reference of ../shaders/solid_texture.glsl, held to
+// it by IllustrationGl.EveryProceduralTextureMatchesCpu.
 #include "solid_texture.hpp"
 
 #include <algorithm>

@@ -1,5 +1,6 @@
 // The scene lights and the tone map, shared by the ray caster (TONE_MAP) and the path tracer:
-// twin of lights.hpp / lights.cpp (same names, same constants); change both together.
+// twin of lights.hpp / lights.cpp (same names, same constants), held to it by the RenderGl
+// tests that compare GL with the CPU reference.
 uniform vec3 uKeyDir, uFillDir, uSkyUp;   // physical, towards the lights; the view's up
 uniform float uKeyCos, uKeyE, uFillE, uSky;
 

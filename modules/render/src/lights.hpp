@@ -2,8 +2,9 @@
 // The lights and the tone map, defined ONCE for the ray caster (RenderSettings::Lighting::toneMap)
 // and the cinematic path tracer (docs/lighting.md): a key light (a disc: soft shadows), a fill
 // light mirrored to the other side, a sky, exposure and ACES filmic. The GLSL twin is
-// shaders/lights.glsl (same names, same constants); change both together. Internal to
-// modules/render.
+// shaders/lights.glsl (same names, same constants): the CPU reference renderer's side, held to
+// the GL one by RenderGl.ToneMappedAreaLightMatchesCpu and LightingMatchesCpuAndShadowsTheFarSide.
+// Internal to modules/render.
 #include <array>
 
 #include "render_common.hpp"
