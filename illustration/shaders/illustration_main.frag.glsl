@@ -4,8 +4,22 @@
 // group is its own stack of slices: no filtering across the seam).
 vec4 fieldAt(vec3 p, int g) {
   vec3 pc = clamp(p, vec3(0.0), uBoxDims - 1.0);
+#ifdef EXACT_FILTER
+  // Trilinear weights in float (GPU texture units use 8-bit sub-texel weights): a diagnosis
+  // switch, VELLUM_GL_EXACT_FILTER=1 (docs/benchmarks-gpu.md).
+  ivec3 i0 = ivec3(floor(pc));
+  ivec3 i1 = min(i0 + 1, ivec3(uBoxDims) - 1);
+  vec3 f = pc - vec3(i0);
+  int z0 = i0.z + g * int(uBoxDims.z), z1 = i1.z + g * int(uBoxDims.z);
+  vec4 c00 = mix(texelFetch(uFields, ivec3(i0.x, i0.y, z0), 0), texelFetch(uFields, ivec3(i1.x, i0.y, z0), 0), f.x);
+  vec4 c10 = mix(texelFetch(uFields, ivec3(i0.x, i1.y, z0), 0), texelFetch(uFields, ivec3(i1.x, i1.y, z0), 0), f.x);
+  vec4 c01 = mix(texelFetch(uFields, ivec3(i0.x, i0.y, z1), 0), texelFetch(uFields, ivec3(i1.x, i0.y, z1), 0), f.x);
+  vec4 c11 = mix(texelFetch(uFields, ivec3(i0.x, i1.y, z1), 0), texelFetch(uFields, ivec3(i1.x, i1.y, z1), 0), f.x);
+  return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z) * FIELD_SCALE;
+#else
   pc.z += float(g) * uBoxDims.z;
   return texture(uFields, (pc + 0.5) / vec3(uBoxDims.xy, uBoxDims.z * float(NGROUPS))) * FIELD_SCALE;
+#endif
 }
 
 #ifdef USE_INK

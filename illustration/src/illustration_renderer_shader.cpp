@@ -1,6 +1,7 @@
 #include "illustration_renderer_shader.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <iomanip>
 #include <sstream>
 
@@ -35,6 +36,9 @@ std::string illustrationFragmentSource(const ShaderVariant& v) {
   std::ostringstream s;
   s << "#version 450 core\n";
   s << (v.eight ? "#define EIGHT\n" : "#define NEAREST\n");
+  // Diagnosis switch for GPUs whose texture units filter with low-precision weights.
+  if (const char* e = std::getenv("VELLUM_GL_EXACT_FILTER"); v.eight && e && std::string(e) == "1")
+    s << "#define EXACT_FILTER\n";
   if (v.ct) s << "#define USE_CT\n";
   if (v.texture) s << "#define USE_TEXTURE\n";
   if (v.textureVolume) s << "#define USE_TEXVOL\n";

@@ -456,7 +456,9 @@ TEST(IllustrationNested, BoneInsideAnInvisibleSkinRendersAsTheBoneAlone) {
     // GL agrees with its CPU reference on the nested scene.
     IllustrationRenderer r(gl());
     r.setScene(nestedScene);
-    expectClose(r.render(st, s), a, std::string("nested ") + interpolationName(mode));
+    const RgbaImage g = r.render(st, s);
+    maybeSave(g, std::string("gl-nested-bone-") + interpolationName(mode));
+    expectClose(g, a, std::string("nested ") + interpolationName(mode));
   }
 }
 
