@@ -140,7 +140,9 @@ TEST(Params, GeneratedCliFlagsWriteTheStructAndCheckRanges) {
     CLI::App app;
     deformation::DeformParams p;
     cli::addFlags(app, p, deformation::deformParamsTable());
-    EXPECT_EQ(errorOf([&] { parseArgs(app, {"--control-scale", "0"}); }), "control_scale = 0 is outside 1..16");
+    // The CLI's errors name the flag typed, not the JSON key.
+    EXPECT_EQ(errorOf([&] { parseArgs(app, {"--control-scale", "0"}); }), "--control-scale = 0 is outside 1..16");
+    EXPECT_EQ(errorOf([&] { parseArgs(app, {"--control-scale", "two"}); }), "--control-scale: 'two' is not a number");
   }
   {
     CLI::App app;
@@ -152,7 +154,7 @@ TEST(Params, GeneratedCliFlagsWriteTheStructAndCheckRanges) {
     EXPECT_FALSE(s.shading);
     EXPECT_EQ(errorOf([&] { CLI::App a2; render::RenderSettings t; cli::addFlags(a2, t, render::renderSettingsTable());
                             parseArgs(a2, {"--elevation", "91"}); }),
-              "elevation = 91 is outside -90..90");
+              "--elevation = 91 is outside -90..90");
   }
 }
 

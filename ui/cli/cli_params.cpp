@@ -3,12 +3,25 @@
 #include <cmath>
 #include <set>
 
+#include "vellum/core/error.hpp"
+
 namespace vellum::cli {
 
 std::string flagHelp(const params::Info& info, const std::string& range) {
   std::string help = info.label + ": " + info.help;
   if (!info.unit.empty()) help += " [" + info.unit + "]";
   return help + " (" + range + ")";
+}
+
+void parseNamingFlag(const std::string& key, const std::string& flag, const std::function<void()>& parse) {
+  try {
+    parse();
+  } catch (const Error& e) {
+    // params' messages begin "key: " or "key = " (params.cpp).
+    const std::string m = e.what();
+    const bool named = m.rfind(key, 0) == 0 && m.size() > key.size() && (m[key.size()] == ':' || m[key.size()] == ' ');
+    throw Error(named ? flag + m.substr(key.size()) : flag + ": " + m);
+  }
 }
 
 std::string joinWords(const std::vector<std::string>& words) {

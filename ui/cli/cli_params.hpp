@@ -19,6 +19,10 @@ namespace vellum::cli {
 /// "Control scale: the map is ... [voxels] (1..16)".
 std::string flagHelp(const params::Info& info, const std::string& range);
 
+/// Runs `parse` (a params::parse of flag `flag`'s value); its error names the flag the user
+/// typed ("--zoom: 'abc' is not a number") rather than the table key JSON files use.
+void parseNamingFlag(const std::string& key, const std::string& flag, const std::function<void()>& parse);
+
 /// The words joined by spaces.
 std::string joinWords(const std::vector<std::string>& words);
 
@@ -55,12 +59,19 @@ std::map<std::string, CLI::Option*> addFlags(CLI::App& cmd, S& target, const par
     } else if (f->kind == params::Kind::Vector) {
       o = cmd.add_option_function<std::vector<std::string>>(
           name,
-          [&target, f](const std::vector<std::string>& v) { params::parse(*f, target, joinWords(v)); }, help);
+          [&target, f, flag = params::cliFlag(prefix + f->key)](const std::vector<std::string>& v) {
+            parseNamingFlag(f->key, flag, [&] { params::parse(*f, target, joinWords(v)); });
+          },
+          help);
       // One syntax for three numbers: "X,Y,Z" (one word) or "X Y Z" (three).
       o->expected(1, 3)->type_name("X,Y,Z");
     } else {
       o = cmd.add_option_function<std::string>(
-          name, [&target, f](const std::string& v) { params::parse(*f, target, v); }, help);
+          name,
+          [&target, f, flag = params::cliFlag(prefix + f->key)](const std::string& v) {
+            parseNamingFlag(f->key, flag, [&] { params::parse(*f, target, v); });
+          },
+          help);
       o->type_name(f->kind == params::Kind::Choice ? "NAME" : f->kind == params::Kind::Text ? "TEXT" : "NUMBER");
     }
     const std::string d = params::format(*f, target);
