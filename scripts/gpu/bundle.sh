@@ -41,5 +41,6 @@ if [ $# -ge 2 ]; then cp "$2" .dev/keyframes.json; fi
 mkdir -p .gl /tmp/amd64/partial
 o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'
 apt-get $o update >/dev/null && (cd .gl && apt-get $o download libegl1 libglvnd0 libopengl0 libgl1 libglx0 libgles2)
-for p in /.dev/ /.gl/; do grep -qx "$p" .git/info/exclude 2>/dev/null || echo "$p" >>.git/info/exclude; done
+X=$(git rev-parse --git-path info/exclude); mkdir -p "$(dirname "$X")"  # a worktree's .git is a file
+for p in /.dev/ /.gl/; do grep -qx "$p" "$X" 2>/dev/null || echo "$p" >>"$X"; done
 du -sh .dev .gl
