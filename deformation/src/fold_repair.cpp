@@ -28,6 +28,8 @@ struct Grid {
     detIdx = m.determinant();
   }
   int64_t node(int64_t i, int64_t j, int64_t k) const { return (k * d.y + j) * d.x + i; }
+  /// node()'s inverse: the (i, j, k) of node (or cell) index n.
+  std::array<int64_t, 3> ijk(int64_t n) const { return {n % d.x, (n / d.x) % d.y, n / (d.x * d.y)}; }
   Vec3 v(int64_t i, int64_t j, int64_t k) const { return origin + ax * double(i) + ay * double(j) + az * double(k); }
   int64_t cells() const { return d.x > 1 && d.y > 1 && d.z > 1 ? d.voxelCount() : 0; }
   bool isCell(int64_t i, int64_t j, int64_t k) const {
@@ -132,6 +134,16 @@ std::optional<double> anyCellBelow(const std::vector<float>& u, const Grid& g, d
   return smallest / g.detIdx;
 }
 
+// Does the caller care about cell (i, j, k): any of its corners' source positions (all, when
+// `cares` is empty)?
+bool caredFor(const std::vector<float>& u, const Grid& g, int64_t i, int64_t j, int64_t k,
+              const std::function<bool(const Vec3&)>& cares) {
+  if (!cares) return true;
+  for (int q = 0; q < 8; ++q)
+    if (cares(at(u, g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1))))) return true;
+  return false;
+}
+
 // Cells below the threshold that the caller cares about, from a list of candidate cells (node
 // index of their lowest corner), or from every cell when `candidates` is null.
 struct Scan {
@@ -153,17 +165,15 @@ Scan scanCells(const std::vector<float>& u, const Grid& g, const std::vector<int
         local.goodMin = std::min(local.goodMin, det);
         return;
       }
-      bool care = !cares;
-      for (int q = 0; q < 8 && !care; ++q)
-        care = cares(at(u, g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1))));
-      if (!care) return;
+      if (!caredFor(u, g, i, j, k, cares)) return;
       local.minDet = std::min(local.minDet, det);
       local.bad.push_back(g.node(i, j, k));
     };
     if (candidates) {
       for (int64_t t = t0; t < t1; ++t) {
         const int64_t c = (*candidates)[static_cast<size_t>(t)];
-        visit(c % g.d.x, (c / g.d.x) % g.d.y, c / (g.d.x * g.d.y));
+        const auto [i, j, k] = g.ijk(c);
+        visit(i, j, k);
       }
     } else {
       for (int64_t k = t0; k < std::min(t1, g.d.z - 1); ++k)
@@ -216,7 +226,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
   std::vector<uint8_t> lock = locked;
   auto isLocked = [&](int64_t n) { return !lock.empty() && lock[static_cast<size_t>(n)] != kNodeFree; };
   auto corners = [&](int64_t c, int64_t (&out)[8]) {
-    const int64_t i = c % g.d.x, j = (c / g.d.x) % g.d.y, k = c / (g.d.x * g.d.y);
+    const auto [i, j, k] = g.ijk(c);
     for (int q = 0; q < 8; ++q) out[q] = g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1));
   };
   auto allHard = [&](int64_t c) {
@@ -265,7 +275,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
   const double target = params.minJacobian + 0.1;
   auto intoBody = [&](int64_t n, const Vec3& next) {
     if (forbidden(next)) return true;
-    const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+    const auto [i, j, k] = g.ijk(n);
     for (int64_t c = std::max<int64_t>(k - 1, 0); c <= std::min(k + 1, g.d.z - 1); ++c)
       for (int64_t b = std::max<int64_t>(j - 1, 0); b <= std::min(j + 1, g.d.y - 1); ++b)
         for (int64_t a = std::max<int64_t>(i - 1, 0); a <= std::min(i + 1, g.d.x - 1); ++a)
@@ -274,7 +284,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
   };
   constexpr double kWorstFloor = -1.0;
   auto worstAround = [&](int64_t n) {
-    const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+    const auto [i, j, k] = g.ijk(n);
     double w = std::numeric_limits<double>::infinity();
     for (int q = 0; q < 8; ++q) {
       const int64_t a = i - (q & 1), b = j - ((q >> 1) & 1), c = k - ((q >> 2) & 1);
@@ -291,7 +301,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
   for (; st.rounds < params.maxRounds && !scan.bad.empty(); ++st.rounds) {
     touched.clear();
     for (int64_t c : scan.bad) {
-      const int64_t i = c % g.d.x, j = (c / g.d.x) % g.d.y, k = c / (g.d.x * g.d.y);
+      const auto [i, j, k] = g.ijk(c);
       int64_t corner[8];
       Vec3 p[8];
       bool free[8];
@@ -379,7 +389,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
       }
       if (!written[static_cast<size_t>(n)]) { written[static_cast<size_t>(n)] = 1; ++st.nodesRelaxed; }
       // The 8 cells around the node changed.
-      const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+      const auto [i, j, k] = g.ijk(n);
       for (int q = 0; q < 8; ++q) {
         const int64_t a = i - (q & 1), b = j - ((q >> 1) & 1), c = k - ((q >> 2) & 1);
         if (!g.isCell(a, b, c)) continue;
@@ -446,7 +456,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
         while (!stack.empty()) {
           const int64_t c = stack.back();
           stack.pop_back();
-          const int64_t i = c % g.d.x, j = (c / g.d.x) % g.d.y, k = c / (g.d.x * g.d.y);
+          const auto [i, j, k] = g.ijk(c);
           for (int64_t e = std::max<int64_t>(k - reach, 0); e <= std::min(k + reach, g.d.z - 2); ++e)
             for (int64_t b = std::max<int64_t>(j - reach, 0); b <= std::min(j + reach, g.d.y - 2); ++b)
               for (int64_t a = std::max<int64_t>(i - reach, 0); a <= std::min(i + reach, g.d.x - 2); ++a) {
@@ -460,7 +470,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
         // The free nodes within r of the cluster's cells, and the cells they touch.
         std::vector<int64_t> region, cells;
         for (int64_t c : cluster) {
-          const int64_t i = c % g.d.x, j = (c / g.d.x) % g.d.y, k = c / (g.d.x * g.d.y);
+          const auto [i, j, k] = g.ijk(c);
           for (int64_t e = std::max<int64_t>(k - r, 0); e <= std::min(k + 1 + r, g.d.z - 1); ++e)
             for (int64_t b = std::max<int64_t>(j - r, 0); b <= std::min(j + 1 + r, g.d.y - 1); ++b)
               for (int64_t a = std::max<int64_t>(i - r, 0); a <= std::min(i + 1 + r, g.d.x - 1); ++a) {
@@ -479,12 +489,10 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
         auto score = [&]() {
           std::pair<int64_t, int64_t> sc{0, 0};
           for (int64_t c : cells) {
-            const int64_t i = c % g.d.x, j = (c / g.d.x) % g.d.y, k = c / (g.d.x * g.d.y);
+            const auto [i, j, k] = g.ijk(c);
             const double det = cellMin(u, g, i, j, k);
             if (det >= params.minJacobian) continue;
-            bool care = !cares;
-            for (int q = 0; q < 8 && !care; ++q) care = cares(at(u, g.node(i + (q & 1), j + ((q >> 1) & 1), k + ((q >> 2) & 1))));
-            if (!care) continue;
+            if (!caredFor(u, g, i, j, k, cares)) continue;
             if (det <= 0) ++sc.first;
             ++sc.second;
           }
@@ -497,7 +505,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
         for (int it = 0; it < params.relaxSteps; ++it) {
           for (size_t t = 0; t < region.size(); ++t) {
             const int64_t n = region[t];
-            const int64_t i = n % g.d.x, j = (n / g.d.x) % g.d.y, k = n / (g.d.x * g.d.y);
+            const auto [i, j, k] = g.ijk(n);
             Vec3 sum{0, 0, 0};
             int cnt = 0;
             const int64_t nb[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k}, {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
