@@ -215,7 +215,6 @@ void StudioApp::beginUiFrame() {
 // The deformation map, the slice textures and the 3D view brought up to date.
 StudioApp::FrameViews StudioApp::updateViews() {
   FrameViews v;
-  if (loader_.busy()) view3d_->warmUp(scene_);  // the first volume loads: compile the 3D shaders now
   // Not in the frame that adopted the load (it draws the new slices): from the next one on.
   if (upload3d_ && upload3d_->adopted++ > 0 &&
       view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
