@@ -18,7 +18,10 @@ vec4 fieldAt(vec3 p, int g) {
   return mix(mix(c00, c10, f.y), mix(c01, c11, f.y), f.z) * FIELD_SCALE;
 #else
   pc.z += float(g) * uBoxDims.z;
-  return texture(uFields, (pc + 0.5) / vec3(uBoxDims.xy, uBoxDims.z * float(NGROUPS))) * FIELD_SCALE;
+  // textureLod, not texture(): every call here is in non-uniform control flow (the march loop
+  // ends, skips and branches per pixel), where implicit derivatives are undefined (GLSL 4.50
+  // section 8.9). One level, so LOD 0 is what texture() was meant to pick.
+  return textureLod(uFields, (pc + 0.5) / vec3(uBoxDims.xy, uBoxDims.z * float(NGROUPS)), 0.0) * FIELD_SCALE;
 #endif
 }
 
@@ -65,7 +68,8 @@ void main() {
   vec3 origin = ray.origin, dir = ray.dir, o = ray.o, d = ray.d, inv = ray.inv;
   float tmin = ray.tmin, tmax = ray.tmax;
   vec3 view = -dir;
-  vec3 H = normalize(uLight + view);
+  float hLen;  // normalize() of a zero vector (light straight behind the viewer) is undefined
+  vec3 H = normOrZero(uLight + view, hLen);  // as normalizeOrZero on the CPU
   float depth0 = dot(origin - uCentre, uForward), depthRate = dot(dir, uForward);
 
   vec4 acc = vec4(0.0);
@@ -131,7 +135,7 @@ void main() {
       vec3 pMm = origin + t * dir;
       float depth = (depth0 + t * depthRate) / (2.0 * uRadius) + 0.5;
 #ifdef USE_CT
-      vec4 ct4 = texture(uCt, (p + 0.5) / uBoxDims);
+      vec4 ct4 = textureLod(uCt, (p + 0.5) / uBoxDims, 0.0);  // no implicit derivatives in the loop
 #else
       vec4 ct4 = vec4(0.0);
 #endif
@@ -145,7 +149,11 @@ void main() {
         homog = min(homog, min(min(r4.x, r4.y), min(r4.z, r4.w)));
         vec4 gx = vec4(0.0), gy = vec4(0.0), gz = vec4(0.0);
         // Gradients only where they can change the picture (gradientWindows).
+#ifdef DIAG_NO_GRAD_WINDOW
+        if (true) {
+#else
         if (any(bvec4(uvec4(greaterThan(c, uGradLo[g])) & uvec4(lessThan(c, uGradHi[g]))))) {
+#endif
 #ifdef EIGHT
           gx = 0.5 * (fieldAt(p + vec3(1.0, 0.0, 0.0), g) - fieldAt(p - vec3(1.0, 0.0, 0.0), g));
           gy = 0.5 * (fieldAt(p + vec3(0.0, 1.0, 0.0), g) - fieldAt(p - vec3(0.0, 1.0, 0.0), g));

@@ -59,7 +59,7 @@ float texValue(Row r, vec3 pMm) {
   if (STYLE_LAMBDA_TEXTURE(r) > 0.0 && kind != TEXTURE_NONE) {
     float s = 1.0 / STYLE_TEXTURE_SCALE_MM(r);
 #ifdef USE_TEXVOL
-    if (kind == TEXTURE_VOLUME) tv = texture(uTexVol, (pMm * s) / uTexDims).r;
+    if (kind == TEXTURE_VOLUME) tv = textureLod(uTexVol, (pMm * s) / uTexDims, 0.0).r;  // non-uniform flow: no implicit LOD
 #endif
 #ifdef USE_TEXTURE
     if (kind != TEXTURE_VOLUME) tv = solidTexture(kind, pMm * s);
@@ -73,6 +73,13 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   float glen;
   vec3 n = normOrZero(g4.xyz, glen);
   float d = g4.w;
+#ifdef DIAG_NORMALS
+  // Diagnosis (VELLUM_GL_DIAG=normals): the gradient as an opaque colour.
+  if (any(isnan(g4)) || any(isinf(g4))) return vec4(1.0, 0.0, 1.0, 1.0);
+  if (!(glen > 0.0)) return vec4(0.0, 0.0, 0.0, 1.0);
+  if (!(glen > 1e-6)) return vec4(0.0, 1.0, 0.0, 1.0);
+  return vec4(0.5 + 0.5 * n, 1.0);
+#endif
   // Opacity modulation first: where it is 0 (e.g. boundary k_c = 0 away from surfaces) the
   // sample is transparent whatever its colour, so nothing else is computed.
   float b;

@@ -39,6 +39,14 @@ std::string illustrationFragmentSource(const ShaderVariant& v) {
   // Diagnosis switch for GPUs whose texture units filter with low-precision weights.
   if (const char* e = std::getenv("VELLUM_GL_EXACT_FILTER"); v.eight && e && std::string(e) == "1")
     s << "#define EXACT_FILTER\n";
+  // Diagnosis switches for GPU-only defects (docs/benchmarks-gpu.md), comma-separated:
+  // VELLUM_GL_DIAG=normals draws each sample's shading normal as its colour (magenta: not
+  // finite, black: zero); nowindow computes field gradients everywhere (no gradient windows).
+  if (const char* e = std::getenv("VELLUM_GL_DIAG"); e) {
+    const std::string d = std::string(",") + e + ",";
+    if (d.find(",normals,") != std::string::npos) s << "#define DIAG_NORMALS\n";
+    if (d.find(",nowindow,") != std::string::npos) s << "#define DIAG_NO_GRAD_WINDOW\n";
+  }
   if (v.ct) s << "#define USE_CT\n";
   if (v.texture) s << "#define USE_TEXTURE\n";
   if (v.textureVolume) s << "#define USE_TEXVOL\n";

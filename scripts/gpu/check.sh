@@ -27,6 +27,15 @@ T $V render p512.nrrd --preset bone --size 1024x1024 --quality cinematic --volum
 for t in /tmp/v/bin/*_test; do
   (cd "$S" && $TM -f "TIME %e s wall | $(basename $t)" $t --gtest_brief=1 2>&1 | tail -25)
 done
+# The nested-bone defect (eight-mode fields, bone inside an invisible skin: flat grey disc on
+# NVIDIA, docs/benchmarks-gpu.md): its GL figures plain, with each sample's normal drawn as its
+# colour (VELLUM_GL_DIAG=normals: magenta = NaN gradient, black = zero) and with gradients
+# computed everywhere (nowindow). Look at $OUT/nested-*/gl-nested-bone-eight.png.
+for diag in none normals nowindow; do
+  mkdir -p "$OUT/nested-$diag"
+  (cd "$S" && VELLUM_GL_DIAG=$diag VELLUM_ILLUSTRATION_PNG_DIR="$OUT/nested-$diag" /tmp/v/bin/illustration_render_test \
+    --gtest_filter='IllustrationNested.*' --gtest_brief=1 2>&1 | grep -E "diff|FAILED|PASSED" | sed "s/^/[$diag] /")
+done
 if [ -f "$R/.dev/scan.nrrd.xz" ]; then
   xz -dc "$R/.dev/scan.nrrd.xz" >scan.nrrd
   T $V render scan.nrrd --preset bone --size 512x512 --out "$OUT/scan-bone512.png" --report r-scan-bone512.json
