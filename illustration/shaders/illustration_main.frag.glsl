@@ -35,20 +35,41 @@ vec3 slotNormal(vec3 p, int s) {
   float len;
   return normOrZero(uGradToPhys * (0.5 * gi), len);
 }
-// Crease ink at the surface point q (CPU reference: creaseInk() in
-// illustration_renderer_common.cpp): the largest turn of slot s's normal between the points
-// half the line width plus half a pixel either side of q along four screen directions.
+// One direction's crease ink from the unit normals at -R, -h, +h, +R mm (CPU reference:
+// creaseProfile() in illustration_renderer_common.cpp): the turn between -R and +R, times how
+// much of it is concentrated within +-h (a rounded part turning evenly gets none), times the
+// coverage of a widthPx line around where the turn is centred.
+float creaseProfile(vec3 nm, vec3 nh, vec3 ph, vec3 np, float R, float h, float c0, float c1, float widthPx,
+                    float pixMm) {
+  if (!(dot(nm, nm) > 0.5 && dot(np, np) > 0.5 && dot(nh, nh) > 0.5 && dot(ph, ph) > 0.5)) return 0.0;
+  float strength = clamp((c0 - dot(nm, np)) / max(c0 - c1, 1e-6), 0.0, 1.0);
+  if (!(strength > 0.0)) return 0.0;
+  vec3 dn = np - nm;
+  float dl = sqrt(dot(dn, dn));
+  if (!(dl > 1e-6)) return 0.0;
+  vec3 u = dn * (1.0 / dl);
+  float sm = dot(nm, u), sp = dot(np, u), sl = dot(nh, u), sr = dot(ph, u);
+  float rate = (sr - sl) / (2.0 * h), mean = (sp - sm) / (2.0 * R);
+  if (!(rate > 0.0 && mean > 0.0)) return 0.0;
+  float concentrated = clamp((rate / mean - 1.25) / 0.75, 0.0, 1.0);
+  float x = -h + 2.0 * h * (0.5 * (sm + sp) - sl) / (sr - sl);
+  float cover = clamp((0.5 * widthPx * pixMm - abs(x)) / pixMm + 0.5, 0.0, 1.0);
+  return strength * concentrated * cover;
+}
+// Crease ink at the surface point q (CPU reference: creaseInk()): the turn of slot s's normal
+// across +-R mm (R at least uCreaseProbeMm, a few voxels) along four screen directions, the
+// line placed where the turn is, within +-h (half the width plus half a pixel) of q.
 float creaseInk(vec3 q, int s, float widthPx, float angleDeg, float pixMm) {
-  float r = (0.5 * widthPx + 0.5) * pixMm;
-  vec3 ax = (uPhysToBox * uRight) * r, ay = (uPhysToBox * uUp) * r;
-  float cmin = 1.0;
+  float h = (0.5 * widthPx + 0.5) * pixMm, R = max(h, uCreaseProbeMm);
+  vec3 ax = uPhysToBox * uRight, ay = uPhysToBox * uUp;
+  float c0 = cos(radians(angleDeg)), c1 = cos(radians(min(angleDeg + 15.0, 180.0)));
+  float ink = 0.0;
   for (int i = 0; i < 4; ++i) {
     vec3 a = i == 0 ? ax : i == 1 ? ay : i == 2 ? 0.70710678 * (ax + ay) : 0.70710678 * (ax - ay);
-    vec3 n0 = slotNormal(q + a, s), n1 = slotNormal(q - a, s);
-    if (dot(n0, n0) > 0.5 && dot(n1, n1) > 0.5) cmin = min(cmin, dot(n0, n1));
+    ink = max(ink, creaseProfile(slotNormal(q - a * R, s), slotNormal(q - a * h, s), slotNormal(q + a * h, s),
+                                 slotNormal(q + a * R, s), R, h, c0, c1, widthPx, pixMm));
   }
-  float c0 = cos(radians(angleDeg)), c1 = cos(radians(min(angleDeg + 15.0, 180.0)));
-  return clamp((c0 - cmin) / max(c0 - c1, 1e-6), 0.0, 1.0);
+  return ink;
 }
 #endif
 

@@ -25,6 +25,7 @@ uniform vec4 uSkipOut[NGROUPS], uSkipIn[NGROUPS];  // adaptive step: skipBands()
 uniform float uSkipOn;
 uniform vec3 uHatchAxis[3];     // hatching planes' normals (physical), SampleFrame::hatchAxis
 uniform float uHatchPixMm;
+uniform float uCreaseProbeMm;  // SampleFrame::creaseProbeMm
 uniform sampler2D uStyle;      // STYLE_ROW_TEXELS x 256: read with the STYLE_* macros
 uniform sampler3D uOccupancy;
 uniform ivec3 uBlocks;

@@ -289,6 +289,7 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     }
     glUniform3fv(glGetUniformLocation(p, "uHatchAxis"), 3, axes);
     u1(p, "uHatchPixMm", sf.hatchPixMm);
+    u1(p, "uCreaseProbeMm", sf.creaseProbeMm);
   }
   u1(p, "uTfLo", table.tfLo);
   u1(p, "uTfHi", table.tfHi);

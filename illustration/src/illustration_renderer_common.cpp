@@ -186,9 +186,7 @@ void paintItems(const StyleTable& t, const std::vector<PaintSlot>& slots, std::v
 }
 
 float creaseInk(const FieldVolume& f, int slot, Vec3f q, Vec3f rightIdx, Vec3f upIdx, const std::array<float, 9>& m,
-                float widthPx, float angleDeg, float pixMm) {
-  const float r = (0.5f * widthPx + 0.5f) * pixMm;
-  const Vec3f ax = rightIdx * r, ay = upIdx * r;
+                float widthPx, float angleDeg, float pixMm, float probeMm) {
   auto normal = [&](Vec3f p) {
     const float gx = 0.5f * (f.at(p.x + 1.f, p.y, p.z, slot) - f.at(p.x - 1.f, p.y, p.z, slot));
     const float gy = 0.5f * (f.at(p.x, p.y + 1.f, p.z, slot) - f.at(p.x, p.y - 1.f, p.z, slot));
@@ -197,15 +195,44 @@ float creaseInk(const FieldVolume& f, int slot, Vec3f q, Vec3f rightIdx, Vec3f u
     const float len = std::sqrt(dot(g, g));
     return len > 1e-6f ? g * (1.f / len) : Vec3f{0, 0, 0};
   };
-  float cmin = 1.f;
-  for (int i = 0; i < 4; ++i) {
-    const Vec3f a = i == 0 ? ax : i == 1 ? ay : i == 2 ? (ax + ay) * 0.70710678f : (ax - ay) * 0.70710678f;
-    const Vec3f n0 = normal(q + a), n1 = normal(q - a);
-    if (dot(n0, n0) > 0.5f && dot(n1, n1) > 0.5f) cmin = std::min(cmin, dot(n0, n1));
-  }
+  // The turn is measured across +-R mm (CT rounds an edge over two or three voxels: a probe of
+  // a pixel or two saw only part of it); the line is placed where the turn is, within +-h of
+  // q (h: half the width plus half a pixel), so its width stays constant in pixels.
+  const float h = (0.5f * widthPx + 0.5f) * pixMm, R = std::max(h, probeMm);
   constexpr float kRad = 3.14159265358979f / 180.f;
   const float c0 = std::cos(angleDeg * kRad), c1 = std::cos(std::min(angleDeg + 15.f, 180.f) * kRad);
-  return std::clamp((c0 - cmin) / std::max(c0 - c1, 1e-6f), 0.f, 1.f);
+  float ink = 0.f;
+  for (int i = 0; i < 4; ++i) {
+    const Vec3f a = i == 0 ? rightIdx : i == 1 ? upIdx : i == 2 ? (rightIdx + upIdx) * 0.70710678f : (rightIdx - upIdx) * 0.70710678f;
+    ink = std::max(ink, creaseProfile(normal(q - a * R), normal(q - a * h), normal(q + a * h), normal(q + a * R), R, h,
+                                      c0, c1, widthPx, pixMm));
+  }
+  return ink;
+}
+
+float creaseProfile(Vec3f nm, Vec3f nh, Vec3f ph, Vec3f np, float R, float h, float c0, float c1, float widthPx,
+                    float pixMm) {
+  if (!(dot(nm, nm) > 0.5f && dot(np, np) > 0.5f && dot(nh, nh) > 0.5f && dot(ph, ph) > 0.5f)) return 0.f;
+  // Strength: the turn between the normals at -R and +R (crease_angle_deg: none, +15: full).
+  const float strength = std::clamp((c0 - dot(nm, np)) / std::max(c0 - c1, 1e-6f), 0.f, 1.f);
+  if (!(strength > 0.f)) return 0.f;
+  // s(x) = n(x).u, u the direction the normal turns to: it rises from s(-R) to s(+R) across
+  // the crease, steepest at its centre.
+  const Vec3f dn = np - nm;
+  const float dl = std::sqrt(dot(dn, dn));
+  if (!(dl > 1e-6f)) return 0.f;
+  const Vec3f u = dn * (1.f / dl);
+  const float sm = dot(nm, u), sp = dot(np, u), sl = dot(nh, u), sr = dot(ph, u);
+  const float rate = (sr - sl) / (2.f * h), mean = (sp - sm) / (2.f * R);  // per mm
+  if (!(rate > 0.f && mean > 0.f)) return 0.f;
+  // A crease concentrates the turn (full ink from twice the mean rate within the line); a
+  // rounded part turning evenly gets none, however far it turns in all.
+  const float concentrated = std::clamp((rate / mean - 1.25f) / 0.75f, 0.f, 1.f);
+  // The centre (s halfway between the sides) between -h and +h, interpolated; a widthPx line
+  // around it, antialiased over a pixel as inkLine (none when the centre lies beyond +-h).
+  const float x = -h + 2.f * h * (0.5f * (sm + sp) - sl) / (sr - sl);
+  const float cover = std::clamp((0.5f * widthPx * pixMm - std::abs(x)) / pixMm + 0.5f, 0.f, 1.f);
+  return strength * concentrated * cover;
 }
 
 void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH,

@@ -179,12 +179,20 @@ float inkVertex(float a, float b, float c);
 /// where n.l < -0.2, each widening from 0 to widthPx as n.l falls by 0.25, times fade[l].
 float inkHatch(float ndl, const float* u, const float* fade, float spacingPx, float widthPx);
 struct SampleFrame;
+/// Crease probe half-span in voxels (of the grid's mean size): SampleFrame::creaseProbeMm.
+constexpr double kCreaseProbeVoxels = 3.0;
 /// Crease ink (CPU reference of creaseInk() in the shader) at the surface point q (continuous
-/// index) of `slot`: the largest angle between the slot's normals (central differences) at
-/// q +- r a, r = (widthPx / 2 + 1/2) pixMm, a = the screen's right, up and two diagonals
-/// (index offsets per mm: right, up), mapped to 0 below angleDeg and 1 from angleDeg + 15.
+/// index) of `slot`, from the slot's normals (central differences) along the screen's right, up
+/// and two diagonals (a: index offsets per mm) at q +- h a and q +- R a, h = (widthPx / 2 + 1/2)
+/// pixMm, R = max(h, probeMm): the largest creaseProfile of the four directions.
 float creaseInk(const FieldVolume& f, int slot, Vec3f q, Vec3f rightIdx, Vec3f upIdx, const std::array<float, 9>& gradToPhys,
-                float widthPx, float angleDeg, float pixMm);
+                float widthPx, float angleDeg, float pixMm, float probeMm);
+/// One direction's crease ink from the unit normals at -R, -h, +h, +R (mm): the turn between
+/// -R and +R mapped from c0 = cos(angle) (none) to c1 = cos(angle + 15) (full), times how much
+/// of it is concentrated within +-h (a rounded part turning evenly gets none), times the
+/// coverage of a widthPx line around where the turn is centred.
+float creaseProfile(Vec3f nm, Vec3f nh, Vec3f ph, Vec3f np, float R, float h, float c0, float c1, float widthPx,
+                    float pixMm);
 /// u and fade of inkHatch at a sample (physical position pMm, unit normal n).
 void hatchCoordinates(const SampleFrame& f, Vec3f pMm, Vec3f n, float* u, float* fade);
 /// Texture volume for SolidTexture::Volume, normalised to [0, 1].
@@ -210,6 +218,9 @@ struct SampleFrame {
   /// the two diagonals across it) and the pixel size at the scene centre (stroke spacing).
   Vec3f hatchAxis[3];
   float hatchPixMm = 1;
+  /// Half the span over which creases measure the normal's turn (mm): a few voxels, since CT
+  /// rounds an edge over two or three (creaseInk).
+  float creaseProbeMm = 0;
   std::array<float, 9> gradToPhys{};  ///< index-space gradient -> physical (D * diag(1/spacing)), row-major
 };
 

@@ -230,7 +230,8 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
         const Vec3f q = f3(clip.o + clip.d * double(creaseT));
         const float ia = r[slot::LineOpacity] *
                          creaseInk(cx.fields, creaseS, q, f3(f.physToBox * f.right), f3(f.physToBox * f.up), cx.sf.gradToPhys,
-                                   r[slot::CreaseWidthPx], r[slot::CreaseAngleDeg], cx.sf.pixMm0 + cx.sf.pixMm1 * creaseT);
+                                   r[slot::CreaseWidthPx], r[slot::CreaseAngleDeg], cx.sf.pixMm0 + cx.sf.pixMm1 * creaseT,
+                                   cx.sf.creaseProbeMm);
         const float rr = 1.f - creaseAcc[3];
         for (int ch = 0; ch < 4; ++ch) {
           const float x = rr > 1e-6f ? (acc[ch] - creaseAcc[ch]) / rr : 0.f;
@@ -293,6 +294,7 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
     sf.hatchAxis[2] = f3(normalized(z - x));
     sf.hatchPixMm = float(pix * (f.perspective ? norm(centre - f.eye) : 1.0));
   }
+  sf.creaseProbeMm = float(kCreaseProbeVoxels * std::cbrt(g.spacing.x * g.spacing.y * g.spacing.z));
   const Mat3 m = g.direction * Mat3::fromColumns({1 / g.spacing.x, 0, 0}, {0, 1 / g.spacing.y, 0}, {0, 0, 1 / g.spacing.z});
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) sf.gradToPhys[size_t(r * 3 + c)] = float(m(r, c));

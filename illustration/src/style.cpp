@@ -119,9 +119,9 @@ const params::Table<SegmentStyle>& segmentTable() {
       real<S>("hatch_width_px", &S::hatchWidthPx,
               {"Hatch width", "width of a hatching stroke at full darkness", "px", 0.1, 32}),
       real<S>("crease_width_px", &S::creaseWidthPx,
-              {"Crease width", "ink line along creases of the segment's front surface (edges and folds where its normal turns sharply), in pixels: drawn where the normals half the width (plus half a pixel) either side of the ray's entry point, along four screen directions, differ by more than crease_angle_deg (full ink 15 degrees above it; 0 = no creases)", "px", 0, 32}),
+              {"Crease width", "ink line along creases of the segment's front surface (edges and folds where its normal turns sharply), in pixels: drawn where the normal, probed along four screen directions across 3 voxels either side of the ray's entry point, turns by more than crease_angle_deg (full ink 15 degrees above it) and the turn is concentrated at that point (0 = no creases)", "px", 0, 32}),
       real<S>("crease_angle_deg", &S::creaseAngleDeg,
-              {"Crease angle", "turn of the surface normal across a crease line's width where its ink starts", "deg", 1, 170}),
+              {"Crease angle", "turn of the surface normal across the crease probe (3 voxels either side) where its ink starts", "deg", 1, 170}),
   };
   return t;
 }
@@ -575,16 +575,18 @@ voxel layers; lit parts stay clean paper (`PenHatchingFollowsTheTone`: mean ink 
 n.l > 0.7, 0.22 at n.l 0.3 to 0.5, 0.45 below 0.1).
 
 **Creases.** `crease_width_px` > 0 inks the edges and folds of the segment's front surface,
-where its normal turns sharply: at the point where a ray first enters such a segment, the
-normals (central differences of its distance) half the width plus half a pixel either side
-along the screen's right, up and two diagonal directions are compared, and the largest turn
-maps to ink from `crease_angle_deg` (none below) to 15 degrees more (full). The probes are a
-fixed number of pixels apart, so the line is about the width in pixels at every zoom (wider
-where the distance field rounds an edge over more than a pixel: coarse voxels at a high zoom);
-it is evaluated once per ray, after the march. A smooth surface turns by about 2 r / R (r the
-probe offset, R the radius of curvature), so `pen` (1.5 px, 30 degrees) leaves parts rounder
-than about 4 px in radius alone (`PenCreasesFollowACubesEdgesNotASphere`: a cube's edge inked,
-its faces and a sphere clean; GL = CPU).
+where its normal turns sharply. At the point where a ray first enters such a segment, its
+normals (central differences of its own distance) are probed along the screen's right, up and
+two diagonal directions, at +-R and +-h from the point: R = 3 voxels (of the grid's mean size;
+CT rounds a bone's edge over two or three voxels, so a probe a pixel or two wide saw only part
+of the turn and drew faint broken strokes) and h = half the width plus half a pixel. Ink needs
+three things: the turn between -R and +R (none below `crease_angle_deg`, full 15 degrees above);
+the turn concentrated at the point (its rate within +-h at least 1.25 times, for full ink twice,
+its mean rate over +-R: a rounded shaft turning evenly gets none however far it turns, and a
+bump whose normal turns back within +-R gets none); and the point lying within the line's
+width of where the turn is centred, so the line is `crease_width_px` wide at every zoom. It is
+evaluated once per ray, after the march (`PenCreasesFollowACubesEdgesNotASphere`: a cube's
+edge inked 2 px wide, its faces and a sphere clean; GL = CPU).
 
 **Skin outlines.** The textbook skin was a faint translucent rim from silhouette enhancement
 ((1 - |n.v|)^8): a ray step either caught the thin rim or missed it, so on real skin it came
