@@ -446,6 +446,57 @@ TEST(IllustrationStyles, PenCreasesFollowACubesEdgesNotASphere) {
   EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
 }
 
+/// Creases on CT-like rounded edges (issue 21, s16): on a 1 mm grid a bone's edge is rounded
+/// over a few voxels. A box whose edges are rounded with a 1.5 mm radius, seen edge-on at
+/// 0.33 mm a pixel, gets a continuous line (the old probe, half the width plus half a pixel
+/// either side, saw about a third of the turn: no ink); a cylinder of 6 mm radius, which turns
+/// as far but evenly, gets none inside its outline. GL equals the CPU reference.
+TEST(IllustrationStyles, PenCreasesFindRoundedEdgesNotRoundShafts) {
+  Style st = stylePreset("pen");
+  st.fallback.lineWidthPx = 0;  // only creases ink the picture
+  st.fallback.hatchSpacingPx = 0;
+  auto rounded = [](const Vec3& p) {
+    const double r = 1.5;
+    const Vec3 q{std::abs(p.x) - (10 - r), std::abs(p.y) - (10 - r), std::abs(p.z) - (10 - r)};
+    const Vec3 o{std::max(q.x, 0.0), std::max(q.y, 0.0), std::max(q.z, 0.0)};
+    return norm(o) + std::min(std::max({q.x, q.y, q.z}), 0.0) - r;
+  };
+  const ShapeScene box = test::makeScene(48, {{"bone", rounded}});
+  const int size = 256;
+  IllustrationSettings s = front(size);
+  s.render.camera.azimuthDeg = 45;  // a vertical edge at the centre column
+  const RgbaImage g = gpu(box, st, s);
+  maybeSave(g, "pen-creases-rounded-box");
+  const double pxMm = pxPerMm(size);
+  double edge = 1, faces = 0;
+  for (int y = size / 2 - 16; y <= size / 2 + 16; ++y) {
+    double best = 0;
+    for (int x = size / 2 - 4; x <= size / 2 + 4; ++x) best = std::max(best, ink(g, x, y));
+    edge = std::min(edge, best);
+    for (double mm : {-6.0, -4.0, 4.0, 6.0}) faces = std::max(faces, ink(g, size / 2 + int(std::lround(mm * pxMm)), y));
+  }
+  const ShapeScene shaft = test::makeScene(48, {{"bone", [](const Vec3& p) {
+    return std::max(std::hypot(p.x, p.y) - 6.0, std::abs(p.z) - 18.0);  // axis along z
+  }}});
+  IllustrationSettings side = front(size);
+  side.render.camera.elevationDeg = 0;
+  const RgbaImage c = gpu(shaft, st, side);
+  maybeSave(c, "pen-creases-shaft");
+  double shaftInk = 0;
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x)
+      if (ink(c, x, y) > shaftInk && std::abs(x + 0.5 - size / 2) < (6.0 - 1.0) * pxMm &&
+          std::abs(y + 0.5 - size / 2) < (18.0 - 2.0) * pxMm)
+        shaftInk = ink(c, x, y);
+  std::cout << "[ crease ] rounded edge ink >= " << edge << ", faces <= " << faces << ", shaft <= " << shaftInk << "\n";
+  EXPECT_GT(edge, 0.6);  // a continuous dark line (0.8 here; 0 with the old probe)
+  EXPECT_LT(faces, 0.1);
+  EXPECT_LT(shaftInk, 0.1);
+  const test::ImageDiff d = test::compareImages(g, renderIllustrationCpu(box, st, s));
+  EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+  EXPECT_LE(d.maxAbs, 64.0) << "GL vs CPU";
+}
+
 /// Hatching lies on the surface, not the screen: panning the camera by 7 px moves the
 /// hatched ball's picture by 7 px, strokes included (screen-space strokes stayed put).
 TEST(IllustrationStyles, PenHatchingMovesWithTheSurface) {
