@@ -64,7 +64,10 @@ if [ -d "$feet" ]; then
   figure "Feet: skin, lit" feet-skin-lit.png \
     "$vellum" render "$feet" --preset skin --shadows 1 --occlusion 1 "${view[@]}" --size 768x768 --out "$out/feet-skin-lit.png"
   step "$vellum" segment "$feet" --preset skin-air --fill-holes-slices --label-id 1 --label-name skin --out "$work/skin.nrrd"
-  step "$vellum" segment "$feet" --lower 200 --upper 3071 --fill-holes-slices --min-island 100 \
+  # --min-island 2500 mm^3: a one-voxel-thin 1.9 cm^3 piece above 200 HU runs through all 150
+  # slices beside the feet (not bone); thinner than a ray step, it drew a dotted grey band
+  # inside the skin outline. Each foot's bones are one piece of ~200 cm^3 at this threshold.
+  step "$vellum" segment "$feet" --lower 200 --upper 3071 --fill-holes-slices --min-island 2500 \
     --into "$work/skin.nrrd" --label-id 2 --label-name bone --out "$work/labels.nrrd"
   step "$vellum" shape "$feet" --labels "$work/labels.nrrd" --segment skin=1,2 --segment bone=2 --remove-table --out "$work/feet-shape"
   for preset in textbook pen x-ray; do
