@@ -4,9 +4,6 @@
 
 #include <bit>
 #include <chrono>
-#include <cstdio>
-#include <ctime>
-#include <cstdlib>
 #include <cstring>
 #include <map>
 
@@ -399,9 +396,6 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
     image = refineImage(
         s.width, s.height, settings.refineLevels, settings.refineTolerance,
         [&](RefineLevel& l, const std::vector<TileRun>& runs) {
-          const auto tl = std::chrono::steady_clock::now();
-          size_t nt = 0; for (const auto& r : runs) nt += size_t(r.x1 - r.x0);
-          struct Dbg { decltype(tl) t; int sp; size_t n, nt, all; double c0 = cpu(); static double cpu() { timespec ts; clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts); return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6; } ~Dbg() { if (std::getenv("VELLUM_REFINE_DEBUG")) fprintf(stderr, "level %d runs %zu tiles %zu of %zu: %.0f ms, cpu %.0f ms\n", sp, n, nt, all, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t).count(), cpu() - c0); } } dbg{tl, l.spacing, runs.size(), nt, size_t(l.nx / 4) * size_t(l.ny / 4)};
           const size_t k = size_t(std::countr_zero(unsigned(l.spacing)));
           if (m.levelTargets.size() <= k) m.levelTargets.resize(k + 1);
           m.levelTargets[k].bind(l.nx, l.ny);

@@ -1,10 +1,7 @@
 #include "image_refine.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 
 #include "vellum/core/parallel.hpp"
 
@@ -12,7 +9,6 @@ namespace vellum::illustration::detail {
 
 namespace {
 
-std::atomic<long> gNear{0}, gRange{0}, gCurve{0};
 int roundUp4(int n) { return (n + 3) / 4 * 4; }
 
 /// Points past the image edge: a tile of the next level reads the coarse points up to two
@@ -36,7 +32,7 @@ bool smooth(const RefineLevel& c, int i0, int j0, float tolerance) {
   for (int j = 0; j < 3; ++j)
     for (int i = 0; i < 3; ++i) {
       const size_t p = size_t(std::min(j0 + j, c.ny - 1)) * size_t(c.nx) + size_t(std::min(i0 + i, c.nx - 1));
-      if (c.near[p] < nearPx) { ++gNear; return false; }
+      if (c.near[p] < nearPx) return false;
       for (int ch = 0; ch < 4; ++ch) v[j * 3 + i][ch] = c.rgba[p * 4 + size_t(ch)];
     }
   for (int ch = 0; ch < 4; ++ch) {
@@ -46,13 +42,13 @@ bool smooth(const RefineLevel& c, int i0, int j0, float tolerance) {
       hi = std::max(hi, q[ch]);
     }
     // An edge: a large step is traced even where it looks linear.
-    if (hi - lo > 8.f * tolerance) { ++gRange; return false; }
+    if (hi - lo > 8.f * tolerance) return false;
     // Curvature: bilinear interpolation between points 2s apart misses |second difference| / 8
     // (rows, columns, both diagonals).
     auto d2 = [&](int a, int b, int e) { return std::abs(v[a][ch] - 2.f * v[b][ch] + v[e][ch]); };
     float m = std::max(d2(0, 4, 8), d2(2, 4, 6));
     for (int k = 0; k < 3; ++k) m = std::max({m, d2(3 * k, 3 * k + 1, 3 * k + 2), d2(k, k + 3, k + 6)});
-    if (m > 8.f * tolerance) { ++gCurve; return false; }
+    if (m > 8.f * tolerance) return false;
   }
   return true;
 }
@@ -113,7 +109,6 @@ RgbaImage refineImage(int width, int height, int levels, float tolerance, const 
         a = r.x1;
         runs.push_back(r);
       }
-    if (std::getenv("VELLUM_REFINE_DEBUG")) fprintf(stderr, "near %ld range %ld curve %ld\n", gNear.exchange(0), gRange.exchange(0), gCurve.exchange(0));
     if (!runs.empty()) trace(fine, runs);
     coarse = std::move(fine);
   }

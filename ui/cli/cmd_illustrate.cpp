@@ -25,7 +25,7 @@ struct IllustrateArgs {
   illustration::Interpolation interp = illustration::Interpolation::Eight;
   illustration::Framing frame = illustration::Framing::Drawn;
   int refineLevels = 2;          ///< IllustrationSettings::refineLevels (the library's default is 0)
-  double refineTolerance = 2.0;  ///< in 8-bit levels
+  double refineTolerance = 4.0;  ///< in 8-bit levels
   FigureFlags figureFlags;  ///< --view, --plate, --size, --pan, --background, --transparent
   render::RenderSettings camera = [] {  // the render table's camera and step flags write here
     render::RenderSettings s;

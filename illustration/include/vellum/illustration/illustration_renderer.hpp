@@ -69,7 +69,7 @@ struct IllustrationSettings {
   /// by more than refineTolerance (0..1) or pass near ink, interpolating the rest. 0: a ray
   /// through every pixel (the reference). GL and the CPU reference refine alike.
   int refineLevels = 0;
-  float refineTolerance = 2.f / 255.f;
+  float refineTolerance = 4.f / 255.f;
   IllustrationSettings() { render.stepVoxels = 1.0; }
 };
 
