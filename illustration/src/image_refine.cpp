@@ -118,7 +118,7 @@ RgbaImage refineImage(int width, int height, int levels, float tolerance, const 
       for (int x = 0; x < width; ++x)
         for (int ch = 0; ch < 4; ++ch) {
           const float v = coarse.rgba[(size_t(y) * size_t(coarse.nx) + size_t(x)) * 4 + size_t(ch)];
-          image.at(x, int(y))[ch] = uint8_t(std::lround(std::clamp(v, 0.f, 1.f) * 255.f));
+          image.at(x, int(y))[ch] = uint8_t(std::lround((v > 0.f ? std::min(v, 1.f) : 0.f) * 255.f));  // NaN: 0, as GL
         }
   });
   if (stats) *stats = st;
