@@ -12,7 +12,6 @@
 #include "illustration_renderer_shader.hpp"
 #include "image_refine.hpp"
 #include "render_common.hpp"  // modules/render: makeFrame (same camera and rays)
-#include "shader_source.hpp"  // modules/render: the full-screen vertex shader
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 
