@@ -115,9 +115,9 @@ struct RayTracer {
     skipBands(cx.table, cx.fields.slots, cx.sf.coverageH, cx.sf.inkPassMm, cx.skipMarginMm, skipOut, skipIn);
   }
 
-  /// Pixel (x, y)'s straight RGBA (0..1, before quantising) and how near (pixels) it passed
+  /// Pixel (px, py)'s straight RGBA (0..1, before quantising) and how near (pixels) it passed
   /// undrawn ink (image_refine.hpp); `spacing`: of the refinement level it is traced for.
-  void trace(int x, int y, int spacing, float* rgba, float& near);
+  void trace(int px, int py, int spacing, float* rgba, float& near);
 };
 
 void RayTracer::trace(int px, int py, int spacing, float* rgba, float& near) {
@@ -129,8 +129,8 @@ void RayTracer::trace(int px, int py, int spacing, float* rgba, float& near) {
   constexpr float kInkNone = 1e30f;
   const auto& m = cx.sf.gradToPhys;
   near = 1e30f;
-  {
-    {
+  {    // (the former per-pixel loop's body, its indentation kept so that
+    {  // changes to it merge)
       const render::detail::Ray ray = render::detail::pixelRay(f, px, py);
       const auto clip = render::detail::clipRay(f, ray, s.jitter ? render::detail::pixelJitter(px, py) : 0.0);
       const Vec3f view = f3(-ray.dir);
