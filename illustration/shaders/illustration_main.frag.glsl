@@ -1,5 +1,13 @@
 // Illustration ray caster, part 3: the ray march (CPU reference: illustration_renderer_cpu.cpp).
 
+// Image-space refinement (image_refine.hpp): this pass traces the pixels (i, j) * uLevelSpacing
+// of the uViewport image, fragment (i, uLevelRows - 1 - j) of a smaller target; 1 and the
+// image's height for every pixel. nearOut: how far (pixels) the ray passed from ink it did not
+// draw (a silhouette's line, hatching, a crease): where a coarse ray comes near, the pixels
+// between it and its neighbours are traced, not interpolated.
+uniform int uLevelSpacing, uLevelRows;
+layout(location = 1) out float nearOut;
+
 // Group g of the per-segment distances (mm) at continuous index p, clamped to the grid (each
 // group is its own stack of slices: no filtering across the seam).
 vec4 fieldAt(vec3 p, int g) {
@@ -85,7 +93,9 @@ void addRow(int id, float w, vec3 g, float dd, vec4 ct4, vec3 pMm, float depth, 
   sum += w * styled(gRow, id, vec4(g, dd), ct4, texValue(gRow, pMm), depth, view, H);
 }
 void main() {
-  FragmentRay ray = fragmentRay();
+  // The image pixel this fragment traces (image rows top down).
+  ivec2 pix = ivec2(int(gl_FragCoord.x), uLevelRows - 1 - int(gl_FragCoord.y)) * uLevelSpacing;
+  FragmentRay ray = fragmentRayAt(vec2(float(pix.x) + 0.5, uViewport.y - float(pix.y) - 0.5));
   vec3 origin = ray.origin, dir = ray.dir, o = ray.o, d = ray.d, inv = ray.inv;
   float tmin = ray.tmin, tmax = ray.tmax;
   vec3 view = -dir;
@@ -94,7 +104,8 @@ void main() {
   float depth0 = dot(origin - uCentre, uForward), depthRate = dot(dir, uForward);
 
   vec4 acc = vec4(0.0);
-  float jitter = uJitter * pixelJitter(uint(gl_FragCoord.x), uint(uViewport.y - gl_FragCoord.y));
+  float jitter = uJitter * pixelJitter(uint(pix.x), uint(pix.y));
+  float near = 1e30;  // nearOut
   if (tmax >= tmin) {
     int k0 = int(ceil(tmin / uStep - jitter));
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
@@ -272,6 +283,10 @@ void main() {
         // less than its quantum) the line's ink, laid once per pass: the strongest minimum of
         // the pass counts, so no pass is missed nor inked twice.
         float hw = (0.5 * lw + 1.0) * pixB;
+        // How far this minimum's line would be (pixels beyond its half width and edge pixel);
+        // not on a plateau (a clamped field: far from the surface) nor behind an entered slot.
+        if (lw > 0.0 && !entered[s] && a < INK_NONE && b <= a && b <= c && (b < a || b < c))
+          near = min(near, max(abs(b) - 0.25 * abs(c - a), 0.0) / pixB - (0.5 * lw + 0.5));
         if (lw > 0.0 && !entered[s] && a < INK_NONE && b <= a && b <= c && inPass[s] && b - 0.25 * abs(c - a) < hw && b > -hw) {
           // Refined at a quarter step around the three samples' vertex: the closest approach
           // then no longer depends on where the (jittered) samples fell, so lines do not break.
@@ -304,6 +319,7 @@ void main() {
         float gl;
         vec3 nn = normOrZero(G[s], gl);
         if (hs > 0.0 && b < INK_NONE && b > 0.0 && c <= 0.0 && gl > 1e-6 && inPass[s]) {
+          if (dot(nn, uLight) < 0.6) near = -1.0;  // hatched: strokes finer than a coarse spacing
           float ia = op * inkHatch(dot(nn, uLight), pMm, nn, hs, STYLE_HATCH_WIDTH_PX_AT(iid));
           acc = inkUnder(acc, passAcc[s], vec4(ia * lc, ia));
         }
@@ -340,13 +356,18 @@ void main() {
     if (creaseS >= 0) {
       vec4 sl = uSlots[creaseS];
       int iid = sl.y > 0.0 ? int(sl.y) : int(sl.x);
-      float ia = STYLE_LINE_OPACITY_AT(iid) * creaseInk(o + creaseT * d, creaseS, STYLE_CREASE_WIDTH_PX_AT(iid),
+      // A coarse pass looks for the crease as far as the pixels it stands for (1.5 spacings
+      // wider): where it finds one, they are traced with the exact width.
+      float ia = STYLE_LINE_OPACITY_AT(iid) * creaseInk(o + creaseT * d, creaseS,
+                                                        STYLE_CREASE_WIDTH_PX_AT(iid) + 1.5 * float(uLevelSpacing - 1),
                                                         STYLE_CREASE_ANGLE_DEG_AT(iid), uPixMm.x + uPixMm.y * creaseT);
+      if (ia > 0.0) near = -1.0;
       acc = inkUnder(acc, creaseAcc, vec4(ia * STYLE_LINE_COLOUR_AT(iid), ia));
     }
 #endif
   }
   vec4 outc = acc + (1.0 - acc.a) * vec4(uBackground.rgb * uBackground.a, uBackground.a);
   fragColor = outc.a > 0.0 ? vec4(min(outc.rgb / outc.a, vec3(1.0)), outc.a) : vec4(0.0);
+  nearOut = near;
 
 }

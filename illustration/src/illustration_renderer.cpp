@@ -2,6 +2,7 @@
 // shader variant.
 #include "vellum/illustration/illustration_renderer.hpp"
 
+#include <bit>
 #include <chrono>
 #include <cstring>
 #include <map>
@@ -9,8 +10,8 @@
 #include "gl_util.hpp"        // modules/render: buildProgram, checkGlError, readRgbaRows
 #include "illustration_renderer_common.hpp"
 #include "illustration_renderer_shader.hpp"
+#include "image_refine.hpp"
 #include "render_common.hpp"  // modules/render: makeFrame (same camera and rays)
-#include "shader_source.hpp"  // modules/render: the full-screen vertex shader
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 
@@ -24,6 +25,52 @@ using render::detail::readRgbaRows;
 namespace {
 
 enum Unit : GLint { kUnitFields = 0, kUnitStyle, kUnitOcc, kUnitCt, kUnitTf, kUnitTexVol };
+
+// The caster draws one triangle over the whole image, or a refinement level's tiles as 4 x 4
+// points (clip space): llvmpipe shades a point aligned to its 4 x 4 block once, where the two
+// triangles of a quad would each shade every block their diagonal crosses.
+constexpr const char* kRectVertexShader = R"(#version 450 core
+layout(location = 0) in vec2 aPos;
+void main() {
+  gl_Position = vec4(aPos, 0.0, 1.0);
+  gl_PointSize = 4.0;
+}
+)";
+
+/// A refinement level's float target: straight RGBA (location 0) and nearOut (location 1).
+struct LevelTarget {
+  GLuint fbo = 0, colour = 0, near = 0;
+  int width = 0, height = 0;
+  void bind(int w, int h) {
+    if (!fbo || w != width || h != height) {
+      release();
+      glGenFramebuffers(1, &fbo);
+      glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+      glGenRenderbuffers(1, &colour);
+      glBindRenderbuffer(GL_RENDERBUFFER, colour);
+      glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA32F, w, h);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour);
+      glGenRenderbuffers(1, &near);
+      glBindRenderbuffer(GL_RENDERBUFFER, near);
+      glRenderbufferStorage(GL_RENDERBUFFER, GL_R32F, w, h);
+      glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT1, GL_RENDERBUFFER, near);
+      if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+        throw Error("illustrate: float render target " + std::to_string(w) + "x" + std::to_string(h) + " incomplete");
+      width = w;
+      height = h;
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, fbo);
+    const GLenum bufs[2] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1};
+    glDrawBuffers(2, bufs);
+  }
+  void release() {
+    if (fbo) glDeleteFramebuffers(1, &fbo);
+    for (GLuint* r : {&colour, &near})
+      if (*r) glDeleteRenderbuffers(1, r);
+    fbo = colour = near = 0;
+    width = height = 0;
+  }
+};
 
 void params(GLenum target, GLint filter, GLint wrap) {
   glTexParameteri(target, GL_TEXTURE_MIN_FILTER, filter);
@@ -64,7 +111,8 @@ void m3(GLuint p, const char* n, const Mat3& m) {
 struct IllustrationRenderer::Impl {
   render::GlContext& context;
   GLuint fieldTex = 0, styleTex = 0, occTex = 0, ctTex = 0, tfTex = 0, texVolTex = 0;
-  GLuint vao = 0;
+  GLuint vao = 0, vbo = 0;
+  std::vector<LevelTarget> levelTargets;  ///< per refinement level (image_refine.hpp)
   render::detail::OffscreenTarget target;  ///< destroyed after the body of ~Impl, context still current
   bool hasScene = false;
   Geometry geometry;
@@ -78,10 +126,18 @@ struct IllustrationRenderer::Impl {
   Dims texVolDims;
   std::map<std::string, GLuint> programs;
   double lastMs = 0, uploadMs = 0;
+  RefineStats lastStats;
+  int64_t lastPixels = 0;
 
   explicit Impl(render::GlContext& c) : context(c) {
     context.makeCurrent();
     glGenVertexArrays(1, &vao);
+    glGenBuffers(1, &vbo);
+    glBindVertexArray(vao);
+    glBindBuffer(GL_ARRAY_BUFFER, vbo);
+    glVertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
+    glEnableVertexAttribArray(0);
+    glBindVertexArray(0);
     glGenTextures(1, &styleTex);
     glBindTexture(GL_TEXTURE_2D, styleTex);
     glTexStorage2D(GL_TEXTURE_2D, 1, GL_RGBA32F, kRowTexels, kMaxLabels);
@@ -97,13 +153,15 @@ struct IllustrationRenderer::Impl {
     context.makeCurrent();
     for (auto& [k, p] : programs) glDeleteProgram(p);
     for (GLuint* t : {&fieldTex, &styleTex, &occTex, &ctTex, &tfTex, &texVolTex}) del(*t);
+    for (LevelTarget& l : levelTargets) l.release();
+    glDeleteBuffers(1, &vbo);
     glDeleteVertexArrays(1, &vao);
   }
 
   GLuint program(const ShaderVariant& v) {
     auto it = programs.find(v.key());
     if (it != programs.end()) return it->second;
-    const GLuint p = buildProgram(render::detail::vertexShaderSource(), illustrationFragmentSource(v));
+    const GLuint p = buildProgram(kRectVertexShader, illustrationFragmentSource(v));
     glUseProgram(p);
     const std::pair<const char*, GLint> units[] = {{"uFields", kUnitFields}, {"uStyle", kUnitStyle},
                                                    {"uOccupancy", kUnitOcc}, {"uCt", kUnitCt}, {"uTf", kUnitTf},
@@ -138,6 +196,9 @@ IllustrationRenderer::IllustrationRenderer(render::GlContext& context) : impl_(s
 IllustrationRenderer::~IllustrationRenderer() = default;
 double IllustrationRenderer::lastRenderMs() const { return impl_->lastMs; }
 double IllustrationRenderer::lastUploadMs() const { return impl_->uploadMs; }
+double IllustrationRenderer::lastTracedFraction() const {
+  return impl_->lastStats.traced > 0 && impl_->lastPixels > 0 ? double(impl_->lastStats.traced) / double(impl_->lastPixels) : 0.0;
+}
 
 void IllustrationRenderer::setScene(const ShapeScene& scene) {
   validateScene(scene);
@@ -295,25 +356,86 @@ RgbaImage IllustrationRenderer::render(const Style& style, const IllustrationSet
   u1(p, "uTfHi", table.tfHi);
   u3(p, "uTexDims", Vec3{double(m.texVolDims.x), double(m.texVolDims.y), double(m.texVolDims.z)});
 
-  glBindFramebuffer(GL_FRAMEBUFFER, m.target.framebuffer());
-  glViewport(0, 0, s.width, s.height);
   glDisable(GL_BLEND);
   glDisable(GL_DEPTH_TEST);
+  glEnable(GL_PROGRAM_POINT_SIZE);
   glBindVertexArray(m.vao);
+  glBindBuffer(GL_ARRAY_BUFFER, m.vbo);
+  std::vector<float> verts;
+  auto draw = [&](GLenum mode) {
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(verts.size() * sizeof(float)), verts.data(), GL_STREAM_DRAW);
+    glDrawArrays(mode, 0, GLsizei(verts.size() / 2));
+    glFinish();
+  };
+  const std::vector<float> wholeImage{-1.f, -1.f, 3.f, -1.f, -1.f, 3.f};
+  const GLint locSpacing = glGetUniformLocation(p, "uLevelSpacing"), locRows = glGetUniformLocation(p, "uLevelRows");
+  glBindFramebuffer(GL_FRAMEBUFFER, m.target.framebuffer());
   if (newProgram) {  // llvmpipe compiles at the first draw: keep that out of lastRenderMs
     glViewport(0, 0, 1, 1);
-    glDrawArrays(GL_TRIANGLES, 0, 3);
-    glFinish();
-    glViewport(0, 0, s.width, s.height);
+    glUniform1i(locSpacing, 1);
+    glUniform1i(locRows, 1);
+    verts = wholeImage;
+    draw(GL_TRIANGLES);
   }
   const auto t0 = std::chrono::steady_clock::now();
-  glDrawArrays(GL_TRIANGLES, 0, 3);
-  glFinish();
-  m.lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  checkGlError("illustration ray casting");
-
   RgbaImage image(s.width, s.height);
-  readRgbaRows(m.target.framebuffer(), 0, s.height, image, "glReadPixels");
+  m.lastStats = {};
+  m.lastPixels = int64_t(s.width) * s.height;
+  if (settings.refineLevels <= 0) {  // a ray through every pixel, straight into the RGBA8 target
+    glViewport(0, 0, s.width, s.height);
+    glUniform1i(locSpacing, 1);
+    glUniform1i(locRows, s.height);
+    verts = wholeImage;
+    draw(GL_TRIANGLES);
+    checkGlError("illustration ray casting");
+    readRgbaRows(m.target.framebuffer(), 0, s.height, image, "glReadPixels");
+    m.lastStats.traced = int64_t(s.width) * s.height;
+  } else {
+    // Image-space refinement: each level's tile runs drawn into its float target, read back.
+    std::vector<float> rgba, near;
+    image = refineImage(
+        s.width, s.height, settings.refineLevels, settings.refineTolerance,
+        [&](RefineLevel& l, const std::vector<TileRun>& runs) {
+          const size_t k = size_t(std::countr_zero(unsigned(l.spacing)));
+          if (m.levelTargets.size() <= k) m.levelTargets.resize(k + 1);
+          m.levelTargets[k].bind(l.nx, l.ny);
+          glViewport(0, 0, l.nx, l.ny);
+          glUniform1i(locSpacing, l.spacing);
+          glUniform1i(locRows, l.ny);
+          verts.clear();
+          for (const TileRun& r : runs)  // tile (a, y): GL pixels [4a, 4a + 4) x [ny - 4y - 4, ny - 4y)
+            for (int a = r.x0; a < r.x1; ++a) {
+              verts.push_back(2.f * float(4 * a + 2) / float(l.nx) - 1.f);
+              verts.push_back(2.f * float(l.ny - 4 * r.y - 2) / float(l.ny) - 1.f);
+            }
+          draw(GL_POINTS);
+          checkGlError("illustration ray casting");
+          // Read back the rows the runs cover (GL rows bottom up).
+          const int jLo = 4 * runs.front().y, jHi = 4 * runs.back().y + 4;
+          const int rows = jHi - jLo;
+          rgba.resize(size_t(l.nx) * size_t(rows) * 4);
+          near.resize(size_t(l.nx) * size_t(rows));
+          glPixelStorei(GL_PACK_ALIGNMENT, 4);
+          glReadBuffer(GL_COLOR_ATTACHMENT0);
+          glReadPixels(0, l.ny - jHi, l.nx, rows, GL_RGBA, GL_FLOAT, rgba.data());
+          glReadBuffer(GL_COLOR_ATTACHMENT1);
+          glReadPixels(0, l.ny - jHi, l.nx, rows, GL_RED, GL_FLOAT, near.data());
+          checkGlError("illustration level read-back");
+          for (const TileRun& r : runs)
+            for (int j = 4 * r.y; j < 4 * r.y + 4; ++j) {
+              const size_t src = size_t(jHi - 1 - j) * size_t(l.nx), dst = size_t(j) * size_t(l.nx);
+              const size_t i0 = size_t(4 * r.x0), i1 = size_t(4 * r.x1);
+              std::copy(rgba.begin() + std::ptrdiff_t((src + i0) * 4), rgba.begin() + std::ptrdiff_t((src + i1) * 4),
+                        l.rgba.begin() + std::ptrdiff_t((dst + i0) * 4));
+              std::copy(near.begin() + std::ptrdiff_t(src + i0), near.begin() + std::ptrdiff_t(src + i1),
+                        l.near.begin() + std::ptrdiff_t(dst + i0));
+            }
+        },
+        &m.lastStats);
+    glReadBuffer(GL_COLOR_ATTACHMENT0);
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+  }
+  m.lastMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   return image;
 }
 

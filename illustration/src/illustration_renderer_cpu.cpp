@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "illustration_renderer_common.hpp"
+#include "image_refine.hpp"
 #include "render_common.hpp"  // modules/render: camera rays, clip, jitter (shared with its shaders)
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
@@ -94,29 +95,44 @@ struct CpuContext {
 
 Vec3f f3(const Vec3& v) { return {float(v.x), float(v.y), float(v.z)}; }
 
-void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
+/// One thread's ray caster: the shader's main() for one pixel.
+struct RayTracer {
+  const CpuContext& cx;
+  const size_t ns;
+  std::vector<float> d;
+  std::vector<Vec3f> gi, gp;
+  std::vector<float> histA, histB;  // each slot's distance two and one samples ago
+  std::vector<float> inked;         // line ink laid in the ray's current pass near each slot's surface
+  std::vector<uint8_t> inPass;      // the ray is near the slot's surface
+  std::vector<float> passAcc;       // what was composited when that pass began
+  std::vector<uint8_t> entered;     // the ray has been inside the slot (no lines behind it)
+  std::vector<float> lo, hi, skipOut, skipIn;
+
+  explicit RayTracer(const CpuContext& c)
+      : cx(c), ns(c.fields.slots.size()), d(ns + 1), gi(ns + 1), gp(ns + 1), histA(ns + 1), histB(ns + 1),
+        inked(ns + 1), inPass(ns + 1), passAcc((ns + 1) * 4), entered(ns + 1) {
+    gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
+    skipBands(cx.table, cx.fields.slots, cx.sf.coverageH, cx.sf.inkPassMm, cx.skipMarginMm, skipOut, skipIn);
+  }
+
+  /// Pixel (px, py)'s straight RGBA (0..1, before quantising) and how near (pixels) it passed
+  /// undrawn ink (image_refine.hpp); `spacing`: of the refinement level it is traced for.
+  void trace(int px, int py, int spacing, float* rgba, float& near);
+};
+
+void RayTracer::trace(int px, int py, int spacing, float* rgba, float& near) {
   const auto& s = cx.settings.render;
   const auto& f = cx.frame;
   const bool central = cx.settings.interpolation == Interpolation::Eight;
   const TextureVolume* tv = cx.texVol ? &*cx.texVol : nullptr;
   const Vec3 c0{cx.sf.centre.x, cx.sf.centre.y, cx.sf.centre.z};
-  const size_t ns = cx.fields.slots.size();
-  std::vector<float> d(ns + 1);
-  std::vector<Vec3f> gi(ns + 1), gp(ns + 1);
-  std::vector<float> histA(ns + 1), histB(ns + 1);  // each slot's distance two and one samples ago
   constexpr float kInkNone = 1e30f;
-  std::vector<float> inked(ns + 1);  // line ink laid in the ray's current pass near each slot's surface
-  std::vector<uint8_t> inPass(ns + 1);         // the ray is near the slot's surface
-  std::vector<float> passAcc((ns + 1) * 4);    // what was composited when that pass began
-  std::vector<uint8_t> entered(ns + 1);        // the ray has been inside the slot (no lines behind it)
   const auto& m = cx.sf.gradToPhys;
-  std::vector<float> lo, hi, skipOut, skipIn;
-  gradientWindows(cx.table, cx.fields.slots, cx.sf.coverageH, lo, hi);
-  skipBands(cx.table, cx.fields.slots, cx.sf.coverageH, cx.sf.inkPassMm, cx.skipMarginMm, skipOut, skipIn);
-  for (int y = y0; y < y1; ++y)
-    for (int x = 0; x < s.width; ++x) {
-      const render::detail::Ray ray = render::detail::pixelRay(f, x, y);
-      const auto clip = render::detail::clipRay(f, ray, s.jitter ? render::detail::pixelJitter(x, y) : 0.0);
+  near = 1e30f;
+  {    // (the former per-pixel loop's body, its indentation kept so that
+    {  // changes to it merge)
+      const render::detail::Ray ray = render::detail::pixelRay(f, px, py);
+      const auto clip = render::detail::clipRay(f, ray, s.jitter ? render::detail::pixelJitter(px, py) : 0.0);
       const Vec3f view = f3(-ray.dir);
       float acc[4] = {0, 0, 0, 0};
       std::fill(histA.begin(), histA.end(), kInkNone);
@@ -167,6 +183,8 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
             const float op = r[slot::LineOpacity], lw = r[slot::LineWidthPx], hs = r[slot::HatchSpacingPx];
             // Every sampled minimum (ties too); the strongest of a pass counts.
             const float hw = (0.5f * lw + 1.f) * pixB;
+            if (lw > 0.f && !entered[i] && a < kInkNone && b <= a && b <= c && (b < a || b < c))  // as the shader: nearOut
+              near = std::min(near, std::max(std::abs(b) - 0.25f * std::abs(c - a), 0.f) / pixB - (0.5f * lw + 0.5f));
             if (lw > 0.f && !entered[i] && a < kInkNone && b <= a && b <= c && inPass[i] && b - 0.25f * std::abs(c - a) < hw &&
                 b > -hw) {
               // Refined at a quarter step around the samples' vertex (as the shader).
@@ -200,6 +218,7 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
             const float gl = std::sqrt(dot(g, g));
             if (hs > 0.f && b < kInkNone && b > 0.f && c <= 0.f && gl > 1e-6f && inPass[i]) {
               const float ndl = dot(g * (1.f / gl), cx.sf.light);
+              if (ndl < 0.6f) near = -1.f;
               float u[3], fade[3];
               hatchCoordinates(cx.sf, pMm, g * (1.f / gl), u, fade);
               under(&passAcc[i * 4], r[slot::LineColour], op * inkHatch(ndl, u, fade, hs, r[slot::HatchWidthPx]));
@@ -230,8 +249,9 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
         const Vec3f q = f3(clip.o + clip.d * double(creaseT));
         const float ia = r[slot::LineOpacity] *
                          creaseInk(cx.fields, creaseS, q, f3(f.physToBox * f.right), f3(f.physToBox * f.up), cx.sf.gradToPhys,
-                                   r[slot::CreaseWidthPx], r[slot::CreaseAngleDeg], cx.sf.pixMm0 + cx.sf.pixMm1 * creaseT,
-                                   cx.sf.creaseProbeMm);
+                                   r[slot::CreaseWidthPx] + 1.5f * float(spacing - 1), r[slot::CreaseAngleDeg],
+                                   cx.sf.pixMm0 + cx.sf.pixMm1 * creaseT, cx.sf.creaseProbeMm);
+        if (ia > 0.f) near = -1.f;
         const float rr = 1.f - creaseAcc[3];
         for (int ch = 0; ch < 4; ++ch) {
           const float x = rr > 1e-6f ? (acc[ch] - creaseAcc[ch]) / rr : 0.f;
@@ -243,11 +263,22 @@ void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
       float out[4];
       for (int ch = 0; ch < 3; ++ch) out[ch] = acc[ch] + (1 - acc[3]) * s.background[size_t(ch)] * bgA;
       out[3] = acc[3] + (1 - acc[3]) * bgA;
-      uint8_t* px = image.at(x, y);
       for (int ch = 0; ch < 4; ++ch) {
         const float v = ch == 3 ? out[3] : (out[3] > 0 ? std::min(out[ch] / out[3], 1.f) : 0.f);
-        px[ch] = static_cast<uint8_t>(std::lround(std::clamp(v, 0.f, 1.f) * 255.f));
+        rgba[ch] = std::clamp(v, 0.f, 1.f);
       }
+    }
+  }
+}
+
+void renderRows(const CpuContext& cx, RgbaImage& image, int y0, int y1) {
+  RayTracer rt(cx);
+  for (int y = y0; y < y1; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      float v[4], near;
+      rt.trace(x, y, 1, v, near);
+      uint8_t* px = image.at(x, y);
+      for (int ch = 0; ch < 4; ++ch) px[ch] = static_cast<uint8_t>(std::lround(v[ch] * 255.f));
     }
 }
 
@@ -320,6 +351,20 @@ RgbaImage renderIllustrationCpu(const ShapeScene& scene, const Style& style, con
   }
   cx.sf = makeSampleFrame(scene.grid(), cx.frame, cx.table);
   cx.skipMarginMm = skipMarginMm(scene.grid());
+  if (settings.refineLevels > 0) {  // the GL renderer's scheme, ray for ray
+    return refineImage(settings.render.width, settings.render.height, settings.refineLevels, settings.refineTolerance,
+                       [&](RefineLevel& l, const std::vector<TileRun>& runs) {
+                         parallelFor(int64_t(runs.size()), [&](int64_t r0, int64_t r1) {
+                           RayTracer rt(cx);
+                           for (int64_t r = r0; r < r1; ++r)
+                             for (int j = 4 * runs[size_t(r)].y; j < 4 * runs[size_t(r)].y + 4; ++j)
+                               for (int i = 4 * runs[size_t(r)].x0; i < 4 * runs[size_t(r)].x1; ++i) {
+                                 const size_t p = size_t(j) * size_t(l.nx) + size_t(i);
+                                 rt.trace(i * l.spacing, j * l.spacing, l.spacing, &l.rgba[p * 4], l.near[p]);
+                               }
+                         });
+                       });
+  }
   RgbaImage image(settings.render.width, settings.render.height);
   parallelFor(settings.render.height, [&](int64_t y0, int64_t y1) { renderRows(cx, image, int(y0), int(y1)); });
   return image;

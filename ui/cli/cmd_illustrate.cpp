@@ -24,6 +24,8 @@ struct IllustrateArgs {
   std::string preset, lightPreset;
   illustration::Interpolation interp = illustration::Interpolation::Eight;
   illustration::Framing frame = illustration::Framing::Drawn;
+  int refineLevels = 2;          ///< IllustrationSettings::refineLevels (the library's default is 0)
+  double refineTolerance = 4.0;  ///< in 8-bit levels
   FigureFlags figureFlags;  ///< --view, --plate, --size, --pan, --background, --transparent
   render::RenderSettings camera = [] {  // the render table's camera and step flags write here
     render::RenderSettings s;
@@ -50,6 +52,8 @@ void runIllustrate(const IllustrateArgs& a) {
   if (!a.lightPreset.empty()) r.lightPreset = render::parsePreset(a.lightPreset);
   std::tie(s.render.width, s.render.height) = f.sizePixels();
   s.interpolation = a.interp;
+  s.refineLevels = a.refineLevels;
+  s.refineTolerance = float(a.refineTolerance / 255.0);
   if (const auto bg = f.backgroundColour()) r.background = *bg;
   r.framing = a.frame;
   a.figure.setAnnotations(r);
@@ -84,6 +88,14 @@ const params::Table<IllustrateArgs>& illustrateFlagsTable() {
       params::choice<A>("interp", &A::interp, illustration::interpolations().names,
                         {"Interpolation", "eight (gradients by central differences of the interpolated distances) | "
                                           "nearest (forward differences: faster)", ""}),
+      params::integer<A>("refine_levels", &A::refineLevels,
+                         {"Refinement levels", "trace every 2^N-th pixel first, then halve the spacing where "
+                                               "neighbours differ, near ink lines and at edges, and interpolate the "
+                                               "smooth rest; 0 = a ray through every pixel (exact)", "", 0, 4}),
+      params::real<A>("refine_tolerance", &A::refineTolerance,
+                      {"Refinement tolerance", "with --refine-levels: neighbours whose colours differ by more than "
+                                               "8x this, or curve by more than this, are traced, not interpolated",
+                       "8-bit levels", 0, 64}),
   };
   return t;
 }
@@ -150,7 +162,7 @@ void addIllustrateCommand(CLI::App& app) {
   addInput(*cmd, "input", r.input, "the CT the shape folder was made from")->required();
   addInput(*cmd, "--shape", r.shape, "shape folder of `vellum shape` (distances.json, distance-<id>.nrrd, segments.nrrd)")->required();
   auto* styleOpt = addInput(*cmd, "--style", r.style, "style file (JSON, see docs/styles.md)");
-  addFlags(*cmd, *a, illustrateFlagsTable(), {"light_preset", "frame", "interp"}).at("preset")->excludes(styleOpt);
+  addFlags(*cmd, *a, illustrateFlagsTable(), {"light_preset", "frame", "interp", "refine_levels", "refine_tolerance"}).at("preset")->excludes(styleOpt);
   addOutput(*cmd, "--out,-o", r.output, "figure path (.png, .tif, .jpg)")->required();
   a->figureFlags.addTo(*cmd);
   // The camera, the ray step and the lighting layer's terms: the rest of the render table
@@ -162,7 +174,7 @@ void addIllustrateCommand(CLI::App& app) {
              .count(field.key))
       notHere.insert(field.key);
   addFlags(*cmd, a->camera, render::renderSettingsTable(), notHere);
-  addFlags(*cmd, *a, illustrateFlagsTable(), {"preset"});  // --light-preset, --frame, --interp
+  addFlags(*cmd, *a, illustrateFlagsTable(), {"preset"});  // --light-preset, --frame, --interp, --refine-*
   addOutput(*cmd, "--save-style", r.saveStyle, "also write the style used as JSON (a starting point for your own)");
   addOutput(*cmd, "--report", r.report, "write timings and settings as JSON");
   a->in.addTo(*cmd);

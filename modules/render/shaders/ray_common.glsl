@@ -19,9 +19,11 @@ struct FragmentRay {
   vec3 origin, dir, o, d, inv;
   float tmin, tmax;
 };
-FragmentRay fragmentRay() {
+// The same for a window position fragCoord of a uViewport-sized image (a pass that traces a
+// subset of the pixels into a smaller target maps its fragments there).
+FragmentRay fragmentRayAt(vec2 fragCoord) {
   FragmentRay r;
-  vec2 ndc = gl_FragCoord.xy / uViewport * 2.0 - 1.0;
+  vec2 ndc = fragCoord / uViewport * 2.0 - 1.0;
   vec3 offset = uRight * (ndc.x * uHalf.x) + uUp * (ndc.y * uHalf.y);
   r.origin = uEye + (1.0 - uPersp) * offset;
   r.dir = normalize(uForward + uPersp * offset);
@@ -34,3 +36,4 @@ FragmentRay fragmentRay() {
   r.tmax = min(min(thi.x, thi.y), thi.z);
   return r;
 }
+FragmentRay fragmentRay() { return fragmentRayAt(gl_FragCoord.xy); }

@@ -201,6 +201,7 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
         renderMs += lightRenderer->lastRenderMs();
       }
       const double renderCpuMs = processCpuMs() - cpu0;  // load-independent (all GL threads)
+      const double tracedPerPixel = renderer.lastTracedFraction();  // --refine-levels
       // A GL draw cannot be interrupted: Ctrl-C during it cancels here, before anything is written.
       progress.checkCancelled();
       // Labels only for segments the figure shows, each where it shows (alone, where it can).
@@ -234,6 +235,7 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
       f["labels"] = layout.labelTexts;
       f["render_ms"] = renderMs;
       f["render_cpu_ms"] = renderCpuMs;
+      f["traced_rays_per_pixel"] = tracedPerPixel;
       f["annotate_seconds"] = annotateS;  // labels: probe renders and anchors
       figures.push_back(std::move(f));
     }
@@ -254,6 +256,7 @@ IllustrateResult runIllustrate(const IllustrateRequest& r, Progress& progress) {
   const ill::IllustrationSettings& s0 = r.settings;
   j["size"] = {s0.render.width, s0.render.height};
   j["interpolation"] = ill::interpolationName(s0.interpolation);
+  j["refine"] = {{"levels", s0.refineLevels}, {"tolerance_levels", s0.refineTolerance * 255.0}};
   if (lighting.on())
     j["lighting"] = {{"shadows", lighting.shadows}, {"occlusion", lighting.occlusion},
                      {"occlusion_radius_mm", lighting.occlusionRadiusMm}, {"light_azimuth", lighting.azimuthDeg},

@@ -64,6 +64,12 @@ struct IllustrationSettings {
   /// reference, false, marches every step; figures agree within the PSNR in
   /// docs/benchmarks-illustration.md).
   bool adaptiveStep = true;
+  /// Image-space refinement (illustration/src/image_refine.hpp): trace every
+  /// 2^refineLevels-th pixel in x and y first, then halve the spacing where neighbours differ
+  /// by more than refineTolerance (0..1) or pass near ink, interpolating the rest. 0: a ray
+  /// through every pixel (the reference). GL and the CPU reference refine alike.
+  int refineLevels = 0;
+  float refineTolerance = 4.f / 255.f;
   IllustrationSettings() { render.stepVoxels = 1.0; }
 };
 
@@ -85,6 +91,8 @@ class IllustrationRenderer {
   double lastRenderMs() const;
   /// Milliseconds setScene() spent (packing + upload of the distances, block ranges).
   double lastUploadMs() const;
+  /// Rays the last render() traced per image pixel (1 without refinement; refineLevels).
+  double lastTracedFraction() const;
 
  private:
   struct Impl;
