@@ -50,13 +50,17 @@ void addSliceCommand(CLI::App& app) {
             "picture (.png, .tif, .jpg); several slices: OUT-INDEX.png each, or one sheet with --plate")
       ->required();
   addInput(*cmd, "--labels", r.labels, "label map on the volume's grid, drawn in its table's colours");
+  addInput(*cmd, "--beside", r.beside,
+           "another volume resampled on the same planes (mm), a column beside the input's on the --plate "
+           "(repeatable: before | after comparisons)");
   addOutput(*cmd, "--report", r.report, "write a JSON report: the slices, window, pixel size, inputs and outputs");
   addFlags(*cmd, r, app::sliceRequestTable());
   addLists(*cmd, r, sliceListTable());
   a->in.addTo(*cmd);
   cmd->footer("Examples:\n"
               "  vellum slice ct-feet-vhf --axis sagittal --mm -60 --window bone --out feet-sag.png\n"
-              "  vellum slice ct.nrrd --every 10 --plate --labels bones.nrrd --out sheet.png");
+              "  vellum slice ct.nrrd --every 10 --plate --caption --labels bones.nrrd --out sheet.png\n"
+              "  vellum slice before.nrrd --beside after.nrrd --plate --axis sagittal --mm 240,247 --out pair.png");
   cmd->callback([a] {
     app::SliceRequest r = a->request;
     r.load = a->in.toLoadOptions(nullptr);

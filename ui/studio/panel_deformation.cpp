@@ -10,7 +10,9 @@
 #include "app.hpp"
 #include "param_widgets.hpp"
 #include "vellum/deformation/deform_params.hpp"
+#include "deform_controller.hpp"
 #include "deform_session.hpp"
+#include "joint_tool.hpp"
 
 namespace vellum::studio {
 using deformation::Interpolation;
@@ -56,6 +58,16 @@ void rigidBones(StudioApp& app) {
 void pointsRow(StudioApp& app) {
   Scene& s = app.scene();
   Authoring& a = s.authoring;
+  // With joints the points are generated from the bones (the Joints panel): shown, not edited
+  // here; the keyframe edits below change the pose's keyframes (JointTool::editTrack).
+  const bool fromJoints = a.joints != nullptr;
+  if (fromJoints) {
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.f, 0.85f, 0.4f, 1.f));
+    ImGui::TextWrapped("Points from the joints: %s. Keyframe edits here change the pose's keyframes.",
+                       app.deform().joints().generatedPointsNote());
+    ImGui::PopStyleColor();
+    ImGui::BeginDisabled();
+  }
   if (ImGui::Button("16 default points")) guarded(app, [&] { app.points().placeControls(false); });
   ImGui::SameLine();
   if (ImGui::Button("Points from labels")) guarded(app, [&] { app.points().placeControls(true); });
@@ -74,6 +86,7 @@ void pointsRow(StudioApp& app) {
     if (t) ImGui::SameLine();
     if (ImGui::RadioButton(names[t], &tool, t)) app.points().tool() = static_cast<PointTool>(t);
   }
+  if (fromJoints) ImGui::EndDisabled();
   const int n = a.active() ? int(a.track.keyframes.front().points.size()) : 0;
   ImGui::Text("%d points", n);
   if (a.selected >= 0 && a.selected < n) {

@@ -29,9 +29,9 @@ const params::Table<SliceRequest>& sliceRequestTable() {
       params::integer<R>("every", &R::every,
                          {"Every", "every N-th slice along the axis, from index 0 (0: only --index / --mm; neither: "
                                    "the middle slice)", "voxels", 0, 1e6}),
-      params::flag<R>("plate", &R::plate, {"Contact sheet", "all slices as one contact sheet at --out (a caption "
-                                                             "under each) instead of a file each (OUT-INDEX.png)", ""}),
-      params::integer<R>("columns", &R::columns, {"Columns", "the contact sheet's columns (0: about square)", "", 0, 1000}),
+      params::flag<R>("plate", &R::plate, {"Contact sheet", "all slices as one contact sheet at --out instead of a "
+                                                             "file each (OUT-INDEX.png), white lines between; with --beside a row per slice", ""}),
+      params::integer<R>("columns", &R::columns, {"Columns", "the contact sheet's columns (0: about square; with --beside one per volume)", "", 0, 1000}),
       params::text<R>("window", &R::window,
                       {"Window", "a preset (soft-tissue 40/400, bone 400/1800, lung -600/1500, brain 40/80, abdomen "
                                  "60/350 HU, as the studio's) or auto: soft-tissue for a CT in HU (int16 below -100), "
@@ -52,7 +52,7 @@ const params::Table<SliceRequest>& sliceRequestTable() {
                       {"Orientation letters", "R/L, A/P, S/I at the picture's edges", ""}),
       params::flag<R>("scale_bar", &R::scaleBar, {"Scale bar", "a bar of a round length in mm", ""}),
       params::flag<R>("caption", &R::caption,
-                      {"Caption", "the axis, voxel index and position (mm) under each picture (always on a sheet)", ""}),
+                      {"Caption", "the axis, voxel index and position (mm) under each picture (and the file's name with --beside)", ""}),
   };
   return t;
 }
@@ -173,7 +173,11 @@ SliceResult runSlice(const SliceRequest& r, Progress& progress) {
   RunReport run(r.commandLine);
   run.input(r.input, "volume");
   run.input(r.labels, "label map");
-  io::OutputPlan().input(r.input).input(r.labels, "the --labels map").output(r.output, "--out").json(r.report, "--report").check();
+  if (!r.beside.empty() && !r.plate) throw Error("--beside needs --plate (a column per volume)");
+  io::OutputPlan first;
+  first.input(r.input).input(r.labels, "the --labels map");
+  for (const fs::path& b : r.beside) first.input(b, "--beside");
+  first.output(r.output, "--out").json(r.report, "--report").check();
   io::LoadedVolume lv = loadInput(run, r.input, r.load, progress);
   SliceResult result;
   result.warnings = lv.warnings;
@@ -188,6 +192,15 @@ SliceResult runSlice(const SliceRequest& r, Progress& progress) {
   std::optional<VolumeI16> converted;
   if (!std::holds_alternative<VolumeI16>(lv.volume)) converted = toInt16(lv.volume);
   const VolumeI16& ct = converted ? *converted : std::get<VolumeI16>(lv.volume);
+  // --beside: more volumes, each resampled on the first one's planes (the same mm; outside
+  // its box, its background), one column each.
+  std::vector<VolumeI16> besides;
+  for (const fs::path& b : r.beside) {
+    run.input(b, "volume beside");
+    io::LoadedVolume other = loadInput(run, b, r.load, progress);
+    besides.push_back(std::holds_alternative<VolumeI16>(other.volume) ? std::move(std::get<VolumeI16>(other.volume))
+                                                                       : toInt16(other.volume));
+  }
 
   // Which slices: positions along the plane's normal, in the order asked.
   const Vec3 normal = positionAxis(r.axis);
@@ -241,6 +254,7 @@ SliceResult runSlice(const SliceRequest& r, Progress& progress) {
   }
   io::OutputPlan plan;
   plan.input(r.input).input(r.labels, "the --labels map");
+  for (const fs::path& b : r.beside) plan.input(b, "--beside");
   for (size_t n = 0; n < (r.plate ? 1 : paths.size()); ++n) plan.output(paths[n], "--out");
   plan.json(r.report, "--report").check();
 
@@ -272,13 +286,24 @@ SliceResult runSlice(const SliceRequest& r, Progress& progress) {
       render::annotate(image, render::Projection::plane(plane.center, plane.u, plane.v, plane.mmPerPixel, plane.width,
                                                         plane.height),
                        annotations);
-    if (r.caption || r.plate)
-      render::drawCaption(image, std::string(sliceAxisName(r.axis)) + " " + "ijk"[d] + " " + std::to_string(index) +
-                                     "  " + axisLetter(normal) + " " + formatNumber(positions[n]) + " mm");
+    const std::string where = std::string(sliceAxisName(r.axis)) + " " + "ijk"[d] + " " + std::to_string(index) + "  " +
+                              axisLetter(normal) + " " + formatNumber(positions[n]) + " mm";
+    if (r.caption) render::drawCaption(image, (besides.empty() ? "" : r.input.stem().string() + "  ") + where);
     result.figures.push_back({paths[n], positions[n], index, image.width, image.height});
     figures.push_back({{"position_mm", positions[n]}, {"index", index}});
     if (r.plate) {
       tiles.push_back(std::move(image));
+      SliceStyle plain = style;
+      plain.labels = nullptr;  // the label map lies on the first volume's grid
+      for (size_t b = 0; b < besides.size(); ++b) {
+        RgbaImage other = renderSlice(besides[b], plane, plain);
+        if (anyAnnotation(annotations))
+          render::annotate(other, render::Projection::plane(plane.center, plane.u, plane.v, plane.mmPerPixel,
+                                                            plane.width, plane.height),
+                           annotations);
+        if (r.caption) render::drawCaption(other, r.beside[b].stem().string() + "  " + where);
+        tiles.push_back(std::move(other));
+      }
     } else {
       io::saveImage(image, paths[n]);
       written.wrote(paths[n]);
@@ -290,9 +315,19 @@ SliceResult runSlice(const SliceRequest& r, Progress& progress) {
   progress.end();
   if (r.plate) {
     const int n = static_cast<int>(tiles.size());
-    const int columns = r.columns > 0 ? r.columns : static_cast<int>(std::ceil(std::sqrt(double(n)) - 1e-9));
+    const int columns = !besides.empty()  ? 1 + static_cast<int>(besides.size())
+                        : r.columns > 0 ? r.columns
+                                        : static_cast<int>(std::ceil(std::sqrt(double(n)) - 1e-9));
     RgbaImage sheet = render::contactSheet(tiles, std::min(columns, n));
     for (size_t i = 3; i < sheet.pixels.size(); i += 4) sheet.pixels[i] = 255;  // empty cells black, not see-through
+    // White 2-pixel lines between the pictures (a pixel of each side): dark tiles stay apart.
+    const int tw = tiles.front().width, th = tiles.front().height;
+    for (int y = 0; y < sheet.height; ++y)
+      for (int x = 0; x < sheet.width; ++x) {
+        const bool line = (x % tw == 0 && x > 0) || (x % tw == tw - 1 && x < sheet.width - 1) ||
+                          (y % th == 0 && y > 0) || (y % th == th - 1 && y < sheet.height - 1);
+        if (line) std::fill_n(sheet.at(x, y), 3, uint8_t(255));
+      }
     io::saveImage(sheet, r.output);
     written.wrote(r.output);
     run.output(r.output);

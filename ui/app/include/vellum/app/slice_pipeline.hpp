@@ -19,6 +19,9 @@ struct SliceRequest {
   std::filesystem::path output;  ///< the picture, the stem of several, or the contact sheet
   std::filesystem::path labels;  ///< a label map on the volume's grid drawn over it; empty: none
   std::filesystem::path report;  ///< JSON with the shared report keys; empty: none
+  /// More volumes resampled on the same planes (the same mm), a column each beside the first
+  /// (needs `plate`): before | after comparisons.
+  std::vector<std::filesystem::path> beside;
   io::LoadOptions load;
   std::string commandLine;
 
