@@ -4,6 +4,7 @@
 
 #include "child_process.hpp"
 #include "test_data.hpp"
+#include "test_volumes.hpp"
 #include "vellum/app/slice_pipeline.hpp"
 #include "vellum/io/image_io.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -17,13 +18,8 @@ namespace {
 int16_t value(int64_t i, int64_t j, int64_t k) { return static_cast<int16_t>((i * 13 + j * 7 + k * 29) % 256); }
 
 VolumeI16 codedVolume() {
-  Geometry g;
-  g.dims = {16, 12, 6};
-  g.spacing = {1, 1, 3};
-  VolumeI16 v(g);
-  for (int64_t k = 0; k < 6; ++k)
-    for (int64_t j = 0; j < 12; ++j)
-      for (int64_t i = 0; i < 16; ++i) v(i, j, k) = value(i, j, k);
+  VolumeI16 v(test::grid({16, 12, 6}, {1, 1, 3}));
+  test::forEachVoxel(v.geometry().dims, [&](int64_t i, int64_t j, int64_t k) { v(i, j, k) = value(i, j, k); });
   return v;
 }
 
@@ -91,8 +87,7 @@ TEST(Slice, LabelsAreDrawnInTheirTableColoursWhereTheyAre) {
   const VolumeI16 ct = codedVolume();
   io::saveVolume(ct, dir / "ct.nrrd");
   LabelVolume labels(ct.geometry());
-  for (int64_t j = 3; j < 8; ++j)
-    for (int64_t i = 4; i < 10; ++i) labels(i, j, 2) = 7;
+  test::fillWhere(labels, test::voxelBox(4, 10, 3, 8, 2, 3), 7);
   labels.setLabel({7, "bone", {10, 200, 30}});
   io::saveLabels(labels, dir / "labels.nrrd");
   app::SliceRequest r = plainRequest(dir / "ct.nrrd", dir / "fill.png");

@@ -25,12 +25,15 @@ std::pair<double, size_t> lastAngle(const fs::path& poseFile) {
   return {p.anglesAt(p.lastKeyframeTimeS()).at(0), p.angles.keyframes.size()};
 }
 
+/// Script actions that wait for idle and save the joint tool's pose as NAME.pose.json in `d`.
+std::string savePoseActions(const fs::path& d, const std::string& name) {
+  return R"({"wait_idle":true},{"joint":{"save":{"path":)" + q(d / (name + ".pose.json")) + R"(}}},)";
+}
+
 TEST(StudioJointUndo, UndoAndRedoGiveBackEachAngleExactlyAndTheJointItself) {
   REQUIRE_DISPLAY();
   const fs::path d = limbDir("studio-joint-undo");
-  const auto save = [&](const std::string& name) {
-    return R"({"wait_idle":true},{"joint":{"save":{"path":)" + q(d / (name + ".pose.json")) + R"(}}},)";
-  };
+  const auto save = [&](const std::string& name) { return savePoseActions(d, name); };
   // Four undo steps: the joint, a keyframe, two angles; then back and forth. No 3D pane:
   // waiting for idle then waits for the map, not for a 3D refinement.
   const std::string script = scriptOnPhantom(d) + R"(
@@ -115,9 +118,7 @@ TEST(StudioJointUndo, ASceneSavedWithJointsReopensWithTheSamePoseAndPosedTrack) 
 TEST(StudioJointUndo, DeformationPanelKeyframeEditsChangeThePoseAndItsPointEditsAreRefused) {
   REQUIRE_DISPLAY();
   const fs::path d = limbDir("studio-joint-track");
-  const auto save = [&](const std::string& name) {
-    return R"({"wait_idle":true},{"joint":{"save":{"path":)" + q(d / (name + ".pose.json")) + R"(}}},)";
-  };
+  const auto save = [&](const std::string& name) { return savePoseActions(d, name); };
   // The Deformation panel's keyframe edits ("keyframe": its Add keyframe and Duration) while a
   // joint makes the track: each is one pose edit, undone with Ctrl+Z; then its point
   // placement ("controls") is refused with the reason, and the script stops there.
