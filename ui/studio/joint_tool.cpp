@@ -246,9 +246,9 @@ void JointTool::addKeyframe(StudioApp& app) {
 }
 
 const char* JointTool::generatedPointsNote() {
-  return "the control points come from the joints (Joints panel): they follow the bones, so points are "
-         "not placed, added, deleted or moved here; turn a joint's angle in the Joints panel, or remove "
-         "the joints to place points by hand";
+  return "the control points come from the joints: they follow the bones, so they are not placed, added, "
+         "deleted or moved here; turn a joint's angle in the Joints panel, or remove the joints to place "
+         "points by hand";
 }
 
 void JointTool::editTrack(StudioApp& app, const std::string& description, const std::function<void(Authoring&)>& fn) {

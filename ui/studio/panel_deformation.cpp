@@ -27,6 +27,10 @@ void rigidBones(StudioApp& app) {
   const bool open = ImGui::TreeNode("rigid", "Rigid labels: %s", rigid.empty() ? "none" : rigid.c_str());
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("labels kept rigid (bones); initially those whose names say bone");
   if (open) {
+    if (a.joints) {  // every bone of the pose is rigid (DeformController::setRigid refuses others)
+      ImGui::TextDisabled("the joints' bones (Joints panel)");
+      ImGui::BeginDisabled();
+    }
     for (const Label& l : app.scene().labels.table()) {
       bool on = std::find(a.rigidLabels.begin(), a.rigidLabels.end(), l.id) != a.rigidLabels.end();
       const std::string text = std::to_string(l.id) + " " + l.name;
@@ -38,6 +42,7 @@ void rigidBones(StudioApp& app) {
       }
     }
     if (app.scene().labels.table().empty()) ImGui::TextDisabled("no label table");
+    if (a.joints) ImGui::EndDisabled();
     ImGui::TreePop();
   }
   // The falloff re-solves live while dragged and is recorded once, when the drag ends.
@@ -63,8 +68,7 @@ void pointsRow(StudioApp& app) {
   const bool fromJoints = a.joints != nullptr;
   if (fromJoints) {
     ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.f, 0.85f, 0.4f, 1.f));
-    ImGui::TextWrapped("Points from the joints: %s. Keyframe edits here change the pose's keyframes.",
-                       app.deform().joints().generatedPointsNote());
+    ImGui::TextWrapped("%s. Keyframe edits below change the pose's keyframes.", JointTool::generatedPointsNote());
     ImGui::PopStyleColor();
     ImGui::BeginDisabled();
   }
