@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "test_volumes.hpp"
 #include "vellum/animation/movie.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/render/gl_context.hpp"
@@ -19,9 +20,8 @@ TEST(MovieAnnotations, LabelAnchorsFollowTheDeformation) {
   VolumeI16 ct(g, -1000, -1000.0);
   LabelVolume labels(g);
   labels.setLabel({1, "box", {200, 50, 50}});
-  for (int64_t k = 18; k < 30; ++k)
-    for (int64_t j = 18; j < 30; ++j)
-      for (int64_t i = 18; i < 30; ++i) ct(i, j, k) = 1500, labels(i, j, k) = 1;
+  test::fillWhere(ct, test::voxelBox(18, 30, 18, 30, 18, 30), 1500);
+  test::fillWhere(labels, test::voxelBox(18, 30, 18, 30, 18, 30), 1);
   // Every control point moves 20 mm along +x: the box is translated by 20 mm.
   const deformation::ControlPoints start = deformation::boxControlPoints(g, 16, 0.1);
   deformation::ControlPoints moved = start;
@@ -87,10 +87,11 @@ TEST(MovieAnnotations, AnchorsSitOnTheDeformedStructuresCentre) {
   LabelVolume labels(g);
   labels.setLabel({1, "ball", {200, 50, 50}});
   const Vec3 ball = g.indexToPhysical({28, 21, 16});
-  for (int64_t k = 0; k < 42; ++k)
-    for (int64_t j = 0; j < 42; ++j)
-      for (int64_t i = 0; i < 42; ++i)
-        if (norm(g.indexToPhysical({double(i), double(j), double(k)}) - ball) <= 7.0) ct(i, j, k) = 1500, labels(i, j, k) = 1;
+  const auto inBall = [&](int64_t i, int64_t j, int64_t k) {
+    return norm(g.indexToPhysical({double(i), double(j), double(k)}) - ball) <= 7.0;
+  };
+  test::fillWhere(ct, inBall, 1500);
+  test::fillWhere(labels, inBall, 1);
   deformation::DeformParams params;
   params.controlScale = 8;
   const Vec3 c = g.center();

@@ -1,6 +1,7 @@
 // Issue 11: movies follow keyframed cameras (turntables, fly-arounds).
 #include <gtest/gtest.h>
 
+#include "test_volumes.hpp"
 #include "vellum/animation/movie.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/render/gl_context.hpp"
@@ -10,14 +11,8 @@ using namespace vellum;
 namespace {
 /// An off-centre bright box: each camera sees it differently.
 VolumeI16 boxVolume() {
-  Geometry g;
-  g.dims = {40, 40, 40};
-  g.spacing = {2, 2, 2};
-  VolumeI16 ct(g, -1000, -1000.0);
-  for (int64_t k = 10; k < 30; ++k)
-    for (int64_t j = 8; j < 20; ++j)
-      for (int64_t i = 22; i < 34; ++i) ct(i, j, k) = 1500;
-  return ct;
+  VolumeI16 ct(test::grid({40, 40, 40}, {2, 2, 2}), -1000, -1000.0);
+  return test::fillWhere(ct, test::voxelBox(22, 34, 8, 20, 10, 30), 1500);
 }
 
 std::vector<RgbaImage> frames(const VolumeI16& ct, const deformation::KeyframeTrack& track, const animation::MovieSpec& spec) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 
+#include "test_volumes.hpp"
 #include "vellum/animation/movie.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/render/gl_context.hpp"
@@ -15,17 +16,10 @@ using namespace vellum;
 namespace {
 // Soft tissue (40 HU) with two bone blocks, 32^3 at 2 mm.
 VolumeI16 limb() {
-  Geometry g;
-  g.dims = {32, 32, 32};
-  g.spacing = {2, 2, 2};
-  VolumeI16 ct(g, -1000, -1000.0);
-  for (int64_t k = 3; k < 29; ++k)
-    for (int64_t j = 6; j < 26; ++j)
-      for (int64_t i = 6; i < 26; ++i) {
-        const bool bone = i >= 12 && i < 20 && j >= 12 && j < 20 && (k < 14 || k >= 17);
-        ct(i, j, k) = bone ? 1200 : 40;
-      }
-  return ct;
+  VolumeI16 ct(test::grid({32, 32, 32}, {2, 2, 2}), -1000, -1000.0);
+  test::fillWhere(ct, test::voxelBox(6, 26, 6, 26, 3, 29), 40);
+  test::fillWhere(ct, test::voxelBox(12, 20, 12, 20, 3, 14), 1200);
+  return test::fillWhere(ct, test::voxelBox(12, 20, 12, 20, 17, 29), 1200);
 }
 }  // namespace
 

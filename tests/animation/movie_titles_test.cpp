@@ -1,6 +1,7 @@
 // Issue 23 §7: title cards and captions in movies (keyframe captions replace the movie's).
 #include <gtest/gtest.h>
 
+#include "test_volumes.hpp"
 #include "vellum/animation/movie.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/render/annotations.hpp"
@@ -10,14 +11,8 @@ using namespace vellum;
 
 namespace {
 VolumeI16 boxVolume() {
-  Geometry g;
-  g.dims = {24, 24, 24};
-  g.spacing = {2, 2, 2};
-  VolumeI16 ct(g, -1000, -1000.0);
-  for (int64_t k = 8; k < 16; ++k)
-    for (int64_t j = 8; j < 16; ++j)
-      for (int64_t i = 8; i < 16; ++i) ct(i, j, k) = 1500;
-  return ct;
+  VolumeI16 ct(test::grid({24, 24, 24}, {2, 2, 2}), -1000, -1000.0);
+  return test::fillWhere(ct, test::voxelBox(8, 16, 8, 16, 8, 16), 1500);
 }
 
 std::vector<RgbaImage> frames(const deformation::KeyframeTrack& track, const animation::MovieSpec& spec) {

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "test_volumes.hpp"
 #include "image_compare.hpp"
 #include "shape_fixtures.hpp"
 #include "test_data.hpp"
@@ -179,15 +180,10 @@ TEST(RenderPipeline, SeveralPresetsAndViewsFromOneUploadEqualTheSingleCalls) {
 
 TEST(ShapePipeline, WritesTheFolderAndItsReport) {
   const auto dir = test::tempDir("shape-pipeline");
-  Geometry g;
-  g.dims = {24, 24, 24};
-  g.spacing = {1.5, 1.5, 1.5};
+  const Geometry g = test::grid({24, 24, 24}, {1.5, 1.5, 1.5});
   LabelVolume labels(g);
   labels.setLabel({1, "ball", {200, 180, 150}});
-  for (int64_t k = 0; k < 24; ++k)
-    for (int64_t j = 0; j < 24; ++j)
-      for (int64_t i = 0; i < 24; ++i)
-        if (std::hypot(i - 11.5, j - 11.5, k - 11.5) < 7) labels.ids()(i, j, k) = 1;
+  test::fillWhere(labels, [](int64_t i, int64_t j, int64_t k) { return std::hypot(i - 11.5, j - 11.5, k - 11.5) < 7; }, 1);
   io::saveLabels(labels, dir / "labels.nrrd");
   io::saveVolume(VolumeI16(g, -1000, -1000), dir / "ct.nrrd");
   app::ShapeRequest r;

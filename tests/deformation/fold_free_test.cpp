@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "test_volumes.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/fold_repair.hpp"
 #include "vellum/deformation/placement.hpp"
@@ -258,13 +259,10 @@ TEST(FoldRepair, AScrambledSlideBetweenLockedSidesIsRelaxedIntoAShear) {
 // folds, the still block does not move at all and is shown nowhere else, and the sliding block
 // keeps its transform.
 TEST(FoldRepair, ABlockSlidingPastAStillBlockTwoVoxelsAwayLeavesNoFoldAndTheStillBlockStill) {
-  Geometry g;
-  g.dims = {40, 32, 24};
-  g.spacing = {1, 1, 1};
+  const Geometry g = test::grid({40, 32, 24});
   LabelVolume labels(g);
-  for (int64_t k = 4; k < 20; ++k)
-    for (int64_t j = 8; j < 24; ++j)
-      for (int64_t i = 4; i < 34; ++i) labels(i, j, k) = i < 18 ? 1 : i >= 20 ? 2 : 0;
+  test::fillWhere(labels, test::voxelBox(4, 18, 8, 24, 4, 20), 1);
+  test::fillWhere(labels, test::voxelBox(20, 34, 8, 24, 4, 20), 2);
   FixedRegions fixed;
   fixed.ids = {1};
   const RigidBodies bodies = RigidBodies::fromLabels(labels, {2}, 20, fixed);

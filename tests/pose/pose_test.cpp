@@ -207,7 +207,7 @@ TEST(Pose, AngleZeroIsTheIdentity) {
 TEST(Pose, MovieTrackStepsAndPoseFileErrors) {
   Pose pose;
   pose.joints.push_back({"knee", {1}, {2}, {30, 40, 41}, {50, 40, 41}});
-  pose.angles.keyframes = {{1.0, {{{0, 0, 0}, {0, 0, 0}, {}}}, {}}, {1.0, {{{20, 0, 0}, {20, 0, 0}, {}}}, {}}};
+  pose.angles.keyframes = {{1.0, {{{0, 0, 0}, {0, 0, 0}, {}}}, {}, {}}, {1.0, {{{20, 0, 0}, {20, 0, 0}, {}}}, {}, {}}};
   linkJoints(pose);
   const Limb limb = makeLimb({{46, 74}, {12, 36}});
   PoseOptions o;

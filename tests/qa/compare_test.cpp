@@ -4,6 +4,7 @@
 #include <cmath>
 #include <set>
 
+#include "test_volumes.hpp"
 #include "child_process.hpp"
 #include "test_data.hpp"
 #include "vellum/app/compare.hpp"
@@ -18,14 +19,8 @@ namespace {
 
 /// A 10-voxel cube of label `id` at i0.. in a 24x20x20 grid of spacing 0.5 x 1 x 2 mm.
 LabelVolume cube(int i0, uint16_t id = 1) {
-  Geometry g;
-  g.dims = {24, 20, 20};
-  g.spacing = {0.5, 1.0, 2.0};
-  LabelVolume l(g);
-  for (int k = 5; k < 15; ++k)
-    for (int j = 5; j < 15; ++j)
-      for (int i = i0; i < i0 + 10; ++i) l(i, j, k) = id;
-  return l;
+  LabelVolume l(test::grid({24, 20, 20}, {0.5, 1.0, 2.0}));
+  return test::fillWhere(l, test::voxelBox(i0, i0 + 10, 5, 15, 5, 15), id);
 }
 
 RgbaImage flat(int w, int h, uint8_t v) {

@@ -25,12 +25,15 @@ std::pair<double, size_t> lastAngle(const fs::path& poseFile) {
   return {p.anglesAt(p.lastKeyframeTimeS()).at(0), p.angles.keyframes.size()};
 }
 
+/// Script actions that wait for idle and save the joint tool's pose as NAME.pose.json in `d`.
+std::string savePoseActions(const fs::path& d, const std::string& name) {
+  return R"({"wait_idle":true},{"joint":{"save":{"path":)" + q(d / (name + ".pose.json")) + R"(}}},)";
+}
+
 TEST(StudioJointUndo, UndoAndRedoGiveBackEachAngleExactlyAndTheJointItself) {
   REQUIRE_DISPLAY();
   const fs::path d = limbDir("studio-joint-undo");
-  const auto save = [&](const std::string& name) {
-    return R"({"wait_idle":true},{"joint":{"save":{"path":)" + q(d / (name + ".pose.json")) + R"(}}},)";
-  };
+  const auto save = [&](const std::string& name) { return savePoseActions(d, name); };
   // Four undo steps: the joint, a keyframe, two angles; then back and forth. No 3D pane:
   // waiting for idle then waits for the map, not for a 3D refinement.
   const std::string script = scriptOnPhantom(d) + R"(
@@ -109,6 +112,50 @@ TEST(StudioJointUndo, ASceneSavedWithJointsReopensWithTheSamePoseAndPosedTrack) 
   ASSERT_EQ(p.angles.keyframes.size(), 3u);
   EXPECT_EQ(p.angles.keyframes[1].points[0].source.x, 17.3);
   EXPECT_EQ(p.angles.keyframes[2].points[0].source.x, -8.1);
+}
+
+
+TEST(StudioJointUndo, DeformationPanelKeyframeEditsChangeThePoseAndItsPointEditsAreRefused) {
+  REQUIRE_DISPLAY();
+  const fs::path d = limbDir("studio-joint-track");
+  const auto save = [&](const std::string& name) { return savePoseActions(d, name); };
+  // The Deformation panel's keyframe edits ("keyframe": its Add keyframe and Duration) while a
+  // joint makes the track: each is one pose edit, undone with Ctrl+Z; then its point
+  // placement ("controls") is refused with the reason, and the script stops there.
+  const std::string script = scriptOnPhantom(d) + R"(
+    {"layout":"1x3"},{"hud":false},
+    {"joint":{"add":{"name":"knee","parent":[1],"child":[2],"axis":[[30,40,39],[50,40,39]]}}},
+    {"joint":{"angle":{"joint":"knee","deg":12.5}}},{"wait_idle":true},
+    {"keyframe":"add"},
+    {"joint":{"angle":{"joint":"knee","deg":-20}}},
+    {"keyframe":{"duration":2.5}},)" +
+                             save("a") + R"({"save_scene":)" + q(d / "sa.json") + R"(},
+    {"key":"ctrl+z"},)" + save("b") + R"(
+    {"key":"ctrl+z"},{"key":"ctrl+z"},)" + save("c") + R"(
+    {"controls":"labels"},
+    {"quit":0}]})";
+  std::string log;
+  EXPECT_EQ(runStudio(d, "track", script, &log), 3) << log;  // the script's error exit
+  EXPECT_NE(log.find("the control points come from the joints"), std::string::npos) << log;
+  const Pose a = loadPose(d / "a.pose.json");
+  ASSERT_EQ(a.angles.keyframes.size(), 2u);
+  EXPECT_EQ(a.angles.keyframes[0].points.at(0).source.x, 12.5);
+  EXPECT_EQ(a.angles.keyframes[1].points.at(0).source.x, -20.0);
+  EXPECT_EQ(a.angles.keyframes[1].durationS, 2.5);
+  // The scene's posed track is made from that pose: the same keyframes and durations.
+  EXPECT_EQ(slurp(d / "sa.pose.json"), slurp(d / "a.pose.json"));
+  const KeyframeTrack t = loadKeyframes(d / "sa.keyframes.json");
+  ASSERT_EQ(t.keyframes.size(), 2u);
+  EXPECT_EQ(t.keyframes[1].durationS, 2.5);
+  EXPECT_GT(t.keyframes[1].points.size(), 8u);
+  // Undo: the duration, then the angle and the added keyframe, one step each.
+  const Pose b = loadPose(d / "b.pose.json");
+  ASSERT_EQ(b.angles.keyframes.size(), 2u);
+  EXPECT_EQ(b.angles.keyframes[1].durationS, a.angles.keyframes[0].durationS);
+  EXPECT_EQ(b.angles.keyframes[1].points.at(0).source.x, -20.0);
+  const Pose c = loadPose(d / "c.pose.json");
+  ASSERT_EQ(c.angles.keyframes.size(), 1u);
+  EXPECT_EQ(c.angles.keyframes[0].points.at(0).source.x, 12.5);
 }
 
 }  // namespace

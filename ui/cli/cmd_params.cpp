@@ -73,6 +73,8 @@ std::string parametersMarkdown() {
   out += "\n## `vellum qa` (besides its paths)\n\n" + qaFlagsMarkdown();
   out += "\n## `vellum info`\n\n" + infoFlagsMarkdown();
   out += "\n## `vellum controls` (besides its paths and the volume input flags)\n\n" + controlsFlagsMarkdown();
+  out += "\n## `vellum slice` — `app::SliceRequest` (besides its paths and the volume input flags)\n\n" +
+         sliceFlagsMarkdown();
   out += "\n## Every command that writes an output folder\n\n" + params::markdown(forceFlagTable(), false);
   return out;
 }

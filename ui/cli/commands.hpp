@@ -26,6 +26,7 @@ void addParamsCommand(CLI::App& app);
 void addCompareCommand(CLI::App& app);  // issue 25
 void addQaCommand(CLI::App& app);       // issue 25
 void addPoseCommand(CLI::App& app);     // issue 23: joints and poses
+void addSliceCommand(CLI::App& app);    // slices as pictures (QA, docs figures)
 
 /// docs/parameters.md: every parameter table as Markdown (cmd_params.cpp).
 std::string parametersMarkdown();
@@ -46,6 +47,7 @@ std::string shapeFlagsMarkdown();
 std::string controlsFlagsMarkdown();
 std::string infoFlagsMarkdown();
 std::string deformListsMarkdown();
+std::string sliceFlagsMarkdown();
 
 /// What `vellum demo` hands to the parts that later issues add to it.
 struct DemoContext {

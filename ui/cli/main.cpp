@@ -100,6 +100,7 @@ int main(int argc, char** argv) {
   addParamsCommand(app);
   addCompareCommand(app);
   addQaCommand(app);
+  addSliceCommand(app);
   // Quoted where needed, so that the line in a report can be pasted back into a shell.
   for (int i = 0; i < argc; ++i) {
     std::string a = i == 0 ? std::string("vellum") : std::string(argv[i]);

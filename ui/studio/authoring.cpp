@@ -92,7 +92,7 @@ deformation::KeyframeCamera keyframeCameraOf(const render::Camera& c) {
 }
 
 void addPoint(Authoring& a, const Vec3& mm) {
-  if (!a.active()) a.track.keyframes = {deformation::Keyframe{1.0, {}}};
+  if (!a.active()) a.track.keyframes = {deformation::Keyframe{1.0, {}, {}, {}}};
   for (auto& k : a.track.keyframes) k.points.push_back(ControlPoint{mm, mm, {}});
   a.selected = int(a.track.keyframes.front().points.size()) - 1;
   a.touch();

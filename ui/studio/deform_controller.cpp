@@ -135,6 +135,11 @@ void DeformController::draw(const Pane& pane) {
 void DeformController::setRigid(std::vector<uint16_t> labels, double falloffMm, const std::string& description,
                                 std::optional<std::pair<std::vector<uint16_t>, double>> before) {
   Authoring& a = app_.scene().authoring;
+  // With joints every bone of the pose is rigid (JointTool::apply): another choice would be
+  // lost at the next angle; the falloff stays the user's.
+  if (a.joints && labels != a.rigidLabels)
+    throw Error("the rigid bones are the joints' bones while joints exist (Joints panel: parent, child and "
+                "fixed labels)");
   TrackEdit e;
   e.description = description;
   e.before = e.after = a.track;

@@ -245,6 +245,38 @@ void JointTool::addKeyframe(StudioApp& app) {
   apply(app);
 }
 
+const char* JointTool::generatedPointsNote() {
+  return "the control points come from the joints: they follow the bones, so they are not placed, added, "
+         "deleted or moved here; turn a joint's angle in the Joints panel, or remove the joints to place "
+         "points by hand";
+}
+
+void JointTool::editTrack(StudioApp& app, const std::string& description, const std::function<void(Authoring&)>& fn) {
+  if (pose.angles.keyframes.empty()) throw Error("add a joint first");
+  Authoring& a = app.scene().authoring;
+  // The same edit on a stand-in whose track is the pose's angles: a keyframe copied, deleted,
+  // moved or retimed there is the same keyframe of the posed track (apply() makes one from the
+  // other keyframe for keyframe).
+  Authoring probe;
+  probe.track = pose.angles;
+  probe.keyframe = clampKeyframe(pose, a.keyframe);
+  probe.timeS = a.timeS;  // "add keyframe" while scrubbing copies the angles in between
+  fn(probe);
+  if (probe.track.keyframes.empty()) throw Error("a pose keeps at least one keyframe");
+  for (const Keyframe& k : probe.track.keyframes) {
+    if (k.points.size() != pose.joints.size()) throw Error(generatedPointsNote());
+    if (k.camera) throw Error("a keyframe camera is not part of a pose file: set the view instead while joints exist");
+  }
+  const Pose before = pose;
+  const int keyframeBefore = a.keyframe;
+  pose.angles = std::move(probe.track);
+  a.keyframe = clampKeyframe(pose, probe.keyframe);
+  a.timeS.reset();
+  a.playing = false;
+  app.deform().pushPoseEdit(description, before, keyframeBefore);
+  apply(app);
+}
+
 void JointTool::selectKeyframe(StudioApp& app, int k) {
   if (k < 0 || k >= int(pose.angles.keyframes.size())) throw Error("no keyframe " + std::to_string(k));
   Authoring& a = app.scene().authoring;

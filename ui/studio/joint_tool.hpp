@@ -9,6 +9,7 @@
 // file, `vellum pose` reproduces the view (the studio writes its command line beside it).
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <future>
 #include <memory>
 #include <optional>
@@ -24,6 +25,7 @@
 namespace vellum::studio {
 
 class StudioApp;
+struct Authoring;
 
 /// What a left click in a view picks while the joint tool waits for one.
 enum class JointPick { None, Parent, Child, AxisA, AxisB };
@@ -92,6 +94,15 @@ class JointTool {
   /// its angles differ from the pose now, the axes and samples stay (cheap); else it is
   /// prepared again. Not an undo step.
   void restore(StudioApp& app, deformation::Pose pose, int keyframe);
+  /// A track edit of the Deformation panel (or a script) while joints exist: `fn` runs on the
+  /// pose's own angle track (keyframe k holds every joint's angle), so that adding, deleting
+  /// or moving a keyframe and its duration, interpolation and loop change the pose: one undo
+  /// step (a pose edit), saved with the scene's pose file, the posed track made again from it.
+  /// Error, nothing changed, for an edit of the points themselves or a keyframe camera: the
+  /// points are generated from the bones (generatedPointsNote()).
+  void editTrack(StudioApp& app, const std::string& description, const std::function<void(Authoring&)>& fn);
+  /// Why the Deformation panel's point edits are refused while joints exist.
+  static const char* generatedPointsNote();
   /// Adopts a finished preparation (the frame loop calls it).
   void poll(StudioApp& app);
   /// The time (s) of the edited keyframe in the pose's track.

@@ -10,7 +10,9 @@
 #include "app.hpp"
 #include "param_widgets.hpp"
 #include "vellum/deformation/deform_params.hpp"
+#include "deform_controller.hpp"
 #include "deform_session.hpp"
+#include "joint_tool.hpp"
 
 namespace vellum::studio {
 using deformation::Interpolation;
@@ -25,6 +27,10 @@ void rigidBones(StudioApp& app) {
   const bool open = ImGui::TreeNode("rigid", "Rigid labels: %s", rigid.empty() ? "none" : rigid.c_str());
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("labels kept rigid (bones); initially those whose names say bone");
   if (open) {
+    if (a.joints) {  // every bone of the pose is rigid (DeformController::setRigid refuses others)
+      ImGui::TextDisabled("the joints' bones (Joints panel)");
+      ImGui::BeginDisabled();
+    }
     for (const Label& l : app.scene().labels.table()) {
       bool on = std::find(a.rigidLabels.begin(), a.rigidLabels.end(), l.id) != a.rigidLabels.end();
       const std::string text = std::to_string(l.id) + " " + l.name;
@@ -36,6 +42,7 @@ void rigidBones(StudioApp& app) {
       }
     }
     if (app.scene().labels.table().empty()) ImGui::TextDisabled("no label table");
+    if (a.joints) ImGui::EndDisabled();
     ImGui::TreePop();
   }
   // The falloff re-solves live while dragged and is recorded once, when the drag ends.
@@ -56,6 +63,15 @@ void rigidBones(StudioApp& app) {
 void pointsRow(StudioApp& app) {
   Scene& s = app.scene();
   Authoring& a = s.authoring;
+  // With joints the points are generated from the bones (the Joints panel): shown, not edited
+  // here; the keyframe edits below change the pose's keyframes (JointTool::editTrack).
+  const bool fromJoints = a.joints != nullptr;
+  if (fromJoints) {
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1.f, 0.85f, 0.4f, 1.f));
+    ImGui::TextWrapped("%s. Keyframe edits below change the pose's keyframes.", JointTool::generatedPointsNote());
+    ImGui::PopStyleColor();
+    ImGui::BeginDisabled();
+  }
   if (ImGui::Button("16 default points")) guarded(app, [&] { app.points().placeControls(false); });
   ImGui::SameLine();
   if (ImGui::Button("Points from labels")) guarded(app, [&] { app.points().placeControls(true); });
@@ -74,6 +90,7 @@ void pointsRow(StudioApp& app) {
     if (t) ImGui::SameLine();
     if (ImGui::RadioButton(names[t], &tool, t)) app.points().tool() = static_cast<PointTool>(t);
   }
+  if (fromJoints) ImGui::EndDisabled();
   const int n = a.active() ? int(a.track.keyframes.front().points.size()) : 0;
   ImGui::Text("%d points", n);
   if (a.selected >= 0 && a.selected < n) {

@@ -13,7 +13,9 @@
 #include <sstream>
 
 #include "app.hpp"
+#include "deform_controller.hpp"
 #include "deform_session.hpp"
+#include "joint_tool.hpp"
 #include "view3d.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/placement.hpp"
@@ -287,6 +289,8 @@ void PointController::endDrag() {
 }
 
 void PointController::editTrack(const std::string& description, const std::function<void(Authoring&)>& fn) {
+  // With joints the track is made from the pose: the edit goes to the pose (or is refused).
+  if (scene().authoring.joints) return app_.deform().joints().editTrack(app_, description, fn);
   TrackEdit e;
   e.description = description;
   e.before = scene().authoring.track;
@@ -301,6 +305,15 @@ void PointController::editTrack(const std::string& description, const std::funct
 }
 
 void PointController::pushTrackEdit(const std::string& description, deformation::KeyframeTrack before, int keyframeBefore) {
+  if (scene().authoring.joints) {  // a drag retimed the shown keyframes: the pose's take the durations
+    std::vector<double> durations;
+    for (const auto& k : scene().authoring.track.keyframes) durations.push_back(k.durationS);
+    scene().authoring.track = std::move(before);
+    return app_.deform().joints().editTrack(app_, description, [durations](Authoring& a) {
+      for (size_t k = 0; k < durations.size() && k < a.track.keyframes.size(); ++k)
+        a.track.keyframes[k].durationS = durations[k];
+    });
+  }
   TrackEdit e;
   e.description = description;
   e.before = std::move(before);
@@ -328,6 +341,7 @@ void PointController::endEngineEdit() {
 }
 
 void PointController::placeControls(bool fromLabels) {
+  if (scene().authoring.joints) throw Error(JointTool::generatedPointsNote());
   if (!scene().hasVolume()) throw Error("no volume is open");
   if (fromLabels && scene().labels.ids().empty()) throw Error("no label map is open");
   if (!fromLabels) {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "vellum/app/mpr.hpp"
 #include "vellum/core/enum_table.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/deformation/control_volume.hpp"
@@ -21,12 +22,8 @@ const params::EnumTable<Layout>& layouts();
 inline const char* layoutName(Layout l) { return layouts().name(l); }
 inline Layout parseLayout(const std::string& name) { return layouts().parse(name); }
 
-/// Window/level in HU (centre, width).
-struct WindowLevel {
-  double center = 40;
-  double width = 400;
-  bool operator==(const WindowLevel&) const = default;
-};
+/// Window/level in HU (centre, width): the slice resampling's (vellum/app/mpr.hpp).
+using app::WindowLevel;
 
 /// The studio's own view settings.
 struct ViewSettings {

@@ -18,6 +18,20 @@ Projection::Projection(const Geometry& volume, const RenderSettings& settings, c
   lookAt_ = f.box.center() + settings.camera.panMm;  // the framed box: the volume or the map grid
 }
 
+Projection Projection::plane(const Vec3& centreMm, const Vec3& right, const Vec3& down, double mmPerPixel, int width,
+                             int height) {
+  Projection p;
+  p.width_ = width;
+  p.height_ = height;
+  p.eye_ = p.lookAt_ = centreMm;
+  p.right_ = right;
+  p.up_ = -down;
+  p.forward_ = cross(right, down);
+  p.halfW_ = 0.5 * width * mmPerPixel;
+  p.halfH_ = 0.5 * height * mmPerPixel;
+  return p;
+}
+
 std::optional<Vec3> Projection::toPixel(const Vec3& mm) const {
   // The inverse of detail::pixelRay.
   const Vec3 q = mm - eye_;

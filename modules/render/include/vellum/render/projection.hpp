@@ -14,6 +14,11 @@ class Projection {
   /// The camera of `settings` around `volume` (the same frame the renderer builds). Deformed
   /// renders frame the backward map's node grid instead: pass it as `mapGrid`.
   Projection(const Geometry& volume, const RenderSettings& settings, const Geometry* mapGrid = nullptr);
+  /// An orthographic view of a plane: pixel (x, y)'s centre at centreMm + right * (x + 0.5 -
+  /// width/2) * mmPerPixel + down * (y + 0.5 - height/2) * mmPerPixel, looking along right x down
+  /// (unit, orthogonal directions). A slice picture's frame, so that annotate() draws on it.
+  static Projection plane(const Vec3& centreMm, const Vec3& right, const Vec3& down, double mmPerPixel, int width,
+                          int height);
 
   /// Pixel coordinates (x right, y down; the centre of pixel (0,0) is at (0,0)) and the depth
   /// along the viewing direction (mm) of a physical point; nullopt behind a perspective eye.
@@ -37,6 +42,7 @@ class Projection {
   std::array<double, 16> viewProjectionGl(double nearMm, double farMm) const;
 
  private:
+  Projection() = default;
   int width_ = 0, height_ = 0;
   Vec3 eye_, right_, up_, forward_, lookAt_;
   double halfW_ = 1, halfH_ = 1;

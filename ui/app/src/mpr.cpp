@@ -1,13 +1,14 @@
-#include "mpr.hpp"
+#include "vellum/app/mpr.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <vector>
 
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 
-namespace vellum::studio {
+namespace vellum::app {
 
 const char* sliceAxisName(SliceAxis a) {
   switch (a) {
@@ -100,10 +101,22 @@ const std::vector<WindowPreset>& windowPresets() {
   return presets;
 }
 
+const WindowPreset* findWindowPreset(const std::string& name) {
+  const auto key = [](const std::string& text) {
+    std::string k;
+    for (char c : text)
+      if (c != ' ' && c != '-' && c != '_') k += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return k;
+  };
+  for (const WindowPreset& p : windowPresets())
+    if (key(p.name) == key(name)) return &p;
+  return nullptr;
+}
+
 namespace {
 /// Label fill at `opacity` with opaque 1-pixel outlines where the id changes.
 void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
-                   const std::vector<std::array<uint8_t, 3>>& colours, float opacity);
+                   const std::vector<std::array<uint8_t, 3>>& colours, float opacity, bool outlines);
 }  // namespace
 
 namespace {
@@ -190,7 +203,7 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
       }
     }
   });
-  if (labelsOn) overlayLabels(img, ids, colours, style.labelOpacity);
+  if (labelsOn) overlayLabels(img, ids, colours, style.labelOpacity, style.labelOutlines);
   if (!snake.empty()) {  // yellow, half-blended: the snake's inside as it evolves
     for (size_t n = 0; n < snake.size(); ++n) {
       if (!snake[n]) continue;
@@ -215,7 +228,7 @@ RgbaImage renderSlice(const VolumeI16& ct, const SlicePlane& plane, const SliceS
 
 namespace {
 void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
-                   const std::vector<std::array<uint8_t, 3>>& colours, float opacity) {
+                   const std::vector<std::array<uint8_t, 3>>& colours, float opacity, bool outlines) {
   const int width = img.width, height = img.height;
   const float a = std::clamp(opacity, 0.f, 1.f);
   parallelFor(height, [&](int64_t y0, int64_t y1) {
@@ -229,7 +242,7 @@ void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
           return ids[static_cast<size_t>(ny) * width + nx] != id;
         };
         const int yi = static_cast<int>(y);
-        const bool edge = other(x - 1, yi) || other(x + 1, yi) || other(x, yi - 1) || other(x, yi + 1);
+        const bool edge = outlines && (other(x - 1, yi) || other(x + 1, yi) || other(x, yi - 1) || other(x, yi + 1));
         const float w = edge ? 1.f : a;
         uint8_t* px = img.at(x, yi);
         for (int c = 0; c < 3; ++c)
@@ -240,4 +253,4 @@ void overlayLabels(RgbaImage& img, const std::vector<uint16_t>& ids,
 }
 }  // namespace
 
-}  // namespace vellum::studio
+}  // namespace vellum::app
