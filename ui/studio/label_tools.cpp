@@ -95,7 +95,8 @@ void keepLargest(LabelVolume& labels, uint16_t id) {
 }
 
 void removeIslands(LabelVolume& labels, uint16_t id, double minVolumeMm3) {
-  const seg::Mask keep = seg::removeSmallIslands(seg::segmentMask(labels, id), minVolumeMm3);
+  seg::Mask keep = seg::segmentMask(labels, id);
+  seg::removeSmallIslandsInPlace(keep, minVolumeMm3);  // in place: one mask, no component ids
   auto& ids = labels.ids().voxels();
   const auto& k = keep.voxels();
   for (size_t n = 0; n < ids.size(); ++n)
@@ -105,7 +106,9 @@ void removeIslands(LabelVolume& labels, uint16_t id, double minVolumeMm3) {
 void fillHoles(LabelVolume& labels, uint16_t id) {
   const auto existing = labels.label(id);
   const Label label = existing ? *existing : Label{id, "Segment " + std::to_string(id), defaultLabelColor(id)};
-  seg::addSegment(labels, seg::fillHoles(seg::segmentMask(labels, id)), label, seg::OverlapRule::KeepExisting);
+  seg::Mask filled = seg::segmentMask(labels, id);
+  seg::fillHolesInPlace(filled);  // in place: one mask, no component ids
+  seg::addSegment(labels, filled, label, seg::OverlapRule::KeepExisting);
 }
 
 int64_t growFromSeed(LabelVolume& labels, const VolumeI16& ct, const Vec3& seedMm,
