@@ -21,27 +21,28 @@ Mask keepComponentsWithSeeds(const Mask& m, const std::vector<Vec3>& seedsMm,
 }
 
 Mask fillHoles(const Mask& m) {
-  const Dims d = m.dims();
-  const Components bg = connectedComponents(maskNot(m), Connectivity::Face6);
-  // Background components that touch the grid border are outside; the rest are cavities.
-  std::vector<uint8_t> outside(bg.sizes.size(), 0);
-  for (int64_t k = 0; k < d.z; ++k)
-    for (int64_t j = 0; j < d.y; ++j) {
-      const bool face = k == 0 || j == 0 || k == d.z - 1 || j == d.y - 1;
-      if (face) {
-        for (int64_t i = 0; i < d.x; ++i) outside[bg.labels[m.linearIndex(i, j, k)]] = 1;
-      } else {
-        outside[bg.labels[m.linearIndex(0, j, k)]] = 1;
-        outside[bg.labels[m.linearIndex(d.x - 1, j, k)]] = 1;
-      }
-    }
-  outside[0] = 1;  // label 0 = foreground voxels: stay as they are
   Mask out(m.geometry(), 0, 0.0);
-  const uint32_t* L = bg.labels.data();
   const uint8_t* src = m.data();
   uint8_t* o = out.data();
-  for (size_t i = 0; i < out.size(); ++i) o[i] = src[i] || !outside[L[i]];
+  for (size_t i = 0; i < out.size(); ++i) o[i] = src[i] != 0;
+  fillHolesInPlace(out);
   return out;
+}
+
+void fillHolesInPlace(Mask& m) {
+  const Dims d = m.dims();
+  // Background components (face-connected) that touch the grid border are outside; the rest
+  // are cavities. Painted from the labelling's runs: no component id per voxel.
+  paintComponents(m, true, Connectivity::Face6, [&](const Components& c) {
+    std::vector<uint8_t> cavity(c.sizes.size(), 0);
+    for (size_t l = 1; l < c.sizes.size(); ++l) {
+      const IndexBox& b = c.boxes[l];
+      bool border = false;
+      for (int a = 0; a < 3; ++a) border = border || b.lo[a] == 0 || b.hi[a] == d[a] - 1;
+      cavity[l] = !border;
+    }
+    return cavity;
+  }, 1);
 }
 
 Mask fillHolesPerSlice(const Mask& m, int axis) {
@@ -95,7 +96,8 @@ Mask fillHolesAllSlices(const Mask& m) {
     const uint8_t* src = f.data();
     for (size_t i = 0; i < out.size(); ++i) o[i] |= src[i];
   }
-  return fillHoles(out);
+  fillHolesInPlace(out);
+  return out;
 }
 
 }  // namespace vellum::segmentation

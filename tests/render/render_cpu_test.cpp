@@ -4,11 +4,13 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <string>
 
 #include "analytic_volumes.hpp"
 #include "empty_space.hpp"
 #include "map_layout.hpp"
+#include "normal_volume.hpp"
 #include "render_common.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/render/volume_renderer.hpp"
@@ -252,6 +254,54 @@ TEST(EmptySpace, MapCellsFollowTheMap) {
       EXPECT_EQ(occ[at(1, 0, 0)], 0);
     }
   }
+}
+
+}  // namespace
+}  // namespace vellum::render
+
+namespace vellum::render {
+namespace {
+
+// The shading normal is computed where it is sampled (no normal volume, issue #22): on
+// v = |p - c|^2 (spheres about c) its central differences of the trilinear volume are exact
+// anywhere, so the normal must be the sphere's radial direction in PHYSICAL space under an
+// oblique direction matrix and anisotropic spacing, and the magnitude |grad| = 2r scaled.
+// The GL shader's gradientNormal() is held to this by the GL-vs-CPU tests.
+TEST(GradientNormals, EqualTheAnalyticSphereNormal) {
+  Geometry g;
+  g.dims = {24, 20, 16};
+  g.spacing = {0.8, 1.1, 1.7};
+  g.origin = {3, -2, 5};
+  const double a = 0.5, b = 0.3;  // rotations about z and x
+  const Mat3 rz = Mat3::fromColumns({std::cos(a), std::sin(a), 0}, {-std::sin(a), std::cos(a), 0}, {0, 0, 1});
+  const Mat3 rx = Mat3::fromColumns({1, 0, 0}, {0, std::cos(b), std::sin(b)}, {0, -std::sin(b), std::cos(b)});
+  g.direction = rz * rx;
+  const Vec3 c = g.indexToPhysical({11.3, 9.6, 7.2});
+  VolumeF32 vol(g, 0, 0.f);
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i) {
+        const Vec3 d = g.indexToPhysical({double(i), double(j), double(k)}) - c;
+        vol(i, j, k) = float(dot(d, d));
+      }
+  const detail::GradientNormals gn = detail::gradientNormals(AnyVolume(vol));
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> ui(1.0, 22.0), uj(1.0, 18.0), uk(1.0, 14.0);
+  for (int n = 0; n < 200; ++n) {
+    const Vec3 u{ui(rng), uj(rng), uk(rng)};
+    const Vec3 r = g.indexToPhysical(u) - c;
+    if (norm(r) < 2.0) continue;
+    const auto s = gn.sample(vol, u);
+    const Vec3 expect = r * (1.0 / norm(r));
+    EXPECT_NEAR(s[0], expect.x, 1e-4) << n;
+    EXPECT_NEAR(s[1], expect.y, 1e-4) << n;
+    EXPECT_NEAR(s[2], expect.z, 1e-4) << n;
+    EXPECT_NEAR(s[3], std::min(2.0 * norm(r) * gn.magScale, 1.0), 1e-4) << n;
+  }
+  // No gradient: no normal (shading leaves the colour as it is).
+  const VolumeF32 flat(g, 0, 7.f);
+  const auto z = detail::gradientNormals(AnyVolume(flat)).sample(flat, {5.5, 5.5, 5.5});
+  EXPECT_EQ(z[0] * z[0] + z[1] * z[1] + z[2] * z[2] + z[3], 0.f);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include "test_volumes.hpp"
 #include "vellum/segmentation/components.hpp"
 
@@ -79,4 +81,51 @@ TEST(FillHoles, AllSliceOrientations) {
   EXPECT_EQ(countVoxels(all), 12 * 12 * 12);
   EXPECT_EQ(all(9, 15, 9), 1);
   EXPECT_EQ(all(9, 16, 9), 0);
+}
+
+// Islands and fill holes work from the labelling's runs, in place (no component id per voxel,
+// issue #22's memory): the same masks as selecting from connectedComponents' labels per voxel,
+// the way they were made before, on random blobs with cavities, islands and border contact.
+TEST(FillHoles, InPlaceRunsEqualPerVoxelLabelSelection) {
+  const Geometry g = grid(37, 29, 33);
+  std::mt19937 rng(11);
+  for (double density : {0.3, 0.55, 0.75}) {
+    Mask m(g, 0, 0.0);
+    std::bernoulli_distribution on(density);
+    for (auto& x : m.voxels()) x = on(rng) ? 1 : 0;
+    fillBox(m, {5, 5, 5}, {20, 20, 20});
+    fillBox(m, {8, 8, 8}, {16, 16, 16}, 0);  // a cavity with random voxels inside
+    for (int64_t t = 0; t < 200; ++t) m(10 + t % 5, 10 + (t / 5) % 5, 10 + t / 25) = on(rng);
+    // Before: background components per voxel, outside = touching the border.
+    const Components bg = connectedComponents(maskNot(m), Connectivity::Face6);
+    std::vector<uint8_t> cavity(bg.sizes.size(), 1);
+    cavity[0] = 0;
+    for (int64_t k = 0; k < g.dims.z; ++k)
+      for (int64_t j = 0; j < g.dims.y; ++j)
+        for (int64_t i = 0; i < g.dims.x; ++i)
+          if (i == 0 || j == 0 || k == 0 || i == g.dims.x - 1 || j == g.dims.y - 1 || k == g.dims.z - 1)
+            cavity[bg.labels[static_cast<size_t>(m.linearIndex(i, j, k))]] = 0;
+    const Mask holes = selectComponents(g, bg, cavity);
+    Mask expectFilled = maskOr(m, holes);
+    const Mask filled = fillHoles(m);
+    EXPECT_EQ(filled.voxels(), expectFilled.voxels()) << "density " << density;
+    EXPECT_GT(countVoxels(filled), countVoxels(m)) << "the cavity has holes to fill";
+    Mask inPlace = m;
+    fillHolesInPlace(inPlace);
+    EXPECT_EQ(inPlace.voxels(), expectFilled.voxels());
+
+    for (Connectivity c : {Connectivity::Face6, Connectivity::Vertex26}) {
+      const Components fg = connectedComponents(m, c);
+      std::vector<uint8_t> big(fg.sizes.size(), 0);
+      for (size_t l = 1; l < fg.sizes.size(); ++l) big[l] = fg.sizes[l] >= 4;
+      const Mask expectKept = selectComponents(g, fg, big);
+      EXPECT_EQ(removeSmallIslands(m, 4.0, c).voxels(), expectKept.voxels()) << "density " << density;
+      Mask islands = m;
+      removeSmallIslandsInPlace(islands, 4.0, c);
+      EXPECT_EQ(islands.voxels(), expectKept.voxels());
+      std::vector<uint8_t> largest(fg.sizes.size(), 0);
+      largest[fg.largest()] = 1;
+      EXPECT_EQ(keepLargestComponent(m, c).voxels(), selectComponents(g, fg, largest).voxels());
+    }
+  }
 }

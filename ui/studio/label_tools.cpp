@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include "vellum/segmentation/components.hpp"
 #include "vellum/segmentation/label_map.hpp"
@@ -9,6 +12,18 @@
 #include "vellum/segmentation/region_growing.hpp"
 
 namespace vellum::studio {
+
+namespace {
+// A label operation's temporaries (component runs, per-slice queues) come from the worker
+// threads' malloc arenas, which keep freed pages: hand them back, so that the studio's memory
+// after an edit is what it holds (issue #22: <= 4x the volume).
+void releaseFreedMemory() {
+#ifdef __GLIBC__
+  malloc_trim(0);
+#endif
+}
+}  // namespace
+
 namespace seg = vellum::segmentation;
 
 LabelDelta diffEdit(const LabelVolume& labels, const std::string& description,
@@ -92,20 +107,26 @@ void keepLargest(LabelVolume& labels, uint16_t id) {
   const auto& k = keep.voxels();
   for (size_t n = 0; n < ids.size(); ++n)
     if (ids[n] == id && !k[n]) ids[n] = 0;
+  releaseFreedMemory();
 }
 
 void removeIslands(LabelVolume& labels, uint16_t id, double minVolumeMm3) {
-  const seg::Mask keep = seg::removeSmallIslands(seg::segmentMask(labels, id), minVolumeMm3);
+  seg::Mask keep = seg::segmentMask(labels, id);
+  seg::removeSmallIslandsInPlace(keep, minVolumeMm3);  // in place: one mask, no component ids
   auto& ids = labels.ids().voxels();
   const auto& k = keep.voxels();
   for (size_t n = 0; n < ids.size(); ++n)
     if (ids[n] == id && !k[n]) ids[n] = 0;
+  releaseFreedMemory();
 }
 
 void fillHoles(LabelVolume& labels, uint16_t id) {
   const auto existing = labels.label(id);
   const Label label = existing ? *existing : Label{id, "Segment " + std::to_string(id), defaultLabelColor(id)};
-  seg::addSegment(labels, seg::fillHoles(seg::segmentMask(labels, id)), label, seg::OverlapRule::KeepExisting);
+  seg::Mask filled = seg::segmentMask(labels, id);
+  seg::fillHolesInPlace(filled);  // in place: one mask, no component ids
+  seg::addSegment(labels, filled, label, seg::OverlapRule::KeepExisting);
+  releaseFreedMemory();
 }
 
 int64_t growFromSeed(LabelVolume& labels, const VolumeI16& ct, const Vec3& seedMm,

@@ -310,8 +310,6 @@ bool View3D::uploadOnWorker(std::shared_ptr<const AnyVolume> ct,
       context_.makeCurrent();
       renderer_->adoptVolumeTextures(textures, *prepared);
       startScales(jobDims_);
-      // The normals are in their texture now: map preparation needs only the blocks.
-      volumePrepared_ = render::VolumeRenderer::withoutNormals(*prepared);
       jobFor_.reset();
       labelsKey_.clear();
       hasVolume_ = true;
@@ -331,7 +329,7 @@ bool View3D::uploadOnWorker(std::shared_ptr<const AnyVolume> ct,
       ~Release() { glfwMakeContextCurrent(nullptr); }
     } release;
     // 8 MB a call, a pause between calls: the window's draws wait for Mesa's lock on shared
-    // objects while a call copies (the whole 350 MB of normals in one call: a 0.9 s frame under load).
+    // objects while a call copies (350 MB of normals, no longer made, in one call: a 0.9 s frame under load).
     return render::VolumeRenderer::makeVolumeTextures(*ct, *prepared, size_t(8) << 20,
                                                       [] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); });
   });

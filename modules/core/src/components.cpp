@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "vellum/core/error.hpp"
@@ -99,8 +100,9 @@ class RunLabeller {
       for (int64_t j = 0; j < d_.y; ++j) linkRow(j, slabStart(s), 0, true);
   }
 
-  /// Numbers the components in scan order and fills labels, sizes, boxes and values.
-  Components finish() {
+  /// Numbers the components in scan order and fills sizes, boxes and values, and the labels
+  /// per voxel when `perVoxel` (4 bytes a voxel; paintRuns() works from the runs instead).
+  Components finish(bool perVoxel = true) {
     Components c;
     c.dims = d_;
     c.sizes.assign(1, 0);
@@ -127,6 +129,7 @@ class RunLabeller {
         b.hi = {std::max<int64_t>(b.hi[0], run.x1 - 1), std::max(b.hi[1], j), k};
       }
     }
+    if (!perVoxel) return c;
     c.labels.resize(static_cast<size_t>(d_.voxelCount()));
     tbb::parallel_for(tbb::blocked_range<int64_t>(0, rows_, 64), [&](const tbb::blocked_range<int64_t>& r) {
       for (int64_t row = r.begin(); row < r.end(); ++row) {
@@ -139,6 +142,18 @@ class RunLabeller {
       }
     });
     return c;
+  }
+
+  /// After finish(): `value` over the voxels of the runs whose component keep() accepts.
+  void paintRuns(uint8_t* out, const std::vector<uint8_t>& keep, uint8_t value) const {
+    const std::vector<uint32_t>& label = parent_;
+    tbb::parallel_for(tbb::blocked_range<int64_t>(0, rows_, 64), [&](const tbb::blocked_range<int64_t>& r) {
+      for (int64_t row = r.begin(); row < r.end(); ++row)
+        for (int64_t n = rowStart_[static_cast<size_t>(row)]; n < rowStart_[static_cast<size_t>(row) + 1]; ++n) {
+          const Run& run = runs_[static_cast<size_t>(n)];
+          if (keep[label[static_cast<size_t>(n)]]) std::fill(out + row * d_.x + run.x0, out + row * d_.x + run.x1, value);
+        }
+    });
   }
 
  private:
@@ -244,20 +259,58 @@ VolumeU8 selectComponents(const Geometry& like, const Components& c, const std::
   return out;
 }
 
+void paintComponents(VolumeU8& mask, bool ofZeros, Connectivity connectivity,
+                     const std::function<std::vector<uint8_t>(const Components&)>& choose, uint8_t value) {
+  const Dims d = mask.dims();
+  RunLabeller labeller(d, connectivity);
+  const uint8_t* m = mask.data();
+  if (ofZeros) labeller.findRuns([m](int64_t p) { return uint16_t(m[p] == 0); });
+  else labeller.findRuns([m](int64_t p) { return uint16_t(m[p] != 0); });
+  labeller.link();
+  const Components c = labeller.finish(false);
+  std::vector<uint8_t> chosen = choose(c);
+  if (chosen.size() != c.sizes.size()) throw Error("paintComponents: the choice does not match the components");
+  chosen[0] = 0;
+  // The runs hold all the labelling needs: writing into the mask now changes nothing read.
+  labeller.paintRuns(mask.data(), chosen, value);
+}
+
+namespace {
+/// A 0/1 copy of `mask` (the results below have always been 0/1 masks).
+VolumeU8 binaryCopy(const VolumeU8& mask) {
+  VolumeU8 out = mask;
+  uint8_t* o = out.data();
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, out.size(), 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i < r.end(); ++i) o[i] = o[i] != 0;
+  });
+  return out;
+}
+}  // namespace
+
 VolumeU8 keepLargestComponent(const VolumeU8& mask, Connectivity connectivity) {
-  const Components c = connectedComponents(mask, connectivity);
-  std::vector<uint8_t> keep(c.sizes.size(), 0);
-  if (const uint32_t best = c.largest()) keep[best] = 1;
-  return selectComponents(mask.geometry(), c, keep);
+  VolumeU8 out = binaryCopy(mask);
+  paintComponents(out, false, connectivity, [](const Components& c) {
+    std::vector<uint8_t> drop(c.sizes.size(), 1);
+    if (const uint32_t best = c.largest()) drop[best] = 0;
+    return drop;
+  }, 0);
+  return out;
 }
 
 VolumeU8 removeSmallIslands(const VolumeU8& mask, double minVolumeMm3, Connectivity connectivity) {
-  const Components c = connectedComponents(mask, connectivity);
+  VolumeU8 out = binaryCopy(mask);
+  removeSmallIslandsInPlace(out, minVolumeMm3, connectivity);
+  return out;
+}
+
+void removeSmallIslandsInPlace(VolumeU8& mask, double minVolumeMm3, Connectivity connectivity) {
   const Geometry& g = mask.geometry();
   const double voxelMm3 = std::abs(g.direction.determinant()) * g.spacing.x * g.spacing.y * g.spacing.z;
-  std::vector<uint8_t> keep(c.sizes.size(), 0);
-  for (size_t l = 1; l < c.sizes.size(); ++l) keep[l] = static_cast<double>(c.sizes[l]) * voxelMm3 >= minVolumeMm3;
-  return selectComponents(g, c, keep);
+  paintComponents(mask, false, connectivity, [&](const Components& c) {
+    std::vector<uint8_t> drop(c.sizes.size(), 0);
+    for (size_t l = 1; l < c.sizes.size(); ++l) drop[l] = static_cast<double>(c.sizes[l]) * voxelMm3 < minVolumeMm3;
+    return drop;
+  }, 0);
 }
 
 }  // namespace vellum

@@ -154,7 +154,7 @@ vec4 tracePath(int px, int py, uint smp) {
     c.rgb = labelTint(c.rgb, q.u);
 #endif
     vec3 albedo = srgbToLinear(c.rgb);
-    vec4 n = texture(uNormals, (q.u + 0.5) / uSourceDims);
+    vec4 n = gradientNormal(q.u);
 #ifdef TURN_NORMALS
     n = deformedNormal(p, n, q.snapped);
 #endif

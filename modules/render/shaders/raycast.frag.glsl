@@ -25,7 +25,8 @@ uniform sampler1D uTf;
 uniform float uTfLo, uTfInvSpan;
 #endif
 #ifdef SHADING
-uniform sampler3D uNormals;
+uniform mat3 uGradToPhys;     // texel differences along the index axes -> physical gradient
+uniform float uGradMagScale;  // |gradient| -> encoded magnitude (before the clamp to 1)
 #endif
 #ifdef LIGHTING
 uniform sampler3D uLight;      // per cell: transmittance to the key light, ambient openness
@@ -75,6 +76,21 @@ uniform ivec3 uBlocks;
 float sampleValue(vec3 idx) {
   return texture(uVolume, (idx + 0.5) / uSourceDims).r * uValueScale;
 }
+
+#ifdef SHADING
+// Twin of GradientNormals::sample() (normal_volume.hpp): central differences of the trilinear
+// volume one voxel either side (= trilinear interpolation of the voxels' central differences),
+// in physical space: unit normal, encoded magnitude; zero where there is no gradient.
+vec4 gradientNormal(vec3 u) {
+  vec3 tc = (u + 0.5) / uSourceDims, h = 1.0 / uSourceDims;
+  vec3 diff = vec3(texture(uVolume, tc + vec3(h.x, 0.0, 0.0)).r - texture(uVolume, tc - vec3(h.x, 0.0, 0.0)).r,
+                   texture(uVolume, tc + vec3(0.0, h.y, 0.0)).r - texture(uVolume, tc - vec3(0.0, h.y, 0.0)).r,
+                   texture(uVolume, tc + vec3(0.0, 0.0, h.z)).r - texture(uVolume, tc - vec3(0.0, 0.0, h.z)).r);
+  vec3 g = uGradToPhys * diff;
+  float m = length(g);
+  return m > 0.0 ? vec4(g / m, min(m * uGradMagScale, 1.0)) : vec4(0.0);
+}
+#endif
 
 
 #ifdef DEFORMED

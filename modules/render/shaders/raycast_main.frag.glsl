@@ -91,7 +91,7 @@ void main() {
         }
 #endif
 #ifdef SHADING
-        vec4 n = texture(uNormals, (u + 0.5) / uSourceDims);
+        vec4 n = gradientNormal(u);
 #ifdef TURN_NORMALS
         n = deformedNormal(p, n, snappedBody);
 #endif

@@ -51,8 +51,8 @@ LightSource makeLightSource(const AnyVolume& volume) {
   out.source = geometryOf(volume);
   const Dims d = out.source.dims;
   out.factor = std::max({d.x, d.y, d.z}) > kCellsPerAxis ? 2 : 1;
-  // Block means (core's), as float: only the values are used, by index.
-  out.values = convertVolume<float>(downsampleMean(volume, out.factor));
+  // Block means (core's), in the volume's type: only the values are used, by index.
+  out.values = downsampleMean(volume, out.factor);
   return out;
 }
 
@@ -79,10 +79,12 @@ LightSource deformedLightSource(const LightSource& src, const PreparedMap& map, 
   out.boxToSource = r;
   out.source.spacing = {box.spacing.x / r.x, box.spacing.y / r.y, box.spacing.z / r.z};
   out.source.origin = box.indexToPhysical({0.5 / r.x - 0.5, 0.5 / r.y - 0.5, 0.5 / r.z - 0.5});
-  out.values = VolumeF32(out.source, 0.f, src.values.background());
+  const double bg = std::visit([](const auto& v) { return v.background(); }, src.values);
+  VolumeF32 values(out.source, 0.f, bg);
   const bool density = !m.attributes.empty();
   if (density) out.densityScale.assign(static_cast<size_t>(n.voxelCount()), 1.f);
-  const double bg = src.values.background(), f = src.factor;
+  const double f = src.factor;
+  std::visit([&](const auto& srcValues) {
   parallelFor(n.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < n.y; ++j)
@@ -92,15 +94,17 @@ LightSource deformedLightSource(const LightSource& src, const PreparedMap& map, 
           double v = bg;
           if (inside > 0) {
             const Vec3 u = map.at(p);  // source index -> the value grid's index
-            v = src.values.sampleLinear({(u.x + 0.5) / f - 0.5, (u.y + 0.5) / f - 0.5, (u.z + 0.5) / f - 0.5});
+            v = srcValues.sampleLinear({(u.x + 0.5) / f - 0.5, (u.y + 0.5) / f - 0.5, (u.z + 0.5) / f - 0.5});
             if (inside < 1.0) v = bg + inside * (v - bg);
           }
-          out.values(i, j, k) = float(v);
+          values(i, j, k) = float(v);
           if (density)
             out.densityScale[static_cast<size_t>((k * n.y + j) * n.x + i)] =
                 std::max(sampleClamped<4>(m.attributes, box.dims, p)[3], 0.f);
         }
   });
+  }, src.values);
+  out.values = std::move(values);
   return out;
 }
 
@@ -118,7 +122,7 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
   lv.factor = int(perValue) * src.factor;
   const int f = lv.factor;
   const int64_t fv = perValue;  // value voxels per cell
-  const Dims vd = src.values.dims();
+  const Dims vd = geometryOf(src.values).dims;
   lv.dims = {(sd.x + f - 1) / f, (sd.y + f - 1) / f, (sd.z + f - 1) / f};
   const Dims d = lv.dims;
   const size_t cells = static_cast<size_t>(d.x * d.y * d.z);
@@ -126,6 +130,7 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
 
   // Extinction per mm, averaged over each cell's value voxels.
   std::vector<float> sigma(cells, 0.f);
+  std::visit([&](const auto& values) {
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < d.y; ++j)
@@ -135,7 +140,7 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
           for (int64_t c = k * fv; c < std::min(vd.z, (k + 1) * fv); ++c)
             for (int64_t b = j * fv; b < std::min(vd.y, (j + 1) * fv); ++b)
               for (int64_t a = i * fv; a < std::min(vd.x, (i + 1) * fv); ++a, ++count) {
-                const double alpha = std::min<double>(tf.lookup(src.values(a, b, c))[3], 0.9999);
+                const double alpha = std::min<double>(tf.lookup(values(a, b, c))[3], 0.9999);
                 double s = -std::log1p(-alpha) / stepMm;
                 if (!src.densityScale.empty()) s *= src.densityScale[static_cast<size_t>((c * vd.y + b) * vd.x + a)];
                 sum += s;
@@ -143,6 +148,7 @@ LightVolume computeLightVolume(const LightSource& src, const TfTable& tf, double
           sigma[static_cast<size_t>((k * d.y + j) * d.x + i)] = count ? float(sum / count) : 0.f;
         }
   });
+  }, src.values);
 
   // Shadow: slices across the axis the light runs most along, from the light's side inwards.
   Geometry cellGrid = src.source;

@@ -38,7 +38,9 @@ struct LightVolume {
 /// readable back): the source itself (as float) up to 192 voxels per axis, else the means of
 /// 2x2x2 blocks (an eighth of the voxels), with the source voxels per value voxel.
 struct LightSource {
-  VolumeF32 values;
+  /// The block means in the volume's own type (int16 CT: 2 bytes a value, not float's 4 —
+  /// held for as long as the volume is drawn; the deformed source's are float).
+  AnyVolume values;
   int factor = 1;
   Geometry source;
   /// The frame's box index p -> `source` index: (p + 0.5) * boxToSource - 0.5 (1: the box is

@@ -216,7 +216,7 @@ struct CpuTracer {
   const RenderSettings& s;
   Frame f;
   TfTable tf;
-  NormalVolume normals;
+  GradientNormals normals;
   const BackwardMap* map = nullptr;
   PreparedMap prepared;
   const LabelTint* tint = nullptr;  ///< label colours tint the albedo (labelBlend > 0)
@@ -359,7 +359,7 @@ struct CpuTracer {
       }
       if (tint) rgb = tintByLabels(rgb, q.u, vol, tf, *tint, float(s.labelBlend));
       const std::array<float, 3> albedo{srgbToLinear(rgb[0]), srgbToLinear(rgb[1]), srgbToLinear(rgb[2])};
-      std::array<float, 4> n = normals.sample(q.u.x, q.u.y, q.u.z);
+      std::array<float, 4> n = normals.sample(vol, q.u);
       if (map && s.turnDeformedNormals) n = prepared.turnNormal(p, n, q.snapped);
       const float len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
       const float grad = len > 1e-4f ? std::clamp((n[3] - kGradLow) / (kGradHigh - kGradLow), 0.f, 1.f) : 0.f;
@@ -444,7 +444,7 @@ PathSums detail::pathTraceCpu(const AnyVolume& volume, const RenderSettings& set
         using T = typename std::decay_t<decltype(vol)>::value_type;
         CpuTracer<T> tr(vol, settings, makeFrame(g, map ? &map->grid : nullptr, settings));
         tr.tf = buildTfTable(settings, tr.f.stepMm);
-        tr.normals = computeNormalVolume(volume);
+        tr.normals = gradientNormals(volume);
         tr.lights = makePathLights(tr.f, settings);
         if (map) tr.prepared = prepareMap(*map, g);
         if (settings.cinematic.volumeShadows)

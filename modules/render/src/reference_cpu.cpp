@@ -23,7 +23,7 @@ struct Context {
   const RenderSettings& s;
   Frame frame;
   TfTable tf;
-  NormalVolume normals;
+  GradientNormals normals;  ///< shading
   const BackwardMap* map = nullptr;
   PreparedMap prepared;  ///< the map in source index coordinates, with its snap
   const LabelTint* tint = nullptr;  ///< set when labels tint the samples
@@ -120,7 +120,7 @@ void renderRows(const Volume<T>& vol, const Context& cx, RgbaImage& image, int y
         }
         if (cx.tint) rgb = tintByLabels(rgb, u, vol, cx.tf, *cx.tint, float(s.labelBlend));
         if (s.shading) {
-          std::array<float, 4> n = cx.normals.sample(u.x, u.y, u.z);
+          std::array<float, 4> n = cx.normals.sample(vol, u);
           if (cx.map && s.turnDeformedNormals) n = cx.prepared.turnNormal(p, n, snappedBody);
           if (cx.light && s.lighting.toneMap) {  // linear radiance, tone mapped at the end (lights.hpp)
             const auto lo = cx.light->sample(p + cx.light->towardsLight);
@@ -172,7 +172,7 @@ RgbaImage renderReferenceCpu(const AnyVolume& volume, const RenderSettings& sett
   if (map) cx.prepared = prepareMap(*map, g);
   if (settings.preset != Preset::Mip) {
     cx.tf = buildTfTable(settings, cx.frame.stepMm);
-    if (settings.shading) cx.normals = computeNormalVolume(volume);
+    if (settings.shading) cx.normals = gradientNormals(volume);
     if (settings.shading && settings.lighting.on()) {
       cx.lightDir = keyLightDirection(cx.frame, settings.lighting);
       cx.light = computeLightVolume(lightSourceFor(volume, map, cx.prepared), cx.tf, cx.frame.stepMm, cx.lightDir,

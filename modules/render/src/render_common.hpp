@@ -33,7 +33,7 @@ constexpr float kShininess = 24.f;
 /// from the key light (shadowed); the rest stays a headlight fill, so faces turned from the key
 /// light keep their form.
 constexpr float kKeyLightShare = 0.75f;
-/// Shading fades in between these encoded gradient magnitudes (see normal_volume.hpp):
+/// Shading fades in between these encoded gradient magnitudes (GradientNormals, normal_volume.hpp):
 /// homogeneous regions (noise-level gradients) keep their unshaded TF colour.
 constexpr float kGradLow = 0.02f;
 constexpr float kGradHigh = 0.10f;

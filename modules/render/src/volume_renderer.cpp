@@ -1,5 +1,9 @@
-// GL ray caster: volume + normal volume uploaded once, one specialised program per mode.
+// GL ray caster: volume uploaded once (normals computed in the shader), one specialised program per mode.
 #include "vellum/render/volume_renderer.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <functional>
@@ -28,7 +32,7 @@ using namespace detail;
 namespace {
 
 enum TextureUnit : GLint {
-  kUnitVolume = 0, kUnitNormals, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses,
+  kUnitVolume = 0, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses,
   kUnitLabels, kUnitLabelColours, kUnitOpaqueDepth, kUnitLight, kUnitMajorant
 };
 
@@ -123,7 +127,7 @@ struct VolumeRenderer::PreparedBackwardMap {
 
 struct VolumeRenderer::Impl {
   GlContext& context;
-  GLuint volumeTex = 0, normalTex = 0, tfTex = 0, mapTex = 0, attrTex = 0, classTex = 0;
+  GLuint volumeTex = 0, tfTex = 0, mapTex = 0, attrTex = 0, classTex = 0;
   /// The class voxels in classTex (re-uploaded only when another class volume arrives; held,
   /// so that no other volume can take the same address).
   const std::vector<uint16_t>* uploadedClasses = nullptr;
@@ -140,6 +144,7 @@ struct VolumeRenderer::Impl {
   GLuint labelTex = 0, labelColourTex = 0;  ///< LabelTint: ids (R16UI) and colours by id (RGBA8)
   Geometry source;
   double valueScale = 1;
+  GradientNormals gradients;  ///< the shader's gradientNormal() constants for the volume
   std::shared_ptr<const BackwardMap> map;
   bool mapUploaded = false;
   /// The prepared map being drawn (its cells), and one being uploaded in steps into textures
@@ -208,7 +213,7 @@ struct VolumeRenderer::Impl {
     context.makeCurrent();
     for (auto& [key, p] : programs) glDeleteProgram(p);
     dropMapStep();
-    for (GLuint* t : {&volumeTex, &normalTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &lightTex, &majorantTex, &blockSkip.occupancyTex,
+    for (GLuint* t : {&volumeTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &lightTex, &majorantTex, &blockSkip.occupancyTex,
                       &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex, &spareMap.tex, &spareAttr.tex})
       deleteTexture(*t);
     glDeleteVertexArrays(1, &vao);
@@ -220,7 +225,6 @@ struct VolumeRenderer::Impl {
     const GLuint p = buildProgram(vertexShaderSource(), fragmentShaderSource(v));
     glUseProgram(p);
     glUniform1i(glGetUniformLocation(p, "uVolume"), kUnitVolume);
-    glUniform1i(glGetUniformLocation(p, "uNormals"), kUnitNormals);
     glUniform1i(glGetUniformLocation(p, "uTf"), kUnitTf);
     glUniform1i(glGetUniformLocation(p, "uMap"), kUnitMap);
     glUniform1i(glGetUniformLocation(p, "uAttr"), kUnitAttr);
@@ -288,40 +292,12 @@ struct VolumeRenderer::Impl {
     checkGlError("volume upload");
   }
 
-  void uploadNormals(const NormalVolume& n) {
-    allocNormals(n.dims);
-    uploadNormalsSlab(n, 0, n.dims.z);
-  }
-  void allocNormals(const Dims& d) {
-    deleteTexture(normalTex);
-    normalTex = newNormalTexture(d);
-  }
-  static GLuint newNormalTexture(const Dims& d) {
-    GLuint tex = 0;
-    glGenTextures(1, &tex);
-    glBindTexture(GL_TEXTURE_3D, tex);
-    glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA8_SNORM, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
-    const float border[4] = {0, 0, 0, 0};
-    setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_BORDER, border);
-    checkGlError("normal volume allocation");
-    return tex;
-  }
-  void uploadNormalsSlab(const NormalVolume& n, int64_t z0, int64_t z1) { fillNormalsSlab(normalTex, n, z0, z1); }
-  static void fillNormalsSlab(GLuint tex, const NormalVolume& n, int64_t z0, int64_t z1) {
-    glBindTexture(GL_TEXTURE_3D, tex);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, GLint(z0), GLsizei(n.dims.x), GLsizei(n.dims.y), GLsizei(z1 - z0),
-                    GL_RGBA, GL_BYTE, n.texels.data() + static_cast<size_t>(z0 * n.dims.x * n.dims.y) * 4);
-    checkGlError("normal volume upload");
-  }
-
   /// An upload in steps (VolumeRenderer::uploadVolumeStep): the volume, its prepared part and
   /// the slices uploaded so far.
   struct StepUpload {
     std::shared_ptr<const AnyVolume> volume;
     std::shared_ptr<const Prepared> prepared;
     int64_t z = 0;
-    bool normalsAllocated = false;
   };
   std::optional<StepUpload> stepUpload;
 
@@ -505,8 +481,14 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
 
   glActiveTexture(GL_TEXTURE0 + kUnitVolume);
   glBindTexture(GL_TEXTURE_3D, volumeTex);
-  glActiveTexture(GL_TEXTURE0 + kUnitNormals);
-  glBindTexture(GL_TEXTURE_3D, normalTex);
+  if (variant.shading && !variant.mip) {
+    // Texel differences -> physical gradient: the texels are values / valueScale.
+    Mat3 m = gradients.toPhysical;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) m(r, c) *= valueScale;
+    uniformMat3(p, "uGradToPhys", m);
+    uniform1(p, "uGradMagScale", gradients.magScale);
+  }
   if (variant.labels) {
     glActiveTexture(GL_TEXTURE0 + kUnitLabels);
     glBindTexture(GL_TEXTURE_3D, labelTex);
@@ -723,14 +705,14 @@ VolumeRenderer::~VolumeRenderer() = default;
 
 struct VolumeRenderer::Prepared {
   Geometry geometry;
-  NormalVolume normals;
+  GradientNormals gradients;
   BlockRanges blocks;
   std::shared_ptr<const LightSource> light;  ///< what the cinematic lighting is computed from
 };
 
 std::shared_ptr<const VolumeRenderer::Prepared> VolumeRenderer::prepare(const AnyVolume& volume) {
   geometryOf(volume).validate("render volume");
-  return std::make_shared<const Prepared>(Prepared{geometryOf(volume), computeNormalVolume(volume),
+  return std::make_shared<const Prepared>(Prepared{geometryOf(volume), gradientNormals(volume),
                                                    computeBlockRanges(volume),
                                                    std::make_shared<const LightSource>(makeLightSource(volume))});
 }
@@ -745,12 +727,12 @@ void VolumeRenderer::setVolume(const AnyVolume& volume, const Prepared& prepared
   impl_->stepUpload.reset();
   impl_->hasVolume = false;
   std::visit([&](const auto& v) { impl_->uploadVolume(v); }, volume);
-  impl_->uploadNormals(prepared.normals);
   finishVolume(g, prepared);
 }
 
 void VolumeRenderer::finishVolume(const Geometry& g, const Prepared& prepared) {
   impl_->blocks = prepared.blocks;
+  impl_->gradients = prepared.gradients;
   impl_->lightSource = prepared.light;
   deleteTexture(impl_->lightTex);  // made for the previous volume
   makeSkipTextures(impl_->blockSkip, impl_->blocks.blocks, impl_->blocks.maxValue);
@@ -773,22 +755,15 @@ bool VolumeRenderer::uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, s
     m.hasVolume = false;  // nothing is drawn until the new volume is complete
     std::visit([&](const auto& v) { m.allocVolume(v); }, *volume);
     m.stepUpload = Impl::StepUpload{volume, prepared, 0};
-    // Each allocation alone in its call (its own frame): llvmpipe clears the storage, hundreds
-    // of ms for the normals at 512^3.
+    // The allocation alone in its call (its own frame): llvmpipe clears the storage.
     return false;
   }
   Impl::StepUpload& u = *m.stepUpload;
-  if (!u.normalsAllocated) {
-    m.allocNormals(g.dims);
-    u.normalsAllocated = true;
-    return false;
-  }
-  // Whole slices of both textures, at least one per step.
+  // Whole slices, at least one per step.
   const size_t voxelBytes = std::visit([](const auto& v) { return sizeof(*v.data()); }, *volume);
-  const size_t sliceBytes = static_cast<size_t>(g.dims.x * g.dims.y) * (voxelBytes + 4);
+  const size_t sliceBytes = static_cast<size_t>(g.dims.x * g.dims.y) * voxelBytes;
   const int64_t z1 = std::min<int64_t>(g.dims.z, u.z + std::max<int64_t>(1, int64_t(maxBytes / sliceBytes)));
   std::visit([&](const auto& v) { m.uploadVolumeSlab(v, u.z, z1); }, *volume);
-  m.uploadNormalsSlab(prepared->normals, u.z, z1);
   u.z = z1;
   if (u.z < g.dims.z) return false;
   m.stepUpload.reset();
@@ -797,7 +772,7 @@ bool VolumeRenderer::uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, s
 }
 
 struct VolumeRenderer::VolumeTextures {
-  GLuint volume = 0, normals = 0;
+  GLuint volume = 0;
   double valueScale = 1;
   Geometry geometry;
 };
@@ -827,9 +802,6 @@ std::shared_ptr<VolumeRenderer::VolumeTextures> VolumeRenderer::makeVolumeTextur
         slabs(slice * sizeof(T), [&](int64_t z0, int64_t z1) { Impl::fillVolumeSlab(t->volume, v, z0, z1); });
       },
       volume);
-  if (betweenSlabs) betweenSlabs();
-  t->normals = Impl::newNormalTexture(g.dims);
-  slabs(slice * 4, [&](int64_t z0, int64_t z1) { Impl::fillNormalsSlab(t->normals, prepared.normals, z0, z1); });
   glBindTexture(GL_TEXTURE_3D, 0);
   // Complete before another context samples them (llvmpipe copies at once; a GPU may not).
   glFinish();
@@ -842,9 +814,7 @@ void VolumeRenderer::adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& 
   m.context.makeCurrent();
   m.stepUpload.reset();
   deleteTexture(m.volumeTex);
-  deleteTexture(m.normalTex);
   m.volumeTex = std::exchange(textures->volume, 0);
-  m.normalTex = std::exchange(textures->normals, 0);
   m.valueScale = textures->valueScale;
   finishVolume(textures->geometry, prepared);
 }
@@ -852,11 +822,6 @@ void VolumeRenderer::adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& 
 void VolumeRenderer::discardVolumeTextures(const std::shared_ptr<VolumeTextures>& textures) {
   impl_->context.makeCurrent();
   deleteTexture(textures->volume);
-  deleteTexture(textures->normals);
-}
-
-std::shared_ptr<const VolumeRenderer::Prepared> VolumeRenderer::withoutNormals(const Prepared& prepared) {
-  return std::make_shared<const Prepared>(Prepared{prepared.geometry, {}, prepared.blocks, prepared.light});
 }
 
 void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
@@ -1039,12 +1004,40 @@ void VolumeRenderer::setLabelTint(const LabelTint* tint) {
     throw Error("label tint: label map " + tint->ids.dims().str() + " does not match the volume " + m.source.dims.str());
   if (tint->colours.size() != size_t(kMaxTintLabels)) throw Error("label tint: colour table must have 4096 entries");
   const Dims d = tint->ids.dims();
+  // Ids below 256 (nearly every label map) as R8UI: half the texture (87 MiB less at
+  // 512x512x350 on llvmpipe, where textures are the process's memory), converted a slab at a time.
+  const uint16_t* ids = tint->ids.data();
+  const size_t n = tint->ids.size();
+  const bool bytes = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, n, 1 << 16), true,
+      [&](const tbb::blocked_range<size_t>& r, bool ok) {
+        for (size_t i = r.begin(); ok && i < r.end(); ++i) ok = ids[i] < 256;
+        return ok;
+      },
+      [](bool a, bool b) { return a && b; });
   glGenTextures(1, &m.labelTex);
   glBindTexture(GL_TEXTURE_3D, m.labelTex);
-  glTexStorage3D(GL_TEXTURE_3D, 1, GL_R16UI, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
-  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RED_INTEGER,
-                  GL_UNSIGNED_SHORT, tint->ids.data());
+  glTexStorage3D(GL_TEXTURE_3D, 1, bytes ? GL_R8UI : GL_R16UI, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+  if (bytes) {
+    const size_t slice = static_cast<size_t>(d.x * d.y);
+    const int64_t step = std::max<int64_t>(1, int64_t((size_t(8) << 20) / slice));
+    std::vector<uint8_t> slab(slice * static_cast<size_t>(std::min<int64_t>(step, d.z)));
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    for (int64_t z0 = 0; z0 < d.z; z0 += step) {
+      const int64_t z1 = std::min(d.z, z0 + step);
+      const uint16_t* src = ids + static_cast<size_t>(z0) * slice;
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, static_cast<size_t>(z1 - z0) * slice, 1 << 16),
+                        [&](const tbb::blocked_range<size_t>& r) {
+                          for (size_t i = r.begin(); i < r.end(); ++i) slab[i] = static_cast<uint8_t>(src[i]);
+                        });
+      glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, GLint(z0), GLsizei(d.x), GLsizei(d.y), GLsizei(z1 - z0), GL_RED_INTEGER,
+                      GL_UNSIGNED_BYTE, slab.data());
+    }
+  } else {
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 2);
+    glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z), GL_RED_INTEGER,
+                    GL_UNSIGNED_SHORT, ids);
+  }
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
   glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTexParameteri(GL_TEXTURE_3D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);

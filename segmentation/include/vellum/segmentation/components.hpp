@@ -12,6 +12,8 @@ using vellum::Components;
 using vellum::connectedComponents;
 using vellum::keepLargestComponent;
 using vellum::removeSmallIslands;
+using vellum::removeSmallIslandsInPlace;
+using vellum::paintComponents;
 
 /// Keeps the components that contain at least one of the seeds (mm). Seeds outside the grid
 /// throw vellum::Error; seeds on background select nothing.
@@ -20,6 +22,8 @@ Mask keepComponentsWithSeeds(const Mask& m, const std::vector<Vec3>& seedsMm,
 
 /// Fills cavities: background regions (6-connected) that do not touch the border of the grid.
 Mask fillHoles(const Mask& m);
+/// The same in place (no second mask; non-zero voxels keep their values).
+void fillHolesInPlace(Mask& m);
 /// Fills holes in each 2D slice across `axis` (0 = x, 1 = y, 2 = z: axial slices for
 /// usual CT): background regions (4-connected in the slice) not touching the slice border.
 Mask fillHolesPerSlice(const Mask& m, int axis = 2);

@@ -14,15 +14,15 @@
 namespace vellum::render {
 
 /// Renders one volume through GL. Construct with a current context, which must outlive the
-/// renderer; the volume and its precomputed normal volume are uploaded once by setVolume()
-/// (never per frame).
+/// renderer; the volume is uploaded once by setVolume() (never per frame).
 ///
 /// Rendering model (identical in renderReferenceCpu): rays from an orbit camera in physical
 /// mm, clipped to the volume's oriented voxel box, sampled every stepVoxels * min spacing
 /// (plus a fixed per-pixel jitter unless disabled), trilinear sampling with the background
 /// outside, a 4096-entry transfer-function table with alpha corrected for the step,
 /// front-to-back compositing with early termination at alpha 0.99, headlight Blinn-Phong
-/// shading from a precomputed gradient volume. MIP maps the maximum through window/level.
+/// shading from the gradient computed where it is sampled (central differences of the
+/// trilinear volume, one voxel either side: no stored normal volume). MIP maps the maximum through window/level.
 /// The output has straight (not premultiplied) alpha; corners that miss the volume take the
 /// background colour and alpha. Empty space (blocks of 8^3 voxels that the transfer function
 /// makes fully transparent, or that cannot raise a MIP maximum) is skipped on the GPU only;
@@ -35,23 +35,24 @@ class VolumeRenderer {
   VolumeRenderer(const VolumeRenderer&) = delete;
   VolumeRenderer& operator=(const VolumeRenderer&) = delete;
 
-  /// Uploads the volume (any voxel type) and its gradient-normal volume.
+  /// Uploads the volume (any voxel type).
   void setVolume(const AnyVolume& volume);
-  /// The CPU part of setVolume() (the gradient-normal volume, the empty-space block ranges):
+  /// The CPU part of setVolume() (the value range for the gradients' scale, the empty-space
+  /// block ranges, the light source):
   /// no GL, so an interactive viewer makes it on a worker thread and uploads it with the
   /// overload below on the context's thread.
   struct Prepared;
   static std::shared_ptr<const Prepared> prepare(const AnyVolume& volume);
   /// setVolume() with its CPU part already made (by prepare() from this same volume).
   void setVolume(const AnyVolume& volume, const Prepared& prepared);
-  /// The same spread over calls, for a viewer that must keep drawing: the first two calls
-  /// allocate the volume and the normal texture, each later one uploads whole z slices of both,
+  /// The same spread over calls, for a viewer that must keep drawing: the first call
+  /// allocates the volume texture, each later one uploads whole z slices,
   /// about `maxBytes` (at least one slice), and returns true once the volume is complete. Until then nothing is drawn (the previous
   /// volume is gone). Calling with another volume or setVolume() starts over.
   bool uploadVolumeStep(std::shared_ptr<const AnyVolume> volume, std::shared_ptr<const Prepared> prepared,
                         size_t maxBytes);
   /// uploadVolumeStep() made elsewhere, for a viewer whose frames must not wait for the
-  /// allocation and copy of the textures (llvmpipe clears and fills about 0.5 GB at
+  /// allocation and copy of the textures (llvmpipe clears and fills 175 MB at
   /// 512x512x350 — seconds under load): makeVolumeTextures() runs on another thread, on a GL
   /// context that shares objects with this renderer's and is current there (no renderer state
   /// is touched; it returns once the textures are complete); adoptVolumeTextures() then makes
@@ -65,9 +66,6 @@ class VolumeRenderer {
                                                             const std::function<void()>& betweenSlabs = {});
   void adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& textures, const Prepared& prepared);
   void discardVolumeTextures(const std::shared_ptr<VolumeTextures>& textures);
-  /// `prepared` without its normal volume (4 bytes a voxel, in the texture once uploaded):
-  /// what prepareBackwardMap() needs.
-  static std::shared_ptr<const Prepared> withoutNormals(const Prepared& prepared);
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
   void setBackwardMap(const BackwardMap* map);
