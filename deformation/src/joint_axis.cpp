@@ -118,8 +118,9 @@ bool nearestToLines(const std::vector<Eigen::Matrix<double, N, 1>>& p, const std
   }
   if (p.size() < 6) return false;
   Eigen::SelfAdjointEigenSolver<M> es(a);
-  // Lines spread over at least ~10° in every direction of the space they span.
-  if (!(es.eigenvalues()[0] > 0.03 * double(p.size()))) return false;
+  // Lines spread over at least ~6° in every direction of the space they span (a shallow arc
+  // is still a start; the sagitta and plane checks judge the result).
+  if (!(es.eigenvalues()[0] > 0.01 * double(p.size()))) return false;
   c = a.ldlt().solve(b);
   return c.allFinite();
 }
@@ -173,6 +174,24 @@ std::vector<T> thinned(const std::vector<T>& p, size_t most) {
   return out;
 }
 
+/// MSAC cost of the best plane through one side (its mean normal, the median offset along it):
+/// the curved models must do clearly better, or the contact is flat (no hinge, no ball).
+double planeCost(const std::vector<SurfacePoint>& side, double band) {
+  V3 n = V3::Zero();
+  for (const SurfacePoint& q : side) n += q.n;
+  if (!(n.norm() > 1e-9)) return band * band;
+  n.normalize();
+  std::vector<double> o;
+  for (const SurfacePoint& q : side) o.push_back(q.p.dot(n));
+  const double off = median(o);
+  double cost = 0;
+  for (const SurfacePoint& q : side) {
+    const double e = q.p.dot(n) - off;
+    cost += e * e < band * band && std::abs(q.n.dot(n)) >= kFacing ? e * e : band * band;
+  }
+  return cost / double(side.size());
+}
+
 /// Both bones' surfaces (parent, child), centred on one common origin.
 using Sides = std::array<std::vector<SurfacePoint>, 2>;
 
@@ -185,8 +204,11 @@ struct Cylinder {
   double inliers = 0, rms = 0;
 };
 
-Cylinder cylinderOf(const Sides& sides, const V3& d, double band, double maxRadius, int rounds,
-                    const Cylinder* warm = nullptr, const V3* warmD = nullptr) {
+/// `flat`: each side's plane cost. A side costs at most that, so a nearly flat side (a tibial
+/// plateau that some wide circle fits within the band) cannot steer the axis: the curved side
+/// does.
+Cylinder cylinderOf(const Sides& sides, const std::array<double, 2>& flat, const V3& d, double band,
+                    double maxRadius, int rounds, const Cylinder* warm = nullptr, const V3* warmD = nullptr) {
   Cylinder c;
   c.d = d;
   double cost = 0, inl = 0, sq = 0, n = 0;
@@ -205,11 +227,11 @@ Cylinder cylinderOf(const Sides& sides, const V3& d, double band, double maxRadi
     const double m = double(sides[s].size());
     n += m;
     if (c.circle[s].ok) {
-      cost += c.circle[s].cost * m;
+      cost += std::min(c.circle[s].cost, flat[s]) * m;
       inl += c.circle[s].inliers * m;
       sq += c.circle[s].rms * c.circle[s].rms * c.circle[s].inliers * m;
     } else {
-      cost += band * band * m;
+      cost += flat[s] * m;
     }
   }
   c.cost = cost / n;
@@ -222,6 +244,9 @@ Cylinder cylinderOf(const Sides& sides, const V3& d, double band, double maxRadi
 /// apart, scored by how many normals lie within 20° of perpendicular to them); from the best
 /// few distinct directions a pattern search (3° down to 0.02°) on the pooled MSAC cost.
 Cylinder fitCylinder(const Sides& sides, double band, double maxRadius) {
+  std::array<double, 2> flat{band * band, band * band};
+  for (int s = 0; s < 2; ++s)
+    if (!sides[s].empty()) flat[s] = planeCost(sides[s], band);
   std::vector<SurfacePoint> all = sides[0];
   all.insert(all.end(), sides[1].begin(), sides[1].end());
   const std::vector<SurfacePoint> coarse = thinned(all, 3000);
@@ -245,7 +270,7 @@ Cylinder fitCylinder(const Sides& sides, double band, double maxRadius) {
   for (int i = 0; i < kCostDirections; ++i) {
     const double z = (i + 0.5) / kCostDirections, rxy = std::sqrt(1 - z * z), phi = golden * i;
     const V3 d{rxy * std::cos(phi), rxy * std::sin(phi), z};
-    costed.push_back({cylinderOf(few, d, band, maxRadius, 3).cost, d});
+    costed.push_back({cylinderOf(few, flat, d, band, maxRadius, 3).cost, d});
   }
   std::vector<V3> starts;
   for (auto* list : {&scored, &costed}) {
@@ -261,7 +286,7 @@ Cylinder fitCylinder(const Sides& sides, double band, double maxRadius) {
   const Sides fine = {thinned(sides[0], 10000), thinned(sides[1], 10000)};
   Cylinder best;
   for (V3 d : starts) {
-    Cylinder c = cylinderOf(fine, d, band, maxRadius, 4);
+    Cylinder c = cylinderOf(fine, flat, d, band, maxRadius, 4);
     if (!(c.circle[0].ok || c.circle[1].ok)) continue;
     for (double step = 3 * kDeg; step > 0.02 * kDeg;) {
       V3 u, v;
@@ -269,7 +294,7 @@ Cylinder fitCylinder(const Sides& sides, double band, double maxRadius) {
       bool moved = false;
       for (const V3& t : {u, V3(-u), v, V3(-v)}) {
         const V3 e = (d + std::tan(step) * t).normalized();
-        const Cylinder ce = cylinderOf(fine, e, band, maxRadius, 2, &c, &d);
+        const Cylinder ce = cylinderOf(fine, flat, e, band, maxRadius, 2, &c, &d);
         if (ce.cost < c.cost - 1e-12) {
           c = ce, d = e, moved = true;
           break;
@@ -341,24 +366,6 @@ Sphere fitSphere(const std::vector<SurfacePoint>& pts, double band, double maxRa
   return best;
 }
 
-/// MSAC cost of the best plane through one side (its mean normal, the median offset along it):
-/// the curved models must do clearly better, or the contact is flat (no hinge, no ball).
-double planeCost(const std::vector<SurfacePoint>& side, double band) {
-  V3 n = V3::Zero();
-  for (const SurfacePoint& q : side) n += q.n;
-  if (!(n.norm() > 1e-9)) return band * band;
-  n.normalize();
-  std::vector<double> o;
-  for (const SurfacePoint& q : side) o.push_back(q.p.dot(n));
-  const double off = median(o);
-  double cost = 0;
-  for (const SurfacePoint& q : side) {
-    const double e = q.p.dot(n) - off;
-    cost += e * e < band * band && std::abs(q.n.dot(n)) >= kFacing ? e * e : band * band;
-  }
-  return cost / double(side.size());
-}
-
 Vec3 toVec(const V3& v) { return {v.x(), v.y(), v.z()}; }
 
 std::string fmt(double v, int digits) {
@@ -409,71 +416,79 @@ AxisEstimate fitArticularSurfaces(const std::vector<Vec3>& parentMm, const std::
   const Cylinder cyl = fitCylinder(sides, bandMm, maxRadius);
   // Sphere: each side its own, pooled like the cylinder.
   Sphere sph[2];
-  double sphCost = 0, sphInl = 0, sphSq = 0;
+  double sphCost = 0;
   for (int s = 0; s < 2; ++s) {
     if (sides[s].empty()) continue;
     sph[s] = fitSphere(thinned(sides[s], 10000), bandMm, maxRadius);
-    const double m = double(sides[s].size());
-    sphCost += (sph[s].ok ? sph[s].cost : bandMm * bandMm) * m;
-    if (sph[s].ok) sphInl += sph[s].inliers * m, sphSq += sph[s].rms * sph[s].rms * sph[s].inliers * m;
+    sphCost += (sph[s].ok ? sph[s].cost : bandMm * bandMm) * double(sides[s].size());
   }
   sphCost /= n;
-  const bool sphAny = sph[0].ok || sph[1].ok;
 
-  // The arc the cylinder's inliers span about its axis (360° minus the largest empty gap).
-  const bool cylAny = cyl.circle[0].ok || cyl.circle[1].ok;
-  double arcDeg = 0;
+  // Each side is judged on its own: a hinge often has one curved surface against a nearly flat
+  // one (the femoral condyles on the tibial plateau). A side's cylinder counts when a good
+  // share of its voxels lie on it (30 %), over an arc of 30° or more whose sagitta (how far the
+  // arc bows from its chord) is at least two bands, and clearly better than a plane (cost
+  // under 0.7 x the plane's): a flat face that a wide circle fits within the band is no hinge.
   V3 u, v;
   basisAcross(cyl.d, u, v);
-  if (cylAny) {
-    std::vector<double> ang;
-    for (int s = 0; s < 2; ++s) {
-      if (!cyl.circle[s].ok) continue;
+  bool cylSide[2] = {false, false}, sphSide[2] = {false, false};
+  double arcs[2] = {0, 0};
+  for (int s = 0; s < 2; ++s) {
+    if (sides[s].empty()) continue;
+    const double flat = planeCost(sides[s], bandMm);
+    const Circle& c = cyl.circle[s];
+    if (c.ok) {
+      std::vector<double> ang;
       for (const SurfacePoint& q : sides[s]) {
-        const V2 d = V2{q.p.dot(u), q.p.dot(v)} - cyl.circle[s].c;
-        if (inlier<V2>(d, V2{q.n.dot(u), q.n.dot(v)}, d.norm() - cyl.circle[s].r, bandMm * bandMm))
+        const V2 d = V2{q.p.dot(u), q.p.dot(v)} - c.c;
+        if (inlier<V2>(d, V2{q.n.dot(u), q.n.dot(v)}, d.norm() - c.r, bandMm * bandMm))
           ang.push_back(std::atan2(d.y(), d.x()));
       }
+      std::sort(ang.begin(), ang.end());  // the arc: 360° minus the largest empty gap
+      double gap = ang.empty() ? 2 * std::numbers::pi : ang.front() + 2 * std::numbers::pi - ang.back();
+      for (size_t i = 1; i < ang.size(); ++i) gap = std::max(gap, ang[i] - ang[i - 1]);
+      arcs[s] = 360.0 - gap / kDeg;
+      const double sagitta = c.r * (1 - std::cos(std::min(arcs[s], 180.0) * kDeg / 2));
+      cylSide[s] = c.inliers >= 0.3 && arcs[s] >= 30 && sagitta >= 2 * bandMm && c.cost < 0.7 * flat;
     }
-    std::sort(ang.begin(), ang.end());
-    double gap = ang.empty() ? 2 * std::numbers::pi : ang.front() + 2 * std::numbers::pi - ang.back();
-    for (size_t i = 1; i < ang.size(); ++i) gap = std::max(gap, ang[i] - ang[i - 1]);
-    arcDeg = 360.0 - gap / kDeg;
+    sphSide[s] = sph[s].ok && sph[s].inliers >= 0.3 && sph[s].cost < 0.7 * flat;
   }
-  // A hinge: a good share of the surfaces on the cylinder, over an arc of 30° or more whose
-  // sagitta (how far the arc bows from its chord) is at least twice the inlier band, so that a
-  // flat face fitted by a wide circle within the band is not taken for a hinge.
-  const double cylR = cyl.circle[1].ok ? cyl.circle[1].r : cyl.circle[0].r;
-  const double sagitta = cylR * (1 - std::cos(std::min(arcDeg, 180.0) * kDeg / 2));
-  double flat = 0;
-  for (const auto& side : sides)
-    if (!side.empty()) flat += planeCost(side, bandMm) * double(side.size());
-  flat /= n;
-  const bool cylOk = cylAny && cyl.inliers >= 0.3 && arcDeg >= 30 && sagitta >= 2 * bandMm && cyl.cost < 0.7 * flat;
-  const bool sphOk = sphAny && sphInl / n >= 0.3 && sphCost < 0.7 * flat;
-  const int main = cyl.circle[1].ok || !cyl.circle[0].ok ? 1 : 0;  // the child's, if it fits
+  const bool cylOk = cylSide[0] || cylSide[1], sphOk = sphSide[0] || sphSide[1];
+  // Over the sides that count: the share of their voxels on the model, and its RMS.
+  const auto pooled = [&](const bool ok[2], auto inl, auto rms, double& fraction, double& rmsOut) {
+    double m = 0, in = 0, sq = 0;
+    for (int s = 0; s < 2; ++s)
+      if (ok[s]) {
+        const double k = double(sides[s].size());
+        m += k, in += inl(s) * k, sq += rms(s) * rms(s) * inl(s) * k;
+      }
+    fraction = m > 0 ? in / m : 0;
+    rmsOut = in > 0 ? std::sqrt(sq / in) : 0;
+  };
+  const auto surfaceName = [](const bool ok[2]) { return ok[0] && ok[1] ? "both" : ok[1] ? "child" : "parent"; };
   if (sphOk && (!cylOk || sphCost < 0.8 * cyl.cost)) {  // clearly a ball
-    const int sm = sph[1].ok ? 1 : 0;
+    const int sm = sphSide[1] ? 1 : 0;
     out.fit.method = "sphere";
-    out.fit.surface = sph[0].ok && sph[1].ok ? "both" : sm ? "child" : "parent";
+    out.fit.surface = surfaceName(sphSide);
     out.point = toVec(sph[sm].c + mean);
     out.direction = toVec(widest);
     out.fit.radiusMm = sph[sm].r;
-    out.fit.rmsMm = sphInl > 0 ? std::sqrt(sphSq / sphInl) : 0;
-    out.fit.inlierFraction = sphInl / n;
-    if (sph[0].ok && sph[1].ok) out.fit.axisGapMm = (sph[0].c - sph[1].c).norm();
+    pooled(sphSide, [&](int s) { return sph[s].inliers; }, [&](int s) { return sph[s].rms; }, out.fit.inlierFraction,
+           out.fit.rmsMm);
+    if (sphSide[0] && sphSide[1]) out.fit.axisGapMm = (sph[0].c - sph[1].c).norm();
   } else if (cylOk) {
+    const int main = cylSide[1] ? 1 : 0;  // the child's, if it counts
     out.fit.method = "cylinder";
-    out.fit.surface = cyl.circle[0].ok && cyl.circle[1].ok ? "both" : main ? "child" : "parent";
+    out.fit.surface = surfaceName(cylSide);
     const Circle& c = cyl.circle[main];
     // The axis point nearest the surfaces' centroid (the origin here).
     out.point = toVec(c.c.x() * u + c.c.y() * v + mean);
     out.direction = toVec(cyl.d);
     out.fit.radiusMm = c.r;
-    out.fit.rmsMm = cyl.rms;
-    out.fit.inlierFraction = cyl.inliers;
-    out.fit.arcDeg = arcDeg;
-    if (cyl.circle[0].ok && cyl.circle[1].ok) out.fit.axisGapMm = (cyl.circle[0].c - cyl.circle[1].c).norm();
+    pooled(cylSide, [&](int s) { return cyl.circle[s].inliers; }, [&](int s) { return cyl.circle[s].rms; },
+           out.fit.inlierFraction, out.fit.rmsMm);
+    out.fit.arcDeg = std::max(cylSide[0] ? arcs[0] : 0.0, cylSide[1] ? arcs[1] : 0.0);
+    if (cylSide[0] && cylSide[1]) out.fit.axisGapMm = (cyl.circle[0].c - cyl.circle[1].c).norm();
   } else {
     return out;
   }
@@ -484,8 +499,8 @@ AxisEstimate fitArticularSurfaces(const std::vector<Vec3>& parentMm, const std::
   else if (out.fit.axisGapMm > 3)
     out.fit.warning = "the parent's and the child's surfaces do not share an axis (" + fmt(out.fit.axisGapMm, 1) +
                       " mm apart): check the axis, or give it as two points";
-  else if (out.fit.method == "cylinder" && arcDeg < 45)
-    out.fit.warning = "the fitted surfaces span only " + fmt(arcDeg, 0) + " deg about the axis (a shallow hinge: check the axis)";
+  else if (out.fit.method == "cylinder" && out.fit.arcDeg < 45)
+    out.fit.warning = "the fitted surfaces span only " + fmt(out.fit.arcDeg, 0) + " deg about the axis (a shallow hinge: check the axis)";
   return out;
 }
 

@@ -58,7 +58,8 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
       line.precision(1);
       line << "    axis estimated (" << f["method"].get<std::string>();
       if (f.contains("surface"))
-        line << " on the " << f["surface"].get<std::string>() << "'s surface, radius " << f["radius_mm"].get<double>()
+        line << (f["surface"] == "both" ? " on both bones' surfaces" : " on the " + f["surface"].get<std::string>() + "'s surface")
+             << ", radius " << f["radius_mm"].get<double>()
              << " mm, RMS " << f["rms_mm"].get<double>() << " mm, " << 100 * f["inlier_fraction"].get<double>()
              << " % of " << f["surface_voxels"].get<int64_t>() << " voxels";
       line << "): (" << a[0][0].get<double>() << ", " << a[0][1].get<double>() << ", " << a[0][2].get<double>()
