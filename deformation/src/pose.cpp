@@ -11,6 +11,7 @@
 #include <mutex>
 #include <numbers>
 #include <set>
+#include <tuple>
 
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/point_files.hpp"
@@ -382,19 +383,26 @@ void savePose(const Pose& pose, const fs::path& path) {
 void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
   const Geometry& g = labels.geometry();
   const Dims d = g.dims;
+  // Inlier band of the surface fits: 1.5 voxels (voxel surfaces stair-step by half a voxel).
+  const double band = 1.5 * (g.spacing.x + g.spacing.y + g.spacing.z) / 3.0;
   for (Joint& joint : pose.joints) {
     if (!joint.estimateAxis) continue;
     // Contact zone: voxels of either bone with a voxel of the other within contactMm
-    // (a brute-force neighbourhood, limited to the two bones' overlapping boxes).
+    // (a brute-force neighbourhood, limited to the two bones' overlapping boxes). Its surface
+    // voxels (a 6-neighbour outside the bone) per side are the articular surfaces fitted below.
     const int64_t r[3] = {int64_t(std::ceil(contactMm / g.spacing.x)), int64_t(std::ceil(contactMm / g.spacing.y)),
                           int64_t(std::ceil(contactMm / g.spacing.z))};
     std::vector<uint8_t> side(65536, 0);
     for (uint16_t id : joint.parent) side[id] = 1;
     for (uint16_t id : joint.child) side[id] = 2;
     IdMoments zone;
+    std::vector<Vec3> surface[2], normals[2];  // parent, child (mm; outward unit normals)
+    const Vec3 inverseSpacing{1 / g.spacing.x, 1 / g.spacing.y, 1 / g.spacing.z};
+    const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
     std::mutex m;
     parallelFor(d.z, [&](int64_t k0, int64_t k1) {
       IdMoments acc;
+      std::vector<Vec3> found[2], foundNormals[2];
       for (int64_t k = k0; k < k1; ++k)
         for (int64_t j = 0; j < d.y; ++j)
           for (int64_t i = 0; i < d.x; ++i) {
@@ -416,28 +424,77 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
             acc.n += 1;
             acc.s += p;
             acc.ss += p * p.transpose();
+            const auto other = [&](int64_t a, int64_t b, int64_t c) {
+              return a < 0 || b < 0 || c < 0 || a >= d.x || b >= d.y || c >= d.z || side[labels(a, b, c)] != s;
+            };
+            if (!(other(i - 1, j, k) || other(i + 1, j, k) || other(i, j - 1, k) || other(i, j + 1, k) ||
+                  other(i, j, k - 1) || other(i, j, k + 1)))
+              continue;
+            // Outward normal: away from the bone's voxels in the 5³ neighbourhood (mm).
+            Vec3 n{0, 0, 0};
+            for (int64_t dk = -2; dk <= 2; ++dk)
+              for (int64_t dj = -2; dj <= 2; ++dj)
+                for (int64_t di = -2; di <= 2; ++di)
+                  if (!other(i + di, j + dj, k + dk)) n = n - mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
+            const Vec3 here = g.indexToPhysical({double(i), double(j), double(k)});
+            const Vec3 ahead = g.indexToPhysical(Vec3{double(i), double(j), double(k)} + mul(n, inverseSpacing));
+            const double len = norm(n);
+            n = len > 5 * minSpacing ? normalized(ahead - here) : Vec3{0, 0, 0};  // a sliver: no clear side
+            found[s - 1].push_back(here);
+            foundNormals[s - 1].push_back(n);
           }
       std::lock_guard lock(m);
       zone.n += acc.n;
       zone.s += acc.s;
       zone.ss += acc.ss;
+      for (int s = 0; s < 2; ++s) {
+        surface[s].insert(surface[s].end(), found[s].begin(), found[s].end());
+        normals[s].insert(normals[s].end(), foundNormals[s].begin(), foundNormals[s].end());
+      }
     });
     if (zone.n < 3)
       throw Error("joint \"" + joint.name + "\": \"axis\": \"estimate\": the parent and child bones come no closer than " +
                   std::to_string(contactMm) + " mm (no contact zone; give the axis as two points or raise --contact)");
-    Eigen::Vector3d mean, sigma;
-    Eigen::Matrix3d axes;
-    principal(zone, mean, axes, sigma);
-    const Vec3 c = g.indexToPhysical({mean.x(), mean.y(), mean.z()});
-    const Eigen::Vector3d e = axes.col(2);
-    Vec3 dir = normalized(g.indexToPhysical({mean.x() + e.x(), mean.y() + e.y(), mean.z() + e.z()}) - c);
+    // Slab order differs between runs: sort, so that the (thinned) fits are deterministic.
+    for (int s = 0; s < 2; ++s) {
+      std::vector<size_t> order(surface[s].size());
+      for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+        const Vec3 &p = surface[s][a], &q = surface[s][b];
+        return std::tie(p.z, p.y, p.x) < std::tie(q.z, q.y, q.x);
+      });
+      std::vector<Vec3> ps, ns;
+      for (size_t i : order) ps.push_back(surface[s][i]), ns.push_back(normals[s][i]);
+      surface[s] = std::move(ps);
+      normals[s] = std::move(ns);
+    }
+    // Both bones' articular surfaces share the hinge's axis: fitted together.
+    AxisEstimate est = fitArticularSurfaces(surface[0], normals[0], surface[1], normals[1], band);
+    if (est.fit.method.empty()) {
+      // No curved surface fits (a flat contact, too few voxels): the zone's centroid and its
+      // widest direction, as a hint only.
+      Eigen::Vector3d mean, sigma;
+      Eigen::Matrix3d axes;
+      principal(zone, mean, axes, sigma);
+      const Vec3 c = g.indexToPhysical({mean.x(), mean.y(), mean.z()});
+      const Eigen::Vector3d e = axes.col(2);
+      est.point = c;
+      est.direction = normalized(g.indexToPhysical({mean.x() + e.x(), mean.y() + e.y(), mean.z() + e.z()}) - c);
+      est.fit = AxisFit{};
+      est.fit.method = "contact";
+      est.fit.surfacePoints = static_cast<int64_t>(surface[0].size() + surface[1].size());
+      est.fit.warning = "no cylinder or sphere fits the joint's contact surfaces (flat or too small): the axis is "
+                        "the contact zone's widest direction through its centroid (give it as two points)";
+    }
+    Vec3 dir = normalized(est.direction);
     // Deterministic sign: the largest component positive.
     const int big = std::abs(dir.x) >= std::abs(dir.y) && std::abs(dir.x) >= std::abs(dir.z) ? 0
                     : std::abs(dir.y) >= std::abs(dir.z)                                   ? 1
                                                                                            : 2;
     if (dir[big] < 0) dir = -dir;
-    joint.axisA = c - dir * 10.0;
-    joint.axisB = c + dir * 10.0;
+    joint.axisA = est.point - dir * 10.0;
+    joint.axisB = est.point + dir * 10.0;
+    joint.fit = est.fit;
   }
 }
 

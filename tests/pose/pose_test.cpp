@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <numbers>
 
 #include "child_process.hpp"
 #include "test_data.hpp"
@@ -274,22 +275,86 @@ TEST(Pose, MalformedPoseFileIsOneLineAndExit2) {
   }
 }
 
-TEST(Pose, EstimatedAxisIsTheContactZonesWidestDirection) {
-  // Bones 10 mm wide in x, 5 in y, 4 mm apart at z = 40: the contact zone is an ellipse whose
-  // widest direction is x, through (40, 40, 40).
-  const Limb limb = makeLimb({{42, 74}, {12, 38}}, 10);
-  Pose pose = loadPose(writeLimb(limb, "pose-estimate",
-                                 R"({"joints": [{"name": "knee", "parent": 1, "child": 2, "axis": "estimate"}],
-                                     "keyframes": [{"angles": {"knee": 10}}]})")
-                           .pose);
-  estimateAxes(pose, limb.labels, 5.0);
+TEST(Pose, EstimatedAxisOfAFlatContactIsTheContactZonesWidestDirection) {
+  // Two blocks 40 mm wide in x, 20 in y, 2 mm apart at z = 25 (1 mm voxels): flat faces, no
+  // hinge surface to fit, so the estimate falls back to the contact zone, whose widest
+  // direction is x, through (24, 24, 25), and says so in a warning.
+  Geometry g;
+  g.dims = {48, 48, 48};
+  g.spacing = {1, 1, 1};
+  LabelVolume labels(g);
+  for (int k = 8; k <= 41; ++k)
+    for (int j = 14; j <= 34; ++j)
+      for (int i = 4; i <= 44; ++i) labels(i, j, k) = k >= 26 ? 1 : k <= 24 ? 2 : 0;
+  const fs::path path = test::tempDir("pose-estimate") / "pose.json";
+  std::ofstream(path) << R"({"joints": [{"name": "knee", "parent": 1, "child": 2, "axis": "estimate"}],
+                             "keyframes": [{"angles": {"knee": 10}}]})";
+  Pose pose = loadPose(path);
+  estimateAxes(pose, labels, 3.0);
   const Joint& j = pose.joints[0];
   const Vec3 dir = normalized(j.axisB - j.axisA), mid = (j.axisA + j.axisB) * 0.5;
+  EXPECT_EQ(j.fit.method, "contact");
+  EXPECT_FALSE(j.fit.warning.empty());
   EXPECT_GT(dir.x, 0.99);  // sign: the largest component positive
-  EXPECT_LT(norm(mid - Vec3{40, 40, 40}), 1.0);
+  EXPECT_LT(norm(mid - Vec3{24, 24, 25}), 1.0);
   Pose far = pose;
   far.joints[0].estimateAxis = true;
-  EXPECT_THROW(estimateAxes(far, limb.labels, 1.0), Error);  // 4 mm apart: no contact within 1 mm
+  EXPECT_THROW(estimateAxes(far, labels, 1.0), Error);  // 2 mm apart: no contact within 1 mm
+}
+
+// The joint-surface estimate against an analytic hinge and ball (48³ voxels of 1 mm): a
+// "talus" whose top is a cylinder of radius 12 mm about a tilted axis, under a "plafond" shell
+// 2 mm above it with flat "malleoli" plates beside its ends (outliers for the cylinder); then
+// a ball in a socket. The recovered axis must lie within 3° and 1 mm of the truth, the fit
+// report its radius and residual; the parent's and child's fits must agree.
+TEST(Pose, EstimatedAxisIsTheArticularSurfacesCylinderOrSphere) {
+  Geometry g;
+  g.dims = {48, 48, 48};
+  g.spacing = {1, 1, 1};
+  const Vec3 c{24.3, 23.6, 22.2};                      // on the true axis (mm)
+  const Vec3 d = normalized(Vec3{1, 0.12, 0.08});      // 8.3° off x
+  const Vec3 up = normalized(cross(d, cross(Vec3{0, 0, 1}, d)));  // across the axis, upwards
+  constexpr double kR = 12;
+  LabelVolume hinge(g), ball(g);
+  for (int k = 0; k < 48; ++k)
+    for (int j = 0; j < 48; ++j)
+      for (int i = 0; i < 48; ++i) {
+        const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)}) - c;
+        const double s = dot(p, d), rho = norm(p - d * s), h = dot(p, up);
+        uint16_t id = 0;
+        if (std::abs(s) <= 12 && rho <= kR) id = 2;                                  // the talus
+        if (std::abs(s) <= 12 && rho >= kR + 2 && rho <= kR + 7 && h >= 0) id = 1;   // the plafond
+        if (std::abs(s) >= 13 && std::abs(s) <= 16 && rho <= kR + 7 && h >= 0) id = 1;   // malleoli
+        hinge(i, j, k) = id;
+        const double r = norm(p);
+        ball(i, j, k) = r <= kR ? 2 : (r >= kR + 2 && r <= kR + 7 && h >= -3) ? 1 : 0;
+      }
+  const std::string json = R"({"joints": [{"name": "j", "parent": 1, "child": 2, "axis": "estimate"}],
+                               "keyframes": [{"angles": {"j": 10}}]})";
+  const fs::path path = test::tempDir("pose-surface-axis") / "pose.json";
+  std::ofstream(path) << json;
+
+  Pose pose = loadPose(path);
+  estimateAxes(pose, hinge, 3.0);
+  const Joint& j = pose.joints[0];
+  const Vec3 dir = normalized(j.axisB - j.axisA), mid = (j.axisA + j.axisB) * 0.5;
+  EXPECT_EQ(j.fit.method, "cylinder");
+  EXPECT_GT(dot(dir, d), std::cos(3.0 * std::numbers::pi / 180));  // sign: x, the largest, positive
+  const Vec3 off = (mid - c) - d * dot(mid - c, d);                   // distance between the axes
+  EXPECT_LT(norm(off), 1.0);
+  EXPECT_EQ(j.fit.surface, "both");   // the talus's dome and the plafond share the axis
+  EXPECT_NEAR(j.fit.radiusMm, kR, 1.0);  // the child's
+  EXPECT_LT(j.fit.axisGapMm, 1.0);
+  EXPECT_LT(j.fit.rmsMm, 0.8);
+  EXPECT_GT(j.fit.arcDeg, 150);
+  EXPECT_TRUE(j.fit.warning.empty()) << j.fit.warning;
+
+  Pose bp = loadPose(path);
+  estimateAxes(bp, ball, 3.0);
+  const Joint& b = bp.joints[0];
+  EXPECT_EQ(b.fit.method, "sphere");
+  EXPECT_LT(norm((b.axisA + b.axisB) * 0.5 - c), 1.0);  // through the ball's centre
+  EXPECT_NEAR(b.fit.radiusMm, kR, 1.0);
 }
 
 // `--gltf`: the child bone's node turns by exactly the joint's rotation at each key (read back
@@ -465,3 +530,4 @@ TEST(Pose, ChildPiecesBesideAFixedBlockShareTheJointTurnWithoutFolds) {
   EXPECT_GT(shown[1], 100);
   EXPECT_LT(worst, 0.1);
 }
+

@@ -50,6 +50,26 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
       std::cout << ", achieved " << mm(j["achieved_deg"], " deg") << "; child bone off its requested pose by "
                 << mm(j["child_rotation_error_deg"], " deg") << ", " << mm(j["child_position_error_mm"]);
     std::cout << "\n";
+    if (j.contains("axis_fit")) {  // an estimated axis: where it is and how well the surface fits
+      const nlohmann::json& f = j["axis_fit"];
+      const auto& a = j["axis_mm"];
+      std::ostringstream line;
+      line.setf(std::ios::fixed);
+      line.precision(1);
+      line << "    axis estimated (" << f["method"].get<std::string>();
+      if (f.contains("surface"))
+        line << (f["surface"] == "both" ? " on both bones' surfaces" : " on the " + f["surface"].get<std::string>() + "'s surface")
+             << ", radius " << f["radius_mm"].get<double>()
+             << " mm, RMS " << f["rms_mm"].get<double>() << " mm, " << 100 * f["inlier_fraction"].get<double>()
+             << " % of " << f["surface_voxels"].get<int64_t>() << " voxels";
+      line << "): (" << a[0][0].get<double>() << ", " << a[0][1].get<double>() << ", " << a[0][2].get<double>()
+           << ") -> (" << a[1][0].get<double>() << ", " << a[1][1].get<double>() << ", " << a[1][2].get<double>()
+           << ") mm";
+      std::cout << line.str() << "\n";
+      if (!f["warning"].is_null())
+        std::cerr << "warning: " << request.pose.string() << ": joint \"" << j["name"].get<std::string>()
+                  << "\": " << f["warning"].get<std::string>() << "\n";
+    }
   }
   if (rep.contains("deform")) {
     const nlohmann::json& after = rep["deform"]["rigidity"]["after"];

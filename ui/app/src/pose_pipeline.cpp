@@ -34,6 +34,19 @@ nlohmann::json jointsJson(const Pose& pose, const std::vector<double>& angles, c
                         {"axis_estimated", joint.estimateAxis},
                         {"proximal", joint.proximal < 0 ? nlohmann::json() : nlohmann::json(pose.joints[joint.proximal].name)},
                         {"requested_deg", angles[j]}};
+    if (joint.estimateAxis) {  // how the axis was estimated, and how well the surface fits
+      const AxisFit& f = joint.fit;
+      nlohmann::json fit = {{"method", f.method}, {"surface_voxels", f.surfacePoints}};
+      if (f.method != "contact")
+        fit.update({{"surface", f.surface},
+                    {"radius_mm", f.radiusMm},
+                    {"rms_mm", f.rmsMm},
+                    {"inlier_fraction", f.inlierFraction},
+                    {"axis_gap_mm", f.axisGapMm < 0 ? nlohmann::json() : nlohmann::json(f.axisGapMm)}});
+      if (f.method == "cylinder") fit["arc_deg"] = f.arcDeg;
+      fit["warning"] = f.warning.empty() ? nlohmann::json() : nlohmann::json(f.warning);
+      o["axis_fit"] = std::move(fit);
+    }
     if (j < m.size()) {
       o["achieved_deg"] = num(m[j].achievedDeg);
       o["error_deg"] = num(m[j].achievedDeg - angles[j]);

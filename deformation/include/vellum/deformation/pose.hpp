@@ -19,6 +19,25 @@
 
 namespace vellum::deformation {
 
+/// How an "estimate" axis was found (estimateAxes()). A hinge's axis is the axis of its
+/// articular surfaces (the talar dome under the plafond, the femoral condyles): one robust
+/// least-squares cylinder axis for the two bones' surface voxels in the contact zone; a
+/// ball-like joint (a sphere fits clearly better) turns about the sphere's centre along the
+/// contact patch's widest direction; a flat contact falls back to the zone's centroid and
+/// widest direction, with a warning.
+struct AxisFit {
+  std::string method;   ///< "cylinder", "sphere", "contact" (the fallback); empty: the axis was given
+  std::string surface;  ///< the surfaces that count (fit a curved model): "both", "child", "parent"
+  double radiusMm = 0;  ///< the cylinder's or sphere's radius: the child's when it counts (the axis
+                        ///< passes through its centre), else the parent's
+  double axisGapMm = -1;  ///< between the parent's and the child's fitted axes (centres); -1: one side
+  double rmsMm = 0;     ///< RMS distance of the inlier surface voxels from the fitted surface
+  double inlierFraction = 0;  ///< of the counting surfaces' voxels: within 1.5 voxels of it, facing along it
+  double arcDeg = 0;    ///< cylinder: the angle the inlier surface spans about the axis
+  int64_t surfacePoints = 0;  ///< surface voxels of both bones in the contact zone
+  std::string warning;  ///< why the estimate is doubtful (empty when the fit is good)
+};
+
 struct Joint {
   std::string name;
   std::vector<uint16_t> parent;  ///< the parent bone's label ids (it holds the axis)
@@ -27,6 +46,7 @@ struct Joint {
   /// axisA -> axisB. Filled by estimateAxes() when `estimateAxis`.
   Vec3 axisA{0, 0, 0}, axisB{0, 0, 0};
   bool estimateAxis = false;  ///< "axis": "estimate": from the parent/child contact zone
+  AxisFit fit;                ///< how estimateAxes() found the axis
   int proximal = -1;  ///< the joint whose child holds this joint's parent (chains), -1: a root joint
 };
 
@@ -84,10 +104,26 @@ std::vector<RigidTransform> jointTransforms(const Pose& pose, const std::vector<
 /// both moved and fixed, a degenerate axis. loadPose() calls it.
 void linkJoints(Pose& pose);
 
-/// Fills the axes of the joints with "axis": "estimate" from the label map: the contact zone =
-/// parent and child voxels within `contactMm` of the other bone; the axis passes through its
-/// centroid along its principal (widest) direction. Error when a zone is empty.
+/// Fills the axes of the joints with "axis": "estimate" from the label map (and Joint::fit):
+/// the contact zone = parent and child voxels within `contactMm` of the other bone; its surface
+/// voxels (with outward normals) are fitted by fitArticularSurfaces() (robustly: voxels beyond
+/// 1.5 voxels of the surface or not facing along it, such as a malleolus's flat side facets,
+/// are outliers). Error when a zone is empty.
 void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm);
+
+/// The axis fit alone, on the parent's and the child's articular surface voxels (mm) and their
+/// outward unit normals, `bandMm` the inlier band: one cylinder axis for both surfaces (each
+/// its own radius and centre; each surface judged on its own, so a flat tibial plateau neither
+/// steers nor vetoes the condyles' cylinder) or a sphere per surface. Returns the axis through `point` along unit
+/// `direction` and how it was found; fit.method is empty when neither fits a curved surface
+/// (too few voxels, a flat patch): estimateAxes() then falls back to the contact zone.
+struct AxisEstimate {
+  Vec3 point{0, 0, 0}, direction{1, 0, 0};
+  AxisFit fit;
+};
+AxisEstimate fitArticularSurfaces(const std::vector<Vec3>& parentMm, const std::vector<Vec3>& parentNormals,
+                                  const std::vector<Vec3>& childMm, const std::vector<Vec3>& childNormals,
+                                  double bandMm);
 
 /// The generated control points' sources and what moves them.
 struct PoseSamples {
