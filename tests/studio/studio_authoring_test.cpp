@@ -471,6 +471,26 @@ TEST(StudioAuthoringModel, RigidBodiesAreBuiltFromTheCopyTheSceneReaderMakes) {
   const RigidBodies direct = RigidBodies::fromLabels(scene.labels, a.rigidLabels, 20);
   EXPECT_EQ(session.bodies()->componentCount(), direct.componentCount());
   EXPECT_EQ(session.bodies()->classes().voxels(), direct.classes().voxels()) << "built from an exact copy";
+  // A label edit (a stroke) while bones are rigid: once the labels settle, a new copy is asked
+  // for and the bodies rebuilt from it.
+  auto& ids = scene.labels.ids().voxels();
+  const auto bone = std::find(ids.begin(), ids.end(), a.rigidLabels.front());
+  ASSERT_NE(bone, ids.end());
+  *bone = 0;
+  scene.touchLabels();
+  const RigidBodies edited = RigidBodies::fromLabels(scene.labels, a.rigidLabels, 20);
+  ASSERT_NE(edited.classes().voxels(), direct.classes().voxels()) << "the edit must show in the bodies";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (asked.size() < 2 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    session.update(scene);
+    if (asked.size() < 2) EXPECT_TRUE(session.busy()) << "settling counts as work (scripts' wait_idle waits for it)";
+  }
+  ASSERT_EQ(asked.size(), 2u);
+  asked.back()(scene);
+  awaitExactMap(session, scene);
+  ASSERT_NE(session.bodies(), nullptr);
+  EXPECT_EQ(session.bodies()->classes().voxels(), edited.classes().voxels());
 }
 
 // Ctrl+click in a deformed 3D view picks the surface where the view draws it: a translation

@@ -155,6 +155,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   if (!scene.hasVolume() || !a.active() || a.currentPoints().empty()) {
     // Nothing to show; running workers finish on their own (their results are dropped).
     const bool had = map_ != nullptr;
+    labelsSettling_ = false;  // nothing is rebuilt while there is nothing to show
     map_.reset();
     sampler_.reset();
     mapKey_.clear();
@@ -202,8 +203,18 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     labelsCopy_ = {};
   }
   const std::string fixed = fixedKey(a.fixed);
+  // Label edits while bones are rigid (brush strokes) wait until the labels have been still
+  // for kSettleLabelsS: each rebuild costs seconds on a real scan, and the copy it starts
+  // holds the labels (a stroke begun meanwhile is refused).
+  if (scene.labelsRevision != seenLabelsRevision_) {
+    seenLabelsRevision_ = scene.labelsRevision;
+    labelsChangedAt_ = std::chrono::steady_clock::now();
+  }
+  labelsSettling_ = bodies_ && labelsRevision_ != ~0ull && scene.labelsRevision != labelsRevision_ &&
+                    a.rigidLabels == rigidLabels_ && fixed == fixedKey_ &&
+                    std::chrono::steady_clock::now() - labelsChangedAt_ < std::chrono::duration<double>(kSettleLabelsS);
   if ((scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_ || fixed != fixedKey_) &&
-      !bodiesBuild_.valid() && !labelsCopy_.valid()) {
+      !bodiesBuild_.valid() && !labelsCopy_.valid() && !labelsSettling_) {
     if (a.rigidLabels.empty() || scene.labels.ids().empty() || !(scene.labels.geometry().dims == scene.ct.geometry().dims)) {
       bodies_.reset();
       labelsRevision_ = scene.labelsRevision;
@@ -285,7 +296,8 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     }
     return changed;
   }
-  if (solve_.valid() || bodiesBuild_.valid() || labelsCopy_.valid()) return changed;  // the worker is on it; or bodies first
+  if (solve_.valid() || bodiesBuild_.valid() || labelsCopy_.valid() || labelsSettling_)
+    return changed;  // the worker is on it; or bodies first
   // The exact map on the worker; the inputs are copies, the deformer is the worker's until done.
   solveProgress_ = std::make_shared<Progress>();
   solve_ = solveOnWorker(&deformer_, &scene.ct, a.engine, inputs(scene, key), solveProgress_);

@@ -49,12 +49,14 @@ class DeformSession {
   /// True when the map shown is the coarse preview (or an exact solve is still running).
   bool preview() const { return preview_; }
   /// True while the exact map (or the rigid bodies it needs) is being made on a worker.
-  bool solving() const { return solve_.valid() || bodiesBuild_.valid() || labelsCopy_.valid(); }
+  bool solving() const { return solve_.valid() || bodiesBuild_.valid() || labelsCopy_.valid() || labelsSettling_; }
   /// True while the exact solve itself runs (the window's frames wait for it a little).
   bool exactSolveRunning() const { return solve_.valid(); }
   /// True while any worker runs (the exact solve, the preview, the rigid bodies): they read
   /// the scene's CT, so a new volume is adopted only once this is false (see cancel()).
-  bool busy() const { return solve_.valid() || previewWork_.valid() || bodiesBuild_.valid() || labelsCopy_.valid(); }
+  bool busy() const {
+    return solve_.valid() || previewWork_.valid() || bodiesBuild_.valid() || labelsCopy_.valid() || labelsSettling_;
+  }
   /// Stops the exact solve early (its result is dropped); the others finish on their own.
   void cancel();
   /// What runs, for the status line: "rigid bodies", "exact map", "preview map" (empty: none).
@@ -137,6 +139,11 @@ class DeformSession {
     uint64_t revision = 0;
   };
   std::future<LabelsCopy> labelsCopy_;
+  /// The labels' revision last seen and when it changed (edits settle before a rebuild).
+  uint64_t seenLabelsRevision_ = ~0ull;
+  std::chrono::steady_clock::time_point labelsChangedAt_{};
+  static constexpr double kSettleLabelsS = 0.5;
+  bool labelsSettling_ = false;  ///< edited labels waiting to settle before the bodies are rebuilt
   SceneReader sceneReader_;
   /// Starts building the rigid bodies from `labels` on a worker.
   void buildBodies(std::shared_ptr<const LabelVolume> labels, uint64_t revision);
