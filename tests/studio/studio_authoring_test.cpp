@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <thread>
 #include <sstream>
 #include <string>
@@ -432,6 +433,64 @@ TEST(StudioAuthoringModel, TargetDragsSolveTheExactMapLiveSourceDragsThePreview)
   ASSERT_TRUE(landed);
   EXPECT_TRUE(session.preview());
   EXPECT_EQ(session.map()->grid.dims, controlGrid(scene.ct.geometry(), 2 * a.engine.controlScale).dims);
+}
+
+// The rigid bodies' copy of the label map (the size of the CT) is made where the scene reader
+// runs it (the studio: the task queue's worker, after the queued edits), never inside
+// update() on the UI thread; a copy that was dropped (its task cancelled) is asked again.
+TEST(StudioAuthoringModel, RigidBodiesAreBuiltFromTheCopyTheSceneReaderMakes) {
+  Scene scene;
+  const phantom::Phantom ph = phantomOf({40, 40, 40});
+  scene.ct = ph.ct;
+  scene.labels = ph.labels;
+  Authoring& a = scene.authoring;
+  a.rigidLabels = boneLikeLabels(scene.labels);
+  ASSERT_FALSE(a.rigidLabels.empty());
+  placePoints(a, boxControlPoints(scene.ct.geometry()));
+  a.touch();
+  std::vector<std::function<void(const Scene&)>> asked;
+  DeformSession session;
+  session.setSceneReader([&](const std::string& name, std::function<void(const Scene&)> read) {
+    EXPECT_FALSE(name.empty()) << "the task queue shows what runs";
+    asked.push_back(std::move(read));
+    return true;
+  });
+  for (int i = 0; i < 3; ++i) session.update(scene);
+  ASSERT_EQ(asked.size(), 1u) << "one copy asked for, not made here";
+  EXPECT_EQ(session.bodies(), nullptr);
+  EXPECT_TRUE(session.busy() && session.solving()) << "the map waits for its bodies";
+  EXPECT_EQ(session.map(), nullptr);
+  asked.clear();  // dropped before it ran
+  session.update(scene);
+  ASSERT_EQ(asked.size(), 1u) << "a dropped copy is asked for again";
+  asked.front()(scene);  // the worker's part
+  awaitExactMap(session, scene);
+  ASSERT_NE(session.bodies(), nullptr);
+  EXPECT_EQ(asked.size(), 1u);
+  EXPECT_TRUE(session.map() && !session.preview());
+  const RigidBodies direct = RigidBodies::fromLabels(scene.labels, a.rigidLabels, 20);
+  EXPECT_EQ(session.bodies()->componentCount(), direct.componentCount());
+  EXPECT_EQ(session.bodies()->classes().voxels(), direct.classes().voxels()) << "built from an exact copy";
+  // A label edit (a stroke) while bones are rigid: once the labels settle, a new copy is asked
+  // for and the bodies rebuilt from it.
+  auto& ids = scene.labels.ids().voxels();
+  const auto bone = std::find(ids.begin(), ids.end(), a.rigidLabels.front());
+  ASSERT_NE(bone, ids.end());
+  *bone = 0;
+  scene.touchLabels();
+  const RigidBodies edited = RigidBodies::fromLabels(scene.labels, a.rigidLabels, 20);
+  ASSERT_NE(edited.classes().voxels(), direct.classes().voxels()) << "the edit must show in the bodies";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (asked.size() < 2 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    session.update(scene);
+    if (asked.size() < 2) EXPECT_TRUE(session.busy()) << "settling counts as work (scripts' wait_idle waits for it)";
+  }
+  ASSERT_EQ(asked.size(), 2u);
+  asked.back()(scene);
+  awaitExactMap(session, scene);
+  ASSERT_NE(session.bodies(), nullptr);
+  EXPECT_EQ(session.bodies()->classes().voxels(), edited.classes().voxels());
 }
 
 // Ctrl+click in a deformed 3D view picks the surface where the view draws it: a translation

@@ -98,7 +98,7 @@ TEST(StudioAutosave, TargetsLieInTheStateFolderAndDoNotCollide) {
 /// Runs the studio on DIR/data/ct.nrrd with a bone threshold, autosaving every 0.05 s, and
 /// quits without saving: what a crash leaves.
 StudioRun editAndLeaveAnAutosave(const fs::path& d, const std::string& name) {
-  return runStudio(d, name, R"({"actions":[{"threshold":{"preset":"bone","label":1}},{"frames":40},{"quit":0}]})",
+  return runStudio(d, name, R"({"actions":[{"threshold":{"preset":"bone","label":1}},{"autosave":"wait"},{"quit":0}]})",
                    q(d / "data" / "ct.nrrd") + " --autosave 0.05");
 }
 

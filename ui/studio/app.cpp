@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <chrono>
 #include <csignal>
+#include <ctime>
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -61,7 +62,11 @@ volatile std::sig_atomic_t gInterrupted = 0;
 
 
 StudioApp::StudioApp(StudioOptions options)
-    : studioTools_(std::make_unique<StudioTools>()), options_(std::move(options)) {}
+    : studioTools_(std::make_unique<StudioTools>()), options_(std::move(options)) {
+  deform_.session().setSceneReader([this](const std::string& name, std::function<void(const Scene&)> read) {
+    return readSceneOnWorker(name, std::move(read));
+  });
+}
 
 StudioApp::~StudioApp() {
   if (!window_) return;
@@ -120,6 +125,9 @@ int StudioApp::run() {
   autosaver_ = std::make_unique<Autosaver>(options_.autosaveSeconds >= 0 ? options_.autosaveSeconds
                                            : script_                     ? 0.0
                                                                          : 60.0);
+  autosaver_->setSceneReader([this](const std::string& name, std::function<void(const Scene&)> read) {
+    return readSceneOnWorker(name, std::move(read));
+  });
   if (!options_.input.empty()) {
     if (script_) script_->openFirst(options_.input, options_.labels);  // a failure fails the script
     else requestOpen(options_.input, options_.labels);
@@ -159,19 +167,43 @@ bool StudioApp::idle() const {
          !scene_.authoring.playing;
 }
 
+namespace {
+double threadCpuMs() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e3 * double(t.tv_sec) + 1e-6 * double(t.tv_nsec);
+}
+}  // namespace
+
 void StudioApp::frame() {
-  const auto t0 = std::chrono::steady_clock::now();
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  const double cpu0 = threadCpuMs();
+  auto lap = [last = t0]() mutable {
+    const auto now = Clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(now - last).count();
+    last = now;
+    return ms;
+  };
   glfwPollEvents();
   pollWorkers();
+  const double pollMs = lap();
   beginUiFrame();
+  const double uiMs = lap();
   slicesRendered_ = false;
-  const FrameViews views = scene_.hasVolume() ? updateViews() : FrameViews{};
+  FrameViews views = scene_.hasVolume() ? updateViews() : FrameViews{};
+  views.pollMs = pollMs;
+  views.uiMs = uiMs;
+  views.viewsMs = lap();
   drawPanes();
   if (hudVisible) drawHud();
   drawStatus();
   ImGui::Render();
+  views.panesMs = lap();
   presentFrame();
-  lastFrameMs_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  views.presentMs = lap();
+  views.cpuMs = threadCpuMs() - cpu0;
+  lastFrameMs_ = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   if (options_.logFrames) logFrame(views);
   ++frameNumber_;
 }
@@ -222,7 +254,17 @@ StudioApp::FrameViews StudioApp::updateViews() {
   const DeformSession& session = deform_.session();
   v.mapUpdated = deform_.updateMap(points_.dragging() || scene_.authoring.playing, !interacting3d());
   if (v.mapUpdated) view3d_->setBackwardMap(session.sharedMap(), session.mapRevision());
-  view3d_->stepMap(kUploadBytesPerFrame);  // the map's CPU part is made on a worker
+  {
+    // The map's CPU part is made on a worker; its textures are uploaded here in slabs sized
+    // to the frame budget from the last slab's time: a fixed 32 MB slab of the rigid snap's
+    // class volume took 100-170 ms of this thread at 512^2 x 150-350 (more under load).
+    const auto t0 = std::chrono::steady_clock::now();
+    view3d_->stepMap(mapUploadBytes_);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    if (ms > kMapUploadBudgetMs) mapUploadBytes_ = std::max(kMinMapUploadBytes, mapUploadBytes_ / 2);
+    else if (ms > 1 && ms < kMapUploadBudgetMs / 4)  // a slab went up (not just a worker's wait)
+      mapUploadBytes_ = std::min(kUploadBytesPerFrame, mapUploadBytes_ * 2);
+  }
   updateSliceTextures();  // after the map: deformed slices show this frame's map
   view3d_->setShapes(scene_.shapes, scene_.shapesRevision);
   view3d_->setMeshes(scene_.shapeMeshes, scene_.hiddenLabels, scene_.shapesRevision);
@@ -254,12 +296,13 @@ void StudioApp::presentFrame() {
 void StudioApp::logFrame(const FrameViews& v) {
   const bool map = v.mapUpdated;
   const DeformSession& session = deform_.session();
-  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d step %d map_pending %d t_ms %.1f\n",
+  std::printf("frame %ld ms %.2f render3d %d render3d_ms %.2f scale %d interacting %d map_ms %.2f mls_ms %.2f rho_ms %.2f rigid_ms %.2f slices_ms %.2f deformed_slices %d step %d map_pending %d t_ms %.1f poll_ms %.1f ui_ms %.1f views_ms %.1f panes_ms %.1f present_ms %.1f cpu_ms %.1f\n",
               frameNumber_, lastFrameMs_, v.rendered3d ? 1 : 0, v.rendered3d ? view3d_->lastRenderMs() : 0.0,
               view3d_->lastScale(), dragPane_ ? 1 : 0, map ? session.lastUpdateMs() : 0.0,
               map ? session.timings()->mapMs : 0.0, map ? session.timings()->rhoCacheMs : 0.0,
               map ? session.lastRigidityMs() : 0.0, slicesRendered_ ? lastSlicesMs_ : 0.0, sliceMap() ? 1 : 0,
-              view3d_->lastStepFactor(), view3d_->mapPending() ? 1 : 0, 1000 * glfwGetTime());
+              view3d_->lastStepFactor(), view3d_->mapPending() ? 1 : 0, 1000 * glfwGetTime(), v.pollMs, v.uiMs,
+              v.viewsMs, v.panesMs, v.presentMs, v.cpuMs);
   std::fflush(stdout);  // the log is read while the studio runs
 }
 
@@ -332,6 +375,10 @@ void StudioApp::adoptLoad(LoadResult r) {
   recent_.add(opened);
   glfwSetWindowTitle(window_, ("Vellum Studio - " + opened.filename().string()).c_str());
   for (const auto& w : r.warnings) std::cerr << "vellum-studio: warning: " << w << "\n";
+}
+
+bool StudioApp::autosaveSettled() {
+  return !autosaver_ || !unsavedChanges() || autosaver_->settled(scene_, scene_.labelsRevision);
 }
 
 void StudioApp::showError(const std::string& message) {

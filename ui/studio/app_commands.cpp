@@ -173,6 +173,15 @@ bool StudioApp::undoStep(bool forward) {
   return true;
 }
 
+bool StudioApp::readSceneOnWorker(const std::string& name, std::function<void(const Scene&)> read) {
+  if (segmentation_.stroking()) return false;  // the stroke writes the labels on this thread
+  tasks_.push(name, [this, read = std::move(read)](Progress&) {
+    read(scene_);
+    return TaskQueue::Apply{};
+  });
+  return true;
+}
+
 void StudioApp::makeShapes(const fs::path& folder) {
   if (!scene_.hasVolume()) throw Error("no volume is open");
   if (shapes_.pending()) throw Error("shapes are already being made; cancel first");

@@ -98,37 +98,35 @@ std::string Autosaver::lastError() {
   return lastError_;
 }
 
-void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
-  if (interval_ <= 0 || !scene.hasVolume() || now - lastCheck_ < interval_) return;
-  if (job_.valid()) {
-    if (job_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;  // still writing
-    lastError_ = job_.get();
-    if (!lastError_.empty()) std::cerr << "vellum-studio: autosave failed: " << lastError_ << "\n";
-  }
-  lastCheck_ = now;
-  const fs::path target = targetFor(scene);
-  if (target.empty() || kept_.count(target)) return;
-  SceneFile file = describeScene(scene);
-  const fs::path labelsTarget = labelsFor(target);
+std::optional<Autosaver::Plan> Autosaver::plan(const Scene& scene, uint64_t labelsRevision) const {
+  Plan p;
+  p.target = targetFor(scene);
+  if (p.target.empty() || kept_.count(p.target)) return std::nullopt;
+  p.file = describeScene(scene);
+  p.labelsTarget = labelsFor(p.target);
   // Edited since the last write, or the target moved (the scene was saved elsewhere).
-  const bool labelsEdited =
-      scene.labelsModified && (labelsRevision != savedLabelsRevision_ || labelsTarget != savedLabelsTarget_);
-  if (scene.labelsModified) file.labels = labelsTarget;  // the edited map lives in the autosave
+  p.labelsEdited =
+      scene.labelsModified && (labelsRevision != savedLabelsRevision_ || p.labelsTarget != savedLabelsTarget_);
+  if (scene.labelsModified) p.file.labels = p.labelsTarget;  // the edited map lives in the autosave
   // Compare what would be written with the last autosave: unchanged scenes are not rewritten.
-  std::string text = target.string() + "|" + file.volume.string() + "|" + file.labels.string();
-  text += sceneViewJson(file).dump();
+  p.text = p.target.string() + "|" + p.file.volume.string() + "|" + p.file.labels.string();
+  p.text += sceneViewJson(p.file).dump();
   // The keyframe track (control points): its revision counts every edit (and playback).
-  if (file.deformation || file.pose) text += " track " + std::to_string(scene.authoring.revision);
-  if (!labelsEdited && text == lastSceneText_) return;
-  lastSceneText_ = text;
-  std::optional<LabelVolume> labels;
-  if (labelsEdited) {
-    labels = scene.labels;  // a copy: the user keeps editing while it is written
-    savedLabelsRevision_ = labelsRevision;
-    savedLabelsTarget_ = labelsTarget;
-  }
-  own_.insert(target);
-  job_ = std::async(std::launch::async, [file, target, labelsTarget, labels = std::move(labels)]() -> std::string {
+  if (p.file.deformation || p.file.pose) p.text += " track " + std::to_string(scene.authoring.revision);
+  return p;
+}
+
+bool Autosaver::settled(const Scene& scene, uint64_t labelsRevision) {
+  if (labelsCopy_.valid() || waiting_) return false;
+  if (job_.valid() && job_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return false;
+  const auto p = plan(scene, labelsRevision);
+  return !p || (!p->labelsEdited && p->text == lastSceneText_);
+}
+
+void Autosaver::write(Plan p, std::shared_ptr<const LabelVolume> labels) {
+  own_.insert(p.target);
+  job_ = std::async(std::launch::async, [file = std::move(p.file), target = p.target, labelsTarget = p.labelsTarget,
+                                         labels = std::move(labels)]() -> std::string {
     try {
       fs::create_directories(target.parent_path());
       if (labels) io::saveLabels(*labels, labelsTarget);
@@ -138,6 +136,55 @@ void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
       return e.what();
     }
   });
+}
+
+void Autosaver::tick(const Scene& scene, uint64_t labelsRevision, double now) {
+  if (interval_ <= 0 || !scene.hasVolume()) return;
+  if (labelsCopy_.valid()) {  // the copy of the labels, made on the task queue's worker
+    if (labelsCopy_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    try {
+      Copied c = labelsCopy_.get();
+      savedLabelsRevision_ = c.revision;  // the revision copied, read where the labels were
+      savedLabelsTarget_ = waiting_->labelsTarget;
+      write(std::move(*waiting_), std::move(c.labels));
+    } catch (const std::future_error&) {  // dropped (a cancelled task): planned again
+      lastSceneText_.clear();
+    }
+    labelsCopy_ = {};
+    waiting_.reset();
+    return;
+  }
+  if (now - lastCheck_ < interval_) return;
+  if (job_.valid()) {
+    if (job_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;  // still writing
+    lastError_ = job_.get();
+    if (!lastError_.empty()) std::cerr << "vellum-studio: autosave failed: " << lastError_ << "\n";
+  }
+  lastCheck_ = now;
+  std::optional<Plan> p = plan(scene, labelsRevision);
+  if (!p || (!p->labelsEdited && p->text == lastSceneText_)) return;
+  if (p->labelsEdited && reader_) {
+    // The copy (the size of the CT) on the task queue's worker, after the queued edits; the
+    // write starts from a later tick once it is made.
+    auto promise = std::make_shared<std::promise<Copied>>();
+    std::future<Copied> copy = promise->get_future();
+    if (!reader_("copying the labels for the autosave", [promise](const Scene& s) {
+          promise->set_value({std::make_shared<const LabelVolume>(s.labels), s.labelsRevision});
+        }))
+      return;  // a brush stroke is writing them: the next check
+    lastSceneText_ = p->text;
+    labelsCopy_ = std::move(copy);
+    waiting_ = std::move(p);
+    return;
+  }
+  lastSceneText_ = p->text;
+  std::shared_ptr<const LabelVolume> labels;
+  if (p->labelsEdited) {
+    labels = std::make_shared<const LabelVolume>(scene.labels);  // without a reader: a copy here
+    savedLabelsRevision_ = labelsRevision;
+    savedLabelsTarget_ = p->labelsTarget;
+  }
+  write(std::move(*p), std::move(labels));
 }
 
 }  // namespace vellum::studio

@@ -6,14 +6,17 @@
 // "<volume>-<hash>.autosave.json", the hash of the volume's absolute path (and DICOM series)
 // keeping two volumes of the same name apart. Never beside the data: that may be a DICOM
 // export, a read-only share or a PACS mount. Writing runs on a worker thread with a copy of
-// the labels, so the UI does not stall; opening the autosave like any scene recovers it.
+// the labels, itself made off the UI thread (setSceneReader: the size of the CT, 0.1-0.3 s at
+// 512^2 x 350), so the UI does not stall; opening the autosave like any scene recovers it.
 #include <filesystem>
 #include <future>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
 
 #include "scene.hpp"
+#include "scene_file.hpp"
 
 namespace vellum::studio {
 
@@ -26,6 +29,11 @@ class Autosaver {
 
   /// Call once per frame. `labelsRevision` changes whenever the label map changes.
   void tick(const Scene& scene, uint64_t labelsRevision, double nowSeconds);
+  /// Where the copy of edited labels is made (see SceneReader); without one, on tick's thread.
+  void setSceneReader(SceneReader reader) { reader_ = std::move(reader); }
+  /// Nothing left to write: the last autosave holds `scene` as it is now (or this session
+  /// keeps its target), and no copy or write is in progress. Scripts wait on it.
+  bool settled(const Scene& scene, uint64_t labelsRevision);
   /// The autosave scene path for `scene` (empty without a volume, or without a state folder
   /// for a scene never saved).
   static std::filesystem::path targetFor(const Scene& scene);
@@ -51,6 +59,26 @@ class Autosaver {
   uint64_t savedLabelsRevision_ = 0;
   std::filesystem::path savedLabelsTarget_;
   std::set<std::filesystem::path> kept_, own_;
+  /// What tick would write for `scene`: its target, the scene file and the text compared
+  /// with the last autosave's; whether the labels go with it.
+  struct Plan {
+    std::filesystem::path target, labelsTarget;
+    SceneFile file;
+    std::string text;
+    bool labelsEdited = false;
+  };
+  std::optional<Plan> plan(const Scene& scene, uint64_t labelsRevision) const;
+  /// Starts writing `plan` with `labels` (nullptr: the scene file alone) on a worker.
+  void write(Plan plan, std::shared_ptr<const LabelVolume> labels);
+
+  SceneReader reader_;
+  /// An autosave waiting for its copy of the labels (made by reader_): the copy and revision.
+  struct Copied {
+    std::shared_ptr<const LabelVolume> labels;
+    uint64_t revision = 0;
+  };
+  std::future<Copied> labelsCopy_;
+  std::optional<Plan> waiting_;
   std::future<std::string> job_;  ///< returns the error message, "" on success
   std::string lastError_;
 };

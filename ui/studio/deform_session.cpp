@@ -33,7 +33,7 @@ void DeformSession::cancel() {
 
 std::vector<std::string> DeformSession::running() const {
   std::vector<std::string> r;
-  if (bodiesBuild_.valid()) r.push_back("rigid bodies from the labels");
+  if (bodiesBuild_.valid() || labelsCopy_.valid()) r.push_back("rigid bodies from the labels");
   if (solve_.valid()) r.push_back("exact deformation map");
   if (previewWork_.valid()) r.push_back(previewForDrag_ ? "preview deformation map" : "preparing the drag preview");
   return r;
@@ -81,7 +81,11 @@ std::future<DeformSession::Solved> DeformSession::solveOnWorker(std::unique_ptr<
   // The CT is read, not copied, here: the studio adopts a new volume only once busy() is
   // false, so it cannot change under the worker.
   return std::async(std::launch::async, [slot, ct, params, in = std::move(in), progress = std::move(progress), kind] {
-    if (kind == SolveKind::Background) lowerThreadPriority();
+    // Only a drag's preview keeps the window's priority: the exact solve (seconds of rho
+    // fields on a real scan) starved the window's frames of the core they share with it
+    // (200-900 ms frames drawing nothing at 512^2 x 350); at nice +10 it still gets every
+    // cycle the window leaves, and the window waits for it between frames (awaitSolve).
+    if (kind != SolveKind::DragPreview) lowerThreadPriority();
     auto work = [&] {
       if (!*slot) *slot = std::make_unique<Deformer>(AnyVolume(*ct), params);
       return solve(**slot, in, *progress);
@@ -90,6 +94,14 @@ std::future<DeformSession::Solved> DeformSession::solveOnWorker(std::unique_ptr<
     // The others in a smaller arena, so that the UI thread keeps a core.
     if (kind == SolveKind::DragPreview) return work();
     return inWorkerArena(work);
+  });
+}
+
+void DeformSession::buildBodies(std::shared_ptr<const LabelVolume> labels, uint64_t revision) {
+  buildingRevision_ = revision;
+  bodiesBuild_ = std::async(std::launch::async, [labels = std::move(labels), ids = buildingLabels_, f = buildingFixed_] {
+    lowerThreadPriority();
+    return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(*labels, ids, 20, f));
   });
 }
 
@@ -143,6 +155,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   if (!scene.hasVolume() || !a.active() || a.currentPoints().empty()) {
     // Nothing to show; running workers finish on their own (their results are dropped).
     const bool had = map_ != nullptr;
+    labelsSettling_ = false;  // nothing is rebuilt while there is nothing to show
     map_.reset();
     sampler_.reset();
     mapKey_.clear();
@@ -165,6 +178,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     volumeGeneration_ = scene.volumeGeneration;
     engineKey_ = engineKey;
     labelsRevision_ = ~0ull;
+    labelsCopy_ = {};  // of the previous volume's labels
   }
   // Rigid bodies: built on a worker from a copy of the labels (painting goes on meanwhile);
   // the map keeps the previous bodies until they land, then is solved again.
@@ -180,22 +194,48 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     rigidLabels_ = buildingLabels_;
     fixedKey_ = buildingFixedKey_;
   }
+  if (ready(labelsCopy_)) {
+    try {
+      LabelsCopy copy = labelsCopy_.get();
+      buildBodies(std::move(copy.labels), copy.revision);
+    } catch (const std::future_error&) {  // dropped before it ran: asked again below
+    }
+    labelsCopy_ = {};
+  }
   const std::string fixed = fixedKey(a.fixed);
+  // Label edits while bones are rigid (brush strokes) wait until the labels have been still
+  // for kSettleLabelsS: each rebuild costs seconds on a real scan, and the copy it starts
+  // holds the labels (a stroke begun meanwhile is refused).
+  if (scene.labelsRevision != seenLabelsRevision_) {
+    seenLabelsRevision_ = scene.labelsRevision;
+    labelsChangedAt_ = std::chrono::steady_clock::now();
+  }
+  labelsSettling_ = bodies_ && labelsRevision_ != ~0ull && scene.labelsRevision != labelsRevision_ &&
+                    a.rigidLabels == rigidLabels_ && fixed == fixedKey_ &&
+                    std::chrono::steady_clock::now() - labelsChangedAt_ < std::chrono::duration<double>(kSettleLabelsS);
   if ((scene.labelsRevision != labelsRevision_ || a.rigidLabels != rigidLabels_ || fixed != fixedKey_) &&
-      !bodiesBuild_.valid()) {
+      !bodiesBuild_.valid() && !labelsCopy_.valid() && !labelsSettling_) {
     if (a.rigidLabels.empty() || scene.labels.ids().empty() || !(scene.labels.geometry().dims == scene.ct.geometry().dims)) {
       bodies_.reset();
       labelsRevision_ = scene.labelsRevision;
       rigidLabels_ = a.rigidLabels;
       fixedKey_ = fixed;
     } else {
-      buildingRevision_ = scene.labelsRevision;
       buildingLabels_ = a.rigidLabels;
       buildingFixedKey_ = fixed;
-      bodiesBuild_ = std::async(std::launch::async, [labels = scene.labels, ids = a.rigidLabels, f = a.fixed] {
-        lowerThreadPriority();
-        return std::make_shared<const RigidBodies>(RigidBodies::fromLabels(labels, ids, 20, f));
-      });
+      buildingFixed_ = a.fixed;
+      if (!sceneReader_) {
+        buildBodies(std::make_shared<const LabelVolume>(scene.labels), scene.labelsRevision);
+      } else {
+        // The copy (the size of the CT) is made on the task queue's worker, not in this frame;
+        // the revision is read there too, so it names the labels copied.
+        auto promise = std::make_shared<std::promise<LabelsCopy>>();
+        std::future<LabelsCopy> copy = promise->get_future();
+        if (sceneReader_("copying the labels for the rigid bodies", [promise](const Scene& s) {
+              promise->set_value({std::make_shared<const LabelVolume>(s.labels), s.labelsRevision});
+            }))
+          labelsCopy_ = std::move(copy);
+      }
     }
   }
   // Everything the map depends on (the labels only through rigid bodies).
@@ -256,7 +296,8 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     }
     return changed;
   }
-  if (solve_.valid() || bodiesBuild_.valid()) return changed;  // the worker is on it; or bodies first
+  if (solve_.valid() || bodiesBuild_.valid() || labelsCopy_.valid() || labelsSettling_)
+    return changed;  // the worker is on it; or bodies first
   // The exact map on the worker; the inputs are copies, the deformer is the worker's until done.
   solveProgress_ = std::make_shared<Progress>();
   solve_ = solveOnWorker(&deformer_, &scene.ct, a.engine, inputs(scene, key), solveProgress_);

@@ -4,6 +4,7 @@
 // the resulting BackwardMap for VolumeRenderer::setBackwardMap. No GL.
 #include <cstdint>
 #include <chrono>
+#include <functional>
 #include <future>
 #include <string>
 #include <memory>
@@ -40,17 +41,22 @@ class DeformSession {
   /// While new rigid bodies are built the map shown keeps the previous ones. Returns true
   /// when the map changed (the 3D view must render again).
   bool update(const Scene& scene, bool interacting = false);
+  /// Where the rigid bodies' copy of the labels is made (see SceneReader); without one (tests)
+  /// on the caller's thread.
+  void setSceneReader(SceneReader reader) { sceneReader_ = std::move(reader); }
   /// The exact map is solved live while its updates take at most this (the target).
   static constexpr double kLiveExactBudgetMs = 50;
   /// True when the map shown is the coarse preview (or an exact solve is still running).
   bool preview() const { return preview_; }
   /// True while the exact map (or the rigid bodies it needs) is being made on a worker.
-  bool solving() const { return solve_.valid() || bodiesBuild_.valid(); }
+  bool solving() const { return solve_.valid() || bodiesBuild_.valid() || labelsCopy_.valid() || labelsSettling_; }
   /// True while the exact solve itself runs (the window's frames wait for it a little).
   bool exactSolveRunning() const { return solve_.valid(); }
   /// True while any worker runs (the exact solve, the preview, the rigid bodies): they read
   /// the scene's CT, so a new volume is adopted only once this is false (see cancel()).
-  bool busy() const { return solve_.valid() || previewWork_.valid() || bodiesBuild_.valid(); }
+  bool busy() const {
+    return solve_.valid() || previewWork_.valid() || bodiesBuild_.valid() || labelsCopy_.valid() || labelsSettling_;
+  }
   /// Stops the exact solve early (its result is dropped); the others finish on their own.
   void cancel();
   /// What runs, for the status line: "rigid bodies", "exact map", "preview map" (empty: none).
@@ -102,9 +108,9 @@ class DeformSession {
   bool liveExact(const deformation::ControlPoints& points) const;
   /// Solves `points` on `deformer` with the rigid blend: the work of both paths.
   static Solved solve(deformation::Deformer& deformer, const SolveInputs& in, Progress& progress);
-  /// How a solve shares the machine: the exact map in the worker arena (inWorkerArena); a
-  /// drag's preview, which the user waits for, on all the cores; the preview engine made ready
-  /// for the next drag also at the lowered priority of work nobody waits for.
+  /// How a solve shares the machine: the exact map in the worker arena (inWorkerArena) at the
+  /// workers' lowered priority; a drag's preview, which the user waits for, on all the cores
+  /// at the window's priority; the preview engine made ready for the next drag like the exact map.
   enum class SolveKind { Exact, DragPreview, Background };
   /// On a worker: makes *slot from `ct` (when empty) and solves with it. The UI thread leaves
   /// *slot alone until the future is ready.
@@ -126,6 +132,21 @@ class DeformSession {
   bool previewForDrag_ = false;  ///< previewWork_ was started by a drag (its map is shown)
   bool preview_ = false;
   std::shared_ptr<const deformation::RigidBodies> bodies_;
+  /// The copy of the labels the next rigid bodies are built from, made by sceneReader_ (a
+  /// broken promise: the copy was dropped, e.g. a cancelled task; asked again).
+  struct LabelsCopy {
+    std::shared_ptr<const LabelVolume> labels;
+    uint64_t revision = 0;
+  };
+  std::future<LabelsCopy> labelsCopy_;
+  /// The labels' revision last seen and when it changed (edits settle before a rebuild).
+  uint64_t seenLabelsRevision_ = ~0ull;
+  std::chrono::steady_clock::time_point labelsChangedAt_{};
+  static constexpr double kSettleLabelsS = 0.5;
+  bool labelsSettling_ = false;  ///< edited labels waiting to settle before the bodies are rebuilt
+  SceneReader sceneReader_;
+  /// Starts building the rigid bodies from `labels` on a worker.
+  void buildBodies(std::shared_ptr<const LabelVolume> labels, uint64_t revision);
   /// Rigid bodies being built from a copy of the labels, and what they are built for.
   std::future<std::shared_ptr<const deformation::RigidBodies>> bodiesBuild_;
   uint64_t buildingRevision_ = 0;
@@ -139,6 +160,7 @@ class DeformSession {
   uint64_t volumeGeneration_ = ~0ull, labelsRevision_ = ~0ull;  ///< labelsRevision_: of bodies_
   std::vector<uint16_t> rigidLabels_;  ///< of bodies_
   std::string fixedKey_, buildingFixedKey_;  ///< the fixed regions of bodies_ / of the build
+  deformation::FixedRegions buildingFixed_;
   std::string engineKey_;  ///< the engine parameters the deformers were made with
   uint64_t mapRevision_ = 0;
   double lastMs_ = 0, rigidityMs_ = 0;

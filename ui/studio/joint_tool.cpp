@@ -65,9 +65,24 @@ void JointTool::prepare(StudioApp& app) {
   progress_ = std::make_shared<Progress>();
   started_ = std::chrono::steady_clock::now();
   generation_ = scene.volumeGeneration;
-  // A copy of the labels: painting may go on while the axes and points are made. The pose
+  // A copy of the labels: painting may go on while the axes and points are made. The copy
+  // (the size of the CT) is made on the task queue's worker, not on the UI thread; the pose
   // code's own functions (`vellum pose` runs the same), one stage each; cancel between them.
-  work_ = std::async(std::launch::async, [p = pose, labels = scene.labels, o = options, progress = progress_] {
+  using Copy = std::shared_ptr<const LabelVolume>;
+  auto promise = std::make_shared<std::promise<Copy>>();
+  std::future<Copy> copy = promise->get_future();
+  if (!app.readSceneOnWorker("copying the labels for the joint tool", [promise](const Scene& s) {
+        promise->set_value(std::make_shared<const LabelVolume>(s.labels));
+      }))
+    promise->set_value(std::make_shared<const LabelVolume>(scene.labels));  // a stroke runs: here
+  work_ = std::async(std::launch::async, [p = pose, copy = std::move(copy), o = options, progress = progress_]() mutable {
+    Copy held;
+    try {
+      held = copy.get();
+    } catch (const std::future_error&) {  // the copy's task was dropped (cancelled)
+      throw Cancelled();
+    }
+    const LabelVolume& labels = *held;
     Prepared r{p, nullptr};
     progress->begin("joint axes", 2);
     estimateAxes(r.pose, labels, o.contactMm);

@@ -2,6 +2,7 @@
 // The studio's document: what a scene file saves and what every view draws from.
 // Plain data, no GL and no ImGui, so that tests and the scene file can use it directly.
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <set>
@@ -65,5 +66,10 @@ struct Scene {
     illustration = v.illustration;
   }
 };
+
+/// Runs `read` later on a thread where the scene's labels do not change (the studio: a task on
+/// its queue, StudioApp::readSceneOnWorker), shown as `name`; false: not now (ask again). How
+/// workers get their copy of the label map without copying it on the UI thread.
+using SceneReader = std::function<bool(const std::string& name, std::function<void(const Scene&)> read)>;
 
 }  // namespace vellum::studio

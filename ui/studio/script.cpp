@@ -807,6 +807,13 @@ void expandDialog(Steps& s, const json& v) {
   s.frames(1);  // the frame after the loader finished adopts the recovered scene
 }
 
+void expandAutosave(Steps& s, const json& v) {
+  // "wait": until the autosave holds the session as it is (its copy of the labels made and
+  // the files written); the autosave's own state, not a count of frames.
+  if (v != "wait") throw Error("\"autosave\" takes \"wait\"");
+  s.until([](StudioApp& a) { return a.autosaveSettled(); });
+}
+
 void expandClose(Steps& s, const json&) {
   s.once([](StudioApp& a) { a.requestClose(); });
   s.frames(2);  // the frame loop sees the close flag: quits, or asks about unsaved changes
@@ -912,6 +919,7 @@ const std::map<std::string, Expander>& expanders() {
       {"hold_tasks", expandHoldTasks},
       {"window_preset", expandWindowPreset},
       {"dialog", expandDialog},
+      {"autosave", expandAutosave},
       {"close", expandClose},
       {"quit", expandQuit},
   };

@@ -74,6 +74,8 @@ class SegmentationController {
   void dragInSlice(const Pane& pane, double x, double y);
   /// The button's release: a stroke becomes one undo step.
   void release();
+  /// A brush stroke is in progress: the UI thread is writing the labels.
+  bool stroking() const { return stroke_.has_value(); }
   /// Ctrl+click in the 3D view on the visible surface, at its source `mm`: Grow and Snake seed
   /// there (true); other tools leave it to the crosshair (false).
   bool seedIn3d(const Vec3& mm);
