@@ -26,12 +26,16 @@ using V3 = Eigen::Vector3d;
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-struct Circle {
-  V2 c{0, 0};
+/// A circle (N = 2, in the plane across a cylinder's axis) or a sphere (N = 3).
+template <int N>
+struct Round {
+  Eigen::Matrix<double, N, 1> c = Eigen::Matrix<double, N, 1>::Zero();
   double r = 0, cost = kInf;  // cost: mean clipped squared residual
   double inliers = 0, rms = 0;
   bool ok = false;
 };
+using Circle = Round<2>;
+using Sphere = Round<3>;
 
 /// An inlier lies within the band of the surface AND faces along its normal (within 35°, either
 /// way: convex or concave): a facet crossing the surface is not on it.
@@ -42,50 +46,57 @@ bool inlier(const V& offset, const V& normal, double e, double band2) {
 }
 
 /// From a start (c0, r0): the inliers of it, two Gauss-Newton steps of the geometric residual
-/// |q - c| - r over them, reclassified, `rounds` times; the best kept. `m`: the points' unit
-/// normals projected into the plane (shorter when they lean along the axis).
-Circle fitCircle(const std::vector<V2>& q, const std::vector<V2>& m, V2 c0, double r0, double band, int rounds) {
-  Circle best;
+/// |q - c| - r over them, reclassified, `rounds` times; the best with r <= maxRadius kept. `m`:
+/// the points' unit normals (for a circle projected into the plane: shorter when they lean along
+/// the axis).
+template <int N>
+Round<N> fitRound(const std::vector<Eigen::Matrix<double, N, 1>>& q, const std::vector<Eigen::Matrix<double, N, 1>>& m,
+                  Eigen::Matrix<double, N, 1> c0, double r0, double band, int rounds, double maxRadius = kInf) {
+  using V = Eigen::Matrix<double, N, 1>;
+  using J = Eigen::Matrix<double, N + 1, 1>;
+  Round<N> best;
   const double band2 = band * band;
   std::vector<char> in(q.size());
   for (size_t i = 0; i < q.size(); ++i)  // a wider band at first: the start is rough
-    in[i] = inlier<V2>(q[i] - c0, m[i], (q[i] - c0).norm() - r0, 4 * band2);
-  V2 c = c0;
+    in[i] = inlier<V>(q[i] - c0, m[i], (q[i] - c0).norm() - r0, 4 * band2);
+  V c = c0;
   double r = r0;
   for (int round = 0; round < rounds; ++round) {
-    if (std::count(in.begin(), in.end(), 1) < 6) break;
+    if (std::count(in.begin(), in.end(), 1) < 2 * N + 2) break;
     for (int gn = 0; gn < 2; ++gn) {
-      Eigen::Matrix3d jj = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d jr = Eigen::Vector3d::Zero();
+      Eigen::Matrix<double, N + 1, N + 1> jj = Eigen::Matrix<double, N + 1, N + 1>::Zero();
+      J jr = J::Zero();
       for (size_t i = 0; i < q.size(); ++i) {
         if (!in[i]) continue;
-        const V2 d = q[i] - c;
+        const V d = q[i] - c;
         const double len = d.norm();
         if (len < 1e-9) continue;
-        const Eigen::Vector3d j{-d.x() / len, -d.y() / len, -1.0};
+        J j;
+        j.template head<N>() = -d / len;
+        j[N] = -1.0;
         jj += j * j.transpose();
         jr += j * (len - r);
       }
-      const Eigen::Vector3d step = jj.ldlt().solve(-jr);
+      const J step = jj.ldlt().solve(-jr);
       if (!step.allFinite()) break;
-      c += step.head<2>();
-      r += step[2];
+      c += step.template head<N>();
+      r += step[N];
     }
-    Circle now;
+    Round<N> now;
     now.c = c;
     now.r = r = std::abs(r);
     double cost = 0, sq = 0;
     int inl = 0;
     for (size_t i = 0; i < q.size(); ++i) {
       const double e = (q[i] - c).norm() - now.r;
-      in[i] = inlier<V2>(q[i] - c, m[i], e, band2);
+      in[i] = inlier<V>(q[i] - c, m[i], e, band2);
       cost += in[i] ? e * e : band2;
       if (in[i]) sq += e * e, ++inl;
     }
     now.cost = cost / double(q.size());
     now.inliers = double(inl) / double(q.size());
     now.rms = inl ? std::sqrt(sq / inl) : 0;
-    now.ok = std::isfinite(now.cost);
+    now.ok = std::isfinite(now.cost) && now.r <= maxRadius;
     if (now.ok && now.cost < best.cost) best = now;
   }
   return best;
@@ -159,7 +170,7 @@ Circle cylinderAlong(const std::vector<SurfacePoint>& pts, const V3& d, double b
     r0 = median(r);
   }
   if (!(r0 <= maxRadius)) return {};
-  Circle c = fitCircle(q, m, c0, r0, band, rounds);
+  Circle c = fitRound<2>(q, m, c0, r0, band, rounds);
   if (c.ok && c.r > maxRadius) c = {};  // a flat patch: no hinge
   return c;
 }
@@ -307,12 +318,6 @@ Cylinder fitCylinder(const Sides& sides, double band, double maxRadius) {
   return best;
 }
 
-struct Sphere {
-  V3 c{0, 0, 0};
-  double r = 0, cost = kInf, inliers = 0, rms = 0;
-  bool ok = false;
-};
-
 /// Robust sphere: started where the normals meet, then MSAC Gauss-Newton rounds.
 Sphere fitSphere(const std::vector<SurfacePoint>& pts, double band, double maxRadius) {
   std::vector<V3> lp, ln;
@@ -323,47 +328,7 @@ Sphere fitSphere(const std::vector<SurfacePoint>& pts, double band, double maxRa
   for (const V3& x : lp) rs.push_back((x - c).norm());
   double r = median(rs);
   if (!(r <= maxRadius)) return {};
-  Sphere best;
-  const double band2 = band * band;
-  std::vector<char> in(pts.size());
-  for (size_t i = 0; i < pts.size(); ++i) in[i] = inlier<V3>(lp[i] - c, ln[i], (lp[i] - c).norm() - r, 4 * band2);
-  for (int round = 0; round < 4; ++round) {
-    if (std::count(in.begin(), in.end(), 1) < 8) break;
-    for (int gn = 0; gn < 2; ++gn) {
-      Eigen::Matrix4d jj = Eigen::Matrix4d::Zero();
-      Eigen::Vector4d jr = Eigen::Vector4d::Zero();
-      for (size_t i = 0; i < lp.size(); ++i) {
-        if (!in[i]) continue;
-        const V3 d = lp[i] - c;
-        const double len = d.norm();
-        if (len < 1e-9) continue;
-        const Eigen::Vector4d j{-d.x() / len, -d.y() / len, -d.z() / len, -1.0};
-        jj += j * j.transpose();
-        jr += j * (len - r);
-      }
-      const Eigen::Vector4d step = jj.ldlt().solve(-jr);
-      if (!step.allFinite()) break;
-      c += step.head<3>();
-      r += step[3];
-    }
-    Sphere now;
-    now.c = c;
-    now.r = r = std::abs(r);
-    double cost = 0, sq = 0;
-    int inl = 0;
-    for (size_t i = 0; i < lp.size(); ++i) {
-      const double e = (lp[i] - c).norm() - now.r;
-      in[i] = inlier<V3>(lp[i] - c, ln[i], e, band2);
-      cost += in[i] ? e * e : band2;
-      if (in[i]) sq += e * e, ++inl;
-    }
-    now.cost = cost / double(lp.size());
-    now.inliers = double(inl) / double(lp.size());
-    now.rms = inl ? std::sqrt(sq / inl) : 0;
-    now.ok = std::isfinite(now.cost) && now.r <= maxRadius;
-    if (now.ok && now.cost < best.cost) best = now;
-  }
-  return best;
+  return fitRound<3>(lp, ln, c, r, band, 4, maxRadius);
 }
 
 Vec3 toVec(const V3& v) { return {v.x(), v.y(), v.z()}; }
