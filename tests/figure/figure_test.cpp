@@ -13,6 +13,7 @@
 #include <sstream>
 #include <sys/wait.h>
 
+#include "headless_gl.hpp"
 #include "shape_fixtures.hpp"
 #include "test_data.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -184,10 +185,7 @@ TEST(Framing, FitsTheDrawnSegmentsOnly) {
   EXPECT_LT(extentOf(v, {0, 1, 1}), 0.6);
 }
 
-render::GlContext& gl() {
-  static std::unique_ptr<render::GlContext> context = render::GlContext::createHeadless();
-  return *context;
-}
+render::GlContext& gl() { return test::headlessGl(); }
 
 IllustrationSettings front(int size) {
   IllustrationSettings s;

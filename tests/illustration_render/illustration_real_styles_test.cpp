@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <iostream>
 
+#include "headless_gl.hpp"
 #include "image_compare.hpp"
 #include "test_data.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
@@ -16,10 +17,7 @@
 namespace vellum::illustration {
 namespace {
 
-render::GlContext& gl() {
-  static std::unique_ptr<render::GlContext> context = render::GlContext::createHeadless();
-  return *context;
-}
+render::GlContext& gl() { return test::headlessGl(); }
 
 RgbaImage gpu(const ShapeScene& scene, const Style& st, const IllustrationSettings& s) {
   IllustrationRenderer r(gl());

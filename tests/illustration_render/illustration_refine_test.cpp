@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "headless_gl.hpp"
 #include "image_compare.hpp"
 #include "shape_fixtures.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
@@ -14,10 +15,7 @@
 namespace vellum::illustration {
 namespace {
 
-render::GlContext& gl() {
-  static std::unique_ptr<render::GlContext> context = render::GlContext::createHeadless();
-  return *context;
-}
+render::GlContext& gl() { return test::headlessGl(); }
 
 /// bone in muscle in skin, 48^3 voxels of 1 mm.
 const ShapeScene& nested() {

@@ -11,6 +11,7 @@
 #include <sys/wait.h>
 #include <algorithm>
 
+#include "headless_gl.hpp"
 #include "hostile_json.hpp"
 #include "image_compare.hpp"
 #include "shape_fixtures.hpp"
@@ -24,10 +25,7 @@
 namespace vellum::illustration {
 namespace {
 
-render::GlContext& gl() {
-  static std::unique_ptr<render::GlContext> context = render::GlContext::createHeadless();
-  return *context;
-}
+render::GlContext& gl() { return test::headlessGl(); }
 
 const ShapeScene& nested() {
   static const ShapeScene s = test::nestedScene(48);

@@ -10,6 +10,7 @@
 #include <iostream>
 #include <numbers>
 
+#include "headless_gl.hpp"
 #include "image_compare.hpp"
 #include "shape_fixtures.hpp"
 #include "vellum/illustration/illustration_renderer.hpp"
@@ -19,10 +20,7 @@
 namespace vellum::illustration {
 namespace {
 
-render::GlContext& gl() {
-  static std::unique_ptr<render::GlContext> context = render::GlContext::createHeadless();
-  return *context;
-}
+render::GlContext& gl() { return test::headlessGl(); }
 
 RgbaImage gpu(const ShapeScene& scene, const Style& st, const IllustrationSettings& s) {
   IllustrationRenderer r(gl());

@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include "analytic_volumes.hpp"
+#include "headless_gl.hpp"
 #include "image_compare.hpp"
 #include "render_common.hpp"  // white-box: detail::pixelRay, the renderer's own rays
 #include "vellum/core/error.hpp"
@@ -19,10 +20,7 @@
 namespace vellum::render {
 namespace {
 
-GlContext& gl() {
-  static std::unique_ptr<GlContext> context = GlContext::createHeadless();
-  return *context;
-}
+GlContext& gl() { return test::headlessGl(); }
 
 RenderSettings settingsOf(Preset p, int w, int h, double fov, double azimuth = 35, double elevation = 20) {
   RenderSettings s;

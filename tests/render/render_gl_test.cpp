@@ -9,6 +9,7 @@
 #include <set>
 
 #include "analytic_volumes.hpp"
+#include "headless_gl.hpp"
 #include "image_compare.hpp"
 #include "light_volume.hpp"
 #include "vellum/core/error.hpp"
@@ -18,10 +19,7 @@
 namespace vellum::render {
 namespace {
 
-GlContext& gl() {
-  static std::unique_ptr<GlContext> context = GlContext::createHeadless();
-  return *context;
-}
+GlContext& gl() { return test::headlessGl(); }
 
 // GL vs CPU tolerances, in 8-bit levels. On llvmpipe the two agree to within one level on a
 // handful of pixels (float vs double arithmetic; measured values in docs/benchmarks-render.md).
