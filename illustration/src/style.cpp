@@ -395,7 +395,7 @@ Style textbook() {
 Style pen() {
   Style s;
   s.name = "pen";
-  s.description = "pen-and-ink drawing: black lines of constant pixel width along silhouettes, contours and creases, hatching by tone, on white; the skin as an outline only";
+  s.description = "pen-and-ink drawing: black lines of constant pixel width along silhouettes, contours and creases, hatching by tone, on white; the skin as an outline only, muscle and fat left out (the bones show)";
   s.background = {1.f, 1.f, 1.f};
   // Structures: opaque paper-white fill (hides the lines behind them), ink on top.
   SegmentStyle r = row("", {1.f, 1.f, 1.f}, 1.0f);
@@ -412,7 +412,15 @@ Style pen() {
   skin.hatchSpacingPx = 0;
   skin.creaseWidthPx = 0;
   skin.lineWidthPx = 1.5f;
-  s.segments = {skin};
+  // Soft tissue is left out, as in a pen plate of the skeleton: drawn opaque (the fallback)
+  // it hid the bones under a hatched white cylinder, and as an outline it ran a few mm
+  // inside the skin's, doubling it.
+  auto muscle = r;
+  muscle.match = "muscle";
+  muscle.visible = false;
+  auto fat = muscle;
+  fat.match = "fat";
+  s.segments = {skin, muscle, fat};
   return s;
 }
 
