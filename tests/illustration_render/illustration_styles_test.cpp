@@ -397,6 +397,33 @@ TEST(IllustrationStyles, PenDrawsNoLinesBehindATransparentSurface) {
   EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
 }
 
+/// The pen preset on a knee-like nesting (bone inside muscle inside skin): the muscle is left
+/// out, so the bone's outline shows all round inside the skin's, and the figure is the one
+/// of the same scene without a muscle segment. (The preset's fallback drew the muscle as an
+/// opaque hatched cylinder that hid the bone.) GL equals the CPU reference.
+TEST(IllustrationStyles, PenShowsTheBonesThroughTheMuscle) {
+  const int n = 48;
+  const ShapeScene nested = test::nestedScene(n);
+  const double rb = 0.18 * n, rm = 0.30 * n, rs = 0.36 * n;  // as test::nestedScene
+  const ShapeScene noMuscle = test::makeScene(
+      n, {{"bone", [=](const Vec3& p) { return test::sphereSdf(p, {0, 0, 0}, rb); }},
+          {"skin", [=](const Vec3& p) { return std::max(rm - norm(p), test::sphereSdf(p, {0, 0, 0}, rs)); }}});
+  const Style st = stylePreset("pen");
+  const IllustrationSettings s = front(128);
+  const RgbaImage a = renderIllustrationCpu(nested, st, s), b = renderIllustrationCpu(noMuscle, st, s);
+  maybeSave(a, "pen-nested");
+  const double pxMm = 128 / (2 * std::sqrt(3.0) * 0.5 * n);
+  int boneGaps = 0;
+  for (int deg = 0; deg < 360; deg += 5)
+    if (darkestAlong(a, deg * std::numbers::pi / 180, rb * pxMm - 3, rb * pxMm + 3) < 0.5) ++boneGaps;
+  std::cout << "[ pen ] bone outline: " << boneGaps << " of 72 directions without ink\n";
+  EXPECT_EQ(boneGaps, 0);
+  const test::ImageDiff withWithout = test::compareImages(a, b);
+  EXPECT_LE(withWithout.maxAbs, 2) << "the muscle changes the pen figure";
+  const test::ImageDiff d = test::compareImages(gpu(nested, st, s), a);
+  EXPECT_LE(d.meanAbs[1], 1.0) << "GL vs CPU";
+}
+
 /// Pen creases: ink where the surface's normal turns sharply, of constant pixel width. A cube
 /// seen edge-on (azimuth 45, elevation 0: two faces meet in a vertical edge at the image's
 /// centre column) gets a line on that edge and none on the faces; a sphere gets none inside
