@@ -634,11 +634,14 @@ after (right: ivory bone, continuous skin outline):
 
 ![x-ray](images/styles-x-ray.png)
 
-What still falls short: lines come from silhouettes and contours only (no creases or
-suggestive contours inside a bone's outline, no line-weight variation by depth or
-curvature); hatching is in screen space (it does not follow the surface's direction, and it
-would swim in an animation); a transparent skin shows its far-side contours too (double
-lines along the foot's edge); where two bones touch within a line width their outlines merge.
+What still falls short: no suggestive contours and no line-weight variation by depth or
+curvature; the hatching planes follow the grid's axes, not each bone's; where two bones touch
+within a line width their outlines merge; a surface cut by the volume's edge (the legs' top)
+gets a dotted rim, since no ray samples beyond the box. `pen` leaves muscle and fat out (drawn
+opaque they hid the bones; as outlines they doubled the skin's). The second line that ran
+beside the feet's skin outline was no far-side contour: a cord about 2 mm thick lies on each
+foot's skin (a ridge above air, "bone" above 200 HU); the gallery's masks are opened to drop
+it (scripts/gallery.sh).
 )";
   return o.str();
 }
