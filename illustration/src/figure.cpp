@@ -20,7 +20,11 @@ int maxId(const LabelVolume& segments) {
 }
 
 bool draws(const SegmentStyle& r) {
-  return r.visible && r.opacity > 0 && r.lambdaIllum + r.lambdaColouring + r.lambdaTexture > 0;
+  // A fill, or ink alone (as the style table's ink flag): a skin drawn as an outline only is
+  // drawn, so it is framed and labelled.
+  const bool fill = r.opacity > 0 && r.lambdaIllum + r.lambdaColouring + r.lambdaTexture > 0;
+  const bool ink = r.lineOpacity > 0 && (r.lineWidthPx > 0 || r.hatchSpacingPx > 0 || r.creaseWidthPx > 0);
+  return r.visible && (fill || ink);
 }
 
 }  // namespace

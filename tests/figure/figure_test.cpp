@@ -246,6 +246,15 @@ TEST(FigureLabels, OnlyDrawnSegmentsAreLabelled) {
   const RgbaImage c = renderer.render(noInk, s);
   EXPECT_EQ(anchorIds(drawnSegmentAnchors(renderer, noInk, s, scene.segments, c)), (std::vector<uint16_t>{1}));
 
+  // An outline only (no fill, ink lines: the textbook and pen skin) is drawn: framed and labelled.
+  Style outline = twoRows();
+  outline.segments[1].opacity = 0;
+  outline.segments[1].lineWidthPx = 1.5f;
+  ASSERT_GE(styleDrawnIds(outline, scene.segments).size(), 3u);
+  EXPECT_EQ(styleDrawnIds(outline, scene.segments)[2], 1);
+  const RgbaImage e = renderer.render(outline, s);
+  EXPECT_EQ(anchorIds(drawnSegmentAnchors(renderer, outline, s, scene.segments, e)), (std::vector<uint16_t>{1, 2}));
+
   // Only the candidates asked for.
   LabelSearch onlyMuscle;
   onlyMuscle.ids = {2};
