@@ -112,8 +112,8 @@ fi
   surface bits), the skin 0.3 % once the table is removed (1486 to 1482 cm³).
 - **Feet, textbook**: ivory bones, one continuous skin outline per foot. Short of a published
   plate: the rim where the volume cuts the legs is dotted (no ray samples beyond the box); the
-  skin gets no label (only the bones are named); the tarsal bones' inner facets stay smooth
-  blobs where the 1 mm CT cannot separate them.
+  tarsal bones' inner facets stay smooth blobs where the 1 mm CT cannot separate them. The
+  skin outline is named and framed (an outline-only row counts as drawn since s17).
 - **Feet, pen**: bones in ink with cross-contour hatching in their shadows, tarsal joint lines
   and phalanx outlines, one skin outline. Short: small dark knots of ink on rough bone (the
   cuboid and the lateral tarsus of the left foot), the hatching planes follow the grid, not each
