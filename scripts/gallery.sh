@@ -116,15 +116,16 @@ fi
   skin outline is named and framed (an outline-only row counts as drawn since s17).
 - **Feet, pen**: bones in ink with cross-contour hatching in their shadows, tarsal joint lines
   and phalanx outlines, one skin outline. Short: small dark knots of ink on rough bone (the
-  cuboid and the lateral tarsus of the left foot), the hatching planes follow the grid, not each
-  bone's axis, and the skin outline breaks for a few pixels along the left foot's lateral border.
+  lateral tarsus of the left foot), the hatching planes follow the grid, not each bone's axis,
+  and the skin outline breaks for a few pixels in places (the left foot's lateral border).
 - **Feet, x-ray**: translucent bones with glowing edges, no block artefacts. Fine.
 - **Phantom, pen**: the skin's outline and the bones in ink, hatched by tone (the preset leaves
   muscle and fat out: the fallback row drew them as an opaque hatched cylinder). Short: the
   skin's outline stops at the volume's top and bottom (no cut line), scratchy crease marks
   where the mesh keeps faint terraces (the femur's top and condyles).
-- **Phantom, textbook and x-ray**: ivory bones through translucent red muscle; the skin's cut
-  ends show as pale discs. The phantom's cartilage steps are in the phantom, not the renderer.
+- **Phantom, textbook and x-ray**: textbook: ivory bones through translucent red muscle;
+  x-ray: blue-white glow, no blocks. In both the skin's cut ends show as pale discs. The
+  phantom's cartilage steps are in the phantom, not the renderer.
 - **Thin structures**: a structure thinner than a ray step is caught by some rays and missed
   by their jittered neighbours, so it draws dotted (the march loop's limit, not mended). None is
   left in these figures: the one-voxel sheet beside the feet goes with `--min-island 2500`, the
