@@ -16,6 +16,7 @@
 #include "headless_gl.hpp"
 #include "shape_fixtures.hpp"
 #include "test_data.hpp"
+#include "vellum/core/box_corners.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/illustration/figure.hpp"
 #include "vellum/render/annotations.hpp"
@@ -42,9 +43,8 @@ Extent projected(const Geometry& g, const render::RenderSettings& s, const std::
 
 // The eight corners of a box (mm).
 std::vector<Vec3> corners(const Vec3& lo, const Vec3& hi) {
-  std::vector<Vec3> c;
-  for (int n = 0; n < 8; ++n) c.push_back({n & 1 ? hi.x : lo.x, n & 2 ? hi.y : lo.y, n & 4 ? hi.z : lo.z});
-  return c;
+  const auto c = boxCorners(lo, hi);
+  return {c.begin(), c.end()};
 }
 
 Geometry grid(int n, double spacing) {

@@ -1,5 +1,6 @@
 #include "view3d.hpp"
 #include "thread_priority.hpp"
+#include "vellum/core/box_corners.hpp"
 
 #include <GL/glcorearb.h>
 #include <GLFW/glfw3.h>
@@ -46,11 +47,7 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
   // The orbit camera of render::RenderSettings (modules/render/src/render_common.cpp).
   const Geometry& g = scene.ct.geometry();
   const Vec3 centre = g.center();
-  double radius = 0;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 corner{(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5, (c & 4) ? g.dims.z - 0.5 : -0.5};
-    radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
-  }
+  const double radius = voxelBoxRadius(g, centre);
   const render::Camera& cam = scene.render.camera;
   const Vec3 lookAt = centre + cam.panMm;
   const auto [right, up, forward] = cameraBasis(cam);
@@ -78,14 +75,7 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
 
 namespace {
 /// Bounding-sphere radius of the volume's voxel box about its centre (the renderer's).
-double boundingRadius(const Geometry& g) {
-  double radius = 0;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 corner{(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5, (c & 4) ? g.dims.z - 0.5 : -0.5};
-    radius = std::max(radius, norm(g.indexToPhysical(corner) - g.center()));
-  }
-  return radius;
-}
+double boundingRadius(const Geometry& g) { return voxelBoxRadius(g, g.center()); }
 }  // namespace
 
 namespace {
