@@ -25,12 +25,6 @@
 namespace vellum::illustration {
 namespace {
 
-render::GlContext& gl() { return test::headlessGl(); }
-
-const ShapeScene& nested() {
-  static const ShapeScene s = test::nestedScene(48);
-  return s;
-}
 const ShapeScene& spheres() {
   static const ShapeScene s = test::twoSpheres(48);
   return s;
@@ -49,12 +43,12 @@ IllustrationSettings front(int size = 96, Interpolation interp = Interpolation::
 }
 
 RgbaImage gpu(const ShapeScene& scene, const Style& st, const IllustrationSettings& s) {
-  render::GlContext& context = gl();  // constructed first, so destroyed after the renderer
+  render::GlContext& context = test::headlessGl();  // constructed first, so destroyed after the renderer
   static const ShapeScene* uploaded = nullptr;
   static std::unique_ptr<IllustrationRenderer> r;
   if (!r) r = std::make_unique<IllustrationRenderer>(context);
   // Only the two static scenes are cached: a test's local scene may reuse an old address.
-  const bool cacheable = &scene == &nested() || &scene == &spheres();
+  const bool cacheable = &scene == &test::nestedScene48() || &scene == &spheres();
   if (!cacheable || uploaded != &scene) {
     r->setScene(scene);
     uploaded = cacheable ? &scene : nullptr;
@@ -110,8 +104,8 @@ TEST(IllustrationGl, MatchesCpuReferenceInBothModes) {
       s.render.camera.azimuthDeg = 35;
       s.render.camera.elevationDeg = 20;
       s.render.camera.fieldOfViewDeg = 30;
-      const RgbaImage g = gpu(nested(), st, s);
-      const RgbaImage c = renderIllustrationCpu(nested(), st, s);
+      const RgbaImage g = gpu(test::nestedScene48(), st, s);
+      const RgbaImage c = renderIllustrationCpu(test::nestedScene48(), st, s);
       maybeSave(g, "gl-" + preset + "-" + interpolationName(mode));
       EXPECT_GT(coverage(g), 0.1) << preset;
       expectClose(g, c, preset + " " + interpolationName(mode));
@@ -130,7 +124,7 @@ TEST(IllustrationGl, DvrUsesTheCt) {
   scene.ct = ct;
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const IllustrationSettings s = front(64, mode);
-    IllustrationRenderer r(gl());
+    IllustrationRenderer r(test::headlessGl());
     r.setScene(scene);
     const RgbaImage g = r.render(st, s);
     EXPECT_GT(coverage(g), 0.1);
@@ -230,7 +224,7 @@ TEST(IllustrationGl, EachListOfShownRowsAndInkedSlotsGetsItsOwnProgram) {
   // The shader is compiled per list of shown rows and inked slots (ShaderVariant::items,
   // inkSlots: constant loops for llvmpipe). One renderer drawing styles that differ only in
   // which rows show or draw ink must still draw each one as the CPU reference does.
-  IllustrationRenderer r(gl());
+  IllustrationRenderer r(test::headlessGl());
   r.setScene(spheres());
   const IllustrationSettings s = front(64);
   Style both = twoRowStyle();
@@ -452,7 +446,7 @@ TEST(IllustrationNested, BoneInsideAnInvisibleSkinRendersAsTheBoneAlone) {
         }
     EXPECT_GT(hi - lo, 60) << "bone shading range";
     // GL agrees with its CPU reference on the nested scene.
-    IllustrationRenderer r(gl());
+    IllustrationRenderer r(test::headlessGl());
     r.setScene(nestedScene);
     const RgbaImage g = r.render(st, s);
     maybeSave(g, std::string("gl-nested-bone-") + interpolationName(mode));
@@ -525,7 +519,7 @@ TEST(IllustrationSmooth, AnisotropicEllipsoidMatchesTheFineGrid) {
   std::cout << "[ ellipsoid ] 1x1x3 mm vs 0.5 mm: psnr " << d.psnr << " dB, mean " << d.meanAbs[0] << " "
             << d.meanAbs[1] << " " << d.meanAbs[2] << ", p99 " << d.p99 << ", max " << d.maxAbs << "\n";
   EXPECT_GE(d.psnr, 35.0);
-  IllustrationRenderer r(gl());
+  IllustrationRenderer r(test::headlessGl());
   r.setScene(coarse);
   expectClose(r.render(st, s), a, "ellipsoid 1x1x3 GL vs CPU");
 }

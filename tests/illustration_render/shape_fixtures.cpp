@@ -66,6 +66,11 @@ illustration::ShapeScene nestedScene(int n) {
                        {"skin", [=](const Vec3& p) { return std::max(rm - norm(p), sphereSdf(p, c, rs)); }}});
 }
 
+const illustration::ShapeScene& nestedScene48() {
+  static const illustration::ShapeScene s = nestedScene(48);
+  return s;
+}
+
 illustration::ShapeScene twoSpheres(int n) {
   const double r = 0.22 * n, off = 0.25 * n;
   return makeScene(n, {{"bone", [=](const Vec3& p) { return sphereSdf(p, {-off, 0, 0}, r); }},

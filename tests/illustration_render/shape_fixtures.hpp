@@ -26,6 +26,8 @@ double boxSdf(const Vec3& p, const Vec3& c, const Vec3& halfSize);
 
 /// bone (r = 0.18 n) inside muscle (to 0.3 n) inside skin (to 0.36 n), centred.
 illustration::ShapeScene nestedScene(int n);
+/// nestedScene(48), made once per test program (the scene most GL vs CPU checks draw).
+const illustration::ShapeScene& nestedScene48();
 /// "bone" sphere left (-x), "muscle" sphere right (+x), radius 0.22 n, separated.
 illustration::ShapeScene twoSpheres(int n);
 
