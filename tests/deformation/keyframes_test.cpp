@@ -344,7 +344,7 @@ TEST(Keyframes, FieldOfViewInterpolatesHoldsAndRoundTrips) {
   // Bad values name the file, the keyframe and the field.
   std::ifstream in(dir / "k.json");
   const std::string good((std::istreambuf_iterator<char>(in)), {});
-  for (const std::string& bad : {"\"fov\": 121", "\"fov\": -1", "\"fov\": \"wide\"", "\"fov\": null"}) {
+  for (const char* bad : {"\"fov\": 121", "\"fov\": -1", "\"fov\": \"wide\"", "\"fov\": null"}) {
     std::string text = good;
     const size_t at = text.find("\"fov\": 0.0");
     ASSERT_NE(at, std::string::npos) << text;

@@ -93,7 +93,9 @@ TEST(ShapeCli, EndToEndOnPhantom) {
   EXPECT_FLOAT_EQ(fields[1].shellMm, 2.0f);
   for (size_t n = 0; n < d.size(); n += 97) {
     const auto id = seg.ids().data()[n];
-    if (id == 2 || id == 4) EXPECT_LT(fields[1].distance.data()[n], 0) << n;
+    if (id == 2 || id == 4) {
+      EXPECT_LT(fields[1].distance.data()[n], 0) << n;
+    }
   }
 }
 

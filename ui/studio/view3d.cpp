@@ -375,7 +375,10 @@ bool View3D::stepMap(size_t maxBytes) {
 void View3D::setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted) {
   if (!hasVolume_ || !wanted || labels.ids().empty()) return;  // the tint is made when first wanted
   std::string key = std::to_string(revision);
-  for (uint16_t id : hidden) key += " " + std::to_string(id);
+  for (uint16_t id : hidden) {
+    key += ' ';  // not " " + a temporary: GCC 12's false -Wrestrict at -O3 (panel_deformation.cpp)
+    key += std::to_string(id);
+  }
   if (key == labelsKey_) return;
   context_.makeCurrent();
   const render::LabelTint tint = render::makeLabelTint(labels, hidden);
