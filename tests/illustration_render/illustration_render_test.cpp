@@ -145,19 +145,6 @@ std::vector<std::pair<int, int>> changed(const RgbaImage& a, const RgbaImage& b,
   return out;
 }
 
-Style twoRowStyle() {
-  Style st;
-  SegmentStyle bone, muscle;
-  bone.match = "bone";
-  bone.colour = {0.9f, 0.85f, 0.7f};
-  bone.opacity = 0.8f;
-  muscle.match = "muscle";
-  muscle.colour = {0.8f, 0.2f, 0.15f};
-  muscle.opacity = 0.8f;
-  st.segments = {bone, muscle};
-  return st;
-}
-
 TEST(IllustrationGl, TextureVolumeMatchesCpu) {
   const auto dir = test::tempDir("texvol");
   Geometry g;
@@ -167,7 +154,7 @@ TEST(IllustrationGl, TextureVolumeMatchesCpu) {
     for (int64_t j = 0; j < 8; ++j)
       for (int64_t i = 0; i < 8; ++i) tex(i, j, k) = uint8_t(((i + j + k) % 3) * 100);
   io::saveVolume(tex, dir / "tex.nrrd");
-  Style st = twoRowStyle();
+  Style st = test::twoRowStyle();
   st.textureVolume = (dir / "tex.nrrd").string();
   st.segments[0].lambdaTexture = 0.6f;
   st.segments[0].lambdaColouring = 0.4f;
@@ -189,7 +176,7 @@ TEST(IllustrationGl, TextureVolumeMatchesCpu) {
 TEST(IllustrationGl, EveryProceduralTextureMatchesCpu) {
   for (SolidTexture kind : {SolidTexture::Noise, SolidTexture::Marble, SolidTexture::Wood, SolidTexture::Stripes,
                             SolidTexture::Stipple}) {
-    Style st = twoRowStyle();
+    Style st = test::twoRowStyle();
     for (auto& r : st.segments) {
       r.lambdaTexture = 0.7f;
       r.lambdaColouring = 0.3f;
@@ -207,7 +194,7 @@ TEST(IllustrationGl, EveryProceduralTextureMatchesCpu) {
 TEST(IllustrationGl, LambdaChangesOnlyThatSegment) {
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const IllustrationSettings s = front(96, mode);
-    Style a = twoRowStyle();
+    Style a = test::twoRowStyle();
     Style b = a;
     b.segments[1].lambdaColouring = 0.2f;
     b.segments[1].lambdaIllum = 0.5f;
@@ -227,7 +214,7 @@ TEST(IllustrationGl, EachListOfShownRowsAndInkedSlotsGetsItsOwnProgram) {
   IllustrationRenderer r(test::headlessGl());
   r.setScene(spheres());
   const IllustrationSettings s = front(64);
-  Style both = twoRowStyle();
+  Style both = test::twoRowStyle();
   Style boneOnly = both;
   boneOnly.segments[1].opacity = 0;  // the muscle's row does not show
   Style boneInk = both;
@@ -333,7 +320,7 @@ TEST(IllustrationGl, InvisibleSegmentLeavesNoTrace) {
   ShapeScene without = test::twoSpheres(48);
   for (auto& v : without.segments.ids().voxels())
     if (v == 2) v = 0;  // the muscle's voxels become unclassified (invisible)
-  Style st = twoRowStyle();
+  Style st = test::twoRowStyle();
   st.segments[1].visible = false;
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const IllustrationSettings s = front(96, mode);

@@ -77,6 +77,19 @@ illustration::ShapeScene twoSpheres(int n) {
                        {"muscle", [=](const Vec3& p) { return sphereSdf(p, {off, 0, 0}, r); }}});
 }
 
+illustration::Style twoRowStyle() {
+  illustration::Style st;
+  illustration::SegmentStyle bone, muscle;
+  bone.match = "bone";
+  bone.colour = {0.9f, 0.85f, 0.7f};
+  bone.opacity = 0.8f;
+  muscle.match = "muscle";
+  muscle.colour = {0.8f, 0.2f, 0.15f};
+  muscle.opacity = 0.8f;
+  st.segments = {bone, muscle};
+  return st;
+}
+
 void writeShapeFolder(const illustration::ShapeScene& scene, const std::filesystem::path& dir) {
   std::filesystem::create_directories(dir);
   io::saveVolume(scene.distance, dir / "distance.nrrd");

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "vellum/illustration/illustration_renderer.hpp"
+#include "vellum/illustration/style.hpp"
 
 namespace vellum::test {
 
@@ -30,6 +31,8 @@ illustration::ShapeScene nestedScene(int n);
 const illustration::ShapeScene& nestedScene48();
 /// "bone" sphere left (-x), "muscle" sphere right (+x), radius 0.22 n, separated.
 illustration::ShapeScene twoSpheres(int n);
+/// A style for those two segments: ivory bone and red muscle, both 0.8 opaque.
+illustration::Style twoRowStyle();
 
 /// Writes DIR/distance.nrrd, DIR/segments.nrrd and the per-segment distances as `vellum shape` does.
 void writeShapeFolder(const illustration::ShapeScene& scene, const std::filesystem::path& dir);
