@@ -22,7 +22,7 @@ KeyframeTrack threeKeys(Interpolation in, bool loop) {
   for (int k = 0; k < 3; ++k) {
     ControlPoint p{{0, 0, 0}, {10.0 * k, k == 1 ? 5.0 : 0.0, 0}, {}};
     p.attributes.lightness = 10.0 * k;
-    t.keyframes.push_back({1.0 + k, {p}});
+    t.keyframes.push_back({1.0 + k, {p}, std::nullopt, ""});
   }
   return t;
 }
