@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "solid_texture.hpp"
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -639,11 +640,7 @@ StyleTable packStyle(const Style& style, const std::vector<Label>& table, int ma
   // Depths in mm become fractions of the bounding sphere's diameter (what the shader uses).
   const Dims& d = g.dims;
   const Vec3 centre = g.indexToPhysical({(d.x - 1) * 0.5, (d.y - 1) * 0.5, (d.z - 1) * 0.5});
-  double radius = 0;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 corner{(c & 1) ? d.x - 0.5 : -0.5, (c & 2) ? d.y - 0.5 : -0.5, (c & 4) ? d.z - 0.5 : -0.5};
-    radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
-  }
+  const double radius = voxelBoxRadius(g, centre);
   const double diameter = std::max(2 * radius, 1e-6);
   StyleTable t;
   t.rows = kMaxLabels;

@@ -6,6 +6,7 @@
 #include "illustration_renderer_common.hpp"
 #include "image_refine.hpp"
 #include "render_common.hpp"  // modules/render: camera rays, clip, jitter (shared with its shaders)
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/io/nrrd_reader.hpp"
@@ -290,11 +291,7 @@ SampleFrame makeSampleFrame(const Geometry& g, const render::detail::Frame& f, c
   SampleFrame sf;
   const Dims& d = g.dims;
   const Vec3 centre = g.indexToPhysical({(d.x - 1) * 0.5, (d.y - 1) * 0.5, (d.z - 1) * 0.5});
-  double radius = 0;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 corner{(c & 1) ? d.x - 0.5 : -0.5, (c & 2) ? d.y - 0.5 : -0.5, (c & 4) ? d.z - 0.5 : -0.5};
-    radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
-  }
+  const double radius = voxelBoxRadius(g, centre);
   sf.centre = f3(centre);
   sf.radius = float(std::max(radius, 1e-6));
   sf.forward = f3(f.forward);

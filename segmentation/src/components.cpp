@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "vellum/core/binary_copy.hpp"
 #include "vellum/core/parallel.hpp"
 
 namespace vellum::segmentation {
@@ -21,10 +22,8 @@ Mask keepComponentsWithSeeds(const Mask& m, const std::vector<Vec3>& seedsMm,
 }
 
 Mask fillHoles(const Mask& m) {
-  Mask out(m.geometry(), 0, 0.0);
-  const uint8_t* src = m.data();
-  uint8_t* o = out.data();
-  for (size_t i = 0; i < out.size(); ++i) o[i] = src[i] != 0;
+  Mask out = binaryCopy(m);
+  out.setBackground(0.0);  // 0 outside the grid, whatever `m` said (as fillHoles always gave)
   fillHolesInPlace(out);
   return out;
 }

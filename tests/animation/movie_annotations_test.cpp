@@ -27,7 +27,7 @@ TEST(MovieAnnotations, LabelAnchorsFollowTheDeformation) {
   deformation::ControlPoints moved = start;
   for (auto& p : moved) p.target = p.source + Vec3{20, 0, 0};
   deformation::KeyframeTrack track;
-  track.keyframes = {{1.0, start}, {0.0, moved}};
+  track.keyframes = {{1.0, start, std::nullopt, ""}, {0.0, moved, std::nullopt, ""}};
 
   animation::MovieSpec spec;
   spec.fps = 1;  // two frames: the start and the end
@@ -103,7 +103,7 @@ TEST(MovieAnnotations, AnchorsSitOnTheDeformedStructuresCentre) {
     p.target = c + Vec3{std::cos(a) * q.x - std::sin(a) * q.y, std::sin(a) * q.x + std::cos(a) * q.y, q.z} + Vec3{-6, 4, 2};
   }
   deformation::KeyframeTrack track;
-  track.keyframes = {{1.0, start, std::nullopt}, {0.0, moved, std::nullopt}};
+  track.keyframes = {{1.0, start, std::nullopt, ""}, {0.0, moved, std::nullopt, ""}};
 
   animation::MovieSpec spec;
   spec.fps = 2;  // frames at 0, 0.5 and 1 s: the turn half done in the middle one

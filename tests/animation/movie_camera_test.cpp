@@ -33,14 +33,14 @@ TEST(MovieCamera, FramesFollowKeyframedCameras) {
   spec.settings.preset = render::Preset::Bone;
 
   deformation::KeyframeTrack turning;
-  turning.keyframes = {{1.0, still, deformation::KeyframeCamera{0, 0, 1, {0, 0, 0}, std::nullopt}},
-                       {0.0, still, deformation::KeyframeCamera{90, 20, 1.5, {0, 0, 0}, std::nullopt}}};
+  turning.keyframes = {{1.0, still, deformation::KeyframeCamera{0, 0, 1, {0, 0, 0}, std::nullopt}, ""},
+                       {0.0, still, deformation::KeyframeCamera{90, 20, 1.5, {0, 0, 0}, std::nullopt}, ""}};
   const auto turned = frames(ct, turning, spec);
   ASSERT_EQ(turned.size(), 3u);
 
   // The same frames from a track without cameras, the settings' camera set to each key's.
   deformation::KeyframeTrack plain;
-  plain.keyframes = {{0.0, still, std::nullopt}};
+  plain.keyframes = {{0.0, still, std::nullopt, ""}};
   const auto at = [&](double az, double el, double zoom) {
     animation::MovieSpec s = spec;
     s.settings.camera.azimuthDeg = az;
@@ -68,7 +68,7 @@ TEST(MovieCamera, FramesFollowTheKeyedFieldOfView) {
   const deformation::KeyframeCamera wide{20, 10, 1, {0, 0, 0}, 80.0}, ortho{20, 10, 1, {0, 0, 0}, 0.0};
 
   deformation::KeyframeTrack plain;
-  plain.keyframes = {{0.0, still, std::nullopt}};
+  plain.keyframes = {{0.0, still, std::nullopt, ""}};
   const auto at = [&](double fov) {
     animation::MovieSpec s = spec;
     s.settings.camera.azimuthDeg = 20;
@@ -77,7 +77,7 @@ TEST(MovieCamera, FramesFollowTheKeyedFieldOfView) {
     return frames(ct, plain, s).front();
   };
   deformation::KeyframeTrack zooming;
-  zooming.keyframes = {{1.0, still, wide}, {0.0, still, ortho}};
+  zooming.keyframes = {{1.0, still, wide, ""}, {0.0, still, ortho, ""}};
   const auto zoomed = frames(ct, zooming, spec);
   ASSERT_EQ(zoomed.size(), 3u);
   EXPECT_EQ(zoomed[0].pixels, at(80).pixels);

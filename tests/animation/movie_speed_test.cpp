@@ -77,8 +77,9 @@ TEST(MovieSpeed, OverlappedFramesAreTheSameAndInBetweenFramesMayBeMeasuredAtThei
     EXPECT_EQ(r.perFrame[f].voxelsAsRendered.stride, key ? 1 : 0) << "frame " << f;
     EXPECT_EQ(r.perFrame[f].nodes.nodes, serial.perFrame[f].nodes.nodes) << "frame " << f;
     EXPECT_NEAR(r.perFrame[f].nodes.boneRmsResidualMm, serial.perFrame[f].nodes.boneRmsResidualMm, 1e-9) << "frame " << f;
-    if (key)
+    if (key) {
       EXPECT_NEAR(r.perFrame[f].voxelsAsRendered.boneMaxResidualMm, serial.perFrame[f].voxelsAsRendered.boneMaxResidualMm, 1e-9);
+    }
   }
   EXPECT_NEAR(r.worst.boneRmsResidualMm, std::max(serial.perFrame[0].voxelsAsRendered.boneRmsResidualMm,
                                                   serial.perFrame[4].voxelsAsRendered.boneRmsResidualMm), 1e-9);

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.hpp"
+#include "phantom_files.hpp"
 #include "test_data.hpp"
 #include "vellum/app/run_report.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -75,11 +76,7 @@ TEST(RunReport, RenderReportNamesInputsOutputsAndSettings) {
 // bytes — the splitting watershed, the light volume, the deformation and its rigid bones.
 TEST(RunReport, OutputsAreTheSameBytesForOneAndManyThreads) {
   const auto dir = test::tempDir("threads");
-  phantom::PhantomOptions o;
-  o.dims = {48, 48, 48};
-  const phantom::Phantom ph = phantom::makePhantom(o);
-  io::saveVolume(ph.ct, dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  test::writePhantomFiles(dir, {48, 48, 48});
   const std::string ct = (dir / "ct.nrrd").string();
   auto run = [&](const std::vector<std::string>& args, const char* threads) {
     const int rc = test::Child(args, dir / "log.txt", [threads] { setenv("VELLUM_THREADS", threads, 1); }).wait();

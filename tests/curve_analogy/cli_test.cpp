@@ -7,6 +7,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "phantom_files.hpp"
 #include "test_data.hpp"
 #include "vellum/deformation/map_file.hpp"
 #include "vellum/illustration/curve_analogy.hpp"
@@ -32,11 +33,7 @@ class CurveAnalogyCli : public ::testing::Test {
   static void SetUpTestSuite() {
     dir_ = new fs::path(fs::temp_directory_path() / ("vellum-curve-cli-" + std::to_string(::getpid())));
     fs::create_directories(*dir_);
-    phantom::PhantomOptions po;
-    po.dims = {48, 48, 48};
-    const auto ph = phantom::makePhantom(po);
-    io::saveVolume(ph.ct, *dir_ / "ct.nrrd");
-    io::saveLabels(ph.labels, *dir_ / "labels.nrrd");
+    test::writePhantomFiles(*dir_, {48, 48, 48});
     const std::string args = (*dir_ / "ct.nrrd").string() + " --labels " + (*dir_ / "labels.nrrd").string() +
                              " --segment skin=1,2,3,4,5,6,7,8,9,10,11 --segment bone=4,5,6,7,8,9,11 --out " +
                              (*dir_ / "shape").string();

@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "commands.hpp"
+#include "phantom_files.hpp"
 #include "test_data.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/map_file.hpp"
@@ -38,11 +39,7 @@ void run(std::vector<std::string> args) {
 
 TEST(DeformCli, ControlsThenDeformWithRigidBonesAndReport) {
   const auto dir = vellum::test::tempDir("deform-cli");
-  phantom::PhantomOptions o;
-  o.dims = {48, 48, 56};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(ph.ct, dir / "knee.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const phantom::Phantom ph = vellum::test::writePhantomFiles(dir, {48, 48, 56}, "knee.nrrd");
 
   run({"controls", (dir / "knee.nrrd").string(), "--out", (dir / "cp.json").string()});
   auto pf = deformation::loadControlPoints(dir / "cp.json");
@@ -147,11 +144,7 @@ TEST(DeformCli, GivenPowerOverridesThePointFilesPower) {
 // gets the same region (else the rigid labels would not match the grid).
 TEST(DeformCli, DownsampleAndCropApplyToTheVolumeAndItsLabels) {
   const auto dir = vellum::test::tempDir("deform-region");
-  phantom::PhantomOptions o;
-  o.dims = {32, 32, 40};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(ph.ct, dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const phantom::Phantom ph = vellum::test::writePhantomFiles(dir, {32, 32, 40});
   run({"controls", (dir / "ct.nrrd").string(), "--out", (dir / "cp.json").string()});
   for (const std::vector<std::string>& region :
        {std::vector<std::string>{"--downsample", "2"}, std::vector<std::string>{"--crop", "4", "27", "0", "31", "8", "39"}}) {

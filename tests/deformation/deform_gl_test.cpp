@@ -58,7 +58,10 @@ TEST(DeformGl, RendererWithBackwardMapMatchesCpuReferences) {
   pts[0].attributes.lightness = 30;  // exercise the attribute fields too
   ControlVolume cv = computeControlVolume(ct, pts, p);
   applyRigidity(cv, RigidBodies::fromLabels(ph.labels, {4, 5, 6, 7, 8, 9, 11}));
-  render::BackwardMap map{cv.grid, cv.sourceMm, cv.attributes};
+  render::BackwardMap map;
+  map.grid = cv.grid;
+  map.sourceMm = cv.sourceMm;
+  map.attributes = cv.attributes;
 
   render::RenderSettings s;
   s.width = 128;

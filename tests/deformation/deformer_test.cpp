@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "test_helpers.hpp"
+#include "vellum/core/box_corners.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/synthesis.hpp"
 
@@ -14,12 +15,9 @@ namespace {
 // Bounding box (mm) of a volume's corners.
 std::pair<Vec3, Vec3> boxOf(const Geometry& g) {
   Vec3 lo{1e30, 1e30, 1e30}, hi{-1e30, -1e30, -1e30};
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 p = g.indexToPhysical({(c & 1) ? double(g.dims.x - 1) : 0.0,
-                                      (c & 2) ? double(g.dims.y - 1) : 0.0,
-                                      (c & 4) ? double(g.dims.z - 1) : 0.0});
+  const Dims& d = g.dims;
+  for (const Vec3& p : indexBoxCorners(g, {0, 0, 0}, {double(d.x - 1), double(d.y - 1), double(d.z - 1)}))
     for (int a = 0; a < 3; ++a) { lo[a] = std::min(lo[a], p[a]); hi[a] = std::max(hi[a], p[a]); }
-  }
   return {lo, hi};
 }
 

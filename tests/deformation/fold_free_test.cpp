@@ -67,7 +67,9 @@ TEST(FoldRepair, UnfoldsAndNeverMovesALockedNode) {
   int64_t written = 0;
   for (int64_t n = 0; n < d.voxelCount(); ++n) {
     const bool same = std::memcmp(cv.sourceMm.data() + 3 * n, before.sourceMm.data() + 3 * n, 3 * sizeof(float)) == 0;
-    if (locked[static_cast<size_t>(n)]) ASSERT_TRUE(same) << "locked node " << n << " moved";
+    if (locked[static_cast<size_t>(n)]) {
+      ASSERT_TRUE(same) << "locked node " << n << " moved";
+    }
     written += !same;
   }
   EXPECT_GT(written, 0);
@@ -249,9 +251,11 @@ TEST(FoldRepair, AScrambledSlideBetweenLockedSidesIsRelaxedIntoAShear) {
   EXPECT_GT(st.clustersRelaxed, 0);
   EXPECT_EQ(st.cellsAfter, 0) << "min " << st.minJacobianAfter;
   EXPECT_GT(minCellJacobian(cv), 0.0);
-  for (int64_t n = 0; n < d.voxelCount(); ++n)
-    if (locked[static_cast<size_t>(n)])
+  for (int64_t n = 0; n < d.voxelCount(); ++n) {
+    if (locked[static_cast<size_t>(n)]) {
       ASSERT_EQ(std::memcmp(cv.sourceMm.data() + 3 * n, before.sourceMm.data() + 3 * n, 3 * sizeof(float)), 0) << n;
+    }
+  }
 }
 
 // Issue 23's sliding contact in small: a block slides 8 mm along y past a still block 2 voxels

@@ -135,8 +135,8 @@ TEST(JsonRobustness, EveryTruncationOfAValidFileIsANamedError) {
 
 TEST(KeyframeTrack, FrameCountRefusesAbsurdTracks) {
   KeyframeTrack t;
-  t.keyframes.push_back({kMaxKeyframeDurationS, {{{0, 0, 0}, {0, 0, 0}, {}}}});
-  t.keyframes.push_back({kMaxKeyframeDurationS, {{{0, 0, 0}, {1, 0, 0}, {}}}});
+  t.keyframes.push_back({kMaxKeyframeDurationS, {{{0, 0, 0}, {0, 0, 0}, {}}}, std::nullopt, ""});
+  t.keyframes.push_back({kMaxKeyframeDurationS, {{{0, 0, 0}, {1, 0, 0}, {}}}, std::nullopt, ""});
   EXPECT_EQ(t.frameCount(1), int(2 * kMaxKeyframeDurationS) + 1);
   EXPECT_THROW(t.frameCount(1000), Error);  // 7.2 M frames
   t.keyframes[0].durationS = 1e12;

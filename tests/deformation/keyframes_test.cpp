@@ -22,7 +22,7 @@ KeyframeTrack threeKeys(Interpolation in, bool loop) {
   for (int k = 0; k < 3; ++k) {
     ControlPoint p{{0, 0, 0}, {10.0 * k, k == 1 ? 5.0 : 0.0, 0}, {}};
     p.attributes.lightness = 10.0 * k;
-    t.keyframes.push_back({1.0 + k, {p}});
+    t.keyframes.push_back({1.0 + k, {p}, std::nullopt, ""});
   }
   return t;
 }
@@ -344,7 +344,7 @@ TEST(Keyframes, FieldOfViewInterpolatesHoldsAndRoundTrips) {
   // Bad values name the file, the keyframe and the field.
   std::ifstream in(dir / "k.json");
   const std::string good((std::istreambuf_iterator<char>(in)), {});
-  for (const std::string& bad : {"\"fov\": 121", "\"fov\": -1", "\"fov\": \"wide\"", "\"fov\": null"}) {
+  for (const char* bad : {"\"fov\": 121", "\"fov\": -1", "\"fov\": \"wide\"", "\"fov\": null"}) {
     std::string text = good;
     const size_t at = text.find("\"fov\": 0.0");
     ASSERT_NE(at, std::string::npos) << text;

@@ -260,6 +260,8 @@ TEST(RigidIds, GroupsMakeThePhantomsBonesAtAnyResolution) {
       EXPECT_EQ(bodiesOf[bone], std::set<int>{bone + 1}) << "bone " << bone << " at " << n;
     EXPECT_EQ(b.bodies()[0].ids, (std::vector<uint16_t>{4, 5})) << n;
     EXPECT_EQ(b.bodies()[2].ids, (std::vector<uint16_t>{8, 11})) << n;
-    if (n == 48) EXPECT_EQ(RigidBodies::fromLabels(ph.labels, {4, 5, 6, 7, 8, 9, 11}).componentCount(), 6);
+    if (n == 48) {
+      EXPECT_EQ(RigidBodies::fromLabels(ph.labels, {4, 5, 6, 7, 8, 9, 11}).componentCount(), 6);
+    }
   }
 }

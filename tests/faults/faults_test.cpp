@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "child_process.hpp"
+#include "phantom_files.hpp"
 #include "test_data.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
@@ -49,11 +50,7 @@ int leftoverTemps(const fs::path& dir) {
 
 /// A phantom CT + labels written once per test into `dir`.
 void writePhantom(const fs::path& dir, int size) {
-  phantom::PhantomOptions o;
-  o.dims = {size, size, size};
-  const auto ph = phantom::makePhantom(o);
-  io::saveVolume(ph.ct, dir / "knee.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  test::writePhantomFiles(dir, {size, size, size}, "knee.nrrd");
 }
 
 }  // namespace

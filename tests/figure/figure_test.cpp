@@ -16,6 +16,7 @@
 #include "headless_gl.hpp"
 #include "shape_fixtures.hpp"
 #include "test_data.hpp"
+#include "vellum/core/box_corners.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/illustration/figure.hpp"
 #include "vellum/render/annotations.hpp"
@@ -42,9 +43,8 @@ Extent projected(const Geometry& g, const render::RenderSettings& s, const std::
 
 // The eight corners of a box (mm).
 std::vector<Vec3> corners(const Vec3& lo, const Vec3& hi) {
-  std::vector<Vec3> c;
-  for (int n = 0; n < 8; ++n) c.push_back({n & 1 ? hi.x : lo.x, n & 2 ? hi.y : lo.y, n & 4 ? hi.z : lo.z});
-  return c;
+  const auto c = boxCorners(lo, hi);
+  return {c.begin(), c.end()};
 }
 
 Geometry grid(int n, double spacing) {
@@ -197,19 +197,6 @@ IllustrationSettings front(int size) {
   return s;
 }
 
-Style twoRows() {
-  Style st;
-  SegmentStyle bone, muscle;
-  bone.match = "bone";
-  bone.colour = {0.9f, 0.85f, 0.7f};
-  bone.opacity = 0.8f;
-  muscle.match = "muscle";
-  muscle.colour = {0.8f, 0.2f, 0.15f};
-  muscle.opacity = 0.8f;
-  st.segments = {bone, muscle};
-  return st;
-}
-
 std::vector<uint16_t> anchorIds(const std::vector<render::StructureAnchor>& anchors) {
   std::vector<uint16_t> ids;
   for (const auto& a : anchors) ids.push_back(a.id);
@@ -227,7 +214,7 @@ TEST(FigureLabels, OnlyDrawnSegmentsAreLabelled) {
   renderer.setScene(scene);
   const IllustrationSettings s = front(160);
 
-  const Style both = twoRows();
+  const Style both = test::twoRowStyle();
   const RgbaImage a = renderer.render(both, s);
   const auto all = drawnSegmentAnchors(renderer, both, s, scene.segments, a);
   ASSERT_EQ(anchorIds(all), (std::vector<uint16_t>{1, 2}));
@@ -236,12 +223,12 @@ TEST(FigureLabels, OnlyDrawnSegmentsAreLabelled) {
     EXPECT_NEAR(an.y, 80, 20) << an.name;
   }
 
-  Style hidden = twoRows();
+  Style hidden = test::twoRowStyle();
   hidden.segments[1].visible = false;
   const RgbaImage b = renderer.render(hidden, s);
   EXPECT_EQ(anchorIds(drawnSegmentAnchors(renderer, hidden, s, scene.segments, b)), (std::vector<uint16_t>{1}));
 
-  Style noInk = twoRows();
+  Style noInk = test::twoRowStyle();
   noInk.segments[1].boundaryKc = noInk.segments[1].boundaryKs = 0;
   const RgbaImage c = renderer.render(noInk, s);
   EXPECT_EQ(anchorIds(drawnSegmentAnchors(renderer, noInk, s, scene.segments, c)), (std::vector<uint16_t>{1}));
@@ -323,7 +310,7 @@ TEST(FigureCli, IllustrateFramesAndLabelsOnlyWhatItDraws) {
   const ShapeScene scene = test::twoSpheres(40);
   test::writeShapeFolder(scene, dir / "shape");
   io::saveVolume(VolumeI16(scene.distance.geometry(), -1000, -1000), dir / "ct.nrrd");
-  Style st = twoRows();
+  Style st = test::twoRowStyle();
   st.segments[1].visible = false;
   saveStyle(st, dir / "style.json");
   const std::string base = (dir / "ct.nrrd").string() + " --shape " + (dir / "shape").string() + " --style " +

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "child_process.hpp"
+#include "phantom_files.hpp"
 #include "test_data.hpp"
 #include "vellum/illustration/shape.hpp"
 #include "vellum/io/volume_io.hpp"
@@ -29,11 +30,7 @@ std::string slurp(const fs::path& p) {
 
 TEST(ShapeCli, EndToEndOnPhantom) {
   const fs::path dir = test::tempDir("shape-cli");
-  phantom::PhantomOptions po;
-  po.dims = {48, 48, 48};
-  const auto ph = phantom::makePhantom(po);
-  io::saveVolume(ph.ct, dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const phantom::Phantom ph = test::writePhantomFiles(dir, {48, 48, 48});
   const fs::path out = dir / "shape";
   const std::string base = (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string();
   ASSERT_EQ(run(base + " --segment body=1,2,3,4,5,6,7,8,9,10,11 --segment femur=4,5 --segment 3"
@@ -93,17 +90,15 @@ TEST(ShapeCli, EndToEndOnPhantom) {
   EXPECT_FLOAT_EQ(fields[1].shellMm, 2.0f);
   for (size_t n = 0; n < d.size(); n += 97) {
     const auto id = seg.ids().data()[n];
-    if (id == 2 || id == 4) EXPECT_LT(fields[1].distance.data()[n], 0) << n;
+    if (id == 2 || id == 4) {
+      EXPECT_LT(fields[1].distance.data()[n], 0) << n;
+    }
   }
 }
 
 TEST(ShapeCli, BadSegmentSpecsGiveOneLineErrors) {
   const fs::path dir = test::tempDir("shape-cli-errors");
-  phantom::PhantomOptions po;
-  po.dims = {24, 24, 24};
-  const auto ph = phantom::makePhantom(po);
-  io::saveVolume(ph.ct, dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  test::writePhantomFiles(dir, {24, 24, 24});
   const std::string base = (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string() +
                            " --out " + (dir / "o").string();
   struct Case { std::string args, needle; };
@@ -123,11 +118,7 @@ TEST(ShapeCli, AMissingOpenVdbModuleIsAOneLineError) {
   // OpenVDB is a module opened on first use: without it `vellum shape` must say which file it
   // could not load, in one line, and write nothing.
   const fs::path dir = test::tempDir("shape-cli-module");
-  phantom::PhantomOptions po;
-  po.dims = {24, 24, 24};
-  const auto ph = phantom::makePhantom(po);
-  io::saveVolume(ph.ct, dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  test::writePhantomFiles(dir, {24, 24, 24});
   const fs::path missing = dir / "no-such-module.so";
   const std::string cmd = "VELLUM_VDB_MODULE='" + missing.string() + "' " + std::string(VELLUM_CLI_PATH) + " shape " +
                           (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string() +
@@ -144,11 +135,7 @@ TEST(ShapeCli, InterruptExitsCleanly) {
   // SIGINT in the middle of the pipeline: exit 130 ("cancelled"), no shape.json, no
   // temporaries (never a crash: cancellation is checked between stages, outside TBB tasks).
   const fs::path dir = test::tempDir("shape-cli-interrupt");
-  phantom::PhantomOptions po;
-  po.dims = {160, 160, 160};
-  const auto ph = phantom::makePhantom(po);
-  io::saveVolume(ph.ct, dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  test::writePhantomFiles(dir, {160, 160, 160});
   test::Child child({"shape", (dir / "ct.nrrd").string(), "--labels", (dir / "labels.nrrd").string(), "--segment",
                      "body=1,2,3,4,5,6,7,8,9,10,11", "--segment", "muscle=3", "--out", (dir / "o").string()},
                     dir / "log.txt");
@@ -204,11 +191,7 @@ TEST(ShapeCli, RemoveTableDropsLabelledTableVoxels) {
 // region, so shape (and illustrate, given the same flags) work on a region of a big scan.
 TEST(ShapeCli, CropAndDownsampleApplyToTheLabelsToo) {
   const fs::path dir = test::tempDir("shape-cli-region");
-  phantom::PhantomOptions po;
-  po.dims = {40, 40, 48};
-  const auto ph = phantom::makePhantom(po);
-  io::saveVolume(ph.ct, dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const phantom::Phantom ph = test::writePhantomFiles(dir, {40, 40, 48});
   const std::string base = (dir / "ct.nrrd").string() + " --labels " + (dir / "labels.nrrd").string() +
                            " --segment body=1,2,3,4,5,6,7,8,9,10,11 --target-faces 2000 --out ";
   struct Case { std::string flags; Dims dims; Vec3 originVoxel; double spacingFactor; };

@@ -15,14 +15,6 @@
 namespace vellum::illustration {
 namespace {
 
-render::GlContext& gl() { return test::headlessGl(); }
-
-/// bone in muscle in skin, 48^3 voxels of 1 mm.
-const ShapeScene& nested() {
-  static const ShapeScene s = test::nestedScene(48);
-  return s;
-}
-
 /// Three-quarter view in perspective (curved silhouettes, shading across the image), opaque
 /// paper background as the CLI draws it.
 IllustrationSettings view(int size, int levels) {
@@ -50,8 +42,8 @@ int maxChannelDiff(const RgbaImage& a, const RgbaImage& b, int x, int y) {
 }
 
 TEST(IllustrationRefine, MatchesTheExactFigureAndTheCpuReference) {
-  IllustrationRenderer r(gl());
-  r.setScene(nested());
+  IllustrationRenderer r(test::headlessGl());
+  r.setScene(test::nestedScene48());
   const Style st = stylePreset("textbook");  // ink outline on the invisible skin, translucent muscle
   const RgbaImage exact = r.render(st, view(192, 0));
   EXPECT_DOUBLE_EQ(r.lastTracedFraction(), 1.0);
@@ -66,7 +58,7 @@ TEST(IllustrationRefine, MatchesTheExactFigureAndTheCpuReference) {
   EXPECT_GE(d.psnr, 40.0);
   for (int c = 0; c < 4; ++c) EXPECT_LE(d.meanAbs[c], 0.5) << "channel " << c;
   // The CPU reference refines alike (same levels, tolerance and near-ink test).
-  const RgbaImage cpu = renderIllustrationCpu(nested(), st, view(192, 2));
+  const RgbaImage cpu = renderIllustrationCpu(test::nestedScene48(), st, view(192, 2));
   const test::ImageDiff dc = test::compareImages(refined, cpu);
   std::cout << "[ refine ] GL vs CPU: max " << dc.maxAbs << "  psnr " << dc.psnr << " dB\n";
   EXPECT_GE(dc.psnr, 40.0);
@@ -74,8 +66,8 @@ TEST(IllustrationRefine, MatchesTheExactFigureAndTheCpuReference) {
 }
 
 TEST(IllustrationRefine, TracesEveryPixelWhereInkIsDrawn) {
-  IllustrationRenderer r(gl());
-  r.setScene(nested());
+  IllustrationRenderer r(test::headlessGl());
+  r.setScene(test::nestedScene48());
   for (const char* preset : {"textbook", "pen"}) {  // outlines; pen: lines, hatching and creases
     const Style st = stylePreset(preset);
     Style noInk = st;

@@ -25,12 +25,6 @@
 namespace vellum::illustration {
 namespace {
 
-render::GlContext& gl() { return test::headlessGl(); }
-
-const ShapeScene& nested() {
-  static const ShapeScene s = test::nestedScene(48);
-  return s;
-}
 const ShapeScene& spheres() {
   static const ShapeScene s = test::twoSpheres(48);
   return s;
@@ -49,12 +43,12 @@ IllustrationSettings front(int size = 96, Interpolation interp = Interpolation::
 }
 
 RgbaImage gpu(const ShapeScene& scene, const Style& st, const IllustrationSettings& s) {
-  render::GlContext& context = gl();  // constructed first, so destroyed after the renderer
+  render::GlContext& context = test::headlessGl();  // constructed first, so destroyed after the renderer
   static const ShapeScene* uploaded = nullptr;
   static std::unique_ptr<IllustrationRenderer> r;
   if (!r) r = std::make_unique<IllustrationRenderer>(context);
   // Only the two static scenes are cached: a test's local scene may reuse an old address.
-  const bool cacheable = &scene == &nested() || &scene == &spheres();
+  const bool cacheable = &scene == &test::nestedScene48() || &scene == &spheres();
   if (!cacheable || uploaded != &scene) {
     r->setScene(scene);
     uploaded = cacheable ? &scene : nullptr;
@@ -110,8 +104,8 @@ TEST(IllustrationGl, MatchesCpuReferenceInBothModes) {
       s.render.camera.azimuthDeg = 35;
       s.render.camera.elevationDeg = 20;
       s.render.camera.fieldOfViewDeg = 30;
-      const RgbaImage g = gpu(nested(), st, s);
-      const RgbaImage c = renderIllustrationCpu(nested(), st, s);
+      const RgbaImage g = gpu(test::nestedScene48(), st, s);
+      const RgbaImage c = renderIllustrationCpu(test::nestedScene48(), st, s);
       maybeSave(g, "gl-" + preset + "-" + interpolationName(mode));
       EXPECT_GT(coverage(g), 0.1) << preset;
       expectClose(g, c, preset + " " + interpolationName(mode));
@@ -130,7 +124,7 @@ TEST(IllustrationGl, DvrUsesTheCt) {
   scene.ct = ct;
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const IllustrationSettings s = front(64, mode);
-    IllustrationRenderer r(gl());
+    IllustrationRenderer r(test::headlessGl());
     r.setScene(scene);
     const RgbaImage g = r.render(st, s);
     EXPECT_GT(coverage(g), 0.1);
@@ -151,19 +145,6 @@ std::vector<std::pair<int, int>> changed(const RgbaImage& a, const RgbaImage& b,
   return out;
 }
 
-Style twoRowStyle() {
-  Style st;
-  SegmentStyle bone, muscle;
-  bone.match = "bone";
-  bone.colour = {0.9f, 0.85f, 0.7f};
-  bone.opacity = 0.8f;
-  muscle.match = "muscle";
-  muscle.colour = {0.8f, 0.2f, 0.15f};
-  muscle.opacity = 0.8f;
-  st.segments = {bone, muscle};
-  return st;
-}
-
 TEST(IllustrationGl, TextureVolumeMatchesCpu) {
   const auto dir = test::tempDir("texvol");
   Geometry g;
@@ -173,7 +154,7 @@ TEST(IllustrationGl, TextureVolumeMatchesCpu) {
     for (int64_t j = 0; j < 8; ++j)
       for (int64_t i = 0; i < 8; ++i) tex(i, j, k) = uint8_t(((i + j + k) % 3) * 100);
   io::saveVolume(tex, dir / "tex.nrrd");
-  Style st = twoRowStyle();
+  Style st = test::twoRowStyle();
   st.textureVolume = (dir / "tex.nrrd").string();
   st.segments[0].lambdaTexture = 0.6f;
   st.segments[0].lambdaColouring = 0.4f;
@@ -195,7 +176,7 @@ TEST(IllustrationGl, TextureVolumeMatchesCpu) {
 TEST(IllustrationGl, EveryProceduralTextureMatchesCpu) {
   for (SolidTexture kind : {SolidTexture::Noise, SolidTexture::Marble, SolidTexture::Wood, SolidTexture::Stripes,
                             SolidTexture::Stipple}) {
-    Style st = twoRowStyle();
+    Style st = test::twoRowStyle();
     for (auto& r : st.segments) {
       r.lambdaTexture = 0.7f;
       r.lambdaColouring = 0.3f;
@@ -213,7 +194,7 @@ TEST(IllustrationGl, EveryProceduralTextureMatchesCpu) {
 TEST(IllustrationGl, LambdaChangesOnlyThatSegment) {
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const IllustrationSettings s = front(96, mode);
-    Style a = twoRowStyle();
+    Style a = test::twoRowStyle();
     Style b = a;
     b.segments[1].lambdaColouring = 0.2f;
     b.segments[1].lambdaIllum = 0.5f;
@@ -230,10 +211,10 @@ TEST(IllustrationGl, EachListOfShownRowsAndInkedSlotsGetsItsOwnProgram) {
   // The shader is compiled per list of shown rows and inked slots (ShaderVariant::items,
   // inkSlots: constant loops for llvmpipe). One renderer drawing styles that differ only in
   // which rows show or draw ink must still draw each one as the CPU reference does.
-  IllustrationRenderer r(gl());
+  IllustrationRenderer r(test::headlessGl());
   r.setScene(spheres());
   const IllustrationSettings s = front(64);
-  Style both = twoRowStyle();
+  Style both = test::twoRowStyle();
   Style boneOnly = both;
   boneOnly.segments[1].opacity = 0;  // the muscle's row does not show
   Style boneInk = both;
@@ -339,7 +320,7 @@ TEST(IllustrationGl, InvisibleSegmentLeavesNoTrace) {
   ShapeScene without = test::twoSpheres(48);
   for (auto& v : without.segments.ids().voxels())
     if (v == 2) v = 0;  // the muscle's voxels become unclassified (invisible)
-  Style st = twoRowStyle();
+  Style st = test::twoRowStyle();
   st.segments[1].visible = false;
   for (Interpolation mode : {Interpolation::Eight, Interpolation::Nearest}) {
     const IllustrationSettings s = front(96, mode);
@@ -452,7 +433,7 @@ TEST(IllustrationNested, BoneInsideAnInvisibleSkinRendersAsTheBoneAlone) {
         }
     EXPECT_GT(hi - lo, 60) << "bone shading range";
     // GL agrees with its CPU reference on the nested scene.
-    IllustrationRenderer r(gl());
+    IllustrationRenderer r(test::headlessGl());
     r.setScene(nestedScene);
     const RgbaImage g = r.render(st, s);
     maybeSave(g, std::string("gl-nested-bone-") + interpolationName(mode));
@@ -525,7 +506,7 @@ TEST(IllustrationSmooth, AnisotropicEllipsoidMatchesTheFineGrid) {
   std::cout << "[ ellipsoid ] 1x1x3 mm vs 0.5 mm: psnr " << d.psnr << " dB, mean " << d.meanAbs[0] << " "
             << d.meanAbs[1] << " " << d.meanAbs[2] << ", p99 " << d.p99 << ", max " << d.maxAbs << "\n";
   EXPECT_GE(d.psnr, 35.0);
-  IllustrationRenderer r(gl());
+  IllustrationRenderer r(test::headlessGl());
   r.setScene(coarse);
   expectClose(r.render(st, s), a, "ellipsoid 1x1x3 GL vs CPU");
 }

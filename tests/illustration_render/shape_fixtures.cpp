@@ -66,10 +66,28 @@ illustration::ShapeScene nestedScene(int n) {
                        {"skin", [=](const Vec3& p) { return std::max(rm - norm(p), sphereSdf(p, c, rs)); }}});
 }
 
+const illustration::ShapeScene& nestedScene48() {
+  static const illustration::ShapeScene s = nestedScene(48);
+  return s;
+}
+
 illustration::ShapeScene twoSpheres(int n) {
   const double r = 0.22 * n, off = 0.25 * n;
   return makeScene(n, {{"bone", [=](const Vec3& p) { return sphereSdf(p, {-off, 0, 0}, r); }},
                        {"muscle", [=](const Vec3& p) { return sphereSdf(p, {off, 0, 0}, r); }}});
+}
+
+illustration::Style twoRowStyle() {
+  illustration::Style st;
+  illustration::SegmentStyle bone, muscle;
+  bone.match = "bone";
+  bone.colour = {0.9f, 0.85f, 0.7f};
+  bone.opacity = 0.8f;
+  muscle.match = "muscle";
+  muscle.colour = {0.8f, 0.2f, 0.15f};
+  muscle.opacity = 0.8f;
+  st.segments = {bone, muscle};
+  return st;
 }
 
 void writeShapeFolder(const illustration::ShapeScene& scene, const std::filesystem::path& dir) {

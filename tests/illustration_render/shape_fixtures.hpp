@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "vellum/illustration/illustration_renderer.hpp"
+#include "vellum/illustration/style.hpp"
 
 namespace vellum::test {
 
@@ -26,8 +27,12 @@ double boxSdf(const Vec3& p, const Vec3& c, const Vec3& halfSize);
 
 /// bone (r = 0.18 n) inside muscle (to 0.3 n) inside skin (to 0.36 n), centred.
 illustration::ShapeScene nestedScene(int n);
+/// nestedScene(48), made once per test program (the scene most GL vs CPU checks draw).
+const illustration::ShapeScene& nestedScene48();
 /// "bone" sphere left (-x), "muscle" sphere right (+x), radius 0.22 n, separated.
 illustration::ShapeScene twoSpheres(int n);
+/// A style for those two segments: ivory bone and red muscle, both 0.8 opaque.
+illustration::Style twoRowStyle();
 
 /// Writes DIR/distance.nrrd, DIR/segments.nrrd and the per-segment distances as `vellum shape` does.
 void writeShapeFolder(const illustration::ShapeScene& scene, const std::filesystem::path& dir);

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numbers>
 
+#include "vellum/core/box_corners.hpp"
+
 namespace vellum::test {
 namespace {
 
@@ -83,11 +85,9 @@ render::BackwardMap makeTwistMap(const Geometry& volume, int nodes, bool withAtt
   const Vec3 c = volume.center();
   // Grid: axis-aligned, isotropic, covering the volume's bounding sphere's cube.
   double radius = 0;
-  for (int corner = 0; corner < 8; ++corner) {
-    const Vec3 idx{(corner & 1) ? volume.dims.x - 1.0 : 0.0, (corner & 2) ? volume.dims.y - 1.0 : 0.0,
-                   (corner & 4) ? volume.dims.z - 1.0 : 0.0};
-    radius = std::max(radius, norm(volume.indexToPhysical(idx) - c));
-  }
+  const Dims& d = volume.dims;
+  for (const Vec3& p : indexBoxCorners(volume, {0, 0, 0}, {d.x - 1.0, d.y - 1.0, d.z - 1.0}))
+    radius = std::max(radius, norm(p - c));
   const double spacing = 2 * radius / (nodes - 1);
   map.grid.dims = {nodes, nodes, nodes};
   map.grid.spacing = {spacing, spacing, spacing};

@@ -8,6 +8,7 @@
 #include "child_process.hpp"
 #include "image_compare.hpp"
 #include "scene.hpp"
+#include "phantom_files.hpp"
 #include "test_data.hpp"
 #include "vellum/animation/movie.hpp"
 #include "vellum/deformation/map_file.hpp"
@@ -35,11 +36,7 @@ const std::vector<uint16_t> kBones = {4, 5, 6, 7, 8, 9, 11};
 
 TEST(WysiwygCli, DeformedVolumeWithItsAttributeFieldRendersLikeTheLiveRender) {
   const fs::path dir = test::tempDir("wysiwyg-cli");
-  phantom::PhantomOptions o;
-  o.dims = {64, 64, 72};
-  const phantom::Phantom ph = phantom::makePhantom(o);
-  io::saveVolume(ph.ct, dir / "ct.nrrd");
-  io::saveLabels(ph.labels, dir / "labels.nrrd");
+  const phantom::Phantom ph = test::writePhantomFiles(dir, {64, 64, 72});
   PointFile pf;
   pf.points = kneeBendTrack(ph.ct.geometry(), 30.0, 2.0, phantom::flexionAxisPointMm()).keyframes[1].points;
   pf.points[0].attributes.lightness = 30;

@@ -111,7 +111,8 @@ void runSegment(SegmentArgs& a) {
 }  // namespace
 
 std::string segmentLabelFlagsMarkdown() {
-  return params::markdown(segmentLabelTable()) + listMarkdownRows(segmentListTable());
+  const SegmentArgs defaults;  // default-initialised, not S{}: see shapeFlagsMarkdown
+  return params::markdown(segmentLabelTable(), defaults.request) + listMarkdownRows(segmentListTable(), defaults);
 }
 
 void addSegmentCommand(CLI::App& app) {

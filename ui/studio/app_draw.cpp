@@ -17,6 +17,7 @@
 #include "export_figure.hpp"
 #include "gl_texture.hpp"
 #include "view3d.hpp"
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/io/image_io.hpp"
 
@@ -222,11 +223,8 @@ void StudioApp::drawPlanesIn3d(const Pane& pane) {
   // over the rendering (not depth-tested) in the slice colours.
   const Geometry& g = scene_.ct.geometry();
   Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 p = g.indexToPhysical({(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5,
-                                      (c & 4) ? g.dims.z - 0.5 : -0.5});
+  for (const Vec3& p : voxelBoxCorners(g))
     for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
-  }
   ImDrawList* dl = ImGui::GetBackgroundDrawList();
   dl->PushClipRect({pane.rect.x, pane.rect.y}, {pane.rect.x + pane.rect.w, pane.rect.y + pane.rect.h}, true);
   for (int axis = 0; axis < 3; ++axis) {  // plane normal along x (sagittal), y (coronal), z (axial)

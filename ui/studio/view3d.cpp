@@ -1,5 +1,6 @@
 #include "view3d.hpp"
 #include "thread_priority.hpp"
+#include "vellum/core/box_corners.hpp"
 
 #include <GL/glcorearb.h>
 #include <GLFW/glfw3.h>
@@ -46,11 +47,7 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
   // The orbit camera of render::RenderSettings (modules/render/src/render_common.cpp).
   const Geometry& g = scene.ct.geometry();
   const Vec3 centre = g.center();
-  double radius = 0;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 corner{(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5, (c & 4) ? g.dims.z - 0.5 : -0.5};
-    radius = std::max(radius, norm(g.indexToPhysical(corner) - centre));
-  }
+  const double radius = voxelBoxRadius(g, centre);
   const render::Camera& cam = scene.render.camera;
   const Vec3 lookAt = centre + cam.panMm;
   const auto [right, up, forward] = cameraBasis(cam);
@@ -78,14 +75,7 @@ std::optional<std::pair<double, double>> projectToView(const Scene& scene, int w
 
 namespace {
 /// Bounding-sphere radius of the volume's voxel box about its centre (the renderer's).
-double boundingRadius(const Geometry& g) {
-  double radius = 0;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 corner{(c & 1) ? g.dims.x - 0.5 : -0.5, (c & 2) ? g.dims.y - 0.5 : -0.5, (c & 4) ? g.dims.z - 0.5 : -0.5};
-    radius = std::max(radius, norm(g.indexToPhysical(corner) - g.center()));
-  }
-  return radius;
-}
+double boundingRadius(const Geometry& g) { return voxelBoxRadius(g, g.center()); }
 }  // namespace
 
 namespace {
@@ -385,7 +375,10 @@ bool View3D::stepMap(size_t maxBytes) {
 void View3D::setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted) {
   if (!hasVolume_ || !wanted || labels.ids().empty()) return;  // the tint is made when first wanted
   std::string key = std::to_string(revision);
-  for (uint16_t id : hidden) key += " " + std::to_string(id);
+  for (uint16_t id : hidden) {
+    key += ' ';  // not " " + a temporary: GCC 12's false -Wrestrict at -O3 (panel_deformation.cpp)
+    key += std::to_string(id);
+  }
   if (key == labelsKey_) return;
   context_.makeCurrent();
   const render::LabelTint tint = render::makeLabelTint(labels, hidden);

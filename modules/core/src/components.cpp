@@ -13,6 +13,7 @@
 #include <functional>
 #include <limits>
 
+#include "vellum/core/binary_copy.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
@@ -274,18 +275,6 @@ void paintComponents(VolumeU8& mask, bool ofZeros, Connectivity connectivity,
   // The runs hold all the labelling needs: writing into the mask now changes nothing read.
   labeller.paintRuns(mask.data(), chosen, value);
 }
-
-namespace {
-/// A 0/1 copy of `mask` (the results below have always been 0/1 masks).
-VolumeU8 binaryCopy(const VolumeU8& mask) {
-  VolumeU8 out = mask;
-  uint8_t* o = out.data();
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, out.size(), 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
-    for (size_t i = r.begin(); i < r.end(); ++i) o[i] = o[i] != 0;
-  });
-  return out;
-}
-}  // namespace
 
 VolumeU8 keepLargestComponent(const VolumeU8& mask, Connectivity connectivity) {
   VolumeU8 out = binaryCopy(mask);

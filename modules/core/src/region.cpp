@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
@@ -50,8 +51,7 @@ VoxelBox regionBox(const Geometry& g, const Region& region) {
     // inwards.
     Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
     const auto& c = *region.cropMm;
-    for (int corner = 0; corner < 8; ++corner) {
-      const Vec3 p{(corner & 1 ? c[1] : c[0]).x, (corner & 2 ? c[1] : c[0]).y, (corner & 4 ? c[1] : c[0]).z};
+    for (const Vec3& p : boxCorners(c[0], c[1])) {
       const Vec3 ijk = g.physicalToIndex(p);
       for (int a = 0; a < 3; ++a) {
         lo[a] = std::min(lo[a], ijk[a]);

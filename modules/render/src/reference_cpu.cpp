@@ -28,9 +28,9 @@ struct Context {
   PreparedMap prepared;  ///< the map in source index coordinates, with its snap
   const LabelTint* tint = nullptr;  ///< set when labels tint the samples
   const OpaqueLayer* opaque = nullptr;
-  std::optional<LightVolume> light;  ///< cinematic lighting (light_volume.hpp)
-  Vec3 lightDir;
-  SceneLights scene;  ///< lighting.toneMap: the path tracer's lights (lights.hpp)
+  std::optional<LightVolume> light{};  ///< cinematic lighting (light_volume.hpp)
+  Vec3 lightDir{};
+  SceneLights scene{};  ///< lighting.toneMap: the path tracer's lights (lights.hpp)
 };
 
 std::array<float, 3> shade(const std::array<float, 3>& c, const std::array<float, 4>& n,

@@ -5,6 +5,7 @@
 #include <numbers>
 #include <string>
 
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
 
 namespace vellum::render::detail {
@@ -46,12 +47,7 @@ Frame makeFrame(const Geometry& source, const Geometry* mapGrid, const RenderSet
 
   // Bounding sphere of the box's eight corners (voxel boxes, not centres).
   const Vec3 centre = f.box.indexToPhysical({(d.x - 1) * 0.5, (d.y - 1) * 0.5, (d.z - 1) * 0.5});
-  double radius = 0;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 corner{(c & 1) ? d.x - 0.5 : -0.5, (c & 2) ? d.y - 0.5 : -0.5,
-                      (c & 4) ? d.z - 0.5 : -0.5};
-    radius = std::max(radius, norm(f.box.indexToPhysical(corner) - centre));
-  }
+  const double radius = voxelBoxRadius(f.box, centre);
   const Vec3 lookAt = centre + cam.panMm;
 
   // Orbit: azimuth about +z (superior), from anterior (-y) at azimuth 0; right is the

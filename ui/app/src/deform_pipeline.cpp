@@ -393,9 +393,17 @@ std::string DeformEngine::rigidLabelsArgument() const {
   std::string out;
   for (const auto& g : rigidGroups) {
     out += out.empty() ? "" : ",";
-    for (size_t i = 0; i < g.size(); ++i) out += (i ? "+" : "") + std::to_string(g[i]);
+    for (size_t i = 0; i < g.size(); ++i) {
+      // Appended piece by piece: `"+" + std::to_string(..)` (operator+(const char*,
+      // string&&), an insert at 0) draws a false -Wrestrict from GCC 12 at -O3.
+      if (i) out += '+';
+      out += std::to_string(g[i]);
+    }
   }
-  for (uint16_t id : rigidIds) out += (out.empty() ? "" : ",") + std::to_string(id);
+  for (uint16_t id : rigidIds) {
+    if (!out.empty()) out += ',';
+    out += std::to_string(id);
+  }
   return out;
 }
 

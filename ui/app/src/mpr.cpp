@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 
@@ -42,10 +43,8 @@ SlicePlane makePlane(SliceAxis axis, const Geometry& g, const Vec3& crosshairMm,
   // Fit the oriented voxel box's projection onto (u, v).
   const Vec3 c = g.center();
   double halfU = 0, halfV = 0;
-  for (int k = 0; k < 8; ++k) {
-    const Vec3 corner{(k & 1) ? g.dims.x - 0.5 : -0.5, (k & 2) ? g.dims.y - 0.5 : -0.5,
-                      (k & 4) ? g.dims.z - 0.5 : -0.5};
-    const Vec3 d = g.indexToPhysical(corner) - c;
+  for (const Vec3& corner : voxelBoxCorners(g)) {
+    const Vec3 d = corner - c;
     halfU = std::max(halfU, std::abs(dot(d, p.u)));
     halfV = std::max(halfV, std::abs(dot(d, p.v)));
   }

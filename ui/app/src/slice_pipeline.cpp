@@ -11,6 +11,7 @@
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_io.hpp"
 #include "vellum/app/run_report.hpp"
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/io/image_io.hpp"
@@ -76,9 +77,8 @@ int voxelAxisAlong(const Geometry& g, const Vec3& normal) {
 /// The range of dot(p, axis) over the voxel box's corners (voxel edges, not centres).
 std::pair<double, double> boxRange(const Geometry& g, const Vec3& axis) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (int k = 0; k < 8; ++k) {
-    const Vec3 corner{(k & 1) ? g.dims.x - 0.5 : -0.5, (k & 2) ? g.dims.y - 0.5 : -0.5, (k & 4) ? g.dims.z - 0.5 : -0.5};
-    const double s = dot(g.indexToPhysical(corner), axis);
+  for (const Vec3& corner : voxelBoxCorners(g)) {
+    const double s = dot(corner, axis);
     lo = std::min(lo, s);
     hi = std::max(hi, s);
   }
@@ -88,8 +88,8 @@ std::pair<double, double> boxRange(const Geometry& g, const Vec3& axis) {
 /// The range of dot(p, axis) over the corners of a box x0 x1 y0 y1 z0 z1 (mm).
 std::pair<double, double> boxRange(const std::vector<double>& b, const Vec3& axis) {
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  for (int k = 0; k < 8; ++k) {
-    const double s = dot(Vec3{b[(k & 1) ? 1 : 0], b[(k & 2) ? 3 : 2], b[(k & 4) ? 5 : 4]}, axis);
+  for (const Vec3& corner : boxCorners({b[0], b[2], b[4]}, {b[1], b[3], b[5]})) {
+    const double s = dot(corner, axis);
     lo = std::min(lo, s);
     hi = std::max(hi, s);
   }
