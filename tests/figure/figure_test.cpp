@@ -234,7 +234,7 @@ TEST(FigureLabels, OnlyDrawnSegmentsAreLabelled) {
   EXPECT_EQ(anchorIds(drawnSegmentAnchors(renderer, noInk, s, scene.segments, c)), (std::vector<uint16_t>{1}));
 
   // An outline only (no fill, ink lines: the textbook and pen skin) is drawn: framed and labelled.
-  Style outline = twoRows();
+  Style outline = test::twoRowStyle();
   outline.segments[1].opacity = 0;
   outline.segments[1].lineWidthPx = 1.5f;
   ASSERT_GE(styleDrawnIds(outline, scene.segments).size(), 3u);
