@@ -280,16 +280,24 @@ void View3D::setVolume(const VolumeI16& ct) {
   invalidate();
 }
 
+namespace {
+// On the upload worker: 8 MB a call, a pause between calls: the window's draws wait for Mesa's
+// lock on shared objects while a call copies (350 MB of normals, no longer made, in one call:
+// a 0.9 s frame under load).
+template <class V>
+std::shared_ptr<render::VolumeRenderer::VolumeTextures> fillVolumeTextures(const V& volume,
+                                                                         const render::VolumeRenderer::Prepared& p) {
+  return render::VolumeRenderer::makeVolumeTextures(volume, p, size_t(8) << 20,
+                                                    [] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); });
+}
+}  // namespace
+
 bool View3D::uploadVolumeStep(const VolumeI16& ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared,
                               size_t maxBytes) {
   if (uploadWindow_) {
     const VolumeI16* volume = &ct;  // the caller keeps it until this returns true
-    auto make = [volume, p = prepared] {
-      return render::VolumeRenderer::makeVolumeTextures(*volume, *p, size_t(8) << 20, [] {
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-      });
-    };
-    return uploadOnWorker(make, ct.geometry().dims, std::move(prepared));
+    auto make = [volume, p = prepared] { return fillVolumeTextures(*volume, *p); };  // before prepared moves
+    return uploadOnWorker(std::move(make), ct.geometry().dims, std::move(prepared));
   }
   if (!stepSource_ || volumePrepared_ != prepared) stepSource_ = std::make_shared<const AnyVolume>(ct);
   if (!uploadVolumeStep(stepSource_, std::move(prepared), maxBytes)) return false;
@@ -301,12 +309,8 @@ bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
                               std::shared_ptr<const render::VolumeRenderer::Prepared> prepared, size_t maxBytes) {
   if (uploadWindow_) {
     const Dims dims = geometryOf(*ct).dims;
-    auto make = [ct, p = prepared] {
-      return render::VolumeRenderer::makeVolumeTextures(*ct, *p, size_t(8) << 20, [] {
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-      });
-    };
-    return uploadOnWorker(make, dims, std::move(prepared));
+    auto make = [ct, p = prepared] { return fillVolumeTextures(*ct, *p); };  // before prepared moves
+    return uploadOnWorker(std::move(make), dims, std::move(prepared));
   }
   context_.makeCurrent();
   hasVolume_ = false;  // the renderer has dropped the previous volume
@@ -352,10 +356,7 @@ bool View3D::uploadOnWorker(std::function<VolumeTextures()> make, Dims dims,
     struct Release {  // the context is free again for the next job, whatever happens
       ~Release() { glfwMakeContextCurrent(nullptr); }
     } release;
-    // `make` fills 8 MB a call with a pause between calls: the window's draws wait for Mesa's
-    // lock on shared objects while a call copies (350 MB of normals, no longer made, in one
-    // call: a 0.9 s frame under load).
-    return make();
+    return make();  // fillVolumeTextures
   });
   return false;
 }
