@@ -18,6 +18,9 @@
 #include "vellum/core/error.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
+#include "vellum/segmentation/morphology.hpp"
+#include "vellum/segmentation/label_map.hpp"
+#include "vellum/segmentation/components.hpp"
 
 namespace vellum::studio {
 namespace {
@@ -388,6 +391,87 @@ TEST(StudioLabelTools, DiffEditOnAWorkerEqualsTheEditInPlace) {
   EXPECT_EQ(untouched.ids().voxels(), inPlace.ids().voxels());
   EXPECT_EQ(untouched.table(), inPlace.table());
   EXPECT_EQ(d1.runs.size(), d2.runs.size());
+}
+
+// The studio's label commands build their undo delta from the operation's own footprint, never
+// copying the map (issue #22). Each must equal the segmentation module's whole-map operation
+// (locked voxels put back), as a delta too (the runs diffLabels finds), and undo exactly.
+TEST(StudioLabelTools, FootprintDeltasEqualTheWholeMapEditAndUndoExactly) {
+  namespace seg = segmentation;
+  const auto ph = smallPhantom();
+  // Skin (1) and the locked femur cortex (4) of the phantom's truth; the rest background.
+  LabelVolume labels = ph.labels;
+  for (auto& v : labels.ids().voxels())
+    if (v != 1 && v != 4) v = 0;
+  const std::set<uint16_t> locked{4};
+  const uint16_t id = 12;
+  const Label bone{id, "bone", {9, 9, 9}};
+  const auto wholeMap = [&](const std::function<void(LabelVolume&)>& edit) {
+    LabelVolume r = labels;
+    edit(r);
+    auto& a = r.ids().voxels();
+    const auto& b = labels.ids().voxels();
+    for (size_t n = 0; n < a.size(); ++n)
+      if (locked.count(a[n]) || locked.count(b[n])) a[n] = b[n];
+    return r;
+  };
+  const auto reshape = [&](LabelVolume& r, const seg::Mask& m) {  // the old in-place rule
+    auto& ids = r.ids().voxels();
+    for (size_t n = 0; n < ids.size(); ++n) {
+      if (ids[n] == id && !m.voxels()[n]) ids[n] = 0;
+      else if (ids[n] == 0 && m.voxels()[n]) ids[n] = id;
+    }
+  };
+  int step = 0;
+  const auto check = [&](const LabelDelta& d, const LabelVolume& expected) {
+    SCOPED_TRACE("step " + std::to_string(step++));
+    const LabelDelta truth = diffLabels(labels, expected, "");
+    ASSERT_EQ(d.runs.size(), truth.runs.size());
+    for (size_t i = 0; i < d.runs.size(); ++i) {
+      EXPECT_EQ(d.runs[i].start, truth.runs[i].start);
+      EXPECT_EQ(d.runs[i].length, truth.runs[i].length);
+      EXPECT_EQ(d.runs[i].after, truth.runs[i].after);
+    }
+    // The delta holds the changed voxels' runs, not the map.
+    EXPECT_LT(d.bytes(), labels.ids().size() * sizeof(uint16_t) / 4);
+    const LabelVolume before = labels;
+    applyDelta(labels, d, true);
+    EXPECT_EQ(labels.ids().voxels(), expected.ids().voxels());
+    EXPECT_EQ(labels.table(), expected.table());
+    applyDelta(labels, d, false);
+    EXPECT_EQ(labels.ids().voxels(), before.ids().voxels());
+    EXPECT_EQ(labels.table(), before.table());
+    applyDelta(labels, d, true);
+  };
+  const auto iv = seg::presetInterval(seg::Preset::Bone);
+  check(thresholdDelta(labels, ph.ct, iv, bone, locked),
+        wholeMap([&](LabelVolume& r) { seg::addSegment(r, seg::threshold(ph.ct, iv), bone); }));
+  // A ball against the grid's corner (the segment's box reaches the border) with a closed
+  // cavity, and a separate island that outlives Remove islands but not Keep largest.
+  const Vec3 corner = labels.geometry().indexToPhysical({2, 2, 2});
+  paintSphere(labels, corner, 14.0, id);
+  paintSphere(labels, corner, 5.0, 0);
+  paintSphere(labels, labels.geometry().indexToPhysical({40, 8, 40}), 7.0, id);
+  check(removeIslandsDelta(labels, id, 300.0, locked), wholeMap([&](LabelVolume& r) {
+          reshape(r, seg::removeSmallIslands(seg::segmentMask(r, id), 300.0));
+        }));
+  check(fillHolesDelta(labels, id, locked), wholeMap([&](LabelVolume& r) {
+          seg::addSegment(r, seg::fillHoles(seg::segmentMask(r, id)), bone, seg::OverlapRule::KeepExisting);
+        }));
+  for (auto op : {Morphology::Close, Morphology::Dilate, Morphology::Open, Morphology::Erode}) {
+    check(morphologyDelta(labels, id, op, 6.0, locked), wholeMap([&](LabelVolume& r) {
+            const seg::Mask m = seg::segmentMask(r, id);
+            reshape(r, op == Morphology::Close    ? seg::close(m, 6.0)
+                       : op == Morphology::Dilate ? seg::dilate(m, 6.0)
+                       : op == Morphology::Open   ? seg::open(m, 6.0)
+                                                  : seg::erode(m, 6.0));
+          }));
+  }
+  check(keepLargestDelta(labels, id, locked), wholeMap([&](LabelVolume& r) {
+          reshape(r, seg::keepLargestComponent(seg::segmentMask(r, id)));
+        }));
+  EXPECT_GT(labels.histogram()[id], 100u);
+  EXPECT_TRUE(keepLargestDelta(labels, 99, locked).empty()) << "an absent segment changes nothing";
 }
 
 }  // namespace

@@ -249,7 +249,7 @@ StudioApp::FrameViews StudioApp::updateViews() {
   FrameViews v;
   // Not in the frame that adopted the load (it draws the new slices): from the next one on.
   if (upload3d_ && upload3d_->adopted++ > 0 &&
-      view3d_->uploadVolumeStep(upload3d_->volume, upload3d_->prepared, kUploadBytesPerFrame))
+      view3d_->uploadVolumeStep(scene_.ct, upload3d_->prepared, kUploadBytesPerFrame))
     upload3d_.reset();
   const DeformSession& session = deform_.session();
   v.mapUpdated = deform_.updateMap(points_.dragging() || scene_.authoring.playing, !interacting3d());
@@ -318,8 +318,9 @@ void StudioApp::pollLoader() {
     if (auto r = loader_.take()) pendingLoad_ = std::move(*r);
   if (!pendingLoad_) return;
   // The current volume and labels are read by workers: the queued tasks finish first (a save
-  // among them must not be lost), the deformation's solves are only caches and stop.
-  if (pendingLoad_->error.empty() && (tasks_.busy() || deform_.session().busy())) {
+  // among them must not be lost), the deformation's solves are only caches and stop, and the
+  // 3D view's upload of the CT finishes (it reads scene_.ct, not a copy).
+  if (pendingLoad_->error.empty() && (tasks_.busy() || deform_.session().busy() || upload3d_)) {
     deform_.session().cancel();
     return;
   }
@@ -367,7 +368,7 @@ void StudioApp::adoptLoad(LoadResult r) {
   segmentation_.tools().activeLabel = std::max<uint16_t>(1, scene_.labels.table().empty() ? 1 : scene_.labels.table().front().id);
   // The 3D view's textures are uploaded a slab per frame from the next frame on (the slices
   // show the new volume at once).
-  if (r.prepared && r.renderVolume) upload3d_ = Upload3d{r.renderVolume, r.prepared};
+  if (r.prepared) upload3d_ = Upload3d{r.prepared};
   else upload3d_.reset(), view3d_->setVolume(scene_.ct);
   markSlicesDirty();
   afterLoad(r);

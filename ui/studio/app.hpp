@@ -277,8 +277,9 @@ class StudioApp {
   /// A finished load waiting for the workers that read the current volume to stop.
   std::optional<LoadResult> pendingLoad_;
   /// The adopted volume's 3D textures still being uploaded, a slab per frame.
+  /// The 3D view's upload of scene_.ct, which stays as it is until the upload is done (no
+  /// load is adopted meanwhile: the worker reads it).
   struct Upload3d {
-    std::shared_ptr<const AnyVolume> volume;
     std::shared_ptr<const render::VolumeRenderer::Prepared> prepared;
     int adopted = 0;  ///< frames since the load was adopted
   };

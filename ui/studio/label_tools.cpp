@@ -1,11 +1,18 @@
 #include "label_tools.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <optional>
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
 
+#include "vellum/core/error.hpp"
+#include "vellum/core/region.hpp"
 #include "vellum/segmentation/components.hpp"
 #include "vellum/segmentation/label_map.hpp"
 #include "vellum/segmentation/morphology.hpp"
@@ -22,9 +29,149 @@ void releaseFreedMemory() {
   malloc_trim(0);
 #endif
 }
-}  // namespace
 
 namespace seg = vellum::segmentation;
+
+/// The label table with `label` added or replaced (what setLabel makes).
+std::vector<Label> tableWith(const std::vector<Label>& table, const Label& label) {
+  LabelVolume t(VolumeU16{}, table);
+  t.setLabel(label);
+  return t.table();
+}
+
+VoxelBox wholeGrid(const Geometry& g) { return {{0, 0, 0}, {g.dims.x - 1, g.dims.y - 1, g.dims.z - 1}}; }
+
+Geometry boxGeometry(const Geometry& g, const VoxelBox& box) {
+  Geometry out = g;
+  out.dims = box.dims();
+  out.origin = g.indexToPhysical({double(box.lo[0]), double(box.lo[1]), double(box.lo[2])});
+  return out;
+}
+
+void appendRun(std::vector<LabelDelta::Run>& runs, uint64_t n, uint32_t length, uint16_t before, uint16_t after) {
+  LabelDelta::Run* last = runs.empty() ? nullptr : &runs.back();
+  if (last && last->start + last->length == n && last->before == before && last->after == after &&
+      uint64_t(last->length) + length <= UINT32_MAX)
+    last->length += length;
+  else
+    runs.push_back({n, length, before, after});
+}
+
+/// The delta of an operation over `box`: `after(n, m, before)` is the id voxel n (linear index
+/// in the map; m in the box) gets. Only the labels are read (no copy of them); each slice of
+/// the box makes its own runs in parallel, joined in order (equal runs across slices merged),
+/// so the delta is what diffLabels(before, after) would give.
+template <class After>
+LabelDelta footprintDelta(const LabelVolume& labels, const VoxelBox& box, const std::set<uint16_t>& locked,
+                          std::vector<Label> tableAfter, After after) {
+  const auto& ids = labels.ids().voxels();
+  const Dims d = labels.geometry().dims;
+  const Dims bd = box.dims();
+  std::vector<uint8_t> isLocked;
+  if (!locked.empty()) {
+    isLocked.assign(65536, 0);
+    for (uint16_t id : locked) isLocked[id] = 1;
+  }
+  std::vector<std::vector<LabelDelta::Run>> slices(static_cast<size_t>(bd.z));
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, bd.z), [&](const tbb::blocked_range<int64_t>& r) {
+    for (int64_t kk = r.begin(); kk < r.end(); ++kk) {
+      auto& runs = slices[static_cast<size_t>(kk)];
+      const int64_t k = box.lo[2] + kk;
+      for (int64_t jj = 0; jj < bd.y; ++jj) {
+        const uint64_t row = (uint64_t(k) * d.y + uint64_t(box.lo[1] + jj)) * d.x + uint64_t(box.lo[0]);
+        const uint64_t rowBox = (uint64_t(kk) * bd.y + uint64_t(jj)) * bd.x;
+        for (int64_t ii = 0; ii < bd.x; ++ii) {
+          const uint64_t n = row + uint64_t(ii);
+          const uint16_t b = ids[n];
+          const uint16_t a = after(n, rowBox + uint64_t(ii), b);
+          if (a == b || (!isLocked.empty() && (isLocked[a] || isLocked[b]))) continue;
+          appendRun(runs, n, 1, b, a);
+        }
+      }
+    }
+  });
+  LabelDelta delta;
+  delta.tableBefore = labels.table();
+  delta.tableAfter = std::move(tableAfter);
+  size_t total = 0;
+  for (const auto& s : slices) total += s.size();
+  delta.runs.reserve(total);
+  for (auto& s : slices) {
+    for (const auto& run : s) appendRun(delta.runs, run.start, run.length, run.before, run.after);
+    std::vector<LabelDelta::Run>().swap(s);  // freed as it is joined
+  }
+  delta.runs.shrink_to_fit();
+  return delta;
+}
+
+/// The voxel box of segment `id` (nullopt: it has no voxels).
+std::optional<VoxelBox> segmentBox(const LabelVolume& labels, uint16_t id) {
+  const auto& ids = labels.ids().voxels();
+  const Dims d = labels.geometry().dims;
+  std::vector<std::optional<VoxelBox>> perSlice(static_cast<size_t>(d.z));
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, d.z), [&](const tbb::blocked_range<int64_t>& r) {
+    for (int64_t k = r.begin(); k < r.end(); ++k) {
+      std::optional<VoxelBox> b;
+      for (int64_t j = 0; j < d.y; ++j) {
+        const uint16_t* row = ids.data() + (uint64_t(k) * d.y + uint64_t(j)) * d.x;
+        for (int64_t i = 0; i < d.x; ++i) {
+          if (row[i] != id) continue;
+          if (!b) b = VoxelBox{{i, j, k}, {i, j, k}};
+          b->lo[0] = std::min(b->lo[0], i), b->hi[0] = std::max(b->hi[0], i);
+          b->lo[1] = std::min(b->lo[1], j), b->hi[1] = std::max(b->hi[1], j);
+        }
+      }
+      perSlice[static_cast<size_t>(k)] = b;
+    }
+  });
+  std::optional<VoxelBox> box;
+  for (const auto& b : perSlice) {
+    if (!b) continue;
+    if (!box) { box = b; continue; }
+    for (int a = 0; a < 3; ++a) box->lo[a] = std::min(box->lo[a], b->lo[a]), box->hi[a] = std::max(box->hi[a], b->hi[a]);
+  }
+  return box;
+}
+
+/// The mask of `id` on `box` (the box's own geometry: the voxels sit where they were).
+seg::Mask segmentMaskIn(const LabelVolume& labels, uint16_t id, const VoxelBox& box) {
+  seg::Mask m(boxGeometry(labels.geometry(), box), 0, 0.0);
+  const auto& ids = labels.ids().voxels();
+  const Dims d = labels.geometry().dims;
+  const Dims bd = box.dims();
+  uint8_t* out = m.data();
+  tbb::parallel_for(tbb::blocked_range<int64_t>(0, bd.z), [&](const tbb::blocked_range<int64_t>& r) {
+    for (int64_t kk = r.begin(); kk < r.end(); ++kk)
+      for (int64_t jj = 0; jj < bd.y; ++jj) {
+        const uint16_t* row = ids.data() + (uint64_t(box.lo[2] + kk) * d.y + uint64_t(box.lo[1] + jj)) * d.x + box.lo[0];
+        uint8_t* o = out + (uint64_t(kk) * bd.y + uint64_t(jj)) * bd.x;
+        for (int64_t i = 0; i < bd.x; ++i) o[i] = row[i] == id;
+      }
+  });
+  return m;
+}
+
+/// Segment `id` becomes `mask` (on `box`) where the background allows: its voxels outside the
+/// mask are cleared, background voxels inside it take the id, other segments keep theirs.
+/// (Islands and keep-largest only clear, fill holes only fills, morphology does both.)
+LabelDelta reshapeDelta(const LabelVolume& labels, uint16_t id, const VoxelBox& box, const seg::Mask& mask,
+                        const std::set<uint16_t>& locked, std::vector<Label> tableAfter) {
+  const uint8_t* m = mask.data();
+  return footprintDelta(labels, box, locked, std::move(tableAfter), [&](uint64_t, uint64_t mb, uint16_t b) -> uint16_t {
+    if (m[mb]) return b == 0 ? id : b;
+    return b == id ? uint16_t{0} : b;
+  });
+}
+
+/// An edit that changes no voxel (the table may still change).
+LabelDelta tableOnlyDelta(const LabelVolume& labels, std::vector<Label> tableAfter) {
+  LabelDelta d;
+  d.tableBefore = labels.table();
+  d.tableAfter = std::move(tableAfter);
+  return d;
+}
+
+}  // namespace
 
 LabelDelta diffEdit(const LabelVolume& labels, const std::string& description,
                     const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked) {
@@ -46,9 +193,77 @@ LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
   return delta;
 }
 
+LabelDelta thresholdDelta(const LabelVolume& labels, const VolumeI16& ct, const seg::HuInterval& interval,
+                          const Label& label, const std::set<uint16_t>& locked) {
+  if (label.id == 0) throw Error("segment id must be >= 1 (0 is background)");
+  seg::requireSameGeometry(labels.geometry(), ct.geometry(), "thresholding into the labels");
+  // The footprint is the threshold's own predicate on the CT: no mask is made.
+  const int16_t* v = ct.data();
+  const uint16_t id = label.id;
+  LabelDelta d = footprintDelta(labels, wholeGrid(labels.geometry()), locked, tableWith(labels.table(), label),
+                                [&](uint64_t n, uint64_t, uint16_t b) { return interval.contains(v[n]) ? id : b; });
+  releaseFreedMemory();
+  return d;
+}
+
+LabelDelta maskDelta(const LabelVolume& labels, const seg::Mask& mask, const Label& label,
+                     const std::set<uint16_t>& locked) {
+  if (label.id == 0) throw Error("segment id must be >= 1 (0 is background)");
+  seg::requireSameGeometry(labels.geometry(), mask.geometry(), "adding a segment to the labels");
+  const uint8_t* m = mask.data();
+  const uint16_t id = label.id;
+  return footprintDelta(labels, wholeGrid(labels.geometry()), locked, tableWith(labels.table(), label),
+                        [&](uint64_t n, uint64_t, uint16_t b) { return m[n] ? id : b; });
+}
+
+LabelDelta keepLargestDelta(const LabelVolume& labels, uint16_t id, const std::set<uint16_t>& locked) {
+  const auto box = segmentBox(labels, id);
+  if (!box) return tableOnlyDelta(labels, labels.table());
+  // Components never reach outside the segment's box: the work (mask, labelling) is the box's.
+  const seg::Mask keep = seg::keepLargestComponent(segmentMaskIn(labels, id, *box));
+  LabelDelta d = reshapeDelta(labels, id, *box, keep, locked, labels.table());
+  releaseFreedMemory();
+  return d;
+}
+
+LabelDelta removeIslandsDelta(const LabelVolume& labels, uint16_t id, double minVolumeMm3,
+                              const std::set<uint16_t>& locked) {
+  const auto box = segmentBox(labels, id);
+  if (!box) return tableOnlyDelta(labels, labels.table());
+  seg::Mask keep = segmentMaskIn(labels, id, *box);
+  seg::removeSmallIslandsInPlace(keep, minVolumeMm3);  // in place: one mask, no component ids
+  LabelDelta d = reshapeDelta(labels, id, *box, keep, locked, labels.table());
+  releaseFreedMemory();
+  return d;
+}
+
+LabelDelta fillHolesDelta(const LabelVolume& labels, uint16_t id, const std::set<uint16_t>& locked) {
+  const auto existing = labels.label(id);
+  const Label label = existing ? *existing : Label{id, "Segment " + std::to_string(id), defaultLabelColor(id)};
+  const auto box = segmentBox(labels, id);
+  if (!box) return tableOnlyDelta(labels, tableWith(labels.table(), label));
+  // Exact on the segment's box: a background voxel outside the box reaches the grid's border
+  // along the axis it is outside on, so a region touching the box's border is no hole.
+  seg::Mask filled = segmentMaskIn(labels, id, *box);
+  seg::fillHolesInPlace(filled);  // in place: one mask, no component ids
+  LabelDelta d = reshapeDelta(labels, id, *box, filled, locked, tableWith(labels.table(), label));
+  releaseFreedMemory();
+  return d;
+}
+
+LabelDelta growDelta(const LabelVolume& labels, const VolumeI16& ct, const Vec3& seedMm,
+                     const seg::HuInterval& interval, const Label& label, const std::set<uint16_t>& locked,
+                     int64_t* grownOut) {
+  const seg::Mask grown = seg::connectedThreshold(ct, {seedMm}, interval);
+  const int64_t n = seg::countVoxels(grown);
+  if (grownOut) *grownOut = n;
+  if (n == 0) return tableOnlyDelta(labels, labels.table());
+  return maskDelta(labels, grown, label, locked);
+}
+
 void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const seg::HuInterval& interval,
                    const Label& label) {
-  seg::addSegment(labels, seg::threshold(ct, interval), label, seg::OverlapRule::Overwrite);
+  applyDelta(labels, thresholdDelta(labels, ct, interval, label), true);
 }
 
 int64_t paintSphere(LabelVolume& labels, const Vec3& centerMm, double radiusMm, uint16_t id,
@@ -101,39 +316,18 @@ LabelDelta strokeDelta(std::vector<std::pair<uint64_t, uint16_t>> changed, std::
   return d;
 }
 
-void keepLargest(LabelVolume& labels, uint16_t id) {
-  const seg::Mask keep = seg::keepLargestComponent(seg::segmentMask(labels, id));
-  auto& ids = labels.ids().voxels();
-  const auto& k = keep.voxels();
-  for (size_t n = 0; n < ids.size(); ++n)
-    if (ids[n] == id && !k[n]) ids[n] = 0;
-  releaseFreedMemory();
-}
+void keepLargest(LabelVolume& labels, uint16_t id) { applyDelta(labels, keepLargestDelta(labels, id), true); }
 
 void removeIslands(LabelVolume& labels, uint16_t id, double minVolumeMm3) {
-  seg::Mask keep = seg::segmentMask(labels, id);
-  seg::removeSmallIslandsInPlace(keep, minVolumeMm3);  // in place: one mask, no component ids
-  auto& ids = labels.ids().voxels();
-  const auto& k = keep.voxels();
-  for (size_t n = 0; n < ids.size(); ++n)
-    if (ids[n] == id && !k[n]) ids[n] = 0;
-  releaseFreedMemory();
+  applyDelta(labels, removeIslandsDelta(labels, id, minVolumeMm3), true);
 }
 
-void fillHoles(LabelVolume& labels, uint16_t id) {
-  const auto existing = labels.label(id);
-  const Label label = existing ? *existing : Label{id, "Segment " + std::to_string(id), defaultLabelColor(id)};
-  seg::Mask filled = seg::segmentMask(labels, id);
-  seg::fillHolesInPlace(filled);  // in place: one mask, no component ids
-  seg::addSegment(labels, filled, label, seg::OverlapRule::KeepExisting);
-  releaseFreedMemory();
-}
+void fillHoles(LabelVolume& labels, uint16_t id) { applyDelta(labels, fillHolesDelta(labels, id), true); }
 
 int64_t growFromSeed(LabelVolume& labels, const VolumeI16& ct, const Vec3& seedMm,
                      const seg::HuInterval& interval, const Label& label) {
-  const seg::Mask grown = seg::connectedThreshold(ct, {seedMm}, interval);
-  const int64_t n = seg::countVoxels(grown);
-  if (n > 0) seg::addSegment(labels, grown, label, seg::OverlapRule::Overwrite);
+  int64_t n = 0;
+  applyDelta(labels, growDelta(labels, ct, seedMm, interval, label, {}, &n), true);
   return n;
 }
 
@@ -147,8 +341,20 @@ const char* morphologyName(Morphology m) {
   return "?";
 }
 
-void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm, Progress& progress) {
-  const seg::Mask m = seg::segmentMask(labels, id);
+LabelDelta morphologyDelta(const LabelVolume& labels, uint16_t id, Morphology op, double radiusMm,
+                           const std::set<uint16_t>& locked, Progress& progress) {
+  auto box = segmentBox(labels, id);
+  if (!box) return tableOnlyDelta(labels, labels.table());  // nothing grows from or shrinks to nothing
+  // A dilation reaches one radius beyond the segment and a closing's erosion looks one more
+  // radius out: with two radii (and a voxel) of margin, the grid's edge is only seen where
+  // the full map's is too, so the box gives the full map's result.
+  const Geometry& g = labels.geometry();
+  for (int a = 0; a < 3; ++a) {
+    const int64_t margin = 2 * static_cast<int64_t>(std::ceil(radiusMm / g.spacing[a])) + 2;
+    box->lo[a] = std::max<int64_t>(0, box->lo[a] - margin);
+    box->hi[a] = std::min<int64_t>(g.dims[a] - 1, box->hi[a] + margin);
+  }
+  const seg::Mask m = segmentMaskIn(labels, id, *box);
   seg::Mask r;
   switch (op) {
     case Morphology::Dilate: r = seg::dilate(m, radiusMm, progress); break;
@@ -156,12 +362,13 @@ void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm
     case Morphology::Open: r = seg::open(m, radiusMm, progress); break;
     case Morphology::Close: r = seg::close(m, radiusMm, progress); break;
   }
-  auto& ids = labels.ids().voxels();
-  const auto& v = r.voxels();
-  for (size_t n = 0; n < ids.size(); ++n) {
-    if (ids[n] == id && !v[n]) ids[n] = 0;
-    else if (ids[n] == 0 && v[n]) ids[n] = id;
-  }
+  LabelDelta d = reshapeDelta(labels, id, *box, r, locked, labels.table());
+  releaseFreedMemory();
+  return d;
+}
+
+void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm, Progress& progress) {
+  applyDelta(labels, morphologyDelta(labels, id, op, radiusMm, {}, progress), true);
 }
 
 double otsuHu(const VolumeI16& ct) {

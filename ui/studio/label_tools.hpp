@@ -9,20 +9,43 @@
 
 #include "undo.hpp"
 #include "vellum/core/progress.hpp"
+#include "vellum/segmentation/mask.hpp"
 #include "vellum/segmentation/threshold.hpp"
 
 namespace vellum::studio {
 
-/// Runs `edit` on `labels` and returns what it changed (a transient copy is diffed).
+/// Runs `edit` on `labels` and returns what it changed (a transient copy of the whole map is
+/// diffed: for tests and small maps; the studio's commands use the footprint deltas below).
 /// Locked segments are protected: voxels whose id before or after the edit is in `locked`
 /// are put back, so no edit adds to, removes from or paints over a locked segment.
 LabelDelta recordEdit(LabelVolume& labels, const std::string& description,
                       const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked = {});
-/// The same without touching `labels`: the delta `edit` would make (what a worker computes
-/// while the UI keeps drawing `labels`; applyDelta(labels, delta, true) then makes it).
+/// The same without touching `labels`: the delta `edit` would make (from a whole copy).
 LabelDelta diffEdit(const LabelVolume& labels, const std::string& description,
                     const std::function<void(LabelVolume&)>& edit, const std::set<uint16_t>& locked = {});
 
+// Footprint deltas (issue #22: memory <= 4x the volume while editing). Each label operation
+// reads `labels` (never writes them, never copies them) and returns the undo delta of what it
+// would change, built from its own footprint: the voxels it may change (a threshold's
+// predicate on the CT, a grown or snake mask, the box around a segment for islands, fill holes
+// and morphology). A worker computes it while the window keeps drawing the unchanged labels;
+// the window then applies it (applyDelta(labels, delta, true)). Voxels whose id before or
+// after is in `locked` are left as they are. The delta's description is left empty.
+LabelDelta thresholdDelta(const LabelVolume& labels, const VolumeI16& ct, const segmentation::HuInterval& interval,
+                          const Label& label, const std::set<uint16_t>& locked = {});
+/// `mask` (the labels' geometry) becomes `label` everywhere it is set (grow, snake).
+LabelDelta maskDelta(const LabelVolume& labels, const segmentation::Mask& mask, const Label& label,
+                     const std::set<uint16_t>& locked = {});
+LabelDelta keepLargestDelta(const LabelVolume& labels, uint16_t id, const std::set<uint16_t>& locked = {});
+LabelDelta removeIslandsDelta(const LabelVolume& labels, uint16_t id, double minVolumeMm3,
+                              const std::set<uint16_t>& locked = {});
+LabelDelta fillHolesDelta(const LabelVolume& labels, uint16_t id, const std::set<uint16_t>& locked = {});
+/// `grown` (optional) receives the grown voxel count (0: the seed's value is outside the interval).
+LabelDelta growDelta(const LabelVolume& labels, const VolumeI16& ct, const Vec3& seedMm,
+                     const segmentation::HuInterval& interval, const Label& label,
+                     const std::set<uint16_t>& locked = {}, int64_t* grown = nullptr);
+
+// The same operations applied to `labels` (their footprint delta, applied).
 /// Voxels of `ct` inside `interval` become `label` (overwriting other ids).
 void thresholdInto(LabelVolume& labels, const VolumeI16& ct, const segmentation::HuInterval& interval,
                    const Label& label);
@@ -52,6 +75,10 @@ int64_t growFromSeed(LabelVolume& labels, const VolumeI16& ct, const Vec3& seedM
 
 enum class Morphology { Dilate, Erode, Open, Close };
 const char* morphologyName(Morphology m);
+/// The footprint delta of a ball morphology of `id` (computed on the segment's box grown by
+/// twice the radius: nothing outside it can change).
+LabelDelta morphologyDelta(const LabelVolume& labels, uint16_t id, Morphology op, double radiusMm,
+                           const std::set<uint16_t>& locked = {}, Progress& progress = Progress::none());
 /// Ball morphology of `id` with radiusMm. Growing fills background only; shrinking clears to 0.
 void morphology(LabelVolume& labels, uint16_t id, Morphology op, double radiusMm,
                 Progress& progress = Progress::none());

@@ -36,13 +36,9 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   r.warnings = lv.warnings;
   r.series = lv.series;
   r.seriesUid = lv.seriesUid;
-  // A CT stored as int16 is not converted (a copy of the whole volume); the 3D view's copy
-  // below is then the loaded volume itself.
-  std::shared_ptr<AnyVolume> loaded;
-  if (std::holds_alternative<VolumeI16>(lv.volume) && request.prepare3d) {
-    loaded = std::make_shared<AnyVolume>(std::move(lv.volume));
-    r.ct = std::get<VolumeI16>(*loaded);
-  } else if (auto* i16 = std::get_if<VolumeI16>(&lv.volume)) {
+  // A CT stored as int16 is not converted (a copy of the whole volume). The 3D view uploads
+  // the scene's CT itself (issue #22: no second copy of the intensity volume).
+  if (auto* i16 = std::get_if<VolumeI16>(&lv.volume)) {
     r.ct = std::move(*i16);
   } else {
     r.ct = toInt16(lv.volume);
@@ -60,8 +56,10 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   }
   if (request.prepare3d) {
     progress.begin("preparing the 3D view", 1);
-    r.renderVolume = loaded ? std::move(loaded) : std::make_shared<const AnyVolume>(r.ct);
-    r.prepared = render::VolumeRenderer::prepare(*r.renderVolume);
+    // prepare() reads an AnyVolume: the CT is moved in and back out, not copied.
+    AnyVolume volume(std::move(r.ct));
+    r.prepared = render::VolumeRenderer::prepare(volume);
+    r.ct = std::move(std::get<VolumeI16>(volume));
     progress.advance();
   }
   if (r.scene && !r.scene->shapes.empty()) {

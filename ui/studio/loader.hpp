@@ -21,7 +21,7 @@ struct LoadRequest {
   std::filesystem::path path;    ///< volume file, DICOM folder or scene (*.json)
   std::filesystem::path labels;  ///< optional label map for a volume
   std::string seriesUid;         ///< DICOM: the series to load (default: the largest CT series)
-  bool prepare3d = false;        ///< also make LoadResult::renderVolume and ::prepared
+  bool prepare3d = false;        ///< also make LoadResult::prepared
 };
 
 struct LoadResult {
@@ -37,9 +37,8 @@ struct LoadResult {
   std::shared_ptr<const illustration::ShapeScene> shapes;
   std::shared_ptr<const SegmentMeshes> shapeMeshes;  ///< the folder's meshes
   std::filesystem::path shapesPath;
-  /// The 3D view's volume and the renderer's CPU part (normals, empty-space blocks), made on
-  /// the worker so that adopting the load only uploads (null when not asked for).
-  std::shared_ptr<const AnyVolume> renderVolume;
+  /// The renderer's CPU part of `ct` (empty-space blocks, lighting), made on the worker so
+  /// that adopting the load only uploads `ct` (null when not asked for).
   std::shared_ptr<const render::VolumeRenderer::Prepared> prepared;
 };
 

@@ -19,17 +19,18 @@ Label labelFor(const LabelVolume& labels, uint16_t id, const std::string& defaul
 }
 }  // namespace
 
-void SegmentationController::editInWorker(const std::string& description,
-                                          std::function<void(LabelVolume&, Progress&)> fn) {
+void SegmentationController::editInWorker(const std::string& description, DeltaFn fn) {
   Scene& scene = app_.scene();
   if (!scene.hasVolume()) throw Error("no volume is open");
-  // The worker diffs a copy of the labels as they will be when this task starts (the tasks
-  // before it applied, nothing else changing them meanwhile: labelsFrozen()); the UI thread
-  // applies the delta, one undo step.
+  // The worker reads the labels as they are when this task starts (the tasks before it
+  // applied, nothing changing them meanwhile: labelsFrozen() refuses strokes and edits), while
+  // the window keeps drawing them: both only read. The delta comes from the operation's own
+  // footprint (no copy of the map, issue #22: memory <= 4x the volume); the UI thread applies
+  // it between frames, one undo step, so the window never sees a half-written map.
   app_.tasks().push(description, [this, description, fn = std::move(fn), locked = scene.lockedLabels](Progress& p) {
     p.begin(description, 1);
-    auto delta = std::make_shared<LabelDelta>(
-        diffEdit(app_.scene().labels, description, [&](LabelVolume& l) { fn(l, p); }, locked));
+    auto delta = std::make_shared<LabelDelta>(fn(app_.scene().labels, locked, p));
+    delta->description = description;
     p.checkCancelled();  // a cancel during the work drops its result
     return TaskQueue::Apply([this, delta] {
       applyDelta(app_.scene().labels, *delta, true);
@@ -57,28 +58,33 @@ void SegmentationController::applyThreshold() {
   std::ostringstream name;
   name << "Threshold " << t.lower << ".." << t.upper;
   // The label as the table has it when the task runs (an earlier queued edit may name it).
-  editInWorker("threshold", [this, t, id = tools_.activeLabel, name = name.str()](LabelVolume& l, Progress&) {
-    thresholdInto(l, app_.scene().ct, t, labelFor(l, id, name));
+  editInWorker("threshold", [this, t, id = tools_.activeLabel, name = name.str()](const LabelVolume& l,
+                                                                                   const std::set<uint16_t>& locked, Progress&) {
+    return thresholdDelta(l, app_.scene().ct, t, labelFor(l, id, name), locked);
   });
 }
 
 void SegmentationController::keepLargestOfActive() {
-  editInWorker("keep largest", [id = tools_.activeLabel](LabelVolume& l, Progress&) { keepLargest(l, id); });
+  editInWorker("keep largest", [id = tools_.activeLabel](const LabelVolume& l, const std::set<uint16_t>& locked,
+                                                         Progress&) { return keepLargestDelta(l, id, locked); });
 }
 
 void SegmentationController::fillHolesOfActive() {
-  editInWorker("fill holes", [id = tools_.activeLabel](LabelVolume& l, Progress&) { fillHoles(l, id); });
+  editInWorker("fill holes", [id = tools_.activeLabel](const LabelVolume& l, const std::set<uint16_t>& locked,
+                                                       Progress&) { return fillHolesDelta(l, id, locked); });
 }
 
 void SegmentationController::removeIslandsOfActive() {
-  editInWorker("remove islands", [id = tools_.activeLabel, mm3 = tools_.minIslandMm3](LabelVolume& l, Progress&) {
-    removeIslands(l, id, mm3);
+  editInWorker("remove islands", [id = tools_.activeLabel, mm3 = tools_.minIslandMm3](
+                                     const LabelVolume& l, const std::set<uint16_t>& locked, Progress&) {
+    return removeIslandsDelta(l, id, mm3, locked);
   });
 }
 
 void SegmentationController::morphologyOfActive(Morphology op) {
-  editInWorker(morphologyName(op), [id = tools_.activeLabel, op, r = tools_.brushRadiusMm](LabelVolume& l, Progress& p) {
-    morphology(l, id, op, r, p);
+  editInWorker(morphologyName(op), [id = tools_.activeLabel, op, r = tools_.brushRadiusMm](
+                                       const LabelVolume& l, const std::set<uint16_t>& locked, Progress& p) {
+    return morphologyDelta(l, id, op, r, locked, p);
   });
 }
 
@@ -118,9 +124,9 @@ void SegmentationController::pollSnake() {
   std::cout << "snake: " << out->iterations << " iterations" << (out->converged ? ", converged" : "")
             << (out->note.empty() ? "" : "; " + out->note) << std::endl;
   auto mask = std::make_shared<const segmentation::Mask>(std::move(out->mask));
-  editInWorker("snake", [mask, id = tools_.activeLabel](LabelVolume& l, Progress&) {
-    segmentation::addSegment(l, *mask, labelFor(l, id, "Snake " + std::to_string(id)),
-                             segmentation::OverlapRule::Overwrite);
+  editInWorker("snake", [mask, id = tools_.activeLabel](const LabelVolume& l, const std::set<uint16_t>& locked,
+                                                          Progress&) {
+    return maskDelta(l, *mask, labelFor(l, id, "Snake " + std::to_string(id)), locked);
   });
 }
 
@@ -142,8 +148,9 @@ void SegmentationController::growAt(const Pane& pane, double x, double y) {
 
 void SegmentationController::growFromPoint(const Vec3& seed) {
   try {
-    editInWorker("grow", [this, seed, id = tools_.activeLabel, t = tools_.threshold](LabelVolume& l, Progress&) {
-      growFromSeed(l, app_.scene().ct, seed, t, labelFor(l, id, "Region " + std::to_string(id)));
+    editInWorker("grow", [this, seed, id = tools_.activeLabel, t = tools_.threshold](
+                             const LabelVolume& l, const std::set<uint16_t>& locked, Progress&) {
+      return growDelta(l, app_.scene().ct, seed, t, labelFor(l, id, "Region " + std::to_string(id)), locked);
     });
   } catch (const std::exception& e) {
     app_.showError(e.what());

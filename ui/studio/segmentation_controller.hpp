@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -81,9 +82,11 @@ class SegmentationController {
   bool seedIn3d(const Vec3& mm);
 
  private:
-  /// A label edit (locked segments protected) on the task queue's worker, recorded as one
-  /// undo step when the window applies it.
-  void editInWorker(const std::string& description, std::function<void(LabelVolume&, Progress&)> fn);
+  /// A label edit on the task queue's worker: `fn` reads the labels (never writes them) and
+  /// returns its footprint delta (locked segments protected, label_tools.hpp); the window
+  /// applies it, one undo step.
+  using DeltaFn = std::function<LabelDelta(const LabelVolume&, const std::set<uint16_t>& locked, Progress&)>;
+  void editInWorker(const std::string& description, DeltaFn fn);
   void pushEdit(LabelDelta delta);
   /// True (and a notice) when the labels are frozen by running tasks: `what` waits.
   bool refuseWhileFrozen(const std::string& what);

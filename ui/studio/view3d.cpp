@@ -270,9 +270,38 @@ void View3D::setVolume(const VolumeI16& ct) {
   invalidate();
 }
 
+namespace {
+// On the upload worker: 8 MB a call, a pause between calls: the window's draws wait for Mesa's
+// lock on shared objects while a call copies (350 MB of normals, no longer made, in one call:
+// a 0.9 s frame under load).
+template <class V>
+std::shared_ptr<render::VolumeRenderer::VolumeTextures> fillVolumeTextures(const V& volume,
+                                                                         const render::VolumeRenderer::Prepared& p) {
+  return render::VolumeRenderer::makeVolumeTextures(volume, p, size_t(8) << 20,
+                                                    [] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); });
+}
+}  // namespace
+
+bool View3D::uploadVolumeStep(const VolumeI16& ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared,
+                              size_t maxBytes) {
+  if (uploadWindow_) {
+    const VolumeI16* volume = &ct;  // the caller keeps it until this returns true
+    auto make = [volume, p = prepared] { return fillVolumeTextures(*volume, *p); };  // before prepared moves
+    return uploadOnWorker(std::move(make), ct.geometry().dims, std::move(prepared));
+  }
+  if (!stepSource_ || volumePrepared_ != prepared) stepSource_ = std::make_shared<const AnyVolume>(ct);
+  if (!uploadVolumeStep(stepSource_, std::move(prepared), maxBytes)) return false;
+  stepSource_.reset();
+  return true;
+}
+
 bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
                               std::shared_ptr<const render::VolumeRenderer::Prepared> prepared, size_t maxBytes) {
-  if (uploadWindow_) return uploadOnWorker(std::move(ct), std::move(prepared));
+  if (uploadWindow_) {
+    const Dims dims = geometryOf(*ct).dims;
+    auto make = [ct, p = prepared] { return fillVolumeTextures(*ct, *p); };  // before prepared moves
+    return uploadOnWorker(std::move(make), dims, std::move(prepared));
+  }
   context_.makeCurrent();
   hasVolume_ = false;  // the renderer has dropped the previous volume
   if (volumePrepared_ != prepared) dropPendingMaps();  // made for the previous volume
@@ -286,7 +315,7 @@ bool View3D::uploadVolumeStep(std::shared_ptr<const AnyVolume> ct,
   return true;
 }
 
-bool View3D::uploadOnWorker(std::shared_ptr<const AnyVolume> ct,
+bool View3D::uploadOnWorker(std::function<VolumeTextures()> make, Dims dims,
                             std::shared_ptr<const render::VolumeRenderer::Prepared> prepared) {
   if (volumePrepared_ != prepared) {  // a new volume: nothing drawn until it is complete
     dropPendingMaps();  // made for the previous volume
@@ -310,18 +339,14 @@ bool View3D::uploadOnWorker(std::shared_ptr<const AnyVolume> ct,
   }
   // One job at a time: the hidden context is current on one thread at most.
   jobFor_ = prepared;
-  jobDims_ = geometryOf(*ct).dims;
-  volumeJob_ = std::async(std::launch::async, [window = static_cast<GLFWwindow*>(uploadWindow_), ct = std::move(ct),
-                                               prepared = std::move(prepared)] {
+  jobDims_ = dims;
+  volumeJob_ = std::async(std::launch::async, [window = static_cast<GLFWwindow*>(uploadWindow_), make = std::move(make)] {
     lowerThreadPriority();
     glfwMakeContextCurrent(window);
     struct Release {  // the context is free again for the next job, whatever happens
       ~Release() { glfwMakeContextCurrent(nullptr); }
     } release;
-    // 8 MB a call, a pause between calls: the window's draws wait for Mesa's lock on shared
-    // objects while a call copies (350 MB of normals, no longer made, in one call: a 0.9 s frame under load).
-    return render::VolumeRenderer::makeVolumeTextures(*ct, *prepared, size_t(8) << 20,
-                                                      [] { std::this_thread::sleep_for(std::chrono::milliseconds(2)); });
+    return make();  // fillVolumeTextures
   });
   return false;
 }

@@ -12,6 +12,7 @@
 // scene's sample count (or time limit); any change of the view starts it again. When one
 // sample of the pane is over the budget (llvmpipe), each sample is drawn a band of rows per
 // frame and the picture shown as each sample completes.
+#include <functional>
 #include <future>
 #include <memory>
 #include <optional>
@@ -92,6 +93,11 @@ class View3D {
   /// 0.3-0.5 s a texture at 512^2 x 350, in the frame that made it); otherwise a slab of about
   /// `maxBytes` per call. Once it returned true, call it again only for another volume.
   bool uploadVolumeStep(std::shared_ptr<const AnyVolume> ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared,
+                        size_t maxBytes);
+  /// The same from the scene's own CT (no copy of it for the 3D view, issue #22: memory <= 4x
+  /// the volume): `ct` must stay alive and unchanged until a call returned true (the studio
+  /// adopts no other volume while an upload runs). Headless, the slab path copies it.
+  bool uploadVolumeStep(const VolumeI16& ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared,
                         size_t maxBytes);
   /// Draws the volume through a deformation (nullptr: none); `revision` identifies the map, so
   /// a new one renders again (coarse while the user drags, then refined). After
@@ -184,7 +190,11 @@ class View3D {
   std::future<VolumeTextures> volumeJob_;  ///< the worker's textures, for jobFor_
   std::shared_ptr<const render::VolumeRenderer::Prepared> jobFor_;
   Dims jobDims_;
-  bool uploadOnWorker(std::shared_ptr<const AnyVolume> ct, std::shared_ptr<const render::VolumeRenderer::Prepared> prepared);
+  /// `make` (on the worker, its context current) makes the textures of a volume of `dims`.
+  bool uploadOnWorker(std::function<VolumeTextures()> make, Dims dims,
+                      std::shared_ptr<const render::VolumeRenderer::Prepared> prepared);
+  /// Headless uploadVolumeStep(const VolumeI16&): the copy the slab path steps through.
+  std::shared_ptr<const AnyVolume> stepSource_;
   bool warmed_ = false;
   /// The volume's CPU part (from uploadVolumeStep), which map preparation needs; null after
   /// setVolume().

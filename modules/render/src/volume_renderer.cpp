@@ -777,35 +777,38 @@ struct VolumeRenderer::VolumeTextures {
   Geometry geometry;
 };
 
-std::shared_ptr<VolumeRenderer::VolumeTextures> VolumeRenderer::makeVolumeTextures(
-    const AnyVolume& volume, const Prepared& prepared, size_t slabBytes, const std::function<void()>& betweenSlabs) {
-  const Geometry& g = geometryOf(volume);
+template <class T>
+std::shared_ptr<VolumeRenderer::VolumeTextures> VolumeRenderer::makeTexturesOf(
+    const Volume<T>& v, const Prepared& prepared, size_t slabBytes, const std::function<void()>& betweenSlabs) {
+  const Geometry& g = v.geometry();
   g.validate("render volume");
   if (!(prepared.geometry.dims == g.dims)) throw Error("makeVolumeTextures: prepared for another volume");
   auto t = std::make_shared<VolumeTextures>();
   t->geometry = g;
   // Whole z slices, about slabBytes a call: Mesa holds the objects' shared lock through each
   // texture call, and the other contexts' draws wait for it.
-  const auto slabs = [&](size_t sliceBytes, const auto& fill) {
-    const int64_t step = std::max<int64_t>(1, int64_t(slabBytes / std::max<size_t>(1, sliceBytes)));
-    for (int64_t z = 0; z < g.dims.z; z += step) {
-      if (z > 0 && betweenSlabs) betweenSlabs();
-      fill(z, std::min(g.dims.z, z + step));
-    }
-  };
-  const size_t slice = static_cast<size_t>(g.dims.x * g.dims.y);
-  std::visit(
-      [&](const auto& v) {
-        using T = std::decay_t<decltype(*v.data())>;
-        t->volume = Impl::newVolumeTexture(v);
-        t->valueScale = voxelFormat<T>().scale;
-        slabs(slice * sizeof(T), [&](int64_t z0, int64_t z1) { Impl::fillVolumeSlab(t->volume, v, z0, z1); });
-      },
-      volume);
+  const size_t sliceBytes = static_cast<size_t>(g.dims.x * g.dims.y) * sizeof(T);
+  const int64_t step = std::max<int64_t>(1, int64_t(slabBytes / std::max<size_t>(1, sliceBytes)));
+  t->volume = Impl::newVolumeTexture(v);
+  t->valueScale = voxelFormat<T>().scale;
+  for (int64_t z = 0; z < g.dims.z; z += step) {
+    if (z > 0 && betweenSlabs) betweenSlabs();
+    Impl::fillVolumeSlab(t->volume, v, z, std::min(g.dims.z, z + step));
+  }
   glBindTexture(GL_TEXTURE_3D, 0);
   // Complete before another context samples them (llvmpipe copies at once; a GPU may not).
   glFinish();
   return t;
+}
+
+std::shared_ptr<VolumeRenderer::VolumeTextures> VolumeRenderer::makeVolumeTextures(
+    const AnyVolume& volume, const Prepared& prepared, size_t slabBytes, const std::function<void()>& betweenSlabs) {
+  return std::visit([&](const auto& v) { return makeTexturesOf(v, prepared, slabBytes, betweenSlabs); }, volume);
+}
+
+std::shared_ptr<VolumeRenderer::VolumeTextures> VolumeRenderer::makeVolumeTextures(
+    const VolumeI16& volume, const Prepared& prepared, size_t slabBytes, const std::function<void()>& betweenSlabs) {
+  return makeTexturesOf(volume, prepared, slabBytes, betweenSlabs);
 }
 
 void VolumeRenderer::adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& textures, const Prepared& prepared) {

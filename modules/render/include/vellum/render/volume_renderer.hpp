@@ -64,6 +64,10 @@ class VolumeRenderer {
   static std::shared_ptr<VolumeTextures> makeVolumeTextures(const AnyVolume& volume, const Prepared& prepared,
                                                             size_t slabBytes = size_t(-1),
                                                             const std::function<void()>& betweenSlabs = {});
+  /// The same from an int16 volume the caller holds anyway (a viewer's CT: no AnyVolume copy).
+  static std::shared_ptr<VolumeTextures> makeVolumeTextures(const VolumeI16& volume, const Prepared& prepared,
+                                                            size_t slabBytes = size_t(-1),
+                                                            const std::function<void()>& betweenSlabs = {});
   void adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& textures, const Prepared& prepared);
   void discardVolumeTextures(const std::shared_ptr<VolumeTextures>& textures);
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
@@ -157,6 +161,9 @@ class VolumeRenderer {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   void finishVolume(const Geometry& g, const Prepared& prepared);
+  template <class T>
+  static std::shared_ptr<VolumeTextures> makeTexturesOf(const Volume<T>& volume, const Prepared& prepared,
+                                                        size_t slabBytes, const std::function<void()>& betweenSlabs);
 };
 
 /// Opaque geometry for the CPU reference, per pixel (row 0 = top, settings' size): the
