@@ -21,9 +21,21 @@ struct SplitParams {
   /// Seeds (mm, on the mask): one object per seed instead of the automatic markers; pieces of
   /// the mask that hold no seed are dropped.
   std::vector<Vec3> seedsMm;
+  /// Joint cut (needs the CT; 0 = off): voxels of the mask in a thin dark sheet, darker by at
+  /// least this than bright voxels on both sides along one of the 13 voxel directions within
+  /// jointWidthMm (a joint space between two subchondral plates), count as surface for the
+  /// depth and the markers: two bones pressed together across a joint space get two markers
+  /// and meet in it. Flooded last, so the joint space's voxels still join a bone.
+  double jointContrastHu = 0;
+  /// The widest joint space the cut looks across (each side), mm.
+  double jointWidthMm = 2.0;
+  /// After the split, each object's cavities (holes enclosed in any axial, coronal or sagittal
+  /// slice of the object alone, then 3D) become the object: the low-density inside of a bone
+  /// (fatty marrow, cancellous bone under the threshold) without bridging to its neighbours.
+  bool fillObjects = false;
 };
 
-/// neck, min_volume (the seeds are a list, not a table row).
+/// neck, min_volume, joint_contrast, joint_width, fill (the seeds are a list, not a table row).
 const params::Table<SplitParams>& splitParamsTable();
 
 struct SplitResult {
@@ -31,6 +43,8 @@ struct SplitResult {
   std::vector<double> volumesMm3;   ///< per object (index 0 unused)
   double droppedMm3 = 0;            ///< mask volume left out (pieces below the minimum, unseeded pieces)
   int markers = 0;                  ///< markers flooded from (before small objects merged)
+  int64_t jointVoxels = 0;          ///< voxels the joint cut marked as joint space
+  double filledMm3 = 0;             ///< cavities added to the objects (fillObjects)
   int count() const { return static_cast<int>(volumesMm3.size()) - 1; }
 };
 
@@ -38,7 +52,18 @@ struct SplitResult {
 /// than neckMm) grow over the mask in order of decreasing depth (priority flood, 26 neighbours),
 /// so two bones joined by a thin contact meet at the contact's narrowest place. Mask pieces
 /// that no marker reaches become objects of their own. Deterministic (no thread dependence).
-/// Throws vellum::Error for a seed outside the grid or on background.
-SplitResult splitObjects(const Mask& mask, const SplitParams& params = {}, Progress& progress = Progress::none());
+/// Throws vellum::Error for a seed outside the grid or on background, and for a joint cut
+/// without `ct` (the CT the mask came from, same grid).
+SplitResult splitObjects(const Mask& mask, const SplitParams& params = {}, Progress& progress = Progress::none(),
+                         const VolumeI16* ct = nullptr);
+
+/// The joint cut's sheet (see SplitParams::jointContrastHu): voxels of `mask` at least
+/// contrastHu darker than the brightest voxel within widthMm on each side along some direction.
+Mask jointSpaces(const VolumeI16& ct, const Mask& mask, double contrastHu, double widthMm);
+
+/// Fills each object's cavities (holes enclosed in a slice of the object alone along x, y or
+/// z, then 3D) with its id, on background voxels only (objects never overwrite each other;
+/// larger objects fill first). Returns the voxels added per id (index 0 unused).
+std::vector<int64_t> fillObjectHoles(VolumeU16& objects);
 
 }  // namespace vellum::segmentation
