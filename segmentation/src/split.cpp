@@ -6,6 +6,8 @@
 #include <map>
 #include <numeric>
 #include <queue>
+#include <cstdio>
+#include <cstdlib>
 
 #include "vellum/core/components.hpp"
 #include "vellum/core/distance_transform.hpp"
@@ -224,11 +226,13 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
   // (depth 0: no marker crosses them, and the flood reaches them last).
   VolumeF32 depth2;
   int64_t jointVoxels = 0;
+  Mask joint;
   if (p.jointContrastHu > 0) {
     if (!ct) throw Error("split: the joint cut (joint contrast) needs the CT");
-    Mask core = jointSpaces(*ct, mask, p.jointContrastHu, p.jointWidthMm);
-    jointVoxels = countVoxels(core);
-    for (size_t n = 0; n < core.size(); ++n) core.data()[n] = mask.data()[n] && !core.data()[n];
+    joint = jointSpaces(*ct, mask, p.jointContrastHu, p.jointWidthMm);
+    jointVoxels = countVoxels(joint);
+    Mask core = makeMask(g);
+    for (size_t n = 0; n < core.size(); ++n) core.data()[n] = mask.data()[n] && !joint.data()[n];
     depth2 = squaredDistanceMm(maskNot(core), progress);
   } else {
     depth2 = squaredDistanceMm(maskNot(mask), progress);  // 0 on background
@@ -261,24 +265,34 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
   for (uint16_t id : ids) volume[id] += voxelMm3;
 
   // Contacts between objects (26 neighbours, each pair counted from both sides alike).
-  std::map<std::pair<uint16_t, uint16_t>, int64_t> contact;
+  // With the joint cut, also the pairs with a joint-space voxel on either side.
+  std::map<std::pair<uint16_t, uint16_t>, int64_t> contact, contactInJoint;
   for (int64_t k = 0; k < d.z; ++k)
     for (int64_t j = 0; j < d.y; ++j)
       for (int64_t i = 0; i < d.x; ++i) {
-        const uint16_t a = ids[(k * d.y + j) * d.x + i];
+        const int64_t n = (k * d.y + j) * d.x + i;
+        const uint16_t a = ids[n];
         if (!a) continue;
+        const bool inJoint = !joint.empty() && joint.data()[n];
         forNeighbours(d, i, j, k, [&](int64_t m) {
           const uint16_t b = ids[m];
-          if (b && b != a) ++contact[{a, b}];
+          if (!b || b == a) return;
+          ++contact[{a, b}];
+          if (inJoint || (!joint.empty() && joint.data()[m])) ++contactInJoint[{a, b}];
         });
       }
-  // Small objects, smallest first, join the neighbour they touch most (or are dropped).
   std::vector<uint16_t> parent(count + 1);
   std::iota(parent.begin(), parent.end(), uint16_t{0});
   auto root = [&](uint16_t a) {
     while (parent[a] != a) a = parent[a];
     return a;
   };
+  if (std::getenv("VELLUM_SPLIT_DEBUG"))
+    for (const auto& [pair, n] : contact)
+      if (pair.first < pair.second && n >= 20)
+        std::fprintf(stderr, "contact %d-%d: %lld pairs, %.2f in joint; volumes %.0f %.0f\n", pair.first, pair.second,
+                     (long long)n, double(contactInJoint[pair]) / n, volume[pair.first], volume[pair.second]);
+  // Small objects, smallest first, join the neighbour they touch most (or are dropped).
   std::vector<uint16_t> order(count);
   std::iota(order.begin(), order.end(), uint16_t{1});
   std::stable_sort(order.begin(), order.end(), [&](uint16_t a, uint16_t b) { return volume[a] < volume[b]; });
