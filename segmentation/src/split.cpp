@@ -6,14 +6,13 @@
 #include <map>
 #include <numeric>
 #include <queue>
-#include <cstdio>
-#include <cstdlib>
 
 #include "vellum/core/components.hpp"
 #include "vellum/core/distance_transform.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/segmentation/components.hpp"
+#include "vellum/segmentation/morphology.hpp"
 
 namespace vellum::segmentation {
 
@@ -33,6 +32,10 @@ const params::Table<SplitParams>& splitParamsTable() {
                        "HU", 0, 5000}),
       params::real<S>("joint_width", &S::jointWidthMm,
                       {"Split joint width", "joint cut: how far each side the bright bone is looked for", "mm", 0.1, 20}),
+      params::real<S>("joint_share", &S::jointShare,
+                      {"Split joint share",
+                       "joint cut: neighbouring objects whose contact lies less than this share in joint space "
+                       "(a neck inside one bone) merge (0 = never)", "", 0, 1}),
       params::flag<S>("fill", &S::fillObjects,
                       {"Split fill", "after the split, fill each object's cavities (enclosed in a slice of the object "
                                      "alone, or in 3D) with its id, on background only: a bone's low-density inside", ""}),
@@ -168,6 +171,9 @@ Mask jointSpaces(const VolumeI16& ct, const Mask& mask, double contrastHu, doubl
           }
         }
   });
+  // A joint space is a sheet at least as wide as the distance looked across; smaller specks
+  // are the texture of cancellous bone (fat between trabeculae), which would cut bones apart.
+  removeSmallIslandsInPlace(out, M_PI * widthMm * widthMm);
   return out;
 }
 
@@ -265,7 +271,9 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
   for (uint16_t id : ids) volume[id] += voxelMm3;
 
   // Contacts between objects (26 neighbours, each pair counted from both sides alike).
-  // With the joint cut, also the pairs with a joint-space voxel on either side.
+  // With the joint cut, also the pairs next to the joint space: its sheet is one voxel thin in
+  // places, and two voxels 26-adjacent across an oblique sheet meet in the joint too.
+  if (!joint.empty()) joint = dilate(joint, norm(g.spacing));
   std::map<std::pair<uint16_t, uint16_t>, int64_t> contact, contactInJoint;
   for (int64_t k = 0; k < d.z; ++k)
     for (int64_t j = 0; j < d.y; ++j)
@@ -281,17 +289,36 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
           if (inJoint || (!joint.empty() && joint.data()[m])) ++contactInJoint[{a, b}];
         });
       }
+  SplitResult out;
+  out.jointVoxels = jointVoxels;
   std::vector<uint16_t> parent(count + 1);
   std::iota(parent.begin(), parent.end(), uint16_t{0});
   auto root = [&](uint16_t a) {
     while (parent[a] != a) a = parent[a];
     return a;
   };
-  if (std::getenv("VELLUM_SPLIT_DEBUG"))
-    for (const auto& [pair, n] : contact)
-      if (pair.first < pair.second && n >= 20)
-        std::fprintf(stderr, "contact %d-%d: %lld pairs, %.2f in joint; volumes %.0f %.0f\n", pair.first, pair.second,
-                     (long long)n, double(contactInJoint[pair]) / n, volume[pair.first], volume[pair.second]);
+  // With the joint cut, neighbours that meet mostly outside the joint spaces were cut apart by
+  // a neck inside one bone (or by a gap in the joint sheet): one bone, one object.
+  if (!joint.empty() && p.jointShare > 0) {
+    // Least joint-like contacts first (ties: lower ids first), so a clear neck merges before a doubtful one.
+    std::vector<std::pair<double, std::pair<uint16_t, uint16_t>>> byShare;
+    for (const auto& [pair, n] : contact) {
+      if (pair.first > pair.second) continue;  // each pair once
+      const auto inJoint = contactInJoint.find(pair);
+      byShare.push_back({double(inJoint == contactInJoint.end() ? 0 : inJoint->second) / double(n), pair});
+    }
+    std::stable_sort(byShare.begin(), byShare.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (const auto& [share, pair] : byShare) {
+      if (share >= p.jointShare) break;
+      const uint16_t a = root(pair.first), b = root(pair.second);
+      if (a == b) continue;
+      const uint16_t keep = volume[a] >= volume[b] ? a : b, gone = keep == a ? b : a;
+      parent[gone] = keep;
+      volume[keep] += volume[gone];
+      volume[gone] = 0;
+      ++out.jointMerges;
+    }
+  }
   // Small objects, smallest first, join the neighbour they touch most (or are dropped).
   std::vector<uint16_t> order(count);
   std::iota(order.begin(), order.end(), uint16_t{1});
@@ -320,8 +347,6 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
   }
   if (!p.seedsMm.empty()) dropped += double(unreachedVoxels) * voxelMm3;  // unseeded pieces
   // Each object's cavities join it (on background only), before the numbering by volume.
-  SplitResult out;
-  out.jointVoxels = jointVoxels;
   if (p.fillObjects) {
     VolumeU16 merged(g, 0, 0.0);
     uint16_t* m = merged.data();

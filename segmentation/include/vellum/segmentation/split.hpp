@@ -27,15 +27,20 @@ struct SplitParams {
   /// depth and the markers: two bones pressed together across a joint space get two markers
   /// and meet in it. Flooded last, so the joint space's voxels still join a bone.
   double jointContrastHu = 0;
-  /// The widest joint space the cut looks across (each side), mm.
-  double jointWidthMm = 2.0;
+  /// How far each side of a dark voxel the cut looks for bright bone, mm. Pieces of the sheet
+  /// smaller than pi * width^2 mm^3 are dropped (the texture of cancellous bone, not a joint).
+  double jointWidthMm = 3.0;
+  /// With the joint cut: two objects that meet mostly outside the joint spaces (less than this
+  /// share of their contact on joint-space voxels) were cut apart by a neck inside one bone or
+  /// by a gap in the joint's sheet, and merge. 0 = never.
+  double jointShare = 0.5;
   /// After the split, each object's cavities (holes enclosed in any axial, coronal or sagittal
   /// slice of the object alone, then 3D) become the object: the low-density inside of a bone
   /// (fatty marrow, cancellous bone under the threshold) without bridging to its neighbours.
   bool fillObjects = false;
 };
 
-/// neck, min_volume, joint_contrast, joint_width, fill (the seeds are a list, not a table row).
+/// neck, min_volume, joint_contrast, joint_width, joint_share, fill (the seeds are a list, not a table row).
 const params::Table<SplitParams>& splitParamsTable();
 
 struct SplitResult {
@@ -44,6 +49,7 @@ struct SplitResult {
   double droppedMm3 = 0;            ///< mask volume left out (pieces below the minimum, unseeded pieces)
   int markers = 0;                  ///< markers flooded from (before small objects merged)
   int64_t jointVoxels = 0;          ///< voxels the joint cut marked as joint space
+  int jointMerges = 0;              ///< neighbours merged for meeting outside the joint spaces
   double filledMm3 = 0;             ///< cavities added to the objects (fillObjects)
   int count() const { return static_cast<int>(volumesMm3.size()) - 1; }
 };
@@ -58,7 +64,8 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& params = {}, Progr
                          const VolumeI16* ct = nullptr);
 
 /// The joint cut's sheet (see SplitParams::jointContrastHu): voxels of `mask` at least
-/// contrastHu darker than the brightest voxel within widthMm on each side along some direction.
+/// contrastHu darker than the brightest voxel within widthMm on each side along some direction,
+/// without the pieces (26-connected) smaller than pi * widthMm^2 mm^3.
 Mask jointSpaces(const VolumeI16& ct, const Mask& mask, double contrastHu, double widthMm);
 
 /// Fills each object's cavities (holes enclosed in a slice of the object alone along x, y or
