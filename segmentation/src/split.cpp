@@ -36,6 +36,9 @@ const params::Table<SplitParams>& splitParamsTable() {
                       {"Split joint share",
                        "joint cut: neighbouring objects whose contact lies less than this share in joint space "
                        "(a neck inside one bone) merge (0 = never)", "", 0, 1}),
+      params::flag<S>("open_joints", &S::openJoints,
+                      {"Split open joints", "joint cut: the joint spaces' voxels stay background, a gap between two "
+                                            "bones (with --split-fill those inside one bone come back)", ""}),
       params::flag<S>("fill", &S::fillObjects,
                       {"Split fill", "after the split, fill each object's cavities (enclosed in a slice of the object "
                                      "alone, or in 3D) with its id, on background only: a bone's low-density inside", ""}),
@@ -273,7 +276,7 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
   // Contacts between objects (26 neighbours, each pair counted from both sides alike).
   // With the joint cut, also the pairs next to the joint space: its sheet is one voxel thin in
   // places, and two voxels 26-adjacent across an oblique sheet meet in the joint too.
-  if (!joint.empty()) joint = dilate(joint, norm(g.spacing));
+  const Mask jointNear = joint.empty() ? Mask{} : dilate(joint, norm(g.spacing));
   std::map<std::pair<uint16_t, uint16_t>, int64_t> contact, contactInJoint;
   for (int64_t k = 0; k < d.z; ++k)
     for (int64_t j = 0; j < d.y; ++j)
@@ -281,12 +284,12 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
         const int64_t n = (k * d.y + j) * d.x + i;
         const uint16_t a = ids[n];
         if (!a) continue;
-        const bool inJoint = !joint.empty() && joint.data()[n];
+        const bool inJoint = !jointNear.empty() && jointNear.data()[n];
         forNeighbours(d, i, j, k, [&](int64_t m) {
           const uint16_t b = ids[m];
           if (!b || b == a) return;
           ++contact[{a, b}];
-          if (inJoint || (!joint.empty() && joint.data()[m])) ++contactInJoint[{a, b}];
+          if (inJoint || (!jointNear.empty() && jointNear.data()[m])) ++contactInJoint[{a, b}];
         });
       }
   SplitResult out;
@@ -346,6 +349,17 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
     volume[a] = 0;
   }
   if (!p.seedsMm.empty()) dropped += double(unreachedVoxels) * voxelMm3;  // unseeded pieces
+  // Open joints: the joint spaces go back to background, a gap between two bones (the sheet's
+  // pieces inside one bone come back with the fill below, being enclosed by that bone alone).
+  if (p.openJoints && !joint.empty()) {
+    for (size_t n = 0; n < ids.size(); ++n) {
+      if (!joint.data()[n] || !ids[n]) continue;
+      const uint16_t r = root(ids[n]);
+      if (r) volume[r] -= voxelMm3;
+      out.openedMm3 += voxelMm3;
+      ids[n] = 0;
+    }
+  }
   // Each object's cavities join it (on background only), before the numbering by volume.
   if (p.fillObjects) {
     VolumeU16 merged(g, 0, 0.0);

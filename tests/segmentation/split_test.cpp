@@ -182,6 +182,14 @@ TEST(SplitObjects, TwoBonesTouchingAcrossAThinJointSpaceStayTwoObjects) {
     EXPECT_EQ(r.objects(i, 8, 20), r.objects(i, 16, 16)) << "x " << i;
   }
   EXPECT_NEAR(r.volumesMm3[1] + r.volumesMm3[2], maskVolumeMm3(mask), 1e-6);
+  // Open joints: the joint space is a gap between the two; the bones keep every other voxel.
+  p.openJoints = true;
+  p.fillObjects = true;
+  const SplitResult open = splitObjects(mask, p, Progress::none(), &ct);
+  ASSERT_EQ(open.count(), 2);
+  for (int64_t i = 4; i <= 60; ++i)
+    EXPECT_EQ(open.objects(i, 16, 16) != 0, i != 32) << "x " << i;
+  EXPECT_GT(open.openedMm3, 300.0);
 }
 
 }  // namespace

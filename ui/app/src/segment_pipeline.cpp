@@ -193,6 +193,8 @@ SegmentationResult runSegmentation(const VolumeI16& ct, const SegmentSettings& r
                          {"joint_share", request.post.splitParams.jointShare},
                          {"joint_voxels", split.jointVoxels},
                          {"joint_merges", split.jointMerges},
+                         {"open_joints", request.post.splitParams.openJoints},
+                         {"opened_mm3", split.openedMm3},
                          {"fill", request.post.splitParams.fillObjects},
                          {"filled_mm3", split.filledMm3},
                          {"objects", objects},

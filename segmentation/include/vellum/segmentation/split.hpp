@@ -34,13 +34,17 @@ struct SplitParams {
   /// share of their contact on joint-space voxels) were cut apart by a neck inside one bone or
   /// by a gap in the joint's sheet, and merge. 0 = never.
   double jointShare = 0.5;
+  /// With the joint cut: the joint spaces' voxels end as background, a gap between the bones
+  /// (bodies that move apart at a joint need it); pieces of the sheet inside one bone come back
+  /// with fillObjects.
+  bool openJoints = false;
   /// After the split, each object's cavities (holes enclosed in any axial, coronal or sagittal
   /// slice of the object alone, then 3D) become the object: the low-density inside of a bone
   /// (fatty marrow, cancellous bone under the threshold) without bridging to its neighbours.
   bool fillObjects = false;
 };
 
-/// neck, min_volume, joint_contrast, joint_width, joint_share, fill (the seeds are a list, not a table row).
+/// neck, min_volume, joint_contrast, joint_width, joint_share, open_joints, fill (the seeds are a list, not a table row).
 const params::Table<SplitParams>& splitParamsTable();
 
 struct SplitResult {
@@ -51,6 +55,7 @@ struct SplitResult {
   int64_t jointVoxels = 0;          ///< voxels the joint cut marked as joint space
   int jointMerges = 0;              ///< neighbours merged for meeting outside the joint spaces
   double filledMm3 = 0;             ///< cavities added to the objects (fillObjects)
+  double openedMm3 = 0;             ///< joint-space volume returned to background (openJoints)
   int count() const { return static_cast<int>(volumesMm3.size()) - 1; }
 };
 
