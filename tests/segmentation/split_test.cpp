@@ -157,7 +157,8 @@ TEST(SplitObjects, TwoBonesTouchingAcrossAThinJointSpaceStayTwoObjects) {
   // Two filled bones (cancellous 450 HU, subchondral plates 1200 HU) pressed together: the
   // joint space between the plates is one voxel of 300 HU, above the 250 HU threshold, so the
   // mask joins them over their whole face and the depth alone cannot cut them. The joint cut
-  // sees the dark sheet between the bright plates.
+  // sees the dark sheet between the bright plates. The left bone has a waist (3 mm across)
+  // that the depth cuts: its two halves meet outside any joint space and merge back.
   VolumeI16 ct(grid(64, 32, 32), 0, -1000.0);
   auto rod = [](double x0, double x1) { return [=](Vec3 p) { return p.x >= x0 && p.x <= x1 && std::hypot(p.y - 16, p.z - 16) <= 11; }; };
   paint(ct, rod(4, 30.5), 450);
@@ -165,19 +166,26 @@ TEST(SplitObjects, TwoBonesTouchingAcrossAThinJointSpaceStayTwoObjects) {
   paint(ct, rod(30.5, 31.5), 1200);   // plate of the left bone
   paint(ct, rod(32.5, 33.5), 1200);   // plate of the right bone
   paint(ct, rod(31.5, 32.5), 300);    // the joint space, partial-volumed
+  paint(ct, [](Vec3 q) { return q.x >= 14.5 && q.x <= 16.5 && std::hypot(q.y - 16, q.z - 16) > 1.5; }, 0);
   const Mask mask = above(ct, 250);
-  EXPECT_EQ(splitObjects(mask, {2.0, 100.0, {}}, Progress::none(), &ct).count(), 1);  // without the cut
+  const SplitResult depthOnly = splitObjects(mask, {2.0, 100.0, {}}, Progress::none(), &ct);  // without the cut
+  ASSERT_EQ(depthOnly.count(), 2);  // cut at the waist, the two bones one object
+  EXPECT_EQ(depthOnly.objects(20, 16, 16), depthOnly.objects(54, 16, 16));
   SplitParams p{2.0, 100.0, {}};
   p.jointContrastHu = 300;
   p.jointWidthMm = 2;
   EXPECT_THROW(splitObjects(mask, p), Error);  // the cut needs the CT
+  p.jointShare = 0;  // no merging: the waist's halves stay apart
+  EXPECT_EQ(splitObjects(mask, p, Progress::none(), &ct).count(), 3);
+  p.jointShare = 0.5;
   const SplitResult r = splitObjects(mask, p, Progress::none(), &ct);
   ASSERT_EQ(r.count(), 2);
   EXPECT_GT(r.jointVoxels, 300);
+  EXPECT_EQ(r.jointMerges, 1);
   EXPECT_NE(r.objects(10, 16, 16), r.objects(54, 16, 16));
   // Each bone up to its plate is one object; the joint space joins one side or the other.
   for (int64_t i = 4; i <= 60; ++i) {
-    if (i == 32) continue;
+    if (i == 32 || i == 15 || i == 16) continue;
     EXPECT_EQ(r.objects(i, 16, 16), i < 32 ? r.objects(10, 16, 16) : r.objects(54, 16, 16)) << "x " << i;
     EXPECT_EQ(r.objects(i, 8, 20), r.objects(i, 16, 16)) << "x " << i;
   }
