@@ -355,8 +355,10 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
     for (size_t n = 0; n < ids.size(); ++n) {
       if (!joint.data()[n] || !ids[n]) continue;
       const uint16_t r = root(ids[n]);
-      if (r) volume[r] -= voxelMm3;
-      out.openedMm3 += voxelMm3;
+      if (r) {
+        volume[r] -= voxelMm3;
+        out.openedMm3 += voxelMm3;
+      }
       ids[n] = 0;
     }
   }
@@ -375,7 +377,7 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
   // Renumber the surviving roots by volume, largest first (ties: lower old id first).
   std::vector<uint16_t> roots;
   for (uint16_t a = 1; a <= count; ++a)
-    if (root(a) == a && volume[a] > 0) roots.push_back(a);
+    if (root(a) == a && volume[a] > 0.5 * voxelMm3) roots.push_back(a);  // (an object all joint space is gone)
   std::stable_sort(roots.begin(), roots.end(), [&](uint16_t a, uint16_t b) { return volume[a] > volume[b]; });
   std::vector<uint16_t> newId(count + 1, 0);
   out.volumesMm3.push_back(0.0);
