@@ -111,5 +111,94 @@ TEST(SplitObjects, AnisotropicSpacingMeasuresTheNeckInMm) {
   EXPECT_NE(r.objects(15, 15, 5), r.objects(45, 15, 5));
 }
 
+/// A CT of `value` HU where `inside(p)` holds for the voxel centre p (mm), others keep theirs.
+template <class Inside>
+void paint(VolumeI16& ct, Inside inside, int16_t value) {
+  const Geometry& g = ct.geometry();
+  for (int64_t k = 0; k < g.dims.z; ++k)
+    for (int64_t j = 0; j < g.dims.y; ++j)
+      for (int64_t i = 0; i < g.dims.x; ++i)
+        if (inside(g.indexToPhysical({double(i), double(j), double(k)}))) ct(i, j, k) = value;
+}
+
+Mask above(const VolumeI16& ct, int16_t hu) {
+  Mask m = makeMask(ct.geometry());
+  for (size_t n = 0; n < m.size(); ++n) m.data()[n] = ct.data()[n] >= hu;
+  return m;
+}
+
+TEST(SplitObjects, AHollowShellBoneWithALowDensityInsideBecomesOneFilledObject) {
+  // A cortical shell (1200 HU, 2.5 mm) round fatty marrow (-50 HU, under the 250 HU
+  // threshold), with a nutrient canal drilled through the shell: the inside is open to the
+  // outside in 3D, but enclosed in most slices of the object alone.
+  VolumeI16 ct(grid(48, 48, 48), 0, -1000.0);
+  const Vec3 c{24, 24, 24};
+  paint(ct, [&](Vec3 p) { return norm(p - c) <= 15; }, 1200);
+  paint(ct, [&](Vec3 p) { return norm(p - c) <= 12.5; }, -50);
+  paint(ct, [&](Vec3 p) { return p.x > 24 && std::hypot(p.y - 24, p.z - 24) <= 1.5; }, 40);  // the canal
+  const Mask shell = above(ct, 250);
+  const SplitResult plain = splitObjects(shell, {2.0, 100.0, {}});
+  ASSERT_EQ(plain.count(), 1);
+  EXPECT_EQ(plain.objects(24, 24, 24), 0);  // the marrow is not in the mask
+  SplitParams p{2.0, 100.0, {}};
+  p.fillObjects = true;
+  const SplitResult r = splitObjects(shell, p);
+  ASSERT_EQ(r.count(), 1);
+  EXPECT_EQ(r.objects(24, 24, 24), 1);
+  EXPECT_EQ(r.objects(24, 30, 20), 1);
+  EXPECT_EQ(r.objects(2, 2, 2), 0);   // outside stays background
+  EXPECT_EQ(r.objects(46, 24, 24), 0);  // and so does the canal's mouth beyond the shell
+  const double ball = 4.0 / 3 * M_PI * 15 * 15 * 15;
+  EXPECT_NEAR(r.volumesMm3[1], ball, 0.06 * ball);
+  EXPECT_NEAR(r.filledMm3, r.volumesMm3[1] - plain.volumesMm3[1], 1e-6);
+}
+
+TEST(SplitObjects, TwoBonesTouchingAcrossAThinJointSpaceStayTwoObjects) {
+  // Two filled bones (cancellous 450 HU, subchondral plates 1200 HU) pressed together: the
+  // joint space between the plates is one voxel of 300 HU, above the 250 HU threshold, so the
+  // mask joins them over their whole face and the depth alone cannot cut them. The joint cut
+  // sees the dark sheet between the bright plates. The left bone has a waist (3 mm across)
+  // that the depth cuts: its two halves meet outside any joint space and merge back.
+  VolumeI16 ct(grid(64, 32, 32), 0, -1000.0);
+  auto rod = [](double x0, double x1) { return [=](Vec3 p) { return p.x >= x0 && p.x <= x1 && std::hypot(p.y - 16, p.z - 16) <= 11; }; };
+  paint(ct, rod(4, 30.5), 450);
+  paint(ct, rod(33.5, 60), 450);
+  paint(ct, rod(30.5, 31.5), 1200);   // plate of the left bone
+  paint(ct, rod(32.5, 33.5), 1200);   // plate of the right bone
+  paint(ct, rod(31.5, 32.5), 300);    // the joint space, partial-volumed
+  paint(ct, [](Vec3 q) { return q.x >= 14.5 && q.x <= 16.5 && std::hypot(q.y - 16, q.z - 16) > 1.5; }, 0);
+  const Mask mask = above(ct, 250);
+  const SplitResult depthOnly = splitObjects(mask, {2.0, 100.0, {}}, Progress::none(), &ct);  // without the cut
+  ASSERT_EQ(depthOnly.count(), 2);  // cut at the waist, the two bones one object
+  EXPECT_EQ(depthOnly.objects(20, 16, 16), depthOnly.objects(54, 16, 16));
+  SplitParams p{2.0, 100.0, {}};
+  p.jointContrastHu = 300;
+  p.jointWidthMm = 2;
+  EXPECT_THROW(splitObjects(mask, p), Error);  // the cut needs the CT
+  p.jointShare = 0;  // no merging: the waist's halves stay apart
+  EXPECT_EQ(splitObjects(mask, p, Progress::none(), &ct).count(), 3);
+  p.jointShare = 0.5;
+  const SplitResult r = splitObjects(mask, p, Progress::none(), &ct);
+  ASSERT_EQ(r.count(), 2);
+  EXPECT_GT(r.jointVoxels, 300);
+  EXPECT_EQ(r.jointMerges, 1);
+  EXPECT_NE(r.objects(10, 16, 16), r.objects(54, 16, 16));
+  // Each bone up to its plate is one object; the joint space joins one side or the other.
+  for (int64_t i = 4; i <= 60; ++i) {
+    if (i == 32 || i == 15 || i == 16) continue;
+    EXPECT_EQ(r.objects(i, 16, 16), i < 32 ? r.objects(10, 16, 16) : r.objects(54, 16, 16)) << "x " << i;
+    EXPECT_EQ(r.objects(i, 8, 20), r.objects(i, 16, 16)) << "x " << i;
+  }
+  EXPECT_NEAR(r.volumesMm3[1] + r.volumesMm3[2], maskVolumeMm3(mask), 1e-6);
+  // Open joints: the joint space is a gap between the two; the bones keep every other voxel.
+  p.openJoints = true;
+  p.fillObjects = true;
+  const SplitResult open = splitObjects(mask, p, Progress::none(), &ct);
+  ASSERT_EQ(open.count(), 2);
+  for (int64_t i = 4; i <= 60; ++i)
+    EXPECT_EQ(open.objects(i, 16, 16) != 0, i != 32) << "x " << i;
+  EXPECT_GT(open.openedMm3, 300.0);
+}
+
 }  // namespace
 }  // namespace vellum::segmentation

@@ -75,7 +75,15 @@ void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& 
   if (j.contains("segment") && j["segment"].contains("objects")) {
     for (const auto& o : j["segment"]["objects"])
       std::printf("  id %u: %.2f cm³\n", o["id"].get<unsigned>(), o["volume_mm3"].get<double>() / 1000.0);
-    if (j.contains("split")) std::printf("  dropped %.2f cm³ (pieces below --split-min-volume)\n", j["split"]["dropped_mm3"].get<double>() / 1000.0);
+    if (j.contains("split")) {
+      const nlohmann::json& sp = j["split"];
+      std::printf("  dropped %.2f cm³ (pieces below --split-min-volume)\n", sp["dropped_mm3"].get<double>() / 1000.0);
+      if (sp.value("joint_contrast_hu", 0.0) > 0)
+        std::printf("  joint cut: %lld joint-space voxels, %d neighbours merged across necks\n",
+                    static_cast<long long>(sp["joint_voxels"].get<int64_t>()), sp["joint_merges"].get<int>());
+      if (sp.value("open_joints", false)) std::printf("  opened %.2f cm³ of joint space\n", sp["opened_mm3"].get<double>() / 1000.0);
+      if (sp.value("fill", false)) std::printf("  filled %.2f cm³ of cavities\n", sp["filled_mm3"].get<double>() / 1000.0);
+    }
   }
   if (!j.contains("metrics")) return;
   for (const auto& m : j["metrics"]) {

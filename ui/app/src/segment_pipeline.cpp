@@ -181,13 +181,22 @@ SegmentationResult runSegmentation(const VolumeI16& ct, const SegmentSettings& r
   out.mask = runMethod(request, ct, out.info, out.classes, progress, observe);
   if (!out.classes) out.mask = postProcess(request, std::move(out.mask), out.info);
   if (!out.classes && request.post.split) {
-    seg::SplitResult split = seg::splitObjects(out.mask, request.post.splitParams, progress);
+    seg::SplitResult split = seg::splitObjects(out.mask, request.post.splitParams, progress, &ct);
     nlohmann::json objects = nlohmann::json::array();
     for (int o = 1; o <= split.count(); ++o) objects.push_back({{"object", o}, {"volume_mm3", split.volumesMm3[o]}});
     out.info["split"] = {{"neck_mm", request.post.splitParams.neckMm},
                          {"min_volume_mm3", request.post.splitParams.minVolumeMm3},
                          {"seeds", request.post.splitParams.seedsMm.size()},
                          {"markers", split.markers},
+                         {"joint_contrast_hu", request.post.splitParams.jointContrastHu},
+                         {"joint_width_mm", request.post.splitParams.jointWidthMm},
+                         {"joint_share", request.post.splitParams.jointShare},
+                         {"joint_voxels", split.jointVoxels},
+                         {"joint_merges", split.jointMerges},
+                         {"open_joints", request.post.splitParams.openJoints},
+                         {"opened_mm3", split.openedMm3},
+                         {"fill", request.post.splitParams.fillObjects},
+                         {"filled_mm3", split.filledMm3},
                          {"objects", objects},
                          {"dropped_mm3", split.droppedMm3}};
     out.objects = std::move(split.objects);
