@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
+#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -116,6 +118,11 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   Mat3 mmToIdx;
   if (!toMm.inverse(mmToIdx)) throw Error("twist map: singular geometry");
   const Geometry::ToIndex toIndex = output.physicalToIndexMap();
+  auto clampIndex = [&](const Vec3& idx) {
+    return Vec3{std::clamp(idx.x, 0.0, double(d.x - 1)), std::clamp(idx.y, 0.0, double(d.y - 1)),
+                std::clamp(idx.z, 0.0, double(d.z - 1))};
+  };
+  const double minSpacing = std::min({output.spacing.x, output.spacing.y, output.spacing.z});
   const uint16_t* cls = classes.data();
 
   TwistMap result;
@@ -193,6 +200,30 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
           }
       nStill += ls; nMoving += lm; nOverlap += lo;
     });
+    // The locks grow by one voxel (6-neighbours; a voxel next to both sides stays free): the
+    // voxel cells of a bone are not round about the axis, so a blended voxel right at its rim
+    // could take its source from the rim's cell (the snap below would then make a jump).
+    for (int grow = 0; grow < params.lockGrowth; ++grow) {
+      std::vector<uint8_t> grown = side;
+      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+        for (int64_t k = k0; k < k1; ++k)
+          for (int64_t j = 0; j < d.y; ++j)
+            for (int64_t i = 0; i < d.x; ++i) {
+              const int64_t t = (k * d.y + j) * d.x + i;
+              if (side[static_cast<size_t>(t)] != kFree) continue;
+              bool s1 = false, s2 = false;
+              auto see = [&](int64_t q) { (side[static_cast<size_t>(q)] == kStill ? s1 : s2) |= side[static_cast<size_t>(q)] != kFree; };
+              if (i > 0) see(t - 1);
+              if (i + 1 < d.x) see(t + 1);
+              if (j > 0) see(t - d.x);
+              if (j + 1 < d.y) see(t + d.x);
+              if (k > 0) see(t - d.x * d.y);
+              if (k + 1 < d.z) see(t + d.x * d.y);
+              if (s1 != s2) grown[static_cast<size_t>(t)] = s1 ? kStill : kMoving;
+            }
+      });
+      side = std::move(grown);
+    }
     stats.stillVoxels = nStill; stats.movingVoxels = nMoving; stats.overlapVoxels = nOverlap;
     progress.checkCancelled();
 
@@ -265,7 +296,9 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
       if (k > 0) fn(t - sz);
       if (k + 1 < d.z) fn(t + sz);
     };
-    size_t fewest = bad.size();
+    // Progress: the total excess over the bound (the count alone rises while the limiter's
+    // front spreads a few large excesses into many small ones).
+    double least = std::numeric_limits<double>::infinity();
     int stalled = 0;
     for (int round = 0; round < params.maxRounds && !bad.empty(); ++round) {
       progress.checkCancelled();
@@ -292,7 +325,9 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
       std::sort(freeRegion.begin(), freeRegion.end());
       std::vector<float> next(freeRegion.size());
       const int64_t nr = static_cast<int64_t>(freeRegion.size());
-      for (int step = 0; step < params.relaxSteps; ++step) {
+      // The smoothing in the first round only: later rounds carry the limiter's front on, which
+      // smoothing would pull back.
+      for (int step = 0; step < (round == 0 ? params.relaxSteps : 0); ++step) {
         parallelFor(nr, [&](int64_t r0, int64_t r1) {
           for (int64_t r = r0; r < r1; ++r) {
             double sum = 0;
@@ -305,6 +340,37 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
         }, 4096);
         for (int64_t r = 0; r < nr; ++r) w.data()[freeRegion[static_cast<size_t>(r)]] = next[static_cast<size_t>(r)];
       }
+      // Then the limiter: along the circle through each free voxel, w may rise by at most
+      // L = (1 - margin) / theta per radian (it may fall freely: a stretch), so w(v) is held
+      // between w(v ahead) - L delta and w(v behind) + L delta, the neighbours one voxel of arc
+      // ahead and behind (trilinear). Repeated, this carries the bound from the bones into the
+      // free space along the circles, where the isotropic smoothing above spreads it in r and z
+      // too (and stalls where a still and a moving bone face each other across a short arc).
+      // A little under the bound: the check's central differences on the grid read the arc
+      // steps' trilinear samples with some spread (the limiter alone settles at ~1.03 x its L).
+      const double lim = 0.85 * bound / std::abs(st.theta);
+      for (int step = 0; step < params.limitSteps; ++step) {
+        parallelFor(nr, [&](int64_t r0, int64_t r1) {
+          for (int64_t r = r0; r < r1; ++r) {
+            const int64_t t = freeRegion[static_cast<size_t>(r)];
+            const Vec3 v = output.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)});
+            const Vec3 p = v - st.c;
+            const double radius = norm(p - st.a * dot(st.a, p));
+            float& o = next[static_cast<size_t>(r)];
+            o = w.data()[t];
+            if (radius < 1e-6) continue;
+            const double delta = std::min(minSpacing / radius, 0.5) * (st.theta > 0 ? 1 : -1);
+            // Clamped onto the grid: beyond its faces w is unknown, not 0 (a still region there
+            // would hold the tissue next to a face still).
+            const double ahead = w.sampleLinear(clampIndex(toIndex(st.c + turn(p, st.a, delta))));
+            const double behind = w.sampleLinear(clampIndex(toIndex(st.c + turn(p, st.a, -delta))));
+            const double lo = ahead - lim * std::abs(delta), hi = behind + lim * std::abs(delta);
+            const double val = lo <= hi ? std::clamp(double(o), lo, hi) : 0.5 * (lo + hi);
+            o = std::clamp(static_cast<float>(val), std::nextafter(0.f, 1.f), std::nextafter(1.f, 0.f));
+          }
+        }, 4096);
+        for (int64_t r = 0; r < nr; ++r) w.data()[freeRegion[static_cast<size_t>(r)]] = next[static_cast<size_t>(r)];
+      }
       for (int64_t t : freeRegion) touched[static_cast<size_t>(t)] = 1;
       // Recheck the region and its neighbours (the only slopes the steps changed).
       std::vector<int64_t> check = region;
@@ -313,13 +379,17 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
       std::sort(check.begin(), check.end());
       check.erase(std::unique(check.begin(), check.end()), check.end());
       std::vector<int64_t> still;
+      double excess = 0;
       for (int64_t t : check)
-        if (slope.at(t % d.x, (t / d.x) % d.y, t / sz) > bound) still.push_back(t);
+        if (const double sl = slope.at(t % d.x, (t / d.x) % d.y, t / sz); sl > bound) {
+          still.push_back(t);
+          excess += sl - bound;
+        }
       // Violations outside the region stay as they were (none: the region holds them all).
       bad = std::move(still);
       // Stop when rounds no longer help: what is left is locked on both sides (a collision).
-      if (bad.size() < fewest) { fewest = bad.size(); stalled = 0; }
-      else if (++stalled >= 6) break;
+      if (excess < 0.98 * least) { least = excess; stalled = 0; }
+      else if (++stalled >= params.patience) break;
     }
     mark.clear();
     mark.shrink_to_fit();
@@ -329,6 +399,15 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
       const double sl = slope.at(t % d.x, (t / d.x) % d.y, t / sz);
       stats.maxSlopeAfter = std::max(stats.maxSlopeAfter, sl);
       if (sl >= 1) ++stats.collisionVoxels;
+    }
+    if (const char* dump = std::getenv("VELLUM_TWIST_DUMP")) {  // DEBUG (temporary)
+      FILE* f = std::fopen(dump, "w");
+      for (int64_t t : bad) {
+        const Vec3 v = output.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)});
+        std::fprintf(f, "%.1f %.1f %.1f %.3f %d %d\n", v.x, v.y, v.z, slope.at(t % d.x, (t / d.x) % d.y, t / sz),
+                     int(side[size_t(t)]), int(cls[t]));
+      }
+      std::fclose(f);
     }
     result.joints.push_back(stats);
     stages.push_back(st);

@@ -27,11 +27,15 @@ struct TwistParams {
   /// The bound: theta * dw/dalpha <= 1 - margin (det J >= margin) wherever w is free.
   double margin = 0.25;
   int maxRounds = 40;    ///< relaxation rounds (each grows the region by one voxel, up to maxRadius)
+  int patience = 8;      ///< stop after this many rounds without fewer violations
   int relaxSteps = 8;    ///< Jacobi steps per round
+  int limitSteps = 24;   ///< slope-limiter steps per round (along the circles about the axis)
   int maxRadius = 12;    ///< voxels around the violations that a round relaxes
   /// A blended voxel whose source lands in a body (nearest voxel) takes that body's transform
   /// (as the MLS map's rigid snap): bones show no voxel moved non-rigidly at their rim.
   bool snap = true;
+  /// Voxels the locks (w = 0 / 1 on the still and moving bones) grow by before the blend.
+  int lockGrowth = 0;
 };
 
 /// What the twist of one joint did.
