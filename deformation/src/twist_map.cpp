@@ -3,8 +3,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstdio>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -200,30 +198,6 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
           }
       nStill += ls; nMoving += lm; nOverlap += lo;
     });
-    // The locks grow by one voxel (6-neighbours; a voxel next to both sides stays free): the
-    // voxel cells of a bone are not round about the axis, so a blended voxel right at its rim
-    // could take its source from the rim's cell (the snap below would then make a jump).
-    for (int grow = 0; grow < params.lockGrowth; ++grow) {
-      std::vector<uint8_t> grown = side;
-      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-        for (int64_t k = k0; k < k1; ++k)
-          for (int64_t j = 0; j < d.y; ++j)
-            for (int64_t i = 0; i < d.x; ++i) {
-              const int64_t t = (k * d.y + j) * d.x + i;
-              if (side[static_cast<size_t>(t)] != kFree) continue;
-              bool s1 = false, s2 = false;
-              auto see = [&](int64_t q) { (side[static_cast<size_t>(q)] == kStill ? s1 : s2) |= side[static_cast<size_t>(q)] != kFree; };
-              if (i > 0) see(t - 1);
-              if (i + 1 < d.x) see(t + 1);
-              if (j > 0) see(t - d.x);
-              if (j + 1 < d.y) see(t + d.x);
-              if (k > 0) see(t - d.x * d.y);
-              if (k + 1 < d.z) see(t + d.x * d.y);
-              if (s1 != s2) grown[static_cast<size_t>(t)] = s1 ? kStill : kMoving;
-            }
-      });
-      side = std::move(grown);
-    }
     stats.stillVoxels = nStill; stats.movingVoxels = nMoving; stats.overlapVoxels = nOverlap;
     progress.checkCancelled();
 
@@ -262,10 +236,11 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     // 0 / 1), over a region that grows by a voxel each round.
     const Slope slope{w.data(), d, output, st.c, st.a, st.theta, mmToIdx};
     const double bound = 1.0 - params.margin;
-    std::vector<int64_t> bad;
-    {
+    double maxSlope = 0;
+    auto scan = [&] {
+      std::vector<int64_t> bad;
       std::mutex mutex;
-      double maxSlope = 0;
+      maxSlope = 0;
       parallelFor(d.z, [&](int64_t k0, int64_t k1) {
         std::vector<int64_t> local;
         double lmax = 0;
@@ -280,9 +255,11 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
         bad.insert(bad.end(), local.begin(), local.end());
         maxSlope = std::max(maxSlope, lmax);
       });
-      stats.violationsBefore = static_cast<int64_t>(bad.size());
-      stats.maxSlopeBefore = maxSlope;
-    }
+      return bad;
+    };
+    std::vector<int64_t> bad = scan();
+    stats.violationsBefore = static_cast<int64_t>(bad.size());
+    stats.maxSlopeBefore = maxSlope;
     std::vector<uint8_t> touched;  // 1: relaxed at least once
     if (!bad.empty()) touched.assign(static_cast<size_t>(n), 0);
     std::vector<uint8_t> mark;
@@ -298,9 +275,13 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     };
     // Progress: the total excess over the bound (the count alone rises while the limiter's
     // front spreads a few large excesses into many small ones).
+    const bool lastStage = s + 1 == order.size();
+    for (int pass = 0;; ++pass) {
     double least = std::numeric_limits<double>::infinity();
     int stalled = 0;
-    for (int round = 0; round < params.maxRounds && !bad.empty(); ++round) {
+    // Later passes only relax around the joined voxels: fewer rounds.
+    const int rounds = pass == 0 ? params.maxRounds : params.maxRounds / 3;
+    for (int round = 0; round < rounds && !bad.empty(); ++round) {
       progress.checkCancelled();
       ++stats.rounds;
       // The region: the violations grown by `radius` voxels (6-neighbour steps), free voxels only.
@@ -389,7 +370,43 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
       bad = std::move(still);
       // Stop when rounds no longer help: what is left is locked on both sides (a collision).
       if (excess < 0.98 * least) { least = excess; stalled = 0; }
-      else if (++stalled >= params.patience) break;
+      else if (++stalled >= (pass == 0 ? params.patience : params.patience / 2)) break;
+    }
+    // Consistent locks (the last joint's stage, whose output is the source): a blended voxel
+    // whose source lands in a bone's voxel (nearest: the cells are not round about the axis)
+    // joins that bone's side, w = 0 or 1 exactly, and the blend is relaxed again around it;
+    // so the snap below has (nearly) nothing left to do, and no jump is left unrelaxed.
+    if (!lastStage || pass >= params.lockPasses) break;
+    std::vector<std::pair<int64_t, uint8_t>> joins;
+    {
+      std::mutex mutex;
+      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+        std::vector<std::pair<int64_t, uint8_t>> local;
+        for (int64_t k = k0; k < k1; ++k)
+          for (int64_t j = 0; j < d.y; ++j)
+            for (int64_t i = 0; i < d.x; ++i) {
+              const int64_t t = (k * d.y + j) * d.x + i;
+              if (side[static_cast<size_t>(t)] != kFree) continue;
+              const Vec3 v = output.indexToPhysical({double(i), double(j), double(k)});
+              const Vec3 ui = toIndex(st.c + turn(v - st.c, st.a, -st.theta * double(w.data()[t])));
+              const int64_t si = std::llround(ui.x), sj = std::llround(ui.y), sk = std::llround(ui.z);
+              if (si < 0 || sj < 0 || sk < 0 || si >= d.x || sj >= d.y || sk >= d.z) continue;
+              const uint16_t c = cls[(sk * d.y + sj) * d.x + si];
+              if (c < 2) continue;
+              local.emplace_back(t, groups[static_cast<size_t>(bodyGroup[c - 2u])].moving ? kMoving : kStill);
+            }
+        std::lock_guard lock(mutex);
+        joins.insert(joins.end(), local.begin(), local.end());
+      });
+    }
+    if (joins.empty()) break;
+    for (const auto& [t, sd] : joins) {
+      side[static_cast<size_t>(t)] = sd;
+      w.data()[t] = sd == kMoving ? 1.f : 0.f;
+    }
+    stats.joinedVoxels += static_cast<int64_t>(joins.size());
+    bad = scan();
+    if (!bad.empty() && touched.empty()) touched.assign(static_cast<size_t>(n), 0);
     }
     mark.clear();
     mark.shrink_to_fit();
@@ -399,15 +416,6 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
       const double sl = slope.at(t % d.x, (t / d.x) % d.y, t / sz);
       stats.maxSlopeAfter = std::max(stats.maxSlopeAfter, sl);
       if (sl >= 1) ++stats.collisionVoxels;
-    }
-    if (const char* dump = std::getenv("VELLUM_TWIST_DUMP")) {  // DEBUG (temporary)
-      FILE* f = std::fopen(dump, "w");
-      for (int64_t t : bad) {
-        const Vec3 v = output.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)});
-        std::fprintf(f, "%.1f %.1f %.1f %.3f %d %d\n", v.x, v.y, v.z, slope.at(t % d.x, (t / d.x) % d.y, t / sz),
-                     int(side[size_t(t)]), int(cls[t]));
-      }
-      std::fclose(f);
     }
     result.joints.push_back(stats);
     stages.push_back(st);

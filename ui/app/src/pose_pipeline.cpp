@@ -72,6 +72,7 @@ nlohmann::json twistJson(const TwistMap& m, const TwistParams& p) {
                       {"still_voxels", s.stillVoxels},
                       {"moving_voxels", s.movingVoxels},
                       {"overlap_voxels", s.overlapVoxels},
+                      {"joined_voxels", s.joinedVoxels},
                       {"slope_violations_before", s.violationsBefore},
                       {"max_slope_before", s.maxSlopeBefore},
                       {"relax_rounds", s.rounds},
@@ -287,6 +288,7 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     written.wrote(request.movie);
     report["movie"] = std::move(ar.report);
     report["movie"]["path"] = request.movie.string();
+    report["movie"]["map"] = "mls";  // the frames sample the MLS control volume (the twist map: --out only)
     if (result.warnings.empty()) result.warnings = std::move(ar.warnings);
   }
   if (!request.gltf.empty()) {

@@ -26,16 +26,17 @@ struct TwistParams {
   double power = 2.0;
   /// The bound: theta * dw/dalpha <= 1 - margin (det J >= margin) wherever w is free.
   double margin = 0.25;
-  int maxRounds = 40;    ///< relaxation rounds (each grows the region by one voxel, up to maxRadius)
-  int patience = 8;      ///< stop after this many rounds without fewer violations
-  int relaxSteps = 8;    ///< Jacobi steps per round
+  int maxRounds = 40;    ///< relaxation rounds of the first pass (a third in later ones); each grows the region by a voxel
+  int patience = 8;      ///< stop after this many rounds (half in later passes) that cut the total excess by < 2 %
+  int relaxSteps = 8;    ///< Jacobi steps in the first round
   int limitSteps = 24;   ///< slope-limiter steps per round (along the circles about the axis)
   int maxRadius = 12;    ///< voxels around the violations that a round relaxes
   /// A blended voxel whose source lands in a body (nearest voxel) takes that body's transform
   /// (as the MLS map's rigid snap): bones show no voxel moved non-rigidly at their rim.
   bool snap = true;
-  /// Voxels the locks (w = 0 / 1 on the still and moving bones) grow by before the blend.
-  int lockGrowth = 0;
+  /// Times a blended voxel whose source lands in a bone joins that bone's lock and the blend
+  /// is relaxed again (the last joint's stage only; the snap catches what is left).
+  int lockPasses = 3;
 };
 
 /// What the twist of one joint did.
@@ -44,6 +45,7 @@ struct TwistJointStats {
   double angleDeg = 0;
   int64_t stillVoxels = 0, movingVoxels = 0;  ///< S and M on the grid (w locked to 0 / 1)
   int64_t overlapVoxels = 0;   ///< posed moving bone over a still one (S wins: a collision)
+  int64_t joinedVoxels = 0;    ///< blended voxels whose source lay in a bone, locked to its side
   int64_t violationsBefore = 0;  ///< voxels with theta * dw/dalpha > 1 - margin before relaxing
   double maxSlopeBefore = 0;     ///< the largest theta * dw/dalpha before
   int rounds = 0;
