@@ -388,12 +388,20 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
               const int64_t t = (k * d.y + j) * d.x + i;
               if (side[static_cast<size_t>(t)] != kFree) continue;
               const Vec3 v = output.indexToPhysical({double(i), double(j), double(k)});
-              const Vec3 ui = toIndex(st.c + turn(v - st.c, st.a, -st.theta * double(w.data()[t])));
+              const double wt = w.data()[t];
+              const Vec3 ui = toIndex(st.c + turn(v - st.c, st.a, -st.theta * wt));
               const int64_t si = std::llround(ui.x), sj = std::llround(ui.y), sk = std::llround(ui.z);
               if (si < 0 || sj < 0 || sk < 0 || si >= d.x || sj >= d.y || sk >= d.z) continue;
               const uint16_t c = cls[(sk * d.y + sj) * d.x + si];
               if (c < 2) continue;
-              local.emplace_back(t, groups[static_cast<size_t>(bodyGroup[c - 2u])].moving ? kMoving : kStill);
+              const bool moving = groups[static_cast<size_t>(bodyGroup[c - 2u])].moving;
+              // Only a short step (the source moves by at most joinMaxVoxels): a long one is a
+              // jump next to the other side's lock that no relaxation can spread (a collision).
+              const Vec3 p = v - st.c;
+              const double radius = norm(p - st.a * dot(st.a, p));
+              if (std::abs(st.theta) * std::abs((moving ? 1.0 : 0.0) - wt) * radius > params.joinMaxVoxels * minSpacing)
+                continue;
+              local.emplace_back(t, moving ? kMoving : kStill);
             }
         std::lock_guard lock(mutex);
         joins.insert(joins.end(), local.begin(), local.end());

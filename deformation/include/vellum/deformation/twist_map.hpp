@@ -37,6 +37,7 @@ struct TwistParams {
   /// Times a blended voxel whose source lands in a bone joins that bone's lock and the blend
   /// is relaxed again (the last joint's stage only; the snap catches what is left).
   int lockPasses = 3;
+  double joinMaxVoxels = 2.0;  ///< a voxel joins only when that moves its source by at most this many voxels
 };
 
 /// What the twist of one joint did.
