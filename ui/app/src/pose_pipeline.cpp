@@ -96,7 +96,8 @@ const params::Table<PoseRequest>& poseRequestTable() {
                        "the best rigid fit of the MLS map over it", ""}),
       params::choice<R>("map", &R::map, {"auto", "twist", "mls"},
                         {"Pose map", "twist: each joint turns the tissue about its axis by a blended angle "
-                         "(fold-free by construction, bones and fixed regions exact); mls: the control-point "
+                         "(det J = 1 - angle * dw/dalpha: fold-free but where still and moving bones collide; bones and "
+                         "fixed regions exact); mls: the control-point "
                          "engine with the rigid blend and the fold repair; auto: the pose file's \"map\", else "
                          "mls", ""}),
       // deform's --pad-mm, described once (deformRequestTable()).
