@@ -100,7 +100,7 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   std::vector<int> position(nj, -1);
   for (size_t s = 0; s < order.size(); ++s) position[static_cast<size_t>(order[s])] = static_cast<int>(s);
 
-  // Each body's chain (proximal first) of joints that turn; -1 entries never.
+  // Each body's chain of joints that turn it (proximal first; empty: it stays).
   const auto& list = bodies.bodies();
   std::vector<std::vector<int>> chain(list.size());
   for (size_t b = 0; b < list.size(); ++b) {
@@ -207,7 +207,8 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
       VolumeU8 feature(output, 0, 0);
       auto distanceTo = [&](uint8_t which) {
         parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-          for (int64_t t = k0 * d.x * d.y; t < k1 * d.x * d.y; ++t) feature.data()[t] = side[static_cast<size_t>(t)] == which;
+          for (int64_t t = k0 * d.x * d.y; t < k1 * d.x * d.y; ++t)
+            feature.data()[t] = side[static_cast<size_t>(t)] == which;
         });
         return squaredDistanceMm(feature, progress);
       };
@@ -273,148 +274,149 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
       if (k > 0) fn(t - sz);
       if (k + 1 < d.z) fn(t + sz);
     };
-    // Progress: the total excess over the bound (the count alone rises while the limiter's
-    // front spreads a few large excesses into many small ones).
     const bool lastStage = s + 1 == order.size();
     for (int pass = 0;; ++pass) {
-    double least = std::numeric_limits<double>::infinity();
-    int stalled = 0;
-    // Later passes only relax around the joined voxels: fewer rounds.
-    const int rounds = pass == 0 ? params.maxRounds : params.maxRounds / 3;
-    for (int round = 0; round < rounds && !bad.empty(); ++round) {
-      progress.checkCancelled();
-      ++stats.rounds;
-      // The region: the violations grown by `radius` voxels (6-neighbour steps), free voxels only.
-      const int radius = std::min(params.maxRadius, 2 + round);
-      if (mark.empty()) mark.assign(static_cast<size_t>(n), 0);
-      std::vector<int64_t> region, frontier = bad;
-      for (int64_t t : frontier) mark[static_cast<size_t>(t)] = 1;
-      region = frontier;
-      for (int r = 0; r < radius; ++r) {
-        std::vector<int64_t> next;
-        for (int64_t t : frontier)
-          neighbours(t, [&](int64_t q) {
-            if (!mark[static_cast<size_t>(q)]) { mark[static_cast<size_t>(q)] = 1; next.push_back(q); }
-          });
-        region.insert(region.end(), next.begin(), next.end());
-        frontier = std::move(next);
-      }
-      for (int64_t t : region) mark[static_cast<size_t>(t)] = 0;
-      std::vector<int64_t> freeRegion;
-      for (int64_t t : region)
-        if (side[static_cast<size_t>(t)] == kFree) freeRegion.push_back(t);
-      std::sort(freeRegion.begin(), freeRegion.end());
-      std::vector<float> next(freeRegion.size());
-      const int64_t nr = static_cast<int64_t>(freeRegion.size());
-      // The smoothing in the first round only: later rounds carry the limiter's front on, which
-      // smoothing would pull back.
-      for (int step = 0; step < (round == 0 ? params.relaxSteps : 0); ++step) {
-        parallelFor(nr, [&](int64_t r0, int64_t r1) {
-          for (int64_t r = r0; r < r1; ++r) {
-            double sum = 0;
-            int cnt = 0;
-            neighbours(freeRegion[static_cast<size_t>(r)], [&](int64_t q) { sum += w.data()[q]; ++cnt; });
-            // Strictly inside (0, 1), as the free voxels always are.
-            next[static_cast<size_t>(r)] = std::clamp(static_cast<float>(sum / cnt), std::nextafter(0.f, 1.f),
-                                                       std::nextafter(1.f, 0.f));
-          }
-        }, 4096);
-        for (int64_t r = 0; r < nr; ++r) w.data()[freeRegion[static_cast<size_t>(r)]] = next[static_cast<size_t>(r)];
-      }
-      // Then the limiter: along the circle through each free voxel, w may rise by at most
-      // L = (1 - margin) / theta per radian (it may fall freely: a stretch), so w(v) is held
-      // between w(v ahead) - L delta and w(v behind) + L delta, the neighbours one voxel of arc
-      // ahead and behind (trilinear). Repeated, this carries the bound from the bones into the
-      // free space along the circles, where the isotropic smoothing above spreads it in r and z
-      // too (and stalls where a still and a moving bone face each other across a short arc).
-      // A little under the bound: the check's central differences on the grid read the arc
-      // steps' trilinear samples with some spread (the limiter alone settles at ~1.03 x its L).
-      const double lim = 0.85 * bound / std::abs(st.theta);
-      for (int step = 0; step < params.limitSteps; ++step) {
-        parallelFor(nr, [&](int64_t r0, int64_t r1) {
-          for (int64_t r = r0; r < r1; ++r) {
-            const int64_t t = freeRegion[static_cast<size_t>(r)];
-            const Vec3 v = output.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)});
-            const Vec3 p = v - st.c;
-            const double radius = norm(p - st.a * dot(st.a, p));
-            float& o = next[static_cast<size_t>(r)];
-            o = w.data()[t];
-            if (radius < 1e-6) continue;
-            const double delta = std::min(minSpacing / radius, 0.5) * (st.theta > 0 ? 1 : -1);
-            // Clamped onto the grid: beyond its faces w is unknown, not 0 (a still region there
-            // would hold the tissue next to a face still).
-            const double ahead = w.sampleLinear(clampIndex(toIndex(st.c + turn(p, st.a, delta))));
-            const double behind = w.sampleLinear(clampIndex(toIndex(st.c + turn(p, st.a, -delta))));
-            const double lo = ahead - lim * std::abs(delta), hi = behind + lim * std::abs(delta);
-            const double val = lo <= hi ? std::clamp(double(o), lo, hi) : 0.5 * (lo + hi);
-            o = std::clamp(static_cast<float>(val), std::nextafter(0.f, 1.f), std::nextafter(1.f, 0.f));
-          }
-        }, 4096);
-        for (int64_t r = 0; r < nr; ++r) w.data()[freeRegion[static_cast<size_t>(r)]] = next[static_cast<size_t>(r)];
-      }
-      for (int64_t t : freeRegion) touched[static_cast<size_t>(t)] = 1;
-      // Recheck the region and its neighbours (the only slopes the steps changed).
-      std::vector<int64_t> check = region;
-      for (int64_t t : region)
-        neighbours(t, [&](int64_t q) { check.push_back(q); });
-      std::sort(check.begin(), check.end());
-      check.erase(std::unique(check.begin(), check.end()), check.end());
-      std::vector<int64_t> still;
-      double excess = 0;
-      for (int64_t t : check)
-        if (const double sl = slope.at(t % d.x, (t / d.x) % d.y, t / sz); sl > bound) {
-          still.push_back(t);
-          excess += sl - bound;
+      // Progress: the total excess over the bound (the count alone rises while the limiter's
+      // front spreads a few large excesses into many small ones).
+      double least = std::numeric_limits<double>::infinity();
+      int stalled = 0;
+      // Later passes only relax around the joined voxels: fewer rounds.
+      const int rounds = pass == 0 ? params.maxRounds : params.maxRounds / 3;
+      for (int round = 0; round < rounds && !bad.empty(); ++round) {
+        progress.checkCancelled();
+        ++stats.rounds;
+        // The region: the violations grown by `radius` voxels (6-neighbour steps), free voxels only.
+        const int radius = std::min(params.maxRadius, 2 + round);
+        if (mark.empty()) mark.assign(static_cast<size_t>(n), 0);
+        std::vector<int64_t> region, frontier = bad;
+        for (int64_t t : frontier) mark[static_cast<size_t>(t)] = 1;
+        region = frontier;
+        for (int r = 0; r < radius; ++r) {
+          std::vector<int64_t> next;
+          for (int64_t t : frontier)
+            neighbours(t, [&](int64_t q) {
+              if (!mark[static_cast<size_t>(q)]) { mark[static_cast<size_t>(q)] = 1; next.push_back(q); }
+            });
+          region.insert(region.end(), next.begin(), next.end());
+          frontier = std::move(next);
         }
-      // Violations outside the region stay as they were (none: the region holds them all).
-      bad = std::move(still);
-      // Stop when rounds no longer help: what is left is locked on both sides (a collision).
-      if (excess < 0.98 * least) { least = excess; stalled = 0; }
-      else if (++stalled >= (pass == 0 ? params.patience : params.patience / 2)) break;
-    }
-    // Consistent locks (the last joint's stage, whose output is the source): a blended voxel
-    // whose source lands in a bone's voxel (nearest: the cells are not round about the axis)
-    // joins that bone's side, w = 0 or 1 exactly, and the blend is relaxed again around it;
-    // so the snap below has (nearly) nothing left to do, and no jump is left unrelaxed.
-    if (!lastStage || pass >= params.lockPasses) break;
-    std::vector<std::pair<int64_t, uint8_t>> joins;
-    {
-      std::mutex mutex;
-      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-        std::vector<std::pair<int64_t, uint8_t>> local;
-        for (int64_t k = k0; k < k1; ++k)
-          for (int64_t j = 0; j < d.y; ++j)
-            for (int64_t i = 0; i < d.x; ++i) {
-              const int64_t t = (k * d.y + j) * d.x + i;
-              if (side[static_cast<size_t>(t)] != kFree) continue;
-              const Vec3 v = output.indexToPhysical({double(i), double(j), double(k)});
-              const double wt = w.data()[t];
-              const Vec3 ui = toIndex(st.c + turn(v - st.c, st.a, -st.theta * wt));
-              const int64_t si = std::llround(ui.x), sj = std::llround(ui.y), sk = std::llround(ui.z);
-              if (si < 0 || sj < 0 || sk < 0 || si >= d.x || sj >= d.y || sk >= d.z) continue;
-              const uint16_t c = cls[(sk * d.y + sj) * d.x + si];
-              if (c < 2) continue;
-              const bool moving = groups[static_cast<size_t>(bodyGroup[c - 2u])].moving;
-              // Only a short step (the source moves by at most joinMaxVoxels): a long one is a
-              // jump next to the other side's lock that no relaxation can spread (a collision).
+        for (int64_t t : region) mark[static_cast<size_t>(t)] = 0;
+        std::vector<int64_t> freeRegion;
+        for (int64_t t : region)
+          if (side[static_cast<size_t>(t)] == kFree) freeRegion.push_back(t);
+        std::sort(freeRegion.begin(), freeRegion.end());
+        std::vector<float> next(freeRegion.size());
+        const int64_t nr = static_cast<int64_t>(freeRegion.size());
+        // The smoothing in the first round only: later rounds carry the limiter's front on, which
+        // smoothing would pull back.
+        for (int step = 0; step < (round == 0 ? params.relaxSteps : 0); ++step) {
+          parallelFor(nr, [&](int64_t r0, int64_t r1) {
+            for (int64_t r = r0; r < r1; ++r) {
+              double sum = 0;
+              int cnt = 0;
+              neighbours(freeRegion[static_cast<size_t>(r)], [&](int64_t q) { sum += w.data()[q]; ++cnt; });
+              // Strictly inside (0, 1), as the free voxels always are.
+              next[static_cast<size_t>(r)] = std::clamp(static_cast<float>(sum / cnt), std::nextafter(0.f, 1.f),
+                                                         std::nextafter(1.f, 0.f));
+            }
+          }, 4096);
+          for (int64_t r = 0; r < nr; ++r) w.data()[freeRegion[static_cast<size_t>(r)]] = next[static_cast<size_t>(r)];
+        }
+        // Then the limiter: along the circle through each free voxel, w may rise by at most
+        // L = (1 - margin) / theta per radian (it may fall freely: a stretch), so w(v) is held
+        // between w(v ahead) - L delta and w(v behind) + L delta, the neighbours one voxel of arc
+        // ahead and behind (trilinear). Repeated, this carries the bound from the bones into the
+        // free space along the circles, where the isotropic smoothing above spreads it in r and z
+        // too (and stalls where a still and a moving bone face each other across a short arc).
+        // A little under the bound: the check's central differences on the grid read the arc
+        // steps' trilinear samples with some spread (the limiter alone settles at ~1.03 x its L).
+        const double lim = 0.85 * bound / std::abs(st.theta);
+        for (int step = 0; step < params.limitSteps; ++step) {
+          parallelFor(nr, [&](int64_t r0, int64_t r1) {
+            for (int64_t r = r0; r < r1; ++r) {
+              const int64_t t = freeRegion[static_cast<size_t>(r)];
+              const Vec3 v = output.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)});
               const Vec3 p = v - st.c;
               const double radius = norm(p - st.a * dot(st.a, p));
-              if (std::abs(st.theta) * std::abs((moving ? 1.0 : 0.0) - wt) * radius > params.joinMaxVoxels * minSpacing)
-                continue;
-              local.emplace_back(t, moving ? kMoving : kStill);
+              float& o = next[static_cast<size_t>(r)];
+              o = w.data()[t];
+              if (radius < 1e-6) continue;
+              const double delta = std::min(minSpacing / radius, 0.5) * (st.theta > 0 ? 1 : -1);
+              // Clamped onto the grid: beyond its faces w is unknown, not 0 (a still region there
+              // would hold the tissue next to a face still).
+              const double ahead = w.sampleLinear(clampIndex(toIndex(st.c + turn(p, st.a, delta))));
+              const double behind = w.sampleLinear(clampIndex(toIndex(st.c + turn(p, st.a, -delta))));
+              const double lo = ahead - lim * std::abs(delta), hi = behind + lim * std::abs(delta);
+              const double val = lo <= hi ? std::clamp(double(o), lo, hi) : 0.5 * (lo + hi);
+              o = std::clamp(static_cast<float>(val), std::nextafter(0.f, 1.f), std::nextafter(1.f, 0.f));
             }
-        std::lock_guard lock(mutex);
-        joins.insert(joins.end(), local.begin(), local.end());
-      });
-    }
-    if (joins.empty()) break;
-    for (const auto& [t, sd] : joins) {
-      side[static_cast<size_t>(t)] = sd;
-      w.data()[t] = sd == kMoving ? 1.f : 0.f;
-    }
-    stats.joinedVoxels += static_cast<int64_t>(joins.size());
-    bad = scan();
-    if (!bad.empty() && touched.empty()) touched.assign(static_cast<size_t>(n), 0);
+          }, 4096);
+          for (int64_t r = 0; r < nr; ++r) w.data()[freeRegion[static_cast<size_t>(r)]] = next[static_cast<size_t>(r)];
+        }
+        for (int64_t t : freeRegion) touched[static_cast<size_t>(t)] = 1;
+        // Recheck the region and its neighbours (the only slopes the steps changed).
+        std::vector<int64_t> check = region;
+        for (int64_t t : region)
+          neighbours(t, [&](int64_t q) { check.push_back(q); });
+        std::sort(check.begin(), check.end());
+        check.erase(std::unique(check.begin(), check.end()), check.end());
+        std::vector<int64_t> still;
+        double excess = 0;
+        for (int64_t t : check)
+          if (const double sl = slope.at(t % d.x, (t / d.x) % d.y, t / sz); sl > bound) {
+            still.push_back(t);
+            excess += sl - bound;
+          }
+        // Violations outside the region stay as they were (none: the region holds them all).
+        bad = std::move(still);
+        // Stop when rounds no longer help: what is left is locked on both sides (a collision).
+        if (excess < 0.98 * least) { least = excess; stalled = 0; }
+        else if (++stalled >= (pass == 0 ? params.patience : params.patience / 2)) break;
+      }
+      // Consistent locks (the last joint's stage, whose output is the source): a blended voxel
+      // whose source lands in a bone's voxel (nearest: the cells are not round about the axis)
+      // joins that bone's side, w = 0 or 1 exactly, and the blend is relaxed again around it;
+      // so the snap below has (nearly) nothing left to do, and no jump is left unrelaxed.
+      if (!lastStage || pass >= params.lockPasses) break;
+      std::vector<std::pair<int64_t, uint8_t>> joins;
+      {
+        std::mutex mutex;
+        parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+          std::vector<std::pair<int64_t, uint8_t>> local;
+          for (int64_t k = k0; k < k1; ++k)
+            for (int64_t j = 0; j < d.y; ++j)
+              for (int64_t i = 0; i < d.x; ++i) {
+                const int64_t t = (k * d.y + j) * d.x + i;
+                if (side[static_cast<size_t>(t)] != kFree) continue;
+                const Vec3 v = output.indexToPhysical({double(i), double(j), double(k)});
+                const double wt = w.data()[t];
+                const Vec3 ui = toIndex(st.c + turn(v - st.c, st.a, -st.theta * wt));
+                const int64_t si = std::llround(ui.x), sj = std::llround(ui.y), sk = std::llround(ui.z);
+                if (si < 0 || sj < 0 || sk < 0 || si >= d.x || sj >= d.y || sk >= d.z) continue;
+                const uint16_t c = cls[(sk * d.y + sj) * d.x + si];
+                if (c < 2) continue;
+                const bool moving = groups[static_cast<size_t>(bodyGroup[c - 2u])].moving;
+                // Only a short step (the source moves by at most joinMaxVoxels): a long one is a
+                // jump next to the other side's lock that no relaxation can spread (a collision).
+                const Vec3 p = v - st.c;
+                const double radius = norm(p - st.a * dot(st.a, p));
+                const double step = std::abs(st.theta) * std::abs((moving ? 1.0 : 0.0) - wt) * radius;
+                if (step > params.joinMaxVoxels * minSpacing)
+                  continue;
+                local.emplace_back(t, moving ? kMoving : kStill);
+              }
+          std::lock_guard lock(mutex);
+          joins.insert(joins.end(), local.begin(), local.end());
+        });
+      }
+      if (joins.empty()) break;
+      for (const auto& [t, sd] : joins) {
+        side[static_cast<size_t>(t)] = sd;
+        w.data()[t] = sd == kMoving ? 1.f : 0.f;
+      }
+      stats.joinedVoxels += static_cast<int64_t>(joins.size());
+      bad = scan();
+      if (!bad.empty() && touched.empty()) touched.assign(static_cast<size_t>(n), 0);
     }
     mark.clear();
     mark.shrink_to_fit();
