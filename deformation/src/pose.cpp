@@ -156,6 +156,12 @@ const params::Table<PoseOptions>& poseOptionsTable() {
                        "deg", 0.1, 90}),
       params::integer<O>("measure_stride", &O::measureStride,
                          {"Joint measure stride", "joint measures visit every N-th voxel per axis (1 = all)", "", 1, 64}),
+      params::real<O>("twist_power", &O::twistPower,
+                      {"Twist blend power", "--map twist: the weight between the still side (0) and the moving "
+                       "side (1) is dS^p / (dS^p + dM^p) of the distances to them", "", 0.5, 8}),
+      params::real<O>("twist_margin", &O::twistMargin,
+                      {"Twist slope margin", "--map twist: the weight is relaxed until angle * dw/dalpha <= 1 - this "
+                       "(det J >= this) wherever it is free", "", 0.01, 0.9}),
   };
   return t;
 }
@@ -270,10 +276,16 @@ void linkJoints(Pose& pose) {
 Pose loadPose(const fs::path& path) {
   const json j = readJsonFile(path, kMaxPoseFileBytes, "pose file");
   if (!j.is_object()) throw FileError(path, "expected a JSON object with \"joints\" and \"keyframes\"");
-  onlyKeys(j, {"units", "joints", "fixed_labels", "fixed_boxes", "keyframes", "interpolation", "loop"}, path, "");
+  onlyKeys(j, {"units", "joints", "fixed_labels", "fixed_boxes", "keyframes", "interpolation", "loop", "map"}, path, "");
   if (j.contains("units") && !(j.at("units").is_string() && j.at("units").get<std::string>() == "mm"))
     throw FileError(path, "\"units\" must be \"mm\"");
   Pose pose;
+  if (j.contains("map")) {
+    const json& m = j.at("map");
+    if (!m.is_string() || (m.get<std::string>() != "twist" && m.get<std::string>() != "mls"))
+      throw FileError(path, "\"map\" must be \"twist\" or \"mls\"");
+    pose.map = m.get<std::string>();
+  }
   if (!j.contains("joints") || !j.at("joints").is_array() || j.at("joints").empty())
     throw FileError(path, "\"joints\" must be a non-empty array");
   if (j.at("joints").size() > kMaxJoints)
@@ -374,6 +386,7 @@ void savePose(const Pose& pose, const fs::path& path) {
   json j = {{"units", "mm"}, {"joints", std::move(joints)}};
   if (!pose.fixed.ids.empty()) j["fixed_labels"] = pose.fixed.ids;
   if (!boxes.empty()) j["fixed_boxes"] = std::move(boxes);
+  if (!pose.map.empty()) j["map"] = pose.map;
   j["interpolation"] = interpolationName(pose.angles.interpolation);
   j["loop"] = pose.angles.loop;
   j["keyframes"] = std::move(keyframes);

@@ -329,6 +329,56 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsamplin
       source);
 }
 
+AnyVolume synthesizeFromMap(const AnyVolume& source, const std::vector<float>& mapMm, Progress& progress) {
+  const Geometry& g = geometryOf(source);
+  const Dims od = g.dims;
+  if (mapMm.size() != static_cast<size_t>(od.voxelCount()) * 3)
+    throw Error("synthesizeFromMap: the map does not match the volume's grid");
+  const Geometry::ToIndex toIndex = g.physicalToIndexMap();
+  return std::visit(
+      [&](const auto& src) -> AnyVolume {
+        using T = typename std::decay_t<decltype(src)>::value_type;
+        Volume<T> out(g, T{}, src.background());
+        const T* data = src.data();
+        const float bg = static_cast<float>(src.background());
+#ifdef VELLUM_HAVE_AVX2_PATH
+        const bool avx2 = haveAvx2() && od.voxelCount() < (int64_t{1} << 31) - 4 * od.x * od.y;
+#endif
+        progress.begin("synthesis", static_cast<uint64_t>(od.z));
+        // The same row fetch as synthesize(): source index coordinates per row, then gather.
+        parallelFor(od.z, [&](int64_t k0, int64_t k1) {
+          std::vector<float> ux(static_cast<size_t>(od.x)), uy(ux.size()), uz(ux.size());
+          for (int64_t k = k0; k < k1; ++k) {
+            progress.checkCancelled();
+            for (int64_t j = 0; j < od.y; ++j) {
+              const float* m = mapMm.data() + static_cast<size_t>((k * od.y + j) * od.x) * 3;
+              for (int64_t i = 0; i < od.x; ++i) {
+                const Vec3 idx = toIndex({m[3 * i], m[3 * i + 1], m[3 * i + 2]});
+                ux[static_cast<size_t>(i)] = static_cast<float>(idx.x);
+                uy[static_cast<size_t>(i)] = static_cast<float>(idx.y);
+                uz[static_cast<size_t>(i)] = static_cast<float>(idx.z);
+              }
+              T* o = out.data() + (k * od.y + j) * od.x;
+#ifdef VELLUM_HAVE_AVX2_PATH
+              if constexpr (std::is_same_v<T, int16_t>)
+                if (avx2) {
+                  fetchRowI16Avx2(src, ux.data(), uy.data(), uz.data(), od.x, o);
+                  continue;
+                }
+#endif
+              for (int64_t i = 0; i < od.x; ++i)
+                o[i] = toVoxel<T>(fetch(src, data, od.x, od.y, od.z, ux[static_cast<size_t>(i)],
+                                        uy[static_cast<size_t>(i)], uz[static_cast<size_t>(i)], bg));
+            }
+            progress.advance();
+          }
+        });
+        progress.end();
+        return out;
+      },
+      source);
+}
+
 std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output, Upsampling upsampling,
                                Progress& progress) {
   checkGrid(output, cv);

@@ -79,7 +79,13 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
       std::cout << ", fixed regions moved max " << mm(after["fixed"]["max_displacement_mm"]);
     if (!after["fold_fraction"].is_null())
       std::cout << ", folds in tissue " << 100.0 * after["fold_fraction"].get<double>() << " %";
-    std::cout << "\n";
+    std::cout << " (" << rep["map"].get<std::string>() << " map)\n";
+    if (rep["deform"].contains("twist"))  // the twist map's collisions: still and moving bones too close in arc
+      for (const auto& t : rep["deform"]["twist"]["joints"])
+        if (t["collision_voxels"].get<int64_t>() > 0)
+          std::cerr << "warning: " << request.pose.string() << ": joint \"" << t["name"].get<std::string>() << "\": "
+                    << t["collision_voxels"].get<int64_t>()
+                    << " voxels where a still and a turning bone meet within the angle's arc (det J <= 0 there)\n";
   }
   if (rep.contains("movie"))
     std::cout << request.movie.string() << ": " << rep["movie"]["frames"].get<int>() << " frames from "

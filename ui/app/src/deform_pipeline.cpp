@@ -230,6 +230,23 @@ void keepBonesRigid(Run& run) {
   run.cpu.lap("rigidity");
 }
 
+/// The whole map from the request's map maker (`vellum pose --map twist`), measured exactly as
+/// keepBonesRigid() measures the MLS map ("after", voxel level).
+void makeWholeMap(Run& run) {
+  if (!run.bodies) throw Error("a whole-map deformation (the twist map) needs the label map's rigid bodies");
+  const Geometry& g = geometryOf(run.loaded.volume);
+  auto t = Clock::now();
+  run.fullMap = run.request.mapMaker(g, *run.bodies, run.report["twist"], run.progress);
+  run.timings["twist_map"] = msSince(t);
+  run.cpu.lap("twist_map");
+  t = Clock::now();
+  nlohmann::json& rigidity = run.report["rigidity"];
+  rigidity["after"] = toJson(measureRigidityMap(run.fullMap, g, *run.bodies, run.request.engine.rigidityStride));
+  rigidity["fold_repair"] = nullptr;  // nothing to repair: the twist map is fold-free by construction
+  run.timings["rigidity_measures"] = msSince(t);
+  run.cpu.lap("rigidity");
+}
+
 /// The PSNR of the result against a full-resolution (s = 1) map from the same rho fields.
 void psnrAgainstFullResolution(Run& run, const AnyVolume& out) {
   DeformParams ref = run.params;
@@ -458,16 +475,24 @@ DeformResult runDeform(const DeformRequest& request, Progress& progress) {
       .check();
   params::validate(deformRequestTable(), request);
   params::validate(deformEngineTable(), request.engine);
+  if (request.mapMaker && !request.attributesOut.empty())
+    throw Error("--attributes-out needs the MLS map (the twist map carries no attributes)");
   Run run(request, progress);
   loadInputs(run);
-  buildControlVolume(run);
-  if (run.bodies) keepBonesRigid(run);
+  const bool whole = static_cast<bool>(request.mapMaker);
+  if (whole) {
+    makeWholeMap(run);
+  } else {
+    buildControlVolume(run);
+    if (run.bodies) keepBonesRigid(run);
+  }
   auto t = Clock::now();
   DeformResult result;
-  result.output = synthesize(run.loaded.volume, run.cv, request.engine.upsampling, progress);
+  result.output = whole ? synthesizeFromMap(run.loaded.volume, run.fullMap, progress)
+                        : synthesize(run.loaded.volume, run.cv, request.engine.upsampling, progress);
   run.timings["synthesis"] = msSince(t);
   run.cpu.lap("synthesis");
-  if (request.psnr && run.params.controlScale > 1) psnrAgainstFullResolution(run, result.output);
+  if (!whole && request.psnr && run.params.controlScale > 1) psnrAgainstFullResolution(run, result.output);
   RunOutputs written;
   writeOutputs(run, result.output, written);
   finishReport(run, t0);

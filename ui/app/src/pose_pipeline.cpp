@@ -10,6 +10,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/deformation/point_files.hpp"
+#include "vellum/deformation/twist_map.hpp"
 #include "vellum/io/volume_io.hpp"
 
 namespace vellum::app {
@@ -63,6 +64,25 @@ nlohmann::json jointsJson(const Pose& pose, const std::vector<double>& angles, c
   return out;
 }
 
+nlohmann::json twistJson(const TwistMap& m, const TwistParams& p) {
+  nlohmann::json joints = nlohmann::json::array();
+  for (const TwistJointStats& s : m.joints)
+    joints.push_back({{"name", s.name},
+                      {"angle_deg", s.angleDeg},
+                      {"still_voxels", s.stillVoxels},
+                      {"moving_voxels", s.movingVoxels},
+                      {"overlap_voxels", s.overlapVoxels},
+                      {"joined_voxels", s.joinedVoxels},
+                      {"slope_violations_before", s.violationsBefore},
+                      {"max_slope_before", s.maxSlopeBefore},
+                      {"relax_rounds", s.rounds},
+                      {"relaxed_voxels", s.relaxedVoxels},
+                      {"slope_violations_after", s.violationsAfter},
+                      {"collision_voxels", s.collisionVoxels},
+                      {"max_slope_after", s.maxSlopeAfter}});
+  return {{"power", p.power}, {"margin", p.margin}, {"joints", std::move(joints)}};
+}
+
 }  // namespace
 
 const params::Table<PoseRequest>& poseRequestTable() {
@@ -74,6 +94,12 @@ const params::Table<PoseRequest>& poseRequestTable() {
       params::flag<R>("exact_bones", &R::exactBones,
                       {"Exact bones", "each bone takes its joints' transform (still bones the identity) instead of "
                        "the best rigid fit of the MLS map over it", ""}),
+      params::choice<R>("map", &R::map, {"auto", "twist", "mls"},
+                        {"Pose map", "twist: each joint turns the tissue about its axis by a blended angle "
+                         "(det J = 1 - angle * dw/dalpha: fold-free but where still and moving bones collide; bones and "
+                         "fixed regions exact); mls: the control-point "
+                         "engine with the rigid blend and the fold repair; auto: the pose file's \"map\", else "
+                         "mls", ""}),
       // deform's --pad-mm, described once (deformRequestTable()).
       params::real<R>("pad_mm", &R::padMm, params::findField(deformRequestTable(), "pad_mm")->info),
   };
@@ -186,6 +212,10 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     saveControlPoints(points, request.pointsOut);
     written.wrote(request.pointsOut);
   }
+  // The map: the request's, else the pose file's, else mls (the twist map is not yet better on
+  // every measure of the feet bench: docs/benchmarks-deformation.md, "s17").
+  const bool twist = request.map == PoseMap::Twist || (request.map == PoseMap::Auto && pose.map == "twist");
+  report["map"] = twist ? "twist" : "mls";
   if (!request.output.empty()) {
     DeformRequest d;
     d.input = request.input;
@@ -199,6 +229,18 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
         const int j = pose.jointMoving(id);
         d.boneTransforms.push_back({id, j < 0 ? RigidTransform{} : jt[static_cast<size_t>(j)]});
       }
+    }
+    if (twist) {
+      TwistParams tp;
+      tp.power = request.options.twistPower;
+      tp.margin = request.options.twistMargin;
+      const std::vector<double> anglesDeg = result.anglesDeg;
+      d.mapMaker = [&pose, anglesDeg, tp](const Geometry& g, const RigidBodies& bodies, nlohmann::json& rep,
+                                          Progress& p) {
+        TwistMap m = twistMap(pose, anglesDeg, bodies, g, tp, p);
+        rep = twistJson(m, tp);
+        return std::move(m.mapMm);
+      };
     }
     d.force = request.force;
     d.engine = engine;
@@ -247,6 +289,7 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     written.wrote(request.movie);
     report["movie"] = std::move(ar.report);
     report["movie"]["path"] = request.movie.string();
+    report["movie"]["map"] = "mls";  // the frames sample the MLS control volume (the twist map: --out only)
     if (result.warnings.empty()) result.warnings = std::move(ar.warnings);
   }
   if (!request.gltf.empty()) {

@@ -57,6 +57,9 @@ struct Pose {
   /// its source.x, so that the angles are timed and interpolated exactly like control points
   /// (durations, linear / smooth / eased, loop: keyframes.hpp).
   KeyframeTrack angles;
+  /// "map": the map the pose asks for ("twist", "mls"); empty: the command's default
+  /// (`vellum pose --map`; twist_map.hpp).
+  std::string map;
 
   /// Angles (deg) per joint at time t (s).
   std::vector<double> anglesAt(double timeS) const;
@@ -89,6 +92,9 @@ struct PoseOptions {
   double contactMm = 3.0;      ///< "axis": "estimate": parent/child voxels this close form the contact zone
   double maxStepDeg = 2.0;     ///< movies: generated keyframes at most this many degrees apart
   int measureStride = 1;       ///< joint measures visit every N-th voxel per axis
+  /// The twist map (twist_map.hpp): w = dS^p / (dS^p + dM^p), and its slope bound's margin.
+  double twistPower = 2.0;
+  double twistMargin = 0.25;
 };
 const params::Table<PoseOptions>& poseOptionsTable();
 

@@ -17,6 +17,10 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv,
                      Upsampling upsampling = Upsampling::Trilinear,
                      Progress& progress = Progress::none());
 
+/// The deformed volume from a full-resolution backward map (3 floats, source mm, per voxel of
+/// `source`'s grid, x fastest: upsampleMap() or twistMap()), fetched as synthesize() does.
+AnyVolume synthesizeFromMap(const AnyVolume& source, const std::vector<float>& mapMm,
+                            Progress& progress = Progress::none());
 /// The backward map at every output voxel: 3 floats (source position in mm) per voxel, x
 /// fastest, upsampled from `cv` exactly as synthesize() does. Memory budget checked first.
 std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output,

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -80,6 +81,13 @@ struct DeformRequest {
   /// (`vellum pose`: the joints'): they replace those bodies' fits in the rigid blend.
   std::vector<std::pair<uint16_t, RigidTransform>> boneTransforms;
   bool keepMap = false;  ///< DeformResult::map gets the full-resolution map (`vellum pose`'s measures)
+  /// Makes the whole full-resolution backward map (3 floats, source mm, per output voxel) in
+  /// place of the MLS engine and the rigid blend (`vellum pose --map twist`: twistMap()); needs
+  /// the rigid bodies (labels). Writes what it did into `report` (the run report's "twist").
+  /// The rigidity report, synthesis and outputs stay the same.
+  std::function<std::vector<float>(const Geometry& output, const deformation::RigidBodies& bodies,
+                                   nlohmann::json& report, Progress& progress)>
+      mapMaker;
   std::filesystem::path output;  ///< the deformed volume (same geometry and type)
   std::filesystem::path mapOut;         ///< backward map NRRD; empty: not written
   std::filesystem::path attributesOut;  ///< attribute field NRRD; empty: not written

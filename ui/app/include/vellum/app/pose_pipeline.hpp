@@ -18,6 +18,11 @@
 
 namespace vellum::app {
 
+/// The pose's map: the twist map (deformation/twist_map.hpp: fold-free by construction, bones
+/// exact) or the MLS engine with the rigid blend and the fold repair; auto: the pose file's
+/// "map", else the default (kPoseDefaultMap).
+enum class PoseMap { Auto = 0, Twist = 1, Mls = 2 };
+
 struct PoseRequest {
   std::filesystem::path input;   ///< volume file or DICOM folder
   std::filesystem::path labels;  ///< label map on the volume's grid: the bones' ids
@@ -37,6 +42,7 @@ struct PoseRequest {
   /// Each bone's rigid transform is its joints' (the still bones' the identity) instead of the
   /// best fit of the MLS map over it (the map between bones is still MLS, blended to them).
   bool exactBones = true;
+  PoseMap map = PoseMap::Auto;
   deformation::PoseOptions options;
   /// Engine settings (method, control scale, upsampling, falloff, stride); its labels, rigid
   /// and fixed ids are filled from the pose.
