@@ -19,15 +19,20 @@ namespace vellum::studio {
 namespace {
 using vellum::test::studio::boneScene;
 
-TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
-  ASSERT_TRUE(glfwInit());
+// A hidden GL 4.3 core window (the studio's context kind); null when GLFW cannot make one.
+GLFWwindow* hiddenWindow() {
+  if (!glfwInit()) return nullptr;
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
   glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);
-  GLFWwindow* window = glfwCreateWindow(64, 64, "upload test", nullptr, nullptr);
+  return glfwCreateWindow(64, 64, "upload test", nullptr, nullptr);
+}
+
+TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  GLFWwindow* window = hiddenWindow();
   ASSERT_NE(window, nullptr);
   {
     WindowContext context(window);
@@ -72,13 +77,7 @@ RgbaImage refinedPicture(View3D& view, const Scene& scene, int w, int h) {
 // light at once draws.
 TEST(StudioUpload, LightSourceMadeOnDemandDrawsThePictureOfOnePreparedWithIt) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
-  ASSERT_TRUE(glfwInit());
-  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
-  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
-  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
-  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
-  glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);
-  GLFWwindow* window = glfwCreateWindow(64, 64, "light test", nullptr, nullptr);
+  GLFWwindow* window = hiddenWindow();
   ASSERT_NE(window, nullptr);
   {
     WindowContext context(window);
