@@ -19,15 +19,20 @@ namespace vellum::studio {
 namespace {
 using vellum::test::studio::boneScene;
 
-TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
-  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
-  ASSERT_TRUE(glfwInit());
+// A hidden GL 4.3 core window (the studio's context kind); null when GLFW cannot make one.
+GLFWwindow* hiddenWindow() {
+  if (!glfwInit()) return nullptr;
   glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 4);
   glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
   glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
   glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
   glfwWindowHint(GLFW_VISIBLE, GLFW_FALSE);
-  GLFWwindow* window = glfwCreateWindow(64, 64, "upload test", nullptr, nullptr);
+  return glfwCreateWindow(64, 64, "upload test", nullptr, nullptr);
+}
+
+TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  GLFWwindow* window = hiddenWindow();
   ASSERT_NE(window, nullptr);
   {
     WindowContext context(window);
@@ -52,6 +57,68 @@ TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
     for (size_t i = 0; i + 4 <= fromWorker.pixels.size(); i += 4)
       differ += fromWorker.pixels[i] != fromWorker.pixels[0] || fromWorker.pixels[i + 1] != fromWorker.pixels[1];
     EXPECT_GT(differ, size_t(w * h / 20));
+  }
+  glfwDestroyWindow(window);
+  glfwTerminate();
+}
+
+// The view at rest, refined (waits on the view's state; the deadline only ends a hang).
+RgbaImage refinedPicture(View3D& view, const Scene& scene, int w, int h) {
+  view.invalidate();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(2);
+  do view.update(scene, w, h, false);
+  while (!view.refined() && std::chrono::steady_clock::now() < deadline);
+  EXPECT_TRUE(view.refined());
+  return view.readShown();
+}
+
+// The Loader prepares the 3D view without the light source (21 MiB at 512^2 x 350); switching
+// shadows on makes it on a worker and the view then draws what a renderer prepared with the
+// light at once draws.
+TEST(StudioUpload, LightSourceMadeOnDemandDrawsThePictureOfOnePreparedWithIt) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
+  GLFWwindow* window = hiddenWindow();
+  ASSERT_NE(window, nullptr);
+  {
+    WindowContext context(window);
+    Scene scene = boneScene();
+    auto ct = std::make_shared<const AnyVolume>(scene.ct);
+    auto prepared = render::VolumeRenderer::prepare(*ct, false);  // as the Loader does
+    View3D view(context);
+    bool done = false;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(2);
+    while (!(done = view.uploadVolumeStep(ct, prepared, 1 << 20)) && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ASSERT_TRUE(done);
+    // Lighting off: no light source made or held.
+    view.stepLight(scene);
+    EXPECT_FALSE(view.lightPending());
+    EXPECT_FALSE(view.hasLight());
+    EXPECT_FALSE(view.unlit(scene));
+
+    scene.render.lighting.shadows = 1;
+    scene.render.lighting.occlusion = 0.6;
+    const int w = 60, h = 44;
+    EXPECT_TRUE(view.unlit(scene));
+    const RgbaImage unlit = refinedPicture(view, scene, w, h);  // before the light is asked for
+    view.stepLight(scene);
+    EXPECT_TRUE(view.lightPending());
+    const auto lightDeadline = std::chrono::steady_clock::now() + std::chrono::minutes(2);
+    while (view.lightPending() && std::chrono::steady_clock::now() < lightDeadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      view.stepLight(scene);  // adopts the worker's light source once made
+    }
+    ASSERT_TRUE(view.hasLight());
+    EXPECT_FALSE(view.unlit(scene));
+    const RgbaImage lit = refinedPicture(view, scene, w, h);
+
+    View3D atOnce(context);
+    atOnce.setVolume(scene.ct);  // prepared with the light source, as before on demand
+    const RgbaImage expected = refinedPicture(atOnce, scene, w, h);
+    ASSERT_EQ(lit.width, w);
+    ASSERT_EQ(expected.width, w);
+    EXPECT_TRUE(lit.pixels == expected.pixels) << "the light made on demand draws another picture";
+    EXPECT_FALSE(unlit.pixels == lit.pixels) << "shadows and occlusion changed nothing: the test shows nothing";
   }
   glfwDestroyWindow(window);
   glfwTerminate();

@@ -163,7 +163,7 @@ bool StudioApp::idle() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !tasks_.busy() && !segmentation_.snake().pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !deform_.exporting() && !deform_.session().preview() && !deform_.busy() && !curves_.busy() &&
+  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !view3d_->lightPending() && !tasks_.busy() && !segmentation_.snake().pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !deform_.exporting() && !deform_.session().preview() && !deform_.busy() && !curves_.busy() &&
          !scene_.authoring.playing;
 }
 
@@ -251,6 +251,9 @@ StudioApp::FrameViews StudioApp::updateViews() {
   if (upload3d_ && upload3d_->adopted++ > 0 &&
       view3d_->uploadVolumeStep(scene_.ct, upload3d_->prepared, kUploadBytesPerFrame))
     upload3d_.reset();
+  // The light source when lighting is on (made on a worker from scene_.ct, the drawn volume's
+  // once its upload is done; a load waits for it in pollLoader).
+  if (!upload3d_) view3d_->stepLight(scene_);
   const DeformSession& session = deform_.session();
   v.mapUpdated = deform_.updateMap(points_.dragging() || scene_.authoring.playing, !interacting3d());
   if (v.mapUpdated) view3d_->setBackwardMap(session.sharedMap(), session.mapRevision());
@@ -320,7 +323,7 @@ void StudioApp::pollLoader() {
   // The current volume and labels are read by workers: the queued tasks finish first (a save
   // among them must not be lost), the deformation's solves are only caches and stop, and the
   // 3D view's upload of the CT finishes (it reads scene_.ct, not a copy).
-  if (pendingLoad_->error.empty() && (tasks_.busy() || deform_.session().busy() || upload3d_)) {
+  if (pendingLoad_->error.empty() && (tasks_.busy() || deform_.session().busy() || upload3d_ || view3d_->lightPending())) {
     deform_.session().cancel();
     return;
   }

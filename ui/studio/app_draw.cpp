@@ -167,6 +167,8 @@ void StudioApp::drawPanes() {
                                     : std::string("3D  ") + render::presetName(scene_.render.preset);
       dl->AddText({a.x + 6, a.y + 4}, IM_COL32(120, 120, 200, 255), title.c_str());
       if (upload3d_) dl->AddText({a.x + 6, a.y + 22}, IM_COL32(150, 200, 255, 255), "uploading the volume ...");
+      else if (view3d_->unlit(scene_))
+        dl->AddText({a.x + 6, a.y + 22}, IM_COL32(150, 200, 255, 255), "unlit until the light is made ...");
       if (panes_.size() > 1) drawPlanesIn3d(p);
       drawOrientationMarker(dl, {b.x - 44, b.y - 44}, 30, scene_.render.camera);
       points_.draw(p);
@@ -322,6 +324,7 @@ std::vector<std::string> StudioApp::runningWork() const {
   }
   if (curves_.busy()) r.push_back("curve analogy");
   if (upload3d_) r.push_back("uploading the volume to the 3D view");
+  if (view3d_->lightPending()) r.push_back("making the 3D view's light (drawn unlit until then)");
   return r;
 }
 

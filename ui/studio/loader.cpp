@@ -56,9 +56,10 @@ LoadResult loadNow(const LoadRequest& request, Progress& progress) {
   }
   if (request.prepare3d) {
     progress.begin("preparing the 3D view", 1);
-    // prepare() reads an AnyVolume: the CT is moved in and back out, not copied.
+    // prepare() reads an AnyVolume: the CT is moved in and back out, not copied. Without the
+    // light source (21 MiB at 512^2 x 350): the 3D view makes it when lighting is switched on.
     AnyVolume volume(std::move(r.ct));
-    r.prepared = render::VolumeRenderer::prepare(volume);
+    r.prepared = render::VolumeRenderer::prepare(volume, false);
     r.ct = std::move(std::get<VolumeI16>(volume));
     progress.advance();
   }

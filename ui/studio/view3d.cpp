@@ -351,6 +351,42 @@ bool View3D::uploadOnWorker(std::function<VolumeTextures()> make, Dims dims,
   return false;
 }
 
+bool View3D::wantsLight(const Scene& scene) const {
+  return !illustrating(scene) && render::VolumeRenderer::usesLightSource(renderSettingsFor(scene, 8, 8));
+}
+
+void View3D::stepLight(const Scene& scene) {
+  if (lightJob_.valid()) {
+    if (lightJob_.wait_for(std::chrono::seconds(0)) != std::future_status::ready) return;
+    auto light = lightJob_.get();  // rethrows the worker's error
+    // Dropped when the volume changed meanwhile (the studio adopts none while this runs).
+    if (hasVolume_ && lightFor_ == volumePrepared_ && !renderer_->hasLightSource()) {
+      context_.makeCurrent();
+      renderer_->setLightSource(std::move(light));
+      invalidate();  // drawn again, lit
+    }
+    lightFor_.reset();
+  }
+  if (!hasVolume_ || renderer_->hasLightSource() || !wantsLight(scene)) return;
+  lightFor_ = volumePrepared_;
+  lightJob_ = std::async(std::launch::async, [&ct = scene.ct] {
+    lowerThreadPriority();
+    return inWorkerArena([&] { return render::VolumeRenderer::makeLightSource(ct); });
+  });
+}
+
+void View3D::lightNow(const Scene& scene) {
+  if (!hasVolume_ || renderer_->hasLightSource() || !wantsLight(scene)) return;
+  if (lightJob_.valid()) lightJob_.wait();
+  stepLight(scene);  // adopts a finished job
+  if (renderer_->hasLightSource()) return;
+  if (lightJob_.valid()) lightJob_.wait(), stepLight(scene);  // one started for this volume
+  if (renderer_->hasLightSource()) return;
+  context_.makeCurrent();
+  renderer_->setLightSource(render::VolumeRenderer::makeLightSource(scene.ct));
+  invalidate();
+}
+
 void View3D::setBackwardMap(std::shared_ptr<const render::BackwardMap> map, uint64_t revision) {
   if (map && volumePrepared_) {
     nextMap_ = MapRequest{std::move(map), revision};  // replaces one the worker has not started
@@ -476,6 +512,7 @@ RgbaImage View3D::renderImage(const Scene& scene, int width, int height) {
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     return img;
   }
+  lightNow(scene);
   const render::RenderSettings s = renderSettingsFor(scene, width, height);
   if (!drawingMeshes(scene)) {  // `vellum render`'s pixels
     RgbaImage img = renderer_->render(s);

@@ -110,6 +110,18 @@ class View3D {
   bool stepMap(size_t maxBytes);
   /// True while a map set by setBackwardMap() is not drawn yet (preparing or uploading).
   bool mapPending() const { return nextMap_ || preparing_.valid() || uploading_ != nullptr; }
+  /// The renderer's light source on demand: a volume from uploadVolumeStep() comes without it
+  /// (the Loader's, issue #22: 21 MiB at 512^2 x 350 held for nothing while lighting is off).
+  /// Once per frame: when `scene` draws lit (lighting, or the cinematic mode's volume shadows)
+  /// and the drawn volume has none, starts making it from scene.ct on a worker (0.1-0.5 s at
+  /// real size); once made, hands it to the renderer and draws again. Until then the view
+  /// draws unlit. scene.ct must be the drawn volume's and stay as it is while lightPending().
+  void stepLight(const Scene& scene);
+  bool lightPending() const { return lightJob_.valid(); }
+  /// True when the renderer holds a light source (made at once after setVolume()).
+  bool hasLight() const { return renderer_->hasLightSource(); }
+  /// True when `scene` draws lit and the light source is not there yet (drawn unlit).
+  bool unlit(const Scene& scene) const { return hasVolume_ && wantsLight(scene) && !hasLight(); }
   /// Label colours for the 3D view (RenderSettings::labelBlend): re-uploaded when `revision`
   /// or the hidden set changes and the blend is on; cheap to call every frame.
   void setLabels(const LabelVolume& labels, const std::set<uint16_t>& hidden, uint64_t revision, bool wanted);
@@ -203,6 +215,12 @@ class View3D {
     std::shared_ptr<const render::BackwardMap> map;
     uint64_t revision = 0;
   };
+  std::future<std::shared_ptr<const render::VolumeRenderer::LightSource>> lightJob_;
+  std::shared_ptr<const render::VolumeRenderer::Prepared> lightFor_;  ///< the volume lightJob_ lights
+  bool wantsLight(const Scene& scene) const;
+  /// renderImage(): the light source made at once when `scene` needs it (a screenshot or
+  /// figure is `vellum render`'s picture, never an unlit stand-in).
+  void lightNow(const Scene& scene);
   std::optional<MapRequest> nextMap_;  ///< the newest map, waiting for the worker
   std::future<std::shared_ptr<const render::VolumeRenderer::PreparedBackwardMap>> preparing_;
   uint64_t preparingRevision_ = 0, uploadingRevision_ = 0;

@@ -5,6 +5,7 @@
 #include <map>
 
 #include "vellum/core/box_corners.hpp"
+#include "vellum/core/downsample.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
@@ -85,31 +86,39 @@ AnyVolume cropVolume(const AnyVolume& v, const VoxelBox& box) {
       v);
 }
 
+namespace {
+template <class T>
+Volume<T> downsampleMeanOf(const Volume<T>& vol, int n) {
+  const Dims d = vol.dims();
+  const Geometry g = downsampledGeometry(vol.geometry(), n);
+  Volume<T> out(g, T{}, vol.background());
+  parallelFor(g.dims.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < g.dims.y; ++j)
+        for (int64_t i = 0; i < g.dims.x; ++i) {
+          double sum = 0;
+          int64_t count = 0;
+          for (int64_t z = k * n; z < std::min(d.z, (k + 1) * n); ++z)
+            for (int64_t y = j * n; y < std::min(d.y, (j + 1) * n); ++y)
+              for (int64_t x = i * n; x < std::min(d.x, (i + 1) * n); ++x, ++count) sum += vol(x, y, z);
+          const double mean = sum / double(count);
+          out(i, j, k) = std::is_integral_v<T> ? T(std::lround(mean)) : T(mean);
+        }
+  });
+  return out;
+}
+}  // namespace
+
 AnyVolume downsampleMean(const AnyVolume& v, int n) {
   checkFactor(n);
   if (n == 1) return v;
-  return std::visit(
-      [&](const auto& vol) -> AnyVolume {
-        using T = typename std::decay_t<decltype(vol)>::value_type;
-        const Dims d = vol.dims();
-        const Geometry g = downsampledGeometry(vol.geometry(), n);
-        std::decay_t<decltype(vol)> out(g, T{}, vol.background());
-        parallelFor(g.dims.z, [&](int64_t k0, int64_t k1) {
-          for (int64_t k = k0; k < k1; ++k)
-            for (int64_t j = 0; j < g.dims.y; ++j)
-              for (int64_t i = 0; i < g.dims.x; ++i) {
-                double sum = 0;
-                int64_t count = 0;
-                for (int64_t z = k * n; z < std::min(d.z, (k + 1) * n); ++z)
-                  for (int64_t y = j * n; y < std::min(d.y, (j + 1) * n); ++y)
-                    for (int64_t x = i * n; x < std::min(d.x, (i + 1) * n); ++x, ++count) sum += vol(x, y, z);
-                const double mean = sum / double(count);
-                out(i, j, k) = std::is_integral_v<T> ? T(std::lround(mean)) : T(mean);
-              }
-        });
-        return out;
-      },
-      v);
+  return std::visit([&](const auto& vol) -> AnyVolume { return downsampleMeanOf(vol, n); }, v);
+}
+
+VolumeI16 downsampleMean(const VolumeI16& v, int n) {
+  checkFactor(n);
+  if (n == 1) return v;
+  return downsampleMeanOf(v, n);
 }
 
 VolumeU16 downsampleMode(const VolumeU16& ids, int n) {

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "vellum/core/downsample.hpp"
 #include "vellum/core/gaussian_blur.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/core/region.hpp"
@@ -53,6 +54,15 @@ LightSource makeLightSource(const AnyVolume& volume) {
   out.factor = std::max({d.x, d.y, d.z}) > kCellsPerAxis ? 2 : 1;
   // Block means (core's), in the volume's type: only the values are used, by index.
   out.values = downsampleMean(volume, out.factor);
+  return out;
+}
+
+LightSource makeLightSource(const VolumeI16& volume) {
+  LightSource out;
+  out.source = volume.geometry();
+  const Dims d = out.source.dims;
+  out.factor = std::max({d.x, d.y, d.z}) > kCellsPerAxis ? 2 : 1;
+  out.values = downsampleMean(volume, out.factor);  // core/downsample.hpp: no copy of the CT
   return out;
 }
 

@@ -50,6 +50,8 @@ struct LightSource {
   std::vector<float> densityScale;
 };
 LightSource makeLightSource(const AnyVolume& volume);
+/// The same from an int16 volume without an AnyVolume copy (the same values).
+LightSource makeLightSource(const VolumeI16& volume);
 
 /// Under a deformation the shadows belong to the deformed anatomy (a bending knee casts the
 /// bent knee's shadows): the light source in OUTPUT space, over the map's box (its node

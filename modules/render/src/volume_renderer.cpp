@@ -710,11 +710,35 @@ struct VolumeRenderer::Prepared {
   std::shared_ptr<const LightSource> light;  ///< what the cinematic lighting is computed from
 };
 
-std::shared_ptr<const VolumeRenderer::Prepared> VolumeRenderer::prepare(const AnyVolume& volume) {
+std::shared_ptr<const VolumeRenderer::Prepared> VolumeRenderer::prepare(const AnyVolume& volume, bool withLight) {
   geometryOf(volume).validate("render volume");
   return std::make_shared<const Prepared>(Prepared{geometryOf(volume), gradientNormals(volume),
                                                    computeBlockRanges(volume),
-                                                   std::make_shared<const LightSource>(makeLightSource(volume))});
+                                                   withLight ? makeLightSource(volume) : nullptr});
+}
+
+std::shared_ptr<const LightSource> VolumeRenderer::makeLightSource(const AnyVolume& volume) {
+  return std::make_shared<const LightSource>(detail::makeLightSource(volume));
+}
+
+std::shared_ptr<const LightSource> VolumeRenderer::makeLightSource(const VolumeI16& volume) {
+  return std::make_shared<const LightSource>(detail::makeLightSource(volume));
+}
+
+void VolumeRenderer::setLightSource(std::shared_ptr<const LightSource> light) {
+  if (light && !(light->source.dims == impl_->source.dims && light->source.spacing == impl_->source.spacing))
+    throw Error("setLightSource: made for another volume");
+  impl_->context.makeCurrent();
+  impl_->lightSource = std::move(light);
+  deleteTexture(impl_->lightTex);  // computed from the previous light source, or none
+}
+
+bool VolumeRenderer::hasLightSource() const { return impl_->lightSource != nullptr; }
+
+bool VolumeRenderer::usesLightSource(const RenderSettings& s) {
+  if (s.preset == Preset::Mip) return false;
+  // As useProgram's variant.lighting: the ray caster's lighting terms, the path tracer's shadows.
+  return (s.lighting.on() && s.shading) || (s.quality == Quality::Cinematic && s.cinematic.volumeShadows);
 }
 
 void VolumeRenderer::setVolume(const AnyVolume& volume) { setVolume(volume, *prepare(volume)); }

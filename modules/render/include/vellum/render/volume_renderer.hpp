@@ -13,6 +13,10 @@
 
 namespace vellum::render {
 
+namespace detail {
+struct LightSource;
+}
+
 /// Renders one volume through GL. Construct with a current context, which must outlive the
 /// renderer; the volume is uploaded once by setVolume() (never per frame).
 ///
@@ -42,7 +46,10 @@ class VolumeRenderer {
   /// no GL, so an interactive viewer makes it on a worker thread and uploads it with the
   /// overload below on the context's thread.
   struct Prepared;
-  static std::shared_ptr<const Prepared> prepare(const AnyVolume& volume);
+  /// withLight = false leaves the light source out (a viewer that draws unlit holds no 21 MiB
+  /// of block means at 512^2 x 350 for nothing): until setLightSource() the renderer then
+  /// draws without the lighting terms and the path tracer without volume shadows.
+  static std::shared_ptr<const Prepared> prepare(const AnyVolume& volume, bool withLight = true);
   /// setVolume() with its CPU part already made (by prepare() from this same volume).
   void setVolume(const AnyVolume& volume, const Prepared& prepared);
   /// The same spread over calls, for a viewer that must keep drawing: the first call
@@ -69,6 +76,21 @@ class VolumeRenderer {
                                                             size_t slabBytes = size_t(-1),
                                                             const std::function<void()>& betweenSlabs = {});
   void adoptVolumeTextures(const std::shared_ptr<VolumeTextures>& textures, const Prepared& prepared);
+  /// What the lighting terms (RenderSettings::lighting) and the path tracer's volume shadows
+  /// are computed from, made on demand for a volume prepared without it (prepare(volume,
+  /// false)): no GL, so a viewer makes it on a worker when lighting is first switched on.
+  using LightSource = detail::LightSource;
+  static std::shared_ptr<const LightSource> makeLightSource(const AnyVolume& volume);
+  /// The same from an int16 volume the caller holds (a viewer's CT: no AnyVolume copy).
+  static std::shared_ptr<const LightSource> makeLightSource(const VolumeI16& volume);
+  /// Hands the current volume its light source (made from that same volume; nullptr drops it);
+  /// the pictures are then those of a renderer prepared with it. A new volume drops it.
+  /// Throws vellum::Error for a light source of another grid.
+  void setLightSource(std::shared_ptr<const LightSource> light);
+  bool hasLightSource() const;
+  /// True when drawing with `settings` reads the light source (lighting on with shading, or
+  /// the path tracer's volume shadows; not MIP).
+  static bool usesLightSource(const RenderSettings& settings);
   void discardVolumeTextures(const std::shared_ptr<VolumeTextures>& textures);
   /// Deforms what is drawn: samples the source at u(v) from `map` (uploaded once as a 3D
   /// texture; call again when it changes). nullptr removes the deformation.
