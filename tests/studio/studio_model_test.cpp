@@ -348,6 +348,17 @@ TEST(StudioTaskQueue, RunsInOrderAppliesOnThePollingThreadReportsAndCancels) {
   EXPECT_EQ(applied, (std::vector<std::string>{"after"})) << "a cancelled task changes nothing; the next runs";
 }
 
+// Two undo deltas hold the same runs: where, how long, the ids before and after.
+void expectSameRuns(const LabelDelta& got, const LabelDelta& truth) {
+  ASSERT_EQ(got.runs.size(), truth.runs.size());
+  for (size_t i = 0; i < truth.runs.size(); ++i) {
+    EXPECT_EQ(got.runs[i].start, truth.runs[i].start);
+    EXPECT_EQ(got.runs[i].length, truth.runs[i].length);
+    EXPECT_EQ(got.runs[i].before, truth.runs[i].before);
+    EXPECT_EQ(got.runs[i].after, truth.runs[i].after);
+  }
+}
+
 // A brush stroke's undo step from the voxels it changed equals the diff of whole copies.
 TEST(StudioLabelTools, StrokeDeltaEqualsTheDiffOfCopies) {
   const auto ph = smallPhantom();
@@ -360,13 +371,7 @@ TEST(StudioLabelTools, StrokeDeltaEqualsTheDiffOfCopies) {
   EXPECT_EQ(changed.size(), static_cast<size_t>(n)) << "each voxel reported once";
   const LabelDelta stroke = strokeDelta(changed, before.table(), labels, "paint");
   const LabelDelta diff = diffLabels(before, labels, "paint");
-  ASSERT_EQ(stroke.runs.size(), diff.runs.size());
-  for (size_t i = 0; i < diff.runs.size(); ++i) {
-    EXPECT_EQ(stroke.runs[i].start, diff.runs[i].start);
-    EXPECT_EQ(stroke.runs[i].length, diff.runs[i].length);
-    EXPECT_EQ(stroke.runs[i].before, diff.runs[i].before);
-    EXPECT_EQ(stroke.runs[i].after, diff.runs[i].after);
-  }
+  expectSameRuns(stroke, diff);
   EXPECT_EQ(stroke.tableBefore, diff.tableBefore);
   EXPECT_EQ(stroke.tableAfter, diff.tableAfter);
   applyDelta(labels, stroke, false);
@@ -426,12 +431,7 @@ TEST(StudioLabelTools, FootprintDeltasEqualTheWholeMapEditAndUndoExactly) {
   const auto check = [&](const LabelDelta& d, const LabelVolume& expected) {
     SCOPED_TRACE("step " + std::to_string(step++));
     const LabelDelta truth = diffLabels(labels, expected, "");
-    ASSERT_EQ(d.runs.size(), truth.runs.size());
-    for (size_t i = 0; i < d.runs.size(); ++i) {
-      EXPECT_EQ(d.runs[i].start, truth.runs[i].start);
-      EXPECT_EQ(d.runs[i].length, truth.runs[i].length);
-      EXPECT_EQ(d.runs[i].after, truth.runs[i].after);
-    }
+    expectSameRuns(d, truth);
     // The delta holds the changed voxels' runs, not the map.
     EXPECT_LT(d.bytes(), labels.ids().size() * sizeof(uint16_t) / 4);
     const LabelVolume before = labels;

@@ -30,6 +30,19 @@ GLFWwindow* hiddenWindow() {
   return glfwCreateWindow(64, 64, "upload test", nullptr, nullptr);
 }
 
+// Fills the view's textures on its worker (the first call starts it; later ones poll: waits
+// on the job, not on a count; the deadline only ends a hang). True once the volume is drawn.
+bool uploadOnWorker(View3D& view, const std::shared_ptr<const AnyVolume>& ct,
+                    const std::shared_ptr<const render::VolumeRenderer::Prepared>& prepared) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(2);
+  while (!view.uploadVolumeStep(ct, prepared, 1 << 20))
+    if (std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    else
+      return false;
+  return true;
+}
+
 TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
   if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no DISPLAY (run under xvfb-run -a)";
   GLFWwindow* window = hiddenWindow();
@@ -40,13 +53,8 @@ TEST(StudioUpload, TexturesFilledOnTheWorkerContextDrawTheSamePicture) {
     auto ct = std::make_shared<const AnyVolume>(scene.ct);
     auto prepared = render::VolumeRenderer::prepare(*ct);
     View3D view(context);
-    // The first call starts the worker; later ones poll it (wait on the job, not on a count).
-    EXPECT_FALSE(view.uploadVolumeStep(ct, prepared, 1 << 20));
-    bool done = false;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(2);
-    while (!(done = view.uploadVolumeStep(ct, prepared, 1 << 20)) && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    ASSERT_TRUE(done);
+    EXPECT_FALSE(view.uploadVolumeStep(ct, prepared, 1 << 20));  // starts the worker, not done at once
+    ASSERT_TRUE(uploadOnWorker(view, ct, prepared));
     const int w = 60, h = 44;
     const RgbaImage fromWorker = view.renderImage(scene, w, h);
     view.setVolume(scene.ct);  // the same volume uploaded on the window's context
@@ -85,11 +93,7 @@ TEST(StudioUpload, LightSourceMadeOnDemandDrawsThePictureOfOnePreparedWithIt) {
     auto ct = std::make_shared<const AnyVolume>(scene.ct);
     auto prepared = render::VolumeRenderer::prepare(*ct, false);  // as the Loader does
     View3D view(context);
-    bool done = false;
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(2);
-    while (!(done = view.uploadVolumeStep(ct, prepared, 1 << 20)) && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    ASSERT_TRUE(done);
+    ASSERT_TRUE(uploadOnWorker(view, ct, prepared));
     // Lighting off: no light source made or held.
     view.stepLight(scene);
     EXPECT_FALSE(view.lightPending());
