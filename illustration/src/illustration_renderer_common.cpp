@@ -262,13 +262,16 @@ void gradientWindows(const StyleTable& t, const std::vector<PaintSlot>& slots, f
 void skipBands(const StyleTable& t, const std::vector<PaintSlot>& slots, float coverageH, float inkPassMm,
                float marginMm, std::vector<float>& out, std::vector<float>& in) {
   const size_t n = std::max<size_t>((slots.size() + 3) / 4 * 4, 4);
-  const float inf = std::numeric_limits<float>::infinity();
+  // Far beyond any distance (the fields hold at most FIELD_SCALE mm), but finite: these are
+  // shader uniforms, and GPU compilers may assume no infinities (fast math); the results are
+  // the same as with +-infinity.
+  const float far = 1e30f;
   // Padding channels hold far-outside distances: never the limit.
-  out.assign(n, -inf);
-  in.assign(n, -inf);
+  out.assign(n, -far);
+  in.assign(n, -far);
   if (t.visible[0]) {
-    std::fill(out.begin(), out.begin() + long(slots.size()), inf);
-    std::fill(in.begin(), in.begin() + long(slots.size()), inf);
+    std::fill(out.begin(), out.begin() + long(slots.size()), far);
+    std::fill(in.begin(), in.begin() + long(slots.size()), far);
     return;
   }
   std::vector<float> lo, hi;
@@ -289,7 +292,7 @@ void skipBands(const StyleTable& t, const std::vector<PaintSlot>& slots, float c
       const bool ct = (r[slot::LambdaIllum] > 0.f && r[slot::Illum] == IllumMode::Ct) ||
                       r[slot::BoundaryMeasure] == BoundaryMeasure::Ct;
       const bool tex = r[slot::LambdaTexture] > 0.f && r[slot::Texture] != SolidTexture::None;
-      if (ct || tex) i = inf;
+      if (ct || tex) i = far;  // never skipped inside
       else i = std::max(i, r[slot::BoundaryWidthMm] + (sl.shellId > 0 ? sl.shellMm + coverageH : 0.f));
     }
     out[s] = o + marginMm;
