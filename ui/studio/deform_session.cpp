@@ -128,7 +128,7 @@ std::string fixedKey(const FixedRegions& f) {
 }  // namespace
 
 bool DeformSession::liveExact(const ControlPoints& points) const {
-  if (!(exactUpdateMs_ <= kLiveExactBudgetMs) || points.size() != exactSources_.size()) return false;
+  if (!(exactUpdateMs_ <= liveExactBudgetMs_) || points.size() != exactSources_.size()) return false;
   for (size_t i = 0; i < points.size(); ++i)
     if (points[i].source != exactSources_[i]) return false;  // a rho field to rebuild: preview
   return true;
