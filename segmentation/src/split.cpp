@@ -8,6 +8,7 @@
 #include <queue>
 
 #include "vellum/core/components.hpp"
+#include "vellum/core/cropped_geometry.hpp"
 #include "vellum/core/distance_transform.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/parallel.hpp"
@@ -205,13 +206,13 @@ std::vector<int64_t> fillObjectHoles(VolumeU16& objects) {
     const Box& b = box[o];
     int64_t lo[3], n[3];
     const int64_t dim[3] = {d.x, d.y, d.z};
+    VoxelBox grown;
     for (int a = 0; a < 3; ++a) {
-      lo[a] = std::max<int64_t>(0, b.lo[a] - 1);
-      n[a] = std::min<int64_t>(dim[a] - 1, b.hi[a] + 1) - lo[a] + 1;
+      lo[a] = grown.lo[size_t(a)] = std::max<int64_t>(0, b.lo[a] - 1);
+      grown.hi[size_t(a)] = std::min<int64_t>(dim[a] - 1, b.hi[a] + 1);
+      n[a] = grown.hi[size_t(a)] - lo[a] + 1;
     }
-    Geometry sub = objects.geometry();
-    sub.dims = {n[0], n[1], n[2]};
-    Mask alone = makeMask(sub);
+    Mask alone = makeMask(croppedGeometry(objects.geometry(), grown));
     for (int64_t k = 0; k < n[2]; ++k)
       for (int64_t j = 0; j < n[1]; ++j)
         for (int64_t i = 0; i < n[0]; ++i) alone(i, j, k) = objects(lo[0] + i, lo[1] + j, lo[2] + k) == o;

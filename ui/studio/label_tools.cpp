@@ -11,6 +11,7 @@
 #include <malloc.h>
 #endif
 
+#include "vellum/core/cropped_geometry.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/region.hpp"
 #include "vellum/segmentation/components.hpp"
@@ -40,13 +41,6 @@ std::vector<Label> tableWith(const std::vector<Label>& table, const Label& label
 }
 
 VoxelBox wholeGrid(const Geometry& g) { return {{0, 0, 0}, {g.dims.x - 1, g.dims.y - 1, g.dims.z - 1}}; }
-
-Geometry boxGeometry(const Geometry& g, const VoxelBox& box) {
-  Geometry out = g;
-  out.dims = box.dims();
-  out.origin = g.indexToPhysical({double(box.lo[0]), double(box.lo[1]), double(box.lo[2])});
-  return out;
-}
 
 void appendRun(std::vector<LabelDelta::Run>& runs, uint64_t n, uint32_t length, uint16_t before, uint16_t after) {
   LabelDelta::Run* last = runs.empty() ? nullptr : &runs.back();
@@ -135,7 +129,7 @@ std::optional<VoxelBox> segmentBox(const LabelVolume& labels, uint16_t id) {
 
 /// The mask of `id` on `box` (the box's own geometry: the voxels sit where they were).
 seg::Mask segmentMaskIn(const LabelVolume& labels, uint16_t id, const VoxelBox& box) {
-  seg::Mask m(boxGeometry(labels.geometry(), box), 0, 0.0);
+  seg::Mask m(croppedGeometry(labels.geometry(), box), 0, 0.0);
   const auto& ids = labels.ids().voxels();
   const Dims d = labels.geometry().dims;
   const Dims bd = box.dims();

@@ -5,20 +5,21 @@
 #include <map>
 
 #include "vellum/core/box_corners.hpp"
+#include "vellum/core/cropped_geometry.hpp"
 #include "vellum/core/downsample.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 
 namespace vellum {
-namespace {
-
 Geometry croppedGeometry(const Geometry& g, const VoxelBox& box) {
   Geometry out = g;
   out.dims = box.dims();
   out.origin = g.indexToPhysical({double(box.lo[0]), double(box.lo[1]), double(box.lo[2])});
   return out;
 }
+
+namespace {
 
 Geometry downsampledGeometry(const Geometry& g, int n) {
   Geometry out = g;
