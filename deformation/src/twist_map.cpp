@@ -1,4 +1,8 @@
 // The twist map: a pose's backward map, fold-free by construction (see twist_map.hpp).
+// Per stage (one joint, proximal first): group the bodies by where they sit, classify the output
+// voxels (still, moving, fixed, free), blend the weight from the distances to both sides, relax
+// it under the slope bound, lock blended voxels whose source lies in a bone, soften bone rims
+// where bones touch along the turn; then one pass composes the stages into the map.
 #include "vellum/deformation/twist_map.hpp"
 
 #include <algorithm>
@@ -17,13 +21,82 @@ namespace vellum::deformation {
 namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
-constexpr uint8_t kFree = 0, kStill = 1, kMoving = 2;
+
+/// A voxel's role in one stage's weight field. Still and fixed voxels hold w = 0, moving ones
+/// w = 1; free voxels are blended; soft ones are bone rims unlocked where bones touch along the
+/// turn (blended like free ones, never locked again). Fixed regions never soften.
+enum Side : uint8_t { kFree = 0, kStill = 1, kMoving = 2, kFixed = 3, kSoft = 4 };
+inline bool isFree(uint8_t s) { return s == kFree || s == kSoft; }
+inline bool isStill(uint8_t s) { return s == kStill || s == kFixed; }
+
+/// Strictly inside (0, 1): exactly 0 and 1 mark the locked voxels.
+inline float openUnit(double v) {
+  return std::clamp(static_cast<float>(v), std::nextafter(0.f, 1.f), std::nextafter(1.f, 0.f));
+}
 
 /// Rotation by `rad` about unit `a` (Rodrigues), applied to `p` (relative to a point on the axis).
 inline Vec3 turn(const Vec3& p, const Vec3& a, double rad) {
   const double c = std::cos(rad), s = std::sin(rad);
   return p * c + cross(a, p) * s + a * (dot(a, p) * (1 - c));
 }
+
+RigidTransform inverse(const RigidTransform& t) {
+  const Mat3 rt = t.rotation.transposed();
+  return RigidTransform{rt, rt * (-t.translation)};
+}
+RigidTransform compose(const RigidTransform& outer, const RigidTransform& inner) {
+  return RigidTransform{outer.rotation * inner.rotation, outer.rotation * inner.translation + outer.translation};
+}
+
+/// The output grid's indexing, shared by the stages.
+struct Grid {
+  Geometry g;
+  Dims d;
+  int64_t n = 0, sy = 0, sz = 0;
+  Geometry::ToIndex toIndex;
+  Mat3 mmToIdx;  ///< linear part of mm -> index
+  double minSpacing = 1;
+
+  explicit Grid(const Geometry& output) : g(output), d(output.dims), toIndex(output.physicalToIndexMap()) {
+    n = d.voxelCount();
+    sy = d.x;
+    sz = d.x * d.y;
+    const Mat3 toMm = output.direction * Mat3::fromColumns({output.spacing.x, 0, 0}, {0, output.spacing.y, 0},
+                                                           {0, 0, output.spacing.z});
+    if (!toMm.inverse(mmToIdx)) throw Error("twist map: singular geometry");
+    minSpacing = std::min({output.spacing.x, output.spacing.y, output.spacing.z});
+  }
+  int64_t index(int64_t i, int64_t j, int64_t k) const { return (k * d.y + j) * d.x + i; }
+  Vec3 mm(int64_t t) const { return g.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)}); }
+  /// The nearest voxel of a continuous index, or -1 outside the grid.
+  int64_t nearest(const Vec3& idx) const {
+    const int64_t i = std::llround(idx.x), j = std::llround(idx.y), k = std::llround(idx.z);
+    if (i < 0 || j < 0 || k < 0 || i >= d.x || j >= d.y || k >= d.z) return -1;
+    return index(i, j, k);
+  }
+  Vec3 clamp(const Vec3& idx) const {
+    return Vec3{std::clamp(idx.x, 0.0, double(d.x - 1)), std::clamp(idx.y, 0.0, double(d.y - 1)),
+                std::clamp(idx.z, 0.0, double(d.z - 1))};
+  }
+  template <class F>
+  void neighbours(int64_t t, F&& fn) const {  // the 6 face neighbours
+    const int64_t i = t % d.x, j = (t / d.x) % d.y, k = t / sz;
+    if (i > 0) fn(t - 1);
+    if (i + 1 < d.x) fn(t + 1);
+    if (j > 0) fn(t - sy);
+    if (j + 1 < d.y) fn(t + sy);
+    if (k > 0) fn(t - sz);
+    if (k + 1 < d.z) fn(t + sz);
+  }
+  template <class F>
+  void shell(int64_t t, F&& fn) const {  // the 26 neighbours
+    const int64_t i = t % d.x, j = (t / d.x) % d.y, k = t / sz;
+    for (int64_t c = std::max<int64_t>(k - 1, 0); c <= std::min(k + 1, d.z - 1); ++c)
+      for (int64_t b = std::max<int64_t>(j - 1, 0); b <= std::min(j + 1, d.y - 1); ++b)
+        for (int64_t a = std::max<int64_t>(i - 1, 0); a <= std::min(i + 1, d.x - 1); ++a)
+          if (a != i || b != j || c != k) fn(index(a, b, c));
+  }
+};
 
 /// One joint as the map applies it.
 struct Stage {
@@ -43,37 +116,369 @@ struct Group {
   std::array<int64_t, 6> box{std::numeric_limits<int64_t>::max(), std::numeric_limits<int64_t>::max(),
                              std::numeric_limits<int64_t>::max(), -1, -1, -1};  ///< classes index box of its bodies
 };
+struct Grouping {
+  std::vector<Group> groups;
+  std::vector<int> bodyGroup;  ///< per body
+};
 
-RigidTransform inverse(const RigidTransform& t) {
-  const Mat3 rt = t.rotation.transposed();
-  return RigidTransform{rt, rt * (-t.translation)};
+/// Where every body sits in stage `s`'s space (the joints before it undone): its chain's joints
+/// from this stage on, composed proximal outermost. Bodies with the same transform form one
+/// group; the stage's joint moves the groups whose first remaining joint is its own.
+Grouping groupBodies(const RigidBodies& bodies, const std::vector<std::vector<int>>& chain,
+                     const std::vector<int>& position, const std::vector<RigidTransform>& own, size_t s, int joint) {
+  Grouping out;
+  const size_t nb = bodies.bodies().size();
+  out.bodyGroup.assign(nb, -1);
+  std::map<std::vector<int>, size_t> groupOf;
+  for (size_t b = 0; b < nb; ++b) {
+    std::vector<int> rest;
+    for (int j : chain[b])
+      if (position[static_cast<size_t>(j)] >= static_cast<int>(s)) rest.push_back(j);
+    auto [it, added] = groupOf.try_emplace(rest, out.groups.size());
+    if (added) {
+      Group g;
+      for (int j : rest) g.forward = compose(g.forward, own[static_cast<size_t>(j)]);
+      g.backward = inverse(g.forward);
+      g.identity = rest.empty();
+      g.moving = !rest.empty() && rest.front() == joint;
+      out.groups.push_back(g);
+    }
+    out.bodyGroup[b] = static_cast<int>(it->second);
+    const auto& bx = bodies.boxes()[b];
+    auto& gb = out.groups[it->second].box;
+    for (size_t q = 0; q < 3; ++q) {
+      gb[q] = std::min(gb[q], bx[q]);
+      gb[q + 3] = std::max(gb[q + 3], bx[q + 3]);
+    }
+  }
+  return out;
 }
-RigidTransform compose(const RigidTransform& outer, const RigidTransform& inner) {
-  return RigidTransform{outer.rotation * inner.rotation, outer.rotation * inner.translation + outer.translation};
+
+/// The stage's sides on the grid: a voxel is in a group's body when the group's backward
+/// transform takes it to a voxel of that body (nearest). Fixed wins, then still (an overlap of
+/// a posed moving bone over a still one: a collision, counted), then moving.
+std::vector<uint8_t> classifySides(const Grid& grid, const RigidBodies& bodies, const Grouping& grouping,
+                                   TwistJointStats& stats) {
+  const Dims d = grid.d;
+  const uint16_t* cls = bodies.classes().data();
+  const auto& list = bodies.bodies();
+  std::vector<uint8_t> side(static_cast<size_t>(grid.n), kFree);
+  std::atomic<int64_t> nStill{0}, nMoving{0}, nOverlap{0};
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    int64_t ls = 0, lm = 0, lo = 0;
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const int64_t t = grid.index(i, j, k);
+          bool still = false, moving = false, fixed = false;
+          for (size_t q = 0; q < grouping.groups.size(); ++q) {
+            const Group& g = grouping.groups[q];
+            int64_t src = t;
+            if (!g.identity) {
+              const Vec3 u = grid.toIndex(g.backward.apply(grid.g.indexToPhysical({double(i), double(j), double(k)})));
+              const int64_t ui = std::llround(u.x), uj = std::llround(u.y), uk = std::llround(u.z);
+              if (ui < g.box[0] || uj < g.box[1] || uk < g.box[2] || ui > g.box[3] || uj > g.box[4] || uk > g.box[5])
+                continue;
+              src = grid.index(ui, uj, uk);
+            } else if (i < g.box[0] || j < g.box[1] || k < g.box[2] || i > g.box[3] || j > g.box[4] || k > g.box[5]) {
+              continue;
+            }
+            const uint16_t c = cls[src];
+            if (c < 2 || grouping.bodyGroup[c - 2u] != static_cast<int>(q)) continue;
+            if (g.moving) moving = true;
+            else if (list[c - 2u].fixed) fixed = still = true;
+            else still = true;
+          }
+          if (still) {
+            side[static_cast<size_t>(t)] = fixed ? kFixed : kStill;
+            ++ls;
+            if (moving) ++lo;
+          } else if (moving) {
+            side[static_cast<size_t>(t)] = kMoving;
+            ++lm;
+          }
+        }
+    nStill += ls;
+    nMoving += lm;
+    nOverlap += lo;
+  });
+  stats.stillVoxels = nStill;
+  stats.movingVoxels = nMoving;
+  stats.overlapVoxels = nOverlap;
+  return side;
+}
+
+/// w = dS^p / (dS^p + dM^p) from the exact distance transforms (squared, mm²); 0 / 1 on the locks.
+VolumeF32 blendWeights(const Grid& grid, const std::vector<uint8_t>& side, double power, Progress& progress) {
+  const Dims d = grid.d;
+  VolumeF32 w(grid.g, 0.f, 0.f);
+  VolumeU8 feature(grid.g, 0, 0);
+  auto distanceTo = [&](bool moving) {
+    parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+      for (int64_t t = k0 * grid.sz; t < k1 * grid.sz; ++t) {
+        const uint8_t s = side[static_cast<size_t>(t)];
+        feature.data()[t] = moving ? s == kMoving : isStill(s);
+      }
+    });
+    return squaredDistanceMm(feature, progress);
+  };
+  const VolumeF32 dS2 = distanceTo(false);
+  const VolumeF32 dM2 = distanceTo(true);
+  const double half = power / 2;
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t t = k0 * grid.sz; t < k1 * grid.sz; ++t) {
+      const uint8_t sd = side[static_cast<size_t>(t)];
+      float& o = w.data()[t];
+      if (isStill(sd)) { o = 0.f; continue; }
+      if (sd == kMoving) { o = 1.f; continue; }
+      const double ds = dS2.data()[t], dm = dM2.data()[t];
+      if (!std::isfinite(dm)) { o = 0.f; continue; }
+      if (!std::isfinite(ds)) { o = 1.f; continue; }
+      const double ps = std::pow(ds, half), pm = std::pow(dm, half);
+      o = openUnit(ps / (ps + pm));
+    }
+  });
+  return w;
 }
 
 /// theta * dw/dalpha at voxel t of w (central differences, one-sided at the faces): the
 /// derivative of w along a x (v - c), which is the angular derivative per radian.
 struct Slope {
+  const Grid& grid;
   const float* w;
-  Dims d;
-  Geometry g;
-  Vec3 c, a;
-  double theta;
-  Mat3 mmToIdx;  ///< linear part of mm -> index
-  double at(int64_t i, int64_t j, int64_t k) const {
-    const int64_t t = (k * d.y + j) * d.x + i;
+  const Stage& st;
+  double at(int64_t t) const {
+    const Dims d = grid.d;
+    const int64_t i = t % d.x, j = (t / d.x) % d.y, k = t / grid.sz;
     auto diff = [&](int64_t n, int64_t dim, int64_t step) {
       const int64_t lo = n > 0 ? -step : 0, hi = n + 1 < dim ? step : 0;
       if (lo == hi) return 0.0;
       return (double(w[t + hi]) - double(w[t + lo])) / double((hi - lo) / step);
     };
-    const Vec3 grad{diff(i, d.x, 1), diff(j, d.y, d.x), diff(k, d.z, d.x * d.y)};
-    const Vec3 v = g.indexToPhysical({double(i), double(j), double(k)});
-    const Vec3 tangent = mmToIdx * cross(a, v - c);  // in index units
-    return theta * dot(grad, tangent);
+    const Vec3 grad{diff(i, d.x, 1), diff(j, d.y, grid.sy), diff(k, d.z, grid.sz)};
+    const Vec3 tangent = grid.mmToIdx * cross(st.a, grid.mm(t) - st.c);  // in index units
+    return st.theta * dot(grad, tangent);
   }
 };
+
+/// The relaxation of one stage's weight under the bound theta * dw/dalpha <= bound: where it is
+/// passed, the free voxels around take Jacobi steps towards their 6 neighbours' mean (first
+/// round only) and then a slope limiter along the circles about the axis, over a region that
+/// grows by a voxel each round. Locked voxels (bones, fixed regions) keep 0 / 1.
+class Relaxation {
+ public:
+  Relaxation(const Grid& grid, const Stage& st, const std::vector<uint8_t>& side, VolumeF32& w,
+             const TwistParams& params, TwistJointStats& stats)
+      : grid_(grid), st_(st), side_(side), w_(w), params_(params), stats_(stats),
+        slope_{grid, w.data(), st}, bound_(1.0 - params.margin) {}
+
+  const Slope& slope() const { return slope_; }
+
+  /// Every voxel over `over` (default: the bound); `maxSlope` gets the largest slope.
+  std::vector<int64_t> scan(double over = -1, double* maxSlope = nullptr) const {
+    if (over < 0) over = bound_;
+    const Dims d = grid_.d;
+    std::vector<int64_t> bad;
+    std::mutex mutex;
+    double worst = 0;
+    parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+      std::vector<int64_t> local;
+      double lmax = 0;
+      for (int64_t t = k0 * grid_.sz; t < k1 * grid_.sz; ++t) {
+        const double sl = slope_.at(t);
+        lmax = std::max(lmax, sl);
+        if (sl > over) local.push_back(t);
+      }
+      std::lock_guard lock(mutex);
+      bad.insert(bad.end(), local.begin(), local.end());
+      worst = std::max(worst, lmax);
+    });
+    std::sort(bad.begin(), bad.end());  // the same order whatever the threads did
+    if (maxSlope) *maxSlope = worst;
+    return bad;
+  }
+
+  /// Relax around `bad` for at most `rounds` rounds, stopping after `patience` rounds that cut the
+  /// total excess over the bound by under 2 %; `bad` is left holding what is still over it.
+  void run(std::vector<int64_t>& bad, int rounds, int patience, bool smoothFirst) {
+    if (touched_.empty() && !bad.empty()) touched_.assign(static_cast<size_t>(grid_.n), 0);
+    double least = std::numeric_limits<double>::infinity();
+    int stalled = 0;
+    for (int round = 0; round < rounds && !bad.empty(); ++round) {
+      ++stats_.rounds;
+      const std::vector<int64_t> region = grow(bad, std::min(params_.maxRadius, 2 + round));
+      std::vector<int64_t> freeRegion;
+      for (int64_t t : region)
+        if (isFree(side_[static_cast<size_t>(t)])) freeRegion.push_back(t);
+      std::sort(freeRegion.begin(), freeRegion.end());
+      // The smoothing in the first round only: later rounds carry the limiter's front on, which
+      // smoothing would pull back.
+      if (round == 0 && smoothFirst)
+        for (int step = 0; step < params_.relaxSteps; ++step) smooth(freeRegion);
+      for (int step = 0; step < params_.limitSteps; ++step) limit(freeRegion);
+      for (int64_t t : freeRegion) touched_[static_cast<size_t>(t)] = 1;
+      // Recheck the region and its neighbours (the only slopes the steps changed).
+      std::vector<int64_t> check = region;
+      for (int64_t t : region) grid_.neighbours(t, [&](int64_t q) { check.push_back(q); });
+      std::sort(check.begin(), check.end());
+      check.erase(std::unique(check.begin(), check.end()), check.end());
+      std::vector<int64_t> left;
+      double excess = 0;
+      for (int64_t t : check)
+        if (const double sl = slope_.at(t); sl > bound_) {
+          left.push_back(t);
+          excess += sl - bound_;
+        }
+      bad = std::move(left);  // violations outside the region: none, the region holds them all
+      // Stop when rounds no longer help: what is left is locked on both sides (a collision).
+      if (excess < 0.98 * least) {
+        least = excess;
+        stalled = 0;
+      } else if (++stalled >= patience) {
+        break;
+      }
+    }
+  }
+
+  int64_t relaxedVoxels() const {
+    int64_t c = 0;
+    for (uint8_t x : touched_) c += x;
+    return c;
+  }
+
+ private:
+  /// `seeds` grown by `radius` voxels (6-neighbour steps).
+  std::vector<int64_t> grow(const std::vector<int64_t>& seeds, int radius) {
+    if (mark_.empty()) mark_.assign(static_cast<size_t>(grid_.n), 0);
+    std::vector<int64_t> region, frontier;
+    for (int64_t t : seeds)
+      if (!mark_[static_cast<size_t>(t)]) { mark_[static_cast<size_t>(t)] = 1; frontier.push_back(t); }
+    region = frontier;
+    for (int r = 0; r < radius; ++r) {
+      std::vector<int64_t> next;
+      for (int64_t t : frontier)
+        grid_.neighbours(t, [&](int64_t q) {
+          if (!mark_[static_cast<size_t>(q)]) { mark_[static_cast<size_t>(q)] = 1; next.push_back(q); }
+        });
+      region.insert(region.end(), next.begin(), next.end());
+      frontier = std::move(next);
+    }
+    for (int64_t t : region) mark_[static_cast<size_t>(t)] = 0;
+    return region;
+  }
+
+  /// One Jacobi step of the free voxels of `region` towards their 6 neighbours' mean.
+  void smooth(const std::vector<int64_t>& region) {
+    std::vector<float> next(region.size());
+    parallelFor(static_cast<int64_t>(region.size()), [&](int64_t r0, int64_t r1) {
+      for (int64_t r = r0; r < r1; ++r) {
+        double sum = 0;
+        int cnt = 0;
+        grid_.neighbours(region[static_cast<size_t>(r)], [&](int64_t q) { sum += w_.data()[q]; ++cnt; });
+        next[static_cast<size_t>(r)] = openUnit(sum / cnt);
+      }
+    }, 4096);
+    for (size_t r = 0; r < region.size(); ++r) w_.data()[region[r]] = next[r];
+  }
+
+  /// One step of the limiter: along the circle through each free voxel, w may rise by at most
+  /// L = bound / theta per radian (it may fall freely: a stretch), so w(v) is held between
+  /// w(v ahead) - L delta and w(v behind) + L delta, the neighbours one voxel of arc ahead and
+  /// behind (trilinear). Repeated, this carries the bound from the bones into the free space along
+  /// the circles, where the smoothing spreads it in r and z too (and stalls where a still and a
+  /// moving bone face each other across a short arc). A little under the bound: the check's
+  /// central differences read the arc steps' trilinear samples with some spread (the limiter
+  /// alone settles at ~1.03 x its L).
+  void limit(const std::vector<int64_t>& region) {
+    const double lim = 0.85 * bound_ / std::abs(st_.theta);
+    std::vector<float> next(region.size());
+    parallelFor(static_cast<int64_t>(region.size()), [&](int64_t r0, int64_t r1) {
+      for (int64_t r = r0; r < r1; ++r) {
+        const int64_t t = region[static_cast<size_t>(r)];
+        const Vec3 p = grid_.mm(t) - st_.c;
+        const double radius = norm(p - st_.a * dot(st_.a, p));
+        float& o = next[static_cast<size_t>(r)];
+        o = w_.data()[t];
+        if (radius < 1e-6) continue;
+        const double delta = std::min(grid_.minSpacing / radius, 0.5) * (st_.theta > 0 ? 1 : -1);
+        // Clamped onto the grid: beyond its faces w is unknown, not 0 (a still region there
+        // would hold the tissue next to a face still).
+        const double ahead = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.c + turn(p, st_.a, delta))));
+        const double behind = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.c + turn(p, st_.a, -delta))));
+        const double lo = ahead - lim * std::abs(delta), hi = behind + lim * std::abs(delta);
+        o = openUnit(lo <= hi ? std::clamp(double(o), lo, hi) : 0.5 * (lo + hi));
+      }
+    }, 4096);
+    for (size_t r = 0; r < region.size(); ++r) w_.data()[region[r]] = next[r];
+  }
+
+  const Grid& grid_;
+  const Stage& st_;
+  const std::vector<uint8_t>& side_;
+  VolumeF32& w_;
+  const TwistParams& params_;
+  TwistJointStats& stats_;
+  Slope slope_;
+  double bound_;
+  std::vector<uint8_t> touched_;  ///< 1: relaxed at least once
+  std::vector<uint8_t> mark_;     ///< scratch of grow()
+};
+
+/// Consistent locks (the last joint's stage, whose output is the source): a blended voxel whose
+/// source lands in a bone's voxel (nearest: the cells are not round about the axis) joins that
+/// bone's side, w = 0 or 1 exactly; only a short step (the source moves by at most
+/// joinMaxVoxels): a long one is a jump next to the other side's lock that no relaxation can
+/// spread. Returns how many joined.
+int64_t joinLocks(const Grid& grid, const Stage& st, const RigidBodies& bodies, const Grouping& grouping,
+                  const TwistParams& params, std::vector<uint8_t>& side, VolumeF32& w) {
+  const Dims d = grid.d;
+  const uint16_t* cls = bodies.classes().data();
+  std::vector<std::pair<int64_t, uint8_t>> joins;
+  std::mutex mutex;
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    std::vector<std::pair<int64_t, uint8_t>> local;
+    for (int64_t t = k0 * grid.sz; t < k1 * grid.sz; ++t) {
+      if (side[static_cast<size_t>(t)] != kFree) continue;
+      const Vec3 v = grid.mm(t);
+      const double wt = w.data()[t];
+      const int64_t src = grid.nearest(grid.toIndex(st.c + turn(v - st.c, st.a, -st.theta * wt)));
+      if (src < 0 || cls[src] < 2) continue;
+      const bool moving = grouping.groups[static_cast<size_t>(grouping.bodyGroup[cls[src] - 2u])].moving;
+      const Vec3 p = v - st.c;
+      const double radius = norm(p - st.a * dot(st.a, p));
+      const double step = std::abs(st.theta) * std::abs((moving ? 1.0 : 0.0) - wt) * radius;
+      if (step <= params.joinMaxVoxels * grid.minSpacing) local.emplace_back(t, moving ? kMoving : kStill);
+    }
+    std::lock_guard lock(mutex);
+    joins.insert(joins.end(), local.begin(), local.end());
+  });
+  for (const auto& [t, sd] : joins) {
+    side[static_cast<size_t>(t)] = sd;
+    w.data()[t] = sd == kMoving ? 1.f : 0.f;
+  }
+  return static_cast<int64_t>(joins.size());
+}
+
+/// Unlocks the bone voxels (still or moving, never fixed) in the 26-neighbourhood of each of
+/// `bad`: they become soft, blended with the tissue; `soft` (the map's record) marks them.
+/// Returns how many were unlocked.
+int64_t soften(const Grid& grid, const std::vector<int64_t>& bad, std::vector<uint8_t>& side,
+               std::vector<uint8_t>& soft) {
+  if (soft.empty()) soft.assign(static_cast<size_t>(grid.n), 0);
+  int64_t count = 0;
+  auto unlock = [&](int64_t q) {
+    uint8_t& s = side[static_cast<size_t>(q)];
+    if (s != kStill && s != kMoving) return;
+    s = kSoft;
+    soft[static_cast<size_t>(q)] = 1;
+    ++count;
+  };
+  for (int64_t t : bad) {
+    unlock(t);
+    grid.shell(t, unlock);
+  }
+  return count;
+}
 
 }  // namespace
 
@@ -85,8 +490,9 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   const VolumeU16& classes = bodies.classes();
   if (!(classes.geometry().dims == output.dims) || !classes.geometry().approxEqual(output, 1e-3))
     throw Error("twist map: the rigid bodies' grid differs from the output grid");
-  const Dims d = output.dims;
-  const int64_t n = d.voxelCount();
+  const Grid grid(output);
+  const Dims d = grid.d;
+  const int64_t n = grid.n;
   checkMemoryBudget(uint64_t(n) * (3 * sizeof(float) + 2 * sizeof(float) + 2), "twist map");
 
   // Joints proximal first (linkJoints() guarantees no cycle): the depth along the chain.
@@ -111,21 +517,10 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   std::vector<RigidTransform> own(nj);
   for (size_t j = 0; j < nj; ++j) own[j] = rotationAbout(pose.joints[j].axisA, pose.joints[j].axisB, anglesDeg[j]);
 
-  const Mat3 toMm = output.direction * Mat3::fromColumns({output.spacing.x, 0, 0}, {0, output.spacing.y, 0},
-                                                         {0, 0, output.spacing.z});
-  Mat3 mmToIdx;
-  if (!toMm.inverse(mmToIdx)) throw Error("twist map: singular geometry");
-  const Geometry::ToIndex toIndex = output.physicalToIndexMap();
-  auto clampIndex = [&](const Vec3& idx) {
-    return Vec3{std::clamp(idx.x, 0.0, double(d.x - 1)), std::clamp(idx.y, 0.0, double(d.y - 1)),
-                std::clamp(idx.z, 0.0, double(d.z - 1))};
-  };
-  const double minSpacing = std::min({output.spacing.x, output.spacing.y, output.spacing.z});
-  const uint16_t* cls = classes.data();
-
   TwistMap result;
   std::vector<Stage> stages;
   std::vector<VolumeF32> weights;
+  std::vector<uint8_t> soft;  // output voxels softened in any stage: the snap leaves them blended
   for (size_t s = 0; s < order.size(); ++s) {
     progress.checkCancelled();
     const int jt = order[s];
@@ -140,290 +535,46 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     stats.name = joint.name;
     stats.angleDeg = anglesDeg[static_cast<size_t>(jt)];
 
-    // Where every body sits in this stage's space (the joints before it undone): its chain's
-    // joints from this stage on, composed proximal outermost. Bodies with the same transform
-    // form one group; the joint moves the groups whose first remaining joint is its own.
-    std::map<std::vector<int>, size_t> groupOf;
-    std::vector<Group> groups;
-    std::vector<int> bodyGroup(list.size(), -1);
-    for (size_t b = 0; b < list.size(); ++b) {
-      std::vector<int> rest;
-      for (int j : chain[b])
-        if (position[static_cast<size_t>(j)] >= static_cast<int>(s)) rest.push_back(j);
-      auto [it, added] = groupOf.try_emplace(rest, groups.size());
-      if (added) {
-        Group g;
-        for (int j : rest) g.forward = compose(g.forward, own[static_cast<size_t>(j)]);
-        g.backward = inverse(g.forward);
-        g.identity = rest.empty();
-        g.moving = !rest.empty() && rest.front() == jt;
-        groups.push_back(g);
-      }
-      bodyGroup[b] = static_cast<int>(it->second);
-      const auto& bx = bodies.boxes()[b];
-      auto& gb = groups[it->second].box;
-      for (int q = 0; q < 3; ++q) {
-        gb[static_cast<size_t>(q)] = std::min(gb[static_cast<size_t>(q)], bx[static_cast<size_t>(q)]);
-        gb[static_cast<size_t>(q + 3)] = std::max(gb[static_cast<size_t>(q + 3)], bx[static_cast<size_t>(q + 3)]);
-      }
-    }
-    // The still and moving sets on the grid: a voxel is in a group's body when the group's
-    // backward transform takes it to a voxel of that body (nearest). Still wins an overlap.
-    std::vector<uint8_t> side(static_cast<size_t>(n), kFree);
-    std::atomic<int64_t> nStill{0}, nMoving{0}, nOverlap{0};
-    parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-      int64_t ls = 0, lm = 0, lo = 0;
-      for (int64_t k = k0; k < k1; ++k)
-        for (int64_t j = 0; j < d.y; ++j)
-          for (int64_t i = 0; i < d.x; ++i) {
-            const int64_t t = (k * d.y + j) * d.x + i;
-            bool still = false, moving = false;
-            for (const Group& g : groups) {
-              int64_t src = t;
-              if (!g.identity) {
-                const Vec3 u = toIndex(g.backward.apply(output.indexToPhysical({double(i), double(j), double(k)})));
-                const int64_t ui = std::llround(u.x), uj = std::llround(u.y), uk = std::llround(u.z);
-                if (ui < g.box[0] || uj < g.box[1] || uk < g.box[2] || ui > g.box[3] || uj > g.box[4] || uk > g.box[5])
-                  continue;
-                src = (uk * d.y + uj) * d.x + ui;
-              } else if (i < g.box[0] || j < g.box[1] || k < g.box[2] || i > g.box[3] || j > g.box[4] || k > g.box[5]) {
-                continue;
-              }
-              const uint16_t c = cls[src];
-              if (c < 2 || &groups[static_cast<size_t>(bodyGroup[c - 2u])] != &g) continue;
-              (g.moving ? moving : still) = true;
-            }
-            if (still) { side[static_cast<size_t>(t)] = kStill; ++ls; if (moving) ++lo; }
-            else if (moving) { side[static_cast<size_t>(t)] = kMoving; ++lm; }
-          }
-      nStill += ls; nMoving += lm; nOverlap += lo;
-    });
-    stats.stillVoxels = nStill; stats.movingVoxels = nMoving; stats.overlapVoxels = nOverlap;
+    const Grouping grouping = groupBodies(bodies, chain, position, own, s, jt);
+    std::vector<uint8_t> side = classifySides(grid, bodies, grouping, stats);
+    progress.checkCancelled();
+    VolumeF32 w = blendWeights(grid, side, params.power, progress);
     progress.checkCancelled();
 
-    // w = dS^p / (dS^p + dM^p) from the exact distance transforms (squared, mm²).
-    VolumeF32 w(output, 0.f, 0.f);
-    {
-      VolumeU8 feature(output, 0, 0);
-      auto distanceTo = [&](uint8_t which) {
-        parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-          for (int64_t t = k0 * d.x * d.y; t < k1 * d.x * d.y; ++t)
-            feature.data()[t] = side[static_cast<size_t>(t)] == which;
-        });
-        return squaredDistanceMm(feature, progress);
-      };
-      VolumeF32 dS2 = distanceTo(kStill);
-      const VolumeF32 dM2 = distanceTo(kMoving);
-      const double half = params.power / 2;
-      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-        for (int64_t t = k0 * d.x * d.y; t < k1 * d.x * d.y; ++t) {
-          const uint8_t sd = side[static_cast<size_t>(t)];
-          float& o = w.data()[t];
-          if (sd == kStill) { o = 0.f; continue; }
-          if (sd == kMoving) { o = 1.f; continue; }
-          const double ds = dS2.data()[t], dm = dM2.data()[t];
-          if (!std::isfinite(dm)) { o = 0.f; continue; }
-          if (!std::isfinite(ds)) { o = 1.f; continue; }
-          const double ps = std::pow(ds, half), pm = std::pow(dm, half);
-          // Strictly inside (0, 1): exactly 0 and 1 mark the locked voxels (see below).
-          o = std::clamp(static_cast<float>(ps / (ps + pm)), std::nextafter(0.f, 1.f), std::nextafter(1.f, 0.f));
-        }
-      });
-    }
-    progress.checkCancelled();
-
-    // The bound: theta * dw/dalpha <= 1 - margin. Where it is passed, the free voxels around
-    // take Jacobi steps towards their 6 neighbours' mean (w's bones and fixed regions stay
-    // 0 / 1), over a region that grows by a voxel each round.
-    const Slope slope{w.data(), d, output, st.c, st.a, st.theta, mmToIdx};
-    const double bound = 1.0 - params.margin;
+    Relaxation relax(grid, st, side, w, params, stats);
     double maxSlope = 0;
-    auto scan = [&] {
-      std::vector<int64_t> bad;
-      std::mutex mutex;
-      maxSlope = 0;
-      parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-        std::vector<int64_t> local;
-        double lmax = 0;
-        for (int64_t k = k0; k < k1; ++k)
-          for (int64_t j = 0; j < d.y; ++j)
-            for (int64_t i = 0; i < d.x; ++i) {
-              const double sl = slope.at(i, j, k);
-              lmax = std::max(lmax, sl);
-              if (sl > bound) local.push_back((k * d.y + j) * d.x + i);
-            }
-        std::lock_guard lock(mutex);
-        bad.insert(bad.end(), local.begin(), local.end());
-        maxSlope = std::max(maxSlope, lmax);
-      });
-      return bad;
-    };
-    std::vector<int64_t> bad = scan();
+    std::vector<int64_t> bad = relax.scan(-1, &maxSlope);
     stats.violationsBefore = static_cast<int64_t>(bad.size());
     stats.maxSlopeBefore = maxSlope;
-    std::vector<uint8_t> touched;  // 1: relaxed at least once
-    if (!bad.empty()) touched.assign(static_cast<size_t>(n), 0);
-    std::vector<uint8_t> mark;
-    const int64_t sy = d.x, sz = d.x * d.y;
-    auto neighbours = [&](int64_t t, auto&& fn) {
-      const int64_t i = t % d.x, j = (t / d.x) % d.y, k = t / sz;
-      if (i > 0) fn(t - 1);
-      if (i + 1 < d.x) fn(t + 1);
-      if (j > 0) fn(t - sy);
-      if (j + 1 < d.y) fn(t + sy);
-      if (k > 0) fn(t - sz);
-      if (k + 1 < d.z) fn(t + sz);
-    };
-    const bool lastStage = s + 1 == order.size();
-    for (int pass = 0;; ++pass) {
-      // Progress: the total excess over the bound (the count alone rises while the limiter's
-      // front spreads a few large excesses into many small ones).
-      double least = std::numeric_limits<double>::infinity();
-      int stalled = 0;
-      // Later passes only relax around the joined voxels: fewer rounds.
-      const int rounds = pass == 0 ? params.maxRounds : params.maxRounds / 3;
-      for (int round = 0; round < rounds && !bad.empty(); ++round) {
+    relax.run(bad, params.maxRounds, params.patience, true);
+    // The last stage's output is the source: lock blended voxels whose source lies in a bone,
+    // and relax again around them (fewer rounds), so the snap has (nearly) nothing left to do.
+    if (s + 1 == order.size())
+      for (int pass = 0; pass < params.lockPasses; ++pass) {
         progress.checkCancelled();
-        ++stats.rounds;
-        // The region: the violations grown by `radius` voxels (6-neighbour steps), free voxels only.
-        const int radius = std::min(params.maxRadius, 2 + round);
-        if (mark.empty()) mark.assign(static_cast<size_t>(n), 0);
-        std::vector<int64_t> region, frontier = bad;
-        for (int64_t t : frontier) mark[static_cast<size_t>(t)] = 1;
-        region = frontier;
-        for (int r = 0; r < radius; ++r) {
-          std::vector<int64_t> next;
-          for (int64_t t : frontier)
-            neighbours(t, [&](int64_t q) {
-              if (!mark[static_cast<size_t>(q)]) { mark[static_cast<size_t>(q)] = 1; next.push_back(q); }
-            });
-          region.insert(region.end(), next.begin(), next.end());
-          frontier = std::move(next);
-        }
-        for (int64_t t : region) mark[static_cast<size_t>(t)] = 0;
-        std::vector<int64_t> freeRegion;
-        for (int64_t t : region)
-          if (side[static_cast<size_t>(t)] == kFree) freeRegion.push_back(t);
-        std::sort(freeRegion.begin(), freeRegion.end());
-        std::vector<float> next(freeRegion.size());
-        const int64_t nr = static_cast<int64_t>(freeRegion.size());
-        // The smoothing in the first round only: later rounds carry the limiter's front on, which
-        // smoothing would pull back.
-        for (int step = 0; step < (round == 0 ? params.relaxSteps : 0); ++step) {
-          parallelFor(nr, [&](int64_t r0, int64_t r1) {
-            for (int64_t r = r0; r < r1; ++r) {
-              double sum = 0;
-              int cnt = 0;
-              neighbours(freeRegion[static_cast<size_t>(r)], [&](int64_t q) { sum += w.data()[q]; ++cnt; });
-              // Strictly inside (0, 1), as the free voxels always are.
-              next[static_cast<size_t>(r)] = std::clamp(static_cast<float>(sum / cnt), std::nextafter(0.f, 1.f),
-                                                         std::nextafter(1.f, 0.f));
-            }
-          }, 4096);
-          for (int64_t r = 0; r < nr; ++r) w.data()[freeRegion[static_cast<size_t>(r)]] = next[static_cast<size_t>(r)];
-        }
-        // Then the limiter: along the circle through each free voxel, w may rise by at most
-        // L = (1 - margin) / theta per radian (it may fall freely: a stretch), so w(v) is held
-        // between w(v ahead) - L delta and w(v behind) + L delta, the neighbours one voxel of arc
-        // ahead and behind (trilinear). Repeated, this carries the bound from the bones into the
-        // free space along the circles, where the isotropic smoothing above spreads it in r and z
-        // too (and stalls where a still and a moving bone face each other across a short arc).
-        // A little under the bound: the check's central differences on the grid read the arc
-        // steps' trilinear samples with some spread (the limiter alone settles at ~1.03 x its L).
-        const double lim = 0.85 * bound / std::abs(st.theta);
-        for (int step = 0; step < params.limitSteps; ++step) {
-          parallelFor(nr, [&](int64_t r0, int64_t r1) {
-            for (int64_t r = r0; r < r1; ++r) {
-              const int64_t t = freeRegion[static_cast<size_t>(r)];
-              const Vec3 v = output.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)});
-              const Vec3 p = v - st.c;
-              const double radius = norm(p - st.a * dot(st.a, p));
-              float& o = next[static_cast<size_t>(r)];
-              o = w.data()[t];
-              if (radius < 1e-6) continue;
-              const double delta = std::min(minSpacing / radius, 0.5) * (st.theta > 0 ? 1 : -1);
-              // Clamped onto the grid: beyond its faces w is unknown, not 0 (a still region there
-              // would hold the tissue next to a face still).
-              const double ahead = w.sampleLinear(clampIndex(toIndex(st.c + turn(p, st.a, delta))));
-              const double behind = w.sampleLinear(clampIndex(toIndex(st.c + turn(p, st.a, -delta))));
-              const double lo = ahead - lim * std::abs(delta), hi = behind + lim * std::abs(delta);
-              const double val = lo <= hi ? std::clamp(double(o), lo, hi) : 0.5 * (lo + hi);
-              o = std::clamp(static_cast<float>(val), std::nextafter(0.f, 1.f), std::nextafter(1.f, 0.f));
-            }
-          }, 4096);
-          for (int64_t r = 0; r < nr; ++r) w.data()[freeRegion[static_cast<size_t>(r)]] = next[static_cast<size_t>(r)];
-        }
-        for (int64_t t : freeRegion) touched[static_cast<size_t>(t)] = 1;
-        // Recheck the region and its neighbours (the only slopes the steps changed).
-        std::vector<int64_t> check = region;
-        for (int64_t t : region)
-          neighbours(t, [&](int64_t q) { check.push_back(q); });
-        std::sort(check.begin(), check.end());
-        check.erase(std::unique(check.begin(), check.end()), check.end());
-        std::vector<int64_t> still;
-        double excess = 0;
-        for (int64_t t : check)
-          if (const double sl = slope.at(t % d.x, (t / d.x) % d.y, t / sz); sl > bound) {
-            still.push_back(t);
-            excess += sl - bound;
-          }
-        // Violations outside the region stay as they were (none: the region holds them all).
-        bad = std::move(still);
-        // Stop when rounds no longer help: what is left is locked on both sides (a collision).
-        if (excess < 0.98 * least) { least = excess; stalled = 0; }
-        else if (++stalled >= (pass == 0 ? params.patience : params.patience / 2)) break;
+        const int64_t joined = joinLocks(grid, st, bodies, grouping, params, side, w);
+        if (joined == 0) break;
+        stats.joinedVoxels += joined;
+        bad = relax.scan();
+        relax.run(bad, params.maxRounds / 3, params.patience / 2, true);
       }
-      // Consistent locks (the last joint's stage, whose output is the source): a blended voxel
-      // whose source lands in a bone's voxel (nearest: the cells are not round about the axis)
-      // joins that bone's side, w = 0 or 1 exactly, and the blend is relaxed again around it;
-      // so the snap below has (nearly) nothing left to do, and no jump is left unrelaxed.
-      if (!lastStage || pass >= params.lockPasses) break;
-      std::vector<std::pair<int64_t, uint8_t>> joins;
-      {
-        std::mutex mutex;
-        parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-          std::vector<std::pair<int64_t, uint8_t>> local;
-          for (int64_t k = k0; k < k1; ++k)
-            for (int64_t j = 0; j < d.y; ++j)
-              for (int64_t i = 0; i < d.x; ++i) {
-                const int64_t t = (k * d.y + j) * d.x + i;
-                if (side[static_cast<size_t>(t)] != kFree) continue;
-                const Vec3 v = output.indexToPhysical({double(i), double(j), double(k)});
-                const double wt = w.data()[t];
-                const Vec3 ui = toIndex(st.c + turn(v - st.c, st.a, -st.theta * wt));
-                const int64_t si = std::llround(ui.x), sj = std::llround(ui.y), sk = std::llround(ui.z);
-                if (si < 0 || sj < 0 || sk < 0 || si >= d.x || sj >= d.y || sk >= d.z) continue;
-                const uint16_t c = cls[(sk * d.y + sj) * d.x + si];
-                if (c < 2) continue;
-                const bool moving = groups[static_cast<size_t>(bodyGroup[c - 2u])].moving;
-                // Only a short step (the source moves by at most joinMaxVoxels): a long one is a
-                // jump next to the other side's lock that no relaxation can spread (a collision).
-                const Vec3 p = v - st.c;
-                const double radius = norm(p - st.a * dot(st.a, p));
-                const double step = std::abs(st.theta) * std::abs((moving ? 1.0 : 0.0) - wt) * radius;
-                if (step > params.joinMaxVoxels * minSpacing)
-                  continue;
-                local.emplace_back(t, moving ? kMoving : kStill);
-              }
-          std::lock_guard lock(mutex);
-          joins.insert(joins.end(), local.begin(), local.end());
-        });
-      }
-      if (joins.empty()) break;
-      for (const auto& [t, sd] : joins) {
-        side[static_cast<size_t>(t)] = sd;
-        w.data()[t] = sd == kMoving ? 1.f : 0.f;
-      }
-      stats.joinedVoxels += static_cast<int64_t>(joins.size());
-      bad = scan();
-      if (!bad.empty() && touched.empty()) touched.assign(static_cast<size_t>(n), 0);
+    // Bones that touch along the turn: no w between the two locks keeps det J > 0; their rims
+    // give, a voxel's shell deeper each pass, and the tissue's blend is relaxed through them.
+    for (int pass = 0; pass < params.softenPasses; ++pass) {
+      progress.checkCancelled();
+      const std::vector<int64_t> stuck = relax.scan(1.0 - params.softenBelow);
+      if (stuck.empty()) break;
+      const int64_t unlocked = soften(grid, stuck, side, soft);
+      if (unlocked == 0) break;
+      stats.softenedVoxels += unlocked;
+      bad = relax.scan();
+      relax.run(bad, params.maxRounds / 3, params.patience / 2, true);
     }
-    mark.clear();
-    mark.shrink_to_fit();
-    for (uint8_t x : touched) stats.relaxedVoxels += x;
+    bad = relax.scan();
+    stats.relaxedVoxels = relax.relaxedVoxels();
     stats.violationsAfter = static_cast<int64_t>(bad.size());
     for (int64_t t : bad) {
-      const double sl = slope.at(t % d.x, (t / d.x) % d.y, t / sz);
+      const double sl = relax.slope().at(t);
       stats.maxSlopeAfter = std::max(stats.maxSlopeAfter, sl);
       if (sl >= 1) ++stats.collisionVoxels;
     }
@@ -443,44 +594,48 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   // The map: each output voxel through the stages' backward twists, proximal first. The first
   // stage reads w at the voxel itself; later ones at the moved position (trilinear, or the
   // nearest voxel's exact 0 / 1 when that voxel is locked, so the bones stay exactly rigid).
+  const uint16_t* cls = classes.data();
+  const double snapReach = params.snapMaxVoxels * grid.minSpacing;
+  std::atomic<int64_t> unsnapped{0};
   result.mapMm.resize(static_cast<size_t>(n) * 3);
   float* out = result.mapMm.data();
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    for (int64_t k = k0; k < k1; ++k) {
-      progress.checkCancelled();
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i) {
-          const int64_t t = (k * d.y + j) * d.x + i;
-          Vec3 x = output.indexToPhysical({double(i), double(j), double(k)});
-          for (size_t s = 0; s < stages.size(); ++s) {
-            const Stage& st = stages[s];
-            double wk;
-            if (s == 0) {
-              wk = weights[s].data()[t];
-            } else {
-              const Vec3 idx = toIndex(x);
-              const double nearest = weights[s].sampleNearest(idx);
-              wk = (nearest == 0.0 || nearest == 1.0) ? nearest : weights[s].sampleLinear(idx);
-            }
-            if (wk == 0.0) continue;
-            x = wk == 1.0 ? st.c + st.backFull * (x - st.c) : st.c + turn(x - st.c, st.a, -st.theta * wk);
-          }
-          // The snap (as the MLS map's, RigidSnap): a blended voxel whose source lands in a body
-          // takes that body's transform, so no output voxel shows bone moved non-rigidly (a
-          // voxel beside a bone, w just under 1, would show its rim turned a little less).
-          if (params.snap) {
-            const Vec3 ui = toIndex(x);
-            const int64_t si = std::llround(ui.x), sj = std::llround(ui.y), sk = std::llround(ui.z);
-            if (si >= 0 && sj >= 0 && sk >= 0 && si < d.x && sj < d.y && sk < d.z)
-              if (const uint16_t c = cls[(sk * d.y + sj) * d.x + si]; c >= 2)
-                x = bodyBack[c - 2u].apply(output.indexToPhysical({double(i), double(j), double(k)}));
-          }
-          out[3 * t] = static_cast<float>(x.x);
-          out[3 * t + 1] = static_cast<float>(x.y);
-          out[3 * t + 2] = static_cast<float>(x.z);
+    int64_t local = 0;
+    for (int64_t t = k0 * grid.sz; t < k1 * grid.sz; ++t) {
+      if (t % grid.sz == 0) progress.checkCancelled();
+      const Vec3 v = grid.mm(t);
+      Vec3 x = v;
+      for (size_t s = 0; s < stages.size(); ++s) {
+        const Stage& st = stages[s];
+        double wk;
+        if (s == 0) {
+          wk = weights[s].data()[t];
+        } else {
+          const Vec3 idx = grid.toIndex(x);
+          const double nearest = weights[s].sampleNearest(idx);
+          wk = (nearest == 0.0 || nearest == 1.0) ? nearest : weights[s].sampleLinear(idx);
         }
+        if (wk == 0.0) continue;
+        x = wk == 1.0 ? st.c + st.backFull * (x - st.c) : st.c + turn(x - st.c, st.a, -st.theta * wk);
+      }
+      // The snap (as the MLS map's, RigidSnap): a blended voxel whose source lands in a body
+      // takes that body's transform, so no output voxel shows bone moved non-rigidly (a voxel
+      // beside a bone, w just under 1, would show its rim turned a little less). Not on the
+      // softened rims, nor where it would jump the source by more than snapMaxVoxels: a jump
+      // between neighbours is a fold.
+      if (params.snap)
+        if (const int64_t src = grid.nearest(grid.toIndex(x)); src >= 0 && cls[src] >= 2) {
+          const Vec3 snapped = bodyBack[cls[src] - 2u].apply(v);
+          if ((soft.empty() || !soft[static_cast<size_t>(t)]) && norm(snapped - x) <= snapReach) x = snapped;
+          else if (norm(snapped - x) > 1e-6) ++local;
+        }
+      out[3 * t] = static_cast<float>(x.x);
+      out[3 * t + 1] = static_cast<float>(x.y);
+      out[3 * t + 2] = static_cast<float>(x.z);
     }
+    unsnapped += local;
   });
+  result.unsnappedVoxels = unsnapped;
   return result;
 }
 

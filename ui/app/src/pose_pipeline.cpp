@@ -79,8 +79,10 @@ nlohmann::json twistJson(const TwistMap& m, const TwistParams& p) {
                       {"relaxed_voxels", s.relaxedVoxels},
                       {"slope_violations_after", s.violationsAfter},
                       {"collision_voxels", s.collisionVoxels},
-                      {"max_slope_after", s.maxSlopeAfter}});
-  return {{"power", p.power}, {"margin", p.margin}, {"joints", std::move(joints)}};
+                      {"max_slope_after", s.maxSlopeAfter},
+                      {"softened_bone_voxels", s.softenedVoxels}});
+  return {{"power", p.power}, {"margin", p.margin}, {"joints", std::move(joints)},
+          {"unsnapped_voxels", m.unsnappedVoxels}};
 }
 
 }  // namespace

@@ -9,6 +9,11 @@
 // whatever w does along r and z (a jump of w across a joint space, or between two feet side by
 // side along the axis, is a pure shear). The bound is enforced by relaxing w (never on bones or
 // fixed regions); a chain composes its joints' twists, each fold-free, so the composition is.
+// Where a still and a turning bone touch along the turn (an axis that is not the joint's, or
+// labels without a joint space) no w between two locks can keep det J > 0: there the bones' rims
+// give (a voxel's shell of both bones around each such place is unlocked and relaxed with the
+// tissue, never a fixed region's), so the map stays fold-free and the report says how many bone
+// voxels gave.
 // Format and measures: docs/deformation.md, "Twist map".
 #include <vector>
 
@@ -36,8 +41,15 @@ struct TwistParams {
   bool snap = true;
   /// Times a blended voxel whose source lands in a bone joins that bone's lock and the blend
   /// is relaxed again (the last joint's stage only; the snap catches what is left).
-  int lockPasses = 3;
+  int lockPasses = 8;
   double joinMaxVoxels = 2.0;  ///< a voxel joins only when that moves its source by at most this many voxels
+  /// Where det J is still under this after the relaxation (locked on both sides: bones that
+  /// touch along the turn), a voxel's shell of the bones around it is unlocked and relaxed again.
+  double softenBelow = 0.1;
+  int softenPasses = 8;  ///< shells unlocked at most (each pass one voxel deeper where needed)
+  /// The final snap only where it moves the source by at most this many voxels: a longer one
+  /// is a jump of the map, which folds (such voxels are counted, TwistMap::unsnappedVoxels).
+  double snapMaxVoxels = 0.5;
 };
 
 /// What the twist of one joint did.
@@ -54,11 +66,15 @@ struct TwistJointStats {
   int64_t violationsAfter = 0;   ///< left (locked on both sides: a true collision)
   int64_t collisionVoxels = 0;   ///< of violationsAfter, with det J <= 0 (theta * dw/dalpha >= 1)
   double maxSlopeAfter = 0;
+  int64_t softenedVoxels = 0;    ///< bone rim voxels unlocked where bones touch along the turn
 };
 
 struct TwistMap {
   std::vector<float> mapMm;  ///< 3 floats (source mm) per output voxel, x fastest (as upsampleMap())
   std::vector<TwistJointStats> joints;  ///< in the order they were applied (proximal first)
+  /// Output voxels whose source lies in a bone but that do not take its transform: the softened
+  /// rims, and blended voxels whose snap would jump the source by over joinMaxVoxels.
+  int64_t unsnappedVoxels = 0;
 };
 
 /// The backward map of `pose` at `anglesDeg` on `output` (the grid of `bodies`' classes: the
