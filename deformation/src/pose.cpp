@@ -225,9 +225,7 @@ std::vector<RigidTransform> jointTransforms(const Pose& pose, const std::vector<
       if (joint.proximal < 0) {
         out[j] = own;
       } else {  // distal first, then the proximal chain: x -> P(own(x))
-        const RigidTransform& p = out[joint.proximal];
-        out[j].rotation = p.rotation * own.rotation;
-        out[j].translation = p.rotation * own.translation + p.translation;
+        out[j] = compose(out[joint.proximal], own);
       }
       done[j] = true;
     }
@@ -653,7 +651,7 @@ std::vector<std::optional<RigidTransform>> knownBodyTransforms(const Pose& pose,
     if (!b.fixed && !b.ids.empty() && contains(ids, b.ids.front())) {
       const int j = pose.jointMoving(b.ids.front());
       const RigidTransform f = j < 0 ? RigidTransform{} : t[static_cast<size_t>(j)];
-      known = RigidTransform{f.rotation.transposed(), f.rotation.transposed() * (-f.translation)};
+      known = f.inverse();
     }
     out.push_back(known);
   }

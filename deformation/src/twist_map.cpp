@@ -40,14 +40,6 @@ inline Vec3 turn(const Vec3& p, const Vec3& a, double rad) {
   return p * c + cross(a, p) * s + a * (dot(a, p) * (1 - c));
 }
 
-RigidTransform inverse(const RigidTransform& t) {
-  const Mat3 rt = t.rotation.transposed();
-  return RigidTransform{rt, rt * (-t.translation)};
-}
-RigidTransform compose(const RigidTransform& outer, const RigidTransform& inner) {
-  return RigidTransform{outer.rotation * inner.rotation, outer.rotation * inner.translation + outer.translation};
-}
-
 /// The output grid's indexing, shared by the stages.
 struct Grid {
   Geometry g;
@@ -138,7 +130,7 @@ Grouping groupBodies(const RigidBodies& bodies, const std::vector<std::vector<in
     if (added) {
       Group g;
       for (int j : rest) g.forward = compose(g.forward, own[static_cast<size_t>(j)]);
-      g.backward = inverse(g.forward);
+      g.backward = g.forward.inverse();
       g.identity = rest.empty();
       g.moving = !rest.empty() && rest.front() == joint;
       out.groups.push_back(g);
@@ -589,7 +581,7 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   for (size_t b = 0; b < list.size(); ++b) {
     RigidTransform f;
     for (int j : chain[b]) f = compose(f, own[static_cast<size_t>(j)]);
-    bodyBack[b] = inverse(f);
+    bodyBack[b] = f.inverse();
   }
   // The map: each output voxel through the stages' backward twists, proximal first. The first
   // stage reads w at the voxel itself; later ones at the moved position (trilinear, or the

@@ -97,3 +97,14 @@ TEST(RigidFit, NearestRotationAndBadInput) {
   EXPECT_THROW(fitRigid(RigidFitSums{}), Error);
   EXPECT_THROW(fitRigid({{0, 0, 0}}, {}), Error);
 }
+
+// The inverse undoes the transform and compose applies inner, then outer (scale included).
+TEST(RigidFit, InverseAndComposeAgreeWithApplyingInTurn) {
+  const RigidTransform a{rotationAbout({1, -2, 0.5}, 0.7), {12.5, -40, 7}, 1.3};
+  const RigidTransform b{rotationAbout({0, 1, 1}, -1.1), {-3, 8, 21}, 0.8};
+  for (const Vec3& p : randomPoints(10, 5)) {
+    EXPECT_LT(norm(a.inverse().apply(a.apply(p)) - p), 1e-9);
+    EXPECT_LT(norm(compose(a, b).apply(p) - a.apply(b.apply(p))), 1e-9);
+    EXPECT_LT(norm(compose(a.inverse(), a).apply(p) - p), 1e-9);
+  }
+}

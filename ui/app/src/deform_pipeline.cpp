@@ -215,7 +215,7 @@ void keepBonesRigid(Run& run) {
     std::optional<RigidTransform> backward;
     for (const auto& [id, forward] : run.request.boneTransforms)
       if (!b.fixed && !b.ids.empty() && b.ids.front() == id)
-        backward = RigidTransform{forward.rotation.transposed(), forward.rotation.transposed() * (-forward.translation)};
+        backward = forward.inverse();
     known.push_back(backward);
   }
   const FoldRepairStats folds = applyRigidity(run.cv, *run.bodies, e.rigidity(), known, run.progress);

@@ -14,7 +14,18 @@ struct RigidTransform {
   Vec3 translation{0, 0, 0};
   double scale = 1.0;
   Vec3 apply(const Vec3& p) const { return rotation * p * scale + translation; }
+  /// The inverse map: p = R^T (q - t) / scale.
+  RigidTransform inverse() const {
+    const Mat3 rt = rotation.transposed();
+    return RigidTransform{rt, rt * (-translation) * (1.0 / scale), 1.0 / scale};
+  }
 };
+
+/// outer after inner: p -> outer.apply(inner.apply(p)).
+inline RigidTransform compose(const RigidTransform& outer, const RigidTransform& inner) {
+  return RigidTransform{outer.rotation * inner.rotation, outer.rotation * inner.translation * outer.scale + outer.translation,
+                        outer.scale * inner.scale};
+}
 
 /// Weighted sums of point pairs, enough for the fit (pairs can be added in any order and
 /// sums from several threads merged).
