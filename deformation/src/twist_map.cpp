@@ -201,10 +201,18 @@ std::vector<uint8_t> classifySides(const Grid& grid, const RigidBodies& bodies, 
 }
 
 /// w = dS^p / (dS^p + dM^p) from the exact distance transforms (squared, mm²); 0 / 1 on the locks.
-VolumeF32 blendWeights(const Grid& grid, const std::vector<uint8_t>& side, double power, Progress& progress) {
+/// Distances along the axis count `axisStretch` times (when the axis runs along a grid axis): a
+/// still region beside a moving one along the axis (the other foot, a fixed box) is a pure shear
+/// for the map and should not pull the blend round the moving bone down (the tissue there would
+/// show the bone turned by part of the angle).
+VolumeF32 blendWeights(const Grid& grid, const Stage& st, const std::vector<uint8_t>& side, double power,
+                       double axisStretch, Progress& progress) {
   const Dims d = grid.d;
   VolumeF32 w(grid.g, 0.f, 0.f);
-  VolumeU8 feature(grid.g, 0, 0);
+  Geometry metric = grid.g;
+  for (int q = 0; q < 3; ++q)
+    if (std::abs(dot(st.a, grid.g.direction.column(q))) > 0.95) metric.spacing[q] *= axisStretch;
+  VolumeU8 feature(metric, 0, 0);
   auto distanceTo = [&](bool moving) {
     parallelFor(d.z, [&](int64_t k0, int64_t k1) {
       for (int64_t t = k0 * grid.sz; t < k1 * grid.sz; ++t) {
@@ -530,7 +538,7 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     const Grouping grouping = groupBodies(bodies, chain, position, own, s, jt);
     std::vector<uint8_t> side = classifySides(grid, bodies, grouping, stats);
     progress.checkCancelled();
-    VolumeF32 w = blendWeights(grid, side, params.power, progress);
+    VolumeF32 w = blendWeights(grid, st, side, params.power, params.axisStretch, progress);
     progress.checkCancelled();
 
     Relaxation relax(grid, st, side, w, params, stats);

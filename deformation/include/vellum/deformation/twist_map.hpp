@@ -29,6 +29,9 @@ struct TwistParams {
   /// set M: p = 2 keeps tissue far from the moving bones nearer to still (a calf 20 mm from the
   /// tibia and 100 mm from the foot turns by 4 % of the angle, not 17 % as with p = 1).
   double power = 2.0;
+  /// Distances along the joint's axis count this many times in the blend (axes along a grid
+  /// axis only): what lies beside a bone along the axis is a pure shear and barely pulls w.
+  double axisStretch = 4.0;
   /// The bound: theta * dw/dalpha <= 1 - margin (det J >= margin) wherever w is free.
   double margin = 0.25;
   int maxRounds = 40;    ///< relaxation rounds of the first pass (a third in later ones); each grows the region by a voxel
