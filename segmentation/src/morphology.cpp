@@ -1,5 +1,7 @@
 #include "vellum/segmentation/morphology.hpp"
 
+#include <cmath>
+
 #include "vellum/core/edt_engine.hpp"
 
 namespace vellum::segmentation {
@@ -44,6 +46,18 @@ Mask open(const Mask& m, double radiusMm, Progress& progress) {
 
 Mask close(const Mask& m, double radiusMm, Progress& progress) {
   return erode(dilate(m, radiusMm, progress), radiusMm, progress);
+}
+
+Mask removeThin(const Mask& m, double radiusMm, Progress& progress) {
+  if (!(radiusMm > 0)) return m;
+  // The reach one voxel diagonal past the radius keeps the voxel layer that open() shaves off
+  // a thick object's rough surface and corners, so a bone keeps its volume.
+  const Vec3 s = m.geometry().spacing;
+  Mask keep = dilate(erode(m, radiusMm, progress), radiusMm + std::sqrt(s.x * s.x + s.y * s.y + s.z * s.z), progress);
+  const uint8_t* src = m.data();
+  uint8_t* k = keep.data();
+  for (size_t n = 0; n < keep.size(); ++n) k[n] = k[n] && src[n];
+  return keep;
 }
 
 }  // namespace vellum::segmentation

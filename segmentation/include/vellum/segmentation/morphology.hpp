@@ -18,5 +18,12 @@ Mask erode(const Mask& m, double radiusMm, Progress& progress = Progress::none()
 Mask open(const Mask& m, double radiusMm, Progress& progress = Progress::none());
 /// dilate then erode: fills gaps and dents narrower than 2·radius.
 Mask close(const Mask& m, double radiusMm, Progress& progress = Progress::none());
+/// Removes thin parts that stand apart from thick ones (a mounting wire or a positioning cord
+/// lying on the skin, 200-400 HU like bone): the voxels of the mask farther than radiusMm plus
+/// one voxel diagonal from every voxel deeper than radiusMm below its surface. Unlike open(),
+/// a thick object's edges and corners stay (they lie within that reach of its core); a tube or
+/// sheet thinner than about 2·radius goes, except a stub where it meets a thick object.
+/// radius <= 0 returns a copy.
+Mask removeThin(const Mask& m, double radiusMm, Progress& progress = Progress::none());
 
 }  // namespace vellum::segmentation
