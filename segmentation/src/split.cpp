@@ -44,9 +44,9 @@ const params::Table<SplitParams>& splitParamsTable() {
                       {"Split fill", "after the split, fill each object's cavities (enclosed in a slice of the object "
                                      "alone, or in 3D) with its id, on background only: a bone's low-density inside", ""}),
       params::real<S>("thin", &S::thinMm,
-                      {"Split thin", "before the split, remove tubes and sheets thinner than about twice this that stand "
-                                     "apart from thick parts (a mounting wire or positioning cord on the skin, which would "
-                                     "join the bones it touches); a bone's edges stay (0 = off)", "mm", 0, 20}),
+                      {"Split thin", "before the split, remove tubes thinner than about twice this that stand apart from "
+                                     "thick parts (a mounting wire or positioning cord on the skin, which would join the "
+                                     "bones it touches); a bone's edges and thin cortical walls stay (0 = off)", "mm", 0, 20}),
   };
   return table;
 }

@@ -44,7 +44,7 @@ struct SplitParams {
   bool fillObjects = false;
   /// Before the split, thin parts apart from thick ones go (removeThin): a mounting wire or a
   /// positioning cord on the skin, as bright as bone, that would join the bones it touches
-  /// into one object. Tubes and sheets thinner than about twice this; 0 = off.
+  /// into one object. Tubes thinner than about twice this; 0 = off.
   double thinMm = 0;
 };
 
