@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include "vellum/core/distance_transform.hpp"
 #include "vellum/core/edt_engine.hpp"
 #include "vellum/core/parallel.hpp"
 
@@ -60,17 +61,19 @@ Mask removeThin(const Mask& m, double radiusMm, Progress& progress) {
   const double diagonal = std::sqrt(s.x * s.x + s.y * s.y + s.z * s.z);
   // The reach one voxel diagonal past the radius keeps the voxel layer that open() shaves off
   // a thick object's rough surface and corners, so a bone keeps its volume.
-  const Mask core = erode(m, radiusMm, progress);
-  Mask keep = dilate(core, radiusMm + diagonal, progress);
-  const Mask opened = dilate(core, radiusMm, progress);
+  // One distance to the core serves both reaches (the opening's and the kept one).
+  const VolumeF32 toCore2 = squaredDistanceMm(erode(m, radiusMm, progress), progress);
+  const float opened2 = radius2(radiusMm), kept2 = radius2(radiusMm + diagonal);
+  Mask keep(g, 0, 0.0);
   const uint8_t* src = m.data();
+  const float* dc = toCore2.data();
   uint8_t* k = keep.data();
   std::vector<int64_t> thin;
   Mask isThin(g, 0, 0.0);  // what open() removes: the thin parts with their stubs and a thick object's edges
   for (size_t n = 0; n < keep.size(); ++n) {
-    k[n] = k[n] && src[n];
+    k[n] = src[n] && dc[n] <= kept2;
     if (src[n] && !k[n]) thin.push_back(static_cast<int64_t>(n));
-    isThin.data()[n] = src[n] && !opened.data()[n];
+    isThin.data()[n] = src[n] && dc[n] > opened2;
   }
   // Of the thin parts only tubes go: a wire or a cord runs along one direction, while a bone's
   // thin cortical wall over a dark inside is a sheet. Around each thin voxel, the voxels that
