@@ -43,6 +43,10 @@ const params::Table<SplitParams>& splitParamsTable() {
       params::flag<S>("fill", &S::fillObjects,
                       {"Split fill", "after the split, fill each object's cavities (enclosed in a slice of the object "
                                      "alone, or in 3D) with its id, on background only: a bone's low-density inside", ""}),
+      params::real<S>("thin", &S::thinMm,
+                      {"Split thin", "before the split, remove tubes thinner than about twice this that stand apart from "
+                                     "thick parts (a mounting wire or positioning cord on the skin, which would join the "
+                                     "bones it touches); a bone's edges and thin cortical walls stay (0 = off)", "mm", 0, 20}),
   };
   return table;
 }
@@ -227,8 +231,11 @@ std::vector<int64_t> fillObjectHoles(VolumeU16& objects) {
   return added;
 }
 
-SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progress, const VolumeI16* ct) {
+SplitResult splitObjects(const Mask& input, const SplitParams& p, Progress& progress, const VolumeI16* ct) {
   params::validate(splitParamsTable(), p);
+  // Thin parts first (a wire on the skin): everything below splits the mask without them.
+  const Mask thinned = p.thinMm > 0 ? removeThin(input, p.thinMm, progress) : Mask{};
+  const Mask& mask = p.thinMm > 0 ? thinned : input;
   const Geometry& g = mask.geometry();
   const Dims d = g.dims;
   if (static_cast<uint64_t>(mask.size()) > 0xFFFFFFFFull) throw Error("split: more than 2^32 voxels");
@@ -295,6 +302,7 @@ SplitResult splitObjects(const Mask& mask, const SplitParams& p, Progress& progr
       }
   SplitResult out;
   out.jointVoxels = jointVoxels;
+  if (p.thinMm > 0) out.thinRemovedMm3 = double(countVoxels(input) - countVoxels(mask)) * voxelMm3;
   std::vector<uint16_t> parent(count + 1);
   std::iota(parent.begin(), parent.end(), uint16_t{0});
   auto root = [&](uint16_t a) {

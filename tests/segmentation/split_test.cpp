@@ -6,6 +6,7 @@
 
 #include "test_volumes.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/segmentation/morphology.hpp"
 #include "vellum/segmentation/split.hpp"
 
 namespace vellum::segmentation {
@@ -198,6 +199,49 @@ TEST(SplitObjects, TwoBonesTouchingAcrossAThinJointSpaceStayTwoObjects) {
   for (int64_t i = 4; i <= 60; ++i)
     EXPECT_EQ(open.objects(i, 16, 16) != 0, i != 32) << "x " << i;
   EXPECT_GT(open.openedMm3, 300.0);
+}
+
+TEST(SplitObjects, ACordLyingAcrossTwoBonesIsRemovedAndTheBonesKeepTheirVolume) {
+  // Two bone blocks (700 HU, 13 mm cubes, 7 mm apart) with a cord (300 HU, radius 1.2 mm:
+  // as bright as bone at a 250 HU threshold) lying across their tops and beyond. The cord
+  // joins them into one piece; with the joint cut the two halves of the cord meet outside any
+  // joint space and the bones merge into one object, as a mounting wire did on real feet.
+  VolumeI16 ct(grid(56, 28, 28), 0, -1000.0);
+  auto block = [](double x0) { return [=](Vec3 p) { return p.x >= x0 && p.x <= x0 + 12 && p.y >= 8 && p.y <= 20 && p.z >= 6 && p.z <= 18; }; };
+  paint(ct, block(12), 700);
+  paint(ct, block(32), 700);
+  paint(ct, [](Vec3 p) { return p.x >= 1 && p.x <= 54 && std::hypot(p.y - 14, p.z - 19.5) <= 1.2; }, 300);
+  const Mask mask = above(ct, 250);
+  const Mask bones = above(ct, 500);
+  const double blockMm3 = 13.0 * 13 * 13;
+  SplitParams p{2.0, 100.0, {}};
+  p.jointContrastHu = 200;
+  ASSERT_EQ(splitObjects(mask, p, Progress::none(), &ct).count(), 1);  // joined by the cord
+  p.thinMm = 1.5;
+  const SplitResult r = splitObjects(mask, p, Progress::none(), &ct);
+  ASSERT_EQ(r.count(), 2);
+  EXPECT_NE(r.objects(18, 14, 12), r.objects(38, 14, 12));
+  // Every bone voxel (edges and corners included) stays in its bone: nothing eroded.
+  for (size_t n = 0; n < bones.size(); ++n)
+    if (bones.data()[n]) ASSERT_NE(r.objects.data()[n], 0) << "bone voxel " << n << " lost";
+  EXPECT_EQ(r.objects(28, 14, 19), 0);  // the cord between the bones is gone
+  EXPECT_EQ(r.objects(3, 14, 19), 0);   // and its free ends
+  EXPECT_EQ(r.objects(53, 14, 19), 0);
+  // What stays of the cord is the part lying on each bone and a stub of a few voxels past it
+  // (within reach of the bone's core, which the cord on top thickens): its 6-voxel section.
+  EXPECT_GE(r.volumesMm3[1], blockMm3);
+  EXPECT_LE(r.volumesMm3[1], blockMm3 + 6 * (13 + 2 * 4));
+  EXPECT_NEAR(r.thinRemovedMm3 + r.openedMm3 + r.droppedMm3, maskVolumeMm3(mask) - r.volumesMm3[1] - r.volumesMm3[2], 1e-6);
+  EXPECT_GT(r.thinRemovedMm3, 6 * 10);
+  // open() by the same radius would shave the bones' edges; removeThin keeps them.
+  EXPECT_LT(countVoxels(open(bones, 1.5)), countVoxels(bones));
+  EXPECT_EQ(countVoxels(removeThin(bones, 1.5)), countVoxels(bones));
+  // Only tubes go: a thin sheet (a cortical wall 2 voxels thick, 13 x 9 mm, over a dark
+  // inside) standing on a bone stays whole.
+  Mask walled = bones;
+  for (int64_t k = 19; k <= 27; ++k)
+    for (int64_t i = 12; i <= 24; ++i) walled(i, 8, k) = walled(i, 9, k) = 1;
+  EXPECT_EQ(countVoxels(removeThin(walled, 1.5)), countVoxels(walled));
 }
 
 }  // namespace

@@ -83,6 +83,9 @@ void printSegmentResult(const app::SegmentRequest& r, const app::SegmentResult& 
                     static_cast<long long>(sp["joint_voxels"].get<int64_t>()), sp["joint_merges"].get<int>());
       if (sp.value("open_joints", false)) std::printf("  opened %.2f cm³ of joint space\n", sp["opened_mm3"].get<double>() / 1000.0);
       if (sp.value("fill", false)) std::printf("  filled %.2f cm³ of cavities\n", sp["filled_mm3"].get<double>() / 1000.0);
+      if (sp.value("thin_mm", 0.0) > 0)
+        std::printf("  removed %.2f cm³ of thin tubes (a wire, a cord) before the split\n",
+                    sp["thin_removed_mm3"].get<double>() / 1000.0);
     }
   }
   if (!j.contains("metrics")) return;

@@ -197,6 +197,8 @@ SegmentationResult runSegmentation(const VolumeI16& ct, const SegmentSettings& r
                          {"opened_mm3", split.openedMm3},
                          {"fill", request.post.splitParams.fillObjects},
                          {"filled_mm3", split.filledMm3},
+                         {"thin_mm", request.post.splitParams.thinMm},
+                         {"thin_removed_mm3", split.thinRemovedMm3},
                          {"objects", objects},
                          {"dropped_mm3", split.droppedMm3}};
     out.objects = std::move(split.objects);

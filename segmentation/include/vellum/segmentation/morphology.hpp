@@ -18,5 +18,13 @@ Mask erode(const Mask& m, double radiusMm, Progress& progress = Progress::none()
 Mask open(const Mask& m, double radiusMm, Progress& progress = Progress::none());
 /// dilate then erode: fills gaps and dents narrower than 2·radius.
 Mask close(const Mask& m, double radiusMm, Progress& progress = Progress::none());
+/// Removes thin tubes that stand apart from thick parts (a mounting wire or a positioning
+/// cord lying on the skin, 200-400 HU like bone): voxels of the mask farther than radiusMm plus
+/// one voxel diagonal from every voxel deeper than radiusMm below its surface, where the parts
+/// open() would remove within 2·radius + one diagonal spread along one direction only. Unlike
+/// open(), a thick object's edges and corners stay (they lie within that reach of its core),
+/// and so does a thin sheet (a bone's cortical wall over a dark inside); a tube thinner than
+/// about 2·radius goes, except a stub where it meets a thick object. radius <= 0: a copy.
+Mask removeThin(const Mask& m, double radiusMm, Progress& progress = Progress::none());
 
 }  // namespace vellum::segmentation

@@ -42,9 +42,13 @@ struct SplitParams {
   /// slice of the object alone, then 3D) become the object: the low-density inside of a bone
   /// (fatty marrow, cancellous bone under the threshold) without bridging to its neighbours.
   bool fillObjects = false;
+  /// Before the split, thin parts apart from thick ones go (removeThin): a mounting wire or a
+  /// positioning cord on the skin, as bright as bone, that would join the bones it touches
+  /// into one object. Tubes thinner than about twice this; 0 = off.
+  double thinMm = 0;
 };
 
-/// neck, min_volume, joint_contrast, joint_width, joint_share, open_joints, fill (the seeds are a list, not a table row).
+/// neck, min_volume, joint_contrast, joint_width, joint_share, open_joints, fill, thin (the seeds are a list, not a table row).
 const params::Table<SplitParams>& splitParamsTable();
 
 struct SplitResult {
@@ -56,6 +60,7 @@ struct SplitResult {
   int jointMerges = 0;              ///< neighbours merged for meeting outside the joint spaces
   double filledMm3 = 0;             ///< cavities added to the objects (fillObjects)
   double openedMm3 = 0;             ///< joint-space volume returned to background (openJoints)
+  double thinRemovedMm3 = 0;        ///< thin parts removed before the split (thinMm)
   int count() const { return static_cast<int>(volumesMm3.size()) - 1; }
 };
 
