@@ -296,7 +296,10 @@ void main() {
           float m0 = fieldAt(o + ((kb + x - 0.25) * uStep) * d, s / 4)[s % 4];
           float m1 = fieldAt(o + ((kb + x) * uStep) * d, s / 4)[s % 4];
           float m2 = fieldAt(o + ((kb + x + 0.25) * uStep) * d, s / 4)[s % 4];
-          float ia = op * inkLine(m0, m1, m2, lw, pixB);
+          float vox = uCreaseProbeMm * (1.0 / float(CREASE_PROBE_VOXELS));
+          float tv = (kb + x) * uStep;
+          float ia = op * inkLine(m0, m1, m2, lw, pixB) *
+                     inkFeatureFade(fieldAt(o + (tv - vox) * d, s / 4)[s % 4], m1, fieldAt(o + (tv + vox) * d, s / 4)[s % 4], vox);
           if (ia > inked[s]) {
             float add = (ia - inked[s]) / (1.0 - inked[s]);
             inked[s] = ia;

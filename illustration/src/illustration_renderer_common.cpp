@@ -700,6 +700,12 @@ float inkLine(float a, float b, float c, float widthPx, float pixMm) {
   return std::clamp((0.5f * widthPx * pixMm - std::abs(m)) / pixMm + 0.5f, 0.f, 1.f);
 }
 
+float inkFeatureFade(float dm, float m, float dp, float voxelMm) {
+  const float curv = dm - 2.f * m + dp;  // mm over a voxel squared
+  if (!(curv > 0.f)) return 1.f;
+  return std::clamp(voxelMm * voxelMm / curv / voxelMm - 1.f, 0.f, 1.f);
+}
+
 float FieldVolume::at(float x, float y, float z, int slot) const {
   // As the shader's fieldAt(): clamp to the grid, trilinear, one channel.
   const Trilinear t(x, y, z, dims);
