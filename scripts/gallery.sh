@@ -118,15 +118,19 @@ fi
   guide's feet figure (docs/user-guide.md points here: one figure, one set of commands; the
   guide's old copy showed the cord as a second skin line and a flat khaki bone).
 - **Feet, pen**: bones in ink with cross-contour hatching in their shadows, tarsal joint lines
-  and phalanx outlines, one skin outline. Since s18 the crease measure's inner probes are at
-  least a voxel apart (they were half a line width plus half a pixel, 0.33 mm here, and sampled
-  the voxel noise of rough bone): fewer specks of crease ink on the rough tarsus
-  ([before | after crops](images/illustration-pen-creases.png), left foot's lateral tarsus
-  above, right foot's tarsus below). Short: the small dark knots on rough bone are mostly
-  silhouettes of its rough bits, not creases, and stay (fading outlines of features under
-  1.5 voxels round, tried, broke the lines into stipple and was left out); the hatching
-  planes follow the grid, not each bone's axis; the skin outline breaks for a few pixels in
-  places (the left foot's lateral border).
+  and phalanx outlines, one skin outline. The knots of ink on rough bone (s17) were mostly
+  silhouettes of its voxel-sized rough bits, and partly crease specks. Since s18 silhouette ink
+  fades for features under two voxels round (the distance one voxel before and after a line's
+  closest approach along the ray curves as 1/radius; measured at the vertex, not at the
+  samples, so lines do not break into stipple as a per-sample measure did), and the crease
+  measure's inner probes are at least a voxel apart (they were half a line width plus half a
+  pixel, 0.33 mm here, and sampled the voxel noise): [before | after
+  crops](images/illustration-pen-creases.png) (left foot's lateral tarsus above: the heavy
+  band and the knot below it lighter; right foot's tarsus below: fewer specks). Short: the
+  rough patches still read busier than an illustrator's single outline; a bone thinner than a
+  voxel gets no outline in `pen` (its fill is paper-white); the hatching planes follow the
+  grid, not each bone's axis; the skin outline breaks for a few pixels in places (the left
+  foot's lateral border).
 - **Feet, x-ray**: translucent bones with glowing edges, no block artefacts. Fine.
 - **Phantom, pen**: the skin's outline and the bones in ink, hatched by tone (the preset leaves
   muscle and fat out: the fallback row drew them as an opaque hatched cylinder). Short: the
