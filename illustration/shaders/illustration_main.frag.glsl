@@ -298,8 +298,11 @@ void main() {
           float m2 = fieldAt(o + ((kb + x + 0.25) * uStep) * d, s / 4)[s % 4];
           float vox = uCreaseProbeMm * (1.0 / float(CREASE_PROBE_VOXELS));
           float tv = (kb + x) * uStep;
-          float ia = op * inkLine(m0, m1, m2, lw, pixB) *
-                     inkFeatureFade(fieldAt(o + (tv - vox) * d, s / 4)[s % 4], m1, fieldAt(o + (tv + vox) * d, s / 4)[s % 4], vox);
+          // Outline-only rows (no fill) keep every line (the CPU reference's comment).
+          float fade = STYLE_OPACITY_AT(iid) > 0.0
+                           ? inkFeatureFade(fieldAt(o + (tv - vox) * d, s / 4)[s % 4], m1, fieldAt(o + (tv + vox) * d, s / 4)[s % 4], vox)
+                           : 1.0;
+          float ia = op * inkLine(m0, m1, m2, lw, pixB) * fade;
           if (ia > inked[s]) {
             float add = (ia - inked[s]) / (1.0 - inked[s]);
             inked[s] = ia;

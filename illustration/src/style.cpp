@@ -570,10 +570,11 @@ so the width is in pixels whatever the zoom and the grid, antialiased, and every
 contour (outer silhouettes and contours in front of other parts of the same segment) is
 found, per segment, through translucent segments too. Each pass of a ray near the surface
 is inked once (its strongest minimum), and the ink goes in front of everything composited
-since the ray came near that surface, so an opaque fill never greys it. Features under two
-voxels round get lighter lines, none under one (the distance one voxel before and after the
-closest approach along the ray curves as 1/radius): the voxel-noise bumps of rough real bone
-drew knots of ink (docs/gallery.md, the feet pen crops). Measured on the ball
+since the ray came near that surface, so an opaque fill never greys it. In rows with a fill
+(opacity > 0), features under two voxels round get lighter lines, none under one (the
+distance one voxel before and after the closest approach along the ray curves as 1/radius):
+the voxel-noise bumps of rough real bone drew knots of ink (docs/gallery.md, the feet pen
+crops); outline-only rows (a skin drawn as its outline) keep every line. Measured on the ball
 (`PenOutlineIsClosedAndOfConstantPixelWidth`): 1.5 px lines 1.52 and 1.51 px wide at 128 and
 256 px (two sizes in mm per pixel), 3 px lines 3.02 and 3.00 px, no gap in 360 degrees of
 outline; GL = CPU.

@@ -648,6 +648,7 @@ TEST(IllustrationStyles, PenDrawsNoKnotsOnVoxelSizedBumps) {
   const int size = 192;
   Style st = inkOnly(2.f);
   st.fallback.creaseWidthPx = 0;  // silhouettes only: a blob is all "crease" to the crease probe
+  st.fallback.opacity = 1;        // pen's paper-white fill (outline-only rows keep every line)
   const RgbaImage g = gpu(scene, st, front(size)), c = renderIllustrationCpu(scene, st, front(size));
   maybeSave(g, "pen-bumps");
   const double ppm = pxPerMm(size);
