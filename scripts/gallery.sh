@@ -120,7 +120,8 @@ fi
 - **Feet, pen**: bones in ink with cross-contour hatching in their shadows, tarsal joint lines
   and phalanx outlines, one skin outline. The knots of ink on rough bone (s17) were mostly
   silhouettes of its voxel-sized rough bits, and partly crease specks. Since s18 silhouette ink
-  fades for features under two voxels round (the distance one voxel before and after a line's
+  of a filled row (the bone; an outline-only skin keeps every line) fades for features under
+  two voxels round (the distance one voxel before and after a line's
   closest approach along the ray curves as 1/radius; measured at the vertex, not at the
   samples, so lines do not break into stipple as a per-sample measure did), and the crease
   measure's inner probes are at least a voxel apart (they were half a line width plus half a
@@ -148,7 +149,9 @@ fi
   went from 35 of 62 columns empty at a 0.1-voxel step (weakest column 0.31 at the default
   step) to full coverage along its length (0.57 at the default step; the rest of the variation
   is each ray's samples falling differently across the rod). These figures change little (their
-  masks are opened, and the one-voxel sheet beside the feet goes with `--min-island 2500`).
+  masks are opened, and the one-voxel sheet beside the feet goes with `--min-island 2500`); at
+  1536 px the rough spurs on the left foot's lateral tarsus, grainy and broken before, are
+  solid ([main | s18, textbook](images/illustration-thin-before-after.png)).
 
 JUDGED
   # The cinematic figures: scripts/gallery-cinematic.sh makes them (about 15 minutes).
