@@ -98,7 +98,7 @@ fi
   echo "feet (US National Library of Medicine). Judged as figures in docs/styles.md and docs/lighting.md."
   echo
   cat "$body"
-  # Judged by eye on the figures this script made (s17); update it when a figure changes.
+  # Judged by eye on the figures this script made (s17, s18); update it when a figure changes.
   cat <<'JUDGED'
 ## How the figures read, and what still falls short
 
@@ -112,12 +112,26 @@ fi
   surface bits), the skin 0.3 % once the table is removed (1486 to 1482 cm³).
 - **Feet, textbook**: ivory bones, one continuous skin outline per foot. Short of a published
   plate: the rim where the volume cuts the legs is dotted (no ray samples beyond the box); the
-  tarsal bones' inner facets stay smooth blobs where the 1 mm CT cannot separate them. The
-  skin outline is named and framed (an outline-only row counts as drawn since s17).
+  tarsal bones' inner facets stay smooth blobs where the 1 mm CT cannot separate them; the two
+  labels sit close together on the right (both leaders reach the left foot). The skin outline
+  is named and framed (an outline-only row counts as drawn since s17). This is also the user
+  guide's feet figure (docs/user-guide.md points here: one figure, one set of commands; the
+  guide's old copy showed the cord as a second skin line and a flat khaki bone).
 - **Feet, pen**: bones in ink with cross-contour hatching in their shadows, tarsal joint lines
-  and phalanx outlines, one skin outline. Short: small dark knots of ink on rough bone (the
-  lateral tarsus of the left foot), the hatching planes follow the grid, not each bone's axis,
-  and the skin outline breaks for a few pixels in places (the left foot's lateral border).
+  and phalanx outlines, one skin outline. The knots of ink on rough bone (s17) were mostly
+  silhouettes of its voxel-sized rough bits, and partly crease specks. Since s18 silhouette ink
+  of a filled row (the bone; an outline-only skin keeps every line) fades for features under
+  two voxels round (the distance one voxel before and after a line's
+  closest approach along the ray curves as 1/radius; measured at the vertex, not at the
+  samples, so lines do not break into stipple as a per-sample measure did), and the crease
+  measure's inner probes are at least a voxel apart (they were half a line width plus half a
+  pixel, 0.33 mm here, and sampled the voxel noise): [before | after
+  crops](images/illustration-pen-creases.png) (left foot's lateral tarsus above: the heavy
+  band and the knot below it lighter; right foot's tarsus below: fewer specks). Short: the
+  rough patches still read busier than an illustrator's single outline; a bone thinner than a
+  voxel gets no outline in `pen` (its fill is paper-white); the hatching planes follow the
+  grid, not each bone's axis; the skin outline breaks for a few pixels in places (the left
+  foot's lateral border).
 - **Feet, x-ray**: translucent bones with glowing edges, no block artefacts. Fine.
 - **Phantom, pen**: the skin's outline and the bones in ink, hatched by tone (the preset leaves
   muscle and fat out: the fallback row drew them as an opaque hatched cylinder). Short: the
@@ -126,10 +140,18 @@ fi
 - **Phantom, textbook and x-ray**: textbook: ivory bones through translucent red muscle;
   x-ray: blue-white glow, no blocks. In both the skin's cut ends show as pale discs. The
   phantom's cartilage steps are in the phantom, not the renderer.
-- **Thin structures**: a structure thinner than a ray step is caught by some rays and missed
-  by their jittered neighbours, so it draws dotted (the march loop's limit, not mended). None is
-  left in these figures: the one-voxel sheet beside the feet goes with `--min-island 2500`, the
-  cords with the openings.
+- **Thin structures**: they drew beaded mainly because of the distance field, not the march:
+  exact distances at voxel centres lose a structure thinner than a voxel wherever it passes
+  between two centres (trilinear interpolation never goes below the nearer one), so the
+  visible part came and went with the grid's phase; a finer ray step made it worse (the
+  coverage ramp is a step wide). `vellum shape` now gives the voxels on either side of such a
+  valley minus half its chord (docs/shape.md, "Thin structures"): a 0.9 mm rod on a 1 mm grid
+  went from 35 of 62 columns empty at a 0.1-voxel step (weakest column 0.31 at the default
+  step) to full coverage along its length (0.57 at the default step; the rest of the variation
+  is each ray's samples falling differently across the rod). These figures change little (their
+  masks are opened, and the one-voxel sheet beside the feet goes with `--min-island 2500`); at
+  1536 px the rough spurs on the left foot's lateral tarsus, grainy and broken before, are
+  solid ([main | s18, textbook](images/illustration-thin-before-after.png)).
 
 JUDGED
   # The cinematic figures: scripts/gallery-cinematic.sh makes them (about 15 minutes).

@@ -68,7 +68,8 @@ float creaseProfile(vec3 nm, vec3 nh, vec3 ph, vec3 np, float R, float h, float 
 // across +-R mm (R at least uCreaseProbeMm, a few voxels) along four screen directions, the
 // line placed where the turn is, within +-h (half the width plus half a pixel) of q.
 float creaseInk(vec3 q, int s, float widthPx, float angleDeg, float pixMm) {
-  float h = (0.5 * widthPx + 0.5) * pixMm, R = max(h, uCreaseProbeMm);
+  // Inner probes at least a voxel apart (creaseInk() on the CPU: rough bone's voxel noise).
+  float h = max((0.5 * widthPx + 0.5) * pixMm, uCreaseProbeMm * (1.0 / float(CREASE_PROBE_VOXELS))), R = max(h, uCreaseProbeMm);
   vec3 ax = uPhysToBox * uRight, ay = uPhysToBox * uUp;
   float c0 = cos(radians(angleDeg)), c1 = cos(radians(min(angleDeg + 15.0, 180.0)));
   float ink = 0.0;
@@ -295,7 +296,13 @@ void main() {
           float m0 = fieldAt(o + ((kb + x - 0.25) * uStep) * d, s / 4)[s % 4];
           float m1 = fieldAt(o + ((kb + x) * uStep) * d, s / 4)[s % 4];
           float m2 = fieldAt(o + ((kb + x + 0.25) * uStep) * d, s / 4)[s % 4];
-          float ia = op * inkLine(m0, m1, m2, lw, pixB);
+          float vox = uCreaseProbeMm * (1.0 / float(CREASE_PROBE_VOXELS));
+          float tv = (kb + x) * uStep;
+          // Outline-only rows (no fill) keep every line (the CPU reference's comment).
+          float fade = STYLE_OPACITY_AT(iid) > 0.0
+                           ? inkFeatureFade(fieldAt(o + (tv - vox) * d, s / 4)[s % 4], m1, fieldAt(o + (tv + vox) * d, s / 4)[s % 4], vox)
+                           : 1.0;
+          float ia = op * inkLine(m0, m1, m2, lw, pixB) * fade;
           if (ia > inked[s]) {
             float add = (ia - inked[s]) / (1.0 - inked[s]);
             inked[s] = ia;

@@ -169,6 +169,12 @@ float inkLine(float a, float b, float c, float widthPx, float pixMm) {
   float m = b + 0.25 * (c - a) * inkVertex(a, b, c);
   return clamp((0.5 * widthPx * pixMm - abs(m)) / pixMm + 0.5, 0.0, 1.0);
 }
+// Silhouettes of features under two voxels round fade (inkFeatureFade() on the CPU).
+float inkFeatureFade(float dm, float m, float dp, float voxelMm) {
+  float curv = dm - 2.0 * m + dp;
+  if (!(curv > 0.0)) return 1.0;
+  return clamp(voxelMm * voxelMm / curv / voxelMm - 1.0, 0.0, 1.0);
+}
 float inkHatch(float ndl, vec3 pMm, vec3 n, float spacingPx, float widthPx) {
   float ink = 0.0;
   for (int layer = 0; layer < 3; ++layer) {

@@ -170,6 +170,13 @@ std::vector<uint8_t> occupancyTexels(const std::vector<uint8_t>& occ, const Dims
 /// surface, the image-plane distance to its silhouette). Coverage of the pixel by a line
 /// widthPx wide centred on m = 0, pixMm the pixel size at that depth.
 float inkLine(float a, float b, float c, float widthPx, float pixMm);
+/// Silhouette ink kept for features at least a voxel round: at the line's vertex (distance m)
+/// the distance one voxel (voxelMm) before and after it along the ray, dm and dp, curve as
+/// 1/radius (d = m + t^2 / 2r); ink fades out from radius 2 voxels to 1: voxel-noise bumps on
+/// rough bone get no outlines of their own (the knots of ink, issue 21). Centred on the vertex,
+/// not on the samples, so it does not vary with where a ray's samples fell. Rows with a fill
+/// only (an outline-only row's outline is its whole figure).
+float inkFeatureFade(float dm, float m, float dp, float voxelMm);
 /// The vertex (in steps from b, clamped to [-1, 1]) of the parabola through (-1, a), (0, b), (1, c).
 float inkVertex(float a, float b, float c);
 /// Hatching coverage for light n.l, in object space (a movie's strokes stay on the surface):

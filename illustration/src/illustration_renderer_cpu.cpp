@@ -197,7 +197,15 @@ void RayTracer::trace(int px, int py, int spacing, float* rgba, float& near) {
                 mm[q] = cx.fields.at(float(clip.o.x) + ts * float(clip.d.x), float(clip.o.y) + ts * float(clip.d.y),
                                      float(clip.o.z) + ts * float(clip.d.z), int(i));
               }
-              const float ia = op * inkLine(mm[0], mm[1], mm[2], lw, pixB);
+              const float vox = cx.sf.creaseProbeMm / float(kCreaseProbeVoxels);
+              const float tv = (kb + xv) * float(f.stepMm);
+              auto along = [&](float ts) {
+                return cx.fields.at(float(clip.o.x) + ts * float(clip.d.x), float(clip.o.y) + ts * float(clip.d.y),
+                                    float(clip.o.z) + ts * float(clip.d.z), int(i));
+              };
+              // Outline-only rows (no fill) keep every line: there the outline is the figure.
+              const float fade = r[slot::Opacity] > 0.f ? inkFeatureFade(along(tv - vox), mm[1], along(tv + vox), vox) : 1.f;
+              const float ia = op * inkLine(mm[0], mm[1], mm[2], lw, pixB) * fade;
               if (ia > inked[i]) {
                 const float more = (ia - inked[i]) / (1.f - inked[i]);
                 inked[i] = ia;

@@ -57,6 +57,7 @@ std::string illustrationFragmentSource(const ShaderVariant& v) {
   s << "#define TF_SIZE " << kTfSize << "\n";
   s << "#define BLOCK_SIZE " << kBlock << "\n#define MAX_STEPS " << (1 << 16) << "\n";
   s << "#define EARLY_ALPHA " << kEarlyAlpha << "\n";
+  s << "#define CREASE_PROBE_VOXELS " << kCreaseProbeVoxels << "\n";
   s << "#define NUM_ITEMS " << v.items.size() << "\n" << constList("kItems", v.items);
   s << "#define NUM_INK " << v.inkSlots.size() << "\n" << constList("kInkSlots", v.inkSlots);
   s << styleLayoutGlsl();

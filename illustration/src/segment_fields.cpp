@@ -21,16 +21,59 @@ namespace vellum::illustration {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+/// The value voxel (i, j, k) takes so that trilinear interpolation keeps a structure thinner
+/// than a voxel (issue 21: thin structures drew beaded). Exact distances at voxel centres lose
+/// such a structure wherever it passes between two centres: both are outside (d > 0) and the
+/// interpolation between them never goes below min(d); along an oblique rod the visible part
+/// comes and goes with the grid's phase. Where two neighbours p, q along an axis (spacing s)
+/// lie on either side of a valley - the field falls towards the pair from both sides (slopes
+/// over half the spacing: not a row grazing a convex surface, whose slope along the row is
+/// small) and d_p + d_q < s (their distance spheres leave part of the segment pq to the
+/// structure, whose chord there is s - d_p - d_q) - both take at most minus half that chord:
+/// the interpolated field then crosses zero around the pair, so the structure is drawn about
+/// a voxel thick (the grid's resolution) instead of in beads.
+float keepThin(const VolumeF32& d, int64_t i, int64_t j, int64_t k) {
+  const Dims n = d.dims();
+  const float dv = d(i, j, k);
+  float out = dv;
+  if (!(dv > 0.f)) return out;
+  const int64_t idx[3] = {i, j, k}, size[3] = {n.x, n.y, n.z};
+  const double sp[3] = {d.geometry().spacing.x, d.geometry().spacing.y, d.geometry().spacing.z};
+  auto at = [&](int axis, int64_t off) {
+    int64_t c[3] = {i, j, k};
+    c[axis] += off;
+    return d(c[0], c[1], c[2]);
+  };
+  for (int a = 0; a < 3; ++a) {
+    const float s = float(sp[a]);
+    // The pair (v, v + e) with v nearer (ties: the lower index), then (v - e, v) with v nearer.
+    for (int side : {1, -1}) {
+      if (idx[a] - side < 0 || idx[a] - side >= size[a] || idx[a] + 2 * side < 0 || idx[a] + 2 * side >= size[a]) continue;
+      const float dq = at(a, side), behind = at(a, -side), beyond = at(a, 2 * side);
+      if (!(dq > 0.f) || dv + dq >= s) continue;
+      if (!(behind - dv > 0.5f * s && beyond - dq > 0.5f * s)) continue;
+      out = std::min(out, -0.5f * (s - dv - dq));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 VolumeI16 quantiseField(const VolumeF32& d) {
   VolumeI16 q(d.geometry(), 0);
-  const float* src = d.data();
+  const Dims n = d.dims();
   int16_t* dst = q.data();
-  parallelFor(static_cast<int64_t>(d.size()), [&](int64_t b, int64_t e) {
-    for (int64_t v = b; v < e; ++v) {
-      const double x = std::nearbyint(double(src[v]) / kFieldQuantumMm);
-      dst[v] = static_cast<int16_t>(std::clamp(x, -32767.0, 32767.0));
-    }
-  }, 1 << 16);
+  parallelFor(n.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < n.y; ++j)
+        for (int64_t i = 0; i < n.x; ++i) {
+          const double x = std::nearbyint(double(keepThin(d, i, j, k)) / kFieldQuantumMm);
+          dst[d.linearIndex(i, j, k)] = static_cast<int16_t>(std::clamp(x, -32767.0, 32767.0));
+        }
+  });
   return q;
 }
 

@@ -570,7 +570,11 @@ so the width is in pixels whatever the zoom and the grid, antialiased, and every
 contour (outer silhouettes and contours in front of other parts of the same segment) is
 found, per segment, through translucent segments too. Each pass of a ray near the surface
 is inked once (its strongest minimum), and the ink goes in front of everything composited
-since the ray came near that surface, so an opaque fill never greys it. Measured on the ball
+since the ray came near that surface, so an opaque fill never greys it. In rows with a fill
+(opacity > 0), features under two voxels round get lighter lines, none under one (the
+distance one voxel before and after the closest approach along the ray curves as 1/radius):
+the voxel-noise bumps of rough real bone drew knots of ink (docs/gallery.md, the feet pen
+crops); outline-only rows (a skin drawn as its outline) keep every line. Measured on the ball
 (`PenOutlineIsClosedAndOfConstantPixelWidth`): 1.5 px lines 1.52 and 1.51 px wide at 128 and
 256 px (two sizes in mm per pixel), 3 px lines 3.02 and 3.00 px, no gap in 360 degrees of
 outline; GL = CPU.
@@ -587,7 +591,9 @@ where its normal turns sharply. At the point where a ray first enters such a seg
 normals (central differences of its own distance) are probed along the screen's right, up and
 two diagonal directions, at +-R and +-h from the point: R = 3 voxels (of the grid's mean size;
 CT rounds a bone's edge over two or three voxels, so a probe a pixel or two wide saw only part
-of the turn and drew faint broken strokes) and h = half the width plus half a pixel. Ink needs
+of the turn and drew faint broken strokes) and h = half the width plus half a pixel, but at
+least one voxel (at a quarter of a millimetre a pixel, +-h sampled the voxel noise of rough real
+bone, whose tiny bumps turned "concentrated" and drew specks of ink). Ink needs
 three things: the turn between -R and +R (none below `crease_angle_deg`, full 15 degrees above);
 the turn concentrated at the point (its rate within +-h at least 1.25 times, for full ink twice,
 its mean rate over +-R: a rounded shaft turning evenly gets none however far it turns, and a

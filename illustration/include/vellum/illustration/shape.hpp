@@ -116,7 +116,9 @@ struct SegmentField {
   float shellMm = 0;
 };
 constexpr double kFieldQuantumMm = 0.01;
-/// d (mm) -> field value, rounded and clamped to +-32767.
+/// d (mm) -> field value, rounded and clamped to +-32767; where a structure thinner than a
+/// voxel passes between two voxel centres, both take at most minus half its chord, so that
+/// trilinear interpolation keeps it (segment_fields.cpp, keepThin).
 VolumeI16 quantiseField(const VolumeF32& distanceMm);
 /// Default exact band: three voxels of the smallest spacing, and at least two voxels of the
 /// largest (the renderer's gradient stencil reaches one voxel each way on every axis).
