@@ -554,12 +554,20 @@ TEST(Pose, TwistMovieFramesAreTheStillPosesMap) {
   r.movie = f.dir / "frames/";
   r.movieSettings.fps = 2;  // 5 frames over the 2 s track
   r.movieSettings.settings.width = r.movieSettings.settings.height = 24;
+  r.gltf = f.dir / "knee.glb";  // the skin follows the same map
+  r.gltfOptions.keysPerSecond = 1;
+  r.gltfOptions.skinFaces = 2000;
   app::runPose(r);
   const nlohmann::json rep = nlohmann::json::parse(std::ifstream(f.report));
   EXPECT_EQ(rep["map"], "twist");
   EXPECT_EQ(rep["movie"]["map"], "twist");
   EXPECT_EQ(rep["movie"]["map_scale"], 2);
   EXPECT_EQ(rep["movie"]["frames"], 5);
+  EXPECT_EQ(rep["gltf"]["skin_map"], "twist");
+  // Nearly every vertex found where the map draws it (a few on the snap's seam at the bones'
+  // rims keep the MLS estimate).
+  EXPECT_LT(rep["gltf"]["skin_uninverted"].get<int>(), 20) << rep["gltf"].dump();
+  EXPECT_GT(rep["gltf"]["skin_max_move_mm"].get<double>(), 5);
   // Every frame's bones exact (the snap with the pose's transforms), nothing folded.
   const auto& worst = rep["movie"]["rigidity_worst"];
   EXPECT_LT(worst["bone_rms_residual_mm"].get<double>(), 1e-3) << worst.dump();

@@ -315,12 +315,20 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   if (!request.gltf.empty()) {
     t = Clock::now();
     ensureParentFolder(request.gltf);
+    // The twist map's skin snaps to the full-resolution bones (the movie's are its own).
+    std::optional<RigidBodies> bodies;
+    PoseSkinMap skin;
+    if (twist) {
+      bodies = engine.rigidBodies(labels.geometry(), request.load);
+      skin = {twistFrames().get(), &*bodies};
+    }
     const PoseGltfSummary g = writePoseGltf(pose, samples, labels, engine.params.mls, request.gltfOptions,
-                                            request.gltf, progress);
+                                            request.gltf, skin, progress);
     written.wrote(request.gltf);
     timings["gltf"] = msSince(t);
     report["gltf"] = {{"path", request.gltf.string()}, {"bones", g.bones}, {"keys", g.keys}, {"faces", g.faces},
-                      {"skin_max_move_mm", g.skinMaxMoveMm}};
+                      {"skin_max_move_mm", g.skinMaxMoveMm}, {"skin_map", g.skinMap}};
+    if (twist) report["gltf"]["skin_uninverted"] = g.skinUninverted;  // vertex-keys left at the MLS estimate
   }
   timings["total"] = msSince(t0);
   report["timings_ms"] = timings;
