@@ -45,8 +45,16 @@ TwistFrames::TwistFrames(Pose pose, std::shared_ptr<const RigidBodies> nodeBodie
 
 ControlVolume TwistFrames::at(const std::vector<double>& anglesDeg, const RigidBodies& bodies, Progress& progress,
                               std::vector<TwistJointStats>* stats) const {
+  {
+    std::lock_guard lock(mutex_);
+    if (last_.map && last_.anglesDeg == anglesDeg && last_.bodies == &bodies) {
+      if (stats) *stats = last_.stats;
+      return *last_.map;
+    }
+  }
   TwistMap m = twistMap(pose_, anglesDeg, *nodeBodies_, grid_, params_, progress);
-  if (stats) *stats = std::move(m.joints);
+  const std::vector<TwistJointStats> joints = m.joints;
+  if (stats) *stats = joints;
   ControlVolume cv;
   cv.grid = grid_;
   cv.scale = scale_;
@@ -64,6 +72,8 @@ ControlVolume TwistFrames::at(const std::vector<double>& anglesDeg, const RigidB
       backward.push_back(t.value_or(RigidTransform{}));  // fixed and unnamed bodies stay
     cv.rigidSnap = rigidSnapOf(bodies, backward, grid_);
   }
+  std::lock_guard lock(mutex_);
+  last_ = {anglesDeg, &bodies, std::make_shared<const ControlVolume>(cv), joints};
   return cv;
 }
 

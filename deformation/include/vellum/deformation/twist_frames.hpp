@@ -9,6 +9,7 @@
 // between them the coarse twist upsampled (its blend is smooth: w varies over the joint's
 // distances, tens of voxels).
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
@@ -27,7 +28,8 @@ LabelVolume labelsAtNodes(const LabelVolume& labels, int scale);
 /// Frame maps of one pose on one output grid. `nodeBodies` are the pose's bodies on
 /// controlGrid(output, scale) (RigidBodies::fromLabelGroups of labelsAtNodes(), the same groups
 /// and fixed regions as the full-resolution bodies). at() is const and may run on several
-/// threads at once.
+/// threads at once. The last map is kept: a frame at the same angles (a held keyframe: half
+/// of a movie that turns and then holds) is a copy of it, not made again.
 class TwistFrames {
  public:
   TwistFrames(Pose pose, std::shared_ptr<const RigidBodies> nodeBodies, const Geometry& output, int scale,
@@ -49,6 +51,14 @@ class TwistFrames {
   Geometry output_, grid_;
   int scale_ = 1;
   TwistParams params_;
+  struct Last {
+    std::vector<double> anglesDeg;
+    const RigidBodies* bodies = nullptr;
+    std::shared_ptr<const ControlVolume> map;
+    std::vector<TwistJointStats> stats;
+  };
+  mutable std::mutex mutex_;
+  mutable Last last_;
 };
 
 /// The voxel snap of `bodies` with known backward transforms (bodies() order, output -> source:
