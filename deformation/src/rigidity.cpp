@@ -13,6 +13,7 @@
 #include "vellum/core/index_frame.hpp"
 #include "vellum/core/rigid_fit.hpp"
 #include "vellum/deformation/synthesis.hpp"
+#include "vellum/deformation/twist_frames.hpp"
 
 namespace vellum::deformation {
 namespace {
@@ -704,6 +705,14 @@ RigidityReport measureRigidityMap(const std::vector<float>& mapMm, const Geometr
 RigidityReport measureRigidityVoxels(const ControlVolume& cv, const Geometry& output,
                                      const RigidBodies& bodies, Upsampling upsampling, int stride) {
   return measureRigidityMap(upsampleMap(cv, output, upsampling), output, bodies, stride);
+}
+
+std::shared_ptr<const RigidSnap> rigidSnapOf(const RigidBodies& bodies, const std::vector<RigidTransform>& backward,
+                                             const Geometry& grid) {
+  if (backward.size() != bodies.bodies().size()) throw Error("rigid snap: one transform per body is needed");
+  std::vector<RigidFit> fits;
+  for (const RigidTransform& t : backward) fits.push_back(RigidFit{t, true});
+  return makeRigidSnap(bodies, fits, grid);
 }
 
 }  // namespace vellum::deformation

@@ -14,6 +14,8 @@
 #include "studio_run.hpp"
 #include "test_data.hpp"
 #include "vellum/deformation/pose.hpp"
+#include "vellum/deformation/synthesis.hpp"
+#include "vellum/deformation/twist_frames.hpp"
 #include "vellum/io/volume_io.hpp"
 
 namespace vellum::studio {
@@ -25,13 +27,20 @@ using namespace vellum::test::studio;
 constexpr int kN = kLimbN;
 constexpr uint16_t kFixed = kLimbFixed;
 
-TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReproducesTheView) {
-  REQUIRE_DISPLAY();
-  const fs::path d = test::tempDir("studio-joint");
+/// The joint script on the limb (with `extra` actions after the joint is added), the studio's
+/// shown volume and `vellum pose` run with the line the studio wrote.
+struct JointRun {
   VolumeI16 ct;
   LabelVolume labels;
-  writeLimb(d, ct, labels);
-  const Geometry& g = ct.geometry();
+  Pose pose;  ///< as saved, its axis estimated
+  VolumeI16 studio, cli;
+  std::string command;
+  double meanDiffHu = 0, offFraction = 0;  ///< studio against cli: mean |diff|, share over 100 HU
+};
+JointRun runJointScript(const fs::path& d, const std::string& extra) {
+  JointRun run;
+  writeLimb(d, run.ct, run.labels);
+  const Geometry& g = run.ct.geometry();
   // Where the coronal pane (1x3 layout, 1024x700 window) draws the two bones' centres.
   const std::vector<Pane> panes = layoutPanes(Layout::OneByThree, {kToolPanelWidth, 0, 1024 - kToolPanelWidth, 700});
   const Pane& cor = panes[1];
@@ -44,7 +53,7 @@ TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReprodu
     {"layout":"1x3"},{"hud":false},
     {"joint":{"pick":"parent"}},{"click":)" + px({40, 40, 60}) + R"(},
     {"joint":{"pick":"child"}},{"click":)" + px({40, 40, 24}) + R"(},
-    {"joint":{"add_picked":"knee"}},
+    {"joint":{"add_picked":"knee"}},)" + extra + R"(
     {"joint":{"fixed":{"labels":[50]}}},
     {"joint":{"keyframe":"add"}},
     {"joint":{"angle":{"joint":"knee","deg":20}}},
@@ -54,10 +63,74 @@ TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReprodu
     {"play":{"seconds":0.2}},
     {"quit":0}]})";
   std::string log;
-  ASSERT_EQ(runStudio(d, "joint", script, &log), 0) << log;
+  EXPECT_EQ(runStudio(d, "joint", script, &log), 0) << log;
+  run.pose = loadPose(d / "pose.json");
+  estimateAxes(run.pose, run.labels, PoseOptions{}.contactMm);
+  run.studio = std::get<VolumeI16>(io::loadVolume(d / "studio.nrrd").volume);
+  // `vellum pose` on the saved file, with the line the studio wrote.
+  run.command = slurp(d / "cmd.txt");
+  std::string cmd = run.command;
+  EXPECT_EQ(cmd.rfind("vellum pose ", 0), 0u) << cmd;
+  cmd.replace(0, std::string("vellum").size(), std::string("\"") + VELLUM_CLI_EXE + "\"");
+  cmd.pop_back();  // newline
+  EXPECT_EQ(std::system((cmd + " > \"" + (d / "cli.log").string() + "\" 2>&1").c_str()), 0) << slurp(d / "cli.log");
+  run.cli = std::get<VolumeI16>(io::loadVolume(d / "cli.nrrd").volume);
+  EXPECT_EQ(run.cli.geometry().dims, g.dims);
+  const size_t count = size_t(kN) * kN * kN;
+  double sum = 0;
+  int64_t off = 0;
+  for (size_t n = 0; n < count; ++n) {
+    const double e = std::abs(double(run.cli.data()[n]) - double(run.studio.data()[n]));
+    sum += e;
+    off += e > 100;
+  }
+  run.meanDiffHu = sum / double(count);
+  run.offFraction = double(off) / double(count);
+  std::cout << "studio vs vellum pose: mean |diff| " << run.meanDiffHu << " HU, " << 100.0 * run.offFraction
+            << " % of voxels differ by more than 100 HU" << std::endl;
+  return run;
+}
+
+/// Of the child bone's interior voxels (all 6 neighbours child too): the share shown as bone
+/// where the joint's 20° turn puts them, and the share still bone where they were; and whether
+/// every voxel of the fixed block is unchanged.
+struct ChildCheck {
+  int64_t child = 0;
+  double landed = 0, unmoved = 0;
+  bool fixedSame = false;
+};
+ChildCheck checkChild(const JointRun& run) {
+  const Geometry& g = run.ct.geometry();
+  const RigidTransform r = rotationAbout(run.pose.joints[0].axisA, run.pose.joints[0].axisB, 20);
+  const LabelVolume& labels = run.labels;
+  int64_t landed = 0, unmoved = 0, fixedSame = 0, fixedAll = 0;
+  ChildCheck c;
+  for (int k = 1; k + 1 < kN; ++k)
+    for (int j = 1; j + 1 < kN; ++j)
+      for (int i = 1; i + 1 < kN; ++i) {
+        if (labels(i, j, k) == kFixed) ++fixedAll, fixedSame += run.studio(i, j, k) == run.ct(i, j, k);
+        if (labels(i, j, k) != 2 || labels(i - 1, j, k) != 2 || labels(i + 1, j, k) != 2 || labels(i, j - 1, k) != 2 ||
+            labels(i, j + 1, k) != 2 || labels(i, j, k - 1) != 2 || labels(i, j, k + 1) != 2)
+          continue;
+        const Vec3 v = g.physicalToIndex(r.apply(g.indexToPhysical({double(i), double(j), double(k)})));
+        const int64_t a = std::llround(v.x), b = std::llround(v.y), cc = std::llround(v.z);
+        ++c.child;
+        landed += g.contains(a, b, cc) && run.studio(a, b, cc) >= 900;
+        unmoved += run.studio(i, j, k) >= 900;
+      }
+  c.landed = c.child ? double(landed) / double(c.child) : 0;
+  c.unmoved = c.child ? double(unmoved) / double(c.child) : 1;
+  c.fixedSame = fixedSame == fixedAll;
+  return c;
+}
+
+TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReproducesTheView) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-joint");
+  const JointRun run = runJointScript(d, "");
 
   // The pose file: the clicked bones, the axis left to estimate, two keyframes (0°, 20°).
-  Pose pose = loadPose(d / "pose.json");
+  const Pose& pose = run.pose;
   ASSERT_EQ(pose.joints.size(), 1u);
   EXPECT_EQ(pose.joints[0].parent, std::vector<uint16_t>{1});
   EXPECT_EQ(pose.joints[0].child, std::vector<uint16_t>{2});
@@ -69,50 +142,52 @@ TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReprodu
 
   // The studio's view: the child bone's voxels where the rotation about the estimated axis
   // puts them (bone HU there), the fixed block unchanged.
-  estimateAxes(pose, labels, PoseOptions{}.contactMm);
-  const RigidTransform r = rotationAbout(pose.joints[0].axisA, pose.joints[0].axisB, 20);
-  const VolumeI16 studio = std::get<VolumeI16>(io::loadVolume(d / "studio.nrrd").volume);
-  int64_t child = 0, landed = 0, unmoved = 0, fixedSame = 0, fixedAll = 0;
-  for (int k = 1; k + 1 < kN; ++k)
-    for (int j = 1; j + 1 < kN; ++j)
-      for (int i = 1; i + 1 < kN; ++i) {
-        if (labels(i, j, k) == kFixed) ++fixedAll, fixedSame += studio(i, j, k) == ct(i, j, k);
-        // The child's interior voxels (all 6 neighbours child too): bone where r puts them.
-        if (labels(i, j, k) != 2 || labels(i - 1, j, k) != 2 || labels(i + 1, j, k) != 2 || labels(i, j - 1, k) != 2 ||
-            labels(i, j + 1, k) != 2 || labels(i, j, k - 1) != 2 || labels(i, j, k + 1) != 2)
-          continue;
-        const Vec3 v = g.physicalToIndex(r.apply(g.indexToPhysical({double(i), double(j), double(k)})));
-        const int64_t a = std::llround(v.x), b = std::llround(v.y), c = std::llround(v.z);
-        ++child;
-        landed += g.contains(a, b, c) && studio(a, b, c) >= 900;
-        unmoved += studio(i, j, k) >= 900;
-      }
-  ASSERT_GT(child, 200);
-  EXPECT_GE(double(landed) / double(child), 0.98);
-  EXPECT_LT(double(unmoved) / double(child), 0.7) << "the child did move";
-  EXPECT_EQ(fixedSame, fixedAll);
+  const ChildCheck c = checkChild(run);
+  ASSERT_GT(c.child, 200);
+  EXPECT_GE(c.landed, 0.98);
+  EXPECT_LT(c.unmoved, 0.7) << "the child did move";
+  EXPECT_TRUE(c.fixedSame);
+  // `vellum pose` on the saved file: the same volume.
+  EXPECT_LT(run.meanDiffHu, 1.0);  // measured 0.04 HU: vellum pose repairs folds, the live view does not
+  EXPECT_LT(run.offFraction, 0.001);  // measured 5 of 64000 voxels
+  fs::remove_all(d);
+}
 
-  // `vellum pose` on the saved file, with the line the studio wrote: the same volume.
-  std::string cmd = slurp(d / "cmd.txt");
-  ASSERT_EQ(cmd.rfind("vellum pose ", 0), 0u) << cmd;
-  cmd.replace(0, std::string("vellum").size(), std::string("\"") + VELLUM_CLI_EXE + "\"");
-  cmd.pop_back();  // newline
-  ASSERT_EQ(std::system((cmd + " > \"" + (d / "cli.log").string() + "\" 2>&1").c_str()), 0) << slurp(d / "cli.log");
-  const VolumeI16 cli = std::get<VolumeI16>(io::loadVolume(d / "cli.nrrd").volume);
-  int64_t off = 0;
-  double sum = 0;
-  const size_t count = size_t(kN) * kN * kN;
-  ASSERT_EQ(cli.geometry().dims, g.dims);
-  for (size_t n = 0; n < count; ++n) {
-    const double e = std::abs(double(cli.data()[n]) - double(studio.data()[n]));
-    sum += e;
-    off += e > 100;
-  }
-  const double voxels = double(count);
-  std::cout << "studio vs vellum pose: mean |diff| " << sum / voxels << " HU, " << 100.0 * off / voxels
-            << " % of voxels differ by more than 100 HU" << std::endl;
-  EXPECT_LT(sum / voxels, 1.0);  // measured 0.04 HU: vellum pose repairs folds, the live view does not
-  EXPECT_LT(off / voxels, 0.001);  // measured 5 of 64000 voxels
+// The Joints panel's map choice (`vellum pose --map`): with the twist map the exact map the
+// studio shows is the pose's twist map (on its control grid, the bones snapped exactly), and
+// the `vellum pose` line it writes asks for the twist map too.
+TEST(StudioJointScript, TwistMapChosenInTheStudioIsTheMapItShowsAndWrites) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-joint-twist");
+  const JointRun run = runJointScript(d, R"({"joint":{"map":"twist"}},)");
+  EXPECT_NE(run.command.find("--map twist"), std::string::npos) << run.command;
+  const ChildCheck c = checkChild(run);
+  ASSERT_GT(c.child, 200);
+  EXPECT_GE(c.landed, 0.98);
+  EXPECT_LT(c.unmoved, 0.7) << "the child did move";
+  EXPECT_TRUE(c.fixedSame);
+  // What the studio shows is the pose's twist map on its s = 4 grid (deformation::TwistFrames),
+  // the CT resampled through it as saveShownVolume() does, to the HU.
+  const Geometry& g = run.ct.geometry();
+  const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
+  const RigidBodies bodies = RigidBodies::fromLabelGroups(run.labels, groups, 20, run.pose.fixed);
+  auto nodeBodies = std::make_shared<const RigidBodies>(
+      RigidBodies::fromLabelGroups(labelsAtNodes(run.labels, 4), groups, 1, run.pose.fixed));
+  const MapSampler twist(TwistFrames(run.pose, nodeBodies, g, 4).at({20.0}, bodies), g);
+  const VolumeI16 ct = std::get<VolumeI16>(io::loadVolume(d / "ct.nrrd").volume);  // as the studio read it
+  int64_t differ = 0;
+  for (int k = 0; k < kN; ++k)
+    for (int j = 0; j < kN; ++j)
+      for (int i = 0; i < kN; ++i) {
+        const auto u = twist.sourceMm(g.indexToPhysical({double(i), double(j), double(k)}));
+        const double hu = u ? std::lround(std::clamp(ct.sampleLinearMm(*u), -32768.0, 32767.0)) : ct.background();
+        differ += std::abs(hu - run.studio(i, j, k)) > 1;
+      }
+  EXPECT_EQ(differ, 0) << "the studio does not show the twist map";
+  // `vellum pose --out` makes it at every voxel: the bones agree exactly, the tissue between
+  // them within the coarse grid's interpolation (measured 4.4 HU mean, 1.6 % over 100 HU).
+  EXPECT_LT(run.meanDiffHu, 20.0);
+  EXPECT_LT(run.offFraction, 0.05);
   fs::remove_all(d);
 }
 

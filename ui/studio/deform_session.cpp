@@ -8,6 +8,7 @@
 
 #include "vellum/animation/movie.hpp"
 #include "vellum/deformation/deform_params.hpp"
+#include "vellum/deformation/twist_frames.hpp"
 
 namespace vellum::studio {
 using namespace vellum::deformation;
@@ -55,6 +56,27 @@ bool ready(const std::future<T>& f) {
 DeformSession::Solved DeformSession::solve(Deformer& deformer, const SolveInputs& in, Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   Solved s;
+  if (in.twistPose && in.bodies && in.nodeLabels) {
+    // The joint tool's twist map, as `vellum pose --map twist` makes it (its movie's frames):
+    // the bones on this grid's nodes, the full-resolution bones snapped exactly.
+    const int scale = deformer.params().controlScale;
+    std::vector<std::vector<uint16_t>> groups;
+    for (uint16_t id : in.rigidLabels) groups.push_back({id});
+    auto nodeBodies = std::make_shared<const RigidBodies>(RigidBodies::fromLabelGroups(
+        *in.nodeLabels, groups, std::max<int64_t>(1, 20 / (int64_t(scale) * scale * scale)), in.fixed));
+    const PoseOptions defaults;  // the tool's twist power and margin are `vellum pose`'s defaults
+    TwistParams tp;
+    tp.power = defaults.twistPower;
+    tp.margin = defaults.twistMargin;
+    const TwistFrames frames(*in.twistPose, std::move(nodeBodies), deformer.outputGeometry(), scale, tp);
+    ControlVolume cv = frames.at(in.twistAngles, *in.bodies, progress);
+    s.map = deformation::renderedMap(cv, deformer.outputGeometry(), in.upsampling);
+    s.sampler = std::make_shared<const MapSampler>(std::move(cv), deformer.outputGeometry(), in.upsampling);
+    s.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    s.key = in.key;
+    for (const auto& p : in.points) s.sources.push_back(p.source);
+    return s;
+  }
   deformer.setPoints(in.points);
   ControlVolume cv = deformer.update(progress);
   if (in.bodies) {  // the bodies' fields on this grid: built once per grid, timed apart
@@ -105,12 +127,26 @@ void DeformSession::buildBodies(std::shared_ptr<const LabelVolume> labels, uint6
   });
 }
 
-DeformSession::SolveInputs DeformSession::inputs(const Scene& scene, const std::string& key) const {
+DeformSession::SolveInputs DeformSession::inputs(const Scene& scene, const std::string& key, bool exact) const {
   const Authoring& a = scene.authoring;
-  SolveInputs in{a.currentPoints(), bodies_, a.falloffMm, scene.view.deformedUpsampling, key, {}};
+  SolveInputs in{a.currentPoints(), bodies_, a.falloffMm, scene.view.deformedUpsampling, key, {}, {}, {}, {}, {}, {}};
   if (a.pose && bodies_) {  // the joint tool's exact bones at the angles of the time shown
     const double t = a.timeS.value_or(keyframeStartS(a.track, a.keyframe));
     in.prescribed = knownBodyTransforms(*a.pose, *bodies_, a.pose->anglesAt(t));
+    if (exact && a.pose->map == "twist" && scene.labels.geometry().dims == scene.ct.geometry().dims) {
+      const int scale = a.engine.controlScale;
+      const std::string labelsKey = std::to_string(volumeGeneration_) + ' ' + std::to_string(labelsRevision_) + ' ' +
+                                    std::to_string(scale);
+      if (!nodeLabels_ || nodeLabelsKey_ != labelsKey) {
+        nodeLabels_ = std::make_shared<const LabelVolume>(labelsAtNodes(scene.labels, scale));
+        nodeLabelsKey_ = labelsKey;
+      }
+      in.twistPose = a.pose;
+      in.twistAngles = a.pose->anglesAt(t);
+      in.nodeLabels = nodeLabels_;
+      in.rigidLabels = rigidLabels_;
+      in.fixed = a.fixed;
+    }
   }
   return in;
 }
@@ -278,20 +314,20 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
   if (interacting && liveExact(a.currentPoints())) {  // the exact map itself, at once
     if (mapKey_ == key) return changed;
     if (solve_.valid()) cancel(), waitForSolve();  // a solve of older inputs holds the deformer
-    adopt(solve(*deformer_, inputs(scene, key), Progress::none()), false);
+    adopt(solve(*deformer_, inputs(scene, key, true), Progress::none()), false);
     return true;
   }
   if (interacting) {  // the preview, on its worker, the newest inputs whenever it is free
     if ((preview_ && previewKey_ == key) || previewWork_.valid()) return changed;
     previewForDrag_ = true;
-    previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key),
+    previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key, false),
                                  std::make_shared<Progress>(), SolveKind::DragPreview);
     return changed;
   }
   if (mapKey_ == key) {  // up to date: get the preview's deformer ready for the next drag
     if (!previewWork_.valid() && !previewDeformer_) {
       previewForDrag_ = false;
-      previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key),
+      previewWork_ = solveOnWorker(&previewDeformer_, &scene.ct, previewParams(a.engine), inputs(scene, key, false),
                                    std::make_shared<Progress>(), SolveKind::Background);
     }
     return changed;
@@ -300,7 +336,7 @@ bool DeformSession::update(const Scene& scene, bool interacting) {
     return changed;  // the worker is on it; or bodies first
   // The exact map on the worker; the inputs are copies, the deformer is the worker's until done.
   solveProgress_ = std::make_shared<Progress>();
-  solve_ = solveOnWorker(&deformer_, &scene.ct, a.engine, inputs(scene, key), solveProgress_);
+  solve_ = solveOnWorker(&deformer_, &scene.ct, a.engine, inputs(scene, key, true), solveProgress_);
   preview_ = true;  // the map shown (if any) is out of date until the exact one lands
   return changed;
 }

@@ -106,6 +106,14 @@ class DeformSession {
     std::string key;
     /// Known bone transforms (a joint tool pose: RigidBodies order, backward); empty: fitted.
     std::vector<std::optional<RigidTransform>> prescribed;
+    /// The joint tool's twist map (its pose's map "twist"; the exact solve only, never the
+    /// preview): the pose at `twistAngles`, its bones on the exact grid's nodes from
+    /// `nodeLabels` (`rigidLabels`, `fixed`), snapped to `bodies` (deformation::TwistFrames).
+    std::shared_ptr<const deformation::Pose> twistPose;
+    std::vector<double> twistAngles;
+    std::shared_ptr<const LabelVolume> nodeLabels;
+    std::vector<uint16_t> rigidLabels;
+    deformation::FixedRegions fixed;
   };
   /// True when the exact map can be solved live for `points` (see update()).
   bool liveExact(const deformation::ControlPoints& points) const;
@@ -120,7 +128,12 @@ class DeformSession {
   static std::future<Solved> solveOnWorker(std::unique_ptr<deformation::Deformer>* slot, const VolumeI16* ct,
                                            deformation::DeformParams params, SolveInputs in,
                                            std::shared_ptr<Progress> progress, SolveKind kind = SolveKind::Exact);
-  SolveInputs inputs(const Scene& scene, const std::string& key) const;
+  /// `exact`: for the exact map (the twist map when the pose asks for it), else the preview's.
+  SolveInputs inputs(const Scene& scene, const std::string& key, bool exact) const;
+  /// The labels at the exact grid's nodes (the twist map's bones), made on the UI thread when
+  /// first needed for these labels and grid (1/s^3 of the labels), kept until they change.
+  mutable std::shared_ptr<const LabelVolume> nodeLabels_;
+  mutable std::string nodeLabelsKey_;
   void adopt(Solved s, bool preview);
   void waitForSolve();
   void waitForPreview();

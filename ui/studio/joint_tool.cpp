@@ -162,8 +162,17 @@ void JointTool::apply(StudioApp& app) const {
   // points on the cropped feet). `vellum pose`'s engine has them off; so does the tool when
   // it takes over the track (the written `vellum pose` line names the engine either way).
   if (!a.pose) a.engine.density.enabled = false;
-  a.pose = std::make_shared<const Pose>(pose);
+  // The map in effect travels with the pose the session reads ("twist": DeformSession solves
+  // the exact map as the twist map; anything else: the MLS engine).
+  Pose shown = pose;
+  shown.map = twist() ? "twist" : "mls";
+  a.pose = std::make_shared<const Pose>(std::move(shown));
   a.touch();
+}
+
+void JointTool::setMap(StudioApp& app, app::PoseMap choice) {
+  map = choice;
+  apply(app);
 }
 
 void JointTool::addDraftJoint(StudioApp& app) {
@@ -360,6 +369,7 @@ std::string JointTool::poseArguments(const StudioApp& capp, const std::filesyste
   r.output = out;
   r.frameTimeS = keyframeTime(app);
   r.options = options;
+  r.map = map;
   r.engine.params = scene.authoring.engine;  // the live view's engine and map kernel
   r.engine.upsampling = scene.view.deformedUpsampling;
   r.engine.rigidFalloffMm = scene.authoring.falloffMm;
@@ -436,8 +446,16 @@ void jointScriptAction(StudioApp& app, const nlohmann::json& v) {
     jt.load(app, x.get<std::string>());
   } else if (op == "remove") {
     jt.removeJoint(app, x.get<int>());
+  } else if (op == "map") {  // `vellum pose --map`'s choices (the Joints panel's combo)
+    const auto* row = params::findField(app::poseRequestTable(), "map");
+    const auto& c = row->choices;
+    const auto it = std::find(c.begin(), c.end(), x.is_string() ? x.get<std::string>() : "");
+    if (it == c.end()) throw Error("joint map: one of auto, twist, mls");
+    app::PoseRequest r;
+    row->set(r, double(it - c.begin()));
+    jt.setMap(app, r.map);
   } else {
-    throw Error("unknown joint action \"" + op + "\" (add, pick, add_picked, angle, keyframe, fixed, save, load, remove)");
+    throw Error("unknown joint action \"" + op + "\" (add, pick, add_picked, angle, keyframe, fixed, map, save, load, remove)");
   }
 }
 

@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "vellum/app/pose_pipeline.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/deformation/pose.hpp"
 
@@ -41,6 +42,16 @@ class JointTool {
   /// track (keyframe k holds every joint's angle, as pose files do).
   deformation::Pose pose;
   deformation::PoseOptions options;  ///< `vellum pose`'s point generation flags
+  /// `vellum pose --map` (the Joints panel's choice, poseRequestTable()'s "map" row): with the
+  /// twist map the exact map shown is the pose's twist map (DeformSession), what `vellum pose
+  /// --map twist` writes; angle drags keep the fast MLS preview.
+  app::PoseMap map = app::PoseMap::Auto;
+  /// The map in effect: the choice, or for auto the pose file's "map" (else mls), as `vellum pose`.
+  bool twist() const {
+    return map == app::PoseMap::Twist || (map == app::PoseMap::Auto && pose.map == "twist");
+  }
+  /// A new choice: the map is solved again (not an undo step: the pose is unchanged).
+  void setMap(StudioApp& app, app::PoseMap choice);
 
   // The joint being made (the panel's fields and the clicks).
   std::string draftName = "joint";
@@ -135,7 +146,7 @@ class JointTool {
 /// child, axis: [[x,y,z],[x,y,z]] | "estimate"}, "pick": "parent" | "child" | "axis1" |
 /// "axis2" (a "click" then picks), "add_picked": NAME, "angle" {joint: NAME | index, deg},
 /// "keyframe": "add" | {select, duration}, "fixed" {labels, boxes}, "save" {path, command,
-/// out}, "load": PATH, "remove": index. Error for anything else.
+/// out}, "load": PATH, "remove": index, "map": "auto" | "twist" | "mls". Error for anything else.
 void jointScriptAction(StudioApp& app, const nlohmann::json& action);
 /// The CT resampled through the map the studio shows (the deformation session's exact map,
 /// as the deformed slices sample it), written as a volume file: what `vellum pose --out`

@@ -10,6 +10,7 @@
 #include "app.hpp"
 #include "file_browser.hpp"
 #include "joint_tool.hpp"
+#include "param_widgets.hpp"
 #include "vellum/core/error.hpp"
 
 namespace vellum::studio {
@@ -130,6 +131,14 @@ void jointsSection(StudioApp& app) {
     ImGui::TextDisabled("estimated");
   }
   if (ImGui::Button("Add joint")) guarded(app, [&] { jt.addDraftJoint(app); });
+  {  // the map: `vellum pose --map`'s row (its choices and help)
+    app::PoseRequest r;
+    r.map = jt.map;
+    std::vector<std::string> others;
+    for (const auto& f : app::poseRequestTable())
+      if (f.key != "map") others.push_back(f.key);
+    if (editParams(app::poseRequestTable(), r, others).changed) guarded(app, [&] { jt.setMap(app, r.map); });
+  }
   deformation::FixedRegions fixed = pose.fixed;
   if (idsField(app, "Fixed labels", fixed.ids)) guarded(app, [&] { jt.setFixed(app, fixed); });
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("label ids that do not move at all (the other limb, the table)");

@@ -6,6 +6,7 @@
 #include <future>
 #include <optional>
 
+#include "vellum/core/error.hpp"
 #include "vellum/core/process_time.hpp"
 #include "vellum/deformation/synthesis.hpp"
 #include "vellum/io/image_io.hpp"
@@ -173,6 +174,15 @@ struct MovieRenderer::Impl {
   // the output grid and kernel set (renderedMap()'s fields, without its copy); its wall ms.
   std::pair<std::shared_ptr<ControlVolume>, double> frameMap(int f) {
     const auto t0 = std::chrono::steady_clock::now();
+    if (spec.frameMaps) {  // the map is the caller's (the twist map): no control points, no blend
+      auto cv = std::make_shared<ControlVolume>(spec.frameMaps(track.frameTimeS(f, spec.fps), rigidity.bodies));
+      if (!(cv->output ? *cv->output : cv->grid).approxEqual(geometry, 1e-3) ||
+          !((cv->output ? *cv->output : cv->grid).dims == geometry.dims))
+        throw Error("movie: a frame's map is not on the volume's grid");
+      cv->output = geometry;
+      cv->upsampling = spec.upsampling;
+      return {std::move(cv), msSince(t0)};
+    }
     deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));
     auto cv = std::make_shared<ControlVolume>(deformer.update());
     if (rigidity.bodies) {

@@ -98,6 +98,7 @@ animation::MovieSpec movieSpec(const AnimateRequest& request) {
   spec.titleSeconds = request.titleSeconds;
   spec.caption = request.caption;
   spec.knownBodyTransforms = request.knownBodyTransforms;
+  spec.frameMaps = request.frameMaps;
   return spec;
 }
 

@@ -7,6 +7,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/illustration/gltf.hpp"
 #include "vellum/illustration/shape.hpp"
+#include "vellum/render/annotations.hpp"
 
 namespace vellum::app {
 using namespace vellum::deformation;
@@ -39,7 +40,8 @@ ill::RigidMotion motionOf(const RigidTransform& t) {
 
 PoseGltfSummary writePoseGltf(const Pose& pose, const PoseSamples& samples, const LabelVolume& labels,
                               const MlsParams& mls, const PoseGltfOptions& options,
-                              const std::filesystem::path& path, Progress& progress) {
+                              const std::filesystem::path& path, const PoseSkinMap& skinMap, Progress& progress) {
+  if (skinMap.twist && !skinMap.bodies) throw Error("the glTF skin's twist map needs the pose's rigid bodies");
   // Key times over the keyframes (a still pose: two keys at 0 and 1 s, both the pose).
   const double duration = pose.lastKeyframeTimeS();
   const int keys = std::max(2, static_cast<int>(std::ceil(duration * options.keysPerSecond)) + 1);
@@ -47,10 +49,12 @@ PoseGltfSummary writePoseGltf(const Pose& pose, const PoseSamples& samples, cons
   for (int k = 0; k < keys; ++k) times[k] = duration > 0 ? duration * k / (keys - 1) : static_cast<double>(k);
   std::vector<std::vector<RigidTransform>> transforms;  // per key, per joint
   std::vector<ControlPoints> forward;                   // per key: targets as handles, run forwards
+  std::vector<std::vector<double>> keyAngles;
   for (double t : times) {
     const auto angles = pose.anglesAt(duration > 0 ? t : duration);
     transforms.push_back(jointTransforms(pose, angles));
     forward.push_back(posedPoints(samples, pose, angles));
+    keyAngles.push_back(angles);
   }
 
   // The meshes: one per joint child, one per root joint's parent, and the skin.
@@ -85,6 +89,7 @@ PoseGltfSummary writePoseGltf(const Pose& pose, const PoseSamples& samples, cons
   scene.keyTimesS = times;
   PoseGltfSummary summary;
   summary.keys = keys;
+  summary.skinMap = skinMap.twist ? "twist" : "mls";
   for (size_t s = 0; s < shapes.size(); ++s) {
     ill::AnimatedMesh m;
     m.name = shapes[s].segment.name;
@@ -105,7 +110,17 @@ PoseGltfSummary writePoseGltf(const Pose& pose, const PoseSamples& samples, cons
         // maps rest positions to posed ones (the forward map).
         ControlPoints swapped = forward[k];
         for (auto& p : swapped) std::swap(p.source, p.target);
-        const std::vector<Vec3> posed = evaluateMls(swapped, mls, rest);
+        std::vector<Vec3> posed = evaluateMls(swapped, mls, rest);
+        if (skinMap.twist) {
+          // The still pose's map at this key, inverted where each vertex is drawn (Newton from
+          // the vertex, on the map as the renderer samples it); the MLS estimate where it fails.
+          progress.checkCancelled();
+          const ControlVolume cv = skinMap.twist->at(keyAngles[k], *skinMap.bodies, progress);
+          const auto drawn = render::deformedPositions(cv, labels.geometry(), rest);
+          for (size_t i = 0; i < posed.size(); ++i)
+            if (drawn[i]) posed[i] = *drawn[i];
+            else ++summary.skinUninverted;
+        }
         std::vector<std::array<float, 3>> out(posed.size());
         for (size_t i = 0; i < posed.size(); ++i) {
           out[i] = {static_cast<float>(posed[i].x), static_cast<float>(posed[i].y), static_cast<float>(posed[i].z)};

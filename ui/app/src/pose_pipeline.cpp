@@ -10,6 +10,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/core/params_json.hpp"
 #include "vellum/deformation/point_files.hpp"
+#include "vellum/deformation/twist_frames.hpp"
 #include "vellum/deformation/twist_map.hpp"
 #include "vellum/io/volume_io.hpp"
 
@@ -218,6 +219,22 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   // every measure of the feet bench: docs/benchmarks-deformation.md, "s17").
   const bool twist = request.map == PoseMap::Twist || (request.map == PoseMap::Auto && pose.map == "twist");
   report["map"] = twist ? "twist" : "mls";
+  TwistParams tp;
+  tp.power = request.options.twistPower;
+  tp.margin = request.options.twistMargin;
+  // The twist map of the movie's frames and the glTF skin's keys: on the engine's control grid
+  // (--control-scale), the pose's bodies sampled at its nodes (TwistFrames); made when needed.
+  std::shared_ptr<const TwistFrames> frames;
+  auto twistFrames = [&] {
+    if (!frames) {
+      const int scale = engine.params.controlScale;
+      const int64_t minVoxels = std::max<int64_t>(1, 20 / (int64_t(scale) * scale * scale));  // RigidBodies' 20 voxels
+      auto nodeBodies = std::make_shared<const RigidBodies>(
+          RigidBodies::fromLabelGroups(labelsAtNodes(labels, scale), engine.bodyGroups(), minVoxels, pose.fixed));
+      frames = std::make_shared<const TwistFrames>(pose, std::move(nodeBodies), labels.geometry(), scale, tp);
+    }
+    return frames;
+  };
   if (!request.output.empty()) {
     DeformRequest d;
     d.input = request.input;
@@ -233,9 +250,6 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
       }
     }
     if (twist) {
-      TwistParams tp;
-      tp.power = request.options.twistPower;
-      tp.margin = request.options.twistMargin;
       const std::vector<double> anglesDeg = result.anglesDeg;
       d.mapMaker = [&pose, anglesDeg, tp](const Geometry& g, const RigidBodies& bodies, nlohmann::json& rep,
                                           Progress& p) {
@@ -283,7 +297,12 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     a.engine = engine;
     a.load = request.load;
     a.commandLine = request.commandLine;
-    if (request.exactBones)  // each frame's bones at the pose's angles at that time
+    if (twist)  // each frame's map is the twist map at the pose's angles at that time, as --out's
+      a.frameMaps = [f = twistFrames()](double timeS, const RigidBodies* bodies) {
+        if (!bodies) throw Error("the twist map's movie needs the pose's rigid bodies");
+        return f->atTime(timeS, *bodies);
+      };
+    else if (request.exactBones)  // each frame's bones at the pose's angles at that time
       a.knownBodyTransforms = [pose](double timeS, const RigidBodies& bodies) {
         return knownBodyTransforms(pose, bodies, pose.anglesAt(timeS));
       };
@@ -291,18 +310,27 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     written.wrote(request.movie);
     report["movie"] = std::move(ar.report);
     report["movie"]["path"] = request.movie.string();
-    report["movie"]["map"] = "mls";  // the frames sample the MLS control volume (the twist map: --out only)
+    report["movie"]["map"] = twist ? "twist" : "mls";
+    if (twist) report["movie"]["map_scale"] = twistFrames()->scale();  // the frames' twist map: every s-th voxel, bones snapped
     if (result.warnings.empty()) result.warnings = std::move(ar.warnings);
   }
   if (!request.gltf.empty()) {
     t = Clock::now();
     ensureParentFolder(request.gltf);
+    // The twist map's skin snaps to the full-resolution bones (the movie's are its own).
+    std::optional<RigidBodies> bodies;
+    PoseSkinMap skin;
+    if (twist) {
+      bodies = engine.rigidBodies(labels.geometry(), request.load);
+      skin = {twistFrames().get(), &*bodies};
+    }
     const PoseGltfSummary g = writePoseGltf(pose, samples, labels, engine.params.mls, request.gltfOptions,
-                                            request.gltf, progress);
+                                            request.gltf, skin, progress);
     written.wrote(request.gltf);
     timings["gltf"] = msSince(t);
     report["gltf"] = {{"path", request.gltf.string()}, {"bones", g.bones}, {"keys", g.keys}, {"faces", g.faces},
-                      {"skin_max_move_mm", g.skinMaxMoveMm}};
+                      {"skin_max_move_mm", g.skinMaxMoveMm}, {"skin_map", g.skinMap}};
+    if (twist) report["gltf"]["skin_uninverted"] = g.skinUninverted;  // vertex-keys left at the MLS estimate
   }
   timings["total"] = msSince(t0);
   report["timings_ms"] = timings;

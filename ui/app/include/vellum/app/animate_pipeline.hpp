@@ -26,6 +26,8 @@ struct AnimateRequest {
   std::optional<deformation::KeyframeTrack> track;
   /// Known rigid-body transforms per frame (animation::MovieSpec::knownBodyTransforms; `vellum pose`).
   decltype(animation::MovieSpec::knownBodyTransforms) knownBodyTransforms;  ///< a track made in memory (`vellum pose`): used instead of `keyframes`
+  /// Each frame's map made elsewhere (animation::MovieSpec::frameMaps; `vellum pose --map twist`).
+  decltype(animation::MovieSpec::frameMaps) frameMaps;
   /// movie.mp4, or a folder (a path ending in '/' or without an extension) for PNG frames.
   std::filesystem::path output;
   std::filesystem::path frames;  ///< also PNG frames into this folder; empty: no

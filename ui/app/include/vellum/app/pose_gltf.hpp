@@ -3,8 +3,10 @@
 // web and AR viewers): each joint's child bone and each root parent bone is a node with its
 // keyframed rigid transform (exactly the joint rotations of the pose), the skin — the outer
 // surface of the whole label map — one mesh whose keyframes are morph targets. The skin's
-// vertices follow the forward MLS map of the pose's generated control points (the volume
-// deformation's map, run forwards), an approximation of `--out` near the bones.
+// vertices follow the map `--out` is made with: with the twist map, each key's twist map
+// (deformation::TwistFrames) inverted at the vertices (render::deformedPositions: Newton on
+// the map as drawn); with the MLS map, the forward MLS map of the pose's generated control
+// points (the volume deformation's map, run forwards), an approximation of `--out` near the bones.
 #include <filesystem>
 
 #include "vellum/core/label_volume.hpp"
@@ -12,6 +14,7 @@
 #include "vellum/core/progress.hpp"
 #include "vellum/deformation/mls.hpp"
 #include "vellum/deformation/pose.hpp"
+#include "vellum/deformation/twist_frames.hpp"
 
 namespace vellum::app {
 
@@ -27,6 +30,16 @@ struct PoseGltfSummary {
   int bones = 0, keys = 0;
   int64_t faces = 0;
   double skinMaxMoveMm = 0;  ///< the largest skin vertex displacement over the keys
+  std::string skinMap = "mls";  ///< "twist" or "mls": the map the skin's morph targets follow
+  /// Twist: vertex-keys the inversion did not reach (left at the forward MLS estimate).
+  int64_t skinUninverted = 0;
+};
+
+/// The skin's map: empty = the forward MLS map; `twist` (with the full-resolution `bodies` its
+/// snap keeps exact) = the still pose's twist map at each key.
+struct PoseSkinMap {
+  const deformation::TwistFrames* twist = nullptr;
+  const deformation::RigidBodies* bodies = nullptr;
 };
 
 /// Meshes the pose's bones and the skin from `labels`, poses them at the keys and writes
@@ -34,6 +47,6 @@ struct PoseGltfSummary {
 PoseGltfSummary writePoseGltf(const deformation::Pose& pose, const deformation::PoseSamples& samples,
                               const LabelVolume& labels, const deformation::MlsParams& mls,
                               const PoseGltfOptions& options, const std::filesystem::path& path,
-                              Progress& progress = Progress::none());
+                              const PoseSkinMap& skinMap = {}, Progress& progress = Progress::none());
 
 }  // namespace vellum::app

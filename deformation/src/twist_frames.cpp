@@ -1,0 +1,84 @@
+// The twist map as a frame's control volume (see twist_frames.hpp).
+#include "vellum/deformation/twist_frames.hpp"
+
+#include <algorithm>
+
+#include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
+
+namespace vellum::deformation {
+
+LabelVolume labelsAtNodes(const LabelVolume& labels, int scale) {
+  if (scale < 1) throw Error("labels at nodes: the scale must be >= 1");
+  if (scale == 1) return labels;
+  const Geometry& g = labels.geometry();
+  const Geometry grid = controlGrid(g, scale);
+  LabelVolume out(grid);
+  for (const Label& l : labels.table()) out.setLabel(l);
+  const Dims d = grid.dims, s = g.dims;
+  const uint16_t* src = labels.ids().data();
+  uint16_t* dst = out.ids().data();
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          // The last node may pass the last voxel (controlGrid): it reads that voxel.
+          const int64_t si = std::min(i * scale, s.x - 1), sj = std::min(j * scale, s.y - 1),
+                        sk = std::min(k * scale, s.z - 1);
+          dst[(k * d.y + j) * d.x + i] = src[(sk * s.y + sj) * s.x + si];
+        }
+  });
+  return out;
+}
+
+TwistFrames::TwistFrames(Pose pose, std::shared_ptr<const RigidBodies> nodeBodies, const Geometry& output, int scale,
+                         TwistParams params)
+    : pose_(std::move(pose)),
+      nodeBodies_(std::move(nodeBodies)),
+      output_(output),
+      grid_(controlGrid(output, scale)),
+      scale_(scale),
+      params_(params) {
+  if (!nodeBodies_) throw Error("twist frames: the rigid bodies at the nodes are missing");
+  // twistMap() checks the node bodies against the node grid.
+}
+
+ControlVolume TwistFrames::at(const std::vector<double>& anglesDeg, const RigidBodies& bodies, Progress& progress,
+                              std::vector<TwistJointStats>* stats) const {
+  {
+    std::lock_guard lock(mutex_);
+    if (last_.map && last_.anglesDeg == anglesDeg && last_.bodies == &bodies) {
+      if (stats) *stats = last_.stats;
+      return *last_.map;
+    }
+  }
+  TwistMap m = twistMap(pose_, anglesDeg, *nodeBodies_, grid_, params_, progress);
+  const std::vector<TwistJointStats> joints = m.joints;
+  if (stats) *stats = joints;
+  ControlVolume cv;
+  cv.grid = grid_;
+  cv.scale = scale_;
+  cv.sourceMm = std::move(m.mapMm);
+  cv.output = output_;
+  if (scale_ > 1) {
+    const Geometry& fine = bodies.classes().geometry();
+    if (!(fine.dims == output_.dims) || !fine.approxEqual(output_, 1e-3))
+      throw Error("twist frames: the rigid bodies' grid differs from the output grid");
+    // Interpolating the node map is not rigid inside a bone thinner than a few cells: the
+    // snap puts every voxel whose source lands in a bone on that bone's pose transform, as
+    // twistMap()'s own snap does per voxel at scale 1.
+    std::vector<RigidTransform> backward;
+    for (const auto& t : knownBodyTransforms(pose_, bodies, anglesDeg))
+      backward.push_back(t.value_or(RigidTransform{}));  // fixed and unnamed bodies stay
+    cv.rigidSnap = rigidSnapOf(bodies, backward, grid_);
+  }
+  std::lock_guard lock(mutex_);
+  last_ = {anglesDeg, &bodies, std::make_shared<const ControlVolume>(cv), joints};
+  return cv;
+}
+
+ControlVolume TwistFrames::atTime(double timeS, const RigidBodies& bodies, Progress& progress) const {
+  return at(pose_.anglesAt(timeS), bodies, progress);
+}
+
+}  // namespace vellum::deformation
