@@ -127,7 +127,9 @@ ChildCheck checkChild(const JointRun& run) {
 TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReproducesTheView) {
   REQUIRE_DISPLAY();
   const fs::path d = test::tempDir("studio-joint");
-  const JointRun run = runJointScript(d, "");
+  // The MLS map, chosen (the default is the twist map, which the studio shows on its control
+  // grid while `vellum pose --out` makes it at full size: the next test checks that one).
+  const JointRun run = runJointScript(d, R"({"joint":{"map":"mls"}},)");
 
   // The pose file: the clicked bones, the axis left to estimate, two keyframes (0°, 20°).
   const Pose& pose = run.pose;

@@ -46,10 +46,8 @@ class JointTool {
   /// twist map the exact map shown is the pose's twist map (DeformSession), what `vellum pose
   /// --map twist` writes; angle drags keep the fast MLS preview.
   app::PoseMap map = app::PoseMap::Auto;
-  /// The map in effect: the choice, or for auto the pose file's "map" (else mls), as `vellum pose`.
-  bool twist() const {
-    return map == app::PoseMap::Twist || (map == app::PoseMap::Auto && pose.map == "twist");
-  }
+  /// The map in effect: the choice, or for auto the pose file's "map" (else twist), as `vellum pose`.
+  bool twist() const { return app::twistChosen(map, pose); }
   /// A new choice: the map is solved again (not an undo step: the pose is unchanged).
   void setMap(StudioApp& app, app::PoseMap choice);
 

@@ -102,7 +102,7 @@ const params::Table<PoseRequest>& poseRequestTable() {
                          "(det J = 1 - angle * dw/dalpha: fold-free but where still and moving bones collide; bones and "
                          "fixed regions exact); mls: the control-point "
                          "engine with the rigid blend and the fold repair; auto: the pose file's \"map\", else "
-                         "mls", ""}),
+                         "twist", ""}),
       // deform's --pad-mm, described once (deformRequestTable()).
       params::real<R>("pad_mm", &R::padMm, params::findField(deformRequestTable(), "pad_mm")->info),
   };
@@ -215,9 +215,8 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     saveControlPoints(points, request.pointsOut);
     written.wrote(request.pointsOut);
   }
-  // The map: the request's, else the pose file's, else mls (the twist map is not yet better on
-  // every measure of the feet bench: docs/benchmarks-deformation.md, "s17").
-  const bool twist = request.map == PoseMap::Twist || (request.map == PoseMap::Auto && pose.map == "twist");
+  // The map: the request's, else the pose file's, else twist (docs/benchmarks-deformation.md, "s18").
+  const bool twist = twistChosen(request.map, pose);
   report["map"] = twist ? "twist" : "mls";
   TwistParams tp;
   tp.power = request.options.twistPower;

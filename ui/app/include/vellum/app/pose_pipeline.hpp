@@ -20,8 +20,14 @@ namespace vellum::app {
 
 /// The pose's map: the twist map (deformation/twist_map.hpp: fold-free by construction, bones
 /// exact) or the MLS engine with the rigid blend and the fold repair; auto: the pose file's
-/// "map", else the default (kPoseDefaultMap).
+/// "map", else the twist map.
 enum class PoseMap { Auto = 0, Twist = 1, Mls = 2 };
+
+/// Whether `choice` means the twist map for `pose` (auto: the pose file's "map", else twist since
+/// s18: on the feet and the knees it folds least, 0.0001 % against mls's 0.35 %).
+inline bool twistChosen(PoseMap choice, const deformation::Pose& pose) {
+  return choice == PoseMap::Twist || (choice == PoseMap::Auto && pose.map != "mls");
+}
 
 struct PoseRequest {
   std::filesystem::path input;   ///< volume file or DICOM folder
