@@ -88,7 +88,8 @@ Files writeLimb(const Limb& l, const std::string& name, const std::string& poseJ
   return f;
 }
 
-app::PoseResult runPose(const Files& f) {
+/// The request for `f`: the volume at the pose, the report and the generated points.
+app::PoseRequest poseRequest(const Files& f) {
   app::PoseRequest r;
   r.input = f.ct;
   r.labels = f.labels;
@@ -96,8 +97,10 @@ app::PoseResult runPose(const Files& f) {
   r.output = f.out;
   r.report = f.report;
   r.pointsOut = f.dir / "points.json";
-  return app::runPose(r);
+  return r;
 }
+
+app::PoseResult runPose(const Files& f) { return app::runPose(poseRequest(f)); }
 
 /// Fraction of `id`'s interior source voxels p (all 6 neighbours `id` too) whose image T(p)
 /// shows bone (>= 900 HU) in the output: 1 when the bone moved by T as a whole.
@@ -545,12 +548,7 @@ TEST(Pose, TwistMovieFramesAreTheStillPosesMap) {
                       R"({"units": "mm", "map": "twist", "joints": [{"name": "knee", "parent": 1, "child": [2], "axis": )" +
                           xAxisAt(41) + R"(}], "fixed_labels": [50],
       "keyframes": [{"duration": 1, "angles": {"knee": 0}}, {"duration": 1, "angles": {"knee": 30}}]})");
-  app::PoseRequest r;
-  r.input = f.ct;
-  r.labels = f.labels;
-  r.pose = f.pose;
-  r.output = f.out;
-  r.report = f.report;
+  app::PoseRequest r = poseRequest(f);
   r.movie = f.dir / "frames/";
   r.movieSettings.fps = 2;  // 5 frames over the 2 s track
   r.movieSettings.settings.width = r.movieSettings.settings.height = 24;
