@@ -81,11 +81,15 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
       std::cout << ", folds in tissue " << 100.0 * after["fold_fraction"].get<double>() << " %";
     std::cout << " (" << rep["map"].get<std::string>() << " map)\n";
     if (rep["deform"].contains("twist"))  // the twist map's collisions: still and moving bones too close in arc
-      for (const auto& t : rep["deform"]["twist"]["joints"])
+      for (const auto& t : rep["deform"]["twist"]["joints"]) {
+        if (const int64_t soft = t.value("softened_bone_voxels", int64_t{0}); soft > 0)
+          std::cout << "  joint " << t["name"].get<std::string>() << ": " << soft
+                    << " bone rim voxels gave where a still and a turning bone touch along the turn (not rigid there)\n";
         if (t["collision_voxels"].get<int64_t>() > 0)
           std::cerr << "warning: " << request.pose.string() << ": joint \"" << t["name"].get<std::string>() << "\": "
                     << t["collision_voxels"].get<int64_t>()
                     << " voxels where a still and a turning bone meet within the angle's arc (det J <= 0 there)\n";
+      }
   }
   if (rep.contains("movie"))
     std::cout << request.movie.string() << ": " << rep["movie"]["frames"].get<int>() << " frames from "
