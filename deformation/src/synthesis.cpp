@@ -274,6 +274,33 @@ void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od,
                  gaussianTaps(od.z, nd.z, s), toFrame, snap, progress, stage, rowFn);
 }
 
+/// Whether the AVX2 gather may fill a grid of `od`'s rows (int32 voxel offsets).
+bool gatherFits(const Dims& od) {
+#ifdef VELLUM_HAVE_AVX2_PATH
+  return haveAvx2() && od.voxelCount() < (int64_t{1} << 31) - 4 * od.x * od.y;
+#else
+  (void)od;
+  return false;
+#endif
+}
+
+/// One output row `o` (`n` voxels) from its source index coordinates: the AVX2 gather for int16
+/// when `gather`, else trilinear fetches (outside the source: its background).
+template <class T>
+void fetchRow(const Volume<T>& src, const float* ux, const float* uy, const float* uz, int64_t n, T* o,
+              [[maybe_unused]] bool gather) {
+#ifdef VELLUM_HAVE_AVX2_PATH
+  if constexpr (std::is_same_v<T, int16_t>)
+    if (gather) {
+      fetchRowI16Avx2(src, ux, uy, uz, n, o);
+      return;
+    }
+#endif
+  const Dims d = src.geometry().dims;
+  const float bg = static_cast<float>(src.background());
+  for (int64_t i = 0; i < n; ++i) o[i] = toVoxel<T>(fetch(src, src.data(), d.x, d.y, d.z, ux[i], uy[i], uz[i], bg));
+}
+
 void checkGrid(const Geometry& g, const ControlVolume& cv) {
   const Geometry expect = controlGrid(g, cv.scale);
   if (!(expect.dims == cv.grid.dims) || !expect.approxEqual(cv.grid) ||
@@ -304,25 +331,11 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsamplin
         using T = typename std::decay_t<decltype(src)>::value_type;
         Volume<T> out(g, T{}, src.background());
         const Dims od = g.dims;
-        const T* data = src.data();
-        const float bg = static_cast<float>(src.background());
-#ifdef VELLUM_HAVE_AVX2_PATH
-        // int32 voxel offsets in the gather path
-        const bool avx2 = haveAvx2() && od.voxelCount() < (int64_t{1} << 31) - 4 * od.x * od.y;
-#endif
+        const bool gather = gatherFits(od);
         upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, &toIndex, snap ? &*snap : nullptr, progress,
                     "synthesis",
                     [&](int64_t k, int64_t j, const float* ux, const float* uy, const float* uz) {
-                      T* o = out.data() + (k * od.y + j) * od.x;
-#ifdef VELLUM_HAVE_AVX2_PATH
-                      if constexpr (std::is_same_v<T, int16_t>)
-                        if (avx2) {
-                          fetchRowI16Avx2(src, ux, uy, uz, od.x, o);
-                          return;
-                        }
-#endif
-                      for (int64_t i = 0; i < od.x; ++i)
-                        o[i] = toVoxel<T>(fetch(src, data, od.x, od.y, od.z, ux[i], uy[i], uz[i], bg));
+                      fetchRow(src, ux, uy, uz, od.x, out.data() + (k * od.y + j) * od.x, gather);
                     });
         return out;
       },
@@ -339,13 +352,9 @@ AnyVolume synthesizeFromMap(const AnyVolume& source, const std::vector<float>& m
       [&](const auto& src) -> AnyVolume {
         using T = typename std::decay_t<decltype(src)>::value_type;
         Volume<T> out(g, T{}, src.background());
-        const T* data = src.data();
-        const float bg = static_cast<float>(src.background());
-#ifdef VELLUM_HAVE_AVX2_PATH
-        const bool avx2 = haveAvx2() && od.voxelCount() < (int64_t{1} << 31) - 4 * od.x * od.y;
-#endif
+        const bool gather = gatherFits(od);
         progress.begin("synthesis", static_cast<uint64_t>(od.z));
-        // The same row fetch as synthesize(): source index coordinates per row, then gather.
+        // As synthesize(): source index coordinates per row, then fetchRow().
         parallelFor(od.z, [&](int64_t k0, int64_t k1) {
           std::vector<float> ux(static_cast<size_t>(od.x)), uy(ux.size()), uz(ux.size());
           for (int64_t k = k0; k < k1; ++k) {
@@ -358,17 +367,7 @@ AnyVolume synthesizeFromMap(const AnyVolume& source, const std::vector<float>& m
                 uy[static_cast<size_t>(i)] = static_cast<float>(idx.y);
                 uz[static_cast<size_t>(i)] = static_cast<float>(idx.z);
               }
-              T* o = out.data() + (k * od.y + j) * od.x;
-#ifdef VELLUM_HAVE_AVX2_PATH
-              if constexpr (std::is_same_v<T, int16_t>)
-                if (avx2) {
-                  fetchRowI16Avx2(src, ux.data(), uy.data(), uz.data(), od.x, o);
-                  continue;
-                }
-#endif
-              for (int64_t i = 0; i < od.x; ++i)
-                o[i] = toVoxel<T>(fetch(src, data, od.x, od.y, od.z, ux[static_cast<size_t>(i)],
-                                        uy[static_cast<size_t>(i)], uz[static_cast<size_t>(i)], bg));
+              fetchRow(src, ux.data(), uy.data(), uz.data(), od.x, out.data() + (k * od.y + j) * od.x, gather);
             }
             progress.advance();
           }
