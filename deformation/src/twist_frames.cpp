@@ -31,6 +31,13 @@ LabelVolume labelsAtNodes(const LabelVolume& labels, int scale) {
   return out;
 }
 
+std::shared_ptr<const RigidBodies> nodeBodiesOf(const LabelVolume& nodeLabels,
+                                                const std::vector<std::vector<uint16_t>>& groups, int scale,
+                                                const FixedRegions& fixed) {
+  const int64_t minVoxels = std::max<int64_t>(1, 20 / (int64_t(scale) * scale * scale));
+  return std::make_shared<const RigidBodies>(RigidBodies::fromLabelGroups(nodeLabels, groups, minVoxels, fixed));
+}
+
 TwistFrames::TwistFrames(Pose pose, std::shared_ptr<const RigidBodies> nodeBodies, const Geometry& output, int scale,
                          TwistParams params)
     : pose_(std::move(pose)),

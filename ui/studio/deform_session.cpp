@@ -62,13 +62,9 @@ DeformSession::Solved DeformSession::solve(Deformer& deformer, const SolveInputs
     const int scale = deformer.params().controlScale;
     std::vector<std::vector<uint16_t>> groups;
     for (uint16_t id : in.rigidLabels) groups.push_back({id});
-    auto nodeBodies = std::make_shared<const RigidBodies>(RigidBodies::fromLabelGroups(
-        *in.nodeLabels, groups, std::max<int64_t>(1, 20 / (int64_t(scale) * scale * scale)), in.fixed));
-    const PoseOptions defaults;  // the tool's twist power and margin are `vellum pose`'s defaults
-    TwistParams tp;
-    tp.power = defaults.twistPower;
-    tp.margin = defaults.twistMargin;
-    const TwistFrames frames(*in.twistPose, std::move(nodeBodies), deformer.outputGeometry(), scale, tp);
+    // The tool's twist power and margin are `vellum pose`'s defaults.
+    const TwistFrames frames(*in.twistPose, nodeBodiesOf(*in.nodeLabels, groups, scale, in.fixed),
+                             deformer.outputGeometry(), scale, twistParamsOf(PoseOptions{}));
     ControlVolume cv = frames.at(in.twistAngles, *in.bodies, progress);
     s.map = deformation::renderedMap(cv, deformer.outputGeometry(), in.upsampling);
     s.sampler = std::make_shared<const MapSampler>(std::move(cv), deformer.outputGeometry(), in.upsampling);

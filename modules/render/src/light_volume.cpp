@@ -47,24 +47,24 @@ std::array<float, 2> LightVolume::sample(const Vec3& u) const {
   return sampleClamped<2>(rg, dims, cellOf(u), 1.0 / 255.0);
 }
 
-LightSource makeLightSource(const AnyVolume& volume) {
+namespace {
+/// The light source of `volume` (on `g`): block means (core's downsampleMean, in the volume's
+/// type: only the values are used, by index), 2^3 blocks above kCellsPerAxis cells on an axis.
+template <class V>
+LightSource lightSourceOf(const V& volume, const Geometry& g) {
   LightSource out;
-  out.source = geometryOf(volume);
-  const Dims d = out.source.dims;
+  out.source = g;
+  const Dims d = g.dims;
   out.factor = std::max({d.x, d.y, d.z}) > kCellsPerAxis ? 2 : 1;
-  // Block means (core's), in the volume's type: only the values are used, by index.
   out.values = downsampleMean(volume, out.factor);
   return out;
 }
+}  // namespace
 
-LightSource makeLightSource(const VolumeI16& volume) {
-  LightSource out;
-  out.source = volume.geometry();
-  const Dims d = out.source.dims;
-  out.factor = std::max({d.x, d.y, d.z}) > kCellsPerAxis ? 2 : 1;
-  out.values = downsampleMean(volume, out.factor);  // core/downsample.hpp: no copy of the CT
-  return out;
-}
+LightSource makeLightSource(const AnyVolume& volume) { return lightSourceOf(volume, geometryOf(volume)); }
+
+// core/downsample.hpp's overload: the CT the caller holds, without a copy into an AnyVolume.
+LightSource makeLightSource(const VolumeI16& volume) { return lightSourceOf(volume, volume.geometry()); }
 
 LightSource deformedLightSource(const LightSource& src, const PreparedMap& map, const BackwardMap& m) {
   const Geometry& box = m.grid;

@@ -176,8 +176,8 @@ struct MovieRenderer::Impl {
     const auto t0 = std::chrono::steady_clock::now();
     if (spec.frameMaps) {  // the map is the caller's (the twist map): no control points, no blend
       auto cv = std::make_shared<ControlVolume>(spec.frameMaps(track.frameTimeS(f, spec.fps), rigidity.bodies));
-      if (!(cv->output ? *cv->output : cv->grid).approxEqual(geometry, 1e-3) ||
-          !((cv->output ? *cv->output : cv->grid).dims == geometry.dims))
+      const Geometry& on = cv->output ? *cv->output : cv->grid;
+      if (!(on.dims == geometry.dims) || !on.approxEqual(geometry, 1e-3))
         throw Error("movie: a frame's map is not on the volume's grid");
       cv->output = geometry;
       cv->upsampling = spec.upsampling;

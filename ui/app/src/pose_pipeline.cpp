@@ -218,19 +218,16 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   // The map: the request's, else the pose file's, else twist (docs/benchmarks-deformation.md, "s18").
   const bool twist = twistChosen(request.map, pose);
   report["map"] = twist ? "twist" : "mls";
-  TwistParams tp;
-  tp.power = request.options.twistPower;
-  tp.margin = request.options.twistMargin;
+  const TwistParams tp = twistParamsOf(request.options);
   // The twist map of the movie's frames and the glTF skin's keys: on the engine's control grid
   // (--control-scale), the pose's bodies sampled at its nodes (TwistFrames); made when needed.
   std::shared_ptr<const TwistFrames> frames;
   auto twistFrames = [&] {
     if (!frames) {
       const int scale = engine.params.controlScale;
-      const int64_t minVoxels = std::max<int64_t>(1, 20 / (int64_t(scale) * scale * scale));  // RigidBodies' 20 voxels
-      auto nodeBodies = std::make_shared<const RigidBodies>(
-          RigidBodies::fromLabelGroups(labelsAtNodes(labels, scale), engine.bodyGroups(), minVoxels, pose.fixed));
-      frames = std::make_shared<const TwistFrames>(pose, std::move(nodeBodies), labels.geometry(), scale, tp);
+      frames = std::make_shared<const TwistFrames>(
+          pose, nodeBodiesOf(labelsAtNodes(labels, scale), engine.bodyGroups(), scale, pose.fixed), labels.geometry(),
+          scale, tp);
     }
     return frames;
   };

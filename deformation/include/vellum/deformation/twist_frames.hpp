@@ -25,6 +25,13 @@ namespace vellum::deformation {
 /// voxel it sits on (node i on voxel min(i s, d - 1)). Scale 1: a copy.
 LabelVolume labelsAtNodes(const LabelVolume& labels, int scale);
 
+/// The pose's bodies on the nodes: RigidBodies::fromLabelGroups of `nodeLabels` (labelsAtNodes()
+/// at `scale`) with the full-resolution bodies' groups and fixed regions, their 20-voxel minimum
+/// scaled to the nodes (at least 1): what TwistFrames takes.
+std::shared_ptr<const RigidBodies> nodeBodiesOf(const LabelVolume& nodeLabels,
+                                                const std::vector<std::vector<uint16_t>>& groups, int scale,
+                                                const FixedRegions& fixed);
+
 /// Frame maps of one pose on one output grid. `nodeBodies` are the pose's bodies on
 /// controlGrid(output, scale) (RigidBodies::fromLabelGroups of labelsAtNodes(), the same groups
 /// and fixed regions as the full-resolution bodies). at() is const and may run on several

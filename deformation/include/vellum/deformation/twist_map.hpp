@@ -55,6 +55,14 @@ struct TwistParams {
   double snapMaxVoxels = 0.5;
 };
 
+/// `vellum pose`'s twist options (--twist-power, --twist-margin) as the map's parameters.
+inline TwistParams twistParamsOf(const PoseOptions& o) {
+  TwistParams p;
+  p.power = o.twistPower;
+  p.margin = o.twistMargin;
+  return p;
+}
+
 /// What the twist of one joint did.
 struct TwistJointStats {
   std::string name;
