@@ -173,7 +173,8 @@ float inkLine(float a, float b, float c, float widthPx, float pixMm) {
 float inkFeatureFade(float dm, float m, float dp, float voxelMm) {
   float curv = dm - 2.0 * m + dp;
   if (!(curv > 0.0)) return 1.0;
-  return clamp(voxelMm * voxelMm / curv / voxelMm - 1.0, 0.0, 1.0);
+  float radiusMm = voxelMm * voxelMm / curv;
+  return clamp(radiusMm / voxelMm - 1.0, 0.0, 1.0);
 }
 float inkHatch(float ndl, vec3 pMm, vec3 n, float spacingPx, float widthPx) {
   float ink = 0.0;

@@ -703,7 +703,8 @@ float inkLine(float a, float b, float c, float widthPx, float pixMm) {
 float inkFeatureFade(float dm, float m, float dp, float voxelMm) {
   const float curv = dm - 2.f * m + dp;  // mm over a voxel squared
   if (!(curv > 0.f)) return 1.f;
-  return std::clamp(voxelMm * voxelMm / curv / voxelMm - 1.f, 0.f, 1.f);
+  const float radiusMm = voxelMm * voxelMm / curv;  // of the circle through the three distances
+  return std::clamp(radiusMm / voxelMm - 1.f, 0.f, 1.f);
 }
 
 float FieldVolume::at(float x, float y, float z, int slot) const {

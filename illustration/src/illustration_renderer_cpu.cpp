@@ -191,18 +191,14 @@ void RayTracer::trace(int px, int py, int spacing, float* rgba, float& near) {
               // Refined at a quarter step around the samples' vertex (as the shader).
               const float xv = inkVertex(a, b, c);
               const float kb = float(k - 1) + float(clip.jitter);
-              float mm[3];
-              for (int q = 0; q < 3; ++q) {
-                const float ts = (kb + xv + 0.25f * float(q - 1)) * float(f.stepMm);
-                mm[q] = cx.fields.at(float(clip.o.x) + ts * float(clip.d.x), float(clip.o.y) + ts * float(clip.d.y),
-                                     float(clip.o.z) + ts * float(clip.d.z), int(i));
-              }
-              const float vox = cx.sf.creaseProbeMm / float(kCreaseProbeVoxels);
-              const float tv = (kb + xv) * float(f.stepMm);
-              auto along = [&](float ts) {
+              auto along = [&](float ts) {  // the slot's distance at ts mm along the ray
                 return cx.fields.at(float(clip.o.x) + ts * float(clip.d.x), float(clip.o.y) + ts * float(clip.d.y),
                                     float(clip.o.z) + ts * float(clip.d.z), int(i));
               };
+              float mm[3];
+              for (int q = 0; q < 3; ++q) mm[q] = along((kb + xv + 0.25f * float(q - 1)) * float(f.stepMm));
+              const float vox = cx.sf.creaseProbeMm / float(kCreaseProbeVoxels);
+              const float tv = (kb + xv) * float(f.stepMm);
               // Outline-only rows (no fill) keep every line: there the outline is the figure.
               const float fade = r[slot::Opacity] > 0.f ? inkFeatureFade(along(tv - vox), mm[1], along(tv + vox), vox) : 1.f;
               const float ia = op * inkLine(mm[0], mm[1], mm[2], lw, pixB) * fade;
