@@ -143,6 +143,18 @@ TEST(SegmentPipeline, SplitWritesOneIdPerObjectAndLabelEditMergesThem) {
   EXPECT_EQ(e.after[0].id, 5);
   EXPECT_EQ(e.after[0].name, "pelvis");
   EXPECT_EQ(e.after[0].voxels, e.before[0].voxels + e.before[1].voxels);
+  // Where each id is (1 mm voxels at the origin): centres on the balls' axis, bounds the balls'.
+  EXPECT_NEAR(e.before[0].centreMm.x, 14, 1.5);
+  EXPECT_NEAR(e.before[1].centreMm.x, 42, 1.5);
+  for (const auto& entry : {e.before[0], e.before[1], e.after[0]}) {
+    EXPECT_NEAR(entry.centreMm.y, 14, 1e-9);
+    EXPECT_NEAR(entry.centreMm.z, 14, 1e-9);
+  }
+  EXPECT_EQ(e.before[0].boxMinMm.x, 6);
+  EXPECT_EQ(e.before[0].boxMinMm.y, 6);
+  EXPECT_EQ(e.before[0].boxMaxMm.z, 22);
+  EXPECT_EQ(e.after[0].boxMinMm.x, 6);
+  EXPECT_EQ(e.after[0].boxMaxMm.x, 48);
   const LabelVolume merged = io::loadLabels(edit.output);
   EXPECT_EQ(merged.ids()(14, 14, 14), 5);
   EXPECT_EQ(merged.ids()(42, 14, 14), 5);

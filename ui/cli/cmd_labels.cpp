@@ -72,8 +72,8 @@ std::pair<std::string, std::string> keyValue(const std::string& text, const std:
 void print(const char* title, const std::vector<app::LabelEditResult::Entry>& entries) {
   std::printf("%s:\n", title);
   for (const auto& e : entries)
-    std::printf("  %5u  %-24s %12lld voxels  %10.2f cm³\n", e.id, e.name.c_str(), static_cast<long long>(e.voxels),
-                e.volumeMm3 / 1000.0);
+    std::printf("  %5u  %-24s %12lld voxels  %10.2f cm³  centre %7.1f %7.1f %7.1f mm\n", e.id, e.name.c_str(),
+                static_cast<long long>(e.voxels), e.volumeMm3 / 1000.0, e.centreMm.x, e.centreMm.y, e.centreMm.z);
 }
 
 }  // namespace

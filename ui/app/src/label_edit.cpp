@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <climits>
 #include <set>
 
 #include "vellum/app/outputs.hpp"
@@ -19,19 +20,45 @@ namespace {
 std::vector<LabelEditResult::Entry> entries(const LabelVolume& labels) {
   const std::vector<uint64_t> counts = labels.histogram();
   const double voxelMm3 = segmentation::voxelVolumeMm3(labels.geometry());
+  // Per id: index sums and bounds in one pass (ids are dense, a few hundred at most).
+  struct Sums {
+    double x = 0, y = 0, z = 0;
+    int lo[3] = {INT_MAX, INT_MAX, INT_MAX}, hi[3] = {-1, -1, -1};
+  };
+  std::vector<Sums> sums(counts.size());
+  const Dims d = labels.geometry().dims;
+  const uint16_t* v = labels.ids().data();
+  for (int z = 0; z < int(d.z); ++z)
+    for (int y = 0; y < int(d.y); ++y)
+      for (int x = 0; x < int(d.x); ++x, ++v) {
+        if (!*v) continue;
+        Sums& s = sums[*v];
+        s.x += x, s.y += y, s.z += z;
+        const int ijk[3] = {x, y, z};
+        for (int a = 0; a < 3; ++a) s.lo[a] = std::min(s.lo[a], ijk[a]), s.hi[a] = std::max(s.hi[a], ijk[a]);
+      }
+  const Geometry& g = labels.geometry();
   std::vector<LabelEditResult::Entry> out;
   for (size_t id = 1; id < counts.size(); ++id) {
     if (!counts[id]) continue;
     const auto l = labels.label(static_cast<uint16_t>(id));
+    const Sums& s = sums[id];
+    const double n = double(counts[id]);
+    const Vec3 a = g.indexToPhysical(Vec3{double(s.lo[0]), double(s.lo[1]), double(s.lo[2])});
+    const Vec3 b = g.indexToPhysical(Vec3{double(s.hi[0]), double(s.hi[1]), double(s.hi[2])});
     out.push_back({static_cast<uint16_t>(id), l ? l->name : "", static_cast<int64_t>(counts[id]),
-                   double(counts[id]) * voxelMm3});
+                   n * voxelMm3, g.indexToPhysical(Vec3{s.x / n, s.y / n, s.z / n}),
+                   Vec3{std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)},
+                   Vec3{std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)}});
   }
   return out;
 }
 
 nlohmann::json entriesJson(const std::vector<LabelEditResult::Entry>& es) {
   nlohmann::json j = nlohmann::json::array();
-  for (const auto& e : es) j.push_back({{"id", e.id}, {"name", e.name}, {"voxels", e.voxels}, {"volume_mm3", e.volumeMm3}});
+  for (const auto& e : es) j.push_back({{"id", e.id}, {"name", e.name}, {"voxels", e.voxels}, {"volume_mm3", e.volumeMm3},
+                 {"centre_mm", {e.centreMm.x, e.centreMm.y, e.centreMm.z}},
+                 {"box_mm", {e.boxMinMm.x, e.boxMinMm.y, e.boxMinMm.z, e.boxMaxMm.x, e.boxMaxMm.y, e.boxMaxMm.z}}});
   return j;
 }
 

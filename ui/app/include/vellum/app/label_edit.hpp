@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "vellum/core/progress.hpp"
+#include "vellum/core/vec.hpp"
 #include "vellum/io/volume_io.hpp"
 
 namespace vellum::app {
@@ -35,6 +36,8 @@ struct LabelEditResult {
     std::string name;
     int64_t voxels = 0;
     double volumeMm3 = 0;
+    Vec3 centreMm;           ///< the centroid of its voxels (which bone is where, for pose files)
+    Vec3 boxMinMm, boxMaxMm;  ///< the physical bounds of its voxel centres
   };
   std::vector<Entry> before, after;  ///< the ids present, in id order
 };
