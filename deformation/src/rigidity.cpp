@@ -189,13 +189,15 @@ struct MeasureSums {
   explicit MeasureSums(size_t bodies) : bodySe(bodies, 0), bodyMax(bodies, 0), bodyN(bodies, 0) {}
   double se = 0, maxRes = 0, soft = 0, softMax = 0, fixedSum = 0, fixedSe = 0, fixedMax = 0, elsewhereMax = 0;
   double minDet = std::numeric_limits<double>::infinity();
+  Vec3 minDetAt{0, 0, 0};
   int64_t boneN = 0, softN = 0, folds = 0, tissue = 0, fixedN = 0, elsewhereN = 0;
   std::vector<double> bodySe, bodyMax;
   std::vector<int64_t> bodyN;
   void merge(const MeasureSums& o) {
     se += o.se; maxRes = std::max(maxRes, o.maxRes); soft += o.soft; softMax = std::max(softMax, o.softMax);
     fixedSum += o.fixedSum; fixedSe += o.fixedSe; fixedMax = std::max(fixedMax, o.fixedMax);
-    elsewhereN += o.elsewhereN; elsewhereMax = std::max(elsewhereMax, o.elsewhereMax); minDet = std::min(minDet, o.minDet);
+    elsewhereN += o.elsewhereN; elsewhereMax = std::max(elsewhereMax, o.elsewhereMax);
+    if (o.minDet < minDet) minDet = o.minDet, minDetAt = o.minDetAt;
     boneN += o.boneN; softN += o.softN; folds += o.folds; tissue += o.tissue; fixedN += o.fixedN;
     for (size_t c = 0; c < bodySe.size(); ++c) {
       bodySe[c] += o.bodySe[c]; bodyMax[c] = std::max(bodyMax[c], o.bodyMax[c]); bodyN[c] += o.bodyN[c];
@@ -264,7 +266,7 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
             // det(du/dv) = det(du/didx) / det(dv/didx)
             const double det = dot(dx, cross(dy, dz)) / detIdx;
             if (!(det > 0)) ++l.folds;
-            l.minDet = std::min(l.minDet, det);
+            if (det < l.minDet) l.minDet = det, l.minDetAt = v;
             ++l.tissue;
           }
         }
@@ -280,6 +282,7 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   r.tissueSamples = total.tissue;
   r.foldFraction = total.tissue ? double(total.folds) / double(total.tissue) : 0;
   r.minJacobian = total.minDet;
+  r.minJacobianAtMm = total.minDetAt;
   r.fixedSamples = total.fixedN;
   r.fixedMaxDisplacementMm = total.fixedMax;
   r.fixedMeanDisplacementMm = total.fixedN ? total.fixedSum / double(total.fixedN) : 0;
@@ -658,7 +661,7 @@ RigidityReport worstOf(const std::vector<RigidityReport>& reports) {
     w.softTissueMeanDisplacementMm = std::max(w.softTissueMeanDisplacementMm, m.softTissueMeanDisplacementMm);
     w.softTissueMaxDisplacementMm = std::max(w.softTissueMaxDisplacementMm, m.softTissueMaxDisplacementMm);
     w.foldFraction = std::max(w.foldFraction, m.foldFraction);
-    w.minJacobian = std::min(w.minJacobian, m.minJacobian);
+    if (m.minJacobian < w.minJacobian) w.minJacobian = m.minJacobian, w.minJacobianAtMm = m.minJacobianAtMm;
     w.fixedMaxDisplacementMm = std::max(w.fixedMaxDisplacementMm, m.fixedMaxDisplacementMm);
     w.fixedMeanDisplacementMm = std::max(w.fixedMeanDisplacementMm, m.fixedMeanDisplacementMm);
     w.fixedContentElsewhere = std::max(w.fixedContentElsewhere, m.fixedContentElsewhere);

@@ -239,6 +239,9 @@ TEST(RigidIds, FoldsCountInTissueOnlyAndEmptyClassesAreNotMeasured) {
   const RigidityReport f = measureRigidityVoxels(folded, s.g, RigidBodies::fromLabels(s.labels, {kBone, kNeighbour}));
   EXPECT_GT(f.foldFraction, 0.01);
   EXPECT_LT(f.minJacobian, 0.0);
+  // The report says where: between the swapped columns (nodes 6 and 7, a node either side).
+  EXPECT_GE(f.minJacobianAtMm.x, cv.grid.indexToPhysical({5, 0, 0}).x);
+  EXPECT_LE(f.minJacobianAtMm.x, cv.grid.indexToPhysical({8, 0, 0}).x);
 }
 // Groups: `--rigid-labels 4+5,6+7,8+11,9+11` makes the phantom's four bones even where the
 // cortex is thinner than a voxel (48 voxels across: cortex labels in fragments, so the core

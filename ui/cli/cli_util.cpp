@@ -431,6 +431,14 @@ io::LoadedVolume loadWithProgress(const std::filesystem::path& path, const Input
 
 nlohmann::json toJson(const Vec3& v) { return {v.x, v.y, v.z}; }
 
+std::string worstJacobianText(const nlohmann::json& after) {
+  std::ostringstream s;
+  s << "min Jacobian " << after.value("min_jacobian", 0.0);
+  if (const auto at = after.find("min_jacobian_at_mm"); at != after.end() && at->is_array() && at->size() == 3)
+    s << " at (" << (*at)[0].get<double>() << ", " << (*at)[1].get<double>() << ", " << (*at)[2].get<double>() << ") mm";
+  return s.str();
+}
+
 nlohmann::json toJson(const Mat3& m) {
   return {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}};
 }

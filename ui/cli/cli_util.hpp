@@ -264,6 +264,10 @@ void addForceFlag(CLI::App& cmd, bool& force);
 nlohmann::json toJson(const Vec3& v);
 nlohmann::json toJson(const Mat3& m);  ///< row-major array of 3 rows
 
+/// "min Jacobian J at (x, y, z) mm" from a rigidity report (`rigidity.after`): where the worst
+/// fold is (the position is left out when the report has none).
+std::string worstJacobianText(const nlohmann::json& after);
+
 /// Seconds since `t0`.
 double secondsSince(std::chrono::steady_clock::time_point t0);
 

@@ -124,8 +124,8 @@ void printSummary(const app::DeformRequest& request, const app::DeformResult& r)
               << after["fixed"]["content_moved_elsewhere_samples"].get<int64_t>() << " voxels (max "
               << mm(after["fixed"]["content_moved_elsewhere_max_mm"]) << ")\n";
   if (!after["fold_fraction"].is_null())
-    std::cout << "  folds in tissue: " << 100.0 * after["fold_fraction"].get<double>() << " % (min Jacobian "
-              << after["min_jacobian"].get<double>() << ")\n";
+    std::cout << "  folds in tissue: " << 100.0 * after["fold_fraction"].get<double>() << " % ("
+              << worstJacobianText(after) << ")\n";
 }
 
 }  // namespace

@@ -78,7 +78,8 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
     if (!after["fixed"].is_null())
       std::cout << ", fixed regions moved max " << mm(after["fixed"]["max_displacement_mm"]);
     if (!after["fold_fraction"].is_null())
-      std::cout << ", folds in tissue " << 100.0 * after["fold_fraction"].get<double>() << " %";
+      std::cout << ", folds in tissue " << 100.0 * after["fold_fraction"].get<double>() << " %"
+                << (after["fold_fraction"].get<double>() > 0 ? " (" + worstJacobianText(after) + ")" : std::string());
     std::cout << " (" << rep["map"].get<std::string>() << " map)\n";
     if (rep["deform"].contains("twist"))  // the twist map's collisions: still and moving bones too close in arc
       for (const auto& t : rep["deform"]["twist"]["joints"]) {

@@ -546,6 +546,8 @@ nlohmann::json toJson(const RigidityReport& r) {
       {"fold_fraction", measured(tissue, r.foldFraction, notMeasured, "fold_fraction",
                                  "no interior tissue sample (folds are counted in tissue only, not air)")},
       {"min_jacobian", tissue ? nlohmann::json(r.minJacobian) : nlohmann::json()},
+      {"min_jacobian_at_mm", tissue ? nlohmann::json{r.minJacobianAtMm.x, r.minJacobianAtMm.y, r.minJacobianAtMm.z}
+                                    : nlohmann::json()},
   };
   nlohmann::json bodies = nlohmann::json::array();
   for (const auto& b : r.bodies) {

@@ -186,6 +186,7 @@ struct RigidityReport {
   /// the smallest det over them; 0 and +inf when there are none (see tissueSamples).
   double foldFraction = 0;
   double minJacobian = 0;
+  Vec3 minJacobianAtMm{0, 0, 0};  ///< the output position (mm) of that smallest det: where to look
   int64_t tissueSamples = 0;
   /// Per body (RigidBodies::bodies() order): the best rigid fit of the whole body over the
   /// samples whose source lies in it, and the non-rigid residual about it.

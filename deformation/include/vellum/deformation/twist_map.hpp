@@ -53,6 +53,10 @@ struct TwistParams {
   /// The final snap only where it moves the source by at most this many voxels: a longer one
   /// is a jump of the map, which folds (such voxels are counted, TwistMap::unsnappedVoxels).
   double snapMaxVoxels = 0.5;
+  /// The slope check also reads the map's own central-difference det where w steps steeply
+  /// between neighbours (two rotations by different angles differ by more than the linear
+  /// estimate 1 - theta dw/dalpha: the grid can fold a voxel where the estimate says 0.25).
+  bool gridCheck = true;
 };
 
 /// `vellum pose`'s twist options (--twist-power, --twist-margin) as the map's parameters.
