@@ -62,6 +62,16 @@ cat time.txt
 python3 - pose.json <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
-d = r.get("deform", {})
-print(json.dumps({k: d.get(k) for k in ("folds", "rigidity", "fixed") if k in d}, indent=1)[:3000])
+a = r["deform"]["rigidity"]["after"]
+print(f"folds in tissue {100 * a['fold_fraction']:.5f} % of {a['tissue_samples']} (min det J {a['min_jacobian']:.4f} "
+      f"at {a['min_jacobian_at_mm']} mm)")
+print(f"bone RMS {a['bone_rms_residual_mm']:.3f} mm (max {a['bone_max_residual_mm']:.2f}); fixed regions moved max "
+      f"{a['fixed']['max_displacement_mm']} mm, their content shown elsewhere {a['fixed']['content_moved_elsewhere_samples']}")
+names = {60: "tibia", 61: "fibula", 62: "talus", 63: "calcaneus", 64: "navicular"}
+for b in a["bodies"]:
+    if b["ids"][0] in names:
+        print(f"  {names[b['ids'][0]]}: RMS {b['rms_residual_mm']:.3f} mm, max {b['max_residual_mm']:.2f}, "
+              f"turned {b['rotation_deg']:.2f} deg")
+for j in r["deform"].get("twist", {}).get("joints", []):
+    print(f"  twist {j['name']}: soft rim voxels {j['softened_bone_voxels']}, collisions {j['collision_voxels']}")
 PY
