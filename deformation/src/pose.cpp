@@ -12,6 +12,7 @@
 #include <mutex>
 #include <numbers>
 #include <set>
+#include <sstream>
 #include <tuple>
 
 #include "vellum/core/error.hpp"
@@ -505,6 +506,22 @@ uint16_t articularPartner(const ContactZone& zone) {
   return best;
 }
 
+/// A warning when another child id touches the parent almost as much as the partner (80 %):
+/// then the partner may be the wrong bone (on the feet the calcaneus catches up with the talus
+/// from ~10 mm of reach). Empty otherwise.
+std::string partnerTie(const ContactZone& zone, uint16_t partner, double contactMm) {
+  const int64_t most = zone.childContact.at(partner);
+  for (const auto& [id, count] : zone.childContact)
+    if (id != partner && 5 * count >= 4 * most) {
+      std::ostringstream s;
+      s << "child ids " << partner << " and " << id << " touch the parent almost equally (" << most << " and " << count
+        << " voxels within " << contactMm << " mm): the fitted partner " << partner
+        << " may be the wrong bone (lower --contact, or give the axis as two points)";
+      return s.str();
+    }
+  return {};
+}
+
 /// The zone's centroid and widest direction (mm): the axis when no surface fits, as a hint.
 AxisEstimate contactFallback(const ContactZone& zone, const Geometry& g) {
   Eigen::Vector3d mean, sigma;
@@ -554,6 +571,8 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
     }
     est.fit.partner = partner;
     for (const auto& [id, count] : all.childContact) est.fit.contactVoxels.push_back({id, count});
+    const std::string tie = partnerTie(all, partner, contactMm);
+    if (!tie.empty()) est.fit.warning += (est.fit.warning.empty() ? "" : "; ") + tie;
     Vec3 dir = normalized(est.direction);
     // Deterministic sign: the largest component positive.
     const int big = std::abs(dir.x) >= std::abs(dir.y) && std::abs(dir.x) >= std::abs(dir.z) ? 0

@@ -305,6 +305,19 @@ TEST(Pose, EstimatedAxisOfAFlatContactIsTheContactZonesWidestDirection) {
   Pose far = pose;
   far.joints[0].estimateAxis = true;
   EXPECT_THROW(estimateAxes(far, labels, 1.0), Error);  // 2 mm apart: no contact within 1 mm
+
+  // The child split in two ids (x < 24 mm: 2, the rest: 3) that touch the parent equally: the
+  // partner is one of them, and the warning says the choice is a tie.
+  for (int k = 8; k <= 24; ++k)
+    for (int j = 14; j <= 34; ++j)
+      for (int i = 24; i <= 44; ++i) labels(i, j, k) = 3;
+  std::ofstream(path) << R"({"joints": [{"name": "knee", "parent": 1, "child": [2, 3], "axis": "estimate"}],
+                             "keyframes": [{"angles": {"knee": 10}}]})";
+  Pose split = loadPose(path);
+  estimateAxes(split, labels, 3.0);
+  EXPECT_NE(split.joints[0].fit.warning.find("touch the parent almost equally"), std::string::npos)
+      << split.joints[0].fit.warning;
+  EXPECT_EQ(pose.joints[0].fit.warning.find("almost equally"), std::string::npos);  // one child id: no tie
 }
 
 // The joint-surface estimate against an analytic hinge and ball (48³ voxels of 1 mm): a
@@ -433,6 +446,7 @@ TEST(Pose, EstimatedAnkleAxisIsTheTrochleasNotTheLipsContact) {
   EXPECT_LT(norm(off), 1.0);
   EXPECT_NEAR(j.fit.radiusMm, 20, 1.0);  // the talus's dome
   EXPECT_EQ(j.fit.surface, "both");  // the dome and the plafond nest about one axis
+  EXPECT_EQ(j.fit.warning.find("almost equally"), std::string::npos) << j.fit.warning;  // no tie
   EXPECT_TRUE(j.fit.refusals.empty());
   EXPECT_GT(j.fit.confidence, 0.3);  // the malleolus facet's voxels are off the cylinder
 }
