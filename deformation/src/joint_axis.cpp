@@ -488,6 +488,7 @@ AxisEstimate fitArticularSurfaces(const std::vector<Vec3>& parentMm, const std::
     pooled(sphSide, [&](int s) { return sph[s].inliers; }, [&](int s) { return sph[s].rms; }, out.fit.inlierFraction,
            out.fit.rmsMm);
     if (sphSide[0] && sphSide[1]) out.fit.axisGapMm = (sph[0].c - sph[1].c).norm();
+    out.fit.confidence = sph[sm].inliers * std::clamp(2 * (1 - sph[sm].cost / flats[sm]), 0.0, 1.0);
   } else if (cylOk) {
     const int main = cylSide[1] ? 1 : 0;  // the child's, if it counts
     out.fit.method = "cylinder";

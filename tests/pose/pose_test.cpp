@@ -373,6 +373,9 @@ TEST(Pose, EstimatedAxisIsTheArticularSurfacesCylinderOrSphere) {
   EXPECT_EQ(b.fit.method, "sphere");
   EXPECT_LT(norm((b.axisA + b.axisB) * 0.5 - c), 1.0);  // through the ball's centre
   EXPECT_NEAR(b.fit.radiusMm, kR, 1.0);
+  EXPECT_GT(b.fit.confidence, 0.3);
+  EXPECT_GT(j.fit.confidence, 0.3);  // the hinge's
+  EXPECT_TRUE(j.fit.refusals.empty());
 }
 
 // A synthetic ankle (1 mm voxels): a talar trochlea (a cylinder of radius 20 mm, 30 mm long,

@@ -36,9 +36,9 @@ struct AxisFit {
   double inlierFraction = 0;  ///< of the counting surfaces' voxels: within 1.5 voxels of it, facing along it
   double arcDeg = 0;    ///< cylinder: the angle the inlier surface spans about the axis
   int64_t surfacePoints = 0;  ///< surface voxels of both bones in the contact zone (facing each other)
-  /// 0..1: the share of the counting surfaces' voxels on the model, times how much of a
-  /// hinge's arc they span (arc / 90°, at most 1), times how clearly it beats a plane
-  /// (2 x (1 - cost / plane cost), at most 1). 0 when refused or not fitted.
+  /// 0..1: the share of the giving surface's voxels on the model, times how much of a
+  /// hinge's arc they span (arc / 90°, at most 1; a sphere: 1), times how clearly it beats a
+  /// plane (2 x (1 - cost / plane cost), at most 1). 0 when refused or not fitted.
   double confidence = 0;
   /// Why a curved fit was refused (method "contact" then): each a short reason. A confident
   /// wrong axis is worse than the honest fallback.
@@ -136,7 +136,8 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm);
 /// its own radius and centre; each surface judged on its own, so a flat tibial plateau neither
 /// steers nor vetoes the condyles' cylinder) or a sphere per surface. Returns the axis through `point` along unit
 /// `direction` and how it was found; fit.method is empty when neither fits a curved surface
-/// (too few voxels, a flat patch): estimateAxes() then falls back to the contact zone.
+/// (too few voxels, a flat patch) or the hinge fit is refused (fit.refusals: an edge, surfaces
+/// that do not nest or share no axis): estimateAxes() then falls back to the contact zone.
 struct AxisEstimate {
   Vec3 point{0, 0, 0}, direction{1, 0, 0};
   AxisFit fit;
