@@ -331,8 +331,6 @@ Sphere fitSphere(const std::vector<SurfacePoint>& pts, double band, double maxRa
   return fitRound<3>(lp, ln, c, r, band, 4, maxRadius);
 }
 
-Vec3 toVec(const V3& v) { return {v.x(), v.y(), v.z()}; }
-
 std::string fmt(double v, int digits) {
   std::ostringstream s;
   s.setf(std::ios::fixed);
@@ -340,6 +338,62 @@ std::string fmt(double v, int digits) {
   s << v;
   return s.str();
 }
+
+/// What a fitted circle's inliers on one side look like: the arc they span about the axis,
+/// their length along it, and whether the surface bulges away from the axis (convex: its
+/// outward normals point away from the axis, the talar dome) or wraps it (concave: the plafond).
+struct CircleShape {
+  double arcDeg = 0, lengthMm = 0;
+  bool convex = false;
+};
+
+CircleShape shapeOf(const std::vector<SurfacePoint>& side, const Circle& c, const V3& axis, double band) {
+  V3 u, v;
+  basisAcross(axis, u, v);
+  std::vector<double> ang, along;
+  int outward = 0;
+  for (const SurfacePoint& q : side) {
+    const V2 d = V2{q.p.dot(u), q.p.dot(v)} - c.c, m{q.n.dot(u), q.n.dot(v)};
+    if (!inlier<V2>(d, m, d.norm() - c.r, band * band)) continue;
+    ang.push_back(std::atan2(d.y(), d.x()));
+    along.push_back(q.p.dot(axis));
+    outward += m.dot(d) > 0;
+  }
+  CircleShape out;
+  if (ang.empty()) return out;
+  std::sort(ang.begin(), ang.end());  // the arc: 360° minus the largest empty gap
+  double gap = ang.front() + 2 * std::numbers::pi - ang.back();
+  for (size_t i = 1; i < ang.size(); ++i) gap = std::max(gap, ang[i] - ang[i - 1]);
+  out.arcDeg = 360.0 - gap / kDeg;
+  std::sort(along.begin(), along.end());  // the 5–95 % span: a stray voxel does not lengthen it
+  out.lengthMm = along[along.size() * 95 / 100] - along[along.size() * 5 / 100];
+  out.convex = 2 * outward > int(ang.size());
+  return out;
+}
+
+/// Why a hinge fit is not a joint's axis, though curved surfaces fit it: an articular surface is
+/// a wide roller (its radius comparable to its length along the axis: the talar dome's ~20 mm
+/// over ~30 mm), not a thin edge (a bone's lip or rim that touches a neighbour: a few mm of
+/// radius along a long line); the two sides of one hinge nest (one convex, one concave) about
+/// one axis. `main`: the side whose circle gives the axis.
+std::vector<std::string> hingeRefusals(const Cylinder& cyl, const bool counts[2], const CircleShape shape[2], int main,
+                                       double axisGapMm) {
+  std::vector<std::string> why;
+  const char* sideName[2] = {"parent", "child"};
+  const double r = cyl.circle[main].r;
+  if (r < 0.2 * shape[main].lengthMm)
+    why.push_back(std::string("the ") + sideName[main] + "'s surface is an edge, not a joint surface: radius " + fmt(r, 1) +
+                  " mm along " + fmt(shape[main].lengthMm, 0) + " mm of axis");
+  if (counts[0] && counts[1]) {
+    if (shape[0].convex == shape[1].convex)
+      why.push_back(std::string("the two surfaces do not nest (both ") + (shape[0].convex ? "convex" : "concave") + ")");
+    if (axisGapMm > 0.5 * std::min(cyl.circle[0].r, cyl.circle[1].r))
+      why.push_back("the two surfaces' axes lie " + fmt(axisGapMm, 1) + " mm apart (more than half a radius: not one hinge)");
+  }
+  return why;
+}
+
+Vec3 toVec(const V3& v) { return {v.x(), v.y(), v.z()}; }
 
 }  // namespace
 
@@ -397,26 +451,19 @@ AxisEstimate fitArticularSurfaces(const std::vector<Vec3>& parentMm, const std::
   V3 u, v;
   basisAcross(cyl.d, u, v);
   bool cylSide[2] = {false, false}, sphSide[2] = {false, false};
-  double arcs[2] = {0, 0};
+  double arcs[2] = {0, 0}, flats[2] = {bandMm * bandMm, bandMm * bandMm};
+  CircleShape shape[2];
   for (int s = 0; s < 2; ++s) {
     if (sides[s].empty()) continue;
-    const double flat = planeCost(sides[s], bandMm);
+    flats[s] = planeCost(sides[s], bandMm);
     const Circle& c = cyl.circle[s];
     if (c.ok) {
-      std::vector<double> ang;
-      for (const SurfacePoint& q : sides[s]) {
-        const V2 d = V2{q.p.dot(u), q.p.dot(v)} - c.c;
-        if (inlier<V2>(d, V2{q.n.dot(u), q.n.dot(v)}, d.norm() - c.r, bandMm * bandMm))
-          ang.push_back(std::atan2(d.y(), d.x()));
-      }
-      std::sort(ang.begin(), ang.end());  // the arc: 360° minus the largest empty gap
-      double gap = ang.empty() ? 2 * std::numbers::pi : ang.front() + 2 * std::numbers::pi - ang.back();
-      for (size_t i = 1; i < ang.size(); ++i) gap = std::max(gap, ang[i] - ang[i - 1]);
-      arcs[s] = 360.0 - gap / kDeg;
+      shape[s] = shapeOf(sides[s], c, cyl.d, bandMm);
+      arcs[s] = shape[s].arcDeg;
       const double sagitta = c.r * (1 - std::cos(std::min(arcs[s], 180.0) * kDeg / 2));
-      cylSide[s] = c.inliers >= 0.3 && arcs[s] >= 30 && sagitta >= 2 * bandMm && c.cost < 0.7 * flat;
+      cylSide[s] = c.inliers >= 0.3 && arcs[s] >= 30 && sagitta >= 2 * bandMm && c.cost < 0.7 * flats[s];
     }
-    sphSide[s] = sph[s].ok && sph[s].inliers >= 0.3 && sph[s].cost < 0.7 * flat;
+    sphSide[s] = sph[s].ok && sph[s].inliers >= 0.3 && sph[s].cost < 0.7 * flats[s];
   }
   const bool cylOk = cylSide[0] || cylSide[1], sphOk = sphSide[0] || sphSide[1];
   // Over the sides that count: the share of their voxels on the model, and its RMS.
@@ -441,6 +488,7 @@ AxisEstimate fitArticularSurfaces(const std::vector<Vec3>& parentMm, const std::
     pooled(sphSide, [&](int s) { return sph[s].inliers; }, [&](int s) { return sph[s].rms; }, out.fit.inlierFraction,
            out.fit.rmsMm);
     if (sphSide[0] && sphSide[1]) out.fit.axisGapMm = (sph[0].c - sph[1].c).norm();
+    out.fit.confidence = sph[sm].inliers * std::clamp(2 * (1 - sph[sm].cost / flats[sm]), 0.0, 1.0);
   } else if (cylOk) {
     const int main = cylSide[1] ? 1 : 0;  // the child's, if it counts
     out.fit.method = "cylinder";
@@ -454,7 +502,14 @@ AxisEstimate fitArticularSurfaces(const std::vector<Vec3>& parentMm, const std::
            out.fit.inlierFraction, out.fit.rmsMm);
     out.fit.arcDeg = std::max(cylSide[0] ? arcs[0] : 0.0, cylSide[1] ? arcs[1] : 0.0);
     if (cylSide[0] && cylSide[1]) out.fit.axisGapMm = (cyl.circle[0].c - cyl.circle[1].c).norm();
+    out.fit.refusals = hingeRefusals(cyl, cylSide, shape, main, out.fit.axisGapMm);
+    out.fit.confidence = std::min(1.0, arcs[main] / 90) * c.inliers * std::clamp(2 * (1 - c.cost / flats[main]), 0.0, 1.0);
   } else {
+    return out;
+  }
+  if (!out.fit.refusals.empty()) {  // estimateAxes() falls back, and says why
+    out.fit.method.clear();
+    out.fit.confidence = 0;
     return out;
   }
   if (out.fit.inlierFraction < 0.5)

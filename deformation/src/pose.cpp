@@ -7,10 +7,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <numbers>
 #include <set>
+#include <sstream>
 #include <tuple>
 
 #include "vellum/core/error.hpp"
@@ -391,112 +393,186 @@ void savePose(const Pose& pose, const fs::path& path) {
   io::writeTextFile(path, j.dump(2) + "\n");
 }
 
-void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
+namespace {
+
+/// A joint's contact zone: the parent's and the child's voxels within contactMm of the other
+/// bone. Per side its surface voxels (a 6-neighbour outside the bone) with their outward
+/// normals, kept only where they face the other bone (its nearest voxel lies within 60° of the
+/// normal): articular surfaces face each other across the joint space; the zone's rim and the
+/// far side of a thin piece do not. Per child id, how many of its voxels lie in the zone.
+struct ContactZone {
+  IdMoments moments;                         ///< every zone voxel (index space)
+  std::vector<Vec3> surface[2], normals[2];  ///< parent, child (mm; outward unit normals)
+  std::map<uint16_t, int64_t> childContact;  ///< child id -> its voxels in the zone
+};
+
+ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& parent,
+                        const std::vector<uint16_t>& child, double contactMm) {
   const Geometry& g = labels.geometry();
   const Dims d = g.dims;
+  const int64_t r[3] = {int64_t(std::ceil(contactMm / g.spacing.x)), int64_t(std::ceil(contactMm / g.spacing.y)),
+                        int64_t(std::ceil(contactMm / g.spacing.z))};
+  std::vector<uint8_t> side(65536, 0);
+  for (uint16_t id : parent) side[id] = 1;
+  for (uint16_t id : child) side[id] = 2;
+  const Vec3 inverseSpacing{1 / g.spacing.x, 1 / g.spacing.y, 1 / g.spacing.z};
+  const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double facing = std::cos(60 * kDeg);
+  ContactZone zone;
+  std::mutex m;
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    IdMoments acc;
+    std::map<uint16_t, int64_t> contact;
+    std::vector<Vec3> found[2], foundNormals[2];
+    const auto inside = [&](int64_t a, int64_t b, int64_t c) {
+      return a >= 0 && b >= 0 && c >= 0 && a < d.x && b < d.y && c < d.z;
+    };
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const uint8_t s = side[labels(i, j, k)];
+          if (!s) continue;
+          // The nearest voxel of the other bone within contactMm (a brute-force neighbourhood).
+          Vec3 nearest{0, 0, 0};
+          double nearestMm = std::numeric_limits<double>::infinity();
+          for (int64_t dk = -r[2]; dk <= r[2]; ++dk)
+            for (int64_t dj = -r[1]; dj <= r[1]; ++dj)
+              for (int64_t di = -r[0]; di <= r[0]; ++di) {
+                const int64_t a = i + di, b = j + dj, c = k + dk;
+                if (!inside(a, b, c)) continue;
+                const uint8_t o = side[labels(a, b, c)];
+                if (!o || o == s) continue;
+                const Vec3 dmm = mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
+                const double len = norm(dmm);
+                if (len <= contactMm && len < nearestMm) nearest = dmm, nearestMm = len;
+              }
+          if (!(nearestMm <= contactMm)) continue;
+          const Eigen::Vector3d p{double(i), double(j), double(k)};
+          acc.n += 1;
+          acc.s += p;
+          acc.ss += p * p.transpose();
+          if (s == 2) ++contact[labels(i, j, k)];
+          const auto other = [&](int64_t a, int64_t b, int64_t c) { return !inside(a, b, c) || side[labels(a, b, c)] != s; };
+          if (!(other(i - 1, j, k) || other(i + 1, j, k) || other(i, j - 1, k) || other(i, j + 1, k) ||
+                other(i, j, k - 1) || other(i, j, k + 1)))
+            continue;
+          // Outward normal: away from the bone's voxels in the 5³ neighbourhood (mm).
+          Vec3 n{0, 0, 0};
+          for (int64_t dk = -2; dk <= 2; ++dk)
+            for (int64_t dj = -2; dj <= 2; ++dj)
+              for (int64_t di = -2; di <= 2; ++di)
+                if (!other(i + di, j + dj, k + dk)) n = n - mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
+          const Vec3 here = g.indexToPhysical({double(i), double(j), double(k)});
+          const Vec3 ahead = g.indexToPhysical(Vec3{double(i), double(j), double(k)} + mul(n, inverseSpacing));
+          const double len = norm(n);
+          const bool clear = len > 5 * minSpacing;  // else a sliver: no clear side
+          if (clear && nearestMm > 0 && dot(n, nearest) < facing * len * nearestMm) continue;  // faces away
+          found[s - 1].push_back(here);
+          foundNormals[s - 1].push_back(clear ? normalized(ahead - here) : Vec3{0, 0, 0});
+        }
+    std::lock_guard lock(m);
+    zone.moments.n += acc.n;
+    zone.moments.s += acc.s;
+    zone.moments.ss += acc.ss;
+    for (const auto& [id, count] : contact) zone.childContact[id] += count;
+    for (int s = 0; s < 2; ++s) {
+      zone.surface[s].insert(zone.surface[s].end(), found[s].begin(), found[s].end());
+      zone.normals[s].insert(zone.normals[s].end(), foundNormals[s].begin(), foundNormals[s].end());
+    }
+  });
+  // Slab order differs between runs: sort, so that the (thinned) fits are deterministic.
+  for (int s = 0; s < 2; ++s) {
+    std::vector<size_t> order(zone.surface[s].size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      const Vec3 &p = zone.surface[s][a], &q = zone.surface[s][b];
+      return std::tie(p.z, p.y, p.x) < std::tie(q.z, q.y, q.x);
+    });
+    std::vector<Vec3> ps, ns;
+    for (size_t i : order) ps.push_back(zone.surface[s][i]), ns.push_back(zone.normals[s][i]);
+    zone.surface[s] = std::move(ps);
+    zone.normals[s] = std::move(ns);
+  }
+  return zone;
+}
+
+/// The joint's articular partner among the child's ids: the one with the most voxels in the
+/// contact zone (the talus under the plafond, not the calcaneus that a tibial lip may touch).
+uint16_t articularPartner(const ContactZone& zone) {
+  uint16_t best = 0;
+  int64_t most = -1;
+  for (const auto& [id, count] : zone.childContact)
+    if (count > most) best = id, most = count;
+  return best;
+}
+
+/// A warning when another child id touches the parent almost as much as the partner (80 %):
+/// then the partner may be the wrong bone (on the feet the calcaneus catches up with the talus
+/// from ~10 mm of reach). Empty otherwise.
+std::string partnerTie(const ContactZone& zone, uint16_t partner, double contactMm) {
+  const int64_t most = zone.childContact.at(partner);
+  for (const auto& [id, count] : zone.childContact)
+    if (id != partner && 5 * count >= 4 * most) {
+      std::ostringstream s;
+      s << "child ids " << partner << " and " << id << " touch the parent almost equally (" << most << " and " << count
+        << " voxels within " << contactMm << " mm): the fitted partner " << partner
+        << " may be the wrong bone (lower --contact, or give the axis as two points)";
+      return s.str();
+    }
+  return {};
+}
+
+/// The zone's centroid and widest direction (mm): the axis when no surface fits, as a hint.
+AxisEstimate contactFallback(const ContactZone& zone, const Geometry& g) {
+  Eigen::Vector3d mean, sigma;
+  Eigen::Matrix3d axes;
+  principal(zone.moments, mean, axes, sigma);
+  const Vec3 c = g.indexToPhysical({mean.x(), mean.y(), mean.z()});
+  const Eigen::Vector3d e = axes.col(2);
+  AxisEstimate est;
+  est.point = c;
+  est.direction = normalized(g.indexToPhysical({mean.x() + e.x(), mean.y() + e.y(), mean.z() + e.z()}) - c);
+  return est;
+}
+
+}  // namespace
+
+void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
+  const Geometry& g = labels.geometry();
   // Inlier band of the surface fits: 1.5 voxels (voxel surfaces stair-step by half a voxel).
   const double band = 1.5 * (g.spacing.x + g.spacing.y + g.spacing.z) / 3.0;
   for (Joint& joint : pose.joints) {
     if (!joint.estimateAxis) continue;
-    // Contact zone: voxels of either bone with a voxel of the other within contactMm
-    // (a brute-force neighbourhood, limited to the two bones' overlapping boxes). Its surface
-    // voxels (a 6-neighbour outside the bone) per side are the articular surfaces fitted below.
-    const int64_t r[3] = {int64_t(std::ceil(contactMm / g.spacing.x)), int64_t(std::ceil(contactMm / g.spacing.y)),
-                          int64_t(std::ceil(contactMm / g.spacing.z))};
-    std::vector<uint8_t> side(65536, 0);
-    for (uint16_t id : joint.parent) side[id] = 1;
-    for (uint16_t id : joint.child) side[id] = 2;
-    IdMoments zone;
-    std::vector<Vec3> surface[2], normals[2];  // parent, child (mm; outward unit normals)
-    const Vec3 inverseSpacing{1 / g.spacing.x, 1 / g.spacing.y, 1 / g.spacing.z};
-    const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
-    std::mutex m;
-    parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-      IdMoments acc;
-      std::vector<Vec3> found[2], foundNormals[2];
-      for (int64_t k = k0; k < k1; ++k)
-        for (int64_t j = 0; j < d.y; ++j)
-          for (int64_t i = 0; i < d.x; ++i) {
-            const uint8_t s = side[labels(i, j, k)];
-            if (!s) continue;
-            bool touches = false;
-            for (int64_t dk = -r[2]; dk <= r[2] && !touches; ++dk)
-              for (int64_t dj = -r[1]; dj <= r[1] && !touches; ++dj)
-                for (int64_t di = -r[0]; di <= r[0] && !touches; ++di) {
-                  const int64_t a = i + di, b = j + dj, c = k + dk;
-                  if (a < 0 || b < 0 || c < 0 || a >= d.x || b >= d.y || c >= d.z) continue;
-                  const uint8_t o = side[labels(a, b, c)];
-                  if (!o || o == s) continue;
-                  const Vec3 dmm = mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
-                  touches = norm(dmm) <= contactMm;
-                }
-            if (!touches) continue;
-            const Eigen::Vector3d p{double(i), double(j), double(k)};
-            acc.n += 1;
-            acc.s += p;
-            acc.ss += p * p.transpose();
-            const auto other = [&](int64_t a, int64_t b, int64_t c) {
-              return a < 0 || b < 0 || c < 0 || a >= d.x || b >= d.y || c >= d.z || side[labels(a, b, c)] != s;
-            };
-            if (!(other(i - 1, j, k) || other(i + 1, j, k) || other(i, j - 1, k) || other(i, j + 1, k) ||
-                  other(i, j, k - 1) || other(i, j, k + 1)))
-              continue;
-            // Outward normal: away from the bone's voxels in the 5³ neighbourhood (mm).
-            Vec3 n{0, 0, 0};
-            for (int64_t dk = -2; dk <= 2; ++dk)
-              for (int64_t dj = -2; dj <= 2; ++dj)
-                for (int64_t di = -2; di <= 2; ++di)
-                  if (!other(i + di, j + dj, k + dk)) n = n - mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
-            const Vec3 here = g.indexToPhysical({double(i), double(j), double(k)});
-            const Vec3 ahead = g.indexToPhysical(Vec3{double(i), double(j), double(k)} + mul(n, inverseSpacing));
-            const double len = norm(n);
-            n = len > 5 * minSpacing ? normalized(ahead - here) : Vec3{0, 0, 0};  // a sliver: no clear side
-            found[s - 1].push_back(here);
-            foundNormals[s - 1].push_back(n);
-          }
-      std::lock_guard lock(m);
-      zone.n += acc.n;
-      zone.s += acc.s;
-      zone.ss += acc.ss;
-      for (int s = 0; s < 2; ++s) {
-        surface[s].insert(surface[s].end(), found[s].begin(), found[s].end());
-        normals[s].insert(normals[s].end(), foundNormals[s].begin(), foundNormals[s].end());
-      }
-    });
-    if (zone.n < 3)
+    const ContactZone all = contactZone(labels, joint.parent, joint.child, contactMm);
+    if (all.moments.n < 3)
       throw Error("joint \"" + joint.name + "\": \"axis\": \"estimate\": the parent and child bones come no closer than " +
                   std::to_string(contactMm) + " mm (no contact zone; give the axis as two points or raise --contact)");
-    // Slab order differs between runs: sort, so that the (thinned) fits are deterministic.
-    for (int s = 0; s < 2; ++s) {
-      std::vector<size_t> order(surface[s].size());
-      for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-      std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-        const Vec3 &p = surface[s][a], &q = surface[s][b];
-        return std::tie(p.z, p.y, p.x) < std::tie(q.z, q.y, q.x);
-      });
-      std::vector<Vec3> ps, ns;
-      for (size_t i : order) ps.push_back(surface[s][i]), ns.push_back(normals[s][i]);
-      surface[s] = std::move(ps);
-      normals[s] = std::move(ns);
-    }
+    // Only the articular partner's contact with the parent is the joint (a child of several
+    // ids: the foot's bones under the tibia); the others' contacts are not fitted.
+    const uint16_t partner = articularPartner(all);
+    const ContactZone zone =
+        all.childContact.size() > 1 ? contactZone(labels, joint.parent, {partner}, contactMm) : all;
     // Both bones' articular surfaces share the hinge's axis: fitted together.
-    AxisEstimate est = fitArticularSurfaces(surface[0], normals[0], surface[1], normals[1], band);
+    AxisEstimate est = fitArticularSurfaces(zone.surface[0], zone.normals[0], zone.surface[1], zone.normals[1], band);
     if (est.fit.method.empty()) {
-      // No curved surface fits (a flat contact, too few voxels): the zone's centroid and its
-      // widest direction, as a hint only.
-      Eigen::Vector3d mean, sigma;
-      Eigen::Matrix3d axes;
-      principal(zone, mean, axes, sigma);
-      const Vec3 c = g.indexToPhysical({mean.x(), mean.y(), mean.z()});
-      const Eigen::Vector3d e = axes.col(2);
-      est.point = c;
-      est.direction = normalized(g.indexToPhysical({mean.x() + e.x(), mean.y() + e.y(), mean.z() + e.z()}) - c);
-      est.fit = AxisFit{};
+      // No curved surface fits, or the fit was refused: the zone's centroid and widest
+      // direction, as a hint only, and why.
+      AxisFit refused = est.fit;
+      est = contactFallback(zone, g);
+      est.fit = refused;
       est.fit.method = "contact";
-      est.fit.surfacePoints = static_cast<int64_t>(surface[0].size() + surface[1].size());
-      est.fit.warning = "no cylinder or sphere fits the joint's contact surfaces (flat or too small): the axis is "
-                        "the contact zone's widest direction through its centroid (give it as two points)";
+      std::string why = "no cylinder or sphere fits the joint's contact surfaces (flat or too small)";
+      if (!refused.refusals.empty()) {
+        why = "the surface fit was refused (";
+        for (size_t i = 0; i < refused.refusals.size(); ++i) why += (i ? "; " : "") + refused.refusals[i];
+        why += ")";
+      }
+      est.fit.warning = why + ": the axis is only the contact zone's widest direction through its centroid (give it as two points)";
     }
+    est.fit.partner = partner;
+    for (const auto& [id, count] : all.childContact) est.fit.contactVoxels.push_back({id, count});
+    const std::string tie = partnerTie(all, partner, contactMm);
+    if (!tie.empty()) est.fit.warning += (est.fit.warning.empty() ? "" : "; ") + tie;
     Vec3 dir = normalized(est.direction);
     // Deterministic sign: the largest component positive.
     const int big = std::abs(dir.x) >= std::abs(dir.y) && std::abs(dir.x) >= std::abs(dir.z) ? 0

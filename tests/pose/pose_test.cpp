@@ -305,6 +305,19 @@ TEST(Pose, EstimatedAxisOfAFlatContactIsTheContactZonesWidestDirection) {
   Pose far = pose;
   far.joints[0].estimateAxis = true;
   EXPECT_THROW(estimateAxes(far, labels, 1.0), Error);  // 2 mm apart: no contact within 1 mm
+
+  // The child split in two ids (x < 24 mm: 2, the rest: 3) that touch the parent equally: the
+  // partner is one of them, and the warning says the choice is a tie.
+  for (int k = 8; k <= 24; ++k)
+    for (int j = 14; j <= 34; ++j)
+      for (int i = 24; i <= 44; ++i) labels(i, j, k) = 3;
+  std::ofstream(path) << R"({"joints": [{"name": "knee", "parent": 1, "child": [2, 3], "axis": "estimate"}],
+                             "keyframes": [{"angles": {"knee": 10}}]})";
+  Pose split = loadPose(path);
+  estimateAxes(split, labels, 3.0);
+  EXPECT_NE(split.joints[0].fit.warning.find("touch the parent almost equally"), std::string::npos)
+      << split.joints[0].fit.warning;
+  EXPECT_EQ(pose.joints[0].fit.warning.find("almost equally"), std::string::npos);  // one child id: no tie
 }
 
 // The joint-surface estimate against an analytic hinge and ball (48³ voxels of 1 mm): a
@@ -360,6 +373,106 @@ TEST(Pose, EstimatedAxisIsTheArticularSurfacesCylinderOrSphere) {
   EXPECT_EQ(b.fit.method, "sphere");
   EXPECT_LT(norm((b.axisA + b.axisB) * 0.5 - c), 1.0);  // through the ball's centre
   EXPECT_NEAR(b.fit.radiusMm, kR, 1.0);
+  EXPECT_GT(b.fit.confidence, 0.3);
+  EXPECT_GT(j.fit.confidence, 0.3);  // the hinge's
+  EXPECT_TRUE(j.fit.refusals.empty());
+}
+
+// A synthetic ankle (1 mm voxels): a talar trochlea (a cylinder of radius 20 mm, 30 mm long,
+// about an axis tilted 8° down laterally and 6° backwards) under a concave plafond 2 mm above
+// it, a medial malleolus plate 2 mm beside the trochlea's end (a flat facet: outliers), and
+// behind it the tibia's rounded posterior lip resting 2 mm over a calcaneus-like block that is
+// wider than the talus, its top flat with irregular bumps. The talus (child id 2) and the
+// calcaneus (child id 3) move together; the tibia is id 1.
+namespace {
+
+struct Ankle {
+  LabelVolume labels;
+  Vec3 centre, axis;  // the trochlea's axis (mm)
+};
+
+Ankle makeAnkle() {
+  Geometry g;
+  g.dims = {96, 100, 80};
+  g.spacing = {1, 1, 1};
+  Ankle a{LabelVolume(g), {48.3, 47.6, 40.2}, normalized(Vec3{1, 0.105, -0.14})};
+  const Vec3 up = normalized(cross(a.axis, cross(Vec3{0, 0, 1}, a.axis)));  // across the axis, upwards
+  constexpr double kR = 20;
+  for (int k = 0; k < 80; ++k)
+    for (int j = 0; j < 100; ++j)
+      for (int i = 0; i < 96; ++i) {
+        const Vec3 x = g.indexToPhysical({double(i), double(j), double(k)});
+        const Vec3 p = x - a.centre;
+        const double s = dot(p, a.axis), rho = norm(p - a.axis * s), h = dot(p, up);
+        const double fromTop = std::acos(std::clamp(h / std::max(rho, 1e-9), -1.0, 1.0)) * 180 / std::numbers::pi;
+        uint16_t id = 0;
+        if (std::abs(s) <= 15 && rho <= kR && h >= -14) id = 2;                                       // talus
+        if (std::abs(s) <= 15 && rho >= kR + 2 && rho <= kR + 9 && fromTop <= 55) id = 1;             // plafond
+        if (s >= -20 && s <= -17 && rho <= kR + 4 && h >= -12) id = 1;                               // medial malleolus
+        if (std::hypot(x.y - 84, x.z - 52) <= 7 && x.x >= 26 && x.x <= 70) id = 1;                   // posterior lip (a rod)
+        if (x.y >= 80 && x.y <= 88 && x.z >= 50 && x.z <= 70 && x.x >= 26 && x.x <= 70) id = 1;      // and the tibia above it
+        const double top = 43 + ((i * 7 + j * 3) % 5 == 0 ? 1 : 0);                                   // a bumpy top face
+        if (x.y >= 76 && x.y <= 97 && x.z >= 18 && x.z <= top && x.x >= 20 && x.x <= 76) id = 3;     // calcaneus
+        a.labels(i, j, k) = id;
+      }
+  return a;
+}
+
+double degreesBetween(const Vec3& a, const Vec3& b) {
+  return std::acos(std::min(1.0, std::abs(dot(normalized(a), normalized(b))))) * 180 / std::numbers::pi;
+}
+
+Pose estimatedPose(const std::string& child, const std::string& name) {
+  const fs::path path = test::tempDir(name) / "pose.json";
+  std::ofstream(path) << R"({"joints": [{"name": "ankle", "parent": 1, "child": )" + child +
+                             R"(, "axis": "estimate"}], "keyframes": [{"angles": {"ankle": 10}}]})";
+  return loadPose(path);
+}
+
+}  // namespace
+
+// The articular partner is the talus (most voxels within --contact of the tibia), and only its
+// contact is fitted: the estimate is the trochlea's axis (within 3°, passing within 1 mm), with
+// a confidence and no refusal; the calcaneus's contact with the lip is not fitted.
+TEST(Pose, EstimatedAnkleAxisIsTheTrochleasNotTheLipsContact) {
+  const Ankle a = makeAnkle();
+  Pose pose = estimatedPose("[2, 3]", "pose-ankle-axis");
+  estimateAxes(pose, a.labels, 3.0);
+  const Joint& j = pose.joints[0];
+  const Vec3 dir = normalized(j.axisB - j.axisA), mid = (j.axisA + j.axisB) * 0.5;
+  const Vec3 off = (mid - a.centre) - a.axis * dot(mid - a.centre, a.axis);  // between the axes
+  EXPECT_EQ(j.fit.partner, 2);
+  ASSERT_EQ(j.fit.contactVoxels.size(), 2u);  // both children touch the tibia
+  EXPECT_GT(j.fit.contactVoxels[1].second, 0);  // the calcaneus under the lip: counted, not fitted
+  EXPECT_EQ(j.fit.method, "cylinder") << j.fit.warning;
+  EXPECT_LT(degreesBetween(dir, a.axis), 3.0);
+  EXPECT_LT(norm(off), 1.0);
+  EXPECT_NEAR(j.fit.radiusMm, 20, 1.0);  // the talus's dome
+  EXPECT_EQ(j.fit.surface, "both");  // the dome and the plafond nest about one axis
+  EXPECT_EQ(j.fit.warning.find("almost equally"), std::string::npos) << j.fit.warning;  // no tie
+  EXPECT_TRUE(j.fit.refusals.empty());
+  EXPECT_GT(j.fit.confidence, 0.3);  // the malleolus facet's voxels are off the cylinder
+}
+
+// The lip's contact alone (the calcaneus as the only child): its curved side is a rod's edge
+// (radius 7 mm along 44 mm) and the block is flat, so no hinge axis may come out of it. At 3 mm
+// of contact too little of the rod is reached to count; at 6 and 8 mm its arc does count and
+// the edge rule must refuse it: the honest fallback, warned, with the reason.
+TEST(Pose, EstimatedAxisRefusesALipOnABlock) {
+  const Ankle a = makeAnkle();
+  for (const double contact : {3.0, 6.0, 8.0}) {
+    Pose pose = estimatedPose("3", "pose-lip-axis");
+    estimateAxes(pose, a.labels, contact);
+    const Joint& j = pose.joints[0];
+    EXPECT_EQ(j.fit.partner, 3);
+    EXPECT_EQ(j.fit.method, "contact") << "contact " << contact << " mm: radius " << j.fit.radiusMm;
+    EXPECT_EQ(j.fit.confidence, 0);
+    EXPECT_FALSE(j.fit.warning.empty());
+    if (contact > 3) {
+      ASSERT_FALSE(j.fit.refusals.empty()) << "contact " << contact << " mm";
+      EXPECT_NE(j.fit.refusals[0].find("an edge"), std::string::npos) << j.fit.refusals[0];
+    }
+  }
 }
 
 // `--gltf`: the child bone's node turns by exactly the joint's rotation at each key (read back

@@ -1,6 +1,7 @@
 // `vellum pose`: joints and poses (issue 23 §3). A pose file names joints and their angles over
 // keyframes; the control points are generated from the label map; the run is app::runPose.
 #include <cmath>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -56,12 +57,15 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
       std::ostringstream line;
       line.setf(std::ios::fixed);
       line.precision(1);
-      line << "    axis estimated (" << f["method"].get<std::string>();
+      line << "    axis estimated from bone " << f["partner"].get<int>() << "'s contact ("
+           << (f["method"] == "contact" ? "NOT fitted: the contact zone's widest direction, a hint only"
+                                        : f["method"].get<std::string>());
       if (f.contains("surface"))
         line << (f["surface"] == "both" ? " on both bones' surfaces" : " on the " + f["surface"].get<std::string>() + "'s surface")
              << ", radius " << f["radius_mm"].get<double>()
              << " mm, RMS " << f["rms_mm"].get<double>() << " mm, " << 100 * f["inlier_fraction"].get<double>()
-             << " % of " << f["surface_voxels"].get<int64_t>() << " voxels";
+             << " % of " << f["surface_voxels"].get<int64_t>() << " voxels, confidence "
+             << std::setprecision(2) << f["confidence"].get<double>() << std::setprecision(1);
       line << "): (" << a[0][0].get<double>() << ", " << a[0][1].get<double>() << ", " << a[0][2].get<double>()
            << ") -> (" << a[1][0].get<double>() << ", " << a[1][1].get<double>() << ", " << a[1][2].get<double>()
            << ") mm";

@@ -38,7 +38,14 @@ nlohmann::json jointsJson(const Pose& pose, const std::vector<double>& angles, c
                         {"requested_deg", angles[j]}};
     if (joint.estimateAxis) {  // how the axis was estimated, and how well the surface fits
       const AxisFit& f = joint.fit;
-      nlohmann::json fit = {{"method", f.method}, {"surface_voxels", f.surfacePoints}};
+      nlohmann::json contact = nlohmann::json::object();
+      for (const auto& [id, voxels] : f.contactVoxels) contact[std::to_string(id)] = voxels;
+      nlohmann::json fit = {{"method", f.method},
+                            {"surface_voxels", f.surfacePoints},
+                            {"partner", f.partner},
+                            {"contact_voxels", std::move(contact)},
+                            {"confidence", f.confidence},
+                            {"refusals", f.refusals}};
       if (f.method != "contact")
         fit.update({{"surface", f.surface},
                     {"radius_mm", f.radiusMm},

@@ -8,6 +8,7 @@
 // (physical LPS), angles in degrees. Format: docs/deformation.md, "Pose file".
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
@@ -34,7 +35,17 @@ struct AxisFit {
   double rmsMm = 0;     ///< RMS distance of the inlier surface voxels from the fitted surface
   double inlierFraction = 0;  ///< of the counting surfaces' voxels: within 1.5 voxels of it, facing along it
   double arcDeg = 0;    ///< cylinder: the angle the inlier surface spans about the axis
-  int64_t surfacePoints = 0;  ///< surface voxels of both bones in the contact zone
+  int64_t surfacePoints = 0;  ///< surface voxels of both bones in the contact zone (facing each other)
+  /// 0..1: the share of the giving surface's voxels on the model, times how much of a
+  /// hinge's arc they span (arc / 90°, at most 1; a sphere: 1), times how clearly it beats a
+  /// plane (2 x (1 - cost / plane cost), at most 1). 0 when refused or not fitted.
+  double confidence = 0;
+  /// Why a curved fit was refused (method "contact" then): each a short reason. A confident
+  /// wrong axis is worse than the honest fallback.
+  std::vector<std::string> refusals;
+  uint16_t partner = 0;  ///< the child id whose contact with the parent was fitted (the most voxels in the zone)
+  /// Per child id touching the parent: its voxels within `contactMm` of the parent.
+  std::vector<std::pair<uint16_t, int64_t>> contactVoxels;
   std::string warning;  ///< why the estimate is doubtful (empty when the fit is good)
 };
 
@@ -111,10 +122,13 @@ std::vector<RigidTransform> jointTransforms(const Pose& pose, const std::vector<
 void linkJoints(Pose& pose);
 
 /// Fills the axes of the joints with "axis": "estimate" from the label map (and Joint::fit):
-/// the contact zone = parent and child voxels within `contactMm` of the other bone; its surface
-/// voxels (with outward normals) are fitted by fitArticularSurfaces() (robustly: voxels beyond
-/// 1.5 voxels of the surface or not facing along it, such as a malleolus's flat side facets,
-/// are outliers). Error when a zone is empty.
+/// the contact zone = parent and child voxels within `contactMm` of the other bone. Of the
+/// child's ids the one with the most voxels in it is the articular partner (the talus, not the
+/// calcaneus a tibial lip touches); only its zone with the parent is fitted: the two sides'
+/// surface voxels that face each other (with outward normals) go to fitArticularSurfaces()
+/// (robustly: voxels beyond 1.5 voxels of the surface or not facing along it, such as a
+/// malleolus's flat side facets, are outliers). No fit, or a refused one: the zone's centroid
+/// and widest direction, method "contact", warned with the reasons. Error when a zone is empty.
 void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm);
 
 /// The axis fit alone, on the parent's and the child's articular surface voxels (mm) and their
@@ -122,7 +136,8 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm);
 /// its own radius and centre; each surface judged on its own, so a flat tibial plateau neither
 /// steers nor vetoes the condyles' cylinder) or a sphere per surface. Returns the axis through `point` along unit
 /// `direction` and how it was found; fit.method is empty when neither fits a curved surface
-/// (too few voxels, a flat patch): estimateAxes() then falls back to the contact zone.
+/// (too few voxels, a flat patch) or the hinge fit is refused (fit.refusals: an edge, surfaces
+/// that do not nest or share no axis): estimateAxes() then falls back to the contact zone.
 struct AxisEstimate {
   Vec3 point{0, 0, 0}, direction{1, 0, 0};
   AxisFit fit;
