@@ -167,23 +167,33 @@ MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
   return mc;
 }
 
-std::vector<float> cellMaxValues(const MapCells& cells, const BlockRanges& ranges) {
+namespace {
+// `body(n, box, face)` for every cell n of `cells` (in parallel): its block box, and whether it
+// lies on the grid's faces.
+template <class Body>
+void forEachCell(const MapCells& cells, const Body& body) {
   const Dims& c = cells.cells;
-  const Dims& nb = ranges.blocks;
-  std::vector<float> out(cells.box.size());
   parallelFor(c.z, [&](int64_t z0, int64_t z1) {
     for (int64_t cz = z0; cz < z1; ++cz)
       for (int64_t cy = 0; cy < c.y; ++cy)
         for (int64_t cx = 0; cx < c.x; ++cx) {
           const size_t n = static_cast<size_t>((cz * c.y + cy) * c.x + cx);
-          const auto& b = cells.box[n];
-          float m = isFaceCell(c, cx, cy, cz) ? ranges.background : -INFINITY;
-          for (int64_t z = b[2]; z <= b[5]; ++z)
-            for (int64_t y = b[1]; y <= b[4]; ++y)
-              for (int64_t x = b[0]; x <= b[3]; ++x)
-                m = std::max(m, ranges.ownMax[static_cast<size_t>((z * nb.y + y) * nb.x + x)]);
-          out[n] = m;
+          body(n, cells.box[n], isFaceCell(c, cx, cy, cz));
         }
+  });
+}
+}  // namespace
+
+std::vector<float> cellMaxValues(const MapCells& cells, const BlockRanges& ranges) {
+  const Dims& nb = ranges.blocks;
+  std::vector<float> out(cells.box.size());
+  forEachCell(cells, [&](size_t n, const std::array<int16_t, 6>& b, bool face) {
+    float m = face ? ranges.background : -INFINITY;
+    for (int64_t z = b[2]; z <= b[5]; ++z)
+      for (int64_t y = b[1]; y <= b[4]; ++y)
+        for (int64_t x = b[0]; x <= b[3]; ++x)
+          m = std::max(m, ranges.ownMax[static_cast<size_t>((z * nb.y + y) * nb.x + x)]);
+    out[n] = m;
   });
   return out;
 }
@@ -218,18 +228,11 @@ std::vector<uint8_t> cellOccupancy(const MapCells& cells, const std::vector<uint
                                   at(x, y + 1, z + 1) + at(x + 1, y, z + 1) + at(x + 1, y + 1, z) -
                                   at(x, y, z + 1) - at(x, y + 1, z) - at(x + 1, y, z) + at(x, y, z);
   std::vector<uint8_t> occ(cells.box.size());
-  const Dims& c = cells.cells;
-  parallelFor(c.z, [&](int64_t z0c, int64_t z1c) {
-    for (int64_t cz = z0c; cz < z1c; ++cz)
-      for (int64_t cy = 0; cy < c.y; ++cy)
-        for (int64_t cx = 0; cx < c.x; ++cx) {
-          const size_t n = static_cast<size_t>((cz * c.y + cy) * c.x + cx);
-          const auto& b = cells.box[n];
-          const int64_t x0 = b[0], y0 = b[1], z0 = b[2], x1 = b[3] + 1, y1 = b[4] + 1, z1 = b[5] + 1;
-          const int32_t total = at(x1, y1, z1) - at(x0, y1, z1) - at(x1, y0, z1) - at(x1, y1, z0) +
-                                at(x0, y0, z1) + at(x0, y1, z0) + at(x1, y0, z0) - at(x0, y0, z0);
-          occ[n] = total > 0 || (backgroundOcc && isFaceCell(c, cx, cy, cz)) ? 255 : 0;
-        }
+  forEachCell(cells, [&](size_t n, const std::array<int16_t, 6>& b, bool face) {
+    const int64_t x0 = b[0], y0 = b[1], z0 = b[2], x1 = b[3] + 1, y1 = b[4] + 1, z1 = b[5] + 1;
+    const int32_t total = at(x1, y1, z1) - at(x0, y1, z1) - at(x1, y0, z1) - at(x1, y1, z0) +
+                          at(x0, y0, z1) + at(x0, y1, z0) + at(x1, y0, z0) - at(x0, y0, z0);
+    occ[n] = total > 0 || (backgroundOcc && face) ? 255 : 0;
   });
   return occ;
 }
