@@ -52,17 +52,24 @@ TwistFrames::TwistFrames(Pose pose, std::shared_ptr<const RigidBodies> nodeBodie
 
 ControlVolume TwistFrames::at(const std::vector<double>& anglesDeg, const RigidBodies& bodies, Progress& progress,
                               std::vector<TwistJointStats>* stats) const {
+  return *sharedAt(anglesDeg, bodies, progress, stats);
+}
+
+std::shared_ptr<const ControlVolume> TwistFrames::sharedAt(const std::vector<double>& anglesDeg,
+                                                           const RigidBodies& bodies, Progress& progress,
+                                                           std::vector<TwistJointStats>* stats) const {
   {
     std::lock_guard lock(mutex_);
     if (last_.map && last_.anglesDeg == anglesDeg && last_.bodies == &bodies) {
       if (stats) *stats = last_.stats;
-      return *last_.map;
+      return last_.map;
     }
   }
   TwistMap m = twistMap(pose_, anglesDeg, *nodeBodies_, grid_, params_, progress);
   const std::vector<TwistJointStats> joints = m.joints;
   if (stats) *stats = joints;
-  ControlVolume cv;
+  auto shared = std::make_shared<ControlVolume>();
+  ControlVolume& cv = *shared;
   cv.grid = grid_;
   cv.scale = scale_;
   cv.sourceMm = std::move(m.mapMm);
@@ -80,12 +87,13 @@ ControlVolume TwistFrames::at(const std::vector<double>& anglesDeg, const RigidB
     cv.rigidSnap = rigidSnapOf(bodies, backward, grid_);
   }
   std::lock_guard lock(mutex_);
-  last_ = {anglesDeg, &bodies, std::make_shared<const ControlVolume>(cv), joints};
-  return cv;
+  last_ = {anglesDeg, &bodies, shared, joints};
+  return shared;
 }
 
-ControlVolume TwistFrames::atTime(double timeS, const RigidBodies& bodies, Progress& progress) const {
-  return at(pose_.anglesAt(timeS), bodies, progress);
+std::shared_ptr<const ControlVolume> TwistFrames::atTime(double timeS, const RigidBodies& bodies,
+                                                         Progress& progress) const {
+  return sharedAt(pose_.anglesAt(timeS), bodies, progress);
 }
 
 }  // namespace vellum::deformation

@@ -689,20 +689,20 @@ TEST(Pose, TwistMovieFramesAreTheStillPosesMap) {
   auto bodies = std::make_shared<const RigidBodies>(RigidBodies::fromLabelGroups(limb.labels, {{1}, {2}}, 20, pose.fixed));
   const TwistFrames full(pose, bodies, g, 1);
   const double last = pose.angles.totalDurationS();
-  const ControlVolume end = full.atTime(last, *bodies);
+  const ControlVolume end = *full.atTime(last, *bodies);
   EXPECT_EQ(end.grid.dims, g.dims);
   EXPECT_EQ(end.sourceMm, twistMap(pose, pose.anglesAt(pose.lastKeyframeTimeS()), *bodies, g).mapMm);
   // --out is the volume resampled through that very map.
   const VolumeI16 out = loadI16(f.out);
   const VolumeI16 again = std::get<VolumeI16>(synthesizeFromMap(io::loadVolume(f.ct).volume, end.sourceMm));
   EXPECT_EQ(again.voxels(), out.voxels()) << "the last frame's map is not --out's";
-  EXPECT_EQ(full.atTime(0, *bodies).sourceMm, identityNodes(g)) << "the rest keyframe's frame moves";
+  EXPECT_EQ(full.atTime(0, *bodies)->sourceMm, identityNodes(g)) << "the rest keyframe's frame moves";
 
   // Scale 2: the node grid's own bodies; every voxel shown in the child bone lies on its turn.
   auto nodeBodies = std::make_shared<const RigidBodies>(
       RigidBodies::fromLabelGroups(labelsAtNodes(limb.labels, 2), {{1}, {2}}, 2, pose.fixed));
   const TwistFrames coarse(pose, nodeBodies, g, 2);
-  const ControlVolume cv = coarse.atTime(last, *bodies);
+  const ControlVolume cv = *coarse.atTime(last, *bodies);
   EXPECT_EQ(cv.grid.dims, controlGrid(g, 2).dims);
   const std::vector<float> map = upsampleMap(cv, g);
   const RigidTransform turn = jointTransforms(pose, {30.0})[0];

@@ -222,12 +222,13 @@ TEST(EmptySpace, BlockRangesAndOccupancy) {
   EXPECT_EQ(occ[at(4, 0, 0)], 0);
 }
 
-// Map cells: the source blocks a cell can read come from its corner nodes' u.
+// Map cells: the source blocks a cell can read come from its corner nodes' u, by the blocks'
+// own ranges (a cell adds one voxel of trilinear support, not a block's neighbours).
 TEST(EmptySpace, MapCellsFollowTheMap) {
   Geometry g;
   g.dims = {64, 64, 64};  // 8^3 blocks
   VolumeI16 vol(g, 0, -1000.0);
-  vol(4, 4, 4) = 1000;  // block 0; blocks 0..1 see it
+  vol(4, 4, 4) = 1000;  // block 0
   const detail::BlockRanges r = detail::computeBlockRanges(AnyVolume(vol));
   // Nodes every 8 voxels along the diagonal: u = node * 8 (+ a shift of 16 voxels in x).
   for (double shift : {0.0, 16.0}) {
@@ -238,22 +239,69 @@ TEST(EmptySpace, MapCellsFollowTheMap) {
         for (int i = 0; i < 9; ++i) u.insert(u.end(), {float(8 * i + shift), float(8 * j), float(8 * k)});
     const detail::MapCells cells = detail::computeMapCells(nodes, u, r);
     ASSERT_EQ(cells.cells, (Dims{8, 8, 8}));
+    const std::vector<float> maxValue = detail::cellMaxValues(cells, r);
     auto at = [](int x, int y, int z) { return size_t((z * 8 + y) * 8 + x); };
     RenderSettings s;
     s.preset = Preset::Bone;
-    const auto occ = detail::cellOccupancy(cells, detail::blockOccupancy(r, detail::buildTfTable(s, 0.5)), r.blocks);
+    const detail::TfTable tf = detail::buildTfTable(s, 0.5);
+    const auto occ = detail::cellOccupancy(cells, detail::ownBlockOccupancy(r, tf), r.blocks,
+                                           detail::backgroundOccupancy(r, tf) != 0);
     if (shift == 0) {
-      EXPECT_EQ(cells.maxValue[at(0, 0, 0)], 1000.f);
-      EXPECT_EQ(cells.maxValue[at(2, 2, 2)], 1000.f);  // reads blocks 1..3
-      EXPECT_EQ(cells.maxValue[at(3, 0, 0)], 0.f);     // reads blocks 2..4 in x
-      EXPECT_EQ(occ[at(2, 0, 0)], 255);
-      EXPECT_EQ(occ[at(3, 0, 0)], 0);
+      EXPECT_EQ(maxValue[at(0, 0, 0)], 1000.f);
+      EXPECT_EQ(maxValue[at(1, 1, 1)], 1000.f);  // u in [8, 16]: reads voxel 7 (block 0)
+      EXPECT_EQ(maxValue[at(2, 2, 2)], 0.f);     // u in [16, 24]: voxels 15..25, blocks 1..3
+      EXPECT_EQ(maxValue[at(3, 0, 0)], 0.f);     // reads blocks 2..4 in x
+      EXPECT_EQ(occ[at(1, 0, 0)], 255);
+      EXPECT_EQ(occ[at(2, 0, 0)], 0);  // the grown ranges (one block beyond) counted it occupied
     } else {
-      EXPECT_EQ(cells.maxValue[at(0, 0, 0)], 1000.f);  // reads source blocks 1..3 in x
-      EXPECT_EQ(cells.maxValue[at(1, 0, 0)], 0.f);     // reads source blocks 2..4 in x
-      EXPECT_EQ(occ[at(1, 0, 0)], 0);
+      EXPECT_EQ(maxValue[at(0, 0, 0)], 0.f);     // u in [16, 24] in x: blocks 1..3
+      EXPECT_EQ(occ[at(0, 0, 0)], 0);
     }
   }
+}
+
+// Cells on the map grid's faces also see the background (the output box fades to it), and a
+// transfer function that makes the background opaque marks them occupied.
+TEST(EmptySpace, FaceCellsSeeTheBackground) {
+  Geometry g;
+  g.dims = {64, 64, 64};
+  VolumeI16 vol(g, 0, 1500.0);  // background 1500 HU: bone for the bone preset
+  const detail::BlockRanges r = detail::computeBlockRanges(AnyVolume(vol));
+  EXPECT_EQ(r.ownMax[0], 1500.f);                      // face block
+  EXPECT_EQ(r.ownMax[size_t((3 * 8 + 3) * 8 + 3)], 0.f);  // interior block: its own voxels only
+  // All nodes on the volume's centre: every cell reads interior blocks only.
+  const Dims nodes{5, 5, 5};
+  std::vector<float> u;
+  for (int n = 0; n < 125; ++n) u.insert(u.end(), {32.f, 32.f, 32.f});
+  const detail::MapCells cells = detail::computeMapCells(nodes, u, r);
+  const std::vector<float> maxValue = detail::cellMaxValues(cells, r);
+  RenderSettings s;
+  s.preset = Preset::Bone;
+  const detail::TfTable tf = detail::buildTfTable(s, 0.5);
+  ASSERT_NE(detail::backgroundOccupancy(r, tf), 0);
+  const auto occ = detail::cellOccupancy(cells, detail::ownBlockOccupancy(r, tf), r.blocks, true);
+  for (int z = 0; z < 4; ++z)
+    for (int y = 0; y < 4; ++y)
+      for (int x = 0; x < 4; ++x) {
+        const size_t n = size_t((z * 4 + y) * 4 + x);
+        const bool face = x == 0 || y == 0 || z == 0 || x == 3 || y == 3 || z == 3;
+        EXPECT_EQ(occ[n], face ? 255 : 0) << x << " " << y << " " << z;
+        EXPECT_EQ(maxValue[n], face ? 1500.f : 0.f);
+      }
+}
+
+// A coarse block is occupied when any of its kCoarseSkip^3 blocks is (partial ones at the end).
+TEST(EmptySpace, CoarseOccupancyIsTheOrOfItsBlocks) {
+  const Dims blocks{9, 5, 4};
+  std::vector<uint8_t> occ(size_t(blocks.voxelCount()), 0);
+  occ[size_t((3 * 5 + 4) * 9 + 8)] = 255;  // block (8, 4, 3): coarse (2, 1, 0)
+  occ[size_t((0 * 5 + 0) * 9 + 3)] = 255;  // block (3, 0, 0): coarse (0, 0, 0)
+  Dims coarse;
+  const auto c = detail::coarseOccupancy(occ, blocks, coarse);
+  ASSERT_EQ(coarse, (Dims{3, 2, 1}));
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 3; ++x)
+      EXPECT_EQ(c[size_t(y * 3 + x)], (x == 2 && y == 1) || (x == 0 && y == 0) ? 255 : 0) << x << " " << y;
 }
 
 }  // namespace

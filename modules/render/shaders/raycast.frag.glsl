@@ -68,6 +68,10 @@ uniform sampler2D uOpaqueDepth;  // ray distance / OPAQUE_RANGE_MM of opaque geo
 uniform sampler3D uOccupancy;  // per block: 1 where the TF has opacity in its value range
 uniform ivec3 uBlocks;
 #endif
+#ifdef SKIP_COARSE
+uniform sampler3D uCoarseOccupancy;  // per SKIP_COARSE^3 blocks: 1 where any of them is occupied
+uniform ivec3 uCoarseBlocks;
+#endif
 #ifdef SKIP_MIP
 uniform sampler3D uBlockMax;   // per block: largest value its samples can see
 uniform ivec3 uBlocks;

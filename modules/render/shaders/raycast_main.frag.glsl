@@ -1,4 +1,18 @@
 // Volume ray caster, part 3: the ray march (CPU reference: reference_cpu.cpp).
+#if defined(SKIP_EMPTY) || defined(SKIP_MIP)
+// Where the ray (box index o + t d, inv = 1 / d) leaves skipping block b of `size` box units,
+// one of `count` per axis; the first and last blocks reach past the box.
+float blockExit(ivec3 b, int size, ivec3 count, vec3 o, vec3 d, vec3 inv) {
+  vec3 lo = mix(vec3(b * size), vec3(-2.0), equal(b, ivec3(0)));
+  vec3 hi = mix(vec3((b + 1) * size), uBoxDims + 2.0, equal(b, count - 1));
+  vec3 tb = (mix(lo, hi, greaterThan(d, vec3(0.0))) - o) * inv;
+  // An axis the ray does not move along never exits the block (its inv is infinite and
+  // 0 * inf or -inf would end the ray early).
+  tb = mix(tb, vec3(1.0e30), equal(d, vec3(0.0)));
+  return min(min(tb.x, tb.y), tb.z);
+}
+#endif
+
 void main() {
   FragmentRay ray = fragmentRay();
   vec3 origin = ray.origin, dir = ray.dir, o = ray.o, d = ray.d, inv = ray.inv;
@@ -31,7 +45,17 @@ void main() {
       vec3 p = o + ((float(k) + jitter) * uStep) * d;
 #if defined(SKIP_EMPTY) || defined(SKIP_MIP)
       // In a block that cannot change the result (every sample has opacity 0, or for MIP
-      // none exceeds the maximum so far): jump to the first step beyond it.
+      // none exceeds the maximum so far): jump to the first step beyond it (the step is
+      // clamped before int()). Empty coarse blocks first: one fetch skips SKIP_COARSE^3 blocks
+      // (the samples left are the same: a coarse block is empty only if all of its blocks are).
+#ifdef SKIP_COARSE
+      ivec3 cb = clamp(ivec3(floor(p / float(BLOCK_SIZE * SKIP_COARSE))), ivec3(0), uCoarseBlocks - 1);
+      if (texelFetch(uCoarseOccupancy, cb, 0).r < 0.5) {
+        float tExit = blockExit(cb, BLOCK_SIZE * SKIP_COARSE, uCoarseBlocks, o, d, inv);
+        k = max(k, int(clamp(ceil(tExit / uStep - jitter), float(k), float(k1 + 1))) - 1);
+        continue;
+      }
+#endif
       ivec3 b = clamp(ivec3(floor(p / float(BLOCK_SIZE))), ivec3(0), uBlocks - 1);
 #ifdef SKIP_EMPTY
       bool skip = texelFetch(uOccupancy, b, 0).r < 0.5;
@@ -39,13 +63,7 @@ void main() {
       bool skip = texelFetch(uBlockMax, b, 0).r <= maxV;
 #endif
       if (skip) {
-        vec3 lo = mix(vec3(b * BLOCK_SIZE), vec3(-2.0), equal(b, ivec3(0)));
-        vec3 hi = mix(vec3((b + 1) * BLOCK_SIZE), uBoxDims + 2.0, equal(b, uBlocks - 1));
-        vec3 tb = (mix(lo, hi, greaterThan(d, vec3(0.0))) - o) * inv;
-        // An axis the ray does not move along never exits the block (its inv is infinite and
-        // 0 * inf or -inf would end the ray early); the step is clamped before int().
-        tb = mix(tb, vec3(1.0e30), equal(d, vec3(0.0)));
-        float tExit = min(min(tb.x, tb.y), tb.z);
+        float tExit = blockExit(b, BLOCK_SIZE, uBlocks, o, d, inv);
         k = max(k, int(clamp(ceil(tExit / uStep - jitter), float(k), float(k1 + 1))) - 1);
         continue;
       }

@@ -66,7 +66,40 @@ BlockRanges computeTyped(const Volume<T>& vol) {
           r.maxValue[b] = hi;
         }
   });
+  // Own ranges: a face block's samples can read the background beyond the volume.
+  r.background = bg;
+  r.ownMin = std::move(rawMin);
+  r.ownMax = std::move(rawMax);
+  parallelFor(nb.z, [&](int64_t bz0, int64_t bz1) {
+    for (int64_t bz = bz0; bz < bz1; ++bz)
+      for (int64_t by = 0; by < nb.y; ++by)
+        for (int64_t bx = 0; bx < nb.x; ++bx)
+          if (bx == 0 || by == 0 || bz == 0 || bx + 1 == nb.x || by + 1 == nb.y || bz + 1 == nb.z) {
+            const size_t b = static_cast<size_t>((bz * nb.y + by) * nb.x + bx);
+            r.ownMin[b] = std::min(r.ownMin[b], bg);
+            r.ownMax[b] = std::max(r.ownMax[b], bg);
+          }
+  });
   return r;
+}
+
+// 255 where the table has non-zero opacity anywhere in [minValue, maxValue], else 0.
+std::vector<uint8_t> rangeOccupancy(const std::vector<float>& minValue, const std::vector<float>& maxValue,
+                                    const TfTable& tf) {
+  // prefix[i] = number of entries below i with non-zero opacity.
+  std::vector<int> prefix(kTfTableSize + 1, 0);
+  for (int i = 0; i < kTfTableSize; ++i) prefix[i + 1] = prefix[i] + (tf.rgba[4 * i + 3] > 0);
+  auto entry = [&](double v) {
+    return std::clamp((v - tf.lo) / (tf.hi - tf.lo), 0.0, 1.0) * (kTfTableSize - 1);
+  };
+  std::vector<uint8_t> occ(minValue.size());
+  for (size_t b = 0; b < occ.size(); ++b) {
+    // Entries the shader can interpolate between, with one entry of margin for float rounding.
+    const int i0 = std::max(0, static_cast<int>(std::floor(entry(minValue[b]))) - 1);
+    const int i1 = std::min(kTfTableSize - 1, static_cast<int>(std::floor(entry(maxValue[b]))) + 2);
+    occ[b] = prefix[i1 + 1] - prefix[i0] > 0 ? 255 : 0;
+  }
+  return occ;
 }
 
 }  // namespace
@@ -76,33 +109,30 @@ BlockRanges computeBlockRanges(const AnyVolume& volume) {
 }
 
 std::vector<uint8_t> blockOccupancy(const BlockRanges& ranges, const TfTable& tf) {
-  // prefix[i] = number of entries below i with non-zero opacity.
-  std::vector<int> prefix(kTfTableSize + 1, 0);
-  for (int i = 0; i < kTfTableSize; ++i) prefix[i + 1] = prefix[i] + (tf.rgba[4 * i + 3] > 0);
-  auto entry = [&](double v) {
-    return std::clamp((v - tf.lo) / (tf.hi - tf.lo), 0.0, 1.0) * (kTfTableSize - 1);
-  };
-  std::vector<uint8_t> occ(ranges.minValue.size());
-  for (size_t b = 0; b < occ.size(); ++b) {
-    // Entries the shader can interpolate between, with one entry of margin for float rounding.
-    const int i0 = std::max(0, static_cast<int>(std::floor(entry(ranges.minValue[b]))) - 1);
-    const int i1 = std::min(kTfTableSize - 1, static_cast<int>(std::floor(entry(ranges.maxValue[b]))) + 2);
-    occ[b] = prefix[i1 + 1] - prefix[i0] > 0 ? 255 : 0;
-  }
-  return occ;
+  return rangeOccupancy(ranges.minValue, ranges.maxValue, tf);
+}
+
+std::vector<uint8_t> ownBlockOccupancy(const BlockRanges& ranges, const TfTable& tf) {
+  return rangeOccupancy(ranges.ownMin, ranges.ownMax, tf);
+}
+
+uint8_t backgroundOccupancy(const BlockRanges& ranges, const TfTable& tf) {
+  return rangeOccupancy({ranges.background}, {ranges.background}, tf).front();
 }
 
 MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
-                         const BlockRanges& ranges, const MapCellSupport* support) {
+                         const BlockRanges& ranges, const MapCellSupport* support,
+                         std::vector<std::array<int16_t, 6>> storage) {
   const MapCellSupport sup = support ? *support : MapCellSupport{nodes, 0, 1, 0.0};
   const Dims& td = sup.texDims;
-  const double margin = 1.0 + sup.marginVoxels;
+  // One voxel: the trilinear support (voxels floor(u) and floor(u) + 1); a little more for rounding.
+  const double margin = 1.001 + sup.marginVoxels;
   MapCells mc;
   mc.cells = {std::max<int64_t>(nodes.x - 1, 1), std::max<int64_t>(nodes.y - 1, 1),
               std::max<int64_t>(nodes.z - 1, 1)};
   const auto count = static_cast<size_t>(mc.cells.voxelCount());
-  mc.box.resize(count);
-  mc.maxValue.resize(count);
+  mc.box = std::move(storage);
+  mc.box.resize(count);  // every entry is written below
   const Dims& nb = ranges.blocks;
   parallelFor(mc.cells.z, [&](int64_t z0, int64_t z1) {
     for (int64_t cz = z0; cz < z1; ++cz)
@@ -121,8 +151,8 @@ MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
           std::array<int, 6> box{};
           for (int a = 0; a < 3; ++a) {
             const double last = double(nb[a] - 1);
-            // Blocks hold voxels [b*B, b*B+B-1] and already see one block beyond; one voxel of
-            // margin covers trilinear support and rounding.
+            // Blocks hold voxels [b*B, b*B+B-1]; their own ranges count (the margin holds the
+            // support), the face blocks' with the background.
             box[a] = int(std::clamp(std::floor((lo[a] - margin) / kBlockSize), 0.0, last));
             box[a + 3] = int(std::clamp(std::floor((hi[a] + margin) / kBlockSize), 0.0, last));
             if (!std::isfinite(lo[a]) || !std::isfinite(hi[a])) {  // NaN in the map: no skipping
@@ -130,21 +160,61 @@ MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
               box[a + 3] = int(last);
             }
           }
-          float m = -INFINITY;
-          for (int z = box[2]; z <= box[5]; ++z)
-            for (int y = box[1]; y <= box[4]; ++y)
-              for (int x = box[0]; x <= box[3]; ++x)
-                m = std::max(m, ranges.maxValue[static_cast<size_t>((z * nb.y + y) * nb.x + x)]);
           const size_t n = static_cast<size_t>((cz * mc.cells.y + cy) * mc.cells.x + cx);
           for (int a = 0; a < 6; ++a) mc.box[n][static_cast<size_t>(a)] = static_cast<int16_t>(box[static_cast<size_t>(a)]);
-          mc.maxValue[n] = m;
         }
   });
   return mc;
 }
 
+namespace {
+// `body(n, box, face)` for every cell n of `cells` (in parallel): its block box, and whether it
+// lies on the grid's faces.
+template <class Body>
+void forEachCell(const MapCells& cells, const Body& body) {
+  const Dims& c = cells.cells;
+  parallelFor(c.z, [&](int64_t z0, int64_t z1) {
+    for (int64_t cz = z0; cz < z1; ++cz)
+      for (int64_t cy = 0; cy < c.y; ++cy)
+        for (int64_t cx = 0; cx < c.x; ++cx) {
+          const size_t n = static_cast<size_t>((cz * c.y + cy) * c.x + cx);
+          body(n, cells.box[n], isFaceCell(c, cx, cy, cz));
+        }
+  });
+}
+}  // namespace
+
+std::vector<float> cellMaxValues(const MapCells& cells, const BlockRanges& ranges) {
+  const Dims& nb = ranges.blocks;
+  std::vector<float> out(cells.box.size());
+  forEachCell(cells, [&](size_t n, const std::array<int16_t, 6>& b, bool face) {
+    float m = face ? ranges.background : -INFINITY;
+    for (int64_t z = b[2]; z <= b[5]; ++z)
+      for (int64_t y = b[1]; y <= b[4]; ++y)
+        for (int64_t x = b[0]; x <= b[3]; ++x)
+          m = std::max(m, ranges.ownMax[static_cast<size_t>((z * nb.y + y) * nb.x + x)]);
+    out[n] = m;
+  });
+  return out;
+}
+
+std::vector<uint8_t> coarseOccupancy(const std::vector<uint8_t>& occ, const Dims& blocks, Dims& coarse) {
+  constexpr int f = kCoarseSkip;
+  coarse = {(blocks.x + f - 1) / f, (blocks.y + f - 1) / f, (blocks.z + f - 1) / f};
+  std::vector<uint8_t> out(static_cast<size_t>(coarse.voxelCount()), 0);
+  parallelFor(coarse.z, [&](int64_t z0, int64_t z1) {
+    for (int64_t cz = z0; cz < z1; ++cz)
+      for (int64_t z = cz * f; z < std::min(blocks.z, (cz + 1) * f); ++z)
+        for (int64_t y = 0; y < blocks.y; ++y)
+          for (int64_t x = 0; x < blocks.x; ++x)
+            if (occ[static_cast<size_t>((z * blocks.y + y) * blocks.x + x)])
+              out[static_cast<size_t>((cz * coarse.y + y / f) * coarse.x + x / f)] = 255;
+  });
+  return out;
+}
+
 std::vector<uint8_t> cellOccupancy(const MapCells& cells, const std::vector<uint8_t>& blockOcc,
-                                   const Dims& blocks) {
+                                   const Dims& blocks, bool backgroundOcc) {
   // Summed-volume table of occupied blocks: any box query in O(1).
   const int64_t sx = blocks.x + 1, sy = blocks.y + 1;
   std::vector<int32_t> sum(static_cast<size_t>(sx * sy * (blocks.z + 1)), 0);
@@ -158,13 +228,12 @@ std::vector<uint8_t> cellOccupancy(const MapCells& cells, const std::vector<uint
                                   at(x, y + 1, z + 1) + at(x + 1, y, z + 1) + at(x + 1, y + 1, z) -
                                   at(x, y, z + 1) - at(x, y + 1, z) - at(x + 1, y, z) + at(x, y, z);
   std::vector<uint8_t> occ(cells.box.size());
-  for (size_t n = 0; n < occ.size(); ++n) {
-    const auto& b = cells.box[n];
+  forEachCell(cells, [&](size_t n, const std::array<int16_t, 6>& b, bool face) {
     const int64_t x0 = b[0], y0 = b[1], z0 = b[2], x1 = b[3] + 1, y1 = b[4] + 1, z1 = b[5] + 1;
     const int32_t total = at(x1, y1, z1) - at(x0, y1, z1) - at(x1, y0, z1) - at(x1, y1, z0) +
                           at(x0, y0, z1) + at(x0, y1, z0) + at(x1, y0, z0) - at(x0, y0, z0);
-    occ[n] = total > 0 ? 255 : 0;
-  }
+    occ[n] = total > 0 || (backgroundOcc && face) ? 255 : 0;
+  });
   return occ;
 }
 

@@ -7,6 +7,7 @@
 
 #include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/parallel.hpp"
 
 namespace vellum::render::detail {
 
@@ -199,12 +200,15 @@ namespace vellum::render::detail {
 std::vector<float> mapToSourceIndex(const BackwardMap& map, const Geometry& source) {
   validateMap(map);
   std::vector<float> out(map.sourceMm.size());
-  for (size_t i = 0; i < out.size(); i += 3) {
-    const Vec3 u = source.physicalToIndex({map.sourceMm[i], map.sourceMm[i + 1], map.sourceMm[i + 2]});
-    out[i] = static_cast<float>(u.x);
-    out[i + 1] = static_cast<float>(u.y);
-    out[i + 2] = static_cast<float>(u.z);
-  }
+  const Geometry::ToIndex toIndex = source.physicalToIndexMap();  // the inverse direction once
+  parallelFor(int64_t(out.size() / 3), [&](int64_t n0, int64_t n1) {  // a movie frame's 11.5 M nodes
+    for (size_t i = 3 * size_t(n0); i < 3 * size_t(n1); i += 3) {
+      const Vec3 u = toIndex({map.sourceMm[i], map.sourceMm[i + 1], map.sourceMm[i + 2]});
+      out[i] = static_cast<float>(u.x);
+      out[i + 1] = static_cast<float>(u.y);
+      out[i + 2] = static_cast<float>(u.z);
+    }
+  });
   return out;
 }
 

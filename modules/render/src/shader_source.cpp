@@ -33,6 +33,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.toneMap && v.lighting && v.shading && !v.mip) s << "#define TONE_MAP\n";
   // Skipping works on source blocks, or on map cells (between nodes) when deformed.
   s << (v.mip ? "#define SKIP_MIP\n" : "#define SKIP_EMPTY\n");
+  if (!v.mip && !v.pathTrace) s << "#define SKIP_COARSE " << kCoarseSkip << "\n";
   s << "#define BLOCK_SIZE " << (v.deformed ? 1 : kBlockSize) << "\n";
   s << "#define TF_SIZE " << kTfTableSize << "\n";
   s << "#define MAX_STEPS " << kMaxStepsPerRay << "\n";

@@ -33,7 +33,7 @@ namespace {
 
 enum TextureUnit : GLint {
   kUnitVolume = 0, kUnitTf, kUnitMap, kUnitAttr, kUnitOccupancy, kUnitBlockMax, kUnitClasses,
-  kUnitLabels, kUnitLabelColours, kUnitOpaqueDepth, kUnitLight, kUnitMajorant
+  kUnitLabels, kUnitLabelColours, kUnitOpaqueDepth, kUnitLight, kUnitMajorant, kUnitCoarseOccupancy
 };
 
 struct VoxelFormat {
@@ -79,26 +79,50 @@ void uniformMat3(GLuint p, const char* name, const Mat3& m) {
 /// (rewritten per render from the transfer function) and R32F maxima (for MIP).
 struct SkipGrid {
   GLuint occupancyTex = 0, maxTex = 0;
-  Dims dims;
+  GLuint coarseTex = 0;  ///< R8: per kCoarseSkip^3 blocks, any occupied (coarseOccupancy)
+  Dims dims, coarseDims;
   /// The source blocks' occupancy the occupancy texture was made from: a draw with the same
   /// transfer function re-uploads nothing (the map cells' occupancy costs tens of ms at 512^3).
   std::vector<uint8_t> madeFrom;
+  uint8_t madeFromBackground = 0;
   bool occupancySet = false;
+  bool maxSet = false;  ///< maxTex filled (map cells: when a MIP is first drawn, fillSkipMax)
 };
 
-void makeSkipTextures(SkipGrid& g, const Dims& dims, const std::vector<float>& maxValues) {
-  for (GLuint* t : {&g.occupancyTex, &g.maxTex}) {
-    deleteTexture(*t);
-    glGenTextures(1, t);
-    glBindTexture(GL_TEXTURE_3D, *t);
-    glTexStorage3D(GL_TEXTURE_3D, 1, t == &g.maxTex ? GL_R32F : GL_R8, GLsizei(dims.x),
-                   GLsizei(dims.y), GLsizei(dims.z));
-    setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
-  }
+void fillSkipMax(SkipGrid& g, const std::vector<float>& maxValues) {
+  glBindTexture(GL_TEXTURE_3D, g.maxTex);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(dims.x), GLsizei(dims.y), GLsizei(dims.z),
-                  GL_RED, GL_FLOAT, maxValues.data());
+  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(g.dims.x), GLsizei(g.dims.y), GLsizei(g.dims.z), GL_RED, GL_FLOAT,
+                  maxValues.data());
+  g.maxSet = true;
+}
+
+/// A 3D texture of `dims` and `format`, nearest and clamped (the skip grids').
+GLuint skipTexture(const Dims& dims, GLenum format) {
+  GLuint t = 0;
+  glGenTextures(1, &t);
+  glBindTexture(GL_TEXTURE_3D, t);
+  glTexStorage3D(GL_TEXTURE_3D, 1, format, GLsizei(dims.x), GLsizei(dims.y), GLsizei(dims.z));
+  setSampling(GL_TEXTURE_3D, GL_NEAREST, GL_CLAMP_TO_EDGE, nullptr);
+  return t;
+}
+
+/// The grid's textures for `dims` (kept when the dims are the same: a movie's maps all have
+/// one grid, and llvmpipe clears a new texture's storage), their contents to be set.
+/// `maxValues`: the grid's maxima now, or null (fillSkipMax when needed).
+void makeSkipTextures(SkipGrid& g, const Dims& dims, const std::vector<float>* maxValues) {
+  const Dims coarse{(dims.x + kCoarseSkip - 1) / kCoarseSkip, (dims.y + kCoarseSkip - 1) / kCoarseSkip,
+                    (dims.z + kCoarseSkip - 1) / kCoarseSkip};
+  if (!g.occupancyTex || !(g.dims == dims)) {
+    for (GLuint* t : {&g.occupancyTex, &g.maxTex, &g.coarseTex}) deleteTexture(*t);
+    g.occupancyTex = skipTexture(dims, GL_R8);
+    g.maxTex = skipTexture(dims, GL_R32F);
+    g.coarseTex = skipTexture(coarse, GL_R8);
+  }
   g.dims = dims;
+  g.coarseDims = coarse;
+  g.maxSet = false;
+  if (maxValues) fillSkipMax(g, *maxValues);
   g.occupancySet = false;
   checkGlError("skip textures");
 }
@@ -108,6 +132,11 @@ void uploadOccupancy(const SkipGrid& g, const std::vector<uint8_t>& occ) {
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(g.dims.x), GLsizei(g.dims.y),
                   GLsizei(g.dims.z), GL_RED, GL_UNSIGNED_BYTE, occ.data());
+  Dims coarse;
+  const std::vector<uint8_t> coarseOcc = coarseOccupancy(occ, g.dims, coarse);
+  glBindTexture(GL_TEXTURE_3D, g.coarseTex);
+  glTexSubImage3D(GL_TEXTURE_3D, 0, 0, 0, 0, GLsizei(coarse.x), GLsizei(coarse.y), GLsizei(coarse.z), GL_RED,
+                  GL_UNSIGNED_BYTE, coarseOcc.data());
 }
 
 }  // namespace
@@ -118,12 +147,24 @@ struct VolumeRenderer::PreparedBackwardMap {
   std::shared_ptr<const BackwardMap> map;
   Geometry source;
   Dims texDims;
-  std::vector<float> rgba;
+  std::unique_ptr<float[]> rgba;  ///< 4 floats per texel of texDims
+  size_t rgbaFloats = 0;
   MapCells cells;
   std::optional<SnapFrame> snap;
   std::optional<PreparedMap::OutputAxes> output;
   Mat3 normalToSourceIndex, nodeIndexToNormal;
 };
+
+namespace {
+/// The texel and cell buffers of a prepared map no longer drawn, for the next map of the same
+/// grid: a movie prepares a map every frame (~320 MB at 512^2 x 350), and fresh memory is
+/// zeroed page by page by the kernel.
+struct MapBuffers {
+  std::unique_ptr<float[]> rgba;
+  size_t rgbaFloats = 0;
+  std::vector<std::array<int16_t, 6>> boxes;
+};
+}  // namespace
 
 struct VolumeRenderer::Impl {
   GlContext& context;
@@ -214,7 +255,8 @@ struct VolumeRenderer::Impl {
     for (auto& [key, p] : programs) glDeleteProgram(p);
     dropMapStep();
     for (GLuint* t : {&volumeTex, &tfTex, &mapTex, &attrTex, &classTex, &labelTex, &labelColourTex, &lightTex, &majorantTex, &blockSkip.occupancyTex,
-                      &blockSkip.maxTex, &cellSkip.occupancyTex, &cellSkip.maxTex, &spareMap.tex, &spareAttr.tex})
+                      &blockSkip.maxTex, &blockSkip.coarseTex, &cellSkip.occupancyTex, &cellSkip.maxTex, &cellSkip.coarseTex,
+                      &spareMap.tex, &spareAttr.tex})
       deleteTexture(*t);
     glDeleteVertexArrays(1, &vao);
   }
@@ -236,6 +278,7 @@ struct VolumeRenderer::Impl {
     glUniform1i(glGetUniformLocation(p, "uOpaqueDepth"), kUnitOpaqueDepth);
     glUniform1i(glGetUniformLocation(p, "uLight"), kUnitLight);
     glUniform1i(glGetUniformLocation(p, "uMajorant"), kUnitMajorant);
+    glUniform1i(glGetUniformLocation(p, "uCoarseOccupancy"), kUnitCoarseOccupancy);
     programs[v.key()] = p;
     return p;
   }
@@ -305,12 +348,21 @@ struct VolumeRenderer::Impl {
   /// volume and uploaded at once.
   void uploadMap() {
     if (!map || mapUploaded || !hasVolume) return;
-    startMapStep(prepareFor(map, source, blocks));
+    startMapStep(prepareFor(map, source, blocks, &spareBuffers));
     continueMapStep(std::numeric_limits<size_t>::max());
   }
 
+  /// `reuse` (optional): buffers to fill if they have the size (taken from it).
   static std::shared_ptr<const PreparedBackwardMap> prepareFor(std::shared_ptr<const BackwardMap> map,
-                                                               const Geometry& source, const BlockRanges& blocks);
+                                                               const Geometry& source, const BlockRanges& blocks,
+                                                               MapBuffers* reuse = nullptr);
+  MapBuffers spareBuffers;
+  /// The drawn map's buffers kept for the next map when nothing else holds it (it is about to go).
+  void recycleDrawnMap() {
+    if (!drawnMap || drawnMap.use_count() != 1) return;
+    auto& p = const_cast<PreparedBackwardMap&>(*drawnMap);  // made non-const by prepareFor
+    spareBuffers = {std::move(p.rgba), p.rgbaFloats, std::move(p.cells.box)};
+  }
 
   void dropMapStep() {
     if (!mapStep) return;
@@ -522,6 +574,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     uniform1(p, "uWinLo", s.windowCenter - 0.5 * width);
     uniform1(p, "uWinInvWidth", 1.0 / width);
     glActiveTexture(GL_TEXTURE0 + kUnitBlockMax);
+    if (!skip.maxSet) fillSkipMax(skip, cellMaxValues(drawnMap->cells, blocks));  // only map cells wait
     glBindTexture(GL_TEXTURE_3D, skip.maxTex);
   } else {
     const TfTable tf = buildTfTable(s, f.stepMm);
@@ -529,14 +582,22 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     glBindTexture(GL_TEXTURE_1D, tfTex);
     glTexSubImage1D(GL_TEXTURE_1D, 0, 0, kTfTableSize, GL_RGBA, GL_FLOAT, tf.rgba.data());
     uniform1(p, "uTfLo", tf.lo);
-    std::vector<uint8_t> occ = blockOccupancy(blocks, tf);
-    if (!skip.occupancySet || occ != skip.madeFrom) {
-      uploadOccupancy(skip, variant.deformed ? cellOccupancy(drawnMap->cells, occ, blocks.blocks) : occ);
+    // Map cells read their blocks' own ranges (they add their own voxel of support), and the
+    // background on the grid's faces.
+    std::vector<uint8_t> occ = variant.deformed ? ownBlockOccupancy(blocks, tf) : blockOccupancy(blocks, tf);
+    const uint8_t background = backgroundOccupancy(blocks, tf);
+    if (!skip.occupancySet || occ != skip.madeFrom || background != skip.madeFromBackground) {
+      uploadOccupancy(skip, variant.deformed ? cellOccupancy(drawnMap->cells, occ, blocks.blocks, background != 0) : occ);
       skip.madeFrom = std::move(occ);
+      skip.madeFromBackground = background;
       skip.occupancySet = true;
     }
     glActiveTexture(GL_TEXTURE0 + kUnitOccupancy);
     glBindTexture(GL_TEXTURE_3D, skip.occupancyTex);
+    glActiveTexture(GL_TEXTURE0 + kUnitCoarseOccupancy);
+    glBindTexture(GL_TEXTURE_3D, skip.coarseTex);
+    glUniform3i(glGetUniformLocation(p, "uCoarseBlocks"), GLint(skip.coarseDims.x), GLint(skip.coarseDims.y),
+                GLint(skip.coarseDims.z));
     uniform1(p, "uTfInvSpan", 1.0 / (tf.hi - tf.lo));
     if (variant.lighting) useLight(p, s, tf, f, variant.deformed ? drawnMap : nullptr);
     if (pathTrace) useMajorants(tf, f, deform, skip.dims);
@@ -759,7 +820,7 @@ void VolumeRenderer::finishVolume(const Geometry& g, const Prepared& prepared) {
   impl_->gradients = prepared.gradients;
   impl_->lightSource = prepared.light;
   deleteTexture(impl_->lightTex);  // made for the previous volume
-  makeSkipTextures(impl_->blockSkip, impl_->blocks.blocks, impl_->blocks.maxValue);
+  makeSkipTextures(impl_->blockSkip, impl_->blocks.blocks, &impl_->blocks.maxValue);
   impl_->source = g;
   impl_->hasVolume = true;
   impl_->dropMapStep();
@@ -871,7 +932,9 @@ void VolumeRenderer::setBackwardMap(std::shared_ptr<const BackwardMap> map) {
   impl_->context.makeCurrent();
   impl_->dropMapStep();
   validateMap(*map);
-  // Never drawn again: its cells and texels go before the new ones are made.
+  // Never drawn again: its cells and texels go before the new ones are made (into them when
+  // they have the size).
+  impl_->recycleDrawnMap();
   impl_->drawnMap.reset();
   impl_->map = std::move(map);
   impl_->mapUploaded = false;
@@ -879,16 +942,28 @@ void VolumeRenderer::setBackwardMap(std::shared_ptr<const BackwardMap> map) {
 }
 
 std::shared_ptr<const VolumeRenderer::PreparedBackwardMap> VolumeRenderer::Impl::prepareFor(
-    std::shared_ptr<const BackwardMap> map, const Geometry& source, const BlockRanges& blocks) {
+    std::shared_ptr<const BackwardMap> map, const Geometry& source, const BlockRanges& blocks, MapBuffers* reuse) {
   validateMap(*map);
   PreparedMap pm = prepareMap(*map, source);
   auto out = std::make_shared<PreparedBackwardMap>();
   out->texDims = pm.texDims;
   const std::vector<float>& texels = pm.texture();
-  out->rgba.assign(texels.size() / 3 * 4, 0.f);
-  for (size_t t = 0, n = texels.size() / 3; t < n; ++t) std::copy_n(texels.data() + 3 * t, 3, out->rgba.data() + 4 * t);
+  // RGBA texels written once (no zeroing pass over the 16 bytes a node), in parallel.
+  const size_t texelCount = texels.size() / 3;
+  out->rgbaFloats = texelCount * 4;
+  if (reuse && reuse->rgba && reuse->rgbaFloats == out->rgbaFloats) out->rgba = std::move(reuse->rgba);
+  else out->rgba = std::make_unique_for_overwrite<float[]>(out->rgbaFloats);
+  float* rgba = out->rgba.get();
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, texelCount, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t t = r.begin(); t < r.end(); ++t) {
+      std::copy_n(texels.data() + 3 * t, 3, rgba + 4 * t);
+      rgba[4 * t + 3] = 0.f;
+    }
+  });
   MapCellSupport support{pm.texDims, 0, pm.upsampling == Upsampling::Gaussian ? 4 : 1, pm.snapMarginVoxels};
-  out->cells = computeMapCells(map->grid.dims, texels, blocks, &support);
+  out->cells = computeMapCells(map->grid.dims, texels, blocks, &support,
+                               reuse ? std::move(reuse->boxes) : std::vector<std::array<int16_t, 6>>{});
+  if (reuse) *reuse = {};
   out->snap = std::move(pm.snap);
   out->output = pm.output;
   out->normalToSourceIndex = pm.normalToSourceIndex;
@@ -961,7 +1036,7 @@ bool VolumeRenderer::Impl::continueMapStep(size_t maxBytes) {
     }
     return true;
   };
-  if (!slabs(st.mapTex, p.texDims, st.mapZ, 16, GL_RGBA, GL_FLOAT, p.rgba.data())) return false;
+  if (!slabs(st.mapTex, p.texDims, st.mapZ, 16, GL_RGBA, GL_FLOAT, p.rgba.get())) return false;
   if (st.attrTex && !slabs(st.attrTex, m.grid.dims, st.attrZ, 16, GL_RGBA, GL_FLOAT, m.attributes.data())) return false;
   if (st.newClasses && !slabs(st.classTex, m.rigidSnap->classGrid.dims, st.classZ, 2, GL_RED_INTEGER,
                               GL_UNSIGNED_SHORT, m.rigidSnap->classes->data()))
@@ -980,7 +1055,7 @@ bool VolumeRenderer::Impl::continueMapStep(size_t maxBytes) {
     uploadedClasses = m.rigidSnap->classes.get();
     heldClasses = m.rigidSnap->classes;
   }
-  makeSkipTextures(cellSkip, p.cells.cells, p.cells.maxValue);
+  makeSkipTextures(cellSkip, p.cells.cells, nullptr);
   snap = p.snap;
   output = p.output;
   normalToSourceIndex = p.normalToSourceIndex;

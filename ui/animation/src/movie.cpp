@@ -18,6 +18,11 @@ namespace fs = std::filesystem;
 using namespace vellum::deformation;
 
 namespace {
+// The same grid exactly (the frame's map can then be drawn as it is).
+bool sameGrid(const Geometry& a, const Geometry& b) {
+  return a.dims == b.dims && a.origin == b.origin && a.spacing == b.spacing && a.direction == b.direction;
+}
+
 double msSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -50,7 +55,7 @@ struct MovieRenderer::Impl {
   MovieResult result;
   /// The next frame's map, made on another thread while this frame renders (the map and the
   /// rigid blend are CPU work; the render is the GL driver's): frame `pendingFrame`, its wall ms.
-  std::future<std::pair<std::shared_ptr<ControlVolume>, double>> pending;
+  std::future<std::pair<std::shared_ptr<const ControlVolume>, double>> pending;
   int pendingFrame = -1;
 
   ~Impl() {
@@ -172,15 +177,20 @@ struct MovieRenderer::Impl {
 
   // Frame f's map as the renderer draws it: the control volume, rigid bones blended in, with
   // the output grid and kernel set (renderedMap()'s fields, without its copy); its wall ms.
-  std::pair<std::shared_ptr<ControlVolume>, double> frameMap(int f) {
+  std::pair<std::shared_ptr<const ControlVolume>, double> frameMap(int f) {
     const auto t0 = std::chrono::steady_clock::now();
     if (spec.frameMaps) {  // the map is the caller's (the twist map): no control points, no blend
-      auto cv = std::make_shared<ControlVolume>(spec.frameMaps(track.frameTimeS(f, spec.fps), rigidity.bodies));
+      std::shared_ptr<const ControlVolume> cv = spec.frameMaps(track.frameTimeS(f, spec.fps), rigidity.bodies);
+      if (!cv) throw Error("movie: a frame's map is missing");
       const Geometry& on = cv->output ? *cv->output : cv->grid;
       if (!(on.dims == geometry.dims) || !on.approxEqual(geometry, 1e-3))
         throw Error("movie: a frame's map is not on the volume's grid");
-      cv->output = geometry;
-      cv->upsampling = spec.upsampling;
+      if (!cv->output || !sameGrid(*cv->output, geometry) || cv->upsampling != spec.upsampling) {
+        auto own = std::make_shared<ControlVolume>(*cv);  // drawn on the volume's grid, the spec's kernel
+        own->output = geometry;
+        own->upsampling = spec.upsampling;
+        cv = std::move(own);
+      }
       return {std::move(cv), msSince(t0)};
     }
     deformer.setPoints(track.at(track.frameTimeS(f, spec.fps)));

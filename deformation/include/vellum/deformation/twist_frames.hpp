@@ -47,8 +47,14 @@ class TwistFrames {
   /// their class voxels) with the pose's transforms. `stats` (optional): twistMap()'s per joint.
   ControlVolume at(const std::vector<double>& anglesDeg, const RigidBodies& bodies,
                    Progress& progress = Progress::none(), std::vector<TwistJointStats>* stats = nullptr) const;
-  /// at() at the pose's angles at time t (Pose::anglesAt).
-  ControlVolume atTime(double timeS, const RigidBodies& bodies, Progress& progress = Progress::none()) const;
+  /// at() without its copy: the map kept for the next call (shared: a movie frame's is
+  /// 138 MB at 512^2 x 350, and a held frame's is the frame before's).
+  std::shared_ptr<const ControlVolume> sharedAt(const std::vector<double>& anglesDeg, const RigidBodies& bodies,
+                                                Progress& progress = Progress::none(),
+                                                std::vector<TwistJointStats>* stats = nullptr) const;
+  /// sharedAt() at the pose's angles at time t (Pose::anglesAt).
+  std::shared_ptr<const ControlVolume> atTime(double timeS, const RigidBodies& bodies,
+                                              Progress& progress = Progress::none()) const;
   const Pose& pose() const { return pose_; }
   int scale() const { return scale_; }
 

@@ -55,8 +55,10 @@ struct MovieSpec {
   /// Each frame's map made elsewhere, from the frame's time and the rigid bodies (null without
   /// them): `vellum pose --map twist` gives the twist map at the frame's angles
   /// (deformation::TwistFrames), so its movie draws the still pose's map. Empty: the track's
-  /// control points through the MLS engine with the rigid blend (knownBodyTransforms).
-  std::function<deformation::ControlVolume(double timeS, const deformation::RigidBodies*)> frameMaps;
+  /// control points through the MLS engine with the rigid blend (knownBodyTransforms). Shared,
+  /// not copied: a held frame's map is the frame before's (a 512^2 x 350 frame's is 138 MB).
+  std::function<std::shared_ptr<const deformation::ControlVolume>(double timeS, const deformation::RigidBodies*)>
+      frameMaps;
   /// Each frame's map (MLS, rigid blend, fold repair: CPU) is made on another thread while the
   /// frame before it renders (GL). The frames are the same either way.
   bool overlapFrames = true;
