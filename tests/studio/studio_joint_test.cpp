@@ -5,6 +5,8 @@
 // `vellum pose --out` on the saved file gives the volume the studio shows.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <cstdlib>
 #include <string>
@@ -16,6 +18,7 @@
 #include "vellum/deformation/pose.hpp"
 #include "vellum/deformation/synthesis.hpp"
 #include "vellum/deformation/twist_frames.hpp"
+#include "vellum/io/image_io.hpp"
 #include "vellum/io/volume_io.hpp"
 
 namespace vellum::studio {
@@ -37,7 +40,7 @@ struct JointRun {
   std::string command;
   double meanDiffHu = 0, offFraction = 0;  ///< studio against cli: mean |diff|, share over 100 HU
 };
-JointRun runJointScript(const fs::path& d, const std::string& extra) {
+JointRun runJointScript(const fs::path& d, const std::string& extra, const std::string& after = "", double deg = 20) {
   JointRun run;
   writeLimb(d, run.ct, run.labels);
   const Geometry& g = run.ct.geometry();
@@ -56,11 +59,11 @@ JointRun runJointScript(const fs::path& d, const std::string& extra) {
     {"joint":{"add_picked":"knee"}},)" + extra + R"(
     {"joint":{"fixed":{"labels":[50]}}},
     {"joint":{"keyframe":"add"}},
-    {"joint":{"angle":{"joint":"knee","deg":20}}},
+    {"joint":{"angle":{"joint":"knee","deg":)" + std::to_string(deg) + R"(}}},
     {"joint":{"save":{"path":)" + q(d / "pose.json") + R"(,"command":)" + q(d / "cmd.txt") + R"(,"out":)" +
                              q(d / "cli.nrrd") + R"(}}},
     {"joint":{"save_volume":)" + q(d / "studio.nrrd") + R"(}},
-    {"play":{"seconds":0.2}},
+    {"play":{"seconds":0.2}},)" + after + R"(
     {"quit":0}]})";
   std::string log;
   EXPECT_EQ(runStudio(d, "joint", script, &log), 0) << log;
@@ -190,6 +193,46 @@ TEST(StudioJointScript, TwistMapChosenInTheStudioIsTheMapItShowsAndWrites) {
   // them within the coarse grid's interpolation (measured 4.4 HU mean, 1.6 % over 100 HU).
   EXPECT_LT(run.meanDiffHu, 20.0);
   EXPECT_LT(run.offFraction, 0.05);
+  fs::remove_all(d);
+}
+
+// The movie export with the twist map chosen (the Joints panel's "Pose map"): the frames are the
+// twist map's at each frame's angles on the movie's grown box, as `vellum pose --movie` makes
+// them; the command the studio writes is that `vellum pose` line, and it renders the same pixels.
+TEST(StudioJointScript, TwistMovieExportIsVellumPoseMovieOnTheGrownBox) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-joint-movie");
+  // 60°: the soft tissue below the child (35 mm from the axis) swings past the box's y faces.
+  const JointRun run = runJointScript(d, R"({"joint":{"map":"twist"}},)",
+                                      R"({"export_movie":{"out":)" + q(d / "studio/") +
+                                          R"(,"fps":3,"size":"48x40","command":)" + q(d / "movie-cmd.txt") + "}},",
+                                      60);
+  std::string cmd = slurp(d / "movie-cmd.txt");
+  ASSERT_EQ(cmd.rfind("vellum pose ", 0), 0u) << cmd;
+  EXPECT_NE(cmd.find(" --movie "), std::string::npos) << cmd;
+  EXPECT_NE(cmd.find("--pad-mm -1"), std::string::npos) << "the export's automatic box: " << cmd;
+  EXPECT_NE(cmd.find("--map twist"), std::string::npos) << cmd;
+  const std::string studioOut = "'" + (d / "studio/").string() + "'";
+  ASSERT_NE(cmd.find(studioOut), std::string::npos) << cmd;
+  cmd.replace(cmd.find(studioOut), studioOut.size(), "'" + (d / "cli/").string() + "'");
+  cmd.replace(0, std::string("vellum").size(), std::string("\"") + VELLUM_CLI_EXE + "\"");
+  cmd.pop_back();  // newline
+  cmd += " --report '" + (d / "cli.json").string() + "'";
+  ASSERT_EQ(std::system((cmd + " > \"" + (d / "cli-movie.log").string() + "\" 2>&1").c_str()), 0)
+      << slurp(d / "cli-movie.log");
+  // The box grew (what swings out is kept), and the studio's frames are the command's.
+  const nlohmann::json rep = nlohmann::json::parse(slurp(d / "cli.json"));
+  const auto& pad = rep["movie"]["box"]["pad_voxels"];
+  EXPECT_GT(pad["low"][1].get<int>() + pad["high"][1].get<int>(), 0) << rep["movie"]["box"].dump();
+  int frames = 0;
+  for (const auto& e : fs::directory_iterator(d / "studio")) {
+    if (e.path().extension() != ".png") continue;
+    ++frames;
+    const RgbaImage a = io::loadImage(e.path()), b = io::loadImage(d / "cli" / e.path().filename());
+    EXPECT_EQ(a.pixels, b.pixels) << e.path().filename();
+  }
+  EXPECT_EQ(frames, rep["movie"]["frames"].get<int>());
+  EXPECT_GT(frames, 3);
   fs::remove_all(d);
 }
 
