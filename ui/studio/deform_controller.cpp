@@ -277,7 +277,7 @@ void DeformController::startExport(const fs::path& out, double fps, int width, i
     a.playing = false;
     export_ = std::make_unique<ExportJob>(
         [ct = AnyVolume(scene.ct), labels = scene.labels, p = jt.pose, samples = *jt.samples(), options = jt.options,
-         engine = app::poseEngine(jt.pose, pose.engine), padMm, spec]() mutable {
+         engine = app::poseEngine(jt.pose, pose.engine), padMm, spec = animation::MovieSpec(spec)]() mutable {
           const deformation::KeyframeTrack track = deformation::poseTrack(samples, p, options.maxStepDeg);
           const deformation::DeformParams params = engine.resolved(std::nullopt);
           app::MovieBox box = app::movieBox(std::move(ct), track, padMm, params.controlScale, spec.settings.camera);
@@ -308,7 +308,7 @@ void DeformController::startExport(const fs::path& out, double fps, int width, i
   if (bodies && padMm != 0) labels = scene.labels;
   export_ = std::make_unique<ExportJob>([ct = AnyVolume(scene.ct), track = a.track, engine = request.engine,
                                          shown = session_->sharedBodies(), labels = std::move(labels), padMm,
-                                         spec]() mutable {
+                                         spec = animation::MovieSpec(spec)]() mutable {
     const deformation::DeformParams params = engine.resolved(std::nullopt);
     app::MovieBox box = app::movieBox(std::move(ct), track, padMm, params.controlScale, spec.settings.camera);
     std::shared_ptr<const deformation::RigidBodies> bodies = shown;
