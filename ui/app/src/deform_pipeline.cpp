@@ -353,7 +353,8 @@ const params::Table<DeformRequest>& deformRequestTable() {
       params::real<R>("pad_mm", &R::padMm,
                       {"Output padding", "grow the output box by this on every side so what moves out is not cut "
                        "(origin moves out, world positions kept); -1 = automatic, per side: only the sides the "
-                       "content's forward displacement passes, by that much + a cell", "mm", -1, 500}),
+                       "content's forward displacement passes, by that much + a cell (a movie: over all its keyframes, "
+                       "one box for every frame, framed on the content)", "mm", -1, 500}),
       params::flag<R>("fold_repair", params::nested(&R::engine, &DeformEngine::foldRepair),
                       {"Fold repair", "relax the map around cells that fold in tissue (det J < 0.2); bones and fixed regions stay exact", ""}),
       params::flag<R>("no_gzip", &R::noGzip,
