@@ -236,7 +236,8 @@ VolumeF32 blendWeights(const Grid& grid, const Stage& st, const std::vector<uint
       const double ds = dS2.data()[t], dm = dM2.data()[t];
       if (!std::isfinite(dm)) { o = 0.f; continue; }
       if (!std::isfinite(ds)) { o = 1.f; continue; }
-      const double ps = std::pow(ds, half), pm = std::pow(dm, half);
+      // p = 2 (the default): the squared distances themselves (pow costs ~a tenth of a frame's map).
+      const double ps = half == 1 ? ds : std::pow(ds, half), pm = half == 1 ? dm : std::pow(dm, half);
       o = openUnit(ps / (ps + pm));
     }
   });

@@ -242,13 +242,7 @@ TEST(StudioAuthoringScript, DragKeyframesUndoAndExportMatchesVellumAnimate) {
   cmd.replace(0, std::string("vellum").size(), std::string("\"") + VELLUM_CLI_EXE + "\"");
   cmd.pop_back();  // newline
   ASSERT_EQ(std::system((cmd + " > \"" + (d / "cli.log").string() + "\" 2>&1").c_str()), 0) << slurp(d / "cli.log");
-  int frames = 0;
-  for (const auto& e : fs::directory_iterator(d / "studio")) {
-    if (e.path().extension() != ".png") continue;
-    ++frames;
-    const RgbaImage a1 = io::loadImage(e.path()), b1 = io::loadImage(d / "cli" / e.path().filename());
-    EXPECT_EQ(a1.pixels, b1.pixels) << e.path().filename();
-  }
+  const int frames = expectSameFrames(d / "studio", d / "cli");
   // 0.5 s + 1 s (the last keyframe holds) at 8 fps, and the end frame.
   EXPECT_EQ(frames, 13);
 }

@@ -2,8 +2,11 @@
 // pose tests use): the bones picked by clicks in a slice, the axis estimated, an angle set on
 // a second keyframe, the pose file saved with its `vellum pose` line. The child bone lands
 // where the analytic rotation about the estimated axis puts it, the fixed block stays, and
-// `vellum pose --out` on the saved file gives the volume the studio shows.
+// `vellum pose --out` on the saved file gives the volume the studio shows; the twist map's movie
+// export is `vellum pose --movie`'s frames.
 #include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdlib>
@@ -16,6 +19,7 @@
 #include "vellum/deformation/pose.hpp"
 #include "vellum/deformation/synthesis.hpp"
 #include "vellum/deformation/twist_frames.hpp"
+#include "vellum/io/image_io.hpp"
 #include "vellum/io/volume_io.hpp"
 
 namespace vellum::studio {
@@ -27,8 +31,8 @@ using namespace vellum::test::studio;
 constexpr int kN = kLimbN;
 constexpr uint16_t kFixed = kLimbFixed;
 
-/// The joint script on the limb (with `extra` actions after the joint is added), the studio's
-/// shown volume and `vellum pose` run with the line the studio wrote.
+/// The joint script on the limb (with `extra` actions after the joint is added and `after` ones
+/// before it quits), the studio's shown volume and `vellum pose` run with the line the studio wrote.
 struct JointRun {
   VolumeI16 ct;
   LabelVolume labels;
@@ -37,7 +41,7 @@ struct JointRun {
   std::string command;
   double meanDiffHu = 0, offFraction = 0;  ///< studio against cli: mean |diff|, share over 100 HU
 };
-JointRun runJointScript(const fs::path& d, const std::string& extra) {
+JointRun runJointScript(const fs::path& d, const std::string& extra, const std::string& after = "") {
   JointRun run;
   writeLimb(d, run.ct, run.labels);
   const Geometry& g = run.ct.geometry();
@@ -60,7 +64,7 @@ JointRun runJointScript(const fs::path& d, const std::string& extra) {
     {"joint":{"save":{"path":)" + q(d / "pose.json") + R"(,"command":)" + q(d / "cmd.txt") + R"(,"out":)" +
                              q(d / "cli.nrrd") + R"(}}},
     {"joint":{"save_volume":)" + q(d / "studio.nrrd") + R"(}},
-    {"play":{"seconds":0.2}},
+    {"play":{"seconds":0.2}},)" + after + R"(
     {"quit":0}]})";
   std::string log;
   EXPECT_EQ(runStudio(d, "joint", script, &log), 0) << log;
@@ -190,6 +194,41 @@ TEST(StudioJointScript, TwistMapChosenInTheStudioIsTheMapItShowsAndWrites) {
   // them within the coarse grid's interpolation (measured 4.4 HU mean, 1.6 % over 100 HU).
   EXPECT_LT(run.meanDiffHu, 20.0);
   EXPECT_LT(run.offFraction, 0.05);
+  fs::remove_all(d);
+}
+
+// The movie export with the twist map chosen (the Joints panel's "Pose map"): the frames are the
+// twist map's at each frame's angles on the movie's grown box, as `vellum pose --movie` makes
+// them; the command the studio writes is that `vellum pose` line, and it renders the same pixels.
+// (The automatic box is tested in tests/pose/movie_box_test.cpp; this limb's tissue cannot swing
+// past its box, so the export asks for a 6 mm margin: 3 voxels each side.)
+TEST(StudioJointScript, TwistMovieExportIsVellumPoseMovieOnTheGrownBox) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-joint-movie");
+  const JointRun run = runJointScript(d, R"({"joint":{"map":"twist"}},)",
+                                      R"({"export_movie":{"out":)" + q(d / "studio/") +
+                                          R"(,"fps":3,"size":"48x40","pad_mm":6,"command":)" + q(d / "movie-cmd.txt") +
+                                          "}},");
+  std::string cmd = slurp(d / "movie-cmd.txt");
+  ASSERT_EQ(cmd.rfind("vellum pose ", 0), 0u) << cmd;
+  EXPECT_NE(cmd.find(" --movie "), std::string::npos) << cmd;
+  EXPECT_NE(cmd.find("--pad-mm 6"), std::string::npos) << "the export's box: " << cmd;
+  EXPECT_NE(cmd.find("--map twist"), std::string::npos) << cmd;
+  const std::string studioOut = "'" + (d / "studio/").string() + "'";
+  ASSERT_NE(cmd.find(studioOut), std::string::npos) << cmd;
+  cmd.replace(cmd.find(studioOut), studioOut.size(), "'" + (d / "cli/").string() + "'");
+  cmd.replace(0, std::string("vellum").size(), std::string("\"") + VELLUM_CLI_EXE + "\"");
+  cmd.pop_back();  // newline
+  cmd += " --report '" + (d / "cli.json").string() + "'";
+  ASSERT_EQ(std::system((cmd + " > \"" + (d / "cli-movie.log").string() + "\" 2>&1").c_str()), 0)
+      << slurp(d / "cli-movie.log");
+  // The box grew by the margin, and the studio's frames are the command's, pixel for pixel.
+  const nlohmann::json rep = nlohmann::json::parse(slurp(d / "cli.json"));
+  EXPECT_EQ(rep["movie"]["box"]["pad_voxels"]["low"], (std::vector<int>{3, 3, 3})) << rep["movie"]["box"].dump();
+  EXPECT_EQ(rep["movie"]["box"]["grid"]["dims"], (std::vector<int>{kN + 6, kN + 6, kN + 6}));
+  const int frames = expectSameFrames(d / "studio", d / "cli");
+  EXPECT_EQ(frames, rep["movie"]["frames"].get<int>());
+  EXPECT_GT(frames, 3);
   fs::remove_all(d);
 }
 

@@ -4,6 +4,8 @@
 // skipping window tests without an X server.
 #include <sys/wait.h>
 
+#include <gtest/gtest.h>
+
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -15,6 +17,7 @@
 
 #include "deform_session.hpp"
 #include "test_data.hpp"
+#include "vellum/io/image_io.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 
@@ -48,6 +51,19 @@ struct StudioRun {
 
 /// The user's state folder the studio gets in runStudio (autosaves): DIR/state, never the
 /// real home's.
+/// The PNG frames in `studioDir` against the same names in `cliDir`, pixel for pixel (a test
+/// failure per frame that differs); how many frames there were.
+inline int expectSameFrames(const std::filesystem::path& studioDir, const std::filesystem::path& cliDir) {
+  int frames = 0;
+  for (const auto& e : std::filesystem::directory_iterator(studioDir)) {
+    if (e.path().extension() != ".png") continue;
+    ++frames;
+    EXPECT_EQ(io::loadImage(e.path()).pixels, io::loadImage(cliDir / e.path().filename()).pixels)
+        << e.path().filename();
+  }
+  return frames;
+}
+
 inline std::filesystem::path stateHome(const std::filesystem::path& dir) { return dir / "state"; }
 
 /// Writes `script` to DIR/NAME.json and runs the studio on it in a 1024x700 window (`args`

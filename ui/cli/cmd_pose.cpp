@@ -23,10 +23,14 @@ struct PoseArgs {
   InputOptions in;
 };
 
-/// `pose`'s own flag besides the request's tables, described once (docs/parameters.md).
+/// `pose`'s own flags besides the request's tables, described once (docs/parameters.md).
 const params::Table<PoseArgs>& poseFlagsTable() {
-  static const params::Table<PoseArgs> t{
-      params::text<PoseArgs>("size", &PoseArgs::size, {"Size", "movie frame size WxH", "px"}),
+  using A = PoseArgs;
+  static const params::Table<A> t{
+      params::text<A>("size", &A::size, {"Size", "movie frame size WxH", "px"}),
+      params::vector<A>("pan", params::nested(&A::request, &app::PoseRequest::movieSettings, &app::AnimateRequest::settings,
+                                              &render::RenderSettings::camera, &render::Camera::panMm),
+                        {"Pan", "shift of the movie's look-at point (x y z, or x,y,z; as `vellum animate --pan`)", "mm"}),
   };
   return t;
 }
@@ -96,9 +100,12 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
                     << " voxels where a still and a turning bone meet within the angle's arc (det J <= 0 there)\n";
       }
   }
-  if (rep.contains("movie"))
+  if (rep.contains("movie")) {
+    const nlohmann::json& grid = rep["movie"]["box"]["grid"];
     std::cout << request.movie.string() << ": " << rep["movie"]["frames"].get<int>() << " frames from "
-              << rep["movie_keyframes"].get<size_t>() << " generated keyframes\n";
+              << rep["movie_keyframes"].get<size_t>() << " generated keyframes, on a " << grid["dims"][0] << " x "
+              << grid["dims"][1] << " x " << grid["dims"][2] << " grid (--pad-mm " << request.padMm << ")\n";
+  }
   std::cout << "total " << rep["timings_ms"]["total"].get<double>() / 1000.0 << " s\n";
 }
 
@@ -129,9 +136,10 @@ void addPoseCommand(CLI::App& app) {
   addFlags(*cmd, r.gltfOptions, app::poseGltfOptionsTable());
   addFlags(*cmd, r.engine.params, deformation::deformParamsTable());
   addFlags(*cmd, r.engine, app::deformEngineTable(), {"labels"});
-  addFlags(*cmd, *a, poseFlagsTable());  // --size
+  addFlags(*cmd, *a, poseFlagsTable());  // --size, --pan
   addFlags(*cmd, r.movieSettings.settings, render::renderSettingsTable(), {"width", "height"});
-  addFlags(*cmd, r.movieSettings, app::animateRequestTable(), {"loop"});  // --fps, --camera-orbit
+  // --fps, --camera-orbit, titles; the movie's --pad-mm is the request's (one flag for --out and --movie)
+  addFlags(*cmd, r.movieSettings, app::animateRequestTable(), {"loop", "pad_mm"});
   addForceFlag(*cmd, r.force);
   a->in.addTo(*cmd);
   cmd->footer("Example: vellum pose feet.nrrd --labels bones.nrrd --pose flex.json --out flexed.nrrd "

@@ -16,6 +16,7 @@
 #include "joint_tool.hpp"
 #include "view3d.hpp"
 #include "vellum/app/animate_pipeline.hpp"
+#include "vellum/app/pose_pipeline.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/io/output_policy.hpp"
@@ -171,7 +172,8 @@ void DeformController::restorePose(const deformation::Pose& pose, int keyframe) 
 
 // ---- playback and the movie export: an app::AnimateRequest, rendered through
 // animation::MovieRenderer with app::movieSpec (what `vellum animate` runs), and written beside
-// the output as the equivalent `vellum animate` command (app::animateArguments).
+// the output as the equivalent `vellum animate` command (app::animateArguments); with the joint
+// tool's twist map, the `vellum pose --movie` command (app::poseArguments) and its frames.
 
 void DeformController::play(bool on) {
   Authoring& a = app_.scene().authoring;
@@ -228,7 +230,8 @@ void DeformController::followCamera() {
   }
 }
 
-void DeformController::startExport(const fs::path& out, double fps, int width, int height, double orbitDeg) {
+void DeformController::startExport(const fs::path& out, double fps, int width, int height, double orbitDeg,
+                                   double padMm) {
   Scene& scene = app_.scene();
   if (!scene.hasVolume()) throw Error("no volume is open");
   if (export_) throw Error("an export is running; cancel it first");
@@ -238,16 +241,54 @@ void DeformController::startExport(const fs::path& out, double fps, int width, i
   if (!(fps > 0 && fps <= 240)) throw Error("fps must be in (0, 240]");
   if (width < 16 || height < 16 || width > 4096 || height > 4096) throw Error("export size must be 16..4096");
   exportError_.clear();
-  // The request `vellum animate` would run: its movie spec drives the export, and its
+  // The request the command line would run: its movie spec drives the export, and its
   // arguments are the command line written beside the output.
   app::AnimateRequest request;
   request.input = scene.volumePath;
   request.output = out;
   request.fps = fps;
   request.orbitDeg = orbitDeg;
+  request.padMm = padMm;
   request.settings = renderSettingsFor(scene, width, height);
   request.engine.params = a.engine;
   request.engine.upsampling = scene.view.deformedUpsampling;  // the live view's map kernel
+  params::validate(app::animateRequestTable(), request);  // fps, orbit, pad_mm in their ranges
+  const animation::MovieSpec spec = app::movieSpec(request);
+  const bool isDir = !spec.framesDir.empty();
+  const JointTool& jt = *joints_;
+  // The joint tool's twist map: the movie `vellum pose --movie` makes (its twist frames on its
+  // grown box); else the authored track through the MLS engine, as `vellum animate`.
+  if (a.pose && jt.ready() && jt.twist()) {
+    app::PoseRequest pose;
+    pose.input = scene.volumePath;
+    pose.labels = scene.labelsPath;
+    pose.pose = isDir ? spec.framesDir / "pose.json" : fs::path(out.string() + ".pose.json");
+    pose.movie = out;
+    pose.movieSettings = request;
+    pose.padMm = padMm;
+    pose.options = jt.options;
+    pose.map = jt.map;
+    pose.engine.params = a.engine;
+    pose.engine.upsampling = request.engine.upsampling;
+    pose.engine.rigidFalloffMm = a.falloffMm;
+    prepareExportFolder(out, spec, isDir ? fs::path() : pose.pose, "the pose file");
+    deformation::savePose(jt.pose, pose.pose);
+    exportCommand_ = "vellum pose " + app::poseArguments(pose);
+    a.playing = false;
+    export_ = std::make_unique<ExportJob>(
+        [ct = AnyVolume(scene.ct), labels = scene.labels, p = jt.pose, samples = *jt.samples(), options = jt.options,
+         engine = app::poseEngine(jt.pose, pose.engine), padMm, spec = animation::MovieSpec(spec)]() mutable {
+          const deformation::KeyframeTrack track = deformation::poseTrack(samples, p, options.maxStepDeg);
+          const deformation::DeformParams params = engine.resolved(std::nullopt);
+          app::MovieBox box = app::movieBox(std::move(ct), track, padMm, params.controlScale, spec.settings.camera);
+          auto bodies = std::make_shared<const deformation::RigidBodies>(engine.rigidBodies(labels, box.box.grid));
+          auto frames = app::poseTwistFrames(p, labels, engine, options, box.box.grid);
+          spec.settings.camera = box.camera;
+          spec.frameMaps = app::twistFrameMaps(frames);
+          return ExportInputs{std::move(box.volume), track, params, std::move(bodies), engine.rigidFalloffMm, spec, frames};
+        });
+    return;
+  }
   const deformation::RigidBodies* bodies = session_->bodies();
   if (bodies) {
     request.engine.labels = scene.labelsPath.string();
@@ -256,25 +297,41 @@ void DeformController::startExport(const fs::path& out, double fps, int width, i
     request.engine.fixedIds = a.fixed.ids;  // the joint tool's fixed regions (the bodies hold them)
     for (const auto& b : a.fixed.boxesMm) request.engine.fixedBoxMm.insert(request.engine.fixedBoxMm.end(), b.begin(), b.end());
   }
-  const animation::MovieSpec spec = app::movieSpec(request);
   // The keyframes beside the output.
-  const bool isDir = !spec.framesDir.empty();
   request.keyframes = isDir ? spec.framesDir / "keyframes.json" : fs::path(out.string() + ".keyframes.json");
-  // The output policy, as `vellum animate` follows it: never an input, never a folder Vellum
+  prepareExportFolder(out, spec, isDir ? fs::path() : request.keyframes, "the keyframes file");
+  deformation::saveKeyframes(a.track, request.keyframes);
+  exportCommand_ = "vellum animate " + app::animateArguments(request);
+  a.playing = false;
+  // The live view's bodies on the input's grid; a grown box builds them again on its grid.
+  std::optional<LabelVolume> labels;
+  if (bodies && padMm != 0) labels = scene.labels;
+  export_ = std::make_unique<ExportJob>([ct = AnyVolume(scene.ct), track = a.track, engine = request.engine,
+                                         shown = session_->sharedBodies(), labels = std::move(labels), padMm,
+                                         spec = animation::MovieSpec(spec)]() mutable {
+    const deformation::DeformParams params = engine.resolved(std::nullopt);
+    app::MovieBox box = app::movieBox(std::move(ct), track, padMm, params.controlScale, spec.settings.camera);
+    std::shared_ptr<const deformation::RigidBodies> bodies = shown;
+    if (shown && !box.box.pad.none())
+      bodies = std::make_shared<const deformation::RigidBodies>(engine.rigidBodies(*labels, box.box.grid));
+    spec.settings.camera = box.camera;
+    return ExportInputs{std::move(box.volume), track, engine.params, std::move(bodies), engine.rigidFalloffMm, spec, {}};
+  });
+}
+
+void DeformController::prepareExportFolder(const fs::path& out, const animation::MovieSpec& spec,
+                                           const fs::path& besideJson, const char* besideWhat) {
+  // The output policy, as the command line follows it: never an input, never a folder Vellum
   // did not write. The frames are written into their (marked) folder as they are made.
+  const Scene& scene = app_.scene();
   io::OutputPlan()
       .input(scene.volumePath)
-      .input(request.engine.labels, "the label map")
+      .input(scene.labelsPath, "the label map")
       .output(spec.moviePath, "the movie")
-      .json(isDir ? fs::path() : request.keyframes, "the keyframes file")
+      .json(besideJson, besideWhat)
       .check();
-  if (isDir) io::prepareFolderInPlace(spec.framesDir, io::FolderKind::Frames);
+  if (!spec.framesDir.empty()) io::prepareFolderInPlace(spec.framesDir, io::FolderKind::Frames);
   else if (out.has_parent_path()) fs::create_directories(out.parent_path());
-  deformation::saveKeyframes(a.track, request.keyframes);
-  animateCommand_ = "vellum animate " + app::animateArguments(request);
-  a.playing = false;
-  export_ = std::make_unique<ExportJob>(AnyVolume(scene.ct), a.track, a.engine, session_->sharedBodies(), a.falloffMm,
-                                        spec);
 }
 
 void DeformController::cancelExport() { export_.reset(); }

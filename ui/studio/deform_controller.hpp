@@ -18,6 +18,10 @@
 #include "layout.hpp"
 #include "vellum/deformation/pose.hpp"
 
+namespace vellum::animation {
+struct MovieSpec;
+}
+
 namespace vellum::studio {
 
 class StudioApp;
@@ -63,9 +67,12 @@ class DeformController {
   // Playback and the movie export.
   void play(bool on);
   /// Starts exporting the track as PNG frames (`out` ending in /) or an MP4 on a worker with
-  /// its own headless context, through animation::MovieRenderer (what `vellum animate` runs).
-  /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`).
-  void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0);
+  /// its own headless context, through animation::MovieRenderer (what `vellum animate` runs;
+  /// with the joint tool's twist map, what `vellum pose --movie` runs: the twist map's frames).
+  /// `orbitDeg` turns the camera's azimuth over the animation (turntables; `--camera-orbit`);
+  /// `padMm` grows the movie's box as `--pad-mm` does (-1: automatic over every keyframe).
+  void startExport(const std::filesystem::path& out, double fps, int width, int height, double orbitDeg = 0,
+                   double padMm = -1);
   /// Stops the export (its GL objects go: before the window's context).
   void cancelExport();
   bool exporting() const { return export_ != nullptr; }
@@ -73,8 +80,9 @@ class DeformController {
   std::pair<int, int> exportProgress() const;
   /// The last export's error ("" after success).
   const std::string& lastExportError() const { return exportError_; }
-  /// The `vellum animate` command that writes the same frames as the last export.
-  const std::string& lastAnimateCommand() const { return animateCommand_; }
+  /// The command that writes the same frames as the last export: `vellum animate`, or `vellum
+  /// pose --movie` for the joint tool's twist map.
+  const std::string& lastExportCommand() const { return exportCommand_; }
 
   // Commands, each one undo step.
   /// The rigid bones (label ids kept rigid, falloff in mm) set to `labels` / `falloffMm` (the
@@ -95,7 +103,10 @@ class DeformController {
   std::unique_ptr<DeformSession> session_;
   std::unique_ptr<JointTool> joints_;
   std::unique_ptr<ExportJob> export_;
-  std::string exportError_, animateCommand_;
+  /// The output policy for an export to `out` with a JSON file beside it; makes the folder.
+  void prepareExportFolder(const std::filesystem::path& out, const animation::MovieSpec& spec,
+                           const std::filesystem::path& besideJson, const char* besideWhat);
+  std::string exportError_, exportCommand_;
 };
 
 }  // namespace vellum::studio

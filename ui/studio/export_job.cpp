@@ -5,16 +5,15 @@
 
 namespace vellum::studio {
 
-ExportJob::ExportJob(AnyVolume volume, deformation::KeyframeTrack track, deformation::DeformParams params,
-                     std::shared_ptr<const deformation::RigidBodies> bodies, double falloffMm,
-                     animation::MovieSpec spec) {
-  work_ = std::async(std::launch::async, [this, volume = std::move(volume), track = std::move(track),
-                                          params, bodies = std::move(bodies), falloffMm, spec = std::move(spec)] {
+ExportJob::ExportJob(std::function<ExportInputs()> prepare) {
+  work_ = std::async(std::launch::async, [this, prepare = std::move(prepare)] {
+    const ExportInputs in = prepare();
+    if (cancel_) throw Error("export cancelled");
     // Everything GL lives and dies on this thread, in its own context.
     auto context = render::GlContext::createHeadless();
     context->makeCurrent();
-    animation::MovieRenderer movie(*context, volume, track, params,
-                                   animation::MovieRigidity{bodies.get(), falloffMm, 0}, spec);
+    animation::MovieRenderer movie(*context, in.volume, in.track, in.params,
+                                   animation::MovieRigidity{in.bodies.get(), in.falloffMm, 0}, in.spec);
     count_ = movie.frameCount();
     while (!movie.done()) {
       if (cancel_) throw Error("export cancelled");

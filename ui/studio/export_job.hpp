@@ -1,9 +1,10 @@
 #pragma once
-// The studio's movie export: animation::MovieRenderer (the code `vellum animate` runs) on a
-// worker thread with its own headless GL context, as `vellum animate` renders, so the window
-// stays interactive, shows the progress and can cancel between frames.
+// The studio's movie export: animation::MovieRenderer (the code `vellum animate` and `vellum
+// pose --movie` run) on a worker thread with its own headless GL context, as the command line
+// renders, so the window stays interactive, shows the progress and can cancel between frames.
 #include <atomic>
 #include <chrono>
+#include <functional>
 #include <future>
 #include <memory>
 
@@ -11,11 +12,22 @@
 
 namespace vellum::studio {
 
+/// What an export renders: MovieRenderer's inputs, made on the worker (the movie's grown box
+/// pads the CT and builds its bodies there: seconds on a real scan).
+struct ExportInputs {
+  AnyVolume volume;
+  deformation::KeyframeTrack track;
+  deformation::DeformParams params;
+  std::shared_ptr<const deformation::RigidBodies> bodies;  ///< may be null
+  double falloffMm = 10;
+  animation::MovieSpec spec;
+  std::shared_ptr<const void> keep;  ///< what spec's callbacks read (the twist frames), kept alive
+};
+
 class ExportJob {
  public:
-  /// Starts rendering at once. `bodies` (may be null) is kept alive by the job.
-  ExportJob(AnyVolume volume, deformation::KeyframeTrack track, deformation::DeformParams params,
-            std::shared_ptr<const deformation::RigidBodies> bodies, double falloffMm, animation::MovieSpec spec);
+  /// Starts at once: `prepare` on the worker, then the frames.
+  explicit ExportJob(std::function<ExportInputs()> prepare);
   /// Cancels (the frame being rendered finishes first) and waits; an unfinished movie is
   /// abandoned (nothing is left at its path).
   ~ExportJob();
@@ -30,7 +42,7 @@ class ExportJob {
     if (work_.valid()) work_.wait_for(timeout);
   }
   int framesDone() const { return done_; }
-  int frameCount() const { return count_; }
+  int frameCount() const { return count_; }  ///< 0 while the inputs are prepared
   const animation::MovieResult& result() const { return result_; }
 
  private:

@@ -9,6 +9,7 @@
 
 #include "app.hpp"
 #include "param_widgets.hpp"
+#include "vellum/app/animate_pipeline.hpp"
 #include "vellum/deformation/deform_params.hpp"
 #include "deform_controller.hpp"
 #include "deform_session.hpp"
@@ -259,6 +260,10 @@ void exportRow(StudioApp& app) {
   ImGui::InputFloat("fps", &fps);
   ImGui::InputFloat("Orbit deg", &orbit);
   if (ImGui::IsItemHovered()) ImGui::SetTooltip("turns the camera by this many degrees over the movie (turntable)");
+  static double padMm = -1;  // --pad-mm (deform's row, described once): automatic
+  const params::Info& pad = params::findField(app::animateRequestTable(), "pad_mm")->info;
+  detail::numberWidget(detail::widgetLabel(pad, "export_pad"), padMm, pad, false);
+  detail::tooltip(pad.help, "-1 = automatic; 0 = the volume's box");
   if (app.deform().exporting()) {
     const auto [done, count] = app.deform().exportProgress();
     char label[64];
@@ -267,7 +272,7 @@ void exportRow(StudioApp& app) {
     ImGui::SameLine();
     if (ImGui::Button("Cancel##export")) app.deform().cancelExport();
   } else if (ImGui::Button("Export movie")) {
-    guarded(app, [&] { app.deform().startExport(out, fps, size[0], size[1], orbit); });
+    guarded(app, [&] { app.deform().startExport(out, fps, size[0], size[1], orbit, padMm); });
   }
 }
 

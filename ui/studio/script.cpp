@@ -752,14 +752,15 @@ void expandExportMovie(Steps& s, const json& v) {
     throw Error("size must be WxH");
   const std::string command = v.value("command", "");
   const double orbit = v.value("orbit", 0.0);
-  s.once([=](StudioApp& a) { a.deform().startExport(out, fps, w, h, orbit); });
+  const double padMm = v.value("pad_mm", -1.0);  // --pad-mm: automatic unless asked
+  s.once([=](StudioApp& a) { a.deform().startExport(out, fps, w, h, orbit, padMm); });
   if (!v.value("wait", true)) return;  // e.g. to press Escape while it runs
   s.until([](StudioApp& a) { return !a.deform().exporting(); });
   s.once([=](StudioApp& a) {
     if (!a.deform().lastExportError().empty()) throw Error("export failed: " + a.deform().lastExportError());
     if (!command.empty()) {
       std::ofstream f(command);
-      f << a.deform().lastAnimateCommand() << "\n";
+      f << a.deform().lastExportCommand() << "\n";
       if (!f) throw Error("cannot write " + command);
     }
   });

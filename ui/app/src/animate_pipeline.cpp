@@ -76,6 +76,8 @@ const params::Table<AnimateRequest>& animateRequestTable() {
                       {"Title seconds", "how long the title card shows", "s", 0.1, 30}),
       params::text<R>("caption", &R::caption,
                       {"Caption", "text at the bottom of every frame; a keyframe's \"caption\" replaces it while it plays", ""}),
+      // deform's --pad-mm, described once (deformRequestTable()): here over every keyframe.
+      params::real<R>("pad_mm", &R::padMm, params::findField(deformRequestTable(), "pad_mm")->info),
   };
   return t;
 }
@@ -98,8 +100,21 @@ animation::MovieSpec movieSpec(const AnimateRequest& request) {
   spec.titleSeconds = request.titleSeconds;
   spec.caption = request.caption;
   spec.knownBodyTransforms = request.knownBodyTransforms;
-  spec.frameMaps = request.frameMaps;
   return spec;
+}
+
+std::string movieArguments(const AnimateRequest& r, const std::vector<std::string>& skip) {
+  std::ostringstream c;
+  c.precision(10);
+  std::vector<std::string> own = skip;
+  own.insert(own.end(), {"title", "subtitle", "caption"});
+  c << " --size " << r.settings.width << "x" << r.settings.height << params::cliArguments(animateRequestTable(), r, own)
+    << params::cliArguments(render::renderSettingsTable(), r.settings, {"width", "height"});
+  for (const auto& [flag, text] : {std::pair{"--title", &r.title}, {"--subtitle", &r.subtitle}, {"--caption", &r.caption}})
+    if (!text->empty()) c << ' ' << flag << ' ' << singleQuoted(*text);
+  if (const Vec3& pan = r.settings.camera.panMm; pan.x != 0 || pan.y != 0 || pan.z != 0)
+    c << " --pan " << pan.x << ' ' << pan.y << ' ' << pan.z;
+  return c.str();
 }
 
 std::string animateArguments(const AnimateRequest& r) {
@@ -107,13 +122,7 @@ std::string animateArguments(const AnimateRequest& r) {
   c.precision(10);
   c << singleQuoted(r.input) << " --keyframes " << singleQuoted(r.keyframes) << " --out " << singleQuoted(r.output);
   if (!r.frames.empty()) c << " --frames " << singleQuoted(r.frames);
-  c << " --size " << r.settings.width << "x" << r.settings.height
-    << params::cliArguments(animateRequestTable(), r, {"title", "subtitle", "caption"})
-    << params::cliArguments(render::renderSettingsTable(), r.settings, {"width", "height"});
-  for (const auto& [flag, text] : {std::pair{"--title", &r.title}, {"--subtitle", &r.subtitle}, {"--caption", &r.caption}})
-    if (!text->empty()) c << ' ' << flag << ' ' << singleQuoted(*text);
-  if (const Vec3& pan = r.settings.camera.panMm; pan.x != 0 || pan.y != 0 || pan.z != 0)
-    c << " --pan " << pan.x << ' ' << pan.y << ' ' << pan.z;
+  c << movieArguments(r);
   c << params::cliArguments(deformParamsTable(), r.engine.params)
     << params::cliArguments(deformEngineTable(), r.engine, {"labels"});
   if (!r.engine.labels.empty()) {
@@ -125,6 +134,30 @@ std::string animateArguments(const AnimateRequest& r) {
       c << (i % 6 == 0 ? " --fixed-box " : ",") << r.engine.fixedBoxMm[i];
   }
   return c.str();
+}
+
+MovieBox movieBox(AnyVolume volume, const KeyframeTrack& track, double padMm, int controlScale,
+                  const render::Camera& asked) {
+  std::vector<ControlPoints> poses;
+  for (const Keyframe& k : track.keyframes) poses.push_back(k.points);
+  MovieBox m;
+  m.box = grownBox(volume, padMm, poses, controlScale, padMm != 0);
+  m.volume = m.box.pad.none() ? std::move(volume) : padded(volume, m.box.pad);
+  m.camera = padMm != 0 ? framedOnContent(m.box.grid, m.box.content, asked) : asked;
+  return m;
+}
+
+nlohmann::json toJson(const MovieBox& m) {
+  const Geometry& g = m.box.grid;
+  nlohmann::json j = {{"grid", {{"dims", {g.dims.x, g.dims.y, g.dims.z}},
+                                {"origin_mm", {g.origin.x, g.origin.y, g.origin.z}},
+                                {"spacing_mm", {g.spacing.x, g.spacing.y, g.spacing.z}}}},
+                      {"pad_voxels", {{"low", m.box.pad.lo}, {"high", m.box.pad.hi}}},
+                      {"camera", {{"zoom", m.camera.zoom}, {"pan_mm", {m.camera.panMm.x, m.camera.panMm.y, m.camera.panMm.z}}}}};
+  if (!m.box.content.empty())
+    j["content_box_mm"] = {{m.box.content.lo.x, m.box.content.lo.y, m.box.content.lo.z},
+                           {m.box.content.hi.x, m.box.content.hi.y, m.box.content.hi.z}};
+  return j;
 }
 
 AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
@@ -153,27 +186,39 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
   std::optional<segmentation::BodyMaskReport> tableRemoval;
   if (request.removeTable)
     lv.volume = withoutCtTable(lv.volume, request.input, *request.removeTable, progress, &tableRemoval.emplace());
-  const Geometry grid = geometryOf(lv.volume);
+  RunReport shared(request.commandLine, t0);  // the keys every report shares
+  if (!request.report.empty()) {
+    shared.input(request.input, "volume");
+    shared.loaded(request.input, lv);  // the input's grid, before the movie's box grows
+    shared.input(request.keyframes, "keyframes");
+    shared.input(request.engine.labels, "label map");
+  }
+  const Geometry inputGrid = geometryOf(lv.volume);
+  // The movie's box: grown (--pad-mm) to hold every keyframe's content, one grid for all frames.
+  MovieBox box = movieBox(std::move(lv.volume), track, request.padMm, params.controlScale, request.settings.camera);
+  const Geometry& grid = box.box.grid;
   const std::optional<RigidBodies> bodies = request.engine.rigidBodies(grid, request.load);
-  std::optional<LabelVolume> names;
   animation::MovieSpec withLabels = spec;
-  if (request.annotations.labels) {
+  withLabels.settings.camera = box.camera;
+  if (request.frameMapsOn) withLabels.frameMaps = request.frameMapsOn(grid);
+  std::optional<LabelVolume> names;
+  const auto loadNames = [&] {
     io::LoadOptions o;
     o.region = request.load.region;
     o.allowOutsideData = request.load.allowOutsideData;
-    names = io::loadLabels(request.engine.labels, o);
+    LabelVolume labels = io::loadLabels(request.engine.labels, o);
+    requireSameGrid(labels, inputGrid, request.engine.labels);
+    return labelsOnGrid(labels, grid);  // padded with 0 as the volume is with air
+  };
+  if (request.annotations.labels) {
+    names = loadNames();
     withLabels.labels = &*names;
   }
   // Label colours (--label-blend): the --labels map's table colours, through every frame's map.
   std::optional<render::LabelTint> tint;
   if (request.settings.labelBlend > 0) {
     if (request.engine.labels.empty()) throw Error("--label-blend needs the label map of --labels");
-    io::LoadOptions o;
-    o.region = request.load.region;
-    o.allowOutsideData = request.load.allowOutsideData;
-    const LabelVolume labels = names ? *names : io::loadLabels(request.engine.labels, o);
-    requireSameGrid(labels, grid, request.engine.labels);
-    tint = render::makeLabelTint(labels);
+    tint = render::makeLabelTint(names ? *names : loadNames());
     withLabels.tint = &*tint;
   }
   if (!spec.moviePath.empty()) ensureParentFolder(spec.moviePath);
@@ -185,7 +230,7 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
     const bool large = coarseMeasureStride(grid, 1) > 1;
     const animation::MovieRigidity rigidity{bodies ? &*bodies : nullptr, request.engine.rigidFalloffMm,
                                             request.engine.rigidityStride, 0, !large};
-    result.movie = animation::renderTrack(*context, lv.volume, track, params, rigidity, s, progress);
+    result.movie = animation::renderTrack(*context, box.volume, track, params, rigidity, s, progress);
   };
   if (spec.framesDir.empty()) {
     render(withLabels);
@@ -197,16 +242,10 @@ AnimateResult runAnimate(const AnimateRequest& request, Progress& progress) {
       render(s);
     }, request.force);
   }
-  RunReport shared(request.commandLine, t0);  // the keys every report shares
-  if (!request.report.empty()) {
-    shared.input(request.input, "volume");
-    shared.loaded(request.input, lv);
-    shared.input(request.keyframes, "keyframes");
-    shared.input(request.engine.labels, "label map");
-  }
   result.warnings = std::move(lv.warnings);
   const double totalMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   result.report = reportJson(result.movie, request, bodies.has_value(), totalMs);
+  result.report["box"] = toJson(box);
   if (tableRemoval) {
     result.report["table_removal"] = tableRemovalJson(*tableRemoval);
     result.tableRemoval = tableRemovalSummary(*tableRemoval);

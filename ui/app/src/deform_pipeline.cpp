@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "vellum/app/grown_box.hpp"
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
 #include "vellum/core/error.hpp"
@@ -60,96 +61,6 @@ struct Run {
   CpuLaps cpu;
 };
 
-/// Voxels added below (lo) and above (hi) the box along each axis.
-struct Padding {
-  std::array<int64_t, 3> lo{0, 0, 0}, hi{0, 0, 0};
-};
-
-/// `v` inside a box grown by pad.lo[a] / pad.hi[a] voxels below / above along axis a, `fill`
-/// around; the origin moves out along the axes, so every voxel keeps its world position.
-template <class T>
-Volume<T> padded(const Volume<T>& v, const Padding& pad, T fill) {
-  Geometry g = v.geometry();
-  const Dims d = g.dims;
-  g.origin = g.indexToPhysical({-double(pad.lo[0]), -double(pad.lo[1]), -double(pad.lo[2])});
-  g.dims = {d.x + pad.lo[0] + pad.hi[0], d.y + pad.lo[1] + pad.hi[1], d.z + pad.lo[2] + pad.hi[2]};
-  Volume<T> out(g, fill, v.background());
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        std::copy_n(v.data() + (k * d.y + j) * d.x, d.x,
-                    out.data() + ((k + pad.lo[2]) * g.dims.y + j + pad.lo[1]) * g.dims.x + pad.lo[0]);
-  });
-  return out;
-}
-
-/// The automatic padding (--pad-mm -1), per axis and side: the content (voxels above the
-/// background: CT above -500 HU) on a coarse lattice is carried forward by the displacement of
-/// its nearest control point (the forward displacement of what is there; points in air carry
-/// nothing); a side grows by how far that passes its face, plus half the lattice step and a
-/// control cell diagonal (what the lattice and the blend may add). Sides nothing moves out of
-/// stay: a foot flexing down grows the floor only.
-Padding autoPadding(const Run& run) {
-  const Geometry& g = geometryOf(run.loaded.volume);
-  const Dims d = g.dims;
-  // About 200 k samples whatever the size (a 512^2 x 350 volume: every 8th voxel).
-  const int64_t step = std::max<int64_t>(1, std::llround(std::cbrt(double(d.voxelCount()) / 2e5)));
-  std::vector<Vec3> content;
-  std::visit(
-      [&](const auto& v) {
-        const double bg = v.background();
-        const double above = bg <= -900 ? -500 : bg;  // CT: tissue, not air; else anything but the background
-        for (int64_t k = 0; k < d.z; k += step)
-          for (int64_t j = 0; j < d.y; j += step)
-            for (int64_t i = 0; i < d.x; i += step)
-              if (double(v(i, j, k)) > above) content.push_back(g.indexToPhysical({double(i), double(j), double(k)}));
-      },
-      run.loaded.volume);
-  // Each sample moves as its nearest control point does: local, so content held by still
-  // points (a leg above a flexing foot, the fixed regions' points) does not move, where the MLS
-  // field's far reach moved the top of the feet's legs 22 mm up. Parallel over the samples.
-  const auto& pts = run.points.points;
-  std::vector<Vec3> moved(content.size());
-  parallelFor(static_cast<int64_t>(content.size()), [&](int64_t t0, int64_t t1) {
-    for (int64_t t = t0; t < t1; ++t) {
-      const Vec3& x = content[static_cast<size_t>(t)];
-      double best = std::numeric_limits<double>::infinity();
-      Vec3 d{0, 0, 0};
-      for (const auto& p : pts)
-        if (const double e = dot(p.source - x, p.source - x); e < best) { best = e; d = p.target - p.source; }
-      moved[static_cast<size_t>(t)] = x + d;
-    }
-  });
-  const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
-  const double margin = 0.5 * double(step) + norm(g.spacing) * run.params.controlScale / minSpacing;  // voxels
-  double lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};  // voxels past each face
-  for (const Vec3& m : moved) {
-    const Vec3 idx = g.physicalToIndex(m);
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::max(lo[a], -idx[a]);
-      hi[a] = std::max(hi[a], idx[a] - double(g.dims[a] - 1));
-    }
-  }
-  Padding pad;
-  for (int a = 0; a < 3; ++a) {
-    // Half a voxel past the face is still inside the last voxel.
-    if (lo[a] > 0.5) pad.lo[static_cast<size_t>(a)] = static_cast<int64_t>(std::ceil(lo[a] + margin));
-    if (hi[a] > 0.5) pad.hi[static_cast<size_t>(a)] = static_cast<int64_t>(std::ceil(hi[a] + margin));
-  }
-  return pad;
-}
-
-/// The padding of --pad-mm: that much on every side; -1 = automatic, per side (autoPadding).
-Padding padVoxels(const Run& run) {
-  if (run.request.padMm < 0) return autoPadding(run);
-  const Geometry& g = geometryOf(run.loaded.volume);
-  Padding pad;
-  for (int a = 0; a < 3; ++a)
-    pad.lo[static_cast<size_t>(a)] = pad.hi[static_cast<size_t>(a)] =
-        static_cast<int64_t>(std::ceil(run.request.padMm / g.spacing[a] - 1e-9));
-  return pad;
-}
-
 void loadInputs(Run& run) {
   const DeformRequest& r = run.request;
   run.points = r.pointSet ? *r.pointSet : loadControlPoints(r.points);
@@ -161,15 +72,10 @@ void loadInputs(Run& run) {
   run.loaded = io::loadVolume(r.input, load);
   run.timings["load"] = msSince(t);
   if (r.padMm != 0) {
-    const Padding pad = padVoxels(run);
-    run.loaded.volume = std::visit(
-        [&](const auto& v) -> AnyVolume {
-          using T = typename std::decay_t<decltype(v)>::value_type;
-          return padded(v, pad, static_cast<T>(v.background()));
-        },
-        run.loaded.volume);
+    const GrownBox box = grownBox(run.loaded.volume, r.padMm, {run.points.points}, run.params.controlScale);
+    run.loaded.volume = padded(run.loaded.volume, box.pad);
     const Geometry& g = geometryOf(run.loaded.volume);
-    run.report["pad_voxels"] = {{"low", pad.lo}, {"high", pad.hi}};  // per axis (x, y, z), below / above
+    run.report["pad_voxels"] = {{"low", box.pad.lo}, {"high", box.pad.hi}};  // per axis (x, y, z), below / above
     run.report["output_origin_mm"] = {g.origin.x, g.origin.y, g.origin.z};
   }
   run.cpu.lap("load");
@@ -323,7 +229,7 @@ DeformParams DeformEngine::resolved(std::optional<double> filePower) const {
   return p;
 }
 
-std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const io::LoadOptions& load) const {
+FixedRegions DeformEngine::fixedRegions() const {
   FixedRegions fixed;
   fixed.ids = fixedIds;
   // Each 6 numbers are one box (`--fixed-box` repeated, or a pose file's "fixed_boxes").
@@ -333,6 +239,11 @@ std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const
     std::copy(fixedBoxMm.begin() + std::ptrdiff_t(i), fixedBoxMm.begin() + std::ptrdiff_t(i + 6), b.begin());
     fixed.boxesMm.push_back(b);
   }
+  return fixed;
+}
+
+std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const io::LoadOptions& load) const {
+  const FixedRegions fixed = fixedRegions();
   if (labels.empty()) {
     if (!fixed.empty()) throw Error("--fixed-labels and --fixed-box need --labels (the label map says what is tissue)");
     return std::nullopt;
@@ -342,28 +253,18 @@ std::optional<RigidBodies> DeformEngine::rigidBodies(const Geometry& grid, const
   io::LoadOptions o;
   o.region = load.region;
   o.allowOutsideData = load.allowOutsideData;
-  LabelVolume lv = io::loadLabels(labels, o);
-  const Geometry& lg = lv.geometry();
-  if (!(lg.dims == grid.dims) || !lg.approxEqual(grid, 1e-3)) {
-    // The volume padded by --pad-mm: the label grid sits at whole voxels inside it.
-    const Vec3 at = grid.physicalToIndex(lg.origin);
-    Padding pad;
-    bool inside = true;
-    const int64_t gd[3] = {grid.dims.x, grid.dims.y, grid.dims.z}, ld[3] = {lg.dims.x, lg.dims.y, lg.dims.z};
-    for (int a = 0; a < 3; ++a) {
-      const size_t s = static_cast<size_t>(a);
-      pad.lo[s] = std::llround(at[a]);
-      pad.hi[s] = gd[a] - ld[a] - pad.lo[s];
-      inside = inside && std::abs(at[a] - double(pad.lo[s])) < 1e-3 && pad.lo[s] >= 0 && pad.hi[s] >= 0;
-    }
-    Geometry shifted = grid;
-    shifted.dims = lg.dims;
-    shifted.origin = lg.origin;
-    if (!inside || !lg.approxEqual(shifted, 1e-3))
-      throw FileError(labels, "label map grid " + lg.dims.str() + " differs from the volume's " + grid.dims.str());
-    lv = LabelVolume(padded(lv.ids(), pad, uint16_t{0}), lv.table());
+  return rigidBodies(io::loadLabels(labels, o), grid);
+}
+
+RigidBodies DeformEngine::rigidBodies(const LabelVolume& labelMap, const Geometry& grid) const {
+  LabelVolume onGrid;
+  try {  // the volume padded by --pad-mm: the label grid sits at whole voxels inside it
+    onGrid = labelsOnGrid(labelMap, grid);
+  } catch (const Error& e) {
+    if (labels.empty()) throw;
+    throw FileError(labels, e.what());
   }
-  return RigidBodies::fromLabelGroups(lv, bodyGroups(), 20, fixed);
+  return RigidBodies::fromLabelGroups(onGrid, bodyGroups(), 20, fixedRegions());
 }
 
 RigidityParams DeformEngine::rigidity() const {
@@ -452,7 +353,8 @@ const params::Table<DeformRequest>& deformRequestTable() {
       params::real<R>("pad_mm", &R::padMm,
                       {"Output padding", "grow the output box by this on every side so what moves out is not cut "
                        "(origin moves out, world positions kept); -1 = automatic, per side: only the sides the "
-                       "content's forward displacement passes, by that much + a cell", "mm", -1, 500}),
+                       "content's forward displacement passes, by that much + a cell (a movie: over all its keyframes, "
+                       "one box for every frame, framed on the content)", "mm", -1, 500}),
       params::flag<R>("fold_repair", params::nested(&R::engine, &DeformEngine::foldRepair),
                       {"Fold repair", "relax the map around cells that fold in tissue (det J < 0.2); bones and fixed regions stay exact", ""}),
       params::flag<R>("no_gzip", &R::noGzip,

@@ -95,6 +95,36 @@ nlohmann::json twistJson(const TwistMap& m, const TwistParams& p) {
 
 }  // namespace
 
+DeformEngine poseEngine(const Pose& pose, DeformEngine engine) {
+  engine.rigidIds.clear();
+  engine.rigidGroups.clear();
+  for (uint16_t id : pose.boneIds())
+    if (std::find(pose.fixed.ids.begin(), pose.fixed.ids.end(), id) == pose.fixed.ids.end())
+      engine.rigidIds.push_back(id);
+  engine.fixedIds = pose.fixed.ids;
+  engine.fixedBoxMm.clear();
+  for (const auto& b : pose.fixed.boxesMm) engine.fixedBoxMm.insert(engine.fixedBoxMm.end(), b.begin(), b.end());
+  engine.powerGiven = true;  // no point file: the engine's power stands
+  return engine;
+}
+
+std::shared_ptr<const TwistFrames> poseTwistFrames(const Pose& pose, const LabelVolume& labels,
+                                                   const DeformEngine& engine, const PoseOptions& options,
+                                                   const Geometry& grid) {
+  const int scale = engine.params.controlScale;
+  const LabelVolume onGrid = labelsOnGrid(labels, grid);
+  return std::make_shared<const TwistFrames>(
+      pose, nodeBodiesOf(labelsAtNodes(onGrid, scale), engine.bodyGroups(), scale, pose.fixed), grid, scale,
+      twistParamsOf(options));
+}
+
+decltype(animation::MovieSpec::frameMaps) twistFrameMaps(std::shared_ptr<const TwistFrames> frames) {
+  return [f = std::move(frames)](double timeS, const RigidBodies* bodies) {
+    if (!bodies) throw Error("the twist map's movie needs the pose's rigid bodies");
+    return f->atTime(timeS, *bodies);
+  };
+}
+
 const params::Table<PoseRequest>& poseRequestTable() {
   using R = PoseRequest;
   static const params::Table<R> t{
@@ -121,6 +151,8 @@ std::string poseArguments(const PoseRequest& r) {
   c.precision(10);
   c << singleQuoted(r.input) << " --labels " << singleQuoted(r.labels) << " --pose " << singleQuoted(r.pose);
   if (!r.output.empty()) c << " --out " << singleQuoted(r.output);
+  if (!r.movie.empty())  // the movie's frames: size, render settings, fps, orbit, titles (its pad is pad_mm's)
+    c << " --movie " << singleQuoted(r.movie) << movieArguments(r.movieSettings, {"loop", "pad_mm"});
   c << params::cliArguments(poseRequestTable(), r) << params::cliArguments(poseOptionsTable(), r.options)
     << params::cliArguments(deformParamsTable(), r.engine.params)
     << params::cliArguments(deformEngineTable(), r.engine, {"labels"});
@@ -185,18 +217,8 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   const double time = request.frameTimeS < 0 ? pose.lastKeyframeTimeS() : request.frameTimeS;
   result.anglesDeg = pose.anglesAt(time);
 
-  // The engine: every bone of the pose is one rigid body per id, the fixed regions stay.
-  DeformEngine engine = request.engine;
+  DeformEngine engine = poseEngine(pose, request.engine);
   engine.labels = request.labels.string();
-  engine.rigidIds.clear();
-  engine.rigidGroups.clear();
-  for (uint16_t id : pose.boneIds())
-    if (std::find(pose.fixed.ids.begin(), pose.fixed.ids.end(), id) == pose.fixed.ids.end())
-      engine.rigidIds.push_back(id);
-  engine.fixedIds = pose.fixed.ids;
-  engine.fixedBoxMm.clear();
-  for (const auto& b : pose.fixed.boxesMm) engine.fixedBoxMm.insert(engine.fixedBoxMm.end(), b.begin(), b.end());
-  engine.powerGiven = true;  // no point file: the engine's power stands
 
   nlohmann::json& report = result.report;
   report["pose"] = request.pose.string();
@@ -226,16 +248,11 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   const bool twist = twistChosen(request.map, pose);
   report["map"] = twist ? "twist" : "mls";
   const TwistParams tp = twistParamsOf(request.options);
-  // The twist map of the movie's frames and the glTF skin's keys: on the engine's control grid
-  // (--control-scale), the pose's bodies sampled at its nodes (TwistFrames); made when needed.
+  // The twist map of the glTF skin's keys on the label map's grid (the movie's are made on its
+  // own, grown grid: runAnimate asks for them); made when needed.
   std::shared_ptr<const TwistFrames> frames;
   auto twistFrames = [&] {
-    if (!frames) {
-      const int scale = engine.params.controlScale;
-      frames = std::make_shared<const TwistFrames>(
-          pose, nodeBodiesOf(labelsAtNodes(labels, scale), engine.bodyGroups(), scale, pose.fixed), labels.geometry(),
-          scale, tp);
-    }
+    if (!frames) frames = poseTwistFrames(pose, labels, engine, request.options, labels.geometry());
     return frames;
   };
   if (!request.output.empty()) {
@@ -300,10 +317,10 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     a.engine = engine;
     a.load = request.load;
     a.commandLine = request.commandLine;
+    a.padMm = request.padMm;  // the movie's box grows over all its frames (--out's over its one pose)
     if (twist)  // each frame's map is the twist map at the pose's angles at that time, as --out's
-      a.frameMaps = [f = twistFrames()](double timeS, const RigidBodies* bodies) {
-        if (!bodies) throw Error("the twist map's movie needs the pose's rigid bodies");
-        return f->atTime(timeS, *bodies);
+      a.frameMapsOn = [&](const Geometry& movieGrid) {
+        return twistFrameMaps(poseTwistFrames(pose, labels, engine, request.options, movieGrid));
       };
     else if (request.exactBones)  // each frame's bones at the pose's angles at that time
       a.knownBodyTransforms = [pose](double timeS, const RigidBodies& bodies) {
@@ -314,7 +331,7 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
     report["movie"] = std::move(ar.report);
     report["movie"]["path"] = request.movie.string();
     report["movie"]["map"] = twist ? "twist" : "mls";
-    if (twist) report["movie"]["map_scale"] = twistFrames()->scale();  // the frames' twist map: every s-th voxel, bones snapped
+    if (twist) report["movie"]["map_scale"] = engine.params.controlScale;  // the frames' twist map: every s-th voxel, bones snapped
     if (result.warnings.empty()) result.warnings = std::move(ar.warnings);
   }
   if (!request.gltf.empty()) {

@@ -60,6 +60,11 @@ struct DeformEngine {
   /// ids (or a fixed region without labels). `grid` may be the label map's grid grown by whole
   /// voxels (an output padded by --pad-mm): the labels are then placed in it, 0 around.
   std::optional<deformation::RigidBodies> rigidBodies(const Geometry& grid, const io::LoadOptions& load) const;
+  /// The bodies of a label map in memory (the studio's; `rigidBodies` above loads the file): the
+  /// same bodies, `labelMap` placed in `grid` when that is its grid grown by whole voxels.
+  deformation::RigidBodies rigidBodies(const LabelVolume& labelMap, const Geometry& grid) const;
+  /// fixedIds and fixedBoxMm as regions (Error unless the boxes are 6 numbers each).
+  deformation::FixedRegions fixedRegions() const;
 };
 
 /// The stride of the voxel-level measures that are for comparison or between keyframes: on a

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -15,6 +16,7 @@
 #include "vellum/app/deform_pipeline.hpp"
 #include "vellum/core/params.hpp"
 #include "vellum/deformation/pose.hpp"
+#include "vellum/deformation/twist_frames.hpp"
 
 namespace vellum::app {
 
@@ -41,8 +43,10 @@ struct PoseRequest {
   PoseGltfOptions gltfOptions;
   std::filesystem::path keyframesOut;  ///< the generated keyframe track (`vellum animate --keyframes`); empty: not written
   double frameTimeS = -1;  ///< the pose's time (s); < 0: the last keyframe
-  /// --out's box grown by this (mm) on every side; -1: per side, as far as the content moves
-  /// (DeformRequest::padMm: the same parameter, described once in deformRequestTable()).
+  /// --out's and --movie's box grown by this (mm) on every side; -1: per side, as far as the
+  /// content moves (--out: at its pose; --movie: over every keyframe of the movie, one grid for
+  /// all frames, framed on the content: AnimateRequest::padMm). DeformRequest::padMm: the same
+  /// parameter, described once in deformRequestTable().
   double padMm = 0;
   bool force = false;
   /// Each bone's rigid transform is its joints' (the still bones' the identity) instead of the
@@ -62,6 +66,20 @@ struct PoseRequest {
 /// frame_time, exact_bones, pad_mm (deform's row; the options, the engine and the movie settings have their own tables).
 const params::Table<PoseRequest>& poseRequestTable();
 
+/// The engine of a pose (`vellum pose` and the studio's joint tool): `engine`'s settings, every
+/// bone of the pose one rigid body per id, the fixed regions (ids and boxes) still, the engine's
+/// power standing. `labels` is left as given.
+DeformEngine poseEngine(const deformation::Pose& pose, DeformEngine engine);
+/// The twist map's frames of `pose` on `grid` (the label map's grid, or a movie's grown box: the
+/// labels placed in it, 0 around): on the engine's control grid (--control-scale), the pose's
+/// bodies sampled at its nodes (deformation::TwistFrames).
+std::shared_ptr<const deformation::TwistFrames> poseTwistFrames(const deformation::Pose& pose, const LabelVolume& labels,
+                                                                const DeformEngine& engine,
+                                                                const deformation::PoseOptions& options,
+                                                                const Geometry& grid);
+/// A movie's frame maps from them: each frame the twist map at the pose's angles at its time.
+decltype(animation::MovieSpec::frameMaps) twistFrameMaps(std::shared_ptr<const deformation::TwistFrames> frames);
+
 struct PoseResult {
   deformation::Pose pose;  ///< as run (estimated axes filled)
   std::vector<double> anglesDeg;
@@ -73,8 +91,9 @@ struct PoseResult {
 };
 
 /// The `vellum pose` arguments (after "vellum pose") that run `request`: volume, --labels,
-/// --pose, --out, --frame-time, and the point generation and engine flags that differ from
-/// their defaults (what the studio's joint tool writes beside a saved pose file).
+/// --pose, --out, --movie with its frame settings (size, render settings, fps, orbit, titles,
+/// pan), --frame-time, and the point generation and engine flags that differ from their
+/// defaults (what the studio's joint tool writes beside a saved pose file and its movie export).
 std::string poseArguments(const PoseRequest& request);
 
 /// Runs the request; outputs through the output policy, atomically. FileError naming a bad
