@@ -95,9 +95,9 @@ bool sameSources(const ControlPoints& a, const ControlPoints& b) {
   return true;
 }
 
-/// Where each pose carries the samples: every sample, moved by its nearest point's displacement,
-/// into `moved` (the samples where they are first). The nearest points are found once for poses
-/// that share their sources (a pose's keyframes do).
+/// The box of the samples where they are and where each pose carries them (each moved by its
+/// nearest point's displacement); `lo` / `hi` get how far (voxels) they pass each face of `g`.
+/// The nearest points are found once for poses that share their sources (a pose's keyframes do).
 BoxMm movedContent(const std::vector<Vec3>& samples, const std::vector<ControlPoints>& poses, const Geometry& g,
                    std::array<double, 3>& lo, std::array<double, 3>& hi) {
   BoxMm box;
@@ -149,12 +149,11 @@ GrownBox grownBox(const AnyVolume& volume, double padMm, const std::vector<Contr
   }
   out.grid = paddedGeometry(g, out.pad);
   if (!out.content.empty()) {  // what lies outside the grid is cut: not framed
-    const Vec3 gridLo = out.grid.indexToPhysical({-0.5, -0.5, -0.5});
-    const Vec3 gridHi = out.grid.indexToPhysical({out.grid.dims.x - 0.5, out.grid.dims.y - 0.5, out.grid.dims.z - 0.5});
+    BoxMm gridBox;
+    for (const Vec3& p : voxelBoxCorners(out.grid)) gridBox.add(p);
     for (int a = 0; a < 3; ++a) {
-      const double l = std::min(gridLo[a], gridHi[a]), h = std::max(gridLo[a], gridHi[a]);
-      out.content.lo[a] = std::clamp(out.content.lo[a], l, h);
-      out.content.hi[a] = std::clamp(out.content.hi[a], l, h);
+      out.content.lo[a] = std::clamp(out.content.lo[a], gridBox.lo[a], gridBox.hi[a]);
+      out.content.hi[a] = std::clamp(out.content.hi[a], gridBox.lo[a], gridBox.hi[a]);
     }
   }
   return out;

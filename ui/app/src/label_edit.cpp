@@ -10,6 +10,7 @@
 
 #include "vellum/app/outputs.hpp"
 #include "vellum/app/run_report.hpp"
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/segmentation/label_map.hpp"
 #include "vellum/segmentation/mask.hpp"
@@ -18,38 +19,43 @@ namespace vellum::app {
 namespace {
 
 std::vector<LabelEditResult::Entry> entries(const LabelVolume& labels) {
-  const std::vector<uint64_t> counts = labels.histogram();
-  const double voxelMm3 = segmentation::voxelVolumeMm3(labels.geometry());
-  // Per id: index sums and bounds in one pass (ids are dense, a few hundred at most).
+  const Geometry& g = labels.geometry();
+  const double voxelMm3 = segmentation::voxelVolumeMm3(g);
+  // Per id, in one pass: its voxels, their index sums and index bounds.
   struct Sums {
+    int64_t n = 0;
     double x = 0, y = 0, z = 0;
-    int lo[3] = {INT_MAX, INT_MAX, INT_MAX}, hi[3] = {-1, -1, -1};
+    int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {-1, -1, -1};
   };
-  std::vector<Sums> sums(counts.size());
-  const Dims d = labels.geometry().dims;
+  std::vector<Sums> sums(65536);
+  const Dims d = g.dims;
   const uint16_t* v = labels.ids().data();
-  for (int z = 0; z < int(d.z); ++z)
-    for (int y = 0; y < int(d.y); ++y)
-      for (int x = 0; x < int(d.x); ++x, ++v) {
+  for (int64_t z = 0; z < d.z; ++z)
+    for (int64_t y = 0; y < d.y; ++y)
+      for (int64_t x = 0; x < d.x; ++x, ++v) {
         if (!*v) continue;
         Sums& s = sums[*v];
-        s.x += x, s.y += y, s.z += z;
-        const int ijk[3] = {x, y, z};
+        ++s.n;
+        s.x += double(x), s.y += double(y), s.z += double(z);
+        const int64_t ijk[3] = {x, y, z};
         for (int a = 0; a < 3; ++a) s.lo[a] = std::min(s.lo[a], ijk[a]), s.hi[a] = std::max(s.hi[a], ijk[a]);
       }
-  const Geometry& g = labels.geometry();
   std::vector<LabelEditResult::Entry> out;
-  for (size_t id = 1; id < counts.size(); ++id) {
-    if (!counts[id]) continue;
-    const auto l = labels.label(static_cast<uint16_t>(id));
+  for (size_t id = 1; id < sums.size(); ++id) {
     const Sums& s = sums[id];
-    const double n = double(counts[id]);
-    const Vec3 a = g.indexToPhysical(Vec3{double(s.lo[0]), double(s.lo[1]), double(s.lo[2])});
-    const Vec3 b = g.indexToPhysical(Vec3{double(s.hi[0]), double(s.hi[1]), double(s.hi[2])});
-    out.push_back({static_cast<uint16_t>(id), l ? l->name : "", static_cast<int64_t>(counts[id]),
-                   n * voxelMm3, g.indexToPhysical(Vec3{s.x / n, s.y / n, s.z / n}),
-                   Vec3{std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)},
-                   Vec3{std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)}});
+    if (!s.n) continue;
+    const auto l = labels.label(static_cast<uint16_t>(id));
+    const double n = double(s.n);
+    LabelEditResult::Entry e{static_cast<uint16_t>(id), l ? l->name : "", s.n, n * voxelMm3,
+                             g.indexToPhysical(Vec3{s.x / n, s.y / n, s.z / n}), {}, {}};
+    // The physical box of the index box's corners (any direction matrix).
+    BoxMm box;
+    for (const Vec3& p : indexBoxCorners(g, Vec3{double(s.lo[0]), double(s.lo[1]), double(s.lo[2])},
+                                         Vec3{double(s.hi[0]), double(s.hi[1]), double(s.hi[2])}))
+      box.add(p);
+    e.boxMinMm = box.lo;
+    e.boxMaxMm = box.hi;
+    out.push_back(std::move(e));
   }
   return out;
 }

@@ -1,14 +1,27 @@
 #pragma once
-// The eight corners of a box: an axis-aligned one from two opposite corners, an index range of
-// a grid in mm, or a grid's whole voxel box in mm. Its own small header so that only the
+// Boxes in mm: one grown point by point (BoxMm), and the eight corners of a box: an
+// axis-aligned one from two opposite corners, an index range of a grid in mm, or a grid's whole
+// voxel box in mm. Its own small header so that only the
 // places that frame or clip a box include it.
 #include <algorithm>
 #include <array>
+#include <limits>
 
 #include "vellum/core/geometry.hpp"
 #include "vellum/core/vec.hpp"
 
 namespace vellum {
+
+/// An axis-aligned box (mm); empty until a point is added.
+struct BoxMm {
+  Vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+          std::numeric_limits<double>::infinity()};
+  Vec3 hi = -lo;
+  bool empty() const { return !(lo.x <= hi.x); }
+  void add(const Vec3& p) {
+    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+  }
+};
 
 /// The corners of the axis-aligned box with opposite corners lo and hi: corner c takes hi's
 /// coordinate on the axes whose bit is set in c (bit 0 x, bit 1 y, bit 2 z), lo's on the others.

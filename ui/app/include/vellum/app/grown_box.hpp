@@ -10,6 +10,7 @@
 #include <optional>
 #include <vector>
 
+#include "vellum/core/box_corners.hpp"
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/core/volume.hpp"
@@ -55,17 +56,6 @@ std::optional<Padding> placementIn(const Geometry& inner, const Geometry& outer)
 /// `labels` on `grid`: the same map, or placed in `grid` (0 around) when `grid` is its grid grown
 /// by whole voxels. FileError-free: Error naming both grids otherwise (callers add the file).
 LabelVolume labelsOnGrid(const LabelVolume& labels, const Geometry& grid);
-
-/// An axis-aligned box (mm); empty until a point is added.
-struct BoxMm {
-  Vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-          std::numeric_limits<double>::infinity()};
-  Vec3 hi = -lo;
-  bool empty() const { return !(lo.x <= hi.x); }
-  void add(const Vec3& p) {
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
-  }
-};
 
 /// The grown box of --pad-mm for a volume moved by one or more poses.
 struct GrownBox {
