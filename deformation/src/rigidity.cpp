@@ -326,6 +326,9 @@ std::shared_ptr<const RigidSnap> makeRigidSnap(const RigidBodies& bodies, const 
     }
     snap->fits.push_back(m);
     snap->valid.push_back(f.valid ? 1 : 0);
+    // Exactly the identity: the fixed regions and the bones a pose keeps still (RigidSnap::held).
+    const RigidTransform& t = f.transform;
+    snap->held.push_back(f.valid && t.rotation == Mat3::identity() && t.translation == Vec3{0, 0, 0} && t.scale == 1.0);
   }
   // Interpolation errors inside a body are below a control-cell diagonal.
   snap->maxSnapMm = norm(grid.spacing);

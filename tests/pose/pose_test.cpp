@@ -725,3 +725,48 @@ TEST(Pose, TwistMovieFramesAreTheStillPosesMap) {
   EXPECT_LT(tissueMm, 2 * kSpacing) << "the coarse twist strays from the full one";
   std::cout << "scale 2 against the full twist map: max " << tissueMm << " mm\n";
 }
+
+// A fixed box beside the turning child along the joint's axis (the feet bench: the right foot
+// turns beside the fixed left half): the twist's w jumps at the box face (a pure shear), and a
+// movie frame's node map (scale 2: nodes every 4 mm, the face at 50 mm mid-cell) straddles the
+// jump. The held snap (RigidSnap::held) keeps every voxel of the box and of the still parent
+// exactly where it is; without it the face cells drag the box's voxels by part of the jump.
+TEST(Pose, TwistMovieFramesHoldTheFixedBoxAndTheStillBoneExactly) {
+  const Limb limb = makeLimb({{46, 74}, {12, 36}});
+  Pose pose;
+  Joint joint;
+  joint.name = "knee";
+  joint.parent = {1};
+  joint.child = {2};
+  joint.axisA = {30, 40, 41};
+  joint.axisB = {50, 40, 41};
+  pose.joints.push_back(joint);
+  pose.fixed.ids = {kFixed};
+  pose.fixed.boxesMm = {{50, 0, 0, 78, 78, 78}};
+  linkJoints(pose);
+  const Geometry g = limb.labels.geometry();
+  const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
+  auto bodies = std::make_shared<const RigidBodies>(RigidBodies::fromLabelGroups(limb.labels, groups, 20, pose.fixed));
+  const TwistFrames coarse(pose, nodeBodiesOf(labelsAtNodes(limb.labels, 2), groups, 2, pose.fixed), g, 2);
+  const std::shared_ptr<const ControlVolume> cv = coarse.sharedAt({30.0}, *bodies);
+  ASSERT_TRUE(cv->rigidSnap);
+  const RigidityReport held = measureRigidityMap(upsampleMap(*cv, g), g, *bodies);
+  EXPECT_GT(held.fixedSamples, 4000);
+  EXPECT_LT(held.fixedMaxDisplacementMm, 1e-4) << "the fixed box moves in the frame";
+  EXPECT_EQ(held.foldFraction, 0.0) << "min det J " << held.minJacobian;
+  for (const auto& b : held.bodies)
+    if (!b.fixed && b.ids == std::vector<uint16_t>{1}) {
+      EXPECT_GT(b.samples, 100);
+      EXPECT_LT(b.maxResidualMm, 1e-4) << "the still parent moves";
+    }
+
+  ControlVolume loose = *cv;
+  auto snap = std::make_shared<RigidSnap>(*cv->rigidSnap);
+  snap->held.clear();
+  loose.rigidSnap = snap;
+  const RigidityReport dragged = measureRigidityMap(upsampleMap(loose, g), g, *bodies);
+  std::cout << "fixed box in a scale-2 frame: max " << dragged.fixedMaxDisplacementMm << " mm without the held snap, "
+            << held.fixedMaxDisplacementMm << " mm with it\n";
+  EXPECT_GT(dragged.fixedMaxDisplacementMm, 1.0) << "the case does not straddle the jump";
+}
+

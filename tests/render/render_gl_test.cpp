@@ -474,6 +474,36 @@ TEST(RenderGl, SnappedSamplesShadeWithTheirBodysTurn) {
   EXPECT_GE(test::compareImages(snapped, cpu).psnr, 40.0) << "GL vs CPU reference";
 }
 
+// A held body (RigidSnap::held: a fixed region, a still bone) stays where it is in the shader as
+// on the CPU, whatever the node map says there: here the nodes turn everything 30 degrees and
+// the held body covers the volume, so the picture is the unturned slab's.
+TEST(RenderGl, HeldBodiesIgnoreTheNodeMap) {
+  const VolumeI16 vol = tiltedSlabVolume();
+  BackwardMap map = turnAboutZ(vol.geometry(), 30);
+  auto snap = std::make_shared<RigidSnap>();
+  snap->classGrid = vol.geometry();
+  snap->classes = std::make_shared<const std::vector<uint16_t>>(static_cast<size_t>(vol.geometry().dims.voxelCount()), uint16_t{2});
+  snap->fits = {{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}};
+  snap->valid = {1};
+  snap->held = {1};
+  map.rigidSnap = snap;
+  VolumeRenderer r(gl());
+  r.setVolume(vol);
+  const RenderSettings s = slabView(0);
+  const RgbaImage still = r.render(s);
+  r.setBackwardMap(&map);
+  const RgbaImage held = r.render(s);
+  const double pHeld = test::compareImages(held, still).psnr;
+  EXPECT_GE(pHeld, 40.0) << "the held body moved with the node map";
+  EXPECT_GE(test::compareImages(held, renderReferenceCpu(vol, s, &map)).psnr, 40.0) << "GL vs CPU reference";
+  BackwardMap loose = map;
+  auto unheld = std::make_shared<RigidSnap>(*snap);
+  unheld->held.clear();
+  loose.rigidSnap = unheld;
+  r.setBackwardMap(&loose);
+  EXPECT_LT(test::compareImages(r.render(s), still).psnr, 30.0) << "the case does not turn without the held flag";
+}
+
 }  // namespace vellum::render
 
 namespace vellum::render {

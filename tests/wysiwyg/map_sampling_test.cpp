@@ -108,3 +108,43 @@ TEST(WysiwygMap, TooManySnapBodiesIsANamedError) {
     EXPECT_NE(std::string(e.what()).find("at most 64"), std::string::npos) << e.what();
   }
 }
+
+// A held body (RigidSnap::held: a fixed region, a still bone) keeps its place whatever the
+// interpolated map says there, on the CPU sampler as in the shader (deformedSource()); the rest
+// keeps the map or the ordinary snap; only the identity may be held.
+TEST(WysiwygMap, AHeldBodyKeepsItsPlaceWhateverTheMapSays) {
+  const Geometry g{{8, 8, 8}, {1, 1, 1}, {0, 0, 0}, Mat3::identity()};
+  render::BackwardMap map = render::identityBackwardMap(g);
+  for (size_t n = 0; n < map.sourceMm.size(); n += 3) map.sourceMm[n] += 3;  // u = v + 3 mm along x
+  auto snap = std::make_shared<RigidSnap>();
+  snap->classGrid = g;
+  auto classes = std::make_shared<std::vector<uint16_t>>(512, 1);
+  for (size_t n = 0; n < classes->size(); ++n)
+    if (n % 8 >= 4) (*classes)[n] = 2;  // body 0: x >= 4
+  snap->classes = classes;
+  snap->fits = {{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0}};
+  snap->valid = {1};
+  snap->maxSnapMm = 0.5;
+  snap->held = {1};
+  map.rigidSnap = snap;
+  const render::detail::PreparedMap held = render::detail::prepareMap(map, g);
+  int body = -2;
+  EXPECT_EQ(held.at({5, 2, 3}, &body), (Vec3{5, 2, 3})) << "a held voxel follows the map";
+  EXPECT_EQ(body, 0);
+  EXPECT_EQ(held.at({1, 2, 3}, &body), (Vec3{4, 2, 3})) << "tissue beside it must keep the map";
+  EXPECT_EQ(body, -1);
+
+  snap->held.clear();
+  const render::detail::PreparedMap loose = render::detail::prepareMap(map, g);
+  EXPECT_EQ(loose.at({5, 2, 3}), (Vec3{8, 2, 3}));
+
+  snap->held = {1};
+  snap->fits[0][9] = 1;  // a translation cannot be held
+  try {
+    (void)render::detail::prepareMap(map, g);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("identity"), std::string::npos) << e.what();
+  }
+}
+

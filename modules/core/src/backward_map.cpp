@@ -128,6 +128,21 @@ SnapFrame snapFrame(const RigidSnap& rs, const Geometry& pointGrid, const Mat3& 
   }
   p.valid = rs.valid;
   p.valid.resize(p.body.size(), 0);
+  if (!rs.held.empty()) {
+    if (rs.held.size() != rs.fits.size()) throw Error("rigid snap: one held flag per body is needed");
+    p.held.assign(rs.held.size(), 0);
+    for (size_t c = 0; c < rs.held.size(); ++c) {
+      if (!rs.held[c] || !p.valid[c]) continue;
+      // Held = stays where it is: only the identity may be held (u = v at its voxels).
+      const auto& f = rs.fits[c];
+      for (int i = 0; i < 12; ++i)
+        if (std::abs(f[static_cast<size_t>(i)] - ((i == 0 || i == 4 || i == 8) ? 1.0 : 0.0)) > 1e-9)
+          throw Error("rigid snap: a held body must have the identity transform");
+      p.held[c] = 1;
+      p.anyHeld = true;
+    }
+    put(p.pointToClass, cInv * G, cInv * (pointGrid.origin - rs.classGrid.origin));
+  }
   p.maxSnap2 = static_cast<float>(rs.maxSnapMm * rs.maxSnapMm);
   if (rs.reachMm.size() == rs.fits.size()) {
     // Point-index bounds of each body's reach box (its 8 corners through mm -> index).

@@ -28,10 +28,7 @@ Point locate(vec3 p) {
   q.inside = 1.0;
   q.snapped = -1;
 #ifdef DEFORMED
-  q.u = mapAt(p);
-#ifdef RIGID_SNAP
-  q.u = snapRigid(p, q.u, q.snapped);
-#endif
+  q.u = deformedSource(p, q.snapped);
 #ifdef OUTPUT_BOX
   vec3 xo = uOutScale * p + uOutOffset;
   vec3 wo = clamp(min(1.0 + xo, uOutDims - xo), 0.0, 1.0);

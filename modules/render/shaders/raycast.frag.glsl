@@ -170,25 +170,57 @@ vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
 #endif
 
 #ifdef RIGID_SNAP
+// The class at class index c (rounded), or -1 outside the class grid.
+int classAt(vec3 c) {
+  if (any(lessThanEqual(c, vec3(-0.5)))) return -1;
+  ivec3 ci = ivec3(floor(c + 0.5));
+  if (any(greaterThanEqual(ci, textureSize(uClasses, 0)))) return -1;
+  return int(texelFetch(uClasses, ci, 0).r);
+}
+
+bool bodyFlag(uint bits[(MAX_SNAP_BODIES + 31) / 32], int body) {
+  return ((bits[body >> 5] >> uint(body & 31)) & 1u) != 0u;
+}
+
+// Body `body`'s source position of map node index p.
+vec3 bodySource(int body, vec3 p) {
+  vec4 p1 = vec4(p, 1.0);
+  int r = SNAP_BODY_ROWS * body;
+  return vec3(dot(uBodyRows[r], p1), dot(uBodyRows[r + 1], p1), dot(uBodyRows[r + 2], p1));
+}
+
+// SnapFrame::heldAt(): the held body (a fixed region, a still bone) at p's own place, or -1.
+int heldAt(vec3 p) {
+  int body = classAt(uPointToClass * p + uPointToClassOffset) - 2;
+  return body >= 0 && body < uBodies && bodyFlag(uBodyHeld, body) ? body : -1;
+}
+
 // CPU synthesis' voxel snap: u in the class voxel of valid body c and R_c v + t_c within
 // maxSnapMm of u -> u = R_c v + t_c.
 vec3 snapRigid(vec3 p, vec3 u, out int snappedBody) {
   snappedBody = -1;
-  vec3 c = uSrcToClass * u + uSrcToClassOffset;
-  if (any(lessThanEqual(c, vec3(-0.5)))) return u;
-  ivec3 ci = ivec3(floor(c + 0.5));
-  if (any(greaterThanEqual(ci, textureSize(uClasses, 0)))) return u;
-  int body = int(texelFetch(uClasses, ci, 0).r) - 2;
-  if (body < 0 || body >= uBodies || ((uBodyValid[body >> 5] >> uint(body & 31)) & 1u) == 0u) return u;
-  vec4 p1 = vec4(p, 1.0);
-  int r = SNAP_BODY_ROWS * body;
-  vec3 s = vec3(dot(uBodyRows[r], p1), dot(uBodyRows[r + 1], p1), dot(uBodyRows[r + 2], p1));
+  int body = classAt(uSrcToClass * u + uSrcToClassOffset) - 2;
+  if (body < 0 || body >= uBodies || !bodyFlag(uBodyValid, body)) return u;
+  vec3 s = bodySource(body, p);
   vec3 dmm = uSrcDeltaToMm * (s - u);
   if (!(dot(dmm, dmm) <= uMaxSnap2)) return u;
   snappedBody = body;
   return s;
 }
 #endif
+
+// Twin of PreparedMap::at(): the source index of map node index p, through the map and the
+// snap; a held body's place needs no map.
+vec3 deformedSource(vec3 p, out int snappedBody) {
+  snappedBody = -1;
+#ifdef RIGID_SNAP
+  snappedBody = heldAt(p);
+  if (snappedBody >= 0) return bodySource(snappedBody, p);
+  return snapRigid(p, mapAt(p), snappedBody);
+#else
+  return mapAt(p);
+#endif
+}
 #endif
 
 #ifndef MODE_MIP

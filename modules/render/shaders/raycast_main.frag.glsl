@@ -70,11 +70,8 @@ void main() {
 #endif
 #ifdef DEFORMED
       vec3 mapTc = (p + 0.5) / uBoxDims;
-      vec3 u = mapAt(p);
-      int snappedBody = -1;
-#ifdef RIGID_SNAP
-      u = snapRigid(p, u, snappedBody);
-#endif
+      int snappedBody;
+      vec3 u = deformedSource(p, snappedBody);
 #ifdef OUTPUT_BOX
       // Beyond the output voxel centres the value fades to the background over one voxel, as
       // the synthesised volume's texture fades to its border (PreparedMap::outputWeight).

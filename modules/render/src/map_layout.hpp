@@ -15,6 +15,9 @@
   X(SrcDeltaToMm, "mat3", "", "SnapFrame::deltaToMm: source index offset -> mm")                    \
   X(BodyRows, "vec4", "[SNAP_BODY_ROWS * MAX_SNAP_BODIES]", "SnapFrame::body: source index = rows . (p, 1)") \
   X(BodyValid, "uint", "[(MAX_SNAP_BODIES + 31) / 32]", "SnapFrame::valid, one bit per body")       \
+  X(BodyHeld, "uint", "[(MAX_SNAP_BODIES + 31) / 32]", "SnapFrame::held, one bit per body")         \
+  X(PointToClass, "mat3", "", "SnapFrame::pointToClass A': map node index -> class index of its place") \
+  X(PointToClassOffset, "vec3", "", "SnapFrame::pointToClass b'")                                  \
   X(Bodies, "int", "", "SnapFrame::body.size()")                                                    \
   X(MaxSnap2, "float", "", "SnapFrame::maxSnap2, mm^2")
 

@@ -491,15 +491,20 @@ struct VolumeRenderer::Impl {
     glUniform3f(glGetUniformLocation(p, u::kSrcToClassOffset), ps.toClass[9], ps.toClass[10], ps.toClass[11]);
     glUniformMatrix3fv(glGetUniformLocation(p, u::kSrcDeltaToMm), 1, GL_TRUE, ps.deltaToMm.data());
     std::vector<float> rows;
-    uint32_t valid[(kMaxSnapBodies + 31) / 32] = {};
+    uint32_t valid[(kMaxSnapBodies + 31) / 32] = {}, held[(kMaxSnapBodies + 31) / 32] = {};
     for (size_t c = 0; c < ps.body.size(); ++c) {
       const auto& m = ps.body[c];
       for (int r = 0; r < kSnapBodyRows; ++r) rows.insert(rows.end(), {m[3 * r], m[3 * r + 1], m[3 * r + 2], m[9 + r]});
       if (ps.valid[c]) valid[c / 32] |= 1u << (c % 32);
+      if (c < ps.held.size() && ps.held[c]) held[c / 32] |= 1u << (c % 32);
     }
     if (!rows.empty())
       glUniform4fv(glGetUniformLocation(p, u::kBodyRows), GLsizei(rows.size() / 4), rows.data());
     glUniform1uiv(glGetUniformLocation(p, u::kBodyValid), GLsizei(std::size(valid)), valid);
+    glUniform1uiv(glGetUniformLocation(p, u::kBodyHeld), GLsizei(std::size(held)), held);
+    glUniformMatrix3fv(glGetUniformLocation(p, u::kPointToClass), 1, GL_TRUE, ps.pointToClass.data());
+    glUniform3f(glGetUniformLocation(p, u::kPointToClassOffset), ps.pointToClass[9], ps.pointToClass[10],
+                ps.pointToClass[11]);
     glUniform1i(glGetUniformLocation(p, u::kBodies), GLint(ps.body.size()));
     glUniform1f(glGetUniformLocation(p, u::kMaxSnap2), ps.maxSnap2);
   }

@@ -98,6 +98,12 @@ struct RigidSnap {
   /// Per body: axis-aligned box (output mm: min xyz, max xyz) holding every output position
   /// the snap can move to that body (SnapFrame::reach). Empty = everywhere.
   std::vector<std::array<double, 6>> reachMm;
+  /// Per body (or empty: none): 1 = held in place, its fit the identity: the fixed regions, and
+  /// the bones a pose keeps still. An output position v in a held body's class voxels (its own
+  /// place, since it does not move) takes u = v whatever the interpolated map says: an
+  /// interpolated map cell that straddles a held region's face would otherwise drag its voxels
+  /// by part of the jump beside it (a fixed box beside a turning foot: 9 mm in a movie frame).
+  std::vector<uint8_t> held;
 };
 
 struct BackwardMap {
@@ -137,15 +143,27 @@ struct SnapFrame {
   /// Per body: u = M v + m (M row-major, then m): the body's rigid transform in these frames.
   std::vector<std::array<float, 12>> body;
   std::vector<uint8_t> valid;
+  /// RigidSnap::held (valid bodies only), and the class index of point v's own place, A' v + b'
+  /// (A' row-major, then b'), for the held test.
+  std::vector<uint8_t> held;
+  bool anyHeld = false;
+  std::array<float, 12> pointToClass{};
   float maxSnap2 = 0;  ///< mm^2
   /// Per body with a reach box (RigidSnap::reachMm): the point-index box {min i, j, k, max i,
   /// j, k} (inclusive) where the snap can move u to it; one box for everywhere without them.
   std::vector<std::array<int64_t, 6>> reach;
 
   /// The snap at point v of the interpolated u (both in this frame's coordinates), in Real
-  /// arithmetic: u replaced and the body returned, or u unchanged and -1.
+  /// arithmetic: u replaced and the body returned, or u unchanged and -1. A held body at v's
+  /// own place comes first (heldAt()), then the body at u within maxSnap.
   template <class Real>
   int apply(const Real v[3], Real u[3]) const;
+  /// The held body whose class voxel holds point v's own place, or -1.
+  template <class Real>
+  int heldAt(const Real v[3]) const;
+  /// The class (2 + body, 1 tissue, 0 air; -1 outside the class grid) at class index A q + b.
+  template <class Real>
+  int classAt(const std::array<float, 12>& A, const Real q[3]) const;
   /// apply() along the whole points (0..n-1, j, k) of a row that some body can reach (u as
   /// three float arrays): synthesis skips the rest of the volume quickly.
   void applyRow(int64_t j, int64_t k, int64_t n, float* ux, float* uy, float* uz) const;
@@ -159,25 +177,35 @@ struct SnapFrame {
 SnapFrame snapFrame(const RigidSnap& snap, const Geometry& pointGrid, const Mat3& uToMm, const Vec3& uOriginMm);
 
 template <class Real>
-int SnapFrame::apply(const Real v[3], Real u[3]) const {
+int SnapFrame::classAt(const std::array<float, 12>& A, const Real q[3]) const {
   int64_t ci[3];
   for (int a = 0; a < 3; ++a) {
-    const Real x = toClass[3 * a] * u[0] + toClass[3 * a + 1] * u[1] + toClass[3 * a + 2] * u[2] + toClass[9 + a];
+    const Real x = A[3 * a] * q[0] + A[3 * a + 1] * q[1] + A[3 * a + 2] * q[2] + A[9 + a];
     if (!(x > Real(-0.5))) return -1;
     ci[a] = static_cast<int64_t>(std::floor(x + Real(0.5)));
   }
   if (ci[0] >= classDims.x || ci[1] >= classDims.y || ci[2] >= classDims.z) return -1;
-  const int c = int(classes[(ci[2] * classDims.y + ci[1]) * classDims.x + ci[0]]) - 2;
+  return int(classes[(ci[2] * classDims.y + ci[1]) * classDims.x + ci[0]]);
+}
+
+template <class Real>
+int SnapFrame::heldAt(const Real v[3]) const {
+  if (!anyHeld) return -1;
+  const int c = classAt(pointToClass, v) - 2;
+  return c >= 0 && c < int(held.size()) && held[static_cast<size_t>(c)] ? c : -1;
+}
+
+template <class Real>
+int SnapFrame::apply(const Real v[3], Real u[3]) const {
+  const int heldBody = heldAt(v);
+  const int c = heldBody >= 0 ? heldBody : classAt(toClass, u) - 2;
   if (c < 0 || c >= int(body.size()) || !valid[static_cast<size_t>(c)]) return -1;
   const auto& m = body[static_cast<size_t>(c)];
-  Real s[3], d[3];
-  for (int a = 0; a < 3; ++a) {
-    s[a] = m[3 * a] * v[0] + m[3 * a + 1] * v[1] + m[3 * a + 2] * v[2] + m[9 + a];
-    d[a] = s[a] - u[a];
-  }
-  Real d2 = 0;
-  for (int a = 0; a < 3; ++a) {
-    const Real e = deltaToMm[3 * a] * d[0] + deltaToMm[3 * a + 1] * d[1] + deltaToMm[3 * a + 2] * d[2];
+  Real s[3], d2 = 0;
+  for (int a = 0; a < 3; ++a) s[a] = m[3 * a] * v[0] + m[3 * a + 1] * v[1] + m[3 * a + 2] * v[2] + m[9 + a];
+  for (int a = 0; a < 3 && heldBody < 0; ++a) {
+    const Real e = deltaToMm[3 * a] * (s[0] - u[0]) + deltaToMm[3 * a + 1] * (s[1] - u[1]) +
+                   deltaToMm[3 * a + 2] * (s[2] - u[2]);
     d2 += e * e;
   }
   if (!(d2 <= maxSnap2)) return -1;
