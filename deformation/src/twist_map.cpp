@@ -325,6 +325,19 @@ class Relaxation {
     return bad;
   }
 
+  /// The voxels of `candidates` (any order, repeats allowed) over `over`, sorted: scan()'s
+  /// answer wherever the slopes elsewhere are known to be under it.
+  std::vector<int64_t> over(std::vector<int64_t> candidates, double over) const {
+    std::sort(candidates.begin(), candidates.end());
+    candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+    std::vector<int64_t> out;
+    for (int64_t t : candidates)
+      if (slope_.at(t) > over) out.push_back(t);
+    return out;
+  }
+
+  double bound() const { return bound_; }
+
   /// Relax around `bad` for at most `rounds` rounds, stopping after `patience` rounds that cut the
   /// total excess over the bound by under 2 %; `bad` is left holding what is still over it.
   void run(std::vector<int64_t>& bad, int rounds, int patience, bool smoothFirst) {
@@ -455,9 +468,9 @@ class Relaxation {
 /// source lands in a bone's voxel (nearest: the cells are not round about the axis) joins that
 /// bone's side, w = 0 or 1 exactly; only a short step (the source moves by at most
 /// joinMaxVoxels): a long one is a jump next to the other side's lock that no relaxation can
-/// spread. Returns how many joined.
-int64_t joinLocks(const Grid& grid, const Stage& st, const RigidBodies& bodies, const Grouping& grouping,
-                  const TwistParams& params, std::vector<uint8_t>& side, VolumeF32& w) {
+/// spread. Returns the voxels that joined.
+std::vector<int64_t> joinLocks(const Grid& grid, const Stage& st, const RigidBodies& bodies, const Grouping& grouping,
+                               const TwistParams& params, std::vector<uint8_t>& side, VolumeF32& w) {
   const Dims d = grid.d;
   const uint16_t* cls = bodies.classes().data();
   std::vector<std::pair<int64_t, uint8_t>> joins;
@@ -479,11 +492,14 @@ int64_t joinLocks(const Grid& grid, const Stage& st, const RigidBodies& bodies, 
     std::lock_guard lock(mutex);
     joins.insert(joins.end(), local.begin(), local.end());
   });
+  std::vector<int64_t> joined;
+  joined.reserve(joins.size());
   for (const auto& [t, sd] : joins) {
     side[static_cast<size_t>(t)] = sd;
     w.data()[t] = sd == kMoving ? 1.f : 0.f;
+    joined.push_back(t);
   }
-  return static_cast<int64_t>(joins.size());
+  return joined;
 }
 
 /// Unlocks the bone voxels (still or moving, never fixed) in the 26-neighbourhood of each of
@@ -576,28 +592,34 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     relax.run(bad, params.maxRounds, params.patience, true);
     // The last stage's output is the source: lock blended voxels whose source lies in a bone,
     // and relax again around them (fewer rounds), so the snap has (nearly) nothing left to do.
+    // From here on `bad` is every voxel over the bound without scanning the grid again: run()
+    // leaves it so (it changes w only inside the region it rechecks), a slope reads w at the
+    // voxel and its 6 neighbours only, and softening changes sides, not w.
     if (s + 1 == order.size())
       for (int pass = 0; pass < params.lockPasses; ++pass) {
         progress.checkCancelled();
-        const int64_t joined = joinLocks(grid, st, bodies, grouping, params, side, w);
-        if (joined == 0) break;
-        stats.joinedVoxels += joined;
-        bad = relax.scan();
+        std::vector<int64_t> joined = joinLocks(grid, st, bodies, grouping, params, side, w);
+        if (joined.empty()) break;
+        stats.joinedVoxels += static_cast<int64_t>(joined.size());
+        const size_t nJoined = joined.size();
+        for (size_t q = 0; q < nJoined; ++q) grid.neighbours(joined[q], [&](int64_t n) { joined.push_back(n); });
+        joined.insert(joined.end(), bad.begin(), bad.end());
+        bad = relax.over(std::move(joined), relax.bound());
         relax.run(bad, params.maxRounds / 3, params.patience / 2, true);
       }
     // Bones that touch along the turn: no w between the two locks keeps det J > 0; their rims
     // give, a voxel's shell deeper each pass, and the tissue's blend is relaxed through them.
     for (int pass = 0; pass < params.softenPasses; ++pass) {
       progress.checkCancelled();
-      const std::vector<int64_t> stuck = relax.scan(1.0 - params.softenBelow);
+      // Stuck voxels are a part of `bad` unless the margin is under softenBelow (then scanned).
+      const double stuckOver = 1.0 - params.softenBelow;
+      const std::vector<int64_t> stuck = stuckOver >= relax.bound() ? relax.over(bad, stuckOver) : relax.scan(stuckOver);
       if (stuck.empty()) break;
       const int64_t unlocked = soften(grid, stuck, side, soft);
       if (unlocked == 0) break;
       stats.softenedVoxels += unlocked;
-      bad = relax.scan();
       relax.run(bad, params.maxRounds / 3, params.patience / 2, true);
     }
-    bad = relax.scan();
     stats.relaxedVoxels = relax.relaxedVoxels();
     stats.violationsAfter = static_cast<int64_t>(bad.size());
     for (int64_t t : bad) {
