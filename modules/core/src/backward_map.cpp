@@ -145,8 +145,11 @@ SnapFrame snapFrame(const RigidSnap& rs, const Geometry& pointGrid, const Mat3& 
   }
   p.maxSnap2 = static_cast<float>(rs.maxSnapMm * rs.maxSnapMm);
   if (rs.reachMm.size() == rs.fits.size()) {
-    // Point-index bounds of each body's reach box (its 8 corners through mm -> index).
-    for (const auto& b : rs.reachMm) {
+    // Point-index bounds of each body's reach box (its 8 corners through mm -> index); the held
+    // bodies' together bound heldAt() (a held body's reach holds its own voxels).
+    p.heldBox = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};
+    for (size_t c = 0; c < rs.reachMm.size(); ++c) {
+      const auto& b = rs.reachMm[c];
       if (b[3] < b[0]) continue;
       std::array<int64_t, 6> r{INT64_MAX, INT64_MAX, INT64_MAX, INT64_MIN, INT64_MIN, INT64_MIN};
       for (int q = 0; q < 8; ++q) {
@@ -158,6 +161,11 @@ SnapFrame snapFrame(const RigidSnap& rs, const Geometry& pointGrid, const Mat3& 
         }
       }
       p.reach.push_back(r);
+      if (c < p.held.size() && p.held[c])
+        for (size_t a = 0; a < 3; ++a) {
+          p.heldBox[a] = std::min(p.heldBox[a], static_cast<float>(r[a]));
+          p.heldBox[a + 3] = std::max(p.heldBox[a + 3], static_cast<float>(r[a + 3]));
+        }
     }
   } else {
     p.reach.push_back({0, 0, 0, INT64_MAX / 2, INT64_MAX / 2, INT64_MAX / 2});  // everywhere

@@ -191,6 +191,7 @@ vec3 bodySource(int body, vec3 p) {
 
 // SnapFrame::heldAt(): the held body (a fixed region, a still bone) at p's own place, or -1.
 int heldAt(vec3 p) {
+  if (any(lessThan(p, uHeldLo)) || any(greaterThan(p, uHeldHi))) return -1;
   int body = classAt(uPointToClass * p + uPointToClassOffset) - 2;
   return body >= 0 && body < uBodies && bodyFlag(uBodyHeld, body) ? body : -1;
 }

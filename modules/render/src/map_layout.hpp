@@ -18,6 +18,8 @@
   X(BodyHeld, "uint", "[(MAX_SNAP_BODIES + 31) / 32]", "SnapFrame::held, one bit per body")         \
   X(PointToClass, "mat3", "", "SnapFrame::pointToClass A': map node index -> class index of its place") \
   X(PointToClassOffset, "vec3", "", "SnapFrame::pointToClass b'")                                  \
+  X(HeldLo, "vec3", "", "SnapFrame::heldBox min: no held body below (map node index)")             \
+  X(HeldHi, "vec3", "", "SnapFrame::heldBox max")                                                  \
   X(Bodies, "int", "", "SnapFrame::body.size()")                                                    \
   X(MaxSnap2, "float", "", "SnapFrame::maxSnap2, mm^2")
 

@@ -148,6 +148,9 @@ struct SnapFrame {
   std::vector<uint8_t> held;
   bool anyHeld = false;
   std::array<float, 12> pointToClass{};
+  /// Point-index box {min xyz, max xyz} outside which no held body lies (the union of their
+  /// reach boxes; everywhere without reach boxes): most samples skip the held test's lookup.
+  std::array<float, 6> heldBox{-1e30f, -1e30f, -1e30f, 1e30f, 1e30f, 1e30f};
   float maxSnap2 = 0;  ///< mm^2
   /// Per body with a reach box (RigidSnap::reachMm): the point-index box {min i, j, k, max i,
   /// j, k} (inclusive) where the snap can move u to it; one box for everywhere without them.
@@ -191,6 +194,8 @@ int SnapFrame::classAt(const std::array<float, 12>& A, const Real q[3]) const {
 template <class Real>
 int SnapFrame::heldAt(const Real v[3]) const {
   if (!anyHeld) return -1;
+  for (int a = 0; a < 3; ++a)
+    if (!(v[a] >= Real(heldBox[a]) && v[a] <= Real(heldBox[a + 3]))) return -1;
   const int c = classAt(pointToClass, v) - 2;
   return c >= 0 && c < int(held.size()) && held[static_cast<size_t>(c)] ? c : -1;
 }
