@@ -5,7 +5,8 @@
 #                                     extra arguments go to CMake (e.g. -DVELLUM_SANITIZE=ON)
 #   scripts/setup.sh deps             install packages only
 # Idempotent: re-running skips installed packages and rebuilds incrementally.
-# Environment: BUILD_DIR (default ./build), BUILD_TYPE (default Release), JOBS (default nproc).
+# Environment: BUILD_DIR (default ./build), BUILD_TYPE (default Release), JOBS (default nproc),
+# BUILD_TARGET (default: everything; the CI's sanitizer job builds vellum_sanitizer_suite).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -38,7 +39,7 @@ JOBS=${JOBS:-$(nproc)}
 
 build() {
   cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE="$BUILD_TYPE" "$@"
-  cmake --build "$BUILD_DIR" -j "$JOBS"
+  cmake --build "$BUILD_DIR" -j "$JOBS" ${BUILD_TARGET:+--target "$BUILD_TARGET"}
 }
 
 cmd=${1:-demo}
