@@ -729,9 +729,10 @@ TEST(Pose, TwistMovieFramesAreTheStillPosesMap) {
 // A fixed box beside the turning child along the joint's axis (the feet bench: the right foot
 // turns beside the fixed left half): the twist's w jumps at the box face (a pure shear), and a
 // movie frame's node map (scale 2: nodes every 4 mm, the face at 50 mm mid-cell) straddles the
-// jump. The held snap (RigidSnap::held) keeps every voxel of the box and of the still parent
-// exactly where it is; without it the face cells drag the box's voxels by part of the jump.
-TEST(Pose, TwistMovieFramesHoldTheFixedBoxAndTheStillBoneExactly) {
+// jump. The held snap (RigidSnap::held) keeps every voxel of the box exactly where it is (the
+// still parent stays exact through the ordinary snap); without it the face cells drag the box's
+// voxels by part of the jump.
+TEST(Pose, TwistMovieFramesHoldTheFixedBoxExactly) {
   const Limb limb = makeLimb({{46, 74}, {12, 36}});
   Pose pose;
   Joint joint;

@@ -474,7 +474,7 @@ TEST(RenderGl, SnappedSamplesShadeWithTheirBodysTurn) {
   EXPECT_GE(test::compareImages(snapped, cpu).psnr, 40.0) << "GL vs CPU reference";
 }
 
-// A held body (RigidSnap::held: a fixed region, a still bone) stays where it is in the shader as
+// A held body (RigidSnap::held: a fixed region) stays where it is in the shader as
 // on the CPU, whatever the node map says there: here the nodes turn everything 30 degrees and
 // the held body covers the volume, so the picture is the unturned slab's.
 TEST(RenderGl, HeldBodiesIgnoreTheNodeMap) {

@@ -109,7 +109,7 @@ TEST(WysiwygMap, TooManySnapBodiesIsANamedError) {
   }
 }
 
-// A held body (RigidSnap::held: a fixed region, a still bone) keeps its place whatever the
+// A held body (RigidSnap::held: a fixed region) keeps its place whatever the
 // interpolated map says there, on the CPU sampler as in the shader (deformedSource()); the rest
 // keeps the map or the ordinary snap; only the identity may be held.
 TEST(WysiwygMap, AHeldBodyKeepsItsPlaceWhateverTheMapSays) {

@@ -189,7 +189,7 @@ vec3 bodySource(int body, vec3 p) {
   return vec3(dot(uBodyRows[r], p1), dot(uBodyRows[r + 1], p1), dot(uBodyRows[r + 2], p1));
 }
 
-// SnapFrame::heldAt(): the held body (a fixed region, a still bone) at p's own place, or -1.
+// SnapFrame::heldAt(): the held body (a fixed region) at p's own place, or -1.
 int heldAt(vec3 p) {
   if (any(lessThan(p, uHeldLo)) || any(greaterThan(p, uHeldHi))) return -1;
   int body = classAt(uPointToClass * p + uPointToClassOffset) - 2;

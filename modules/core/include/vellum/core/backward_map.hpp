@@ -98,11 +98,11 @@ struct RigidSnap {
   /// Per body: axis-aligned box (output mm: min xyz, max xyz) holding every output position
   /// the snap can move to that body (SnapFrame::reach). Empty = everywhere.
   std::vector<std::array<double, 6>> reachMm;
-  /// Per body (or empty: none): 1 = held in place, its fit the identity: the fixed regions, and
-  /// the bones a pose keeps still. An output position v in a held body's class voxels (its own
-  /// place, since it does not move) takes u = v whatever the interpolated map says: an
-  /// interpolated map cell that straddles a held region's face would otherwise drag its voxels
-  /// by part of the jump beside it (a fixed box beside a turning foot: 9 mm in a movie frame).
+  /// Per body (or empty: none): 1 = held in place, its fit the identity (deformation holds the
+  /// fixed regions). An output position v in a held body's class voxels (its own place, since
+  /// it does not move) takes u = v whatever the interpolated map says: an interpolated map cell
+  /// that straddles a held region's face would otherwise drag its voxels by part of the jump
+  /// beside it (a fixed box beside a turning foot: 9 mm in a movie frame).
   std::vector<uint8_t> held;
 };
 
