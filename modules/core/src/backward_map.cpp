@@ -170,6 +170,7 @@ SnapFrame snapFrame(const RigidSnap& rs, const Geometry& pointGrid, const Mat3& 
   } else {
     p.reach.push_back({0, 0, 0, INT64_MAX / 2, INT64_MAX / 2, INT64_MAX / 2});  // everywhere
   }
+  if (!p.anyHeld) p.heldBox = {1e30f, 1e30f, 1e30f, -1e30f, -1e30f, -1e30f};  // empty: nothing held
   return p;
 }
 

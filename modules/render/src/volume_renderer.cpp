@@ -505,9 +505,7 @@ struct VolumeRenderer::Impl {
     glUniformMatrix3fv(glGetUniformLocation(p, u::kPointToClass), 1, GL_TRUE, ps.pointToClass.data());
     glUniform3f(glGetUniformLocation(p, u::kPointToClassOffset), ps.pointToClass[9], ps.pointToClass[10],
                 ps.pointToClass[11]);
-    // No held body: an empty box (the shader's test fails at once).
-    glUniform3f(glGetUniformLocation(p, u::kHeldLo), ps.anyHeld ? ps.heldBox[0] : 1e30f,
-                ps.anyHeld ? ps.heldBox[1] : 1e30f, ps.anyHeld ? ps.heldBox[2] : 1e30f);
+    glUniform3f(glGetUniformLocation(p, u::kHeldLo), ps.heldBox[0], ps.heldBox[1], ps.heldBox[2]);
     glUniform3f(glGetUniformLocation(p, u::kHeldHi), ps.heldBox[3], ps.heldBox[4], ps.heldBox[5]);
     glUniform1i(glGetUniformLocation(p, u::kBodies), GLint(ps.body.size()));
     glUniform1f(glGetUniformLocation(p, u::kMaxSnap2), ps.maxSnap2);

@@ -149,7 +149,8 @@ struct SnapFrame {
   bool anyHeld = false;
   std::array<float, 12> pointToClass{};
   /// Point-index box {min xyz, max xyz} outside which no held body lies (the union of their
-  /// reach boxes; everywhere without reach boxes): most samples skip the held test's lookup.
+  /// reach boxes; everywhere without reach boxes; empty when no body is held): most samples
+  /// skip the held test's lookup (the shader has only this test).
   std::array<float, 6> heldBox{-1e30f, -1e30f, -1e30f, 1e30f, 1e30f, 1e30f};
   float maxSnap2 = 0;  ///< mm^2
   /// Per body with a reach box (RigidSnap::reachMm): the point-index box {min i, j, k, max i,
