@@ -313,7 +313,7 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
 
 // The voxel snap: every body's fit, and the output box its voxels can come from.
 std::shared_ptr<const RigidSnap> makeRigidSnap(const RigidBodies& bodies, const std::vector<RigidFit>& fits,
-                                               const Geometry& grid) {
+                                               double maxSnapMm) {
   auto snap = std::make_shared<RigidSnap>();
   // Shares the class voxels with the bodies (aliasing shared_ptr: no copy per frame).
   snap->classes = std::shared_ptr<const std::vector<uint16_t>>(bodies.classesPtr(), &bodies.classes().voxels());
@@ -333,8 +333,7 @@ std::shared_ptr<const RigidSnap> makeRigidSnap(const RigidBodies& bodies, const 
   // frames at 20 deg: 0.101 -> 0.114 % of tissue).
   const auto& list = bodies.bodies();
   for (size_t c = 0; c < fits.size(); ++c) snap->held.push_back(c < list.size() && list[c].fixed ? 1 : 0);
-  // Interpolation errors inside a body are below a control-cell diagonal.
-  snap->maxSnapMm = norm(grid.spacing);
+  snap->maxSnapMm = maxSnapMm;
   // Where the snap can apply, per body: output voxels v with R v + t within maxSnap of the
   // body's box, i.e. the preimage of the box (expanded) under the fit, bounded in output mm.
   const Geometry& cg = bodies.classes().geometry();
@@ -644,7 +643,8 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
           o[0] = static_cast<float>(out.x); o[1] = static_cast<float>(out.y); o[2] = static_cast<float>(out.z);
         }
   });
-  cv.rigidSnap = makeRigidSnap(bodies, fits, cv.grid);
+  // Interpolation errors inside a body are below a control-cell diagonal.
+  cv.rigidSnap = makeRigidSnap(bodies, fits, norm(cv.grid.spacing));
   FoldRepairStats folds;
   if (params.repairFolds)
     folds = repairFolds(
@@ -717,11 +717,11 @@ RigidityReport measureRigidityVoxels(const ControlVolume& cv, const Geometry& ou
 }
 
 std::shared_ptr<const RigidSnap> rigidSnapOf(const RigidBodies& bodies, const std::vector<RigidTransform>& backward,
-                                             const Geometry& grid) {
+                                             double maxSnapMm) {
   if (backward.size() != bodies.bodies().size()) throw Error("rigid snap: one transform per body is needed");
   std::vector<RigidFit> fits;
   for (const RigidTransform& t : backward) fits.push_back(RigidFit{t, true});
-  return makeRigidSnap(bodies, fits, grid);
+  return makeRigidSnap(bodies, fits, maxSnapMm);
 }
 
 }  // namespace vellum::deformation

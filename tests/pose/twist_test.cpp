@@ -7,6 +7,8 @@
 
 #include "vellum/deformation/pose.hpp"
 #include "vellum/deformation/rigidity.hpp"
+#include "vellum/deformation/synthesis.hpp"
+#include "vellum/deformation/twist_frames.hpp"
 #include "vellum/deformation/twist_map.hpp"
 
 using namespace vellum;
@@ -207,4 +209,46 @@ TEST(TwistMap, TheMeasuredDetHoldsTheSoftRimsBoundWhereTheWeightStepsSteeply) {
   for (size_t b = 0; b < 2; ++b)
     EXPECT_LT(c.report.bodies[b].rmsResidualMm, before.report.bodies[b].rmsResidualMm + 0.25)
         << "body " << b << ", soft " << before.stats.softenedVoxels << " -> " << c.stats.softenedVoxels;
+}
+
+// A movie frame at scale 2 (TwistFrames): the twist map on the node grid, the full-resolution
+// bones put back by the voxel snap. Where bones touch along the turn the node map's rims give
+// (soft rims), so rim voxels lie far from their bone's turn; snapping those back is a jump
+// beside blended tissue, which folds. The frames' snap reaches half a voxel (twistMap's own
+// snapMaxVoxels): it adds no fold to the upsampled node map's own (a few voxels, det > -0.01,
+// from upsampling the rims), where a cell diagonal's reach folded 1 % of the tissue.
+TEST(TwistFrames, TheSnapReachesHalfAVoxelSoSoftRimsDoNotFold) {
+  const LabelVolume labels = makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
+    if (p.x < 16 || p.x > 32 || r < 5 || r > 19) return 0;
+    if (alpha >= -20 && alpha <= 20) return 2;  // turns by +30 deg, away from the still one
+    if (alpha >= -70 && alpha < -20) return 1;  // still, touching it
+    return 0;
+  });
+  const Geometry& g = labels.geometry();
+  const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
+  const RigidBodies bodies = RigidBodies::fromLabelGroups(labels, groups, 20, {});
+  const TwistFrames frames(hinge(), nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {}), g, 2);
+  const std::shared_ptr<const ControlVolume> cv = frames.sharedAt({30.0}, bodies);
+  ASSERT_TRUE(cv->rigidSnap);
+  EXPECT_DOUBLE_EQ(cv->rigidSnap->maxSnapMm, 0.5 * g.spacing.x);
+  // The frame as rendered, and the same node map with another reach of the snap.
+  const auto withReach = [&](double reachMm) {
+    ControlVolume x = *cv;
+    auto snap = std::make_shared<RigidSnap>(*cv->rigidSnap);
+    snap->maxSnapMm = reachMm;
+    x.rigidSnap = snap;
+    return measureRigidityMap(upsampleMap(x, g), g, bodies);
+  };
+  const RigidityReport kept = measureRigidityMap(upsampleMap(*cv, g), g, bodies);
+  const RigidityReport unsnapped = withReach(0);
+  const RigidityReport wide = withReach(norm(cv->grid.spacing));  // the snap before
+  EXPECT_LE(kept.foldFraction, unsnapped.foldFraction) << "the snap folds";
+  EXPECT_LT(kept.foldFraction, 1e-4);
+  EXPECT_GT(kept.minJacobian, -0.01);
+  EXPECT_GT(wide.foldFraction, 100 * std::max(kept.foldFraction, 1e-5)) << "the case no longer shows the wide snap's jumps";
+  EXPECT_LT(wide.minJacobian, -1);
+  // The bones as shown are no further from rigid for it (the wide snap's jumps cost them too).
+  ASSERT_EQ(kept.bodies.size(), 2u);
+  ASSERT_EQ(wide.bodies.size(), 2u);
+  for (size_t b = 0; b < 2; ++b) EXPECT_LT(kept.bodies[b].rmsResidualMm, wide.bodies[b].rmsResidualMm) << "body " << b;
 }

@@ -4,10 +4,11 @@
 // At scale 1 the nodes are the output voxels and the control volume's nodes ARE twistMap()'s
 // map (bit for bit). At scale s > 1 (a 512^2 x 350 movie: the full-size map costs ~20 s and
 // 1.1 GB a frame) the twist map is made on the node grid (controlGrid(output, s)) from the
-// bones sampled at the nodes, and the full-resolution bones are put back exactly by the voxel
-// snap (RigidSnap) with each bone's pose transform: bones and fixed regions exact, the tissue
-// between them the coarse twist upsampled (its blend is smooth: w varies over the joint's
-// distances, tens of voxels).
+// bones sampled at the nodes, and the full-resolution bones are put back by the voxel snap
+// (RigidSnap) with each bone's pose transform where that moves a voxel's source by at most
+// TwistParams::snapMaxVoxels (a longer snap would fold beside the tissue): bones exact or
+// within half a voxel, fixed regions exact (held), the tissue between them the coarse twist
+// upsampled (its blend is smooth: w varies over the joint's distances, tens of voxels).
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -75,9 +76,10 @@ class TwistFrames {
 };
 
 /// The voxel snap of `bodies` with known backward transforms (bodies() order, output -> source:
-/// every body valid), its reach bounded as the MLS map's (applyRigidity), maxSnap one `grid`
-/// cell diagonal. Defined beside applyRigidity's own snap (rigidity.cpp).
+/// every body valid), its reach bounded as the MLS map's (applyRigidity), a snap made only
+/// where it moves the source by at most `maxSnapMm`. Defined beside applyRigidity's own snap
+/// (rigidity.cpp).
 std::shared_ptr<const RigidSnap> rigidSnapOf(const RigidBodies& bodies, const std::vector<RigidTransform>& backward,
-                                             const Geometry& grid);
+                                             double maxSnapMm);
 
 }  // namespace vellum::deformation
