@@ -80,15 +80,18 @@ std::shared_ptr<const ControlVolume> TwistFrames::sharedAt(const std::vector<dou
       throw Error("twist frames: the rigid bodies' grid differs from the output grid");
     // Interpolating the node map is not rigid inside a bone thinner than a few cells: the
     // snap puts every voxel whose source lands in a bone on that bone's pose transform, as
-    // twistMap()'s own snap does per voxel at scale 1 — and, as there, only where that moves
-    // the source by at most snapMaxVoxels of an output voxel: a longer snap is a jump beside
-    // the unsnapped tissue, which folds (the feet frames at 20 deg: a cell diagonal's reach,
-    // 3.5 mm, folded 0.098 % of the tissue, half a voxel 0.0015 %, the bones no less rigid).
+    // twistMap()'s own snap does per voxel at scale 1. The interpolation errors are under a
+    // node cell's diagonal, so it reaches that far and the bones are exact — unless the node
+    // map's bones gave (soft rims, where bones touch along the turn): their rim voxels then lie
+    // millimetres from the turn, and snapping them back is a jump beside blended tissue that
+    // folds, so the snap reaches only snapMaxVoxels of an output voxel, as twistMap()'s own
+    // (feet frames at 20 deg: folds 0.098 -> 0.0015 % of the tissue, bone RMS 0.81 -> 0.69 mm).
     std::vector<RigidTransform> backward;
     for (const auto& t : knownBodyTransforms(pose_, bodies, anglesDeg))
       backward.push_back(t.value_or(RigidTransform{}));  // fixed and unnamed bodies stay
+    const bool softRims = std::any_of(joints.begin(), joints.end(), [](const TwistJointStats& j) { return j.softenedVoxels > 0; });
     const double voxelMm = std::min({fine.spacing.x, fine.spacing.y, fine.spacing.z});
-    cv.rigidSnap = rigidSnapOf(bodies, backward, params_.snapMaxVoxels * voxelMm);
+    cv.rigidSnap = rigidSnapOf(bodies, backward, softRims ? params_.snapMaxVoxels * voxelMm : norm(grid_.spacing));
   }
   std::lock_guard lock(mutex_);
   last_ = {anglesDeg, &bodies, shared, joints};

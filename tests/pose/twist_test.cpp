@@ -214,9 +214,33 @@ TEST(TwistMap, TheMeasuredDetHoldsTheSoftRimsBoundWhereTheWeightStepsSteeply) {
 // A movie frame at scale 2 (TwistFrames): the twist map on the node grid, the full-resolution
 // bones put back by the voxel snap. Where bones touch along the turn the node map's rims give
 // (soft rims), so rim voxels lie far from their bone's turn; snapping those back is a jump
-// beside blended tissue, which folds. The frames' snap reaches half a voxel (twistMap's own
-// snapMaxVoxels): it adds no fold to the upsampled node map's own (a few voxels, det > -0.01,
-// from upsampling the rims), where a cell diagonal's reach folded 1 % of the tissue.
+// beside blended tissue, which folds. With soft rims the frames' snap reaches half a voxel
+// (twistMap's own snapMaxVoxels): it adds no fold to the upsampled node map's own (a few
+// voxels, det > -0.01, from upsampling the rims), where a cell diagonal's reach folded 1 % of
+// the tissue. Without soft rims it reaches a cell diagonal and the bones are exact.
+TEST(TwistFrames, TheSnapReachesACellDiagonalWithoutSoftRimsAndExactBones) {
+  const LabelVolume labels = makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
+    if (p.x < 6 || p.x > 42) return 0;
+    if (r <= 9 || (std::abs(p.y - kC) <= 4 && p.z < kC && r <= 20)) return 2;
+    if ((r >= 15 && r <= 19 && alpha > 10 && alpha < 170) || (std::abs(p.y - kC) <= 4 && p.z > kC + 15)) return 1;
+    return 0;
+  });
+  const Geometry& g = labels.geometry();
+  const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
+  const RigidBodies bodies = RigidBodies::fromLabelGroups(labels, groups, 20, {});
+  const TwistFrames frames(hinge(), nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {}), g, 2);
+  std::vector<TwistJointStats> stats;
+  const std::shared_ptr<const ControlVolume> cv = frames.sharedAt({20.0}, bodies, Progress::none(), &stats);
+  ASSERT_EQ(stats.size(), 1u);
+  EXPECT_EQ(stats[0].softenedVoxels, 0);
+  ASSERT_TRUE(cv->rigidSnap);
+  EXPECT_DOUBLE_EQ(cv->rigidSnap->maxSnapMm, norm(cv->grid.spacing));
+  const RigidityReport r = measureRigidityMap(upsampleMap(*cv, g), g, bodies);
+  EXPECT_EQ(r.foldFraction, 0.0) << "min det J " << r.minJacobian;
+  ASSERT_EQ(r.bodies.size(), 2u);
+  for (const auto& b : r.bodies) EXPECT_LT(b.maxResidualMm, 1e-3);
+}
+
 TEST(TwistFrames, TheSnapReachesHalfAVoxelSoSoftRimsDoNotFold) {
   const LabelVolume labels = makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
     if (p.x < 16 || p.x > 32 || r < 5 || r > 19) return 0;
@@ -228,7 +252,10 @@ TEST(TwistFrames, TheSnapReachesHalfAVoxelSoSoftRimsDoNotFold) {
   const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
   const RigidBodies bodies = RigidBodies::fromLabelGroups(labels, groups, 20, {});
   const TwistFrames frames(hinge(), nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {}), g, 2);
-  const std::shared_ptr<const ControlVolume> cv = frames.sharedAt({30.0}, bodies);
+  std::vector<TwistJointStats> stats;
+  const std::shared_ptr<const ControlVolume> cv = frames.sharedAt({30.0}, bodies, Progress::none(), &stats);
+  ASSERT_EQ(stats.size(), 1u);
+  EXPECT_GT(stats[0].softenedVoxels, 0);
   ASSERT_TRUE(cv->rigidSnap);
   EXPECT_DOUBLE_EQ(cv->rigidSnap->maxSnapMm, 0.5 * g.spacing.x);
   // The frame as rendered, and the same node map with another reach of the snap.

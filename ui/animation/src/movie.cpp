@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "vellum/core/error.hpp"
+#include "vellum/core/heap_reuse.hpp"
 #include "vellum/core/process_time.hpp"
 #include "vellum/deformation/synthesis.hpp"
 #include "vellum/io/image_io.hpp"
@@ -40,6 +41,8 @@ struct CpuLap {
 }  // namespace
 
 struct MovieRenderer::Impl {
+  /// First, so that it ends last: every frame's buffers reuse the freed ones (heap_reuse.hpp).
+  ReuseFreedMemory heapReuse;
   render::GlContext& context;
   render::VolumeRenderer renderer;
   Deformer deformer;

@@ -5,10 +5,11 @@
 // map (bit for bit). At scale s > 1 (a 512^2 x 350 movie: the full-size map costs ~20 s and
 // 1.1 GB a frame) the twist map is made on the node grid (controlGrid(output, s)) from the
 // bones sampled at the nodes, and the full-resolution bones are put back by the voxel snap
-// (RigidSnap) with each bone's pose transform where that moves a voxel's source by at most
-// TwistParams::snapMaxVoxels (a longer snap would fold beside the tissue): bones exact or
-// within half a voxel, fixed regions exact (held), the tissue between them the coarse twist
-// upsampled (its blend is smooth: w varies over the joint's distances, tens of voxels).
+// (RigidSnap) with each bone's pose transform — exactly, or, in a frame whose node map made
+// bones give (soft rims), only where that moves a voxel's source by at most
+// TwistParams::snapMaxVoxels (a longer snap would fold beside the tissue); fixed regions
+// exact (held), the tissue between them the coarse twist upsampled (its blend is smooth: w
+// varies over the joint's distances, tens of voxels).
 #include <memory>
 #include <mutex>
 #include <vector>
