@@ -90,18 +90,66 @@ Checked run(const LabelVolume& labels, double angleDeg, const TwistParams& param
   return c;
 }
 
+
+// A round child (r <= 9 mm, with a shaft downwards) under a parent shell (r 15..19 mm, the
+// upper half, with a shaft upwards), a 6 mm cylindrical gap between them.
+LabelVolume hingeLabels() {
+  return makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
+    if (p.x < 6 || p.x > 42) return 0;
+    if (r <= 9 || (std::abs(p.y - kC) <= 4 && p.z < kC && r <= 20)) return 2;
+    if ((r >= 15 && r <= 19 && alpha > 10 && alpha < 170) || (std::abs(p.y - kC) <= 4 && p.z > kC + 15)) return 1;
+    return 0;
+  });
+}
+
+// A child turning away from a still bone that touches it along the turn.
+LabelVolume touchingLabels() {
+  return makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
+    if (p.x < 16 || p.x > 32 || r < 5 || r > 19) return 0;
+    if (alpha >= -20 && alpha <= 20) return 2;  // turns by +30 deg, away from the still one
+    if (alpha >= -70 && alpha < -20) return 1;  // still, touching it
+    return 0;
+  });
+}
+
+/// A movie frame of the hinge at `angleDeg` on `labels` (TwistFrames at scale 2), its bodies at
+/// full resolution and the node map's joint stats.
+struct Frame {
+  Geometry grid;
+  RigidBodies bodies;
+  std::shared_ptr<const ControlVolume> cv;
+  TwistJointStats stats;
+  /// The frame's map as rendered (upsampled with the snap), measured at voxel level; with
+  /// `reachMm` >= 0 the same node map with the snap reaching that far instead.
+  RigidityReport measured(double reachMm = -1) const {
+    ControlVolume x = *cv;
+    if (reachMm >= 0) {
+      auto snap = std::make_shared<RigidSnap>(*cv->rigidSnap);
+      snap->maxSnapMm = reachMm;
+      x.rigidSnap = snap;
+    }
+    return measureRigidityMap(upsampleMap(x, grid), grid, bodies);
+  }
+};
+Frame frameAt(const LabelVolume& labels, double angleDeg) {
+  const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
+  Frame f{labels.geometry(), RigidBodies::fromLabelGroups(labels, groups, 20, {}), nullptr, {}};
+  const TwistFrames frames(hinge(), nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {}), f.grid, 2);
+  std::vector<TwistJointStats> stats;
+  f.cv = frames.sharedAt({angleDeg}, f.bodies, Progress::none(), &stats);
+  EXPECT_EQ(stats.size(), 1u);
+  if (!stats.empty()) f.stats = stats[0];
+  EXPECT_TRUE(f.cv->rigidSnap);
+  return f;
+}
+
 }  // namespace
 
 // A round child (r <= 9 mm, with a shaft downwards) under a parent shell (r 15..19 mm, the
 // upper half, with a shaft upwards): the weight jumps across the 6 mm cylindrical gap, a pure
 // shear about the axis. det J > 0 everywhere in tissue; the child exactly turned, the parent still.
 TEST(TwistMap, HingeAcrossACylindricalGapIsFoldFreeAndTheChildExactlyTurned) {
-  const LabelVolume labels = makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
-    if (p.x < 6 || p.x > 42) return 0;
-    if (r <= 9 || (std::abs(p.y - kC) <= 4 && p.z < kC && r <= 20)) return 2;
-    if ((r >= 15 && r <= 19 && alpha > 10 && alpha < 170) || (std::abs(p.y - kC) <= 4 && p.z > kC + 15)) return 1;
-    return 0;
-  });
+  const LabelVolume labels = hingeLabels();
   const Checked c = run(labels, 20);
   EXPECT_EQ(c.report.foldFraction, 0.0) << "min det J " << c.report.minJacobian;
   EXPECT_GT(c.report.minJacobian, 0.0);
@@ -162,12 +210,7 @@ TEST(TwistMap, SlopeBoundRelaxesAnAngularJumpUntilNothingFolds) {
 // anything the map folds there. The bones' rims give instead (a few voxel shells, never more
 // than a small part of either bone) and nothing folds; away from the rims both stay exact.
 TEST(TwistMap, BonesTouchingAlongTheTurnSoftenTheirRimsInsteadOfFolding) {
-  const LabelVolume labels = makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
-    if (p.x < 16 || p.x > 32 || r < 5 || r > 19) return 0;
-    if (alpha >= -20 && alpha <= 20) return 2;  // turns by +30 deg, away from the still one
-    if (alpha >= -70 && alpha < -20) return 1;  // still, touching it
-    return 0;
-  });
+  const LabelVolume labels = touchingLabels();
   TwistParams rigid;
   rigid.softenPasses = 0;
   const Checked hard = run(labels, 30, rigid);
@@ -219,56 +262,23 @@ TEST(TwistMap, TheMeasuredDetHoldsTheSoftRimsBoundWhereTheWeightStepsSteeply) {
 // voxels, det > -0.01, from upsampling the rims), where a cell diagonal's reach folded 1 % of
 // the tissue. Without soft rims it reaches a cell diagonal and the bones are exact.
 TEST(TwistFrames, TheSnapReachesACellDiagonalWithoutSoftRimsAndExactBones) {
-  const LabelVolume labels = makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
-    if (p.x < 6 || p.x > 42) return 0;
-    if (r <= 9 || (std::abs(p.y - kC) <= 4 && p.z < kC && r <= 20)) return 2;
-    if ((r >= 15 && r <= 19 && alpha > 10 && alpha < 170) || (std::abs(p.y - kC) <= 4 && p.z > kC + 15)) return 1;
-    return 0;
-  });
-  const Geometry& g = labels.geometry();
-  const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
-  const RigidBodies bodies = RigidBodies::fromLabelGroups(labels, groups, 20, {});
-  const TwistFrames frames(hinge(), nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {}), g, 2);
-  std::vector<TwistJointStats> stats;
-  const std::shared_ptr<const ControlVolume> cv = frames.sharedAt({20.0}, bodies, Progress::none(), &stats);
-  ASSERT_EQ(stats.size(), 1u);
-  EXPECT_EQ(stats[0].softenedVoxels, 0);
-  ASSERT_TRUE(cv->rigidSnap);
-  EXPECT_DOUBLE_EQ(cv->rigidSnap->maxSnapMm, norm(cv->grid.spacing));
-  const RigidityReport r = measureRigidityMap(upsampleMap(*cv, g), g, bodies);
+  const Frame f = frameAt(hingeLabels(), 20);
+  EXPECT_EQ(f.stats.softenedVoxels, 0);
+  EXPECT_DOUBLE_EQ(f.cv->rigidSnap->maxSnapMm, norm(f.cv->grid.spacing));
+  const RigidityReport r = f.measured();
   EXPECT_EQ(r.foldFraction, 0.0) << "min det J " << r.minJacobian;
   ASSERT_EQ(r.bodies.size(), 2u);
   for (const auto& b : r.bodies) EXPECT_LT(b.maxResidualMm, 1e-3);
 }
 
 TEST(TwistFrames, TheSnapReachesHalfAVoxelSoSoftRimsDoNotFold) {
-  const LabelVolume labels = makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
-    if (p.x < 16 || p.x > 32 || r < 5 || r > 19) return 0;
-    if (alpha >= -20 && alpha <= 20) return 2;  // turns by +30 deg, away from the still one
-    if (alpha >= -70 && alpha < -20) return 1;  // still, touching it
-    return 0;
-  });
-  const Geometry& g = labels.geometry();
-  const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
-  const RigidBodies bodies = RigidBodies::fromLabelGroups(labels, groups, 20, {});
-  const TwistFrames frames(hinge(), nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {}), g, 2);
-  std::vector<TwistJointStats> stats;
-  const std::shared_ptr<const ControlVolume> cv = frames.sharedAt({30.0}, bodies, Progress::none(), &stats);
-  ASSERT_EQ(stats.size(), 1u);
-  EXPECT_GT(stats[0].softenedVoxels, 0);
-  ASSERT_TRUE(cv->rigidSnap);
-  EXPECT_DOUBLE_EQ(cv->rigidSnap->maxSnapMm, 0.5 * g.spacing.x);
-  // The frame as rendered, and the same node map with another reach of the snap.
-  const auto withReach = [&](double reachMm) {
-    ControlVolume x = *cv;
-    auto snap = std::make_shared<RigidSnap>(*cv->rigidSnap);
-    snap->maxSnapMm = reachMm;
-    x.rigidSnap = snap;
-    return measureRigidityMap(upsampleMap(x, g), g, bodies);
-  };
-  const RigidityReport kept = measureRigidityMap(upsampleMap(*cv, g), g, bodies);
-  const RigidityReport unsnapped = withReach(0);
-  const RigidityReport wide = withReach(norm(cv->grid.spacing));  // the snap before
+  const Frame f = frameAt(touchingLabels(), 30);
+  EXPECT_GT(f.stats.softenedVoxels, 0);
+  EXPECT_DOUBLE_EQ(f.cv->rigidSnap->maxSnapMm, 0.5 * f.grid.spacing.x);
+  // The frame as rendered, and the same node map with no snap and with the old reach.
+  const RigidityReport kept = f.measured();
+  const RigidityReport unsnapped = f.measured(0);
+  const RigidityReport wide = f.measured(norm(f.cv->grid.spacing));
   EXPECT_LE(kept.foldFraction, unsnapped.foldFraction) << "the snap folds";
   EXPECT_LT(kept.foldFraction, 1e-4);
   EXPECT_GT(kept.minJacobian, -0.01);
