@@ -89,7 +89,8 @@ std::shared_ptr<const ControlVolume> TwistFrames::sharedAt(const std::vector<dou
     std::vector<RigidTransform> backward;
     for (const auto& t : knownBodyTransforms(pose_, bodies, anglesDeg))
       backward.push_back(t.value_or(RigidTransform{}));  // fixed and unnamed bodies stay
-    const bool softRims = std::any_of(joints.begin(), joints.end(), [](const TwistJointStats& j) { return j.softenedVoxels > 0; });
+    const bool softRims =
+        std::any_of(joints.begin(), joints.end(), [](const TwistJointStats& j) { return j.softenedVoxels > 0; });
     const double voxelMm = std::min({fine.spacing.x, fine.spacing.y, fine.spacing.z});
     cv.rigidSnap = rigidSnapOf(bodies, backward, softRims ? params_.snapMaxVoxels * voxelMm : norm(grid_.spacing));
   }
