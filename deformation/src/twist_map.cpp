@@ -29,10 +29,16 @@ enum Side : uint8_t { kFree = 0, kStill = 1, kMoving = 2, kFixed = 3, kSoft = 4 
 inline bool isFree(uint8_t s) { return s == kFree || s == kSoft; }
 inline bool isStill(uint8_t s) { return s == kStill || s == kFixed; }
 
-/// Strictly inside (0, 1): exactly 0 and 1 mark the locked voxels.
+/// Strictly inside (0, 1): exactly 0 and 1 mark the locked voxels. The bounds are the floats
+/// next to 0 and 1 (nextafter, as constants: it was a libm call per voxel).
 inline float openUnit(double v) {
-  return std::clamp(static_cast<float>(v), std::nextafter(0.f, 1.f), std::nextafter(1.f, 0.f));
+  constexpr float kAboveZero = std::numeric_limits<float>::denorm_min();
+  constexpr float kBelowOne = 1.f - std::numeric_limits<float>::epsilon() / 2;
+  return std::clamp(static_cast<float>(v), kAboveZero, kBelowOne);
 }
+
+/// std::llround inline (half away from zero; |x| < 2^52): a libm call per voxel otherwise.
+inline int64_t roundIndex(double x) { return static_cast<int64_t>(x + std::copysign(0.5, x)); }
 
 /// Rotation by `rad` about unit `a` (Rodrigues), applied to `p` (relative to a point on the axis).
 inline Vec3 turn(const Vec3& p, const Vec3& a, double rad) {
@@ -64,7 +70,7 @@ struct Grid {
   Vec3 mm(int64_t t) const { return g.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)}); }
   /// The nearest voxel of a continuous index, or -1 outside the grid.
   int64_t nearest(const Vec3& idx) const {
-    const int64_t i = std::llround(idx.x), j = std::llround(idx.y), k = std::llround(idx.z);
+    const int64_t i = roundIndex(idx.x), j = roundIndex(idx.y), k = roundIndex(idx.z);
     if (i < 0 || j < 0 || k < 0 || i >= d.x || j >= d.y || k >= d.z) return -1;
     return index(i, j, k);
   }
@@ -170,7 +176,7 @@ std::vector<uint8_t> classifySides(const Grid& grid, const RigidBodies& bodies, 
             int64_t src = t;
             if (!g.identity) {
               const Vec3 u = grid.toIndex(g.backward.apply(grid.g.indexToPhysical({double(i), double(j), double(k)})));
-              const int64_t ui = std::llround(u.x), uj = std::llround(u.y), uk = std::llround(u.z);
+              const int64_t ui = roundIndex(u.x), uj = roundIndex(u.y), uk = roundIndex(u.z);
               if (ui < g.box[0] || uj < g.box[1] || uk < g.box[2] || ui > g.box[3] || uj > g.box[4] || uk > g.box[5])
                 continue;
               src = grid.index(ui, uj, uk);
@@ -258,9 +264,10 @@ struct Slope {
   const float* w;
   const Stage& st;
   bool gridCheck = true;
-  double at(int64_t t) const {
+  double at(int64_t t) const { return at(t, t % grid.d.x, (t / grid.d.x) % grid.d.y, t / grid.sz); }
+  /// The same at voxel t = (i, j, k) (a scan knows them: no divisions).
+  double at(int64_t t, int64_t i, int64_t j, int64_t k) const {
     const Dims d = grid.d;
-    const int64_t i = t % d.x, j = (t / d.x) % d.y, k = t / grid.sz;
     const int64_t pos[3] = {i, j, k}, step[3] = {1, grid.sy, grid.sz};
     int64_t lo[3], hi[3];
     Vec3 grad{0, 0, 0};
@@ -273,7 +280,8 @@ struct Slope {
       grad[q] = (b - a) / double((hi[q] - lo[q]) / step[q]);
       steep = std::max({steep, std::abs(b - c), std::abs(a - c)});
     }
-    const Vec3 tangent = grid.mmToIdx * cross(st.a, grid.mm(t) - st.c);  // in index units
+    const Vec3 v = grid.g.indexToPhysical({double(i), double(j), double(k)});
+    const Vec3 tangent = grid.mmToIdx * cross(st.a, v - st.c);  // in index units
     const double linear = st.theta * dot(grad, tangent);
     if (!gridCheck || steep <= kSteepStep) return linear;
     // The stage map's central-difference det at t (index units, as the fold count's).
@@ -311,11 +319,14 @@ class Relaxation {
     parallelFor(d.z, [&](int64_t k0, int64_t k1) {
       std::vector<int64_t> local;
       double lmax = 0;
-      for (int64_t t = k0 * grid_.sz; t < k1 * grid_.sz; ++t) {
-        const double sl = slope_.at(t);
-        lmax = std::max(lmax, sl);
-        if (sl > over) local.push_back(t);
-      }
+      for (int64_t k = k0; k < k1; ++k)
+        for (int64_t j = 0; j < d.y; ++j)
+          for (int64_t i = 0; i < d.x; ++i) {
+            const int64_t t = grid_.index(i, j, k);
+            const double sl = slope_.at(t, i, j, k);
+            lmax = std::max(lmax, sl);
+            if (sl > over) local.push_back(t);
+          }
       std::lock_guard lock(mutex);
       bad.insert(bad.end(), local.begin(), local.end());
       worst = std::max(worst, lmax);
@@ -340,7 +351,9 @@ class Relaxation {
 
   /// Relax around `bad` for at most `rounds` rounds, stopping after `patience` rounds that cut the
   /// total excess over the bound by under 2 %; `bad` is left holding what is still over it.
-  void run(std::vector<int64_t>& bad, int rounds, int patience, bool smoothFirst) {
+  /// `changed` (when set) gets every voxel whose w the steps may have changed (repeats allowed).
+  void run(std::vector<int64_t>& bad, int rounds, int patience, bool smoothFirst,
+           std::vector<int64_t>* changed = nullptr) {
     if (touched_.empty() && !bad.empty()) touched_.assign(static_cast<size_t>(grid_.n), 0);
     double least = std::numeric_limits<double>::infinity();
     int stalled = 0;
@@ -357,6 +370,7 @@ class Relaxation {
         for (int step = 0; step < params_.relaxSteps; ++step) smooth(freeRegion);
       for (int step = 0; step < params_.limitSteps; ++step) limit(freeRegion);
       for (int64_t t : freeRegion) touched_[static_cast<size_t>(t)] = 1;
+      if (changed) changed->insert(changed->end(), freeRegion.begin(), freeRegion.end());
       // Recheck the region and its neighbours (the only slopes the steps changed).
       std::vector<int64_t> check = region;
       for (int64_t t : region) grid_.neighbours(t, [&](int64_t q) { check.push_back(q); });
@@ -468,26 +482,42 @@ class Relaxation {
 /// source lands in a bone's voxel (nearest: the cells are not round about the axis) joins that
 /// bone's side, w = 0 or 1 exactly; only a short step (the source moves by at most
 /// joinMaxVoxels): a long one is a jump next to the other side's lock that no relaxation can
-/// spread. Returns the voxels that joined.
+/// spread. Returns the voxels that joined. `only`: the voxels to check (sorted and made unique
+/// here), the whole grid when null: a voxel whose w and side are as at the last check does not
+/// join now either.
 std::vector<int64_t> joinLocks(const Grid& grid, const Stage& st, const RigidBodies& bodies, const Grouping& grouping,
-                               const TwistParams& params, std::vector<uint8_t>& side, VolumeF32& w) {
-  const Dims d = grid.d;
+                               const TwistParams& params, std::vector<uint8_t>& side, VolumeF32& w,
+                               std::vector<int64_t>* only = nullptr) {
   const uint16_t* cls = bodies.classes().data();
   std::vector<std::pair<int64_t, uint8_t>> joins;
   std::mutex mutex;
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+  auto tryJoin = [&](int64_t t, const Vec3& v, std::vector<std::pair<int64_t, uint8_t>>& local) {
+    const double wt = w.data()[t];
+    const int64_t src = grid.nearest(grid.toIndex(st.c + turn(v - st.c, st.a, -st.theta * wt)));
+    if (src < 0 || cls[src] < 2) return;
+    const bool moving = grouping.groups[static_cast<size_t>(grouping.bodyGroup[cls[src] - 2u])].moving;
+    const Vec3 p = v - st.c;
+    const double radius = norm(p - st.a * dot(st.a, p));
+    const double step = std::abs(st.theta) * std::abs((moving ? 1.0 : 0.0) - wt) * radius;
+    if (step <= params.joinMaxVoxels * grid.minSpacing) local.emplace_back(t, moving ? kMoving : kStill);
+  };
+  if (only) {
+    std::sort(only->begin(), only->end());
+    only->erase(std::unique(only->begin(), only->end()), only->end());
+  }
+  const int64_t count = only ? static_cast<int64_t>(only->size()) : grid.d.z;
+  parallelFor(count, [&](int64_t a, int64_t b) {
     std::vector<std::pair<int64_t, uint8_t>> local;
-    for (int64_t t = k0 * grid.sz; t < k1 * grid.sz; ++t) {
-      if (side[static_cast<size_t>(t)] != kFree) continue;
-      const Vec3 v = grid.mm(t);
-      const double wt = w.data()[t];
-      const int64_t src = grid.nearest(grid.toIndex(st.c + turn(v - st.c, st.a, -st.theta * wt)));
-      if (src < 0 || cls[src] < 2) continue;
-      const bool moving = grouping.groups[static_cast<size_t>(grouping.bodyGroup[cls[src] - 2u])].moving;
-      const Vec3 p = v - st.c;
-      const double radius = norm(p - st.a * dot(st.a, p));
-      const double step = std::abs(st.theta) * std::abs((moving ? 1.0 : 0.0) - wt) * radius;
-      if (step <= params.joinMaxVoxels * grid.minSpacing) local.emplace_back(t, moving ? kMoving : kStill);
+    if (only) {
+      for (int64_t r = a; r < b; ++r)
+        if (const int64_t t = (*only)[static_cast<size_t>(r)]; side[static_cast<size_t>(t)] == kFree)
+          tryJoin(t, grid.mm(t), local);
+    } else {
+      for (int64_t k = a; k < b; ++k)
+        for (int64_t j = 0; j < grid.d.y; ++j)
+          for (int64_t i = 0; i < grid.d.x; ++i)
+            if (const int64_t t = grid.index(i, j, k); side[static_cast<size_t>(t)] == kFree)
+              tryJoin(t, grid.g.indexToPhysical({double(i), double(j), double(k)}), local);
     }
     std::lock_guard lock(mutex);
     joins.insert(joins.end(), local.begin(), local.end());
@@ -595,18 +625,22 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     // From here on `bad` is every voxel over the bound without scanning the grid again: run()
     // leaves it so (it changes w only inside the region it rechecks), a slope reads w at the
     // voxel and its 6 neighbours only, and softening changes sides, not w.
-    if (s + 1 == order.size())
+    if (s + 1 == order.size()) {
+      // After the first pass only the voxels the relaxation changed can join.
+      std::vector<int64_t> changed;
       for (int pass = 0; pass < params.lockPasses; ++pass) {
         progress.checkCancelled();
-        std::vector<int64_t> joined = joinLocks(grid, st, bodies, grouping, params, side, w);
+        std::vector<int64_t> joined = joinLocks(grid, st, bodies, grouping, params, side, w, pass ? &changed : nullptr);
+        changed.clear();
         if (joined.empty()) break;
         stats.joinedVoxels += static_cast<int64_t>(joined.size());
         const size_t nJoined = joined.size();
         for (size_t q = 0; q < nJoined; ++q) grid.neighbours(joined[q], [&](int64_t n) { joined.push_back(n); });
         joined.insert(joined.end(), bad.begin(), bad.end());
         bad = relax.over(std::move(joined), relax.bound());
-        relax.run(bad, params.maxRounds / 3, params.patience / 2, true);
+        relax.run(bad, params.maxRounds / 3, params.patience / 2, true, &changed);
       }
+    }
     // Bones that touch along the turn: no w between the two locks keeps det J > 0; their rims
     // give, a voxel's shell deeper each pass, and the tissue's blend is relaxed through them.
     for (int pass = 0; pass < params.softenPasses; ++pass) {
@@ -648,39 +682,47 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   std::atomic<int64_t> unsnapped{0};
   result.mapMm.resize(static_cast<size_t>(n) * 3);
   float* out = result.mapMm.data();
+  // Output voxel t at v (mm): its source through the stages and the snap; 1 when the snap left
+  // it off a body it lands in.
+  auto composeVoxel = [&](int64_t t, const Vec3& v) -> int64_t {
+    Vec3 x = v;
+    int64_t unsnappedHere = 0;
+    for (size_t s = 0; s < stages.size(); ++s) {
+      const Stage& st = stages[s];
+      double wk;
+      if (s == 0) {
+        wk = weights[s].data()[t];
+      } else {
+        const Vec3 idx = grid.toIndex(x);
+        const double nearest = weights[s].sampleNearest(idx);
+        wk = (nearest == 0.0 || nearest == 1.0) ? nearest : weights[s].sampleLinear(idx);
+      }
+      if (wk == 0.0) continue;
+      x = wk == 1.0 ? st.c + st.backFull * (x - st.c) : st.c + turn(x - st.c, st.a, -st.theta * wk);
+    }
+    // The snap (as the MLS map's, RigidSnap): a blended voxel whose source lands in a body
+    // takes that body's transform, so no output voxel shows bone moved non-rigidly (a voxel
+    // beside a bone, w just under 1, would show its rim turned a little less). Not on the
+    // softened rims, nor where it would jump the source by more than snapMaxVoxels: a jump
+    // between neighbours is a fold.
+    if (params.snap)
+      if (const int64_t src = grid.nearest(grid.toIndex(x)); src >= 0 && cls[src] >= 2) {
+        const Vec3 snapped = bodyBack[cls[src] - 2u].apply(v);
+        if ((soft.empty() || !soft[static_cast<size_t>(t)]) && norm(snapped - x) <= snapReach) x = snapped;
+        else if (norm(snapped - x) > 1e-6) unsnappedHere = 1;
+      }
+    out[3 * t] = static_cast<float>(x.x);
+    out[3 * t + 1] = static_cast<float>(x.y);
+    out[3 * t + 2] = static_cast<float>(x.z);
+    return unsnappedHere;
+  };
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     int64_t local = 0;
-    for (int64_t t = k0 * grid.sz; t < k1 * grid.sz; ++t) {
-      if (t % grid.sz == 0) progress.checkCancelled();
-      const Vec3 v = grid.mm(t);
-      Vec3 x = v;
-      for (size_t s = 0; s < stages.size(); ++s) {
-        const Stage& st = stages[s];
-        double wk;
-        if (s == 0) {
-          wk = weights[s].data()[t];
-        } else {
-          const Vec3 idx = grid.toIndex(x);
-          const double nearest = weights[s].sampleNearest(idx);
-          wk = (nearest == 0.0 || nearest == 1.0) ? nearest : weights[s].sampleLinear(idx);
-        }
-        if (wk == 0.0) continue;
-        x = wk == 1.0 ? st.c + st.backFull * (x - st.c) : st.c + turn(x - st.c, st.a, -st.theta * wk);
-      }
-      // The snap (as the MLS map's, RigidSnap): a blended voxel whose source lands in a body
-      // takes that body's transform, so no output voxel shows bone moved non-rigidly (a voxel
-      // beside a bone, w just under 1, would show its rim turned a little less). Not on the
-      // softened rims, nor where it would jump the source by more than snapMaxVoxels: a jump
-      // between neighbours is a fold.
-      if (params.snap)
-        if (const int64_t src = grid.nearest(grid.toIndex(x)); src >= 0 && cls[src] >= 2) {
-          const Vec3 snapped = bodyBack[cls[src] - 2u].apply(v);
-          if ((soft.empty() || !soft[static_cast<size_t>(t)]) && norm(snapped - x) <= snapReach) x = snapped;
-          else if (norm(snapped - x) > 1e-6) ++local;
-        }
-      out[3 * t] = static_cast<float>(x.x);
-      out[3 * t + 1] = static_cast<float>(x.y);
-      out[3 * t + 2] = static_cast<float>(x.z);
+    for (int64_t k = k0; k < k1; ++k) {
+      progress.checkCancelled();
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i)
+          local += composeVoxel(grid.index(i, j, k), grid.g.indexToPhysical({double(i), double(j), double(k)}));
     }
     unsnapped += local;
   });

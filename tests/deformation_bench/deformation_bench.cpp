@@ -15,11 +15,13 @@
 #include <filesystem>
 #include <map>
 
+#include "vellum/core/heap_reuse.hpp"
 #include "vellum/core/parallel.hpp"
 #include "vellum/deformation/deformer.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/deformation/rigidity.hpp"
 #include "vellum/deformation/synthesis.hpp"
+#include "vellum/deformation/twist_map.hpp"
 #include "vellum/io/volume_io.hpp"
 #include "vellum/phantom/phantom.hpp"
 
@@ -211,6 +213,35 @@ void BM_SaveGzipNrrd(benchmark::State& state) {
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(knee(n).size() * 2));
 }
 
+// One movie frame's twist map (`vellum pose --movie`): the knee phantom at 256 x 256 x 175,
+// the node grid of the 512 x 512 x 350 knee at the movie's scale 2; femur and patella still,
+// tibia and fibula turned by the argument's degrees about the flexion axis.
+// Run: vellum_deformation_bench --benchmark_filter=TwistMap --benchmark_min_time=5
+void BM_TwistMap(benchmark::State& state) {
+  phantom::PhantomOptions o;
+  o.dims = {256, 256, 175};
+  static const phantom::Phantom ph = phantom::makePhantom(o);
+  Pose pose;
+  Joint knee;
+  knee.name = "knee";
+  knee.parent = {4, 5};
+  knee.child = {6, 7};
+  knee.axisA = {-10, 0, 24.5};
+  knee.axisB = {10, 0, 24.5};
+  pose.joints.push_back(knee);
+  linkJoints(pose);
+  const RigidBodies bodies = RigidBodies::fromLabelGroups(ph.labels, {{4, 5}, {6, 7}}, 3);
+  const double angle = static_cast<double>(state.range(0));
+  const ReuseFreedMemory reuse;  // as a movie's frames do (heap_reuse.hpp): no fresh pages per map
+  TwistMap m;
+  for (auto _ : state) m = twistMap(pose, {angle}, bodies, ph.labels.geometry());
+  const TwistJointStats& s = m.joints.at(0);
+  state.counters["rounds"] = s.rounds;
+  state.counters["joined"] = static_cast<double>(s.joinedVoxels);
+  state.counters["relaxed"] = static_cast<double>(s.relaxedVoxels);
+  state.counters["softened"] = static_cast<double>(s.softenedVoxels);
+}
+
 }  // namespace
 
 BENCHMARK(BM_LoadMha)->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -222,4 +253,5 @@ BENCHMARK(BM_SynthesisRigid)->Args({128, 2})->Args({256, 2})->Unit(benchmark::kM
 BENCHMARK(BM_DensityUpdate)->Args({128, 4, 1})->Args({256, 4, 1})->Args({256, 2, 1})
     ->Args({128, 4, 0})->Args({256, 4, 0})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_VtkThinPlateSpline)->Arg(128)->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
+BENCHMARK(BM_TwistMap)->Arg(10)->Arg(20)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_MAIN();

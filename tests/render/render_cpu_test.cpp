@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <string>
@@ -257,6 +258,51 @@ TEST(EmptySpace, MapCellsFollowTheMap) {
       EXPECT_EQ(maxValue[at(0, 0, 0)], 0.f);     // u in [16, 24] in x: blocks 1..3
       EXPECT_EQ(occ[at(0, 0, 0)], 0);
     }
+  }
+}
+
+// The cells' block boxes against the definition, cell by cell: the extremes of u over each
+// cell's support texels (trilinear: its 2^3 nodes; Gaussian: 4^3 texels of the padded texture,
+// clipped at the faces), widened by the margin. A pseudo-random map with a NaN texel.
+TEST(EmptySpace, MapCellsAreTheExtremesOfTheirSupport) {
+  Geometry g;
+  g.dims = {64, 48, 40};
+  const detail::BlockRanges r = detail::computeBlockRanges(AnyVolume(VolumeI16(g, 0, -1000.0)));
+  const Dims nodes{11, 9, 7};
+  for (const bool gaussian : {false, true}) {
+    const Dims td = gaussian ? Dims{nodes.x + 3, nodes.y + 3, nodes.z + 3} : nodes;
+    const detail::MapCellSupport sup{td, gaussian ? -1 : 0, gaussian ? 2 : 1, 1.5};
+    std::vector<float> u(static_cast<size_t>(3 * td.voxelCount()));
+    uint32_t h = 12345;
+    for (float& x : u) {
+      h = h * 1664525u + 1013904223u;
+      x = float(h >> 8) / float(1 << 24) * 70.f - 3.f;
+    }
+    u[3 * 40 + 1] = std::numeric_limits<float>::quiet_NaN();
+    const detail::MapCells cells = detail::computeMapCells(nodes, u, r, &sup);
+    ASSERT_EQ(cells.cells, (Dims{10, 8, 6}));
+    const Dims& nb = r.blocks;
+    for (int64_t cz = 0; cz < 6; ++cz)
+      for (int64_t cy = 0; cy < 8; ++cy)
+        for (int64_t cx = 0; cx < 10; ++cx) {
+          double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+          for (int64_t k = std::max<int64_t>(cz + sup.lo, 0); k <= std::min<int64_t>(cz + sup.hi, td.z - 1); ++k)
+            for (int64_t j = std::max<int64_t>(cy + sup.lo, 0); j <= std::min<int64_t>(cy + sup.hi, td.y - 1); ++j)
+              for (int64_t i = std::max<int64_t>(cx + sup.lo, 0); i <= std::min<int64_t>(cx + sup.hi, td.x - 1); ++i)
+                for (int a = 0; a < 3; ++a) {
+                  const double x = u[static_cast<size_t>(((k * td.y + j) * td.x + i) * 3 + a)];
+                  if (std::isnan(x)) continue;
+                  lo[a] = std::min(lo[a], x);
+                  hi[a] = std::max(hi[a], x);
+                }
+          const auto& box = cells.box[static_cast<size_t>((cz * 8 + cy) * 10 + cx)];
+          for (int a = 0; a < 3; ++a) {
+            const double last = double(nb[a] - 1), margin = 1.001 + sup.marginVoxels;
+            auto block = [&](double x) { return int(std::clamp(std::floor(x / detail::kBlockSize), 0.0, last)); };
+            EXPECT_EQ(box[static_cast<size_t>(a)], block(lo[a] - margin)) << gaussian << " cell " << cx << " " << cy << " " << cz;
+            EXPECT_EQ(box[static_cast<size_t>(a + 3)], block(hi[a] + margin)) << gaussian << " cell " << cx << cy << cz;
+          }
+        }
   }
 }
 

@@ -135,19 +135,29 @@ MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
   mc.box.resize(count);  // every entry is written below
   const Dims& nb = ranges.blocks;
   parallelFor(mc.cells.z, [&](int64_t z0, int64_t z1) {
+    // Per row of cells: the extremes over the row's (j, k) window in every texel column, then
+    // over each cell's columns (each texel read once per row, not once per cell around it).
+    // The same extremes as texel by texel per cell (std::min / std::max pass a NaN texel over).
+    std::vector<float> colLo(static_cast<size_t>(3 * td.x)), colHi(static_cast<size_t>(3 * td.x));
     for (int64_t cz = z0; cz < z1; ++cz)
-      for (int64_t cy = 0; cy < mc.cells.y; ++cy)
+      for (int64_t cy = 0; cy < mc.cells.y; ++cy) {
+        std::fill(colLo.begin(), colLo.end(), INFINITY);
+        std::fill(colHi.begin(), colHi.end(), -INFINITY);
+        for (int64_t k = std::max<int64_t>(cz + sup.lo, 0); k <= std::min<int64_t>(cz + sup.hi, td.z - 1); ++k)
+          for (int64_t j = std::max<int64_t>(cy + sup.lo, 0); j <= std::min<int64_t>(cy + sup.hi, td.y - 1); ++j) {
+            const float* row = mapIndex.data() + static_cast<size_t>((k * td.y + j) * td.x) * 3;
+            for (size_t q = 0; q < colLo.size(); ++q) {
+              colLo[q] = std::min(colLo[q], row[q]);
+              colHi[q] = std::max(colHi[q], row[q]);
+            }
+          }
         for (int64_t cx = 0; cx < mc.cells.x; ++cx) {
           float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-          for (int64_t k = std::max<int64_t>(cz + sup.lo, 0); k <= std::min<int64_t>(cz + sup.hi, td.z - 1); ++k)
-            for (int64_t j = std::max<int64_t>(cy + sup.lo, 0); j <= std::min<int64_t>(cy + sup.hi, td.y - 1); ++j)
-              for (int64_t i = std::max<int64_t>(cx + sup.lo, 0); i <= std::min<int64_t>(cx + sup.hi, td.x - 1); ++i) {
-                const float* u = mapIndex.data() + static_cast<size_t>((k * td.y + j) * td.x + i) * 3;
-                for (int a = 0; a < 3; ++a) {
-                  lo[a] = std::min(lo[a], u[a]);
-                  hi[a] = std::max(hi[a], u[a]);
-                }
-              }
+          for (int64_t i = std::max<int64_t>(cx + sup.lo, 0); i <= std::min<int64_t>(cx + sup.hi, td.x - 1); ++i)
+            for (int a = 0; a < 3; ++a) {
+              lo[a] = std::min(lo[a], colLo[static_cast<size_t>(3 * i + a)]);
+              hi[a] = std::max(hi[a], colHi[static_cast<size_t>(3 * i + a)]);
+            }
           std::array<int, 6> box{};
           for (int a = 0; a < 3; ++a) {
             const double last = double(nb[a] - 1);
@@ -163,6 +173,7 @@ MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
           const size_t n = static_cast<size_t>((cz * mc.cells.y + cy) * mc.cells.x + cx);
           for (int a = 0; a < 6; ++a) mc.box[n][static_cast<size_t>(a)] = static_cast<int16_t>(box[static_cast<size_t>(a)]);
         }
+      }
   });
   return mc;
 }
