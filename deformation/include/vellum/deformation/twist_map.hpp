@@ -57,6 +57,10 @@ struct TwistParams {
   /// between neighbours (two rotations by different angles differ by more than the linear
   /// estimate 1 - theta dw/dalpha: the grid can fold a voxel where the estimate says 0.25).
   bool gridCheck = true;
+  /// Also the dets of the 8 grid cells around such a voxel (one-sided differences, weighted
+  /// 0.6): for a map that is then upsampled (TwistFrames at scale > 1), whose voxels inside a
+  /// node cell show the cell's fold that the central differences at the nodes step over.
+  bool cellCheck = false;
 };
 
 /// `vellum pose`'s twist options (--twist-power, --twist-margin) as the map's parameters.
