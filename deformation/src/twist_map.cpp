@@ -291,10 +291,12 @@ struct Slope {
     if (!gridCheck || steep <= kSteepStep) return linear;
     // The stage map's central-difference det at t (index units, as the fold count's).
     auto mapAt = [&](int64_t n) { return turn(grid.mm(n) - st.c, st.a, -st.theta * double(w[n])); };
-    Vec3 col[3];
+    Vec3 below[3], above[3], col[3];
     for (int q = 0; q < 3; ++q) {
       if (lo[q] == hi[q]) return linear;
-      col[q] = (mapAt(t + hi[q]) - mapAt(t + lo[q])) / double((hi[q] - lo[q]) / step[q]);
+      below[q] = mapAt(t + lo[q]);
+      above[q] = mapAt(t + hi[q]);
+      col[q] = (above[q] - below[q]) / double((hi[q] - lo[q]) / step[q]);
     }
     const double det = dot(col[0], cross(col[1], col[2])) / grid.detIdx;
     if (!cellCheck) return std::max(linear, 1.0 - det);
@@ -304,8 +306,8 @@ struct Slope {
     const Vec3 at = mapAt(t);
     Vec3 side[3][2];
     for (int q = 0; q < 3; ++q) {
-      side[q][0] = at - mapAt(t + lo[q]);
-      side[q][1] = mapAt(t + hi[q]) - at;
+      side[q][0] = at - below[q];
+      side[q][1] = above[q] - at;
     }
     double cellDet = std::numeric_limits<double>::infinity();
     for (int o = 0; o < 8; ++o) {

@@ -215,7 +215,8 @@ void BM_SaveGzipNrrd(benchmark::State& state) {
 
 // One movie frame's twist map (`vellum pose --movie`): the knee phantom at 256 x 256 x 175,
 // the node grid of the 512 x 512 x 350 knee at the movie's scale 2; femur and patella still,
-// tibia and fibula turned by the argument's degrees about the flexion axis.
+// tibia and fibula turned by the first argument's degrees about the flexion axis; the second:
+// TwistParams::cellCheck (1, as in movie frames).
 // Run: vellum_deformation_bench --benchmark_filter=TwistMap --benchmark_min_time=5
 void BM_TwistMap(benchmark::State& state) {
   phantom::PhantomOptions o;
@@ -232,9 +233,11 @@ void BM_TwistMap(benchmark::State& state) {
   linkJoints(pose);
   const RigidBodies bodies = RigidBodies::fromLabelGroups(ph.labels, {{4, 5}, {6, 7}}, 3);
   const double angle = static_cast<double>(state.range(0));
+  TwistParams params;
+  params.cellCheck = state.range(1) != 0;  // as TwistFrames sets it at scale > 1
   const ReuseFreedMemory reuse;  // as a movie's frames do (heap_reuse.hpp): no fresh pages per map
   TwistMap m;
-  for (auto _ : state) m = twistMap(pose, {angle}, bodies, ph.labels.geometry());
+  for (auto _ : state) m = twistMap(pose, {angle}, bodies, ph.labels.geometry(), params);
   const TwistJointStats& s = m.joints.at(0);
   state.counters["rounds"] = s.rounds;
   state.counters["joined"] = static_cast<double>(s.joinedVoxels);
@@ -253,5 +256,5 @@ BENCHMARK(BM_SynthesisRigid)->Args({128, 2})->Args({256, 2})->Unit(benchmark::kM
 BENCHMARK(BM_DensityUpdate)->Args({128, 4, 1})->Args({256, 4, 1})->Args({256, 2, 1})
     ->Args({128, 4, 0})->Args({256, 4, 0})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_VtkThinPlateSpline)->Arg(128)->Arg(256)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1);
-BENCHMARK(BM_TwistMap)->Arg(10)->Arg(20)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_TwistMap)->ArgsProduct({{10, 20}, {0, 1}})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_MAIN();
