@@ -144,7 +144,8 @@ struct MapView {
   int64_t count(int64_t n) const { return (n + stride - 1) / stride; }
 };
 
-// Kabsch fits of v -> u per component over samples whose u lies in the component.
+// Kabsch fits of v -> u per component over samples whose u lies in the component;
+// classOf(n, u): the class at u, sample n of the strided samples (x fastest).
 template <class ClassOf>
 std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies, const ClassOf& classOf) {
   const int nc = bodies.componentCount();
@@ -152,13 +153,14 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies,
   std::mutex mutex;
   const Dims d = m.grid.dims;
   const int s = m.stride;
+  const int64_t cx = m.count(d.x), cy = m.count(d.y);
   parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
     std::vector<RigidFitSums> local(static_cast<size_t>(nc));
     for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
       for (int64_t j = 0; j < d.y; j += s)
         for (int64_t i = 0; i < d.x; i += s) {
           const Vec3 u = m.at((k * d.y + j) * d.x + i);
-          const uint16_t c = classOf(u);
+          const uint16_t c = classOf(((k / s) * cy + j / s) * cx + i / s, u);
           if (c >= 2) local[c - 2u].add(m.grid.indexToPhysical({double(i), double(j), double(k)}), u);
         }
     std::lock_guard lock(mutex);
@@ -171,9 +173,6 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies,
   return fits;
 }
 
-std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies) {
-  return fitComponents(m, bodies, [&](const Vec3& u) { return bodies.classAt(u); });
-}
 
 double rotationAngleDeg(const Mat3& r) {
   const double c = std::clamp((r(0, 0) + r(1, 1) + r(2, 2) - 1) / 2, -1.0, 1.0);
@@ -212,7 +211,25 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   const Dims d = m.grid.dims;
   const int s = m.stride;
   r.nodes = m.count(d.x) * m.count(d.y) * m.count(d.z);
-  const auto fits = fitComponents(m, bodies);
+  // The class at every sample's u, looked up once for the fits and the measures (a read of the
+  // CT-sized class volume per sample: the largest cost of a movie frame's node measure); up to
+  // 2^25 samples (64 MB), beyond (a keyframe's voxels) looked up twice rather than held.
+  const int64_t cx = m.count(d.x), cy = m.count(d.y);
+  std::vector<uint16_t> sampleClass;
+  if (r.nodes <= (int64_t{1} << 25)) {
+    sampleClass.resize(static_cast<size_t>(r.nodes));
+    parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
+      for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
+        for (int64_t j = 0; j < d.y; j += s)
+          for (int64_t i = 0; i < d.x; i += s)
+            sampleClass[static_cast<size_t>(((k / s) * cy + j / s) * cx + i / s)] =
+                bodies.classAt(m.at((k * d.y + j) * d.x + i));
+    });
+  }
+  auto classOf = [&](int64_t n, const Vec3& u) {
+    return sampleClass.empty() ? bodies.classAt(u) : sampleClass[static_cast<size_t>(n)];
+  };
+  const auto fits = fitComponents(m, bodies, classOf);
   const size_t nb = static_cast<size_t>(bodies.componentCount());
   const int fixed = bodies.fixedBody();
   const uint16_t fixedClass = fixed >= 0 ? static_cast<uint16_t>(fixed + 2) : 0;
@@ -230,7 +247,7 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
           const int64_t t = (k * d.y + j) * d.x + i;
           const Vec3 u = m.at(t);
           const Vec3 v = m.grid.indexToPhysical({double(i), double(j), double(k)});
-          const uint16_t c = bodies.classAt(u);
+          const uint16_t c = classOf(((k / s) * cy + j / s) * cx + i / s, u);
           // The fixed regions must not move: their voxels (output v in them) show what was
           // there. Their content shown elsewhere (u in them, v outside, moved) is counted apart:
           // a moving bone's rigid transform reaching into a fixed one at a joint (a collision).
@@ -548,7 +565,7 @@ FoldRepairStats applyRigidity(ControlVolume& cv, const RigidBodies& bodies, cons
   const auto dist = bodies.gridFields(cv.grid, bandMm);
   const BodyClassLookup lookup{bodies, cv.grid, dist->bodyCells};
   auto fits = fitComponents(MapView{cv.sourceMm.data(), cv.grid, 1}, bodies,
-                            [&](const Vec3& u) { return lookup.bodyClassAt(u); });
+                            [&](int64_t, const Vec3& u) { return lookup.bodyClassAt(u); });
   for (size_t c = 0; c < prescribed.size() && c < fits.size(); ++c)
     if (prescribed[c] && static_cast<int>(c) != bodies.fixedBody()) fits[c] = {*prescribed[c], true};
   progress.advance(static_cast<uint64_t>(nc));

@@ -120,6 +120,12 @@ uint8_t backgroundOccupancy(const BlockRanges& ranges, const TfTable& tf) {
   return rangeOccupancy({ranges.background}, {ranges.background}, tf).front();
 }
 
+namespace {
+// floor(x / kBlockSize) clamped to [0, last], without libm (x is never NaN here: the extremes
+// pass NaN texels over; +-inf clamp to the ends).
+inline int blockOf(double x, double last) { return x <= 0 ? 0 : int(std::min(x * (1.0 / kBlockSize), last)); }
+}  // namespace
+
 MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
                          const BlockRanges& ranges, const MapCellSupport* support,
                          std::vector<std::array<int16_t, 6>> storage) {
@@ -163,8 +169,8 @@ MapCells computeMapCells(const Dims& nodes, const std::vector<float>& mapIndex,
             const double last = double(nb[a] - 1);
             // Blocks hold voxels [b*B, b*B+B-1]; their own ranges count (the margin holds the
             // support), the face blocks' with the background.
-            box[a] = int(std::clamp(std::floor((lo[a] - margin) / kBlockSize), 0.0, last));
-            box[a + 3] = int(std::clamp(std::floor((hi[a] + margin) / kBlockSize), 0.0, last));
+            box[a] = blockOf(lo[a] - margin, last);
+            box[a + 3] = blockOf(hi[a] + margin, last);
             if (!std::isfinite(lo[a]) || !std::isfinite(hi[a])) {  // NaN in the map: no skipping
               box[a] = 0;
               box[a + 3] = int(last);
