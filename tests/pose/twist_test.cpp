@@ -135,7 +135,8 @@ RigidityReport upsampledNodeMap(const LabelVolume& labels, double angleDeg, bool
   cv.output = g;
   TwistParams params;
   params.cellCheck = cellCheck;
-  cv.sourceMm = twistMap(hinge(), {angleDeg}, *nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {}), cv.grid, params).mapMm;
+  const auto nodeBodies = nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {});
+  cv.sourceMm = twistMap(hinge(), {angleDeg}, *nodeBodies, cv.grid, params).mapMm;
   return measureRigidityMap(upsampleMap(cv, g), g, RigidBodies::fromLabelGroups(labels, groups, 20, {}));
 }
 

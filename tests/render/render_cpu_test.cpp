@@ -299,7 +299,7 @@ TEST(EmptySpace, MapCellsAreTheExtremesOfTheirSupport) {
           for (int a = 0; a < 3; ++a) {
             const double last = double(nb[a] - 1), margin = 1.001 + sup.marginVoxels;
             auto block = [&](double x) { return int(std::clamp(std::floor(x / detail::kBlockSize), 0.0, last)); };
-            EXPECT_EQ(box[static_cast<size_t>(a)], block(lo[a] - margin)) << gaussian << " cell " << cx << " " << cy << " " << cz;
+            EXPECT_EQ(box[static_cast<size_t>(a)], block(lo[a] - margin)) << gaussian << " cell " << cx << cy << cz;
             EXPECT_EQ(box[static_cast<size_t>(a + 3)], block(hi[a] + margin)) << gaussian << " cell " << cx << cy << cz;
           }
         }
