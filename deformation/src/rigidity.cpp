@@ -142,6 +142,11 @@ struct MapView {
   int stride = 1;
   Vec3 at(int64_t t) const { return {mm[3 * t], mm[3 * t + 1], mm[3 * t + 2]}; }
   int64_t count(int64_t n) const { return (n + stride - 1) / stride; }
+  /// The number of the sample at grid index (i, j, k) (multiples of the stride) among the
+  /// visited ones, x fastest.
+  int64_t sample(int64_t i, int64_t j, int64_t k) const {
+    return ((k / stride) * count(grid.dims.y) + j / stride) * count(grid.dims.x) + i / stride;
+  }
 };
 
 // Kabsch fits of v -> u per component over samples whose u lies in the component;
@@ -153,14 +158,13 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies,
   std::mutex mutex;
   const Dims d = m.grid.dims;
   const int s = m.stride;
-  const int64_t cx = m.count(d.x), cy = m.count(d.y);
   parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
     std::vector<RigidFitSums> local(static_cast<size_t>(nc));
     for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
       for (int64_t j = 0; j < d.y; j += s)
         for (int64_t i = 0; i < d.x; i += s) {
           const Vec3 u = m.at((k * d.y + j) * d.x + i);
-          const uint16_t c = classOf(((k / s) * cy + j / s) * cx + i / s, u);
+          const uint16_t c = classOf(m.sample(i, j, k), u);
           if (c >= 2) local[c - 2u].add(m.grid.indexToPhysical({double(i), double(j), double(k)}), u);
         }
     std::lock_guard lock(mutex);
@@ -172,7 +176,6 @@ std::vector<RigidFit> fitComponents(const MapView& m, const RigidBodies& bodies,
   if (const int f = bodies.fixedBody(); f >= 0) fits[static_cast<size_t>(f)] = RigidFit{RigidTransform{}, true};
   return fits;
 }
-
 
 double rotationAngleDeg(const Mat3& r) {
   const double c = std::clamp((r(0, 0) + r(1, 1) + r(2, 2) - 1) / 2, -1.0, 1.0);
@@ -214,7 +217,6 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   // The class at every sample's u, looked up once for the fits and the measures (a read of the
   // CT-sized class volume per sample: the largest cost of a movie frame's node measure); up to
   // 2^25 samples (64 MB), beyond (a keyframe's voxels) looked up twice rather than held.
-  const int64_t cx = m.count(d.x), cy = m.count(d.y);
   std::vector<uint16_t> sampleClass;
   if (r.nodes <= (int64_t{1} << 25)) {
     sampleClass.resize(static_cast<size_t>(r.nodes));
@@ -222,8 +224,7 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
       for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
         for (int64_t j = 0; j < d.y; j += s)
           for (int64_t i = 0; i < d.x; i += s)
-            sampleClass[static_cast<size_t>(((k / s) * cy + j / s) * cx + i / s)] =
-                bodies.classAt(m.at((k * d.y + j) * d.x + i));
+            sampleClass[static_cast<size_t>(m.sample(i, j, k))] = bodies.classAt(m.at((k * d.y + j) * d.x + i));
     });
   }
   auto classOf = [&](int64_t n, const Vec3& u) {
@@ -247,7 +248,7 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
           const int64_t t = (k * d.y + j) * d.x + i;
           const Vec3 u = m.at(t);
           const Vec3 v = m.grid.indexToPhysical({double(i), double(j), double(k)});
-          const uint16_t c = classOf(((k / s) * cy + j / s) * cx + i / s, u);
+          const uint16_t c = classOf(m.sample(i, j, k), u);
           // The fixed regions must not move: their voxels (output v in them) show what was
           // there. Their content shown elsewhere (u in them, v outside, moved) is counted apart:
           // a moving bone's rigid transform reaching into a fixed one at a joint (a collision).

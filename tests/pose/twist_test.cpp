@@ -259,13 +259,7 @@ TEST(TwistMap, BonesTouchingAlongTheTurnSoftenTheirRimsInsteadOfFolding) {
 // estimate 1 - theta dw/dalpha alone let the measured det fall to ~0.05 (s18 feet: -0.0005 at
 // one voxel by the tibia); reading the map's own discrete det there keeps the bound.
 TEST(TwistMap, TheMeasuredDetHoldsTheSoftRimsBoundWhereTheWeightStepsSteeply) {
-  const LabelVolume labels = makeLabels([](const Vec3& p, double r, double alpha) -> uint16_t {
-    if (p.x < 16 || p.x > 32) return 0;
-    if (r >= 11 && r <= 19 && alpha >= -30 && alpha <= 30) return 2;  // turns by +45 deg
-    if (r >= 4 && r < 11 && alpha >= -60 && alpha <= 60) return 1;    // still, under it
-    if (r >= 11 && r <= 19 && alpha >= -80 && alpha < -40) return 1;  // still, beside it
-    return 0;
-  });
+  const LabelVolume labels = steepLabels();
   TwistParams linearOnly;
   linearOnly.gridCheck = false;
   const Checked before = run(labels, 45, linearOnly);
