@@ -16,6 +16,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "axis_geometry.hpp"
 #include "vellum/deformation/pose.hpp"
 
 namespace vellum::deformation {
@@ -23,6 +24,8 @@ namespace {
 
 using V2 = Eigen::Vector2d;
 using V3 = Eigen::Vector3d;
+using axis::basisAcross;
+using axis::thinned;
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -102,12 +105,6 @@ Round<N> fitRound(const std::vector<Eigen::Matrix<double, N, 1>>& q, const std::
   return best;
 }
 
-/// Two unit vectors completing `d` to an orthonormal basis.
-void basisAcross(const V3& d, V3& u, V3& v) {
-  u = (std::abs(d.x()) < 0.9 ? V3::UnitX() : V3::UnitY()).cross(d).normalized();
-  v = d.cross(u);
-}
-
 /// A surface voxel (mm, centred) and its outward unit normal.
 struct SurfacePoint {
   V3 p, n;
@@ -173,16 +170,6 @@ Circle cylinderAlong(const std::vector<SurfacePoint>& pts, const V3& d, double b
   Circle c = fitRound<2>(q, m, c0, r0, band, rounds);
   if (c.ok && c.r > maxRadius) c = {};  // a flat patch: no hinge
   return c;
-}
-
-/// Every `step`-th point (deterministic), at most `most`.
-template <class T>
-std::vector<T> thinned(const std::vector<T>& p, size_t most) {
-  if (p.size() <= most) return p;
-  std::vector<T> out;
-  const double step = double(p.size()) / double(most);
-  for (size_t i = 0; i < most; ++i) out.push_back(p[size_t(i * step)]);
-  return out;
 }
 
 /// MSAC cost of the best plane through one side (its mean normal, the median offset along it):
@@ -265,10 +252,7 @@ Cylinder fitCylinder(const Sides& sides, double band, double maxRadius) {
   const double s2 = std::pow(std::sin(20 * kDeg), 2);
   std::vector<std::pair<double, V3>> scored;
   scored.reserve(kDirections);
-  const double golden = std::numbers::pi * (3.0 - std::sqrt(5.0));
-  for (int i = 0; i < kDirections; ++i) {
-    const double z = (i + 0.5) / kDirections, rxy = std::sqrt(1 - z * z), phi = golden * i;
-    const V3 d{rxy * std::cos(phi), rxy * std::sin(phi), z};
+  for (const V3& d : axis::hemisphereDirections(kDirections)) {
     double vote = 0;
     for (const SurfacePoint& s : coarse) vote += std::max(0.0, 1 - std::pow(s.n.dot(d), 2) / s2);
     scored.push_back({-vote, d});
@@ -278,11 +262,8 @@ Cylinder fitCylinder(const Sides& sides, double band, double maxRadius) {
   const Sides few = {thinned(sides[0], 1000), thinned(sides[1], 1000)};
   constexpr int kCostDirections = 400;
   std::vector<std::pair<double, V3>> costed;
-  for (int i = 0; i < kCostDirections; ++i) {
-    const double z = (i + 0.5) / kCostDirections, rxy = std::sqrt(1 - z * z), phi = golden * i;
-    const V3 d{rxy * std::cos(phi), rxy * std::sin(phi), z};
+  for (const V3& d : axis::hemisphereDirections(kCostDirections))
     costed.push_back({cylinderOf(few, flat, d, band, maxRadius, 3).cost, d});
-  }
   std::vector<V3> starts;
   for (auto* list : {&scored, &costed}) {
     std::sort(list->begin(), list->end(), [](const auto& a, const auto& b) { return a.first < b.first; });

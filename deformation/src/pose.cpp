@@ -293,7 +293,7 @@ Pose loadPose(const fs::path& path) {
   for (const json& o : j.at("joints")) {
     const std::string where = "joint " + std::to_string(pose.joints.size()) + ": ";
     if (!o.is_object()) throw FileError(path, where + "not an object");
-    onlyKeys(o, {"name", "parent", "child", "axis"}, path, where);
+    onlyKeys(o, {"name", "parent", "child", "axis", "axis_hint", "axis_hint_cone"}, path, where);
     Joint joint;
     if (!o.contains("name") || !o.at("name").is_string() || o.at("name").get<std::string>().empty())
       throw FileError(path, where + "\"name\" must be a non-empty string");
@@ -309,6 +309,23 @@ Pose loadPose(const fs::path& path) {
         throw FileError(path, where + "\"axis\" must be two points [[x, y, z], [x, y, z]] (mm) or \"estimate\"");
       joint.axisA = readPoint(ax[0], path, where + "\"axis\"[0]");
       joint.axisB = readPoint(ax[1], path, where + "\"axis\"[1]");
+    }
+    if (o.contains("axis_hint")) {
+      const json& h = o.at("axis_hint");
+      if (!joint.estimateAxis) throw FileError(path, where + "\"axis_hint\" goes with \"axis\": \"estimate\"");
+      if (!h.is_array() || h.size() != 2)
+        throw FileError(path, where + "\"axis_hint\" must be two points [[x, y, z], [x, y, z]] (mm)");
+      joint.hintA = readPoint(h[0], path, where + "\"axis_hint\"[0]");
+      joint.hintB = readPoint(h[1], path, where + "\"axis_hint\"[1]");
+      if (!(norm(joint.hintB - joint.hintA) > 1e-6)) throw FileError(path, where + "\"axis_hint\": the two points coincide");
+      joint.hasAxisHint = true;
+    }
+    if (o.contains("axis_hint_cone")) {
+      const json& c = o.at("axis_hint_cone");
+      if (!joint.hasAxisHint) throw FileError(path, where + "\"axis_hint_cone\" goes with \"axis_hint\"");
+      if (!c.is_number() || !(c.get<double>() >= 0 && c.get<double>() <= 45))
+        throw FileError(path, where + "\"axis_hint_cone\" must be a number of degrees in [0, 45]");
+      joint.hintConeDeg = c.get<double>();
     }
     pose.joints.push_back(std::move(joint));
   }
@@ -372,6 +389,10 @@ void savePose(const Pose& pose, const fs::path& path) {
   for (const Joint& jt : pose.joints) {
     json o = {{"name", jt.name}, {"parent", jt.parent}, {"child", jt.child}};
     if (jt.estimateAxis) o["axis"] = "estimate";
+    if (jt.hasAxisHint) {
+      o["axis_hint"] = {{jt.hintA.x, jt.hintA.y, jt.hintA.z}, {jt.hintB.x, jt.hintB.y, jt.hintB.z}};
+      if (jt.hintConeDeg != 0) o["axis_hint_cone"] = jt.hintConeDeg;
+    }
     else o["axis"] = {{jt.axisA.x, jt.axisA.y, jt.axisA.z}, {jt.axisB.x, jt.axisB.y, jt.axisB.z}};
     joints.push_back(std::move(o));
   }
@@ -535,13 +556,39 @@ AxisEstimate contactFallback(const ContactZone& zone, const Geometry& g) {
   return est;
 }
 
+/// The ids joint `ji` turns: its child's and those of every joint distal to it.
+std::vector<uint16_t> movingIds(const Pose& pose, size_t ji) {
+  std::vector<uint16_t> ids;
+  for (size_t k = 0; k < pose.joints.size(); ++k) {
+    int j = int(k);
+    for (size_t hops = 0; j >= 0 && j != int(ji) && hops <= pose.joints.size(); ++hops) j = pose.joints[size_t(j)].proximal;
+    if (j == int(ji)) ids.insert(ids.end(), pose.joints[k].child.begin(), pose.joints[k].child.end());
+  }
+  return ids;
+}
+
+/// The angles the motion search scores a joint at: a quarter, half, three quarters and all of
+/// the furthest angle its keyframes reach either way (10° either way when they never leave 0).
+std::vector<double> motionAngles(const Pose& pose, size_t joint) {
+  double lo = 0, hi = 0;
+  for (const Keyframe& k : pose.angles.keyframes)
+    if (joint < k.points.size()) lo = std::min(lo, k.points[joint].source.x), hi = std::max(hi, k.points[joint].source.x);
+  if (lo == 0 && hi == 0) lo = -10, hi = 10;
+  std::vector<double> out;
+  for (double end : {lo, hi})
+    if (end != 0)
+      for (int q = 1; q <= 4; ++q) out.push_back(end * q / 4);
+  return out;
+}
+
 }  // namespace
 
 void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
   const Geometry& g = labels.geometry();
   // Inlier band of the surface fits: 1.5 voxels (voxel surfaces stair-step by half a voxel).
   const double band = 1.5 * (g.spacing.x + g.spacing.y + g.spacing.z) / 3.0;
-  for (Joint& joint : pose.joints) {
+  for (size_t ji = 0; ji < pose.joints.size(); ++ji) {
+    Joint& joint = pose.joints[ji];
     if (!joint.estimateAxis) continue;
     const ContactZone all = contactZone(labels, joint.parent, joint.child, contactMm);
     if (all.moments.n < 3)
@@ -554,6 +601,7 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
         all.childContact.size() > 1 ? contactZone(labels, joint.parent, {partner}, contactMm) : all;
     // Both bones' articular surfaces share the hinge's axis: fitted together.
     AxisEstimate est = fitArticularSurfaces(zone.surface[0], zone.normals[0], zone.surface[1], zone.normals[1], band);
+    est.fit.surfaceMethod = est.fit.method;
     if (est.fit.method.empty()) {
       // No curved surface fits, or the fit was refused: the zone's centroid and widest
       // direction, as a hint only, and why.
@@ -569,16 +617,42 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
       }
       est.fit.warning = why + ": the axis is only the contact zone's widest direction through its centroid (give it as two points)";
     }
+    // A hint: the motion search (joint_motion.hpp) places the axis near it, the axis about
+    // which the whole child (all its ids, everything distal) slides along the parent over the
+    // pose's angles with the least collision; the surface fit above stays in the report.
+    if (joint.hasAxisHint) {
+      Vec3 point = joint.hintA, dir = normalized(joint.hintB - joint.hintA);
+      const HingeMotion motion(labels, joint.parent, movingIds(pose, ji), all.surface[0], all.surface[1],
+                               motionAngles(pose, ji), kHintReachMm);
+      est.fit.motion = motion.search(point, dir, joint.hintConeDeg, kHintReachMm);
+      const MotionFit& m = est.fit.motion;
+      if (m.searched) {
+        est.point = point, est.direction = dir;
+        est.fit.method = "motion";
+        est.fit.warning.clear();
+        if (m.shiftMm > kHintReachMm - 0.5 || (m.coneDeg > 0 && m.turnDeg > m.coneDeg - 0.5)) {
+          std::ostringstream w;
+          w.setf(std::ios::fixed);
+          w.precision(1);
+          w << "the axis found lies at the edge of the search about the hint (" << m.shiftMm << " mm, " << m.turnDeg
+            << " deg from it): check the hint";
+          est.fit.warning = w.str();
+        }
+      } else {
+        est.fit.warning = "the axis hint could not be placed (no contact voxels to score): " + est.fit.warning;
+      }
+    }
     est.fit.partner = partner;
     for (const auto& [id, count] : all.childContact) est.fit.contactVoxels.push_back({id, count});
-    const std::string tie = partnerTie(all, partner, contactMm);
+    const std::string tie = est.fit.motion.searched ? "" : partnerTie(all, partner, contactMm);
     if (!tie.empty()) est.fit.warning += (est.fit.warning.empty() ? "" : "; ") + tie;
     Vec3 dir = normalized(est.direction);
-    // Deterministic sign: the largest component positive.
+    // Deterministic sign: the hint's (the user's sense of a positive angle), else the largest
+    // component positive.
     const int big = std::abs(dir.x) >= std::abs(dir.y) && std::abs(dir.x) >= std::abs(dir.z) ? 0
                     : std::abs(dir.y) >= std::abs(dir.z)                                   ? 1
                                                                                            : 2;
-    if (dir[big] < 0) dir = -dir;
+    if (joint.hasAxisHint ? dot(dir, joint.hintB - joint.hintA) < 0 : dir[big] < 0) dir = -dir;
     joint.axisA = est.point - dir * 10.0;
     joint.axisB = est.point + dir * 10.0;
     joint.fit = est.fit;

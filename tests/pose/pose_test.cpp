@@ -260,6 +260,15 @@ TEST(Pose, MovieTrackStepsAndPoseFileErrors) {
           "coincide");
   refused(R"({"joints": [)" + j1 + R"(], "keyframes": [{"angles": {"a": "x"}}]})", "\"angles\".\"a\"");
   refused(R"({"joints": [)" + j1 + R"(], "fixed_labels": [2], "keyframes": [{"angles": {}}]})", "fixed_labels");
+  // An axis hint goes with "estimate", has two distinct points, and its cone is 0..45°.
+  const std::string est = R"({"name": "a", "parent": 1, "child": 2, "axis": "estimate", )";
+  refused(R"({"joints": [{"name": "a", "parent": 1, "child": 2, "axis": [[0, 0, 0], [1, 0, 0]], "axis_hint": [[0, 0, 0], [1, 0, 0]]}], "keyframes": [{"angles": {}}]})",
+          "goes with \"axis\": \"estimate\"");
+  refused(R"({"joints": [)" + est + R"("axis_hint": [[0, 0, 0], [0, 0, 0]]}], "keyframes": [{"angles": {}}]})", "coincide");
+  refused(R"({"joints": [)" + est + R"("axis_hint": [[0, 0, 0]]}], "keyframes": [{"angles": {}}]})", "two points");
+  refused(R"({"joints": [)" + est + R"("axis_hint": [[0, 0, 0], [1, 0, 0]], "axis_hint_cone": 50}], "keyframes": [{"angles": {}}]})",
+          "[0, 45]");
+  refused(R"({"joints": [)" + est + R"("axis_hint_cone": 5}], "keyframes": [{"angles": {}}]})", "goes with \"axis_hint\"");
 }
 
 TEST(Pose, MalformedPoseFileIsOneLineAndExit2) {
@@ -478,6 +487,61 @@ TEST(Pose, EstimatedAxisRefusesALipOnABlock) {
 // `--gltf`: the child bone's node turns by exactly the joint's rotation at each key (read back
 // from the binary glTF), the parent's node stands still, and the skin's last morph target moves
 // the skin below the knee while the skin above it stays.
+// An axis hint is placed by the motion search (joint_motion.hpp): on the synthetic ankle the
+// trochlea turning about its own axis slides along the plafond and the malleolus, so that axis
+// scores (nearly) 0 and any other digs the dome into the plafond or lifts it off. From hints
+// 6–8 mm off the trochlea's axis, the hint's direction kept (cone 0), the estimate passes within
+// 1 mm of it; with a cone of 12° a hint 8° off comes back within 1.5°. The hint's sense of a
+// positive angle is kept, the report says how far the search moved it.
+TEST(Pose, AxisHintIsPlacedByTheMotionSearch) {
+  const Ankle a = makeAnkle();
+  const Vec3 up = normalized(cross(a.axis, cross(Vec3{0, 0, 1}, a.axis)));
+  const Vec3 side = cross(a.axis, up);
+  const auto hinted = [&](const Vec3& p, const Vec3& d, double cone) {
+    const fs::path path = test::tempDir("pose-axis-hint") / "pose.json";
+    std::ofstream f(path);
+    f << R"({"joints": [{"name": "ankle", "parent": 1, "child": 2, "axis": "estimate", "axis_hint": [[)" << p.x << ","
+      << p.y << "," << p.z << "], [" << p.x + 20 * d.x << "," << p.y + 20 * d.y << "," << p.z + 20 * d.z
+      << R"(]], "axis_hint_cone": )" << cone << R"(}], "keyframes": [{"angles": {"ankle": 0}}, {"angles": {"ankle": 20}}]})";
+    f.close();
+    Pose pose = loadPose(path);
+    estimateAxes(pose, a.labels, 3.0);
+    return pose.joints[0];
+  };
+  const auto offAxis = [&](const Joint& j) {
+    const Vec3 mid = (j.axisA + j.axisB) * 0.5;
+    return norm((mid - a.centre) - a.axis * dot(mid - a.centre, a.axis));
+  };
+  for (const Vec3& shift : {up * 6.0, side * -7.0, up * -4.0 + side * 6.0}) {
+    const Joint j = hinted(a.centre + shift - a.axis * 30.0, a.axis, 0);
+    EXPECT_EQ(j.fit.method, "motion");
+    EXPECT_LT(offAxis(j), 1.0) << "hint shifted by " << norm(shift) << " mm";
+    EXPECT_GT(dot(normalized(j.axisB - j.axisA), a.axis), 1 - 1e-9);  // cone 0: the hint's direction
+    const MotionFit& m = j.fit.motion;
+    EXPECT_TRUE(m.searched);
+    EXPECT_NEAR(m.shiftMm, norm(shift), 1.0);
+    EXPECT_EQ(m.turnDeg, 0);
+    EXPECT_LT(m.rmsMm, 0.75 * m.startRmsMm) << m.startRmsMm;  // the hint dug into the plafond or lifted off it
+    EXPECT_LT(m.rmsMm, 0.6);
+    EXPECT_LT(m.insideFraction, 0.01);
+    EXPECT_EQ(m.anglesDeg, (std::vector<double>{5, 10, 15, 20}));  // the pose's range, in quarters
+    EXPECT_TRUE(j.fit.warning.empty()) << j.fit.warning;
+  }
+  // A hint pointing the other way keeps its sense of a positive angle.
+  const Joint back = hinted(a.centre + up * 5.0 + a.axis * 30.0, a.axis * -1.0, 0);
+  EXPECT_LT(dot(normalized(back.axisB - back.axisA), a.axis), -1 + 1e-9);
+  EXPECT_LT(offAxis(back), 1.0);
+  // A tilted hint within a cone.
+  const Vec3 tilted = normalized(a.axis + up * std::tan(8 * std::numbers::pi / 180));
+  const Joint t = hinted(a.centre + side * 5.0 - tilted * 30.0, tilted, 12);
+  EXPECT_LT(degreesBetween(t.axisB - t.axisA, a.axis), 1.5);
+  EXPECT_LT(offAxis(t), 1.0);
+  EXPECT_NEAR(t.fit.motion.turnDeg, 8, 1.5);
+  // A hint whose best axis lies beyond the search's reach is warned about.
+  const Joint far = hinted(a.centre + up * 45.0, a.axis, 0);
+  EXPECT_NE(far.fit.warning.find("edge of the search"), std::string::npos) << far.fit.warning;
+}
+
 TEST(Pose, GltfNodesCarryTheJointRotation) {
   const Limb limb = makeLimb({{46, 74}, {12, 36}});
   const std::string pose = R"({"units": "mm", "joints": [{"name": "knee", "parent": 1, "child": [2], "axis": )" +
@@ -536,7 +600,8 @@ TEST(Pose, GltfNodesCarryTheJointRotation) {
 TEST(Pose, SavedPoseReadsBackAndTwoFixedBoxesStayPut) {
   const Limb limb = makeLimb({{46, 74}, {12, 36}});
   const Files f = writeLimb(limb, "pose-save", R"({"units": "mm", "joints": [{"name": "knee", "parent": 1,
-      "child": [2], "axis": )" + xAxisAt(41) + R"(}, {"name": "other", "parent": 2, "child": 50, "axis": "estimate"}],
+      "child": [2], "axis": )" + xAxisAt(41) + R"(}, {"name": "other", "parent": 2, "child": 50, "axis": "estimate",
+      "axis_hint": [[1, 2, 3], [4, 5, 6]], "axis_hint_cone": 7.5}],
       "fixed_boxes": [[44, 44, 4, 60, 60, 20], [44, 20, 60, 60, 36, 76]], "interpolation": "smooth", "loop": true,
       "keyframes": [{"duration": 0.5, "angles": {"knee": 0}}, {"duration": 1.25, "angles": {"knee": 20, "other": -5}}]})");
   const Pose a = loadPose(f.pose);
@@ -547,6 +612,11 @@ TEST(Pose, SavedPoseReadsBackAndTwoFixedBoxesStayPut) {
   EXPECT_EQ(b.joints[0].axisA, a.joints[0].axisA);
   EXPECT_EQ(b.joints[0].axisB, a.joints[0].axisB);
   EXPECT_TRUE(b.joints[1].estimateAxis);
+  EXPECT_TRUE(b.joints[1].hasAxisHint);
+  EXPECT_EQ(b.joints[1].hintA, (Vec3{1, 2, 3}));
+  EXPECT_EQ(b.joints[1].hintB, (Vec3{4, 5, 6}));
+  EXPECT_EQ(b.joints[1].hintConeDeg, 7.5);
+  EXPECT_FALSE(b.joints[0].hasAxisHint);
   EXPECT_EQ(b.joints[1].child, std::vector<uint16_t>{50});
   EXPECT_EQ(b.joints[1].proximal, 0);
   EXPECT_EQ(b.fixed.boxesMm, a.fixed.boxesMm);

@@ -61,10 +61,19 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
       std::ostringstream line;
       line.setf(std::ios::fixed);
       line.precision(1);
-      line << "    axis estimated from bone " << f["partner"].get<int>() << "'s contact ("
-           << (f["method"] == "contact" ? "NOT fitted: the contact zone's widest direction, a hint only"
-                                        : f["method"].get<std::string>());
-      if (f.contains("surface"))
+      if (f.contains("motion")) {
+        const nlohmann::json& m = f["motion"];
+        line << "    axis placed by the motion search from the hint (score RMS " << std::setprecision(2)
+             << m["score_rms_mm"]["hint"].get<double>() << " -> " << m["score_rms_mm"]["found"].get<double>()
+             << " mm; near voxels turned into the parent " << std::setprecision(1)
+             << 100 * m["inside_fraction"]["hint"].get<double>() << " -> " << 100 * m["inside_fraction"]["found"].get<double>()
+             << " %; moved " << m["shift_mm"].get<double>() << " mm, turned " << m["turn_deg"].get<double>() << " deg";
+      } else {
+        line << "    axis estimated from bone " << f["partner"].get<int>() << "'s contact ("
+             << (f["method"] == "contact" ? "NOT fitted: the contact zone's widest direction, a hint only"
+                                          : f["method"].get<std::string>());
+      }
+      if (f.contains("surface") && !f.contains("motion"))
         line << (f["surface"] == "both" ? " on both bones' surfaces" : " on the " + f["surface"].get<std::string>() + "'s surface")
              << ", radius " << f["radius_mm"].get<double>()
              << " mm, RMS " << f["rms_mm"].get<double>() << " mm, " << 100 * f["inlier_fraction"].get<double>()

@@ -46,13 +46,27 @@ nlohmann::json jointsJson(const Pose& pose, const std::vector<double>& angles, c
                             {"contact_voxels", std::move(contact)},
                             {"confidence", f.confidence},
                             {"refusals", f.refusals}};
-      if (f.method != "contact")
+      fit["surface_method"] = f.surfaceMethod.empty() ? nlohmann::json() : nlohmann::json(f.surfaceMethod);
+      if (!f.surfaceMethod.empty())
         fit.update({{"surface", f.surface},
                     {"radius_mm", f.radiusMm},
                     {"rms_mm", f.rmsMm},
                     {"inlier_fraction", f.inlierFraction},
                     {"axis_gap_mm", f.axisGapMm < 0 ? nlohmann::json() : nlohmann::json(f.axisGapMm)}});
-      if (f.method == "cylinder") fit["arc_deg"] = f.arcDeg;
+      if (f.surfaceMethod == "cylinder") fit["arc_deg"] = f.arcDeg;
+      if (f.motion.searched) {
+        const MotionFit& m = f.motion;
+        fit["motion"] = {{"hint_mm", {vec(joint.hintA), vec(joint.hintB)}},
+                         {"cone_deg", m.coneDeg},
+                         {"reach_mm", m.reachMm},
+                         {"angles_deg", m.anglesDeg},
+                         {"score_rms_mm", {{"hint", m.startRmsMm}, {"found", m.rmsMm}}},
+                         {"inside_fraction", {{"hint", m.startInsideFraction}, {"found", m.insideFraction}}},
+                         {"shift_mm", m.shiftMm},
+                         {"turn_deg", m.turnDeg},
+                         {"contact_voxels", m.contactPoints},
+                         {"near_voxels", m.nearPoints}};
+      }
       fit["warning"] = f.warning.empty() ? nlohmann::json() : nlohmann::json(f.warning);
       o["axis_fit"] = std::move(fit);
     }

@@ -15,6 +15,7 @@
 #include "vellum/core/params.hpp"
 #include "vellum/core/rigid_fit.hpp"
 #include "vellum/deformation/control_point.hpp"
+#include "vellum/deformation/joint_motion.hpp"
 #include "vellum/deformation/keyframes.hpp"
 #include "vellum/deformation/rigidity.hpp"
 
@@ -27,7 +28,10 @@ namespace vellum::deformation {
 /// contact patch's widest direction; a flat contact falls back to the zone's centroid and
 /// widest direction, with a warning.
 struct AxisFit {
-  std::string method;   ///< "cylinder", "sphere", "contact" (the fallback); empty: the axis was given
+  /// How the axis was found: "cylinder", "sphere", "contact" (the fallback), "motion" (the
+  /// motion search from an "axis_hint"); empty: the axis was given.
+  std::string method;
+  std::string surfaceMethod;  ///< the surface fit's model when one counts ("cylinder", "sphere"), else empty
   std::string surface;  ///< the surfaces that count (fit a curved model): "both", "child", "parent"
   double radiusMm = 0;  ///< the cylinder's or sphere's radius: the child's when it counts (the axis
                         ///< passes through its centre), else the parent's
@@ -47,6 +51,9 @@ struct AxisFit {
   /// Per child id touching the parent: its voxels within `contactMm` of the parent.
   std::vector<std::pair<uint16_t, int64_t>> contactVoxels;
   std::string warning;  ///< why the estimate is doubtful (empty when the fit is good)
+  /// The motion search (joint_motion.hpp) that placed the axis, from the joint's "axis_hint"
+  /// (method "motion" then; motion.searched false without a hint).
+  MotionFit motion;
 };
 
 struct Joint {
@@ -57,9 +64,19 @@ struct Joint {
   /// axisA -> axisB. Filled by estimateAxes() when `estimateAxis`.
   Vec3 axisA{0, 0, 0}, axisB{0, 0, 0};
   bool estimateAxis = false;  ///< "axis": "estimate": from the parent/child contact zone
+  /// "axis_hint" (with "estimate"): two points (mm) on a rough axis (through the malleoli's
+  /// tips, say). The estimate is then the motion search's (joint_motion.hpp): the axis within
+  /// kHintReachMm of it, its direction within "axis_hint_cone" degrees (hintConeDeg, 0..45,
+  /// default 0: the hint's direction is kept; anatomy names it, the label map rarely does).
+  bool hasAxisHint = false;
+  Vec3 hintA{0, 0, 0}, hintB{0, 0, 0};
+  double hintConeDeg = 0;
   AxisFit fit;                ///< how estimateAxes() found the axis
   int proximal = -1;  ///< the joint whose child holds this joint's parent (chains), -1: a root joint
 };
+
+/// How far from an "axis_hint" the motion search looks for the axis (mm).
+inline constexpr double kHintReachMm = 30.0;
 
 struct Pose {
   std::vector<Joint> joints;
