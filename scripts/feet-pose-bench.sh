@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The real-CT pose bench of docs/benchmarks-deformation.md: plantar flexion of the right foot of
-# ct-feet-vhf (512×512×150) by 20° about a hand axis, the left foot still. Makes the label map
+# ct-feet-vhf (512×512×150) by 20° about a hand axis (--axis-hint: the axis the motion search
+# places near it, the pose's "axis_hint"), the left foot still. Makes the label map
 # (one id per bone, soft tissue 100) and the pose file from the scan, then (unless --no-run)
 # poses it and prints the report's key numbers.
-#   scripts/feet-pose-bench.sh [OUT_DIR] [--no-run] [-- extra `vellum pose` arguments]
+#   scripts/feet-pose-bench.sh [OUT_DIR] [--no-run] [--axis-hint] [-- extra `vellum pose` arguments]
 # Environment: VELLUM (default build/ui/vellum), CT (default the shared ct-feet-vhf series).
 # Writes OUT_DIR/{bones.nrrd, bones-named.nrrd, labels.nrrd, feet-flex.json, pose.nrrd,
 # pose.json, time.txt}. Ids: docs/benchmarks-segmentation.md, "s18 feet labels".
@@ -14,7 +15,9 @@ CT=${CT:-$here/../shared/data/ct-feet-vhf}
 out=${1:-/tmp/feet-pose-bench}
 shift || true
 run=1
+hint=0
 if [ "${1:-}" = "--no-run" ]; then run=0; shift; fi
+if [ "${1:-}" = "--axis-hint" ]; then hint=1; shift; fi
 [ "${1:-}" = "--" ] && shift
 mkdir -p "$out"
 cd "$out"
@@ -38,15 +41,16 @@ fi
 
 # The pose: the right foot's bones (centre x < 247 mm) turn with the talus, the tibia and fibula
 # stay, the left foot's bones and the box x >= 253 mm are fixed.
-python3 - bones-named.json > feet-flex.json <<'PY'
+python3 - bones-named.json "$hint" > feet-flex.json <<'PY'
 import json, sys
 after = json.load(open(sys.argv[1]))["after"]
+hand = [[190, 285, 112], [230, 285, 112]]  # x through (·, 285, 112) mm, placed by eye (s16)
 parent = [60, 61]
 right = [e["id"] for e in after if e["centre_mm"][0] < 247 and e["id"] not in parent]
 left = [e["id"] for e in after if e["centre_mm"][0] >= 247]
 pose = {"units": "mm",
         "joints": [{"name": "ankle", "parent": parent, "child": right,
-                    "axis": [[190, 285, 112], [230, 285, 112]]}],
+                    **({"axis": "estimate", "axis_hint": hand} if sys.argv[2] == "1" else {"axis": hand})}],
         "fixed_labels": left,
         "fixed_boxes": [[253, 0, 0, 511, 511, 149]],
         "interpolation": "smooth",
