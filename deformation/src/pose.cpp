@@ -567,20 +567,6 @@ std::vector<uint16_t> movingIds(const Pose& pose, size_t ji) {
   return ids;
 }
 
-/// The angles the motion search scores a joint at: a quarter, half, three quarters and all of
-/// the furthest angle its keyframes reach either way (10° either way when they never leave 0).
-std::vector<double> motionAngles(const Pose& pose, size_t joint) {
-  double lo = 0, hi = 0;
-  for (const Keyframe& k : pose.angles.keyframes)
-    if (joint < k.points.size()) lo = std::min(lo, k.points[joint].source.x), hi = std::max(hi, k.points[joint].source.x);
-  if (lo == 0 && hi == 0) lo = -10, hi = 10;
-  std::vector<double> out;
-  for (double end : {lo, hi})
-    if (end != 0)
-      for (int q = 1; q <= 4; ++q) out.push_back(end * q / 4);
-  return out;
-}
-
 }  // namespace
 
 void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
@@ -618,12 +604,14 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
       est.fit.warning = why + ": the axis is only the contact zone's widest direction through its centroid (give it as two points)";
     }
     // A hint: the motion search (joint_motion.hpp) places the axis near it, the axis about
-    // which the whole child (all its ids, everything distal) slides along the parent over the
-    // pose's angles with the least collision; the surface fit above stays in the report.
+    // which the whole child (all its ids, everything distal) slides along the parent with the
+    // least collision over a hinge's working range either way (not the keyframes' angles: the
+    // axis is the joint's, and the studio places it before any angle is set); the surface
+    // fit above stays in the report.
     if (joint.hasAxisHint) {
       Vec3 point = joint.hintA, dir = normalized(joint.hintB - joint.hintA);
       const HingeMotion motion(labels, joint.parent, movingIds(pose, ji), all.surface[0], all.surface[1],
-                               motionAngles(pose, ji), kHintReachMm);
+                               kHintAnglesDeg, kHintReachMm);
       est.fit.motion = motion.search(point, dir, joint.hintConeDeg, kHintReachMm);
       const MotionFit& m = est.fit.motion;
       if (m.searched) {

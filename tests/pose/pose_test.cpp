@@ -524,7 +524,7 @@ TEST(Pose, AxisHintIsPlacedByTheMotionSearch) {
     EXPECT_LT(m.rmsMm, 0.75 * m.startRmsMm) << m.startRmsMm;  // the hint dug into the plafond or lifted off it
     EXPECT_LT(m.rmsMm, 0.6);
     EXPECT_LT(m.insideFraction, 0.01);
-    EXPECT_EQ(m.anglesDeg, (std::vector<double>{5, 10, 15, 20}));  // the pose's range, in quarters
+    EXPECT_EQ(m.anglesDeg, kHintAnglesDeg);  // a hinge's working range, whatever the keyframes
     EXPECT_TRUE(j.fit.warning.empty()) << j.fit.warning;
   }
   // A hint pointing the other way keeps its sense of a positive angle.

@@ -186,7 +186,11 @@ void JointTool::addDraftJoint(StudioApp& app) {
   joint.child = draftChild;
   std::sort(joint.parent.begin(), joint.parent.end());
   std::sort(joint.child.begin(), joint.child.end());
-  if (draftAxisA && draftAxisB) {
+  if (draftAxisA && draftAxisB && draftAxisIsHint) {
+    joint.estimateAxis = joint.hasAxisHint = true;  // estimateAxes() places it on the worker
+    joint.hintA = joint.axisA = *draftAxisA;
+    joint.hintB = joint.axisB = *draftAxisB;        // also the placeholder linkJoints() checks
+  } else if (draftAxisA && draftAxisB) {
     joint.axisA = *draftAxisA;
     joint.axisB = *draftAxisB;
   } else {
@@ -411,12 +415,17 @@ void jointScriptAction(StudioApp& app, const nlohmann::json& v) {
     jt.draftChild = idsOf(x.at("child"));
     jt.draftAxisA.reset();
     jt.draftAxisB.reset();
-    if (x.contains("axis") && x["axis"].is_array()) jt.draftAxisA = pointOf(x["axis"].at(0)), jt.draftAxisB = pointOf(x["axis"].at(1));
+    jt.draftAxisIsHint = x.contains("axis_hint");
+    const char* axisKey = jt.draftAxisIsHint ? "axis_hint" : "axis";
+    if (x.contains(axisKey) && x[axisKey].is_array())
+      jt.draftAxisA = pointOf(x[axisKey].at(0)), jt.draftAxisB = pointOf(x[axisKey].at(1));
     jt.addDraftJoint(app);
   } else if (op == "pick") {
     const std::string w = x.get<std::string>();
     jt.pick = w == "parent" ? JointPick::Parent : w == "child" ? JointPick::Child : w == "axis1" ? JointPick::AxisA
             : w == "axis2" ? JointPick::AxisB : throw Error("pick: \"parent\", \"child\", \"axis1\" or \"axis2\"");
+  } else if (op == "hint") {  // the Joints panel's "Place by motion" box: the clicked axis is a hint
+    jt.draftAxisIsHint = x.get<bool>();
   } else if (op == "add_picked") {
     jt.draftName = x.get<std::string>();
     jt.addDraftJoint(app);
@@ -455,7 +464,8 @@ void jointScriptAction(StudioApp& app, const nlohmann::json& v) {
     row->set(r, double(it - c.begin()));
     jt.setMap(app, r.map);
   } else {
-    throw Error("unknown joint action \"" + op + "\" (add, pick, add_picked, angle, keyframe, fixed, map, save, load, remove)");
+    throw Error("unknown joint action \"" + op +
+                "\" (add, pick, hint, add_picked, angle, keyframe, fixed, map, save, load, remove)");
   }
 }
 

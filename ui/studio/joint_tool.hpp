@@ -55,6 +55,9 @@ class JointTool {
   std::string draftName = "joint";
   std::vector<uint16_t> draftParent, draftChild;
   std::optional<Vec3> draftAxisA, draftAxisB;  ///< both set: the axis; else "estimate"
+  /// The two clicked points are a rough axis for the motion search to place (the pose's
+  /// "axis_hint": the axis within 30 mm that slides the child along the parent), not the axis.
+  bool draftAxisIsHint = false;
   JointPick pick = JointPick::None;
 
   int selected = 0;       ///< the joint the panel's slider turns

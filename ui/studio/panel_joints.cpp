@@ -73,7 +73,8 @@ void jointsSection(StudioApp& app) {
     const deformation::Joint& joint = pose.joints[size_t(j)];
     char row[160];
     std::snprintf(row, sizeof row, "%s: %s -> %s (%s)##joint%d", joint.name.c_str(), idsText(joint.parent).c_str(),
-                  idsText(joint.child).c_str(), joint.estimateAxis ? "axis estimated" : "axis given", j);
+                  idsText(joint.child).c_str(),
+                  joint.hasAxisHint ? "axis placed near the hint" : joint.estimateAxis ? "axis estimated" : "axis given", j);
     if (ImGui::RadioButton(row, jt.selected == j)) jt.selected = j;
     ImGui::SameLine();
     ImGui::PushID(j);
@@ -127,6 +128,11 @@ void jointsSection(StudioApp& app) {
   ImGui::SameLine();
   if (jt.draftAxisA || jt.draftAxisB) {
     if (ImGui::SmallButton("Estimate")) jt.draftAxisA.reset(), jt.draftAxisB.reset();
+    ImGui::SameLine();
+    ImGui::Checkbox("Place by motion", &jt.draftAxisIsHint);
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("the two points are a rough axis: the axis within 30 mm (same direction) about which the "
+                        "child slides along the parent with the least collision over the pose's angles");
   } else {
     ImGui::TextDisabled("estimated");
   }

@@ -75,8 +75,10 @@ struct Joint {
   int proximal = -1;  ///< the joint whose child holds this joint's parent (chains), -1: a root joint
 };
 
-/// How far from an "axis_hint" the motion search looks for the axis (mm).
+/// How far from an "axis_hint" the motion search looks for the axis (mm), and the joint angles
+/// it scores (degrees: a hinge's working range, either way).
 inline constexpr double kHintReachMm = 30.0;
+inline const std::vector<double> kHintAnglesDeg{-20, -15, -10, -5, 5, 10, 15, 20};
 
 struct Pose {
   std::vector<Joint> joints;
