@@ -389,11 +389,11 @@ void savePose(const Pose& pose, const fs::path& path) {
   for (const Joint& jt : pose.joints) {
     json o = {{"name", jt.name}, {"parent", jt.parent}, {"child", jt.child}};
     if (jt.estimateAxis) o["axis"] = "estimate";
+    else o["axis"] = {{jt.axisA.x, jt.axisA.y, jt.axisA.z}, {jt.axisB.x, jt.axisB.y, jt.axisB.z}};
     if (jt.hasAxisHint) {
       o["axis_hint"] = {{jt.hintA.x, jt.hintA.y, jt.hintA.z}, {jt.hintB.x, jt.hintB.y, jt.hintB.z}};
       if (jt.hintConeDeg != 0) o["axis_hint_cone"] = jt.hintConeDeg;
     }
-    else o["axis"] = {{jt.axisA.x, jt.axisA.y, jt.axisA.z}, {jt.axisB.x, jt.axisB.y, jt.axisB.z}};
     joints.push_back(std::move(o));
   }
   json keyframes = json::array();

@@ -617,6 +617,12 @@ TEST(Pose, SavedPoseReadsBackAndTwoFixedBoxesStayPut) {
   EXPECT_EQ(b.joints[1].hintB, (Vec3{4, 5, 6}));
   EXPECT_EQ(b.joints[1].hintConeDeg, 7.5);
   EXPECT_FALSE(b.joints[0].hasAxisHint);
+  Pose unhinted = a;  // "estimate" without a hint stays "estimate"
+  unhinted.joints[1].hasAxisHint = false;
+  savePose(unhinted, saved);
+  const Pose c = loadPose(saved);
+  EXPECT_TRUE(c.joints[1].estimateAxis);
+  EXPECT_FALSE(c.joints[1].hasAxisHint);
   EXPECT_EQ(b.joints[1].child, std::vector<uint16_t>{50});
   EXPECT_EQ(b.joints[1].proximal, 0);
   EXPECT_EQ(b.fixed.boxesMm, a.fixed.boxesMm);

@@ -31,6 +31,16 @@ using namespace vellum::test::studio;
 constexpr int kN = kLimbN;
 constexpr uint16_t kFixed = kLimbFixed;
 
+/// Where the coronal pane (1x3 layout, 1024x700 window, the slice through the centre) draws
+/// the point `mm`: a script's click there.
+std::string coronalClick(const Geometry& g, const Vec3& mm) {
+  const std::vector<Pane> panes = layoutPanes(Layout::OneByThree, {kToolPanelWidth, 0, 1024 - kToolPanelWidth, 700});
+  const Pane& cor = panes[1];
+  const SlicePlane plane = makePlane(SliceAxis::Coronal, g, g.center(), int(cor.rect.w), int(cor.rect.h));
+  const auto [x, y] = plane.toPixel(mm);
+  return "[" + std::to_string(cor.rect.x + x) + "," + std::to_string(cor.rect.y + y) + "]";
+}
+
 /// The joint script on the limb (with `extra` actions after the joint is added and `after` ones
 /// before it quits), the studio's shown volume and `vellum pose` run with the line the studio wrote.
 struct JointRun {
@@ -41,22 +51,17 @@ struct JointRun {
   std::string command;
   double meanDiffHu = 0, offFraction = 0;  ///< studio against cli: mean |diff|, share over 100 HU
 };
-JointRun runJointScript(const fs::path& d, const std::string& extra, const std::string& after = "") {
+JointRun runJointScript(const fs::path& d, const std::string& extra, const std::string& after = "",
+                        const std::string& beforeAdd = "") {
   JointRun run;
   writeLimb(d, run.ct, run.labels);
   const Geometry& g = run.ct.geometry();
-  // Where the coronal pane (1x3 layout, 1024x700 window) draws the two bones' centres.
-  const std::vector<Pane> panes = layoutPanes(Layout::OneByThree, {kToolPanelWidth, 0, 1024 - kToolPanelWidth, 700});
-  const Pane& cor = panes[1];
-  const SlicePlane plane = makePlane(SliceAxis::Coronal, g, g.center(), int(cor.rect.w), int(cor.rect.h));
-  const auto px = [&](const Vec3& mm) {
-    const auto [x, y] = plane.toPixel(mm);
-    return "[" + std::to_string(cor.rect.x + x) + "," + std::to_string(cor.rect.y + y) + "]";
-  };
+  const auto px = [&](const Vec3& mm) { return coronalClick(g, mm); };
+
   const std::string script = scriptOnPhantom(d) + R"(
     {"layout":"1x3"},{"hud":false},
     {"joint":{"pick":"parent"}},{"click":)" + px({40, 40, 60}) + R"(},
-    {"joint":{"pick":"child"}},{"click":)" + px({40, 40, 24}) + R"(},
+    {"joint":{"pick":"child"}},{"click":)" + px({40, 40, 24}) + R"(},)" + beforeAdd + R"(
     {"joint":{"add_picked":"knee"}},)" + extra + R"(
     {"joint":{"fixed":{"labels":[50]}}},
     {"joint":{"keyframe":"add"}},
@@ -156,6 +161,43 @@ TEST(StudioJointScript, PickedBonesTurnAboutTheEstimatedAxisAndVellumPoseReprodu
   // `vellum pose` on the saved file: the same volume.
   EXPECT_LT(run.meanDiffHu, 1.0);  // measured 0.04 HU: vellum pose repairs folds, the live view does not
   EXPECT_LT(run.offFraction, 0.001);  // measured 5 of 64000 voxels
+  fs::remove_all(d);
+}
+
+// Two clicked axis points with "Place by motion" (the Joints panel's box, the script's
+// {"joint":{"hint":true}}) are the pose's "axis_hint": the saved file carries the clicks as the
+// hint, the axis is the motion search's — moved from the hint towards the bones' gap — and the
+// studio shows the child turned about it exactly as `vellum pose` on the saved file does.
+TEST(StudioJointScript, ClickedAxisPlacedByMotionIsTheSavedHint) {
+  REQUIRE_DISPLAY();
+  const fs::path d = test::tempDir("studio-joint-hint");
+  // The clicks land on the coronal slice through the volume's centre (y = 39 mm); the hint lies
+  // 11 mm above the bones' 2 mm gap (z 38–40).
+  Geometry g;
+  g.dims = {kN, kN, kN};
+  g.spacing = {2, 2, 2};
+  const Vec3 a{16, g.center().y, 50}, b{64, g.center().y, 50};
+  const std::string clicks = R"({"joint":{"pick":"axis1"}},{"click":)" + coronalClick(g, a) +
+                             R"(},{"joint":{"pick":"axis2"}},{"click":)" + coronalClick(g, b) + R"(},{"joint":{"hint":true}},)";
+  const JointRun run = runJointScript(d, R"({"joint":{"map":"mls"}},)", "", clicks);
+  ASSERT_EQ(run.pose.joints.size(), 1u);
+  const Joint& j = run.pose.joints[0];
+  EXPECT_TRUE(j.estimateAxis);
+  ASSERT_TRUE(j.hasAxisHint);
+  EXPECT_LT(norm(j.hintA - a), 2.0);  // a click is a pixel's worth of the slice (~0.3 mm here)
+  EXPECT_LT(norm(j.hintB - b), 2.0);
+  EXPECT_EQ(j.fit.method, "motion");
+  EXPECT_GT(dot(normalized(j.axisB - j.axisA), Vec3{1, 0, 0}), 0.999);  // the hint's direction and sense
+  // The bones' ends are flat, so the score's valley is shallow: the search moved the axis down
+  // (measured: from 50 to 45.4 mm), not necessarily onto the gap.
+  EXPECT_LT((j.axisA.z + j.axisB.z) / 2, 48.0);
+  EXPECT_GT(j.fit.motion.shiftMm, 2.0);
+  const ChildCheck c = checkChild(run);
+  ASSERT_GT(c.child, 200);
+  EXPECT_GE(c.landed, 0.95);  // measured 0.975: turned about an axis above the gap, the child's
+                              // corners pass the parent's edge and give there
+  EXPECT_LT(run.meanDiffHu, 1.0);  // measured 2e-5 HU: the studio placed the axis as vellum pose does
+  EXPECT_LT(run.offFraction, 0.001);
   fs::remove_all(d);
 }
 
