@@ -15,6 +15,8 @@
 #include <sstream>
 #include <tuple>
 
+#include "vellum/core/cropped_geometry.hpp"
+#include "vellum/core/distance_transform.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/core/json_input.hpp"
@@ -427,21 +429,68 @@ struct ContactZone {
   std::map<uint16_t, int64_t> childContact;  ///< child id -> its voxels in the zone
 };
 
+/// The voxel box of the ids `side` marks as `which` (empty: hi < lo).
+VoxelBox boxOfSide(const LabelVolume& labels, const std::vector<uint8_t>& side, uint8_t which) {
+  const Dims d = labels.geometry().dims;
+  VoxelBox box{{d.x, d.y, d.z}, {-1, -1, -1}};
+  std::mutex m;
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    VoxelBox b{{d.x, d.y, d.z}, {-1, -1, -1}};
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i)
+          if (side[labels(i, j, k)] == which) {
+            b.lo = {std::min(b.lo[0], i), std::min(b.lo[1], j), std::min(b.lo[2], k)};
+            b.hi = {std::max(b.hi[0], i), std::max(b.hi[1], j), std::max(b.hi[2], k)};
+          }
+    std::lock_guard lock(m);
+    for (int a = 0; a < 3; ++a) box.lo[a] = std::min(box.lo[a], b.lo[a]), box.hi[a] = std::max(box.hi[a], b.hi[a]);
+  });
+  return box;
+}
+
 ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& parent,
                         const std::vector<uint16_t>& child, double contactMm) {
   const Geometry& g = labels.geometry();
   const Dims d = g.dims;
-  const int64_t r[3] = {int64_t(std::ceil(contactMm / g.spacing.x)), int64_t(std::ceil(contactMm / g.spacing.y)),
-                        int64_t(std::ceil(contactMm / g.spacing.z))};
   std::vector<uint8_t> side(65536, 0);
   for (uint16_t id : parent) side[id] = 1;
   for (uint16_t id : child) side[id] = 2;
-  const Vec3 inverseSpacing{1 / g.spacing.x, 1 / g.spacing.y, 1 / g.spacing.z};
+  ContactZone zone;
+  // Only where both bones' boxes, grown by the reach, overlap can a voxel lie within reach of
+  // the other bone (and that bone's nearest voxel lies there too): the distance fields are made
+  // on that box alone, a few cm around a joint on a 512² scan.
+  const VoxelBox pb = boxOfSide(labels, side, 1), cb = boxOfSide(labels, side, 2);
+  const double reach[3] = {contactMm / g.spacing.x, contactMm / g.spacing.y, contactMm / g.spacing.z};
+  const int64_t dims[3] = {d.x, d.y, d.z};
+  VoxelBox box;
+  for (int a = 0; a < 3; ++a) {
+    const auto grown = [&](const VoxelBox& b, bool low) {
+      return low ? b.lo[a] - int64_t(std::ceil(reach[a])) : b.hi[a] + int64_t(std::ceil(reach[a]));
+    };
+    box.lo[a] = std::max<int64_t>({grown(pb, true), grown(cb, true), 0});
+    box.hi[a] = std::min<int64_t>({grown(pb, false), grown(cb, false), dims[a] - 1});
+    if (pb.hi[a] < 0 || cb.hi[a] < 0 || box.hi[a] < box.lo[a]) return zone;  // a bone missing, or apart
+  }
+  // Squared distance (mm²) of every box voxel to the nearest parent and child voxel.
+  const Geometry bg = croppedGeometry(g, box);
+  const Dims bd = bg.dims;
+  VolumeU8 mask[2] = {VolumeU8(bg), VolumeU8(bg)};
+  parallelFor(bd.z, [&](int64_t k0, int64_t k1) {
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < bd.y; ++j)
+        for (int64_t i = 0; i < bd.x; ++i) {
+          const uint8_t s = side[labels(box.lo[0] + i, box.lo[1] + j, box.lo[2] + k)];
+          mask[0](i, j, k) = s == 1;
+          mask[1](i, j, k) = s == 2;
+        }
+  });
+  const VolumeF32 dist2[2] = {squaredDistanceMm(mask[0]), squaredDistanceMm(mask[1])};
+  const double reach2 = contactMm * contactMm;
   const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
   const double facing = std::cos(60 * kDeg);
-  ContactZone zone;
   std::mutex m;
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+  parallelFor(bd.z, [&](int64_t k0, int64_t k1) {
     IdMoments acc;
     std::map<uint16_t, int64_t> contact;
     std::vector<Vec3> found[2], foundNormals[2];
@@ -449,45 +498,52 @@ ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& 
       return a >= 0 && b >= 0 && c >= 0 && a < d.x && b < d.y && c < d.z;
     };
     for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i) {
-          const uint8_t s = side[labels(i, j, k)];
+      for (int64_t j = 0; j < bd.y; ++j)
+        for (int64_t i = 0; i < bd.x; ++i) {
+          const int64_t gi = box.lo[0] + i, gj = box.lo[1] + j, gk = box.lo[2] + k;
+          const uint8_t s = side[labels(gi, gj, gk)];
           if (!s) continue;
-          // The nearest voxel of the other bone within contactMm (a brute-force neighbourhood).
-          Vec3 nearest{0, 0, 0};
-          double nearestMm = std::numeric_limits<double>::infinity();
-          for (int64_t dk = -r[2]; dk <= r[2]; ++dk)
-            for (int64_t dj = -r[1]; dj <= r[1]; ++dj)
-              for (int64_t di = -r[0]; di <= r[0]; ++di) {
-                const int64_t a = i + di, b = j + dj, c = k + dk;
-                if (!inside(a, b, c)) continue;
-                const uint8_t o = side[labels(a, b, c)];
-                if (!o || o == s) continue;
-                const Vec3 dmm = mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
-                const double len = norm(dmm);
-                if (len <= contactMm && len < nearestMm) nearest = dmm, nearestMm = len;
-              }
-          if (!(nearestMm <= contactMm)) continue;
-          const Eigen::Vector3d p{double(i), double(j), double(k)};
+          const VolumeF32& other = dist2[2 - s];  // the other bone's squared distance
+          const double nearest2 = other(i, j, k);
+          if (!(nearest2 <= reach2)) continue;
+          const Eigen::Vector3d p{double(gi), double(gj), double(gk)};
           acc.n += 1;
           acc.s += p;
           acc.ss += p * p.transpose();
-          if (s == 2) ++contact[labels(i, j, k)];
-          const auto other = [&](int64_t a, int64_t b, int64_t c) { return !inside(a, b, c) || side[labels(a, b, c)] != s; };
-          if (!(other(i - 1, j, k) || other(i + 1, j, k) || other(i, j - 1, k) || other(i, j + 1, k) ||
-                other(i, j, k - 1) || other(i, j, k + 1)))
+          if (s == 2) ++contact[labels(gi, gj, gk)];
+          const auto own = [&](int64_t a, int64_t b, int64_t c) { return inside(a, b, c) && side[labels(a, b, c)] == s; };
+          if (own(gi - 1, gj, gk) && own(gi + 1, gj, gk) && own(gi, gj - 1, gk) && own(gi, gj + 1, gk) &&
+              own(gi, gj, gk - 1) && own(gi, gj, gk + 1))
             continue;
           // Outward normal: away from the bone's voxels in the 5³ neighbourhood (mm).
           Vec3 n{0, 0, 0};
           for (int64_t dk = -2; dk <= 2; ++dk)
             for (int64_t dj = -2; dj <= 2; ++dj)
               for (int64_t di = -2; di <= 2; ++di)
-                if (!other(i + di, j + dj, k + dk)) n = n - mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
-          const Vec3 here = g.indexToPhysical({double(i), double(j), double(k)});
-          const Vec3 ahead = g.indexToPhysical(Vec3{double(i), double(j), double(k)} + mul(n, inverseSpacing));
+                if (own(gi + di, gj + dj, gk + dk)) n = n - mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
+          const Vec3 here = g.indexToPhysical({double(gi), double(gj), double(gk)});
+          const Vec3 ahead = g.indexToPhysical({p.x() + n.x / g.spacing.x, p.y() + n.y / g.spacing.y, p.z() + n.z / g.spacing.z});
           const double len = norm(n);
           const bool clear = len > 5 * minSpacing;  // else a sliver: no clear side
-          if (clear && nearestMm > 0 && dot(n, nearest) < facing * len * nearestMm) continue;  // faces away
+          // The nearest voxel of the other bone (its distance is known: search only the box that
+          // reaches it, in the same order, so the first of equally near voxels is taken).
+          const double nearestMm = std::sqrt(nearest2);
+          const int64_t r[3] = {int64_t(std::ceil(nearestMm / g.spacing.x + 1e-6)), int64_t(std::ceil(nearestMm / g.spacing.y + 1e-6)),
+                                int64_t(std::ceil(nearestMm / g.spacing.z + 1e-6))};
+          Vec3 nearest{0, 0, 0};
+          double best = std::numeric_limits<double>::infinity();
+          for (int64_t dk = -r[2]; dk <= r[2]; ++dk)
+            for (int64_t dj = -r[1]; dj <= r[1]; ++dj)
+              for (int64_t di = -r[0]; di <= r[0]; ++di) {
+                const int64_t a = gi + di, b = gj + dj, c = gk + dk;
+                if (!inside(a, b, c)) continue;
+                const uint8_t o = side[labels(a, b, c)];
+                if (!o || o == s) continue;
+                const Vec3 dmm = mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
+                const double l = norm(dmm);
+                if (l < best) nearest = dmm, best = l;
+              }
+          if (clear && best > 0 && dot(n, nearest) < facing * len * best) continue;  // faces away
           found[s - 1].push_back(here);
           foundNormals[s - 1].push_back(clear ? normalized(ahead - here) : Vec3{0, 0, 0});
         }
