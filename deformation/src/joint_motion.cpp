@@ -41,14 +41,39 @@ VoxelBox boxAround(const Geometry& g, const std::vector<Vec3>& pts, double margi
   return box;
 }
 
-/// Signed distance (mm, negative inside) to the voxels whose id `in` marks, on `box`.
-VolumeF32 distanceTo(const LabelVolume& labels, const std::vector<uint8_t>& in, const VoxelBox& box) {
-  VolumeU8 mask(croppedGeometry(labels.geometry(), box));
-  const Dims d = mask.geometry().dims;
+/// The distance fields' grid on `box`: every step-th voxel per axis, the step making the grid
+/// no finer than kMinFieldSpacingMm (the score is a millimetre measure: a 0.35 mm scan need not
+/// be matched) and no larger than kMaxFieldVoxels (a whole limb turning at a hip).
+constexpr double kMinFieldSpacingMm = 0.7;
+constexpr double kMaxFieldVoxels = 16e6;
+Geometry fieldGrid(const Geometry& g, const VoxelBox& box, std::array<int64_t, 3>& step) {
+  const Dims bd = box.dims();
+  const int64_t n[3] = {bd.x, bd.y, bd.z};
+  for (double h = kMinFieldSpacingMm;; h *= 1.25) {
+    double count = 1;
+    for (int a = 0; a < 3; ++a) {
+      step[a] = std::max<int64_t>(1, int64_t(std::floor(h / g.spacing[a] + 1e-9)));
+      count *= double((n[a] - 1) / step[a] + 1);
+    }
+    if (count <= kMaxFieldVoxels) break;
+  }
+  Geometry fg = croppedGeometry(g, box);
+  fg.spacing = {g.spacing.x * double(step[0]), g.spacing.y * double(step[1]), g.spacing.z * double(step[2])};
+  fg.dims = {(n[0] - 1) / step[0] + 1, (n[1] - 1) / step[1] + 1, (n[2] - 1) / step[2] + 1};
+  return fg;
+}
+
+/// Signed distance (mm, negative inside) to the voxels whose id `in` marks, on `grid` (every
+/// `step`-th voxel of the labels from the box's first).
+VolumeF32 distanceTo(const LabelVolume& labels, const std::vector<uint8_t>& in, const VoxelBox& box,
+                     const Geometry& grid, const std::array<int64_t, 3>& step) {
+  VolumeU8 mask(grid);
+  const Dims d = grid.dims;
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i) mask(i, j, k) = in[labels(box.lo[0] + i, box.lo[1] + j, box.lo[2] + k)];
+        for (int64_t i = 0; i < d.x; ++i)
+          mask(i, j, k) = in[labels(box.lo[0] + i * step[0], box.lo[1] + j * step[1], box.lo[2] + k * step[2])];
   });
   return signedDistanceMm(mask);
 }
@@ -117,8 +142,10 @@ HingeMotion::HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>&
   const VoxelBox box = boxAround(g, corners, maxTravel + 2 * voxelMm_);
   std::vector<uint8_t> parent(65536, 0);
   for (uint16_t id : parentIds) parent[id] = 1;
-  field_[0] = distanceTo(labels, parent, box);
-  field_[1] = distanceTo(labels, moving, box);
+  std::array<int64_t, 3> step{};
+  const Geometry grid = fieldGrid(g, box, step);
+  field_[0] = distanceTo(labels, parent, box, grid, step);
+  field_[1] = distanceTo(labels, moving, box, grid, step);
   const Geometry& fg = field_[0].geometry();
   const Geometry::ToIndex toIndex = fg.physicalToIndexMap();
   for (int s = 0; s < 2; ++s)
@@ -126,7 +153,7 @@ HingeMotion::HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>&
   // Near voxels: each side's boundary layer (inside, a face-neighbour outside: the signed
   // distance is minus one spacing there) that its travel could carry into the other side.
   const Dims fd = fg.dims;
-  const float layer = float(1.01 * std::max({g.spacing.x, g.spacing.y, g.spacing.z}));
+  const float layer = float(1.01 * std::max({fg.spacing.x, fg.spacing.y, fg.spacing.z}));
   for (int s = 0; s < 2; ++s) {
     for (int64_t k = 0; k < fd.z; ++k)
       for (int64_t j = 0; j < fd.y; ++j)

@@ -43,10 +43,11 @@ class HingeMotion {
   /// child's ids and everything distal, which may collide with the parent as well).
   /// `parentContactMm` / `childContactMm`: the joint's
   /// articular contact voxels of each side (mm; they must stay in contact); `anglesDeg`: the
-  /// joint angles to score (the pose's range, sampled; 0 is skipped). The parent's and the
-  /// moving bones' signed distance fields are computed once on the box that any axis within
-  /// `reachMm` of the contact can carry the moving bones into; the near voxels (each side's
-  /// boundary voxels within their travel of the other side) are thinned to kMaxNearVoxels.
+  /// joint angles to score (0 is skipped). The parent's and the moving bones' signed distance
+  /// fields are computed once on the box that any axis within `reachMm` of the contact can
+  /// carry the moving bones into, on a grid no finer than 0.7 mm and of at most 16 M voxels
+  /// (every n-th voxel); the near voxels (each side's boundary voxels there within their
+  /// travel of the other side) are thinned to kMaxNearVoxels.
   HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>& parentIds, const std::vector<uint16_t>& movingIds, std::vector<Vec3> parentContactMm,
               std::vector<Vec3> childContactMm, std::vector<double> anglesDeg, double reachMm);
 
