@@ -29,7 +29,7 @@ Hinge makeHinge(double voxelMm, double r, double halfLength) {
   const int len = int(std::lround((2 * halfLength + 12) / voxelMm));
   g.dims = {len, n, n};
   g.spacing = {voxelMm, voxelMm, voxelMm};
-  Hinge h{LabelVolume(g), g.indexToPhysical({len / 2.0 + 0.3, n / 2.0 - 0.4, n / 2.0 + 0.2}), normalized(Vec3{1, 0.1, -0.05})};
+  Hinge h{LabelVolume(g), g.indexToPhysical({len / 2.0 + 0.3, n / 2.0 - 0.4, n / 2.0 + 0.2}), normalized(Vec3{1, 0.1, -0.05}), {}};
   const Vec3 up = normalized(cross(h.axis, cross(Vec3{0, 0, 1}, h.axis)));
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)
