@@ -9,6 +9,7 @@
 #include <cmath>
 #include <mutex>
 #include <numbers>
+#include <tuple>
 
 #include "axis_geometry.hpp"
 #include "vellum/core/cropped_geometry.hpp"
@@ -209,7 +210,7 @@ double HingeMotion::insideFraction(const Vec3& point, const Vec3& direction) con
   return t.near ? double(t.inside) / double(t.near) : 0;
 }
 
-MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, double reachMm) const {
+MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, double reachMm, Progress& progress) const {
   MotionFit fit;
   fit.coneDeg = coneDeg;
   fit.reachMm = reachMm;
@@ -233,7 +234,7 @@ MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, doub
     double cost;
   };
   // Coarse: directions within the cone ~5° apart, positions 3 mm apart within the reach,
-  // ~1500 voxels; the best distinct few refined on every voxel.
+  // ~3000 voxels; the best distinct few refined on every voxel.
   std::vector<V3> dirs{d0};
   const int hemisphere = int(std::ceil(2 * std::numbers::pi / std::pow(5 * kDeg, 2)));
   for (const V3& d : axis::hemisphereDirections(hemisphere))
@@ -248,6 +249,7 @@ MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, doub
   parallelFor(int64_t(dirs.size()), [&](int64_t b, int64_t e) {
     std::vector<Candidate> found;
     for (int64_t di = b; di < e; ++di) {
+      progress.checkCancelled();
       const V3 d = dirs[size_t(di)];
       V3 u, v;
       axis::basisAcross(d, u, v);
@@ -262,7 +264,9 @@ MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, doub
     coarse.insert(coarse.end(), found.begin(), found.end());
   });
   std::sort(coarse.begin(), coarse.end(), [](const Candidate& x, const Candidate& y) {
-    return x.cost < y.cost || (x.cost == y.cost && std::tie(x.p.x(), x.p.y(), x.p.z()) < std::tie(y.p.x(), y.p.y(), y.p.z()));
+    // Ties in a deterministic order (the candidates arrive in the threads' order).
+    return std::tie(x.cost, x.p.x(), x.p.y(), x.p.z(), x.d.x(), x.d.y()) <
+           std::tie(y.cost, y.p.x(), y.p.y(), y.p.z(), y.d.x(), y.d.y());
   });
   std::vector<Candidate> starts;
   for (const Candidate& c : coarse) {
@@ -283,6 +287,7 @@ MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, doub
       c.cost = score(vec(c.p), vec(c.d));
       double shift = 1.5, tilt = 2.5 * kDeg;
       while (shift > 0.05 || tilt > 0.05 * kDeg) {
+        progress.checkCancelled();
         V3 u, v;
         axis::basisAcross(c.d, u, v);
         bool moved = false;
@@ -309,7 +314,7 @@ MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, doub
   Candidate best{d0, p0, score(point, direction)};
   for (const Candidate& c : refined)
     if (c.cost < best.cost) best = c;
-  // The found line's point nearest the start point.
+  // The found line's point nearest the search's centre.
   const V3 p = best.p + (p0 - best.p).dot(best.d) * best.d;
   fit.shiftMm = (p - p0).norm();
   fit.turnDeg = std::acos(std::clamp(std::abs(best.d.dot(d0)), 0.0, 1.0)) / kDeg;

@@ -450,7 +450,7 @@ VoxelBox boxOfSide(const LabelVolume& labels, const std::vector<uint8_t>& side, 
 }
 
 ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& parent,
-                        const std::vector<uint16_t>& child, double contactMm) {
+                        const std::vector<uint16_t>& child, double contactMm, Progress& progress) {
   const Geometry& g = labels.geometry();
   const Dims d = g.dims;
   std::vector<uint8_t> side(65536, 0);
@@ -497,7 +497,8 @@ ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& 
     const auto inside = [&](int64_t a, int64_t b, int64_t c) {
       return a >= 0 && b >= 0 && c >= 0 && a < d.x && b < d.y && c < d.z;
     };
-    for (int64_t k = k0; k < k1; ++k)
+    for (int64_t k = k0; k < k1; ++k) {
+      progress.checkCancelled();
       for (int64_t j = 0; j < bd.y; ++j)
         for (int64_t i = 0; i < bd.x; ++i) {
           const int64_t gi = box.lo[0] + i, gj = box.lo[1] + j, gk = box.lo[2] + k;
@@ -547,6 +548,7 @@ ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& 
           found[s - 1].push_back(here);
           foundNormals[s - 1].push_back(clear ? normalized(ahead - here) : Vec3{0, 0, 0});
         }
+    }
     std::lock_guard lock(m);
     zone.moments.n += acc.n;
     zone.moments.s += acc.s;
@@ -625,14 +627,14 @@ std::vector<uint16_t> movingIds(const Pose& pose, size_t ji) {
 
 }  // namespace
 
-void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
+void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm, Progress& progress) {
   const Geometry& g = labels.geometry();
   // Inlier band of the surface fits: 1.5 voxels (voxel surfaces stair-step by half a voxel).
   const double band = 1.5 * (g.spacing.x + g.spacing.y + g.spacing.z) / 3.0;
   for (size_t ji = 0; ji < pose.joints.size(); ++ji) {
     Joint& joint = pose.joints[ji];
     if (!joint.estimateAxis) continue;
-    const ContactZone all = contactZone(labels, joint.parent, joint.child, contactMm);
+    const ContactZone all = contactZone(labels, joint.parent, joint.child, contactMm, progress);
     if (all.moments.n < 3)
       throw Error("joint \"" + joint.name + "\": \"axis\": \"estimate\": the parent and child bones come no closer than " +
                   std::to_string(contactMm) + " mm (no contact zone; give the axis as two points or raise --contact)");
@@ -640,8 +642,9 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
     // ids: the foot's bones under the tibia); the others' contacts are not fitted.
     const uint16_t partner = articularPartner(all);
     const ContactZone zone =
-        all.childContact.size() > 1 ? contactZone(labels, joint.parent, {partner}, contactMm) : all;
+        all.childContact.size() > 1 ? contactZone(labels, joint.parent, {partner}, contactMm, progress) : all;
     // Both bones' articular surfaces share the hinge's axis: fitted together.
+    progress.checkCancelled();
     AxisEstimate est = fitArticularSurfaces(zone.surface[0], zone.normals[0], zone.surface[1], zone.normals[1], band);
     est.fit.surfaceMethod = est.fit.method;
     if (est.fit.method.empty()) {
@@ -668,7 +671,7 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm) {
       Vec3 point = joint.hintA, dir = normalized(joint.hintB - joint.hintA);
       const HingeMotion motion(labels, joint.parent, movingIds(pose, ji), all.surface[0], all.surface[1],
                                kHintAnglesDeg, kHintReachMm);
-      est.fit.motion = motion.search(point, dir, joint.hintConeDeg, kHintReachMm);
+      est.fit.motion = motion.search(point, dir, joint.hintConeDeg, kHintReachMm, progress);
       const MotionFit& m = est.fit.motion;
       if (m.searched) {
         est.point = point, est.direction = dir;

@@ -540,6 +540,16 @@ TEST(Pose, AxisHintIsPlacedByTheMotionSearch) {
   // A hint whose best axis lies beyond the search's reach is warned about.
   const Joint far = hinted(a.centre + up * 45.0, a.axis, 0);
   EXPECT_NE(far.fit.warning.find("edge of the search"), std::string::npos) << far.fit.warning;
+  // Cancelled (the studio's joint worker): it stops, the pose untouched.
+  Pose pose = estimatedPose("2", "pose-axis-hint-cancel");
+  pose.joints[0].hasAxisHint = true;
+  pose.joints[0].hintA = a.centre, pose.joints[0].hintB = a.centre + a.axis;
+  const Joint before = pose.joints[0];
+  Progress cancelled;
+  cancelled.cancel();
+  EXPECT_THROW(estimateAxes(pose, a.labels, 3.0, cancelled), Cancelled);
+  EXPECT_EQ(pose.joints[0].axisA, before.axisA);
+  EXPECT_TRUE(pose.joints[0].fit.method.empty());
 }
 
 TEST(Pose, GltfNodesCarryTheJointRotation) {

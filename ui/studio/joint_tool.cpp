@@ -85,7 +85,7 @@ void JointTool::prepare(StudioApp& app) {
     const LabelVolume& labels = *held;
     Prepared r{p, nullptr};
     progress->begin("joint axes", 2);
-    estimateAxes(r.pose, labels, o.contactMm);
+    estimateAxes(r.pose, labels, o.contactMm, *progress);  // cancellable within its stages
     progress->advance();
     progress->checkCancelled();
     r.samples = std::make_shared<const PoseSamples>(poseSamples(r.pose, labels, o));

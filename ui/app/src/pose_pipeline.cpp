@@ -215,8 +215,10 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   timings["labels"] = msSince(t);
   t = Clock::now();
   try {
-    estimateAxes(pose, labels, request.options.contactMm);
+    estimateAxes(pose, labels, request.options.contactMm, progress);
   } catch (const FileError&) {
+    throw;
+  } catch (const Cancelled&) {
     throw;
   } catch (const Error& e) {
     throw FileError(request.pose, e.what());

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "vellum/core/label_volume.hpp"
+#include "vellum/core/progress.hpp"
 
 namespace vellum::deformation {
 
@@ -67,7 +68,10 @@ class HingeMotion {
   /// voxels) and a pattern search from its best few distinct axes (down to 0.05 mm and 0.05°,
   /// all voxels). `point` and `direction` become the found axis (point: the line's point
   /// nearest the search's centre).
-  MotionFit search(Vec3& point, Vec3& direction, double coneDeg, double reachMm) const;
+  /// vellum::Cancelled when `progress` is cancelled (checked per coarse direction and
+  /// refinement step).
+  MotionFit search(Vec3& point, Vec3& direction, double coneDeg, double reachMm,
+                   Progress& progress = Progress::none()) const;
 
  private:
   /// Over the scored angles and every `stride`-th voxel: the contact voxels' squared change of

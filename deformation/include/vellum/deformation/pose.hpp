@@ -13,6 +13,7 @@
 
 #include "vellum/core/label_volume.hpp"
 #include "vellum/core/params.hpp"
+#include "vellum/core/progress.hpp"
 #include "vellum/core/rigid_fit.hpp"
 #include "vellum/deformation/control_point.hpp"
 #include "vellum/deformation/joint_motion.hpp"
@@ -147,8 +148,10 @@ void linkJoints(Pose& pose);
 /// surface voxels that face each other (with outward normals) go to fitArticularSurfaces()
 /// (robustly: voxels beyond 1.5 voxels of the surface or not facing along it, such as a
 /// malleolus's flat side facets, are outliers). No fit, or a refused one: the zone's centroid
-/// and widest direction, method "contact", warned with the reasons. Error when a zone is empty.
-void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm);
+/// and widest direction, method "contact", warned with the reasons. A joint with an
+/// "axis_hint": the motion search's axis near it (joint_motion.hpp). Error when a zone is
+/// empty; vellum::Cancelled when `progress` is cancelled (checked per slab and per candidate).
+void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm, Progress& progress = Progress::none());
 
 /// The axis fit alone, on the parent's and the child's articular surface voxels (mm) and their
 /// outward unit normals, `bandMm` the inlier band: one cylinder axis for both surfaces (each
