@@ -135,7 +135,8 @@ HingeMotion::HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>&
   double furthest = 0;
   if (hi[0] >= 0)
     for (int c = 0; c < 8; ++c) {
-      const Vec3 q = g.indexToPhysical({double(c & 1 ? hi[0] : lo[0]), double(c & 2 ? hi[1] : lo[1]), double(c & 4 ? hi[2] : lo[2])});
+      const Vec3 q =
+          g.indexToPhysical({double(c & 1 ? hi[0] : lo[0]), double(c & 2 ? hi[1] : lo[1]), double(c & 4 ? hi[2] : lo[2])});
       corners.push_back(q);
       furthest = std::max(furthest, norm(q - centre));
     }

@@ -523,13 +523,15 @@ ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& 
               for (int64_t di = -2; di <= 2; ++di)
                 if (own(gi + di, gj + dj, gk + dk)) n = n - mul(Vec3{double(di), double(dj), double(dk)}, g.spacing);
           const Vec3 here = g.indexToPhysical({double(gi), double(gj), double(gk)});
-          const Vec3 ahead = g.indexToPhysical({p.x() + n.x / g.spacing.x, p.y() + n.y / g.spacing.y, p.z() + n.z / g.spacing.z});
+          const Vec3 ahead =
+              g.indexToPhysical({p.x() + n.x / g.spacing.x, p.y() + n.y / g.spacing.y, p.z() + n.z / g.spacing.z});
           const double len = norm(n);
           const bool clear = len > 5 * minSpacing;  // else a sliver: no clear side
           // The nearest voxel of the other bone (its distance is known: search only the box that
           // reaches it, in the same order, so the first of equally near voxels is taken).
           const double nearestMm = std::sqrt(nearest2);
-          const int64_t r[3] = {int64_t(std::ceil(nearestMm / g.spacing.x + 1e-6)), int64_t(std::ceil(nearestMm / g.spacing.y + 1e-6)),
+          const int64_t r[3] = {int64_t(std::ceil(nearestMm / g.spacing.x + 1e-6)),
+                                int64_t(std::ceil(nearestMm / g.spacing.y + 1e-6)),
                                 int64_t(std::ceil(nearestMm / g.spacing.z + 1e-6))};
           Vec3 nearest{0, 0, 0};
           double best = std::numeric_limits<double>::infinity();

@@ -2,8 +2,9 @@
 // "condyle" (child) turning inside a half shell (parent) 2 mm away. About the cylinders' common
 // axis every contact voxel keeps its distance to the other bone and nothing digs in: the score
 // is (nearly) 0 (the voxels' staircase: 0.13 mm²); an axis shifted across by d lifts one side of
-// the contact and drives the other into the shell, so the score grows with d. The search finds the axis from a shifted start,
-// also on a grid of 0.4 mm voxels (whose distance fields it makes every second voxel).
+// the contact and drives the other into the shell, so the score grows with d. The search finds
+// the axis from a shifted start, also on a grid of 0.4 mm voxels (whose distance fields it
+// makes every second voxel).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -29,7 +30,8 @@ Hinge makeHinge(double voxelMm, double r, double halfLength) {
   const int len = int(std::lround((2 * halfLength + 12) / voxelMm));
   g.dims = {len, n, n};
   g.spacing = {voxelMm, voxelMm, voxelMm};
-  Hinge h{LabelVolume(g), g.indexToPhysical({len / 2.0 + 0.3, n / 2.0 - 0.4, n / 2.0 + 0.2}), normalized(Vec3{1, 0.1, -0.05}), {}};
+  Hinge h{LabelVolume(g), g.indexToPhysical({len / 2.0 + 0.3, n / 2.0 - 0.4, n / 2.0 + 0.2}),
+          normalized(Vec3{1, 0.1, -0.05}), {}};
   const Vec3 up = normalized(cross(h.axis, cross(Vec3{0, 0, 1}, h.axis)));
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)

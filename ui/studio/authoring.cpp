@@ -134,7 +134,8 @@ bool sameJoints(const deformation::Pose& a, const deformation::Pose& b) {
     const deformation::Joint &x = a.joints[j], &y = b.joints[j];
     if (x.name != y.name || x.parent != y.parent || x.child != y.child || x.estimateAxis != y.estimateAxis) return false;
     if (!x.estimateAxis && (x.axisA != y.axisA || x.axisB != y.axisB)) return false;
-    if (x.hasAxisHint != y.hasAxisHint || (x.hasAxisHint && (x.hintA != y.hintA || x.hintB != y.hintB || x.hintConeDeg != y.hintConeDeg))) return false;
+    if (x.hasAxisHint != y.hasAxisHint) return false;
+    if (x.hasAxisHint && (x.hintA != y.hintA || x.hintB != y.hintB || x.hintConeDeg != y.hintConeDeg)) return false;
   }
   return true;
 }
