@@ -3,11 +3,20 @@
 // surfaces' fit; joint_motion.cpp: the motion search).
 #include <Eigen/Core>
 
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
 #include <vector>
 
+#include "vellum/core/label_volume.hpp"
+#include "vellum/core/region.hpp"
+
 namespace vellum::deformation::axis {
+
+/// The voxel boxes of the voxels whose id `table` (65536 entries) marks 1 and 2, in one pass
+/// over the labels (a box with no voxel: hi[0] < 0). Defined in joint_motion.cpp.
+std::array<VoxelBox, 2> markedBoxes(const LabelVolume& labels, const std::vector<uint8_t>& table);
 
 /// Two unit vectors completing unit `d` to an orthonormal basis (d, u, v).
 inline void basisAcross(const Eigen::Vector3d& d, Eigen::Vector3d& u, Eigen::Vector3d& v) {

@@ -92,6 +92,29 @@ double fieldAt(const VolumeF32& f, const Geometry::ToIndex& toIndex, const Vec3&
 
 }  // namespace
 
+std::array<VoxelBox, 2> axis::markedBoxes(const LabelVolume& labels, const std::vector<uint8_t>& table) {
+  const Dims d = labels.geometry().dims;
+  const VoxelBox none{{d.x, d.y, d.z}, {-1, -1, -1}};
+  std::array<VoxelBox, 2> boxes{none, none};
+  std::mutex m;
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    std::array<VoxelBox, 2> b{none, none};
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i)
+          if (const uint8_t t = table[labels(i, j, k)]; t == 1 || t == 2) {
+            VoxelBox& x = b[t - 1];
+            x.lo = {std::min(x.lo[0], i), std::min(x.lo[1], j), std::min(x.lo[2], k)};
+            x.hi = {std::max(x.hi[0], i), std::max(x.hi[1], j), std::max(x.hi[2], k)};
+          }
+    std::lock_guard lock(m);
+    for (int s = 0; s < 2; ++s)
+      for (int a = 0; a < 3; ++a)
+        boxes[s].lo[a] = std::min(boxes[s].lo[a], b[s].lo[a]), boxes[s].hi[a] = std::max(boxes[s].hi[a], b[s].hi[a]);
+  });
+  return boxes;
+}
+
 HingeMotion::HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>& parentIds,
                          const std::vector<uint16_t>& movingIds,
                          std::vector<Vec3> parentContactMm, std::vector<Vec3> childContactMm,
@@ -116,21 +139,8 @@ HingeMotion::HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>&
   // from the axis moves D x chord; D <= its distance from the contact + the reach).
   std::vector<uint8_t> moving(65536, 0);
   for (uint16_t id : movingIds) moving[id] = 1;
-  const Dims d = g.dims;
-  std::array<int64_t, 3> lo{d.x, d.y, d.z}, hi{-1, -1, -1};
-  std::mutex m;
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    std::array<int64_t, 3> l{d.x, d.y, d.z}, h{-1, -1, -1};
-    for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i)
-          if (moving[labels(i, j, k)]) {
-            l = {std::min(l[0], i), std::min(l[1], j), std::min(l[2], k)};
-            h = {std::max(h[0], i), std::max(h[1], j), std::max(h[2], k)};
-          }
-    std::lock_guard lock(m);
-    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], l[a]), hi[a] = std::max(hi[a], h[a]);
-  });
+  const VoxelBox mb = axis::markedBoxes(labels, moving)[0];
+  const std::array<int64_t, 3>& lo = mb.lo, &hi = mb.hi;
   std::vector<Vec3> corners = all;
   double furthest = 0;
   if (hi[0] >= 0)
@@ -207,8 +217,7 @@ HingeMotion::Tally HingeMotion::tally(const Vec3& point, const Vec3& direction, 
 double HingeMotion::score(const Vec3& point, const Vec3& direction) const { return tally(point, direction, 1).score(); }
 
 double HingeMotion::insideFraction(const Vec3& point, const Vec3& direction) const {
-  const Tally t = tally(point, direction, 1);
-  return t.near ? double(t.inside) / double(t.near) : 0;
+  return tally(point, direction, 1).insideFraction();
 }
 
 MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, double reachMm, Progress& progress) const {
@@ -222,8 +231,9 @@ MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, doub
   // The search is centred where the start line passes the contact (a hint's points may lie
   // anywhere on it).
   const V3 p0 = eig(point) + (eig(centre_) - eig(point)).dot(d0) * d0;
-  fit.startRmsMm = std::sqrt(score(point, direction));
-  fit.startInsideFraction = insideFraction(point, direction);
+  const Tally start = tally(point, direction, 1);
+  fit.startRmsMm = std::sqrt(start.score());
+  fit.startInsideFraction = start.insideFraction();
   if (contact_[0].size() + contact_[1].size() < 10 || angles_.empty()) {
     fit.rmsMm = fit.startRmsMm, fit.insideFraction = fit.startInsideFraction;
     return fit;
@@ -312,7 +322,7 @@ MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, doub
       refined[size_t(si)] = c;
     }
   });
-  Candidate best{d0, p0, score(point, direction)};
+  Candidate best{d0, p0, start.score()};
   for (const Candidate& c : refined)
     if (c.cost < best.cost) best = c;
   // The found line's point nearest the search's centre.
@@ -322,7 +332,7 @@ MotionFit HingeMotion::search(Vec3& point, Vec3& direction, double coneDeg, doub
   point = vec(p);
   direction = vec(best.d);
   fit.rmsMm = std::sqrt(best.cost);
-  fit.insideFraction = insideFraction(point, direction);
+  fit.insideFraction = tally(point, direction, 1).insideFraction();
   return fit;
 }
 

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "axis_geometry.hpp"
 #include "vellum/core/cropped_geometry.hpp"
 #include "vellum/core/distance_transform.hpp"
 #include "vellum/core/error.hpp"
@@ -429,26 +430,6 @@ struct ContactZone {
   std::map<uint16_t, int64_t> childContact;  ///< child id -> its voxels in the zone
 };
 
-/// The voxel box of the ids `side` marks as `which` (empty: hi < lo).
-VoxelBox boxOfSide(const LabelVolume& labels, const std::vector<uint8_t>& side, uint8_t which) {
-  const Dims d = labels.geometry().dims;
-  VoxelBox box{{d.x, d.y, d.z}, {-1, -1, -1}};
-  std::mutex m;
-  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
-    VoxelBox b{{d.x, d.y, d.z}, {-1, -1, -1}};
-    for (int64_t k = k0; k < k1; ++k)
-      for (int64_t j = 0; j < d.y; ++j)
-        for (int64_t i = 0; i < d.x; ++i)
-          if (side[labels(i, j, k)] == which) {
-            b.lo = {std::min(b.lo[0], i), std::min(b.lo[1], j), std::min(b.lo[2], k)};
-            b.hi = {std::max(b.hi[0], i), std::max(b.hi[1], j), std::max(b.hi[2], k)};
-          }
-    std::lock_guard lock(m);
-    for (int a = 0; a < 3; ++a) box.lo[a] = std::min(box.lo[a], b.lo[a]), box.hi[a] = std::max(box.hi[a], b.hi[a]);
-  });
-  return box;
-}
-
 ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& parent,
                         const std::vector<uint16_t>& child, double contactMm, Progress& progress) {
   const Geometry& g = labels.geometry();
@@ -460,7 +441,7 @@ ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& 
   // Only where both bones' boxes, grown by the reach, overlap can a voxel lie within reach of
   // the other bone (and that bone's nearest voxel lies there too): the distance fields are made
   // on that box alone, a few cm around a joint on a 512² scan.
-  const VoxelBox pb = boxOfSide(labels, side, 1), cb = boxOfSide(labels, side, 2);
+  const auto [pb, cb] = axis::markedBoxes(labels, side);
   const double reach[3] = {contactMm / g.spacing.x, contactMm / g.spacing.y, contactMm / g.spacing.z};
   const int64_t dims[3] = {d.x, d.y, d.z};
   VoxelBox box;

@@ -57,7 +57,6 @@ JointRun runJointScript(const fs::path& d, const std::string& extra, const std::
   writeLimb(d, run.ct, run.labels);
   const Geometry& g = run.ct.geometry();
   const auto px = [&](const Vec3& mm) { return coronalClick(g, mm); };
-
   const std::string script = scriptOnPhantom(d) + R"(
     {"layout":"1x3"},{"hud":false},
     {"joint":{"pick":"parent"}},{"click":)" + px({40, 40, 60}) + R"(},
@@ -173,9 +172,7 @@ TEST(StudioJointScript, ClickedAxisPlacedByMotionIsTheSavedHint) {
   const fs::path d = test::tempDir("studio-joint-hint");
   // The clicks land on the coronal slice through the volume's centre (y = 39 mm); the hint lies
   // 11 mm above the bones' 2 mm gap (z 38–40).
-  Geometry g;
-  g.dims = {kN, kN, kN};
-  g.spacing = {2, 2, 2};
+  const Geometry g = limbGeometry();
   const Vec3 a{16, g.center().y, 50}, b{64, g.center().y, 50};
   const std::string clicks = R"({"joint":{"pick":"axis1"}},{"click":)" + coronalClick(g, a) +
                              R"(},{"joint":{"pick":"axis2"}},{"click":)" + coronalClick(g, b) + R"(},{"joint":{"hint":true}},)";

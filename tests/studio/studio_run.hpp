@@ -124,10 +124,15 @@ inline std::string scriptOnPhantom(const std::filesystem::path& dir) {
 /// scriptOnPhantom opens).
 inline constexpr int kLimbN = 40;
 inline constexpr uint16_t kLimbSoft = 100, kLimbFixed = 50;
-inline void writeLimb(const std::filesystem::path& dir, VolumeI16& ct, LabelVolume& labels) {
+/// The limb's grid: kLimbN³ voxels of 2 mm.
+inline Geometry limbGeometry() {
   Geometry g;
   g.dims = {kLimbN, kLimbN, kLimbN};
   g.spacing = {2, 2, 2};
+  return g;
+}
+inline void writeLimb(const std::filesystem::path& dir, VolumeI16& ct, LabelVolume& labels) {
+  const Geometry g = limbGeometry();
   ct = VolumeI16(g, -1000);
   labels = LabelVolume(g);
   for (int k = 0; k < kLimbN; ++k)

@@ -82,6 +82,7 @@ class HingeMotion {
     double change = 0, depth = 0;
     int64_t contact = 0, near = 0, inside = 0;
     double score() const;
+    double insideFraction() const { return near ? double(inside) / double(near) : 0; }
   };
   Tally tally(const Vec3& point, const Vec3& direction, size_t stride) const;
   std::vector<Vec3> contact_[2];        ///< parent's, child's contact voxels (mm): they must stay in contact
