@@ -274,6 +274,40 @@ void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od,
                  gaussianTaps(od.z, nd.z, s), toFrame, snap, progress, stage, rowFn);
 }
 
+/// The map's u at every output voxel of `output`, one row at a time as upsampleAny(): through
+/// the twist kernel when the map has one (each voxel turned by its interpolated weights), else
+/// the nodes upsampled by `up`.
+template <class RowFn>
+void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling up, const PlaneAffine* toFrame,
+                     const SnapFrame* snap, Progress& progress, const char* stage, RowFn&& rowFn) {
+  if (!cv.twist) {
+    upsampleAny(cv.sourceMm, cv.grid.dims, output.dims, cv.scale, up, toFrame, snap, progress, stage, rowFn);
+    return;
+  }
+  const TwistKernel& twist = *cv.twist;
+  const Geometry::ToIndex toNode = cv.grid.physicalToIndexMap();
+  const Dims od = output.dims, nd = cv.grid.dims;
+  progress.begin(stage, static_cast<uint64_t>(od.z));
+  parallelFor(od.z, [&](int64_t k0, int64_t k1) {
+    std::vector<float> ux(static_cast<size_t>(od.x)), uy(ux.size()), uz(ux.size());
+    for (int64_t k = k0; k < k1; ++k) {
+      progress.checkCancelled();
+      for (int64_t j = 0; j < od.y; ++j) {
+        for (int64_t i = 0; i < od.x; ++i) {
+          const Vec3 u = twist.sourceMm(output.indexToPhysical({double(i), double(j), double(k)}), toNode, nd);
+          float p[3] = {float(u.x), float(u.y), float(u.z)};
+          if (toFrame) applyAffine(*toFrame, p, 1);
+          ux[size_t(i)] = p[0], uy[size_t(i)] = p[1], uz[size_t(i)] = p[2];
+        }
+        if (snap) snap->applyRow(j, k, od.x, ux.data(), uy.data(), uz.data());
+        rowFn(k, j, ux.data(), uy.data(), uz.data());
+      }
+      progress.advance();
+    }
+  });
+  progress.end();
+}
+
 /// Whether the AVX2 gather may fill a grid of `od`'s rows (int32 voxel offsets).
 bool gatherFits(const Dims& od) {
 #ifdef VELLUM_HAVE_AVX2_PATH
@@ -332,8 +366,7 @@ AnyVolume synthesize(const AnyVolume& source, const ControlVolume& cv, Upsamplin
         Volume<T> out(g, T{}, src.background());
         const Dims od = g.dims;
         const bool gather = gatherFits(od);
-        upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, &toIndex, snap ? &*snap : nullptr, progress,
-                    "synthesis",
+        upsampleControl(cv, g, upsampling, &toIndex, snap ? &*snap : nullptr, progress, "synthesis",
                     [&](int64_t k, int64_t j, const float* ux, const float* uy, const float* uz) {
                       fetchRow(src, ux, uy, uz, od.x, out.data() + (k * od.y + j) * od.x, gather);
                     });
@@ -385,8 +418,7 @@ std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output, 
   const Dims od = output.dims;
   std::vector<float> out(static_cast<size_t>(od.voxelCount()) * 3);
   const auto snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
-  upsampleAny(cv.sourceMm, cv.grid.dims, od, cv.scale, upsampling, nullptr, snap ? &*snap : nullptr, progress,
-              "backward map",
+  upsampleControl(cv, output, upsampling, nullptr, snap ? &*snap : nullptr, progress, "backward map",
               [&](int64_t k, int64_t j, const float* ux, const float* uy, const float* uz) {
                 float* o = out.data() + static_cast<size_t>((k * od.y + j) * od.x) * 3;
                 for (int64_t i = 0; i < od.x; ++i) {
@@ -414,6 +446,8 @@ struct MapSampler::Impl {
   Geometry::ToIndex toIndex;  // output.physicalToIndex without inverting the direction per call
   Upsampling upsampling = Upsampling::Trilinear;
   std::optional<SnapFrame> snap;  // in mm, as upsampleMap() applies it
+  std::shared_ptr<const TwistKernel> twist;  // the map's kernel, when it has one
+  Geometry::ToIndex toNode;                  // output mm -> node index (the twist kernel's)
 
   // The snap at output index o (where synthesis applies it).
   void snapAt(const Vec3& o, float u[3]) const {
@@ -424,7 +458,8 @@ struct MapSampler::Impl {
 
   // u at output index o (inside the voxel centres): the nodes interpolated, then the snap.
   Vec3 interpolate(const Vec3& o) const {
-    const Vec3 v = interpolateNodes(nodes.data(), nd, upsampling, scale, o);
+    const Vec3 v = twist ? twist->sourceMm(output.indexToPhysical(o), toNode, nd)
+                         : interpolateNodes(nodes.data(), nd, upsampling, scale, o);
     float u[3] = {float(v.x), float(v.y), float(v.z)};
     snapAt(o, u);
     return {u[0], u[1], u[2]};
@@ -494,7 +529,7 @@ struct MapSampler::Impl {
     int axis = -1, moving = 0;
     for (int a = 0; a < 3; ++a)
       if (std::abs(dx[a]) > 1e-12) axis = a, ++moving;
-    if (moving == 1) {
+    if (moving == 1 && !twist) {
       axisRow<Taps>(axis, x0, dx[axis], n, out, inside, tap);
       return;
     }
@@ -521,6 +556,8 @@ MapSampler::MapSampler(ControlVolume cv, const Geometry& output, Upsampling upsa
   impl->toIndex = output.physicalToIndexMap();
   impl->upsampling = upsampling;
   impl->snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
+  impl->twist = cv.twist;
+  impl->toNode = cv.grid.physicalToIndexMap();
   impl->nodes = std::move(cv.sourceMm);
   impl_ = std::move(impl);
 }

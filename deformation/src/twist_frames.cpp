@@ -48,9 +48,16 @@ TwistFrames::TwistFrames(Pose pose, std::shared_ptr<const RigidBodies> nodeBodie
       params_(params) {
   if (!nodeBodies_) throw Error("twist frames: the rigid bodies at the nodes are missing");
   // twistMap() checks the node bodies against the node grid.
-  // The node map is upsampled to the voxels: its cells must not fold either (feet frames at
-  // 20 deg: 0.0015 -> 0.0001 % of the tissue folded, min det -2.60 -> -0.002).
-  if (scale_ > 1) params_.cellCheck = true;
+  // At scale > 1 the node map is upsampled to the voxels, and must not fold there either: by
+  // the twist kernel (core TwistKernel: w interpolated, each sample turned by it) for up to its
+  // 4 stages, whose det at the cells' corners the nodes' check bounds (knee movie frames: 17-23
+  // folded voxels -> 0); a longer chain interpolates the turned positions, whose cells are
+  // checked instead (feet frames at 20 deg: 0.0015 -> 0.0001 % of the tissue folded).
+  if (scale_ > 1) {
+    kernel_ = pose_.joints.size() <= size_t(TwistKernel::kMaxStages);
+    params_.kernelCheck = params_.kernel = kernel_;
+    params_.cellCheck = !kernel_;
+  }
 }
 
 ControlVolume TwistFrames::at(const std::vector<double>& anglesDeg, const RigidBodies& bodies, Progress& progress,
@@ -77,6 +84,7 @@ std::shared_ptr<const ControlVolume> TwistFrames::sharedAt(const std::vector<dou
   cv.scale = scale_;
   cv.sourceMm = std::move(m.mapMm);
   cv.output = output_;
+  cv.twist = m.kernel;
   if (scale_ > 1) {
     const Geometry& fine = bodies.classes().geometry();
     if (!(fine.dims == output_.dims) || !fine.approxEqual(output_, 1e-3))

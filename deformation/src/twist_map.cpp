@@ -269,6 +269,7 @@ struct Slope {
   const Stage& st;
   bool gridCheck = true;
   bool cellCheck = false;
+  bool kernelCheck = false;
   double at(int64_t t) const { return at(t, t % grid.d.x, (t / grid.d.x) % grid.d.y, t / grid.sz); }
   /// The same at voxel t = (i, j, k) (a scan knows them: no divisions).
   double at(int64_t t, int64_t i, int64_t j, int64_t k) const {
@@ -287,7 +288,18 @@ struct Slope {
     }
     const Vec3 v = grid.g.indexToPhysical({double(i), double(j), double(k)});
     const Vec3 tangent = grid.mmToIdx * cross(st.a, v - st.c);  // in index units
-    const double linear = st.theta * dot(grad, tangent);
+    double linear = st.theta * dot(grad, tangent);
+    if (kernelCheck)  // the twist kernel's det at t, as a corner of each of its 8 cells
+      for (int o = 0; o < 8; ++o) {
+        Vec3 g{0, 0, 0};
+        bool cell = true;
+        for (int q = 0; q < 3 && cell; ++q) {
+          const int64_t off = (o >> q) & 1 ? hi[q] : lo[q];
+          cell = off != 0;
+          if (cell) g[q] = ((o >> q) & 1 ? 1.0 : -1.0) * (double(w[t + off]) - double(w[t]));
+        }
+        if (cell) linear = std::max(linear, st.theta * dot(g, tangent));
+      }
     if (!gridCheck || steep <= kSteepStep) return linear;
     // The stage map's central-difference det at t (index units, as the fold count's).
     auto mapAt = [&](int64_t n) { return turn(grid.mm(n) - st.c, st.a, -st.theta * double(w[n])); };
@@ -328,7 +340,7 @@ class Relaxation {
   Relaxation(const Grid& grid, const Stage& st, const std::vector<uint8_t>& side, VolumeF32& w,
              const TwistParams& params, TwistJointStats& stats)
       : grid_(grid), st_(st), side_(side), w_(w), params_(params), stats_(stats),
-        slope_{grid, w.data(), st, params.gridCheck, params.cellCheck}, bound_(1.0 - params.margin) {}
+        slope_{grid, w.data(), st, params.gridCheck, params.cellCheck, params.kernelCheck}, bound_(1.0 - params.margin) {}
 
   const Slope& slope() const { return slope_; }
 
@@ -697,6 +709,22 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     for (int j : chain[b]) f = compose(f, own[static_cast<size_t>(j)]);
     bodyBack[b] = f.inverse();
   }
+  // The twist kernel: the stages and their weights, 4 per node; the map at the nodes is then
+  // the kernel's own (as it is upsampled), without the snap.
+  std::shared_ptr<TwistKernel> kernel;
+  if (params.kernel && stages.size() <= size_t(TwistKernel::kMaxStages)) {
+    kernel = std::make_shared<TwistKernel>();
+    for (const Stage& st : stages) kernel->stages.push_back({st.c, st.a, st.theta});
+    kernel->weights.assign(static_cast<size_t>(n) * TwistKernel::kMaxStages, 0.f);
+    for (size_t s = 0; s < weights.size(); ++s) {
+      const float* w = weights[s].data();
+      float* out = kernel->weights.data() + s;
+      parallelFor(n, [&](int64_t t0, int64_t t1) {
+        for (int64_t t = t0; t < t1; ++t) out[t * TwistKernel::kMaxStages] = w[t];
+      });
+    }
+    result.kernel = kernel;
+  }
   // The map: each output voxel through the stages' backward twists, proximal first. The first
   // stage reads w at the voxel itself; later ones at the moved position (trilinear, or the
   // nearest voxel's exact 0 / 1 when that voxel is locked, so the bones stay exactly rigid).
@@ -708,6 +736,13 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   // Output voxel t at v (mm): its source through the stages and the snap; 1 when the snap left
   // it off a body it lands in.
   auto composeVoxel = [&](int64_t t, const Vec3& v) -> int64_t {
+    if (kernel) {
+      const Vec3 x = kernel->sourceMm(v, grid.toIndex, d);
+      out[3 * t] = static_cast<float>(x.x);
+      out[3 * t + 1] = static_cast<float>(x.y);
+      out[3 * t + 2] = static_cast<float>(x.z);
+      return 0;
+    }
     Vec3 x = v;
     int64_t unsnappedHere = 0;
     for (size_t s = 0; s < stages.size(); ++s) {

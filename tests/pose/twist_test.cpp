@@ -1,8 +1,10 @@
 // The twist map (deformation/twist_map.hpp): fold-free by construction on analytic joints.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
+#include <iostream>
 #include <numbers>
 
 #include "vellum/deformation/pose.hpp"
@@ -124,9 +126,14 @@ LabelVolume steepLabels() {
   });
 }
 
+/// How a node map at scale 2 reaches the voxels: its turned positions interpolated (with or
+/// without the cell check at the nodes), or the twist kernel (weights interpolated, each voxel
+/// turned; the kernel's check at the nodes).
+enum class Upsampled { Positions, PositionsCellChecked, Kernel };
+
 /// The twist map of the hinge on the node grid of `labels` at scale 2, upsampled to the voxels
 /// without a snap (the node map's own folds) and measured there.
-RigidityReport upsampledNodeMap(const LabelVolume& labels, double angleDeg, bool cellCheck) {
+RigidityReport upsampledNodeMap(const LabelVolume& labels, double angleDeg, Upsampled how) {
   const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
   const Geometry& g = labels.geometry();
   ControlVolume cv;
@@ -134,9 +141,13 @@ RigidityReport upsampledNodeMap(const LabelVolume& labels, double angleDeg, bool
   cv.scale = 2;
   cv.output = g;
   TwistParams params;
-  params.cellCheck = cellCheck;
+  params.cellCheck = how == Upsampled::PositionsCellChecked;
+  params.kernel = params.kernelCheck = how == Upsampled::Kernel;
   const auto nodeBodies = nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {});
-  cv.sourceMm = twistMap(hinge(), {angleDeg}, *nodeBodies, cv.grid, params).mapMm;
+  TwistMap m = twistMap(hinge(), {angleDeg}, *nodeBodies, cv.grid, params);
+  cv.sourceMm = std::move(m.mapMm);
+  cv.twist = m.kernel;
+  EXPECT_EQ(cv.twist != nullptr, how == Upsampled::Kernel);
   return measureRigidityMap(upsampleMap(cv, g), g, RigidBodies::fromLabelGroups(labels, groups, 20, {}));
 }
 
@@ -325,8 +336,8 @@ TEST(TwistFrames, TheNodeMapsCellsDoNotFoldWhenUpsampled) {
   const Case cases[] = {{"touching", touchingLabels(), 30}, {"steep", steepLabels(), 45}, {"hinge", hingeLabels(), 20}};
   double foldsWithout = 0;
   for (const Case& c : cases) {
-    const RigidityReport without = upsampledNodeMap(c.labels, c.angleDeg, false);
-    const RigidityReport with = upsampledNodeMap(c.labels, c.angleDeg, true);
+    const RigidityReport without = upsampledNodeMap(c.labels, c.angleDeg, Upsampled::Positions);
+    const RigidityReport with = upsampledNodeMap(c.labels, c.angleDeg, Upsampled::PositionsCellChecked);
     foldsWithout += without.foldFraction;
     EXPECT_EQ(with.foldFraction, 0.0) << c.name << ": min det J " << with.minJacobian << " (without the check: "
                                       << without.foldFraction << ", " << without.minJacobian << ")";
@@ -336,4 +347,123 @@ TEST(TwistFrames, TheNodeMapsCellsDoNotFoldWhenUpsampled) {
       EXPECT_LT(with.bodies[b].rmsResidualMm, without.bodies[b].rmsResidualMm + 0.1) << c.name << " body " << b;
   }
   EXPECT_GT(foldsWithout, 0.0) << "no case folds its cells without the check any more";
+}
+
+// The twist kernel (TwistFrames at scale > 1 with up to 4 joints): the weights are
+// interpolated and each voxel turned by them, so the upsampled map's det is the kernel's,
+// 1 - theta dw/dalpha, which the nodes' check bounds at the cells' corners. The cases whose
+// interpolated positions fold (a steep twist across a thin gap cuts the arcs' chords) do not
+// fold through the kernel, and the bones give no more than with the positions' cell check.
+TEST(TwistFrames, TheTwistKernelKeepsTheUpsampledMapFoldFree) {
+  struct Case {
+    const char* name;
+    LabelVolume labels;
+    double angleDeg;
+  };
+  const Case cases[] = {{"touching", touchingLabels(), 30}, {"steep", steepLabels(), 45}, {"hinge", hingeLabels(), 20}};
+  double foldsWithout = 0;
+  for (const Case& c : cases) {
+    const RigidityReport positions = upsampledNodeMap(c.labels, c.angleDeg, Upsampled::Positions);
+    const RigidityReport checked = upsampledNodeMap(c.labels, c.angleDeg, Upsampled::PositionsCellChecked);
+    const RigidityReport kernel = upsampledNodeMap(c.labels, c.angleDeg, Upsampled::Kernel);
+    foldsWithout += positions.foldFraction;
+    std::cout << "[ twist ] " << c.name << ": folds positions " << positions.foldFraction << " (min det "
+              << positions.minJacobian << "), cell-checked " << checked.foldFraction << " (" << checked.minJacobian
+              << "), kernel " << kernel.foldFraction << " (" << kernel.minJacobian << ")\n";
+    EXPECT_EQ(kernel.foldFraction, 0.0) << c.name << ": min det J " << kernel.minJacobian;
+    ASSERT_EQ(kernel.bodies.size(), 2u);
+    for (size_t b = 0; b < 2; ++b)
+      EXPECT_LT(kernel.bodies[b].rmsResidualMm, checked.bodies[b].rmsResidualMm + 0.05) << c.name << " body " << b;
+  }
+  EXPECT_GT(foldsWithout, 0.0) << "no case folds its interpolated positions any more";
+}
+
+// The kernel against the analytic twist: a weight linear along z on an anisotropic node grid,
+// one stage about a tilted axis, then a second stage read where the first left the point.
+TEST(TwistKernel, TurnsEachPointByItsInterpolatedWeight) {
+  Geometry grid;
+  grid.dims = {5, 5, 5};
+  grid.spacing = {1, 2, 3};
+  TwistKernel k;
+  const Vec3 c{0, 4, 6}, a = normalized(Vec3{1, 0.2, 0.1});
+  const double theta = 0.6;
+  k.stages.push_back({c, a, theta});
+  const int64_t n = grid.dims.voxelCount();
+  k.weights.assign(size_t(n) * TwistKernel::kMaxStages, 0.f);
+  for (int64_t t = 0; t < n; ++t) k.weights[size_t(t) * TwistKernel::kMaxStages] = float(t / 25) / 4.f;  // k / 4
+  const auto turned = [](const Vec3& p, const Vec3& c, const Vec3& a, double rad) {
+    const Vec3 q = p - c;
+    return c + q * std::cos(rad) + cross(a, q) * std::sin(rad) + a * (dot(a, q) * (1 - std::cos(rad)));
+  };
+  const Geometry::ToIndex toNode = grid.physicalToIndexMap();
+  // w = z / 12 mm: exact under trilinear interpolation anywhere in the grid.
+  for (const Vec3 idx : {Vec3{0, 0, 0}, Vec3{4, 4, 4}, Vec3{1.5, 2.25, 2.5}, Vec3{3.7, 0.1, 1.2}}) {
+    const Vec3 p = grid.indexToPhysical(idx);
+    const Vec3 expect = turned(p, c, a, -theta * idx.z / 4);
+    EXPECT_LT(norm(k.sourceMm(p, toNode, grid.dims) - expect), 1e-9) << idx.x << " " << idx.y << " " << idx.z;
+  }
+  // det J = 1 - theta dw/dalpha, dw/dalpha = grad w . (a x (p - c)).
+  const Vec3 gradW{0, 0, 1.0 / 12};
+  for (const Vec3 idx : {Vec3{1.5, 2.25, 2.5}, Vec3{3.2, 1.1, 0.7}, Vec3{0.6, 3.4, 3.3}}) {
+    const Vec3 p = grid.indexToPhysical(idx);
+    const double h = 1e-4;
+    Vec3 col[3];
+    for (int q = 0; q < 3; ++q) {
+      Vec3 e{0, 0, 0};
+      e[q] = h;
+      col[q] = (k.sourceMm(p + e, toNode, grid.dims) - k.sourceMm(p - e, toNode, grid.dims)) * (0.5 / h);
+    }
+    const double det = dot(col[0], cross(col[1], col[2]));
+    EXPECT_NEAR(det, 1 - theta * dot(gradW, cross(a, p - c)), 1e-6);
+  }
+  // The turned points bulge off the interpolated corners' chords by no more than the bound.
+  std::vector<Vec3> corners;
+  for (int64_t t = 0; t < n; ++t) corners.push_back(k.sourceMm(grid.indexToPhysical({double(t % 5), double((t / 5) % 5), double(t / 25)}), toNode, grid.dims));
+  double worst = 0;
+  for (const Vec3 idx : {Vec3{0.5, 0.5, 0.5}, Vec3{3.5, 1.5, 2.5}, Vec3{1.25, 3.75, 3.5}, Vec3{2, 2, 1.5}}) {
+    Vec3 interpolated{0, 0, 0};
+    const int64_t i0 = int64_t(idx.x), j0 = int64_t(idx.y), k0 = int64_t(idx.z);
+    for (int o = 0; o < 8; ++o) {
+      const int64_t i = i0 + (o & 1), j = j0 + ((o >> 1) & 1), kk = k0 + ((o >> 2) & 1);
+      const double f = ((o & 1) ? idx.x - i0 : 1 - (idx.x - i0)) * ((o & 2) ? idx.y - j0 : 1 - (idx.y - j0)) *
+                       ((o & 4) ? idx.z - k0 : 1 - (idx.z - k0));
+      interpolated += corners[size_t((kk * 5 + j) * 5 + i)] * f;
+    }
+    worst = std::max(worst, norm(k.sourceMm(grid.indexToPhysical(idx), toNode, grid.dims) - interpolated));
+  }
+  EXPECT_GT(worst, 1e-3);  // the kernel is not the interpolated positions
+  EXPECT_LE(worst, k.chordBoundMm(grid));
+  // A second stage (w = 1 everywhere) reads where the first left the point: its rigid turn after it.
+  TwistKernel two = k;
+  const Vec3 c2{2, 1, 3}, a2 = normalized(Vec3{0, 1, 1});
+  two.stages.push_back({c2, a2, -0.4});
+  for (int64_t t = 0; t < n; ++t) two.weights[size_t(t) * TwistKernel::kMaxStages + 1] = 1.f;
+  const Vec3 p = grid.indexToPhysical({2.5, 1.5, 3.25});
+  EXPECT_LT(norm(two.sourceMm(p, toNode, grid.dims) - turned(k.sourceMm(p, toNode, grid.dims), c2, a2, 0.4)), 1e-9);
+}
+
+// MapSampler (the studio's slices) samples the kernel as upsampleMap() does, point by point
+// and along rows.
+TEST(TwistFrames, MapSamplerFollowsTheTwistKernel) {
+  const LabelVolume labels = hingeLabels();
+  const Frame f = frameAt(labels, 20);
+  ASSERT_TRUE(f.cv->twist);
+  const std::vector<float> full = upsampleMap(*f.cv, f.grid);
+  const MapSampler sampler(*f.cv, f.grid);
+  double worst = 0;
+  std::vector<float> row(3 * size_t(f.grid.dims.x));
+  std::vector<uint8_t> inside(size_t(f.grid.dims.x));
+  for (int64_t k = 2; k < f.grid.dims.z; k += 7)
+    for (int64_t j = 1; j < f.grid.dims.y; j += 5) {
+      sampler.sourceMmRow(f.grid.indexToPhysical({0, double(j), double(k)}), f.grid.indexToPhysical({1, 0, 0}) - f.grid.indexToPhysical({0, 0, 0}),
+                          int(f.grid.dims.x), row.data(), inside.data());
+      for (int64_t i = 0; i < f.grid.dims.x; ++i) {
+        const size_t n = size_t((k * f.grid.dims.y + j) * f.grid.dims.x + i) * 3;
+        const Vec3 ref{full[n], full[n + 1], full[n + 2]};
+        const auto u = sampler.sourceMm(f.grid.indexToPhysical({double(i), double(j), double(k)}));
+        ASSERT_TRUE(u && inside[size_t(i)]);
+        worst = std::max({worst, norm(*u - ref), norm(Vec3{row[3 * i], row[3 * i + 1], row[3 * i + 2]} - ref)});
+      }
+    }
+  EXPECT_LT(worst, 1e-4);
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <iostream>
 
 #include "map_sampling.hpp"
@@ -62,6 +63,27 @@ TEST(WysiwygMap, RendererSamplesTheMapSynthesisResamplesWith) {
       EXPECT_LT(d.maxMm, 5e-4) << upsamplingName(up);
       if (cv->rigidSnap) EXPECT_GT(d.snappedVoxels, 100);  // the snap is exercised
     }
+}
+
+// The twist kernel (a movie frame of the twist map): each sample turned by its interpolated
+// weight, in the renderer's CPU twin as in synthesis, with the snap.
+TEST(WysiwygMap, RendererSamplesTheTwistKernelAsSynthesisDoes) {
+  const test::TwistKnee k = test::makeTwistKnee(64, 2);
+  const Geometry& g = k.ph.ct.geometry();
+  ASSERT_TRUE(k.frame->twist);
+  ASSERT_TRUE(k.frame->rigidSnap);
+  const MapDiff d = compareWithSynthesis(*k.frame, g, Upsampling::Trilinear, 1);
+  std::cout << "[ map  ] twist kernel + snap: max |u_render - u_synthesis| " << d.maxMm << " mm, snapped voxels "
+            << d.snappedVoxels << "\n";
+  EXPECT_LT(d.maxMm, 5e-4);
+  EXPECT_GT(d.snappedVoxels, 100);
+  // Interpolating the nodes' positions instead is another map (its chords): the kernel is used.
+  ControlVolume positions = *k.frame;
+  positions.twist.reset();
+  const std::vector<float> a = upsampleMap(*k.frame, g), b = upsampleMap(positions, g);
+  float most = 0;
+  for (size_t i = 0; i < a.size(); ++i) most = std::max(most, std::abs(a[i] - b[i]));
+  EXPECT_GT(most, 1e-3);
 }
 
 TEST(WysiwygMap, GaussianReproducesAnAffineMapUpToTheBorder) {

@@ -67,6 +67,25 @@ TEST(WysiwygGl, GlMatchesTheCpuReferenceWithSnapAndAttributes) {
     }
 }
 
+// The twist kernel (a twist-map movie frame: weights interpolated, each sample turned, then
+// the snap): the shader's mapAt() against PreparedMap's, shaded (normals turned by the kernel's
+// Jacobian) and MIP.
+TEST(WysiwygGl, GlMatchesTheCpuReferenceWithTheTwistKernel) {
+  const test::TwistKnee k = test::makeTwistKnee(72, 2);
+  ASSERT_TRUE(k.frame->twist);
+  const AnyVolume ct = k.ph.ct;
+  render::VolumeRenderer renderer(gl());
+  renderer.setVolume(ct);
+  const render::BackwardMap map = deformation::renderedMap(*k.frame, k.ph.ct.geometry());
+  renderer.setBackwardMap(&map);
+  for (const render::Preset preset : {render::Preset::SoftTissueBone, render::Preset::Mip}) {
+    render::RenderSettings s = sideView();
+    s.preset = preset;
+    const std::string what = std::string("GL vs CPU reference, twist kernel + snap, ") + render::presetName(preset);
+    EXPECT_GE(report(renderer.render(s), render::renderReferenceCpu(ct, s, &map), what), 40.0) << what;
+  }
+}
+
 // (b) Live deformed render = render of the exported deformed volume with the attributes.
 TEST(WysiwygGl, LiveFrameMatchesTheSynthesisedVolumeWithItsAttributes) {
   const test::BentKnee& k = knee();

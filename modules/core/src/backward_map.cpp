@@ -19,6 +19,118 @@ void put(std::array<float, 12>& e, const Mat3& m, const Vec3& b) {
 
 }  // namespace
 
+namespace {
+
+/// Stage s's weight at node index q, trilinear (q clamped onto the nodes; NaN: node 0).
+double twistWeight(const std::vector<float>& weights, const Dims& nodes, size_t s, const Vec3& q) {
+  double c[3];
+  int64_t i0[3], i1[3];
+  const int64_t n[3] = {nodes.x, nodes.y, nodes.z};
+  for (int a = 0; a < 3; ++a) {
+    const double v = std::clamp(q[a], 0.0, double(n[a] - 1));
+    i0[a] = std::min(static_cast<int64_t>(v), n[a] - 1);
+    i1[a] = std::min(i0[a] + 1, n[a] - 1);
+    c[a] = v - double(i0[a]);
+  }
+  double w = 0;
+  for (int k = 0; k < 8; ++k) {
+    const double f = ((k & 1) ? c[0] : 1 - c[0]) * ((k & 2) ? c[1] : 1 - c[1]) * ((k & 4) ? c[2] : 1 - c[2]);
+    if (f == 0) continue;
+    const int64_t node = (((k & 4) ? i1[2] : i0[2]) * nodes.y + ((k & 2) ? i1[1] : i0[1])) * nodes.x + ((k & 1) ? i1[0] : i0[0]);
+    w += f * double(weights[static_cast<size_t>(node) * TwistKernel::kMaxStages + s]);
+  }
+  return w;
+}
+
+/// Rotation by `rad` about unit `a` (Rodrigues) as a matrix.
+Mat3 rotationMatrix(const Vec3& a, double rad) {
+  const double c = std::cos(rad), s = std::sin(rad), k = 1 - c;
+  return Mat3::fromColumns({c + k * a.x * a.x, k * a.x * a.y + s * a.z, k * a.x * a.z - s * a.y},
+                           {k * a.x * a.y - s * a.z, c + k * a.y * a.y, k * a.y * a.z + s * a.x},
+                           {k * a.x * a.z + s * a.y, k * a.y * a.z - s * a.x, c + k * a.z * a.z});
+}
+
+}  // namespace
+
+Vec3 TwistKernel::sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const {
+  Vec3 x = vMm;
+  for (size_t s = 0; s < stages.size(); ++s) {
+    const double w = twistWeight(weights, nodes, s, mmToNode(x));
+    if (w == 0) continue;
+    const Stage& st = stages[s];
+    const double angle = -st.angleRad * w, cs = std::cos(angle), sn = std::sin(angle);
+    const Vec3 p = x - st.pointMm;
+    x = st.pointMm + p * cs + cross(st.axis, p) * sn + st.axis * (dot(st.axis, p) * (1 - cs));
+  }
+  return x;
+}
+
+Mat3 TwistKernel::jacobian(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes,
+                           double stepNodes) const {
+  // d(node index)/d(mm) = diag(1 / spacing) * inverse direction: grad_mm w = L^T grad_node w.
+  const Mat3 L = Mat3::fromColumns({1 / mmToNode.spacing.x, 0, 0}, {0, 1 / mmToNode.spacing.y, 0},
+                                   {0, 0, 1 / mmToNode.spacing.z}) * mmToNode.inverseDirection;
+  Mat3 J = Mat3::identity();
+  Vec3 x = vMm;
+  for (size_t s = 0; s < stages.size(); ++s) {
+    const Vec3 q = mmToNode(x);
+    const double w = twistWeight(weights, nodes, s, q);
+    Vec3 g{0, 0, 0};
+    for (int a = 0; a < 3; ++a) {
+      Vec3 e{0, 0, 0};
+      e[a] = stepNodes;
+      g[a] = (twistWeight(weights, nodes, s, q + e) - twistWeight(weights, nodes, s, q - e)) / (2 * stepNodes);
+    }
+    if (w == 0 && g == Vec3{0, 0, 0}) continue;
+    const Stage& st = stages[s];
+    const Vec3 gradMm = L.transposed() * g, p = x - st.pointMm, t = cross(st.axis, p);
+    const Mat3 R = rotationMatrix(st.axis, -st.angleRad * w);
+    Mat3 shear;  // I - angle t grad^T
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) shear(r, c) = (r == c ? 1.0 : 0.0) - st.angleRad * t[r] * gradMm[c];
+    J = R * shear * J;
+    x = st.pointMm + R * p;
+  }
+  return J;
+}
+
+double TwistKernel::chordBoundMm(const Geometry& grid) const {
+  // Per stage: the turned point f(x) = R(-angle w(x)) (x - c) + c over a cell; its trilinear
+  // interpolant misses it by at most (1/8) sum_q h_q^2 |d2f/dq2|, and per axis q
+  // |d2f/dq2| <= r phi_q^2 + 2 phi_q (phi_q = angle |dw/dq| h_q, per cell edge, in rad; r the
+  // distance to the axis, h_q the edge). The bound takes the steepest edge and the farthest
+  // corner of the grid, so it is loose but cheap.
+  const Dims d = grid.dims;
+  double rMax = 0;
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 corner = grid.indexToPhysical({(k & 1) ? double(d.x - 1) : 0.0, (k & 2) ? double(d.y - 1) : 0.0,
+                                              (k & 4) ? double(d.z - 1) : 0.0});
+    for (const Stage& st : stages) {
+      const Vec3 p = corner - st.pointMm;
+      rMax = std::max(rMax, norm(p - st.axis * dot(st.axis, p)));
+    }
+  }
+  const int64_t strides[3] = {1, d.x, d.x * d.y};
+  const int64_t n = d.voxelCount();
+  double total = 0;
+  for (size_t s = 0; s < stages.size(); ++s) {
+    double stepMax[3] = {0, 0, 0};
+    for (int64_t t = 0; t < n; ++t) {
+      const int64_t i = t % d.x, j = (t / d.x) % d.y, k = t / (d.x * d.y);
+      const int64_t pos[3] = {i, j, k}, dim[3] = {d.x, d.y, d.z};
+      const float w = weights[static_cast<size_t>(t) * kMaxStages + s];
+      for (int a = 0; a < 3; ++a)
+        if (pos[a] + 1 < dim[a])
+          stepMax[a] = std::max(stepMax[a], double(std::abs(weights[static_cast<size_t>(t + strides[a]) * kMaxStages + s] - w)));
+    }
+    for (int a = 0; a < 3; ++a) {
+      const double phi = std::abs(stages[s].angleRad) * stepMax[a];
+      total += 0.125 * (rMax * phi * phi + 2 * phi * grid.spacing[a]);
+    }
+  }
+  return total;
+}
+
 const params::EnumTable<Upsampling>& upsamplings() {
   static const params::EnumTable<Upsampling> t{"upsampling", {"trilinear", "gaussian"}};
   return t;

@@ -111,7 +111,20 @@ vec4 gaussWeights(float f) {
 
 // u (source index) at map node index p: the node map interpolated as CPU synthesis upsamples it.
 vec3 mapAt(vec3 p) {
-#if MAP_KERNEL == MAP_GAUSSIAN
+#ifdef TWIST_KERNEL
+  // TwistKernel::sourceMm(): per stage, the position turned by -angle * w, w (uMap's channel s)
+  // read trilinearly where the stages before left it (clamped onto the nodes by the texture).
+  // The stage count is the variant's (TWIST_STAGES): the loop unrolls, the channels are constant.
+  vec3 x = uNodeToMm * clamp(p, vec3(0.0), uBoxDims - 1.0) + uNodeToMmOffset;
+  for (int s = 0; s < TWIST_STAGES; ++s) {
+    float w = texture(uMap, (uMmToNode * x + uMmToNodeOffset + 0.5) / uBoxDims)[s];
+    if (w == 0.0) continue;
+    vec3 a = uTwistAxis[s], r = x - uTwistPoint[s];
+    float angle = -uTwistAngle[s] * w, c = cos(angle), sn = sin(angle);
+    x = uTwistPoint[s] + r * c + cross(a, r) * sn + a * (dot(a, r) * (1.0 - c));
+  }
+  return uMmToSrc * x + uMmToSrcOffset;
+#elif MAP_KERNEL == MAP_GAUSSIAN
   // 4 taps per axis as 2 linear fetches (positive weights): 8 trilinear fetches in all.
   vec3 q = clamp(p, vec3(0.0), uMapNodes - 1.0);
   vec3 n0 = floor(q), f = q - n0;
@@ -133,6 +146,33 @@ vec3 mapAt(vec3 p) {
 #endif
 }
 
+#if defined(TURN_NORMALS) && defined(TWIST_KERNEL)
+// TwistKernel::jacobian(): per stage R (I - angle t grad(w)^T), grad(w) from the weight's
+// filtered fetches NORMAL_STEP nodes either side.
+mat3 twistJacobian(vec3 p) {
+  vec3 x = uNodeToMm * clamp(p, vec3(0.0), uBoxDims - 1.0) + uNodeToMmOffset;
+  mat3 J = mat3(1.0);
+  vec3 h = vec3(NORMAL_STEP) / uBoxDims;
+  for (int s = 0; s < TWIST_STAGES; ++s) {
+    vec3 tc = (uMmToNode * x + uMmToNodeOffset + 0.5) / uBoxDims;
+    float w = texture(uMap, tc)[s];
+    vec3 g = vec3(texture(uMap, tc + vec3(h.x, 0.0, 0.0))[s] - texture(uMap, tc - vec3(h.x, 0.0, 0.0))[s],
+                  texture(uMap, tc + vec3(0.0, h.y, 0.0))[s] - texture(uMap, tc - vec3(0.0, h.y, 0.0))[s],
+                  texture(uMap, tc + vec3(0.0, 0.0, h.z))[s] - texture(uMap, tc - vec3(0.0, 0.0, h.z))[s]) /
+             (2.0 * NORMAL_STEP);
+    if (w == 0.0 && g == vec3(0.0)) continue;
+    vec3 a = uTwistAxis[s], r = x - uTwistPoint[s];
+    vec3 gm = transpose(uMmToNode) * g, t = cross(a, r);
+    float angle = -uTwistAngle[s] * w, c = cos(angle), sn = sin(angle);
+    // Rodrigues: c I + sn [a]x + (1 - c) a a^T (GLSL matrices are column-major).
+    mat3 R = c * mat3(1.0) + sn * mat3(0.0, a.z, -a.y, -a.z, 0.0, a.x, a.y, -a.x, 0.0) + (1.0 - c) * outerProduct(a, a);
+    J = R * (mat3(1.0) - uTwistAngle[s] * outerProduct(t, gm)) * J;
+    x = uTwistPoint[s] + R * r;
+  }
+  return J;
+}
+#endif
+
 #ifdef TURN_NORMALS
 // Twin of PreparedMap::nodeTexture(): the node texture, hardware-filtered (either kernel).
 vec3 nodeTexture(vec3 p) {
@@ -150,6 +190,13 @@ vec3 nodeTexture(vec3 p) {
 vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
   float len = length(n.xyz);
   if (!(len > 1e-4) || !(n.w > GRAD_LOW)) return n;
+#ifdef TWIST_KERNEL
+  if (snappedBody < 0) {  // TwistKernel::jacobian(), in mm: grad (f o u) = J^T grad f
+    vec3 tm = transpose(twistJacobian(p)) * n.xyz;
+    float tl = length(tm);
+    return tl > 0.0 ? vec4(tm * (len / tl), n.w) : n;
+  }
+#endif
   mat3 jt;
 #ifdef RIGID_SNAP
   if (snappedBody >= 0) {

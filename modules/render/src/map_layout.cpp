@@ -3,11 +3,31 @@
 #include <cctype>
 #include <sstream>
 
+#include "vellum/core/error.hpp"
+#include "vellum/core/index_frame.hpp"
 #include "vellum/render/backward_map.hpp"
 
 namespace vellum::render::detail {
 
-std::string mapLayoutGlsl(Upsampling kernel, bool snap) {
+TwistUniforms TwistUniforms::of(const TwistKernel& twist, const Geometry& grid, const Geometry& source) {
+  TwistUniforms u;
+  u.stages = int(twist.stages.size());
+  for (size_t s = 0; s < twist.stages.size(); ++s) {
+    u.point[s] = twist.stages[s].pointMm;
+    u.axis[s] = twist.stages[s].axis;
+    u.angle[s] = twist.stages[s].angleRad;
+  }
+  u.nodeToMm = indexToMm(grid);
+  u.nodeToMmOffset = grid.origin;
+  if (!u.nodeToMm.inverse(u.mmToNode)) throw Error("backward map: singular node grid geometry");
+  u.mmToNodeOffset = -(u.mmToNode * grid.origin);
+  Mat3 srcToMm = indexToMm(source);
+  if (!srcToMm.inverse(u.mmToSrc)) throw Error("backward map: singular source geometry");
+  u.mmToSrcOffset = -(u.mmToSrc * source.origin);
+  return u;
+}
+
+std::string mapLayoutGlsl(Upsampling kernel, bool snap, int twistStages) {
   std::ostringstream s;
   s.precision(9);
   s << "// Backward map layout, generated from core/backward_map.hpp and map_layout.hpp.\n";
@@ -18,6 +38,14 @@ std::string mapLayoutGlsl(Upsampling kernel, bool snap) {
   }
   s << "#define MAP_KERNEL " << static_cast<int>(kernel) << "\n";
   s << std::showpoint << "#define GAUSS_SIGMA " << kGaussianUpsamplingSigma << "\n";
+  if (twistStages > 0) {
+    s << "#define TWIST_KERNEL\n#define TWIST_STAGES " << twistStages << "\n#define TWIST_MAX_STAGES "
+      << TwistKernel::kMaxStages << "\n";
+#define VELLUM_TWIST_UNIFORM_DECL(name, type, array, meaning) \
+  s << "uniform " type " u" #name array ";  // " meaning "\n";
+    VELLUM_TWIST_UNIFORMS(VELLUM_TWIST_UNIFORM_DECL)
+#undef VELLUM_TWIST_UNIFORM_DECL
+  }
   if (!snap) return s.str();
   s << "#define RIGID_SNAP\n#define MAX_SNAP_BODIES " << kMaxSnapBodies << "\n";
   s << "#define SNAP_BODY_ROWS " << kSnapBodyRows << "\n";

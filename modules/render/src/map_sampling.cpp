@@ -91,6 +91,15 @@ std::array<float, 4> PreparedMap::turnNormal(const Vec3& p, const std::array<flo
   const double len = norm(ns);
   // Where shade() ignores the normal (no gradient, or one below its fade-in), skip the work.
   if (!(len > 1e-4) || !(n[3] > kGradLow)) return n;
+  if (twist && !(snappedBody >= 0 && snap)) {  // the kernel's Jacobian in mm: grad (f o u) = J^T grad f
+    Vec3 q;
+    for (int a = 0; a < 3; ++a) q[a] = std::clamp(p[a], 0.0, double(nodes[a] - 1));
+    const Vec3 m = twist->jacobian(nodeGrid.indexToPhysical(q), mmToNode, nodes, kNormalStepNodes).transposed() * ns;
+    const double ml = norm(m);
+    if (!(ml > 0) || !std::isfinite(ml)) return n;
+    const Vec3 t = m * (len / ml);
+    return {float(t.x), float(t.y), float(t.z), n[3]};
+  }
   Mat3 jt;  // J^T up to a scale, which cancels
   if (snappedBody >= 0 && snap) {  // u = M p + m: J = M, J^T's columns are M's rows
     const auto& m = snap->body[static_cast<size_t>(snappedBody)];
@@ -118,6 +127,7 @@ Vec3 PreparedMap::nodeTexture(const Vec3& p) const {
 Vec3 PreparedMap::interpolated(const Vec3& p) const {
   Vec3 q;
   for (int a = 0; a < 3; ++a) q[a] = std::clamp(p[a], 0.0, double(nodes[a] - 1));
+  if (twist) return mmToSource(twist->sourceMm(nodeGrid.indexToPhysical(q), mmToNode, nodes));
   return interpolateNodes(index.data(), nodes, upsampling, 1, q);
 }
 
@@ -144,6 +154,14 @@ PreparedMap prepareMap(const BackwardMap& map, const Geometry& source) {
   if (map.rigidSnap) {
     pm.snap = prepareSnap(*map.rigidSnap, map.grid, source);
     pm.snapMarginVoxels = map.rigidSnap->maxSnapMm / std::min({source.spacing.x, source.spacing.y, source.spacing.z});
+  }
+  if (map.twist) {
+    pm.twist = map.twist;
+    pm.nodeGrid = map.grid;
+    pm.mmToNode = map.grid.physicalToIndexMap();
+    pm.mmToSource = source.physicalToIndexMap();
+    pm.twistMarginVoxels =
+        map.twist->chordBoundMm(map.grid) / std::min({source.spacing.x, source.spacing.y, source.spacing.z});
   }
   Mat3 gInv;
   if (!indexToMm(map.grid).inverse(gInv)) throw Error("backward map: singular node grid geometry");

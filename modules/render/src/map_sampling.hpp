@@ -5,6 +5,7 @@
 // the GLSL (shaders/raycast.frag.glsl: mapAt(), snapRigid()) computes, on the CPU.
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -21,8 +22,17 @@ struct PreparedMap {
   std::vector<float> padded;  ///< Gaussian: `index` padded to texDims; empty for trilinear
   /// The node texture the GL path uploads (3 floats per texel of texDims).
   const std::vector<float>& texture() const { return padded.empty() ? index : padded; }
+  /// Floats per texel of the uploaded texture: 4 (the twist kernel's weights) or 3.
+  int texelFloats() const { return twist ? TwistKernel::kMaxStages : 3; }
+  const std::vector<float>& texels() const { return twist ? twist->weights : texture(); }
   std::optional<SnapFrame> snap;
   double snapMarginVoxels = 0;  ///< how far (source voxels, per axis) the snap can move u
+  /// The twist kernel (BackwardMap::twist), or none: u at p is then the kernel's (in mm from
+  /// the node grid's mm, to source index), and the texture holds its weights, not `index`.
+  std::shared_ptr<const TwistKernel> twist;
+  Geometry nodeGrid;
+  Geometry::ToIndex mmToNode, mmToSource;
+  double twistMarginVoxels = 0;  ///< TwistKernel::chordBoundMm in source voxels
   /// With BackwardMap::output: output voxel index x = scale * p + offset per axis (same
   /// direction), and the output dims.
   struct OutputAxes {
@@ -47,7 +57,8 @@ struct PreparedMap {
   /// Shading normals of deformed samples. The deformed volume is f(u(x)), so its gradient is
   /// J^T grad f(u) with J = du/dx: the source normal `n` (physical, sampled at u(p)) turned
   /// into output space. J comes from central differences of the node texture (nodeTexture)
-  /// kNormalStepNodes either side of p; where the rigid snap moved the sample (`snappedBody`
+  /// kNormalStepNodes either side of p (the twist kernel: TwistKernel::jacobian, from its
+  /// weights' differences as far either side); where the rigid snap moved the sample (`snappedBody`
   /// >= 0) J is that body's linear part, exactly: near a bone's surface the node map's
   /// differences straddle the rigid and the blended motion. The result keeps n's length and
   /// magnitude channel, so the shading's weak-gradient fade is the source's; the shader's

@@ -47,7 +47,8 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   s << "#define NORMAL_STEP " << PreparedMap::kNormalStepNodes << "\n";
   s << "#define PHASE_G " << kPhaseG << "\n";
   s << "#define GRAD_LOW " << kGradLow << "\n#define GRAD_HIGH " << kGradHigh << "\n";
-  s << mapLayoutGlsl(v.gaussian && v.deformed ? Upsampling::Gaussian : Upsampling::Trilinear, v.snap && v.deformed);
+  s << mapLayoutGlsl(v.gaussian && v.deformed ? Upsampling::Gaussian : Upsampling::Trilinear, v.snap && v.deformed,
+                     v.deformed ? v.twistStages : 0);
   if (v.pathTrace) {
     s << "#define MAX_PATH_ALPHA " << kMaxPathAlpha << "\n";
     s << "#define MIN_TRANSMITTANCE " << kMinTransmittance << "\n#define BLOCK_NUDGE " << kBlockNudgeMm << "\n";

@@ -20,10 +20,11 @@ struct ShaderVariant {
   bool lighting = false;    ///< LIGHTING: key light with shadows and occlusion (light_volume.hpp; shaded DVR)
   bool toneMap = false;     ///< TONE_MAP: the scene lights (lights.glsl) in linear light, ACES tone mapped (with LIGHTING)
   bool pathTrace = false;   ///< the cinematic path tracer's main (path_trace_main.frag.glsl) instead of the ray march
+  int twistStages = 0;      ///< TWIST_KERNEL, TWIST_STAGES (map_layout.hpp): the map's twist kernel, 0..4 stages (deformed only)
   int key() const {
     return int(mip) | int(shading) << 1 | int(deformed) << 2 | int(attributes) << 3 | int(gaussian) << 4 |
            int(snap) << 5 | int(outputBox) << 6 | int(labels) << 7 | int(opaqueDepth) << 8 | int(turnNormals) << 9 |
-           int(lighting) << 10 | int(pathTrace) << 11 | int(toneMap) << 12;
+           int(lighting) << 10 | int(pathTrace) << 11 | int(toneMap) << 12 | twistStages << 13;
   }
 };
 

@@ -151,6 +151,7 @@ struct VolumeRenderer::PreparedBackwardMap {
   size_t rgbaFloats = 0;
   MapCells cells;
   std::optional<SnapFrame> snap;
+  std::optional<TwistUniforms> twist;
   std::optional<PreparedMap::OutputAxes> output;
   Mat3 normalToSourceIndex, nodeIndexToNormal;
 };
@@ -174,6 +175,7 @@ struct VolumeRenderer::Impl {
   const std::vector<uint16_t>* uploadedClasses = nullptr;
   std::shared_ptr<const std::vector<uint16_t>> heldClasses;
   std::optional<SnapFrame> snap;
+  std::optional<TwistUniforms> twist;  ///< the drawn map's twist kernel
   std::optional<PreparedMap::OutputAxes> output;
   Mat3 normalToSourceIndex, nodeIndexToNormal;  ///< PreparedMap's, for TURN_NORMALS
   BlockRanges blocks;      ///< per source block value ranges (empty-space skipping)
@@ -482,6 +484,29 @@ struct VolumeRenderer::Impl {
   /// Camera, box, step, background and value-scale uniforms.
   void setFrameUniforms(GLuint p, const RenderSettings& s, const Frame& f) const;
 
+  void setTwistUniforms(GLuint p) const {
+    const TwistUniforms& t = *twist;
+    namespace u = twist_uniform;
+    std::array<float, 3 * TwistKernel::kMaxStages> point{}, axis{};
+    std::array<float, TwistKernel::kMaxStages> angle{};
+    for (int s = 0; s < TwistKernel::kMaxStages; ++s) {
+      for (int a = 0; a < 3; ++a) {
+        point[size_t(3 * s + a)] = float(t.point[size_t(s)][a]);
+        axis[size_t(3 * s + a)] = float(t.axis[size_t(s)][a]);
+      }
+      angle[size_t(s)] = float(t.angle[size_t(s)]);
+    }
+    glUniform3fv(glGetUniformLocation(p, u::kTwistPoint), TwistKernel::kMaxStages, point.data());
+    glUniform3fv(glGetUniformLocation(p, u::kTwistAxis), TwistKernel::kMaxStages, axis.data());
+    glUniform1fv(glGetUniformLocation(p, u::kTwistAngle), TwistKernel::kMaxStages, angle.data());
+    uniformMat3(p, u::kNodeToMm, t.nodeToMm);
+    uniform3(p, u::kNodeToMmOffset, t.nodeToMmOffset);
+    uniformMat3(p, u::kMmToNode, t.mmToNode);
+    uniform3(p, u::kMmToNodeOffset, t.mmToNodeOffset);
+    uniformMat3(p, u::kMmToSrc, t.mmToSrc);
+    uniform3(p, u::kMmToSrcOffset, t.mmToSrcOffset);
+  }
+
   void setSnapUniforms(GLuint p) const {
     const SnapFrame& ps = *snap;
     glActiveTexture(GL_TEXTURE0 + kUnitClasses);
@@ -521,6 +546,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.attributes = deform && !deform->attributes.empty();
   variant.gaussian = deform && deform->upsampling == Upsampling::Gaussian;
   variant.snap = deform && snap.has_value();
+  variant.twistStages = deform && twist ? twist->stages : 0;
   variant.outputBox = deform && output.has_value();
   variant.labels = hasLabels && (s.labelBlend > 0 || s.onlyLabel > 0) && !variant.mip;
   variant.opaqueDepth = opaqueDepth;
@@ -563,6 +589,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
     if (variant.gaussian)
       uniform3(p, "uMapNodes", {double(deform->grid.dims.x), double(deform->grid.dims.y), double(deform->grid.dims.z)});
     if (variant.snap) setSnapUniforms(p);
+    if (variant.twistStages > 0) setTwistUniforms(p);
     if (variant.turnNormals) {
       uniformMat3(p, "uNormalToSrcIndex", normalToSourceIndex);
       uniformMat3(p, "uNodeIndexToNormal", nodeIndexToNormal);
@@ -926,6 +953,7 @@ void VolumeRenderer::setBackwardMap(const BackwardMap* map) {
     impl_->map.reset();
     impl_->drawnMap.reset();
     impl_->snap.reset();
+    impl_->twist.reset();
     impl_->output.reset();
     deleteTexture(impl_->mapTex);
     deleteTexture(impl_->attrTex);
@@ -954,24 +982,33 @@ std::shared_ptr<const VolumeRenderer::PreparedBackwardMap> VolumeRenderer::Impl:
   PreparedMap pm = prepareMap(*map, source);
   auto out = std::make_shared<PreparedBackwardMap>();
   out->texDims = pm.texDims;
-  const std::vector<float>& texels = pm.texture();
+  // The texels: node positions (source index), or the twist kernel's weights (4 stages).
+  const std::vector<float>& texels = pm.texels();
+  const int perTexel = pm.texelFloats();
   // RGBA texels written once (no zeroing pass over the 16 bytes a node), in parallel.
-  const size_t texelCount = texels.size() / 3;
+  const size_t texelCount = texels.size() / size_t(perTexel);
   out->rgbaFloats = texelCount * 4;
   if (reuse && reuse->rgba && reuse->rgbaFloats == out->rgbaFloats) out->rgba = std::move(reuse->rgba);
   else out->rgba = std::make_unique_for_overwrite<float[]>(out->rgbaFloats);
   float* rgba = out->rgba.get();
   tbb::parallel_for(tbb::blocked_range<size_t>(0, texelCount, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
+    if (perTexel == 4) {
+      std::copy_n(texels.data() + 4 * r.begin(), 4 * (r.end() - r.begin()), rgba + 4 * r.begin());
+      return;
+    }
     for (size_t t = r.begin(); t < r.end(); ++t) {
       std::copy_n(texels.data() + 3 * t, 3, rgba + 4 * t);
       rgba[4 * t + 3] = 0.f;
     }
   });
-  MapCellSupport support{pm.texDims, 0, pm.upsampling == Upsampling::Gaussian ? 4 : 1, pm.snapMarginVoxels};
-  out->cells = computeMapCells(map->grid.dims, texels, blocks, &support,
+  // A cell's samples read its corner nodes; the twist kernel's bulge off their chords.
+  MapCellSupport support{pm.texDims, 0, pm.upsampling == Upsampling::Gaussian ? 4 : 1,
+                         pm.snapMarginVoxels + pm.twistMarginVoxels};
+  out->cells = computeMapCells(map->grid.dims, pm.texture(), blocks, &support,
                                reuse ? std::move(reuse->boxes) : std::vector<std::array<int16_t, 6>>{});
   if (reuse) *reuse = {};
   out->snap = std::move(pm.snap);
+  if (pm.twist) out->twist = TwistUniforms::of(*pm.twist, map->grid, source);
   out->output = pm.output;
   out->normalToSourceIndex = pm.normalToSourceIndex;
   out->nodeIndexToNormal = pm.nodeIndexToNormal;
@@ -1064,6 +1101,7 @@ bool VolumeRenderer::Impl::continueMapStep(size_t maxBytes) {
   }
   makeSkipTextures(cellSkip, p.cells.cells, nullptr);
   snap = p.snap;
+  twist = p.twist;
   output = p.output;
   normalToSourceIndex = p.normalToSourceIndex;
   nodeIndexToNormal = p.nodeIndexToNormal;

@@ -15,8 +15,10 @@
 // tissue, never a fixed region's), so the map stays fold-free and the report says how many bone
 // voxels gave.
 // Format and measures: docs/deformation.md, "Twist map".
+#include <memory>
 #include <vector>
 
+#include "vellum/core/backward_map.hpp"
 #include "vellum/core/geometry.hpp"
 #include "vellum/core/progress.hpp"
 #include "vellum/deformation/pose.hpp"
@@ -61,6 +63,15 @@ struct TwistParams {
   /// 0.6): for a map that is then upsampled (TwistFrames at scale > 1), whose voxels inside a
   /// node cell show the cell's fold that the central differences at the nodes step over.
   bool cellCheck = false;
+  /// For a map whose samples are turned by the trilinearly interpolated w (the twist kernel,
+  /// TwistFrames at scale > 1): the kernel's det at each corner of the 8 cells around a voxel,
+  /// 1 - theta * grad w . tangent with grad w the cell's one-sided differences, joins the bound
+  /// (everywhere, not only where w steps steeply: far from the axis a gentle w is steep along
+  /// the circle).
+  bool kernelCheck = false;
+  /// Make the twist kernel (TwistMap::kernel): the nodes' map is then the kernel's at the nodes
+  /// (no snap there: the upsampled map's own snap, at full resolution, makes the bones exact).
+  bool kernel = false;
 };
 
 /// `vellum pose`'s twist options (--twist-power, --twist-margin) as the map's parameters.
@@ -94,6 +105,9 @@ struct TwistMap {
   /// Output voxels whose source lies in a bone but that do not take its transform: the softened
   /// rims, and blended voxels whose snap would jump the source by over joinMaxVoxels.
   int64_t unsnappedVoxels = 0;
+  /// With TwistParams::kernel (and at most TwistKernel::kMaxStages stages): the stages and
+  /// their weights on the grid, the kernel that upsamples this map.
+  std::shared_ptr<const TwistKernel> kernel;
 };
 
 /// The backward map of `pose` at `anglesDeg` on `output` (the grid of `bodies`' classes: the

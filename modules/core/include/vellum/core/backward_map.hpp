@@ -106,6 +106,37 @@ struct RigidSnap {
   std::vector<uint8_t> held;
 };
 
+/// A twist map's own kernel between nodes (deformation::TwistFrames at scale > 1). A twist map
+/// turns each point about each joint's axis by the joint's angle times a weight w (docs/
+/// deformation.md, "Twist map"); interpolating the turned positions instead cuts the arcs'
+/// chords, and where w steps steeply across a thin joint space a cell folds whose corners do
+/// not (knee movie frames: 17-23 voxels). So this kernel interpolates w (trilinear) and turns
+/// each sample by it: det J = prod_s (1 - angle_s dw_s/dalpha) as at the nodes. The map's
+/// sourceMm keep the nodes' own positions (what reads nodes only: map files, cell bounds).
+struct TwistKernel {
+  static constexpr int kMaxStages = 4;  ///< one RGBA texel per node in the shader
+  struct Stage {
+    Vec3 pointMm{0, 0, 0};  ///< a point on the joint's axis
+    Vec3 axis{1, 0, 0};     ///< unit direction; the backward map turns by -angleRad * w about it
+    double angleRad = 0;
+  };
+  std::vector<Stage> stages;   ///< applied in order (proximal first), at most kMaxStages
+  std::vector<float> weights;  ///< kMaxStages floats per node of the map's grid (x fastest): stage s's w in channel s
+
+  /// The source position (mm) of output position `vMm`: each stage turns the position as the
+  /// stages before it left it, by -angle * w with w read trilinearly at that position's node
+  /// index (`mmToNode`; clamped onto the `nodes`).
+  Vec3 sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const;
+  /// du/dv (mm per mm) of sourceMm() at `vMm`: per stage R (I - angle t grad(w)^T), t = axis x
+  /// (x - point), grad(w) from central differences of the trilinear w `stepNodes` nodes either
+  /// side (the shader's filtered fetches). What turns the shading normals (J^T n).
+  Mat3 jacobian(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes, double stepNodes) const;
+  /// How far (mm) a sample's source can lie outside the box of its cell's corner sources: the
+  /// kernel's turned positions bulge off the corners' chords by at most this (a bound from the
+  /// steepest cell of each stage's w; the renderers' empty-space cells widen by it).
+  double chordBoundMm(const Geometry& grid) const;
+};
+
 struct BackwardMap {
   /// Output-space grid of the nodes (mm geometry). The ray caster casts through this box.
   Geometry grid;
@@ -117,6 +148,8 @@ struct BackwardMap {
   Upsampling upsampling = Upsampling::Trilinear;
   /// Empty, or the snap applied after interpolating u.
   std::shared_ptr<const RigidSnap> rigidSnap;
+  /// Empty, or the kernel between nodes (then `upsampling` is Trilinear): a twist map's.
+  std::shared_ptr<const TwistKernel> twist;
   /// Empty, or the deformed volume's voxel grid (same direction as `grid`; a control volume's
   /// nodes reach up to s - 1/2 voxels beyond it): outside its voxel box the deformed volume is
   /// background.
