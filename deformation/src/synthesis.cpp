@@ -287,14 +287,38 @@ void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling
   const TwistKernel& twist = *cv.twist;
   const Geometry::ToIndex toNode = cv.grid.physicalToIndexMap();
   const Dims od = output.dims, nd = cv.grid.dims;
+  const int s = cv.scale;
+  // The first stage reads w at the voxel itself, node index (i, j, k) / s: per row its weights
+  // blended over the row's y and z once (as upsampleRows() blends positions), then along x;
+  // later stages read w where the earlier ones left the point (TwistKernel::sourceMm()).
+  const AxisTaps<2> ty = linearTaps(od.y, nd.y, s), tz = linearTaps(od.z, nd.z, s);
+  const Vec3 stepX = output.indexToPhysical({1, 0, 0}) - output.indexToPhysical({0, 0, 0});
+  const float* w0 = twist.weights.data();  // stage 0 in channel 0
+  constexpr int kStride = TwistKernel::kMaxStages;
   progress.begin(stage, static_cast<uint64_t>(od.z));
   parallelFor(od.z, [&](int64_t k0, int64_t k1) {
     std::vector<float> ux(static_cast<size_t>(od.x)), uy(ux.size()), uz(ux.size());
+    std::vector<double> line(static_cast<size_t>(nd.x));
     for (int64_t k = k0; k < k1; ++k) {
       progress.checkCancelled();
+      const auto& zi = tz.idx[static_cast<size_t>(k)];
+      const auto& zw = tz.w[static_cast<size_t>(k)];
       for (int64_t j = 0; j < od.y; ++j) {
+        const auto& yi = ty.idx[static_cast<size_t>(j)];
+        const auto& yw = ty.w[static_cast<size_t>(j)];
+        for (int64_t n = 0; n < nd.x; ++n) {
+          double acc = 0;
+          for (int c = 0; c < 2; ++c)
+            for (int b = 0; b < 2; ++b)
+              acc += double(zw[c]) * double(yw[b]) * double(w0[((int64_t(zi[c]) * nd.y + yi[b]) * nd.x + n) * kStride]);
+          line[static_cast<size_t>(n)] = acc;
+        }
+        const Vec3 rowStart = output.indexToPhysical({0, double(j), double(k)});
         for (int64_t i = 0; i < od.x; ++i) {
-          const Vec3 u = twist.sourceMm(output.indexToPhysical({double(i), double(j), double(k)}), toNode, nd);
+          const int64_t n0 = std::min(i / s, nd.x - 1), n1 = std::min(n0 + 1, nd.x - 1);
+          const double f = double(i - n0 * s) / s;
+          Vec3 u = twist.turn(0, rowStart + stepX * double(i), line[size_t(n0)] + f * (line[size_t(n1)] - line[size_t(n0)]));
+          for (size_t st = 1; st < twist.stages.size(); ++st) u = twist.turn(st, u, twist.weightAt(st, toNode(u), nd));
           float p[3] = {float(u.x), float(u.y), float(u.z)};
           if (toFrame) applyAffine(*toFrame, p, 1);
           ux[size_t(i)] = p[0], uy[size_t(i)] = p[1], uz[size_t(i)] = p[2];

@@ -52,16 +52,21 @@ Mat3 rotationMatrix(const Vec3& a, double rad) {
 
 }  // namespace
 
+double TwistKernel::weightAt(size_t s, const Vec3& q, const Dims& nodes) const {
+  return twistWeight(weights, nodes, s, q);
+}
+
+Vec3 TwistKernel::turn(size_t s, const Vec3& x, double w) const {
+  if (w == 0) return x;
+  const Stage& st = stages[s];
+  const double angle = -st.angleRad * w, cs = std::cos(angle), sn = std::sin(angle);
+  const Vec3 p = x - st.pointMm;
+  return st.pointMm + p * cs + cross(st.axis, p) * sn + st.axis * (dot(st.axis, p) * (1 - cs));
+}
+
 Vec3 TwistKernel::sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const {
   Vec3 x = vMm;
-  for (size_t s = 0; s < stages.size(); ++s) {
-    const double w = twistWeight(weights, nodes, s, mmToNode(x));
-    if (w == 0) continue;
-    const Stage& st = stages[s];
-    const double angle = -st.angleRad * w, cs = std::cos(angle), sn = std::sin(angle);
-    const Vec3 p = x - st.pointMm;
-    x = st.pointMm + p * cs + cross(st.axis, p) * sn + st.axis * (dot(st.axis, p) * (1 - cs));
-  }
+  for (size_t s = 0; s < stages.size(); ++s) x = turn(s, x, twistWeight(weights, nodes, s, mmToNode(x)));
   return x;
 }
 

@@ -38,21 +38,19 @@ std::string mapLayoutGlsl(Upsampling kernel, bool snap, int twistStages) {
   }
   s << "#define MAP_KERNEL " << static_cast<int>(kernel) << "\n";
   s << std::showpoint << "#define GAUSS_SIGMA " << kGaussianUpsamplingSigma << "\n";
+// A uniform's GLSL declaration, with its meaning as a comment.
+#define VELLUM_MAP_UNIFORM_DECL(name, type, array, meaning) \
+  s << "uniform " type " u" #name array ";  // " meaning "\n";
   if (twistStages > 0) {
     s << "#define TWIST_KERNEL\n#define TWIST_STAGES " << twistStages << "\n#define TWIST_MAX_STAGES "
       << TwistKernel::kMaxStages << "\n";
-#define VELLUM_TWIST_UNIFORM_DECL(name, type, array, meaning) \
-  s << "uniform " type " u" #name array ";  // " meaning "\n";
-    VELLUM_TWIST_UNIFORMS(VELLUM_TWIST_UNIFORM_DECL)
-#undef VELLUM_TWIST_UNIFORM_DECL
+    VELLUM_TWIST_UNIFORMS(VELLUM_MAP_UNIFORM_DECL)
   }
   if (!snap) return s.str();
   s << "#define RIGID_SNAP\n#define MAX_SNAP_BODIES " << kMaxSnapBodies << "\n";
   s << "#define SNAP_BODY_ROWS " << kSnapBodyRows << "\n";
-#define VELLUM_SNAP_UNIFORM_DECL(name, type, array, meaning) \
-  s << "uniform " type " u" #name array ";  // " meaning "\n";
-  VELLUM_SNAP_UNIFORMS(VELLUM_SNAP_UNIFORM_DECL)
-#undef VELLUM_SNAP_UNIFORM_DECL
+  VELLUM_SNAP_UNIFORMS(VELLUM_MAP_UNIFORM_DECL)
+#undef VELLUM_MAP_UNIFORM_DECL
   return s.str();
 }
 

@@ -38,10 +38,11 @@
 
 namespace vellum::render::detail {
 
+// A uniform's C++ name constant: k<Name> = "u<Name>".
+#define VELLUM_MAP_UNIFORM_NAME(name, type, array, meaning) inline constexpr const char* k##name = "u" #name;
+
 namespace twist_uniform {
-#define VELLUM_TWIST_UNIFORM_NAME(name, type, array, meaning) inline constexpr const char* k##name = "u" #name;
-VELLUM_TWIST_UNIFORMS(VELLUM_TWIST_UNIFORM_NAME)
-#undef VELLUM_TWIST_UNIFORM_NAME
+VELLUM_TWIST_UNIFORMS(VELLUM_MAP_UNIFORM_NAME)
 }  // namespace twist_uniform
 
 /// The twist kernel's uniforms for one map and source (the frames' affine maps as linear part
@@ -56,9 +57,7 @@ struct TwistUniforms {
 };
 
 namespace snap_uniform {
-#define VELLUM_SNAP_UNIFORM_NAME(name, type, array, meaning) inline constexpr const char* k##name = "u" #name;
-VELLUM_SNAP_UNIFORMS(VELLUM_SNAP_UNIFORM_NAME)
-#undef VELLUM_SNAP_UNIFORM_NAME
+VELLUM_SNAP_UNIFORMS(VELLUM_MAP_UNIFORM_NAME)
 }  // namespace snap_uniform
 
 /// vec4 rows per body in uBodyRows: row r is SnapFrame::body's M row r, then m[r].

@@ -8,8 +8,9 @@
 // (RigidSnap) with each bone's pose transform — exactly, or, in a frame whose node map made
 // bones give (soft rims), only where that moves a voxel's source by at most
 // TwistParams::snapMaxVoxels (a longer snap would fold beside the tissue); fixed regions
-// exact (held), the tissue between them the coarse twist upsampled (its blend is smooth: w
-// varies over the joint's distances, tens of voxels).
+// exact (held), the tissue between them the coarse twist upsampled by its own kernel (core
+// TwistKernel: each voxel turned by the interpolated weights, so it folds no more than the
+// nodes' weights allow; poses of at most 4 joints, longer chains interpolate positions).
 #include <memory>
 #include <mutex>
 #include <vector>

@@ -127,6 +127,10 @@ struct TwistKernel {
   /// stages before it left it, by -angle * w with w read trilinearly at that position's node
   /// index (`mmToNode`; clamped onto the `nodes`).
   Vec3 sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const;
+  /// Stage s's weight at node index q (trilinear, q clamped onto the nodes).
+  double weightAt(size_t s, const Vec3& q, const Dims& nodes) const;
+  /// x turned by stage s with weight w (by -angle * w about its axis).
+  Vec3 turn(size_t s, const Vec3& x, double w) const;
   /// du/dv (mm per mm) of sourceMm() at `vMm`: per stage R (I - angle t grad(w)^T), t = axis x
   /// (x - point), grad(w) from central differences of the trilinear w `stepNodes` nodes either
   /// side (the shader's filtered fetches). What turns the shading normals (J^T n).
