@@ -710,9 +710,9 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     bodyBack[b] = f.inverse();
   }
   // The twist kernel: the stages and their weights, 4 per node; the map at the nodes is then
-  // the kernel's own (as it is upsampled), without the snap.
+  // the kernel's own (as it is upsampled), without the snap. No stage (every angle 0): none.
   std::shared_ptr<TwistKernel> kernel;
-  if (params.kernel && stages.size() <= size_t(TwistKernel::kMaxStages)) {
+  if (params.kernel && !stages.empty() && stages.size() <= size_t(TwistKernel::kMaxStages)) {
     kernel = std::make_shared<TwistKernel>();
     for (const Stage& st : stages) kernel->stages.push_back({st.c, st.a, st.theta});
     kernel->weights.assign(static_cast<size_t>(n) * TwistKernel::kMaxStages, 0.f);

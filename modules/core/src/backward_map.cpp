@@ -17,12 +17,17 @@ void put(std::array<float, 12>& e, const Mat3& m, const Vec3& b) {
   }
 }
 
+/// Rotation by `rad` about unit `a` (Rodrigues) as a matrix.
+Mat3 rotationMatrix(const Vec3& a, double rad) {
+  const double c = std::cos(rad), s = std::sin(rad), k = 1 - c;
+  return Mat3::fromColumns({c + k * a.x * a.x, k * a.x * a.y + s * a.z, k * a.x * a.z - s * a.y},
+                           {k * a.x * a.y - s * a.z, c + k * a.y * a.y, k * a.y * a.z + s * a.x},
+                           {k * a.x * a.z + s * a.y, k * a.y * a.z - s * a.x, c + k * a.z * a.z});
+}
+
 }  // namespace
 
-namespace {
-
-/// Stage s's weight at node index q, trilinear (q clamped onto the nodes; NaN: node 0).
-double twistWeight(const std::vector<float>& weights, const Dims& nodes, size_t s, const Vec3& q) {
+double TwistKernel::weightAt(size_t s, const Vec3& q, const Dims& nodes) const {
   double c[3];
   int64_t i0[3], i1[3];
   const int64_t n[3] = {nodes.x, nodes.y, nodes.z};
@@ -37,23 +42,9 @@ double twistWeight(const std::vector<float>& weights, const Dims& nodes, size_t 
     const double f = ((k & 1) ? c[0] : 1 - c[0]) * ((k & 2) ? c[1] : 1 - c[1]) * ((k & 4) ? c[2] : 1 - c[2]);
     if (f == 0) continue;
     const int64_t node = (((k & 4) ? i1[2] : i0[2]) * nodes.y + ((k & 2) ? i1[1] : i0[1])) * nodes.x + ((k & 1) ? i1[0] : i0[0]);
-    w += f * double(weights[static_cast<size_t>(node) * TwistKernel::kMaxStages + s]);
+    w += f * double(weights[static_cast<size_t>(node) * kMaxStages + s]);
   }
   return w;
-}
-
-/// Rotation by `rad` about unit `a` (Rodrigues) as a matrix.
-Mat3 rotationMatrix(const Vec3& a, double rad) {
-  const double c = std::cos(rad), s = std::sin(rad), k = 1 - c;
-  return Mat3::fromColumns({c + k * a.x * a.x, k * a.x * a.y + s * a.z, k * a.x * a.z - s * a.y},
-                           {k * a.x * a.y - s * a.z, c + k * a.y * a.y, k * a.y * a.z + s * a.x},
-                           {k * a.x * a.z + s * a.y, k * a.y * a.z - s * a.x, c + k * a.z * a.z});
-}
-
-}  // namespace
-
-double TwistKernel::weightAt(size_t s, const Vec3& q, const Dims& nodes) const {
-  return twistWeight(weights, nodes, s, q);
 }
 
 Vec3 TwistKernel::turn(size_t s, const Vec3& x, double w) const {
@@ -66,7 +57,7 @@ Vec3 TwistKernel::turn(size_t s, const Vec3& x, double w) const {
 
 Vec3 TwistKernel::sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const {
   Vec3 x = vMm;
-  for (size_t s = 0; s < stages.size(); ++s) x = turn(s, x, twistWeight(weights, nodes, s, mmToNode(x)));
+  for (size_t s = 0; s < stages.size(); ++s) x = turn(s, x, weightAt(s, mmToNode(x), nodes));
   return x;
 }
 
@@ -79,12 +70,12 @@ Mat3 TwistKernel::jacobian(const Vec3& vMm, const Geometry::ToIndex& mmToNode, c
   Vec3 x = vMm;
   for (size_t s = 0; s < stages.size(); ++s) {
     const Vec3 q = mmToNode(x);
-    const double w = twistWeight(weights, nodes, s, q);
+    const double w = weightAt(s, q, nodes);
     Vec3 g{0, 0, 0};
     for (int a = 0; a < 3; ++a) {
       Vec3 e{0, 0, 0};
       e[a] = stepNodes;
-      g[a] = (twistWeight(weights, nodes, s, q + e) - twistWeight(weights, nodes, s, q - e)) / (2 * stepNodes);
+      g[a] = (weightAt(s, q + e, nodes) - weightAt(s, q - e, nodes)) / (2 * stepNodes);
     }
     if (w == 0 && g == Vec3{0, 0, 0}) continue;
     const Stage& st = stages[s];
