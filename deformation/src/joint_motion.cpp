@@ -67,7 +67,7 @@ Geometry fieldGrid(const Geometry& g, const VoxelBox& box, std::array<int64_t, 3
 /// Signed distance (mm, negative inside) to the voxels whose id `in` marks, on `grid` (every
 /// `step`-th voxel of the labels from the box's first).
 VolumeF32 distanceTo(const LabelVolume& labels, const std::vector<uint8_t>& in, const VoxelBox& box,
-                     const Geometry& grid, const std::array<int64_t, 3>& step) {
+                     const Geometry& grid, const std::array<int64_t, 3>& step, Progress& progress) {
   VolumeU8 mask(grid);
   const Dims d = grid.dims;
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
@@ -76,7 +76,8 @@ VolumeF32 distanceTo(const LabelVolume& labels, const std::vector<uint8_t>& in, 
         for (int64_t i = 0; i < d.x; ++i)
           mask(i, j, k) = in[labels(box.lo[0] + i * step[0], box.lo[1] + j * step[1], box.lo[2] + k * step[2])];
   });
-  return signedDistanceMm(mask);
+  progress.checkCancelled();
+  return signedDistanceMm(mask, progress);
 }
 
 /// A field's value at `mm`, the index clamped into the box: beyond it the contact has moved far
@@ -118,7 +119,7 @@ std::array<VoxelBox, 2> axis::markedBoxes(const LabelVolume& labels, const std::
 HingeMotion::HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>& parentIds,
                          const std::vector<uint16_t>& movingIds,
                          std::vector<Vec3> parentContactMm, std::vector<Vec3> childContactMm,
-                         std::vector<double> anglesDeg, double reachMm) {
+                         std::vector<double> anglesDeg, double reachMm, Progress& progress) {
   const Geometry& g = labels.geometry();
   voxelMm_ = (g.spacing.x + g.spacing.y + g.spacing.z) / 3.0;
   contact_[0] = std::move(parentContactMm);
@@ -156,8 +157,8 @@ HingeMotion::HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>&
   for (uint16_t id : parentIds) parent[id] = 1;
   std::array<int64_t, 3> step{};
   const Geometry grid = fieldGrid(g, box, step);
-  field_[0] = distanceTo(labels, parent, box, grid, step);
-  field_[1] = distanceTo(labels, moving, box, grid, step);
+  field_[0] = distanceTo(labels, parent, box, grid, step, progress);
+  field_[1] = distanceTo(labels, moving, box, grid, step, progress);
   const Geometry& fg = field_[0].geometry();
   const Geometry::ToIndex toIndex = fg.physicalToIndexMap();
   for (int s = 0; s < 2; ++s)

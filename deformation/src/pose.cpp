@@ -653,7 +653,7 @@ void estimateAxes(Pose& pose, const LabelVolume& labels, double contactMm, Progr
     if (joint.hasAxisHint) {
       Vec3 point = joint.hintA, dir = normalized(joint.hintB - joint.hintA);
       const HingeMotion motion(labels, joint.parent, movingIds(pose, ji), all.surface[0], all.surface[1],
-                               kHintAnglesDeg, kHintReachMm);
+                               kHintAnglesDeg, kHintReachMm, progress);
       est.fit.motion = motion.search(point, dir, joint.hintConeDeg, kHintReachMm, progress);
       const MotionFit& m = est.fit.motion;
       if (m.searched) {

@@ -11,6 +11,7 @@
 #include <iostream>
 #include <numbers>
 
+#include "vellum/core/error.hpp"
 #include "vellum/deformation/joint_motion.hpp"
 
 namespace vellum::deformation {
@@ -112,6 +113,14 @@ TEST(HingeMotion, FineVoxelsAreScoredOnACoarserGrid) {
   Vec3 far = h.centre + across * 9.0, along = h.axis;
   const MotionFit edge = m.search(far, along, 0, 6);
   EXPECT_NEAR(edge.shiftMm, 6.0, 0.05);  // it went as far towards the axis as it may
+}
+
+// Cancelling while the distance fields are made stops there (the studio's joint worker).
+TEST(HingeMotion, CancelStopsTheFields) {
+  const Hinge h = makeHinge(0.4, 8, 8);
+  Progress cancelled;
+  cancelled.cancel();
+  EXPECT_THROW(HingeMotion(h.labels, {1}, {2}, h.contact[0], h.contact[1], kAngles, 6, cancelled), Cancelled);
 }
 
 }  // namespace

@@ -48,10 +48,11 @@ class HingeMotion {
   /// fields are computed once on the box that any axis within `reachMm` of the contact can
   /// carry the moving bones into, on a grid no finer than 0.7 mm and of at most 16 M voxels
   /// (every n-th voxel); the near voxels (each side's boundary voxels there within their
-  /// travel of the other side) are thinned to kMaxNearVoxels.
+  /// travel of the other side) are thinned to kMaxNearVoxels. Cancellable through `progress`
+  /// (the fields take ~1-3 s on a 512^2 knee: the studio's joint worker cancels inside them).
   HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>& parentIds, const std::vector<uint16_t>& movingIds,
               std::vector<Vec3> parentContactMm, std::vector<Vec3> childContactMm, std::vector<double> anglesDeg,
-              double reachMm);
+              double reachMm, Progress& progress = Progress::none());
 
   /// How badly the child turning about (point, direction) by the scored angles fits the
   /// parent (mm²): the mean squared change of the contact voxels' distance to the other bone
