@@ -76,8 +76,10 @@ VolumeF32 distanceTo(const LabelVolume& labels, const std::vector<uint8_t>& in, 
         for (int64_t i = 0; i < d.x; ++i)
           mask(i, j, k) = in[labels(box.lo[0] + i * step[0], box.lo[1] + j * step[1], box.lo[2] + k * step[2])];
   });
+  // Cancellation is checked here, not inside the transform: that would begin and end its own
+  // stage on the caller's progress (the studio's "joint axes" bar).
   progress.checkCancelled();
-  return signedDistanceMm(mask, progress);
+  return signedDistanceMm(mask);
 }
 
 /// A field's value at `mm`, the index clamped into the box: beyond it the contact has moved far

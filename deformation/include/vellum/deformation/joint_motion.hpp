@@ -49,7 +49,7 @@ class HingeMotion {
   /// carry the moving bones into, on a grid no finer than 0.7 mm and of at most 16 M voxels
   /// (every n-th voxel); the near voxels (each side's boundary voxels there within their
   /// travel of the other side) are thinned to kMaxNearVoxels. Cancellable through `progress`
-  /// (the fields take ~1-3 s on a 512^2 knee: the studio's joint worker cancels inside them).
+  /// before each of the two fields (~0.5-1.5 s each on a 512^2 knee; the studio's joint worker).
   HingeMotion(const LabelVolume& labels, const std::vector<uint16_t>& parentIds, const std::vector<uint16_t>& movingIds,
               std::vector<Vec3> parentContactMm, std::vector<Vec3> childContactMm, std::vector<double> anglesDeg,
               double reachMm, Progress& progress = Progress::none());
