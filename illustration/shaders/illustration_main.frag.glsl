@@ -37,11 +37,13 @@ vec4 fieldAt(vec3 p, int g) {
 // Slot s's unit normal at p (central differences; zero where its field is flat).
 vec3 slotNormal(vec3 p, int s) {
   int g = s / 4, j = s % 4;
-  vec3 gi = vec3(fieldAt(p + vec3(1.0, 0.0, 0.0), g)[j] - fieldAt(p - vec3(1.0, 0.0, 0.0), g)[j],
-                 fieldAt(p + vec3(0.0, 1.0, 0.0), g)[j] - fieldAt(p - vec3(0.0, 1.0, 0.0), g)[j],
-                 fieldAt(p + vec3(0.0, 0.0, 1.0), g)[j] - fieldAt(p - vec3(0.0, 0.0, 1.0), g)[j]);
+  // Samples in variables, halved before the subtraction: see the march's gradients in main().
+  float xp = fieldAt(p + vec3(1.0, 0.0, 0.0), g)[j], xm = fieldAt(p - vec3(1.0, 0.0, 0.0), g)[j];
+  float yp = fieldAt(p + vec3(0.0, 1.0, 0.0), g)[j], ym = fieldAt(p - vec3(0.0, 1.0, 0.0), g)[j];
+  float zp = fieldAt(p + vec3(0.0, 0.0, 1.0), g)[j], zm = fieldAt(p - vec3(0.0, 0.0, 1.0), g)[j];
+  vec3 gi = vec3(0.5 * xp - 0.5 * xm, 0.5 * yp - 0.5 * ym, 0.5 * zp - 0.5 * zm);
   float len;
-  return normOrZero(uGradToPhys * (0.5 * gi), len);
+  return normOrZero(uGradToPhys * gi, len);
 }
 // One direction's crease ink from the unit normals at -R, -h, +h, +R mm (CPU reference:
 // creaseProfile() in illustration_renderer_common.cpp): the turn between -R and +R, times how
@@ -144,6 +146,10 @@ void main() {
         blockSame = occ == 254 && uSkipOn > 0.0;
         emptyRun = max(occ, 1);
       }
+#ifdef DIAG_NO_SKIP
+      blockOccupied = true;
+      blockSame = false;
+#endif
       if (!blockOccupied) {
         // The cube of empty blocks around b (grid edges: the box's margin).
         ivec3 bl = b - (emptyRun - 1), bh = b + (emptyRun - 1);
@@ -188,9 +194,16 @@ void main() {
         if (any(bvec4(uvec4(greaterThan(c, uGradLo[g])) & uvec4(lessThan(c, uGradHi[g]))))) {
 #endif
 #ifdef EIGHT
-          gx = 0.5 * (fieldAt(p + vec3(1.0, 0.0, 0.0), g) - fieldAt(p - vec3(1.0, 0.0, 0.0), g));
-          gy = 0.5 * (fieldAt(p + vec3(0.0, 1.0, 0.0), g) - fieldAt(p - vec3(0.0, 1.0, 0.0), g));
-          gz = 0.5 * (fieldAt(p + vec3(0.0, 0.0, 1.0), g) - fieldAt(p - vec3(0.0, 0.0, 1.0), g));
+          // Each sample in its own variable, halved before the subtraction (exact in float, so
+          // the same numbers): written as 0.5 * (fieldAt(p + e) - fieldAt(p - e)), NVIDIA's
+          // compiler (H200) made it exactly zero for a segment inside an invisible one, which
+          // drew that bone flat (docs/benchmarks-gpu.md, s25).
+          vec4 xp = fieldAt(p + vec3(1.0, 0.0, 0.0), g), xm = fieldAt(p - vec3(1.0, 0.0, 0.0), g);
+          vec4 yp = fieldAt(p + vec3(0.0, 1.0, 0.0), g), ym = fieldAt(p - vec3(0.0, 1.0, 0.0), g);
+          vec4 zp = fieldAt(p + vec3(0.0, 0.0, 1.0), g), zm = fieldAt(p - vec3(0.0, 0.0, 1.0), g);
+          gx = 0.5 * xp - 0.5 * xm;
+          gy = 0.5 * yp - 0.5 * ym;
+          gz = 0.5 * zp - 0.5 * zm;
 #else
           gx = fieldAt(p + vec3(1.0, 0.0, 0.0), g) - c;
           gy = fieldAt(p + vec3(0.0, 1.0, 0.0), g) - c;
@@ -350,6 +363,9 @@ void main() {
         span = max(span, kExit - float(k));
       }
       span = uSkipOn > 0.0 && span >= 2.0 ? min(span, float(k1 - k + 1)) : 1.0;
+#ifdef DIAG_NO_SKIP
+      span = 1.0;
+#endif
       k += int(span) - 1;
       if (sum.a > 0.0) {
         vec3 rgb = sum.rgb / sum.a;

@@ -94,6 +94,11 @@ vec4 styled(Row r, int label, vec4 g4, vec4 ct4, float tv, float depth, vec3 vie
   // nearest boundary point jumps): normal-based terms fade to neutral from 2 to 4 boundary
   // widths inside, so translucent segments show their surface shading, not an X of creases.
   float sw = 1.0 - smoothstep(2.0 * STYLE_BOUNDARY_WIDTH_MM(r), 4.0 * STYLE_BOUNDARY_WIDTH_MM(r), abs(d));
+#ifdef DIAG_TERMS
+  // Diagnosis (VELLUM_GL_DIAG=terms): red = the normal terms' weight sw, green = |gradient|
+  // (1 at unit length), blue = |d| over 4 boundary widths.
+  return vec4(sw, clamp(glen, 0.0, 1.0), clamp(abs(d) / (4.0 * STYLE_BOUNDARY_WIDTH_MM(r)), 0.0, 1.0), 1.0);
+#endif
   float ndv = glen > 1e-6 ? mix(1.0, abs(dot(n, view)), sw) : 1.0;
   float mb = STYLE_BOUNDARY_KC(r), ms = STYLE_SILHOUETTE_KC(r);
   if (STYLE_BOUNDARY_KS(r) > 0.0) mb += STYLE_BOUNDARY_KS(r) * pow(b, STYLE_BOUNDARY_KE(r));

@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <iomanip>
 #include <sstream>
+#include <string>
+#include <utility>
 
 #include "illustration_renderer_common.hpp"
 #include "shader_source.hpp"  // modules/render: the shared ray set-up GLSL
@@ -41,11 +43,14 @@ std::string illustrationFragmentSource(const ShaderVariant& v) {
     s << "#define EXACT_FILTER\n";
   // Diagnosis switches for GPU-only defects (docs/benchmarks-gpu.md), comma-separated:
   // VELLUM_GL_DIAG=normals draws each sample's shading normal as its colour (magenta: not
-  // finite, black: zero); nowindow computes field gradients everywhere (no gradient windows).
+  // finite, black: zero); nowindow computes field gradients everywhere (no gradient windows);
+  // noskip steps every sample (no empty-space or adaptive skip); terms draws the style model's
+  // normal weight, gradient length and depth in the band as colour.
   if (const char* e = std::getenv("VELLUM_GL_DIAG"); e) {
     const std::string d = std::string(",") + e + ",";
-    if (d.find(",normals,") != std::string::npos) s << "#define DIAG_NORMALS\n";
-    if (d.find(",nowindow,") != std::string::npos) s << "#define DIAG_NO_GRAD_WINDOW\n";
+    for (const auto& [name, define] : {std::pair{"normals", "DIAG_NORMALS"}, {"nowindow", "DIAG_NO_GRAD_WINDOW"},
+                                       {"noskip", "DIAG_NO_SKIP"}, {"terms", "DIAG_TERMS"}})
+      if (d.find(std::string(",") + name + ",") != std::string::npos) s << "#define " << define << "\n";
   }
   if (v.ct) s << "#define USE_CT\n";
   if (v.texture) s << "#define USE_TEXTURE\n";
