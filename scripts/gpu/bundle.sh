@@ -14,7 +14,7 @@ set -euo pipefail
 B=${BUILD:-build}
 V=$B/ui/vellum
 # GL test binaries run there too (they need no library beyond the bundle once GDAL is a stub).
-TESTS=${TESTS:-"$B/tests/render/render_gl_test $B/tests/illustration_render/illustration_render_test $B/tests/illustration_render/illustration_styles_test"}
+TESTS=${TESTS:-"$B/tests/render/render_gl_test $B/tests/illustration_render/illustration_render_test $B/tests/illustration_render/illustration_styles_test $B/tests/wysiwyg/vellum_wysiwyg_gl_tests $B/tests/deformation/vellum_deformation_gl_tests"}
 MODS="$B/io/libvellum_opencv_codecs.so $B/illustration/libvellum_illustration_vdb.so"
 T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
 mkdir -p .dev "$T/bin" "$T/lib" "$T/mod" "$T/stub"

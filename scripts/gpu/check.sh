@@ -31,7 +31,7 @@ T $V render p512.nrrd --preset bone --size 1024x1024 --quality cinematic --trace
 T $V render p512.nrrd --preset bone --size 1024x1024 --quality cinematic --volume-shadows --samples 4096 --time-limit 30 --out cine-full.png --report r-cine-full.json
 fi
 if has tests; then
-for t in /tmp/v/bin/*_test; do
+for t in /tmp/v/bin/*_test /tmp/v/bin/*_tests; do
   (cd "$S" && $TM -f "TIME %e s wall | $(basename $t)" $t --gtest_brief=1 2>&1 | tail -25)
 done
 fi
