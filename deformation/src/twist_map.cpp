@@ -404,6 +404,12 @@ class Relaxation {
       if (round == 0 && smoothFirst)
         for (int step = 0; step < params_.relaxSteps; ++step) smooth(freeRegion);
       for (int step = 0; step < params_.limitSteps; ++step) limit(freeRegion);
+      // The kernel's cells: the limiter works along arcs and never sees a cell's one-sided
+      // differences beside a lock, which stuck there and made the bone's rim give; project
+      // those cells' free corners onto the bound. One sweep a round: more left no rim to soften
+      // where a free node's source lies in the bone, and the voxel snap folded beside it (s25).
+      if (slope_.kernelCheck && params_.projectCells)
+        for (int64_t t : bad) projectCells(t);
       for (int64_t t : freeRegion) touched_[static_cast<size_t>(t)] = 1;
       if (changed) changed->insert(changed->end(), freeRegion.begin(), freeRegion.end());
       // Recheck the region and its neighbours (the only slopes the steps changed).
@@ -499,6 +505,43 @@ class Relaxation {
       }
     }, 4096);
     for (size_t r = 0; r < region.size(); ++r) w_.data()[region[r]] = next[r];
+  }
+
+  /// The twist kernel's det at t's 8 cells (Slope::at, kernelCheck) is linear in the weights of
+  /// t and its axis neighbours: where a cell passes the bound, its free corners move by the
+  /// least change that brings it back (the locked ones keep 0 / 1), a cell after another.
+  void projectCells(int64_t t) {
+    const Dims d = grid_.d;
+    const int64_t pos[3] = {t % d.x, (t / d.x) % d.y, t / grid_.sz}, step[3] = {1, grid_.sy, grid_.sz};
+    const Vec3 v = grid_.g.indexToPhysical({double(pos[0]), double(pos[1]), double(pos[2])});
+    const Vec3 tangent = grid_.mmToIdx * cross(st_.a, v - st_.c);
+    float* w = w_.data();
+    const double target = 0.98 * bound_;
+    for (int o = 0; o < 8; ++o) {
+      int64_t nb[3];
+      double c[3], ct = 0, value = 0;
+      bool cell = true;
+      for (int q = 0; q < 3 && cell; ++q) {
+        const bool up = (o >> q) & 1;
+        cell = up ? pos[q] + 1 < d[q] : pos[q] > 0;
+        nb[q] = t + (up ? step[q] : -step[q]);
+        c[q] = st_.theta * (up ? 1.0 : -1.0) * tangent[q];  // d value / d w[nb[q]]
+        ct -= c[q];
+      }
+      if (!cell) continue;
+      for (int q = 0; q < 3; ++q) value += c[q] * (double(w[nb[q]]) - double(w[t]));
+      if (!(value > target)) continue;
+      double norm2 = 0;
+      for (int q = 0; q < 3; ++q)
+        if (isFree(side_[static_cast<size_t>(nb[q])])) norm2 += c[q] * c[q];
+      const bool freeT = isFree(side_[static_cast<size_t>(t)]);
+      if (freeT) norm2 += ct * ct;
+      if (!(norm2 > 1e-12)) continue;
+      const double lambda = (value - target) / norm2;
+      for (int q = 0; q < 3; ++q)
+        if (isFree(side_[static_cast<size_t>(nb[q])])) w[nb[q]] = openUnit(w[nb[q]] - lambda * c[q]);
+      if (freeT) w[t] = openUnit(w[t] - lambda * ct);
+    }
   }
 
   const Grid& grid_;

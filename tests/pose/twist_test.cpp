@@ -133,7 +133,8 @@ enum class Upsampled { Positions, PositionsCellChecked, Kernel };
 
 /// The twist map of the hinge on the node grid of `labels` at scale 2, upsampled to the voxels
 /// without a snap (the node map's own folds) and measured there.
-RigidityReport upsampledNodeMap(const LabelVolume& labels, double angleDeg, Upsampled how) {
+RigidityReport upsampledNodeMap(const LabelVolume& labels, double angleDeg, Upsampled how, bool projectCells = true,
+                                TwistJointStats* stats = nullptr) {
   const std::vector<std::vector<uint16_t>> groups{{1}, {2}};
   const Geometry& g = labels.geometry();
   ControlVolume cv;
@@ -143,8 +144,10 @@ RigidityReport upsampledNodeMap(const LabelVolume& labels, double angleDeg, Upsa
   TwistParams params;
   params.cellCheck = how == Upsampled::PositionsCellChecked;
   params.kernel = params.kernelCheck = how == Upsampled::Kernel;
+  params.projectCells = projectCells;
   const auto nodeBodies = nodeBodiesOf(labelsAtNodes(labels, 2), groups, 2, {});
   TwistMap m = twistMap(hinge(), {angleDeg}, *nodeBodies, cv.grid, params);
+  if (stats) *stats = m.joints.at(0);
   cv.sourceMm = std::move(m.mapMm);
   cv.twist = m.kernel;
   EXPECT_EQ(cv.twist != nullptr, how == Upsampled::Kernel);
@@ -352,10 +355,18 @@ TEST(TwistFrames, UpsampledNodeMapsDoNotFoldThroughTheKernelOrWithTheCellCheck) 
     // Rims soften only where no blend keeps the bound: the position check's under a cell det of -0.5.
     ASSERT_EQ(checked.bodies.size(), 2u);
     ASSERT_EQ(kernel.bodies.size(), 2u);
+    // Where bones touch along the turn some rim must give, and which one is not determined:
+    // the kernel's (cells projected onto the bound) may move the give from one bone to the
+    // other, so the two bones' residuals are compared together.
+    double kernelRms = 0, checkedRms = 0;
     for (size_t b = 0; b < 2; ++b) {
       EXPECT_LT(checked.bodies[b].rmsResidualMm, positions.bodies[b].rmsResidualMm + 0.1) << c.name << " body " << b;
-      EXPECT_LT(kernel.bodies[b].rmsResidualMm, checked.bodies[b].rmsResidualMm + 0.05) << c.name << " body " << b;
+      std::cout << "[ twist ] " << c.name << " body " << b << ": RMS positions " << positions.bodies[b].rmsResidualMm
+                << ", cell-checked " << checked.bodies[b].rmsResidualMm << ", kernel " << kernel.bodies[b].rmsResidualMm << " mm\n";
+      kernelRms += kernel.bodies[b].rmsResidualMm;
+      checkedRms += checked.bodies[b].rmsResidualMm;
     }
+    EXPECT_LT(kernelRms, checkedRms + 0.1) << c.name;
   }
   EXPECT_GT(foldsWithout, 0.0) << "no case folds its interpolated positions any more";
 }
@@ -450,4 +461,28 @@ TEST(TwistFrames, MapSamplerFollowsTheTwistKernel) {
   EXPECT_LT(worst, 1e-4);
   // A frame at rest turns nothing: no kernel (its nodes' positions, the identity, are the map).
   EXPECT_FALSE(frameAt(labels, 0).cv->twist);
+}
+
+// The kernel's check at the cells' corners beside a lock: the limiter (along the arcs, with
+// trilinear samples) never sees a cell's one-sided difference between a locked node and a free
+// one a step lower along the turn, so such cells stuck over the bound and the bone's rim was
+// unlocked (softened). Projecting each such cell's free corners onto the bound keeps the rims
+// locked where a blend can hold it: the hinge at 35 degrees softened 388 nodes without it.
+TEST(TwistKernel, ProjectingTheCellsKeepsTheRimsLockedWhereABlendCan) {
+  TwistJointStats without, with;
+  const RigidityReport a = upsampledNodeMap(hingeLabels(), 35, Upsampled::Kernel, false, &without);
+  const RigidityReport b = upsampledNodeMap(hingeLabels(), 35, Upsampled::Kernel, true, &with);
+  EXPECT_GT(without.softenedVoxels, 0) << "the case no longer sticks without the projection";
+  EXPECT_EQ(with.softenedVoxels, 0);
+  EXPECT_EQ(b.foldFraction, 0.0) << "min det J " << b.minJacobian;
+  EXPECT_GT(b.minJacobian, 0.1);
+  ASSERT_EQ(a.bodies.size(), 2u);
+  ASSERT_EQ(b.bodies.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    std::cout << "[ twist ] hinge 35 deg, body " << k << ": RMS " << a.bodies[k].rmsResidualMm << " -> "
+              << b.bodies[k].rmsResidualMm << " mm, max " << a.bodies[k].maxResidualMm << " -> " << b.bodies[k].maxResidualMm
+              << " mm (no snap)\n";
+    EXPECT_LT(b.bodies[k].rmsResidualMm, 0.7 * a.bodies[k].rmsResidualMm) << "body " << k;
+    EXPECT_LT(b.bodies[k].maxResidualMm, a.bodies[k].maxResidualMm) << "body " << k;
+  }
 }

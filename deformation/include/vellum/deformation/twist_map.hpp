@@ -69,6 +69,11 @@ struct TwistParams {
   /// (everywhere, not only where w steps steeply: far from the axis a gentle w is steep along
   /// the circle).
   bool kernelCheck = false;
+  /// With kernelCheck: after each round's limiter, every cell over the bound has its free
+  /// corners moved by the least change that brings its kernel det back (the limiter, along the
+  /// arcs, does not see a cell's one-sided differences beside a lock, which otherwise stick and
+  /// soften the bone's rim).
+  bool projectCells = true;
   /// Make the twist kernel (TwistMap::kernel): the nodes' map is then the kernel's at the nodes
   /// (no snap there: the upsampled map's own snap, at full resolution, makes the bones exact).
   bool kernel = false;
