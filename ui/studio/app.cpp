@@ -159,12 +159,23 @@ int StudioApp::run() {
   return exitCode_;
 }
 
-bool StudioApp::idle() const {
+bool StudioApp::idle() const { return pendingWork().empty(); }
+
+std::string StudioApp::pendingWork() const {
   const bool viewPending = scene_.hasVolume() &&
                            std::any_of(panes_.begin(), panes_.end(), [](const Pane& p) { return p.is3d(); }) &&
                            !view3d_->refined();
-  return !loader_.pending() && !pendingLoad_ && !upload3d_ && !view3d_->mapPending() && !view3d_->lightPending() && !tasks_.busy() && !segmentation_.snake().pending() && !shapes_.pending() && !viewPending && pendingScreenshot_.empty() && !deform_.exporting() && !deform_.session().preview() && !deform_.busy() && !curves_.busy() &&
-         !scene_.authoring.playing;
+  const std::pair<bool, const char*> items[] = {
+      {loader_.pending(), "load"}, {pendingLoad_.has_value(), "load result"}, {bool(upload3d_), "3D upload"},
+      {view3d_->mapPending(), "3D map"}, {view3d_->lightPending(), "3D light"}, {tasks_.busy(), "task"},
+      {segmentation_.snake().pending(), "snake"}, {shapes_.pending(), "shapes"}, {viewPending, "3D refinement"},
+      {!pendingScreenshot_.empty(), "screenshot"}, {deform_.exporting(), "export"},
+      {deform_.session().preview(), "deformation preview"}, {deform_.busy(), "deformation"},
+      {curves_.busy(), "curve analogy"}, {scene_.authoring.playing, "playback"}};
+  std::string out;
+  for (const auto& [on, name] : items)
+    if (on) out += (out.empty() ? "" : ", ") + std::string(name);
+  return out;
 }
 
 namespace {

@@ -206,6 +206,8 @@ class StudioApp {
   bool loading() const { return loader_.pending() || pendingLoad_.has_value(); }
   /// Nothing pending: no load or snake running, 3D view refined, no screenshot waiting.
   bool idle() const;
+  /// What keeps idle() false, comma-separated ("" when idle): a script's timeout names it.
+  std::string pendingWork() const;
   /// The last load's error ("" after success); scripts check it.
   const std::string& lastLoadError() const { return lastLoadError_; }
   bool hudVisible = true;

@@ -980,7 +980,8 @@ std::optional<int> ScriptRunner::step(StudioApp& app) {
       steps_.pop_front();
       waitedFrames_ = 0;
     } else if (++waitedFrames_ > 20000) {
-      throw Error("timed out waiting");
+      const std::string pending = app.pendingWork();
+      throw Error("timed out waiting" + (pending.empty() ? std::string() : " (still pending: " + pending + ")"));
     }
   } catch (const std::exception& e) {
     std::cerr << "vellum-studio: " << where_ << ": " << e.what() << "\n";

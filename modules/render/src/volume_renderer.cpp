@@ -141,13 +141,15 @@ void uploadOccupancy(const SkipGrid& g, const std::vector<uint8_t>& occ) {
 
 }  // namespace
 
-// What setBackwardMap() does before GL, kept for the upload: the texels as uploaded (RGBA: w
-// unused; llvmpipe filters 16-byte texels faster than 12-byte ones) and what the draws need.
+// What setBackwardMap() does before GL, kept for the upload: the texels as uploaded (positions
+// as RGBA, w unused: llvmpipe filters 16-byte texels faster than 12-byte ones; a one-joint twist
+// kernel's weights as R, a quarter of the bytes to upload and to filter) and what the draws need.
 struct VolumeRenderer::PreparedBackwardMap {
   std::shared_ptr<const BackwardMap> map;
   Geometry source;
   Dims texDims;
-  std::unique_ptr<float[]> rgba;  ///< 4 floats per texel of texDims
+  int channels = 4;               ///< floats per texel: 4 (RGBA) or 1 (R)
+  std::unique_ptr<float[]> rgba;  ///< `channels` floats per texel of texDims
   size_t rgbaFloats = 0;
   MapCells cells;
   std::optional<SnapFrame> snap;
@@ -206,9 +208,11 @@ struct VolumeRenderer::Impl {
   struct SpareTexture {
     GLuint tex = 0;
     Dims dims;
+    GLenum format = GL_RGBA32F;
   };
   SpareTexture spareMap, spareAttr;
   Dims mapTexDims, attrTexDims;
+  GLenum mapTexFormat = GL_RGBA32F;
   std::map<int, GLuint> programs;
   double lastMs = 0;
   int lastSamples = 0;  ///< cinematic: samples per pixel of the last render()
@@ -372,26 +376,27 @@ struct VolumeRenderer::Impl {
     mapStep.reset();
   }
 
-  /// A 3D RGBA32F texture of `d` with linear clamped sampling: the spare one when it fits.
-  static GLuint mapTexture(SpareTexture& spare, const Dims& d) {
+  /// A 3D float texture of `d` (RGBA32F or R32F) with linear clamped sampling: the spare one
+  /// when it fits.
+  static GLuint mapTexture(SpareTexture& spare, const Dims& d, GLenum format = GL_RGBA32F) {
     GLuint t = 0;
-    if (spare.tex && spare.dims == d) {
+    if (spare.tex && spare.dims == d && spare.format == format) {
       std::swap(t, spare.tex);
     } else {
       deleteTexture(spare.tex);
       glGenTextures(1, &t);
       glBindTexture(GL_TEXTURE_3D, t);
-      glTexStorage3D(GL_TEXTURE_3D, 1, GL_RGBA32F, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
+      glTexStorage3D(GL_TEXTURE_3D, 1, format, GLsizei(d.x), GLsizei(d.y), GLsizei(d.z));
     }
     glBindTexture(GL_TEXTURE_3D, t);
     // The map extends its outermost nodes (rays only sample inside its grid box).
     setSampling(GL_TEXTURE_3D, GL_LINEAR, GL_CLAMP_TO_EDGE, nullptr);
     return t;
   }
-  static void retire(SpareTexture& spare, GLuint& tex, const Dims& d) {
+  static void retire(SpareTexture& spare, GLuint& tex, const Dims& d, GLenum format = GL_RGBA32F) {
     if (!tex) return;
     deleteTexture(spare.tex);
-    spare = {tex, d};
+    spare = {tex, d, format};
     tex = 0;
   }
 
@@ -982,16 +987,22 @@ std::shared_ptr<const VolumeRenderer::PreparedBackwardMap> VolumeRenderer::Impl:
   PreparedMap pm = prepareMap(*map, source);
   auto out = std::make_shared<PreparedBackwardMap>();
   out->texDims = pm.texDims;
-  // The texels: node positions (source index), or the twist kernel's weights (4 stages).
+  // The texels: node positions (source index), or the twist kernel's weights (4 stages; only
+  // the first uploaded for one joint: the shader reads channel s < TWIST_STAGES).
   const std::vector<float>& texels = pm.texels();
   const int perTexel = pm.texelFloats();
-  // RGBA texels written once (no zeroing pass over the 16 bytes a node), in parallel.
+  out->channels = pm.twist && pm.twist->stages.size() == 1 ? 1 : 4;
+  // Texels written once (no zeroing pass), in parallel.
   const size_t texelCount = texels.size() / size_t(perTexel);
-  out->rgbaFloats = texelCount * 4;
+  out->rgbaFloats = texelCount * size_t(out->channels);
   if (reuse && reuse->rgba && reuse->rgbaFloats == out->rgbaFloats) out->rgba = std::move(reuse->rgba);
   else out->rgba = std::make_unique_for_overwrite<float[]>(out->rgbaFloats);
   float* rgba = out->rgba.get();
   tbb::parallel_for(tbb::blocked_range<size_t>(0, texelCount, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
+    if (out->channels == 1) {
+      for (size_t t = r.begin(); t < r.end(); ++t) rgba[t] = texels[size_t(perTexel) * t];
+      return;
+    }
     if (perTexel == 4) {
       std::copy_n(texels.data() + 4 * r.begin(), 4 * (r.end() - r.begin()), rgba + 4 * r.begin());
       return;
@@ -1039,7 +1050,7 @@ void VolumeRenderer::Impl::startMapStep(std::shared_ptr<const PreparedBackwardMa
     st.classZ = mapStep->classZ;
   }
   dropMapStep();
-  st.mapTex = mapTexture(spareMap, p->texDims);
+  st.mapTex = mapTexture(spareMap, p->texDims, p->channels == 1 ? GL_R32F : GL_RGBA32F);
   if (!m.attributes.empty()) st.attrTex = mapTexture(spareAttr, m.grid.dims);
   if (st.newClasses && !st.classTex) {
     const Dims& d = rs->classGrid.dims;
@@ -1080,16 +1091,19 @@ bool VolumeRenderer::Impl::continueMapStep(size_t maxBytes) {
     }
     return true;
   };
-  if (!slabs(st.mapTex, p.texDims, st.mapZ, 16, GL_RGBA, GL_FLOAT, p.rgba.get())) return false;
+  if (!slabs(st.mapTex, p.texDims, st.mapZ, 4 * size_t(p.channels), p.channels == 1 ? GL_RED : GL_RGBA, GL_FLOAT,
+             p.rgba.get()))
+    return false;
   if (st.attrTex && !slabs(st.attrTex, m.grid.dims, st.attrZ, 16, GL_RGBA, GL_FLOAT, m.attributes.data())) return false;
   if (st.newClasses && !slabs(st.classTex, m.rigidSnap->classGrid.dims, st.classZ, 2, GL_RED_INTEGER,
                               GL_UNSIGNED_SHORT, m.rigidSnap->classes->data()))
     return false;
   checkGlError("backward map upload");
   // Complete: the pending textures replace the drawn ones (kept as spares for the next map).
-  retire(spareMap, mapTex, mapTexDims);
+  retire(spareMap, mapTex, mapTexDims, mapTexFormat);
   std::swap(mapTex, st.mapTex);
   mapTexDims = p.texDims;
+  mapTexFormat = p.channels == 1 ? GL_R32F : GL_RGBA32F;
   retire(spareAttr, attrTex, attrTexDims);
   std::swap(attrTex, st.attrTex);
   attrTexDims = m.grid.dims;
