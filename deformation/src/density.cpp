@@ -103,7 +103,7 @@ DensityVolume::DensityVolume(const AnyVolume& source, const DensityParams& param
   if (params.rays == RayMode::Conic) {
     // Step schedule along any ray, up to the volume's diagonal (+ margin for points outside).
     const Geometry& gg = levels_[0].geometry();
-    const double minSp = std::min({gg.spacing.x, gg.spacing.y, gg.spacing.z});
+    const double minSp = gg.minSpacing();
     const double maxLen = 4.0 * norm(gg.extent()) + 4 * minSp;
     const int maxLevel = levelCount() - 1;
     for (double s = 0; s < maxLen;) {
@@ -123,7 +123,7 @@ double DensityVolume::rho(const Vec3& aIdx, const Vec3& bIdx) const {
   const Vec3 d = bIdx - aIdx;
   const double lenMm = norm(indexToMm_ * d);
   const Geometry& g = levels_[0].geometry();
-  const double minSp = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double minSp = g.minSpacing();
   constexpr double kRhoFloorMm = 1e-3;
   if (!(lenMm > 1e-9)) {
     if (params_.lengthNormalisedRho)  // the limit of integral / (phi * length) at a point

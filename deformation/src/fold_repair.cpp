@@ -292,7 +292,7 @@ FoldRepairStats repairFolds(ControlVolume& cv, const std::vector<uint8_t>& locke
     }
     return w;
   };
-  const double maxStep = 0.2 * std::min({cv.grid.spacing.x, cv.grid.spacing.y, cv.grid.spacing.z});
+  const double maxStep = 0.2 * cv.grid.minSpacing();
   // Passes without fewer folding cells after which the repair gives up.
   constexpr int kStallRounds = 50;
   size_t fewest = scan.bad.size();

@@ -10,6 +10,7 @@
 #include "vellum/core/components.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
+#include "vellum/core/rotation.hpp"
 
 namespace vellum::deformation {
 
@@ -148,7 +149,7 @@ ControlPoints labelControlPoints(const LabelVolume& labels, double inset) {
     // Walk from the centroid along the main axis to the last voxel of the component: surface
     // points.
     const Vec3 ax{axis.x(), axis.y(), axis.z()};
-    const double stepMm = std::min({g.spacing.x, g.spacing.y, g.spacing.z}) * 0.5;
+    const double stepMm = g.minSpacing() * 0.5;
     const double reach = 2.5 * std::sqrt(std::max(es.eigenvalues()(2), 0.0)) + 4 * stepMm;
     for (double sgn : {-1.0, 1.0}) {
       Vec3 last = c;
@@ -182,9 +183,7 @@ KeyframeTrack kneeBendTrack(const Geometry& g, double angleDeg, double seconds,
       const Vec3 r = p.source - pivot;
       if (dot(r, up) >= 0) continue;  // the thigh stays; the calf swings about the joint
       const double a = deg * 3.14159265358979323846 / 180.0;
-      // Rodrigues rotation of r about `axis` by a (+a moves the foot posteriorly, +y).
-      const Vec3 rot = r * std::cos(a) + cross(axis, r) * std::sin(a) + axis * (dot(axis, r) * (1 - std::cos(a)));
-      p.target = pivot + rot;
+      p.target = pivot + rotateAbout(r, axis, a);  // +a moves the foot posteriorly, +y
     }
     return pts;
   };

@@ -22,6 +22,7 @@
 #include "vellum/deformation/point_files.hpp"
 #include "vellum/core/json_input.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/rotation.hpp"
 #include "vellum/deformation/placement.hpp"
 #include "vellum/io/nrrd_writer.hpp"
 
@@ -202,12 +203,7 @@ int Pose::jointMoving(uint16_t id) const {
 }
 
 RigidTransform rotationAbout(const Vec3& a, const Vec3& b, double angleDeg) {
-  const Vec3 n = normalized(b - a);
-  const double c = std::cos(angleDeg * kDeg), s = std::sin(angleDeg * kDeg), t = 1 - c;
-  Mat3 r;
-  r(0, 0) = t * n.x * n.x + c;       r(0, 1) = t * n.x * n.y - s * n.z; r(0, 2) = t * n.x * n.z + s * n.y;
-  r(1, 0) = t * n.x * n.y + s * n.z; r(1, 1) = t * n.y * n.y + c;       r(1, 2) = t * n.y * n.z - s * n.x;
-  r(2, 0) = t * n.x * n.z - s * n.y; r(2, 1) = t * n.y * n.z + s * n.x; r(2, 2) = t * n.z * n.z + c;
+  const Mat3 r = rotationMatrix(normalized(b - a), angleDeg * kDeg);
   RigidTransform out;
   out.rotation = r;
   out.translation = a - r * a;  // the axis stays where it is
@@ -468,7 +464,7 @@ ContactZone contactZone(const LabelVolume& labels, const std::vector<uint16_t>& 
   });
   const VolumeF32 dist2[2] = {squaredDistanceMm(mask[0]), squaredDistanceMm(mask[1])};
   const double reach2 = contactMm * contactMm;
-  const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double minSpacing = g.minSpacing();
   const double facing = std::cos(60 * kDeg);
   std::mutex m;
   parallelFor(bd.z, [&](int64_t k0, int64_t k1) {

@@ -386,7 +386,7 @@ double fixedBandClearance(const Geometry& grid, const RigidBodies& bodies, const
                           double falloff) {
   const auto& fixedField = dist.perBody[static_cast<size_t>(fixedBody)];
   if (fixedField.dims.x == 0 || falloff <= 0) return falloff;
-  const double minSpacing = std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+  const double minSpacing = grid.minSpacing();
   const Geometry& cg = bodies.classes().geometry();
   double clearance = std::numeric_limits<double>::infinity();
   for (int c = 0; c < bodies.componentCount(); ++c) {
@@ -474,7 +474,7 @@ std::shared_ptr<const RigidBodies::GridFields> RigidBodies::gridFields(const Geo
   // A box holds the body and every node within reach + 2 cell diagonals of it: a trilinear
   // stencil with a node outside then lies wholly beyond the reach (distances are 1-Lipschitz).
   const double diag = norm(grid.spacing);
-  const double minSpacing = std::min({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+  const double minSpacing = grid.minSpacing();
   const double growMm = reachMm + 2 * diag;
   const int64_t grow = std::isfinite(growMm) && growMm / minSpacing < 1e9
                            ? static_cast<int64_t>(std::ceil(growMm / minSpacing)) + 1

@@ -54,9 +54,9 @@ TwistFrames::TwistFrames(Pose pose, std::shared_ptr<const RigidBodies> nodeBodie
   // folded voxels -> 0); a longer chain interpolates the turned positions, whose cells are
   // checked instead (feet frames at 20 deg: 0.0015 -> 0.0001 % of the tissue folded).
   if (scale_ > 1) {
-    kernel_ = pose_.joints.size() <= size_t(TwistKernel::kMaxStages);
-    params_.kernelCheck = params_.kernel = kernel_;
-    params_.cellCheck = !kernel_;
+    const bool kernel = pose_.joints.size() <= size_t(TwistKernel::kMaxStages);
+    params_.kernelCheck = params_.kernel = kernel;
+    params_.cellCheck = !kernel;
   }
 }
 
@@ -102,7 +102,7 @@ std::shared_ptr<const ControlVolume> TwistFrames::sharedAt(const std::vector<dou
       backward.push_back(t.value_or(RigidTransform{}));  // fixed and unnamed bodies stay
     const bool softRims =
         std::any_of(joints.begin(), joints.end(), [](const TwistJointStats& j) { return j.softenedVoxels > 0; });
-    const double voxelMm = std::min({fine.spacing.x, fine.spacing.y, fine.spacing.z});
+    const double voxelMm = fine.minSpacing();
     cv.rigidSnap = rigidSnapOf(bodies, backward, softRims ? params_.snapMaxVoxels * voxelMm : norm(grid_.spacing));
   }
   std::lock_guard lock(mutex_);

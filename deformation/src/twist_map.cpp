@@ -16,6 +16,7 @@
 #include "vellum/core/error.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/rotation.hpp"
 
 namespace vellum::deformation {
 namespace {
@@ -40,12 +41,6 @@ inline float openUnit(double v) {
 /// std::llround inline (half away from zero; |x| < 2^52): a libm call per voxel otherwise.
 inline int64_t roundIndex(double x) { return static_cast<int64_t>(x + std::copysign(0.5, x)); }
 
-/// Rotation by `rad` about unit `a` (Rodrigues), applied to `p` (relative to a point on the axis).
-inline Vec3 turn(const Vec3& p, const Vec3& a, double rad) {
-  const double c = std::cos(rad), s = std::sin(rad);
-  return p * c + cross(a, p) * s + a * (dot(a, p) * (1 - c));
-}
-
 /// The output grid's indexing, shared by the stages.
 struct Grid {
   Geometry g;
@@ -64,7 +59,7 @@ struct Grid {
                                                            {0, 0, output.spacing.z});
     if (!toMm.inverse(mmToIdx)) throw Error("twist map: singular geometry");
     detIdx = toMm.determinant();
-    minSpacing = std::min({output.spacing.x, output.spacing.y, output.spacing.z});
+    minSpacing = output.minSpacing();
   }
   int64_t index(int64_t i, int64_t j, int64_t k) const { return (k * d.y + j) * d.x + i; }
   Vec3 mm(int64_t t) const { return g.indexToPhysical({double(t % d.x), double((t / d.x) % d.y), double(t / sz)}); }
@@ -302,7 +297,7 @@ struct Slope {
       }
     if (!gridCheck || steep <= kSteepStep) return linear;
     // The stage map's central-difference det at t (index units, as the fold count's).
-    auto mapAt = [&](int64_t n) { return turn(grid.mm(n) - st.c, st.a, -st.theta * double(w[n])); };
+    auto mapAt = [&](int64_t n) { return rotateAbout(grid.mm(n) - st.c, st.a, -st.theta * double(w[n])); };
     Vec3 below[3], above[3], col[3];
     for (int q = 0; q < 3; ++q) {
       if (lo[q] == hi[q]) return linear;
@@ -498,8 +493,8 @@ class Relaxation {
         const double delta = std::min(grid_.minSpacing / radius, 0.5) * (st_.theta > 0 ? 1 : -1);
         // Clamped onto the grid: beyond its faces w is unknown, not 0 (a still region there
         // would hold the tissue next to a face still).
-        const double ahead = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.c + turn(p, st_.a, delta))));
-        const double behind = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.c + turn(p, st_.a, -delta))));
+        const double ahead = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.c + rotateAbout(p, st_.a, delta))));
+        const double behind = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.c + rotateAbout(p, st_.a, -delta))));
         const double lo = ahead - lim * std::abs(delta), hi = behind + lim * std::abs(delta);
         o = openUnit(lo <= hi ? std::clamp(double(o), lo, hi) : 0.5 * (lo + hi));
       }
@@ -571,7 +566,7 @@ std::vector<int64_t> joinLocks(const Grid& grid, const Stage& st, const RigidBod
   std::mutex mutex;
   auto tryJoin = [&](int64_t t, const Vec3& v, std::vector<std::pair<int64_t, uint8_t>>& local) {
     const double wt = w.data()[t];
-    const int64_t src = grid.nearest(grid.toIndex(st.c + turn(v - st.c, st.a, -st.theta * wt)));
+    const int64_t src = grid.nearest(grid.toIndex(st.c + rotateAbout(v - st.c, st.a, -st.theta * wt)));
     if (src < 0 || cls[src] < 2) return;
     const bool moving = grouping.groups[static_cast<size_t>(grouping.bodyGroup[cls[src] - 2u])].moving;
     const Vec3 p = v - st.c;
@@ -799,7 +794,7 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
         wk = (nearest == 0.0 || nearest == 1.0) ? nearest : weights[s].sampleLinear(idx);
       }
       if (wk == 0.0) continue;
-      x = wk == 1.0 ? st.c + st.backFull * (x - st.c) : st.c + turn(x - st.c, st.a, -st.theta * wk);
+      x = wk == 1.0 ? st.c + st.backFull * (x - st.c) : st.c + rotateAbout(x - st.c, st.a, -st.theta * wk);
     }
     // The snap (as the MLS map's, RigidSnap): a blended voxel whose source lands in a body
     // takes that body's transform, so no output voxel shows bone moved non-rigidly (a voxel

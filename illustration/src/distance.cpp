@@ -77,7 +77,7 @@ void extendFarField(VolumeF32& u, float far, std::vector<float>& sq) {
   const float inf = std::numeric_limits<float>::infinity();
   // Seeds: voxels well inside the exact band (OpenVDB's values in the band's outermost voxel
   // layer can be off by a voxel after its renormalisation).
-  const float h = static_cast<float>(std::min({g.spacing.x, g.spacing.y, g.spacing.z}));
+  const float h = static_cast<float>(g.minSpacing());
   const float seed = far - h;
   if (sq.size() != u.size()) resizeHugePaged(sq, u.size());
   parallelFor(static_cast<int64_t>(sq.size()), [&](int64_t b, int64_t e) {

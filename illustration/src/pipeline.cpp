@@ -53,7 +53,7 @@ std::vector<SegmentShape> buildShapes(const LabelVolume& labels,
                                       Progress& progress) {
   const size_t n = segments.size();
   const Geometry& g = labels.geometry();
-  const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double minSpacing = g.minSpacing();
   std::vector<detail::MaskBox> masks(n);
   std::vector<detail::LevelSetPtr> sets(n);
   std::vector<SegmentShape> shapes(n);

@@ -502,7 +502,7 @@ TEST(StudioAuthoringModel, PickingThroughTheDeformationFindsTheDrawnSurface) {
   const MapSampler map(computeControlVolume(AnyVolume(scene.ct), points, DeformParams{}), g);
   const auto p1 = pickSurface(scene, 200, 200, 100, 100, &map);
   ASSERT_TRUE(p1);
-  const double voxel = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double voxel = g.minSpacing();
   EXPECT_LT(norm(*p1 - (*p0 + t)), voxel) << "picked " << norm(*p1 - *p0) << " mm from the undeformed surface";
   // The picked point's source is the undeformed surface point (where seeds go).
   EXPECT_LT(norm(*map.sourceMm(*p1) - *p0), voxel);

@@ -132,7 +132,7 @@ std::string snakeFoundNothingReason(const VolumeI16& ct, const app::SegmentSetti
   std::ostringstream r;
   r.precision(4);
   const Geometry& g = ct.geometry();
-  const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double minSpacing = g.minSpacing();
   const Vec3 seed = a.seedsMm.empty() ? g.center() : a.seedsMm.front();
   const double hu = ct.sampleLinear(g.physicalToIndex(seed));
   if (a.bubbleRadiusMm < 0.5 * minSpacing) {

@@ -7,6 +7,7 @@
 #include "vellum/core/index_frame.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/rotation.hpp"
 
 namespace vellum {
 namespace {
@@ -16,14 +17,6 @@ void put(std::array<float, 12>& e, const Mat3& m, const Vec3& b) {
     for (int c = 0; c < 3; ++c) e[static_cast<size_t>(3 * r + c)] = static_cast<float>(m(r, c));
     e[static_cast<size_t>(9 + r)] = static_cast<float>(b[r]);
   }
-}
-
-/// Rotation by `rad` about unit `a` (Rodrigues) as a matrix.
-Mat3 rotationMatrix(const Vec3& a, double rad) {
-  const double c = std::cos(rad), s = std::sin(rad), k = 1 - c;
-  return Mat3::fromColumns({c + k * a.x * a.x, k * a.x * a.y + s * a.z, k * a.x * a.z - s * a.y},
-                           {k * a.x * a.y - s * a.z, c + k * a.y * a.y, k * a.y * a.z + s * a.x},
-                           {k * a.x * a.z + s * a.y, k * a.y * a.z - s * a.x, c + k * a.z * a.z});
 }
 
 }  // namespace
@@ -51,9 +44,7 @@ double TwistKernel::weightAt(size_t s, const Vec3& q, const Dims& nodes) const {
 Vec3 TwistKernel::turn(size_t s, const Vec3& x, double w) const {
   if (w == 0) return x;
   const Stage& st = stages[s];
-  const double angle = -st.angleRad * w, cs = std::cos(angle), sn = std::sin(angle);
-  const Vec3 p = x - st.pointMm;
-  return st.pointMm + p * cs + cross(st.axis, p) * sn + st.axis * (dot(st.axis, p) * (1 - cs));
+  return st.pointMm + rotateAbout(x - st.pointMm, st.axis, -st.angleRad * w);
 }
 
 Vec3 TwistKernel::sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const {

@@ -1,5 +1,6 @@
 #include "vellum/core/geometry.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -27,6 +28,8 @@ Vec3 Geometry::extent() const {
   return {std::max<int64_t>(dims.x - 1, 0) * spacing.x, std::max<int64_t>(dims.y - 1, 0) * spacing.y,
           std::max<int64_t>(dims.z - 1, 0) * spacing.z};
 }
+
+double Geometry::minSpacing() const { return std::min({spacing.x, spacing.y, spacing.z}); }
 
 void Geometry::validate(const std::string& what) const {
   auto fail = [&](const std::string& msg) { throw Error(what + ": " + msg); };

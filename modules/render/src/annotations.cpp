@@ -248,7 +248,7 @@ std::vector<std::optional<Vec3>> deformedPositions(const BackwardMap& map, const
                                                    const std::vector<Vec3>& sourceMm) {
   const detail::PreparedMap pm = detail::prepareMap(map, source);
   const Geometry& grid = map.grid;
-  const double tolerance = 0.01 * std::min({source.spacing.x, source.spacing.y, source.spacing.z});
+  const double tolerance = 0.01 * source.minSpacing();
   const double h = detail::PreparedMap::kNormalStepNodes;
   Mat3 mmToNode;  // output mm offsets -> node index offsets
   const Mat3 nodeToMm = grid.direction * Mat3::fromColumns({grid.spacing.x, 0, 0}, {0, grid.spacing.y, 0},

@@ -153,7 +153,7 @@ PreparedMap prepareMap(const BackwardMap& map, const Geometry& source) {
   }
   if (map.rigidSnap) {
     pm.snap = prepareSnap(*map.rigidSnap, map.grid, source);
-    pm.snapMarginVoxels = map.rigidSnap->maxSnapMm / std::min({source.spacing.x, source.spacing.y, source.spacing.z});
+    pm.snapMarginVoxels = map.rigidSnap->maxSnapMm / source.minSpacing();
   }
   if (map.twist && !map.twist->stages.empty()) {  // no stage: the nodes' positions are the map
     pm.twist = map.twist;
@@ -161,7 +161,7 @@ PreparedMap prepareMap(const BackwardMap& map, const Geometry& source) {
     pm.mmToNode = map.grid.physicalToIndexMap();
     pm.mmToSource = source.physicalToIndexMap();
     pm.twistMarginVoxels =
-        map.twist->chordBoundMm(map.grid) / std::min({source.spacing.x, source.spacing.y, source.spacing.z});
+        map.twist->chordBoundMm(map.grid) / source.minSpacing();
   }
   Mat3 gInv;
   if (!indexToMm(map.grid).inverse(gInv)) throw Error("backward map: singular node grid geometry");

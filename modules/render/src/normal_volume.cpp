@@ -17,7 +17,7 @@ GradientNormals gradientNormals(const AnyVolume& volume) {
                                                  {0, 0, 0.5 / g.spacing.z});
         const auto [vmin, vmax] = vol.valueRange();
         const double span = std::max({vmax, vol.background()}) - std::min({vmin, vol.background()});
-        const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+        const double minSpacing = g.minSpacing();
         return GradientNormals{dirInv.transposed() * halfPerMm,
                                minSpacing / (std::max(span, 1e-6) * kGradScaleFraction)};
       },

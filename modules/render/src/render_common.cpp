@@ -17,12 +17,6 @@ void checkImageSize(int width, int height) {
                 " is out of range: width and height must be 1.." + std::to_string(kMaxImageSize));
 }
 
-namespace {
-
-double minSpacing(const Geometry& g) { return std::min({g.spacing.x, g.spacing.y, g.spacing.z}); }
-
-}  // namespace
-
 Frame makeFrame(const Geometry& source, const Geometry* mapGrid, const RenderSettings& s) {
   checkImageSize(s.width, s.height);
   validate(s);  // the table's ranges: zoom, field of view, step, angles
@@ -76,7 +70,7 @@ Frame makeFrame(const Geometry& source, const Geometry* mapGrid, const RenderSet
     f.halfH = radius / cam.zoom * sy;
   }
 
-  f.stepMm = s.stepVoxels * minSpacing(source);
+  f.stepMm = s.stepVoxels * source.minSpacing();
   const double maxLength = 2 * radius + 2 * norm(cam.panMm) + 4 * radius;
   if (maxLength / f.stepMm > static_cast<double>(kMaxStepsPerRay))
     throw Error("ray step of " + std::to_string(s.stepVoxels) +

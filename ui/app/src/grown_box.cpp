@@ -136,7 +136,7 @@ GrownBox grownBox(const AnyVolume& volume, double padMm, const std::vector<Contr
   const int64_t step = std::max<int64_t>(1, std::llround(std::cbrt(double(g.dims.voxelCount()) / 2e5)));
   if (automatic || withContent) out.content = movedContent(contentSamples(volume, step), poses, g, lo, hi);
   if (automatic) {
-    const double minSpacing = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+    const double minSpacing = g.minSpacing();
     const double margin = 0.5 * double(step) + norm(g.spacing) * controlScale / minSpacing;  // voxels
     for (size_t a = 0; a < 3; ++a) {
       // Half a voxel past the face is still inside the last voxel.

@@ -66,7 +66,6 @@ class TwistFrames {
   std::shared_ptr<const RigidBodies> nodeBodies_;
   Geometry output_, grid_;
   int scale_ = 1;
-  bool kernel_ = false;  ///< the frames carry the twist kernel (scale > 1, at most its 4 stages)
   TwistParams params_;
   struct Last {
     std::vector<double> anglesDeg;

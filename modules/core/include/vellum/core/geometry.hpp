@@ -40,6 +40,8 @@ struct Geometry {
   Vec3 center() const;
   /// Physical extent of the voxel-centre box along each index axis (mm).
   Vec3 extent() const;
+  /// The smallest voxel spacing (mm): the finest step along any index axis.
+  double minSpacing() const;
   bool contains(int64_t i, int64_t j, int64_t k) const {
     return i >= 0 && j >= 0 && k >= 0 && i < dims.x && j < dims.y && k < dims.z;
   }
