@@ -219,7 +219,7 @@ RigidityReport measure(const MapView& m, const RigidBodies& bodies) {
   // 2^25 samples (64 MB), beyond (a keyframe's voxels) looked up twice rather than held.
   std::vector<uint16_t> sampleClass;
   if (r.nodes <= (int64_t{1} << 25)) {
-    sampleClass.resize(static_cast<size_t>(r.nodes));
+    resizeHugePaged(sampleClass, static_cast<size_t>(r.nodes));
     parallelFor(m.count(d.z), [&](int64_t k0, int64_t k1) {
       for (int64_t k = k0 * s; k < std::min(k1 * s, d.z); k += s)
         for (int64_t j = 0; j < d.y; j += s)

@@ -18,6 +18,7 @@
 #include "vellum/core/simd_clones.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
+#include "vellum/core/rotation.hpp"
 
 namespace vellum::deformation {
 namespace {
@@ -295,6 +296,9 @@ void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling
   const Vec3 stepX = output.indexToPhysical({1, 0, 0}) - output.indexToPhysical({0, 0, 0});
   const float* w0 = twist.weights.data();  // stage 0 in channel 0
   constexpr int kStride = TwistKernel::kMaxStages;
+  // A whole turn of the first stage (w = 1: a limb's bulk) as one matrix, not a sine per voxel.
+  const TwistKernel::Stage& first = twist.stages.front();
+  const Mat3 firstFull = rotationMatrix(first.axis, -first.angleRad);
   progress.begin(stage, static_cast<uint64_t>(od.z));
   parallelFor(od.z, [&](int64_t k0, int64_t k1) {
     std::vector<float> ux(static_cast<size_t>(od.x)), uy(ux.size()), uz(ux.size());
@@ -317,7 +321,9 @@ void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling
         for (int64_t i = 0; i < od.x; ++i) {
           const int64_t n0 = std::min(i / s, nd.x - 1), n1 = std::min(n0 + 1, nd.x - 1);
           const double f = double(i - n0 * s) / s;
-          Vec3 u = twist.turn(0, rowStart + stepX * double(i), line[size_t(n0)] + f * (line[size_t(n1)] - line[size_t(n0)]));
+          const Vec3 v = rowStart + stepX * double(i);
+          const double w = line[size_t(n0)] + f * (line[size_t(n1)] - line[size_t(n0)]);
+          Vec3 u = w == 1.0 ? first.pointMm + firstFull * (v - first.pointMm) : twist.turn(0, v, w);
           for (size_t st = 1; st < twist.stages.size(); ++st) u = twist.turn(st, u, twist.weightAt(st, toNode(u), nd));
           float p[3] = {float(u.x), float(u.y), float(u.z)};
           if (toFrame) applyAffine(*toFrame, p, 1);
@@ -440,7 +446,8 @@ std::vector<float> upsampleMap(const ControlVolume& cv, const Geometry& output, 
   checkGrid(output, cv);
   checkMemoryBudget(output.dims, 3 * sizeof(float), "full-resolution backward map");
   const Dims od = output.dims;
-  std::vector<float> out(static_cast<size_t>(od.voxelCount()) * 3);
+  std::vector<float> out;
+  resizeHugePaged(out, static_cast<size_t>(od.voxelCount()) * 3);
   const auto snap = prepareSnap(cv, output, Mat3::identity(), Vec3{0, 0, 0});
   upsampleControl(cv, output, upsampling, nullptr, snap ? &*snap : nullptr, progress, "backward map",
               [&](int64_t k, int64_t j, const float* ux, const float* uy, const float* uz) {

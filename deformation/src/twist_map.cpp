@@ -157,7 +157,8 @@ std::vector<uint8_t> classifySides(const Grid& grid, const RigidBodies& bodies, 
   const Dims d = grid.d;
   const uint16_t* cls = bodies.classes().data();
   const auto& list = bodies.bodies();
-  std::vector<uint8_t> side(static_cast<size_t>(grid.n), kFree);
+  std::vector<uint8_t> side;
+  resizeHugePaged(side, static_cast<size_t>(grid.n), uint8_t{kFree});
   std::atomic<int64_t> nStill{0}, nMoving{0}, nOverlap{0};
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
     int64_t ls = 0, lm = 0, lo = 0;
@@ -384,7 +385,7 @@ class Relaxation {
   /// `changed` (when set) gets every voxel whose w the steps may have changed (repeats allowed).
   void run(std::vector<int64_t>& bad, int rounds, int patience, bool smoothFirst,
            std::vector<int64_t>* changed = nullptr) {
-    if (touched_.empty() && !bad.empty()) touched_.assign(static_cast<size_t>(grid_.n), 0);
+    if (touched_.empty() && !bad.empty()) resizeHugePaged(touched_, static_cast<size_t>(grid_.n), uint8_t{0});
     double least = std::numeric_limits<double>::infinity();
     int stalled = 0;
     for (int round = 0; round < rounds && !bad.empty(); ++round) {
@@ -439,7 +440,7 @@ class Relaxation {
  private:
   /// `seeds` grown by `radius` voxels (6-neighbour steps).
   std::vector<int64_t> grow(const std::vector<int64_t>& seeds, int radius) {
-    if (mark_.empty()) mark_.assign(static_cast<size_t>(grid_.n), 0);
+    if (mark_.empty()) resizeHugePaged(mark_, static_cast<size_t>(grid_.n), uint8_t{0});
     std::vector<int64_t> region, frontier;
     for (int64_t t : seeds)
       if (!mark_[static_cast<size_t>(t)]) { mark_[static_cast<size_t>(t)] = 1; frontier.push_back(t); }
@@ -610,7 +611,7 @@ std::vector<int64_t> joinLocks(const Grid& grid, const Stage& st, const RigidBod
 /// Returns how many were unlocked.
 int64_t soften(const Grid& grid, const std::vector<int64_t>& bad, std::vector<uint8_t>& side,
                std::vector<uint8_t>& soft) {
-  if (soft.empty()) soft.assign(static_cast<size_t>(grid.n), 0);
+  if (soft.empty()) resizeHugePaged(soft, static_cast<size_t>(grid.n), uint8_t{0});
   int64_t count = 0;
   auto unlock = [&](int64_t q) {
     uint8_t& s = side[static_cast<size_t>(q)];
@@ -753,7 +754,7 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   if (params.kernel && !stages.empty() && stages.size() <= size_t(TwistKernel::kMaxStages)) {
     kernel = std::make_shared<TwistKernel>();
     for (const Stage& st : stages) kernel->stages.push_back({st.c, st.a, st.theta});
-    kernel->weights.assign(static_cast<size_t>(n) * TwistKernel::kMaxStages, 0.f);
+    resizeHugePaged(kernel->weights, static_cast<size_t>(n) * TwistKernel::kMaxStages, 0.f);
     for (size_t s = 0; s < weights.size(); ++s) {
       const float* w = weights[s].data();
       float* out = kernel->weights.data() + s;
@@ -769,13 +770,18 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   const uint16_t* cls = classes.data();
   const double snapReach = params.snapMaxVoxels * grid.minSpacing;
   std::atomic<int64_t> unsnapped{0};
-  result.mapMm.resize(static_cast<size_t>(n) * 3);
+  resizeHugePaged(result.mapMm, static_cast<size_t>(n) * 3);
   float* out = result.mapMm.data();
   // Output voxel t at v (mm): its source through the stages and the snap; 1 when the snap left
   // it off a body it lands in.
   auto composeVoxel = [&](int64_t t, const Vec3& v) -> int64_t {
     if (kernel) {
-      const Vec3 x = kernel->sourceMm(v, grid.toIndex, d);
+      // TwistKernel::sourceMm(); one stage reads w at the node itself, where a limb's bulk
+      // turns wholly (w = 1) or not at all (w = 0): no sine there.
+      const float w0 = kernel->weights[static_cast<size_t>(t) * TwistKernel::kMaxStages];
+      const Vec3 x = stages.size() == 1 && (w0 == 0.f || w0 == 1.f)
+                         ? (w0 == 0.f ? v : stages[0].c + stages[0].backFull * (v - stages[0].c))
+                         : kernel->sourceMm(v, grid.toIndex, d);
       out[3 * t] = static_cast<float>(x.x);
       out[3 * t + 1] = static_cast<float>(x.y);
       out[3 * t + 2] = static_cast<float>(x.z);

@@ -131,7 +131,7 @@ class RunLabeller {
       }
     }
     if (!perVoxel) return c;
-    c.labels.resize(static_cast<size_t>(d_.voxelCount()));
+    resizeHugePaged(c.labels, static_cast<size_t>(d_.voxelCount()));
     tbb::parallel_for(tbb::blocked_range<int64_t>(0, rows_, 64), [&](const tbb::blocked_range<int64_t>& r) {
       for (int64_t row = r.begin(); row < r.end(); ++row) {
         uint32_t* out = c.labels.data() + row * d_.x;

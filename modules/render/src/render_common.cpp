@@ -7,6 +7,7 @@
 
 #include "vellum/core/box_corners.hpp"
 #include "vellum/core/error.hpp"
+#include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
 
 namespace vellum::render::detail {
@@ -202,7 +203,8 @@ namespace vellum::render::detail {
 
 std::vector<float> mapToSourceIndex(const BackwardMap& map, const Geometry& source) {
   validateMap(map);
-  std::vector<float> out(map.sourceMm.size());
+  std::vector<float> out;
+  resizeHugePaged(out, map.sourceMm.size());
   const Geometry::ToIndex toIndex = source.physicalToIndexMap();  // the inverse direction once
   parallelFor(int64_t(out.size() / 3), [&](int64_t n0, int64_t n1) {  // a movie frame's 11.5 M nodes
     for (size_t i = 3 * size_t(n0); i < 3 * size_t(n1); i += 3) {
