@@ -82,7 +82,10 @@ TEST(WysiwygGl, GlMatchesTheCpuReferenceWithTheTwistKernel) {
     render::RenderSettings s = sideView();
     s.preset = preset;
     const std::string what = std::string("GL vs CPU reference, twist kernel + snap, ") + render::presetName(preset);
-    EXPECT_GE(report(renderer.render(s), render::renderReferenceCpu(ct, s, &map), what), 40.0) << what;
+    // Shaded, 55 dB (llvmpipe 90, the H200 66): the weights' gradient turns the normals, and
+    // a shader without it (R alone) scored 47 dB.
+    EXPECT_GE(report(renderer.render(s), render::renderReferenceCpu(ct, s, &map), what),
+              preset == render::Preset::Mip ? 40.0 : 55.0) << what;
   }
 }
 
