@@ -297,7 +297,7 @@ void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling
   const float* w0 = twist.weights.data();  // stage 0 in channel 0
   constexpr int kStride = TwistKernel::kMaxStages;
   // A whole turn of the first stage (w = 1: a limb's bulk) as one matrix, not a sine per voxel.
-  const TwistKernel::Stage& first = twist.stages.front();
+  const TwistKernel::Stage first = twist.stages.empty() ? TwistKernel::Stage{} : twist.stages.front();
   const Mat3 firstFull = rotationMatrix(first.axis, -first.angleRad);
   progress.begin(stage, static_cast<uint64_t>(od.z));
   parallelFor(od.z, [&](int64_t k0, int64_t k1) {
