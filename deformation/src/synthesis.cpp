@@ -281,7 +281,7 @@ void upsampleAny(const std::vector<float>& map3, const Dims& nd, const Dims& od,
 template <class RowFn>
 void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling up, const PlaneAffine* toFrame,
                      const SnapFrame* snap, Progress& progress, const char* stage, RowFn&& rowFn) {
-  if (!cv.twist) {
+  if (!cv.twist || cv.twist->stages().empty()) {  // no stage: the nodes' positions are the map
     upsampleAny(cv.sourceMm, cv.grid.dims, output.dims, cv.scale, up, toFrame, snap, progress, stage, rowFn);
     return;
   }
@@ -294,11 +294,8 @@ void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling
   // later stages read w where the earlier ones left the point (TwistKernel::sourceMm()).
   const AxisTaps<2> ty = linearTaps(od.y, nd.y, s), tz = linearTaps(od.z, nd.z, s);
   const Vec3 stepX = output.indexToPhysical({1, 0, 0}) - output.indexToPhysical({0, 0, 0});
-  const float* w0 = twist.weights.data();  // stage 0 in channel 0
-  constexpr int kStride = TwistKernel::kMaxStages;
-  // A whole turn of the first stage (w = 1: a limb's bulk) as one matrix, not a sine per voxel.
-  const TwistKernel::Stage first = twist.stages.empty() ? TwistKernel::Stage{} : twist.stages.front();
-  const Mat3 firstFull = rotationMatrix(first.axis, -first.angleRad);
+  const float* w0 = twist.weights.data();  // stage 0 at offset 0
+  const int64_t stride = static_cast<int64_t>(twist.stride());
   progress.begin(stage, static_cast<uint64_t>(od.z));
   parallelFor(od.z, [&](int64_t k0, int64_t k1) {
     std::vector<float> ux(static_cast<size_t>(od.x)), uy(ux.size()), uz(ux.size());
@@ -314,7 +311,7 @@ void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling
           double acc = 0;
           for (int c = 0; c < 2; ++c)
             for (int b = 0; b < 2; ++b)
-              acc += double(zw[c]) * double(yw[b]) * double(w0[((int64_t(zi[c]) * nd.y + yi[b]) * nd.x + n) * kStride]);
+              acc += double(zw[c]) * double(yw[b]) * double(w0[((int64_t(zi[c]) * nd.y + yi[b]) * nd.x + n) * stride]);
           line[static_cast<size_t>(n)] = acc;
         }
         const Vec3 rowStart = output.indexToPhysical({0, double(j), double(k)});
@@ -323,8 +320,8 @@ void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling
           const double f = double(i - n0 * s) / s;
           const Vec3 v = rowStart + stepX * double(i);
           const double w = line[size_t(n0)] + f * (line[size_t(n1)] - line[size_t(n0)]);
-          Vec3 u = w == 1.0 ? first.pointMm + firstFull * (v - first.pointMm) : twist.turn(0, v, w);
-          for (size_t st = 1; st < twist.stages.size(); ++st) u = twist.turn(st, u, twist.weightAt(st, toNode(u), nd));
+          Vec3 u = twist.turn(0, v, w);
+          for (size_t st = 1; st < twist.stages().size(); ++st) u = twist.turn(st, u, twist.weightAt(st, toNode(u), nd));
           float p[3] = {float(u.x), float(u.y), float(u.z)};
           if (toFrame) applyAffine(*toFrame, p, 1);
           ux[size_t(i)] = p[0], uy[size_t(i)] = p[1], uz[size_t(i)] = p[2];

@@ -748,19 +748,25 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     for (int j : chain[b]) f = compose(f, own[static_cast<size_t>(j)]);
     bodyBack[b] = f.inverse();
   }
-  // The twist kernel: the stages and their weights, 4 per node; the map at the nodes is then
-  // the kernel's own (as it is upsampled), without the snap. No stage (every angle 0): none.
+  // The twist kernel: the stages and their weights, one per stage and node; the map at the
+  // nodes is then the kernel's own (as it is upsampled), without the snap. No stage (every
+  // angle 0): none.
   std::shared_ptr<TwistKernel> kernel;
   if (params.kernel && !stages.empty() && stages.size() <= size_t(TwistKernel::kMaxStages)) {
     kernel = std::make_shared<TwistKernel>();
-    for (const Stage& st : stages) kernel->stages.push_back({st.c, st.a, st.theta});
-    resizeHugePaged(kernel->weights, static_cast<size_t>(n) * TwistKernel::kMaxStages, 0.f);
-    for (size_t s = 0; s < weights.size(); ++s) {
-      const float* w = weights[s].data();
-      float* out = kernel->weights.data() + s;
-      parallelFor(n, [&](int64_t t0, int64_t t1) {
-        for (int64_t t = t0; t < t1; ++t) out[t * TwistKernel::kMaxStages] = w[t];
-      });
+    for (const Stage& st : stages) kernel->addStage(st.c, st.a, st.theta);
+    const size_t ns = kernel->stride();
+    if (ns == 1) {
+      kernel->weights = std::move(weights[0].voxels());  // the weights are not read again
+    } else {
+      resizeHugePaged(kernel->weights, static_cast<size_t>(n) * ns, 0.f);
+      for (size_t s = 0; s < ns; ++s) {
+        const float* w = weights[s].data();
+        float* out = kernel->weights.data() + s;
+        parallelFor(n, [&](int64_t t0, int64_t t1) {
+          for (int64_t t = t0; t < t1; ++t) out[static_cast<size_t>(t) * ns] = w[t];
+        });
+      }
     }
     result.kernel = kernel;
   }
@@ -776,12 +782,7 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   // it off a body it lands in.
   auto composeVoxel = [&](int64_t t, const Vec3& v) -> int64_t {
     if (kernel) {
-      // TwistKernel::sourceMm(); one stage reads w at the node itself, where a limb's bulk
-      // turns wholly (w = 1) or not at all (w = 0): no sine there.
-      const float w0 = kernel->weights[static_cast<size_t>(t) * TwistKernel::kMaxStages];
-      const Vec3 x = stages.size() == 1 && (w0 == 0.f || w0 == 1.f)
-                         ? (w0 == 0.f ? v : stages[0].c + stages[0].backFull * (v - stages[0].c))
-                         : kernel->sourceMm(v, grid.toIndex, d);
+      const Vec3 x = kernel->sourceAtNode(t, v, grid.toIndex, d);
       out[3 * t] = static_cast<float>(x.x);
       out[3 * t + 1] = static_cast<float>(x.y);
       out[3 * t + 2] = static_cast<float>(x.z);

@@ -380,10 +380,11 @@ TEST(TwistKernel, TurnsEachPointByItsInterpolatedWeight) {
   TwistKernel k;
   const Vec3 c{0, 4, 6}, a = normalized(Vec3{1, 0.2, 0.1});
   const double theta = 0.6;
-  k.stages.push_back({c, a, theta});
+  k.addStage(c, a, theta);
   const int64_t n = grid.dims.voxelCount();
-  k.weights.assign(size_t(n) * TwistKernel::kMaxStages, 0.f);
-  for (int64_t t = 0; t < n; ++t) k.weights[size_t(t) * TwistKernel::kMaxStages] = float(t / 25) / 4.f;  // k / 4
+  ASSERT_EQ(k.stride(), 1u);
+  k.weights.assign(size_t(n), 0.f);
+  for (int64_t t = 0; t < n; ++t) k.weights[size_t(t)] = float(t / 25) / 4.f;  // k / 4
   const auto turned = [](const Vec3& p, const Vec3& c, const Vec3& a, double rad) {
     const Vec3 q = p - c;
     return c + q * std::cos(rad) + cross(a, q) * std::sin(rad) + a * (dot(a, q) * (1 - std::cos(rad)));
@@ -394,6 +395,12 @@ TEST(TwistKernel, TurnsEachPointByItsInterpolatedWeight) {
     const Vec3 p = grid.indexToPhysical(idx);
     const Vec3 expect = turned(p, c, a, -theta * idx.z / 4);
     EXPECT_LT(norm(k.sourceMm(p, toNode, grid.dims) - expect), 1e-9) << idx.x << " " << idx.y << " " << idx.z;
+  }
+  // At a node the first stage reads the node's own w: the top layer (w = 1) turns wholly.
+  for (const int64_t t : {int64_t{0}, int64_t{37}, int64_t{112}, n - 1}) {
+    const Vec3 idx{double(t % 5), double((t / 5) % 5), double(t / 25)};
+    const Vec3 p = grid.indexToPhysical(idx);
+    EXPECT_LT(norm(k.sourceAtNode(t, p, toNode, grid.dims) - turned(p, c, a, -theta * idx.z / 4)), 1e-9) << t;
   }
   // det J = 1 - theta dw/dalpha, dw/dalpha = grad w . (a x (p - c)).
   const Vec3 gradW{0, 0, 1.0 / 12};
@@ -427,10 +434,13 @@ TEST(TwistKernel, TurnsEachPointByItsInterpolatedWeight) {
   EXPECT_GT(worst, 1e-3);  // the kernel is not the interpolated positions
   EXPECT_LE(worst, k.chordBoundMm(grid));
   // A second stage (w = 1 everywhere) reads where the first left the point: its rigid turn after it.
-  TwistKernel two = k;
+  TwistKernel two;
   const Vec3 c2{2, 1, 3}, a2 = normalized(Vec3{0, 1, 1});
-  two.stages.push_back({c2, a2, -0.4});
-  for (int64_t t = 0; t < n; ++t) two.weights[size_t(t) * TwistKernel::kMaxStages + 1] = 1.f;
+  two.addStage(c, a, theta);
+  two.addStage(c2, a2, -0.4);
+  ASSERT_EQ(two.stride(), 2u);
+  two.weights.assign(size_t(n) * 2, 1.f);
+  for (int64_t t = 0; t < n; ++t) two.weights[size_t(t) * 2] = k.weights[size_t(t)];
   const Vec3 p = grid.indexToPhysical({2.5, 1.5, 3.25});
   EXPECT_LT(norm(two.sourceMm(p, toNode, grid.dims) - turned(k.sourceMm(p, toNode, grid.dims), c2, a2, 0.4)), 1e-9);
 }

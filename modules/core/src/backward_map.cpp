@@ -21,6 +21,12 @@ void put(std::array<float, 12>& e, const Mat3& m, const Vec3& b) {
 
 }  // namespace
 
+void TwistKernel::addStage(const Vec3& pointMm, const Vec3& axis, double angleRad) {
+  if (stages_.size() >= size_t(kMaxStages))
+    throw Error("twist kernel: more than " + std::to_string(kMaxStages) + " stages");
+  stages_.push_back({pointMm, axis, angleRad, rotationMatrix(axis, -angleRad)});
+}
+
 double TwistKernel::weightAt(size_t s, const Vec3& q, const Dims& nodes) const {
   double c[3];
   int64_t i0[3], i1[3];
@@ -36,20 +42,29 @@ double TwistKernel::weightAt(size_t s, const Vec3& q, const Dims& nodes) const {
     const double f = ((k & 1) ? c[0] : 1 - c[0]) * ((k & 2) ? c[1] : 1 - c[1]) * ((k & 4) ? c[2] : 1 - c[2]);
     if (f == 0) continue;
     const int64_t node = (((k & 4) ? i1[2] : i0[2]) * nodes.y + ((k & 2) ? i1[1] : i0[1])) * nodes.x + ((k & 1) ? i1[0] : i0[0]);
-    w += f * double(weights[static_cast<size_t>(node) * kMaxStages + s]);
+    w += f * double(weights[static_cast<size_t>(node) * stride() + s]);
   }
   return w;
 }
 
 Vec3 TwistKernel::turn(size_t s, const Vec3& x, double w) const {
   if (w == 0) return x;
-  const Stage& st = stages[s];
+  const Stage& st = stages_[s];
+  if (w == 1) return st.pointMm + st.whole * (x - st.pointMm);
   return st.pointMm + rotateAbout(x - st.pointMm, st.axis, -st.angleRad * w);
 }
 
 Vec3 TwistKernel::sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const {
   Vec3 x = vMm;
-  for (size_t s = 0; s < stages.size(); ++s) x = turn(s, x, weightAt(s, mmToNode(x), nodes));
+  for (size_t s = 0; s < stages_.size(); ++s) x = turn(s, x, weightAt(s, mmToNode(x), nodes));
+  return x;
+}
+
+Vec3 TwistKernel::sourceAtNode(int64_t node, const Vec3& vMm, const Geometry::ToIndex& mmToNode,
+                               const Dims& nodes) const {
+  if (stages_.empty()) return vMm;
+  Vec3 x = turn(0, vMm, double(weights[static_cast<size_t>(node) * stride()]));
+  for (size_t s = 1; s < stages_.size(); ++s) x = turn(s, x, weightAt(s, mmToNode(x), nodes));
   return x;
 }
 
@@ -60,7 +75,7 @@ Mat3 TwistKernel::jacobian(const Vec3& vMm, const Geometry::ToIndex& mmToNode, c
                                    {0, 0, 1 / mmToNode.spacing.z}) * mmToNode.inverseDirection;
   Mat3 J = Mat3::identity();
   Vec3 x = vMm;
-  for (size_t s = 0; s < stages.size(); ++s) {
+  for (size_t s = 0; s < stages_.size(); ++s) {
     const Vec3 q = mmToNode(x);
     const double w = weightAt(s, q, nodes);
     Vec3 g{0, 0, 0};
@@ -70,9 +85,9 @@ Mat3 TwistKernel::jacobian(const Vec3& vMm, const Geometry::ToIndex& mmToNode, c
       g[a] = (weightAt(s, q + e, nodes) - weightAt(s, q - e, nodes)) / (2 * stepNodes);
     }
     if (w == 0 && g == Vec3{0, 0, 0}) continue;
-    const Stage& st = stages[s];
+    const Stage& st = stages_[s];
     const Vec3 gradMm = L.transposed() * g, p = x - st.pointMm, t = cross(st.axis, p);
-    const Mat3 R = rotationMatrix(st.axis, -st.angleRad * w);
+    const Mat3 R = w == 1 ? st.whole : rotationMatrix(st.axis, -st.angleRad * w);
     Mat3 shear;  // I - angle t grad^T
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) shear(r, c) = (r == c ? 1.0 : 0.0) - st.angleRad * t[r] * gradMm[c];
@@ -93,14 +108,14 @@ double TwistKernel::chordBoundMm(const Geometry& grid) const {
   for (int k = 0; k < 8; ++k) {
     const Vec3 corner = grid.indexToPhysical({(k & 1) ? double(d.x - 1) : 0.0, (k & 2) ? double(d.y - 1) : 0.0,
                                               (k & 4) ? double(d.z - 1) : 0.0});
-    for (const Stage& st : stages) {
+    for (const Stage& st : stages_) {
       const Vec3 p = corner - st.pointMm;
       rMax = std::max(rMax, norm(p - st.axis * dot(st.axis, p)));
     }
   }
   // The steepest edge of each stage's w along each axis: one parallel pass over the nodes (a
   // movie frame's renderer prepares every frame's map: 11.5 M nodes at 512^2 x 350).
-  const size_t ns = stages.size();
+  const size_t ns = stages_.size();
   std::vector<std::array<double, 3>> stepMax(ns, {0, 0, 0});
   std::mutex m;
   parallelFor(d.z, [&](int64_t k0, int64_t k1) {
@@ -109,13 +124,13 @@ double TwistKernel::chordBoundMm(const Geometry& grid) const {
     for (int64_t k = k0; k < k1; ++k)
       for (int64_t j = 0; j < d.y; ++j)
         for (int64_t i = 0; i < d.x; ++i) {
-          const size_t t = static_cast<size_t>((k * d.y + j) * d.x + i) * kMaxStages;
+          const size_t t = static_cast<size_t>((k * d.y + j) * d.x + i) * ns;
           for (size_t s = 0; s < ns; ++s) {
             const float w = weights[t + s];
             auto& l = local[s];
-            if (i + 1 < d.x) l[0] = std::max(l[0], double(std::abs(weights[t + kMaxStages + s] - w)));
-            if (j + 1 < d.y) l[1] = std::max(l[1], double(std::abs(weights[t + size_t(sy) * kMaxStages + s] - w)));
-            if (k + 1 < d.z) l[2] = std::max(l[2], double(std::abs(weights[t + size_t(sz) * kMaxStages + s] - w)));
+            if (i + 1 < d.x) l[0] = std::max(l[0], double(std::abs(weights[t + ns + s] - w)));
+            if (j + 1 < d.y) l[1] = std::max(l[1], double(std::abs(weights[t + size_t(sy) * ns + s] - w)));
+            if (k + 1 < d.z) l[2] = std::max(l[2], double(std::abs(weights[t + size_t(sz) * ns + s] - w)));
           }
         }
     std::lock_guard lock(m);
@@ -125,7 +140,7 @@ double TwistKernel::chordBoundMm(const Geometry& grid) const {
   double total = 0;
   for (size_t s = 0; s < ns; ++s)
     for (int a = 0; a < 3; ++a) {
-      const double phi = std::abs(stages[s].angleRad) * stepMax[s][a];
+      const double phi = std::abs(stages_[s].angleRad) * stepMax[s][a];
       total += 0.125 * (rMax * phi * phi + 2 * phi * grid.spacing[a]);
     }
   return total;

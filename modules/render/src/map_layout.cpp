@@ -11,11 +11,11 @@ namespace vellum::render::detail {
 
 TwistUniforms TwistUniforms::of(const TwistKernel& twist, const Geometry& grid, const Geometry& source) {
   TwistUniforms u;
-  u.stages = int(twist.stages.size());
-  for (size_t s = 0; s < twist.stages.size(); ++s) {
-    u.point[s] = twist.stages[s].pointMm;
-    u.axis[s] = twist.stages[s].axis;
-    u.angle[s] = twist.stages[s].angleRad;
+  u.stages = int(twist.stages().size());
+  for (size_t s = 0; s < twist.stages().size(); ++s) {
+    u.point[s] = twist.stages()[s].pointMm;
+    u.axis[s] = twist.stages()[s].axis;
+    u.angle[s] = twist.stages()[s].angleRad;
   }
   u.nodeToMm = indexToMm(grid);
   u.nodeToMmOffset = grid.origin;

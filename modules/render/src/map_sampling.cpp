@@ -155,7 +155,7 @@ PreparedMap prepareMap(const BackwardMap& map, const Geometry& source) {
     pm.snap = prepareSnap(*map.rigidSnap, map.grid, source);
     pm.snapMarginVoxels = map.rigidSnap->maxSnapMm / source.minSpacing();
   }
-  if (map.twist && !map.twist->stages.empty()) {  // no stage: the nodes' positions are the map
+  if (map.twist && !map.twist->stages().empty()) {  // no stage: the nodes' positions are the map
     pm.twist = map.twist;
     pm.nodeGrid = map.grid;
     pm.mmToNode = map.grid.physicalToIndexMap();

@@ -22,8 +22,8 @@ struct PreparedMap {
   std::vector<float> padded;  ///< Gaussian: `index` padded to texDims; empty for trilinear
   /// The node texture the GL path uploads (3 floats per texel of texDims).
   const std::vector<float>& texture() const { return padded.empty() ? index : padded; }
-  /// Floats per texel of the uploaded texture: 4 (the twist kernel's weights) or 3.
-  int texelFloats() const { return twist ? TwistKernel::kMaxStages : 3; }
+  /// Floats per texel of texels(): the twist kernel's stages (its weights), or 3 (positions).
+  int texelFloats() const { return twist ? int(twist->stride()) : 3; }
   const std::vector<float>& texels() const { return twist ? twist->weights : texture(); }
   std::optional<SnapFrame> snap;
   double snapMarginVoxels = 0;  ///< how far (source voxels, per axis) the snap can move u

@@ -169,12 +169,10 @@ void validateMap(const BackwardMap& map) {
     throw Error("backward map: attributes has " + std::to_string(map.attributes.size()) +
                 " floats, expected 0 or 4 x " + map.grid.dims.str());
   if (map.twist) {
-    if (map.twist->stages.size() > size_t(TwistKernel::kMaxStages) ||
-        map.twist->weights.size() != size_t(TwistKernel::kMaxStages) * n)
-      throw Error("backward map: the twist kernel has " + std::to_string(map.twist->stages.size()) + " stages and " +
-                  std::to_string(map.twist->weights.size()) + " weights, expected at most " +
-                  std::to_string(TwistKernel::kMaxStages) + " and " + std::to_string(TwistKernel::kMaxStages) +
-                  " x " + map.grid.dims.str());
+    if (map.twist->weights.size() != map.twist->stride() * n)
+      throw Error("backward map: the twist kernel has " + std::to_string(map.twist->stages().size()) + " stages and " +
+                  std::to_string(map.twist->weights.size()) + " weights, expected one per stage and node (" +
+                  map.grid.dims.str() + ")");
     if (map.upsampling != Upsampling::Trilinear) throw Error("backward map: the twist kernel replaces the trilinear one only");
   }
   if (map.rigidSnap && map.rigidSnap->fits.size() > static_cast<size_t>(kMaxSnapBodies))

@@ -143,14 +143,16 @@ void uploadOccupancy(const SkipGrid& g, const std::vector<uint8_t>& occ) {
 
 // What setBackwardMap() does before GL, kept for the upload: the texels as uploaded (positions
 // as RGBA, w unused: llvmpipe filters 16-byte texels faster than 12-byte ones; a one-joint twist
-// kernel's weights as R, a quarter of the bytes to upload and to filter) and what the draws need.
+// kernel's weights as R, straight from the kernel, a quarter of the bytes to upload and to
+// filter) and what the draws need.
 struct VolumeRenderer::PreparedBackwardMap {
   std::shared_ptr<const BackwardMap> map;
   Geometry source;
   Dims texDims;
   int channels = 4;               ///< floats per texel: 4 (RGBA) or 1 (R)
-  std::unique_ptr<float[]> rgba;  ///< `channels` floats per texel of texDims
+  std::unique_ptr<float[]> rgba;  ///< `channels` floats per texel of texDims, unless in place
   size_t rgbaFloats = 0;
+  const float* texels = nullptr;  ///< what is uploaded: `rgba`, or a one-stage kernel's weights (`map` keeps them)
   MapCells cells;
   std::optional<SnapFrame> snap;
   std::optional<TwistUniforms> twist;
@@ -987,31 +989,32 @@ std::shared_ptr<const VolumeRenderer::PreparedBackwardMap> VolumeRenderer::Impl:
   PreparedMap pm = prepareMap(*map, source);
   auto out = std::make_shared<PreparedBackwardMap>();
   out->texDims = pm.texDims;
-  // The texels: node positions (source index), or the twist kernel's weights (4 stages; only
-  // the first uploaded for one joint: the shader reads channel s < TWIST_STAGES).
+  // The texels: node positions (source index), or the twist kernel's weights (one float per
+  // stage: uploaded in place for one joint, else as RGBA; the shader reads channel s).
   const std::vector<float>& texels = pm.texels();
   const int perTexel = pm.texelFloats();
-  out->channels = pm.twist && pm.twist->stages.size() == 1 ? 1 : 4;
-  // Texels written once (no zeroing pass), in parallel.
-  const size_t texelCount = texels.size() / size_t(perTexel);
-  out->rgbaFloats = texelCount * size_t(out->channels);
-  if (reuse && reuse->rgba && reuse->rgbaFloats == out->rgbaFloats) out->rgba = std::move(reuse->rgba);
-  else out->rgba = std::make_unique_for_overwrite<float[]>(out->rgbaFloats);
-  float* rgba = out->rgba.get();
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, texelCount, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
-    if (out->channels == 1) {
-      for (size_t t = r.begin(); t < r.end(); ++t) rgba[t] = texels[size_t(perTexel) * t];
-      return;
-    }
-    if (perTexel == 4) {
-      std::copy_n(texels.data() + 4 * r.begin(), 4 * (r.end() - r.begin()), rgba + 4 * r.begin());
-      return;
-    }
-    for (size_t t = r.begin(); t < r.end(); ++t) {
-      std::copy_n(texels.data() + 3 * t, 3, rgba + 4 * t);
-      rgba[4 * t + 3] = 0.f;
-    }
-  });
+  out->channels = perTexel == 1 ? 1 : 4;
+  if (perTexel == 1) {
+    out->texels = texels.data();
+  } else {
+    // Texels written once (no zeroing pass), in parallel.
+    const size_t texelCount = texels.size() / size_t(perTexel);
+    out->rgbaFloats = texelCount * 4;
+    if (reuse && reuse->rgba && reuse->rgbaFloats == out->rgbaFloats) out->rgba = std::move(reuse->rgba);
+    else out->rgba = std::make_unique_for_overwrite<float[]>(out->rgbaFloats);
+    float* rgba = out->rgba.get();
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, texelCount, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
+      if (perTexel == 4) {
+        std::copy_n(texels.data() + 4 * r.begin(), 4 * (r.end() - r.begin()), rgba + 4 * r.begin());
+        return;
+      }
+      for (size_t t = r.begin(); t < r.end(); ++t) {
+        std::copy_n(texels.data() + size_t(perTexel) * t, perTexel, rgba + 4 * t);
+        std::fill(rgba + 4 * t + perTexel, rgba + 4 * t + 4, 0.f);
+      }
+    });
+    out->texels = rgba;
+  }
   // A cell's samples read its corner nodes; the twist kernel's bulge off their chords.
   MapCellSupport support{pm.texDims, 0, pm.upsampling == Upsampling::Gaussian ? 4 : 1,
                          pm.snapMarginVoxels + pm.twistMarginVoxels};
@@ -1092,7 +1095,7 @@ bool VolumeRenderer::Impl::continueMapStep(size_t maxBytes) {
     return true;
   };
   if (!slabs(st.mapTex, p.texDims, st.mapZ, 4 * size_t(p.channels), p.channels == 1 ? GL_RED : GL_RGBA, GL_FLOAT,
-             p.rgba.get()))
+             p.texels))
     return false;
   if (st.attrTex && !slabs(st.attrTex, m.grid.dims, st.attrZ, 16, GL_RGBA, GL_FLOAT, m.attributes.data())) return false;
   if (st.newClasses && !slabs(st.classTex, m.rigidSnap->classGrid.dims, st.classZ, 2, GL_RED_INTEGER,

@@ -114,22 +114,34 @@ struct RigidSnap {
 /// each sample by it: det J = prod_s (1 - angle_s dw_s/dalpha) as at the nodes. The map's
 /// sourceMm keep the nodes' own positions (what reads nodes only: map files, cell bounds).
 struct TwistKernel {
-  static constexpr int kMaxStages = 4;  ///< one RGBA texel per node in the shader
+  static constexpr int kMaxStages = 4;  ///< at most one RGBA texel per node in the shader
   struct Stage {
     Vec3 pointMm{0, 0, 0};  ///< a point on the joint's axis
     Vec3 axis{1, 0, 0};     ///< unit direction; the backward map turns by -angleRad * w about it
     double angleRad = 0;
+    /// The whole turn (w = 1) as a matrix: a limb's bulk turns wholly or not at all, so most
+    /// samples need no sine (addStage() sets it).
+    Mat3 whole = Mat3::identity();
   };
-  std::vector<Stage> stages;   ///< applied in order (proximal first), at most kMaxStages
-  std::vector<float> weights;  ///< kMaxStages floats per node of the map's grid (x fastest): stage s's w in channel s
+  /// Appends a stage (applied after the ones before it: proximal first).
+  void addStage(const Vec3& pointMm, const Vec3& axis, double angleRad);
+  const std::vector<Stage>& stages() const { return stages_; }
+  /// Floats per node in `weights`: one per stage.
+  size_t stride() const { return stages_.size(); }
+  /// stride() floats per node of the map's grid (x fastest): stage s's w at offset s.
+  std::vector<float> weights;
 
   /// The source position (mm) of output position `vMm`: each stage turns the position as the
   /// stages before it left it, by -angle * w with w read trilinearly at that position's node
   /// index (`mmToNode`; clamped onto the `nodes`).
   Vec3 sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const;
+  /// sourceMm() at node `node` (its position `vMm`): the first stage reads the node's own w
+  /// (no interpolation), the later ones as sourceMm().
+  Vec3 sourceAtNode(int64_t node, const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const;
   /// Stage s's weight at node index q (trilinear, q clamped onto the nodes).
   double weightAt(size_t s, const Vec3& q, const Dims& nodes) const;
-  /// x turned by stage s with weight w (by -angle * w about its axis).
+  /// x turned by stage s with weight w (by -angle * w about its axis; w = 0 and w = 1 without
+  /// a sine).
   Vec3 turn(size_t s, const Vec3& x, double w) const;
   /// du/dv (mm per mm) of sourceMm() at `vMm`: per stage R (I - angle t grad(w)^T), t = axis x
   /// (x - point), grad(w) from central differences of the trilinear w `stepNodes` nodes either
@@ -139,6 +151,9 @@ struct TwistKernel {
   /// kernel's turned positions bulge off the corners' chords by at most this (a bound from the
   /// steepest cell of each stage's w; the renderers' empty-space cells widen by it).
   double chordBoundMm(const Geometry& grid) const;
+
+ private:
+  std::vector<Stage> stages_;  ///< applied in order (proximal first), at most kMaxStages
 };
 
 struct BackwardMap {
