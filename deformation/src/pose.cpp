@@ -834,6 +834,38 @@ std::vector<std::optional<RigidTransform>> knownBodyTransforms(const Pose& pose,
   return out;
 }
 
+std::vector<FixedBoxCut> fixedBoxCuts(const Pose& pose, const LabelVolume& labels) {
+  std::vector<FixedBoxCut> cuts;
+  if (pose.fixed.boxesMm.empty()) return cuts;
+  std::vector<uint8_t> moving(65536, 0);
+  for (uint16_t id : pose.boneIds())  // an id both moved and fixed is refused by loadPose()
+    if (pose.jointMoving(id) >= 0) moving[id] = 1;
+  const Geometry& g = labels.geometry();
+  const Dims d = g.dims;
+  const uint16_t* ids = labels.ids().data();
+  std::map<std::pair<size_t, uint16_t>, int64_t> count;
+  std::mutex m;
+  parallelFor(d.z, [&](int64_t k0, int64_t k1) {
+    std::map<std::pair<size_t, uint16_t>, int64_t> local;
+    for (int64_t k = k0; k < k1; ++k)
+      for (int64_t j = 0; j < d.y; ++j)
+        for (int64_t i = 0; i < d.x; ++i) {
+          const uint16_t id = ids[(k * d.y + j) * d.x + i];
+          if (!moving[id]) continue;
+          const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
+          for (size_t b = 0; b < pose.fixed.boxesMm.size(); ++b)
+            if (insideFixedBox(pose.fixed.boxesMm[b], p)) {
+              ++local[{b, id}];
+              break;
+            }
+        }
+    std::lock_guard lock(m);
+    for (const auto& [key, n] : local) count[key] += n;
+  });
+  for (const auto& [key, n] : count) cuts.push_back({key.first, key.second, n});
+  return cuts;
+}
+
 KeyframeTrack poseTrack(const PoseSamples& samples, const Pose& pose, double maxStepDeg) {
   if (!(maxStepDeg > 0)) throw Error("pose: the movie's angle step must be > 0");
   const KeyframeTrack& a = pose.angles;

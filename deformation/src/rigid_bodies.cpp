@@ -106,16 +106,11 @@ VolumeU8 boxMask(const Geometry& g, const std::vector<std::array<double, 6>>& bo
       for (int64_t j = 0; j < d.y; ++j)
         for (int64_t i = 0; i < d.x; ++i) {
           const Vec3 p = g.indexToPhysical({double(i), double(j), double(k)});
-          for (const auto& b : boxes) {
-            bool inside = true;
-            for (int a = 0; a < 3; ++a)
-              inside = inside && p[a] >= std::min(b[static_cast<size_t>(a)], b[static_cast<size_t>(a + 3)]) &&
-                       p[a] <= std::max(b[static_cast<size_t>(a)], b[static_cast<size_t>(a + 3)]);
-            if (inside) {
+          for (const auto& b : boxes)
+            if (insideFixedBox(b, p)) {
               in(i, j, k) = 1;
               break;
             }
-          }
         }
   });
   return in;

@@ -664,7 +664,37 @@ TEST(Pose, SavedPoseReadsBackAndTwoFixedBoxesStayPut) {
   EXPECT_GT(inBoxes[1], 100);
   const nlohmann::json rep = nlohmann::json::parse(std::ifstream(f.report));
   EXPECT_LE(rep["deform"]["rigidity"]["after"]["fixed"]["max_displacement_mm"].get<double>(), 1e-4);
+  EXPECT_TRUE(rep["fixed_box_cuts"].empty()) << "neither box holds a voxel of the turning bone";
   fs::remove_all(f.dir);
+}
+
+// A fixed box over a bone that a joint turns holds its voxels there (the box wins) and cuts the
+// bone: the feet bench's box x >= 253 mm held the right calcaneus's medial edge. The pose says
+// which box holds how much of which moving bone; a box over the still parent is no cut.
+TEST(Pose, AFixedBoxOverATurningBoneIsACut) {
+  const Limb limb = makeLimb({{46, 74}, {12, 36}});  // parent 1 above, child 2 (z 12..36 mm) below
+  const LabelVolume& labels = limb.labels;
+  Pose pose;
+  Joint knee;
+  knee.name = "knee";
+  knee.parent = {1};
+  knee.child = {2};
+  knee.axisA = {30, 40, 41};
+  knee.axisB = {50, 40, 41};
+  pose.joints = {knee};
+  pose.fixed.boxesMm = {{0, 0, 60, 78, 78, 64}, {78, 78, 20, 0, 0, 10}};  // the parent's z 60..64; the child's z 12..20
+  linkJoints(pose);
+  int64_t perSlice = 0;  // the child's cross-section, from one slice (z = 24 mm)
+  for (int j = 0; j < kN; ++j)
+    for (int i = 0; i < kN; ++i) perSlice += limb.labels(i, j, 12) == 2;
+  ASSERT_GT(perSlice, 10);
+  const std::vector<FixedBoxCut> cuts = fixedBoxCuts(pose, labels);
+  ASSERT_EQ(cuts.size(), 1u);
+  EXPECT_EQ(cuts[0].box, 1u);
+  EXPECT_EQ(cuts[0].id, 2);
+  EXPECT_EQ(cuts[0].voxels, 5 * perSlice);  // slices z = 12, 14, 16, 18, 20 mm (faces included)
+  pose.fixed.boxesMm = {{0, 0, 37, 78, 78, 45}};  // between the bones: no cut
+  EXPECT_TRUE(fixedBoxCuts(pose, labels).empty());
 }
 
 // The feet bench's folds (issue 23 §4): a still block 6 mm beside a child bone split into two

@@ -88,6 +88,12 @@ void printSummary(const app::PoseRequest& request, const app::PoseResult& r) {
                   << "\": " << f["warning"].get<std::string>() << "\n";
     }
   }
+  for (const auto& c : rep["fixed_box_cuts"])
+    std::cerr << "warning: " << request.pose.string() << ": fixed box " << c["box"].get<size_t>() + 1 << " holds "
+              << c["voxels"].get<int64_t>() << " voxels of bone " << c["id"].get<int>()
+              << (c["name"].get<std::string>().empty() ? "" : " (" + c["name"].get<std::string>() + ")")
+              << " that a joint turns: they stay put, so the bone is cut at the box's face and its rim there gives"
+                 " (move the box off the bone)\n";
   if (rep.contains("deform")) {
     const nlohmann::json& after = rep["deform"]["rigidity"]["after"];
     std::cout << request.output.string() << ": bone RMS residual " << mm(after["bone_rms_residual_mm"])

@@ -250,6 +250,15 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   report["exact_bones"] = request.exactBones;
   report["rigid_labels"] = engine.rigidIds;
   report["fixed_labels"] = engine.fixedIds;
+  // A fixed box over a moving bone cuts it (the box wins): said, not silently absorbed.
+  nlohmann::json cuts = nlohmann::json::array();
+  for (const FixedBoxCut& c : fixedBoxCuts(pose, labels)) {
+    std::string name;
+    for (const Label& l : labels.table())
+      if (l.id == c.id) name = l.name;
+    cuts.push_back({{"box", c.box}, {"box_mm", pose.fixed.boxesMm[c.box]}, {"id", c.id}, {"name", name}, {"voxels", c.voxels}});
+  }
+  report["fixed_box_cuts"] = std::move(cuts);
 
   RunOutputs written;  // a failure later takes the earlier outputs with it
   PointFile points;

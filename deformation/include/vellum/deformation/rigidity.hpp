@@ -2,6 +2,7 @@
 // Bone stays rigid ([HVD 1.6] in docs/references.md): rigid bodies from labels (or a HU threshold), a
 // segmentation-aware constraint that blends the backward map towards each body's best rigid
 // fit, and the measures (bone RMS non-rigid residual, soft-tissue displacement, fold-over).
+#include <algorithm>
 #include <array>
 #include <limits>
 #include <memory>
@@ -26,6 +27,17 @@ struct FixedRegions {
   std::vector<std::array<double, 6>> boxesMm;  ///< {x0, y0, z0, x1, y1, z1}, any corner order
   bool empty() const { return ids.empty() && boxesMm.empty(); }
 };
+
+/// Whether `p` (mm) lies in a fixed box {x0, y0, z0, x1, y1, z1} (any corner order, faces
+/// included): a voxel whose centre does is fixed.
+inline bool insideFixedBox(const std::array<double, 6>& box, const Vec3& p) {
+  for (int a = 0; a < 3; ++a) {
+    const double lo = std::min(box[static_cast<size_t>(a)], box[static_cast<size_t>(a + 3)]);
+    const double hi = std::max(box[static_cast<size_t>(a)], box[static_cast<size_t>(a + 3)]);
+    if (!(p[a] >= lo && p[a] <= hi)) return false;
+  }
+  return true;
+}
 
 /// Tissue classes over the SOURCE volume: 0 air/background, 1 soft tissue, 2 + c body c.
 /// From labels, body c is one rigid label id (all its voxels, whatever their connectivity);
