@@ -14,6 +14,7 @@
 #include <numbers>
 
 #include "child_process.hpp"
+#include "hinge_pose.hpp"
 #include "test_data.hpp"
 #include "vellum/app/pose_pipeline.hpp"
 #include "vellum/deformation/deformer.hpp"
@@ -70,6 +71,10 @@ Limb makeLimb(const std::vector<std::pair<double, double>>& bonesZ, double boneH
 std::string xAxisAt(double z) {
   return "[[30, 40, " + std::to_string(z) + "], [50, 40, " + std::to_string(z) + "]]";
 }
+
+/// A pose of makeLimb({{46, 74}, {12, 36}}): the knee, parent 1 above, child 2 below, the
+/// axis along x at z = 41 mm.
+Pose limbKnee() { return test::hingePose("knee", 1, 2, {30, 40, 41}, {50, 40, 41}); }
 
 struct Files {
   fs::path dir, ct, labels, pose, out, report;
@@ -674,16 +679,8 @@ TEST(Pose, SavedPoseReadsBackAndTwoFixedBoxesStayPut) {
 TEST(Pose, AFixedBoxOverATurningBoneIsACut) {
   const Limb limb = makeLimb({{46, 74}, {12, 36}});  // parent 1 above, child 2 (z 12..36 mm) below
   const LabelVolume& labels = limb.labels;
-  Pose pose;
-  Joint knee;
-  knee.name = "knee";
-  knee.parent = {1};
-  knee.child = {2};
-  knee.axisA = {30, 40, 41};
-  knee.axisB = {50, 40, 41};
-  pose.joints = {knee};
+  Pose pose = limbKnee();
   pose.fixed.boxesMm = {{0, 0, 60, 78, 78, 64}, {78, 78, 20, 0, 0, 10}};  // the parent's z 60..64; the child's z 12..20
-  linkJoints(pose);
   int64_t perSlice = 0;  // the child's cross-section, from one slice (z = 24 mm)
   for (int j = 0; j < kN; ++j)
     for (int i = 0; i < kN; ++i) perSlice += limb.labels(i, j, 12) == 2;
@@ -850,14 +847,7 @@ TEST(Pose, TwistMovieFramesAreTheStillPosesMap) {
 // voxels by part of the jump.
 TEST(Pose, TwistMovieFramesHoldTheFixedBoxExactly) {
   const Limb limb = makeLimb({{46, 74}, {12, 36}});
-  Pose pose;
-  Joint joint;
-  joint.name = "knee";
-  joint.parent = {1};
-  joint.child = {2};
-  joint.axisA = {30, 40, 41};
-  joint.axisB = {50, 40, 41};
-  pose.joints.push_back(joint);
+  Pose pose = limbKnee();
   pose.fixed.ids = {kFixed};
   pose.fixed.boxesMm = {{50, 0, 0, 78, 78, 78}};
   linkJoints(pose);

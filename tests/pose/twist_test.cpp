@@ -7,6 +7,7 @@
 #include <iostream>
 #include <numbers>
 
+#include "hinge_pose.hpp"
 #include "vellum/deformation/pose.hpp"
 #include "vellum/deformation/rigidity.hpp"
 #include "vellum/deformation/synthesis.hpp"
@@ -41,18 +42,7 @@ LabelVolume makeLabels(const std::function<uint16_t(const Vec3&, double r, doubl
   return l;
 }
 
-Pose hinge() {
-  Pose pose;
-  Joint j;
-  j.name = "hinge";
-  j.parent = {1};
-  j.child = {2};
-  j.axisA = {0, kC, kC};
-  j.axisB = {10, kC, kC};
-  pose.joints.push_back(j);
-  linkJoints(pose);
-  return pose;
-}
+Pose hinge() { return test::hingePose("hinge", 1, 2, {0, kC, kC}, {10, kC, kC}); }
 
 struct Checked {
   RigidityReport report;
