@@ -18,7 +18,6 @@
 #include "vellum/core/simd_clones.hpp"
 #include "vellum/core/memory_budget.hpp"
 #include "vellum/core/parallel.hpp"
-#include "vellum/core/rotation.hpp"
 
 namespace vellum::deformation {
 namespace {
@@ -318,9 +317,7 @@ void upsampleControl(const ControlVolume& cv, const Geometry& output, Upsampling
         for (int64_t i = 0; i < od.x; ++i) {
           const int64_t n0 = std::min(i / s, nd.x - 1), n1 = std::min(n0 + 1, nd.x - 1);
           const double f = double(i - n0 * s) / s;
-          const Vec3 v = rowStart + stepX * double(i);
-          const double w = line[size_t(n0)] + f * (line[size_t(n1)] - line[size_t(n0)]);
-          Vec3 u = twist.turn(0, v, w);
+          Vec3 u = twist.turn(0, rowStart + stepX * double(i), line[size_t(n0)] + f * (line[size_t(n1)] - line[size_t(n0)]));
           for (size_t st = 1; st < twist.stages().size(); ++st) u = twist.turn(st, u, twist.weightAt(st, toNode(u), nd));
           float p[3] = {float(u.x), float(u.y), float(u.z)};
           if (toFrame) applyAffine(*toFrame, p, 1);

@@ -674,7 +674,7 @@ TEST(Pose, SavedPoseReadsBackAndTwoFixedBoxesStayPut) {
 }
 
 // A fixed box over a bone that a joint turns holds its voxels there (the box wins) and cuts the
-// bone: the feet bench's box x >= 253 mm held the right calcaneus's medial edge. The pose says
+// bone: the feet bench's box x >= 253 mm holds a voxel of the right calcaneus. The pose says
 // which box holds how much of which moving bone; a box over the still parent is no cut.
 TEST(Pose, AFixedBoxOverATurningBoneIsACut) {
   const Limb limb = makeLimb({{46, 74}, {12, 36}});  // parent 1 above, child 2 (z 12..36 mm) below

@@ -186,8 +186,8 @@ ControlPoints posedPoints(const PoseSamples& samples, const Pose& pose, const st
 
 /// Voxels of a bone that a joint moves lying in a fixed box: the box wins (they stay put), so
 /// the bone is cut at the box's face and its rim beside the cut must give when it turns (the
-/// feet bench's box x >= 253 mm held the right calcaneus's medial edge: its RMS 0.68 mm, 0.41
-/// with the box 3 mm further off). One entry per box and id, boxes in the pose's order.
+/// feet bench's box x >= 253 mm holds 1 voxel of the right calcaneus). One entry per box and
+/// id, boxes in the pose's order.
 struct FixedBoxCut {
   size_t box = 0;  ///< index into pose.fixed.boxesMm
   uint16_t id = 0;
