@@ -93,12 +93,10 @@ struct Grid {
   }
 };
 
-/// One joint as the map applies it.
-struct Stage {
+/// One joint as the map applies it: the kernel's stage (the child turns forward by +angleRad
+/// about `axis` through `pointMm`; the backward map by -angleRad * w, `turned`).
+struct Stage : TwistKernel::Stage {
   int joint = -1;
-  Vec3 c{0, 0, 0}, a{1, 0, 0};
-  double theta = 0;  ///< rad, forward (the child turns by +theta about a)
-  Mat3 backFull;     ///< rotation by -theta (w = 1)
 };
 
 /// The bodies that sit at one place in a stage's space: their stage transform (forward: rest
@@ -215,7 +213,7 @@ VolumeF32 blendWeights(const Grid& grid, const Stage& st, const std::vector<uint
   VolumeF32 w(grid.g, 0.f, 0.f);
   Geometry metric = grid.g;
   for (int q = 0; q < 3; ++q)
-    if (std::abs(dot(st.a, grid.g.direction.column(q))) > 0.95) metric.spacing[q] *= axisStretch;
+    if (std::abs(dot(st.axis, grid.g.direction.column(q))) > 0.95) metric.spacing[q] *= axisStretch;
   VolumeU8 feature(metric, 0, 0);
   auto distanceTo = [&](bool moving) {
     parallelFor(d.z, [&](int64_t k0, int64_t k1) {
@@ -283,8 +281,8 @@ struct Slope {
       steep = std::max({steep, std::abs(b - c), std::abs(a - c)});
     }
     const Vec3 v = grid.g.indexToPhysical({double(i), double(j), double(k)});
-    const Vec3 tangent = grid.mmToIdx * cross(st.a, v - st.c);  // in index units
-    double linear = st.theta * dot(grad, tangent);
+    const Vec3 tangent = grid.mmToIdx * cross(st.axis, v - st.pointMm);  // in index units
+    double linear = st.angleRad * dot(grad, tangent);
     if (kernelCheck)  // the twist kernel's det at t, as a corner of each of its 8 cells
       for (int o = 0; o < 8; ++o) {
         Vec3 g{0, 0, 0};
@@ -294,11 +292,11 @@ struct Slope {
           cell = off != 0;
           if (cell) g[q] = ((o >> q) & 1 ? 1.0 : -1.0) * (double(w[t + off]) - double(w[t]));
         }
-        if (cell) linear = std::max(linear, st.theta * dot(g, tangent));
+        if (cell) linear = std::max(linear, st.angleRad * dot(g, tangent));
       }
     if (!gridCheck || steep <= kSteepStep) return linear;
     // The stage map's central-difference det at t (index units, as the fold count's).
-    auto mapAt = [&](int64_t n) { return rotateAbout(grid.mm(n) - st.c, st.a, -st.theta * double(w[n])); };
+    auto mapAt = [&](int64_t n) { return st.turned(grid.mm(n), double(w[n])); };
     Vec3 below[3], above[3], col[3];
     for (int q = 0; q < 3; ++q) {
       if (lo[q] == hi[q]) return linear;
@@ -481,21 +479,21 @@ class Relaxation {
   /// central differences read the arc steps' trilinear samples with some spread (the limiter
   /// alone settles at ~1.03 x its L).
   void limit(const std::vector<int64_t>& region) {
-    const double lim = 0.85 * bound_ / std::abs(st_.theta);
+    const double lim = 0.85 * bound_ / std::abs(st_.angleRad);
     std::vector<float> next(region.size());
     parallelFor(static_cast<int64_t>(region.size()), [&](int64_t r0, int64_t r1) {
       for (int64_t r = r0; r < r1; ++r) {
         const int64_t t = region[static_cast<size_t>(r)];
-        const Vec3 p = grid_.mm(t) - st_.c;
-        const double radius = norm(p - st_.a * dot(st_.a, p));
+        const Vec3 p = grid_.mm(t) - st_.pointMm;
+        const double radius = norm(p - st_.axis * dot(st_.axis, p));
         float& o = next[static_cast<size_t>(r)];
         o = w_.data()[t];
         if (radius < 1e-6) continue;
-        const double delta = std::min(grid_.minSpacing / radius, 0.5) * (st_.theta > 0 ? 1 : -1);
+        const double delta = std::min(grid_.minSpacing / radius, 0.5) * (st_.angleRad > 0 ? 1 : -1);
         // Clamped onto the grid: beyond its faces w is unknown, not 0 (a still region there
         // would hold the tissue next to a face still).
-        const double ahead = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.c + rotateAbout(p, st_.a, delta))));
-        const double behind = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.c + rotateAbout(p, st_.a, -delta))));
+        const double ahead = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.pointMm + rotateAbout(p, st_.axis, delta))));
+        const double behind = w_.sampleLinear(grid_.clamp(grid_.toIndex(st_.pointMm + rotateAbout(p, st_.axis, -delta))));
         const double lo = ahead - lim * std::abs(delta), hi = behind + lim * std::abs(delta);
         o = openUnit(lo <= hi ? std::clamp(double(o), lo, hi) : 0.5 * (lo + hi));
       }
@@ -510,7 +508,7 @@ class Relaxation {
     const Dims d = grid_.d;
     const int64_t pos[3] = {t % d.x, (t / d.x) % d.y, t / grid_.sz}, step[3] = {1, grid_.sy, grid_.sz};
     const Vec3 v = grid_.g.indexToPhysical({double(pos[0]), double(pos[1]), double(pos[2])});
-    const Vec3 tangent = grid_.mmToIdx * cross(st_.a, v - st_.c);
+    const Vec3 tangent = grid_.mmToIdx * cross(st_.axis, v - st_.pointMm);
     float* w = w_.data();
     const double target = 0.98 * bound_;
     for (int o = 0; o < 8; ++o) {
@@ -521,7 +519,7 @@ class Relaxation {
         const bool up = (o >> q) & 1;
         cell = up ? pos[q] + 1 < d[q] : pos[q] > 0;
         nb[q] = t + (up ? step[q] : -step[q]);
-        c[q] = st_.theta * (up ? 1.0 : -1.0) * tangent[q];  // d value / d w[nb[q]]
+        c[q] = st_.angleRad * (up ? 1.0 : -1.0) * tangent[q];  // d value / d w[nb[q]]
         ct -= c[q];
       }
       if (!cell) continue;
@@ -567,12 +565,12 @@ std::vector<int64_t> joinLocks(const Grid& grid, const Stage& st, const RigidBod
   std::mutex mutex;
   auto tryJoin = [&](int64_t t, const Vec3& v, std::vector<std::pair<int64_t, uint8_t>>& local) {
     const double wt = w.data()[t];
-    const int64_t src = grid.nearest(grid.toIndex(st.c + rotateAbout(v - st.c, st.a, -st.theta * wt)));
+    const int64_t src = grid.nearest(grid.toIndex(st.turned(v, wt)));
     if (src < 0 || cls[src] < 2) return;
     const bool moving = grouping.groups[static_cast<size_t>(grouping.bodyGroup[cls[src] - 2u])].moving;
-    const Vec3 p = v - st.c;
-    const double radius = norm(p - st.a * dot(st.a, p));
-    const double step = std::abs(st.theta) * std::abs((moving ? 1.0 : 0.0) - wt) * radius;
+    const Vec3 p = v - st.pointMm;
+    const double radius = norm(p - st.axis * dot(st.axis, p));
+    const double step = std::abs(st.angleRad) * std::abs((moving ? 1.0 : 0.0) - wt) * radius;
     if (step <= params.joinMaxVoxels * grid.minSpacing) local.emplace_back(t, moving ? kMoving : kStill);
   };
   if (only) {
@@ -673,11 +671,9 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
     const int jt = order[s];
     const Joint& joint = pose.joints[static_cast<size_t>(jt)];
     Stage st;
+    static_cast<TwistKernel::Stage&>(st) = TwistKernel::Stage::about(
+        joint.axisA, normalized(joint.axisB - joint.axisA), anglesDeg[static_cast<size_t>(jt)] * kDeg);
     st.joint = jt;
-    st.c = joint.axisA;
-    st.a = normalized(joint.axisB - joint.axisA);
-    st.theta = anglesDeg[static_cast<size_t>(jt)] * kDeg;
-    st.backFull = rotationAbout(joint.axisA, joint.axisB, -anglesDeg[static_cast<size_t>(jt)]).rotation;
     TwistJointStats stats;
     stats.name = joint.name;
     stats.angleDeg = anglesDeg[static_cast<size_t>(jt)];
@@ -754,7 +750,7 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
   std::shared_ptr<TwistKernel> kernel;
   if (params.kernel && !stages.empty() && stages.size() <= size_t(TwistKernel::kMaxStages)) {
     kernel = std::make_shared<TwistKernel>();
-    for (const Stage& st : stages) kernel->addStage(st.c, st.a, st.theta);
+    for (const Stage& st : stages) kernel->addStage(st.pointMm, st.axis, st.angleRad);
     const size_t ns = kernel->stride();
     if (ns == 1) {
       kernel->weights = std::move(weights[0].voxels());  // the weights are not read again
@@ -800,8 +796,7 @@ TwistMap twistMap(const Pose& pose, const std::vector<double>& anglesDeg, const 
         const double nearest = weights[s].sampleNearest(idx);
         wk = (nearest == 0.0 || nearest == 1.0) ? nearest : weights[s].sampleLinear(idx);
       }
-      if (wk == 0.0) continue;
-      x = wk == 1.0 ? st.c + st.backFull * (x - st.c) : st.c + rotateAbout(x - st.c, st.a, -st.theta * wk);
+      x = st.turned(x, wk);
     }
     // The snap (as the MLS map's, RigidSnap): a blended voxel whose source lands in a body
     // takes that body's transform, so no output voxel shows bone moved non-rigidly (a voxel

@@ -24,7 +24,11 @@ void put(std::array<float, 12>& e, const Mat3& m, const Vec3& b) {
 void TwistKernel::addStage(const Vec3& pointMm, const Vec3& axis, double angleRad) {
   if (stages_.size() >= size_t(kMaxStages))
     throw Error("twist kernel: more than " + std::to_string(kMaxStages) + " stages");
-  stages_.push_back({pointMm, axis, angleRad, rotationMatrix(axis, -angleRad)});
+  stages_.push_back(Stage::about(pointMm, axis, angleRad));
+}
+
+TwistKernel::Stage TwistKernel::Stage::about(const Vec3& pointMm, const Vec3& axis, double angleRad) {
+  return {pointMm, axis, angleRad, rotationMatrix(axis, -angleRad)};
 }
 
 double TwistKernel::weightAt(size_t s, const Vec3& q, const Dims& nodes) const {
@@ -47,11 +51,10 @@ double TwistKernel::weightAt(size_t s, const Vec3& q, const Dims& nodes) const {
   return w;
 }
 
-Vec3 TwistKernel::turn(size_t s, const Vec3& x, double w) const {
+Vec3 TwistKernel::Stage::turned(const Vec3& x, double w) const {
   if (w == 0) return x;
-  const Stage& st = stages_[s];
-  if (w == 1) return st.pointMm + st.whole * (x - st.pointMm);
-  return st.pointMm + rotateAbout(x - st.pointMm, st.axis, -st.angleRad * w);
+  if (w == 1) return pointMm + whole * (x - pointMm);
+  return pointMm + rotateAbout(x - pointMm, axis, -angleRad * w);
 }
 
 Vec3 TwistKernel::sourceMm(const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const {

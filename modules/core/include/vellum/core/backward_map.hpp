@@ -120,8 +120,13 @@ struct TwistKernel {
     Vec3 axis{1, 0, 0};     ///< unit direction; the backward map turns by -angleRad * w about it
     double angleRad = 0;
     /// The whole turn (w = 1) as a matrix: a limb's bulk turns wholly or not at all, so most
-    /// samples need no sine (addStage() sets it).
+    /// samples need no sine (about() sets it).
     Mat3 whole = Mat3::identity();
+    /// The stage turning by -angleRad * w about the unit `axis` through `pointMm`.
+    static Stage about(const Vec3& pointMm, const Vec3& axis, double angleRad);
+    /// x turned by this stage with weight w (by -angleRad * w about the axis; w = 0 and w = 1
+    /// without a sine). The one twist turn: the kernel, the twist map's nodes and its checks.
+    Vec3 turned(const Vec3& x, double w) const;
   };
   /// Appends a stage (applied after the ones before it: proximal first).
   void addStage(const Vec3& pointMm, const Vec3& axis, double angleRad);
@@ -140,9 +145,8 @@ struct TwistKernel {
   Vec3 sourceAtNode(int64_t node, const Vec3& vMm, const Geometry::ToIndex& mmToNode, const Dims& nodes) const;
   /// Stage s's weight at node index q (trilinear, q clamped onto the nodes).
   double weightAt(size_t s, const Vec3& q, const Dims& nodes) const;
-  /// x turned by stage s with weight w (by -angle * w about its axis; w = 0 and w = 1 without
-  /// a sine).
-  Vec3 turn(size_t s, const Vec3& x, double w) const;
+  /// x turned by stage s with weight w (Stage::turned).
+  Vec3 turn(size_t s, const Vec3& x, double w) const { return stages_[s].turned(x, w); }
   /// du/dv (mm per mm) of sourceMm() at `vMm`: per stage R (I - angle t grad(w)^T), t = axis x
   /// (x - point), grad(w) from central differences of the trilinear w `stepNodes` nodes either
   /// side (the shader's filtered fetches). What turns the shading normals (J^T n).
