@@ -109,6 +109,15 @@ vec4 gaussWeights(float f) {
 }
 #endif
 
+#ifdef TWIST_KERNEL
+// What the last mapAt() met at each stage: the position it turned (mm), where it read w (texture
+// coordinates), w and the turn's cosine and sine. The shading normal's Jacobian at the same
+// sample (twistJacobian, right after deformedSource) starts from them instead of fetching w and
+// taking the sine again.
+vec3 gTwistX[TWIST_STAGES], gTwistTc[TWIST_STAGES];
+float gTwistW[TWIST_STAGES], gTwistCos[TWIST_STAGES], gTwistSin[TWIST_STAGES];
+#endif
+
 // u (source index) at map node index p: the node map interpolated as CPU synthesis upsamples it.
 vec3 mapAt(vec3 p) {
 #ifdef TWIST_KERNEL
@@ -117,10 +126,18 @@ vec3 mapAt(vec3 p) {
   // The stage count is the variant's (TWIST_STAGES): the loop unrolls, the channels are constant.
   vec3 x = uNodeToMm * clamp(p, vec3(0.0), uBoxDims - 1.0) + uNodeToMmOffset;
   for (int s = 0; s < TWIST_STAGES; ++s) {
-    float w = texture(uMap, (uMmToNode * x + uMmToNodeOffset + 0.5) / uBoxDims)[s];
+    vec3 tc = (uMmToNode * x + uMmToNodeOffset + 0.5) / uBoxDims;
+    float w = texture(uMap, tc)[s];
+    gTwistX[s] = x;
+    gTwistTc[s] = tc;
+    gTwistW[s] = w;
+    gTwistCos[s] = 1.0;
+    gTwistSin[s] = 0.0;
     if (w == 0.0) continue;
     vec3 a = uTwistAxis[s], r = x - uTwistPoint[s];
     float angle = -uTwistAngle[s] * w, c = cos(angle), sn = sin(angle);
+    gTwistCos[s] = c;
+    gTwistSin[s] = sn;
     x = uTwistPoint[s] + r * c + cross(a, r) * sn + a * (dot(a, r) * (1.0 - c));
   }
   return uMmToSrc * x + uMmToSrcOffset;
@@ -147,27 +164,26 @@ vec3 mapAt(vec3 p) {
 }
 
 #if defined(TURN_NORMALS) && defined(TWIST_KERNEL)
-// TwistKernel::jacobian(): per stage R (I - angle t grad(w)^T), grad(w) from the weight's
-// filtered fetches NORMAL_STEP nodes either side.
-mat3 twistJacobian(vec3 p) {
-  vec3 x = uNodeToMm * clamp(p, vec3(0.0), uBoxDims - 1.0) + uNodeToMmOffset;
+// TwistKernel::jacobian() at the sample the last mapAt() turned (its stages' positions, w and
+// turns: gTwist*): per stage R (I - angle t grad(w)^T), grad(w) from the weight's filtered
+// fetches NORMAL_STEP nodes either side.
+mat3 twistJacobian() {
   mat3 J = mat3(1.0);
   vec3 h = vec3(NORMAL_STEP) / uBoxDims;
   for (int s = 0; s < TWIST_STAGES; ++s) {
-    vec3 tc = (uMmToNode * x + uMmToNodeOffset + 0.5) / uBoxDims;
-    float w = texture(uMap, tc)[s];
+    vec3 tc = gTwistTc[s];
+    float w = gTwistW[s];
     vec3 g = vec3(texture(uMap, tc + vec3(h.x, 0.0, 0.0))[s] - texture(uMap, tc - vec3(h.x, 0.0, 0.0))[s],
                   texture(uMap, tc + vec3(0.0, h.y, 0.0))[s] - texture(uMap, tc - vec3(0.0, h.y, 0.0))[s],
                   texture(uMap, tc + vec3(0.0, 0.0, h.z))[s] - texture(uMap, tc - vec3(0.0, 0.0, h.z))[s]) /
              (2.0 * NORMAL_STEP);
     if (w == 0.0 && g == vec3(0.0)) continue;
-    vec3 a = uTwistAxis[s], r = x - uTwistPoint[s];
+    vec3 a = uTwistAxis[s], r = gTwistX[s] - uTwistPoint[s];
     vec3 gm = transpose(uMmToNode) * g, t = cross(a, r);
-    float angle = -uTwistAngle[s] * w, c = cos(angle), sn = sin(angle);
+    float c = gTwistCos[s], sn = gTwistSin[s];
     // Rodrigues: c I + sn [a]x + (1 - c) a a^T (GLSL matrices are column-major).
     mat3 R = c * mat3(1.0) + sn * mat3(0.0, a.z, -a.y, -a.z, 0.0, a.x, a.y, -a.x, 0.0) + (1.0 - c) * outerProduct(a, a);
     J = R * (mat3(1.0) - uTwistAngle[s] * outerProduct(t, gm)) * J;
-    x = uTwistPoint[s] + R * r;
   }
   return J;
 }
@@ -192,7 +208,7 @@ vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
   if (!(len > 1e-4) || !(n.w > GRAD_LOW)) return n;
 #ifdef TWIST_KERNEL
   if (snappedBody < 0) {  // TwistKernel::jacobian(), in mm: grad (f o u) = J^T grad f
-    vec3 tm = transpose(twistJacobian(p)) * n.xyz;
+    vec3 tm = transpose(twistJacobian()) * n.xyz;  // p's: deformedSource(p) ran last
     float tl = length(tm);
     return tl > 0.0 ? vec4(tm * (len / tl), n.w) : n;
   }
