@@ -363,6 +363,31 @@ TEST(TwistFrames, UpsampledNodeMapsDoNotFoldThroughTheKernelOrWithTheCellCheck) 
 
 // The kernel against the analytic twist: a weight linear along z on an anisotropic node grid,
 // one stage about a tilted axis, then a second stage read where the first left the point.
+// The one twist turn (the kernel's samplers and the twist map's nodes): w = 0 leaves the point
+// exactly, w = 1 is the whole matrix, anything between Rodrigues' rotation by -angle * w about
+// the axis through the point; points on the axis stay.
+TEST(TwistKernel, AStageTurnsByItsAngleTimesTheWeight) {
+  const Vec3 c{3, -2, 7}, a = normalized(Vec3{0.3, 1, -0.4});
+  const double theta = 0.9;
+  const TwistKernel::Stage st = TwistKernel::Stage::about(c, a, theta);
+  const auto rodrigues = [&](const Vec3& p, double rad) {
+    const Vec3 q = p - c;
+    return c + q * std::cos(rad) + cross(a, q) * std::sin(rad) + a * (dot(a, q) * (1 - std::cos(rad)));
+  };
+  for (const Vec3& x : {Vec3{10, 4, -3}, Vec3{-6, 0.5, 2}, Vec3{3.5, 8, 12}}) {
+    const Vec3 same = st.turned(x, 0);
+    EXPECT_EQ(same.x, x.x);
+    EXPECT_EQ(same.y, x.y);
+    EXPECT_EQ(same.z, x.z);
+    for (double w : {1.0, 0.3, 0.999, -0.5}) {
+      const Vec3 got = st.turned(x, w), want = rodrigues(x, -theta * w);
+      EXPECT_NEAR(norm(got - want), 0, 1e-12) << "w " << w;
+      EXPECT_NEAR(norm(got - c), norm(x - c), 1e-12);  // a rotation about a line through c
+    }
+  }
+  EXPECT_NEAR(norm(st.turned(c + a * 5.0, 0.4) - (c + a * 5.0)), 0, 1e-12);
+}
+
 TEST(TwistKernel, TurnsEachPointByItsInterpolatedWeight) {
   Geometry grid;
   grid.dims = {5, 5, 5};
