@@ -361,8 +361,6 @@ TEST(TwistFrames, UpsampledNodeMapsDoNotFoldThroughTheKernelOrWithTheCellCheck) 
   EXPECT_GT(foldsWithout, 0.0) << "no case folds its interpolated positions any more";
 }
 
-// The kernel against the analytic twist: a weight linear along z on an anisotropic node grid,
-// one stage about a tilted axis, then a second stage read where the first left the point.
 // The one twist turn (the kernel's samplers and the twist map's nodes): w = 0 leaves the point
 // exactly, w = 1 is the whole matrix, anything between Rodrigues' rotation by -angle * w about
 // the axis through the point; points on the axis stay.
@@ -388,6 +386,8 @@ TEST(TwistKernel, AStageTurnsByItsAngleTimesTheWeight) {
   EXPECT_NEAR(norm(st.turned(c + a * 5.0, 0.4) - (c + a * 5.0)), 0, 1e-12);
 }
 
+// The kernel against the analytic twist: a weight linear along z on an anisotropic node grid,
+// one stage about a tilted axis, then a second stage read where the first left the point.
 TEST(TwistKernel, TurnsEachPointByItsInterpolatedWeight) {
   Geometry grid;
   grid.dims = {5, 5, 5};

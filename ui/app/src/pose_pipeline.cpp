@@ -253,9 +253,8 @@ PoseResult runPose(const PoseRequest& request, Progress& progress) {
   // A fixed box over a moving bone cuts it (the box wins): said, not silently absorbed.
   nlohmann::json cuts = nlohmann::json::array();
   for (const FixedBoxCut& c : fixedBoxCuts(pose, labels)) {
-    std::string name;
-    for (const Label& l : labels.table())
-      if (l.id == c.id) name = l.name;
+    const std::optional<Label> label = labels.label(c.id);
+    const std::string name = label ? label->name : std::string();
     cuts.push_back({{"box", c.box}, {"box_mm", pose.fixed.boxesMm[c.box]}, {"id", c.id}, {"name", name}, {"voxels", c.voxels}});
   }
   report["fixed_box_cuts"] = std::move(cuts);
