@@ -214,6 +214,16 @@ vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
   }
 #endif
   mat3 jt;
+#ifdef TWIST_KERNEL
+  // Only snapped samples get here. The node texture's differences below would be dead code,
+  // and llvmpipe runs every branch its SIMD lanes hold (masked), dead or not: left out.
+#ifdef RIGID_SNAP
+  jt = mat3(uBodyRows[SNAP_BODY_ROWS * snappedBody].xyz, uBodyRows[SNAP_BODY_ROWS * snappedBody + 1].xyz,
+            uBodyRows[SNAP_BODY_ROWS * snappedBody + 2].xyz);
+#else
+  return n;
+#endif
+#else
 #ifdef RIGID_SNAP
   if (snappedBody >= 0) {
     jt = mat3(uBodyRows[SNAP_BODY_ROWS * snappedBody].xyz, uBodyRows[SNAP_BODY_ROWS * snappedBody + 1].xyz,
@@ -226,6 +236,7 @@ vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
     vec3 jz = nodeTexture(p + vec3(0.0, 0.0, NORMAL_STEP)) - nodeTexture(p - vec3(0.0, 0.0, NORMAL_STEP));
     jt = transpose(mat3(jx, jy, jz));
   }
+#endif
   vec3 m = uNodeIndexToNormal * (jt * (uNormalToSrcIndex * n.xyz));
   float ml = length(m);
   return ml > 0.0 ? vec4(m * (len / ml), n.w) : n;
@@ -252,12 +263,15 @@ vec3 bodySource(int body, vec3 p) {
   return vec3(dot(uBodyRows[r], p1), dot(uBodyRows[r + 1], p1), dot(uBodyRows[r + 2], p1));
 }
 
-// SnapFrame::heldAt(): the held body (a fixed region) at p's own place, or -1.
+#ifdef HELD_BODIES
+// SnapFrame::heldAt(): the held body (a fixed region) at p's own place, or -1. Compiled in only
+// when the snap holds a body (llvmpipe would run its lookup for every sample, box test or not).
 int heldAt(vec3 p) {
   if (any(lessThan(p, uHeldLo)) || any(greaterThan(p, uHeldHi))) return -1;
   int body = classAt(uPointToClass * p + uPointToClassOffset) - 2;
   return body >= 0 && body < uBodies && bodyFlag(uBodyHeld, body) ? body : -1;
 }
+#endif
 
 // CPU synthesis' voxel snap: u in the class voxel of valid body c and R_c v + t_c within
 // maxSnapMm of u -> u = R_c v + t_c.
@@ -278,8 +292,10 @@ vec3 snapRigid(vec3 p, vec3 u, out int snappedBody) {
 vec3 deformedSource(vec3 p, out int snappedBody) {
   snappedBody = -1;
 #ifdef RIGID_SNAP
+#ifdef HELD_BODIES
   snappedBody = heldAt(p);
   if (snappedBody >= 0) return bodySource(snappedBody, p);
+#endif
   return snapRigid(p, mapAt(p), snappedBody);
 #else
   return mapAt(p);

@@ -35,6 +35,11 @@ void main() {
   float surfaceT = texelFetch(uOpaqueDepth, ivec2(gl_FragCoord.xy), 0).r * OPAQUE_RANGE_MM;
   bool surface = surfaceT < OPAQUE_RANGE_MM;
 #endif
+#ifdef OUTPUT_BOX
+  // The background's value, fetched once: a fetch in the loop costs every sample on llvmpipe,
+  // which runs a branch for all the lanes of a SIMD group when any of them takes it.
+  float outsideValue = sampleValue(vec3(OUTSIDE));
+#endif
   if (tmax >= tmin) {
     int k0 = int(ceil(tmin / uStep - jitter));
     int k1 = min(int(floor(tmax / uStep - jitter)), k0 + MAX_STEPS);
@@ -85,7 +90,7 @@ void main() {
 #endif
       float v = sampleValue(u);
 #ifdef OUTPUT_BOX
-      if (inside < 1.0) v = mix(sampleValue(vec3(OUTSIDE)), v, inside);
+      if (inside < 1.0) v = mix(outsideValue, v, inside);
 #endif
 #ifdef MODE_MIP
       maxV = max(maxV, v);

@@ -27,6 +27,7 @@ std::string fragmentShaderSource(const ShaderVariant& v) {
   if (v.attributes && v.deformed && !v.mip) s << "#define ATTRIBUTES\n";
   if (v.outputBox && v.deformed) s << "#define OUTPUT_BOX\n";
   if (v.labels && !v.mip) s << "#define LABELS\n#define MAX_TINT_LABELS " << kMaxTintLabels << "\n";
+  if (v.held && v.snap && v.deformed) s << "#define HELD_BODIES\n";
   if (v.opaqueDepth) s << "#define OPAQUE_DEPTH\n";
   if (v.turnNormals && v.deformed && v.shading && !v.mip) s << "#define TURN_NORMALS\n";
   if (v.lighting && v.shading && !v.mip) s << "#define LIGHTING\n";

@@ -13,6 +13,7 @@ struct ShaderVariant {
   bool attributes = false;  ///< ATTRIBUTES: Lab colour shift + density (deformed only)
   bool gaussian = false;    ///< MAP_KERNEL == MAP_GAUSSIAN (map_layout.hpp): Gaussian map upsampling (deformed only)
   bool snap = false;        ///< RIGID_SNAP (map_layout.hpp): voxel-level snap of rigid bodies (deformed only)
+  bool held = false;        ///< HELD_BODIES: the snap holds bodies (fixed regions) at their own place (with snap)
   bool outputBox = false;   ///< OUTPUT_BOX: background outside the output volume's box
   bool labels = false;      ///< LABELS: label colours tint the samples (DVR only)
   bool opaqueDepth = false; ///< OPAQUE_DEPTH: rays stop at opaque geometry (render_target.hpp)
@@ -24,7 +25,7 @@ struct ShaderVariant {
   int key() const {
     return int(mip) | int(shading) << 1 | int(deformed) << 2 | int(attributes) << 3 | int(gaussian) << 4 |
            int(snap) << 5 | int(outputBox) << 6 | int(labels) << 7 | int(opaqueDepth) << 8 | int(turnNormals) << 9 |
-           int(lighting) << 10 | int(pathTrace) << 11 | int(toneMap) << 12 | twistStages << 13;
+           int(lighting) << 10 | int(pathTrace) << 11 | int(toneMap) << 12 | int(held) << 13 | twistStages << 14;
   }
 };
 

@@ -553,6 +553,7 @@ GLuint VolumeRenderer::Impl::useProgram(const RenderSettings& s, const Frame& f,
   variant.attributes = deform && !deform->attributes.empty();
   variant.gaussian = deform && deform->upsampling == Upsampling::Gaussian;
   variant.snap = deform && snap.has_value();
+  variant.held = variant.snap && snap->anyHeld;
   variant.twistStages = deform && twist ? twist->stages : 0;
   variant.outputBox = deform && output.has_value();
   variant.labels = hasLabels && (s.labelBlend > 0 || s.onlyLabel > 0) && !variant.mip;
