@@ -13,6 +13,7 @@
 #include "map_layout.hpp"
 #include "normal_volume.hpp"
 #include "render_common.hpp"
+#include "shader_source.hpp"
 #include "vellum/core/error.hpp"
 #include "vellum/render/volume_renderer.hpp"
 
@@ -35,6 +36,22 @@ TEST(MapLayout, GlslNamesTheModelsKernelsAndSnapUniforms) {
   EXPECT_NE(t.find("#define MAP_KERNEL 0\n"), std::string::npos) << t;
   EXPECT_EQ(t.find("RIGID_SNAP"), std::string::npos) << t;
   EXPECT_EQ(t.find("uniform"), std::string::npos) << t;
+}
+
+// llvmpipe runs every branch a SIMD group holds, so the held-body lookup is compiled in only
+// for a snap that holds a body, and a variant with it is another program.
+TEST(ShaderVariant, TheHeldLookupOnlyWhereTheSnapHoldsABody) {
+  detail::ShaderVariant v;
+  v.deformed = v.snap = v.shading = true;
+  const std::string without = detail::fragmentShaderSource(v);
+  EXPECT_NE(without.find("#define RIGID_SNAP\n"), std::string::npos);
+  EXPECT_EQ(without.find("#define HELD_BODIES\n"), std::string::npos);
+  detail::ShaderVariant held = v;
+  held.held = true;
+  EXPECT_NE(detail::fragmentShaderSource(held).find("#define HELD_BODIES\n"), std::string::npos);
+  EXPECT_NE(held.key(), v.key());
+  held.snap = false;  // no snap, nothing to hold
+  EXPECT_EQ(detail::fragmentShaderSource(held).find("#define HELD_BODIES\n"), std::string::npos);
 }
 
 TEST(RenderSettings, PresetNamesRoundTrip) {
