@@ -316,40 +316,49 @@ vec4 tfLookup(float v) {
 // voxels around u, trilinear and weighted by each voxel's opacity in this transfer function, so
 // colours blend smoothly across a boundary and a sample on a bone's surface takes the bone's
 // colour, not that of the faint muscle beside it. Untinted voxels pull towards the TF colour.
-// One pass over the 8 corners: the pull towards their label colours and the weight on
-// uOnlyLabel, with trilinear weights times each corner's opacity (byOpacity) or plain.
-float labelCorners(vec3 c, vec3 u, bool byOpacity, out vec3 pull, out float only) {
+// One pass over the 8 corners: the pull towards their label colours, the weight on uOnlyLabel
+// and the weights' sum, with trilinear weights times each corner's opacity and with plain ones
+// (what labelTint() falls back to where no corner is opaque). Both sums in the one loop: a
+// second loop under the fallback's branch would run for every sample on llvmpipe, which runs
+// a branch for all the lanes of a SIMD group when any of them takes it.
+struct LabelSums {
+  vec3 pull;
+  float only, wsum;
+};
+
+void labelCorners(vec3 c, vec3 u, out LabelSums opaque, out LabelSums plain) {
   vec3 b = floor(u), f = u - b;
   ivec3 bi = ivec3(b), dims = ivec3(uSourceDims);
-  pull = vec3(0.0);
-  only = 0.0;
-  float wsum = 0.0;
+  opaque = LabelSums(vec3(0.0), 0.0, 0.0);
+  plain = LabelSums(vec3(0.0), 0.0, 0.0);
   for (int n = 0; n < 8; ++n) {
     ivec3 o = ivec3(n & 1, (n >> 1) & 1, (n >> 2) & 1);
     ivec3 q = bi + o;
     if (any(lessThan(q, ivec3(0))) || any(greaterThanEqual(q, dims))) continue;
     vec3 t = mix(1.0 - f, f, vec3(o));
     float w = t.x * t.y * t.z;
-    if (byOpacity) w *= tfLookup(texelFetch(uVolume, q, 0).r * uValueScale).a;
+    float wo = w * tfLookup(texelFetch(uVolume, q, 0).r * uValueScale).a;
     uint id = texelFetch(uLabels, q, 0).r;
     vec4 lc = id < uint(MAX_TINT_LABELS) ? texelFetch(uLabelColours, int(id), 0) : vec4(0.0);
-    wsum += w;
-    pull += w * lc.a * (lc.rgb - c);
-    if (id == uint(uOnlyLabel)) only += w;
+    bool isOnly = id == uint(uOnlyLabel);
+    opaque.wsum += wo;
+    opaque.pull += wo * lc.a * (lc.rgb - c);
+    if (isOnly) opaque.only += wo;
+    plain.wsum += w;
+    plain.pull += w * lc.a * (lc.rgb - c);
+    if (isOnly) plain.only += w;
   }
-  return wsum;
 }
 
 // `onlyShare`: how much of the sample belongs to uOnlyLabel ("this segment only"), blended
 // across its boundary like the colours.
 vec3 labelTint(vec3 c, vec3 u, out float onlyShare) {
-  vec3 pull;
-  float only;
-  float wsum = labelCorners(c, u, true, pull, only);
+  LabelSums opaque, plain;
+  labelCorners(c, u, opaque, plain);
   // No corner is opaque (a faint sample between clear voxels): plain trilinear weights.
-  if (!(wsum > 1e-6)) wsum = labelCorners(c, u, false, pull, only);
-  onlyShare = wsum > 0.0 ? only / wsum : 0.0;
-  return wsum > 0.0 ? c + uLabelBlend * pull / wsum : c;
+  LabelSums l = opaque.wsum > 1e-6 ? opaque : plain;
+  onlyShare = l.wsum > 0.0 ? l.only / l.wsum : 0.0;
+  return l.wsum > 0.0 ? c + uLabelBlend * l.pull / l.wsum : c;
 }
 
 vec3 labelTint(vec3 c, vec3 u) {
