@@ -566,15 +566,20 @@ std::vector<int64_t> joinLocks(const Grid& grid, const Stage& st, const RigidBod
   const uint16_t* cls = bodies.classes().data();
   std::vector<std::pair<int64_t, uint8_t>> joins;
   std::mutex mutex;
+  const double maxStep = params.joinMaxVoxels * grid.minSpacing;
   auto tryJoin = [&](int64_t t, const Vec3& v, std::vector<std::pair<int64_t, uint8_t>>& local) {
     const double wt = w.data()[t];
+    // The arc a lock would add: to a moving body's (w 1) or a still one's (w 0). Where both are
+    // too long the body at the turned place does not matter: no turn, no lookup (most voxels).
+    const Vec3 p = v - st.pointMm;
+    const double radius = norm(p - st.axis * dot(st.axis, p));
+    const double toMoving = std::abs(st.angleRad) * std::abs(1.0 - wt) * radius;
+    const double toStill = std::abs(st.angleRad) * std::abs(0.0 - wt) * radius;
+    if (toMoving > maxStep && toStill > maxStep) return;
     const int64_t src = grid.nearest(grid.toIndex(st.turned(v, wt)));
     if (src < 0 || cls[src] < 2) return;
     const bool moving = grouping.groups[static_cast<size_t>(grouping.bodyGroup[cls[src] - 2u])].moving;
-    const Vec3 p = v - st.pointMm;
-    const double radius = norm(p - st.axis * dot(st.axis, p));
-    const double step = std::abs(st.angleRad) * std::abs((moving ? 1.0 : 0.0) - wt) * radius;
-    if (step <= params.joinMaxVoxels * grid.minSpacing) local.emplace_back(t, moving ? kMoving : kStill);
+    if ((moving ? toMoving : toStill) <= maxStep) local.emplace_back(t, moving ? kMoving : kStill);
   };
   if (only) {
     std::sort(only->begin(), only->end());
