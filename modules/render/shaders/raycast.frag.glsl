@@ -214,15 +214,11 @@ vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
   }
 #endif
   mat3 jt;
-#ifdef TWIST_KERNEL
+#if defined(TWIST_KERNEL) && defined(RIGID_SNAP)
   // Only snapped samples get here. The node texture's differences below would be dead code,
   // and llvmpipe runs every branch its SIMD lanes hold (masked), dead or not: left out.
-#ifdef RIGID_SNAP
   jt = mat3(uBodyRows[SNAP_BODY_ROWS * snappedBody].xyz, uBodyRows[SNAP_BODY_ROWS * snappedBody + 1].xyz,
             uBodyRows[SNAP_BODY_ROWS * snappedBody + 2].xyz);
-#else
-  return n;
-#endif
 #else
 #ifdef RIGID_SNAP
   if (snappedBody >= 0) {
