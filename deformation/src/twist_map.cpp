@@ -574,7 +574,7 @@ std::vector<int64_t> joinLocks(const Grid& grid, const Stage& st, const RigidBod
     const Vec3 p = v - st.pointMm;
     const double radius = norm(p - st.axis * dot(st.axis, p));
     const double toMoving = std::abs(st.angleRad) * std::abs(1.0 - wt) * radius;
-    const double toStill = std::abs(st.angleRad) * std::abs(0.0 - wt) * radius;
+    const double toStill = std::abs(st.angleRad) * std::abs(wt) * radius;
     if (toMoving > maxStep && toStill > maxStep) return;
     const int64_t src = grid.nearest(grid.toIndex(st.turned(v, wt)));
     if (src < 0 || cls[src] < 2) return;

@@ -199,6 +199,14 @@ vec3 nodeTexture(vec3 p) {
 #endif
 }
 
+#ifdef RIGID_SNAP
+// J^T of a sample the snap moved with body `body`: its rows (source index per map node index).
+mat3 bodyJt(int body) {
+  int r = SNAP_BODY_ROWS * body;
+  return mat3(uBodyRows[r].xyz, uBodyRows[r + 1].xyz, uBodyRows[r + 2].xyz);
+}
+#endif
+
 // Twin of PreparedMap::turnNormal(): the source normal at u(p) turned into output space by
 // J^T (J = du/dp by central differences of the node texture), keeping its length.
 // A sample the rigid snap moved (snappedBody >= 0) turns with that body exactly: J^T's
@@ -217,13 +225,11 @@ vec4 deformedNormal(vec3 p, vec4 n, int snappedBody) {
 #if defined(TWIST_KERNEL) && defined(RIGID_SNAP)
   // Only snapped samples get here. The node texture's differences below would be dead code,
   // and llvmpipe runs every branch its SIMD lanes hold (masked), dead or not: left out.
-  jt = mat3(uBodyRows[SNAP_BODY_ROWS * snappedBody].xyz, uBodyRows[SNAP_BODY_ROWS * snappedBody + 1].xyz,
-            uBodyRows[SNAP_BODY_ROWS * snappedBody + 2].xyz);
+  jt = bodyJt(snappedBody);
 #else
 #ifdef RIGID_SNAP
   if (snappedBody >= 0) {
-    jt = mat3(uBodyRows[SNAP_BODY_ROWS * snappedBody].xyz, uBodyRows[SNAP_BODY_ROWS * snappedBody + 1].xyz,
-              uBodyRows[SNAP_BODY_ROWS * snappedBody + 2].xyz);
+    jt = bodyJt(snappedBody);
   } else
 #endif
   {
